@@ -1,0 +1,49 @@
+# Helpers that give every project target the same rules (CONVENTIONS "Tooling").
+
+# Warnings are errors on project code; generated code (protobuf, idlc) is built without these flags.
+function(rejuv_warnings target)
+  target_compile_options(${target} PRIVATE
+    -Wall -Wextra -Wpedantic -Werror -Wswitch-enum -Wshadow -Wnon-virtual-dtor -Wold-style-cast
+    -Wcast-align -Woverloaded-virtual -Wnull-dereference -Wimplicit-fallthrough)
+endfunction()
+
+# rejuv_library(NAME DIR [DEPS ...]): a component library with public headers under DIR/include and
+# sources under DIR/src (DESIGN §1: one target per component).
+function(rejuv_library name)
+  cmake_parse_arguments(ARG "HEADER_ONLY" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  if(ARG_HEADER_ONLY)
+    add_library(${name} INTERFACE)
+    target_include_directories(${name} INTERFACE ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    target_link_libraries(${name} INTERFACE ${ARG_DEPS})
+  else()
+    add_library(${name} STATIC ${ARG_SOURCES})
+    target_include_directories(${name} PUBLIC ${CMAKE_CURRENT_SOURCE_DIR}/include)
+    target_link_libraries(${name} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+    rejuv_warnings(${name})
+  endif()
+endfunction()
+
+# rejuv_gtest(NAME SOURCES ... DEPS ... [LABELS ...]): one gtest executable registered with ctest.
+function(rejuv_gtest name)
+  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
+  target_compile_definitions(${name} PRIVATE REJUV_SOURCE_DIR="${REJUV_SOURCE_DIR}"
+                                             REJUV_BINARY_DIR="${CMAKE_BINARY_DIR}")
+  rejuv_warnings(${name})
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  include(GoogleTest)
+  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
+                       DISCOVERY_TIMEOUT 60)
+endfunction()
+
+# rejuv_bench(NAME SOURCES ... DEPS ...): a Google Benchmark executable.
+function(rejuv_bench name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} benchmark::benchmark)
+  target_compile_definitions(${name} PRIVATE REJUV_SOURCE_DIR="${REJUV_SOURCE_DIR}")
+  rejuv_warnings(${name})
+endfunction()

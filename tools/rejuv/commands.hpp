@@ -1,0 +1,13 @@
+// The subcommands of `rejuv` (DESIGN §10). Each takes its arguments after the command name and returns
+// the process exit code (cli::Exit).
+#pragma once
+
+#include <span>
+#include <string_view>
+
+namespace rejuv::cli {
+
+int run_audit(std::span<const std::string_view> args);  // cmd_audit.cpp
+int run_sim(std::span<const std::string_view> args);    // cmd_sim.cpp
+
+}  // namespace rejuv::cli

@@ -1,0 +1,49 @@
+// `rejuv`: the command-line program (DESIGN §10). Dispatches to one subcommand.
+#include <cstdio>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "args.hpp"
+#include "commands.hpp"
+
+namespace {
+
+struct Command {
+  std::string_view name;
+  std::string_view summary;
+  int (*run)(std::span<const std::string_view>);
+};
+
+constexpr Command kCommands[] = {
+    {"audit", "check a capability policy against the SR invariants and print its matrix",
+     rejuv::cli::run_audit},
+    {"sim", "model-level simulation of the SR scheme in one process (no runtime)", rejuv::cli::run_sim},
+};
+
+void print_usage(std::FILE* to) {
+  std::fprintf(to, "usage: rejuv <command> [options]\n\ncommands:\n");
+  for (const Command& c : kCommands) {
+    std::fprintf(to, "  %-10.*s %.*s\n", static_cast<int>(c.name.size()), c.name.data(),
+                 static_cast<int>(c.summary.size()), c.summary.data());
+  }
+  std::fprintf(to, "\n'rejuv <command> --help' shows the options of a command.\n");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<std::string_view> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
+    print_usage(args.empty() ? stderr : stdout);
+    return static_cast<int>(args.empty() ? rejuv::cli::Exit::BadInput : rejuv::cli::Exit::Ok);
+  }
+  for (const Command& c : kCommands) {
+    if (c.name == args[0]) {
+      return c.run(std::span(args).subspan(1));
+    }
+  }
+  std::fprintf(stderr, "rejuv: unknown command '%.*s'\n\n", static_cast<int>(args[0].size()), args[0].data());
+  print_usage(stderr);
+  return static_cast<int>(rejuv::cli::Exit::BadInput);
+}
