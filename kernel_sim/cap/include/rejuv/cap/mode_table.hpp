@@ -1,0 +1,34 @@
+// The per-mode capability table: what the policy compiles to and what a mode transition applies
+// (DESIGN §3–§4). Every capability a service may ever hold has one fixed slot; in a mode where the policy
+// grants nothing for it, the slot is empty. A mode transition is revoke + mint of the slots that change.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "rejuv/core/ids.hpp"
+#include "rejuv/core/vocabulary.hpp"
+
+namespace rejuv::cap {
+
+struct ObjectSpec {
+  ObjectId id;          // index into ModeTable::objects
+  ObjectKind kind;
+  std::string name;
+};
+
+struct SlotGrant {
+  ServiceId service;    // index into ModeTable::services
+  Slot slot;            // fixed slot in that service's CSpace (its boot info maps name → slot)
+  ObjectId object;
+  std::array<Rights, kModeCount> rights;  // by index_of(mode); Rights::none() = slot empty in that mode
+};
+
+struct ModeTable {
+  std::vector<std::string> services;  // ServiceId = index
+  std::vector<ObjectSpec> objects;    // ObjectId = index
+  std::vector<SlotGrant> slots;
+};
+
+}  // namespace rejuv::cap
