@@ -1,0 +1,48 @@
+// One end of a private kernel ↔ service channel: a Unix SOCK_SEQPACKET socket (DESIGN §2). Message
+// boundaries are kept, so a frame is one send and one receive; fds travel with SCM_RIGHTS.
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "rejuv/sys/fd.hpp"
+
+namespace rejuv::sys {
+
+enum class Blocking : std::uint8_t { Yes, No };
+
+// What one receive produced.
+struct Received {
+  std::size_t size = 0;            // bytes written into the buffer
+  bool truncated = false;          // the datagram was longer than the buffer (rest discarded)
+  bool closed = false;             // the peer closed its end (size is 0)
+  bool fds_truncated = false;      // more fds arrived than fit: the extra ones were closed by the kernel
+  std::vector<UniqueFd> fds;       // fds that came with the frame (close-on-exec); the caller owns them
+};
+
+class SeqPacket {
+ public:
+  SeqPacket() = default;
+  explicit SeqPacket(UniqueFd fd) : fd_(std::move(fd)) {}
+
+  // A connected pair, close-on-exec; Blocking::No makes both ends non-blocking.
+  [[nodiscard]] static SysResult<std::pair<SeqPacket, SeqPacket>> pair(Blocking blocking = Blocking::Yes);
+
+  // Sends one frame (and fds). Never raises SIGPIPE: a closed peer is EPIPE.
+  [[nodiscard]] SysResult<void> send(std::span<const std::byte> frame, std::span<const int> fds = {}) const;
+  // Receives one frame into buf; at most max_fds fds are accepted. EAGAIN on a non-blocking end is an error
+  // value with error == EAGAIN.
+  [[nodiscard]] SysResult<Received> receive(std::span<std::byte> buf, std::size_t max_fds = 0) const;
+
+  [[nodiscard]] int fd() const { return fd_.get(); }
+  [[nodiscard]] bool valid() const { return fd_.valid(); }
+  [[nodiscard]] UniqueFd take_fd() { return std::move(fd_); }
+  void close() { fd_.reset(); }
+
+ private:
+  UniqueFd fd_;
+};
+
+}  // namespace rejuv::sys

@@ -1,0 +1,56 @@
+// The system-call layer (CONVENTIONS: the system calls live in kernel_sim/sys, the way Rust confines
+// `unsafe`; everything above it is typed C++). This header: errors from system calls and owned fds.
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "rejuv/core/result.hpp"
+
+namespace rejuv::sys {
+
+// A failed system call: which call and errno.
+struct SysError {
+  std::string_view call;
+  int error = 0;
+  [[nodiscard]] std::string to_string() const;  // "socketpair: Too many open files"
+};
+
+template <class T>
+using SysResult = Result<T, SysError>;
+
+// errno of the last call, as an error value.
+[[nodiscard]] std::unexpected<SysError> last_error(std::string_view call);
+
+// An owned file descriptor: closed on destruction, move-only, empty after a move; closing twice is safe.
+class UniqueFd {
+ public:
+  UniqueFd() = default;
+  explicit UniqueFd(int fd) : fd_(fd) {}
+  UniqueFd(const UniqueFd&) = delete;
+  UniqueFd& operator=(const UniqueFd&) = delete;
+  UniqueFd(UniqueFd&& other) noexcept : fd_(other.release()) {}
+  UniqueFd& operator=(UniqueFd&& other) noexcept;
+  ~UniqueFd() { reset(); }
+
+  [[nodiscard]] int get() const { return fd_; }
+  [[nodiscard]] bool valid() const { return fd_ >= 0; }
+  explicit operator bool() const { return valid(); }
+  // Gives up ownership without closing.
+  [[nodiscard]] int release() {
+    const int fd = fd_;
+    fd_ = -1;
+    return fd;
+  }
+  void reset(int fd = -1);
+  // A second owned fd for the same open file (close-on-exec).
+  [[nodiscard]] SysResult<UniqueFd> duplicate() const;
+
+ private:
+  int fd_ = -1;
+};
+
+// Number of open fds of this process (counts /proc/self/fd), for leak checks.
+[[nodiscard]] SysResult<int> count_open_fds();
+
+}  // namespace rejuv::sys

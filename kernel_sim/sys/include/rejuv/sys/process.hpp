@@ -1,0 +1,80 @@
+// Child processes owned by the kernel (DESIGN §2, §7): spawned with a fixed fd layout, their own process
+// group, a parent-death signal and an optional seccomp filter and uid; watched through a pidfd; killed and
+// reaped when their handle goes away, so that no process is ever left behind.
+#pragma once
+
+#include <sys/types.h>
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "rejuv/sys/fd.hpp"
+#include "rejuv/sys/seccomp.hpp"
+
+namespace rejuv::sys {
+
+struct ExitStatus {
+  enum class How : std::uint8_t { Exited, Signaled };
+  How how = How::Exited;
+  int value = 0;  // exit code or signal number
+  [[nodiscard]] bool success() const { return how == How::Exited && value == 0; }
+  [[nodiscard]] std::string to_string() const;  // "exited with 3", "killed by SIGKILL"
+};
+
+// A child process: pid + pidfd. Move-only; the destructor kills (SIGKILL) and reaps it unless it was
+// already reaped. Reaping twice is safe.
+class ChildProcess {
+ public:
+  ChildProcess() = default;
+  // Takes charge of an existing child (or, with the kernel as subreaper, an adopted descendant).
+  [[nodiscard]] static SysResult<ChildProcess> adopt(pid_t pid);
+  ChildProcess(const ChildProcess&) = delete;
+  ChildProcess& operator=(const ChildProcess&) = delete;
+  ChildProcess(ChildProcess&& other) noexcept;
+  ChildProcess& operator=(ChildProcess&& other) noexcept;
+  ~ChildProcess() { kill_and_reap(); }
+
+  [[nodiscard]] pid_t pid() const { return pid_; }
+  // Readable (poll) when the process has exited.
+  [[nodiscard]] int pidfd() const { return pidfd_.get(); }
+  [[nodiscard]] bool running() const { return pid_ > 0 && !status_; }
+  [[nodiscard]] const std::optional<ExitStatus>& status() const { return status_; }
+
+  // Reaps it if it has exited; nullopt while it runs.
+  [[nodiscard]] SysResult<std::optional<ExitStatus>> try_wait();
+  [[nodiscard]] SysResult<ExitStatus> wait();
+  [[nodiscard]] SysResult<void> signal(int sig) const;
+  // SIGKILL (if still running) and reap. Idempotent.
+  void kill_and_reap() noexcept;
+
+ private:
+  ChildProcess(pid_t pid, UniqueFd pidfd) : pid_(pid), pidfd_(std::move(pidfd)) {}
+  pid_t pid_ = -1;
+  UniqueFd pidfd_;
+  std::optional<ExitStatus> status_;
+};
+
+struct SpawnSpec {
+  std::string executable{};                      // path; not searched in PATH
+  std::vector<std::string> args{};               // argv[1..]
+  std::vector<std::string> env{};                // "NAME=value"; the child gets exactly these
+  std::vector<std::pair<int, int>> fds{};        // {fd in the child, fd in the parent}: the only fds it keeps
+  const SeccompProgram* seccomp = nullptr;       // BeforeExec-stage filter, or none
+  std::optional<uid_t> uid{};                    // drop to this uid/gid (kernel runs as root)
+  bool own_process_group = true;                 // terminal signals go to the kernel only
+};
+
+// fork + exec with every step checked; an exec failure in the child comes back as an error value here
+// (through a close-on-exec pipe), not as a mysterious exit code.
+[[nodiscard]] SysResult<ChildProcess> spawn(const SpawnSpec& spec);
+
+// Makes this process the reaper of its orphaned descendants (PR_SET_CHILD_SUBREAPER), so that images
+// double-forked by services become the kernel's children (DESIGN §7).
+[[nodiscard]] SysResult<void> become_subreaper();
+
+// Counts the live processes whose parent is `parent` (from /proc), for leak checks in tests.
+[[nodiscard]] SysResult<int> count_children(pid_t parent);
+
+}  // namespace rejuv::sys

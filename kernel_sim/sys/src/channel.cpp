@@ -1,0 +1,96 @@
+#include "rejuv/sys/channel.hpp"
+
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <array>
+#include <cerrno>
+#include <cstring>
+
+namespace rejuv::sys {
+
+namespace {
+constexpr std::size_t kMaxFdsPerFrame = 4;
+}
+
+SysResult<std::pair<SeqPacket, SeqPacket>> SeqPacket::pair(Blocking blocking) {
+  std::array<int, 2> fds{-1, -1};
+  const int flags = SOCK_SEQPACKET | SOCK_CLOEXEC | (blocking == Blocking::No ? SOCK_NONBLOCK : 0);
+  if (::socketpair(AF_UNIX, flags, 0, fds.data()) != 0) {
+    return last_error("socketpair");
+  }
+  return std::pair{SeqPacket(UniqueFd(fds[0])), SeqPacket(UniqueFd(fds[1]))};
+}
+
+SysResult<void> SeqPacket::send(std::span<const std::byte> frame, std::span<const int> fds) const {
+  if (fds.size() > kMaxFdsPerFrame) {
+    return std::unexpected(SysError{"sendmsg", E2BIG});
+  }
+  iovec iov{const_cast<std::byte*>(frame.data()), frame.size()};  // NOLINT: sendmsg does not write
+  msghdr msg{};
+  msg.msg_iov = &iov;
+  msg.msg_iovlen = 1;
+  alignas(cmsghdr) std::array<char, CMSG_SPACE(sizeof(int) * kMaxFdsPerFrame)> control{};
+  if (!fds.empty()) {
+    msg.msg_control = control.data();
+    msg.msg_controllen = CMSG_SPACE(sizeof(int) * fds.size());
+    cmsghdr* cmsg = CMSG_FIRSTHDR(&msg);
+    cmsg->cmsg_level = SOL_SOCKET;
+    cmsg->cmsg_type = SCM_RIGHTS;
+    cmsg->cmsg_len = CMSG_LEN(sizeof(int) * fds.size());
+    std::memcpy(CMSG_DATA(cmsg), fds.data(), sizeof(int) * fds.size());
+  }
+  ssize_t n = -1;
+  do {
+    n = ::sendmsg(fd_.get(), &msg, MSG_NOSIGNAL);
+  } while (n < 0 && errno == EINTR);
+  if (n < 0) {
+    return last_error("sendmsg");
+  }
+  if (static_cast<std::size_t>(n) != frame.size()) {
+    return std::unexpected(SysError{"sendmsg", EMSGSIZE});
+  }
+  return {};
+}
+
+SysResult<Received> SeqPacket::receive(std::span<std::byte> buf, std::size_t max_fds) const {
+  iovec iov{buf.data(), buf.size()};
+  msghdr msg{};
+  msg.msg_iov = &iov;
+  msg.msg_iovlen = 1;
+  // Always offer room for fds, so that fds a hostile peer sends are received here and closed, not leaked.
+  alignas(cmsghdr) std::array<char, CMSG_SPACE(sizeof(int) * kMaxFdsPerFrame)> control{};
+  msg.msg_control = control.data();
+  msg.msg_controllen = control.size();
+  ssize_t n = -1;
+  do {
+    n = ::recvmsg(fd_.get(), &msg, MSG_CMSG_CLOEXEC);
+  } while (n < 0 && errno == EINTR);
+  if (n < 0) {
+    return last_error("recvmsg");
+  }
+  Received r;
+  r.size = static_cast<std::size_t>(n);
+  r.truncated = (msg.msg_flags & MSG_TRUNC) != 0;
+  r.fds_truncated = (msg.msg_flags & MSG_CTRUNC) != 0;
+  r.closed = n == 0 && buf.size() > 0 && !r.truncated;
+  for (cmsghdr* cmsg = CMSG_FIRSTHDR(&msg); cmsg != nullptr; cmsg = CMSG_NXTHDR(&msg, cmsg)) {
+    if (cmsg->cmsg_level != SOL_SOCKET || cmsg->cmsg_type != SCM_RIGHTS) {
+      continue;
+    }
+    const std::size_t count = (cmsg->cmsg_len - CMSG_LEN(0)) / sizeof(int);
+    for (std::size_t i = 0; i < count; ++i) {
+      int fd = -1;
+      std::memcpy(&fd, CMSG_DATA(cmsg) + i * sizeof(int), sizeof(int));
+      UniqueFd owned(fd);
+      if (r.fds.size() < max_fds) {
+        r.fds.push_back(std::move(owned));
+      } else {
+        r.fds_truncated = true;  // unexpected fd: closed right here by UniqueFd
+      }
+    }
+  }
+  return r;
+}
+
+}  // namespace rejuv::sys

@@ -1,0 +1,54 @@
+// Test helper run as a real child process: tries one forbidden action and reports by exit code.
+//   0 = the action was denied with EPERM, 1 = it was allowed, 2 = bad usage or another error.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/ptrace.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string_view>
+
+#include "rejuv/sys/seccomp.hpp"
+
+namespace {
+int verdict(long rc) {
+  if (rc >= 0) return 1;
+  return errno == EPERM ? 0 : 2;
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) return 2;
+  const std::string_view what = argv[1];
+  if (what == "socket") return verdict(::socket(AF_INET, SOCK_DGRAM, 0));
+  if (what == "unix-socket") return verdict(::socket(AF_UNIX, SOCK_STREAM, 0));
+  if (what == "ptrace") return verdict(::ptrace(PTRACE_TRACEME, 0, nullptr, nullptr));
+  if (what == "kill-parent") return verdict(::kill(::getppid(), 0));
+  if (what == "kill-self") return verdict(::kill(::getpid(), 0));
+  if (what == "exec") return verdict(::execl("/bin/true", "true", nullptr));
+  if (what == "exec-after-sdk") {  // the SDK's second stage: exec is banned after it
+    auto program = rejuv::sys::SeccompProgram::service_policy(rejuv::sys::SeccompStage::AfterExec);
+    if (!program || !program->install()) return 2;
+    return verdict(::execl("/bin/true", "true", nullptr));
+  }
+  if (what == "fd3") {  // prints what arrives on fd 3 (fd layout check)
+    char buf[64] = {};
+    const ssize_t n = ::read(3, buf, sizeof(buf) - 1);
+    if (n <= 0) return 2;
+    return std::string_view(buf, static_cast<std::size_t>(n)) == "hello" ? 0 : 1;
+  }
+  if (what == "fd-count") {  // exit code = number of open fds above stderr
+    int count = 0;
+    for (int fd = 3; fd < 1024; ++fd) count += ::fcntl(fd, F_GETFD) >= 0 ? 1 : 0;
+    return count;
+  }
+  if (what == "sleep") {
+    ::pause();
+    return 0;
+  }
+  return 2;
+}
