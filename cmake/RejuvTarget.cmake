@@ -3,8 +3,9 @@
 # Warnings are errors on project code; generated code (protobuf, idlc) is built without these flags.
 function(rejuv_warnings target)
   target_compile_options(${target} PRIVATE
-    -Wall -Wextra -Wpedantic -Werror -Wswitch-enum -Wshadow -Wnon-virtual-dtor -Wold-style-cast
-    -Wcast-align -Woverloaded-virtual -Wnull-dereference -Wimplicit-fallthrough)
+    -Wall -Wextra -Wpedantic -Werror -Wswitch-enum -Wshadow -Wcast-align -Wnull-dereference
+    -Wimplicit-fallthrough
+    $<$<COMPILE_LANGUAGE:CXX>:-Wnon-virtual-dtor -Wold-style-cast -Woverloaded-virtual>)
 endfunction()
 
 # rejuv_library(NAME DIR [DEPS ...]): a component library with public headers under DIR/include and
