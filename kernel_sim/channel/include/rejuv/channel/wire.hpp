@@ -1,0 +1,205 @@
+// The kernel ↔ service wire protocol (DESIGN §2, §3, §6, §7): the kernel's ABI. One frame = one
+// SOCK_SEQPACKET datagram = a fixed 24-byte header + a payload whose size the header states exactly.
+// The kernel never parses attacker-controlled bytes beyond this fixed framing: decode() checks the
+// header, the kind, the direction and the payload size rule of the kind before anything looks inside.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <span>
+#include <string_view>
+#include <type_traits>
+
+#include "rejuv/core/result.hpp"
+
+namespace rejuv::wire {
+
+inline constexpr int kChannelFd = 3;     // a service's channel to the kernel is always fd 3
+inline constexpr int kTimePageFd = 4;    // the kernel's read-only time page (memfd) is always fd 4
+inline constexpr std::size_t kMaxFrameBytes = 8192;
+inline constexpr std::uint16_t kProtocolVersion = 1;
+
+// Who sends a kind of frame.
+enum class Direction : std::uint8_t { ToKernel, ToService };
+
+enum class FrameKind : std::uint16_t {
+  // ---- service → kernel ----
+  Hello = 1,        // first frame after exec; aux = kProtocolVersion. The kernel answers with Boot…BootEnd.
+  Publish = 2,      // slot = Topic cap (Write); payload = the topic struct, exactly its size
+  Subscribe = 3,    // slot = Topic cap (Read); deliveries of that topic follow as Deliver frames
+  Invoke = 4,       // slot = a non-topic cap; payload = InvokeHeader + data; answered by Reply(seq)
+  TimerArm = 5,     // payload = TimerSpec: a service timer (kernel object, DESIGN §6)
+  TimerCancel = 6,  // aux = timer id
+  Log = 7,          // payload = LogHeader + text
+  Idle = 8,         // aux = number of frames the service has received so far: all of them are handled
+  Ready = 9,        // boot done (subscriptions and timers made): the graph may start
+  Taken = 10,       // checkpoint (DESIGN §7): aux = generation; payload = TakenBody
+  Resumed = 11,     // a restored image is live on its new channel: aux = generation
+  // ---- kernel → service ----
+  Boot = 100,       // payload = BootHeader; then BootCap × cap_count, BootParam × param_count, BootEnd
+  BootCap = 101,    // payload = BootCap
+  BootParam = 102,  // payload = BootParam
+  BootEnd = 103,
+  Deliver = 110,    // slot = the subscriber's Topic cap; aux = generation; payload = the message
+  Reply = 111,      // seq = the request's seq; payload = ReplyHeader + data
+  TimerFired = 112, // aux = timer id
+  Snapshot = 113,   // aux = generation g; carries one fd: the image's resume socket (DESIGN §7)
+  RollbackSignal = 114,  // aux = generation restored; payload = RollbackBody
+  Shutdown = 115,
+};
+
+[[nodiscard]] std::string_view to_string(FrameKind kind);
+[[nodiscard]] Direction direction_of(FrameKind kind);
+
+struct FrameHeader {
+  std::uint16_t kind = 0;    // FrameKind
+  std::uint16_t flags = 0;   // reserved, must be 0
+  std::uint32_t slot = 0;    // CPtr in the sender's (or receiver's) CSpace, 0 when unused
+  std::uint32_t seq = 0;     // request number (service → kernel), echoed in Reply
+  std::uint32_t length = 0;  // payload bytes after the header
+  std::uint64_t aux = 0;     // kind-specific scalar (generation, timer id, count)
+};
+static_assert(sizeof(FrameHeader) == 24 && std::is_trivially_copyable_v<FrameHeader>);
+inline constexpr std::size_t kMaxPayloadBytes = kMaxFrameBytes - sizeof(FrameHeader);
+
+// ---- payloads (fixed-layout, trivially copyable) ----
+
+struct InvokeHeader {
+  std::uint8_t operation = 0;  // cap::Operation
+  std::uint8_t reserved[7] = {};
+  std::uint64_t arg0 = 0;      // e.g. TimerArm: period [ns]; PersistentRead/Write: offset
+  std::uint64_t arg1 = 0;      // e.g. TimerArm: 1 = periodic, 0 = once
+};
+struct ReplyHeader {
+  std::int32_t error = 0;      // 0 = ok; otherwise a cap::CapError or an operation error, +1
+  std::uint32_t reserved = 0;
+  std::uint64_t value = 0;     // scalar result (e.g. the epoch, a generation)
+};
+struct TimerSpec {
+  std::uint64_t id = 0;        // chosen by the service
+  std::uint64_t first_ns = 0;  // first expiry, kernel clock [ns]
+  std::uint64_t period_ns = 0; // 0 = one-shot [ns]
+};
+enum class LogLevel : std::uint8_t { Debug, Info, Warn, Error };
+struct LogHeader {
+  std::uint8_t level = 0;      // LogLevel
+  std::uint8_t reserved[7] = {};
+};
+inline constexpr std::size_t kMaxLogText = 1024;
+struct BootHeader {
+  std::uint32_t service_id = 0;
+  std::uint32_t epoch = 0;
+  std::uint32_t cap_count = 0;
+  std::uint32_t param_count = 0;
+  std::uint64_t generation = 0;
+  char name[48] = {};          // NUL-terminated service name
+};
+struct BootCap {
+  std::uint32_t slot = 0;
+  std::uint8_t kind = 0;       // rejuv::ObjectKind
+  std::uint8_t rights_by_mode[5] = {};  // Rights bits per SrMode (index_of)
+  std::uint8_t reserved[2] = {};
+  std::uint32_t payload_size = 0;       // Topic: exact message size
+  std::uint32_t reserved2 = 0;
+  char object[48] = {};        // policy object name
+  char type[64] = {};          // Topic: IDL type name
+};
+struct BootParam {
+  double number = 0;
+  std::uint8_t is_text = 0;
+  std::uint8_t reserved[7] = {};
+  char name[48] = {};
+  char text[128] = {};
+};
+struct TakenBody {
+  std::int32_t image_pid = 0;  // the frozen image (DESIGN §7)
+  std::uint32_t reserved = 0;
+};
+struct RollbackBody {
+  std::uint32_t epoch = 0;
+  std::uint32_t reserved = 0;
+  std::uint64_t checkpoint_time_ns = 0;
+};
+
+// The time page (DESIGN §6): written only by the kernel, mapped read-only by services; a seqlock.
+struct TimePage {
+  std::atomic<std::uint64_t> sequence{0};  // odd while the kernel writes
+  std::atomic<std::uint64_t> now_ns{0};    // kernel clock [ns]
+  std::atomic<std::uint32_t> mode{0};      // rejuv::SrMode in force
+  std::atomic<std::uint32_t> epoch{0};
+};
+static_assert(std::atomic<std::uint64_t>::is_always_lock_free);
+
+// ---- decoding (untrusted bytes) ----
+
+enum class FrameError : std::uint8_t {
+  TooShort,          // fewer bytes than a header
+  TooLong,           // more than kMaxFrameBytes (or truncated on receive)
+  LengthMismatch,    // header.length disagrees with the datagram size
+  UnknownKind,
+  WrongDirection,    // a kernel → service kind sent by a service (or the reverse)
+  BadFlags,
+  BadPayloadSize,    // the kind's payload size rule is broken
+};
+[[nodiscard]] std::string_view to_string(FrameError error);
+
+// A checked view of one frame; payload points into the caller's buffer.
+struct FrameView {
+  FrameKind kind{};
+  FrameHeader header{};
+  std::span<const std::byte> payload{};
+};
+
+// Checks everything the framing promises: size, kind, direction, payload size of the kind. Topic payload
+// sizes (Publish, Deliver) are checked later against the capability's topic, not here.
+[[nodiscard]] Result<FrameView, FrameError> decode(std::span<const std::byte> bytes, Direction expected);
+
+// Reads a fixed payload struct out of a frame (the caller has decoded the frame, so the size is right).
+template <class T>
+[[nodiscard]] T payload_as(const FrameView& frame) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  T value{};
+  std::memcpy(&value, frame.payload.data(), std::min(sizeof(T), frame.payload.size()));
+  return value;
+}
+
+// ---- encoding ----
+
+// A frame being built in a fixed buffer: no allocation on the hot path.
+class FrameBuffer {
+ public:
+  FrameBuffer() = default;
+  // Starts a frame; returns false (and stays empty) when the payload would not fit.
+  [[nodiscard]] bool build(FrameKind kind, std::uint32_t slot, std::uint32_t seq, std::uint64_t aux,
+                           std::span<const std::byte> payload = {}, std::span<const std::byte> more = {});
+  template <class T>
+  [[nodiscard]] bool build_with(FrameKind kind, std::uint32_t slot, std::uint32_t seq, std::uint64_t aux,
+                                const T& body, std::span<const std::byte> more = {}) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    return build(kind, slot, seq, aux, std::as_bytes(std::span(&body, 1)), more);
+  }
+  [[nodiscard]] std::span<const std::byte> bytes() const { return {bytes_.data(), size_}; }
+
+ private:
+  alignas(8) std::array<std::byte, kMaxFrameBytes> bytes_{};
+  std::size_t size_ = 0;
+};
+
+// Copies a string into a fixed char array, NUL-terminated, truncating; false if it had to truncate.
+template <std::size_t N>
+bool copy_name(char (&out)[N], std::string_view in) {
+  const std::size_t n = std::min(in.size(), N - 1);
+  std::memcpy(out, in.data(), n);
+  out[n] = '\0';
+  return n == in.size();
+}
+// Reads a NUL-terminated name out of a fixed array that an untrusted peer filled (may lack the NUL).
+template <std::size_t N>
+std::string_view read_name(const char (&in)[N]) {
+  return {in, strnlen(in, N)};
+}
+
+}  // namespace rejuv::wire
