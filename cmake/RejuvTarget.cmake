@@ -48,3 +48,14 @@ function(rejuv_bench name)
   target_compile_definitions(${name} PRIVATE REJUV_SOURCE_DIR="${REJUV_SOURCE_DIR}")
   rejuv_warnings(${name})
 endfunction()
+
+# Service and plant executables all live in one folder the kernel knows (REJUV_SERVICE_BIN_DIR), so a
+# launch graph names them by file name: `executable: "rejuv_ekf2"`.
+set(REJUV_SERVICE_BIN_DIR ${CMAKE_BINARY_DIR}/bin CACHE INTERNAL "where service executables are built")
+function(rejuv_service_executable name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS})
+  set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${REJUV_SERVICE_BIN_DIR})
+  rejuv_warnings(${name})
+endfunction()
