@@ -1,12 +1,248 @@
-// Placeholder until this command lands (replaced by its implementation in the same change).
+// `rejuv audit POLICY [--launch GRAPH] [--format text|json]` (DESIGN §4, §10): prints the service ×
+// object × mode matrix and every violation of the SR invariants, in the file:line:column format of a
+// compiler (text) or as one JSON document (CI). Exit 0 clean, 1 on violations, 2 on bad input.
+#include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <system_error>
+#include <vector>
 
 #include "args.hpp"
 #include "commands.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/policy/audit.hpp"
+#include "rejuv/policy/policy.hpp"
 
 namespace rejuv::cli {
-int run_audit(std::span<const std::string_view> /*args*/) {
-  std::fprintf(stderr, "rejuv audit: not built yet\n");
+
+namespace {
+
+enum class Format : std::uint8_t { Text, Json };
+
+void print(std::FILE* to, std::string_view s) {
+  std::fwrite(s.data(), 1, s.size(), to);
+}
+
+// RFC 8259 string escaping; bytes ≥ 0x80 pass through (the inputs are UTF-8 text files).
+std::string json_string(std::string_view s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    const auto c = static_cast<unsigned char>(ch);
+    switch (c) {
+      case '"': out += "\\\""; break;
+      case '\\': out += "\\\\"; break;
+      case '\n': out += "\\n"; break;
+      case '\r': out += "\\r"; break;
+      case '\t': out += "\\t"; break;
+      case '\b': out += "\\b"; break;
+      case '\f': out += "\\f"; break;
+      default:
+        if (c < 0x20U) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(c));
+          out += buf;
+        } else {
+          out += ch;
+        }
+    }
+  }
+  return out + "\"";
+}
+
+std::string json_location(const SourceLocation& w) {
+  return "\"file\":" + json_string(w.file) + ",\"line\":" + std::to_string(w.line) +
+         ",\"column\":" + std::to_string(w.column);
+}
+
+std::string_view kind_word(LoadErrorKind k) {
+  switch (k) {
+    case LoadErrorKind::CannotRead: return "cannot_read";
+    case LoadErrorKind::Syntax: return "syntax";
+    case LoadErrorKind::Semantic: return "semantic";
+  }
+  return "?";
+}
+
+// A file that cannot be read or parsed: the compiler-style line on stderr, and for CI a JSON document.
+int bad_input(Format format, const std::string& policy_path, const LoadError& e) {
+  print(stderr, e.to_string() + "\n");
+  if (format == Format::Json) {
+    print(stdout, "{\"policy\":" + json_string(policy_path) + ",\"ok\":false,\"error\":{\"kind\":" +
+                      json_string(kind_word(e.kind)) + ",\"message\":" + json_string(e.message) + "," +
+                      json_location(e.where) + "},\"findings\":[],\"matrix\":[]}\n");
+  }
   return static_cast<int>(Exit::BadInput);
 }
+
+// Pads `s` to `width` terminal columns (the empty-cell dot is one column but two bytes).
+std::string pad(std::string_view s, std::size_t width, std::size_t display = std::string::npos) {
+  const std::size_t shown = display == std::string::npos ? s.size() : display;
+  return std::string(s) + std::string(shown < width ? width - shown : 1, ' ');
+}
+
+void trim_right(std::string& s) {
+  while (!s.empty() && s.back() == ' ') {
+    s.pop_back();
+  }
+}
+
+std::string text_matrix(const policy::Policy& p) {
+  const auto rows = policy::matrix(p);
+  std::size_t sw = 7, ow = 6;  // "service", "object"
+  for (const auto& r : rows) {
+    sw = std::max(sw, p.service(r.service).name.size());
+    ow = std::max(ow, p.object(r.object).name.size());
+  }
+  constexpr std::size_t kCell = 7;  // "UPDATE" + one space
+  std::string out = pad("service", sw + 2) + pad("object", ow + 2);
+  for (const SrMode m : kAllModes) {
+    out += pad(to_string(m), kCell);
+  }
+  trim_right(out);
+  out += "\n";
+  for (const auto& r : rows) {
+    out += pad(p.service(r.service).name, sw + 2) + pad(p.object(r.object).name, ow + 2);
+    for (const SrMode m : kAllModes) {
+      const Rights cell = r.rights[index_of(m)];
+      out += cell.empty() ? pad("\u00b7", kCell, 1) : pad(cell.to_string(), kCell);
+    }
+    trim_right(out);
+    out += "\n";
+  }
+  return out;
+}
+
+std::string json_matrix(const policy::Policy& p) {
+  std::string out = "[";
+  bool first = true;
+  for (const auto& r : policy::matrix(p)) {
+    out += first ? "" : ",";
+    first = false;
+    out += "{\"service\":" + json_string(p.service(r.service).name) +
+           ",\"object\":" + json_string(p.object(r.object).name) +
+           ",\"kind\":" + json_string(to_string(p.object(r.object).kind)) + ",\"modes\":{";
+    for (const SrMode m : kAllModes) {
+      out += (m == kAllModes.front() ? "" : ",") + json_string(to_string(m)) + ":" +
+             json_string(r.rights[index_of(m)].letters());
+    }
+    out += "}}";
+  }
+  return out + "]";
+}
+
+std::string verdict(const policy::Policy& p, const std::vector<policy::Finding>& findings,
+                    const launch::LoadedLaunch* graph) {
+  const std::string subject = "policy \"" + (p.name().empty() ? p.file() : p.name()) + "\"" +
+                              (graph != nullptr ? " with graph \"" + graph->graph.name() + "\"" : "");
+  if (findings.empty()) {
+    return "audit: OK: " + subject + " satisfies timer, sei, limits, persistent, lateral, coverage and " +
+           std::to_string(p.deny_rules().size()) + " deny rule(s)\n";
+  }
+  // Count per id, in first-seen order.
+  std::vector<std::pair<std::string, int>> counts;
+  for (const auto& f : findings) {
+    const std::string id = f.id();
+    auto it = std::find_if(counts.begin(), counts.end(), [&](const auto& c) { return c.first == id; });
+    if (it == counts.end()) {
+      counts.emplace_back(id, 1);
+    } else {
+      ++it->second;
+    }
+  }
+  std::string by;
+  for (const auto& [id, n] : counts) {
+    by += (by.empty() ? "" : ", ") + id + " " + std::to_string(n);
+  }
+  return "audit: FAILED: " + subject + " has " + std::to_string(findings.size()) + " violation(s) (" + by +
+         ")\n";
+}
+
+}  // namespace
+
+int run_audit(std::span<const std::string_view> args) {
+  std::string policy_path, launch_path, format_text = "text";
+  bool launch_set = false;
+  ArgParser parser(
+      "audit",
+      "Checks a capability policy against the CPS SR invariants of DESIGN §4 (timer, sei, limits,\n"
+      "persistent, lateral, coverage) and its own deny rules, and prints the service x object x\n"
+      "mode matrix. Exit 0 when clean, 1 on violations, 2 when a file cannot be read or parsed.");
+  parser.positional("POLICY", policy_path, "the policy (*.policy.pbtxt)")
+      .option("--launch", "GRAPH", launch_path, "also check against this launch graph (*.launch.pbtxt)",
+              &launch_set)
+      .option("--format", "text|json", format_text, "output format (json for CI)");
+  const auto parsed = parser.parse(args);
+  if (!parsed) {
+    print(stderr, "rejuv audit: " + parsed.error() + "\n");
+    return static_cast<int>(Exit::BadInput);
+  }
+  switch (*parsed) {
+    case ParseOutcome::HelpShown: print(stdout, parser.help()); return static_cast<int>(Exit::Ok);
+    case ParseOutcome::Run: break;
+  }
+  const auto choice = to_choice(format_text, "--format", {"text", "json"});
+  if (!choice) {
+    print(stderr, "rejuv audit: " + choice.error() + "\n");
+    return static_cast<int>(Exit::BadInput);
+  }
+  const Format format = *choice == "json" ? Format::Json : Format::Text;
+
+  const auto pol = policy::load_policy(policy_path);
+  if (!pol) {
+    return bad_input(format, policy_path, pol.error());
+  }
+  std::optional<launch::LoadedLaunch> graph;
+  if (launch_set) {
+    auto g = launch::load_launch(launch_path);
+    if (!g) {
+      return bad_input(format, policy_path, g.error());
+    }
+    graph = std::move(*g);
+    // Auditing a candidate policy against a graph that names another one is allowed, but say so.
+    std::error_code ec;
+    if (format == Format::Text && !std::filesystem::equivalent(graph->policy_path, policy_path, ec)) {
+      print(stderr, "rejuv audit: note: " + launch_path + " names the policy " + graph->policy_path.string() +
+                        ", not " + policy_path + "\n");
+    }
+  }
+  const auto findings = graph ? policy::audit(*pol, *graph) : policy::audit(*pol);
+
+  switch (format) {
+    case Format::Text: {
+      std::string out = "policy \"" + pol->name() + "\" (" + policy_path +
+                        "): " + std::to_string(pol->services().size()) + " services, " +
+                        std::to_string(pol->objects().size()) + " objects, " +
+                        std::to_string(pol->grants().size()) + " grants, " +
+                        std::to_string(pol->deny_rules().size()) + " deny rules\n\n";
+      out += text_matrix(*pol);
+      if (!findings.empty()) {
+        out += "\n";
+        for (const auto& f : findings) {
+          out += f.to_string() + "\n";
+        }
+      }
+      out += "\n" + verdict(*pol, findings, graph ? &*graph : nullptr);
+      print(stdout, out);
+      break;
+    }
+    case Format::Json: {
+      std::string out = "{\"policy\":" + json_string(policy_path) + ",\"name\":" + json_string(pol->name()) +
+                        ",\"launch\":" + (graph ? json_string(launch_path) : std::string("null")) +
+                        ",\"ok\":" + (findings.empty() ? "true" : "false") + ",\"findings\":[";
+      for (std::size_t i = 0; i < findings.size(); ++i) {
+        const auto& f = findings[i];
+        out += (i == 0 ? "" : ",") + std::string("{\"invariant\":") + json_string(f.id()) +
+               ",\"message\":" + json_string(f.message) + "," + json_location(f.where) + "}";
+      }
+      out += "],\"matrix\":" + json_matrix(*pol) + "}\n";
+      print(stdout, out);
+      break;
+    }
+  }
+  return static_cast<int>(findings.empty() ? Exit::Ok : Exit::Findings);
+}
+
 }  // namespace rejuv::cli

@@ -74,6 +74,18 @@ Direction direction_of(FrameKind kind) {
   return static_cast<std::uint16_t>(kind) < 100 ? Direction::ToKernel : Direction::ToService;
 }
 
+std::string_view to_string(OpError error) {
+  switch (error) {
+    case OpError::AlreadySubscribed: return "AlreadySubscribed";
+    case OpError::NoSuchTopic: return "NoSuchTopic";
+    case OpError::NotSupported: return "NotSupported";
+    case OpError::BadArgument: return "BadArgument";
+    case OpError::OutOfRange: return "OutOfRange";
+    case OpError::Refused: return "Refused";
+  }
+  return "unknown operation error";
+}
+
 std::string_view to_string(FrameError error) {
   switch (error) {
     case FrameError::TooShort: return "frame shorter than its header";

@@ -78,6 +78,18 @@ struct ReplyHeader {
   std::uint32_t reserved = 0;
   std::uint64_t value = 0;     // scalar result (e.g. the epoch, a generation)
 };
+// Operation errors in ReplyHeader::error (docs/protocol.md: 0 ok, 1 + cap::CapError for a denial, or an
+// operation error ≥ kFirstOpError): the cap was valid but the operation could not be carried out.
+inline constexpr std::int32_t kFirstOpError = 100;
+enum class OpError : std::int32_t {
+  AlreadySubscribed = 100,  // Subscribe: this service already subscribes to the topic
+  NoSuchTopic = 101,        // Subscribe: the cap names no topic of the broker
+  NotSupported = 102,       // the operation exists but this kernel does not provide it (yet)
+  BadArgument = 103,        // an argument or the data of an Invoke is malformed
+  OutOfRange = 104,         // Persistent: offset/length outside the cell
+  Refused = 105,            // the kernel refuses it in the current state (e.g. a second timer arm per epoch)
+};
+[[nodiscard]] std::string_view to_string(OpError error);
 struct TimerSpec {
   std::uint64_t id = 0;        // chosen by the service
   std::uint64_t first_ns = 0;  // first expiry, kernel clock [ns]

@@ -1,0 +1,71 @@
+// The launch graph (DESIGN §1, §10): what runs, wired how, with which SR parameters, mission and attack
+// plan. `load_launch` parses a *.launch.pbtxt and validates everything that a later stage would otherwise
+// discover mid-flight; every refusal names file:line:column and what was expected (CONVENTIONS "Errors are
+// values"). Fields whose default is not the proto's zero are read through the accessors below, so the
+// defaults live in one place and the parsed proto stays exactly what the user wrote.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "launch.pb.h"
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/textproto.hpp"
+#include "rejuv/core/time.hpp"
+
+namespace rejuv::launch {
+
+// A validated launch graph with the location of every field (for later semantic findings, e.g. the
+// `coverage` audit of DESIGN §4) and the policy file it names, resolved against the launch file's folder.
+struct LoadedLaunch {
+  proto::Launch graph;
+  TextLocations locations;
+  std::filesystem::path path;         // the launch file as given
+  std::filesystem::path policy_path;  // resolved; exists and is a regular file
+};
+
+// Reads, parses and validates a launch graph. CannotRead / Syntax / Semantic errors, never an exception.
+[[nodiscard]] Result<LoadedLaunch, LoadError> load_launch(const std::filesystem::path& path);
+
+// The same from text; `as_path` names the file in messages and anchors the relative policy path
+// (tests, fuzzing).
+[[nodiscard]] Result<LoadedLaunch, LoadError> parse_launch(std::string_view text,
+                                                           const std::filesystem::path& as_path);
+
+// ---- defaults (one place; the proto keeps what the user wrote) ----
+namespace defaults {
+inline constexpr std::uint32_t kKeepGenerations = 2;   // DESIGN §7: the last K generations are kept
+inline constexpr double kPhysicsRateHz = 1000.0;       // DESIGN §9: RK4 at 1 kHz
+inline constexpr Seconds kCheckPeriod{0.002};          // §V-B: condition (1) is checked every 2 ms
+inline constexpr std::size_t kMaxWaypoints = 16;       // idl/control.idl MissionWaypoints.waypoints[16]
+inline constexpr std::uint32_t kMaxDdsDomainId = 232;  // DDSI-RTPS port mapping limit
+inline constexpr std::string_view kDdsNamePrefix = "rejuv/";
+inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // relative to the repository
+}  // namespace defaults
+
+// K, the number of checkpoint generations kept (DESIGN §7).
+[[nodiscard]] std::uint32_t keep_generations(const proto::SrParams& sr);
+// Period of the check of condition (1) (§V-B).
+[[nodiscard]] Seconds check_period(const proto::SrParams& sr);
+[[nodiscard]] Seconds t_mc(const proto::SrParams& sr);
+[[nodiscard]] Seconds t_est(const proto::SrParams& sr);
+[[nodiscard]] Seconds t_min(const proto::SrParams& sr);
+[[nodiscard]] Seconds mission_timeout(const proto::Mission& mission);
+// Physics rate of the plant [Hz]; 0 in the file means the default.
+[[nodiscard]] double physics_rate_hz(const proto::PlantSpec& plant);
+[[nodiscard]] Seconds physics_step(const proto::PlantSpec& plant);
+// false = driver level, never rolled back (DESIGN §2); default true.
+[[nodiscard]] bool rejuvenate(const proto::ServiceSpec& service);
+// DDS topic name of a bridge: as written, else "rejuv/<topic>".
+[[nodiscard]] std::string dds_name(const proto::Bridge& bridge);
+// Cyclone XML config: as written (relative to the launch file), else config/cyclonedds.xml of `repo_root`.
+[[nodiscard]] std::filesystem::path dds_config(const LoadedLaunch& launch,
+                                               const std::filesystem::path& repo_root);
+
+// The service called `name`, or nullptr.
+[[nodiscard]] const proto::ServiceSpec* find_service(const proto::Launch& graph, std::string_view name);
+
+}  // namespace rejuv::launch

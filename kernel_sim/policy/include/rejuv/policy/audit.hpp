@@ -1,0 +1,54 @@
+// The policy audit (DESIGN §4): checks a policy against the run-time requirements of §III of the paper
+// and against its own `deny` rules, optionally together with the launch graph that will run under it.
+// Each finding names the invariant, says what is wrong in the user's terms and points at the grant (or
+// launch entry) to change. The kernel refuses to start a graph whose policy has any finding.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rejuv/core/textproto.hpp"
+#include "rejuv/core/vocabulary.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/policy/policy.hpp"
+
+namespace rejuv::policy {
+
+// The invariants of DESIGN §4 (ids as printed: timer, sei, limits, persistent, lateral, coverage) plus
+// the policy's own deny rules (printed as deny:<rule id>).
+enum class Invariant : std::uint8_t { Timer, Sei, Limits, Persistent, Lateral, Coverage, Deny };
+inline constexpr std::array kAllInvariants{Invariant::Timer,      Invariant::Sei,     Invariant::Limits,
+                                           Invariant::Persistent, Invariant::Lateral, Invariant::Coverage,
+                                           Invariant::Deny};
+[[nodiscard]] std::string_view to_string(Invariant invariant);
+
+struct Finding {
+  Invariant invariant;
+  std::string rule;  // Deny only: the id of the rule that matched
+  std::string message;
+  SourceLocation where;  // the offending grant, or the launch entry for graph-side problems
+
+  // "timer", ..., "deny:<rule>".
+  [[nodiscard]] std::string id() const;
+  // "file:line:column: violation [id]: message" (the format compilers use, so editors can jump to it).
+  [[nodiscard]] std::string to_string() const;
+};
+
+// Checks the policy on its own. Findings are ordered by file, line and column.
+[[nodiscard]] std::vector<Finding> audit(const Policy& policy);
+// Also checks it against a launch graph: names on both sides, uses vs grants, readers vs writers.
+[[nodiscard]] std::vector<Finding> audit(const Policy& policy, const launch::LoadedLaunch& graph);
+
+// One row of the service × object × mode matrix: a pair with a grant in at least one mode.
+struct MatrixRow {
+  ServiceId service;
+  ObjectId object;
+  std::array<Rights, kModeCount> rights;  // by index_of(mode)
+};
+// Rows in service declaration order, then object declaration order.
+[[nodiscard]] std::vector<MatrixRow> matrix(const Policy& policy);
+
+}  // namespace rejuv::policy

@@ -1,0 +1,55 @@
+// Command line of the plant process `rejuv_plant` (DESIGN §2, §6, §9): strict parsing — every flag known,
+// every value in range, nothing left over — with a message that names the flag and what it expects.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <variant>
+
+#include <Eigen/Core>
+
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/time.hpp"
+
+namespace rejuv::plant_app {
+
+// Who keeps time (DESIGN §6).
+enum class ClockMode : std::uint8_t {
+  Lockstep,  // the plant is the time master: step, publish SimStep, wait for the kernel's SimStepAck
+  Realtime,  // physics follows CLOCK_MONOTONIC; no acks
+};
+
+struct PlantOptions {
+  std::uint32_t domain = 0;  // DDS domain id
+  std::uint64_t seed = 1;    // sensors and wind
+  ClockMode clock = ClockMode::Lockstep;
+  Eigen::Vector3d start_N_m = Eigen::Vector3d(0, 0, -3);  // hover position, NED (down −3 = 3 m up)
+  Nanos duration{0};                                      // simulated (lockstep) or real time; 0 = forever
+  Nanos step{std::chrono::milliseconds{4}};               // lockstep step; ground-truth period in realtime
+  Nanos ack_timeout{std::chrono::seconds{10}};            // lockstep: no ack for this long = kernel gone
+  Nanos connect_timeout{std::chrono::seconds{30}};        // lockstep: waiting for the kernel's endpoints
+  double wind_mean_m_s = 0;                               // mean wind toward north, m/s
+  double wind_gust_m_s = 0;                               // gust intensity (1σ per axis), m/s
+};
+
+struct ShowHelp {};
+
+using PlantCommand = std::variant<PlantOptions, ShowHelp>;
+
+// args = argv[1..]. The error is one line for stderr, e.g. "--step-ms: expected an integer in [1, 1000], got
+// 'x'".
+[[nodiscard]] Result<PlantCommand, std::string> parse_options(std::span<const std::string_view> args);
+
+[[nodiscard]] std::string_view usage();
+
+[[nodiscard]] std::string_view to_string(ClockMode mode);
+
+// Process exit codes of rejuv_plant.
+inline constexpr int kExitOk = 0;          // --duration reached, SIGINT or SIGTERM
+inline constexpr int kExitFailure = 1;     // DDS or system failure
+inline constexpr int kExitUsage = 2;       // bad command line
+inline constexpr int kExitKernelLost = 3;  // lockstep: no kernel, or no ack within --ack-timeout-ms
+
+}  // namespace rejuv::plant_app

@@ -1,0 +1,56 @@
+// The simulated world of the plant process, without any I/O (DESIGN §9): the quadrotor (RK4, 1 kHz ticks),
+// its sensor suite and the wind, advanced by whole intervals with the last motor command held, producing the
+// DDS messages of the sensor samples due in each interval. Deterministic for a seed.
+#pragma once
+
+#include <cstdint>
+#include <variant>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "rejuv/core/time.hpp"
+#include "rejuv/msgs/topic_types.hpp"
+#include "rejuv/plant/plant.hpp"
+
+namespace rejuv::plant_app {
+
+struct PlantSimConfig {
+  std::uint64_t seed = 1;
+  Eigen::Vector3d start_N_m = Eigen::Vector3d(0, 0, -3);  // trimmed hover here (QuadState hover_at)
+  plant::WindParams wind{};
+  Nanos physics_period{std::chrono::milliseconds{1}};  // 1 kHz (DESIGN §9)
+};
+
+// One sensor message as published on DDS.
+using SensorMessage = std::variant<rejuv_msg_SensorGyro, rejuv_msg_SensorAccel, rejuv_msg_SensorMag,
+                                   rejuv_msg_SensorBaro, rejuv_msg_SensorGps>;
+
+class PlantSim {
+ public:
+  explicit PlantSim(const PlantSimConfig& config);
+
+  // Holds U until the next command. A command with a non-finite entry is refused (false) and the previous one
+  // kept: the plant is the outside world and takes no NaN from anyone. Values outside [0, 1] are clamped by
+  // the rotor model.
+  [[nodiscard]] bool set_motor_command(const rejuv_msg_ActuatorOutputs& command);
+
+  // Advances simulated time by `interval` (> 0) in physics ticks (the last one shorter when the interval is
+  // not a multiple of the period), appending to `out` every sensor message delivered during it, in order.
+  void advance(Nanos interval, std::vector<SensorMessage>& out);
+
+  [[nodiscard]] Nanos now() const { return now_; }
+  [[nodiscard]] rejuv_msg_GroundTruth ground_truth() const;
+  [[nodiscard]] const plant::Quadrotor& quadrotor() const { return quad_; }
+  [[nodiscard]] const Eigen::Vector4d& motor_command() const { return motor_command_; }
+
+ private:
+  PlantSimConfig config_;
+  plant::Quadrotor quad_;
+  plant::SensorSuite sensors_;
+  plant::Wind wind_;
+  Eigen::Vector4d motor_command_;
+  Nanos now_{0};
+};
+
+}  // namespace rejuv::plant_app

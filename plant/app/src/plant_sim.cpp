@@ -1,0 +1,120 @@
+#include "rejuv/plant_app/plant_sim.hpp"
+
+#include <algorithm>
+
+#include "rejuv/core/result.hpp"
+
+namespace rejuv::plant_app {
+
+namespace {
+
+// Different streams for sensors and wind from one seed (the splitmix64 increment keeps them apart).
+constexpr std::uint64_t kWindSeedOffset = 0x9E3779B97F4A7C15ULL;
+constexpr double kImuTemperature_c = 25.0;  // a warm IMU; the models have no thermal drift
+constexpr double kIsaSeaLevel_c = 15.0;     // ISA temperature lapse for the baro's temperature
+constexpr double kIsaLapse_c_per_m = 0.0065;
+constexpr std::uint8_t kGpsFix3d = 3;
+constexpr std::uint8_t kGpsSatellites = 10;
+
+std::uint64_t stamp(Nanos t) {
+  return static_cast<std::uint64_t>(t.count());
+}
+
+void copy3(double (&dst)[3], const Eigen::Vector3d& v) {
+  dst[0] = v.x();
+  dst[1] = v.y();
+  dst[2] = v.z();
+}
+
+plant::QuadState initial_state(const PlantSimConfig& c) {
+  return plant::Quadrotor::hover_at(plant::QuadParams::jmavsim_default(), c.start_N_m);
+}
+
+}  // namespace
+
+PlantSim::PlantSim(const PlantSimConfig& config)
+    : config_(config),
+      quad_(plant::QuadParams::jmavsim_default(), initial_state(config)),
+      sensors_(plant::SensorParams::defaults(), config.seed),
+      wind_(config.wind, config.seed + kWindSeedOffset),
+      motor_command_(Eigen::Vector4d::Constant(quad_.params().hover_level())) {
+  REJUV_ASSERT(config.physics_period > Nanos{0}, "physics period > 0");
+}
+
+bool PlantSim::set_motor_command(const rejuv_msg_ActuatorOutputs& command) {
+  const Eigen::Vector4d U(command.motor[0], command.motor[1], command.motor[2], command.motor[3]);
+  if (!U.allFinite()) {
+    return false;
+  }
+  motor_command_ = U;
+  return true;
+}
+
+void PlantSim::advance(Nanos interval, std::vector<SensorMessage>& out) {
+  REJUV_ASSERT(interval > Nanos{0}, "advance by a positive interval");
+  const plant::SensorParams& sp = sensors_.params();
+  Nanos remaining = interval;
+  while (remaining > Nanos{0}) {
+    const Nanos dt = std::min(config_.physics_period, remaining);
+    const Eigen::Vector3d wind_N = wind_.step(to_seconds(dt));
+    quad_.step(to_seconds(dt), motor_command_, wind_N);
+    now_ += dt;
+    remaining -= dt;
+    const plant::SensorSamples s = sensors_.step(now_, quad_.state(), quad_.acceleration_N());
+    if (s.gyro) {
+      rejuv_msg_SensorGyro m{};
+      m.timestamp_ns = stamp(s.gyro->t);
+      copy3(m.omega_B_rad_s, s.gyro->omega_B_rad_s);
+      m.temperature_c = kImuTemperature_c;
+      out.emplace_back(m);
+    }
+    if (s.accel) {
+      rejuv_msg_SensorAccel m{};
+      m.timestamp_ns = stamp(s.accel->t);
+      copy3(m.f_B_m_s2, s.accel->f_B_m_s2);
+      m.temperature_c = kImuTemperature_c;
+      out.emplace_back(m);
+    }
+    if (s.mag) {
+      rejuv_msg_SensorMag m{};
+      m.timestamp_ns = stamp(s.mag->t);
+      copy3(m.b_B_gauss, s.mag->b_B_gauss);
+      out.emplace_back(m);
+    }
+    if (s.baro) {
+      rejuv_msg_SensorBaro m{};
+      m.timestamp_ns = stamp(s.baro->t);
+      m.pressure_pa = s.baro->pressure_pa;
+      m.altitude_m = s.baro->altitude_m;
+      m.temperature_c = kIsaSeaLevel_c - kIsaLapse_c_per_m * (sp.home_altitude_amsl_m + s.baro->altitude_m);
+      out.emplace_back(m);
+    }
+    if (s.gps) {
+      rejuv_msg_SensorGps m{};
+      m.timestamp_ns = stamp(s.gps->t);
+      copy3(m.p_N_m, s.gps->p_N_m);
+      copy3(m.v_N_m_s, s.gps->v_N_m_s);
+      m.eph_m = s.gps->eph_m;
+      m.epv_m = s.gps->epv_m;
+      m.fix_type = kGpsFix3d;
+      m.satellites_used = kGpsSatellites;
+      out.emplace_back(m);
+    }
+  }
+}
+
+rejuv_msg_GroundTruth PlantSim::ground_truth() const {
+  const plant::QuadState& x = quad_.state();
+  rejuv_msg_GroundTruth m{};
+  m.timestamp_ns = stamp(now_);
+  copy3(m.p_N_m, x.p_NB_N);
+  copy3(m.v_N_m_s, x.v_NB_N);
+  m.q_NB[0] = x.q_NB.w();
+  m.q_NB[1] = x.q_NB.x();
+  m.q_NB[2] = x.q_NB.y();
+  m.q_NB[3] = x.q_NB.z();
+  copy3(m.omega_B_rad_s, x.omega_B_rad_s);
+  return m;
+}
+
+}  // namespace rejuv::plant_app

@@ -1,0 +1,230 @@
+// The plant process's parts that need no DDS: strict option parsing and the I/O-free simulation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "rejuv/plant_app/options.hpp"
+#include "rejuv/plant_app/plant_sim.hpp"
+
+namespace rejuv::plant_app {
+namespace {
+
+using namespace std::chrono_literals;
+
+Result<PlantCommand, std::string> parse(std::vector<std::string_view> args) {
+  return parse_options(args);
+}
+
+PlantOptions parse_ok(std::vector<std::string_view> args) {
+  auto c = parse(std::move(args));
+  EXPECT_TRUE(c.has_value()) << (c ? "" : c.error());
+  if (!c || !std::holds_alternative<PlantOptions>(*c)) return {};
+  return std::get<PlantOptions>(*c);
+}
+
+std::string parse_error(std::vector<std::string_view> args) {
+  auto c = parse(std::move(args));
+  EXPECT_FALSE(c.has_value());
+  return c ? std::string{} : c.error();
+}
+
+TEST(PlantOptions, NoArguments_Defaults) {
+  const PlantOptions o = parse_ok({});
+  EXPECT_EQ(o.domain, 0U);
+  EXPECT_EQ(o.clock, ClockMode::Lockstep);
+  EXPECT_EQ(o.step, 4ms);
+  EXPECT_TRUE(o.start_N_m.isApprox(Eigen::Vector3d(0, 0, -3)));
+  EXPECT_EQ(o.duration, 0s);
+}
+
+TEST(PlantOptions, EveryFlag_Parsed) {
+  const PlantOptions o = parse_ok({"--domain",
+                                   "17",
+                                   "--seed=18446744073709551615",
+                                   "--clock",
+                                   "realtime",
+                                   "--start-north",
+                                   "1.5",
+                                   "--start-east",
+                                   "-2",
+                                   "--start-down",
+                                   "-10",
+                                   "--duration",
+                                   "2.5",
+                                   "--step-ms",
+                                   "8",
+                                   "--ack-timeout-ms",
+                                   "250",
+                                   "--connect-timeout-ms",
+                                   "1000",
+                                   "--wind-mean",
+                                   "3",
+                                   "--wind-gust",
+                                   "0.5"});
+  EXPECT_EQ(o.domain, 17U);
+  EXPECT_EQ(o.seed, 18446744073709551615ULL);
+  EXPECT_EQ(o.clock, ClockMode::Realtime);
+  EXPECT_TRUE(o.start_N_m.isApprox(Eigen::Vector3d(1.5, -2, -10)));
+  EXPECT_EQ(o.duration, 2500ms);
+  EXPECT_EQ(o.step, 8ms);
+  EXPECT_EQ(o.ack_timeout, 250ms);
+  EXPECT_EQ(o.connect_timeout, 1000ms);
+  EXPECT_DOUBLE_EQ(o.wind_mean_m_s, 3);
+  EXPECT_DOUBLE_EQ(o.wind_gust_m_s, 0.5);
+}
+
+TEST(PlantOptions, Help_ShowHelp) {
+  auto c = parse({"--domain", "3", "--help"});
+  ASSERT_TRUE(c.has_value());
+  EXPECT_TRUE(std::holds_alternative<ShowHelp>(*c));
+  EXPECT_NE(usage().find("--ack-timeout-ms"), std::string_view::npos);
+}
+
+TEST(PlantOptions, UnknownFlag_Named) {
+  EXPECT_NE(parse_error({"--speed", "3"}).find("unknown option '--speed'"), std::string::npos);
+}
+
+TEST(PlantOptions, MissingValue_Named) {
+  EXPECT_NE(parse_error({"--seed"}).find("--seed: missing value"), std::string::npos);
+}
+
+TEST(PlantOptions, TrailingGarbage_Refused) {
+  EXPECT_NE(parse_error({"--step-ms", "4ms"}).find("--step-ms: expected an integer"), std::string::npos);
+}
+
+TEST(PlantOptions, OutOfRange_Refused) {
+  EXPECT_NE(parse_error({"--domain", "233"}).find("--domain"), std::string::npos);
+  EXPECT_NE(parse_error({"--step-ms", "0"}).find("--step-ms"), std::string::npos);
+  EXPECT_NE(parse_error({"--start-down", "1"}).find("--start-down"), std::string::npos);  // below ground
+  EXPECT_NE(parse_error({"--duration", "-1"}).find("--duration"), std::string::npos);
+}
+
+TEST(PlantOptions, NonFiniteNumber_Refused) {
+  EXPECT_NE(parse_error({"--wind-mean", "nan"}).find("--wind-mean"), std::string::npos);
+  EXPECT_NE(parse_error({"--start-north", "inf"}).find("--start-north"), std::string::npos);
+}
+
+TEST(PlantOptions, NegativeSeed_Refused) {
+  EXPECT_NE(parse_error({"--seed", "-1"}).find("--seed"), std::string::npos);
+}
+
+TEST(PlantOptions, BadClock_Named) {
+  EXPECT_NE(parse_error({"--clock", "fast"}).find("expected lockstep or realtime"), std::string::npos);
+}
+
+TEST(PlantOptions, DuplicateFlag_Refused) {
+  EXPECT_NE(parse_error({"--seed", "1", "--seed=2"}).find("given twice"), std::string::npos);
+}
+
+TEST(PlantOptions, Positional_Refused) {
+  EXPECT_NE(parse_error({"lockstep"}).find("unexpected argument"), std::string::npos);
+}
+
+// ---- PlantSim ----
+
+struct Collected {
+  std::vector<rejuv_msg_SensorGyro> gyro;
+  std::vector<rejuv_msg_SensorAccel> accel;
+  std::vector<rejuv_msg_SensorMag> mag;
+  std::vector<rejuv_msg_SensorBaro> baro;
+  std::vector<rejuv_msg_SensorGps> gps;
+};
+
+Collected run_sim(std::uint64_t seed, Nanos total, Nanos step) {
+  PlantSim sim(PlantSimConfig{.seed = seed});
+  Collected c;
+  std::vector<SensorMessage> out;
+  for (Nanos t{0}; t < total; t += step) {
+    out.clear();
+    sim.advance(step, out);
+    for (const SensorMessage& m : out) {
+      std::visit(
+          [&](const auto& s) {
+            using T = std::decay_t<decltype(s)>;
+            if constexpr (std::is_same_v<T, rejuv_msg_SensorGyro>) c.gyro.push_back(s);
+            if constexpr (std::is_same_v<T, rejuv_msg_SensorAccel>) c.accel.push_back(s);
+            if constexpr (std::is_same_v<T, rejuv_msg_SensorMag>) c.mag.push_back(s);
+            if constexpr (std::is_same_v<T, rejuv_msg_SensorBaro>) c.baro.push_back(s);
+            if constexpr (std::is_same_v<T, rejuv_msg_SensorGps>) c.gps.push_back(s);
+          },
+          m);
+    }
+  }
+  return c;
+}
+
+TEST(PlantSim, Advance_OneSecond_SensorsAtTheirRates) {
+  const Collected c = run_sim(1, 1s, 4ms);
+  // 250 Hz, 250 Hz, 50 Hz, 50 Hz, 10 Hz (GPS delayed 200 ms: 8 of its 10 samples are delivered by t = 1 s).
+  EXPECT_NEAR(static_cast<double>(c.gyro.size()), 250, 1);
+  EXPECT_NEAR(static_cast<double>(c.accel.size()), 250, 1);
+  EXPECT_NEAR(static_cast<double>(c.mag.size()), 50, 1);
+  EXPECT_NEAR(static_cast<double>(c.baro.size()), 50, 1);
+  EXPECT_NEAR(static_cast<double>(c.gps.size()), 8, 1);
+}
+
+TEST(PlantSim, Advance_SameSeed_SameSamples) {
+  const Collected a = run_sim(7, 200ms, 4ms);
+  const Collected b = run_sim(7, 200ms, 4ms);
+  ASSERT_EQ(a.gyro.size(), b.gyro.size());
+  ASSERT_FALSE(a.gyro.empty());
+  for (std::size_t i = 0; i < a.gyro.size(); ++i) {
+    EXPECT_EQ(std::memcmp(&a.gyro[i], &b.gyro[i], sizeof a.gyro[i]), 0) << i;
+  }
+  ASSERT_EQ(a.accel.size(), b.accel.size());
+  for (std::size_t i = 0; i < a.accel.size(); ++i) {
+    EXPECT_EQ(std::memcmp(&a.accel[i], &b.accel[i], sizeof a.accel[i]), 0) << i;
+  }
+}
+
+TEST(PlantSim, Advance_OtherSeed_OtherNoise) {
+  const Collected a = run_sim(7, 40ms, 4ms);
+  const Collected b = run_sim(8, 40ms, 4ms);
+  ASSERT_FALSE(a.gyro.empty());
+  EXPECT_NE(a.gyro[0].omega_B_rad_s[0], b.gyro[0].omega_B_rad_s[0]);
+}
+
+TEST(PlantSim, Hover_HeldCommand_StaysNearStart) {
+  PlantSim sim(PlantSimConfig{.seed = 1, .start_N_m = Eigen::Vector3d(1, 2, -3)});
+  std::vector<SensorMessage> out;
+  sim.advance(2s, out);
+  const rejuv_msg_GroundTruth gt = sim.ground_truth();
+  EXPECT_EQ(gt.timestamp_ns, 2'000'000'000U);
+  EXPECT_NEAR(gt.p_N_m[0], 1, 1e-6);
+  EXPECT_NEAR(gt.p_N_m[1], 2, 1e-6);
+  EXPECT_NEAR(gt.p_N_m[2], -3, 1e-6);
+}
+
+TEST(PlantSim, Advance_IntervalNotMultipleOfTick_ExactTime) {
+  PlantSim sim(PlantSimConfig{});
+  std::vector<SensorMessage> out;
+  sim.advance(Nanos{2'500'000}, out);  // 2.5 ticks: the last is a half tick
+  EXPECT_EQ(sim.now(), Nanos{2'500'000});
+}
+
+TEST(PlantSim, MotorCommand_NonFinite_RefusedAndPreviousHeld) {
+  PlantSim sim(PlantSimConfig{});
+  rejuv_msg_ActuatorOutputs u{};
+  for (double& m : u.motor) m = 0.7;
+  ASSERT_TRUE(sim.set_motor_command(u));
+  u.motor[2] = std::nan("");
+  EXPECT_FALSE(sim.set_motor_command(u));
+  EXPECT_TRUE(sim.motor_command().isApprox(Eigen::Vector4d::Constant(0.7)));
+}
+
+TEST(PlantSim, FullThrottle_Climbs) {
+  PlantSim sim(PlantSimConfig{});
+  rejuv_msg_ActuatorOutputs u{};
+  for (double& m : u.motor) m = 1.0;
+  ASSERT_TRUE(sim.set_motor_command(u));
+  std::vector<SensorMessage> out;
+  sim.advance(500ms, out);
+  EXPECT_LT(sim.ground_truth().p_N_m[2], -3.1);  // NED: up is negative z
+}
+
+}  // namespace
+}  // namespace rejuv::plant_app

@@ -1,0 +1,338 @@
+// Launch-graph loader (DESIGN §1, §10): the shipped graph loads, and each class of semantic error is
+// refused with the file:line:column of the offending field (CONVENTIONS "Errors are values").
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+#include "rejuv/launch/launch.hpp"
+
+namespace rejuv::launch {
+namespace {
+
+// A virtual file beside the real launch graphs, so that the relative policy path resolves to the repo's.
+const std::filesystem::path kAsPath =
+    std::filesystem::path(REJUV_SOURCE_DIR) / "launch" / "unit_test.launch.pbtxt";
+
+constexpr std::string_view kGood =
+    R"pb(name: "unit"
+policy: "../policies/quad_sr.policy.pbtxt"
+services {
+  name: "a"
+  executable: "rejuv_a"
+  uses { object: "x" rights: "R" }
+  params { name: "gain" number: 2 }
+}
+services {
+  name: "b"
+  executable: "rejuv_b"
+}
+plant { executable: "rejuv_plant" physics_rate_hz: 1000 }
+dds {
+  bridges { topic: "x" direction: BRIDGE_IN }
+  bridges { topic: "y" direction: BRIDGE_OUT }
+}
+sr {
+  enabled: true
+  t_mc_s: 0.3
+  t_est_s: 3
+  rho_m: 0.1
+  rho_s: 0.09
+  t_min_s: 0.02
+  check_period_s: 0.002
+  keep_generations: 2
+  box { position_m: 0.5 velocity_m_s: 1 angle_rad: 0.35 rate_rad_s: 2 }
+  restricted_limit_fraction: 0.3
+}
+mission {
+  waypoints { north_m: 0 east_m: 0 down_m: -3 }
+  acceptance_radius_m: 0.05
+  timeout_s: 60
+}
+attack {
+  enabled: true
+  attacks { kind: WORST_CASE_CONTROL service: "a" }
+}
+)pb";
+
+// The good graph with `from` replaced by `to`, and where `to` starts (1-based line and column).
+struct Mutated {
+  std::string text;
+  int line = 0;
+  int column = 0;
+};
+
+Mutated mutate(std::string_view from, std::string_view to) {
+  std::string text(kGood);
+  const std::size_t at = text.find(from);
+  EXPECT_NE(at, std::string::npos) << "test bug: \"" << from << "\" not in the base graph";
+  if (at == std::string::npos) {
+    return {text, 0, 0};
+  }
+  text.replace(at, from.size(), to);
+  Mutated m{text, 1, 1};
+  for (std::size_t i = 0; i < at; ++i) {
+    if (text[i] == '\n') {
+      ++m.line;
+      m.column = 1;
+    } else {
+      ++m.column;
+    }
+  }
+  return m;
+}
+
+// Parses the mutated graph and checks that it is refused as Semantic at the mutated field.
+void expect_semantic_at(std::string_view from, std::string_view to, std::string_view message_part,
+                        bool check_column = true) {
+  const Mutated m = mutate(from, to);
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value()) << "accepted: " << to;
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic) << r.error().to_string();
+  EXPECT_EQ(r.error().where.file, kAsPath.string());
+  EXPECT_EQ(r.error().where.line, m.line) << r.error().to_string();
+  if (check_column) {
+    EXPECT_EQ(r.error().where.column, m.column) << r.error().to_string();
+  }
+  EXPECT_NE(r.error().message.find(message_part), std::string::npos) << r.error().to_string();
+}
+
+TEST(LaunchLoader, ShippedQuadSquare_Loads) {
+  const auto r = load_launch(std::filesystem::path(REJUV_SOURCE_DIR) / "launch" / "quad_square.launch.pbtxt");
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_EQ(r->graph.name(), "quad_square");
+  EXPECT_EQ(r->policy_path.filename(), "quad_sr.policy.pbtxt");
+  EXPECT_TRUE(std::filesystem::is_regular_file(r->policy_path));
+  EXPECT_NE(find_service(r->graph, "output_driver"), nullptr);
+  EXPECT_FALSE(rejuvenate(*find_service(r->graph, "output_driver")));
+}
+
+TEST(LaunchLoader, GoodGraph_LoadsWithLocations) {
+  const auto r = parse_launch(kGood, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_EQ(r->locations.locate({{"services", 1}}, "name").line, 10);
+  EXPECT_EQ(
+      r->policy_path,
+      (std::filesystem::path(REJUV_SOURCE_DIR) / "policies" / "quad_sr.policy.pbtxt").lexically_normal());
+}
+
+// Every prefix of a valid graph either loads or is refused with a position; never a crash.
+TEST(LaunchLoader, TruncatedGraph_RefusedWithPositionNeverCrashes) {
+  int refused = 0;
+  for (std::size_t cut = 0; cut < kGood.size(); cut += 7) {
+    const auto r = parse_launch(kGood.substr(0, cut), kAsPath);
+    if (!r.has_value()) {
+      ++refused;
+      EXPECT_GT(r.error().where.line, 0) << "cut at " << cut << ": " << r.error().to_string();
+    }
+  }
+  EXPECT_GT(refused, 0);
+}
+
+TEST(LaunchLoader, MissingFile_CannotRead) {
+  const auto r = load_launch("/nonexistent/none.launch.pbtxt");
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::CannotRead);
+}
+
+TEST(LaunchLoader, UnknownField_SyntaxError) {
+  const Mutated bad = mutate("  executable: \"rejuv_b\"\n", "  executable: \"rejuv_b\"\n  bogus: 1\n");
+  const auto r = parse_launch(bad.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Syntax);
+  EXPECT_EQ(r.error().where.line, bad.line + 1);
+}
+
+TEST(LaunchLoader, MissingName_SemanticAtStartOfFile) {
+  const Mutated m = mutate("name: \"unit\"\n", "");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
+  EXPECT_EQ(r.error().where.line, 1);
+  EXPECT_NE(r.error().message.find("name"), std::string::npos);
+}
+
+TEST(LaunchLoader, DuplicateServiceName_Semantic) {
+  expect_semantic_at("name: \"b\"", "name: \"a\"", "duplicate service");
+}
+
+TEST(LaunchLoader, EmptyServiceName_Semantic) {
+  expect_semantic_at("name: \"b\"", "name: \"\"", "without a `name`");
+}
+
+TEST(LaunchLoader, ServiceNameWithSpace_Semantic) {
+  expect_semantic_at("name: \"b\"", "name: \"b c\"", "letters");
+}
+
+TEST(LaunchLoader, EmptyExecutable_Semantic) {
+  expect_semantic_at("executable: \"rejuv_b\"", "executable: \"\"", "executable");
+}
+
+TEST(LaunchLoader, UsesUnknownRightLetter_Semantic) {
+  expect_semantic_at("rights: \"R\"", "rights: \"RX\"", "bad rights");
+}
+
+TEST(LaunchLoader, UsesRepeatedRightLetter_Semantic) {
+  expect_semantic_at("rights: \"R\"", "rights: \"RR\"", "bad rights");
+}
+
+TEST(LaunchLoader, UsesEmptyRights_SemanticAtUse) {
+  // An empty string is still written, so the location is the rights field itself.
+  expect_semantic_at("rights: \"R\"", "rights: \"\"", "bad rights");
+}
+
+TEST(LaunchLoader, UsesSameObjectTwice_Semantic) {
+  expect_semantic_at("  params { name: \"gain\"",
+                     "  uses { object: \"x\" rights: \"W\" }\n  params { name: \"gain\"", "twice", false);
+}
+
+TEST(LaunchLoader, ParamWithoutValue_Semantic) {
+  expect_semantic_at("name: \"gain\" number: 2", "name: \"gain\"", "no value");
+}
+
+TEST(LaunchLoader, SrTmcZero_Semantic) {
+  expect_semantic_at("t_mc_s: 0.3", "t_mc_s: 0", "T_MC");
+}
+
+TEST(LaunchLoader, SrTestNegative_Semantic) {
+  expect_semantic_at("t_est_s: 3", "t_est_s: -1", "T_est");
+}
+
+TEST(LaunchLoader, SrRhoSAboveRhoM_Semantic) {
+  expect_semantic_at("rho_s: 0.09", "rho_s: 0.2", "rho_s < rho_m");
+}
+
+TEST(LaunchLoader, SrRhoSZero_Semantic) {
+  expect_semantic_at("rho_s: 0.09", "rho_s: 0", "0 < rho_s");
+}
+
+TEST(LaunchLoader, SrRhoMAboveOne_Semantic) {
+  expect_semantic_at("rho_m: 0.1", "rho_m: 1.5", "rho_m must be <= 1");
+}
+
+TEST(LaunchLoader, SrNotFinite_Semantic) {
+  expect_semantic_at("t_est_s: 3", "t_est_s: inf", "finite");
+}
+
+TEST(LaunchLoader, SrNan_Semantic) {
+  expect_semantic_at("t_min_s: 0.02", "t_min_s: nan", "finite");
+}
+
+TEST(LaunchLoader, SrCheckPeriodExplicitZero_Semantic) {
+  expect_semantic_at("check_period_s: 0.002", "check_period_s: 0", "check_period_s");
+}
+
+TEST(LaunchLoader, SrKeepGenerationsExplicitZero_Semantic) {
+  expect_semantic_at("keep_generations: 2", "keep_generations: 0", "keep_generations");
+}
+
+TEST(LaunchLoader, SrBoxEntryZero_Semantic) {
+  expect_semantic_at("angle_rad: 0.35", "angle_rad: 0", "sr.box.angle_rad");
+}
+
+TEST(LaunchLoader, SrRestrictedFractionAboveOne_Semantic) {
+  expect_semantic_at("restricted_limit_fraction: 0.3", "restricted_limit_fraction: 1.5", "(0, 1]");
+}
+
+TEST(LaunchLoader, SrRestrictedFractionZero_Semantic) {
+  expect_semantic_at("restricted_limit_fraction: 0.3", "restricted_limit_fraction: 0", "(0, 1]");
+}
+
+TEST(LaunchLoader, SrDisabled_ParametersNotChecked) {
+  const Mutated m = mutate("  enabled: true\n  t_mc_s: 0.3", "  enabled: false\n  t_mc_s: -5");
+  const auto r = parse_launch(m.text, kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+}
+
+TEST(LaunchLoader, SrDefaults_AppliedWhenUnset) {
+  Mutated m = mutate("  check_period_s: 0.002\n  keep_generations: 2\n", "");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_EQ(keep_generations(r->graph.sr()), defaults::kKeepGenerations);
+  EXPECT_DOUBLE_EQ(check_period(r->graph.sr()).count(), 0.002);
+  EXPECT_DOUBLE_EQ(t_mc(r->graph.sr()).count(), 0.3);
+}
+
+TEST(LaunchLoader, MissionWithoutWaypoints_Semantic) {
+  const Mutated m = mutate("  waypoints { north_m: 0 east_m: 0 down_m: -3 }\n", "");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
+  EXPECT_EQ(r.error().where.line, m.line - 1);  // the `mission {` line
+  EXPECT_NE(r.error().message.find("1..16 waypoints"), std::string::npos);
+}
+
+TEST(LaunchLoader, MissionSeventeenWaypoints_Semantic) {
+  std::string many;
+  for (int i = 0; i < 17; ++i) {
+    many += "  waypoints { north_m: " + std::to_string(i) + " }\n";
+  }
+  const Mutated m = mutate("  waypoints { north_m: 0 east_m: 0 down_m: -3 }\n", many);
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
+  EXPECT_EQ(r.error().where.line, m.line + 16);  // the 17th waypoint
+  EXPECT_NE(r.error().message.find("got 17"), std::string::npos);
+}
+
+TEST(LaunchLoader, WaypointNotFinite_Semantic) {
+  expect_semantic_at("down_m: -3", "down_m: -inf", "down_m");
+}
+
+TEST(LaunchLoader, AcceptanceRadiusZero_Semantic) {
+  expect_semantic_at("acceptance_radius_m: 0.05", "acceptance_radius_m: 0", "acceptance_radius_m");
+}
+
+TEST(LaunchLoader, MissionTimeoutNegative_Semantic) {
+  expect_semantic_at("timeout_s: 60", "timeout_s: -1", "timeout_s");
+}
+
+TEST(LaunchLoader, AttackUnknownService_Semantic) {
+  expect_semantic_at("service: \"a\"", "service: \"zz\"", "not in the graph");
+}
+
+TEST(LaunchLoader, AttackUnspecifiedKind_Semantic) {
+  expect_semantic_at("kind: WORST_CASE_CONTROL", "kind: ATTACK_UNSPECIFIED", "kind");
+}
+
+TEST(LaunchLoader, PlantNegativeRate_Semantic) {
+  expect_semantic_at("physics_rate_hz: 1000", "physics_rate_hz: -1", "physics_rate_hz");
+}
+
+TEST(LaunchLoader, PlantZeroRate_DefaultsTo1kHz) {
+  const Mutated m = mutate("physics_rate_hz: 1000", "physics_rate_hz: 0");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_DOUBLE_EQ(physics_rate_hz(r->graph.plant()), defaults::kPhysicsRateHz);
+  EXPECT_DOUBLE_EQ(physics_step(r->graph.plant()).count(), 0.001);
+}
+
+TEST(LaunchLoader, BridgeSameTopicTwice_Semantic) {
+  expect_semantic_at("topic: \"y\"", "topic: \"x\"", "bridged twice");
+}
+
+TEST(LaunchLoader, BridgeDefaultDdsName_IsPrefixed) {
+  const auto r = parse_launch(kGood, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_EQ(dds_name(r->graph.dds().bridges(0)), "rejuv/x");
+}
+
+TEST(LaunchLoader, PolicyMissingFile_Semantic) {
+  expect_semantic_at("policy: \"../policies/quad_sr.policy.pbtxt\"",
+                     "policy: \"../policies/none.policy.pbtxt\"", "does not exist");
+}
+
+TEST(LaunchLoader, PolicyEmpty_Semantic) {
+  expect_semantic_at("policy: \"../policies/quad_sr.policy.pbtxt\"", "policy: \"\"", "missing `policy`",
+                     false);
+}
+
+TEST(LaunchLoader, DdsConfigMissing_Semantic) {
+  expect_semantic_at("bridges { topic: \"x\"", "config: \"nope.xml\"\n  bridges { topic: \"x\"",
+                     "DDS config");
+}
+
+}  // namespace
+}  // namespace rejuv::launch

@@ -1,0 +1,273 @@
+// `rejuv audit` as a user runs it (DESIGN §4, §10): the real binary, its exit codes (0 clean,
+// 1 violations, 2 bad input), its compiler-style lines and a JSON document that a JSON parser accepts.
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <google/protobuf/struct.pb.h>
+#include <google/protobuf/util/json_util.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+const std::filesystem::path kRepo(REJUV_SOURCE_DIR);
+const std::filesystem::path kRejuv = std::filesystem::path(REJUV_BINARY_DIR) / "tools" / "rejuv" / "rejuv";
+
+struct Outcome {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A scratch folder for this process, removed at the end of each test.
+class RejuvCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("rejuv_cli_test_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
+  }
+
+  // Runs `rejuv <args>` with stdout and stderr captured to files (no shell, no quoting issues).
+  Outcome rejuv(const std::vector<std::string>& args) const {
+    const std::string out = (dir_ / "stdout").string();
+    const std::string err = (dir_ / "stderr").string();
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0600);
+    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                     0600);
+    std::vector<std::string> all{kRejuv.string()};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (std::string& a : all) {
+      argv.push_back(a.data());
+    }
+    argv.push_back(nullptr);
+    pid_t pid = -1;
+    Outcome r;
+    if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) {
+      int status = 0;
+      if (::waitpid(pid, &status, 0) == pid && WIFEXITED(status)) {
+        r.exit_code = WEXITSTATUS(status);  // a signal (crash) leaves -1
+      }
+    }
+    posix_spawn_file_actions_destroy(&actions);
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+  }
+
+  std::filesystem::path write(const std::string& name, const std::string& text) const {
+    const auto p = dir_ / name;
+    std::ofstream(p) << text;
+    return p;
+  }
+
+  std::filesystem::path dir_;
+};
+
+std::string example(std::string_view name) {
+  return (kRepo / "policies" / "examples" / name).string();
+}
+const std::string kQuadSr = (kRepo / "policies" / "quad_sr.policy.pbtxt").string();
+const std::string kQuadSquare = (kRepo / "launch" / "quad_square.launch.pbtxt").string();
+
+// Parses JSON with protobuf's own parser into a google.protobuf.Struct (fails on invalid JSON).
+bool parse_json(const std::string& text, google::protobuf::Struct& out) {
+  return google::protobuf::util::JsonStringToMessage(text, &out).ok();
+}
+
+TEST_F(RejuvCli, QuadSr_Exit0WithMatrixAndVerdict) {
+  const Outcome r = rejuv({"audit", kQuadSr});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("UPDATE"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ext_link"), std::string::npos);
+  EXPECT_NE(r.out.find("audit: OK"), std::string::npos) << r.out;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+}
+
+TEST_F(RejuvCli, QuadSrWithLaunch_Exit0) {
+  const Outcome r = rejuv({"audit", kQuadSr, "--launch", kQuadSquare});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("with graph \"quad_square\""), std::string::npos) << r.out;
+}
+
+TEST_F(RejuvCli, TextMatrix_FitsIn100Columns) {
+  const Outcome r = rejuv({"audit", kQuadSr});
+  std::istringstream lines(r.out);
+  std::string line;
+  bool in_matrix = false;
+  int rows = 0;
+  while (std::getline(lines, line)) {
+    in_matrix = in_matrix ? !line.empty() : line.starts_with("service ");
+    if (!in_matrix) {
+      continue;
+    }
+    ++rows;
+    std::size_t columns = 0;
+    for (const char c : line) {
+      columns += (static_cast<unsigned char>(c) & 0xC0U) == 0x80U ? 0 : 1;  // UTF-8 continuation bytes
+    }
+    EXPECT_LE(columns, 100U) << line;
+    EXPECT_FALSE(line.ends_with(" ")) << "trailing blanks: '" << line << "'";
+  }
+  EXPECT_GT(rows, 40);
+}
+
+// The 1-based line of `path` that its author marked with `marker` (after content, not in a comment).
+int marked_line(const std::string& path, std::string_view marker) {
+  std::ifstream in(path);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    if (line.find(marker) != std::string::npos && !line.starts_with("#")) {
+      return n;
+    }
+  }
+  return 0;
+}
+
+TEST_F(RejuvCli, BrokenExample_Exit1WithCompilerStyleLine) {
+  const std::string path = example("timer_broken.policy.pbtxt");
+  const Outcome r = rejuv({"audit", path});
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  const int line = marked_line(path, "<- violation");
+  ASSERT_GT(line, 0);
+  EXPECT_NE(r.out.find(path + ":" + std::to_string(line) + ":1: violation [timer]: "), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("audit: FAILED"), std::string::npos) << r.out;
+}
+
+TEST_F(RejuvCli, DenyExample_Exit1NamesTheRule) {
+  const Outcome r = rejuv({"audit", example("deny_broken.policy.pbtxt")});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.out.find("violation [deny:only-driver-drives-motors]"), std::string::npos) << r.out;
+}
+
+TEST_F(RejuvCli, MalformedPolicy_Exit2ErrorWithPosition) {
+  const std::string path = example("malformed_unknown_service.policy.pbtxt");
+  const Outcome r = rejuv({"audit", path});
+  EXPECT_EQ(r.exit_code, 2);
+  const int line = marked_line(path, "<- error");
+  ASSERT_GT(line, 0);
+  EXPECT_NE(r.err.find(path + ":" + std::to_string(line) + ":10: error: unknown service \"lqr_controll\""),
+            std::string::npos)
+      << r.err;
+}
+
+TEST_F(RejuvCli, SyntaxError_Exit2) {
+  const Outcome r = rejuv({"audit", example("malformed_unknown_field.policy.pbtxt")});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(":9:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("error:"), std::string::npos) << r.err;
+}
+
+TEST_F(RejuvCli, MissingPolicyFile_Exit2) {
+  const Outcome r = rejuv({"audit", (dir_ / "absent.policy.pbtxt").string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("no such file"), std::string::npos) << r.err;
+}
+
+TEST_F(RejuvCli, BadLaunchFile_Exit2) {
+  const auto graph = write("bad.launch.pbtxt", "name: \"x\"\nservices { bogus: 1 }\n");
+  const Outcome r = rejuv({"audit", kQuadSr, "--launch", graph.string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(graph.string() + ":2:"), std::string::npos) << r.err;
+}
+
+TEST_F(RejuvCli, UnknownFlag_Exit2) {
+  const Outcome r = rejuv({"audit", kQuadSr, "--strict"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--strict"), std::string::npos) << r.err;
+}
+
+TEST_F(RejuvCli, BadFormat_Exit2) {
+  const Outcome r = rejuv({"audit", kQuadSr, "--format", "yaml"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("yaml"), std::string::npos) << r.err;
+}
+
+TEST_F(RejuvCli, NoPolicyArgument_Exit2) {
+  const Outcome r = rejuv({"audit"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("POLICY"), std::string::npos) << r.err;
+}
+
+TEST_F(RejuvCli, Help_Exit0) {
+  const Outcome r = rejuv({"audit", "--help"});
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("--launch"), std::string::npos) << r.out;
+}
+
+TEST_F(RejuvCli, JsonClean_ValidDocumentOkTrue) {
+  const Outcome r = rejuv({"audit", kQuadSr, "--launch", kQuadSquare, "--format", "json"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  google::protobuf::Struct doc;
+  ASSERT_TRUE(parse_json(r.out, doc)) << r.out;
+  EXPECT_TRUE(doc.fields().at("ok").bool_value());
+  EXPECT_EQ(doc.fields().at("findings").list_value().values_size(), 0);
+  EXPECT_GT(doc.fields().at("matrix").list_value().values_size(), 40);
+  const auto& row = doc.fields().at("matrix").list_value().values(0).struct_value().fields();
+  EXPECT_EQ(row.at("service").string_value(), "sensors");
+  EXPECT_EQ(row.at("modes").struct_value().fields().at("MC").string_value(), "R");
+}
+
+TEST_F(RejuvCli, JsonBroken_FindingsCarryInvariantAndPosition) {
+  const std::string path = example("sei_broken.policy.pbtxt");
+  const Outcome r = rejuv({"audit", path, "--format=json"});
+  EXPECT_EQ(r.exit_code, 1);
+  google::protobuf::Struct doc;
+  ASSERT_TRUE(parse_json(r.out, doc)) << r.out;
+  EXPECT_FALSE(doc.fields().at("ok").bool_value());
+  const auto& findings = doc.fields().at("findings").list_value();
+  ASSERT_EQ(findings.values_size(), 1);
+  const auto& f = findings.values(0).struct_value().fields();
+  EXPECT_EQ(f.at("invariant").string_value(), "sei");
+  EXPECT_EQ(f.at("file").string_value(), path);
+  EXPECT_EQ(f.at("line").number_value(), marked_line(path, "<- violation"));
+  EXPECT_EQ(f.at("column").number_value(), 1);
+  EXPECT_FALSE(f.at("message").string_value().empty());
+}
+
+TEST_F(RejuvCli, JsonMalformed_Exit2StillValidJson) {
+  const Outcome r = rejuv({"audit", example("malformed_bad_rights.policy.pbtxt"), "--format", "json"});
+  EXPECT_EQ(r.exit_code, 2);
+  google::protobuf::Struct doc;
+  ASSERT_TRUE(parse_json(r.out, doc)) << r.out;
+  EXPECT_FALSE(doc.fields().at("ok").bool_value());
+  EXPECT_EQ(doc.fields().at("error").struct_value().fields().at("kind").string_value(), "semantic");
+}
+
+TEST_F(RejuvCli, JsonEscaping_QuotesBackslashesControlCharsRoundTrip) {
+  const auto p = write("esc.policy.pbtxt",
+                       "name: \"a \\\"quoted\\\" \\\\ back\\nnew\\tline\\001\"\n"
+                       "services { name: \"s\" }\n"
+                       "objects { name: \"o\" kind: MODE }\n"
+                       "grants { service: \"s\" object: \"o\" rights: \"W\" modes: [MC] }\n");
+  const Outcome r = rejuv({"audit", p.string(), "--format", "json"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  google::protobuf::Struct doc;
+  ASSERT_TRUE(parse_json(r.out, doc)) << r.out;
+  EXPECT_EQ(doc.fields().at("name").string_value(), "a \"quoted\" \\ back\nnew\tline\x01");
+}
+
+}  // namespace
