@@ -24,6 +24,14 @@ std::string SourceLocation::to_string() const {
 
 std::string LoadError::to_string() const { return where.to_string() + ": error: " + message; }
 
+LoadError semantic_error(SourceLocation where, std::string message) {
+  if (where.line <= 0) {
+    where.line = 1;
+    where.column = 1;
+  }
+  return LoadError{LoadErrorKind::Semantic, std::move(where), std::move(message)};
+}
+
 struct TextLocations::Impl {
   const pb::Descriptor* root;
   pb::TextFormat::ParseInfoTree tree;

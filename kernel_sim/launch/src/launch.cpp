@@ -53,14 +53,9 @@ class Validator {
   }
 
  private:
-  // A semantic error at `where`; a field that was never written falls back to its enclosing message,
-  // and a missing top-level field to the start of the file, so there is always a line to jump to.
-  [[nodiscard]] LoadError error(SourceLocation where, std::string message) const {
-    if (where.line <= 0) {
-      where.line = 1;
-      where.column = 1;
-    }
-    return LoadError{LoadErrorKind::Semantic, std::move(where), std::move(message)};
+  // A semantic error at `where` (TextLocations::locate already falls back to the enclosing message).
+  [[nodiscard]] static LoadError error(SourceLocation where, std::string message) {
+    return semantic_error(std::move(where), std::move(message));
   }
   [[nodiscard]] SourceLocation at(std::initializer_list<Step> path, std::string_view field,
                                   int index = -1) const {

@@ -165,12 +165,8 @@ class PolicyBuilder {
   }
 
  private:
-  [[nodiscard]] LoadError error(SourceLocation where, std::string message) const {
-    if (where.line <= 0) {
-      where.line = 1;
-      where.column = 1;
-    }
-    return LoadError{LoadErrorKind::Semantic, std::move(where), std::move(message)};
+  [[nodiscard]] static LoadError error(SourceLocation where, std::string message) {
+    return semantic_error(std::move(where), std::move(message));
   }
   [[nodiscard]] SourceLocation at(std::initializer_list<Step> path, std::string_view field,
                                   int index = -1) const {

@@ -38,6 +38,10 @@ struct LoadError {
   [[nodiscard]] std::string to_string() const;  // "file:line:column: error: message"
 };
 
+// A semantic error at `where`. A field that was never written has no line: it falls back to the start of
+// the file, so that every error has a place to jump to.
+[[nodiscard]] LoadError semantic_error(SourceLocation where, std::string message);
+
 // Where each field of a parsed file was written, for semantic errors found after parsing.
 class TextLocations {
  public:
