@@ -1,0 +1,56 @@
+// The `ekf2` node of the model-level simulation: feeds sensor samples to the EKF and forms the 12-state
+// estimate x̂ the controllers and the SR checks use (§IV-A: "only the state estimation x̂ is available to make
+// decisions"). A copyable value, part of the software image that a checkpoint saves and a rollback restores.
+#pragma once
+
+#include <Eigen/Core>
+#include <optional>
+
+#include "rejuv/core/time.hpp"
+#include "rejuv/flight/ekf.hpp"
+#include "rejuv/flight/hover_model.hpp"
+#include "rejuv/plant/sensors.hpp"
+
+namespace rejuv::flight {
+
+// The uncertainty (1σ) the filter re-arms on a rollback (see EstimatorNode::on_rollback).
+struct EkfRearm {
+  double position_std_m = 0.1;
+  double velocity_std_m_s = 0.2;
+  double attitude_std_rad = 0.05;
+  double gyro_bias_std_rad_s = 0.002;
+  double accel_bias_std_m_s2 = 0.02;
+};
+
+class EstimatorNode {
+ public:
+  // imu_period: the IMU's sample interval, used as the integration step whenever the time since the previous
+  // gyro sample is implausible (the first sample, or the first one after a rollback restored an old timestamp).
+  EstimatorNode(const EkfParams& params, const EkfState& initial, Nanos imu_period);
+
+  // Consumes the samples of one physics step. Returns true when a gyro sample was integrated, i.e. a new x̂
+  // is available (the controllers run on that event, at the IMU rate, like PX4's rate loop).
+  bool on_samples(const plant::SensorSamples& samples);
+
+  // The node's RollbackSignal handler (DESIGN §7: services may ask for it). The restored estimate is
+  // T_MC + T_RB old while the vehicle kept moving, yet its covariance still says "converged": the first GPS
+  // samples would fail their gates and a tilt error would persist for seconds. So the node keeps the restored
+  // state but re-arms the filter's uncertainty, and the measurements pull it back within T_est (§IV-A).
+  void on_rollback(const EkfRearm& rearm);
+
+  // x̂ = [p̂_N, v̂_N, euler(q̂_NB), ω_B corrected by the estimated gyro bias].
+  [[nodiscard]] const StateVec& estimate() const { return x_hat_; }
+  [[nodiscard]] const Ekf& ekf() const { return ekf_; }
+
+ private:
+  void refresh_estimate();
+
+  Ekf ekf_;
+  Nanos imu_period_;
+  std::optional<Nanos> last_gyro_t_;
+  Eigen::Vector3d last_f_B_m_s2_;
+  Eigen::Vector3d last_omega_raw_B_rad_s_ = Eigen::Vector3d::Zero();
+  StateVec x_hat_ = StateVec::Zero();
+};
+
+}  // namespace rejuv::flight

@@ -1,0 +1,162 @@
+// The model-level SR simulation behind `rejuv sim` (DESIGN §8–§9): one process, no runtime. The plant runs at
+// 1 kHz (RK4); sensors → EKF → controller at the IMU rate → output driver (limits, inverse mixer) → rotors.
+// With SR on, the modes of Fig. 1 cycle MC (T_MC) → RB (T_RB, controls held, then the software image of the
+// last checkpoint is restored while the plant kept moving) → SC (safety controller, full limits, T_est, then
+// the check of (1) every check_period) → update (setpoint update of §IV-A, t_min) → CP (T_CP, controls held)
+// → MC. With SR off the same tracking algorithm runs in MC forever (Table I's configurations "implement the
+// same tracking algorithm"): the setpoint advances by the same rule whenever ‖x̂ − x_sp‖_P < ρ_s.
+// Attacks (§VI-D): the compromised mission controller publishes the corner of Ū that maximises V̇ from the
+// start of every MC window (without SR: from the first and for ever).
+//
+// This engine is the reference the multi-process runtime is compared with: each piece (handler, kernel timer
+// and image store, output driver, estimator node, setpoint generator, controllers) is its own type.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/textproto.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/core/vocabulary.hpp"
+#include "rejuv/flight/control_design.hpp"
+#include "rejuv/flight/ekf.hpp"
+#include "rejuv/flight/estimator_node.hpp"
+#include "rejuv/flight/rollback_handler.hpp"
+#include "rejuv/flight/setpoint.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/plant/plant.hpp"
+#include "summary.pb.h"
+
+namespace rejuv::flight {
+
+enum class SrSwitch : std::uint8_t { On, Off };
+enum class AttackSwitch : std::uint8_t { On, Off };
+
+// The worst-case control attack of the plan (§VI-D).
+struct AttackConfig {
+  AttackSwitch enabled = AttackSwitch::On;
+  Seconds start{0};               // first MC window at or after this time
+  std::uint32_t max_windows = 0;  // 0 = every MC window
+};
+
+// Everything one run needs. `defaults()` is the experiment of §VI-C (the square at 3 m) with this project's
+// tuning; `config_from_launch` fills it from a launch graph.
+struct SimConfig {
+  std::string graph_name = "quad_square";
+  SrSwitch sr = SrSwitch::On;
+  std::uint64_t seed = 1;
+  Seconds t_mc{0.3};
+  // T_RB and T_CP: the times the software is stopped for a rollback and a checkpoint, controls held. The paper
+  // measured ≈15 ms and ≈20 ms on PX4 (§VI-B, Fig. 7); the model charges the same to simulated time.
+  Seconds t_rb{0.015};
+  Seconds t_cp{0.020};
+  HandlerTiming handler;
+  double rho_M = 0.1;
+  std::uint32_t keep_generations = 2;
+  AttackConfig attack;
+  ControlDesignSpec control;
+  plant::QuadParams quad = plant::QuadParams::jmavsim_default();
+  plant::SensorParams sensors = plant::SensorParams::defaults();
+  plant::WindParams wind;
+  EkfParams ekf = EkfParams::defaults();
+  EkfRearm ekf_rearm;
+  std::vector<PathWaypoint> waypoints;
+  double acceptance_radius_m = 0.05;
+  Seconds timeout{600};
+  Seconds physics_step{0.001};
+  // Pre-flight alignment: the mission starts hovering at the first waypoint (§IV-B), with an estimator that has
+  // converged there; modelled by feeding the EKF this much sensor data of that hover before t = 0.
+  Seconds alignment{20.0};
+  // A run ends early once V = ‖x − x_sp‖²_P exceeds this (the vehicle is lost; nothing more to measure).
+  double lost_V = 100.0;
+
+  [[nodiscard]] static SimConfig defaults();
+};
+
+// The control design the engine runs: `config.control` on the plant's vehicle (mass, inertia, k1, k2, L of
+// plant::QuadParams) at the IMU rate of its sensors.
+[[nodiscard]] ControlDesignSpec control_spec_for(const SimConfig& config);
+
+// Command-line overrides of the launch file (`--no-sr`, `--no-attack`, `--seed`).
+struct SimOverrides {
+  std::optional<SrSwitch> sr = std::nullopt;
+  std::optional<AttackSwitch> attack = std::nullopt;
+  std::optional<std::uint64_t> seed = std::nullopt;
+};
+
+// Fills a SimConfig from a loaded launch graph and checks what the engine needs beyond load_launch's checks
+// (the control design must succeed, e.g. Ū must be reachable by the rotors), with file:line:column errors.
+[[nodiscard]] Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& launch,
+                                                              const SimOverrides& overrides);
+
+// One row of the trace (one per control period of simulated time, whatever the mode).
+struct TraceRow {
+  Nanos t{0};
+  StateVec x;      // true state
+  StateVec x_hat;  // the live estimate (stale while the software is stopped in RB/CP)
+  StateVec x_sp;   // the live setpoint
+  SrMode mode = SrMode::MC;
+  InputVec u;      // controls applied by the output driver
+  double V = 0;    // ‖x − x_sp‖²_P (true state)
+};
+
+struct ProgressReport {
+  Seconds sim_time{0};
+  Seconds wall_time{0};
+  SrMode mode = SrMode::MC;
+  double path_progress = 0;  // fraction of the path the setpoint has covered, 0..1
+  std::uint64_t rollbacks = 0;
+  double max_V = 0;
+  bool final = false;  // the run is over (one such report per run)
+};
+
+struct SimObservers {
+  std::function<void(const TraceRow&)> trace;
+  std::function<void(const ProgressReport&)> progress;
+  Seconds progress_every{10.0};  // simulated time between progress reports
+};
+
+enum class SimError : std::uint8_t { Design, Config, Diverged };
+struct SimFailure {
+  SimError kind;
+  std::string message;
+  [[nodiscard]] std::string to_string() const;
+};
+
+// The engine, stepwise (tests inspect it between steps). A run: create, then step() until finished().
+class SrSimulation {
+ public:
+  [[nodiscard]] static Result<SrSimulation, SimFailure> create(const SimConfig& config);
+  SrSimulation(SrSimulation&&) noexcept;
+  SrSimulation& operator=(SrSimulation&&) noexcept;
+  ~SrSimulation();
+
+  // One physics step. Returns false once the run is over (mission completed, timeout or vehicle lost).
+  bool step(const SimObservers& observers = {});
+  [[nodiscard]] bool finished() const;
+
+  [[nodiscard]] Nanos now() const;
+  [[nodiscard]] SrMode mode() const;
+  [[nodiscard]] const StateVec& estimate() const;
+  [[nodiscard]] const StateVec& setpoint() const;
+  [[nodiscard]] StateVec truth() const;
+  [[nodiscard]] const ControlDesign& design() const;
+  // The summary so far (final once finished()). wall time is measured from create().
+  [[nodiscard]] proto::RunSummary summary() const;
+
+ private:
+  struct Impl;
+  explicit SrSimulation(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+// create + step to the end + summary.
+[[nodiscard]] Result<proto::RunSummary, SimFailure> run_simulation(const SimConfig& config,
+                                                                   const SimObservers& observers = {});
+
+}  // namespace rejuv::flight

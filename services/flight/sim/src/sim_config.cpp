@@ -1,0 +1,131 @@
+#include <cmath>
+
+#include "rejuv/flight/detail/printf.hpp"
+#include "rejuv/flight/sr_sim.hpp"
+
+namespace rejuv::flight {
+
+ControlDesignSpec control_spec_for(const SimConfig& config) {
+  ControlDesignSpec spec = config.control;
+  spec.vehicle = VehicleParams{.mass_kg = config.quad.mass_kg,
+                               .inertia_diag_kg_m2 = config.quad.inertia_B_kg_m2.diagonal(),
+                               .gravity_m_s2 = config.quad.gravity_m_s2,
+                               .k1_N = config.quad.max_thrust_per_motor_N,
+                               .k2_N_m = config.quad.max_torque_per_motor_N_m,
+                               .arm_m = config.quad.arm_length_m};
+  spec.control_period = to_seconds(config.sensors.gyro_period);
+  return spec;
+}
+
+SimConfig SimConfig::defaults() {
+  SimConfig c;
+  // §VI-C: a 1 m square in the x–y plane at 3 m altitude (NED: z = −3), starting and ending at the origin.
+  c.waypoints = {{{0, 0, -3}, 0}, {{1, 0, -3}, 0}, {{1, 1, -3}, 0}, {{0, 1, -3}, 0}, {{0, 0, -3}, 0}};
+  return c;
+}
+
+namespace {
+
+using Step = TextLocations::Step;
+
+LoadError semantic(SourceLocation where, std::string message) {
+  return LoadError{LoadErrorKind::Semantic, std::move(where), std::move(message)};
+}
+
+}  // namespace
+
+Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& loaded, const SimOverrides& overrides) {
+  const proto::Launch& g = loaded.graph;
+  const TextLocations& at = loaded.locations;
+  SimConfig c = SimConfig::defaults();
+  c.graph_name = g.name();
+  c.seed = overrides.seed.value_or(g.seed());
+
+  // SR parameters. The tracking algorithm uses ρ_s, ρ_M, t_min, the check period and P also without SR, so they
+  // are checked here whether or not sr.enabled (load_launch skips them for a disabled scheme).
+  const proto::SrParams& sr = g.sr();
+  const auto sr_at = [&](std::string_view field) { return at.locate({Step{"sr", -1}}, field); };
+  c.sr = overrides.sr.value_or(sr.enabled() ? SrSwitch::On : SrSwitch::Off);
+  c.t_mc = launch::t_mc(sr);
+  c.handler.t_est = launch::t_est(sr);
+  c.handler.t_min = launch::t_min(sr);
+  c.handler.check_period = launch::check_period(sr);
+  c.handler.rho_s = sr.rho_s();
+  c.rho_M = sr.rho_m();
+  c.keep_generations = launch::keep_generations(sr);
+  if (!(std::isfinite(sr.rho_s()) && std::isfinite(sr.rho_m()) && sr.rho_s() > 0.0 && sr.rho_s() < sr.rho_m() &&
+        sr.rho_m() <= 1.0)) {
+    return fail(semantic(sr_at("rho_s"), detail::printf_string("the tracking algorithm needs 0 < rho_s < rho_m <= 1 "
+                                                               "(§IV-A), got rho_s = %g, rho_m = %g",
+                                                               sr.rho_s(), sr.rho_m())));
+  }
+  if (c.sr == SrSwitch::On && !(c.t_mc.count() > 0.0)) {
+    return fail(semantic(sr_at("t_mc_s"), "sr.t_mc_s (T_MC) must be > 0 s"));
+  }
+  if (!(c.handler.check_period.count() > 0.0) || !(c.handler.t_min.count() >= 0.0) ||
+      !(c.handler.t_est.count() >= 0.0)) {
+    return fail(semantic(sr_at("check_period_s"), "sr.check_period_s must be > 0 s, t_min_s and t_est_s >= 0 s"));
+  }
+  const proto::StateBox& box = sr.box();
+  c.control.box = StateBox{.position_m = box.position_m(),
+                           .velocity_m_s = box.velocity_m_s(),
+                           .angle_rad = box.angle_rad(),
+                           .rate_rad_s = box.rate_rad_s()};
+  c.control.restricted_limit_fraction = sr.restricted_limit_fraction();
+
+  // Mission.
+  const proto::Mission& m = g.mission();
+  if (m.waypoints_size() == 0) {
+    return fail(semantic(at.locate({}, "mission"), "mission must have at least one waypoint"));
+  }
+  c.waypoints.clear();
+  for (const proto::Waypoint& w : m.waypoints()) {
+    c.waypoints.push_back(PathWaypoint{Eigen::Vector3d(w.north_m(), w.east_m(), w.down_m()), w.yaw_rad()});
+  }
+  if (m.acceptance_radius_m() > 0.0) c.acceptance_radius_m = m.acceptance_radius_m();
+  if (!(std::isfinite(m.acceptance_radius_m()) && m.acceptance_radius_m() >= 0.0)) {
+    return fail(semantic(at.locate({Step{"mission", -1}}, "acceptance_radius_m"),
+                         "mission.acceptance_radius_m must be a finite distance >= 0 m (0 = 0.05 m)"));
+  }
+  c.timeout = launch::mission_timeout(m);
+  if (!(c.timeout.count() > 0.0) || !std::isfinite(c.timeout.count())) {
+    return fail(semantic(at.locate({Step{"mission", -1}}, "timeout_s"), "mission.timeout_s must be > 0 s"));
+  }
+
+  // Plant.
+  c.physics_step = launch::physics_step(g.plant());
+  c.wind.mean_N_m_s = Eigen::Vector3d(g.plant().wind_mean_m_s(), 0.0, 0.0);
+  c.wind.gust_std_m_s = g.plant().wind_gust_m_s();
+
+  // Attack plan: the model simulates the worst-case control attack (§VI-D); the other kinds target the
+  // runtime and are exercised by the multi-process security tests.
+  c.attack.enabled = AttackSwitch::Off;
+  if (g.attack().enabled()) {
+    for (const proto::Attack& a : g.attack().attacks()) {
+      if (a.kind() == proto::WORST_CASE_CONTROL) {
+        c.attack = AttackConfig{.enabled = AttackSwitch::On, .start = Seconds{a.start_s()}, .max_windows = a.max_windows()};
+        break;
+      }
+    }
+  }
+  if (overrides.attack) c.attack.enabled = *overrides.attack;
+
+  // The control design must succeed on these numbers: report a failure where the number was written.
+  if (auto d = design_control(control_spec_for(c)); !d) {
+    SourceLocation where = at.file_only();
+    switch (d.error().kind) {
+      case DesignError::Limits: where = sr_at("restricted_limit_fraction"); break;
+      case DesignError::Ellipsoid: where = sr_at("box"); break;
+      case DesignError::Vehicle:
+      case DesignError::Model:
+      case DesignError::MissionLqr:
+      case DesignError::SafetyLqr:
+        where = at.locate({}, "plant");
+        break;
+    }
+    return fail(semantic(where, d.error().to_string()));
+  }
+  return c;
+}
+
+}  // namespace rejuv::flight

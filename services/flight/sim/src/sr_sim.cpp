@@ -1,0 +1,426 @@
+#include "rejuv/flight/sr_sim.hpp"
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <utility>
+
+#include "rejuv/flight/attack.hpp"
+#include "rejuv/flight/detail/printf.hpp"
+#include "rejuv/flight/estimator_node.hpp"
+#include "rejuv/flight/output_driver.hpp"
+#include "rejuv/flight/sr_kernel_model.hpp"
+
+namespace rejuv::flight {
+
+std::string SimFailure::to_string() const {
+  switch (kind) {
+    case SimError::Design: return "control design: " + message;
+    case SimError::Config: return "configuration: " + message;
+    case SimError::Diverged: return "simulation diverged: " + message;
+  }
+  return message;
+}
+
+namespace {
+
+using WallClock = std::chrono::steady_clock;
+
+// The rejuvenated software: everything a checkpoint saves and a rollback restores (§V: "the whole program").
+// The controllers are stateless (their gains are read-only data, like the code), so the image holds the
+// estimator, the setpoint generator and the rollback handler of checkpoint_p.
+struct SoftwareImage {
+  EstimatorNode estimator;
+  SetpointGenerator setpoints;
+  RollbackHandler handler;
+};
+
+// Samples published while the software is stopped for a checkpoint wait in the broker's queues (uORB-like,
+// bounded: the oldest is dropped when full) and are delivered when it resumes.
+class SampleQueue {
+ public:
+  void push(const plant::SensorSamples& s) {
+    if (size_ == ring_.size()) {
+      head_ = (head_ + 1) % ring_.size();
+      --size_;
+    }
+    ring_[(head_ + size_) % ring_.size()] = s;
+    ++size_;
+  }
+  template <class F>
+  void drain(F&& f) {
+    while (size_ > 0) {
+      f(ring_[head_]);
+      head_ = (head_ + 1) % ring_.size();
+      --size_;
+    }
+  }
+  void clear() { head_ = size_ = 0; }
+
+ private:
+  std::array<plant::SensorSamples, 16> ring_{};
+  std::size_t head_ = 0;
+  std::size_t size_ = 0;
+};
+
+bool any(const plant::SensorSamples& s) { return s.gyro || s.accel || s.mag || s.baro || s.gps; }
+
+StateVec true_state(const plant::QuadState& q) {
+  return make_state(q.p_NB_N, q.v_NB_N, euler_from_quaternion(q.q_NB), q.omega_B_rad_s);
+}
+
+}  // namespace
+
+struct SrSimulation::Impl {
+  enum class Freeze : std::uint8_t { None, Rollback, Checkpoint };
+
+  SimConfig cfg;
+  ControlDesign design;
+  std::shared_ptr<const WaypointPath> path;
+  plant::Quadrotor plant;
+  plant::SensorSuite sensors;
+  plant::Wind wind;
+  OutputDriver driver;
+  SoftwareImage sw;
+  ImageStore<SoftwareImage> images;
+  RejuvenationTimer timer;
+  Epoch epoch{0};
+  SrMode mode = SrMode::SC;
+  Freeze freeze = Freeze::None;
+  Nanos freeze_until{0};
+  SampleQueue cp_queue;
+
+  Nanos t{0};
+  Nanos dt;
+  Nanos control_period;
+  Nanos next_sample{0};
+  Nanos next_progress{0};
+  // Tracker without SR (same update rule, §VI-D Table I).
+  Nanos next_check{0};
+  Nanos hold_until{0};
+  // Attack state of the compromised controller (wiped by every rollback).
+  bool attacking = false;
+  bool calm = false;
+
+  // Metrics.
+  std::uint64_t rollbacks = 0, checkpoints = 0, attack_windows = 0;
+  double d_sum_m = 0, d_max_m = 0;
+  std::uint64_t d_count = 0;
+  double max_V = 0, max_est_err_P = 0;
+  bool completed = false, lost = false, done = false;
+  Nanos completed_at{0};
+  WallClock::time_point wall_start = WallClock::now();
+
+  Impl(SimConfig config, ControlDesign d, std::shared_ptr<const WaypointPath> p, const plant::QuadState& initial,
+       const EkfState& ekf_initial)
+      : cfg(std::move(config)),
+        design(std::move(d)),
+        path(std::move(p)),
+        plant(cfg.quad, initial),
+        sensors(cfg.sensors, cfg.seed),
+        wind(cfg.wind, cfg.seed ^ 0x9e3779b97f4a7c15ULL),
+        driver(plant.mixer().inverse(), design.full, design.restricted, design.u_hover),
+        sw{EstimatorNode(cfg.ekf, ekf_initial, cfg.sensors.gyro_period), SetpointGenerator(path),
+           RollbackHandler(cfg.handler)},
+        images(cfg.keep_generations),
+        dt(to_nanos(cfg.physics_step)),
+        control_period(cfg.sensors.gyro_period),
+        calm(cfg.wind.gust_std_m_s == 0.0) {}
+
+  [[nodiscard]] bool sr_on() const { return cfg.sr == SrSwitch::On; }
+
+  // The same sensors, at the same hover, for `alignment` before t = 0 (the plant is at rest there: a = 0).
+  void align(const plant::QuadState& hover) {
+    const Nanos start = -to_nanos(cfg.alignment);
+    for (Nanos t_align = start; t_align < Nanos{0}; t_align += dt) {
+      (void)sw.estimator.on_samples(sensors.step(t_align, hover, Eigen::Vector3d::Zero()));
+    }
+  }
+
+  [[nodiscard]] double V_hat() const { return design.ellipsoid.V(sw.estimator.estimate(), sw.setpoints.setpoint()); }
+
+  void begin_mc_window(Nanos now) {
+    const AttackConfig& a = cfg.attack;
+    attacking = a.enabled == AttackSwitch::On && now >= to_nanos(a.start) &&
+                (a.max_windows == 0 || attack_windows < a.max_windows);
+    if (attacking) ++attack_windows;
+  }
+
+  void handle(HandlerRequest request, Nanos now) {
+    switch (request) {
+      case HandlerRequest::None: return;
+      case HandlerRequest::EnterSafetyControl:
+        mode = SrMode::SC;
+        driver.set_limits(LimitSet::Full);
+        attacking = false;
+        return;
+      case HandlerRequest::UpdateSetpoint:
+        mode = SrMode::Update;
+        (void)sw.setpoints.update(sw.estimator.estimate(), design.ellipsoid, cfg.rho_M);
+        return;
+      case HandlerRequest::Checkpoint:
+        // The image is the software as it is now, its handler inside checkpoint(): restored later, that call
+        // returns Restored (DESIGN §7). The software then stops for T_CP; controls from SC are held (§II).
+        mode = SrMode::CP;
+        (void)images.save(sw, now);
+        ++checkpoints;
+        freeze = Freeze::Checkpoint;
+        freeze_until = now + to_nanos(cfg.t_cp);
+        return;
+      case HandlerRequest::ArmTimerAndEnterMission:
+        // A refusal is impossible in a correct run (one Taken per epoch); the count is reported for comparison.
+        (void)timer.arm(epoch, now, to_nanos(cfg.t_mc));
+        driver.set_limits(LimitSet::Restricted);
+        mode = SrMode::MC;
+        begin_mc_window(now);
+        return;
+    }
+  }
+
+  void control_step(Nanos now) {
+    const StateVec& x_hat = sw.estimator.estimate();
+    const StateVec& x_sp = sw.setpoints.setpoint();
+    InputVec u = design.u_hover;
+    switch (mode) {
+      case SrMode::MC:
+        if (!sr_on() && !attacking && cfg.attack.enabled == AttackSwitch::On && now >= to_nanos(cfg.attack.start) &&
+            attack_windows == 0) {
+          attacking = true;  // without SR the one MC window never ends: the attack starts once and stays
+          attack_windows = 1;
+        }
+        u = attacking ? worst_case_corner(design.restricted, design.ellipsoid.P(), design.continuous.B,
+                                          state_error(x_hat, x_sp))
+                      : design.mission.control(x_hat, x_sp);
+        break;
+      case SrMode::SC:
+      case SrMode::Update:
+        u = design.safety.control(x_hat, x_sp);
+        break;
+      case SrMode::RB:
+      case SrMode::CP:
+        return;  // the software is stopped: the output driver holds the last controls
+    }
+    driver.publish(now, u);
+  }
+
+  void track_without_sr(Nanos now) {
+    if (now < next_check) return;
+    next_check += to_nanos(cfg.handler.check_period);
+    if (now < hold_until) return;
+    const double rho_s = cfg.handler.rho_s;
+    if (V_hat() < rho_s * rho_s) {
+      if (sw.setpoints.update(sw.estimator.estimate(), design.ellipsoid, cfg.rho_M) == UpdateOutcome::Moved) {
+        hold_until = now + to_nanos(cfg.handler.t_min);
+      }
+    }
+  }
+
+  void check_completion(Nanos now) {
+    if (completed || !sw.setpoints.finished()) return;
+    const Eigen::Vector3d goal = path->waypoints().back().p_N_m;
+    if ((sw.estimator.estimate().segment<3>(idx::kPos) - goal).norm() <= cfg.acceptance_radius_m) {
+      completed = true;
+      completed_at = now;
+    }
+  }
+
+  void run_software(Nanos now, const plant::SensorSamples& samples) {
+    const bool fresh = sw.estimator.on_samples(samples);
+    if (fresh) {
+      const StateVec x = true_state(plant.state());
+      max_est_err_P = std::max(max_est_err_P, design.ellipsoid.V(x, sw.estimator.estimate()));
+      control_step(now);
+    }
+    if (sr_on()) {
+      handle(sw.handler.tick(now, [this] { return V_hat(); }), now);
+    } else {
+      track_without_sr(now);
+    }
+    if (fresh) check_completion(now);
+  }
+
+  void start_rollback(Nanos now) {
+    // RB: network off, the software is killed; the controls stay at their last (possibly malicious) value.
+    mode = SrMode::RB;
+    freeze = Freeze::Rollback;
+    freeze_until = now + to_nanos(cfg.t_rb);
+    ++rollbacks;
+  }
+
+  void finish_rollback(Nanos now) {
+    const auto* entry = images.latest();
+    REJUV_ASSERT(entry != nullptr, "rollback without a checkpoint");
+    sw = entry->image;  // estimator, setpoint generator and handler as they were at the checkpoint
+    epoch = Epoch{epoch.value() + 1};
+    freeze = Freeze::None;
+    attacking = false;  // the corruption is wiped with the rest of the image
+    cp_queue.clear();   // the broker's queues go back to the cut too
+    handle(sw.handler.on_checkpoint_return(CheckpointRestored{entry->generation, epoch}), now);
+    // RollbackSignal to the services that asked for it (DESIGN §7 step 3): ekf2 and checkpoint_p.
+    sw.estimator.on_rollback(cfg.ekf_rearm);
+    handle(sw.handler.on_rollback_signal(now), now);
+  }
+
+  void finish_checkpoint(Nanos now) {
+    freeze = Freeze::None;
+    const auto* entry = images.latest();
+    REJUV_ASSERT(entry != nullptr, "checkpoint finished without an image");
+    handle(sw.handler.on_checkpoint_return(CheckpointTaken{entry->generation}), now);
+    bool fresh = false;
+    cp_queue.drain([&](const plant::SensorSamples& s) { fresh = sw.estimator.on_samples(s) || fresh; });
+    if (fresh) control_step(now);
+  }
+
+  // Metrics and the trace are sampled once per control period (250 Hz): V and d move by well under 1 % in 4 ms,
+  // and sampling every physics step would cost a tenth of the run time in Euler angles and distances.
+  void record(Nanos now, const SimObservers& observers) {
+    if (observers.progress && now >= next_progress) {
+      next_progress += to_nanos(observers.progress_every);
+      report_progress(observers, Report::Periodic);
+    }
+    if (now < next_sample) return;
+    next_sample += control_period;
+    const plant::QuadState& q = plant.state();
+    const StateVec x = true_state(q);
+    const double V = design.ellipsoid.V(x, sw.setpoints.setpoint());
+    if (!std::isfinite(V) || !x.allFinite()) {
+      lost = true;
+      done = true;
+      return;
+    }
+    max_V = std::max(max_V, V);
+    const double d = path->distance_to(q.p_NB_N);
+    d_sum_m += d;
+    d_max_m = std::max(d_max_m, d);
+    ++d_count;
+    if (V > cfg.lost_V) {
+      lost = true;
+      done = true;
+    }
+    if (observers.trace) {
+      observers.trace(TraceRow{.t = now, .x = x, .x_hat = sw.estimator.estimate(), .x_sp = sw.setpoints.setpoint(),
+                               .mode = mode, .u = driver.applied_u(), .V = V});
+    }
+  }
+
+  enum class Report : std::uint8_t { Periodic, Final };
+
+  void report_progress(const SimObservers& observers, Report kind) const {
+    const PathCursor& c = sw.setpoints.cursor();
+    const double segments = static_cast<double>(path->segment_count());
+    observers.progress(ProgressReport{.sim_time = to_seconds(t),
+                                      .wall_time = std::chrono::duration<double>(WallClock::now() - wall_start),
+                                      .mode = mode,
+                                      .path_progress = segments > 0 ? c.progress() / segments : 1.0,
+                                      .rollbacks = rollbacks,
+                                      .max_V = max_V,
+                                      .final = kind == Report::Final});
+  }
+
+  bool step(const SimObservers& observers) {
+    if (done) return false;
+    const Nanos now = t;
+    const plant::SensorSamples samples = sensors.step(now, plant.state(), plant.acceleration_N());
+    if (freeze == Freeze::Rollback && now >= freeze_until) finish_rollback(now);
+    if (freeze == Freeze::Checkpoint && now >= freeze_until) finish_checkpoint(now);
+    if (sr_on() && freeze == Freeze::None && timer.fire_if_due(now)) start_rollback(now);
+    switch (freeze) {
+      case Freeze::None: run_software(now, samples); break;
+      case Freeze::Checkpoint:
+        if (any(samples)) cp_queue.push(samples);
+        break;
+      case Freeze::Rollback: break;  // published after the cut: discarded with the restored queues
+    }
+    record(now, observers);
+    if (completed || t >= to_nanos(cfg.timeout)) done = true;
+    // A calm day needs no gust process (and its random draws are a tenth of the run time).
+    const Eigen::Vector3d wind_N_m_s = calm ? cfg.wind.mean_N_m_s : wind.step(cfg.physics_step);
+    plant.step(cfg.physics_step, driver.motor_command(), wind_N_m_s);
+    t += dt;
+    if (done && observers.progress) report_progress(observers, Report::Final);
+    return !done;
+  }
+
+  [[nodiscard]] proto::RunSummary summary() const {
+    proto::RunSummary s;
+    s.set_graph(cfg.graph_name);
+    s.set_runner("sim");
+    s.set_sr(sr_on());
+    s.set_attack(cfg.attack.enabled == AttackSwitch::On);
+    s.set_seed(cfg.seed);
+    s.set_mission_completed(completed);
+    s.set_mission_time_s(to_seconds(completed ? completed_at : t).count());
+    s.set_d_mean_m(d_count > 0 ? d_sum_m / static_cast<double>(d_count) : 0.0);
+    s.set_d_max_m(d_max_m);
+    s.set_max_v(max_V);
+    s.set_max_est_err_p(max_est_err_P);
+    s.set_left_safety_set(max_V >= 1.0);
+    s.set_rollbacks(rollbacks);
+    s.set_checkpoints(checkpoints);
+    s.set_attacks(attack_windows);
+    s.set_max_control_gap_ms(std::chrono::duration<double, std::milli>(driver.max_gap()).count());
+    const double wall_s = std::chrono::duration<double>(WallClock::now() - wall_start).count();
+    const double sim_s = to_seconds(t).count();
+    s.set_sim_time_s(sim_s);
+    s.set_wall_time_s(wall_s);
+    s.set_realtime_factor(wall_s > 0.0 ? sim_s / wall_s : 0.0);
+    return s;
+  }
+};
+
+Result<SrSimulation, SimFailure> SrSimulation::create(const SimConfig& config) {
+  SimConfig cfg = config;
+  if (!(cfg.physics_step.count() > 0.0) || !(cfg.timeout.count() > 0.0) || !(cfg.t_mc.count() > 0.0) ||
+      cfg.t_rb.count() < 0.0 || cfg.t_cp.count() < 0.0 || !(cfg.handler.check_period.count() > 0.0)) {
+    return fail(SimFailure{SimError::Config, "physics step, timeout, T_MC and check period must be > 0; T_RB, T_CP >= 0"});
+  }
+  if (auto v = cfg.sensors.validate(); !v) return fail(SimFailure{SimError::Config, "sensors: " + v.error()});
+  cfg.control = control_spec_for(cfg);
+  cfg.ekf.gps_delay = to_seconds(cfg.sensors.gps_delay);
+  cfg.ekf.gravity_m_s2 = cfg.quad.gravity_m_s2;
+  auto design = design_control(cfg.control);
+  if (!design) return fail(SimFailure{SimError::Design, design.error().to_string()});
+  auto path = WaypointPath::make(cfg.waypoints);
+  if (!path) return fail(SimFailure{SimError::Config, "mission: " + path.error().message});
+  // The mission starts hovering at the first waypoint (§IV-B), heading as that waypoint says.
+  const PathWaypoint& first = cfg.waypoints.front();
+  plant::QuadState initial = plant::Quadrotor::hover_at(cfg.quad, first.p_N_m);
+  initial.q_NB = Eigen::Quaterniond(Eigen::AngleAxisd(first.yaw_rad, Eigen::Vector3d::UnitZ()));
+  const EkfState ekf_initial{.p_N_m = initial.p_NB_N, .v_N_m_s = initial.v_NB_N, .q_NB = initial.q_NB};
+  auto impl = std::make_unique<Impl>(std::move(cfg), std::move(*design),
+                                     std::make_shared<const WaypointPath>(std::move(*path)), initial, ekf_initial);
+  impl->align(initial);
+  if (impl->sr_on()) {
+    // Boot: the first cycle is a rollback-handler run without a rollback (SC, T_est, (1), update, CP, MC).
+    impl->handle(impl->sw.handler.on_rollback_signal(Nanos{0}), Nanos{0});
+  } else {
+    impl->mode = SrMode::MC;
+    impl->driver.set_limits(LimitSet::Restricted);
+  }
+  return SrSimulation(std::move(impl));
+}
+
+SrSimulation::SrSimulation(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+SrSimulation::SrSimulation(SrSimulation&&) noexcept = default;
+SrSimulation& SrSimulation::operator=(SrSimulation&&) noexcept = default;
+SrSimulation::~SrSimulation() = default;
+
+bool SrSimulation::step(const SimObservers& observers) { return impl_->step(observers); }
+bool SrSimulation::finished() const { return impl_->done; }
+Nanos SrSimulation::now() const { return impl_->t; }
+SrMode SrSimulation::mode() const { return impl_->mode; }
+const StateVec& SrSimulation::estimate() const { return impl_->sw.estimator.estimate(); }
+const StateVec& SrSimulation::setpoint() const { return impl_->sw.setpoints.setpoint(); }
+StateVec SrSimulation::truth() const { return true_state(impl_->plant.state()); }
+const ControlDesign& SrSimulation::design() const { return impl_->design; }
+proto::RunSummary SrSimulation::summary() const { return impl_->summary(); }
+
+Result<proto::RunSummary, SimFailure> run_simulation(const SimConfig& config, const SimObservers& observers) {
+  auto sim = SrSimulation::create(config);
+  if (!sim) return fail(sim.error());
+  while (sim->step(observers)) {
+  }
+  return sim->summary();
+}
+
+}  // namespace rejuv::flight

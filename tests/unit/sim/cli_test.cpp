@@ -1,0 +1,117 @@
+// `rejuv sim` as a user runs it (the real binary): exit codes, precise errors, the JSON summary.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace {
+
+const std::string kRejuv = std::string(REJUV_BINARY_DIR) + "/tools/rejuv/rejuv";
+const std::string kSquare = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square.launch.pbtxt";
+
+struct Outcome {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+Outcome run(const std::string& args) {
+  Outcome out;
+  const std::string command = kRejuv + " sim " + args + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return out;
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, pipe) != nullptr) out.output += buf;
+  const int status = pclose(pipe);
+  out.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return out;
+}
+
+class TempDir {
+ public:
+  TempDir() : path_(std::filesystem::temp_directory_path() / ("rejuv_sim_cli_" + std::to_string(::getpid()))) {
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+TEST(SimCli, UnknownFlag_ExitsTwo) {
+  const auto r = run(kSquare + " --fast");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("unknown option '--fast'"), std::string::npos) << r.output;
+}
+
+TEST(SimCli, BadSeed_ExitsTwo) {
+  const auto r = run(kSquare + " --seed twelve");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("--seed"), std::string::npos) << r.output;
+}
+
+TEST(SimCli, MissingGraph_ExitsTwo) { EXPECT_EQ(run("").exit_code, 2); }
+
+TEST(SimCli, TableWithCsv_ExitsTwo) { EXPECT_EQ(run(kSquare + " --table --csv /dev/null").exit_code, 2); }
+
+TEST(SimCli, MissingFile_ExitsTwo) {
+  const auto r = run("/nonexistent/graph.launch.pbtxt");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find("error"), std::string::npos) << r.output;
+}
+
+TEST(SimCli, SyntaxErrorInLaunch_ExitsTwoWithFileLineColumn) {
+  TempDir dir;
+  const auto file = dir.path() / "bad.launch.pbtxt";
+  std::ofstream(file) << "name: \"bad\"\nsr {\n  t_mc_s: soon\n}\n";
+  const auto r = run(file.string());
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.output.find(file.string() + ":3:"), std::string::npos) << r.output;
+}
+
+TEST(SimCli, UnwritableSummary_ExitsTwo) {
+  EXPECT_EQ(run(kSquare + " --summary-json /nonexistent/dir/s.json").exit_code, 2);
+}
+
+TEST(SimCli, SafeRun_ExitsZeroAndWritesJson) {
+  TempDir dir;
+  const auto json = dir.path() / "s.json";
+  const auto r = run(kSquare + " --no-attack --seed 3 --summary-json " + json.string());
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(json);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("\"runner\": \"sim\""), std::string::npos) << text.str();
+  EXPECT_NE(text.str().find("\"mission_completed\": true"), std::string::npos);
+  EXPECT_NE(text.str().find("\"max_V\""), std::string::npos);  // proto field names kept
+  EXPECT_NE(r.output.find("done:"), std::string::npos);        // the final progress line, even without a TTY
+}
+
+TEST(SimCli, AttackWithoutSr_ExitsOne) {
+  const auto r = run(kSquare + " --no-sr");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("LEFT THE SAFETY SET"), std::string::npos) << r.output;
+}
+
+TEST(SimCli, Csv_HeaderAndOneRowPerControlPeriod) {
+  TempDir dir;
+  const auto csv = dir.path() / "trace.csv";
+  const auto r = run(kSquare + " --no-sr --no-attack --csv " + csv.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(csv);
+  std::string header, line;
+  std::getline(in, header);
+  EXPECT_EQ(header.rfind("t_s,n_m,e_m,d_m", 0), 0U) << header;
+  std::size_t rows = 0;
+  while (std::getline(in, line)) ++rows;
+  EXPECT_GT(rows, 1000U);
+}
+
+}  // namespace
