@@ -9,5 +9,6 @@ namespace rejuv::cli {
 
 int run_audit(std::span<const std::string_view> args);  // cmd_audit.cpp
 int run_sim(std::span<const std::string_view> args);    // cmd_sim.cpp
+int run_run(std::span<const std::string_view> args);    // cmd_run.cpp
 
 }  // namespace rejuv::cli

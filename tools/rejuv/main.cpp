@@ -18,6 +18,7 @@ struct Command {
 constexpr Command kCommands[] = {
     {"audit", "check a capability policy against the SR invariants and print its matrix",
      rejuv::cli::run_audit},
+    {"run", "run a launch graph on the multi-process runtime (kernel, services, plant)", rejuv::cli::run_run},
     {"sim", "model-level simulation of the SR scheme in one process (no runtime)", rejuv::cli::run_sim},
 };
 

@@ -1,0 +1,66 @@
+// The kernel's time page (DESIGN §6): services never read an OS clock; now(), the SR mode and the rollback
+// epoch come from one page that only the kernel writes (a memfd mapped read-write by the kernel and handed
+// to every service read-only at fd 4, wire::kTimePageFd). The page is not part of any service image, so
+// time stays monotonic across a rollback. Layout: wire::TimePage (a seqlock).
+#pragma once
+
+#include <cstddef>
+
+#include "rejuv/channel/wire.hpp"
+#include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/core/vocabulary.hpp"
+#include "rejuv/sys/fd.hpp"
+#include "rejuv/sys/memory.hpp"
+
+namespace rejuv::clock {
+
+// Bytes of the page: one VM page.
+inline constexpr std::size_t kTimePageBytes = 4096;
+static_assert(sizeof(wire::TimePage) <= kTimePageBytes);
+
+// One consistent reading of the page.
+struct TimeSample {
+  Nanos now{0};
+  SrMode mode = SrMode::SC;
+  Epoch epoch{};
+};
+
+// The kernel's side: owns the memfd and its read-write mapping.
+class TimePageWriter {
+ public:
+  [[nodiscard]] static sys::SysResult<TimePageWriter> create();
+
+  // Publishes a new reading (seqlock write: readers never see a torn one).
+  void write(const TimeSample& sample);
+  void set_now(Nanos now);
+  [[nodiscard]] TimeSample current() const { return current_; }
+  // The read-only fd every service gets at fd 4 (one open file description, O_RDONLY).
+  [[nodiscard]] const sys::UniqueFd& read_only_fd() const { return read_only_; }
+
+ private:
+  TimePageWriter(sys::UniqueFd memfd, sys::UniqueFd read_only, sys::Mapping mapping)
+      : memfd_(std::move(memfd)), read_only_(std::move(read_only)), mapping_(std::move(mapping)) {}
+  [[nodiscard]] wire::TimePage& page() const;
+  sys::UniqueFd memfd_;
+  sys::UniqueFd read_only_;
+  sys::Mapping mapping_;
+  TimeSample current_{};
+};
+
+// A service's side: maps the page read-only and reads consistent samples.
+class TimePageReader {
+ public:
+  TimePageReader() = default;
+  // Maps fd (normally wire::kTimePageFd) read-only. The fd may be closed afterwards.
+  [[nodiscard]] static sys::SysResult<TimePageReader> map(int fd);
+  [[nodiscard]] TimeSample read() const;
+  [[nodiscard]] bool valid() const { return mapping_.valid(); }
+
+ private:
+  explicit TimePageReader(sys::Mapping mapping) : mapping_(std::move(mapping)) {}
+  sys::Mapping mapping_;
+};
+
+}  // namespace rejuv::clock

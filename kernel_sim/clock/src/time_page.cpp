@@ -1,0 +1,66 @@
+#include "rejuv/clock/time_page.hpp"
+
+#include <atomic>
+#include <new>
+
+namespace rejuv::clock {
+
+sys::SysResult<TimePageWriter> TimePageWriter::create() {
+  auto memfd = sys::make_memfd("rejuv-time-page", kTimePageBytes);
+  if (!memfd) return std::unexpected(memfd.error());
+  auto mapping = sys::Mapping::map(*memfd, kTimePageBytes, sys::Access::ReadWrite);
+  if (!mapping) return std::unexpected(mapping.error());
+  auto read_only = sys::reopen_read_only(*memfd);
+  if (!read_only) return std::unexpected(read_only.error());
+  // The page is zero-filled by the memfd; placement-new gives the atomics their lifetime.
+  new (mapping->data()) wire::TimePage{};
+  TimePageWriter writer(std::move(*memfd), std::move(*read_only), std::move(*mapping));
+  writer.write(TimeSample{});
+  return writer;
+}
+
+wire::TimePage& TimePageWriter::page() const { return *static_cast<wire::TimePage*>(mapping_.data()); }
+
+void TimePageWriter::write(const TimeSample& sample) {
+  wire::TimePage& p = page();
+  const std::uint64_t seq = p.sequence.load(std::memory_order_relaxed);
+  p.sequence.store(seq + 1, std::memory_order_relaxed);  // odd: writing
+  std::atomic_thread_fence(std::memory_order_release);
+  p.now_ns.store(static_cast<std::uint64_t>(sample.now.count()), std::memory_order_relaxed);
+  p.mode.store(static_cast<std::uint32_t>(sample.mode), std::memory_order_relaxed);
+  p.epoch.store(sample.epoch.value(), std::memory_order_relaxed);
+  p.sequence.store(seq + 2, std::memory_order_release);  // even: stable
+  current_ = sample;
+}
+
+void TimePageWriter::set_now(Nanos now) {
+  TimeSample s = current_;
+  s.now = now;
+  write(s);
+}
+
+sys::SysResult<TimePageReader> TimePageReader::map(int fd) {
+  auto mapping = sys::Mapping::map_fd(fd, kTimePageBytes, sys::Access::ReadOnly);
+  if (!mapping) return std::unexpected(mapping.error());
+  return TimePageReader(std::move(*mapping));
+}
+
+TimeSample TimePageReader::read() const {
+  const auto* p = static_cast<const wire::TimePage*>(mapping_.data());
+  for (;;) {
+    const std::uint64_t s1 = p->sequence.load(std::memory_order_acquire);
+    if ((s1 & 1U) != 0) continue;
+    const std::uint64_t now = p->now_ns.load(std::memory_order_relaxed);
+    const std::uint32_t mode = p->mode.load(std::memory_order_relaxed);
+    const std::uint32_t epoch = p->epoch.load(std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_acquire);
+    if (p->sequence.load(std::memory_order_relaxed) != s1) continue;
+    TimeSample out;
+    out.now = Nanos(static_cast<std::int64_t>(now));
+    out.mode = mode < kModeCount ? static_cast<SrMode>(mode) : SrMode::SC;
+    out.epoch = Epoch(epoch);
+    return out;
+  }
+}
+
+}  // namespace rejuv::clock

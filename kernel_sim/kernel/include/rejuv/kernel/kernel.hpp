@@ -1,0 +1,221 @@
+// The kernel process (DESIGN §2, §5, §6; docs/protocol.md): the trusted parent of every service. From a
+// launch graph it loads and audits the policy (refusing to start on any finding), builds the capability
+// system and the broker, opens the DDS bridge, spawns every service as an isolated child with its channel
+// (fd 3) and the read-only time page (fd 4), runs the boot protocol and then one event loop that routes
+// every publication through the capability check and the broker, fires kernel timers against the kernel
+// clock (lockstep with the plant as time master, or realtime), supervises every child through its pidfd and
+// shuts everything down cleanly (SIGINT/SIGTERM, mission end, a duration limit, or a failure).
+//
+// What comes next (DESIGN §7, the image store) slots in at three places, all inside the kernel's sources:
+// the per-service record (channel, pidfd, boot info, subscriptions, timers, counters: one struct), the
+// supervisor's single death handler (today: with SR off a lost service ends the run; then: roll back), and
+// the Checkpoint invocations (today: OpError::NotSupported).
+//
+// Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rejuv/broker/broker.hpp"
+#include "rejuv/cap/cap_system.hpp"
+#include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/core/vocabulary.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/process.hpp"
+
+namespace rejuv::kernel {
+
+// Who keeps time (DESIGN §6).
+enum class ClockMode : std::uint8_t {
+  Lockstep,  // simulated time, advanced by the time master one step at a time; deterministic for a seed
+  Realtime,  // CLOCK_MONOTONIC since the start of the run; timers through a timerfd
+};
+[[nodiscard]] std::string_view to_string(ClockMode mode);
+
+// Where lockstep steps come from.
+enum class TimeMaster : std::uint8_t {
+  Plant,   // the plant process publishes SimStep over DDS and waits for SimStepAck (PX4 lockstep)
+  Manual,  // the caller drives Kernel::step() (tests and tools without a plant)
+};
+
+// Why a run ended.
+enum class StopReason : std::uint8_t {
+  MissionDone,     // a Setpoint with mission_done = 1 was published
+  MissionTimeout,  // kernel time reached the mission's timeout_s
+  Duration,        // kernel time reached KernelOptions::duration
+  Signal,          // SIGINT or SIGTERM
+  ServiceFailed,   // a service died or hung and could not be recovered (SR off: always)
+  PlantExited,     // the plant process exited by itself
+  Requested,       // request_stop()
+};
+[[nodiscard]] std::string_view to_string(StopReason reason);
+// Whether the mission counts as failed for this reason (`rejuv run` exits 1).
+[[nodiscard]] bool is_failure(StopReason reason);
+
+struct KernelOptions {
+  std::optional<ClockMode> clock{};             // default: the graph's `clock`
+  TimeMaster time_master = TimeMaster::Plant;   // Plant: the graph's plant is spawned (lockstep and realtime)
+  std::optional<std::uint64_t> seed{};          // default: the graph's seed
+  std::optional<std::uint32_t> dds_domain{};    // default: the graph's dds.domain_id
+  // Rejuvenation: the graph's `sr.enabled` unless disabled here. The image store (DESIGN §7) does not exist
+  // yet, so create() refuses a graph that asks for SR unless `no_sr` is set.
+  bool no_sr = false;
+  bool no_attack = false;                       // attack.enabled = 0 for every service
+  std::optional<Nanos> duration{};              // stop when the kernel clock reaches this
+  bool stop_on_mission_done = true;             // false: run to `duration` (e.g. hover) even after mission end
+  std::filesystem::path service_dir{};          // where service and plant executables are
+  std::filesystem::path repo_root{};            // for the default DDS config (config/cyclonedds.xml)
+  std::vector<std::string> skip_services{};     // graph services not to start (e.g. not built yet)
+  std::vector<std::string> plant_args{};        // extra arguments for the plant process
+  // Real-time bounds so that a hung service cannot hang the kernel (faults, not timings).
+  Nanos boot_deadline{std::chrono::seconds{20}};      // spawn → Ready
+  Nanos idle_deadline{std::chrono::seconds{10}};      // a lockstep step: every service idle
+  Nanos shutdown_grace{std::chrono::seconds{2}};      // Shutdown → exit, before SIGKILL
+  std::FILE* log = stderr;                      // kernel and service log lines; nullptr = silent
+  bool verbose = false;                         // also Debug-level service logs
+};
+
+// A failure to create, boot or run the kernel.
+struct KernelError {
+  enum class Kind : std::uint8_t {
+    Policy,          // the policy file cannot be loaded (message has file:line:col)
+    Audit,           // the policy fails the audit: `findings` lists them
+    Config,          // the graph or the options cannot run (unknown topic type, missing executable, ...)
+    SrUnavailable,   // SR requested; the image store (DESIGN §7) is not available yet: use no_sr
+    Dds,             // the DDS bridge failed
+    System,          // a system call failed
+    Boot,            // a service failed to boot (exec failure, protocol, deadline)
+  };
+  Kind kind = Kind::Config;
+  std::string message{};
+  std::vector<std::string> findings{};
+  [[nodiscard]] std::string to_string() const;
+  // User input problems (Policy, Audit, Config, SrUnavailable): `rejuv run` exits 2 on those.
+  [[nodiscard]] bool is_bad_input() const;
+};
+
+// An accepted publication, as the kernel routed it (for recorders: `rejuv run` computes its metrics here).
+struct Publication {
+  ObjectId topic{};
+  std::string_view name{};      // policy object name, e.g. "ground_truth"
+  std::string_view type{};      // IDL type name
+  std::span<const std::byte> payload{};
+  broker::TopicGeneration generation{};
+  Nanos t{0};                   // kernel clock when routed
+  std::optional<ServiceId> publisher{};  // nullopt: the kernel itself or the DDS bridge
+};
+
+// Receives what happens during a run. Called from the kernel's loop: must not block.
+class Observer {
+ public:
+  Observer() = default;
+  Observer(const Observer&) = delete;
+  Observer& operator=(const Observer&) = delete;
+  virtual ~Observer() = default;
+  virtual void on_publication(const Publication& /*publication*/) {}
+  // After every completed lockstep step (or, in realtime, about every 100 ms of kernel time).
+  virtual void on_step(std::uint64_t /*step*/, Nanos /*t*/, SrMode /*mode*/) {}
+};
+
+// Per-service counters, for tests, the summary and diagnostics.
+struct ServiceStats {
+  std::string name{};
+  bool started = false;             // false when skipped
+  bool alive = false;
+  bool ready = false;
+  int pid = -1;
+  std::optional<sys::ExitStatus> exit{};
+  bool hung = false;                // missed a deadline and was killed
+  std::uint64_t frames_in = 0;      // frames received from it
+  std::uint64_t frames_out = 0;     // frames sent to it
+  std::uint64_t bad_frames = 0;     // refused at framing or protocol level
+  std::uint64_t publishes = 0;      // accepted publications
+  std::uint64_t denials = 0;        // refused by the capability check
+  std::uint64_t wrong_size = 0;     // publications of the wrong size for the topic
+  std::uint64_t delivered = 0;      // Deliver frames sent
+  std::uint64_t lost = 0;           // messages its subscriptions skipped (ring overrun)
+  std::uint64_t log_suppressed = 0; // log lines dropped by the rate limit
+  std::uint64_t flood_dropped = 0;  // publications dropped over the per-step bound (lockstep)
+};
+
+// Result of one manual lockstep step.
+struct StepReport {
+  std::uint64_t step = 0;
+  Nanos t{0};
+  std::uint32_t rounds = 0;         // routing rounds until every service was idle
+  std::vector<ServiceId> hung{};    // services that missed the idle deadline in this step (now killed)
+};
+
+// What a run did.
+struct RunOutcome {
+  StopReason reason = StopReason::Requested;
+  std::string detail{};
+  std::uint64_t steps = 0;
+  Nanos sim_time{0};
+  Nanos wall_time{0};
+};
+
+class Kernel {
+ public:
+  // Loads and audits the policy (with the graph), compiles it, creates the capability system, the broker,
+  // the time page and (TimeMaster::Plant or bridges present) the DDS bridge. Spawns nothing yet.
+  [[nodiscard]] static Result<std::unique_ptr<Kernel>, KernelError> create(launch::LoadedLaunch graph,
+                                                                           KernelOptions options,
+                                                                           Observer* observer = nullptr);
+  Kernel(const Kernel&) = delete;
+  Kernel& operator=(const Kernel&) = delete;
+  Kernel(Kernel&&) = delete;
+  Kernel& operator=(Kernel&&) = delete;
+  // Shuts down if still running: every child killed and reaped, every fd closed.
+  ~Kernel();
+
+  // Spawns the services (and, with TimeMaster::Plant, the plant) and runs the boot protocol until every
+  // service is Ready. On failure everything started is stopped again.
+  [[nodiscard]] Result<void, KernelError> boot();
+  // Lockstep, TimeMaster::Manual: advance the kernel clock to `t`, fire due timers, route until every
+  // service is idle. Returns after the step (a service that misses the idle deadline is killed and the
+  // stop reason set).
+  [[nodiscard]] Result<StepReport, KernelError> step(Nanos t);
+  // Boots if needed, runs until a stop condition, shuts down. TimeMaster::Plant, or realtime.
+  [[nodiscard]] Result<RunOutcome, KernelError> run();
+  // Shutdown to every service, the grace period, then SIGKILL and reap; the plant gets SIGTERM first.
+  // Idempotent.
+  void shutdown();
+  void request_stop();
+
+  // Publishes `payload` on topic `name` as the kernel (the DDS bridge path; tests use it in Manual mode).
+  [[nodiscard]] Result<void, KernelError> inject(std::string_view topic, std::span<const std::byte> payload);
+
+  // ---- inspection ----
+  [[nodiscard]] std::optional<StopReason> stop_reason() const;
+  [[nodiscard]] const std::string& stop_detail() const;
+  [[nodiscard]] Nanos now() const;
+  [[nodiscard]] SrMode mode() const;
+  [[nodiscard]] ClockMode clock_mode() const;
+  [[nodiscard]] bool sr_enabled() const;
+  [[nodiscard]] const cap::CapSystem& caps() const;
+  [[nodiscard]] const broker::Broker& broker() const;
+  [[nodiscard]] std::size_t service_count() const;
+  [[nodiscard]] std::optional<ServiceId> find_service(std::string_view name) const;
+  [[nodiscard]] ServiceStats stats(ServiceId service) const;
+  [[nodiscard]] std::uint64_t bad_frames_total() const;
+  [[nodiscard]] const launch::LoadedLaunch& graph() const;
+
+  struct Impl;
+
+ private:
+  explicit Kernel(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rejuv::kernel

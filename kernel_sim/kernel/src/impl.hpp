@@ -1,0 +1,306 @@
+// The kernel's private state: one record per service (what the image store of DESIGN §7 will save and
+// restore beside the images), the routing and staging state, the clock, the DDS bridge and the loop.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "bridge.hpp"
+#include "fixed_ring.hpp"
+#include "rejuv/broker/broker.hpp"
+#include "rejuv/cap/cap_system.hpp"
+#include "rejuv/channel/wire.hpp"
+#include "rejuv/clock/time_page.hpp"
+#include "rejuv/clock/timers.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "rejuv/msgs/topic_types.hpp"
+#include "rejuv/policy/policy.hpp"
+#include "rejuv/sys/channel.hpp"
+#include "rejuv/sys/event.hpp"
+#include "rejuv/sys/process.hpp"
+#include "rejuv/sys/seccomp.hpp"
+
+namespace rejuv::kernel {
+
+inline constexpr std::size_t kOutQueueCapacity = 4096;       // pending deliveries per service
+inline constexpr Nanos kChannelCloseGrace{std::chrono::seconds{1}};  // closed fd 3 but still running: lost
+inline constexpr std::size_t kControlPoolCapacity = 256;     // queued non-ring frames per service
+inline constexpr std::size_t kFramesPerWakeup = 64;          // fairness: frames read per channel per wakeup
+inline constexpr std::size_t kMaxStagedPerStep = 4096;       // publications per service per lockstep step
+inline constexpr std::uint32_t kMaxRoundsPerStep = 256;      // a step that never settles is cut here
+inline constexpr std::uint32_t kServiceUidBase = 61000;      // uid of service i when the kernel runs as root
+inline constexpr std::uint32_t kNoOrigin = 0xFFFF'FFFFU;     // the kernel / the DDS bridge
+
+// Where a service is in its life.
+enum class Phase : std::uint8_t {
+  NotStarted,  // skipped, or not spawned yet
+  Spawned,     // exec'd; waiting for Hello
+  Booted,      // Boot…BootEnd sent; waiting for Ready
+  Ready,       // running
+  Dead,        // exited, killed or lost: reaped, channel closed
+};
+
+// A frame waiting to go out to a service: the next message of one of its subscriptions (the message itself
+// stays in the broker's ring, docs/protocol.md "flow control"), or a queued non-ring frame.
+struct OutEntry {
+  enum class Kind : std::uint8_t { Ring, Control };
+  Kind kind = Kind::Ring;
+  broker::SubscriberId subscriber{};
+  std::uint32_t control = 0;  // index into ServiceRuntime::control_pool
+};
+
+struct SubscriptionRecord {
+  Slot slot{};
+  ObjectId topic{};
+  broker::SubscriberId id{};
+};
+
+// Token bucket for a service's log lines (docs/protocol.md: rate-limited per service).
+struct LogLimiter {
+  double tokens = 50;
+  Nanos last{0};
+  std::uint64_t suppressed_since_print = 0;
+  [[nodiscard]] bool allow(Nanos wall_now);
+};
+
+// Everything the kernel knows about one service. One struct, so that the image store (DESIGN §7) can
+// save and restore a service's kernel-side state as a unit.
+struct ServiceRuntime {
+  ServiceId id{};
+  std::string name{};
+  const proto::ServiceSpec* spec = nullptr;
+  bool rejuvenate = true;          // false = driver level (DESIGN §2)
+  bool skip = false;               // not started (KernelOptions::skip_services, or SR-only with SR off)
+  std::string skip_reason{};
+  std::string executable{};
+  Phase phase = Phase::NotStarted;
+  sys::ChildProcess process{};
+  sys::SeqPacket channel{};        // the kernel's end, non-blocking
+  cap::BootInfo boot{};
+  std::vector<wire::BootParam> params{};
+  std::vector<SubscriptionRecord> subscriptions{};
+
+  // Delivery and flow control.
+  FixedRing<OutEntry> outq{kOutQueueCapacity};
+  bool sweep = false;              // outq overflowed: drain every subscription once it empties
+  std::vector<std::vector<std::byte>> control_pool{};
+  std::vector<std::uint32_t> control_free{};
+  std::vector<std::byte> held{};   // a frame the channel refused (EAGAIN): sent first when it drains
+  bool has_held = false;
+  bool want_writable = false;
+
+  // Idle (docs/protocol.md): frames sent vs the count in the service's last Idle.
+  std::uint64_t idle_count = 0;
+
+  Nanos spawned_at{0};             // wall clock
+  std::optional<Nanos> channel_closed_at{};  // wall clock: the service closed fd 3 (its pidfd should follow)
+  std::string loss_reason{};
+  LogLimiter limiter{};
+  std::uint64_t staged_this_step = 0;
+  ServiceStats stats{};
+
+  [[nodiscard]] bool live() const { return phase == Phase::Spawned || phase == Phase::Booted || phase == Phase::Ready; }
+  [[nodiscard]] bool idle() const {
+    return phase != Phase::Ready || (idle_count == stats.frames_out && !has_held && outq.empty() && !sweep);
+  }
+};
+
+// Per kernel object: what routing needs (types, kernel endpoints, bridge, mission watch).
+struct ObjectInfo {
+  ObjectId id{};
+  std::string name{};
+  ObjectKind kind = ObjectKind::Topic;
+  const msgs::TopicType* type = nullptr;  // topics only
+  policy::KernelEndpoint kernel = policy::KernelEndpoint::None;
+  bool is_setpoint = false;               // watched for mission_done (rejuv::msg::Setpoint)
+  std::vector<std::byte> persistent{};    // Persistent cells (survive rollback, DESIGN §3)
+  std::vector<std::byte> limits{};        // Limits: the last LimitsWrite data
+};
+
+// A publication read from a service during a lockstep step, routed at the end of the round in canonical
+// order (service id, then arrival) so that the run is deterministic whatever the scheduling.
+struct Staged {
+  std::uint32_t origin = 0;
+  std::uint32_t slot = 0;
+  std::uint32_t offset = 0;
+  std::uint32_t size = 0;
+};
+
+// A DDS sample waiting for its step.
+struct StagedSample {
+  std::uint32_t reader = 0;
+  std::uint64_t timestamp = 0;
+  std::uint32_t offset = 0;
+  std::uint32_t size = 0;
+};
+
+// A SimStep from the plant (or a manual step).
+struct PendingStep {
+  std::uint64_t step = 0;
+  Nanos t{0};
+  std::uint64_t samples_needed = 0;
+};
+
+enum class Source : std::uint8_t { Channel = 1, Pidfd = 2, Signal = 3, Timer = 4, Dds = 5, Plant = 6 };
+[[nodiscard]] constexpr std::uint64_t token(Source s, std::uint64_t index) {
+  return (static_cast<std::uint64_t>(s) << 56U) | index;
+}
+
+struct Kernel::Impl {
+  // ---- configuration ----
+  launch::LoadedLaunch graph;
+  KernelOptions options;
+  Observer* observer = nullptr;
+  policy::Policy policy;
+  ClockMode clock_mode = ClockMode::Lockstep;
+  bool sr = false;
+  std::uint64_t seed = 1;
+  std::uint32_t domain = 0;
+
+  // ---- components ----
+  cap::CapSystem caps;
+  broker::Broker broker;
+  clock::TimePageWriter time_page;
+  clock::TimerTable timers;
+  std::optional<sys::SeccompProgram> seccomp;
+  std::optional<sys::SignalFd> signals;
+  sys::Epoll epoll;
+  std::optional<sys::TimerFd> timerfd;
+  std::optional<DdsBridge> bridge;
+
+  std::vector<ObjectInfo> objects;                 // by ObjectId
+  std::vector<ServiceRuntime> services;            // by ServiceId
+  // By SubscriberId value: whose subscription it is, its slot, and how many messages were routed to it
+  // (routed − delivered − pending = lost, counted even while it stays blocked and never calls next()).
+  struct SubscriberInfo {
+    ServiceId service{};
+    Slot slot{};
+    std::uint64_t routed = 0;
+  };
+  std::vector<SubscriberInfo> subscribers;
+
+  // ---- plant ----
+  sys::ChildProcess plant;
+  bool plant_started = false;
+
+  // ---- lockstep ----
+  std::vector<PendingStep> pending_steps;
+  std::optional<PendingStep> active_step;
+  std::uint64_t samples_received = 0;
+  bool samples_on_step = false;  // sample readers are not in epoll: taken when a SimStep arrives
+  bool watching_samples = false;
+  std::uint32_t rounds = 0;
+  Nanos step_started_wall{0};
+  std::vector<ServiceId> hung_this_step;
+  std::uint64_t steps_done = 0;
+  std::uint64_t next_manual_step = 0;
+  std::vector<Staged> staged;
+  std::vector<std::byte> stage_bytes;
+  std::vector<StagedSample> samples;
+  std::vector<std::byte> sample_bytes;
+  std::vector<std::uint32_t> order;                // sort scratch
+
+  // ---- run state ----
+  bool booted = false;
+  bool shut_down = false;
+  bool stopping = false;
+  std::optional<StopReason> stop;
+  std::string stop_detail;
+  bool sr_mode_announced = false;
+  bool mission_done_seen = false;
+  Nanos run_start_mono{0};
+  bool clock_synced = true;  // realtime with a plant: the kernel clock follows the plant's from its first sample
+  Nanos wall_start{0};
+  Nanos last_progress{0};
+  std::uint64_t denials_drained = 0;
+  std::uint64_t kernel_bad_frames = 0;
+  alignas(8) std::array<std::byte, wire::kMaxFrameBytes> rx{};
+  wire::FrameBuffer tx;
+
+  Impl(launch::LoadedLaunch g, KernelOptions o, Observer* obs, policy::Policy p, cap::CapSystem c, broker::Broker b,
+       clock::TimePageWriter tp, std::size_t service_count, sys::Epoll e)
+      : graph(std::move(g)), options(std::move(o)), observer(obs), policy(std::move(p)), caps(std::move(c)),
+        broker(std::move(b)), time_page(std::move(tp)), timers(service_count), epoll(std::move(e)) {}
+
+  // ---- logging (kernel.cpp) ----
+  void log(const char* format, ...) __attribute__((format(printf, 2, 3)));
+  void service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view text);
+  void refuse(ServiceRuntime& s, std::string_view what);  // counts and logs (rate-limited) a bad frame
+
+  // ---- time (kernel.cpp) ----
+  [[nodiscard]] Nanos now() const { return time_page.current().now; }
+  void set_now(Nanos t);
+  [[nodiscard]] Nanos wall() const;
+  void stop_run(StopReason reason, std::string detail);
+
+  // ---- boot and supervision (supervisor.cpp) ----
+  [[nodiscard]] Result<void, KernelError> spawn_all();
+  [[nodiscard]] Result<void, KernelError> spawn_plant();
+  void send_boot(ServiceRuntime& s);
+  void on_child_exit(ServiceRuntime& s);
+  void on_plant_exit();
+  // The one place a service is lost (death, hang, protocol fault). SR off: the run ends. With the image
+  // store (DESIGN §7) a rejuvenated service is restored here instead.
+  void lose_service(ServiceRuntime& s, std::string reason);
+  void kill_hung(ServiceRuntime& s, std::string reason);
+  void check_deadlines();
+  void shutdown_all();
+
+  // ---- channel input (requests.cpp) ----
+  void read_channel(ServiceRuntime& s);
+  void handle_frame(ServiceRuntime& s, const wire::FrameView& frame);
+  void handle_subscribe(ServiceRuntime& s, const wire::FrameView& frame);
+  void handle_invoke(ServiceRuntime& s, const wire::FrameView& frame);
+  void reply(ServiceRuntime& s, std::uint32_t seq, std::int32_t error, std::uint64_t value = 0,
+             std::span<const std::byte> data = {});
+  void drain_denials();
+
+  // ---- routing (router.cpp) ----
+  void ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload);
+  void route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload);
+  // Who published: the kernel's own topics go out through the bridge, samples that came in do not.
+  enum class From : std::uint8_t { Service, Kernel, Bridge };
+  void publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from = From::Kernel);
+  void after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
+                     std::optional<ServiceId> publisher, From from);
+  void finish_routes(ObjectId topic);  // pushes the topic's newest message to every subscriber
+  void flush_staged();
+  void route_samples();
+  void publish_sr_mode();
+  // Output to a service (flow control).
+  void push_ring(ServiceRuntime& s, broker::SubscriberId subscriber);
+  void send_control(ServiceRuntime& s, std::span<const std::byte> frame);
+  void drain(ServiceRuntime& s);
+  enum class SendResult : std::uint8_t { Sent, Blocked, Failed };
+  SendResult send_now(ServiceRuntime& s, std::span<const std::byte> frame);
+  bool deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber);  // false: nothing pending or blocked
+  void set_writable_interest(ServiceRuntime& s, bool want);
+
+  // ---- loop (kernel.cpp) ----
+  [[nodiscard]] Result<void, KernelError> pump(std::optional<Nanos> max_wait);
+  void on_dds_ready(std::size_t reader);
+  void collect_samples();  // takes every sample reader (lockstep with the plant: on each SimStep)
+  void sync_realtime_clock(std::span<const std::byte> first_sample);
+  void watch_sample_readers(bool watch);  // lockstep: also wake on samples while a step waits for them
+  void fire_timers();
+  void arm_timerfd();
+  [[nodiscard]] bool all_idle() const;
+  [[nodiscard]] bool all_ready() const;
+  void begin_step(const PendingStep& step);
+  // Advances the active lockstep step by one round when every service is idle; true when it is complete.
+  bool advance_step();
+  void finish_step();
+  void check_stop_conditions();
+  [[nodiscard]] std::optional<Nanos> next_wall_deadline() const;
+};
+
+// The boot params of a service: its own launch params, then the graph-wide ones (services/sdk service.hpp).
+[[nodiscard]] std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRuntime& s);
+
+}  // namespace rejuv::kernel

@@ -1,0 +1,775 @@
+// The kernel: creation (policy, audit, capability system, broker, time page, DDS bridge), the event loop
+// and the clock (lockstep steps and realtime). Routing is in router.cpp, channel requests in requests.cpp,
+// processes in supervisor.cpp.
+#include <algorithm>
+#include <csignal>
+#include <cstdarg>
+#include <cstdlib>
+#include <filesystem>
+
+#include "impl.hpp"
+#include "rejuv/policy/audit.hpp"
+
+namespace rejuv::kernel {
+
+// ---- vocabulary ----
+
+std::string_view to_string(ClockMode mode) {
+  switch (mode) {
+    case ClockMode::Lockstep: return "lockstep";
+    case ClockMode::Realtime: return "realtime";
+  }
+  return "?";
+}
+
+std::string_view to_string(StopReason reason) {
+  switch (reason) {
+    case StopReason::MissionDone: return "mission completed";
+    case StopReason::MissionTimeout: return "mission timeout";
+    case StopReason::Duration: return "duration reached";
+    case StopReason::Signal: return "signal";
+    case StopReason::ServiceFailed: return "service failed";
+    case StopReason::PlantExited: return "plant exited";
+    case StopReason::Requested: return "stop requested";
+  }
+  return "?";
+}
+
+bool is_failure(StopReason reason) {
+  switch (reason) {
+    case StopReason::MissionDone:
+    case StopReason::Duration:
+    case StopReason::Signal:
+    case StopReason::Requested: return false;
+    case StopReason::MissionTimeout:
+    case StopReason::ServiceFailed:
+    case StopReason::PlantExited: return true;
+  }
+  return true;
+}
+
+namespace {
+bool graceful(StopReason reason) {
+  // These wait for the step in progress to be acknowledged; the others end the loop at once.
+  switch (reason) {
+    case StopReason::MissionDone:
+    case StopReason::MissionTimeout:
+    case StopReason::Duration:
+    case StopReason::Requested: return true;
+    case StopReason::Signal:
+    case StopReason::ServiceFailed:
+    case StopReason::PlantExited: return false;
+  }
+  return false;
+}
+
+std::string_view kind_name(KernelError::Kind kind) {
+  switch (kind) {
+    case KernelError::Kind::Policy: return "policy";
+    case KernelError::Kind::Audit: return "policy audit failed";
+    case KernelError::Kind::Config: return "configuration";
+    case KernelError::Kind::SrUnavailable: return "rejuvenation unavailable";
+    case KernelError::Kind::Dds: return "DDS";
+    case KernelError::Kind::System: return "system";
+    case KernelError::Kind::Boot: return "boot";
+  }
+  return "?";
+}
+
+KernelError kernel_error(KernelError::Kind kind, std::string message) {
+  return KernelError{.kind = kind, .message = std::move(message), .findings = {}};
+}
+}  // namespace
+
+std::string KernelError::to_string() const {
+  std::string out = std::string(kind_name(kind)) + ": " + message;
+  for (const std::string& f : findings) out += "\n  " + f;
+  return out;
+}
+
+bool KernelError::is_bad_input() const {
+  switch (kind) {
+    case Kind::Policy:
+    case Kind::Audit:
+    case Kind::Config:
+    case Kind::SrUnavailable: return true;
+    case Kind::Dds:
+    case Kind::System:
+    case Kind::Boot: return false;
+  }
+  return false;
+}
+
+// ---- creation ----
+
+Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch graph, KernelOptions options,
+                                                            Observer* observer) {
+  using K = KernelError::Kind;
+  auto policy = policy::load_policy(graph.policy_path);
+  if (!policy) return fail(kernel_error(K::Policy, policy.error().to_string()));
+  // DESIGN §4: the kernel refuses to start a graph whose policy fails the audit.
+  if (const auto findings = policy::audit(*policy, graph); !findings.empty()) {
+    KernelError e = kernel_error(K::Audit, std::to_string(findings.size()) + " finding(s) in " +
+                                               graph.policy_path.string() + "; the kernel refuses to start");
+    for (const policy::Finding& f : findings) e.findings.push_back(f.to_string());
+    return fail(std::move(e));
+  }
+  const proto::Launch& g = graph.graph;
+  const bool sr_requested = g.sr().enabled() && !options.no_sr;
+  if (sr_requested) {
+    return fail(kernel_error(K::SrUnavailable,
+                             "the graph enables software rejuvenation (sr.enabled), but checkpoint/rollback needs the "
+                             "image store (DESIGN §7), which this kernel does not have yet; run with --no-sr"));
+  }
+  const ClockMode clock_mode =
+      options.clock.value_or(g.clock() == proto::REALTIME ? ClockMode::Realtime : ClockMode::Lockstep);
+  if (options.time_master == TimeMaster::Plant && clock_mode == ClockMode::Lockstep && !g.has_plant()) {
+    return fail(kernel_error(K::Config, graph.path.string() + ": the graph has no plant; in lockstep nothing would keep time"));
+  }
+  if (options.time_master == TimeMaster::Manual && clock_mode == ClockMode::Realtime) {
+    return fail(kernel_error(K::Config, "manual stepping needs the lockstep clock"));
+  }
+
+  // Capabilities: start in MC without SR (the mode never changes), in SC (safe) with it (DESIGN §7 Faults).
+  const cap::ModeTable table = policy::compile(*policy);
+  auto caps = cap::CapSystem::create(table, cap::CapSystemConfig{.cspace_slots = 256,
+                                                                 .audit_capacity = 4096,
+                                                                 .initial_mode = SrMode::MC});
+  if (!caps) return fail(kernel_error(K::Config, "capability table: " + caps.error().to_string()));
+
+  // Objects and topics (one broker topic per policy Topic object, DESIGN §5).
+  std::vector<ObjectInfo> objects;
+  std::vector<broker::TopicConfig> topics;
+  for (const policy::Object& o : policy->objects()) {
+    ObjectInfo info{.id = o.id, .name = o.name, .kind = o.kind, .type = nullptr, .kernel = o.kernel,
+                    .is_setpoint = false, .persistent = {}, .limits = {}};
+    if (o.kind == ObjectKind::Topic) {
+      info.type = msgs::find_topic_type(o.type);
+      if (info.type == nullptr) {
+        return fail(kernel_error(K::Config, o.where.to_string() + ": topic '" + o.name + "' has type '" + o.type +
+                                                "', which is not a topic type of idl/"));
+      }
+      info.is_setpoint = info.type->name == msgs::TopicTraits<rejuv_msg_Setpoint>::name;
+      topics.push_back(broker::TopicConfig{.object = o.id, .name = o.name, .payload_size = info.type->size,
+                                           .depth = o.queue_depth == 0 ? policy::kDefaultQueueDepth : o.queue_depth});
+    }
+    if (o.kind == ObjectKind::Persistent) info.persistent.assign(o.size_bytes, std::byte{0});
+    objects.push_back(std::move(info));
+  }
+  auto broker = broker::Broker::create(topics);
+  if (!broker) return fail(kernel_error(K::Config, "broker: " + broker.error().to_string()));
+
+  // Signals first: Cyclone's threads (started by the bridge below) must inherit the blocked mask.
+  auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
+  if (!signals) return fail(kernel_error(K::System, signals.error().to_string()));
+  auto page = clock::TimePageWriter::create();
+  if (!page) return fail(kernel_error(K::System, "time page: " + page.error().to_string()));
+  auto epoll = sys::Epoll::create();
+  if (!epoll) return fail(kernel_error(K::System, epoll.error().to_string()));
+  // Built before any fork (libseccomp allocates); loaded in each child between fork and exec.
+  auto seccomp = sys::SeccompProgram::service_policy(sys::SeccompStage::BeforeExec);
+  if (!seccomp) return fail(kernel_error(K::System, "seccomp: " + seccomp.error().to_string()));
+
+  const std::size_t service_count = policy->services().size();
+  auto impl = std::make_unique<Impl>(std::move(graph), std::move(options), observer, std::move(*policy),
+                                     std::move(*caps), std::move(*broker), std::move(*page), service_count,
+                                     std::move(*epoll));
+  Impl& k = *impl;
+  k.objects = std::move(objects);
+  k.clock_mode = clock_mode;
+  k.sr = false;
+  k.seed = k.options.seed.value_or(k.graph.graph.seed());
+  k.domain = k.options.dds_domain.value_or(k.graph.graph.dds().domain_id());
+  k.signals.emplace(std::move(*signals));
+  k.seccomp = std::move(*seccomp);
+  k.time_page.write(clock::TimeSample{.now = Nanos{0}, .mode = k.caps.mode(), .epoch = Epoch{0}});
+  k.caps.set_time(Nanos{0});
+
+  // Services, by policy order (ServiceId = policy declaration order = CSpace index).
+  const std::filesystem::path service_dir = k.options.service_dir;
+  for (const policy::Service& ps : k.policy.services()) {
+    ServiceRuntime s;
+    s.id = ps.id;
+    s.name = ps.name;
+    s.stats.name = ps.name;
+    s.spec = launch::find_service(k.graph.graph, ps.name);
+    REJUV_ASSERT(s.spec != nullptr, "the audit checked that every policy service is in the graph");
+    s.rejuvenate = launch::rejuvenate(*s.spec);
+    if (std::find(k.options.skip_services.begin(), k.options.skip_services.end(), ps.name) != k.options.skip_services.end()) {
+      s.skip = true;
+      s.skip_reason = "skipped on request";
+    } else if (ps.rejuvenation && !k.sr) {
+      s.skip = true;
+      s.skip_reason = "the rejuvenation service has nothing to do without SR";
+    }
+    const std::filesystem::path exe(s.spec->executable());
+    s.executable = (exe.is_absolute() ? exe : service_dir / exe).string();
+    if (!s.skip) {
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(s.executable, ec)) {
+        return fail(kernel_error(K::Config, "service '" + s.name + "': executable " + s.executable +
+                                                " not found (not built yet? skip it with --skip " + s.name + ")"));
+      }
+    }
+    auto boot = k.caps.boot_info(s.id);
+    REJUV_ASSERT(boot.has_value(), "every policy service has boot info");
+    s.boot = std::move(*boot);
+    s.control_pool.reserve(kControlPoolCapacity);
+    s.held.reserve(wire::kMaxFrameBytes);
+    k.services.push_back(std::move(s));
+  }
+  for (ServiceRuntime& s : k.services) s.params = build_params(k, s);
+
+  if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
+    std::error_code ec;
+    const std::filesystem::path exe(k.graph.graph.plant().executable());
+    const std::filesystem::path path = exe.is_absolute() ? exe : service_dir / exe;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+      return fail(kernel_error(K::Config, "plant executable " + path.string() + " not found (not built yet?)"));
+    }
+  }
+
+  // DDS bridge (DESIGN §5): Cyclone reads CYCLONEDDS_URI; default to the graph's config file.
+  std::vector<BridgeSpec> bridges;
+  for (const proto::Bridge& b : k.graph.graph.dds().bridges()) {
+    const auto object = k.policy.find_object(b.topic());
+    REJUV_ASSERT(object.has_value(), "the audit checked that every bridge names a topic");
+    bridges.push_back(BridgeSpec{.topic = *object, .dds_name = launch::dds_name(b),
+                                 .type = k.objects[object->value()].type,
+                                 .inbound = b.direction() == proto::BRIDGE_IN});
+  }
+  const bool plant_lockstep = k.options.time_master == TimeMaster::Plant && clock_mode == ClockMode::Lockstep;
+  if (!bridges.empty() || plant_lockstep) {
+    if (std::getenv("CYCLONEDDS_URI") == nullptr) {
+      const std::string uri = "file://" + launch::dds_config(k.graph, k.options.repo_root).string();
+      ::setenv("CYCLONEDDS_URI", uri.c_str(), 0);  // also what the plant inherits
+    }
+    auto bridge = DdsBridge::open(k.domain, bridges, plant_lockstep, k.objects.size());
+    if (!bridge) return fail(kernel_error(K::Dds, bridge.error()));
+    k.bridge = std::move(*bridge);
+  }
+
+  // Event sources.
+  const auto add = [&](int fd, std::uint64_t tok) -> Result<void, KernelError> {
+    if (auto ok = k.epoll.add(fd, tok); !ok) return fail(kernel_error(K::System, ok.error().to_string()));
+    return {};
+  };
+  if (auto ok = add(k.signals->fd(), token(Source::Signal, 0)); !ok) return fail(ok.error());
+  if (clock_mode == ClockMode::Realtime) {
+    auto tfd = sys::TimerFd::create();
+    if (!tfd) return fail(kernel_error(K::System, tfd.error().to_string()));
+    k.timerfd = std::move(*tfd);
+    if (auto ok = add(k.timerfd->fd(), token(Source::Timer, 0)); !ok) return fail(ok.error());
+  }
+  if (k.bridge) {
+    for (std::size_t i = 0; i < k.bridge->readers().size(); ++i) {
+      // Lockstep with the plant: the samples of a step are taken when its SimStep arrives (they were
+      // published before it), so only the step reader wakes the kernel — one wakeup per step, not per sample.
+      if (plant_lockstep && k.bridge->readers()[i].role != DdsBridge::Role::Step) continue;
+      if (auto ok = add(k.bridge->readers()[i].reader.ready_fd(), token(Source::Dds, i)); !ok) return fail(ok.error());
+    }
+  }
+  k.samples_on_step = plant_lockstep;
+  return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));
+}
+
+Kernel::Kernel(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+Kernel::~Kernel() { shutdown(); }
+
+// ---- logging and time ----
+
+void Kernel::Impl::log(const char* format, ...) {
+  if (options.log == nullptr) return;
+  std::array<char, 2048> buf{};
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf.data(), buf.size(), format, args);
+  va_end(args);
+  std::fprintf(options.log, "[kernel %8.3f] %s\n", to_seconds(now()).count(), buf.data());
+}
+
+bool LogLimiter::allow(Nanos wall_now) {
+  // 50 lines of burst, 20 lines per second sustained.
+  constexpr double kBurst = 50;
+  constexpr double kPerSecond = 20;
+  tokens = std::min(kBurst, tokens + to_seconds(wall_now - last).count() * kPerSecond);
+  last = wall_now;
+  if (tokens >= 1) {
+    tokens -= 1;
+    return true;
+  }
+  return false;
+}
+
+void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view text) {
+  if (level == wire::LogLevel::Debug && !options.verbose) return;
+  if (!s.limiter.allow(wall())) {
+    ++s.stats.log_suppressed;
+    ++s.limiter.suppressed_since_print;
+    return;
+  }
+  if (options.log == nullptr) return;
+  if (s.limiter.suppressed_since_print > 0) {
+    std::fprintf(options.log, "[%s] (%llu lines suppressed by the rate limit)\n", s.name.c_str(),
+                 static_cast<unsigned long long>(s.limiter.suppressed_since_print));
+    s.limiter.suppressed_since_print = 0;
+  }
+  const char* tag = "";
+  switch (level) {
+    case wire::LogLevel::Debug: tag = "debug: "; break;
+    case wire::LogLevel::Info: break;
+    case wire::LogLevel::Warn: tag = "warning: "; break;
+    case wire::LogLevel::Error: tag = "error: "; break;
+  }
+  std::fprintf(options.log, "[%s] %s%.*s\n", s.name.c_str(), tag, static_cast<int>(text.size()), text.data());
+}
+
+void Kernel::Impl::refuse(ServiceRuntime& s, std::string_view what) {
+  ++s.stats.bad_frames;
+  ++kernel_bad_frames;
+  if (s.limiter.allow(wall())) {
+    log("refused a frame from '%s': %.*s", s.name.c_str(), static_cast<int>(what.size()), what.data());
+  } else {
+    ++s.stats.log_suppressed;
+  }
+}
+
+void Kernel::Impl::set_now(Nanos t) {
+  time_page.set_now(t);
+  caps.set_time(t);
+}
+
+Nanos Kernel::Impl::wall() const { return sys::monotonic_now(); }
+
+void Kernel::Impl::stop_run(StopReason reason, std::string detail) {
+  if (stop) return;
+  stop = reason;
+  stop_detail = std::move(detail);
+  log("stopping: %s%s%s", std::string(to_string(reason)).c_str(), stop_detail.empty() ? "" : ": ",
+      stop_detail.c_str());
+}
+
+// ---- the event loop ----
+
+Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
+  std::optional<Nanos> timeout = max_wait;
+  if (const auto deadline = next_wall_deadline()) {
+    const Nanos left = std::max(Nanos{0}, *deadline - wall());
+    timeout = timeout ? std::min(*timeout, left) : left;
+  }
+  std::array<sys::Event, 64> events{};
+  auto n = epoll.wait(events, timeout);
+  if (!n) return fail(kernel_error(KernelError::Kind::System, n.error().to_string()));
+  if (clock_mode == ClockMode::Realtime && booted && clock_synced) set_now(sys::monotonic_now() - run_start_mono);
+  for (std::size_t i = 0; i < *n; ++i) {
+    const sys::Event& e = events[i];
+    const auto source = static_cast<Source>(e.token >> 56U);
+    const std::size_t index = e.token & ((std::uint64_t{1} << 56U) - 1U);
+    switch (source) {
+      case Source::Channel: {
+        ServiceRuntime& s = services[index];
+        if (!s.live() || !s.channel.valid()) break;
+        if (e.writable) drain(s);
+        if (e.readable || e.hangup || e.error) read_channel(s);
+        break;
+      }
+      case Source::Pidfd: on_child_exit(services[index]); break;
+      case Source::Plant: on_plant_exit(); break;
+      case Source::Signal: {
+        auto sig = signals->read();
+        if (sig && *sig) stop_run(StopReason::Signal, *sig == SIGINT ? "SIGINT" : "SIGTERM");
+        break;
+      }
+      case Source::Timer:
+        (void)timerfd->consume();
+        fire_timers();
+        arm_timerfd();
+        break;
+      case Source::Dds: on_dds_ready(index); break;
+    }
+  }
+  drain_denials();
+  check_deadlines();
+  return {};
+}
+
+void Kernel::Impl::on_dds_ready(std::size_t index) {
+  if (!bridge) return;
+  DdsBridge::In& in = bridge->readers()[index];
+  switch (in.role) {
+    case DdsBridge::Role::Step: {
+      auto n = in.reader.take_as<rejuv_msg_SimStep>([&](const rejuv_msg_SimStep& step) {
+        pending_steps.push_back(PendingStep{.step = step.step,
+                                            .t = Nanos{static_cast<std::int64_t>(step.time_ns)},
+                                            .samples_needed = step.samples_published});
+      });
+      if (!n) log("DDS take sim_step: %s", n.error().to_string().c_str());
+      if (samples_on_step && n && *n > 0) collect_samples();
+      break;
+    }
+    case DdsBridge::Role::CountOnly: {
+      auto n = in.reader.take([](std::span<const std::byte>) {});
+      if (n) samples_received += *n;
+      break;
+    }
+    case DdsBridge::Role::Sample: {
+      const ObjectId topic = *in.topic;
+      auto n = in.reader.take([&](std::span<const std::byte> bytes) {
+        ++samples_received;
+        if (stopping) return;
+        if (clock_mode == ClockMode::Realtime) {
+          if (!booted) return;
+          if (!clock_synced) sync_realtime_clock(bytes);
+          publish_as_kernel(topic, bytes, From::Bridge);
+          return;
+        }
+        // Lockstep: held for the step that covers it, then routed in canonical order (route_samples).
+        std::uint64_t stamp = 0;
+        if (bytes.size() >= sizeof(stamp)) std::memcpy(&stamp, bytes.data(), sizeof(stamp));
+        samples.push_back(StagedSample{.reader = static_cast<std::uint32_t>(index), .timestamp = stamp,
+                                       .offset = static_cast<std::uint32_t>(sample_bytes.size()),
+                                       .size = static_cast<std::uint32_t>(bytes.size())});
+        sample_bytes.insert(sample_bytes.end(), bytes.begin(), bytes.end());
+      });
+      if (!n) log("DDS take %s: %s", in.reader.topic_name().c_str(), n.error().to_string().c_str());
+      break;
+    }
+  }
+}
+
+void Kernel::Impl::sync_realtime_clock(std::span<const std::byte> first_sample) {
+  // The plant stamps its samples with its own monotonic time since it started (idl/sensors.idl), which began
+  // after the kernel's: move the kernel's origin so that both clocks agree from the first sample on (the
+  // transport delay, microseconds, is not corrected). Timers keep their kernel-clock expiries.
+  clock_synced = true;
+  std::uint64_t stamp = 0;
+  if (first_sample.size() < sizeof(stamp)) return;
+  std::memcpy(&stamp, first_sample.data(), sizeof(stamp));
+  // Until now the kernel clock stood at 0 (no sensor data, no timer fired), so this only moves it forward.
+  const Nanos plant_now = std::max(Nanos{static_cast<std::int64_t>(stamp)}, now());
+  run_start_mono = sys::monotonic_now() - plant_now;
+  set_now(plant_now);
+  arm_timerfd();
+  log("realtime clock follows the plant's from t = %.3f s", to_seconds(plant_now).count());
+}
+
+void Kernel::Impl::collect_samples() {
+  if (!bridge) return;
+  for (std::size_t i = 0; i < bridge->readers().size(); ++i) {
+    if (bridge->readers()[i].role != DdsBridge::Role::Step) on_dds_ready(i);
+  }
+}
+
+void Kernel::Impl::watch_sample_readers(bool watch) {
+  if (!bridge || !samples_on_step || watch == watching_samples) return;
+  watching_samples = watch;
+  for (std::size_t i = 0; i < bridge->readers().size(); ++i) {
+    if (bridge->readers()[i].role == DdsBridge::Role::Step) continue;
+    const int fd = bridge->readers()[i].reader.ready_fd();
+    if (watch) {
+      (void)epoll.add(fd, token(Source::Dds, i));
+    } else {
+      (void)epoll.remove(fd);
+    }
+  }
+  if (watch) collect_samples();
+}
+
+void Kernel::Impl::fire_timers() {
+  timers.fire_due(now(), [&](const clock::KernelTimer& t) {
+    ServiceRuntime& s = services[t.service.value()];
+    if (!s.live()) return;
+    if (tx.build(wire::FrameKind::TimerFired, 0, 0, t.id)) send_control(s, tx.bytes());
+  });
+}
+
+void Kernel::Impl::arm_timerfd() {
+  if (!timerfd || !clock_synced) return;
+  const auto due = timers.next_due();
+  (void)timerfd->arm_at(due ? std::optional<Nanos>(*due + run_start_mono) : std::nullopt);
+}
+
+bool Kernel::Impl::all_idle() const {
+  return std::all_of(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.idle(); });
+}
+
+bool Kernel::Impl::all_ready() const {
+  return std::all_of(services.begin(), services.end(),
+                     [](const ServiceRuntime& s) { return s.skip || s.phase == Phase::Ready; });
+}
+
+std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
+  std::optional<Nanos> best;
+  const auto consider = [&](Nanos t) { best = best ? std::min(*best, t) : t; };
+  for (const ServiceRuntime& s : services) {
+    if (s.phase == Phase::Spawned || s.phase == Phase::Booted) consider(s.spawned_at + options.boot_deadline);
+    if (s.live() && s.channel_closed_at) consider(*s.channel_closed_at + kChannelCloseGrace);
+  }
+  if (active_step) consider(step_started_wall + options.idle_deadline);
+  return best;
+}
+
+void Kernel::Impl::begin_step(const PendingStep& step) {
+  active_step = step;
+  rounds = 0;
+  step_started_wall = wall();
+  hung_this_step.clear();
+  for (ServiceRuntime& s : services) s.staged_this_step = 0;
+  set_now(step.t);
+  if (!sr_mode_announced) publish_sr_mode();
+  // DESIGN §6: set the clock, fire due timers, route the step's samples; then rounds until idle.
+  fire_timers();
+  route_samples();
+}
+
+bool Kernel::Impl::advance_step() {
+  for (;;) {
+    if (!all_idle()) return false;
+    if (rounds >= kMaxRoundsPerStep) {
+      log("step %llu did not settle after %u routing rounds; ending it", static_cast<unsigned long long>(active_step->step),
+          rounds);
+      return true;
+    }
+    if (!staged.empty()) {
+      ++rounds;
+      flush_staged();
+      continue;
+    }
+    // Timers armed during this step that are already due (e.g. after(0)).
+    if (timers.next_due() && *timers.next_due() <= now()) {
+      ++rounds;
+      fire_timers();
+      continue;
+    }
+    return true;
+  }
+}
+
+void Kernel::Impl::finish_step() {
+  const PendingStep step = *active_step;
+  active_step.reset();
+  ++steps_done;
+  if (bridge && bridge->has_step_reader() && options.time_master == TimeMaster::Plant) {
+    const rejuv_msg_SimStepAck ack{.step = step.step,
+                                   .time_ns = static_cast<std::uint64_t>(step.t.count()),
+                                   .charged_ns = 0,  // no checkpoint/rollback without the image store (§7)
+                                   .outputs_published = bridge->outputs_published()};
+    if (auto ok = bridge->write_ack(ack); !ok) {
+      log("%s", ok.error().c_str());
+      stop_run(StopReason::PlantExited, ok.error());
+    }
+  }
+  if (observer != nullptr) observer->on_step(step.step, step.t, caps.mode());
+  check_stop_conditions();
+}
+
+void Kernel::Impl::check_stop_conditions() {
+  if (options.duration && now() >= *options.duration) {
+    stop_run(StopReason::Duration, "t = " + std::to_string(to_seconds(now()).count()) + " s");
+  }
+  const Seconds timeout = launch::mission_timeout(graph.graph.mission());
+  if (timeout.count() > 0 && now() >= to_nanos(timeout)) {
+    stop_run(StopReason::MissionTimeout, "mission not completed within " + std::to_string(timeout.count()) + " s");
+  }
+}
+
+// ---- public API ----
+
+Result<void, KernelError> Kernel::boot() {
+  Impl& k = *impl_;
+  if (k.booted) return {};
+  if (k.shut_down) return fail(kernel_error(KernelError::Kind::Boot, "the kernel has been shut down"));
+  k.wall_start = k.wall();
+  for (const ServiceRuntime& s : k.services) {
+    if (s.skip) k.log("not starting '%s': %s", s.name.c_str(), s.skip_reason.c_str());
+  }
+  if (auto ok = k.spawn_all(); !ok) {
+    k.shutdown_all();
+    return ok;
+  }
+  while (!k.all_ready()) {
+    if (k.stop) break;
+    if (auto ok = k.pump(std::nullopt); !ok) {
+      k.shutdown_all();
+      return ok;
+    }
+  }
+  if (k.stop) {
+    KernelError e = kernel_error(KernelError::Kind::Boot, k.stop_detail.empty() ? std::string(to_string(*k.stop)) : k.stop_detail);
+    k.shutdown_all();
+    return fail(std::move(e));
+  }
+  k.booted = true;
+  k.log("%zu services ready (%s clock%s)", static_cast<std::size_t>(std::count_if(
+                                               k.services.begin(), k.services.end(),
+                                               [](const ServiceRuntime& s) { return !s.skip; })),
+        std::string(to_string(k.clock_mode)).c_str(), k.sr ? ", SR on" : ", SR off");
+  if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
+    if (auto ok = k.spawn_plant(); !ok) {
+      k.shutdown_all();
+      return ok;
+    }
+  }
+  return {};
+}
+
+Result<StepReport, KernelError> Kernel::step(Nanos t) {
+  Impl& k = *impl_;
+  if (k.options.time_master != TimeMaster::Manual) {
+    return fail(kernel_error(KernelError::Kind::Config, "step() is for TimeMaster::Manual"));
+  }
+  if (!k.booted || k.shut_down) return fail(kernel_error(KernelError::Kind::Boot, "not booted"));
+  const std::uint64_t target = k.steps_done + 1;
+  k.pending_steps.push_back(PendingStep{.step = k.next_manual_step++, .t = t, .samples_needed = 0});
+  StepReport report;
+  std::uint32_t rounds = 0;
+  while (k.steps_done < target) {
+    if (k.stop && !graceful(*k.stop) && !k.active_step) break;
+    if (!k.active_step && !k.pending_steps.empty()) {
+      const PendingStep next = k.pending_steps.front();
+      k.pending_steps.erase(k.pending_steps.begin());
+      k.begin_step(next);
+      report.step = next.step;
+      report.t = next.t;
+    }
+    if (k.active_step && k.advance_step()) {
+      rounds = k.rounds;
+      report.hung = k.hung_this_step;
+      k.finish_step();
+      break;
+    }
+    if (auto ok = k.pump(std::nullopt); !ok) return fail(ok.error());
+  }
+  report.rounds = rounds;
+  return report;
+}
+
+Result<RunOutcome, KernelError> Kernel::run() {
+  Impl& k = *impl_;
+  if (!k.booted) {
+    if (auto ok = boot(); !ok) return fail(ok.error());
+  }
+  if (k.options.time_master == TimeMaster::Manual) {
+    return fail(kernel_error(KernelError::Kind::Config, "run() needs a time master: use step() in manual mode"));
+  }
+  k.wall_start = k.wall();
+  k.last_progress = Nanos{0};
+  switch (k.clock_mode) {
+    case ClockMode::Lockstep:
+      for (;;) {
+        if (k.stop && (!graceful(*k.stop) || !k.active_step)) break;
+        if (!k.active_step && !k.pending_steps.empty() && !k.stop &&
+            k.samples_received >= k.pending_steps.front().samples_needed) {
+          const PendingStep next = k.pending_steps.front();
+          k.pending_steps.erase(k.pending_steps.begin());
+          k.begin_step(next);
+        }
+        if (k.active_step && k.advance_step()) {
+          k.finish_step();
+          continue;  // the next step may already be waiting
+        }
+        // A step whose samples are not all in yet (DDS orders per writer only): wake on the sample readers
+        // too until they are.
+        const bool short_of_samples = !k.active_step && !k.pending_steps.empty() &&
+                                      k.samples_received < k.pending_steps.front().samples_needed;
+        k.watch_sample_readers(short_of_samples);
+        if (auto ok = k.pump(std::nullopt); !ok) {
+          k.shutdown_all();
+          return fail(ok.error());
+        }
+      }
+      break;
+    case ClockMode::Realtime: {
+      k.run_start_mono = sys::monotonic_now();
+      k.clock_synced = !k.graph.graph.has_plant() || k.options.time_master != TimeMaster::Plant;
+      k.set_now(Nanos{0});
+      k.publish_sr_mode();
+      k.flush_staged();  // anything published during boot
+      k.arm_timerfd();
+      std::uint64_t ticks = 0;
+      while (!k.stop) {
+        if (auto ok = k.pump(std::chrono::milliseconds{100}); !ok) {
+          k.shutdown_all();
+          return fail(ok.error());
+        }
+        if (k.now() - k.last_progress >= std::chrono::milliseconds{100}) {
+          k.last_progress = k.now();
+          if (k.observer != nullptr) k.observer->on_step(ticks++, k.now(), k.caps.mode());
+        }
+        k.check_stop_conditions();
+      }
+      k.steps_done = ticks;
+      break;
+    }
+  }
+  RunOutcome outcome{.reason = k.stop.value_or(StopReason::Requested),
+                     .detail = k.stop_detail,
+                     .steps = k.steps_done,
+                     .sim_time = k.now(),
+                     .wall_time = k.wall() - k.wall_start};
+  shutdown();
+  return outcome;
+}
+
+void Kernel::shutdown() { impl_->shutdown_all(); }
+
+void Kernel::request_stop() { impl_->stop_run(StopReason::Requested, "requested"); }
+
+Result<void, KernelError> Kernel::inject(std::string_view topic, std::span<const std::byte> payload) {
+  Impl& k = *impl_;
+  const auto object = k.policy.find_object(topic);
+  if (!object || k.objects[object->value()].type == nullptr) {
+    return fail(kernel_error(KernelError::Kind::Config, "no topic '" + std::string(topic) + "'"));
+  }
+  if (payload.size() != k.objects[object->value()].type->size) {
+    return fail(kernel_error(KernelError::Kind::Config, "payload size differs from the topic's"));
+  }
+  k.publish_as_kernel(*object, payload, Impl::From::Bridge);
+  return {};
+}
+
+std::optional<StopReason> Kernel::stop_reason() const { return impl_->stop; }
+const std::string& Kernel::stop_detail() const { return impl_->stop_detail; }
+Nanos Kernel::now() const { return impl_->now(); }
+SrMode Kernel::mode() const { return impl_->caps.mode(); }
+ClockMode Kernel::clock_mode() const { return impl_->clock_mode; }
+bool Kernel::sr_enabled() const { return impl_->sr; }
+const cap::CapSystem& Kernel::caps() const { return impl_->caps; }
+const broker::Broker& Kernel::broker() const { return impl_->broker; }
+std::size_t Kernel::service_count() const { return impl_->services.size(); }
+const launch::LoadedLaunch& Kernel::graph() const { return impl_->graph; }
+std::uint64_t Kernel::bad_frames_total() const { return impl_->kernel_bad_frames; }
+
+std::optional<ServiceId> Kernel::find_service(std::string_view name) const {
+  for (const ServiceRuntime& s : impl_->services) {
+    if (s.name == name) return s.id;
+  }
+  return std::nullopt;
+}
+
+ServiceStats Kernel::stats(ServiceId service) const {
+  const ServiceRuntime& s = impl_->services.at(service.value());
+  ServiceStats out = s.stats;
+  out.started = !s.skip && s.phase != Phase::NotStarted;
+  out.alive = s.live();
+  out.ready = s.phase == Phase::Ready;
+  out.pid = s.process.pid();
+  out.exit = s.process.status();
+  // Messages routed to it that it will never get: skipped by the broker, or overrun while it stays blocked.
+  // s.stats.lost has what next() already skipped; add what is overrun but not yet skipped.
+  for (const SubscriptionRecord& r : s.subscriptions) {
+    if (r.id.value() >= impl_->subscribers.size()) continue;
+    const std::uint64_t routed = impl_->subscribers[r.id.value()].routed;
+    const auto st = impl_->broker.subscriber_stats(r.id);
+    const auto pending = impl_->broker.pending(r.id);
+    if (!st || !pending) {
+      continue;  // removed (the service died): its loss is what the broker counted before
+    }
+    const std::uint64_t accounted = st->delivered + st->lost + *pending;
+    out.lost += routed > accounted ? routed - accounted : 0;
+  }
+  return out;
+}
+
+}  // namespace rejuv::kernel

@@ -1,0 +1,272 @@
+// Routing (DESIGN §5; docs/protocol.md "Delivery and flow control"): every publication is decoded through
+// the capability system (Topic + Write in the current mode) and size-checked against its topic, written to
+// the broker's ring, then pushed to each subscriber's channel in publish order. A full channel leaves the
+// message in the ring (the subscriber's entry waits in its out-queue; the broker clamps and counts what
+// it overruns): a service that stops reading never blocks the kernel or anyone else.
+//
+// Lockstep determinism: publications read during a step are staged and routed at the end of each round in
+// canonical order (publisher id, then arrival), DDS samples sorted by (timestamp, reader), timers by (due,
+// service, id): the interleaving every service sees does not depend on scheduling.
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+#include <numeric>
+
+#include "impl.hpp"
+
+namespace rejuv::kernel {
+
+void Kernel::Impl::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload) {
+  if (stopping) return;
+  if (clock_mode == ClockMode::Realtime) {
+    route_publish(s, slot, payload);
+    return;
+  }
+  if (s.staged_this_step >= kMaxStagedPerStep) {
+    if (s.stats.flood_dropped++ == 0) log("'%s' publishes more than %zu messages in one step; dropping the excess",
+                                          s.name.c_str(), kMaxStagedPerStep);
+    return;
+  }
+  ++s.staged_this_step;
+  staged.push_back(Staged{.origin = s.id.value(), .slot = slot,
+                          .offset = static_cast<std::uint32_t>(stage_bytes.size()),
+                          .size = static_cast<std::uint32_t>(payload.size())});
+  stage_bytes.insert(stage_bytes.end(), payload.begin(), payload.end());
+}
+
+void Kernel::Impl::flush_staged() {
+  if (staged.empty()) return;
+  order.resize(staged.size());
+  std::iota(order.begin(), order.end(), 0U);
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::uint32_t a, std::uint32_t b) { return staged[a].origin < staged[b].origin; });
+  for (const std::uint32_t i : order) {
+    const Staged& e = staged[i];
+    ServiceRuntime& s = services[e.origin];
+    if (s.phase == Phase::Dead) continue;  // output of a service that died since: discarded
+    route_publish(s, e.slot, std::span<const std::byte>(stage_bytes).subspan(e.offset, e.size));
+  }
+  staged.clear();
+  stage_bytes.clear();
+}
+
+void Kernel::Impl::route_samples() {
+  if (samples.empty()) return;
+  order.resize(samples.size());
+  std::iota(order.begin(), order.end(), 0U);
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return std::pair(samples[a].timestamp, samples[a].reader) < std::pair(samples[b].timestamp, samples[b].reader);
+  });
+  for (const std::uint32_t i : order) {
+    const StagedSample& e = samples[i];
+    const auto topic = bridge->readers()[e.reader].topic;
+    if (topic) publish_as_kernel(*topic, std::span<const std::byte>(sample_bytes).subspan(e.offset, e.size), From::Bridge);
+  }
+  samples.clear();
+  sample_bytes.clear();
+}
+
+void Kernel::Impl::route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload) {
+  auto inv = caps.decode(s.id, Slot(slot), cap::Operation::Publish);
+  if (!inv) {
+    drain_denials();  // counted, logged, published as a SecurityEvent
+    return;
+  }
+  const ObjectInfo& o = objects[inv->object().value()];
+  REJUV_ASSERT(o.type != nullptr, "decode checked that the cap names a topic");
+  if (payload.size() != o.type->size) {
+    ++s.stats.wrong_size;
+    refuse(s, "publish on '" + o.name + "': " + std::to_string(payload.size()) + " bytes, the topic's type needs " +
+                  std::to_string(o.type->size));
+    return;
+  }
+  if (o.kernel == policy::KernelEndpoint::Publishes) {
+    refuse(s, "publish on '" + o.name + "', which only the kernel publishes");  // the audit forbids the grant
+    return;
+  }
+  auto g = broker.publish(o.id, payload, now());
+  if (!g) {
+    refuse(s, "broker: " + std::string(broker::to_string(g.error())));
+    return;
+  }
+  ++s.stats.publishes;
+  after_publish(o.id, payload, *g, s.id, From::Service);
+}
+
+void Kernel::Impl::publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from) {
+  auto g = broker.publish(topic, payload, now());
+  if (!g) {
+    log("kernel publish on '%s' refused: %s", objects[topic.value()].name.c_str(),
+        std::string(broker::to_string(g.error())).c_str());
+    return;
+  }
+  after_publish(topic, payload, *g, std::nullopt, from);
+}
+
+void Kernel::Impl::publish_sr_mode() {
+  sr_mode_announced = true;
+  for (const ObjectInfo& o : objects) {
+    if (o.type == nullptr || o.type->name != msgs::TopicTraits<rejuv_msg_SrMode>::name ||
+        o.kernel != policy::KernelEndpoint::Publishes) {
+      continue;
+    }
+    const rejuv_msg_SrMode m{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
+                             .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
+                             .epoch = time_page.current().epoch.value(),
+                             .generation = 0};
+    publish_as_kernel(o.id, std::as_bytes(std::span(&m, 1)));
+  }
+}
+
+void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
+                                 std::optional<ServiceId> publisher, From from) {
+  const ObjectInfo& o = objects[topic.value()];
+  if (observer != nullptr) {
+    observer->on_publication(Publication{.topic = topic, .name = o.name, .type = o.type->name, .payload = payload,
+                                         .generation = g, .t = now(), .publisher = publisher});
+  }
+  if (bridge && from != From::Bridge) {  // what came in through the bridge does not go back out
+    if (auto ok = bridge->write_out(topic, payload); !ok) {
+      log("%s", ok.error().c_str());
+      stop_run(StopReason::PlantExited, ok.error());
+    }
+  }
+  if (o.is_setpoint && publisher && !mission_done_seen) {
+    rejuv_msg_Setpoint sp{};
+    std::memcpy(&sp, payload.data(), sizeof(sp));
+    if (sp.mission_done == 1) {
+      mission_done_seen = true;
+      const std::string who = services[publisher->value()].name;
+      if (options.stop_on_mission_done) {
+        stop_run(StopReason::MissionDone,
+                 "'" + who + "' reported mission_done at t = " + std::to_string(to_seconds(now()).count()) + " s");
+      } else {
+        log("'%s' reported mission_done; running on to the duration limit", who.c_str());
+      }
+    }
+  }
+  finish_routes(topic);
+}
+
+void Kernel::Impl::finish_routes(ObjectId topic) {
+  auto routes = broker.subscribers_of(topic);
+  if (!routes) return;
+  for (const broker::Route& r : *routes) {
+    if (r.subscriber.value() < subscribers.size()) ++subscribers[r.subscriber.value()].routed;
+    push_ring(services[r.service.value()], r.subscriber);
+  }
+}
+
+// ---- output to a service ----
+
+void Kernel::Impl::set_writable_interest(ServiceRuntime& s, bool want) {
+  if (s.want_writable == want || !s.channel.valid()) return;
+  s.want_writable = want;
+  (void)epoll.modify(s.channel.fd(), token(Source::Channel, s.id.value()), sys::Interest{.readable = true, .writable = want});
+}
+
+Kernel::Impl::SendResult Kernel::Impl::send_now(ServiceRuntime& s, std::span<const std::byte> frame) {
+  if (!s.channel.valid()) return SendResult::Failed;
+  auto sent = s.channel.send(frame);
+  if (sent) {
+    ++s.stats.frames_out;
+    return SendResult::Sent;
+  }
+  if (sent.error().error == EAGAIN) {
+    s.held.assign(frame.begin(), frame.end());
+    s.has_held = true;
+    set_writable_interest(s, true);
+    return SendResult::Blocked;
+  }
+  return SendResult::Failed;  // EPIPE: the service is gone; its pidfd will say so
+}
+
+bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber) {
+  auto next = broker.next(subscriber);
+  if (!next || !*next) return false;
+  const broker::Delivery& d = **next;
+  s.stats.lost += d.lost;
+  const Slot slot = subscribers[subscriber.value()].slot;
+  if (!tx.build(wire::FrameKind::Deliver, slot.value(), 0, d.generation.value(), d.payload)) return false;
+  ++s.stats.delivered;
+  return send_now(s, tx.bytes()) == SendResult::Sent;
+}
+
+void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
+  if (s.phase != Phase::Booted && s.phase != Phase::Ready) return;
+  if (s.has_held || !s.outq.empty() || s.sweep) {
+    // Keep publish order: behind what is already waiting. A full out-queue only loses the order, never
+    // messages: the sweep drains every subscription once the queue is empty.
+    // Ring entries leave room for every control frame the pool can hold, so a Reply or a Shutdown always fits.
+    if (s.outq.size() + kControlPoolCapacity >= kOutQueueCapacity ||
+        !s.outq.push(OutEntry{.kind = OutEntry::Kind::Ring, .subscriber = subscriber, .control = 0})) {
+      s.sweep = true;
+    }
+    return;
+  }
+  (void)deliver_one(s, subscriber);
+}
+
+void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> frame) {
+  if (!s.live() || !s.channel.valid()) return;
+  if (!s.has_held && s.outq.empty() && !s.sweep) {
+    (void)send_now(s, frame);
+    return;
+  }
+  std::uint32_t index = 0;
+  if (!s.control_free.empty()) {
+    index = s.control_free.back();
+    s.control_free.pop_back();
+  } else if (s.control_pool.size() < kControlPoolCapacity) {
+    index = static_cast<std::uint32_t>(s.control_pool.size());
+    s.control_pool.emplace_back();
+  } else {
+    kill_hung(s, "does not read its channel (control queue full)");
+    return;
+  }
+  s.control_pool[index].assign(frame.begin(), frame.end());
+  if (!s.outq.push(OutEntry{.kind = OutEntry::Kind::Control, .subscriber = {}, .control = index})) {
+    s.control_free.push_back(index);
+    kill_hung(s, "does not read its channel (out-queue full)");
+  }
+}
+
+void Kernel::Impl::drain(ServiceRuntime& s) {
+  for (;;) {
+    if (!s.channel.valid()) return;
+    if (s.has_held) {
+      auto sent = s.channel.send(s.held);
+      if (!sent) return;  // EAGAIN: still full (or gone)
+      ++s.stats.frames_out;
+      s.has_held = false;
+    }
+    if (!s.outq.empty()) {
+      const OutEntry e = s.outq.pop();
+      switch (e.kind) {
+        case OutEntry::Kind::Ring: (void)deliver_one(s, e.subscriber); break;
+        case OutEntry::Kind::Control:
+          (void)send_now(s, s.control_pool[e.control]);
+          s.control_free.push_back(e.control);
+          break;
+      }
+      continue;
+    }
+    if (s.sweep) {
+      s.sweep = false;
+      for (const SubscriptionRecord& r : s.subscriptions) {
+        while (!s.has_held && deliver_one(s, r.id)) {
+        }
+        if (s.has_held) {
+          s.sweep = true;  // blocked again: continue when it drains
+          return;
+        }
+      }
+      continue;
+    }
+    set_writable_interest(s, false);
+    return;
+  }
+}
+
+}  // namespace rejuv::kernel

@@ -1,0 +1,323 @@
+// Supervision (DESIGN §2, §7): the kernel is the parent (and subreaper) of every service and of the plant.
+// Services are spawned with their channel at fd 3 and the read-only time page at fd 4, the BeforeExec
+// seccomp stage and, when the kernel runs as root, their own uid. A child's death is learnt from its pidfd
+// and handled in one place (lose_service); shutdown sends Shutdown, waits a grace period, then kills and
+// reaps everything and closes every fd.
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+
+#include "impl.hpp"
+
+extern char** environ;  // NOLINT: the plant inherits the kernel's environment (CYCLONEDDS_URI, ...)
+
+namespace rejuv::kernel {
+
+namespace {
+
+std::string format_double(double v) {
+  std::array<char, 64> buf{};
+  std::snprintf(buf.data(), buf.size(), "%.17g", v);
+  return buf.data();
+}
+
+std::string_view attack_kind_name(proto::AttackKind kind) { return proto::AttackKind_Name(kind); }
+
+}  // namespace
+
+std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRuntime& s) {
+  std::vector<wire::BootParam> out;
+  const auto number = [&](std::string_view name, double v) {
+    wire::BootParam p{};
+    (void)wire::copy_name(p.name, name);
+    p.number = v;
+    out.push_back(p);
+  };
+  const auto text = [&](std::string_view name, std::string_view v) {
+    wire::BootParam p{};
+    (void)wire::copy_name(p.name, name);
+    (void)wire::copy_name(p.text, v);
+    p.is_text = 1;
+    out.push_back(p);
+  };
+  for (const proto::Param& p : s.spec->params()) {
+    if (p.has_text()) {
+      text(p.name(), p.text());
+    } else {
+      number(p.name(), p.number());
+    }
+  }
+  const proto::Launch& g = k.graph.graph;
+  number("seed", static_cast<double>(k.seed));
+  text("clock", to_string(k.clock_mode));
+  const proto::SrParams& sr = g.sr();
+  number("sr.enabled", k.sr ? 1 : 0);
+  number("sr.t_mc_s", launch::t_mc(sr).count());
+  number("sr.t_est_s", launch::t_est(sr).count());
+  number("sr.rho_m", sr.rho_m());
+  number("sr.rho_s", sr.rho_s());
+  number("sr.t_min_s", launch::t_min(sr).count());
+  number("sr.check_period_s", launch::check_period(sr).count());
+  number("sr.keep_generations", launch::keep_generations(sr));
+  number("sr.restricted_limit_fraction", sr.restricted_limit_fraction());
+  number("sr.box.position_m", sr.box().position_m());
+  number("sr.box.velocity_m_s", sr.box().velocity_m_s());
+  number("sr.box.angle_rad", sr.box().angle_rad());
+  number("sr.box.rate_rad_s", sr.box().rate_rad_s());
+  const proto::Mission& m = g.mission();
+  number("mission.count", m.waypoints_size());
+  number("mission.acceptance_radius_m", m.acceptance_radius_m());
+  number("mission.timeout_s", launch::mission_timeout(m).count());
+  for (int i = 0; i < m.waypoints_size(); ++i) {
+    const std::string prefix = "mission." + std::to_string(i) + ".";
+    number(prefix + "north_m", m.waypoints(i).north_m());
+    number(prefix + "east_m", m.waypoints(i).east_m());
+    number(prefix + "down_m", m.waypoints(i).down_m());
+    number(prefix + "yaw_rad", m.waypoints(i).yaw_rad());
+  }
+  int attacks = 0;
+  const bool attack_on = g.attack().enabled() && !k.options.no_attack;
+  for (const proto::Attack& a : g.attack().attacks()) {
+    if (a.service() != s.name || !attack_on) continue;
+    const std::string prefix = "attack." + std::to_string(attacks) + ".";
+    text(prefix + "kind", attack_kind_name(a.kind()));
+    number(prefix + "start_s", a.start_s());
+    number(prefix + "max_windows", a.max_windows());
+    ++attacks;
+  }
+  number("attack.enabled", attacks > 0 ? 1 : 0);
+  number("attack.count", attacks);
+  return out;
+}
+
+Result<void, KernelError> Kernel::Impl::spawn_all() {
+  if (auto ok = sys::become_subreaper(); !ok) {
+    return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
+  }
+  const bool root = sys::running_as_root();
+  for (ServiceRuntime& s : services) {
+    if (s.skip) continue;
+    auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
+    if (!pair) return fail(KernelError{.kind = KernelError::Kind::System, .message = pair.error().to_string(), .findings = {}});
+    auto& [kernel_end, service_end] = *pair;
+    if (auto ok = sys::set_nonblocking(kernel_end.fd(), true); !ok) {
+      return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
+    }
+    sys::SpawnSpec spec;
+    spec.executable = s.executable;
+    spec.env = {"REJUV_SERVICE=" + s.name};
+    for (const char* keep : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "TSAN_OPTIONS", "LSAN_OPTIONS"}) {
+      if (const char* v = std::getenv(keep); v != nullptr) spec.env.push_back(std::string(keep) + "=" + v);
+    }
+    spec.fds = {{wire::kChannelFd, service_end.fd()}, {wire::kTimePageFd, time_page.read_only_fd().get()}};
+    spec.seccomp = &*seccomp;
+    if (root) spec.uid = kServiceUidBase + s.id.value();
+    auto child = sys::spawn(spec);
+    if (!child) {
+      return fail(KernelError{.kind = KernelError::Kind::Boot,
+                              .message = "spawn '" + s.name + "' (" + s.executable + "): " + child.error().to_string(),
+                              .findings = {}});
+    }
+    s.process = std::move(*child);
+    s.channel = std::move(kernel_end);
+    s.phase = Phase::Spawned;
+    s.spawned_at = wall();
+    s.limiter.last = s.spawned_at;
+    if (auto ok = epoll.add(s.channel.fd(), token(Source::Channel, s.id.value())); !ok) {
+      return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
+    }
+    if (auto ok = epoll.add(s.process.pidfd(), token(Source::Pidfd, s.id.value())); !ok) {
+      return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
+    }
+  }
+  return {};
+}
+
+Result<void, KernelError> Kernel::Impl::spawn_plant() {
+  const proto::Launch& g = graph.graph;
+  const std::filesystem::path exe(g.plant().executable());
+  sys::SpawnSpec spec;
+  spec.executable = (exe.is_absolute() ? exe : options.service_dir / exe).string();
+  double north = 0;
+  double east = 0;
+  double down = -3;
+  if (g.mission().waypoints_size() > 0) {
+    north = g.mission().waypoints(0).north_m();
+    east = g.mission().waypoints(0).east_m();
+    down = g.mission().waypoints(0).down_m();
+  }
+  spec.args = {"--domain", std::to_string(domain), "--seed", std::to_string(seed), "--clock",
+               std::string(to_string(clock_mode)), "--start-north", format_double(north), "--start-east",
+               format_double(east), "--start-down", format_double(down)};
+  if (g.plant().wind_mean_m_s() != 0) {
+    spec.args.insert(spec.args.end(), {"--wind-mean", format_double(g.plant().wind_mean_m_s())});
+  }
+  if (g.plant().wind_gust_m_s() != 0) {
+    spec.args.insert(spec.args.end(), {"--wind-gust", format_double(g.plant().wind_gust_m_s())});
+  }
+  spec.args.insert(spec.args.end(), options.plant_args.begin(), options.plant_args.end());
+  for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
+  auto child = sys::spawn(spec);
+  if (!child) {
+    return fail(KernelError{.kind = KernelError::Kind::Boot,
+                            .message = "spawn the plant (" + spec.executable + "): " + child.error().to_string(),
+                            .findings = {}});
+  }
+  plant = std::move(*child);
+  plant_started = true;
+  if (auto ok = epoll.add(plant.pidfd(), token(Source::Plant, 0)); !ok) {
+    return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
+  }
+  return {};
+}
+
+void Kernel::Impl::send_boot(ServiceRuntime& s) {
+  wire::BootHeader head{};
+  head.service_id = s.id.value();
+  head.epoch = time_page.current().epoch.value();
+  head.cap_count = static_cast<std::uint32_t>(s.boot.caps.size());
+  head.param_count = static_cast<std::uint32_t>(s.params.size());
+  head.generation = 0;
+  (void)wire::copy_name(head.name, s.name);
+  if (tx.build_with(wire::FrameKind::Boot, 0, 0, wire::kProtocolVersion, head)) send_control(s, tx.bytes());
+  for (const cap::BootCap& c : s.boot.caps) {
+    wire::BootCap bc{};
+    bc.slot = c.slot.value();
+    bc.kind = static_cast<std::uint8_t>(c.kind);
+    for (std::size_t m = 0; m < kModeCount; ++m) bc.rights_by_mode[m] = c.rights[m].bits();
+    const ObjectInfo& o = objects[c.object.value()];
+    if (o.type != nullptr) {
+      bc.payload_size = static_cast<std::uint32_t>(o.type->size);
+      (void)wire::copy_name(bc.type, o.type->name);
+    } else if (o.kind == ObjectKind::Persistent) {
+      bc.payload_size = static_cast<std::uint32_t>(o.persistent.size());
+    }
+    (void)wire::copy_name(bc.object, c.name);
+    if (tx.build_with(wire::FrameKind::BootCap, 0, 0, 0, bc)) send_control(s, tx.bytes());
+  }
+  for (const wire::BootParam& p : s.params) {
+    if (tx.build_with(wire::FrameKind::BootParam, 0, 0, 0, p)) send_control(s, tx.bytes());
+  }
+  if (tx.build(wire::FrameKind::BootEnd, 0, 0, 0)) send_control(s, tx.bytes());
+}
+
+void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
+  if (s.phase == Phase::Dead || s.phase == Phase::NotStarted) return;
+  auto status = s.process.try_wait();
+  if (!status || !*status) return;  // not yet (spurious wakeup)
+  (void)epoll.remove(s.process.pidfd());
+  if (s.channel.valid()) {
+    (void)epoll.remove(s.channel.fd());
+    s.channel.close();
+  }
+  s.phase = Phase::Dead;
+  s.stats.exit = **status;
+  broker.remove_service(s.id);
+  timers.remove_service(s.id);
+  s.outq.clear();
+  s.has_held = false;
+  s.sweep = false;
+  if (stopping) return;
+  std::string reason = s.loss_reason.empty() ? (**status).to_string() : s.loss_reason + " (" + (**status).to_string() + ")";
+  lose_service(s, std::move(reason));
+}
+
+void Kernel::Impl::lose_service(ServiceRuntime& s, std::string reason) {
+  log("service '%s' lost at t = %.3f s: %s", s.name.c_str(), to_seconds(now()).count(), reason.c_str());
+  // DESIGN §7: with the image store, a rejuvenated service is rolled back here (a rejuvenated service dying
+  // is one of the three rollback triggers). Without it — or for a driver-level service, never rolled
+  // back — the run cannot continue safely.
+  stop_run(StopReason::ServiceFailed, "service '" + s.name + "': " + reason);
+}
+
+void Kernel::Impl::kill_hung(ServiceRuntime& s, std::string reason) {
+  if (!s.live() || !s.loss_reason.empty()) return;
+  s.loss_reason = std::move(reason);
+  s.stats.hung = true;
+  if (active_step) hung_this_step.push_back(s.id);
+  log("killing '%s': %s", s.name.c_str(), s.loss_reason.c_str());
+  (void)s.process.signal(SIGKILL);  // the pidfd reports the death; on_child_exit does the rest
+}
+
+void Kernel::Impl::on_plant_exit() {
+  auto status = plant.try_wait();
+  if (!status || !*status) return;
+  (void)epoll.remove(plant.pidfd());
+  if (stopping) return;
+  log("the plant exited: %s", (**status).to_string().c_str());
+  stop_run(StopReason::PlantExited, "the plant " + (**status).to_string());
+}
+
+void Kernel::Impl::check_deadlines() {
+  const Nanos t = wall();
+  for (ServiceRuntime& s : services) {
+    if ((s.phase == Phase::Spawned || s.phase == Phase::Booted) && t - s.spawned_at > options.boot_deadline) {
+      kill_hung(s, "not Ready within the boot deadline (" + std::to_string(to_seconds(options.boot_deadline).count()) + " s)");
+    }
+  }
+  for (ServiceRuntime& s : services) {
+    if (s.live() && s.channel_closed_at && t - *s.channel_closed_at > kChannelCloseGrace) {
+      kill_hung(s, "closed its channel");
+    }
+  }
+  if (active_step && t - step_started_wall > options.idle_deadline) {
+    bool killed = false;
+    for (ServiceRuntime& s : services) {
+      if (!s.live() || s.idle()) continue;
+      // Its Idle may be waiting in the channel: read what is there before judging.
+      if (s.channel.valid()) read_channel(s);
+      if (s.live() && !s.idle()) {
+        kill_hung(s, "not idle within the idle deadline (" + std::to_string(to_seconds(options.idle_deadline).count()) +
+                         " s) of step " + std::to_string(active_step->step));
+        killed = true;
+      }
+    }
+    // The others get a full deadline again for what the step still has to do.
+    if (killed) step_started_wall = t;
+  }
+}
+
+void Kernel::Impl::shutdown_all() {
+  if (shut_down) return;
+  shut_down = true;
+  stopping = true;
+  const bool any_live = std::any_of(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.live(); });
+  if (any_live) {
+    for (ServiceRuntime& s : services) {
+      if (s.live() && tx.build(wire::FrameKind::Shutdown, 0, 0, 0)) send_control(s, tx.bytes());
+    }
+    // Grace: keep the loop running (reading channels, draining queued Shutdowns, reaping).
+    const Nanos deadline = wall() + options.shutdown_grace;
+    active_step.reset();
+    while (wall() < deadline &&
+           std::any_of(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.live(); })) {
+      if (!pump(std::min<Nanos>(deadline - wall(), std::chrono::milliseconds{50}))) break;
+    }
+  }
+  for (ServiceRuntime& s : services) {
+    if (!s.live()) continue;
+    log("'%s' did not exit within the grace period: killed", s.name.c_str());
+    s.process.kill_and_reap();
+    if (s.channel.valid()) (void)epoll.remove(s.channel.fd());
+    (void)epoll.remove(s.process.pidfd());
+    s.channel.close();
+    s.stats.exit = s.process.status();
+    s.phase = Phase::Dead;
+  }
+  if (plant_started && plant.running()) {
+    (void)plant.signal(SIGTERM);
+    (void)sys::wait_fd(plant.pidfd(), sys::WaitFor::Readable, options.shutdown_grace);
+    if (auto st = plant.try_wait(); !st || !*st) {
+      log("the plant did not exit within the grace period: killed");
+    }
+    plant.kill_and_reap();
+  }
+  // Close every fd the run opened: DDS (participant, sockets, threads), the timerfd.
+  bridge.reset();
+  timerfd.reset();
+}
+
+}  // namespace rejuv::kernel

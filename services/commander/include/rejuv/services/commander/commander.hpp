@@ -1,0 +1,54 @@
+// The `commander` service (paper §IV-B: "we upload the mission ... through the PX4 commander"; DESIGN §4
+// `lateral`): the only path from the ground to the mission.
+//
+// Topics: out mission (MissionWaypoints), published once at start from the launch graph's mission; in
+// mission_upload (from ext_link, in MC) — validated here; applying an upload comes with the ground-link
+// work, for now a valid upload is reported and not applied — and sr_mode (uploads are expected in MC only:
+// the SEI has no network).
+//
+// Params — the launch graph's mission, as the kernel passes it to every service (sdk/service.hpp):
+//   mission.count                 number of waypoints, 1 … 16 (absent: the simulation's default mission)
+//   mission.<i>.north_m           waypoint i, i = 0 … count-1, local NED [m]   (required)
+//   mission.<i>.east_m                                                          (required)
+//   mission.<i>.down_m            (−3 is 3 m up)                                (required)
+//   mission.<i>.yaw_rad           heading at waypoint i [rad]                   (default 0)
+//   mission.acceptance_radius_m   when the last waypoint counts as reached [m]  (absent or 0: 0.05)
+// A bad mission (more than 16 waypoints, a missing or non-finite coordinate) is refused with the name of the
+// param at fault, and the service exits without publishing anything.
+#pragma once
+
+#include <cstdint>
+
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/core/vocabulary.hpp"
+#include "rejuv/flight_io/messages.hpp"
+
+namespace rejuv::services {
+
+class Commander {
+ public:
+  [[nodiscard]] static Result<Commander, flight_io::InputFailure> from_params(
+      const flight_io::Params& params);
+
+  // The mission to publish at start, stamped t.
+  [[nodiscard]] rejuv_msg_MissionWaypoints mission_message(Nanos t) const;
+  [[nodiscard]] const flight_io::MissionSpec& mission() const { return mission_; }
+
+  // The mission_upload hook: the upload, validated, or why it is refused. Outside MC an upload is refused
+  // (the network is off in the SEI, so one arriving then did not come from the ground link).
+  enum class UploadError : std::uint8_t { OutsideMissionControl, Invalid };
+  struct UploadRefusal {
+    UploadError kind = UploadError::Invalid;
+    std::string message{};
+    [[nodiscard]] std::string to_string() const { return message; }
+  };
+  [[nodiscard]] Result<flight_io::MissionSpec, UploadRefusal> validate_upload(
+      const rejuv_msg_MissionWaypoints& upload, SrMode mode) const;
+
+ private:
+  explicit Commander(flight_io::MissionSpec mission) : mission_(std::move(mission)) {}
+  flight_io::MissionSpec mission_;
+};
+
+}  // namespace rejuv::services

@@ -1,0 +1,62 @@
+// rejuv_commander: publishes the launch graph's mission and validates uploads (services/commander/include/
+// rejuv/services/commander/commander.hpp). No command line: started by the kernel.
+#include <chrono>
+
+#include "rejuv/flight_io/sdk_params.hpp"
+#include "rejuv/sdk/service.hpp"
+#include "rejuv/services/commander/commander.hpp"
+
+int main() {
+  using namespace rejuv;
+  auto connected = sdk::Service::connect();
+  if (!connected) return sdk::report_connect_failure(connected.error());
+  sdk::Service& svc = **connected;
+
+  auto commander = services::Commander::from_params(flight_io::params_of(svc));
+  if (!commander) {
+    svc.log(sdk::LogLevel::Error, "refusing the mission: " + commander.error().to_string());
+    return 1;
+  }
+  if (commander->mission().from_defaults) {
+    svc.log(sdk::LogLevel::Warn, "no mission.count param: flying the simulation's default mission");
+  }
+  auto mission = svc.advertise<rejuv_msg_MissionWaypoints>("mission");
+  if (!mission) {
+    svc.log(sdk::LogLevel::Error, "mission: " + mission.error().to_string());
+    return 1;
+  }
+  SrMode mode = svc.mode();
+  auto modes = svc.subscribe<rejuv_msg_SrMode>("sr_mode", [&](const rejuv_msg_SrMode& m) {
+    if (auto decoded = flight_io::mode_from_message(m)) mode = *decoded;
+  });
+  auto uploads =
+      svc.subscribe<rejuv_msg_MissionWaypoints>("mission_upload", [&](const rejuv_msg_MissionWaypoints& m) {
+        // The hook: validated and reported; applying uploads comes with the ground-link work.
+        auto checked = commander->validate_upload(m, mode);
+        if (!checked) {
+          svc.log(sdk::LogLevel::Warn, "mission upload refused: " + checked.error().to_string());
+        } else {
+          svc.logf(sdk::LogLevel::Info,
+                   "mission upload of %zu waypoints is valid; uploads are not applied yet",
+                   checked->waypoints.size());
+        }
+      });
+  for (const auto* error : {modes ? nullptr : &modes.error(), uploads ? nullptr : &uploads.error()}) {
+    if (error != nullptr) {
+      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
+      return 1;
+    }
+  }
+  // Right after the start of the clock (every service has subscribed by then: the kernel starts it only
+  // when all are Ready), so gen_set_point has the mission before the first estimate needs it.
+  auto start = svc.after(Nanos{1}, [&] {
+    if (auto ok = mission->publish(commander->mission_message(svc.now())); !ok) {
+      svc.log(sdk::LogLevel::Error, "publishing the mission: " + ok.error().to_string());
+    }
+  });
+  if (!start) {
+    svc.log(sdk::LogLevel::Error, "timer: " + start.error().to_string());
+    return 1;
+  }
+  return svc.run();
+}

@@ -1,0 +1,58 @@
+// The `ekf2` service (DESIGN §9, paper §IV-B): sensor_combined + sensor_mag + sensor_baro + sensor_gps →
+// the simulation's estimator node (flight::EstimatorNode, the EKF) → vehicle_state.
+//
+// Topics: in sensor_combined (250 Hz, from sensors), sensor_mag and sensor_baro (50 Hz), sensor_gps (10 Hz,
+// 200 ms old), all raw ones bridged in from the plant, and rollback_signal (the kernel, after a rollback;
+// only if the policy grants it); out vehicle_state (VehicleStateEstimate) once per IMU tick, stamped with the
+// tick's time. Params (graph-wide, flight_io/params.hpp): mission.* — the EKF
+// starts where the simulation starts it, hovering at the first waypoint; the noise model is the
+// simulation's (flight_io::ekf_params()).
+//
+// Order of fusion, as in the simulation: within one IMU tick the estimator predicts with the IMU first and
+// then fuses GPS, baro and mag (EstimatorNode::on_samples). The raw samples reach this service before the
+// sensor_combined of their tick (that one takes a detour through `sensors`), so they are held and handed to
+// the estimator together with the next IMU tick. A second sample of one sensor before that tick flushes the
+// held ones without a prediction — what the simulation does with a physics step that has no gyro sample.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+
+#include "rejuv/flight/estimator_node.hpp"
+#include "rejuv/flight_io/messages.hpp"
+
+namespace rejuv::services {
+
+class Ekf2Node {
+ public:
+  Ekf2Node(const flight::EkfParams& params, const flight::EkfState& initial, Nanos imu_period);
+
+  // Raw aiding samples: held until the next IMU tick. Non-finite ones (and GPS without a 3D fix) are refused.
+  Result<void, flight_io::InputFailure> on_mag(const rejuv_msg_SensorMag& message);
+  Result<void, flight_io::InputFailure> on_baro(const rejuv_msg_SensorBaro& message);
+  Result<void, flight_io::InputFailure> on_gps(const rejuv_msg_SensorGps& message);
+
+  // One IMU tick: predict, fuse the held samples, and return the estimate to publish.
+  [[nodiscard]] Result<rejuv_msg_VehicleStateEstimate, flight_io::InputFailure> on_combined(
+      const rejuv_msg_SensorCombined& message);
+
+  // RollbackSignal (DESIGN §7 step 3): this image was just restored; its estimate is T_MC + T_RB old. As the
+  // simulation does: the held samples (from before the cut) are dropped and the filter's uncertainty re-armed
+  // (EstimatorNode::on_rollback), so that the measurements pull the estimate back within T_est.
+  void on_rollback(const flight::EkfRearm& rearm);
+
+  [[nodiscard]] const flight::EstimatorNode& node() const { return node_; }
+  // x̂ as the controllers will read it from vehicle_state.
+  [[nodiscard]] const flight::StateVec& estimate() const { return node_.estimate(); }
+
+ private:
+  // Fuses the held samples without a prediction (a second sample of a sensor arrived before the IMU tick).
+  void flush_held();
+  [[nodiscard]] std::uint32_t flags(const flight::EkfCounters& before) const;
+
+  flight::EstimatorNode node_;
+  plant::SensorSamples held_;  // aiding samples only (mag, baro, gps)
+  bool integrated_ = false;    // at least one IMU tick
+};
+
+}  // namespace rejuv::services

@@ -1,0 +1,68 @@
+// rejuv_ekf2: the state estimator as a process (services/ekf2/include/rejuv/services/ekf2/ekf2_node.hpp).
+// No command line: started by the kernel, which passes everything through the channel.
+#include "rejuv/flight_io/sdk_params.hpp"
+#include "rejuv/sdk/service.hpp"
+#include "rejuv/services/ekf2/ekf2_node.hpp"
+
+int main() {
+  using namespace rejuv;
+  auto connected = sdk::Service::connect();
+  if (!connected) return sdk::report_connect_failure(connected.error());
+  sdk::Service& svc = **connected;
+
+  auto mission = flight_io::mission_params(flight_io::params_of(svc));
+  if (!mission) {
+    svc.log(sdk::LogLevel::Error, "bad params: " + mission.error().to_string());
+    return 1;
+  }
+  services::Ekf2Node ekf2(flight_io::ekf_params(), flight_io::ekf_initial_state(*mission),
+                          flight_io::imu_period());
+
+  auto state = svc.advertise<rejuv_msg_VehicleStateEstimate>("vehicle_state");
+  if (!state) {
+    svc.log(sdk::LogLevel::Error, "vehicle_state: " + state.error().to_string());
+    return 1;
+  }
+  std::uint64_t refused = 0;
+  const auto refuse = [&](const flight_io::InputFailure& e) {
+    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "dropping a sample: " + e.to_string());
+  };
+  auto combined =
+      svc.subscribe<rejuv_msg_SensorCombined>("sensor_combined", [&](const rejuv_msg_SensorCombined& m) {
+        auto x_hat = ekf2.on_combined(m);
+        if (!x_hat) return refuse(x_hat.error());
+        (void)state->publish(*x_hat);  // granted in every mode
+      });
+  auto mag = svc.subscribe<rejuv_msg_SensorMag>("sensor_mag", [&](const rejuv_msg_SensorMag& m) {
+    if (auto ok = ekf2.on_mag(m); !ok) refuse(ok.error());
+  });
+  auto baro = svc.subscribe<rejuv_msg_SensorBaro>("sensor_baro", [&](const rejuv_msg_SensorBaro& m) {
+    if (auto ok = ekf2.on_baro(m); !ok) refuse(ok.error());
+  });
+  auto gps = svc.subscribe<rejuv_msg_SensorGps>("sensor_gps", [&](const rejuv_msg_SensorGps& m) {
+    if (auto ok = ekf2.on_gps(m); !ok) refuse(ok.error());
+  });
+  // The simulation re-arms the estimator on every rollback (flight/sim: RollbackSignal to ekf2 and
+  // checkpoint_p). Subscribed when the policy grants rollback_signal to ekf2.
+  const flight::EkfRearm rearm = flight_io::ekf_rearm();
+  if (svc.cap("rollback_signal")) {
+    auto rollback = svc.subscribe<rejuv_msg_RollbackSignal>(
+        "rollback_signal", [&](const rejuv_msg_RollbackSignal&) { ekf2.on_rollback(rearm); });
+    if (!rollback) {
+      svc.log(sdk::LogLevel::Error, "subscribe: " + rollback.error().to_string());
+      return 1;
+    }
+  } else {
+    svc.log(sdk::LogLevel::Warn,
+            "the policy grants no rollback_signal to ekf2: the estimator is not re-armed after a rollback "
+            "(the simulation re-arms it)");
+  }
+  for (const auto* error : {combined ? nullptr : &combined.error(), mag ? nullptr : &mag.error(),
+                            baro ? nullptr : &baro.error(), gps ? nullptr : &gps.error()}) {
+    if (error != nullptr) {
+      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
+      return 1;
+    }
+  }
+  return svc.run();
+}

@@ -1,0 +1,114 @@
+// The launch-graph parameters of the flight services (DESIGN §10), read into the configuration types of the
+// flight libraries. Every default comes from flight::SimConfig::defaults() and every derived number is formed
+// the way flight::SrSimulation::create forms it, so that `rejuv run` flies exactly like `rejuv sim` for the
+// same graph. The services read only graph-wide params that the kernel passes to every service
+// (sdk/service.hpp "Params"):
+//
+//   sr.enabled (0/1), sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s, sr.restricted_limit_fraction,
+//   sr.box.position_m, sr.box.velocity_m_s, sr.box.angle_rad, sr.box.rate_rad_s,
+//   mission.count, mission.acceptance_radius_m,
+//   mission.<i>.north_m, mission.<i>.east_m, mission.<i>.down_m (required), mission.<i>.yaw_rad (default 0)
+//
+// A missing param takes the simulation's default; a present but wrong one is refused with its name.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/flight/control_design.hpp"
+#include "rejuv/flight/ekf.hpp"
+#include "rejuv/flight/estimator_node.hpp"
+#include "rejuv/flight/limits.hpp"
+#include "rejuv/flight/setpoint.hpp"
+#include "rejuv/flight/sr_sim.hpp"
+
+namespace rejuv::flight_io {
+
+// What is wrong with a param or a message field.
+enum class InputError : std::uint8_t {
+  Missing,     // a required value is absent (e.g. one coordinate of a waypoint)
+  NotFinite,   // NaN or infinite
+  OutOfRange,  // outside the range the flight code accepts (e.g. more than 16 waypoints)
+  Design,      // the numbers are valid one by one but the control design refuses them
+};
+[[nodiscard]] std::string_view to_string(InputError error);
+
+struct InputFailure {
+  InputError kind = InputError::Missing;
+  std::string where{};    // the param or field, e.g. "mission.3.east_m"
+  std::string message{};  // what was expected
+  // "mission.3.east_m: missing: every waypoint needs north_m, east_m and down_m".
+  [[nodiscard]] std::string to_string() const;
+};
+
+// A read-only view of a service's numeric params: sdk::Service::param in a process (sdk_params.hpp), a
+// table in tests. `find` is nullopt when the param is absent.
+class Params {
+ public:
+  using Lookup = std::function<std::optional<double>(std::string_view name)>;
+  explicit Params(Lookup lookup) : lookup_(std::move(lookup)) {}
+  [[nodiscard]] static Params from_table(std::map<std::string, double, std::less<>> table);
+
+  [[nodiscard]] std::optional<double> find(std::string_view name) const { return lookup_(name); }
+
+ private:
+  Lookup lookup_;
+};
+
+// The tracking numbers of the SR scheme (§IV-A, §V-B). Also used without SR: Table I's configurations run
+// the same tracking algorithm (flight/sim/sr_sim.hpp).
+struct TrackingParams {
+  flight::SrSwitch sr = flight::SrSwitch::On;
+  double rho_M = 0.1;           // the update keeps x̂ ∈ E(ρ_M, x_sp')
+  double rho_s = 0.0894;        // condition (1): ‖x̂ − x_sp‖_P < ρ_s
+  Seconds t_min{0.02};          // hold after a setpoint move
+  Seconds check_period{0.002};  // how often (1) is checked
+};
+// sr.enabled, sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s; 0 < ρ_s < ρ_M ≤ 1 as config_from_launch.
+[[nodiscard]] Result<TrackingParams, InputFailure> tracking_params(const Params& params);
+
+// The control design spec of the simulation: the plant's quad (jMAVSim default) as the vehicle, the IMU
+// period as the control period, sr.box.* and sr.restricted_limit_fraction.
+[[nodiscard]] Result<flight::ControlDesignSpec, InputFailure> control_spec(const Params& params);
+// design_control(control_spec(params)): gains, P and both limit boxes (DESIGN §9).
+[[nodiscard]] Result<flight::ControlDesign, InputFailure> control_design(const Params& params);
+
+// The actuator limits alone (output_driver needs no gains): U, Ū and u_hover exactly as design_control
+// computes them.
+struct ActuatorLimits {
+  flight::InputBox full{};        // U
+  flight::InputBox restricted{};  // Ū
+  flight::InputVec u_hover = flight::InputVec::Zero();
+};
+[[nodiscard]] Result<ActuatorLimits, InputFailure> actuator_limits(const Params& params);
+
+// The mission (§IV-B: ordered waypoints W). Without mission.count the simulation's default mission (the
+// §VI-C square) is used; with it, 1 ≤ count ≤ 16 and every waypoint needs its three coordinates.
+// mission.acceptance_radius_m: absent or 0 → 0.05 m (as config_from_launch), otherwise > 0 and finite.
+inline constexpr std::size_t kMaxWaypoints = 16;  // idl/control.idl MissionWaypoints.waypoints[16]
+struct MissionSpec {
+  std::vector<flight::PathWaypoint> waypoints{};
+  double acceptance_radius_m = 0.05;
+  bool from_defaults = false;  // no mission.count: the simulation's default mission
+};
+[[nodiscard]] Result<MissionSpec, InputFailure> mission_params(const Params& params);
+
+// The IMU period of the plant's sensor suite (gyro and accel, 250 Hz): the estimator's step and the
+// controllers' period.
+[[nodiscard]] Nanos imu_period();
+// The EKF parameters of the simulation (defaults; GPS delay and gravity from the sensor suite and the quad).
+[[nodiscard]] flight::EkfParams ekf_params();
+// The uncertainty the estimator re-arms on a rollback (flight::EstimatorNode::on_rollback), the simulation's.
+[[nodiscard]] flight::EkfRearm ekf_rearm();
+// The state the EKF starts from: hovering at the first waypoint, heading as it says (the simulation's
+// initial state, which is also where the plant starts).
+[[nodiscard]] flight::EkfState ekf_initial_state(const MissionSpec& mission);
+
+}  // namespace rejuv::flight_io

@@ -1,0 +1,258 @@
+#include "rejuv/flight_io/params.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <utility>
+
+#include "rejuv/plant/quadrotor.hpp"
+#include "rejuv/plant/sensors.hpp"
+
+namespace rejuv::flight_io {
+
+std::string_view to_string(InputError error) {
+  switch (error) {
+    case InputError::Missing: return "missing";
+    case InputError::NotFinite: return "not a finite number";
+    case InputError::OutOfRange: return "out of range";
+    case InputError::Design: return "refused by the control design";
+  }
+  return "invalid";
+}
+
+std::string InputFailure::to_string() const {
+  return where + ": " + std::string(flight_io::to_string(kind)) + ": " + message;
+}
+
+Params Params::from_table(std::map<std::string, double, std::less<>> table) {
+  return Params([table = std::move(table)](std::string_view name) -> std::optional<double> {
+    const auto it = table.find(name);
+    if (it == table.end()) return std::nullopt;
+    return it->second;
+  });
+}
+
+namespace {
+
+std::string number_text(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%g", v);
+  return buf;
+}
+
+InputFailure failure(InputError kind, std::string where, std::string message) {
+  return InputFailure{.kind = kind, .where = std::move(where), .message = std::move(message)};
+}
+
+// The param if present, checked finite.
+Result<std::optional<double>, InputFailure> finite_param(const Params& params, std::string_view name) {
+  const std::optional<double> v = params.find(name);
+  if (v && !std::isfinite(*v)) {
+    return fail(failure(InputError::NotFinite, std::string(name), "expected a finite number"));
+  }
+  return v;
+}
+
+// A finite param, or `fallback` when absent.
+Result<double, InputFailure> number_or(const Params& params, std::string_view name, double fallback) {
+  auto v = finite_param(params, name);
+  if (!v) return fail(std::move(v.error()));
+  return v->value_or(fallback);
+}
+
+// A finite param > 0 (or >= 0 when `zero_ok`), or `fallback` when absent.
+Result<double, InputFailure> positive_or(const Params& params, std::string_view name, double fallback,
+                                         bool zero_ok = false) {
+  auto v = number_or(params, name, fallback);
+  if (!v) return v;
+  if (*v < 0.0 || (!zero_ok && *v == 0.0)) {
+    return fail(failure(InputError::OutOfRange, std::string(name),
+                        std::string(zero_ok ? "expected a value >= 0" : "expected a value > 0") + ", got " +
+                            number_text(*v)));
+  }
+  return v;
+}
+
+flight::VehicleParams vehicle_of(const plant::QuadParams& quad) {
+  // As flight::SrSimulation::create: the controllers are designed on the vehicle of the plant.
+  return flight::VehicleParams{.mass_kg = quad.mass_kg,
+                               .inertia_diag_kg_m2 = quad.inertia_B_kg_m2.diagonal(),
+                               .gravity_m_s2 = quad.gravity_m_s2,
+                               .k1_N = quad.max_thrust_per_motor_N,
+                               .k2_N_m = quad.max_torque_per_motor_N_m,
+                               .arm_m = quad.arm_length_m};
+}
+
+}  // namespace
+
+Result<TrackingParams, InputFailure> tracking_params(const Params& params) {
+  const flight::SimConfig sim = flight::SimConfig::defaults();
+  TrackingParams t{.sr = sim.sr,
+                   .rho_M = sim.rho_M,
+                   .rho_s = sim.handler.rho_s,
+                   .t_min = sim.handler.t_min,
+                   .check_period = sim.handler.check_period};
+  auto enabled = finite_param(params, "sr.enabled");
+  if (!enabled) return fail(std::move(enabled.error()));
+  if (*enabled) {
+    if (**enabled != 0.0 && **enabled != 1.0) {
+      return fail(
+          failure(InputError::OutOfRange, "sr.enabled", "expected 0 or 1, got " + number_text(**enabled)));
+    }
+    t.sr = **enabled == 1.0 ? flight::SrSwitch::On : flight::SrSwitch::Off;
+  }
+  auto rho_m = number_or(params, "sr.rho_m", t.rho_M);
+  if (!rho_m) return fail(std::move(rho_m.error()));
+  auto rho_s = number_or(params, "sr.rho_s", t.rho_s);
+  if (!rho_s) return fail(std::move(rho_s.error()));
+  // config_from_launch checks the same (§IV-A): E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set.
+  if (!(*rho_s > 0.0 && *rho_s < *rho_m && *rho_m <= 1.0)) {
+    return fail(failure(InputError::OutOfRange, "sr.rho_s",
+                        "the tracking algorithm needs 0 < rho_s < rho_m <= 1 (§IV-A), got rho_s = " +
+                            number_text(*rho_s) + ", rho_m = " + number_text(*rho_m)));
+  }
+  t.rho_M = *rho_m;
+  t.rho_s = *rho_s;
+  auto t_min = positive_or(params, "sr.t_min_s", t.t_min.count(), /*zero_ok=*/true);
+  if (!t_min) return fail(std::move(t_min.error()));
+  t.t_min = Seconds{*t_min};
+  auto check = positive_or(params, "sr.check_period_s", t.check_period.count());
+  if (!check) return fail(std::move(check.error()));
+  t.check_period = Seconds{*check};
+  return t;
+}
+
+Result<flight::ControlDesignSpec, InputFailure> control_spec(const Params& params) {
+  const flight::SimConfig sim = flight::SimConfig::defaults();
+  flight::ControlDesignSpec spec = sim.control;
+  spec.vehicle = vehicle_of(sim.quad);
+  spec.control_period = to_seconds(sim.sensors.gyro_period);
+  const std::pair<std::string_view, double*> box[] = {
+      {"sr.box.position_m", &spec.box.position_m},
+      {"sr.box.velocity_m_s", &spec.box.velocity_m_s},
+      {"sr.box.angle_rad", &spec.box.angle_rad},
+      {"sr.box.rate_rad_s", &spec.box.rate_rad_s},
+  };
+  for (const auto& [name, field] : box) {
+    auto v = positive_or(params, name, *field);
+    if (!v) return fail(std::move(v.error()));
+    *field = *v;
+  }
+  auto fraction = positive_or(params, "sr.restricted_limit_fraction", spec.restricted_limit_fraction);
+  if (!fraction) return fail(std::move(fraction.error()));
+  if (*fraction > 1.0) {
+    return fail(failure(InputError::OutOfRange, "sr.restricted_limit_fraction",
+                        "Ū as a fraction of U must be in (0, 1], got " + number_text(*fraction)));
+  }
+  spec.restricted_limit_fraction = *fraction;
+  return spec;
+}
+
+Result<flight::ControlDesign, InputFailure> control_design(const Params& params) {
+  auto spec = control_spec(params);
+  if (!spec) return fail(std::move(spec.error()));
+  auto design = flight::design_control(*spec);
+  if (!design) {
+    std::string where = "sr";
+    switch (design.error().kind) {
+      case flight::DesignError::Limits: where = "sr.restricted_limit_fraction"; break;
+      case flight::DesignError::Ellipsoid: where = "sr.box"; break;
+      case flight::DesignError::Vehicle:
+      case flight::DesignError::Model:
+      case flight::DesignError::MissionLqr:
+      case flight::DesignError::SafetyLqr: where = "plant"; break;
+    }
+    return fail(failure(InputError::Design, std::move(where), design.error().to_string()));
+  }
+  return std::move(*design);
+}
+
+Result<ActuatorLimits, InputFailure> actuator_limits(const Params& params) {
+  auto spec = control_spec(params);
+  if (!spec) return fail(std::move(spec.error()));
+  // The same calls, in the same order, as flight::design_control.
+  auto vehicle = flight::validate(spec->vehicle);
+  if (!vehicle) return fail(failure(InputError::Design, "plant", vehicle.error().message));
+  auto restricted = flight::restricted_limits(*vehicle, spec->restricted_limit_fraction);
+  if (!restricted) {
+    return fail(failure(InputError::Design, "sr.restricted_limit_fraction", restricted.error().message));
+  }
+  return ActuatorLimits{.full = flight::full_limits(*vehicle),
+                        .restricted = *restricted,
+                        .u_hover = flight::hover_input(*vehicle)};
+}
+
+Result<MissionSpec, InputFailure> mission_params(const Params& params) {
+  const flight::SimConfig sim = flight::SimConfig::defaults();
+  MissionSpec m{
+      .waypoints = sim.waypoints, .acceptance_radius_m = sim.acceptance_radius_m, .from_defaults = false};
+  auto radius = positive_or(params, "mission.acceptance_radius_m", 0.0, /*zero_ok=*/true);
+  if (!radius) return fail(std::move(radius.error()));
+  if (*radius > 0.0) m.acceptance_radius_m = *radius;  // 0 = the default (config_from_launch)
+
+  auto count = finite_param(params, "mission.count");
+  if (!count) return fail(std::move(count.error()));
+  if (!*count) {
+    m.from_defaults = true;
+    return m;
+  }
+  const double n = **count;
+  if (n != std::floor(n) || n < 1.0 || n > static_cast<double>(kMaxWaypoints)) {
+    return fail(failure(InputError::OutOfRange, "mission.count",
+                        "expected a whole number of waypoints in [1, " + std::to_string(kMaxWaypoints) +
+                            "], got " + number_text(n)));
+  }
+  m.waypoints.clear();
+  const auto count_n = static_cast<std::size_t>(n);
+  for (std::size_t i = 0; i < count_n; ++i) {
+    const std::string prefix = "mission." + std::to_string(i) + ".";
+    flight::PathWaypoint w;
+    const std::pair<const char*, double*> coords[] = {
+        {"north_m", &w.p_N_m.x()}, {"east_m", &w.p_N_m.y()}, {"down_m", &w.p_N_m.z()}};
+    for (const auto& [field, value] : coords) {
+      const std::string name = prefix + field;
+      auto v = finite_param(params, name);
+      if (!v) return fail(std::move(v.error()));
+      if (!*v) {
+        return fail(failure(InputError::Missing, name,
+                            "waypoint " + std::to_string(i) + " of " + std::to_string(count_n) +
+                                " needs north_m, east_m and down_m"));
+      }
+      *value = **v;
+    }
+    auto yaw = number_or(params, prefix + "yaw_rad", 0.0);
+    if (!yaw) return fail(std::move(yaw.error()));
+    w.yaw_rad = *yaw;
+    m.waypoints.push_back(w);
+  }
+  return m;
+}
+
+Nanos imu_period() {
+  return plant::SensorParams::defaults().gyro_period;
+}
+
+flight::EkfParams ekf_params() {
+  // As flight::SrSimulation::create.
+  const flight::SimConfig sim = flight::SimConfig::defaults();
+  flight::EkfParams p = sim.ekf;
+  p.gps_delay = to_seconds(sim.sensors.gps_delay);
+  p.gravity_m_s2 = sim.quad.gravity_m_s2;
+  return p;
+}
+
+flight::EkfRearm ekf_rearm() {
+  return flight::SimConfig::defaults().ekf_rearm;
+}
+
+flight::EkfState ekf_initial_state(const MissionSpec& mission) {
+  // As flight::SrSimulation::create: hovering at rest at the first waypoint, level, with its yaw.
+  const flight::PathWaypoint first =
+      mission.waypoints.empty() ? flight::PathWaypoint{} : mission.waypoints.front();
+  const plant::QuadState hover = plant::Quadrotor::hover_at(flight::SimConfig::defaults().quad, first.p_N_m);
+  return flight::EkfState{
+      .p_N_m = hover.p_NB_N,
+      .v_N_m_s = hover.v_NB_N,
+      .q_NB = Eigen::Quaterniond(Eigen::AngleAxisd(first.yaw_rad, Eigen::Vector3d::UnitZ()))};
+}
+
+}  // namespace rejuv::flight_io

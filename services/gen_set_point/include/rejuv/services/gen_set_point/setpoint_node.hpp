@@ -1,0 +1,69 @@
+// The `gen_set_point` service (paper §IV-A, §IV-B; DESIGN §8): the simulation's setpoint generator
+// (flight::SetpointGenerator) driven by topics.
+//
+// Topics: in mission (MissionWaypoints, from commander), vehicle_state (every IMU tick),
+// setpoint_update_request (from checkpoint_p's rollback handler, with SR); out setpoint — published when it
+// changed (a new mission, a move, the mission done) as soon as the mode allows it (the policy grants the
+// publish in the SEI only: in MC a compromised copy cannot steer the vehicle through x_sp).
+// Params (graph-wide, flight_io/params.hpp): sr.enabled, sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s,
+// sr.box.*, sr.restricted_limit_fraction (P comes from the control design).
+//
+// With SR (sr.enabled = 1): each setpoint_update_request moves x_sp as far as keeps x̂ ∈ E(ρ_M, x_sp')
+// (mode "update" of Fig. 1; ρ_M from the request when it carries one in (0, 1], else sr.rho_m).
+// Without SR: the tracking rule of the simulation's no-SR configuration, on every estimate — every
+// check_period, unless within t_min of the last move, if ‖x̂ − x_sp‖_P < ρ_s then update; update requests
+// are ignored.
+// mission_done (as the simulation's completion): once x_sp is the last waypoint and x̂ is within the
+// mission's acceptance radius of it, latched; the setpoint carrying it is stamped with the estimate's time
+// at which it happened, even if the mode delays the publication.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+
+#include "rejuv/flight/ellipsoid.hpp"
+#include "rejuv/flight/setpoint.hpp"
+#include "rejuv/flight_io/messages.hpp"
+
+namespace rejuv::services {
+
+class SetpointNode {
+ public:
+  SetpointNode(const flight::SafetyEllipsoid& ellipsoid, const flight_io::TrackingParams& tracking);
+
+  // A mission (re)starts the generator at its first waypoint; the same mission again changes nothing.
+  Result<void, flight_io::InputFailure> on_mission(const rejuv_msg_MissionWaypoints& message);
+  // The latest x̂; runs the no-SR tracking rule and the completion check.
+  Result<void, flight_io::InputFailure> on_state(const rejuv_msg_VehicleStateEstimate& message);
+  // publish_update_sp() of Fig. 5. Ignored without SR, before a mission or before the first estimate.
+  enum class RequestOutcome : std::uint8_t { Moved, Held, Finished, Ignored };
+  RequestOutcome on_update_request(const rejuv_msg_SetpointUpdateRequest& message);
+
+  // The setpoint to publish if it changed since the last take (call only when the publish is allowed).
+  [[nodiscard]] std::optional<rejuv_msg_Setpoint> take_changed();
+
+  [[nodiscard]] bool mission_done() const { return done_at_.has_value(); }
+  [[nodiscard]] const flight::SetpointGenerator* generator() const {
+    return generator_ ? &*generator_ : nullptr;
+  }
+
+ private:
+  void track_without_sr(Nanos now);
+  void check_completion(Nanos now);
+  void changed(Nanos now);
+
+  flight::SafetyEllipsoid ellipsoid_;
+  flight_io::TrackingParams tracking_;
+  std::shared_ptr<const flight::WaypointPath> path_;
+  std::optional<flight_io::MissionSpec> mission_;
+  std::optional<flight::SetpointGenerator> generator_;
+  std::optional<flight::StateVec> x_hat_;
+  // No-SR tracker (flight/sim: track_without_sr).
+  Nanos next_check_{0};
+  Nanos hold_until_{0};
+  std::optional<Nanos> done_at_;
+  std::optional<Nanos> changed_at_;  // pending publication
+};
+
+}  // namespace rejuv::services

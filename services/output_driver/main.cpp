@@ -1,0 +1,52 @@
+// rejuv_output_driver: limits + inverse mixer as a driver-level process (services/output_driver/include/
+// rejuv/services/output_driver/driver_node.hpp). No command line: started by the kernel.
+#include "rejuv/flight_io/sdk_params.hpp"
+#include "rejuv/plant/quadrotor.hpp"
+#include "rejuv/sdk/service.hpp"
+#include "rejuv/services/output_driver/driver_node.hpp"
+
+int main() {
+  using namespace rejuv;
+  auto connected = sdk::Service::connect();
+  if (!connected) return sdk::report_connect_failure(connected.error());
+  sdk::Service& svc = **connected;
+
+  auto limits = flight_io::actuator_limits(flight_io::params_of(svc));
+  if (!limits) {
+    svc.log(sdk::LogLevel::Error, "bad params: " + limits.error().to_string());
+    return 1;
+  }
+  // The mixer of the vehicle the plant flies (flight/sim uses the same: plant.mixer().inverse()).
+  const plant::Mixer mixer(flight::SimConfig::defaults().quad);
+  services::DriverNode driver(mixer.inverse(), *limits, svc.mode());
+
+  auto outputs = svc.advertise<rejuv_msg_ActuatorOutputs>("actuator_outputs");
+  if (!outputs) {
+    svc.log(sdk::LogLevel::Error, "actuator_outputs: " + outputs.error().to_string());
+    return 1;
+  }
+  std::uint64_t refused = 0;
+  const auto refuse = [&](const flight_io::InputFailure& e) {
+    if (refused++ == 0) {
+      svc.log(sdk::LogLevel::Warn, "ignoring a message (the outputs in force stay): " + e.to_string());
+    }
+  };
+  auto modes = svc.subscribe<rejuv_msg_SrMode>("sr_mode", [&](const rejuv_msg_SrMode& m) {
+    auto mode = flight_io::mode_from_message(m);
+    if (!mode) return refuse(mode.error());
+    driver.on_mode(*mode);
+  });
+  auto controls = svc.subscribe<rejuv_msg_ActuatorControls>(
+      "actuator_controls", [&](const rejuv_msg_ActuatorControls& m) {
+        auto out = driver.on_controls(m, svc.now());
+        if (!out) return refuse(out.error());
+        (void)outputs->publish(*out);  // granted in every mode
+      });
+  for (const auto* error : {modes ? nullptr : &modes.error(), controls ? nullptr : &controls.error()}) {
+    if (error != nullptr) {
+      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
+      return 1;
+    }
+  }
+  return svc.run();
+}

@@ -1,0 +1,406 @@
+// The service SDK (DESIGN §2, §5, §6; docs/protocol.md): what a service links to talk to the kernel.
+//
+// A service is an untrusted, isolated process. It reaches nothing except through its channel to the
+// kernel (fd 3) and the kernel's read-only time page (fd 4). This library speaks the wire protocol of
+// kernel_sim/channel/wire.hpp for it and gives the service author a small, typed, single-threaded API:
+//
+//   int main() {
+//     auto svc = rejuv::sdk::Service::connect();           // Hello/Boot, AfterExec seccomp stage
+//     if (!svc) { return rejuv::sdk::report_connect_failure(svc.error()); }
+//     auto out = (*svc)->advertise<rejuv_msg_ActuatorControls>("actuator_controls");
+//     auto est = (*svc)->subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state");
+//     const double gain = (*svc)->param("gain", 1.0);
+//     auto tick = (*svc)->every(std::chrono::milliseconds(4), [&] {
+//       if (est->updated()) { const auto& x = est->copy(); ... out->publish(u); }
+//     });
+//     return (*svc)->run();                                 // until Shutdown; returns the exit code
+//   }
+//
+// Every fallible call returns Result<T, Error> (CONVENTIONS "Errors are values"). Handles (Publisher,
+// Subscription, Timer) are small views into the Service and are valid as long as the Service lives; the
+// Service is pinned in memory (returned by unique_ptr, neither copyable nor movable).
+//
+// Threads: the Service is single-threaded. Callbacks run on the thread that called run(); they must not
+// block (a lockstep step waits until every service is idle, docs/protocol.md "Idle").
+// Allocation: advertise/subscribe/every/after allocate once; publish, delivery, timers and the event loop
+// allocate nothing per message.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+#include "rejuv/cap/capability.hpp"
+#include "rejuv/channel/wire.hpp"
+#include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/core/vocabulary.hpp"
+#include "rejuv/msgs/topic_types.hpp"
+
+namespace rejuv::sdk {
+
+// ---- Errors ----
+
+// What went wrong in an SDK call. One enum for the SDK (CONVENTIONS); Error adds the detail.
+enum class SdkError : std::uint8_t {
+  NotAService,       // fd 3 is not a channel, fd 4 not a time page, or REJUV_SERVICE is unset
+  Seccomp,           // the AfterExec seccomp stage could not be installed
+  ChannelIo,         // a send or receive on fd 3 failed (errno in Error::detail)
+  ChannelClosed,     // the kernel closed the channel
+  Protocol,          // the kernel sent something the protocol does not allow here (boot sequence, reply)
+  VersionMismatch,   // the kernel speaks another protocol version
+  NoSuchObject,      // the boot info has no cap with that object name (the policy never grants it)
+  WrongObjectKind,   // the cap is not of the kind the call needs (e.g. subscribe on a Checkpoint cap)
+  TypeMismatch,      // the topic's IDL type or size differs from the C++ type asked for
+  NeverGranted,      // the policy grants the needed right in no mode (e.g. advertise without Write)
+  NotHeldInMode,     // the right is not held in the current mode: nothing was sent (publish)
+  AlreadySubscribed, // one Subscription per topic per service
+  TooManyTimers,     // more than kMaxTimers live timers
+  NoSuchTimer,       // cancel of a timer that is not armed
+  BadArgument,       // a local argument error (oversize data, zero period, ...)
+  Denied,            // the kernel refused the request: Error::cap_error says why
+  OperationFailed,   // the kernel accepted the cap but the operation failed: Error::wire_error ≥ 100
+};
+[[nodiscard]] std::string_view to_string(SdkError error);
+
+struct Error {
+  SdkError code = SdkError::Protocol;
+  std::optional<cap::CapError> cap_error{};  // set for Denied
+  std::int32_t wire_error = 0;               // ReplyHeader::error as the kernel sent it (0 when local)
+  std::string detail{};                      // human-readable context (object name, errno text, ...)
+  [[nodiscard]] std::string to_string() const;  // "denied: InsufficientRights (checkpoint, TimerArm)"
+};
+
+template <class T>
+using SdkResult = Result<T, Error>;
+
+// Prints `error` to stderr as "[<REJUV_SERVICE>] cannot connect: ..." and returns the exit code to use (2).
+int report_connect_failure(const Error& error);
+
+using wire::LogLevel;
+
+class Service;
+
+// ---- Capabilities ----
+
+// One cap of the service's boot info (DESIGN §3): every cap it may ever hold, with its rights per mode.
+struct CapInfo {
+  std::string object;          // policy object name, e.g. "actuator_controls"
+  Slot slot;                   // fixed CSpace slot (CPtr)
+  ObjectKind kind = ObjectKind::Topic;
+  std::array<Rights, kModeCount> rights{};  // by index_of(mode); none = slot empty in that mode
+  std::string type;            // Topic: IDL type name, e.g. "rejuv::msg::ActuatorControls"
+  std::size_t payload_size = 0;  // Topic: exact message size [bytes]
+  [[nodiscard]] Rights rights_in(SrMode mode) const { return rights[index_of(mode)]; }
+  [[nodiscard]] bool ever(Right r) const;  // held with `r` in at least one mode
+};
+
+// The scalar result of an Invoke and how many bytes of reply data were copied out.
+struct InvokeReply {
+  std::uint64_t value = 0;
+  std::size_t data_size = 0;
+};
+
+namespace detail {
+
+// A subscription's state inside the Service; Subscription<T> is a typed view of it.
+class SubscriptionBase {
+ public:
+  SubscriptionBase(Slot slot, std::string object) : slot_(slot), object_(std::move(object)) {}
+  SubscriptionBase(const SubscriptionBase&) = delete;
+  SubscriptionBase& operator=(const SubscriptionBase&) = delete;
+  virtual ~SubscriptionBase() = default;
+
+  // One Deliver: the payload size has been checked against the topic by the caller.
+  void deliver(std::uint64_t generation, std::span<const std::byte> payload);
+
+  [[nodiscard]] Slot slot() const { return slot_; }
+  [[nodiscard]] const std::string& object() const { return object_; }
+  [[nodiscard]] std::uint64_t generation() const { return generation_; }
+  [[nodiscard]] std::uint64_t lost() const { return lost_; }
+  [[nodiscard]] std::uint64_t received() const { return received_; }
+  [[nodiscard]] bool updated() const { return updated_; }
+  void mark_read() { updated_ = false; }
+  [[nodiscard]] virtual std::size_t size() const = 0;
+
+ protected:
+  virtual void store_and_notify(std::span<const std::byte> payload) = 0;
+
+ private:
+  Slot slot_;
+  std::string object_;
+  std::uint64_t generation_ = 0;  // generation of the latest message (0 = none yet)
+  std::uint64_t lost_ = 0;        // messages skipped (generation gaps: the kernel clamped the cursor)
+  std::uint64_t received_ = 0;
+  bool updated_ = false;
+};
+
+template <class T>
+class TypedSubscription final : public SubscriptionBase {
+ public:
+  TypedSubscription(Slot slot, std::string object, std::function<void(const T&)> on_message)
+      : SubscriptionBase(slot, std::move(object)), on_message_(std::move(on_message)) {}
+  [[nodiscard]] const T& latest() const { return latest_; }
+  [[nodiscard]] std::size_t size() const override { return sizeof(T); }
+
+ private:
+  void store_and_notify(std::span<const std::byte> payload) override {
+    std::memcpy(&latest_, payload.data(), sizeof(T));
+    if (on_message_) {
+      on_message_(latest_);
+    }
+  }
+  T latest_{};
+  std::function<void(const T&)> on_message_;
+};
+
+}  // namespace detail
+
+// ---- Topic handles ----
+
+// The right to publish one topic (the cap with Write in some mode), typed by its C struct.
+template <class T>
+class Publisher {
+ public:
+  // Sends `message` if this service holds Write on the topic in the current mode (time page); otherwise
+  // returns NotHeldInMode and sends nothing, so an honest service never causes a denial. The kernel is
+  // still the authority: a mode change in flight can make it refuse (counted as a denial).
+  SdkResult<void> publish(const T& message) const;
+  // Sends regardless of the current mode (attack hooks and security tests; the kernel decides).
+  SdkResult<void> publish_unchecked(const T& message) const;
+  // True when the current mode grants Write on this topic.
+  [[nodiscard]] bool allowed() const;
+  [[nodiscard]] Slot slot() const { return slot_; }
+
+ private:
+  friend class Service;
+  Publisher(Service* service, const CapInfo* cap) : service_(service), cap_(cap), slot_(cap->slot) {}
+  Service* service_;
+  const CapInfo* cap_;
+  Slot slot_;
+};
+
+// A subscription with uORB semantics (PX4 uORB::Subscription): the latest message is kept; `updated()`
+// says whether one arrived since the last `copy()`. An optional callback runs on every delivery, in
+// publish order, before `updated()` is visible to anyone else.
+template <class T>
+class Subscription {
+ public:
+  [[nodiscard]] bool updated() const { return state_->updated(); }
+  // The latest message; marks it read. A zero-initialised T before the first delivery.
+  const T& copy() const {
+    state_->mark_read();
+    return state_->latest();
+  }
+  // The latest message without marking it read.
+  [[nodiscard]] const T& latest() const { return state_->latest(); }
+  [[nodiscard]] bool valid() const { return state_->received() > 0; }
+  // Broker generation of the latest message (0 = none yet).
+  [[nodiscard]] std::uint64_t generation() const { return state_->generation(); }
+  // Messages this subscriber missed because it fell more than the queue depth behind.
+  [[nodiscard]] std::uint64_t lost() const { return state_->lost(); }
+  [[nodiscard]] std::uint64_t received() const { return state_->received(); }
+  [[nodiscard]] Slot slot() const { return state_->slot(); }
+
+ private:
+  friend class Service;
+  explicit Subscription(detail::TypedSubscription<T>* state) : state_(state) {}
+  detail::TypedSubscription<T>* state_;
+};
+
+// A kernel timer (DESIGN §6: timers are kernel objects armed through the channel). A small handle; it
+// does not cancel on destruction (timers usually live as long as the service): call cancel().
+class Timer {
+ public:
+  SdkResult<void> cancel() const;
+  [[nodiscard]] std::uint64_t id() const { return id_; }
+
+ private:
+  friend class Service;
+  Timer(Service* service, std::uint64_t id) : service_(service), id_(id) {}
+  Service* service_;
+  std::uint64_t id_;
+};
+
+// How connect() finds its channel (tests may override; services use the defaults).
+struct ConnectOptions {
+  int channel_fd = wire::kChannelFd;
+  int time_page_fd = wire::kTimePageFd;
+  // Install the AfterExec seccomp stage (exec banned from here on). Always on in a real service.
+  bool install_seccomp = true;
+};
+
+// A service's connection to the kernel and its event loop.
+//
+// Params: the service's own `params` from the launch graph, plus these graph-wide ones that the kernel
+// adds for every service (numbers unless marked text):
+//   seed, clock (text: "lockstep" | "realtime"),
+//   sr.enabled (0/1), sr.t_mc_s, sr.t_est_s, sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s,
+//   sr.keep_generations, sr.restricted_limit_fraction,
+//   sr.box.position_m, sr.box.velocity_m_s, sr.box.angle_rad, sr.box.rate_rad_s,
+//   mission.count, mission.acceptance_radius_m, mission.timeout_s,
+//   mission.<i>.north_m, mission.<i>.east_m, mission.<i>.down_m, mission.<i>.yaw_rad  (i = 0 … count-1),
+//   attack.enabled (0/1: the plan is on AND names this service), attack.count (attacks naming this
+//   service), attack.<j>.kind (text: the AttackKind name, e.g. "WORST_CASE_CONTROL"), attack.<j>.start_s,
+//   attack.<j>.max_windows.
+class Service {
+ public:
+  static constexpr std::size_t kMaxTimers = 32;  // per service (docs/protocol.md)
+
+  // Connects on fd 3 / fd 4: installs the AfterExec seccomp stage, maps the time page read-only, sends
+  // Hello, reads Boot…BootEnd. Does not send Ready: run() does that, after the service has made its
+  // subscriptions and timers (docs/protocol.md "Boot").
+  [[nodiscard]] static SdkResult<std::unique_ptr<Service>> connect(const ConnectOptions& options = {});
+
+  Service(const Service&) = delete;
+  Service& operator=(const Service&) = delete;
+  Service(Service&&) = delete;
+  Service& operator=(Service&&) = delete;
+  ~Service();
+
+  // ---- identity and time ----
+  [[nodiscard]] std::string_view name() const;
+  [[nodiscard]] ServiceId id() const;
+  // Kernel clock (time page; lockstep: simulated time of the step being handled) [ns].
+  [[nodiscard]] Nanos now() const;
+  [[nodiscard]] SrMode mode() const;   // mode in force (time page)
+  [[nodiscard]] Epoch epoch() const;   // rollback epoch (time page)
+
+  // ---- params (launch graph) ----
+  [[nodiscard]] double param(std::string_view name, double fallback) const;
+  [[nodiscard]] std::string_view text_param(std::string_view name, std::string_view fallback) const;
+  [[nodiscard]] bool has_param(std::string_view name) const;
+
+  // ---- capabilities ----
+  [[nodiscard]] std::span<const CapInfo> caps() const;
+  // The boot-info entry of `object`: NoSuchObject when the policy never grants it to this service.
+  [[nodiscard]] SdkResult<const CapInfo*> cap(std::string_view object) const;
+
+  // ---- topics ----
+  // The topic's cap must be a Topic of IDL type TopicTraits<T>::name and size sizeof(T), with Write in
+  // some mode.
+  template <class T>
+  [[nodiscard]] SdkResult<Publisher<T>> advertise(std::string_view object);
+  // Subscribes (a Subscribe request answered by the kernel; Read is needed in the current mode).
+  // `on_message` (optional) runs on every delivery.
+  template <class T>
+  [[nodiscard]] SdkResult<Subscription<T>> subscribe(std::string_view object,
+                                                     std::function<void(const T&)> on_message = {});
+
+  // ---- timers (kernel clock) ----
+  // Fires every `period` [ns of kernel time], first at now() + `phase` (default: one period).
+  [[nodiscard]] SdkResult<Timer> every(Nanos period, std::function<void()> on_fire,
+                                       std::optional<Nanos> phase = std::nullopt);
+  // Fires once at now() + `delay`.
+  [[nodiscard]] SdkResult<Timer> after(Nanos delay, std::function<void()> on_fire);
+  SdkResult<void> cancel(const Timer& timer);
+
+  // ---- other capabilities (Checkpoint, Limits, Persistent, Mode, Network) ----
+  // Invokes `op` on the cap of `object`; blocks for the kernel's Reply (frames that arrive meanwhile are
+  // queued and handled afterwards, in order). Reply data is copied into `out` (truncated to its size).
+  // A refusal comes back as Denied with the CapError; an operation failure as OperationFailed.
+  [[nodiscard]] SdkResult<InvokeReply> invoke(std::string_view object, cap::Operation op,
+                                              std::uint64_t arg0 = 0, std::uint64_t arg1 = 0,
+                                              std::span<const std::byte> data = {},
+                                              std::span<std::byte> out = {});
+  // The same by slot: a forged or empty slot is the kernel's to refuse (security tests).
+  [[nodiscard]] SdkResult<InvokeReply> invoke_slot(Slot slot, cap::Operation op, std::uint64_t arg0 = 0,
+                                                   std::uint64_t arg1 = 0,
+                                                   std::span<const std::byte> data = {},
+                                                   std::span<std::byte> out = {});
+
+  // ---- log ----
+  // Printed by the kernel as "[name] text" (rate-limited per service). Text is cut at wire::kMaxLogText.
+  void log(LogLevel level, std::string_view text);
+  void logf(LogLevel level, const char* format, ...) __attribute__((format(printf, 3, 4)));
+
+  // ---- event loop ----
+  // Sends Ready (first call only), then handles frames until Shutdown or stop(): deliveries run
+  // subscription callbacks, TimerFired runs timer callbacks, and after each burst the SDK sends Idle
+  // (lockstep). Returns the exit code: 0 after Shutdown, the stop() code, or 1 if the channel failed.
+  [[nodiscard]] int run();
+  // Makes run() return `exit_code` after the current callback.
+  void stop(int exit_code);
+  // Runs `fn` when Shutdown arrives, before run() returns.
+  void on_shutdown(std::function<void()> fn);
+
+  // Frames a service sends (publish, log, timers) are queued and leave together when the event loop next
+  // waits; flush() sends them now (e.g. before a long computation in a callback).
+  SdkResult<void> flush();
+
+  // ---- raw access (security tests and attack hooks only: it is just a write to fd 3) ----
+  // Sends everything queued, then `frame`, at once.
+  SdkResult<void> send_raw(std::span<const std::byte> frame);
+
+  // Internal: used by the handle templates.
+  SdkResult<void> publish_bytes(const CapInfo& cap, std::span<const std::byte> payload, bool check_mode);
+  SdkResult<Timer> arm_timer(Nanos first, Nanos period, std::function<void()> on_fire);
+
+  struct Impl;  // private state (channel, time page, boot info, queues), defined in src/
+
+ private:
+  explicit Service(std::unique_ptr<Impl> impl);
+  [[nodiscard]] SdkResult<const CapInfo*> topic_cap(std::string_view object, std::string_view type,
+                                                    std::size_t size, Right needed) const;
+  [[nodiscard]] SdkResult<void> request_subscribe(const CapInfo& cap);
+  detail::SubscriptionBase* add_subscription(std::unique_ptr<detail::SubscriptionBase> sub);
+
+  std::unique_ptr<Impl> impl_;
+};
+
+// ---- template definitions ----
+
+template <class T>
+SdkResult<void> Publisher<T>::publish(const T& message) const {
+  static_assert(std::is_trivially_copyable_v<T>);
+  return service_->publish_bytes(*cap_, std::as_bytes(std::span(&message, 1)), true);
+}
+template <class T>
+SdkResult<void> Publisher<T>::publish_unchecked(const T& message) const {
+  static_assert(std::is_trivially_copyable_v<T>);
+  return service_->publish_bytes(*cap_, std::as_bytes(std::span(&message, 1)), false);
+}
+template <class T>
+bool Publisher<T>::allowed() const {
+  return cap_->rights_in(service_->mode()).has(Right::Write);
+}
+
+template <class T>
+SdkResult<Publisher<T>> Service::advertise(std::string_view object) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  auto found = topic_cap(object, msgs::TopicTraits<T>::name, sizeof(T), Right::Write);
+  if (!found) {
+    return fail(std::move(found.error()));
+  }
+  return Publisher<T>(this, *found);
+}
+
+template <class T>
+SdkResult<Subscription<T>> Service::subscribe(std::string_view object,
+                                              std::function<void(const T&)> on_message) {
+  static_assert(std::is_trivially_copyable_v<T>);
+  auto found = topic_cap(object, msgs::TopicTraits<T>::name, sizeof(T), Right::Read);
+  if (!found) {
+    return fail(std::move(found.error()));
+  }
+  auto state = std::make_unique<detail::TypedSubscription<T>>((*found)->slot, (*found)->object,
+                                                              std::move(on_message));
+  auto* typed = state.get();
+  if (auto sent = request_subscribe(**found); !sent) {
+    return fail(std::move(sent.error()));
+  }
+  add_subscription(std::move(state));
+  return Subscription<T>(typed);
+}
+
+}  // namespace rejuv::sdk

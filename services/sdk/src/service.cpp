@@ -1,0 +1,608 @@
+#include "rejuv/sdk/service.hpp"
+
+#include <cerrno>
+#include <cstdarg>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <string>
+
+#include "rejuv/clock/time_page.hpp"
+#include "rejuv/clock/timers.hpp"
+#include "rejuv/sys/batch.hpp"
+#include "rejuv/sys/channel.hpp"
+#include "rejuv/sys/event.hpp"
+#include "rejuv/sys/seccomp.hpp"
+
+namespace rejuv::sdk {
+
+// ---- errors ----
+
+std::string_view to_string(SdkError error) {
+  switch (error) {
+    case SdkError::NotAService: return "not a service";
+    case SdkError::Seccomp: return "seccomp";
+    case SdkError::ChannelIo: return "channel i/o";
+    case SdkError::ChannelClosed: return "channel closed";
+    case SdkError::Protocol: return "protocol violation";
+    case SdkError::VersionMismatch: return "protocol version mismatch";
+    case SdkError::NoSuchObject: return "no such object";
+    case SdkError::WrongObjectKind: return "wrong object kind";
+    case SdkError::TypeMismatch: return "type mismatch";
+    case SdkError::NeverGranted: return "never granted";
+    case SdkError::NotHeldInMode: return "not held in this mode";
+    case SdkError::AlreadySubscribed: return "already subscribed";
+    case SdkError::TooManyTimers: return "too many timers";
+    case SdkError::NoSuchTimer: return "no such timer";
+    case SdkError::BadArgument: return "bad argument";
+    case SdkError::Denied: return "denied";
+    case SdkError::OperationFailed: return "operation failed";
+  }
+  return "?";
+}
+
+std::string Error::to_string() const {
+  std::string out(sdk::to_string(code));
+  if (cap_error) {
+    out += ": ";
+    out += cap::to_string(*cap_error);
+  } else if (wire_error != 0) {
+    out += ": ";
+    out += wire::to_string(static_cast<wire::OpError>(wire_error));
+  }
+  if (!detail.empty()) {
+    out += " (" + detail + ")";
+  }
+  return out;
+}
+
+int report_connect_failure(const Error& error) {
+  const char* name = std::getenv("REJUV_SERVICE");
+  std::fprintf(stderr, "[%s] cannot connect to the kernel: %s\n", name != nullptr ? name : "?",
+               error.to_string().c_str());
+  return 2;
+}
+
+namespace {
+std::unexpected<Error> error(SdkError code, std::string detail = {}) {
+  return std::unexpected(Error{.code = code, .cap_error = std::nullopt, .wire_error = 0, .detail = std::move(detail)});
+}
+std::unexpected<Error> io_error(const sys::SysError& e) { return error(SdkError::ChannelIo, e.to_string()); }
+
+// A Reply's error field as an SDK error (docs/protocol.md: 0 ok, 1 + CapError, or ≥ 100).
+std::unexpected<Error> reply_error(std::int32_t wire_error, std::string detail) {
+  if (wire_error >= 1 && wire_error <= static_cast<std::int32_t>(cap::kCapErrorCount)) {
+    return std::unexpected(Error{.code = SdkError::Denied,
+                                 .cap_error = static_cast<cap::CapError>(wire_error - 1),
+                                 .wire_error = wire_error,
+                                 .detail = std::move(detail)});
+  }
+  if (wire_error >= wire::kFirstOpError) {
+    return std::unexpected(
+        Error{.code = SdkError::OperationFailed, .cap_error = std::nullopt, .wire_error = wire_error, .detail = std::move(detail)});
+  }
+  return std::unexpected(
+      Error{.code = SdkError::Protocol, .cap_error = std::nullopt, .wire_error = wire_error, .detail = std::move(detail)});
+}
+}  // namespace
+
+bool CapInfo::ever(Right r) const {
+  for (const Rights& x : rights) {
+    if (x.has(r)) return true;
+  }
+  return false;
+}
+
+// ---- subscriptions ----
+
+void detail::SubscriptionBase::deliver(std::uint64_t generation, std::span<const std::byte> payload) {
+  // Generations of a topic are consecutive; a gap means the kernel clamped our cursor (ring overrun).
+  // A rollback may send generations back (DESIGN §7): that is not a loss.
+  if (received_ > 0 && generation > generation_ + 1) {
+    lost_ += generation - generation_ - 1;
+  }
+  generation_ = generation;
+  ++received_;
+  updated_ = true;
+  store_and_notify(payload);
+}
+
+// ---- the service ----
+
+struct Param {
+  std::string name;
+  double number = 0;
+  std::string text;
+  bool is_text = false;
+};
+
+struct TimerSlot {
+  std::uint64_t id = 0;
+  bool armed = false;
+  bool periodic = false;
+  std::function<void()> on_fire;
+};
+
+struct Service::Impl {
+  sys::SeqPacket channel;
+  clock::TimePageReader time;
+  std::string name;
+  ServiceId id;
+  std::vector<CapInfo> caps;
+  std::vector<Param> params;
+  std::vector<std::unique_ptr<detail::SubscriptionBase>> subscriptions;
+  std::vector<detail::SubscriptionBase*> subscription_by_slot;
+  std::array<TimerSlot, Service::kMaxTimers> timers{};
+  std::uint64_t timer_serial = 0;
+  std::uint32_t seq = 0;
+  std::uint64_t frames_received = 0;  // every frame read from the channel since boot (docs/protocol.md Idle)
+  std::uint64_t idle_reported = 0;
+  std::uint64_t bad_frames = 0;
+  bool ready_sent = false;
+  bool stopping = false;
+  int exit_code = 0;
+  std::function<void()> on_shutdown;
+  std::deque<std::vector<std::byte>> queued;  // frames read while waiting for a Reply
+  alignas(8) std::array<std::byte, wire::kMaxFrameBytes> rx{};
+  wire::FrameBuffer tx;
+
+  // Outgoing frames are queued and leave together (sendmmsg) when the service next waits — for frames or
+  // for a Reply — so that a callback's publications and the following Idle wake the kernel once.
+  static constexpr std::size_t kOutBytes = 64 * 1024;
+  alignas(8) std::array<std::byte, kOutBytes> out_arena{};
+  std::array<std::span<const std::byte>, sys::kMaxBatchFrames> out_frames{};
+  std::size_t out_used = 0;
+  std::size_t out_count = 0;
+  bool lockstep = true;  // Idle is only meaningful in lockstep (docs/protocol.md "Idle")
+
+  SdkResult<void> queue(std::span<const std::byte> frame) {
+    if (out_count == out_frames.size() || out_used + frame.size() > out_arena.size()) {
+      if (auto f = flush(); !f) return f;
+    }
+    std::memcpy(out_arena.data() + out_used, frame.data(), frame.size());
+    out_frames[out_count++] = std::span<const std::byte>(out_arena.data() + out_used, frame.size());
+    out_used += (frame.size() + 7U) & ~std::size_t{7};
+    return {};
+  }
+
+  // Sends everything queued, waiting for room if the kernel has not drained the channel yet.
+  SdkResult<void> flush() {
+    std::size_t first = 0;
+    while (first < out_count) {
+      auto sent = sys::send_batch(channel.fd(), std::span(out_frames).subspan(first, out_count - first));
+      if (sent) {
+        first += *sent;
+        continue;
+      }
+      if (sent.error().error == EPIPE || sent.error().error == ECONNRESET) {
+        out_count = 0;
+        out_used = 0;
+        return error(SdkError::ChannelClosed);
+      }
+      if (sent.error().error != EAGAIN) {
+        out_count = 0;
+        out_used = 0;
+        return io_error(sent.error());
+      }
+      if (auto w = sys::wait_fd(channel.fd(), sys::WaitFor::Writable, std::nullopt); !w) return io_error(w.error());
+    }
+    out_count = 0;
+    out_used = 0;
+    return {};
+  }
+
+  SdkResult<void> send(std::span<const std::byte> frame) {
+    if (auto q = queue(frame); !q) return q;
+    return flush();
+  }
+  SdkResult<void> send_built() { return queue(tx.bytes()); }
+
+  // Reads one frame into rx; nullopt when none is ready and `wait` is false.
+  SdkResult<std::optional<std::size_t>> receive(bool wait) {
+    for (;;) {
+      auto r = channel.receive(rx, 1);
+      if (r) {
+        if (r->closed) return error(SdkError::ChannelClosed);
+        ++frames_received;
+        if (r->truncated) return std::optional<std::size_t>(0);  // decodes as TooShort: counted as bad
+        return std::optional<std::size_t>(r->size);
+      }
+      if (r.error().error != EAGAIN) return io_error(r.error());
+      if (!wait) return std::optional<std::size_t>{};
+      if (auto w = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::nullopt); !w) return io_error(w.error());
+    }
+  }
+
+  // Sends a request and waits for its Reply, queueing every other frame (handled later, in order).
+  SdkResult<InvokeReply> request(std::span<std::byte> out, std::string_view what) {
+    const std::uint32_t want = seq;
+    if (auto s = send(tx.bytes()); !s) return std::unexpected(s.error());
+    for (;;) {
+      auto got = receive(true);
+      if (!got) return std::unexpected(got.error());
+      const std::span<const std::byte> bytes(rx.data(), **got);
+      auto frame = wire::decode(bytes, wire::Direction::ToService);
+      if (frame && frame->kind == wire::FrameKind::Reply && frame->header.seq == want) {
+        const auto head = wire::payload_as<wire::ReplyHeader>(*frame);
+        if (head.error != 0) return reply_error(head.error, std::string(what));
+        const auto data = frame->payload.subspan(sizeof(wire::ReplyHeader));
+        const std::size_t n = std::min(data.size(), out.size());
+        std::memcpy(out.data(), data.data(), n);
+        return InvokeReply{.value = head.value, .data_size = n};
+      }
+      queued.emplace_back(bytes.begin(), bytes.end());
+    }
+  }
+};
+
+Service::Service(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+Service::~Service() {
+  // One attempt, never a wait: a service leaving must not hang on a kernel that stopped reading.
+  if (impl_ && impl_->out_count > 0) {
+    (void)sys::send_batch(impl_->channel.fd(), std::span(impl_->out_frames).first(impl_->out_count));
+  }
+}
+
+SdkResult<void> Service::flush() { return impl_->flush(); }
+
+SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& options) {
+  auto impl = std::make_unique<Impl>();
+  if (const char* name = std::getenv("REJUV_SERVICE"); name != nullptr) impl->name = name;
+  if (!sys::fd_is_open(options.channel_fd) || !sys::fd_is_open(options.time_page_fd)) {
+    return error(SdkError::NotAService, "fd 3 (channel) and fd 4 (time page) must be open: run under the kernel");
+  }
+  if (options.install_seccomp) {
+    auto program = sys::SeccompProgram::service_policy(sys::SeccompStage::AfterExec);
+    if (!program) return error(SdkError::Seccomp, program.error().to_string());
+    if (auto ok = program->install(); !ok) return error(SdkError::Seccomp, ok.error().to_string());
+  }
+  auto page = clock::TimePageReader::map(options.time_page_fd);
+  if (!page) return error(SdkError::NotAService, "time page: " + page.error().to_string());
+  impl->time = std::move(*page);
+  impl->channel = sys::SeqPacket(sys::UniqueFd(options.channel_fd));
+  if (auto nb = sys::set_nonblocking(options.channel_fd, true); !nb) return io_error(nb.error());
+
+  // Hello, then Boot, BootCap × n, BootParam × m, BootEnd (docs/protocol.md "Boot").
+  if (!impl->tx.build(wire::FrameKind::Hello, 0, 0, wire::kProtocolVersion)) return error(SdkError::Protocol);
+  if (auto s = impl->send(impl->tx.bytes()); !s) {
+    if (s.error().code == SdkError::ChannelIo) s.error().code = SdkError::NotAService;
+    return std::unexpected(s.error());
+  }
+  const auto next = [&]() -> SdkResult<wire::FrameView> {
+    auto got = impl->receive(true);
+    if (!got) return std::unexpected(got.error());
+    auto frame = wire::decode(std::span<const std::byte>(impl->rx.data(), **got), wire::Direction::ToService);
+    if (!frame) return error(SdkError::Protocol, std::string("boot: ") + std::string(wire::to_string(frame.error())));
+    return *frame;
+  };
+  auto boot = next();
+  if (!boot) return std::unexpected(boot.error());
+  if (boot->kind != wire::FrameKind::Boot) return error(SdkError::Protocol, "expected Boot");
+  if (boot->header.aux != wire::kProtocolVersion && boot->header.aux != 0) {
+    return error(SdkError::VersionMismatch, "kernel speaks version " + std::to_string(boot->header.aux));
+  }
+  const auto head = wire::payload_as<wire::BootHeader>(*boot);
+  impl->id = ServiceId(head.service_id);
+  if (impl->name.empty()) impl->name = std::string(wire::read_name(head.name));
+  std::size_t max_slot = 0;
+  for (std::uint32_t i = 0; i < head.cap_count; ++i) {
+    auto f = next();
+    if (!f) return std::unexpected(f.error());
+    if (f->kind != wire::FrameKind::BootCap) return error(SdkError::Protocol, "expected BootCap");
+    const auto c = wire::payload_as<wire::BootCap>(*f);
+    CapInfo info;
+    info.object = std::string(wire::read_name(c.object));
+    info.slot = Slot(c.slot);
+    info.kind = c.kind < kAllObjectKinds.size() ? static_cast<ObjectKind>(c.kind) : ObjectKind::Topic;
+    for (std::size_t m = 0; m < kModeCount; ++m) {
+      info.rights[m] = Rights::none();
+      for (const Right r : {Right::Read, Right::Write, Right::Grant}) {
+        if ((c.rights_by_mode[m] & static_cast<std::uint8_t>(r)) != 0) info.rights[m] = info.rights[m] | r;
+      }
+    }
+    info.type = std::string(wire::read_name(c.type));
+    info.payload_size = c.payload_size;
+    max_slot = std::max<std::size_t>(max_slot, c.slot);
+    impl->caps.push_back(std::move(info));
+  }
+  for (std::uint32_t i = 0; i < head.param_count; ++i) {
+    auto f = next();
+    if (!f) return std::unexpected(f.error());
+    if (f->kind != wire::FrameKind::BootParam) return error(SdkError::Protocol, "expected BootParam");
+    const auto p = wire::payload_as<wire::BootParam>(*f);
+    impl->params.push_back(Param{.name = std::string(wire::read_name(p.name)),
+                                 .number = p.number,
+                                 .text = std::string(wire::read_name(p.text)),
+                                 .is_text = p.is_text != 0});
+  }
+  auto end = next();
+  if (!end) return std::unexpected(end.error());
+  if (end->kind != wire::FrameKind::BootEnd) return error(SdkError::Protocol, "expected BootEnd");
+  impl->subscription_by_slot.assign(max_slot + 1, nullptr);
+  for (const Param& p : impl->params) {
+    if (p.name == "clock" && p.is_text) impl->lockstep = p.text != "realtime";
+  }
+  return std::unique_ptr<Service>(new Service(std::move(impl)));
+}
+
+std::string_view Service::name() const { return impl_->name; }
+ServiceId Service::id() const { return impl_->id; }
+Nanos Service::now() const { return impl_->time.read().now; }
+SrMode Service::mode() const { return impl_->time.read().mode; }
+Epoch Service::epoch() const { return impl_->time.read().epoch; }
+
+double Service::param(std::string_view name, double fallback) const {
+  for (const Param& p : impl_->params) {
+    if (p.name == name && !p.is_text) return p.number;
+  }
+  return fallback;
+}
+std::string_view Service::text_param(std::string_view name, std::string_view fallback) const {
+  for (const Param& p : impl_->params) {
+    if (p.name == name && p.is_text) return p.text;
+  }
+  return fallback;
+}
+bool Service::has_param(std::string_view name) const {
+  for (const Param& p : impl_->params) {
+    if (p.name == name) return true;
+  }
+  return false;
+}
+
+std::span<const CapInfo> Service::caps() const { return impl_->caps; }
+
+SdkResult<const CapInfo*> Service::cap(std::string_view object) const {
+  for (const CapInfo& c : impl_->caps) {
+    if (c.object == object) return &c;
+  }
+  return error(SdkError::NoSuchObject, std::string(object));
+}
+
+SdkResult<const CapInfo*> Service::topic_cap(std::string_view object, std::string_view type, std::size_t size,
+                                             Right needed) const {
+  auto found = cap(object);
+  if (!found) return found;
+  const CapInfo& c = **found;
+  if (c.kind != ObjectKind::Topic) return error(SdkError::WrongObjectKind, std::string(object) + " is not a topic");
+  if (c.type != type || c.payload_size != size) {
+    return error(SdkError::TypeMismatch, std::string(object) + " carries " + c.type + " (" +
+                                             std::to_string(c.payload_size) + " bytes), not " + std::string(type) +
+                                             " (" + std::to_string(size) + " bytes)");
+  }
+  if (!c.ever(needed)) {
+    return error(SdkError::NeverGranted, std::string(object) + ": the policy grants " +
+                                             (needed == Right::Write ? "no Write" : "no Read") + " in any mode");
+  }
+  return found;
+}
+
+SdkResult<void> Service::publish_bytes(const CapInfo& cap, std::span<const std::byte> payload, bool check_mode) {
+  if (check_mode && !cap.rights_in(mode()).has(Right::Write)) {
+    return error(SdkError::NotHeldInMode, cap.object);
+  }
+  if (!impl_->tx.build(wire::FrameKind::Publish, cap.slot.value(), 0, 0, payload)) {
+    return error(SdkError::BadArgument, "payload too large");
+  }
+  return impl_->send_built();
+}
+
+SdkResult<void> Service::request_subscribe(const CapInfo& cap) {
+  if (cap.slot.value() < impl_->subscription_by_slot.size() &&
+      impl_->subscription_by_slot[cap.slot.value()] != nullptr) {
+    return error(SdkError::AlreadySubscribed, cap.object);
+  }
+  const std::uint32_t seq = ++impl_->seq;
+  if (!impl_->tx.build(wire::FrameKind::Subscribe, cap.slot.value(), seq, 0)) return error(SdkError::Protocol);
+  auto reply = impl_->request({}, "subscribe " + cap.object);
+  if (!reply) return std::unexpected(reply.error());
+  return {};
+}
+
+detail::SubscriptionBase* Service::add_subscription(std::unique_ptr<detail::SubscriptionBase> sub) {
+  detail::SubscriptionBase* raw = sub.get();
+  const std::size_t slot = raw->slot().value();
+  if (slot >= impl_->subscription_by_slot.size()) impl_->subscription_by_slot.resize(slot + 1, nullptr);
+  impl_->subscription_by_slot[slot] = raw;
+  impl_->subscriptions.push_back(std::move(sub));
+  return raw;
+}
+
+// ---- timers ----
+
+SdkResult<Timer> Service::arm_timer(Nanos first, Nanos period, std::function<void()> on_fire) {
+  if (first.count() < 0 || (period.count() != 0 && period < clock::kMinTimerPeriod)) {
+    return error(SdkError::BadArgument, "timer period below " + std::to_string(clock::kMinTimerPeriod.count()) + " ns");
+  }
+  std::size_t index = kMaxTimers;
+  for (std::size_t i = 0; i < kMaxTimers; ++i) {
+    if (!impl_->timers[i].armed) {
+      index = i;
+      break;
+    }
+  }
+  if (index == kMaxTimers) return error(SdkError::TooManyTimers);
+  // Ids carry a serial above the index, so a TimerFired of a cancelled timer never reaches its successor.
+  const std::uint64_t id = (++impl_->timer_serial << 8U) | index;
+  const wire::TimerSpec spec{.id = id,
+                             .first_ns = static_cast<std::uint64_t>(first.count()),
+                             .period_ns = static_cast<std::uint64_t>(period.count())};
+  if (!impl_->tx.build_with(wire::FrameKind::TimerArm, 0, 0, 0, spec)) return error(SdkError::Protocol);
+  if (auto s = impl_->send_built(); !s) return std::unexpected(s.error());
+  impl_->timers[index] = TimerSlot{.id = id, .armed = true, .periodic = period.count() != 0, .on_fire = std::move(on_fire)};
+  return Timer(this, id);
+}
+
+SdkResult<Timer> Service::every(Nanos period, std::function<void()> on_fire, std::optional<Nanos> phase) {
+  if (period.count() <= 0) return error(SdkError::BadArgument, "period must be positive");
+  return arm_timer(now() + phase.value_or(period), period, std::move(on_fire));
+}
+
+SdkResult<Timer> Service::after(Nanos delay, std::function<void()> on_fire) {
+  if (delay.count() < 0) return error(SdkError::BadArgument, "negative delay");
+  return arm_timer(now() + delay, Nanos(0), std::move(on_fire));
+}
+
+SdkResult<void> Service::cancel(const Timer& timer) {
+  TimerSlot& slot = impl_->timers[timer.id() & 0xFFU];
+  if (!slot.armed || slot.id != timer.id()) return error(SdkError::NoSuchTimer);
+  if (!impl_->tx.build(wire::FrameKind::TimerCancel, 0, 0, timer.id())) return error(SdkError::Protocol);
+  if (auto s = impl_->send_built(); !s) return std::unexpected(s.error());
+  slot.armed = false;
+  slot.on_fire = nullptr;
+  return {};
+}
+
+SdkResult<void> Timer::cancel() const { return service_->cancel(*this); }
+
+// ---- invocations ----
+
+SdkResult<InvokeReply> Service::invoke(std::string_view object, cap::Operation op, std::uint64_t arg0,
+                                       std::uint64_t arg1, std::span<const std::byte> data, std::span<std::byte> out) {
+  auto found = cap(object);
+  if (!found) return std::unexpected(found.error());
+  return invoke_slot((*found)->slot, op, arg0, arg1, data, out);
+}
+
+SdkResult<InvokeReply> Service::invoke_slot(Slot slot, cap::Operation op, std::uint64_t arg0, std::uint64_t arg1,
+                                            std::span<const std::byte> data, std::span<std::byte> out) {
+  wire::InvokeHeader head{};
+  head.operation = static_cast<std::uint8_t>(op);
+  head.arg0 = arg0;
+  head.arg1 = arg1;
+  const std::uint32_t seq = ++impl_->seq;
+  if (!impl_->tx.build_with(wire::FrameKind::Invoke, slot.value(), seq, 0, head, data)) {
+    return error(SdkError::BadArgument, "invoke data too large");
+  }
+  return impl_->request(out, std::string(cap::to_string(op)));
+}
+
+// ---- log ----
+
+void Service::log(LogLevel level, std::string_view text) {
+  wire::LogHeader head{};
+  head.level = static_cast<std::uint8_t>(level);
+  const std::span<const std::byte> bytes = std::as_bytes(std::span(text.data(), std::min(text.size(), wire::kMaxLogText)));
+  if (impl_->tx.build_with(wire::FrameKind::Log, 0, 0, 0, head, bytes)) {
+    (void)impl_->send_built();
+  }
+}
+
+void Service::logf(LogLevel level, const char* format, ...) {
+  std::array<char, wire::kMaxLogText + 1> buf{};
+  va_list args;
+  va_start(args, format);
+  const int n = std::vsnprintf(buf.data(), buf.size(), format, args);
+  va_end(args);
+  if (n < 0) return;
+  log(level, std::string_view(buf.data(), std::min<std::size_t>(static_cast<std::size_t>(n), wire::kMaxLogText)));
+}
+
+// ---- event loop ----
+
+void Service::stop(int exit_code) {
+  impl_->stopping = true;
+  impl_->exit_code = exit_code;
+}
+
+void Service::on_shutdown(std::function<void()> fn) { impl_->on_shutdown = std::move(fn); }
+
+SdkResult<void> Service::send_raw(std::span<const std::byte> frame) { return impl_->send(frame); }
+
+int Service::run() {
+  Impl& s = *impl_;
+  if (!s.ready_sent) {
+    if (!s.tx.build(wire::FrameKind::Ready, 0, 0, 0) || !s.send_built()) return 1;
+    s.ready_sent = true;
+  }
+  const auto leave = [&](int code) {
+    (void)s.flush();
+    return code;
+  };
+  std::vector<std::byte> held;  // a queued frame being handled (rx may be reused meanwhile)
+  while (!s.stopping) {
+    std::span<const std::byte> bytes;
+    if (!s.queued.empty()) {
+      held = std::move(s.queued.front());
+      s.queued.pop_front();
+      bytes = held;
+    } else {
+      auto got = s.receive(false);
+      if (!got) {
+        if (got.error().code == SdkError::ChannelClosed) return 1;
+        std::fprintf(stderr, "[%s] channel: %s\n", s.name.c_str(), got.error().to_string().c_str());
+        return 1;
+      }
+      if (!*got) {
+        // Drained: everything received has been handled (docs/protocol.md "Idle").
+        if (s.lockstep && s.frames_received != s.idle_reported) {
+          if (!s.tx.build(wire::FrameKind::Idle, 0, 0, s.frames_received) || !s.send_built()) return 1;
+          s.idle_reported = s.frames_received;
+        }
+        if (!s.flush()) return 1;
+        if (!sys::wait_fd(s.channel.fd(), sys::WaitFor::Readable, std::nullopt)) return 1;
+        continue;
+      }
+      bytes = std::span<const std::byte>(s.rx.data(), **got);
+    }
+    auto frame = wire::decode(bytes, wire::Direction::ToService);
+    if (!frame) {
+      ++s.bad_frames;
+      continue;
+    }
+    switch (frame->kind) {
+      case wire::FrameKind::Deliver: {
+        const std::uint32_t slot = frame->header.slot;
+        detail::SubscriptionBase* sub = slot < s.subscription_by_slot.size() ? s.subscription_by_slot[slot] : nullptr;
+        if (sub == nullptr || frame->payload.size() != sub->size()) {
+          ++s.bad_frames;
+          break;
+        }
+        sub->deliver(frame->header.aux, frame->payload);
+        break;
+      }
+      case wire::FrameKind::TimerFired: {
+        const std::uint64_t id = frame->header.aux;
+        TimerSlot& t = s.timers[id & 0xFFU];
+        if (!t.armed || t.id != id) break;  // cancelled meanwhile
+        if (!t.periodic) {
+          t.armed = false;
+          const std::function<void()> fn = std::move(t.on_fire);
+          t.on_fire = nullptr;
+          if (fn) fn();
+        } else if (t.on_fire) {
+          t.on_fire();
+        }
+        break;
+      }
+      case wire::FrameKind::Shutdown:
+        if (s.on_shutdown) s.on_shutdown();
+        return leave(0);
+      case wire::FrameKind::RollbackSignal:  // rollback handlers come with the image store (DESIGN §7)
+      case wire::FrameKind::Snapshot:        // checkpoints come with the image store (DESIGN §7)
+      case wire::FrameKind::Reply:           // a reply nobody waits for
+      case wire::FrameKind::Boot:
+      case wire::FrameKind::BootCap:
+      case wire::FrameKind::BootParam:
+      case wire::FrameKind::BootEnd:
+        ++s.bad_frames;
+        break;
+      case wire::FrameKind::Hello:
+      case wire::FrameKind::Publish:
+      case wire::FrameKind::Subscribe:
+      case wire::FrameKind::Invoke:
+      case wire::FrameKind::TimerArm:
+      case wire::FrameKind::TimerCancel:
+      case wire::FrameKind::Log:
+      case wire::FrameKind::Idle:
+      case wire::FrameKind::Ready:
+      case wire::FrameKind::Taken:
+      case wire::FrameKind::Resumed:
+        ++s.bad_frames;  // decode() refuses service → kernel kinds here; unreachable
+        break;
+    }
+  }
+  return leave(s.exit_code);
+}
+
+}  // namespace rejuv::sdk

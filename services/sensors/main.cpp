@@ -1,0 +1,41 @@
+// rejuv_sensors: raw IMU topics → sensor_combined (services/sensors/include/rejuv/services/sensors/
+// imu_combiner.hpp). No command line: started by the kernel, which passes everything through the channel.
+#include "rejuv/flight_io/params.hpp"
+#include "rejuv/sdk/service.hpp"
+#include "rejuv/services/sensors/imu_combiner.hpp"
+
+int main() {
+  using namespace rejuv;
+  auto connected = sdk::Service::connect();
+  if (!connected) return sdk::report_connect_failure(connected.error());
+  sdk::Service& svc = **connected;
+
+  auto combined = svc.advertise<rejuv_msg_SensorCombined>("sensor_combined");
+  if (!combined) {
+    svc.log(sdk::LogLevel::Error, "sensor_combined: " + combined.error().to_string());
+    return 1;
+  }
+  std::uint64_t refused = 0;
+  const auto refuse = [&](const flight_io::InputFailure& e) {
+    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "dropping a sample: " + e.to_string());
+  };
+  services::ImuCombiner combiner(flight_io::imu_period(), [&](const rejuv_msg_SensorCombined& m) {
+    (void)combined->publish(m);  // granted in every mode; a refusal is the kernel's to count
+  });
+
+  auto gyro = svc.subscribe<rejuv_msg_SensorGyro>("sensor_gyro", [&](const rejuv_msg_SensorGyro& m) {
+    if (auto ok = combiner.on_gyro(m); !ok) refuse(ok.error());
+  });
+  auto accel = svc.subscribe<rejuv_msg_SensorAccel>("sensor_accel", [&](const rejuv_msg_SensorAccel& m) {
+    if (auto ok = combiner.on_accel(m); !ok) refuse(ok.error());
+  });
+  // sensor_mag, sensor_baro and sensor_gps are granted to this service too (PX4's sensors hub reads them
+  // all), but ekf2 reads them directly: subscribing here would only cost deliveries.
+  for (const auto* error : {gyro ? nullptr : &gyro.error(), accel ? nullptr : &accel.error()}) {
+    if (error != nullptr) {
+      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
+      return 1;
+    }
+  }
+  return svc.run();
+}

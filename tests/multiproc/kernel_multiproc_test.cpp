@@ -1,0 +1,257 @@
+// Multi-process tests of the kernel (DESIGN §2, §5, §6, §11; docs/protocol.md): a real kernel spawns the
+// test services (tests/multiproc/services) over real channels, in lockstep driven by the test.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <csignal>
+
+#include "graph_fixture.hpp"
+#include "rejuv/cap/capability.hpp"
+
+namespace rejuv::testing {
+namespace {
+
+using kernel::Kernel;
+using kernel::ServiceStats;
+using kernel::StopReason;
+
+std::unique_ptr<Kernel> make_kernel(const GraphSpec& spec, Recorder* recorder = nullptr,
+                                    kernel::KernelOptions options = test_options()) {
+  auto k = Kernel::create(load(spec), std::move(options), recorder);
+  if (!k) {
+    ADD_FAILURE() << k.error().to_string();
+    return nullptr;
+  }
+  return std::move(*k);
+}
+
+ServiceId id_of(const Kernel& k, std::string_view name) {
+  const auto id = k.find_service(name);
+  EXPECT_TRUE(id.has_value()) << name;
+  return id.value_or(ServiceId{0});
+}
+
+// ---- boot and shutdown ----
+
+TEST(KernelMultiproc, BootStepShutdown_LeavesNoProcessAndNoFd) {
+  const Resources before = Resources::now();
+  {
+    Recorder recorder;
+    auto k = make_kernel(GraphSpec{}, &recorder);
+    ASSERT_NE(k, nullptr);
+    ASSERT_TRUE(k->boot().has_value());
+    EXPECT_EQ(Resources::now().children, before.children + 5);  // five services, all children of this process
+    step_n(*k, 10);
+    EXPECT_FALSE(k->stop_reason().has_value()) << k->stop_detail();
+    EXPECT_FALSE(recorder.on("numbers").empty());
+    k->shutdown();
+    for (std::uint32_t i = 0; i < k->service_count(); ++i) {
+      const auto st = k->stats(ServiceId{i});
+      EXPECT_FALSE(st.alive) << st.name;
+      ASSERT_TRUE(st.exit.has_value()) << st.name;
+      EXPECT_TRUE(st.exit->success()) << st.name << ": " << st.exit->to_string();  // left on Shutdown, exit 0
+    }
+  }
+  const Resources after = Resources::now();
+  EXPECT_EQ(after.children, before.children);
+  EXPECT_EQ(after.fds, before.fds);
+}
+
+TEST(KernelMultiproc, ServiceNeverReady_FailsBootAndLeavesNothing) {
+  const Resources before = Resources::now();
+  {
+    GraphSpec spec;
+    spec.stall = Role{"hang", ""};
+    auto options = test_options();
+    options.boot_deadline = std::chrono::seconds{2};
+    auto k = make_kernel(spec, nullptr, options);
+    ASSERT_NE(k, nullptr);
+    auto booted = k->boot();
+    ASSERT_FALSE(booted.has_value());
+    EXPECT_EQ(booted.error().kind, kernel::KernelError::Kind::Boot);
+    EXPECT_NE(booted.error().message.find("stall"), std::string::npos) << booted.error().message;
+    EXPECT_TRUE(k->stats(id_of(*k, "stall")).hung);
+  }
+  EXPECT_EQ(Resources::now().children, before.children);
+  EXPECT_EQ(Resources::now().fds, before.fds);
+}
+
+// ---- routing ----
+
+TEST(KernelMultiproc, Pipeline_EchoesEveryNumberInOrder) {
+  Recorder recorder;
+  auto k = make_kernel(GraphSpec{}, &recorder);
+  ASSERT_NE(k, nullptr);
+  ASSERT_TRUE(k->boot().has_value());
+  step_n(*k, 30);
+  ASSERT_FALSE(k->stop_reason().has_value()) << k->stop_detail();
+  const auto numbers = recorder.on("numbers");
+  std::vector<double> echoed;
+  for (const Seen* s : recorder.on("echoes")) {
+    const auto r = Recorder::as<rejuv_msg_SensorBaro>(*s);
+    if (r.temperature_c == 2) echoed.push_back(r.pressure_pa);
+  }
+  ASSERT_GE(numbers.size(), 25U);
+  // Every number but those of the last step is echoed, in order (the echo of step k is routed in step k).
+  ASSERT_GE(echoed.size(), numbers.size() - 1);
+  for (std::size_t i = 0; i < echoed.size(); ++i) EXPECT_EQ(echoed[i], static_cast<double>(i));
+  EXPECT_EQ(k->stats(id_of(*k, "echo")).lost, 0U);
+}
+
+// ---- capabilities ----
+
+TEST(KernelMultiproc, PublishWithoutCap_IsDeniedCountedAndPublished) {
+  Recorder recorder;
+  GraphSpec spec;
+  spec.intruder = Role{"intruder", "  params { name: \"attack\" text: \"forge\" }\n"};
+  auto k = make_kernel(spec, &recorder);
+  ASSERT_NE(k, nullptr);
+  ASSERT_TRUE(k->boot().has_value());
+  step_n(*k, 10);
+  const ServiceId intruder = id_of(*k, "intruder");
+  // Five forged publishes per tick: Read-only slot, slot 0, unheld 77, 255, out of range 100000.
+  const auto& denials = k->caps().denials();
+  EXPECT_GE(denials.by_service(intruder), 5U * 9U);
+  EXPECT_GE(denials.at(intruder, cap::CapError::InsufficientRights, cap::Operation::Publish), 9U);
+  EXPECT_GE(denials.at(intruder, cap::CapError::EmptySlot, cap::Operation::Publish), 9U);
+  EXPECT_GE(denials.at(intruder, cap::CapError::SlotOutOfRange, cap::Operation::Publish), 9U);
+  EXPECT_EQ(k->stats(intruder).denials, denials.by_service(intruder));
+  ASSERT_GT(k->caps().audit_log().size(), 0U);
+  EXPECT_EQ(k->caps().audit_log().newest().service, intruder);
+  // Nothing of the intruder reached the topic; every denial became a SecurityEvent.
+  for (const Seen* s : recorder.on("numbers")) EXPECT_EQ(s->publisher, id_of(*k, "source"));
+  EXPECT_EQ(recorder.on("security_event").size(), denials.total());
+  EXPECT_TRUE(k->stats(intruder).alive);  // refused, not killed
+}
+
+// ---- hostile input ----
+
+TEST(KernelMultiproc, GarbageFrames_AreRefusedAndRoutingContinues) {
+  Recorder recorder;
+  GraphSpec spec;
+  spec.intruder = Role{"intruder", "  params { name: \"attack\" text: \"garbage\" }\n"};
+  auto k = make_kernel(spec, &recorder);
+  ASSERT_NE(k, nullptr);
+  ASSERT_TRUE(k->boot().has_value());
+  auto fds_booted = sys::count_open_fds();
+  ASSERT_TRUE(fds_booted.has_value());
+  step_n(*k, 20);
+  ASSERT_FALSE(k->stop_reason().has_value()) << k->stop_detail();
+  const ServiceStats st = k->stats(id_of(*k, "intruder"));
+  // Per tick: 9 malformed frames plus a frame with an fd (the Publish of 3 bytes on a Read-only slot is
+  // denied by the capability check first, so it counts as a denial).
+  EXPECT_GE(st.bad_frames, 19U * 9U) << "refused frames";
+  EXPECT_TRUE(st.alive);
+  EXPECT_EQ(*sys::count_open_fds(), *fds_booted) << "fds sent by the intruder were closed";
+  // The others kept being served: the sink's digest kept counting what it saw.
+  const auto digests = recorder.on("digest");
+  ASSERT_GE(digests.size(), 15U);
+  EXPECT_GT(Recorder::as<rejuv_msg_SensorBaro>(*digests.back()).pressure_pa,
+            Recorder::as<rejuv_msg_SensorBaro>(*digests[digests.size() / 2]).pressure_pa);
+}
+
+// ---- flow control ----
+
+TEST(KernelMultiproc, StalledSubscriberInLockstep_IsKilledAtTheIdleDeadlineAndTheStepEnds) {
+  GraphSpec spec;
+  spec.stall = Role{"stall", "  params { name: \"stall_after\" number: 3 }\n"};
+  auto k = make_kernel(spec);
+  ASSERT_NE(k, nullptr);
+  ASSERT_TRUE(k->boot().has_value());
+  std::vector<ServiceId> hung;
+  for (int i = 0; i < 10 && !k->stop_reason(); ++i) {
+    auto r = k->step(k->now() + std::chrono::milliseconds{4});
+    ASSERT_TRUE(r.has_value());
+    hung.insert(hung.end(), r->hung.begin(), r->hung.end());
+  }
+  ASSERT_EQ(hung.size(), 1U);
+  EXPECT_EQ(hung[0], id_of(*k, "stall"));
+  ASSERT_TRUE(k->stop_reason().has_value());
+  EXPECT_EQ(*k->stop_reason(), StopReason::ServiceFailed);  // SR off: a lost service ends the run
+  EXPECT_TRUE(k->stats(id_of(*k, "stall")).hung);
+  EXPECT_TRUE(k->stats(id_of(*k, "echo")).alive);
+}
+
+TEST(KernelMultiproc, StalledSubscriberInRealtime_LosesMessagesAndBlocksNobody) {
+  Recorder recorder;
+  GraphSpec spec;
+  spec.clock = "REALTIME";
+  spec.source = Role{"source", "  params { name: \"burst\" number: 20 }\n"};
+  spec.stall = Role{"stall", "  params { name: \"stall_after\" number: 1 }\n"};
+  auto options = test_options();
+  options.time_master = kernel::TimeMaster::Plant;  // realtime: the kernel keeps time, no plant in the graph
+  options.duration = std::chrono::milliseconds{1500};
+  auto k = make_kernel(spec, &recorder, options);
+  ASSERT_NE(k, nullptr);
+  auto outcome = k->run();
+  ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string();
+  EXPECT_EQ(outcome->reason, StopReason::Duration) << outcome->detail;
+  const ServiceStats stall = k->stats(id_of(*k, "stall"));
+  const ServiceStats echo = k->stats(id_of(*k, "echo"));
+  const std::size_t published = recorder.on("numbers").size();
+  ASSERT_GT(published, 2000U);
+  EXPECT_GT(stall.lost, 0U) << "the stalled subscriber's ring overran";
+  EXPECT_FALSE(stall.hung) << "realtime has no idle deadline";
+  // The echo kept being served the whole run, far beyond what the stalled one could take.
+  EXPECT_GT(echo.delivered, 10 * stall.delivered);
+  EXPECT_GT(echo.delivered + echo.lost, published / 2);
+}
+
+// ---- supervision ----
+
+TEST(KernelMultiproc, ServiceKilledMidRun_IsDetectedAndTheRunStopsCleanly) {
+  const Resources before = Resources::now();
+  {
+    GraphSpec spec;
+    spec.intruder = Role{"intruder", "  params { name: \"attack\" text: \"crash\" }\n  params { name: \"start_ms\" number: 40 }\n"};
+    auto k = make_kernel(spec);
+    ASSERT_NE(k, nullptr);
+    ASSERT_TRUE(k->boot().has_value());
+    step_n(*k, 50);
+    ASSERT_TRUE(k->stop_reason().has_value());
+    EXPECT_EQ(*k->stop_reason(), StopReason::ServiceFailed);
+    EXPECT_NE(k->stop_detail().find("intruder"), std::string::npos) << k->stop_detail();
+    const ServiceStats st = k->stats(id_of(*k, "intruder"));
+    ASSERT_TRUE(st.exit.has_value());
+    EXPECT_EQ(st.exit->how, sys::ExitStatus::How::Signaled);
+    EXPECT_EQ(st.exit->value, SIGABRT);
+    EXPECT_GE(k->now(), std::chrono::milliseconds{40});
+  }
+  EXPECT_EQ(Resources::now().children, before.children);
+  EXPECT_EQ(Resources::now().fds, before.fds);
+}
+
+// ---- determinism ----
+
+std::vector<Seen> record_run(std::uint64_t seed) {
+  Recorder recorder;
+  GraphSpec spec;
+  spec.seed = seed;
+  spec.source = Role{"source", "  params { name: \"burst\" number: 3 }\n"};
+  spec.intruder = Role{"intruder", "  params { name: \"attack\" text: \"forge\" }\n  params { name: \"period_ms\" number: 12 }\n"};
+  auto k = make_kernel(spec, &recorder);
+  if (k == nullptr) return {};
+  EXPECT_TRUE(k->boot().has_value());
+  step_n(*k, 60);
+  EXPECT_FALSE(k->stop_reason().has_value()) << k->stop_detail();
+  k->shutdown();
+  return std::move(recorder.seen);
+}
+
+TEST(KernelMultiproc, SameSeed_GivesTheSameMessageStreamsTwice) {
+  const auto first = record_run(7);
+  const auto second = record_run(7);
+  ASSERT_GT(first.size(), 500U);
+  ASSERT_EQ(first.size(), second.size());
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    ASSERT_EQ(first[i], second[i]) << "publication " << i << " (" << first[i].topic << ") differs";
+  }
+  // The sink's digest folds the interleaving of three streams and the security events: equal digests mean
+  // every service saw the same order.
+  const auto other = record_run(8);
+  ASSERT_EQ(other.size(), first.size());
+  EXPECT_NE(other, first) << "a different seed must change the numbers";
+}
+
+}  // namespace
+}  // namespace rejuv::testing

@@ -1,0 +1,364 @@
+// `rejuv run GRAPH`: the multi-process runtime (DESIGN §2, §10). Starts the kernel, which spawns every
+// service of the graph and the plant as its children, runs the mission (lockstep by default: the plant is the
+// time master; --realtime for wall-clock time), prints progress to stderr and the run summary at the end
+// (proto::RunSummary, runner "run"). The metrics come from what the kernel routes — ground truth from the
+// plant, the estimate, the setpoint, the actuator outputs — measured with the same path, ellipsoid P and
+// control design as `rejuv sim` (rejuv_sr_sim / rejuv_control), so the two runners compare directly.
+// Exit 0 when the mission completes inside the safety set, 1 when it fails, 2 on bad input.
+#include <google/protobuf/util/json_util.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "args.hpp"
+#include "commands.hpp"
+#include "rejuv/cap/capability.hpp"
+#include "rejuv/flight/sr_sim.hpp"
+#include "rejuv/flight_io/messages.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "rejuv/launch/launch.hpp"
+
+#ifndef REJUV_SERVICE_DIR
+#define REJUV_SERVICE_DIR ""
+#endif
+
+namespace rejuv::cli {
+namespace {
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
+
+int bad_input(const std::string& message) {
+  std::fprintf(stderr, "%s\n", message.c_str());
+  return static_cast<int>(Exit::BadInput);
+}
+
+const char* mode_name(SrMode mode) {
+  switch (mode) {
+    case SrMode::MC: return "MC";
+    case SrMode::RB: return "RB";
+    case SrMode::SC: return "SC";
+    case SrMode::Update: return "UP";
+    case SrMode::CP: return "CP";
+  }
+  return "?";
+}
+
+template <class T>
+T as(std::span<const std::byte> payload) {
+  T v{};
+  std::memcpy(&v, payload.data(), std::min(sizeof(T), payload.size()));
+  return v;
+}
+
+template <class T>
+bool is(const kernel::Publication& p) {
+  return p.type == msgs::TopicTraits<T>::name;
+}
+
+// Records the run from the routed publications: tracking error against the waypoint polyline (ground truth),
+// V = ‖x − x_sp‖²_P, the estimation error ‖x − x̂‖²_P, gaps between actuator outputs, the CSV trace (the same
+// columns as `rejuv sim --csv`) and progress lines.
+class RunRecorder final : public kernel::Observer {
+ public:
+  RunRecorder(flight::ControlDesign design, flight::WaypointPath path, std::FILE* csv, bool tty)
+      : design_(std::move(design)), path_(std::move(path)), csv_(csv), tty_(tty) {
+    if (csv_ != nullptr) write_csv_header();
+  }
+
+  void on_publication(const kernel::Publication& p) override {
+    if (is<rejuv_msg_GroundTruth>(p)) {
+      on_truth(as<rejuv_msg_GroundTruth>(p.payload), p.t);
+    } else if (is<rejuv_msg_VehicleStateEstimate>(p)) {
+      if (auto x = flight_io::state_from_message(as<rejuv_msg_VehicleStateEstimate>(p.payload))) x_hat_ = *x;
+    } else if (is<rejuv_msg_Setpoint>(p)) {
+      const auto m = as<rejuv_msg_Setpoint>(p.payload);
+      if (auto x = flight_io::setpoint_from_message(m)) x_sp_ = *x;
+      if (m.mission_done == 1 && !completed_at_) completed_at_ = p.t;
+    } else if (is<rejuv_msg_ActuatorControls>(p)) {
+      if (auto u = flight_io::controls_from_message(as<rejuv_msg_ActuatorControls>(p.payload))) u_ = *u;
+    } else if (is<rejuv_msg_ActuatorOutputs>(p)) {
+      const Nanos stamp{static_cast<std::int64_t>(as<rejuv_msg_ActuatorOutputs>(p.payload).timestamp_ns)};
+      if (last_output_ && stamp > *last_output_) max_gap_ = std::max(max_gap_, stamp - *last_output_);
+      last_output_ = stamp;
+    } else if (is<rejuv_msg_SrMode>(p)) {
+      if (auto m = flight_io::mode_from_message(as<rejuv_msg_SrMode>(p.payload))) mode_ = *m;
+    }
+  }
+
+  void on_step(std::uint64_t /*step*/, Nanos t, SrMode mode) override {
+    mode_ = mode;
+    const Nanos every = tty_ ? std::chrono::seconds{1} : std::chrono::seconds{10};
+    if (t - last_progress_ < every) return;
+    last_progress_ = t;
+    const flight::StateVec& x = x_;
+    std::fprintf(stderr, "rejuv run: t = %6.1f s  mode %s  position (%.2f, %.2f, %.2f) m  d_max %.1f cm  max V %.3f\n",
+                 to_seconds(t).count(), mode_name(mode_), x[0], x[1], x[2], 100.0 * d_max_, max_V_);
+  }
+
+  void fill(proto::RunSummary& s, Nanos end) const {
+    s.set_mission_completed(completed_at_.has_value());
+    s.set_mission_time_s(to_seconds(completed_at_.value_or(end)).count());
+    s.set_d_mean_m(d_count_ > 0 ? d_sum_ / static_cast<double>(d_count_) : 0.0);
+    s.set_d_max_m(d_max_);
+    s.set_max_v(max_V_);
+    s.set_max_est_err_p(max_est_err_);
+    s.set_left_safety_set(max_V_ >= 1.0);
+    s.set_max_control_gap_ms(std::chrono::duration<double, std::milli>(max_gap_).count());
+  }
+
+ private:
+  void on_truth(const rejuv_msg_GroundTruth& g, Nanos t) {
+    const Eigen::Vector3d p(g.p_N_m[0], g.p_N_m[1], g.p_N_m[2]);
+    const Eigen::Quaterniond q(g.q_NB[0], g.q_NB[1], g.q_NB[2], g.q_NB[3]);
+    x_ = flight::make_state(p, Eigen::Vector3d(g.v_N_m_s[0], g.v_N_m_s[1], g.v_N_m_s[2]),
+                            flight::euler_from_quaternion(q.normalized()),
+                            Eigen::Vector3d(g.omega_B_rad_s[0], g.omega_B_rad_s[1], g.omega_B_rad_s[2]));
+    if (!x_.allFinite()) return;
+    const double d = path_.distance_to(p);
+    d_sum_ += d;
+    d_max_ = std::max(d_max_, d);
+    ++d_count_;
+    double V = 0;
+    if (x_sp_) {
+      V = design_.ellipsoid.V(x_, *x_sp_);
+      max_V_ = std::max(max_V_, V);
+    }
+    if (x_hat_) max_est_err_ = std::max(max_est_err_, design_.ellipsoid.V(x_, *x_hat_));
+    if (csv_ != nullptr) write_csv_row(t, V);
+  }
+
+  void write_csv_header() {
+    std::fputs("t_s", csv_);
+    for (const char* prefix : {"", "hat_"}) {
+      for (const char* name : {"n_m", "e_m", "d_m", "vn_m_s", "ve_m_s", "vd_m_s", "roll_rad", "pitch_rad", "yaw_rad",
+                               "p_rad_s", "q_rad_s", "r_rad_s"}) {
+        std::fprintf(csv_, ",%s%s", prefix, name);
+      }
+    }
+    std::fputs(",sp_n_m,sp_e_m,sp_d_m,sp_yaw_rad,mode,F_N,tau_phi_N_m,tau_theta_N_m,tau_psi_N_m,V\n", csv_);
+  }
+
+  void write_csv_row(Nanos t, double V) {
+    const flight::StateVec hat = x_hat_.value_or(flight::StateVec::Zero());
+    const flight::StateVec sp = x_sp_.value_or(flight::StateVec::Zero());
+    std::fprintf(csv_, "%.3f", to_seconds(t).count());
+    for (const flight::StateVec* v : {static_cast<const flight::StateVec*>(&x_), &hat}) {
+      for (Eigen::Index i = 0; i < flight::kStateDim; ++i) std::fprintf(csv_, ",%.6g", (*v)[i]);
+    }
+    std::fprintf(csv_, ",%.6g,%.6g,%.6g,%.6g,%s", sp[0], sp[1], sp[2], sp[flight::idx::kYaw], mode_name(mode_));
+    for (Eigen::Index j = 0; j < flight::kInputDim; ++j) std::fprintf(csv_, ",%.6g", u_[j]);
+    std::fprintf(csv_, ",%.6g\n", V);
+  }
+
+  flight::ControlDesign design_;
+  flight::WaypointPath path_;
+  std::FILE* csv_;
+  bool tty_;
+  flight::StateVec x_ = flight::StateVec::Zero();
+  std::optional<flight::StateVec> x_hat_;
+  std::optional<flight::StateVec> x_sp_;
+  flight::InputVec u_ = flight::InputVec::Zero();
+  SrMode mode_ = SrMode::MC;
+  double d_sum_ = 0, d_max_ = 0, max_V_ = 0, max_est_err_ = 0;
+  std::uint64_t d_count_ = 0;
+  std::optional<Nanos> completed_at_;
+  std::optional<Nanos> last_output_;
+  Nanos max_gap_{0};
+  Nanos last_progress_{0};
+};
+
+std::string to_json(const proto::RunSummary& s) {
+  google::protobuf::util::JsonPrintOptions options;
+  options.preserve_proto_field_names = true;
+  options.always_print_primitive_fields = true;
+  options.add_whitespace = true;
+  std::string out;
+  (void)google::protobuf::util::MessageToJsonString(s, &out, options);
+  return out;
+}
+
+std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outcome) {
+  std::string denials;
+  for (const auto& [kind, n] : s.denials()) {
+    denials += (denials.empty() ? "" : ", ") + kind + " " + std::to_string(n);
+  }
+  char buf[1536];
+  std::snprintf(buf, sizeof buf,
+                "%s (run): sr=%s attack=%s seed=%llu — %s%s%s\n"
+                "  mission     %s in %.1f s (simulated %.1f s in %.1f s wall, %.1fx real time)\n"
+                "  tracking    d_mean %.2f cm, d_max %.2f cm\n"
+                "  safety      max V = %.4f (%s), max estimation error ||x - x_hat||^2_P = %.4f\n"
+                "  control     max gap between actuator outputs %.1f ms\n"
+                "  denials     %s\n",
+                s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? "on" : "off",
+                static_cast<unsigned long long>(s.seed()), std::string(kernel::to_string(outcome.reason)).c_str(),
+                outcome.detail.empty() ? "" : ": ", outcome.detail.c_str(),
+                s.mission_completed() ? "completed" : "NOT COMPLETED", s.mission_time_s(), s.sim_time_s(),
+                s.wall_time_s(), s.realtime_factor(), 100.0 * s.d_mean_m(), 100.0 * s.d_max_m(), s.max_v(),
+                s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe", s.max_est_err_p(), s.max_control_gap_ms(),
+                denials.empty() ? "none" : denials.c_str());
+  return buf;
+}
+
+std::filesystem::path service_dir() {
+  if (const char* env = std::getenv("REJUV_SERVICE_DIR"); env != nullptr && *env != '\0') return env;
+  return REJUV_SERVICE_DIR;
+}
+
+}  // namespace
+
+int run_run(std::span<const std::string_view> args) {
+  std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text;
+  bool realtime = false, no_sr = false, no_attack = false, verbose = false;
+  bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
+  ArgParser parser("run",
+                   "Run a launch graph on the multi-process runtime: the kernel spawns every service and the plant,\n"
+                   "routes every message through the capability check and the broker, and keeps time (lockstep with\n"
+                   "the plant as time master unless --realtime). Without --duration the run ends at mission end or\n"
+                   "the mission timeout; with it, the run lasts exactly that long (e.g. a hover).\n"
+                   "Software rejuvenation needs the image store (DESIGN §7), which is not there yet: graphs with\n"
+                   "sr.enabled must be run with --no-sr.\n"
+                   "Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when\n"
+                   "it fails, 2 on bad flags, a bad launch file or a policy that fails its audit.");
+  parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
+      .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
+      .flag("--no-sr", no_sr, "no rejuvenation (the only mode until the image store exists)")
+      .flag("--no-attack", no_attack, "disable the attack plan")
+      .option("--seed", "N", seed_text, "seed of the plant and the services (default: the graph's)", &seed_set)
+      .option("--duration", "S", duration_text, "stop after S seconds of kernel time", &duration_set)
+      .option("--summary-json", "FILE", json_path, "write the RunSummary as JSON", &json_set)
+      .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step", &csv_set)
+      .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
+      .option("--skip", "NAMES", skip_text, "comma-separated services not to start (e.g. not built yet)", &skip_set)
+      .flag("--verbose", verbose, "also print the services' debug log lines");
+  const auto parsed = parser.parse(args);
+  if (!parsed) return bad_input("rejuv run: " + parsed.error());
+  switch (*parsed) {
+    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
+    case ParseOutcome::Run: break;
+  }
+
+  kernel::KernelOptions options;
+  options.no_sr = no_sr;
+  options.no_attack = no_attack;
+  options.verbose = verbose;
+  options.service_dir = service_dir();
+  options.repo_root = REJUV_SOURCE_DIR;
+  if (realtime) options.clock = kernel::ClockMode::Realtime;
+  if (seed_set) {
+    const auto seed = to_u64(seed_text, "--seed");
+    if (!seed) return bad_input("rejuv run: " + seed.error());
+    options.seed = *seed;
+  }
+  if (duration_set) {
+    const auto d = to_double(duration_text, "--duration");
+    if (!d) return bad_input("rejuv run: " + d.error());
+    if (!(std::isfinite(*d) && *d > 0 && *d < 1e6)) {
+      return bad_input("rejuv run: --duration: expected seconds in (0, 1e6), got '" + duration_text + "'");
+    }
+    options.duration = to_nanos(Seconds{*d});
+    options.stop_on_mission_done = false;
+  }
+  if (domain_set) {
+    const auto d = to_u64(domain_text, "--domain");
+    if (!d) return bad_input("rejuv run: " + d.error());
+    if (*d > launch::defaults::kMaxDdsDomainId) {
+      return bad_input("rejuv run: --domain: expected 0.." + std::to_string(launch::defaults::kMaxDdsDomainId) +
+                       ", got " + domain_text);
+    }
+    options.dds_domain = static_cast<std::uint32_t>(*d);
+  }
+  if (skip_set) {
+    std::string_view rest = skip_text;
+    while (!rest.empty()) {
+      const auto comma = rest.find(',');
+      const std::string_view name = rest.substr(0, comma);
+      if (!name.empty()) options.skip_services.emplace_back(name);
+      rest = comma == std::string_view::npos ? std::string_view{} : rest.substr(comma + 1);
+    }
+  }
+
+  auto loaded = launch::load_launch(graph_path);
+  if (!loaded) return bad_input(loaded.error().to_string());
+  for (const std::string& name : options.skip_services) {
+    if (launch::find_service(loaded->graph, name) == nullptr) {
+      return bad_input("rejuv run: --skip: the graph has no service '" + name + "'");
+    }
+  }
+  // The reference for the metrics: the same path, control design and P as `rejuv sim` (services/flight/sim).
+  flight::SimOverrides overrides;
+  overrides.sr = flight::SrSwitch::Off;
+  if (options.seed) overrides.seed = *options.seed;
+  auto reference = flight::config_from_launch(*loaded, overrides);
+  if (!reference) return bad_input(reference.error().to_string());
+  auto design = flight::design_control(reference->control);
+  if (!design) return bad_input("rejuv run: control design: " + design.error().to_string());
+  auto path = flight::WaypointPath::make(reference->waypoints);
+  if (!path) return bad_input("rejuv run: mission path: " + path.error().message);
+
+  UniqueFile json_file, csv_file;
+  if (json_set) {
+    json_file.reset(std::fopen(json_path.c_str(), "w"));
+    if (!json_file) return bad_input("rejuv run: cannot write --summary-json file '" + json_path + "'");
+  }
+  if (csv_set) {
+    csv_file.reset(std::fopen(csv_path.c_str(), "w"));
+    if (!csv_file) return bad_input("rejuv run: cannot write --csv file '" + csv_path + "'");
+  }
+  RunRecorder recorder(std::move(*design), std::move(*path), csv_file.get(), isatty(STDERR_FILENO) == 1);
+
+  const std::string graph_name = loaded->graph.name();
+  const bool attack = loaded->graph.attack().enabled() && !no_attack;
+  auto k = kernel::Kernel::create(std::move(*loaded), options, &recorder);
+  if (!k) {
+    std::fprintf(stderr, "rejuv run: %s\n", k.error().to_string().c_str());
+    return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+  std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),
+               std::string(kernel::to_string((*k)->clock_mode())).c_str(), (*k)->sr_enabled() ? "on" : "off",
+               static_cast<unsigned long long>(options.seed.value_or((*k)->graph().graph.seed())));
+  auto outcome = (*k)->run();
+  if (!outcome) {
+    std::fprintf(stderr, "rejuv run: %s\n", outcome.error().to_string().c_str());
+    return static_cast<int>(outcome.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+
+  proto::RunSummary s;
+  s.set_graph(graph_name);
+  s.set_runner("run");
+  s.set_sr((*k)->sr_enabled());
+  s.set_attack(attack);
+  s.set_seed(options.seed.value_or((*k)->graph().graph.seed()));
+  recorder.fill(s, outcome->sim_time);
+  // Denials by kind, from the capability kernel's counters (DESIGN §3); frames refused before any cap
+  // check (framing, protocol) as "BadFrame".
+  const cap::DenialCounters& counters = (*k)->caps().denials();
+  for (const cap::CapError e : cap::kAllCapErrors) {
+    if (const std::uint64_t n = counters.by_error(e); n > 0) (*s.mutable_denials())[std::string(cap::to_string(e))] = n;
+  }
+  if (const std::uint64_t bad = (*k)->bad_frames_total(); bad > 0) (*s.mutable_denials())["BadFrame"] = bad;
+  const double sim_s = to_seconds(outcome->sim_time).count();
+  const double wall_s = to_seconds(outcome->wall_time).count();
+  s.set_sim_time_s(sim_s);
+  s.set_wall_time_s(wall_s);
+  s.set_realtime_factor(wall_s > 0 ? sim_s / wall_s : 0.0);
+
+  std::fputs(describe(s, *outcome).c_str(), stdout);
+  if (json_file) std::fputs(to_json(s).c_str(), json_file.get());
+  const bool completed_run = s.mission_completed() || outcome->reason == kernel::StopReason::Duration;
+  const bool good = completed_run && !kernel::is_failure(outcome->reason) && !s.left_safety_set() &&
+                    outcome->reason != kernel::StopReason::Signal;
+  return static_cast<int>(good ? Exit::Ok : Exit::Findings);
+}
+
+}  // namespace rejuv::cli
