@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "report.hpp"
 #include "commands.hpp"
 #include "rejuv/cap/capability.hpp"
 #include "rejuv/flight/sr_sim.hpp"
@@ -36,22 +37,6 @@ struct FileCloser {
   void operator()(std::FILE* f) const { std::fclose(f); }
 };
 using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
-
-int bad_input(const std::string& message) {
-  std::fprintf(stderr, "%s\n", message.c_str());
-  return static_cast<int>(Exit::BadInput);
-}
-
-const char* mode_name(SrMode mode) {
-  switch (mode) {
-    case SrMode::MC: return "MC";
-    case SrMode::RB: return "RB";
-    case SrMode::SC: return "SC";
-    case SrMode::Update: return "UP";
-    case SrMode::CP: return "CP";
-  }
-  return "?";
-}
 
 template <class T>
 T as(std::span<const std::byte> payload) {
@@ -72,7 +57,7 @@ class RunRecorder final : public kernel::Observer {
  public:
   RunRecorder(flight::ControlDesign design, flight::WaypointPath path, std::FILE* csv, bool tty)
       : design_(std::move(design)), path_(std::move(path)), csv_(csv), tty_(tty) {
-    if (csv_ != nullptr) write_csv_header();
+    if (csv_ != nullptr) write_trace_header(csv_);
   }
 
   void on_publication(const kernel::Publication& p) override {
@@ -137,27 +122,14 @@ class RunRecorder final : public kernel::Observer {
     if (csv_ != nullptr) write_csv_row(t, V);
   }
 
-  void write_csv_header() {
-    std::fputs("t_s", csv_);
-    for (const char* prefix : {"", "hat_"}) {
-      for (const char* name : {"n_m", "e_m", "d_m", "vn_m_s", "ve_m_s", "vd_m_s", "roll_rad", "pitch_rad", "yaw_rad",
-                               "p_rad_s", "q_rad_s", "r_rad_s"}) {
-        std::fprintf(csv_, ",%s%s", prefix, name);
-      }
-    }
-    std::fputs(",sp_n_m,sp_e_m,sp_d_m,sp_yaw_rad,mode,F_N,tau_phi_N_m,tau_theta_N_m,tau_psi_N_m,V\n", csv_);
-  }
-
   void write_csv_row(Nanos t, double V) {
-    const flight::StateVec hat = x_hat_.value_or(flight::StateVec::Zero());
-    const flight::StateVec sp = x_sp_.value_or(flight::StateVec::Zero());
-    std::fprintf(csv_, "%.3f", to_seconds(t).count());
-    for (const flight::StateVec* v : {static_cast<const flight::StateVec*>(&x_), &hat}) {
-      for (Eigen::Index i = 0; i < flight::kStateDim; ++i) std::fprintf(csv_, ",%.6g", (*v)[i]);
-    }
-    std::fprintf(csv_, ",%.6g,%.6g,%.6g,%.6g,%s", sp[0], sp[1], sp[2], sp[flight::idx::kYaw], mode_name(mode_));
-    for (Eigen::Index j = 0; j < flight::kInputDim; ++j) std::fprintf(csv_, ",%.6g", u_[j]);
-    std::fprintf(csv_, ",%.6g\n", V);
+    write_trace_row(csv_, flight::TraceRow{.t = t,
+                                           .x = x_,
+                                           .x_hat = x_hat_.value_or(flight::StateVec::Zero()),
+                                           .x_sp = x_sp_.value_or(flight::StateVec::Zero()),
+                                           .mode = mode_,
+                                           .u = u_,
+                                           .V = V});
   }
 
   flight::ControlDesign design_;
@@ -176,16 +148,6 @@ class RunRecorder final : public kernel::Observer {
   Nanos max_gap_{0};
   Nanos last_progress_{0};
 };
-
-std::string to_json(const proto::RunSummary& s) {
-  google::protobuf::util::JsonPrintOptions options;
-  options.preserve_proto_field_names = true;
-  options.always_print_primitive_fields = true;
-  options.add_whitespace = true;
-  std::string out;
-  (void)google::protobuf::util::MessageToJsonString(s, &out, options);
-  return out;
-}
 
 std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outcome) {
   std::string denials;
@@ -354,7 +316,7 @@ int run_run(std::span<const std::string_view> args) {
   s.set_realtime_factor(wall_s > 0 ? sim_s / wall_s : 0.0);
 
   std::fputs(describe(s, *outcome).c_str(), stdout);
-  if (json_file) std::fputs(to_json(s).c_str(), json_file.get());
+  if (json_file) std::fputs((to_json(s) + "\n").c_str(), json_file.get());
   const bool completed_run = s.mission_completed() || outcome->reason == kernel::StopReason::Duration;
   const bool good = completed_run && !kernel::is_failure(outcome->reason) && !s.left_safety_set() &&
                     outcome->reason != kernel::StopReason::Signal;

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "report.hpp"
 #include "commands.hpp"
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/launch/launch.hpp"
@@ -24,55 +25,6 @@ struct FileCloser {
 using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
 
 void print(std::FILE* to, const std::string& text) { std::fputs(text.c_str(), to); }
-
-int bad_input(const std::string& message) {
-  print(stderr, message + "\n");
-  return static_cast<int>(Exit::BadInput);
-}
-
-std::string to_json(const proto::RunSummary& s) {
-  google::protobuf::util::JsonPrintOptions options;
-  options.preserve_proto_field_names = true;
-  options.always_print_primitive_fields = true;
-  options.add_whitespace = true;
-  std::string out;
-  (void)google::protobuf::util::MessageToJsonString(s, &out, options);
-  while (!out.empty() && out.back() == '\n') out.pop_back();
-  return out;
-}
-
-const char* mode_name(SrMode mode) {
-  switch (mode) {
-    case SrMode::MC: return "MC";
-    case SrMode::RB: return "RB";
-    case SrMode::SC: return "SC";
-    case SrMode::Update: return "UP";
-    case SrMode::CP: return "CP";
-  }
-  return "?";
-}
-
-void write_csv_header(std::FILE* f) {
-  std::fputs("t_s", f);
-  for (const char* prefix : {"", "hat_"}) {
-    for (const char* name : {"n_m", "e_m", "d_m", "vn_m_s", "ve_m_s", "vd_m_s", "roll_rad", "pitch_rad", "yaw_rad",
-                             "p_rad_s", "q_rad_s", "r_rad_s"}) {
-      std::fprintf(f, ",%s%s", prefix, name);
-    }
-  }
-  std::fputs(",sp_n_m,sp_e_m,sp_d_m,sp_yaw_rad,mode,F_N,tau_phi_N_m,tau_theta_N_m,tau_psi_N_m,V\n", f);
-}
-
-void write_csv_row(std::FILE* f, const flight::TraceRow& r) {
-  std::fprintf(f, "%.3f", to_seconds(r.t).count());
-  for (const auto* v : {&r.x, &r.x_hat}) {
-    for (Eigen::Index i = 0; i < flight::kStateDim; ++i) std::fprintf(f, ",%.6g", (*v)[i]);
-  }
-  std::fprintf(f, ",%.6g,%.6g,%.6g,%.6g,%s", r.x_sp[0], r.x_sp[1], r.x_sp[2], r.x_sp[flight::idx::kYaw],
-               mode_name(r.mode));
-  for (Eigen::Index j = 0; j < flight::kInputDim; ++j) std::fprintf(f, ",%.6g", r.u[j]);
-  std::fprintf(f, ",%.6g\n", r.V);
-}
 
 std::string describe(const proto::RunSummary& s) {
   char buf[1024];
@@ -164,8 +116,8 @@ int run_sim(std::span<const std::string_view> args) {
   if (!table) {
     flight::SimObservers obs = progress_observers(config->graph_name, tty);
     if (csv_file) {
-      write_csv_header(csv_file.get());
-      obs.trace = [f = csv_file.get()](const flight::TraceRow& r) { write_csv_row(f, r); };
+      write_trace_header(csv_file.get());
+      obs.trace = [f = csv_file.get()](const flight::TraceRow& r) { write_trace_row(f, r); };
     }
     const auto summary = flight::run_simulation(*config, obs);
     if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());

@@ -1,0 +1,27 @@
+// What `rejuv sim` and `rejuv run` write the same way: the run summary as JSON, the time-series CSV (one
+// column layout for both, so a runtime trace and a model trace plot and compare alike) and short mode names.
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+#include "rejuv/core/vocabulary.hpp"
+#include "rejuv/flight/sr_sim.hpp"
+#include "summary.pb.h"
+
+namespace rejuv::cli {
+
+// Prints `message` on stderr and returns the bad-input exit code.
+int bad_input(const std::string& message);
+
+// Two-letter mode names for progress lines and the CSV (UPDATE is "UP").
+[[nodiscard]] const char* mode_name(SrMode mode);
+
+// The run summary as JSON with the proto field names kept (issue 2: "max_V", not "maxV").
+[[nodiscard]] std::string to_json(const proto::RunSummary& summary);
+
+// The trace CSV: t, x (12), x̂ (12), x_sp (position, yaw), mode, u (4), V.
+void write_trace_header(std::FILE* csv);
+void write_trace_row(std::FILE* csv, const flight::TraceRow& row);
+
+}  // namespace rejuv::cli
