@@ -13,18 +13,12 @@ int main() {
   sdk::Service& svc = **connected;
 
   auto commander = services::Commander::from_params(flight_io::params_of(svc));
-  if (!commander) {
-    svc.log(sdk::LogLevel::Error, "refusing the mission: " + commander.error().to_string());
-    return 1;
-  }
+  if (!svc.require(commander, "refusing the mission")) return 1;
   if (commander->mission().from_defaults) {
     svc.log(sdk::LogLevel::Warn, "no mission.count param: flying the simulation's default mission");
   }
   auto mission = svc.advertise<rejuv_msg_MissionWaypoints>("mission");
-  if (!mission) {
-    svc.log(sdk::LogLevel::Error, "mission: " + mission.error().to_string());
-    return 1;
-  }
+  if (!svc.require(mission, "mission")) return 1;
   SrMode mode = svc.mode();
   auto modes = svc.subscribe<rejuv_msg_SrMode>("sr_mode", [&](const rejuv_msg_SrMode& m) {
     if (auto decoded = flight_io::mode_from_message(m)) mode = *decoded;
@@ -54,9 +48,6 @@ int main() {
       svc.log(sdk::LogLevel::Error, "publishing the mission: " + ok.error().to_string());
     }
   });
-  if (!start) {
-    svc.log(sdk::LogLevel::Error, "timer: " + start.error().to_string());
-    return 1;
-  }
+  if (!svc.require(start, "timer")) return 1;
   return svc.run();
 }

@@ -11,18 +11,12 @@ int main() {
   sdk::Service& svc = **connected;
 
   auto mission = flight_io::mission_params(flight_io::params_of(svc));
-  if (!mission) {
-    svc.log(sdk::LogLevel::Error, "bad params: " + mission.error().to_string());
-    return 1;
-  }
+  if (!svc.require(mission, "bad params")) return 1;
   services::Ekf2Node ekf2(flight_io::ekf_params(), flight_io::ekf_initial_state(*mission),
                           flight_io::imu_period());
 
   auto state = svc.advertise<rejuv_msg_VehicleStateEstimate>("vehicle_state");
-  if (!state) {
-    svc.log(sdk::LogLevel::Error, "vehicle_state: " + state.error().to_string());
-    return 1;
-  }
+  if (!svc.require(state, "vehicle_state")) return 1;
   std::uint64_t refused = 0;
   const auto refuse = [&](const flight_io::InputFailure& e) {
     if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "dropping a sample: " + e.to_string());

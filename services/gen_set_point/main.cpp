@@ -12,22 +12,13 @@ int main() {
 
   const flight_io::Params params = flight_io::params_of(svc);
   auto tracking = flight_io::tracking_params(params);
-  if (!tracking) {
-    svc.log(sdk::LogLevel::Error, "bad params: " + tracking.error().to_string());
-    return 1;
-  }
+  if (!svc.require(tracking, "bad params")) return 1;
   auto design = flight_io::control_design(params);
-  if (!design) {
-    svc.log(sdk::LogLevel::Error, "bad params: " + design.error().to_string());
-    return 1;
-  }
+  if (!svc.require(design, "bad params")) return 1;
   services::SetpointNode node(design->ellipsoid, *tracking);
 
   auto setpoint = svc.advertise<rejuv_msg_Setpoint>("setpoint");
-  if (!setpoint) {
-    svc.log(sdk::LogLevel::Error, "setpoint: " + setpoint.error().to_string());
-    return 1;
-  }
+  if (!svc.require(setpoint, "setpoint")) return 1;
   bool announced_done = false;
   // After every input: publish a changed setpoint as soon as the mode grants it (the SEI).
   const auto publish_changed = [&] {

@@ -12,23 +12,14 @@ int main() {
 
   const flight_io::Params params = flight_io::params_of(svc);
   auto design = flight_io::control_design(params);
-  if (!design) {
-    svc.log(sdk::LogLevel::Error, "bad params: " + design.error().to_string());
-    return 1;
-  }
+  if (!svc.require(design, "bad params")) return 1;
   auto mission = flight_io::mission_params(params);
-  if (!mission) {
-    svc.log(sdk::LogLevel::Error, "bad params: " + mission.error().to_string());
-    return 1;
-  }
+  if (!svc.require(mission, "bad params")) return 1;
   const flight::PathWaypoint& first = mission->waypoints.front();
   services::MissionControl control(*design, flight::hover_setpoint(first.p_N_m, first.yaw_rad));
 
   auto controls = svc.advertise<rejuv_msg_ActuatorControls>("actuator_controls");
-  if (!controls) {
-    svc.log(sdk::LogLevel::Error, "actuator_controls: " + controls.error().to_string());
-    return 1;
-  }
+  if (!svc.require(controls, "actuator_controls")) return 1;
   std::uint64_t refused = 0;
   const auto refuse = [&](const flight_io::InputFailure& e) {
     if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "ignoring a message: " + e.to_string());

@@ -12,19 +12,13 @@ int main() {
   sdk::Service& svc = **connected;
 
   auto limits = flight_io::actuator_limits(flight_io::params_of(svc));
-  if (!limits) {
-    svc.log(sdk::LogLevel::Error, "bad params: " + limits.error().to_string());
-    return 1;
-  }
+  if (!svc.require(limits, "bad params")) return 1;
   // The mixer of the vehicle the plant flies (flight/sim uses the same: plant.mixer().inverse()).
   const plant::Mixer mixer(flight::SimConfig::defaults().quad);
   services::DriverNode driver(mixer.inverse(), *limits, svc.mode());
 
   auto outputs = svc.advertise<rejuv_msg_ActuatorOutputs>("actuator_outputs");
-  if (!outputs) {
-    svc.log(sdk::LogLevel::Error, "actuator_outputs: " + outputs.error().to_string());
-    return 1;
-  }
+  if (!svc.require(outputs, "actuator_outputs")) return 1;
   std::uint64_t refused = 0;
   const auto refuse = [&](const flight_io::InputFailure& e) {
     if (refused++ == 0) {

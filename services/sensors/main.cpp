@@ -11,10 +11,7 @@ int main() {
   sdk::Service& svc = **connected;
 
   auto combined = svc.advertise<rejuv_msg_SensorCombined>("sensor_combined");
-  if (!combined) {
-    svc.log(sdk::LogLevel::Error, "sensor_combined: " + combined.error().to_string());
-    return 1;
-  }
+  if (!svc.require(combined, "sensor_combined")) return 1;
   std::uint64_t refused = 0;
   const auto refuse = [&](const flight_io::InputFailure& e) {
     if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "dropping a sample: " + e.to_string());

@@ -119,9 +119,11 @@ TEST(AuditSei, FindingNamesOnlyTheBadModes) {
 
 // ---- limits (§III limits on control uncertainty, §IV-C) ----
 TEST(AuditLimits, WriteInMcByRejuvenation_Finding) {
-  const auto f = audit(
-      must_parse(std::string(kBase).replace(std::string(kBase).find("\"limits\" rights: \"W\" modes: [RB"),
-                                            35, "\"limits\" rights: \"W\" modes: [MC, RB")));
+  // Adds MC in front of the rejuvenation service's Limits grant, leaving its other modes as they are.
+  constexpr std::string_view kFrom = "\"limits\" rights: \"W\" modes: [RB";
+  std::string text(kBase);
+  text.replace(text.find(kFrom), kFrom.size(), "\"limits\" rights: \"W\" modes: [MC, RB");
+  const auto f = audit(must_parse(text));
   ASSERT_EQ(f.size(), 1U) << ids(f);
   EXPECT_EQ(f[0].id(), "limits");
   EXPECT_NE(f[0].message.find("in MC"), std::string::npos);

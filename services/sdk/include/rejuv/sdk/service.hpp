@@ -322,6 +322,14 @@ class Service {
   // ---- log ----
   // Printed by the kernel as "[name] text" (rate-limited per service). Text is cut at wire::kMaxLogText.
   void log(LogLevel level, std::string_view text);
+  // A start-up check for main(): true when `result` holds a value; otherwise logs "<what>: <error>" at Error
+  // level and returns false, so that `if (!svc.require(params, "bad params")) return 1;` is the whole check.
+  template <class T, class E>
+  [[nodiscard]] bool require(const Result<T, E>& result, std::string_view what) {
+    if (result) return true;
+    log(LogLevel::Error, std::string(what) + ": " + result.error().to_string());
+    return false;
+  }
   void logf(LogLevel level, const char* format, ...) __attribute__((format(printf, 3, 4)));
 
   // ---- event loop ----
