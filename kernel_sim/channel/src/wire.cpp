@@ -21,7 +21,6 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::TimerCancel:
     case FrameKind::Idle:
     case FrameKind::Ready:
-    case FrameKind::Resumed:
     case FrameKind::BootEnd:
     case FrameKind::TimerFired:
     case FrameKind::Snapshot:
@@ -31,7 +30,10 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::Invoke: rule = {sizeof(InvokeHeader), kMaxPayloadBytes}; return true;
     case FrameKind::TimerArm: rule = exactly(sizeof(TimerSpec)); return true;
     case FrameKind::Log: rule = {sizeof(LogHeader), sizeof(LogHeader) + kMaxLogText}; return true;
-    case FrameKind::Taken: rule = exactly(sizeof(TakenBody)); return true;
+    case FrameKind::Taken:
+    case FrameKind::Resumed: rule = exactly(sizeof(TakenBody)); return true;
+    case FrameKind::Resume: rule = exactly(sizeof(ResumeBody)); return true;
+    case FrameKind::NetDatagram: rule = {1, kMaxDatagramBytes}; return true;
     case FrameKind::Boot: rule = exactly(sizeof(BootHeader)); return true;
     case FrameKind::BootCap: rule = exactly(sizeof(BootCap)); return true;
     case FrameKind::BootParam: rule = exactly(sizeof(BootParam)); return true;
@@ -66,6 +68,8 @@ std::string_view to_string(FrameKind kind) {
     case FrameKind::Snapshot: return "Snapshot";
     case FrameKind::RollbackSignal: return "RollbackSignal";
     case FrameKind::Shutdown: return "Shutdown";
+    case FrameKind::Resume: return "Resume";
+    case FrameKind::NetDatagram: return "NetDatagram";
   }
   return "?";
 }

@@ -142,6 +142,8 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Snapshot:
     case wire::FrameKind::RollbackSignal:
     case wire::FrameKind::Shutdown:
+    case wire::FrameKind::Resume:
+    case wire::FrameKind::NetDatagram:
       refuse(s, "kernel-to-service frame kind");  // decode(ToKernel) already refuses these
       return;
   }

@@ -464,6 +464,13 @@ SdkResult<InvokeReply> Service::invoke(std::string_view object, cap::Operation o
   return invoke_slot((*found)->slot, op, arg0, arg1, data, out);
 }
 
+SdkResult<CheckpointOutcome> Service::checkpoint(std::string_view object) {
+  auto reply = invoke(object, cap::Operation::CheckpointCreate);
+  if (!reply) return std::unexpected(reply.error());
+  return CheckpointOutcome{.kind = CheckpointOutcome::Kind::Taken, .generation = Generation{reply->value},
+                           .epoch = epoch()};
+}
+
 SdkResult<InvokeReply> Service::invoke_slot(Slot slot, cap::Operation op, std::uint64_t arg0, std::uint64_t arg1,
                                             std::span<const std::byte> data, std::span<std::byte> out) {
   wire::InvokeHeader head{};
@@ -585,6 +592,8 @@ int Service::run() {
       case wire::FrameKind::BootCap:
       case wire::FrameKind::BootParam:
       case wire::FrameKind::BootEnd:
+      case wire::FrameKind::Resume:       // only ever on an image's resume socket
+      case wire::FrameKind::NetDatagram:  // network gate: comes with ext_link's Network cap
         ++s.bad_frames;
         break;
       case wire::FrameKind::Hello:

@@ -37,7 +37,8 @@ enum class FrameKind : std::uint16_t {
   Idle = 8,         // aux = number of frames the service has received so far: all of them are handled
   Ready = 9,        // boot done (subscriptions and timers made): the graph may start
   Taken = 10,       // checkpoint (DESIGN §7): aux = generation; payload = TakenBody
-  Resumed = 11,     // a restored image is live on its new channel: aux = generation
+  Resumed = 11,     // a restored image is live on its new channel: aux = generation; payload = TakenBody
+                    // (the pid of the new frozen copy of g it forked first)
   // ---- kernel → service ----
   Boot = 100,       // payload = BootHeader; then BootCap × cap_count, BootParam × param_count, BootEnd
   BootCap = 101,    // payload = BootCap
@@ -49,6 +50,9 @@ enum class FrameKind : std::uint16_t {
   Snapshot = 113,   // aux = generation g; carries one fd: the image's resume socket (DESIGN §7)
   RollbackSignal = 114,  // aux = generation restored; payload = RollbackBody
   Shutdown = 115,
+  Resume = 116,     // on an image's resume socket (DESIGN §7): aux = generation; payload = ResumeBody;
+                    // carries two fds: the new channel, then the resume socket of the new frozen copy
+  NetDatagram = 117,  // network gate (DESIGN §2): slot = the Network cap; payload = one datagram as received
 };
 
 [[nodiscard]] std::string_view to_string(FrameKind kind);
@@ -130,6 +134,11 @@ struct TakenBody {
   std::int32_t image_pid = 0;  // the frozen image (DESIGN §7)
   std::uint32_t reserved = 0;
 };
+struct ResumeBody {
+  std::uint32_t epoch = 0;     // the epoch the restored incarnation runs in
+  std::uint32_t reserved = 0;
+};
+inline constexpr std::size_t kMaxDatagramBytes = 1400;  // network gate: larger datagrams are dropped
 struct RollbackBody {
   std::uint32_t epoch = 0;
   std::uint32_t reserved = 0;

@@ -111,6 +111,17 @@ struct InvokeReply {
   std::size_t data_size = 0;
 };
 
+// What checkpoint() returned in this process (DESIGN §7 "Return value, not a semaphore").
+struct CheckpointOutcome {
+  enum class Kind : std::uint8_t {
+    Taken,     // the live process: the image of generation g exists and is frozen
+    Restored,  // an image of g, resumed by a rollback into `epoch`
+  };
+  Kind kind = Kind::Taken;
+  Generation generation{};
+  Epoch epoch{};
+};
+
 namespace detail {
 
 // A subscription's state inside the Service; Subscription<T> is a typed view of it.
@@ -318,6 +329,12 @@ class Service {
                                                    std::uint64_t arg1 = 0,
                                                    std::span<const std::byte> data = {},
                                                    std::span<std::byte> out = {});
+
+  // ---- images (DESIGN §7) ----
+  // Takes checkpoint g through the Checkpoint cap of `object` (§V create_checkpoint). Like fork(), it
+  // returns twice: `Taken{g}` in the live process, and `Restored{g, epoch}` when the image taken here is
+  // resumed by a rollback (the rollback handler of §V-B runs on that return value, not on a semaphore).
+  [[nodiscard]] SdkResult<CheckpointOutcome> checkpoint(std::string_view object = "checkpoint");
 
   // ---- log ----
   // Printed by the kernel as "[name] text" (rate-limited per service). Text is cut at wire::kMaxLogText.
