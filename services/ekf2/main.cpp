@@ -41,7 +41,11 @@ int main() {
   const flight::EkfRearm rearm = flight_io::ekf_rearm();
   if (svc.cap("rollback_signal")) {
     auto rollback = svc.subscribe<rejuv_msg_RollbackSignal>(
-        "rollback_signal", [&](const rejuv_msg_RollbackSignal&) { ekf2.on_rollback(rearm); });
+        "rollback_signal", [&](const rejuv_msg_RollbackSignal& m) {
+          ekf2.on_rollback(rearm);
+          svc.logf(sdk::LogLevel::Debug, "rollback to g %llu (epoch %u): estimator re-armed",
+                   static_cast<unsigned long long>(m.generation), m.epoch);
+        });
     if (!rollback) {
       svc.log(sdk::LogLevel::Error, "subscribe: " + rollback.error().to_string());
       return 1;

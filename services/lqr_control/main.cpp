@@ -3,6 +3,13 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/lqr_control/mission_control.hpp"
+#if defined(REJUV_ATTACK_HOOKS)
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "rejuv/services/lqr_control/worst_case_attack.hpp"
+#endif
 
 int main() {
   using namespace rejuv;
@@ -17,6 +24,31 @@ int main() {
   if (!svc.require(mission, "bad params")) return 1;
   const flight::PathWaypoint& first = mission->waypoints.front();
   services::MissionControl control(*design, flight::hover_setpoint(first.p_N_m, first.yaw_rad));
+
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOK (test builds only) ====: the launch plan's worst-case control attack (§VI-D), when an
+  // attack of kind WORST_CASE_CONTROL names this service and attacks are on (attack.* boot params).
+  auto plan = services::worst_case_attack_plan(
+      params, [&svc](std::string_view name) { return std::string(svc.text_param(name, "")); });
+  if (!svc.require(plan, "bad attack params")) return 1;
+  std::optional<services::WorstCaseAttack> attack;
+  if (*plan) {
+    attack.emplace(**plan, *design);
+    svc.logf(sdk::LogLevel::Warn, "attack hook armed: worst-case control from t = %g s, %s",
+             (*plan)->start.count(),
+             (*plan)->max_windows == 0 ? "every MC window"
+                                       : (std::to_string((*plan)->max_windows) + " MC window(s)").c_str());
+    control.set_attack_hook(
+        [&](const flight::StateVec& x_hat, const flight::StateVec& x_sp, const flight::InputVec&) {
+          const std::uint64_t before = attack->windows_attacked();
+          auto forged = attack->on_control(svc.now(), svc.mode(), svc.epoch(), x_hat, x_sp);
+          if (attack->windows_attacked() != before) {
+            svc.logf(sdk::LogLevel::Debug, "attacking the MC window of epoch %u", svc.epoch().value());
+          }
+          return forged;
+        });
+  }
+#endif
 
   auto controls = svc.advertise<rejuv_msg_ActuatorControls>("actuator_controls");
   if (!svc.require(controls, "actuator_controls")) return 1;

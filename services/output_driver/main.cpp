@@ -25,9 +25,21 @@ int main() {
       svc.log(sdk::LogLevel::Warn, "ignoring a message (the outputs in force stay): " + e.to_string());
     }
   };
+  // §IV-C: entering MC, Ū as checkpoint_p wrote it (through the Limits cap, never from a topic).
+  const bool has_limits_cap = svc.cap("actuator_limits").has_value();
+  const auto read_limits = [&] {
+    std::array<std::byte, sizeof(flight_io::LimitsRecord)> record{};
+    auto r = svc.invoke("actuator_limits", cap::Operation::LimitsRead, 0, 0, {}, record);
+    if (!r || r->value != record.size()) {
+      svc.log(sdk::LogLevel::Warn, "no restricted limits written before MC: the graph's Ū stays in force");
+      return;
+    }
+    if (auto ok = driver.on_limits(record); !ok) refuse(ok.error());
+  };
   auto modes = svc.subscribe<rejuv_msg_SrMode>("sr_mode", [&](const rejuv_msg_SrMode& m) {
     auto mode = flight_io::mode_from_message(m);
     if (!mode) return refuse(mode.error());
+    if (*mode == SrMode::MC && has_limits_cap && svc.param("sr.enabled", 0) != 0) read_limits();
     driver.on_mode(*mode);
   });
   auto controls = svc.subscribe<rejuv_msg_ActuatorControls>(

@@ -55,8 +55,11 @@ bool is(const kernel::Publication& p) {
 // columns as `rejuv sim --csv`) and progress lines.
 class RunRecorder final : public kernel::Observer {
  public:
-  RunRecorder(flight::ControlDesign design, flight::WaypointPath path, std::FILE* csv, bool tty)
-      : design_(std::move(design)), path_(std::move(path)), csv_(csv), tty_(tty) {
+  // `flight_start`: the end of the plant's pre-flight alignment (the vehicle rests at its start pose until
+  // then, rejuv_plant --align-s): the metrics, the trace and the mission time start there, like `rejuv sim`'s
+  // t = 0 after its alignment.
+  RunRecorder(flight::ControlDesign design, flight::WaypointPath path, std::FILE* csv, bool tty, Nanos flight_start)
+      : design_(std::move(design)), path_(std::move(path)), csv_(csv), tty_(tty), flight_start_(flight_start) {
     if (csv_ != nullptr) write_trace_header(csv_);
   }
 
@@ -68,11 +71,12 @@ class RunRecorder final : public kernel::Observer {
     } else if (is<rejuv_msg_Setpoint>(p)) {
       const auto m = as<rejuv_msg_Setpoint>(p.payload);
       if (auto x = flight_io::setpoint_from_message(m)) x_sp_ = *x;
-      if (m.mission_done == 1 && !completed_at_) completed_at_ = p.t;
+      if (m.mission_done == 1 && !completed_at_) completed_at_ = std::max(p.t - flight_start_, Nanos{0});
     } else if (is<rejuv_msg_ActuatorControls>(p)) {
       if (auto u = flight_io::controls_from_message(as<rejuv_msg_ActuatorControls>(p.payload))) u_ = *u;
     } else if (is<rejuv_msg_ActuatorOutputs>(p)) {
       const Nanos stamp{static_cast<std::int64_t>(as<rejuv_msg_ActuatorOutputs>(p.payload).timestamp_ns)};
+      if (stamp < flight_start_) return;  // aligning: the plant does not apply them
       if (last_output_ && stamp > *last_output_) max_gap_ = std::max(max_gap_, stamp - *last_output_);
       last_output_ = stamp;
     } else if (is<rejuv_msg_SrMode>(p)) {
@@ -92,7 +96,7 @@ class RunRecorder final : public kernel::Observer {
 
   void fill(proto::RunSummary& s, Nanos end) const {
     s.set_mission_completed(completed_at_.has_value());
-    s.set_mission_time_s(to_seconds(completed_at_.value_or(end)).count());
+    s.set_mission_time_s(to_seconds(completed_at_.value_or(std::max(end - flight_start_, Nanos{0}))).count());
     s.set_d_mean_m(d_count_ > 0 ? d_sum_ / static_cast<double>(d_count_) : 0.0);
     s.set_d_max_m(d_max_);
     s.set_max_v(max_V_);
@@ -108,7 +112,7 @@ class RunRecorder final : public kernel::Observer {
     x_ = flight::make_state(p, Eigen::Vector3d(g.v_N_m_s[0], g.v_N_m_s[1], g.v_N_m_s[2]),
                             flight::euler_from_quaternion(q.normalized()),
                             Eigen::Vector3d(g.omega_B_rad_s[0], g.omega_B_rad_s[1], g.omega_B_rad_s[2]));
-    if (!x_.allFinite()) return;
+    if (!x_.allFinite() || t < flight_start_) return;  // aligning: at rest, not flying yet
     const double d = path_.distance_to(p);
     d_sum_ += d;
     d_max_ = std::max(d_max_, d);
@@ -119,7 +123,7 @@ class RunRecorder final : public kernel::Observer {
       max_V_ = std::max(max_V_, V);
     }
     if (x_hat_) max_est_err_ = std::max(max_est_err_, design_.ellipsoid.V(x_, *x_hat_));
-    if (csv_ != nullptr) write_csv_row(t, V);
+    if (csv_ != nullptr) write_csv_row(t - flight_start_, V);
   }
 
   void write_csv_row(Nanos t, double V) {
@@ -136,6 +140,7 @@ class RunRecorder final : public kernel::Observer {
   flight::WaypointPath path_;
   std::FILE* csv_;
   bool tty_;
+  Nanos flight_start_;
   flight::StateVec x_ = flight::StateVec::Zero();
   std::optional<flight::StateVec> x_hat_;
   std::optional<flight::StateVec> x_sp_;
@@ -161,14 +166,18 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 "  tracking    d_mean %.2f cm, d_max %.2f cm\n"
                 "  safety      max V = %.4f (%s), max estimation error ||x - x_hat||^2_P = %.4f\n"
                 "  control     max gap between actuator outputs %.1f ms\n"
-                "  denials     %s\n",
+                "  images      %llu checkpoints (p50 %.3f ms, max %.3f ms), %llu rollbacks (p50 %.3f ms, max %.3f ms)\n"
+                "  denials     %s\n"
+                "  network     %s\n",
                 s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? "on" : "off",
                 static_cast<unsigned long long>(s.seed()), std::string(kernel::to_string(outcome.reason)).c_str(),
                 outcome.detail.empty() ? "" : ": ", outcome.detail.c_str(),
                 s.mission_completed() ? "completed" : "NOT COMPLETED", s.mission_time_s(), s.sim_time_s(),
                 s.wall_time_s(), s.realtime_factor(), 100.0 * s.d_mean_m(), 100.0 * s.d_max_m(), s.max_v(),
                 s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe", s.max_est_err_p(), s.max_control_gap_ms(),
-                denials.empty() ? "none" : denials.c_str());
+                static_cast<unsigned long long>(s.checkpoints()), s.checkpoint_ms().p50(), s.checkpoint_ms().max(),
+                static_cast<unsigned long long>(s.rollbacks()), s.rollback_ms().p50(), s.rollback_ms().max(),
+                denials.empty() ? "none" : denials.c_str(), describe_network(s.network()).c_str());
   return buf;
 }
 
@@ -180,7 +189,8 @@ std::filesystem::path service_dir() {
 }  // namespace
 
 int run_run(std::span<const std::string_view> args) {
-  std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text;
+  std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text;
+  bool net_port_set = false;
   bool realtime = false, no_sr = false, no_attack = false, verbose = false;
   bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
   ArgParser parser("run",
@@ -188,20 +198,24 @@ int run_run(std::span<const std::string_view> args) {
                    "routes every message through the capability check and the broker, and keeps time (lockstep with\n"
                    "the plant as time master unless --realtime). Without --duration the run ends at mission end or\n"
                    "the mission timeout; with it, the run lasts exactly that long (e.g. a hover).\n"
-                   "Software rejuvenation needs the image store (DESIGN §7), which is not there yet: graphs with\n"
-                   "sr.enabled must be run with --no-sr.\n"
+                   "With the graph's sr.enabled (and without --no-sr) the services are checkpointed and rolled back\n"
+                   "by the image store (DESIGN §7) on the rejuvenation timer; checkpoint_p drives the SR cycle.\n"
                    "Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when\n"
                    "it fails, 2 on bad flags, a bad launch file or a policy that fails its audit.");
   parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
       .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
-      .flag("--no-sr", no_sr, "no rejuvenation (the only mode until the image store exists)")
+      .flag("--no-sr", no_sr, "no rejuvenation: mission control only, checkpoint_p not started")
       .flag("--no-attack", no_attack, "disable the attack plan")
       .option("--seed", "N", seed_text, "seed of the plant and the services (default: the graph's)", &seed_set)
-      .option("--duration", "S", duration_text, "stop after S seconds of kernel time", &duration_set)
+      .option("--duration", "S", duration_text,
+              "stop after S seconds of flight (kernel time after the plant's pre-flight alignment)", &duration_set)
       .option("--summary-json", "FILE", json_path, "write the RunSummary as JSON", &json_set)
       .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step", &csv_set)
       .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
       .option("--skip", "NAMES", skip_text, "comma-separated services not to start (e.g. not built yet)", &skip_set)
+      .option("--net-port", "P", net_port_text,
+              "UDP port of the network gate (default: the graph's network.bind_port or 14555; 0 = any free port)",
+              &net_port_set)
       .flag("--verbose", verbose, "also print the services' debug log lines");
   const auto parsed = parser.parse(args);
   if (!parsed) return bad_input("rejuv run: " + parsed.error());
@@ -240,6 +254,12 @@ int run_run(std::span<const std::string_view> args) {
     }
     options.dds_domain = static_cast<std::uint32_t>(*d);
   }
+  if (net_port_set) {
+    const auto p = to_u64(net_port_text, "--net-port");
+    if (!p) return bad_input("rejuv run: " + p.error());
+    if (*p > 0xFFFF) return bad_input("rejuv run: --net-port: expected 0..65535, got " + net_port_text);
+    options.network_port = static_cast<std::uint16_t>(*p);
+  }
   if (skip_set) {
     std::string_view rest = skip_text;
     while (!rest.empty()) {
@@ -267,6 +287,11 @@ int run_run(std::span<const std::string_view> args) {
   if (!design) return bad_input("rejuv run: control design: " + design.error().to_string());
   auto path = flight::WaypointPath::make(reference->waypoints);
   if (!path) return bad_input("rejuv run: mission path: " + path.error().message);
+  // The plant aligns as long as `rejuv sim` does (its SimConfig), so that both fly from a converged estimate.
+  const Nanos alignment = std::chrono::round<Nanos>(reference->alignment);
+  options.plant_args.insert(options.plant_args.end(),
+                            {"--align-s", std::to_string(to_seconds(alignment).count())});
+  if (options.duration) *options.duration += alignment;
 
   UniqueFile json_file, csv_file;
   if (json_set) {
@@ -277,7 +302,8 @@ int run_run(std::span<const std::string_view> args) {
     csv_file.reset(std::fopen(csv_path.c_str(), "w"));
     if (!csv_file) return bad_input("rejuv run: cannot write --csv file '" + csv_path + "'");
   }
-  RunRecorder recorder(std::move(*design), std::move(*path), csv_file.get(), isatty(STDERR_FILENO) == 1);
+  RunRecorder recorder(std::move(*design), std::move(*path), csv_file.get(), isatty(STDERR_FILENO) == 1,
+                       alignment);
 
   const std::string graph_name = loaded->graph.name();
   const bool attack = loaded->graph.attack().enabled() && !no_attack;
@@ -309,11 +335,33 @@ int run_run(std::span<const std::string_view> args) {
     if (const std::uint64_t n = counters.by_error(e); n > 0) (*s.mutable_denials())[std::string(cap::to_string(e))] = n;
   }
   if (const std::uint64_t bad = (*k)->bad_frames_total(); bad > 0) (*s.mutable_denials())["BadFrame"] = bad;
+  // Contained below the cap check (DESIGN §11): sandbox violations (the seccomp filter ended the process),
+  // publications over the per-step bound or of the wrong size, and messages overrun in the rings.
+  std::uint64_t sandbox = 0, flood = 0, wrong_size = 0, overrun = 0;
+  for (std::size_t i = 0; i < (*k)->service_count(); ++i) {
+    const kernel::ServiceStats st = (*k)->stats(ServiceId{static_cast<std::uint32_t>(i)});
+    sandbox += st.sandbox_violations;
+    flood += st.flood_dropped;
+    wrong_size += st.wrong_size;
+    overrun += st.lost;
+  }
+  for (const auto& [kind, n] : {std::pair{"SandboxViolation", sandbox}, std::pair{"FloodDropped", flood},
+                                std::pair{"WrongSize", wrong_size}, std::pair{"RingOverrun", overrun}}) {
+    if (n > 0) (*s.mutable_denials())[kind] = n;
+  }
   const double sim_s = to_seconds(outcome->sim_time).count();
   const double wall_s = to_seconds(outcome->wall_time).count();
   s.set_sim_time_s(sim_s);
   s.set_wall_time_s(wall_s);
   s.set_realtime_factor(wall_s > 0 ? sim_s / wall_s : 0.0);
+  fill_network(*s.mutable_network(), (*k)->net_stats(), (*k)->network_port());
+  // The image store (DESIGN §7): counts and the real duration of every checkpoint and rollback.
+  const kernel::SrStats& sr = (*k)->sr_stats();
+  s.set_checkpoints(sr.checkpoints);
+  s.set_rollbacks(sr.rollbacks);
+  fill_percentiles(*s.mutable_checkpoint_ms(), sr.checkpoint_ms);
+  fill_percentiles(*s.mutable_rollback_ms(), sr.rollback_ms);
+  if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
 
   std::fputs(describe(s, *outcome).c_str(), stdout);
   if (json_file) std::fputs((to_json(s) + "\n").c_str(), json_file.get());

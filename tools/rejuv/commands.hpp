@@ -10,5 +10,7 @@ namespace rejuv::cli {
 int run_audit(std::span<const std::string_view> args);  // cmd_audit.cpp
 int run_sim(std::span<const std::string_view> args);    // cmd_sim.cpp
 int run_run(std::span<const std::string_view> args);    // cmd_run.cpp
+int run_gcs(std::span<const std::string_view> args);    // cmd_gcs.cpp
+int run_bench(std::span<const std::string_view> args);  // cmd_bench.cpp
 
 }  // namespace rejuv::cli

@@ -19,6 +19,8 @@ constexpr Command kCommands[] = {
     {"audit", "check a capability policy against the SR invariants and print its matrix",
      rejuv::cli::run_audit},
     {"run", "run a launch graph on the multi-process runtime (kernel, services, plant)", rejuv::cli::run_run},
+    {"gcs", "ground station: upload a mission over the network gate and show telemetry", rejuv::cli::run_gcs},
+    {"bench", "benchmarks side by side: `bench images` (checkpoint/rollback vs cold restart)", rejuv::cli::run_bench},
     {"sim", "model-level simulation of the SR scheme in one process (no runtime)", rejuv::cli::run_sim},
 };
 

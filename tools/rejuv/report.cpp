@@ -2,6 +2,8 @@
 
 #include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
+
 #include "args.hpp"
 
 namespace rejuv::cli {
@@ -22,6 +24,14 @@ const char* mode_name(SrMode mode) {
   return "?";
 }
 
+void fill_percentiles(proto::Percentiles& out, std::vector<double> values) {
+  out.set_count(values.size());
+  if (values.empty()) return;
+  std::sort(values.begin(), values.end());
+  out.set_p50(values[values.size() / 2]);
+  out.set_max(values.back());
+}
+
 std::string to_json(const proto::RunSummary& summary) {
   google::protobuf::util::JsonPrintOptions options;
   options.preserve_proto_field_names = true;
@@ -31,6 +41,32 @@ std::string to_json(const proto::RunSummary& summary) {
   (void)google::protobuf::util::MessageToJsonString(summary, &out, options);
   while (!out.empty() && out.back() == '\n') out.pop_back();
   return out;
+}
+
+void fill_network(proto::NetworkSummary& out, const kernel::NetStats& s, std::optional<std::uint16_t> port) {
+  out.set_port(port.value_or(0));
+  out.set_received(s.received);
+  out.set_relayed(s.relayed);
+  out.set_dropped_secure_interval(s.dropped_secure_interval);
+  out.set_dropped_oversize(s.dropped_oversize);
+  out.set_dropped_other(s.dropped_empty + s.dropped_no_receiver + s.dropped_busy);
+  out.set_sent(s.sent);
+  out.set_send_refused(s.send_refused);
+  out.set_unsent_no_ground(s.unsent_no_ground);
+}
+
+std::string describe_network(const proto::NetworkSummary& n) {
+  if (n.port() == 0) return "off";
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "udp %u: %llu received, %llu relayed, dropped %llu in the SEI, %llu oversize, %llu other; %llu sent, "
+                "%llu refused, %llu with no ground station",
+                n.port(), static_cast<unsigned long long>(n.received()), static_cast<unsigned long long>(n.relayed()),
+                static_cast<unsigned long long>(n.dropped_secure_interval()),
+                static_cast<unsigned long long>(n.dropped_oversize()), static_cast<unsigned long long>(n.dropped_other()),
+                static_cast<unsigned long long>(n.sent()), static_cast<unsigned long long>(n.send_refused()),
+                static_cast<unsigned long long>(n.unsent_no_ground()));
+  return buf;
 }
 
 void write_trace_header(std::FILE* csv) {

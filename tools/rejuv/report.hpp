@@ -4,21 +4,29 @@
 
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/flight/sr_sim.hpp"
+#include "rejuv/kernel/kernel.hpp"
 #include "summary.pb.h"
 
 namespace rejuv::cli {
 
 // Prints `message` on stderr and returns the bad-input exit code.
 int bad_input(const std::string& message);
+// p50, max and count of `values` (empty: all zero).
+void fill_percentiles(proto::Percentiles& out, std::vector<double> values);
 
 // Two-letter mode names for progress lines and the CSV (UPDATE is "UP").
 [[nodiscard]] const char* mode_name(SrMode mode);
 
 // The run summary as JSON with the proto field names kept (issue 2: "max_V", not "maxV").
 [[nodiscard]] std::string to_json(const proto::RunSummary& summary);
+
+// The network gate's counters into the summary, and as one line of the text summary.
+void fill_network(proto::NetworkSummary& out, const kernel::NetStats& stats, std::optional<std::uint16_t> port);
+[[nodiscard]] std::string describe_network(const proto::NetworkSummary& network);
 
 // The trace CSV: t, x (12), x̂ (12), x_sp (position, yaw), mode, u (4), V.
 void write_trace_header(std::FILE* csv);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "event_fd.hpp"
+#include "thread_policy.hpp"
 
 namespace rejuv::dds {
 
@@ -150,7 +151,14 @@ DdsResult<Participant> Participant::create(DomainId domain) {
   if (domain.value() > kMaxDomainId) {
     return bad_argument("dds_create_participant");
   }
-  const dds_entity_t entity = dds_create_participant(domain.value(), nullptr, nullptr);
+  // Cyclone's threads (receive, timed events, …) start here and inherit SCHED_BATCH: a thread woken by a
+  // datagram never preempts the thread that sent it (the plant writing its step's samples, the kernel
+  // routing), it runs when that thread sleeps or on the other core. In lockstep this halves the context
+  // switches per step; the application thread keeps its own policy.
+  const dds_entity_t entity = [&] {
+    const detail::BatchPolicyScope batch;
+    return dds_create_participant(domain.value(), nullptr, nullptr);
+  }();
   if (entity < 0) {
     return dds_fail("dds_create_participant", entity);
   }

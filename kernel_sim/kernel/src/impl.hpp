@@ -13,11 +13,13 @@
 
 #include "bridge.hpp"
 #include "fixed_ring.hpp"
+#include "netgate.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/clock/time_page.hpp"
 #include "rejuv/clock/timers.hpp"
+#include "rejuv/image/image_store.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/msgs/topic_types.hpp"
 #include "rejuv/policy/policy.hpp"
@@ -55,11 +57,7 @@ struct OutEntry {
   std::uint32_t control = 0;  // index into ServiceRuntime::control_pool
 };
 
-struct SubscriptionRecord {
-  Slot slot{};
-  ObjectId topic{};
-  broker::SubscriberId id{};
-};
+using SubscriptionRecord = image::SavedSubscription;  // saved with the images (DESIGN §7 step 3)
 
 // Token bucket for a service's log lines (docs/protocol.md: rate-limited per service).
 struct LogLimiter {
@@ -95,8 +93,10 @@ struct ServiceRuntime {
   bool has_held = false;
   bool want_writable = false;
 
-  // Idle (docs/protocol.md): frames sent vs the count in the service's last Idle.
+  // Idle (docs/protocol.md): frames sent vs the count in the service's last Idle. The count restarts on
+  // every new channel (a restored image, DESIGN §7): frames_base is stats.frames_out when it was opened.
   std::uint64_t idle_count = 0;
+  std::uint64_t frames_base = 0;
 
   Nanos spawned_at{0};             // wall clock
   std::optional<Nanos> channel_closed_at{};  // wall clock: the service closed fd 3 (its pidfd should follow)
@@ -107,7 +107,9 @@ struct ServiceRuntime {
 
   [[nodiscard]] bool live() const { return phase == Phase::Spawned || phase == Phase::Booted || phase == Phase::Ready; }
   [[nodiscard]] bool idle() const {
-    return phase != Phase::Ready || (idle_count == stats.frames_out && !has_held && outq.empty() && !sweep);
+    return phase != Phase::Ready || (idle_count + frames_base == stats.frames_out && drained());
+  }
+  [[nodiscard]] bool drained() const { return !has_held && outq.empty() && !sweep;
   }
 };
 
@@ -147,7 +149,24 @@ struct PendingStep {
   std::uint64_t samples_needed = 0;
 };
 
-enum class Source : std::uint8_t { Channel = 1, Pidfd = 2, Signal = 3, Timer = 4, Dds = 5, Plant = 6 };
+// A checkpoint in progress (DESIGN §7 "Checkpoint g"): the caller waits for its Reply; every rejuvenated
+// service is asked for an image and answers Taken.
+struct CheckpointRun {
+  std::optional<ServiceId> caller{};
+  std::uint32_t seq = 0;  // the caller's Invoke, answered when the generation is committed
+  image::GenerationRecord record{};
+  std::vector<ServiceId> waiting{};  // Snapshot sent, no Taken yet
+  std::string failure{};             // the first reason the generation cannot be committed
+};
+
+// The rejuvenation timer (DESIGN §7–8): a kernel object, not part of any image; armed at most once per epoch.
+struct RejuvenationTimer {
+  std::optional<Nanos> due{};
+  Nanos period{0};                   // 0 = once
+  std::optional<Epoch> armed_in{};   // the epoch of the last arm
+};
+
+enum class Source : std::uint8_t { Channel = 1, Pidfd = 2, Signal = 3, Timer = 4, Dds = 5, Plant = 6, Net = 7 };
 [[nodiscard]] constexpr std::uint64_t token(Source s, std::uint64_t index) {
   return (static_cast<std::uint64_t>(s) << 56U) | index;
 }
@@ -173,6 +192,7 @@ struct Kernel::Impl {
   sys::Epoll epoll;
   std::optional<sys::TimerFd> timerfd;
   std::optional<DdsBridge> bridge;
+  NetGate net;                                     // the external link's UDP socket (netgate.cpp)
 
   std::vector<ObjectInfo> objects;                 // by ObjectId
   std::vector<ServiceRuntime> services;            // by ServiceId
@@ -205,6 +225,30 @@ struct Kernel::Impl {
   std::vector<StagedSample> samples;
   std::vector<std::byte> sample_bytes;
   std::vector<std::uint32_t> order;                // sort scratch
+  // Output batching within a lockstep routing round (router.cpp, cork/uncork): frames to a service are
+  // collected and leave in one sendmmsg per service, so a service that gets several frames wakes once.
+  struct CorkedFrame {
+    std::uint32_t service = 0;
+    std::uint32_t offset = 0;
+    std::uint32_t size = 0;
+  };
+  bool corked = false;
+  std::vector<CorkedFrame> cork_frames;
+  std::vector<std::byte> cork_bytes;
+  std::vector<std::uint32_t> cork_count;           // by service: frames in cork_frames
+  std::vector<std::span<const std::byte>> cork_batch;  // send scratch
+
+  // ---- images (images.cpp, DESIGN §7) ----
+  image::ImageStore images{2};
+  // The caller and its Invoke seq; no caller: the kernel's own (Kernel::checkpoint_now, benchmarks).
+  std::optional<std::pair<std::optional<ServiceId>, std::uint32_t>> checkpoint_request;
+  std::optional<CheckpointRun> checkpoint;  // between the Snapshots and the commit
+  bool routing_frozen = false;              // during a checkpoint: publications land in the rings undelivered
+  std::optional<std::string> rollback_request;  // the reason; carried out at the next safe point
+  RejuvenationTimer rejuvenation{};
+  SrStats sr_stats{};
+  Nanos charge{0};                          // real time of checkpoints/rollbacks in this lockstep step
+  std::vector<sys::ChildProcess> reaping;   // incarnations killed by a rollback, reaped at the next safe point
 
   // ---- run state ----
   bool booted = false;
@@ -241,6 +285,7 @@ struct Kernel::Impl {
 
   // ---- boot and supervision (supervisor.cpp) ----
   [[nodiscard]] Result<void, KernelError> spawn_all();
+  [[nodiscard]] Result<void, KernelError> spawn_one(ServiceRuntime& s);
   [[nodiscard]] Result<void, KernelError> spawn_plant();
   void send_boot(ServiceRuntime& s);
   void on_child_exit(ServiceRuntime& s);
@@ -251,6 +296,26 @@ struct Kernel::Impl {
   void kill_hung(ServiceRuntime& s, std::string reason);
   void check_deadlines();
   void shutdown_all();
+
+  // ---- images (images.cpp) ----
+  // Runs what is pending at a safe point (between routing rounds): a requested rollback, else a requested
+  // checkpoint once the graph is quiescent. True when it did something.
+  bool service_images();
+  [[nodiscard]] bool quiescent_for_checkpoint() const;
+  void run_checkpoint();
+  void on_taken(ServiceRuntime& s, const wire::FrameView& frame);
+  void request_rollback(std::string reason);
+  void run_rollback(const std::string& reason);
+  // Resumes every image of `record`; false (and everything resumed killed again) if one fails.
+  bool resume_generation(image::GenerationRecord& record, std::string& failure);
+  void cold_restart(const std::string& reason);
+  // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
+  [[nodiscard]] Result<void, KernelError> settle_images();
+  void retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying);
+  void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
+  void fire_rejuvenation();  // the timer is due: roll back
+  void set_mode(SrMode mode);
+  [[nodiscard]] std::optional<ObjectId> kernel_topic(std::string_view type) const;
 
   // ---- channel input (requests.cpp) ----
   void read_channel(ServiceRuntime& s);
@@ -277,10 +342,22 @@ struct Kernel::Impl {
   void push_ring(ServiceRuntime& s, broker::SubscriberId subscriber);
   void send_control(ServiceRuntime& s, std::span<const std::byte> frame);
   void drain(ServiceRuntime& s);
+  void cork();
+  void uncork();
+  void uncork_service(ServiceRuntime& s);
   enum class SendResult : std::uint8_t { Sent, Blocked, Failed };
   SendResult send_now(ServiceRuntime& s, std::span<const std::byte> frame);
   bool deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber);  // false: nothing pending or blocked
   void set_writable_interest(ServiceRuntime& s, bool want);
+
+  // ---- network gate (netgate.cpp) ----
+  // Opens the UDP socket of the launch graph's `network` (at create; realtime: registered in epoll).
+  [[nodiscard]] Result<void, KernelError> net_open();
+  // Reads up to kDatagramsPerPoll queued datagrams and relays or drops each (realtime: on wakeup;
+  // lockstep: at the start of each step, so that what a service sees does not depend on scheduling).
+  void net_poll();
+  // NetSend / NetReceive invocations (decode through the cap system, then act).
+  void net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, cap::Operation op, std::span<const std::byte> data);
 
   // ---- loop (kernel.cpp) ----
   [[nodiscard]] Result<void, KernelError> pump(std::optional<Nanos> max_wait);

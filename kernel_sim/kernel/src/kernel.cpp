@@ -68,7 +68,6 @@ std::string_view kind_name(KernelError::Kind kind) {
     case KernelError::Kind::Policy: return "policy";
     case KernelError::Kind::Audit: return "policy audit failed";
     case KernelError::Kind::Config: return "configuration";
-    case KernelError::Kind::SrUnavailable: return "rejuvenation unavailable";
     case KernelError::Kind::Dds: return "DDS";
     case KernelError::Kind::System: return "system";
     case KernelError::Kind::Boot: return "boot";
@@ -91,8 +90,7 @@ bool KernelError::is_bad_input() const {
   switch (kind) {
     case Kind::Policy:
     case Kind::Audit:
-    case Kind::Config:
-    case Kind::SrUnavailable: return true;
+    case Kind::Config: return true;
     case Kind::Dds:
     case Kind::System:
     case Kind::Boot: return false;
@@ -116,11 +114,6 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   }
   const proto::Launch& g = graph.graph;
   const bool sr_requested = g.sr().enabled() && !options.no_sr;
-  if (sr_requested) {
-    return fail(kernel_error(K::SrUnavailable,
-                             "the graph enables software rejuvenation (sr.enabled), but checkpoint/rollback needs the "
-                             "image store (DESIGN §7), which this kernel does not have yet; run with --no-sr"));
-  }
   const ClockMode clock_mode =
       options.clock.value_or(g.clock() == proto::REALTIME ? ClockMode::Realtime : ClockMode::Lockstep);
   if (options.time_master == TimeMaster::Plant && clock_mode == ClockMode::Lockstep && !g.has_plant()) {
@@ -134,7 +127,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   const cap::ModeTable table = policy::compile(*policy);
   auto caps = cap::CapSystem::create(table, cap::CapSystemConfig{.cspace_slots = 256,
                                                                  .audit_capacity = 4096,
-                                                                 .initial_mode = SrMode::MC});
+                                                                 .initial_mode = sr_requested ? SrMode::SC : SrMode::MC});
   if (!caps) return fail(kernel_error(K::Config, "capability table: " + caps.error().to_string()));
 
   // Objects and topics (one broker topic per policy Topic object, DESIGN §5).
@@ -177,7 +170,8 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   Impl& k = *impl;
   k.objects = std::move(objects);
   k.clock_mode = clock_mode;
-  k.sr = false;
+  k.sr = sr_requested;
+  k.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
   k.seed = k.options.seed.value_or(k.graph.graph.seed());
   k.domain = k.options.dds_domain.value_or(k.graph.graph.dds().domain_id());
   k.signals.emplace(std::move(*signals));
@@ -270,6 +264,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
     }
   }
   k.samples_on_step = plant_lockstep;
+  if (auto ok = k.net_open(); !ok) return fail(ok.error());  // the network gate (netgate.cpp)
   return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));
 }
 
@@ -383,10 +378,12 @@ Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
       }
       case Source::Timer:
         (void)timerfd->consume();
+        fire_rejuvenation();
         fire_timers();
         arm_timerfd();
         break;
       case Source::Dds: on_dds_ready(index); break;
+      case Source::Net: net_poll(); break;  // realtime only; lockstep polls at the start of a step
     }
   }
   drain_denials();
@@ -486,7 +483,8 @@ void Kernel::Impl::fire_timers() {
 
 void Kernel::Impl::arm_timerfd() {
   if (!timerfd || !clock_synced) return;
-  const auto due = timers.next_due();
+  auto due = timers.next_due();
+  if (rejuvenation.due) due = due ? std::min(*due, *rejuvenation.due) : *rejuvenation.due;
   (void)timerfd->arm_at(due ? std::optional<Nanos>(*due + run_start_mono) : std::nullopt);
 }
 
@@ -518,13 +516,20 @@ void Kernel::Impl::begin_step(const PendingStep& step) {
   for (ServiceRuntime& s : services) s.staged_this_step = 0;
   set_now(step.t);
   if (!sr_mode_announced) publish_sr_mode();
-  // DESIGN §6: set the clock, fire due timers, route the step's samples; then rounds until idle.
+  fire_rejuvenation();  // DESIGN §7: a due rejuvenation timer rolls back before anything else of the step
+  (void)service_images();
+  // DESIGN §6: set the clock, fire due timers, route the step's samples; then rounds until idle. Each
+  // service gets the round's frames in one batch (router.cpp, cork).
+  cork();
   fire_timers();
   route_samples();
+  uncork();
+  net_poll();  // datagrams that arrived before the step: handed over at its start (netgate.cpp)
 }
 
 bool Kernel::Impl::advance_step() {
   for (;;) {
+    if (service_images()) continue;  // a pending rollback, or a checkpoint once quiescent (images.cpp)
     if (!all_idle()) return false;
     if (rounds >= kMaxRoundsPerStep) {
       log("step %llu did not settle after %u routing rounds; ending it", static_cast<unsigned long long>(active_step->step),
@@ -533,13 +538,17 @@ bool Kernel::Impl::advance_step() {
     }
     if (!staged.empty()) {
       ++rounds;
+      cork();
       flush_staged();
+      uncork();
       continue;
     }
     // Timers armed during this step that are already due (e.g. after(0)).
     if (timers.next_due() && *timers.next_due() <= now()) {
       ++rounds;
+      cork();
       fire_timers();
+      uncork();
       continue;
     }
     return true;
@@ -553,13 +562,14 @@ void Kernel::Impl::finish_step() {
   if (bridge && bridge->has_step_reader() && options.time_master == TimeMaster::Plant) {
     const rejuv_msg_SimStepAck ack{.step = step.step,
                                    .time_ns = static_cast<std::uint64_t>(step.t.count()),
-                                   .charged_ns = 0,  // no checkpoint/rollback without the image store (§7)
+                                   .charged_ns = static_cast<std::uint64_t>(charge.count()),  // DESIGN §6
                                    .outputs_published = bridge->outputs_published()};
     if (auto ok = bridge->write_ack(ack); !ok) {
       log("%s", ok.error().c_str());
       stop_run(StopReason::PlantExited, ok.error());
     }
   }
+  charge = Nanos{0};
   if (observer != nullptr) observer->on_step(step.step, step.t, caps.mode());
   check_stop_conditions();
 }
@@ -693,6 +703,8 @@ Result<RunOutcome, KernelError> Kernel::run() {
           k.shutdown_all();
           return fail(ok.error());
         }
+        while (k.service_images()) {
+        }
         if (k.now() - k.last_progress >= std::chrono::milliseconds{100}) {
           k.last_progress = k.now();
           if (k.observer != nullptr) k.observer->on_step(ticks++, k.now(), k.caps.mode());
@@ -740,6 +752,35 @@ const broker::Broker& Kernel::broker() const { return impl_->broker; }
 std::size_t Kernel::service_count() const { return impl_->services.size(); }
 const launch::LoadedLaunch& Kernel::graph() const { return impl_->graph; }
 std::uint64_t Kernel::bad_frames_total() const { return impl_->kernel_bad_frames; }
+const SrStats& Kernel::sr_stats() const { return impl_->sr_stats; }
+
+Result<Generation, KernelError> Kernel::checkpoint_now() {
+  Impl& k = *impl_;
+  if (!k.sr || !k.booted || k.active_step || k.checkpoint_request) {
+    return fail(kernel_error(KernelError::Kind::Config, "checkpoint_now: needs SR on, a booted kernel and no step in progress"));
+  }
+  const std::uint64_t before = k.sr_stats.checkpoints;
+  k.checkpoint_request = std::pair(std::optional<ServiceId>{}, std::uint32_t{0});
+  if (auto ok = k.settle_images(); !ok) return fail(ok.error());
+  if (k.sr_stats.checkpoints == before) return fail(kernel_error(KernelError::Kind::Boot, "the checkpoint was abandoned"));
+  return k.images.newest()->g;
+}
+
+Result<void, KernelError> Kernel::rollback_now(bool cold) {
+  Impl& k = *impl_;
+  if (!k.sr || !k.booted || k.active_step) {
+    return fail(kernel_error(KernelError::Kind::Config, "rollback_now: needs SR on, a booted kernel and no step in progress"));
+  }
+  if (cold) {
+    k.cold_restart("requested");
+    return {};
+  }
+  k.request_rollback("requested");
+  return k.settle_images();
+}
+Epoch Kernel::epoch() const { return impl_->time_page.current().epoch; }
+std::vector<int> Kernel::image_pids(ServiceId service) const { return impl_->images.image_pids(service); }
+std::vector<Generation> Kernel::generations() const { return impl_->images.generations(); }
 
 std::optional<ServiceId> Kernel::find_service(std::string_view name) const {
   for (const ServiceRuntime& s : impl_->services) {

@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <csignal>
 #include <cstring>
+#include <limits>
 
 #include "impl.hpp"
 
@@ -128,9 +129,11 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       s.idle_count = f.header.aux;
       return;
     case wire::FrameKind::Taken:
+      on_taken(s, f);  // images.cpp
+      return;
     case wire::FrameKind::Resumed:
-      // Only meaningful after a Snapshot/Resume from the image store (DESIGN §7), which never happened.
-      refuse(s, std::string(wire::to_string(f.kind)) + " without a checkpoint in progress");
+      // Read by the rollback itself on the new channel (images.cpp); anywhere else it is a lie.
+      refuse(s, "Resumed outside a rollback");
       return;
     case wire::FrameKind::Boot:
     case wire::FrameKind::BootCap:
@@ -242,11 +245,13 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
       reply(s, seq, 0, done->deleted);
       return;
     }
+    case cap::Operation::NetSend:
+    case cap::Operation::NetReceive:
+      net_invoke(s, seq, slot, op, data);  // the network gate (netgate.cpp)
+      return;
     case cap::Operation::CheckpointCreate:
     case cap::Operation::CheckpointRollback:
     case cap::Operation::TimerArm:
-    case cap::Operation::NetSend:
-    case cap::Operation::NetReceive:
     case cap::Operation::LimitsWrite:
     case cap::Operation::LimitsRead:
     case cap::Operation::PersistentRead:
@@ -263,15 +268,31 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
   ObjectInfo& o = objects[inv->object().value()];
   switch (op) {
     case cap::Operation::CheckpointCreate:
-    case cap::Operation::CheckpointRollback:
-    case cap::Operation::TimerArm:
-      // The image store (DESIGN §7) is not there yet.
-      reply(s, seq, op_code(wire::OpError::NotSupported));
+      // DESIGN §7: answered when generation g is committed (images.cpp); in a restored image never.
+      if (!sr) {
+        reply(s, seq, op_code(wire::OpError::NotSupported));
+      } else if (checkpoint_request || checkpoint) {
+        reply(s, seq, op_code(wire::OpError::Refused));
+      } else {
+        checkpoint_request = std::pair(std::optional<ServiceId>(s.id), seq);
+      }
       return;
-    case cap::Operation::NetSend:
-    case cap::Operation::NetReceive:
-      // The network gate is not there yet.
-      reply(s, seq, op_code(wire::OpError::NotSupported));
+    case cap::Operation::CheckpointRollback:
+      if (!sr || images.size() == 0) {
+        reply(s, seq, op_code(sr ? wire::OpError::Refused : wire::OpError::NotSupported));
+        return;
+      }
+      reply(s, seq, 0);
+      request_rollback("'" + s.name + "' requested a rollback");
+      return;
+    case cap::Operation::TimerArm:
+      // The rejuvenation timer (§V-A do_timer): arg0 = delay [ns], arg1 = 1 for periodic.
+      if (!sr || head.arg0 > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
+        reply(s, seq, op_code(sr ? wire::OpError::BadArgument : wire::OpError::NotSupported));
+        return;
+      }
+      arm_rejuvenation(s, seq, Nanos(static_cast<std::int64_t>(head.arg0)),
+                       head.arg1 != 0 ? Nanos(static_cast<std::int64_t>(head.arg0)) : Nanos{0});
       return;
     case cap::Operation::LimitsWrite:
       if (data.size() > 4096) {
@@ -309,14 +330,8 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
         reply(s, seq, op_code(wire::OpError::BadArgument));
         return;
       }
-      const auto mode = static_cast<SrMode>(head.arg0);
-      if (auto changed = caps.apply_mode(mode); !changed) {
-        reply(s, seq, op_code(wire::OpError::BadArgument));
-        return;
-      }
-      time_page.write(clock::TimeSample{.now = now(), .mode = mode, .epoch = time_page.current().epoch});
       reply(s, seq, 0, head.arg0);
-      publish_sr_mode();
+      set_mode(static_cast<SrMode>(head.arg0));  // images.cpp: caps, time page, sr_mode
       return;
     }
     case cap::Operation::Publish:
@@ -325,6 +340,8 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
     case cap::Operation::Mint:
     case cap::Operation::Revoke:
     case cap::Operation::Delete:
+    case cap::Operation::NetSend:
+    case cap::Operation::NetReceive:
       break;  // handled above
   }
 }

@@ -14,6 +14,7 @@
 #include <numeric>
 
 #include "impl.hpp"
+#include "rejuv/sys/batch.hpp"
 
 namespace rejuv::kernel {
 
@@ -168,6 +169,16 @@ void Kernel::Impl::set_writable_interest(ServiceRuntime& s, bool want) {
 
 Kernel::Impl::SendResult Kernel::Impl::send_now(ServiceRuntime& s, std::span<const std::byte> frame) {
   if (!s.channel.valid()) return SendResult::Failed;
+  if (corked) {
+    // Counted now: the service is not idle until it has reported these frames too.
+    cork_frames.push_back(CorkedFrame{.service = s.id.value(),
+                                      .offset = static_cast<std::uint32_t>(cork_bytes.size()),
+                                      .size = static_cast<std::uint32_t>(frame.size())});
+    cork_bytes.insert(cork_bytes.end(), frame.begin(), frame.end());
+    ++s.stats.frames_out;
+    if (++cork_count[s.id.value()] == sys::kMaxBatchFrames) uncork_service(s);
+    return SendResult::Sent;
+  }
   auto sent = s.channel.send(frame);
   if (sent) {
     ++s.stats.frames_out;
@@ -195,6 +206,7 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
 
 void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
   if (s.phase != Phase::Booted && s.phase != Phase::Ready) return;
+  if (routing_frozen) return;  // a checkpoint is cutting (images.cpp): it stays in the ring, swept afterwards
   if (s.has_held || !s.outq.empty() || s.sweep) {
     // Keep publish order: behind what is already waiting. A full out-queue only loses the order, never
     // messages: the sweep drains every subscription once the queue is empty.
@@ -229,6 +241,58 @@ void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> fr
   if (!s.outq.push(OutEntry{.kind = OutEntry::Kind::Control, .subscriber = {}, .control = index})) {
     s.control_free.push_back(index);
     kill_hung(s, "does not read its channel (out-queue full)");
+  }
+}
+
+// ---- output batching (lockstep rounds) ----
+//
+// Between cork() and uncork() a frame that would go out at once (the service has nothing waiting) is
+// appended to the cork instead, and uncork() sends each service's frames in one sendmmsg: the deliveries of a
+// routing round wake a service once, not once per frame (the service would otherwise wake on the first,
+// report Idle, and wake again). Only the step code corks (begin_step, advance_step), around routing that
+// sends nothing else on the channels. A service's batch is capped at kMaxBatchFrames, so what a full channel
+// refuses (EAGAIN) fits in its control queue: the first frame becomes the held frame, the rest wait in the
+// out-queue as control frames, in order (its out-queue was empty, or the frames would not be in the cork).
+
+void Kernel::Impl::cork() {
+  if (cork_count.size() != services.size()) cork_count.assign(services.size(), 0);
+  corked = true;
+}
+
+void Kernel::Impl::uncork() {
+  corked = false;
+  if (cork_frames.empty()) return;
+  for (ServiceRuntime& s : services) {
+    if (cork_count[s.id.value()] > 0) uncork_service(s);
+  }
+  cork_frames.clear();
+  cork_bytes.clear();
+}
+
+void Kernel::Impl::uncork_service(ServiceRuntime& s) {
+  const std::uint32_t id = s.id.value();
+  cork_batch.clear();
+  for (CorkedFrame& f : cork_frames) {
+    if (f.service != id) continue;
+    cork_batch.push_back(std::span<const std::byte>(cork_bytes).subspan(f.offset, f.size));
+    f.service = kNoOrigin;  // taken
+  }
+  cork_count[id] = 0;
+  std::size_t first = 0;
+  while (first < cork_batch.size() && s.channel.valid()) {
+    auto sent = sys::send_batch(s.channel.fd(), std::span(cork_batch).subspan(first));
+    if (sent) {
+      first += *sent;
+      continue;
+    }
+    if (sent.error().error != EAGAIN) return;  // EPIPE: the service is gone; its pidfd will say so
+    // The channel is full: keep the rest, in order, and count each again when it really leaves.
+    s.stats.frames_out -= cork_batch.size() - first;
+    s.held.assign(cork_batch[first].begin(), cork_batch[first].end());
+    s.has_held = true;
+    set_writable_interest(s, true);
+    for (std::size_t i = first + 1; i < cork_batch.size(); ++i) send_control(s, cork_batch[i]);
+    return;
   }
 }
 

@@ -97,42 +97,43 @@ Result<void, KernelError> Kernel::Impl::spawn_all() {
   if (auto ok = sys::become_subreaper(); !ok) {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
   }
-  const bool root = sys::running_as_root();
   for (ServiceRuntime& s : services) {
     if (s.skip) continue;
-    auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
-    if (!pair) return fail(KernelError{.kind = KernelError::Kind::System, .message = pair.error().to_string(), .findings = {}});
-    auto& [kernel_end, service_end] = *pair;
-    if (auto ok = sys::set_nonblocking(kernel_end.fd(), true); !ok) {
-      return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
-    }
-    sys::SpawnSpec spec;
-    spec.executable = s.executable;
-    spec.env = {"REJUV_SERVICE=" + s.name};
-    for (const char* keep : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "TSAN_OPTIONS", "LSAN_OPTIONS"}) {
-      if (const char* v = std::getenv(keep); v != nullptr) spec.env.push_back(std::string(keep) + "=" + v);
-    }
-    spec.fds = {{wire::kChannelFd, service_end.fd()}, {wire::kTimePageFd, time_page.read_only_fd().get()}};
-    spec.seccomp = &*seccomp;
-    if (root) spec.uid = kServiceUidBase + s.id.value();
-    auto child = sys::spawn(spec);
-    if (!child) {
-      return fail(KernelError{.kind = KernelError::Kind::Boot,
-                              .message = "spawn '" + s.name + "' (" + s.executable + "): " + child.error().to_string(),
-                              .findings = {}});
-    }
-    s.process = std::move(*child);
-    s.channel = std::move(kernel_end);
-    s.phase = Phase::Spawned;
-    s.spawned_at = wall();
-    s.limiter.last = s.spawned_at;
-    if (auto ok = epoll.add(s.channel.fd(), token(Source::Channel, s.id.value())); !ok) {
-      return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
-    }
-    if (auto ok = epoll.add(s.process.pidfd(), token(Source::Pidfd, s.id.value())); !ok) {
-      return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
-    }
+    if (auto ok = spawn_one(s); !ok) return ok;
   }
+  return {};
+}
+
+Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
+  const auto system_error = [](const sys::SysError& e) {
+    return fail(KernelError{.kind = KernelError::Kind::System, .message = e.to_string(), .findings = {}});
+  };
+  auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
+  if (!pair) return system_error(pair.error());
+  auto& [kernel_end, service_end] = *pair;
+  if (auto ok = sys::set_nonblocking(kernel_end.fd(), true); !ok) return system_error(ok.error());
+  sys::SpawnSpec spec;
+  spec.executable = s.executable;
+  spec.env = {"REJUV_SERVICE=" + s.name};
+  for (const char* keep : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "TSAN_OPTIONS", "LSAN_OPTIONS"}) {
+    if (const char* v = std::getenv(keep); v != nullptr) spec.env.push_back(std::string(keep) + "=" + v);
+  }
+  spec.fds = {{wire::kChannelFd, service_end.fd()}, {wire::kTimePageFd, time_page.read_only_fd().get()}};
+  spec.seccomp = &*seccomp;
+  if (sys::running_as_root()) spec.uid = kServiceUidBase + s.id.value();
+  auto child = sys::spawn(spec);
+  if (!child) {
+    return fail(KernelError{.kind = KernelError::Kind::Boot,
+                            .message = "spawn '" + s.name + "' (" + s.executable + "): " + child.error().to_string(),
+                            .findings = {}});
+  }
+  s.process = std::move(*child);
+  s.channel = std::move(kernel_end);
+  s.phase = Phase::Spawned;
+  s.spawned_at = wall();
+  s.limiter.last = s.spawned_at;
+  if (auto ok = epoll.add(s.channel.fd(), token(Source::Channel, s.id.value())); !ok) return system_error(ok.error());
+  if (auto ok = epoll.add(s.process.pidfd(), token(Source::Pidfd, s.id.value())); !ok) return system_error(ok.error());
   return {};
 }
 
@@ -220,6 +221,14 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
   s.outq.clear();
   s.has_held = false;
   s.sweep = false;
+  // The seccomp filter ends a service that tries to leave its sandbox as if by SIGSYS (seccomp.hpp); the
+  // kernel never sends SIGSYS, so this death is a sandbox violation: counted, then contained like any loss.
+  const bool violation = s.loss_reason.empty() && (**status).how == sys::ExitStatus::How::Signaled &&
+                         (**status).value == SIGSYS;
+  if (violation) {
+    ++s.stats.sandbox_violations;
+    s.loss_reason = "sandbox violation (a forbidden system call)";
+  }
   if (stopping) return;
   std::string reason = s.loss_reason.empty() ? (**status).to_string() : s.loss_reason + " (" + (**status).to_string() + ")";
   lose_service(s, std::move(reason));
@@ -227,9 +236,12 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
 
 void Kernel::Impl::lose_service(ServiceRuntime& s, std::string reason) {
   log("service '%s' lost at t = %.3f s: %s", s.name.c_str(), to_seconds(now()).count(), reason.c_str());
-  // DESIGN §7: with the image store, a rejuvenated service is rolled back here (a rejuvenated service dying
-  // is one of the three rollback triggers). Without it — or for a driver-level service, never rolled
-  // back — the run cannot continue safely.
+  // DESIGN §7: a rejuvenated service dying is one of the three rollback triggers (images.cpp). Without SR,
+  // or for a driver-level service (never rolled back), the run cannot continue safely.
+  if (sr && s.rejuvenate) {
+    request_rollback("service '" + s.name + "' lost: " + reason);
+    return;
+  }
   stop_run(StopReason::ServiceFailed, "service '" + s.name + "': " + reason);
 }
 
@@ -315,6 +327,10 @@ void Kernel::Impl::shutdown_all() {
     }
     plant.kill_and_reap();
   }
+  // Every image and every killed incarnation (DESIGN §7): killed and reaped.
+  images.clear();
+  for (sys::ChildProcess& p : reaping) p.kill_and_reap();
+  reaping.clear();
   // Close every fd the run opened: DDS (participant, sockets, threads), the timerfd.
   bridge.reset();
   timerfd.reset();

@@ -35,6 +35,15 @@ SysResult<UniqueFd> UniqueFd::duplicate() const {
   return UniqueFd(fd);
 }
 
+SysResult<void> install_fd(UniqueFd fd, int target) {
+  if (fd.get() == target) {
+    (void)fd.release();
+    return {};
+  }
+  if (::dup2(fd.get(), target) < 0) return last_error("dup2");
+  return {};  // `fd` closes the original
+}
+
 SysResult<int> count_open_fds() {
   DIR* dir = ::opendir("/proc/self/fd");
   if (dir == nullptr) {

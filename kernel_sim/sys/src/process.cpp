@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <grp.h>
 #include <linux/close_range.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/syscall.h>
@@ -12,6 +13,7 @@
 
 #include <array>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -43,6 +45,19 @@ SysResult<ChildProcess> ChildProcess::adopt(pid_t pid) {
     return last_error("pidfd_open");
   }
   return ChildProcess(pid, UniqueFd(fd));
+}
+
+SysResult<ChildProcess> ChildProcess::adopt_child(pid_t pid) {
+  auto child = adopt(pid);
+  if (!child) return child;
+  // WNOWAIT: only asks; ECHILD when the pidfd's process is not our child.
+  siginfo_t info{};
+  if (::waitid(P_PIDFD, static_cast<id_t>(child->pidfd()), &info, WEXITED | WNOHANG | WNOWAIT) != 0) {
+    const auto e = last_error("waitid(not a child)");
+    child->pid_ = -1;  // not ours: never signalled or waited for
+    return e;
+  }
+  return child;
 }
 
 ChildProcess::ChildProcess(ChildProcess&& other) noexcept
@@ -240,6 +255,19 @@ SysResult<void> become_subreaper() {
   if (::prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) != 0) {
     return last_error("prctl(PR_SET_CHILD_SUBREAPER)");
   }
+  return {};
+}
+
+SysResult<pid_t> fork_sibling() {
+  // The raw system call: glibc's fork() has no CLONE_PARENT. With no new stack the child continues on a
+  // copy of this one, like fork(); glibc (≥ 2.34) reads the thread id from the kernel where it matters.
+  const long pid = ::syscall(SYS_clone, CLONE_PARENT | SIGCHLD, nullptr, nullptr, nullptr, nullptr);
+  if (pid < 0) return last_error("clone(CLONE_PARENT)");
+  return static_cast<pid_t>(pid);
+}
+
+SysResult<void> make_non_dumpable() {
+  if (::prctl(PR_SET_DUMPABLE, 0, 0, 0, 0) != 0) return last_error("prctl(PR_SET_DUMPABLE)");
   return {};
 }
 

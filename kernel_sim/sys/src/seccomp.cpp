@@ -5,6 +5,7 @@
 #include <seccomp.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -30,9 +31,13 @@ SysResult<SeccompProgram> SeccompProgram::service_policy(SeccompStage stage) {
   if (!ctx) {
     return std::unexpected(SysError{"seccomp_init", ENOMEM});
   }
-  const auto deny = [&](int syscall) { return seccomp_rule_add(ctx.get(), SCMP_ACT_ERRNO(EPERM), syscall, 0); };
+  // A call that tries to leave the sandbox ends the process (SIGSYS) instead of failing with EPERM: the
+  // kernel, its parent, sees the death on its pidfd, counts a sandbox violation and contains it like any
+  // lost service (a rollback with SR on). An EPERM would be invisible to the kernel and leave a compromised
+  // process running that probes on (DESIGN §7 "Protection", §11).
+  const auto deny = [&](int syscall) { return seccomp_rule_add(ctx.get(), SCMP_ACT_KILL_PROCESS, syscall, 0); };
   const auto deny_unless_self = [&](int syscall) {
-    return seccomp_rule_add(ctx.get(), SCMP_ACT_ERRNO(EPERM), syscall, 1,
+    return seccomp_rule_add(ctx.get(), SCMP_ACT_KILL_PROCESS, syscall, 1,
                             SCMP_A0(SCMP_CMP_NE, kSelfPidSentinel));
   };
   int rc = 0;
@@ -92,6 +97,12 @@ int SeccompProgram::install_in_child(sock_filter* scratch, pid_t self) const noe
     if (scratch[i].k == kSelfPidSentinel) {
       scratch[i].k = static_cast<std::uint32_t>(self);
     }
+  }
+  // No core dump when the filter ends the process (SIGSYS dumps core by default): nothing of a service's
+  // memory is written to disk, and nothing is left behind in the working directory.
+  const rlimit no_core{0, 0};
+  if (::setrlimit(RLIMIT_CORE, &no_core) != 0) {
+    return errno;
   }
   if (::prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0) {
     return errno;

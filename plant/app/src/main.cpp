@@ -124,7 +124,8 @@ class PlantProcess {
             .wind = plant::WindParams{.mean_N_m_s = Eigen::Vector3d(options.wind_mean_m_s, 0, 0),
                                       .gust_std_m_s = options.wind_gust_m_s,
                                       .gust_time_constant_s = plant::WindParams{}.gust_time_constant_s},
-            .physics_period = std::chrono::milliseconds{1}}) {}
+            .physics_period = std::chrono::milliseconds{1},
+            .alignment = options.alignment}) {}
 
   ExitCode run() {
     switch (options_.clock) {
@@ -152,7 +153,18 @@ class PlantProcess {
     return *sig;
   }
 
-  // Sleeps until one of the plant's fds (ack, actuator outputs, signals) is readable or `timeout` passed.
+  // Lockstep wakes on the ack (and signals) only: the step's actuator outputs were written before it and are
+  // taken with it, so the plant wakes once per step, not once per output. When the ack overtook an output
+  // (DDS orders per writer only), the outputs reader is watched too until the ack's count is met.
+  void watch_outputs(bool watch) {
+    if (watch == watching_outputs_) return;
+    watching_outputs_ = watch;
+    const int fd = io_.actuator_outputs.ready_fd();
+    const std::uint64_t token = static_cast<std::uint64_t>(fd);
+    if (auto ok = watch ? epoll_.add(fd, token) : epoll_.remove(fd); !ok) log(ok.error().to_string());
+  }
+
+  // Sleeps until one of the plant's watched fds (ack, signals, maybe outputs) is readable or `timeout` passed.
   [[nodiscard]] Result<void, ExitCode> wait_any(Nanos timeout) const {
     std::array<sys::Event, 4> events{};
     if (auto n = epoll_.wait(events, std::max(Nanos{0}, timeout)); !n) {
@@ -269,7 +281,11 @@ class PlantProcess {
       });
       if (!n) return fail(dds_failure(n.error()));
       if (auto ok = take_actuator_outputs(); !ok) return fail(dds_failure(ok.error()));
-      if (ack && outputs_received_ >= ack->outputs_published) return *ack;
+      if (ack && outputs_received_ >= ack->outputs_published) {
+        watch_outputs(false);
+        return *ack;
+      }
+      if (ack) watch_outputs(true);
 
       auto sig = pending_signal();
       if (!sig) return fail(sig.error());
@@ -332,6 +348,7 @@ class PlantProcess {
   std::vector<SensorMessage> batch_;
   std::uint64_t samples_published_ = 0;  // sensor + ground-truth samples, for SimStep
   std::uint64_t outputs_received_ = 0;   // actuator outputs, against SimStepAck.outputs_published
+  bool watching_outputs_ = false;        // the outputs reader is in epoll (lockstep: only while short)
   bool warned_non_finite_ = false;
 };
 
@@ -364,8 +381,8 @@ ExitCode run(std::span<const std::string_view> args) {
     log(epoll.error().to_string());
     return kExitFailure;
   }
-  for (const int fd : {signals->fd(), endpoints->actuator_outputs.ready_fd(),
-                       endpoints->ack ? endpoints->ack->ready_fd() : -1}) {
+  // Lockstep waits for the ack (PlantProcess::watch_outputs); realtime takes the outputs every tick.
+  for (const int fd : {signals->fd(), endpoints->ack ? endpoints->ack->ready_fd() : -1}) {
     if (fd < 0) continue;
     if (auto ok = epoll->add(fd, static_cast<std::uint64_t>(fd)); !ok) {
       log(ok.error().to_string());
@@ -374,7 +391,8 @@ ExitCode run(std::span<const std::string_view> args) {
   }
   log(std::string(to_string(options.clock)) + " on domain " + std::to_string(options.domain) + ", seed " +
       std::to_string(options.seed) + ", hovering at (" + std::to_string(options.start_N_m.x()) + ", " +
-      std::to_string(options.start_N_m.y()) + ", " + std::to_string(options.start_N_m.z()) + ") m NED");
+      std::to_string(options.start_N_m.y()) + ", " + std::to_string(options.start_N_m.z()) + ") m NED after " +
+      seconds_text(options.alignment) + " of alignment at rest");
   PlantProcess process(options, std::move(*signals), std::move(*epoll), std::move(*endpoints));
   return process.run();
 }

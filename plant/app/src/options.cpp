@@ -30,6 +30,8 @@ constexpr std::string_view kUsage =
     "  --start-down M           (default -3, i.e. 3 m above home); the vehicle starts in a trimmed hover\n"
     "  --duration S             stop after S seconds (simulated in lockstep, real in realtime); 0 = until a "
     "signal\n"
+    "  --align-s S              pre-flight alignment: rest at the start pose for S seconds with the sensors\n"
+    "                           publishing and actuator outputs not applied (default 20, as rejuv sim)\n"
     "  --step-ms MS             lockstep step, 1..1000 (default 4); the ground-truth period in realtime\n"
     "  --ack-timeout-ms MS      lockstep: exit 3 when no ack arrives for this long (default 10000)\n"
     "  --connect-timeout-ms MS  lockstep: exit 3 when the kernel's endpoints do not appear (default 30000)\n"
@@ -66,13 +68,15 @@ Nanos millis(std::int64_t ms) {
   return std::chrono::milliseconds{ms};
 }
 
-constexpr std::array<std::string_view, 12> kFlags{
+constexpr std::array<std::string_view, 13> kFlags{
     "--domain",   "--seed",    "--clock",          "--start-north",        "--start-east", "--start-down",
-    "--duration", "--step-ms", "--ack-timeout-ms", "--connect-timeout-ms", "--wind-mean",  "--wind-gust"};
+    "--duration", "--step-ms", "--ack-timeout-ms", "--connect-timeout-ms", "--wind-mean",  "--wind-gust",
+    "--align-s"};
 
 constexpr double kMaxPosition_m = 1e4;
 constexpr double kMaxDuration_s = 1e7;  // ~115 days
 constexpr double kMaxWind_m_s = 50;
+constexpr double kMaxAlignment_s = 3600;
 
 // Applies one flag's value to the options.
 Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::string_view value) {
@@ -110,6 +114,12 @@ Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::str
       return fail(s.error());
     }
     o.duration = to_nanos(Seconds{*s});
+    return {};
+  }
+  if (flag == "--align-s") {
+    auto s = parse_double(flag, value, 0, kMaxAlignment_s);
+    if (!s) return fail(s.error());
+    o.alignment = std::chrono::round<Nanos>(Seconds{*s});
     return {};
   }
   if (flag == "--step-ms") {

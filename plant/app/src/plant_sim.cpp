@@ -56,11 +56,16 @@ void PlantSim::advance(Nanos interval, std::vector<SensorMessage>& out) {
   Nanos remaining = interval;
   while (remaining > Nanos{0}) {
     const Nanos dt = std::min(config_.physics_period, remaining);
-    const Eigen::Vector3d wind_N = wind_.step(to_seconds(dt));
-    quad_.step(to_seconds(dt), motor_command_, wind_N);
+    // Aligning: held at rest (a = 0), as rejuv sim's alignment feeds its estimator (flight/sim sr_sim.cpp).
+    const bool at_rest = aligning();
+    if (!at_rest) {
+      const Eigen::Vector3d wind_N = wind_.step(to_seconds(dt));
+      quad_.step(to_seconds(dt), motor_command_, wind_N);
+    }
     now_ += dt;
     remaining -= dt;
-    const plant::SensorSamples s = sensors_.step(now_, quad_.state(), quad_.acceleration_N());
+    const plant::SensorSamples s =
+        sensors_.step(now_, quad_.state(), at_rest ? Eigen::Vector3d::Zero() : quad_.acceleration_N());
     if (s.gyro) {
       rejuv_msg_SensorGyro m{};
       m.timestamp_ns = stamp(s.gyro->t);

@@ -1,6 +1,7 @@
 #include "rejuv/flight_io/messages.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <span>
 #include <string>
 
@@ -187,6 +188,49 @@ Result<flight::InputVec, InputFailure> controls_from_message(const rejuv_msg_Act
 }
 
 // ---- sr_mode ----
+
+// ---- actuator_limits ----
+
+LimitsRecord limits_record(const flight::InputBox& box, flight::LimitSet set) {
+  LimitsRecord r{};
+  r.restricted = set == flight::LimitSet::Restricted ? 1U : 0U;
+  for (Eigen::Index i = 0; i < 4; ++i) {
+    r.lo[i] = box.lo[i];
+    r.hi[i] = box.hi[i];
+  }
+  return r;
+}
+
+std::array<std::byte, sizeof(LimitsRecord)> limits_bytes(const LimitsRecord& record) {
+  std::array<std::byte, sizeof(LimitsRecord)> out{};
+  std::memcpy(out.data(), &record, sizeof record);
+  return out;
+}
+
+Result<DecodedLimits, InputFailure> limits_from_bytes(std::span<const std::byte> data) {
+  const auto bad = [](InputError kind, std::string message) {
+    return fail(InputFailure{.kind = kind, .where = "actuator_limits", .message = std::move(message)});
+  };
+  if (data.size() != sizeof(LimitsRecord)) {
+    return bad(InputError::OutOfRange, "expected " + std::to_string(sizeof(LimitsRecord)) + " bytes, got " +
+                                           std::to_string(data.size()));
+  }
+  LimitsRecord r{};
+  std::memcpy(&r, data.data(), sizeof r);
+  if (r.version != kLimitsRecordVersion) {
+    return bad(InputError::OutOfRange, "unknown record version " + std::to_string(r.version));
+  }
+  if (r.restricted > 1U) return bad(InputError::OutOfRange, "restricted must be 0 or 1");
+  DecodedLimits d{.box = {},
+                  .set = r.restricted == 1U ? flight::LimitSet::Restricted : flight::LimitSet::Full};
+  for (Eigen::Index i = 0; i < 4; ++i) {
+    if (!all_finite({r.lo[i], r.hi[i]})) return bad(InputError::NotFinite, "limits must be finite");
+    if (!(r.lo[i] <= r.hi[i])) return bad(InputError::OutOfRange, "lo must not exceed hi");
+    d.box.lo[i] = r.lo[i];
+    d.box.hi[i] = r.hi[i];
+  }
+  return d;
+}
 
 Result<SrMode, InputFailure> mode_from_message(const rejuv_msg_SrMode& m) {
   switch (m.mode) {

@@ -121,6 +121,24 @@ Result<TrackingParams, InputFailure> tracking_params(const Params& params) {
   return t;
 }
 
+flight::HandlerTiming SrCycleParams::handler_timing() const {
+  return flight::HandlerTiming{.t_est = t_est,
+                               .t_min = tracking.t_min,
+                               .check_period = tracking.check_period,
+                               .rho_s = tracking.rho_s};
+}
+
+Result<SrCycleParams, InputFailure> sr_cycle_params(const Params& params) {
+  const flight::SimConfig sim = flight::SimConfig::defaults();
+  auto tracking = tracking_params(params);
+  if (!tracking) return fail(std::move(tracking.error()));
+  auto t_mc = positive_or(params, "sr.t_mc_s", sim.t_mc.count());
+  if (!t_mc) return fail(std::move(t_mc.error()));
+  auto t_est = positive_or(params, "sr.t_est_s", sim.handler.t_est.count(), /*zero_ok=*/true);
+  if (!t_est) return fail(std::move(t_est.error()));
+  return SrCycleParams{.tracking = *tracking, .t_mc = Seconds{*t_mc}, .t_est = Seconds{*t_est}};
+}
+
 Result<flight::ControlDesignSpec, InputFailure> control_spec(const Params& params) {
   const flight::SimConfig sim = flight::SimConfig::defaults();
   flight::ControlDesignSpec spec = sim.control;

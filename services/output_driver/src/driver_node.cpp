@@ -25,6 +25,17 @@ void DriverNode::on_mode(SrMode mode) {
   driver_.set_limits(limits_in(mode));
 }
 
+Result<void, flight_io::InputFailure> DriverNode::on_limits(std::span<const std::byte> record) {
+  auto decoded = flight_io::limits_from_bytes(record);
+  if (!decoded) return fail(std::move(decoded.error()));
+  if (decoded->set != flight::LimitSet::Restricted) {
+    return fail(flight_io::InputFailure{.kind = flight_io::InputError::OutOfRange, .where = "actuator_limits",
+                                        .message = "the record holds the full limits U, not the restricted Ū"});
+  }
+  driver_.set_restricted(decoded->box);
+  return {};
+}
+
 Result<rejuv_msg_ActuatorOutputs, flight_io::InputFailure> DriverNode::on_controls(
     const rejuv_msg_ActuatorControls& message, Nanos now) {
   auto u = flight_io::controls_from_message(message);

@@ -1,5 +1,6 @@
 #include "rejuv/sdk/service.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdarg>
 #include <cstdio>
@@ -12,7 +13,9 @@
 #include "rejuv/sys/batch.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/event.hpp"
+#include "rejuv/sys/process.hpp"
 #include "rejuv/sys/seccomp.hpp"
+#include "workers.hpp"
 
 namespace rejuv::sdk {
 
@@ -37,6 +40,7 @@ std::string_view to_string(SdkError error) {
     case SdkError::BadArgument: return "bad argument";
     case SdkError::Denied: return "denied";
     case SdkError::OperationFailed: return "operation failed";
+    case SdkError::RolledBack: return "rolled back (this is a restored image)";
   }
   return "?";
 }
@@ -143,6 +147,14 @@ struct Service::Impl {
   int exit_code = 0;
   std::function<void()> on_shutdown;
   std::deque<std::vector<std::byte>> queued;  // frames read while waiting for a Reply
+  // Network gate: a handler per Network cap slot, and a copy of the datagram being handled (a handler that
+  // sends reuses rx for the Reply).
+  std::vector<std::pair<std::uint32_t, std::function<void(std::span<const std::byte>)>>> datagram_handlers;
+  std::array<std::byte, wire::kMaxDatagramBytes> datagram{};
+  std::vector<sys::UniqueFd> rx_fds;          // fds that came with the frame in rx (Snapshot: one)
+  // Images (DESIGN §7): set in a restored image, the answer of the checkpoint() call it was taken in.
+  std::optional<CheckpointOutcome> restored;
+  WorkerSet* workers = nullptr;  // owned; raw because a restored image leaks its copy (workers.hpp)
   alignas(8) std::array<std::byte, wire::kMaxFrameBytes> rx{};
   wire::FrameBuffer tx;
 
@@ -204,6 +216,7 @@ struct Service::Impl {
       if (r) {
         if (r->closed) return error(SdkError::ChannelClosed);
         ++frames_received;
+        rx_fds = std::move(r->fds);
         if (r->truncated) return std::optional<std::size_t>(0);  // decodes as TooShort: counted as bad
         return std::optional<std::size_t>(r->size);
       }
@@ -212,6 +225,11 @@ struct Service::Impl {
       if (auto w = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::nullopt); !w) return io_error(w.error());
     }
   }
+
+  // Images (DESIGN §7): defined below, next to the constructor.
+  static constexpr std::chrono::milliseconds kWorkerParkDeadline{500};
+  SdkResult<bool> take_image(std::uint64_t g);
+  bool become_image(std::uint64_t g, sys::UniqueFd resume_fd);
 
   // Sends a request and waits for its Reply, queueing every other frame (handled later, in order).
   SdkResult<InvokeReply> request(std::span<std::byte> out, std::string_view what) {
@@ -222,6 +240,14 @@ struct Service::Impl {
       if (!got) return std::unexpected(got.error());
       const std::span<const std::byte> bytes(rx.data(), **got);
       auto frame = wire::decode(bytes, wire::Direction::ToService);
+      if (frame && frame->kind == wire::FrameKind::Snapshot) {
+        // A checkpoint while this process waits (the caller of checkpoint() always does): the image is
+        // taken inside the call and, once restored, returns from it with RolledBack (DESIGN §7).
+        auto resumed = take_image(frame->header.aux);
+        if (!resumed) return std::unexpected(resumed.error());
+        if (*resumed) return error(SdkError::RolledBack, std::string(what));
+        continue;
+      }
       if (frame && frame->kind == wire::FrameKind::Reply && frame->header.seq == want) {
         const auto head = wire::payload_as<wire::ReplyHeader>(*frame);
         if (head.error != 0) return reply_error(head.error, std::string(what));
@@ -235,8 +261,79 @@ struct Service::Impl {
   }
 };
 
+// Snapshot{g} (DESIGN §7, docs/protocol.md "Checkpoint and rollback"): everything received before it has
+// been handled (channels are FIFO). Parks the workers, sends what is queued (so that nothing sent before
+// the cut is sent again by a restored image), forks the image as the kernel's child and answers Taken{g,
+// pid}. Returns false in the live process; true when this process is the image, resumed by a rollback and
+// now live on its new channel. A refusal (no resume socket, workers that do not park, a failed fork) is a
+// Taken with pid 0: the kernel abandons generation g.
+SdkResult<bool> Service::Impl::take_image(std::uint64_t g) {
+  sys::UniqueFd resume = rx_fds.size() == 1 ? std::move(rx_fds.front()) : sys::UniqueFd();
+  rx_fds.clear();
+  const auto answer = [&](wire::FrameKind kind, pid_t pid) -> SdkResult<void> {
+    const wire::TakenBody body{.image_pid = pid, .reserved = 0};
+    if (!tx.build_with(kind, 0, 0, g, body)) return error(SdkError::Protocol);
+    if (auto q = send_built(); !q) return q;
+    return flush();
+  };
+  if (!resume.valid() || (workers != nullptr && !workers->park_all(kWorkerParkDeadline))) {
+    if (auto a = answer(wire::FrameKind::Taken, 0); !a) return std::unexpected(a.error());
+    return false;
+  }
+  if (auto f = flush(); !f) return std::unexpected(f.error());
+  auto pid = sys::fork_sibling();
+  if (pid && *pid == 0) return become_image(g, std::move(resume));
+  if (workers != nullptr) workers->unpark_all();
+  if (auto a = answer(wire::FrameKind::Taken, pid ? *pid : 0); !a) return std::unexpected(a.error());
+  return false;
+}
+
+// The frozen image: blocks on its resume socket until the kernel sends Resume{g, epoch} with a new channel
+// and the resume socket of the next frozen copy. It forks that copy first (so g can be restored again),
+// then takes the new channel at fd 3 and continues as the live service. The kernel closing the resume
+// socket (generation discarded) or killing it ends the image.
+bool Service::Impl::become_image(std::uint64_t g, sys::UniqueFd resume_fd) {
+  (void)sys::make_non_dumpable();
+  sys::SeqPacket resume(std::move(resume_fd));
+  (void)sys::set_nonblocking(resume.fd(), false);
+  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::ResumeBody)> buf{};
+  for (;;) {
+    auto got = resume.receive(buf, 2);
+    if (!got || got->closed) std::_Exit(0);
+    auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToService);
+    if (!frame || frame->kind != wire::FrameKind::Resume || frame->header.aux != g || got->fds.size() != 2) {
+      std::_Exit(3);  // the kernel is trusted: anything else here is a broken kernel
+    }
+    const auto body = wire::payload_as<wire::ResumeBody>(*frame);
+    auto copy = sys::fork_sibling();
+    if (copy && *copy == 0) {
+      resume = sys::SeqPacket(std::move(got->fds[1]));  // the next frozen copy of g
+      (void)sys::set_nonblocking(resume.fd(), false);
+      continue;
+    }
+    resume.close();
+    if (!sys::install_fd(std::move(got->fds[0]), wire::kChannelFd) ||
+        !sys::set_nonblocking(wire::kChannelFd, true)) {
+      std::_Exit(3);
+    }
+    got->fds[1].reset();
+    frames_received = 0;  // Idle counts frames on this channel (docs/protocol.md "Idle")
+    idle_reported = 0;
+    restored = CheckpointOutcome{.kind = CheckpointOutcome::Kind::Restored, .generation = Generation{g},
+                                 .epoch = Epoch{body.epoch}};
+    if (workers != nullptr) workers = WorkerSet::respawn_in_image(workers);
+    const wire::TakenBody answer{.image_pid = copy ? *copy : 0, .reserved = 0};
+    if (!tx.build_with(wire::FrameKind::Resumed, 0, 0, g, answer) || !send_built() || !flush()) std::_Exit(3);
+    return true;
+  }
+}
+
 Service::Service(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 Service::~Service() {
+  if (impl_ && impl_->workers != nullptr) {
+    delete impl_->workers;  // NOLINT(cppcoreguidelines-owning-memory): stops and joins them
+    impl_->workers = nullptr;
+  }
   // One attempt, never a wait: a service leaving must not hang on a kernel that stopped reading.
   if (impl_ && impl_->out_count > 0) {
     (void)sys::send_batch(impl_->channel.fd(), std::span(impl_->out_frames).first(impl_->out_count));
@@ -277,7 +374,9 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
   };
   auto boot = next();
   if (!boot) return std::unexpected(boot.error());
-  if (boot->kind != wire::FrameKind::Boot) return error(SdkError::Protocol, "expected Boot");
+  if (boot->kind != wire::FrameKind::Boot) {
+    return error(SdkError::Protocol, "expected Boot, got " + std::string(wire::to_string(boot->kind)));
+  }
   if (boot->header.aux != wire::kProtocolVersion && boot->header.aux != 0) {
     return error(SdkError::VersionMismatch, "kernel speaks version " + std::to_string(boot->header.aux));
   }
@@ -466,9 +565,20 @@ SdkResult<InvokeReply> Service::invoke(std::string_view object, cap::Operation o
 
 SdkResult<CheckpointOutcome> Service::checkpoint(std::string_view object) {
   auto reply = invoke(object, cap::Operation::CheckpointCreate);
-  if (!reply) return std::unexpected(reply.error());
+  if (!reply) {
+    if (reply.error().code == SdkError::RolledBack && impl_->restored) return *impl_->restored;
+    return std::unexpected(reply.error());
+  }
   return CheckpointOutcome{.kind = CheckpointOutcome::Kind::Taken, .generation = Generation{reply->value},
                            .epoch = epoch()};
+}
+
+SdkResult<void> Service::spawn_worker(std::function<void(WorkerContext&)> body) {
+  if (!body) return error(SdkError::BadArgument, "empty worker body");
+  if (impl_->workers == nullptr) impl_->workers = new WorkerSet(0);  // NOLINT(cppcoreguidelines-owning-memory)
+  if (impl_->workers->size() >= kMaxWorkers) return error(SdkError::BadArgument, "too many workers");
+  impl_->workers->spawn(std::move(body));
+  return {};
 }
 
 SdkResult<InvokeReply> Service::invoke_slot(Slot slot, cap::Operation op, std::uint64_t arg0, std::uint64_t arg1,
@@ -482,6 +592,40 @@ SdkResult<InvokeReply> Service::invoke_slot(Slot slot, cap::Operation op, std::u
     return error(SdkError::BadArgument, "invoke data too large");
   }
   return impl_->request(out, std::string(cap::to_string(op)));
+}
+
+// ---- network ----
+
+SdkResult<void> Service::on_datagram(std::string_view object, std::function<void(std::span<const std::byte>)> handler) {
+  auto found = cap(object);
+  if (!found) return std::unexpected(found.error());
+  const CapInfo& c = **found;
+  if (c.kind != ObjectKind::Network) return error(SdkError::WrongObjectKind, std::string(object) + " is not a Network object");
+  if (!c.ever(Right::Read)) return error(SdkError::NeverGranted, std::string(object) + ": the policy grants no Read in any mode");
+  for (const auto& h : impl_->datagram_handlers) {
+    if (h.first == c.slot.value()) return error(SdkError::AlreadySubscribed, std::string(object));
+  }
+  impl_->datagram_handlers.emplace_back(c.slot.value(), std::move(handler));
+  return {};
+}
+
+SdkResult<void> Service::send_datagram(std::string_view object, std::span<const std::byte> datagram) {
+  auto found = cap(object);
+  if (!found) return std::unexpected(found.error());
+  const CapInfo& c = **found;
+  if (c.kind != ObjectKind::Network) return error(SdkError::WrongObjectKind, std::string(object) + " is not a Network object");
+  if (datagram.empty() || datagram.size() > wire::kMaxDatagramBytes) {
+    return error(SdkError::BadArgument, "a datagram has 1 to " + std::to_string(wire::kMaxDatagramBytes) + " bytes");
+  }
+  if (!c.rights_in(mode()).has(Right::Write)) return error(SdkError::NotHeldInMode, c.object);
+  auto reply = invoke_slot(c.slot, cap::Operation::NetSend, 0, 0, datagram);
+  if (!reply) return std::unexpected(reply.error());
+  return {};
+}
+
+bool Service::may_send(std::string_view object) const {
+  auto found = cap(object);
+  return found && (*found)->rights_in(mode()).has(Right::Write);
 }
 
 // ---- log ----
@@ -585,17 +729,35 @@ int Service::run() {
       case wire::FrameKind::Shutdown:
         if (s.on_shutdown) s.on_shutdown();
         return leave(0);
-      case wire::FrameKind::RollbackSignal:  // rollback handlers come with the image store (DESIGN §7)
-      case wire::FrameKind::Snapshot:        // checkpoints come with the image store (DESIGN §7)
+      case wire::FrameKind::Snapshot: {
+        auto resumed = s.take_image(frame->header.aux);
+        if (!resumed) {
+          std::fprintf(stderr, "[%s] checkpoint: %s\n", s.name.c_str(), resumed.error().to_string().c_str());
+          return 1;
+        }
+        break;  // live or restored: the loop goes on (a restored image on its new channel)
+      }
+      case wire::FrameKind::RollbackSignal:  // rollback handlers subscribe to the rollback_signal topic
       case wire::FrameKind::Reply:           // a reply nobody waits for
       case wire::FrameKind::Boot:
       case wire::FrameKind::BootCap:
       case wire::FrameKind::BootParam:
       case wire::FrameKind::BootEnd:
       case wire::FrameKind::Resume:       // only ever on an image's resume socket
-      case wire::FrameKind::NetDatagram:  // network gate: comes with ext_link's Network cap
         ++s.bad_frames;
         break;
+      case wire::FrameKind::NetDatagram: {  // network gate (docs/protocol.md): slot = our Network cap
+        const auto handler = std::find_if(s.datagram_handlers.begin(), s.datagram_handlers.end(),
+                                          [&](const auto& h) { return h.first == frame->header.slot; });
+        if (handler == s.datagram_handlers.end() || frame->payload.size() > s.datagram.size()) {
+          ++s.bad_frames;
+          break;
+        }
+        const std::size_t n = frame->payload.size();
+        std::memcpy(s.datagram.data(), frame->payload.data(), n);
+        handler->second(std::span<const std::byte>(s.datagram.data(), n));
+        break;
+      }
       case wire::FrameKind::Hello:
       case wire::FrameKind::Publish:
       case wire::FrameKind::Subscribe:

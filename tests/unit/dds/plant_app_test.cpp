@@ -39,6 +39,7 @@ TEST(PlantOptions, NoArguments_Defaults) {
   EXPECT_EQ(o.step, 4ms);
   EXPECT_TRUE(o.start_N_m.isApprox(Eigen::Vector3d(0, 0, -3)));
   EXPECT_EQ(o.duration, 0s);
+  EXPECT_EQ(o.alignment, 20s);  // as rejuv sim (flight::SimConfig::alignment)
 }
 
 TEST(PlantOptions, EveryFlag_Parsed) {
@@ -64,7 +65,9 @@ TEST(PlantOptions, EveryFlag_Parsed) {
                                    "--wind-mean",
                                    "3",
                                    "--wind-gust",
-                                   "0.5"});
+                                   "0.5",
+                                   "--align-s",
+                                   "1.5"});
   EXPECT_EQ(o.domain, 17U);
   EXPECT_EQ(o.seed, 18446744073709551615ULL);
   EXPECT_EQ(o.clock, ClockMode::Realtime);
@@ -75,6 +78,7 @@ TEST(PlantOptions, EveryFlag_Parsed) {
   EXPECT_EQ(o.connect_timeout, 1000ms);
   EXPECT_DOUBLE_EQ(o.wind_mean_m_s, 3);
   EXPECT_DOUBLE_EQ(o.wind_gust_m_s, 0.5);
+  EXPECT_EQ(o.alignment, 1500ms);
 }
 
 TEST(PlantOptions, Help_ShowHelp) {
@@ -214,6 +218,32 @@ TEST(PlantSim, MotorCommand_NonFinite_RefusedAndPreviousHeld) {
   u.motor[2] = std::nan("");
   EXPECT_FALSE(sim.set_motor_command(u));
   EXPECT_TRUE(sim.motor_command().isApprox(Eigen::Vector4d::Constant(0.7)));
+}
+
+TEST(PlantSim, Aligning_FullThrottle_HeldAtStartWhileSensorsSample) {
+  PlantSim sim(PlantSimConfig{.seed = 1, .start_N_m = Eigen::Vector3d(1, 2, -3), .alignment = 1s});
+  rejuv_msg_ActuatorOutputs u{};
+  for (double& m : u.motor) m = 1.0;
+  ASSERT_TRUE(sim.set_motor_command(u));
+  std::vector<SensorMessage> out;
+  sim.advance(1s, out);
+  const rejuv_msg_GroundTruth gt = sim.ground_truth();
+  EXPECT_EQ(gt.p_N_m[0], 1.0);  // exactly: no physics while aligning
+  EXPECT_EQ(gt.p_N_m[1], 2.0);
+  EXPECT_EQ(gt.p_N_m[2], -3.0);
+  EXPECT_EQ(gt.v_N_m_s[2], 0.0);
+  EXPECT_GT(out.size(), 500U);  // gyro and accel at 250 Hz, mag, baro, GPS
+  EXPECT_FALSE(sim.aligning());
+}
+
+TEST(PlantSim, AfterAlignment_HeldCommand_Applied) {
+  PlantSim sim(PlantSimConfig{.seed = 1, .start_N_m = Eigen::Vector3d(0, 0, -3), .alignment = 100ms});
+  rejuv_msg_ActuatorOutputs u{};
+  for (double& m : u.motor) m = 1.0;
+  ASSERT_TRUE(sim.set_motor_command(u));  // received while aligning: applied once the flight starts
+  std::vector<SensorMessage> out;
+  sim.advance(600ms, out);
+  EXPECT_LT(sim.ground_truth().p_N_m[2], -3.1);  // NED: up is negative z
 }
 
 TEST(PlantSim, FullThrottle_Climbs) {

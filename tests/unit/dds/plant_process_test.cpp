@@ -31,8 +31,9 @@ const std::string kPlant = std::string(REJUV_BINARY_DIR) + "/bin/rejuv_plant";
 constexpr std::uint64_t kStepNs = 4'000'000;  // --step-ms 4 (the default)
 
 std::vector<std::string> plant_args(std::uint64_t seed, std::vector<std::string> extra = {}) {
+  // No pre-flight alignment: these tests fly (or step) from the first step.
   std::vector<std::string> args{"--domain", std::to_string(test_support::test_domain().value()), "--seed",
-                                std::to_string(seed)};
+                                std::to_string(seed), "--align-s", "0"};
   args.insert(args.end(), extra.begin(), extra.end());
   return args;
 }

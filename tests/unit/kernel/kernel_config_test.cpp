@@ -92,19 +92,20 @@ TEST_F(KernelConfig, UnreadablePolicy_IsAPolicyError) {
   EXPECT_EQ(k.error().kind, KernelError::Kind::Policy);
 }
 
-TEST_F(KernelConfig, SrRequested_IsRefusedUntilTheImageStoreExists) {
+TEST_F(KernelConfig, SrRequested_StartsInSafeControl_NoSrStartsInMissionControl) {
   const std::string sr = "sr { enabled: true t_mc_s: 0.3 t_est_s: 3 rho_m: 0.1 rho_s: 0.05 "
                          "box { position_m: 0.5 velocity_m_s: 1 angle_rad: 0.3 rate_rad_s: 2 } "
                          "restricted_limit_fraction: 0.3 }\n";
   auto k = create(policy, launch("/bin/true", sr));
-  ASSERT_FALSE(k.has_value());
-  EXPECT_EQ(k.error().kind, KernelError::Kind::SrUnavailable);
-  EXPECT_NE(k.error().message.find("--no-sr"), std::string::npos);
+  ASSERT_TRUE(k.has_value()) << k.error().to_string();
+  EXPECT_TRUE((*k)->sr_enabled());
+  EXPECT_EQ((*k)->mode(), SrMode::SC);  // DESIGN §7 Faults: the safe mode, network off
   KernelOptions o = manual();
   o.no_sr = true;
   auto without = create(policy, launch("/bin/true", sr), o);
   ASSERT_TRUE(without.has_value()) << without.error().to_string();
   EXPECT_FALSE((*without)->sr_enabled());
+  EXPECT_EQ((*without)->mode(), SrMode::MC);
 }
 
 TEST_F(KernelConfig, MissingExecutable_NamesTheServiceAndTheSkipFlag) {

@@ -55,6 +55,27 @@ TEST_F(DriverNodeTest, DriverNode_InMc_ClampsToTheRestrictedLimits) {
   EXPECT_TRUE(driver.driver().applied_u().isApprox(limits_.restricted.hi, 1e-12));
 }
 
+TEST_F(DriverNodeTest, DriverNode_LimitsRecord_ARestrictedOneReplacesUbar_OthersAreRefused) {
+  DriverNode driver = make(SrMode::MC);
+  flight::InputBox narrow = limits_.restricted;
+  narrow.hi = limits_.u_hover + 0.5 * (limits_.restricted.hi - limits_.u_hover);
+  // The full set, a truncated record and a non-finite one are refused: Ū stays.
+  const auto full = flight_io::limits_bytes(flight_io::limits_record(limits_.full, flight::LimitSet::Full));
+  EXPECT_FALSE(driver.on_limits(full).has_value());
+  EXPECT_FALSE(driver.on_limits(std::span(full).first(full.size() - 1)).has_value());
+  auto nan = flight_io::limits_record(narrow, flight::LimitSet::Restricted);
+  nan.hi[2] = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(driver.on_limits(flight_io::limits_bytes(nan)).has_value());
+  auto out = driver.on_controls(controls(limits_.full.hi), milliseconds{4});
+  ASSERT_TRUE(out);
+  EXPECT_TRUE(wrench(*out).isApprox(limits_.restricted.hi, 1e-12));
+  // A valid restricted record (what checkpoint_p writes before MC) is the Ū applied from then on.
+  ASSERT_TRUE(driver.on_limits(flight_io::limits_bytes(flight_io::limits_record(narrow, flight::LimitSet::Restricted))));
+  out = driver.on_controls(controls(limits_.full.hi), milliseconds{8});
+  ASSERT_TRUE(out);
+  EXPECT_TRUE(wrench(*out).isApprox(narrow.hi, 1e-12)) << wrench(*out).transpose();
+}
+
 TEST_F(DriverNodeTest, DriverNode_InSc_FullLimitsLetMoreThanRestrictedThrough) {
   DriverNode driver = make(SrMode::SC);
   flight::InputVec u = limits_.u_hover;

@@ -1,9 +1,11 @@
 // Test helper run as a real child process: tries one forbidden action and reports by exit code.
 //   0 = the action was denied with EPERM, 1 = it was allowed, 2 = bad usage or another error.
+// Under the service filter a forbidden action never returns: the process dies by SIGSYS (seccomp.hpp).
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/ptrace.h>
 #include <sys/socket.h>
+#include <sys/uio.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -26,6 +28,17 @@ int main(int argc, char** argv) {
   const std::string_view what = argv[1];
   if (what == "socket") return verdict(::socket(AF_INET, SOCK_DGRAM, 0));
   if (what == "unix-socket") return verdict(::socket(AF_UNIX, SOCK_STREAM, 0));
+  if (what == "socketpair") {
+    int fds[2] = {-1, -1};
+    return verdict(::socketpair(AF_UNIX, SOCK_STREAM, 0, fds));
+  }
+  if (what == "process-vm-readv") {  // read a byte of the parent
+    char local_byte = 0;
+    char remote_byte = 0;
+    iovec local{&local_byte, 1};
+    iovec remote{&remote_byte, 1};
+    return verdict(::process_vm_readv(::getppid(), &local, 1, &remote, 1, 0));
+  }
   if (what == "ptrace") return verdict(::ptrace(PTRACE_TRACEME, 0, nullptr, nullptr));
   if (what == "kill-parent") return verdict(::kill(::getppid(), 0));
   if (what == "kill-self") return verdict(::kill(::getpid(), 0));

@@ -193,20 +193,38 @@ class Seccomp : public ::testing::Test {
     spec.seccomp = &program_;
     return exit_code_of(spec);
   }
+  // A forbidden call never returns: the filter ends the process as if by SIGSYS, which its parent sees.
+  ExitStatus status_of(std::string what) {
+    SpawnSpec spec = probe(std::move(what));
+    spec.seccomp = &program_;
+    auto child = spawn(spec);
+    EXPECT_TRUE(child.has_value()) << (child ? "" : child.error().to_string());
+    if (!child) return {};
+    auto status = child->wait();
+    EXPECT_TRUE(status.has_value());
+    return status.value_or(ExitStatus{});
+  }
+  static void expect_killed_by_sigsys(const ExitStatus& s) {
+    EXPECT_EQ(s.how, ExitStatus::How::Signaled) << s.to_string();
+    EXPECT_EQ(s.value, SIGSYS) << s.to_string();
+  }
   SeccompProgram program_;
 };
 
-TEST_F(Seccomp, Socket_Denied) { EXPECT_EQ(run("socket"), 0); }
-TEST_F(Seccomp, UnixSocket_Denied) { EXPECT_EQ(run("unix-socket"), 0); }
-TEST_F(Seccomp, Ptrace_Denied) { EXPECT_EQ(run("ptrace"), 0); }
-TEST_F(Seccomp, SignalToOtherProcess_Denied) { EXPECT_EQ(run("kill-parent"), 0); }
+TEST_F(Seccomp, Socket_KillsTheProcess) { expect_killed_by_sigsys(status_of("socket")); }
+TEST_F(Seccomp, UnixSocket_KillsTheProcess) { expect_killed_by_sigsys(status_of("unix-socket")); }
+TEST_F(Seccomp, Socketpair_KillsTheProcess) { expect_killed_by_sigsys(status_of("socketpair")); }
+TEST_F(Seccomp, Ptrace_KillsTheProcess) { expect_killed_by_sigsys(status_of("ptrace")); }
+TEST_F(Seccomp, ProcessVmReadv_KillsTheProcess) { expect_killed_by_sigsys(status_of("process-vm-readv")); }
+TEST_F(Seccomp, SignalToOtherProcess_KillsTheProcess) { expect_killed_by_sigsys(status_of("kill-parent")); }
 TEST_F(Seccomp, SignalToSelf_Allowed) { EXPECT_EQ(run("kill-self"), 1); }
-TEST_F(Seccomp, ExecAfterSdkStage_Denied) { EXPECT_EQ(run("exec-after-sdk"), 0); }
+TEST_F(Seccomp, ExecAfterSdkStage_KillsTheProcess) { expect_killed_by_sigsys(status_of("exec-after-sdk")); }
 
 TEST(SeccompBaseline, WithoutFilter_ActionsAllowed) {
   // The probe really does the actions: without the filter they succeed (so the tests above can fail).
   EXPECT_EQ(exit_code_of(probe("socket")), 1);
   EXPECT_EQ(exit_code_of(probe("kill-parent")), 1);
+  EXPECT_EQ(exit_code_of(probe("socketpair")), 1);
 }
 
 TEST(Subreaper, CountChildren_SeesSpawnedProcess) {

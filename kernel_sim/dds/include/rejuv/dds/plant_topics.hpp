@@ -10,7 +10,8 @@
 //      kernel also its actuator_outputs and sim_step_ack writers) before writing anything: volatile samples
 //      written before a match are lost.
 //   2. Step k: the plant advances physics by the step period (plus the charged time of ack k−1) with the last
-//      actuator outputs held, publishes the sensor samples due in that interval and the ground truth, then
+//      actuator outputs held (during its pre-flight alignment, --align-s, the vehicle rests at its start pose
+//      and the outputs are not applied yet), publishes the sensor samples due in that interval and the ground truth, then
 //      SimStep{k, time_ns, samples_published} (the running total of sensor + ground-truth samples).
 //   3. DDS orders samples per writer only, so the kernel handles step k once it has received
 //      samples_published samples: it sets its clock to time_ns, runs the graph until every service is idle,

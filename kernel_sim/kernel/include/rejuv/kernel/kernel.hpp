@@ -67,8 +67,7 @@ struct KernelOptions {
   TimeMaster time_master = TimeMaster::Plant;   // Plant: the graph's plant is spawned (lockstep and realtime)
   std::optional<std::uint64_t> seed{};          // default: the graph's seed
   std::optional<std::uint32_t> dds_domain{};    // default: the graph's dds.domain_id
-  // Rejuvenation: the graph's `sr.enabled` unless disabled here. The image store (DESIGN §7) does not exist
-  // yet, so create() refuses a graph that asks for SR unless `no_sr` is set.
+  // Rejuvenation (DESIGN §7–8): the graph's `sr.enabled` unless disabled here.
   bool no_sr = false;
   bool no_attack = false;                       // attack.enabled = 0 for every service
   std::optional<Nanos> duration{};              // stop when the kernel clock reaches this
@@ -81,6 +80,11 @@ struct KernelOptions {
   Nanos boot_deadline{std::chrono::seconds{20}};      // spawn → Ready
   Nanos idle_deadline{std::chrono::seconds{10}};      // a lockstep step: every service idle
   Nanos shutdown_grace{std::chrono::seconds{2}};      // Shutdown → exit, before SIGKILL
+  Nanos snapshot_deadline{std::chrono::seconds{2}};   // Snapshot → Taken from every service (DESIGN §7 Faults)
+  Nanos resume_deadline{std::chrono::seconds{2}};     // Resume → Resumed from every image
+  // Network gate (DESIGN §2): the UDP port of the external link, overriding the graph's `network.bind_port`
+  // (0 = ephemeral: Kernel::network_port() tells which; tests use it).
+  std::optional<std::uint16_t> network_port{};
   std::FILE* log = stderr;                      // kernel and service log lines; nullptr = silent
   bool verbose = false;                         // also Debug-level service logs
 };
@@ -91,7 +95,6 @@ struct KernelError {
     Policy,          // the policy file cannot be loaded (message has file:line:col)
     Audit,           // the policy fails the audit: `findings` lists them
     Config,          // the graph or the options cannot run (unknown topic type, missing executable, ...)
-    SrUnavailable,   // SR requested; the image store (DESIGN §7) is not available yet: use no_sr
     Dds,             // the DDS bridge failed
     System,          // a system call failed
     Boot,            // a service failed to boot (exec failure, protocol, deadline)
@@ -100,7 +103,7 @@ struct KernelError {
   std::string message{};
   std::vector<std::string> findings{};
   [[nodiscard]] std::string to_string() const;
-  // User input problems (Policy, Audit, Config, SrUnavailable): `rejuv run` exits 2 on those.
+  // User input problems (Policy, Audit, Config): `rejuv run` exits 2 on those.
   [[nodiscard]] bool is_bad_input() const;
 };
 
@@ -125,6 +128,10 @@ class Observer {
   virtual void on_publication(const Publication& /*publication*/) {}
   // After every completed lockstep step (or, in realtime, about every 100 ms of kernel time).
   virtual void on_step(std::uint64_t /*step*/, Nanos /*t*/, SrMode /*mode*/) {}
+  // DESIGN §7: generation g has just been saved / the queues have just been restored to g (nothing has
+  // run since). Tests compare the broker's state at both points.
+  virtual void on_checkpoint(Generation /*g*/, const broker::Broker& /*queues*/) {}
+  virtual void on_restore(Generation /*g*/, const broker::Broker& /*queues*/) {}
 };
 
 // Per-service counters, for tests, the summary and diagnostics.
@@ -146,6 +153,37 @@ struct ServiceStats {
   std::uint64_t lost = 0;           // messages its subscriptions skipped (ring overrun)
   std::uint64_t log_suppressed = 0; // log lines dropped by the rate limit
   std::uint64_t flood_dropped = 0;  // publications dropped over the per-step bound (lockstep)
+  std::uint64_t sandbox_violations = 0;  // incarnations ended by the seccomp filter (SIGSYS: socket, ptrace, kill …)
+};
+
+// Counters of the network gate (DESIGN §2; docs/protocol.md "Network gate"). Every datagram read is
+// received = relayed + the dropped_* counters.
+struct NetStats {
+  std::uint64_t received = 0;                 // datagrams read from the kernel's UDP socket
+  std::uint64_t relayed = 0;                  // handed to the service holding Network Read (NetDatagram)
+  std::uint64_t dropped_secure_interval = 0;  // no service holds Network Read in the current mode (SEI)
+  std::uint64_t dropped_oversize = 0;         // longer than wire::kMaxDatagramBytes
+  std::uint64_t dropped_empty = 0;            // zero bytes
+  std::uint64_t dropped_no_receiver = 0;      // the holder is not running (skipped, dead, still booting)
+  std::uint64_t dropped_busy = 0;             // the holder's channel is backed up (it is not reading)
+  std::uint64_t sent = 0;                     // NetSend datagrams sent to the ground station
+  std::uint64_t send_refused = 0;             // NetSend refused: denied by the cap check, bad data, send error
+  std::uint64_t unsent_no_ground = 0;         // NetSend before any ground station spoke (Refused, not counted above)
+};
+
+// What the image store did (DESIGN §7): counts, and the real duration of every checkpoint and rollback
+// (the Fig. 7 analogue; in lockstep also charged to simulated time).
+struct SrStats {
+  std::uint64_t checkpoints = 0;          // generations committed
+  std::uint64_t checkpoint_failures = 0;  // generations abandoned (a refusal, a deadline, a dead image)
+  std::uint64_t rollbacks = 0;            // rollbacks carried out (to some generation)
+  std::uint64_t fallbacks = 0;            // generations skipped as broken during a rollback
+  std::uint64_t cold_restarts = 0;        // no usable generation: the graph restarted from its binaries
+  std::uint64_t timer_arms = 0;           // rejuvenation timer arms accepted
+  std::uint64_t timer_arm_refused = 0;    // a second arm in one epoch (DESIGN §7)
+  std::uint64_t timer_rollbacks = 0;      // rollbacks the rejuvenation timer fired
+  std::vector<double> checkpoint_ms{};    // Snapshot sent → generation committed, per checkpoint
+  std::vector<double> rollback_ms{};      // trigger → routing resumed, per rollback
 };
 
 // Result of one manual lockstep step.
@@ -193,6 +231,12 @@ class Kernel {
   void shutdown();
   void request_stop();
 
+  // The kernel's own checkpoint / rollback (benchmarks, tools; TimeMaster::Manual between steps): the same
+  // protocol as a service's CheckpointCreate / CheckpointRollback. `cold`: the restart-based baseline (every
+  // rejuvenated service killed and started again from its binary, DESIGN §7 Faults).
+  [[nodiscard]] Result<Generation, KernelError> checkpoint_now();
+  [[nodiscard]] Result<void, KernelError> rollback_now(bool cold = false);
+
   // Publishes `payload` on topic `name` as the kernel (the DDS bridge path; tests use it in Manual mode).
   [[nodiscard]] Result<void, KernelError> inject(std::string_view topic, std::span<const std::byte> payload);
 
@@ -209,6 +253,14 @@ class Kernel {
   [[nodiscard]] std::optional<ServiceId> find_service(std::string_view name) const;
   [[nodiscard]] ServiceStats stats(ServiceId service) const;
   [[nodiscard]] std::uint64_t bad_frames_total() const;
+  [[nodiscard]] const SrStats& sr_stats() const;
+  [[nodiscard]] Epoch epoch() const;
+  // pids of the frozen images of a service, oldest generation first (tests and fault injection).
+  [[nodiscard]] std::vector<int> image_pids(ServiceId service) const;
+  [[nodiscard]] std::vector<Generation> generations() const;
+  // The network gate (netgate.cpp): its counters, and the UDP port it is bound to (nullopt: no gate).
+  [[nodiscard]] NetStats net_stats() const;
+  [[nodiscard]] std::optional<std::uint16_t> network_port() const;
   [[nodiscard]] const launch::LoadedLaunch& graph() const;
 
   struct Impl;

@@ -51,6 +51,9 @@ class UniqueFd {
 };
 
 // Number of open fds of this process (counts /proc/self/fd), for leak checks.
+// Moves `fd` to the number `target` (dup2, then closes the original): a restored image takes its new
+// channel at fd 3 (DESIGN §7). Whatever was open at `target` is closed.
+[[nodiscard]] SysResult<void> install_fd(UniqueFd fd, int target);
 [[nodiscard]] SysResult<int> count_open_fds();
 
 }  // namespace rejuv::sys

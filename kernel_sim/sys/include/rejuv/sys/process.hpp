@@ -30,6 +30,9 @@ class ChildProcess {
   ChildProcess() = default;
   // Takes charge of an existing child (or, with the kernel as subreaper, an adopted descendant).
   [[nodiscard]] static SysResult<ChildProcess> adopt(pid_t pid);
+  // The same, but only if `pid` is this process's own child (ECHILD otherwise): the kernel takes charge of
+  // an image a service reports only if it really is the kernel's child (DESIGN §7).
+  [[nodiscard]] static SysResult<ChildProcess> adopt_child(pid_t pid);
   ChildProcess(const ChildProcess&) = delete;
   ChildProcess& operator=(const ChildProcess&) = delete;
   ChildProcess(ChildProcess&& other) noexcept;
@@ -73,6 +76,15 @@ struct SpawnSpec {
 // Makes this process the reaper of its orphaned descendants (PR_SET_CHILD_SUBREAPER), so that images
 // double-forked by services become the kernel's children (DESIGN §7).
 [[nodiscard]] SysResult<void> become_subreaper();
+
+// ---- images (DESIGN §7) ----
+// Forks the calling process with clone(CLONE_PARENT): the child's parent is the caller's parent, so a
+// service's image is the kernel's child at once (one fork instead of DESIGN §7's double fork, and nothing
+// for the service to reap). Returns the child's pid in the caller and 0 in the child. Only for a process
+// whose other threads are parked (the child has the calling thread only; no atfork handlers run).
+[[nodiscard]] SysResult<pid_t> fork_sibling();
+// PR_SET_DUMPABLE 0: no core dump, no ptrace or /proc/<pid>/mem access by other processes of its uid.
+[[nodiscard]] SysResult<void> make_non_dumpable();
 
 // Counts the live processes whose parent is `parent` (from /proc), for leak checks in tests.
 [[nodiscard]] SysResult<int> count_children(pid_t parent);

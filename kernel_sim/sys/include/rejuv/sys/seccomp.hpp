@@ -24,16 +24,19 @@ enum class SeccompStage : std::uint8_t {
 
 class SeccompProgram {
  public:
-  // The service policy for a stage. Denied calls fail with EPERM (the service sees an error, the
-  // process is not killed) so that an attack attempt can be counted and contained.
+  // The service policy for a stage. A denied call ends the process as if by SIGSYS (SECCOMP_RET_KILL_PROCESS,
+  // no core dump): its parent, the kernel, sees that on the pidfd, counts a sandbox violation and contains it
+  // (a rollback with SR on). An EPERM would leave the attempt invisible to the kernel.
+  // Signals are allowed to the service's own pid only: the pid of the first incarnation (a restored image has
+  // another pid, so its raise()/abort() also end it by SIGSYS).
   [[nodiscard]] static SysResult<SeccompProgram> service_policy(SeccompStage stage);
 
   // Loads the filter into the calling process (not async-signal-safe; for the SDK after exec).
   [[nodiscard]] SysResult<void> install() const;
 
   // Async-signal-safe load for a freshly forked child: copies the program into `scratch` (which the
-  // parent sized with scratch_size() before the fork), patches the child's pid, sets no_new_privs and
-  // loads it. Returns 0 or an errno.
+  // parent sized with scratch_size() before the fork), patches the child's pid, sets RLIMIT_CORE 0 and
+  // no_new_privs and loads it. Returns 0 or an errno.
   [[nodiscard]] int install_in_child(sock_filter* scratch, pid_t self) const noexcept;
   [[nodiscard]] std::size_t scratch_size() const { return filter_.size(); }
   [[nodiscard]] std::size_t instructions() const { return filter_.size(); }

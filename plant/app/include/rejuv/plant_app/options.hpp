@@ -27,6 +27,9 @@ struct PlantOptions {
   ClockMode clock = ClockMode::Lockstep;
   Eigen::Vector3d start_N_m = Eigen::Vector3d(0, 0, -3);  // hover position, NED (down −3 = 3 m up)
   Nanos duration{0};                                      // simulated (lockstep) or real time; 0 = forever
+  // Pre-flight alignment: the vehicle rests at its start pose this long while the sensors publish (plant_sim.hpp);
+  // 20 s like `rejuv sim` (flight::SimConfig::alignment). Counted in the duration.
+  Nanos alignment{std::chrono::seconds{20}};
   Nanos step{std::chrono::milliseconds{4}};               // lockstep step; ground-truth period in realtime
   Nanos ack_timeout{std::chrono::seconds{10}};            // lockstep: no ack for this long = kernel gone
   Nanos connect_timeout{std::chrono::seconds{30}};        // lockstep: waiting for the kernel's endpoints

@@ -20,6 +20,10 @@ struct PlantSimConfig {
   Eigen::Vector3d start_N_m = Eigen::Vector3d(0, 0, -3);  // trimmed hover here (QuadState hover_at)
   plant::WindParams wind{};
   Nanos physics_period{std::chrono::milliseconds{1}};  // 1 kHz (DESIGN §9)
+  // Pre-flight alignment (docs/control.md): for [0, alignment) the vehicle rests at its start pose (no
+  // physics, no wind, motor commands stored but not applied) while the sensors keep sampling it, so that the
+  // estimator converges before the flight starts, as `rejuv sim` aligns before its t = 0.
+  Nanos alignment{0};
 };
 
 // One sensor message as published on DDS.
@@ -40,6 +44,7 @@ class PlantSim {
   void advance(Nanos interval, std::vector<SensorMessage>& out);
 
   [[nodiscard]] Nanos now() const { return now_; }
+  [[nodiscard]] bool aligning() const { return now_ < config_.alignment; }
   [[nodiscard]] rejuv_msg_GroundTruth ground_truth() const;
   [[nodiscard]] const plant::Quadrotor& quadrotor() const { return quad_; }
   [[nodiscard]] const Eigen::Vector4d& motor_command() const { return motor_command_; }

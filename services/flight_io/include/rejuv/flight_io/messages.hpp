@@ -7,7 +7,11 @@
 // estimator or a controller would poison it until the next rollback) and returns an InputFailure otherwise.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
+#include <span>
+#include <type_traits>
 
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
@@ -15,6 +19,8 @@
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/flight/estimator_node.hpp"
 #include "rejuv/flight/hover_model.hpp"
+#include "rejuv/flight/limits.hpp"
+#include "rejuv/flight/output_driver.hpp"
 #include "rejuv/flight_io/params.hpp"
 #include "rejuv/msgs/topic_types.hpp"
 #include "rejuv/plant/sensor_samples.hpp"
@@ -64,6 +70,26 @@ inline constexpr std::uint32_t kStateInnovationRejected = 1U << 2U;
 [[nodiscard]] rejuv_msg_ActuatorControls controls_message(const flight::InputVec& u, Nanos t, Epoch epoch);
 [[nodiscard]] Result<flight::InputVec, InputFailure> controls_from_message(
     const rejuv_msg_ActuatorControls& m);
+
+// ---- actuator_limits (checkpoint_p → the kernel's Limits object → output_driver; DESIGN §3, §IV-C) ----
+// The bytes of a LimitsWrite (and what LimitsRead returns): one fixed-size record in the host's layout (the
+// kernel stores the bytes, it never interprets them). u = [F N, τφ N·m, τθ N·m, τψ N·m].
+inline constexpr std::uint32_t kLimitsRecordVersion = 1;
+struct LimitsRecord {
+  std::uint32_t version = kLimitsRecordVersion;
+  std::uint32_t restricted = 0;  // 1: the restricted limits Ū (MC), 0: the full limits U
+  double lo[4] = {};
+  double hi[4] = {};
+};
+static_assert(std::is_trivially_copyable_v<LimitsRecord>);
+[[nodiscard]] LimitsRecord limits_record(const flight::InputBox& box, flight::LimitSet set);
+[[nodiscard]] std::array<std::byte, sizeof(LimitsRecord)> limits_bytes(const LimitsRecord& record);
+struct DecodedLimits {
+  flight::InputBox box{};
+  flight::LimitSet set = flight::LimitSet::Full;
+};
+// Exactly sizeof(LimitsRecord) bytes, the known version, restricted ∈ {0, 1}, finite, lo ≤ hi.
+[[nodiscard]] Result<DecodedLimits, InputFailure> limits_from_bytes(std::span<const std::byte> data);
 
 // ---- sr_mode (the kernel, on every transition) ----
 [[nodiscard]] Result<SrMode, InputFailure> mode_from_message(const rejuv_msg_SrMode& m);

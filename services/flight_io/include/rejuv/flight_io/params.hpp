@@ -74,6 +74,19 @@ struct TrackingParams {
 // sr.enabled, sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s; 0 < ρ_s < ρ_M ≤ 1 as config_from_launch.
 [[nodiscard]] Result<TrackingParams, InputFailure> tracking_params(const Params& params);
 
+// The timing of one SR cycle (§II Fig. 2, §V-B) for checkpoint_p's rollback handler: T_MC (the rejuvenation
+// timer, do_timer(T_MC, 0) of §V-A) and T_est (time in SC before the first check of (1)), with the tracking
+// numbers the handler checks and requests.
+struct SrCycleParams {
+  TrackingParams tracking{};
+  Seconds t_mc{0.3};
+  Seconds t_est{3.0};
+  // The model-level handler's timing (flight::RollbackHandler), as flight::config_from_launch forms it.
+  [[nodiscard]] flight::HandlerTiming handler_timing() const;
+};
+// tracking_params, sr.t_mc_s (> 0) and sr.t_est_s (>= 0); defaults from flight::SimConfig.
+[[nodiscard]] Result<SrCycleParams, InputFailure> sr_cycle_params(const Params& params);
+
 // The control design spec of the simulation: the plant's quad (jMAVSim default) as the vehicle, the IMU
 // period as the control period, sr.box.* and sr.restricted_limit_fraction.
 [[nodiscard]] Result<flight::ControlDesignSpec, InputFailure> control_spec(const Params& params);

@@ -70,6 +70,7 @@ enum class SdkError : std::uint8_t {
   BadArgument,       // a local argument error (oversize data, zero period, ...)
   Denied,            // the kernel refused the request: Error::cap_error says why
   OperationFailed,   // the kernel accepted the cap but the operation failed: Error::wire_error ≥ 100
+  RolledBack,        // this process is a restored image: the call it was in never gets an answer (DESIGN §7)
 };
 [[nodiscard]] std::string_view to_string(SdkError error);
 
@@ -176,6 +177,28 @@ class TypedSubscription final : public SubscriptionBase {
 };
 
 }  // namespace detail
+
+// ---- Workers (DESIGN §7 "Threads") ----
+
+class WorkerSet;
+
+// What a worker thread's body gets. A worker must not call the Service (the Service is single-threaded);
+// it talks to the event loop through its own synchronised state.
+class WorkerContext {
+ public:
+  // Call regularly, holding no lock: blocks while the service takes a checkpoint (workers are parked
+  // before the fork, so the image holds no half-done worker step). Returns false when the worker must
+  // return (the service is stopping).
+  bool park_point();
+  // 0 in the process that spawned the worker; +1 each time a restored image re-spawned it.
+  [[nodiscard]] std::uint32_t incarnation() const { return incarnation_; }
+
+ private:
+  friend class WorkerSet;
+  WorkerContext(WorkerSet* set, std::uint32_t incarnation) : set_(set), incarnation_(incarnation) {}
+  WorkerSet* set_;
+  std::uint32_t incarnation_;
+};
 
 // ---- Topic handles ----
 
@@ -330,11 +353,31 @@ class Service {
                                                    std::span<const std::byte> data = {},
                                                    std::span<std::byte> out = {});
 
+  // ---- network (DESIGN §2: the kernel's network gate, through a Network cap) ----
+  // Runs `handler` for every datagram the kernel relays on the Network cap of `object` (NetDatagram frames:
+  // only while the mode grants Read; the kernel drops the others). The bytes are untrusted and valid only
+  // during the call. One handler per object; the cap must grant Read in some mode.
+  [[nodiscard]] SdkResult<void> on_datagram(std::string_view object,
+                                            std::function<void(std::span<const std::byte>)> handler);
+  // Sends one datagram (1 … wire::kMaxDatagramBytes bytes) to the ground station through the Network cap of
+  // `object` (NetSend; blocks for the kernel's Reply). NotHeldInMode, and nothing sent, when the current
+  // mode grants no Write (an honest service causes no denial); OperationFailed(Refused) while no ground
+  // station has sent anything.
+  [[nodiscard]] SdkResult<void> send_datagram(std::string_view object, std::span<const std::byte> datagram);
+  // True when the current mode grants Write on the cap of `object`.
+  [[nodiscard]] bool may_send(std::string_view object) const;
+
   // ---- images (DESIGN §7) ----
   // Takes checkpoint g through the Checkpoint cap of `object` (§V create_checkpoint). Like fork(), it
   // returns twice: `Taken{g}` in the live process, and `Restored{g, epoch}` when the image taken here is
   // resumed by a rollback (the rollback handler of §V-B runs on that return value, not on a semaphore).
   [[nodiscard]] SdkResult<CheckpointOutcome> checkpoint(std::string_view object = "checkpoint");
+
+  // Starts a registered worker thread running `body`. Before a checkpoint the SDK parks every worker at
+  // its next park_point(); the live process resumes them, a restored image starts each body again exactly
+  // once (its old threads do not exist in the image). At most kMaxWorkers.
+  static constexpr std::size_t kMaxWorkers = 8;
+  SdkResult<void> spawn_worker(std::function<void(WorkerContext&)> body);
 
   // ---- log ----
   // Printed by the kernel as "[name] text" (rate-limited per service). Text is cut at wire::kMaxLogText.

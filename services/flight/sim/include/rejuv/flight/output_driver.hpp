@@ -22,6 +22,8 @@ class OutputDriver {
 
   // Only the rejuvenation path sets limits (§IV-C: a message only the output driver can read, sent outside MC).
   void set_limits(LimitSet limits) { limits_ = limits; }
+  // The restricted box Ū as the rejuvenation module wrote it (runtime: read through the Limits cap).
+  void set_restricted(const InputBox& restricted) { restricted_ = restricted; }
   [[nodiscard]] LimitSet limits() const { return limits_; }
 
   // A new control vector at time t: clamped to the current limits and held until the next one.

@@ -8,8 +8,10 @@
 // every transition); out actuator_outputs, one per accepted actuator_controls, stamped with the driver's
 // clock (the plant holds the last one, as the simulation holds the driver's output). Non-finite controls are
 // refused and the last outputs stay in force: the driver is the last line before the rotors.
-// Params (graph-wide, flight_io/params.hpp): sr.restricted_limit_fraction (Ū). The limits come from params
-// for now; DESIGN §3 has them read through the `actuator_limits` Limits cap (Read), set by checkpoint_p.
+// Limits (§IV-C, DESIGN §3): on entering MC the process reads Ū through its `actuator_limits` Limits cap
+// (Read), written by checkpoint_p before set_MC_mode (flight_io::LimitsRecord); the full limits U are the
+// vehicle's, read-only data like the mixer. Until a valid record is read, Ū from the graph's
+// sr.restricted_limit_fraction (flight_io/params.hpp) stays in force.
 #pragma once
 
 #include <cstdint>
@@ -27,6 +29,9 @@ class DriverNode {
 
   // Ū in MC, U in every other mode; takes effect from the next controls (the held outputs stay as they are).
   void on_mode(SrMode mode);
+  // A Limits record read through the cap: a valid restricted record replaces Ū; anything else is refused
+  // and Ū stays as it was.
+  [[nodiscard]] Result<void, flight_io::InputFailure> on_limits(std::span<const std::byte> record);
   // Clamps to the limits in force, inverts the mixer (each rotor saturated to [0, 1]).
   [[nodiscard]] Result<rejuv_msg_ActuatorOutputs, flight_io::InputFailure> on_controls(
       const rejuv_msg_ActuatorControls& message, Nanos now);

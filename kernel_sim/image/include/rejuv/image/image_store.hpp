@@ -1,0 +1,105 @@
+// The image store (DESIGN §7; the paper's §V checkpoint of the controller's code and data): generations of
+// frozen service images with the kernel state saved beside them.
+//
+// A generation g is what one checkpoint produced: for every rejuvenated service its image — a process the
+// service forked at the cut (clone(CLONE_PARENT), so the kernel's child), blocked on its resume socket —
+// and, beside the images, the broker's queue state (rings, generations, cursors), each service's kernel
+// objects (subscriptions, timers) and the time of the cut t_cp. The store keeps the newest K generations
+// (launch `sr.keep_generations`, default 2); an older one is discarded: its images are killed and reaped
+// and their resume sockets closed. A generation whose image died (killed, crashed) is broken: a rollback
+// falls back to the previous one (DESIGN §7 "Faults").
+//
+// The store owns processes and fds but runs no protocol: the kernel's images.cpp sends Snapshot/Resume and
+// decides when to commit, roll back and fall back.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "rejuv/broker/broker.hpp"
+#include "rejuv/clock/timers.hpp"
+#include "rejuv/core/ids.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/sys/channel.hpp"
+#include "rejuv/sys/process.hpp"
+
+namespace rejuv::image {
+
+// One subscription of a service, as the kernel records it (the service's cap slot, the topic, the broker's
+// subscriber id).
+struct SavedSubscription {
+  Slot slot{};
+  ObjectId topic{};
+  broker::SubscriberId id{};
+  friend bool operator==(const SavedSubscription&, const SavedSubscription&) = default;
+};
+
+// A service's kernel objects at the cut (DESIGN §7 step 3).
+struct SavedService {
+  ServiceId service{};
+  std::vector<SavedSubscription> subscriptions{};
+  std::vector<clock::KernelTimer> timers{};
+};
+
+// One service's frozen image of a generation.
+struct Image {
+  ServiceId service{};
+  sys::ChildProcess process{};  // the kernel's child; killed and reaped when the generation goes
+  sys::SeqPacket resume{};      // the kernel's end of the image's resume socket
+};
+
+struct GenerationRecord {
+  Generation g{};
+  Nanos t_cp{0};                       // kernel clock at the cut
+  std::vector<Image> images{};
+  std::vector<SavedService> services{};
+  broker::BrokerSnapshot queues{};
+
+  [[nodiscard]] Image* image_of(ServiceId service);
+  [[nodiscard]] const SavedService* saved(ServiceId service) const;
+  // The first image that is no longer running (reaped here), if any: the generation is broken.
+  [[nodiscard]] std::optional<ServiceId> dead_image();
+};
+
+class ImageStore {
+ public:
+  explicit ImageStore(std::size_t keep);
+  ImageStore(const ImageStore&) = delete;
+  ImageStore& operator=(const ImageStore&) = delete;
+  ImageStore(ImageStore&&) = default;
+  ImageStore& operator=(ImageStore&&) = default;
+  ~ImageStore() { clear(); }
+
+  [[nodiscard]] std::size_t keep() const { return keep_; }
+  // The number the next checkpoint uses (1, 2, …; never reused).
+  [[nodiscard]] Generation next_generation() const { return Generation{next_}; }
+  // Adds a complete generation (its number must be next_generation()). The oldest beyond K leave the
+  // store and are returned with their images still to be killed and reaped (destroy(), or the caller's own
+  // asynchronous reaping: a checkpoint need not wait for old images to die).
+  [[nodiscard]] std::vector<GenerationRecord> commit(GenerationRecord record);
+  // The newest generation, or nullptr.
+  [[nodiscard]] GenerationRecord* newest();
+  // Discards a generation (kills and reaps its images). Unknown g: nothing.
+  void discard(Generation g);
+  void clear();
+
+  [[nodiscard]] std::size_t size() const { return generations_.size(); }
+  [[nodiscard]] std::size_t image_count() const;
+  [[nodiscard]] std::vector<Generation> generations() const;  // oldest first
+  // pids of every image of a service, oldest generation first (tests, diagnostics).
+  [[nodiscard]] std::vector<int> image_pids(ServiceId service) const;
+  // Whether `pid` is one of the store's images.
+  [[nodiscard]] bool owns(int pid) const;
+
+ private:
+  std::size_t keep_;
+  std::uint64_t next_ = 1;
+  std::vector<GenerationRecord> generations_;  // oldest first
+};
+
+// Kills and reaps every image of a record and closes its resume sockets.
+void destroy(GenerationRecord& record);
+
+}  // namespace rejuv::image

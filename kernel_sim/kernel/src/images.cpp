@@ -1,0 +1,464 @@
+// Checkpoint and rollback of the rejuvenated services with the queue state beside them (DESIGN §7; the
+// paper's §V create_checkpoint / rollback, which took ≈20 ms and ≈15 ms in the PX4 kernel module).
+//
+// Checkpoint g (the caller — checkpoint_p in CP — invoked CheckpointCreate and waits for its Reply):
+//   1. At a quiescent point (lockstep: every other service idle; every channel drained) routing freezes:
+//      publications still land in the rings but nothing is delivered, so no service reads past the cut.
+//   2. Every live rejuvenated service gets Snapshot{g} with a fresh resume socket, forks its image (the
+//      kernel's child, clone(CLONE_PARENT)) and answers Taken{g, pid}. The caller forks inside its call.
+//   3. Publications that arrive before their sender's Taken belong before the cut: they are applied to the
+//      rings, undelivered. Then the rings, generations, cursors, each service's subscriptions and timers and
+//      t_cp are saved beside the images; the oldest generation beyond K is discarded; the caller gets its
+//      Reply (Taken in the live process); routing resumes.
+// Rollback (the rejuvenation timer, a CheckpointRollback, a rejuvenated service lost):
+//   1. Mode RB (network revoked). Every live rejuvenated service is killed; its channel closed.
+//   2. Each image of the newest intact generation gets Resume{g, epoch} with a new channel and the resume
+//      socket of its next frozen copy; it forks that copy and answers Resumed{g, copy pid} on the new channel.
+//   3. The queue state and kernel objects are restored (periodic and one-shot timers shifted by now − t_cp);
+//      rollback_signal and sr_mode are published; routing resumes. Driver-level services (output_driver) are
+//      never touched: the broker re-bases their cursors to the restored head.
+// Faults: a refused or late Taken abandons the generation (a late service is killed, which is itself a
+// rollback trigger); a dead image or a failed resume falls back to the previous generation, then to a cold
+// restart of the rejuvenated services from their binaries in SC (network off). Every path is logged.
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstring>
+
+#include "impl.hpp"
+
+namespace rejuv::kernel {
+
+namespace {
+
+std::int32_t op_code(wire::OpError e) { return static_cast<std::int32_t>(e); }
+double to_ms(Nanos d) { return static_cast<double>(d.count()) / 1e6; }
+unsigned long long num(Generation g) { return static_cast<unsigned long long>(g.value()); }
+
+}  // namespace
+
+std::optional<ObjectId> Kernel::Impl::kernel_topic(std::string_view type) const {
+  for (const ObjectInfo& o : objects) {
+    if (o.type != nullptr && o.type->name == type && o.kernel == policy::KernelEndpoint::Publishes) return o.id;
+  }
+  return std::nullopt;
+}
+
+void Kernel::Impl::set_mode(SrMode mode) {
+  if (auto changed = caps.apply_mode(mode); !changed) {
+    log("mode %s: %s", std::string(to_string(mode)).c_str(), std::string(cap::to_string(changed.error())).c_str());
+    return;
+  }
+  time_page.write(clock::TimeSample{.now = now(), .mode = mode, .epoch = time_page.current().epoch});
+  publish_sr_mode();
+}
+
+// ---- safe points ----
+
+bool Kernel::Impl::service_images() {
+  // Killed incarnations of earlier rollbacks: reaped here, off the rollback's critical path.
+  std::erase_if(reaping, [](sys::ChildProcess& p) {
+    auto status = p.try_wait();
+    return !status || *status;
+  });
+  if (!sr || stopping || checkpoint) return false;
+  if (rollback_request) {
+    const std::string reason = std::move(*rollback_request);
+    rollback_request.reset();
+    run_rollback(reason);
+    return true;
+  }
+  if (checkpoint_request && quiescent_for_checkpoint()) {
+    run_checkpoint();
+    return true;
+  }
+  return false;
+}
+
+bool Kernel::Impl::quiescent_for_checkpoint() const {
+  const std::optional<ServiceId> caller = checkpoint_request->first;
+  return std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
+    if (!s.live()) return true;
+    if (s.phase != Phase::Ready || !s.drained()) return false;
+    return clock_mode == ClockMode::Realtime || s.id == caller || s.idle();
+  });
+}
+
+// ---- checkpoint ----
+
+void Kernel::Impl::run_checkpoint() {
+  const auto [caller, seq] = *checkpoint_request;
+  checkpoint_request.reset();
+  const Nanos t0 = wall();
+  const Generation g = images.next_generation();
+  CheckpointRun run{.caller = caller, .seq = seq, .record = {}, .waiting = {}, .failure = {}};
+  run.record.g = g;
+  run.record.t_cp = now();
+  routing_frozen = true;
+  flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
+  for (ServiceRuntime& s : services) {
+    if (!s.rejuvenate || s.phase != Phase::Ready) continue;
+    auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
+    if (!pair) {
+      run.failure = "resume socket: " + pair.error().to_string();
+      break;
+    }
+    const int image_end = pair->second.fd();
+    if (!tx.build(wire::FrameKind::Snapshot, 0, 0, g.value())) break;
+    if (auto sent = s.channel.send(tx.bytes(), std::span(&image_end, 1)); !sent) {
+      run.failure = "Snapshot to '" + s.name + "': " + sent.error().to_string();
+      break;
+    }
+    ++s.stats.frames_out;
+    run.record.images.push_back(image::Image{.service = s.id, .process = {}, .resume = std::move(pair->first)});
+    run.waiting.push_back(s.id);
+  }
+  checkpoint = std::move(run);
+  // Every other event is handled meanwhile (pump); Taken frames come through handle_frame → on_taken.
+  const Nanos deadline = wall() + options.snapshot_deadline;
+  bool late = false;
+  while (checkpoint->failure.empty() && !checkpoint->waiting.empty() && !stopping) {
+    const Nanos left = deadline - wall();
+    if (left <= Nanos{0}) {
+      late = true;
+      checkpoint->failure = "no Taken from '" + services[checkpoint->waiting.front().value()].name +
+                            "' within the snapshot deadline";
+      break;
+    }
+    if (!pump(left)) break;
+  }
+  CheckpointRun done = std::move(*checkpoint);
+  checkpoint.reset();
+  if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
+  const auto answer = [&](std::int32_t error, std::uint64_t value) {
+    if (caller) reply(services[caller->value()], seq, error, value);
+  };
+  if (!done.failure.empty()) {
+    ++sr_stats.checkpoint_failures;
+    log("checkpoint %llu abandoned: %s", num(g), done.failure.c_str());
+    image::destroy(done.record);
+    routing_frozen = false;
+    if (late) {
+      for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
+    }
+    for (ServiceRuntime& s : services) {
+      if (s.live()) {
+        s.sweep = true;
+        drain(s);
+      }
+    }
+    answer(op_code(wire::OpError::Refused), 0);
+    return;
+  }
+  flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
+  const std::vector<clock::KernelTimer> armed = timers.armed();
+  for (const image::Image& im : done.record.images) {
+    image::SavedService saved{.service = im.service, .subscriptions = services[im.service.value()].subscriptions,
+                              .timers = {}};
+    for (const clock::KernelTimer& t : armed) {
+      if (t.service == im.service) saved.timers.push_back(t);
+    }
+    done.record.services.push_back(std::move(saved));
+  }
+  broker.snapshot_into(done.record.queues);
+  if (observer != nullptr) observer->on_checkpoint(g, broker);
+  for (image::GenerationRecord& old : images.commit(std::move(done.record))) {
+    for (image::Image& im : old.images) {  // killed now, reaped off the critical path (service_images)
+      im.resume.close();
+      (void)im.process.signal(SIGKILL);
+      reaping.push_back(std::move(im.process));
+    }
+  }
+  routing_frozen = false;
+  for (ServiceRuntime& s : services) {
+    if (s.live()) {
+      s.sweep = true;  // what was published during the cut, in ring order
+      drain(s);
+    }
+  }
+  answer(0, g.value());
+  const Nanos took = wall() - t0;
+  ++sr_stats.checkpoints;
+  sr_stats.checkpoint_ms.push_back(to_ms(took));
+  charge += took;
+  if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
+}
+
+void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
+  if (!checkpoint) {
+    refuse(s, "Taken without a checkpoint in progress");
+    return;
+  }
+  CheckpointRun& run = *checkpoint;
+  const auto waiting = std::find(run.waiting.begin(), run.waiting.end(), s.id);
+  if (waiting == run.waiting.end()) {
+    refuse(s, "Taken it was not asked for");
+    return;
+  }
+  run.waiting.erase(waiting);
+  const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
+  if (frame.header.aux != run.record.g.value()) {
+    run.failure = "'" + s.name + "' answered Taken for generation " + std::to_string(frame.header.aux);
+    return;
+  }
+  if (pid <= 0) {
+    run.failure = "'" + s.name + "' could not take its image";
+    return;
+  }
+  // The pid must be the kernel's child and no process the kernel already knows: a service cannot make the
+  // kernel take charge of (and later kill) anything but its own image.
+  const bool known = images.owns(pid) || (plant_started && plant.pid() == pid) ||
+                     std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& o) {
+                       return o.process.pid() == pid;
+                     }) ||
+                     std::any_of(run.record.images.begin(), run.record.images.end(),
+                                 [&](const image::Image& i) { return i.process.pid() == pid; });
+  auto child = known ? sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"known pid", EEXIST}))
+                     : sys::ChildProcess::adopt_child(pid);
+  if (!child) {
+    run.failure = "'" + s.name + "' reported pid " + std::to_string(pid) + ", which is not its image (" +
+                  child.error().to_string() + ")";
+    return;
+  }
+  run.record.image_of(s.id)->process = std::move(*child);
+}
+
+// ---- rollback ----
+
+void Kernel::Impl::request_rollback(std::string reason) {
+  if (!rollback_request) rollback_request = std::move(reason);
+}
+
+void Kernel::Impl::retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying) {
+  std::erase_if(staged, [&](const Staged& e) { return services[e.origin].rejuvenate; });
+  for (ServiceRuntime& s : services) {
+    if (!s.rejuvenate || s.skip || s.phase == Phase::NotStarted) continue;
+    if (s.live()) {
+      (void)s.process.signal(SIGKILL);
+      (void)epoll.remove(s.process.pidfd());
+      dying.push_back(std::move(s.process));
+      s.process = sys::ChildProcess{};
+    }
+    if (s.channel.valid()) {
+      (void)epoll.remove(s.channel.fd());
+      s.channel.close();
+    }
+    s.phase = Phase::Dead;
+    broker.remove_service(s.id);
+    timers.remove_service(s.id);
+    s.outq.clear();
+    s.has_held = false;
+    s.want_writable = false;
+    s.sweep = false;
+    s.control_pool.clear();
+    s.control_free.clear();
+    s.channel_closed_at.reset();
+    s.loss_reason.clear();
+  }
+}
+
+bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::string& failure) {
+  const Epoch next{time_page.current().epoch.value() + 1};
+  struct Pending {
+    ServiceRuntime* service = nullptr;
+    image::Image* image = nullptr;
+    sys::SeqPacket channel{};      // the kernel's end of the new channel
+    sys::SeqPacket next_resume{};  // the kernel's end of the next frozen copy's resume socket
+  };
+  std::vector<Pending> pending;
+  pending.reserve(record.images.size());
+  // All Resumes first: the images fork their copies in parallel.
+  for (image::Image& im : record.images) {
+    auto channel = sys::SeqPacket::pair(sys::Blocking::Yes);
+    auto resume = sys::SeqPacket::pair(sys::Blocking::Yes);
+    if (!channel || !resume || !sys::set_nonblocking(channel->first.fd(), true)) {
+      failure = "channel for a restored image: out of fds?";
+      break;
+    }
+    const wire::ResumeBody body{.epoch = next.value(), .reserved = 0};
+    if (!tx.build_with(wire::FrameKind::Resume, 0, 0, record.g.value(), body)) break;
+    const std::array<int, 2> fds{channel->second.fd(), resume->second.fd()};
+    if (auto sent = im.resume.send(tx.bytes(), fds); !sent) {
+      failure = "Resume to the image of '" + services[im.service.value()].name + "': " + sent.error().to_string();
+      break;
+    }
+    pending.push_back(Pending{.service = &services[im.service.value()], .image = &im,
+                              .channel = std::move(channel->first), .next_resume = std::move(resume->first)});
+  }
+  // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
+  // (on a failure the caller retires it again), its next frozen copy replaces the image in the record.
+  const Nanos deadline = wall() + options.resume_deadline;
+  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
+  for (Pending& p : pending) {
+    ServiceRuntime& s = *p.service;
+    const Nanos left = std::max(Nanos{0}, deadline - wall());
+    auto ready = sys::wait_fd(p.channel.fd(), sys::WaitFor::Readable, left);
+    auto got = ready && *ready ? p.channel.receive(buf) : sys::SysResult<sys::Received>(std::unexpected(sys::SysError{"wait", ETIMEDOUT}));
+    auto frame = got && !got->closed ? wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel)
+                                     : Result<wire::FrameView, wire::FrameError>(std::unexpected(wire::FrameError::TooShort));
+    if (!frame || frame->kind != wire::FrameKind::Resumed || frame->header.aux != record.g.value()) {
+      if (failure.empty()) failure = "no Resumed from the image of '" + s.name + "' within the resume deadline";
+      continue;  // its image is killed with the generation
+    }
+    const pid_t copy = wire::payload_as<wire::TakenBody>(*frame).image_pid;
+    s.process = std::move(p.image->process);  // the image is now the live service
+    p.image->process = sys::ChildProcess{};
+    p.image->resume = std::move(p.next_resume);
+    if (copy > 0) {
+      if (auto adopted = sys::ChildProcess::adopt_child(copy); adopted) p.image->process = std::move(*adopted);
+    }
+    // (no copy: the generation has no image of this service any more; the next rollback falls back)
+    s.channel = std::move(p.channel);
+    s.phase = Phase::Ready;
+    s.frames_base = s.stats.frames_out;
+    s.idle_count = 0;
+    s.stats.pid = s.process.pid();
+    (void)epoll.add(s.channel.fd(), token(Source::Channel, s.id.value()));
+    (void)epoll.add(s.process.pidfd(), token(Source::Pidfd, s.id.value()));
+  }
+  if (pending.size() != record.images.size() && failure.empty()) failure = "not every image could be resumed";
+  if (!failure.empty()) return false;
+  if (auto restored = broker.restore(record.queues); !restored) {
+    failure = "queue state: " + std::string(broker::to_string(restored.error()));
+    return false;
+  }
+  if (observer != nullptr) observer->on_restore(record.g, broker);
+  for (const image::SavedService& saved : record.services) {
+    ServiceRuntime& s = services[saved.service.value()];
+    s.subscriptions = saved.subscriptions;
+    // DESIGN §7 step 3: periodic timers realign to now (their phase within the period is kept), one-shot
+    // timers shift by now − t_cp: both are the saved expiry moved by now − t_cp.
+    for (const clock::KernelTimer& t : saved.timers) {
+      (void)timers.arm(s.id, t.id, now() + (t.due - record.t_cp), t.period);
+    }
+  }
+  time_page.write(clock::TimeSample{.now = now(), .mode = caps.mode(), .epoch = next});
+  return true;
+}
+
+void Kernel::Impl::run_rollback(const std::string& reason) {
+  const Nanos t0 = wall();
+  set_mode(SrMode::RB);  // the network is revoked before anything else happens
+  std::vector<sys::ChildProcess> dying;
+  retire_live_rejuvenated(dying);
+  image::GenerationRecord* restored = nullptr;
+  while (image::GenerationRecord* record = images.newest()) {
+    std::string failure;
+    if (const auto dead = record->dead_image()) {
+      failure = "the image of '" + services[dead->value()].name + "' is gone";
+    } else if (resume_generation(*record, failure)) {
+      restored = record;
+      break;
+    }
+    log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
+    ++sr_stats.fallbacks;
+    retire_live_rejuvenated(dying);  // whatever of it was resumed
+    images.discard(record->g);
+  }
+  for (sys::ChildProcess& p : dying) reaping.push_back(std::move(p));
+  if (restored == nullptr) {
+    cold_restart(reason + "; no usable generation");
+    return;
+  }
+  // The rollback is the rejuvenation: a pending once-timer is spent; a periodic one runs on.
+  rejuvenation.due = rejuvenation.period > Nanos{0} ? std::optional<Nanos>(now() + rejuvenation.period) : std::nullopt;
+  arm_timerfd();
+  const Epoch epoch = time_page.current().epoch;
+  if (const auto topic = kernel_topic(msgs::TopicTraits<rejuv_msg_RollbackSignal>::name)) {
+    const rejuv_msg_RollbackSignal signal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
+                                          .generation = restored->g.value(),
+                                          .epoch = epoch.value()};
+    publish_as_kernel(*topic, std::as_bytes(std::span(&signal, 1)));
+  }
+  publish_sr_mode();
+  for (ServiceRuntime& s : services) {
+    if (s.live()) {
+      s.sweep = true;
+      drain(s);
+    }
+  }
+  const Nanos took = wall() - t0;
+  ++sr_stats.rollbacks;
+  sr_stats.rollback_ms.push_back(to_ms(took));
+  charge += took;
+  if (options.verbose) {
+    log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(), to_ms(took),
+        reason.c_str());
+  }
+}
+
+void Kernel::Impl::cold_restart(const std::string& reason) {
+  log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
+  ++sr_stats.cold_restarts;
+  images.clear();
+  std::vector<sys::ChildProcess> dying;
+  retire_live_rejuvenated(dying);
+  for (sys::ChildProcess& p : dying) reaping.push_back(std::move(p));
+  rejuvenation = RejuvenationTimer{};
+  arm_timerfd();
+  const Epoch next{time_page.current().epoch.value() + 1};
+  time_page.write(clock::TimeSample{.now = now(), .mode = caps.mode(), .epoch = next});
+  set_mode(SrMode::SC);  // safe, network off
+  for (ServiceRuntime& s : services) {
+    if (!s.rejuvenate || s.skip) continue;
+    s.subscriptions.clear();
+    s.idle_count = 0;
+    s.frames_base = s.stats.frames_out;
+    if (auto ok = spawn_one(s); !ok) {
+      stop_run(StopReason::ServiceFailed, "cold restart: " + ok.error().message);
+      return;
+    }
+  }
+  // Booted here, like at start (Kernel::boot), so that no step runs with half a graph. A service that does
+  // not come up ends the run: there is nothing left to fall back to.
+  const auto restarted = [&](const auto& pred) {
+    return std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
+      return s.rejuvenate && !s.skip && pred(s);
+    });
+  };
+  while (!stopping && restarted([](const ServiceRuntime& s) { return s.phase == Phase::Spawned || s.phase == Phase::Booted; })) {
+    if (!pump(options.boot_deadline)) break;
+  }
+  rollback_request.reset();
+  if (restarted([](const ServiceRuntime& s) { return s.phase != Phase::Ready; })) {
+    stop_run(StopReason::ServiceFailed, "cold restart: a rejuvenated service did not boot");
+  }
+}
+
+Result<void, KernelError> Kernel::Impl::settle_images() {
+  while (!stopping && (checkpoint_request || rollback_request)) {
+    if (service_images()) continue;
+    if (auto ok = pump(std::chrono::milliseconds{100}); !ok) return ok;
+  }
+  return {};
+}
+
+// ---- the rejuvenation timer ----
+
+void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period) {
+  const Epoch epoch = time_page.current().epoch;
+  if (rejuvenation.armed_in == epoch) {
+    // DESIGN §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
+    ++sr_stats.timer_arm_refused;
+    log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(), epoch.value());
+    reply(s, seq, op_code(wire::OpError::Refused));
+    return;
+  }
+  if (after <= Nanos{0} || period < Nanos{0}) {
+    reply(s, seq, op_code(wire::OpError::BadArgument));
+    return;
+  }
+  rejuvenation = RejuvenationTimer{.due = now() + after, .period = period, .armed_in = epoch};
+  ++sr_stats.timer_arms;
+  arm_timerfd();
+  reply(s, seq, 0, static_cast<std::uint64_t>(rejuvenation.due->count()));
+}
+
+void Kernel::Impl::fire_rejuvenation() {
+  if (!rejuvenation.due || *rejuvenation.due > now()) return;
+  rejuvenation.due.reset();
+  ++sr_stats.timer_rollbacks;
+  request_rollback("the rejuvenation timer fired");
+}
+
+}  // namespace rejuv::kernel

@@ -1,0 +1,210 @@
+// The network gate (DESIGN §2, §3; docs/protocol.md "Network gate"): the kernel owns the external link's UDP
+// socket. A datagram is relayed to the service whose policy slot holds the NETWORK object with Read in the
+// current mode (ext_link, in MC only) as one NetDatagram frame; otherwise it is dropped and counted — in
+// RB/SC/UPDATE/CP no service holds Network (the secure execution interval, §III), so nothing from the
+// network reaches the vehicle then. The kernel never interprets the bytes: it checks the size and the cap.
+// NetSend goes out to the ground station (the source of the last relayed datagram) after the cap check,
+// so a send outside MC is a denial like any other.
+#include <algorithm>
+#include <cerrno>
+#include <string>
+
+#include "impl.hpp"
+
+namespace rejuv::kernel {
+
+namespace {
+KernelError config_error(std::string message) {
+  return KernelError{.kind = KernelError::Kind::Config, .message = std::move(message), .findings = {}};
+}
+
+// 10 lines of burst, 1 line per second sustained: a flood of datagrams must not flood the log.
+bool allow_log(NetGate& net, Nanos wall_now) {
+  net.log_tokens = std::min(10.0, net.log_tokens + to_seconds(wall_now - net.log_last).count());
+  net.log_last = wall_now;
+  if (net.log_tokens >= 1) {
+    net.log_tokens -= 1;
+    return true;
+  }
+  ++net.log_suppressed;
+  return false;
+}
+}  // namespace
+
+Result<void, KernelError> Kernel::Impl::net_open() {
+  const proto::NetworkSpec& spec = graph.graph.network();
+  const std::string where = graph.path.string() + ": network";
+  if (spec.disabled()) {
+    log("network gate: disabled by the launch graph");
+    return {};
+  }
+  // The NETWORK object the gate serves: named, or the policy's only one (none: no gate, nothing to serve).
+  std::optional<ObjectId> object;
+  if (!spec.object().empty()) {
+    const auto found = policy.find_object(spec.object());
+    if (!found || objects[found->value()].kind != ObjectKind::Network) {
+      return fail(config_error(where + ".object: '" + spec.object() + "' is not a NETWORK object of the policy"));
+    }
+    object = *found;
+  } else {
+    for (const ObjectInfo& o : objects) {
+      if (o.kind != ObjectKind::Network) continue;
+      if (object) {
+        return fail(config_error(where + ".object: the policy has several NETWORK objects; name the one the gate serves"));
+      }
+      object = o.id;
+    }
+    if (!object) return {};
+  }
+  if (spec.has_bind_port() && spec.bind_port() > 0xFFFFU) {
+    return fail(config_error(where + ".bind_port: " + std::to_string(spec.bind_port()) + " is not a UDP port (0..65535)"));
+  }
+  const std::uint16_t port = options.network_port.value_or(
+      spec.has_bind_port() ? static_cast<std::uint16_t>(spec.bind_port()) : kDefaultNetworkPort);
+  auto address = sys::UdpAddress::parse(spec.bind_address().empty() ? "127.0.0.1" : spec.bind_address(), port);
+  if (!address) return fail(config_error(where + ".bind_address: " + address.error()));
+
+  // Who may ever receive: the policy slots of the object with Read in some mode.
+  std::string names;
+  for (const ServiceRuntime& s : services) {
+    for (const cap::BootCap& c : s.boot.caps) {
+      if (c.object != *object) continue;
+      if (std::none_of(c.rights.begin(), c.rights.end(), [](Rights r) { return r.has(Right::Read); })) continue;
+      net.readers.push_back(NetGate::Reader{.service = s.id, .slot = c.slot});
+      names += (names.empty() ? "'" : ", '") + s.name + "'";
+    }
+  }
+  auto socket = sys::UdpSocket::bind(*address, sys::Blocking::No);
+  if (!socket) {
+    // An explicit port (a tool or a test asked for it) must be had; the graph's default port may be taken by
+    // another run on this host: then this run flies without a ground link rather than not at all.
+    const std::string why = "network gate: cannot bind " + address->to_string() + ": " + socket.error().to_string();
+    if (options.network_port) return fail(KernelError{.kind = KernelError::Kind::System, .message = why, .findings = {}});
+    log("%s; the external link is off for this run", why.c_str());
+    return {};
+  }
+  auto bound = socket->local_address();
+  if (!bound) return fail(KernelError{.kind = KernelError::Kind::System, .message = bound.error().to_string(), .findings = {}});
+  net.socket = std::move(*socket);
+  net.object = object;
+  net.port = bound->port;
+  if (clock_mode == ClockMode::Realtime) {
+    if (auto ok = epoll.add(net.socket.fd(), token(Source::Net, 0)); !ok) {
+      return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
+    }
+  }
+  log("network gate: udp %s for '%s' (%s)", bound->to_string().c_str(), objects[object->value()].name.c_str(),
+      names.empty() ? "no service may receive" : names.c_str());
+  return {};
+}
+
+void Kernel::Impl::net_poll() {
+  if (!net.socket.valid()) return;
+  for (std::size_t i = 0; i < kDatagramsPerPoll; ++i) {
+    auto r = net.socket.receive(net.rx);
+    if (!r) {
+      if (r.error().error != EAGAIN && allow_log(net, wall())) log("network gate: %s", r.error().to_string().c_str());
+      return;
+    }
+    NetStats& st = net.stats;
+    ++st.received;
+    if (r->datagram_size == 0) {
+      ++st.dropped_empty;
+      continue;
+    }
+    if (r->truncated || r->datagram_size > wire::kMaxDatagramBytes) {
+      ++st.dropped_oversize;
+      if (allow_log(net, wall())) {
+        log("network gate: dropped a %zu-byte datagram from %s (more than %zu bytes)", r->datagram_size,
+            r->from.to_string().c_str(), wire::kMaxDatagramBytes);
+      }
+      continue;
+    }
+    // Decode through the cap system: which policy slot holds the object with Read in the current mode. A
+    // lookup, not a service's request, so nothing is counted as a denial.
+    const std::span<const std::byte> bytes(net.rx.data(), r->size);
+    bool held = false;
+    bool running = false;
+    bool sent = false;
+    for (const NetGate::Reader& reader : net.readers) {
+      const auto c = caps.lookup(cap::CapRef{.space = reader.service, .slot = reader.slot});
+      if (!c || c->kind != ObjectKind::Network || c->object != *net.object || !c->rights.has(Right::Read)) continue;
+      held = true;
+      ServiceRuntime& s = services[reader.service.value()];
+      if (s.phase != Phase::Ready || !s.channel.valid() || stopping) continue;
+      running = true;
+      // A service that does not read its channel gets no more: queued frames are bounded, and overflowing
+      // them would be its fault (docs/protocol.md "flow control") — a flood must not make it one.
+      if (s.has_held || !s.outq.empty() || s.sweep) continue;
+      if (!tx.build(wire::FrameKind::NetDatagram, reader.slot.value(), 0, 0, bytes)) continue;
+      send_control(s, tx.bytes());
+      sent = true;
+    }
+    if (!held) {
+      ++st.dropped_secure_interval;
+      if (allow_log(net, wall())) {
+        log("network gate: dropped a %zu-byte datagram from %s: no service holds the network in mode %s", r->size,
+            r->from.to_string().c_str(), std::string(to_string(caps.mode())).c_str());
+      }
+    } else if (!running) {
+      ++st.dropped_no_receiver;
+    } else if (!sent) {
+      ++st.dropped_busy;
+    } else {
+      ++st.relayed;
+      net.peer = r->from;
+    }
+  }
+}
+
+void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, cap::Operation op,
+                              std::span<const std::byte> data) {
+  auto inv = caps.decode(s.id, slot, op);
+  if (!inv) {
+    if (op == cap::Operation::NetSend) ++net.stats.send_refused;
+    reply(s, seq, 1 + static_cast<std::int32_t>(inv.error()));  // counted and logged by drain_denials
+    return;
+  }
+  const auto refuse_send = [&](wire::OpError e) {
+    ++net.stats.send_refused;
+    reply(s, seq, static_cast<std::int32_t>(e));
+  };
+  if (op != cap::Operation::NetSend) {
+    // NetReceive: delivery is pushed (NetDatagram frames), there is nothing to pull.
+    reply(s, seq, static_cast<std::int32_t>(wire::OpError::BadArgument));
+    return;
+  }
+  if (data.empty() || data.size() > wire::kMaxDatagramBytes) {
+    refuse_send(wire::OpError::BadArgument);
+    return;
+  }
+  // The gate is off (disabled, bind failed, another NETWORK object).
+  if (!net.socket.valid() || !net.object || inv->object() != *net.object) {
+    refuse_send(wire::OpError::Refused);
+    return;
+  }
+  // No ground station has spoken yet: nowhere to send. Not a fault of the sender (its telemetry may start
+  // before anyone listens), so counted apart. The address lives here, in the kernel, so that it survives the
+  // rollbacks that wipe whatever ext_link learned in MC.
+  if (!net.peer) {
+    ++net.stats.unsent_no_ground;
+    reply(s, seq, static_cast<std::int32_t>(wire::OpError::Refused));
+    return;
+  }
+  if (auto ok = net.socket.send_to(data, *net.peer); !ok) {
+    if (allow_log(net, wall())) log("network gate: send to %s: %s", net.peer->to_string().c_str(), ok.error().to_string().c_str());
+    refuse_send(wire::OpError::Refused);
+    return;
+  }
+  ++net.stats.sent;
+  reply(s, seq, 0, data.size());
+}
+
+NetStats Kernel::net_stats() const { return impl_->net.stats; }
+
+std::optional<std::uint16_t> Kernel::network_port() const {
+  if (!impl_->net.socket.valid()) return std::nullopt;
+  return impl_->net.port;
+}
+
+}  // namespace rejuv::kernel

@@ -1,0 +1,42 @@
+// The network gate's state (DESIGN §2; docs/protocol.md "Network gate"): the kernel's UDP socket of the
+// external link, who may receive from it, where replies go, and its counters. Code in netgate.cpp.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "rejuv/channel/wire.hpp"
+#include "rejuv/core/ids.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "rejuv/sys/udp.hpp"
+
+namespace rejuv::kernel {
+
+inline constexpr std::uint16_t kDefaultNetworkPort = 14555;  // launch `network.bind_port` unset
+inline constexpr std::size_t kDatagramsPerPoll = 64;         // fairness: datagrams read per wakeup / step
+
+struct NetGate {
+  // A policy slot that may hold the gate's object with Read in some mode (checked in the current mode
+  // through the cap system before every relay).
+  struct Reader {
+    ServiceId service{};
+    Slot slot{};
+  };
+  sys::UdpSocket socket{};                // invalid: no gate (disabled, no NETWORK object, bind failed)
+  std::optional<ObjectId> object{};       // the NETWORK object it serves
+  std::uint16_t port = 0;                 // bound port
+  std::vector<Reader> readers{};
+  std::optional<sys::UdpAddress> peer{};  // the ground station: source of the last relayed datagram
+  NetStats stats{};
+  // Drop and refusal log lines: 10 of burst, 1 per second sustained (a flood must not flood the log).
+  double log_tokens = 10;
+  Nanos log_last{0};
+  std::uint64_t log_suppressed = 0;
+  // One byte more than a datagram may have, so that a longer one shows as truncated.
+  alignas(8) std::array<std::byte, wire::kMaxDatagramBytes + 1> rx{};
+};
+
+}  // namespace rejuv::kernel

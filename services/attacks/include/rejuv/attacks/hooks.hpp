@@ -1,0 +1,109 @@
+// The runtime attack hooks (DESIGN §9, §11; idl/launch.proto AttackKind 2…11): a compromised service
+// carrying out the launch plan's attacks against the runtime, through its real channel and real system
+// calls — nothing is simulated, the kernel and the sandbox decide. Test builds only (REJUV_ATTACK_HOOKS).
+//
+//   #if defined(REJUV_ATTACK_HOOKS)
+//     auto hooks = rejuv::attacks::install(svc);                // before svc.run()
+//     if (!svc.require(hooks, "bad attack params")) return 1;
+//   #endif
+//
+// install() reads the plan from the boot params (plan.hpp) and, if a runtime attack names this service,
+// arms one kernel timer; at the first tick of every attacked window (WindowClock) it carries out each
+// attack of the plan once:
+//   INVOKE_CHECKPOINT  CheckpointCreate and CheckpointRollback on its Checkpoint caps, other caps and never-held slots
+//   ARM_TIMER          TimerArm (periodic) on the same
+//   WRITE_LIMITS       LimitsWrite of full-range limits (kForgedLimit) on its Limits caps, other caps, never-held slots
+//   PUBLISH_ACTUATOR_OUTPUTS  Publish of an ActuatorOutputs payload (every motor at 1) on every topic slot it
+//                      holds and on never-held slots
+//   WRITE_PERSISTENT   PersistentWrite of kForgedPersistentByte on its Persistent caps, other caps, never-held slots
+//   FORGED_SLOT        Publish, CheckpointCreate, LimitsWrite, NetSend, ModeRequest(MC), Copy on slots it never
+//                      held: free slots of its CSpace and slots beyond any CSpace
+//   NETWORK_IN_SEI     NetSend on its Network caps and never-held slots, at the start of each secure interval
+//   KILL_IMAGE         kill(parent, SIGKILL), kill(pid guesses, 0), ptrace(ATTACH), process_vm_readv, pidfd_open
+//   OPEN_SOCKET        socket(AF_INET), socketpair(AF_UNIX), socket(AF_UNIX, SEQPACKET)
+//   FLOOD_BROKER       kFloodMessages publishes in one callback on a topic it may write (else on every topic)
+// The system-call attacks start, window by window, at the next variant of their list and go on through it:
+// the first forbidden call ends the process (seccomp), so each window tries another one. They run only in a
+// process that is under a seccomp filter (a hook that ran outside the kernel must not signal anyone).
+//
+// Everything the hooks hold is in the service's memory: a rollback wipes it like any other corruption, and
+// the timer and plan come back with the image (the plan is boot params; windows are counted from epochs).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rejuv/attacks/plan.hpp"
+#include "rejuv/sdk/service.hpp"
+
+namespace rejuv::attacks {
+
+inline constexpr std::uint32_t kFloodMessages = 10000;     // publications in one callback (FLOOD_BROKER)
+inline constexpr double kForgedLimit = 1.0e6;              // every value of a forged LimitsWrite
+inline constexpr std::byte kForgedPersistentByte{0xA7};    // every byte of a forged PersistentWrite
+inline constexpr Nanos kTickPeriod{std::chrono::milliseconds{2}};  // the hook's kernel timer
+
+// One thing the attacker tried and what came back.
+struct Attempt {
+  AttackKind kind = AttackKind::ForgedSlot;
+  std::string action{};      // "CheckpointCreate", "Publish", "kill", "socket", …
+  std::uint64_t target = 0;  // slot (requests) or pid (signals, ptrace)
+  // Invoke: Reply.error (0 = accepted, 1 + CapError = denied, >= 100 an OpError); a system call: its errno
+  // (0 = it succeeded); kFireAndForget for a Publish (the kernel's counters say what became of it).
+  std::int64_t code = 0;
+  static constexpr std::int64_t kFireAndForget = -1;
+  [[nodiscard]] bool accepted() const { return code == 0; }
+};
+
+using AttemptReporter = std::function<void(const Attempt&)>;
+
+// The installed hooks of one service. Pinned (the timer callback points at it).
+class AttackHooks {
+ public:
+  AttackHooks(sdk::Service& svc, RuntimeAttackPlan plan);
+  AttackHooks(const AttackHooks&) = delete;
+  AttackHooks& operator=(const AttackHooks&) = delete;
+  AttackHooks(AttackHooks&&) = delete;
+  AttackHooks& operator=(AttackHooks&&) = delete;
+  ~AttackHooks() = default;
+
+  // Receives every attempt (e.g. a test service publishes them). Default: one log line per attack and window.
+  void on_attempt(AttemptReporter reporter) { reporter_ = std::move(reporter); }
+  // One tick: carries out the attacks whose window starts now. Called by the hooks' timer.
+  void tick();
+  // Carries out one attack now, whatever the window (`variant` picks where the system-call lists start).
+  void carry_out(AttackKind kind, std::uint32_t variant);
+  [[nodiscard]] std::uint64_t windows_attacked() const { return windows_attacked_; }
+  [[nodiscard]] const RuntimeAttackPlan& plan() const { return plan_; }
+
+ private:
+  void report(AttackKind kind, std::string action, std::uint64_t target, std::int64_t code);
+  void invoke_all(AttackKind kind, ObjectKind target_kind, cap::Operation op, std::uint64_t arg0, std::uint64_t arg1,
+                  std::span<const std::byte> data);
+  void publish_to(AttackKind kind, Slot slot, std::span<const std::byte> payload);
+  [[nodiscard]] std::vector<Slot> never_held() const;
+  void kill_image(std::uint32_t variant);
+  void open_socket(std::uint32_t variant);
+  void flood();
+
+  sdk::Service& svc_;
+  RuntimeAttackPlan plan_;
+  std::vector<WindowClock> clocks_;
+  AttemptReporter reporter_{};
+  std::uint64_t windows_attacked_ = 0;
+  std::uint32_t attempts_ = 0;  // in the current attack: for the default log line
+  std::uint32_t accepted_ = 0;
+};
+
+// Reads the plan from the boot params; with no runtime attack for this service returns nullptr and arms
+// nothing. Otherwise arms the hooks' timer and logs the plan (Warn).
+[[nodiscard]] Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc);
+
+// True when this process runs under a seccomp filter (/proc/self/status "Seccomp: 2").
+[[nodiscard]] bool sandboxed();
+
+}  // namespace rejuv::attacks

@@ -1,0 +1,107 @@
+// The runtime part of the launch graph's attack plan (idl/launch.proto AttackKind 2…11; DESIGN §9, §11):
+// which attacks a compromised service carries out against the runtime, from when, in how many windows, and
+// when a window starts. Built from the service's boot params (attack.enabled, attack.count,
+// attack.<j>.kind (text), attack.<j>.start_s, attack.<j>.max_windows; docs/protocol.md "Boot params").
+// WORST_CASE_CONTROL (kind 1) is the controller's attack (services/lqr_control) and is skipped here.
+//
+// Everything here lives in the service's memory, so a rollback wipes it like any other corruption; the
+// windows are counted from rollback epochs (kernel state on the time page), so a restored image knows which
+// window it is in without remembering anything (the idea of lqr_control's WorstCaseAttack).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/core/vocabulary.hpp"
+
+namespace rejuv::attacks {
+
+// The runtime attacks of idl/launch.proto AttackKind (same numbers and names).
+enum class AttackKind : std::uint8_t {
+  InvokeCheckpoint = 2,        // CheckpointCreate / CheckpointRollback in MC
+  ArmTimer = 3,                // arm the rejuvenation timer in MC
+  WriteLimits = 4,             // write the actuator limits in MC
+  PublishActuatorOutputs = 5,  // publish motor outputs directly (an ActuatorOutputs payload on any slot)
+  WritePersistent = 6,         // write a Persistent cell in MC
+  ForgedSlot = 7,              // requests on slots never held (beyond the CSpace, empty ones)
+  NetworkInSei = 8,            // send on the network during the secure interval
+  KillImage = 9,               // kill / ptrace / process_vm_readv other processes (its images, its parent)
+  OpenSocket = 10,             // socket(), socketpair()
+  FloodBroker = 11,            // thousands of publishes in one callback
+};
+inline constexpr std::array kAllAttackKinds{
+    AttackKind::InvokeCheckpoint, AttackKind::ArmTimer,     AttackKind::WriteLimits,
+    AttackKind::PublishActuatorOutputs, AttackKind::WritePersistent, AttackKind::ForgedSlot,
+    AttackKind::NetworkInSei,     AttackKind::KillImage,    AttackKind::OpenSocket,
+    AttackKind::FloodBroker};
+// The AttackKind enum name of idl/launch.proto, e.g. "INVOKE_CHECKPOINT".
+[[nodiscard]] std::string_view to_string(AttackKind kind);
+// The kind named `name` (the proto enum name); nullopt for anything that is not a runtime attack.
+[[nodiscard]] std::optional<AttackKind> attack_kind_from_name(std::string_view name);
+
+// Which windows an attack acts in: MC windows, or (NETWORK_IN_SEI) the secure intervals.
+enum class WindowKind : std::uint8_t { MissionControl, SecureInterval };
+[[nodiscard]] WindowKind window_kind_of(AttackKind kind);
+
+enum class Rejuvenation : std::uint8_t { On, Off };
+
+struct RuntimeAttack {
+  AttackKind kind = AttackKind::ForgedSlot;
+  Seconds start{0.0};             // first window that starts at or after this time
+  std::uint32_t max_windows = 0;  // 0 = every window
+};
+
+struct RuntimeAttackPlan {
+  std::vector<RuntimeAttack> attacks{};
+  Rejuvenation sr = Rejuvenation::On;
+};
+
+// A malformed attack param: which one and what was expected.
+struct PlanError {
+  std::string param{};
+  std::string message{};
+  [[nodiscard]] std::string to_string() const { return param + ": " + message; }
+};
+
+// Param lookups (the SDK's param/text_param, or a map in tests): nullopt / "" when absent.
+using NumberLookup = std::function<std::optional<double>(std::string_view)>;
+using TextLookup = std::function<std::string(std::string_view)>;
+
+// The runtime attacks of the boot params, in plan order; empty when attacks are off or none is a runtime
+// attack. An unknown kind name, a negative or non-finite start, or a count/max_windows that is not a whole
+// number is an error (bad input never aborts, CONVENTIONS).
+[[nodiscard]] Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& number,
+                                                                       const TextLookup& text);
+
+// Decides, callback by callback, whether a window of the attack's kind starts now and is to be attacked.
+// A window is keyed by the rollback epoch: every epoch has one secure interval (RB…CP) followed by one MC
+// window, so "the first call in epoch e while in MC" is the start of the MC window of e — also in a
+// restored image, whose memory is that of the checkpoint. The first attacked epoch is fixed in the secure
+// interval (so it is in every later checkpoint): the first one at or after `start`. With SR off there is one
+// endless MC window, attacked once from `start` on.
+class WindowClock {
+ public:
+  WindowClock(const RuntimeAttack& attack, Rejuvenation sr) : attack_(attack), sr_(sr) {}
+  // True exactly once, at the first call of a window that is to be attacked.
+  [[nodiscard]] bool begins(Nanos now, SrMode mode, Epoch epoch);
+  // Ordinal of the window last attacked (0 = the first), e.g. to vary an attack from window to window.
+  [[nodiscard]] std::uint32_t ordinal() const { return ordinal_; }
+  [[nodiscard]] const RuntimeAttack& attack() const { return attack_; }
+
+ private:
+  RuntimeAttack attack_;
+  Rejuvenation sr_;
+  std::optional<std::uint32_t> first_epoch_{};
+  std::optional<std::uint32_t> window_epoch_{};
+  std::uint32_t ordinal_ = 0;
+  bool attacked_without_sr_ = false;
+};
+
+}  // namespace rejuv::attacks

@@ -1,0 +1,97 @@
+#include "rejuv/attacks/plan.hpp"
+
+#include <cmath>
+#include <utility>
+
+namespace rejuv::attacks {
+
+std::string_view to_string(AttackKind kind) {
+  switch (kind) {
+    case AttackKind::InvokeCheckpoint: return "INVOKE_CHECKPOINT";
+    case AttackKind::ArmTimer: return "ARM_TIMER";
+    case AttackKind::WriteLimits: return "WRITE_LIMITS";
+    case AttackKind::PublishActuatorOutputs: return "PUBLISH_ACTUATOR_OUTPUTS";
+    case AttackKind::WritePersistent: return "WRITE_PERSISTENT";
+    case AttackKind::ForgedSlot: return "FORGED_SLOT";
+    case AttackKind::NetworkInSei: return "NETWORK_IN_SEI";
+    case AttackKind::KillImage: return "KILL_IMAGE";
+    case AttackKind::OpenSocket: return "OPEN_SOCKET";
+    case AttackKind::FloodBroker: return "FLOOD_BROKER";
+  }
+  return "?";
+}
+
+std::optional<AttackKind> attack_kind_from_name(std::string_view name) {
+  for (const AttackKind k : kAllAttackKinds) {
+    if (to_string(k) == name) return k;
+  }
+  return std::nullopt;
+}
+
+WindowKind window_kind_of(AttackKind kind) {
+  return kind == AttackKind::NetworkInSei ? WindowKind::SecureInterval : WindowKind::MissionControl;
+}
+
+namespace {
+
+PlanError bad(std::string param, std::string message) {
+  return PlanError{.param = std::move(param), .message = std::move(message)};
+}
+
+// A whole number in [0, max] (count, max_windows); absent = 0.
+Result<std::uint32_t, PlanError> whole(const NumberLookup& number, const std::string& name, double max) {
+  const double v = number(name).value_or(0.0);
+  if (!std::isfinite(v) || v < 0.0 || v > max || v != std::floor(v)) {
+    return fail(bad(name, "expected a whole number in [0, " + std::to_string(static_cast<std::uint64_t>(max)) + "]"));
+  }
+  return static_cast<std::uint32_t>(v);
+}
+
+}  // namespace
+
+Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& number, const TextLookup& text) {
+  RuntimeAttackPlan plan;
+  plan.sr = number("sr.enabled").value_or(1.0) == 1.0 ? Rejuvenation::On : Rejuvenation::Off;
+  if (number("attack.enabled").value_or(0.0) != 1.0) return plan;
+  auto count = whole(number, "attack.count", 64.0);
+  if (!count) return fail(std::move(count.error()));
+  for (std::uint32_t j = 0; j < *count; ++j) {
+    const std::string prefix = "attack." + std::to_string(j) + ".";
+    const std::string name = text(prefix + "kind");
+    const auto kind = attack_kind_from_name(name);
+    if (!kind) {
+      // The controller's attack and the proto's unset value are not runtime attacks; anything else is a typo.
+      if (name == "WORST_CASE_CONTROL" || name == "ATTACK_UNSPECIFIED") continue;
+      return fail(bad(prefix + "kind", "unknown attack kind '" + name + "'"));
+    }
+    const double start = number(prefix + "start_s").value_or(0.0);
+    if (!std::isfinite(start) || start < 0.0) return fail(bad(prefix + "start_s", "expected a finite time >= 0 s"));
+    auto windows = whole(number, prefix + "max_windows", 4294967295.0);
+    if (!windows) return fail(std::move(windows.error()));
+    plan.attacks.push_back(RuntimeAttack{.kind = *kind, .start = Seconds{start}, .max_windows = *windows});
+  }
+  return plan;
+}
+
+bool WindowClock::begins(Nanos now, SrMode mode, Epoch epoch) {
+  const bool started = now >= to_nanos(attack_.start);
+  const WindowKind here = mode == SrMode::MC ? WindowKind::MissionControl : WindowKind::SecureInterval;
+  if (sr_ == Rejuvenation::Off) {
+    if (here != WindowKind::MissionControl || window_kind_of(attack_.kind) != here || !started) return false;
+    if (attacked_without_sr_) return false;
+    attacked_without_sr_ = true;
+    ordinal_ = 0;
+    return true;
+  }
+  const auto e = static_cast<std::uint32_t>(epoch.value());
+  if (here == WindowKind::SecureInterval && started && !first_epoch_) first_epoch_ = e;
+  if (window_kind_of(attack_.kind) != here || window_epoch_ == e) return false;
+  window_epoch_ = e;
+  if (!first_epoch_ || e < *first_epoch_) return false;
+  const std::uint32_t n = e - *first_epoch_;
+  if (attack_.max_windows != 0 && n >= attack_.max_windows) return false;
+  ordinal_ = n;
+  return true;
+}
+
+}  // namespace rejuv::attacks

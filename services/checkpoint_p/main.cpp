@@ -1,0 +1,149 @@
+// rejuv_checkpoint_p: the rollback handler as a process (services/checkpoint_p/include/rejuv/services/
+// checkpoint_p/sr_manager.hpp). This file binds SrEffects to the SDK and the handler to a kernel timer and
+// the topics. No command line: started by the kernel.
+#include <cstddef>
+#include <span>
+#include <string>
+#include <utility>
+
+#include "rejuv/flight_io/sdk_params.hpp"
+#include "rejuv/sdk/service.hpp"
+#include "rejuv/services/checkpoint_p/sr_manager.hpp"
+#if defined(REJUV_ATTACK_HOOKS)
+#include "rejuv/attacks/hooks.hpp"
+#endif
+
+namespace {
+
+using namespace rejuv;
+
+services::EffectFailure failure_of(const sdk::Error& error) {
+  return services::EffectFailure{.message = error.to_string()};
+}
+
+// The kernel calls of §V through the SDK: the caps `sr_mode_control` (Mode), `checkpoint` (Checkpoint),
+// `actuator_limits` (Limits) and the topic `setpoint_update_request`.
+class SdkEffects final : public services::SrEffects {
+ public:
+  SdkEffects(sdk::Service& svc, sdk::Publisher<rejuv_msg_SetpointUpdateRequest> requests)
+      : svc_(svc), requests_(requests) {}
+
+  [[nodiscard]] Nanos now() const override { return svc_.now(); }
+  [[nodiscard]] Epoch epoch() const override { return svc_.epoch(); }
+
+  Result<void, services::EffectFailure> request_mode(SrMode mode) override {
+    auto r = svc_.invoke("sr_mode_control", cap::Operation::ModeRequest,
+                         static_cast<std::uint64_t>(index_of(mode)));
+    if (!r) return fail(failure_of(r.error()));
+    return {};
+  }
+  Result<void, services::EffectFailure> request_setpoint_update(
+      const rejuv_msg_SetpointUpdateRequest& m) override {
+    auto r = requests_.publish(m);
+    if (!r) return fail(failure_of(r.error()));
+    return {};
+  }
+  Result<flight::CheckpointReturn, services::EffectFailure> checkpoint() override {
+    auto r = svc_.checkpoint("checkpoint");
+    if (!r) return fail(failure_of(r.error()));
+    switch (r->kind) {
+      case sdk::CheckpointOutcome::Kind::Taken:
+        return flight::CheckpointReturn{flight::CheckpointTaken{r->generation}};
+      case sdk::CheckpointOutcome::Kind::Restored:
+        return flight::CheckpointReturn{flight::CheckpointRestored{r->generation, r->epoch}};
+    }
+    return fail(services::EffectFailure{.message = "checkpoint: unknown outcome"});
+  }
+  Result<void, services::EffectFailure> arm_rejuvenation_timer(Nanos after) override {
+    // arg0: T_MC [ns]; arg1 = 0: once (do_timer(T_MC, 0), §V-A).
+    auto r =
+        svc_.invoke("checkpoint", cap::Operation::TimerArm, static_cast<std::uint64_t>(after.count()), 0);
+    if (!r) return fail(failure_of(r.error()));
+    return {};
+  }
+  Result<void, services::EffectFailure> write_limits(const flight_io::LimitsRecord& record) override {
+    const auto bytes = flight_io::limits_bytes(record);
+    auto r =
+        svc_.invoke("actuator_limits", cap::Operation::LimitsWrite, 0, 0, std::span<const std::byte>(bytes));
+    if (!r) return fail(failure_of(r.error()));
+    return {};
+  }
+  void log(services::Severity severity, std::string_view text) override {
+    switch (severity) {
+      case services::Severity::Debug: return svc_.log(sdk::LogLevel::Debug, text);
+      case services::Severity::Info: return svc_.log(sdk::LogLevel::Info, text);
+      case services::Severity::Warn: return svc_.log(sdk::LogLevel::Warn, text);
+      case services::Severity::Error: return svc_.log(sdk::LogLevel::Error, text);
+    }
+  }
+
+ private:
+  sdk::Service& svc_;
+  sdk::Publisher<rejuv_msg_SetpointUpdateRequest> requests_;
+};
+
+}  // namespace
+
+int main() {
+  auto connected = sdk::Service::connect();
+  if (!connected) return sdk::report_connect_failure(connected.error());
+  sdk::Service& svc = **connected;
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOKS (test builds only) ====: the launch plan's runtime attacks that name this service
+  // (services/attacks; wiped by rollback like any corruption).
+  auto attack_hooks = attacks::install(svc);
+  if (!svc.require(attack_hooks, "bad attack params")) return 1;
+#endif
+
+  const flight_io::Params params = flight_io::params_of(svc);
+  auto cycle = flight_io::sr_cycle_params(params);
+  if (!svc.require(cycle, "bad params")) return 1;
+  if (cycle->tracking.sr == flight::SrSwitch::Off) {
+    // Without SR the mode is MC for ever and this service holds none of its kernel caps there.
+    svc.log(sdk::LogLevel::Info, "sr.enabled = 0: no rollback handler runs");
+    return svc.run();
+  }
+  auto design = flight_io::control_design(params);
+  if (!svc.require(design, "bad params")) return 1;
+  auto mission = flight_io::mission_params(params);
+  if (!svc.require(mission, "bad params")) return 1;
+  for (const char* object : {"sr_mode_control", "checkpoint", "actuator_limits"}) {
+    if (!svc.require(svc.cap(object), object)) return 1;
+  }
+  auto requests = svc.advertise<rejuv_msg_SetpointUpdateRequest>("setpoint_update_request");
+  if (!svc.require(requests, "setpoint_update_request")) return 1;
+
+  SdkEffects effects(svc, *requests);
+  const flight::PathWaypoint& first = mission->waypoints.front();
+  services::SrManager manager(services::SrManagerConfig{.cycle = *cycle, .restricted = design->restricted},
+                              design->ellipsoid, effects, flight::hover_setpoint(first.p_N_m, first.yaw_rad));
+
+  std::uint64_t refused = 0;
+  const auto refuse = [&](const flight_io::InputFailure& e) {
+    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "ignoring a message: " + e.to_string());
+  };
+  auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state",
+                                                             [&](const rejuv_msg_VehicleStateEstimate& m) {
+                                                               if (auto ok = manager.on_state(m); !ok)
+                                                                 refuse(ok.error());
+                                                             });
+  auto setpoint = svc.subscribe<rejuv_msg_Setpoint>("setpoint", [&](const rejuv_msg_Setpoint& m) {
+    if (auto ok = manager.on_setpoint(m); !ok) refuse(ok.error());
+  });
+  auto rollback = svc.subscribe<rejuv_msg_RollbackSignal>(
+      "rollback_signal", [&](const rejuv_msg_RollbackSignal& m) { manager.on_rollback_signal(m); });
+  for (const auto* error : {state ? nullptr : &state.error(), setpoint ? nullptr : &setpoint.error(),
+                            rollback ? nullptr : &rollback.error()}) {
+    if (error != nullptr) {
+      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
+      return 1;
+    }
+  }
+  // The check of (1) every check_period (§V-B: "after every 2 ms"); the handler ignores ticks outside a run.
+  auto ticks = svc.every(to_nanos(cycle->tracking.check_period), [&] { manager.tick(); });
+  if (!svc.require(ticks, "timer")) return 1;
+  // The first cycle right after the clock starts (every service is Ready then), as the simulation boots.
+  auto boot = svc.after(Nanos{1}, [&] { manager.start(); });
+  if (!svc.require(boot, "timer")) return 1;
+  return svc.run();
+}

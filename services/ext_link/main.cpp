@@ -1,0 +1,95 @@
+// rejuv_ext_link: the vehicle's end of the ground link (services/ext_link/include/rejuv/services/ext_link/
+// ext_link.hpp). No command line: started by the kernel.
+#include <chrono>
+#include <cmath>
+
+#include "rejuv/sdk/service.hpp"
+#include "rejuv/services/ext_link/ext_link.hpp"
+#if defined(REJUV_ATTACK_HOOKS)
+#include "rejuv/attacks/hooks.hpp"
+#endif
+
+int main() {
+  using namespace rejuv;
+  auto connected = sdk::Service::connect();
+  if (!connected) return sdk::report_connect_failure(connected.error());
+  sdk::Service& svc = **connected;
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOKS (test builds only) ====: the launch plan's runtime attacks that name this service
+  // (services/attacks; wiped by rollback like any corruption).
+  auto attack_hooks = attacks::install(svc);
+  if (!svc.require(attack_hooks, "bad attack params")) return 1;
+#endif
+
+  const double period_s = svc.param("telemetry_period_s", 0.1);
+  if (!(std::isfinite(period_s) && period_s >= 0.01 && period_s <= 10)) {
+    svc.logf(sdk::LogLevel::Error, "telemetry_period_s: expected 0.01 to 10 s, got %g", period_s);
+    return 1;
+  }
+  constexpr std::string_view kNet = "ext_net";
+  services::ExtLink link;
+  auto uploads = svc.advertise<rejuv_msg_MissionWaypoints>("mission_upload");
+  if (!svc.require(uploads, "mission_upload")) return 1;
+  auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state");
+  if (!svc.require(state, "vehicle_state")) return 1;
+  auto setpoint = svc.subscribe<rejuv_msg_Setpoint>("setpoint");
+  if (!svc.require(setpoint, "setpoint")) return 1;
+  auto modes = svc.subscribe<rejuv_msg_SrMode>("sr_mode");
+  if (!svc.require(modes, "sr_mode")) return 1;
+  auto events = svc.subscribe<rejuv_msg_SecurityEvent>("security_event");
+  if (!svc.require(events, "security_event")) return 1;
+
+  const auto send = [&](const link::Datagram& d, const char* what) {
+    auto ok = svc.send_datagram(kNet, d.view());
+    // Refused: no ground station has spoken yet (the kernel keeps its address, across rollbacks).
+    const bool quiet = ok || ok.error().code == sdk::SdkError::NotHeldInMode ||
+                       (ok.error().code == sdk::SdkError::OperationFailed &&
+                        ok.error().wire_error == static_cast<std::int32_t>(wire::OpError::Refused));
+    if (!quiet) {
+      svc.logf(sdk::LogLevel::Warn, "sending %s: %s", what, ok.error().to_string().c_str());
+    }
+  };
+  auto gate = svc.on_datagram(kNet, [&](std::span<const std::byte> datagram) {
+    auto inbound = link.on_datagram(datagram, svc.now());
+    if (!inbound) {
+      std::uint64_t suppressed = 0;
+      if (link.should_log_refusal(svc.now(), suppressed)) {
+        svc.logf(sdk::LogLevel::Warn, "refused a %zu-byte datagram: %s (%llu refused in all, %llu not logged)",
+                 datagram.size(), std::string(link::to_string(inbound.error())).c_str(),
+                 static_cast<unsigned long long>(link.refused()), static_cast<unsigned long long>(suppressed));
+      }
+      return;
+    }
+    if (const auto* forward = std::get_if<services::ExtLink::Forward>(&*inbound)) {
+      // Only in MC (the gate relays nothing else); a mode change in flight leaves the upload unanswered
+      // and the ground station retransmits it.
+      if (auto ok = uploads->publish(forward->upload); !ok) {
+        svc.log(sdk::LogLevel::Warn, "mission upload not forwarded: " + ok.error().to_string());
+        return;
+      }
+      svc.logf(sdk::LogLevel::Info, "mission upload #%u of %u waypoints forwarded to commander", forward->sequence,
+               forward->upload.count);
+      send(link.forwarded(*forward), "mission ack");
+    } else if (const auto* again = std::get_if<services::ExtLink::Reacknowledge>(&*inbound)) {
+      send(link.acknowledge(again->sequence), "mission ack");
+    }
+  });
+  if (!svc.require(gate, "ext_net")) return 1;
+
+  // Telemetry (≈10 Hz) only in MC: the kernel refuses sends in the SEI, and an honest service asks only when
+  // it may. Not gated on a Hello seen here: a rollback wipes what ext_link learned in MC, while the kernel
+  // keeps the ground station's address (until one has spoken, a send is Refused and costs nothing).
+  auto telemetry = svc.every(to_nanos(Seconds{period_s}), [&] {
+    if (!svc.may_send(kNet)) return;
+    const services::ExtLink::TelemetryInputs in{
+        .now = svc.now(),
+        .state = state->valid() ? &state->latest() : nullptr,
+        .setpoint = setpoint->valid() ? &setpoint->latest() : nullptr,
+        .mode = svc.mode(),
+        .epoch = svc.epoch(),
+        .security_events = events->received() + events->lost()};
+    send(link.telemetry(in), "telemetry");
+  });
+  if (!svc.require(telemetry, "timer")) return 1;
+  return svc.run();
+}

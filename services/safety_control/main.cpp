@@ -1,0 +1,53 @@
+// rejuv_safety_control: the safety controller as a process (services/safety_control/include/rejuv/services/
+// safety_control/safety_control.hpp). No command line: started by the kernel.
+#include "rejuv/flight_io/sdk_params.hpp"
+#include "rejuv/sdk/service.hpp"
+#include "rejuv/services/safety_control/safety_control.hpp"
+
+int main() {
+  using namespace rejuv;
+  auto connected = sdk::Service::connect();
+  if (!connected) return sdk::report_connect_failure(connected.error());
+  sdk::Service& svc = **connected;
+
+  const flight_io::Params params = flight_io::params_of(svc);
+  auto design = flight_io::control_design(params);
+  if (!svc.require(design, "bad params")) return 1;
+  auto mission = flight_io::mission_params(params);
+  if (!svc.require(mission, "bad params")) return 1;
+  const flight::PathWaypoint& first = mission->waypoints.front();
+  services::SafetyControl control(*design, flight::hover_setpoint(first.p_N_m, first.yaw_rad));
+
+  auto controls = svc.advertise<rejuv_msg_ActuatorControls>("actuator_controls");
+  if (!svc.require(controls, "actuator_controls")) return 1;
+  std::uint64_t refused = 0;
+  const auto refuse = [&](const flight_io::InputFailure& e) {
+    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "ignoring a message: " + e.to_string());
+  };
+  auto setpoint = svc.subscribe<rejuv_msg_Setpoint>("setpoint", [&](const rejuv_msg_Setpoint& m) {
+    if (auto ok = control.on_setpoint(m); !ok) refuse(ok.error());
+  });
+  bool publishing = false;
+  const auto on_state = [&](const rejuv_msg_VehicleStateEstimate& m) {
+    auto u = control.on_state(m, svc.epoch());
+    if (!u) return refuse(u.error());
+    // Warm in every mode; the controls reach the driver only where the policy grants it (the SEI).
+    const bool allowed = controls->allowed();
+    if (allowed != publishing) {
+      publishing = allowed;
+      svc.logf(sdk::LogLevel::Debug, "%s publishing (mode %s)", allowed ? "start" : "stop",
+               std::string(to_string(svc.mode())).c_str());
+    }
+    if (*u && allowed) {
+      (void)controls->publish(**u);
+    }
+  };
+  auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state", on_state);
+  for (const auto* error : {setpoint ? nullptr : &setpoint.error(), state ? nullptr : &state.error()}) {
+    if (error != nullptr) {
+      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
+      return 1;
+    }
+  }
+  return svc.run();
+}

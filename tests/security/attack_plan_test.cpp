@@ -1,0 +1,193 @@
+// The runtime attack plan (services/attacks/plan.hpp): parsing the attack.* boot params, and which windows
+// the hooks attack (DESIGN §9, §11).
+#include <gtest/gtest.h>
+
+#include <map>
+#include <string>
+
+#include "launch.pb.h"
+#include "rejuv/attacks/plan.hpp"
+
+namespace rejuv::attacks {
+namespace {
+
+using namespace std::chrono_literals;
+
+struct Params {
+  std::map<std::string, double> numbers;
+  std::map<std::string, std::string> texts;
+  [[nodiscard]] Result<RuntimeAttackPlan, PlanError> plan() const {
+    return runtime_attack_plan(
+        [this](std::string_view n) -> std::optional<double> {
+          auto it = numbers.find(std::string(n));
+          return it == numbers.end() ? std::nullopt : std::optional<double>(it->second);
+        },
+        [this](std::string_view n) {
+          auto it = texts.find(std::string(n));
+          return it == texts.end() ? std::string() : it->second;
+        });
+  }
+};
+
+Params two_attacks() {
+  Params p;
+  p.numbers = {{"attack.enabled", 1}, {"attack.count", 3}, {"attack.0.start_s", 0}, {"attack.0.max_windows", 0},
+               {"attack.1.start_s", 2.5}, {"attack.1.max_windows", 4}, {"attack.2.start_s", 1}};
+  p.texts = {{"attack.0.kind", "FLOOD_BROKER"}, {"attack.1.kind", "NETWORK_IN_SEI"},
+             {"attack.2.kind", "WORST_CASE_CONTROL"}};
+  return p;
+}
+
+TEST(AttackKindNames, SameNamesAndNumbersAsTheLaunchProto) {
+  for (const AttackKind k : kAllAttackKinds) {
+    EXPECT_EQ(to_string(k), proto::AttackKind_Name(static_cast<proto::AttackKind>(k)));
+    EXPECT_EQ(attack_kind_from_name(to_string(k)), k);
+  }
+  // Every runtime kind of the proto (all but the unset value and the controller's attack) is here.
+  EXPECT_EQ(kAllAttackKinds.size(), static_cast<std::size_t>(proto::AttackKind_MAX) - 1);
+  EXPECT_EQ(attack_kind_from_name("WORST_CASE_CONTROL"), std::nullopt);
+}
+
+TEST(RuntimeAttackPlan, AttacksOff_NoAttacks) {
+  Params p = two_attacks();
+  p.numbers["attack.enabled"] = 0;
+  auto plan = p.plan();
+  ASSERT_TRUE(plan.has_value());
+  EXPECT_TRUE(plan->attacks.empty());
+}
+
+TEST(RuntimeAttackPlan, NoParams_NoAttacksAndSrOn) {
+  auto plan = Params{}.plan();
+  ASSERT_TRUE(plan.has_value());
+  EXPECT_TRUE(plan->attacks.empty());
+  EXPECT_EQ(plan->sr, Rejuvenation::On);
+}
+
+TEST(RuntimeAttackPlan, RuntimeKindsInOrder_ControllerAttackSkipped) {
+  auto plan = two_attacks().plan();
+  ASSERT_TRUE(plan.has_value()) << plan.error().to_string();
+  ASSERT_EQ(plan->attacks.size(), 2U);
+  EXPECT_EQ(plan->attacks[0].kind, AttackKind::FloodBroker);
+  EXPECT_EQ(plan->attacks[0].max_windows, 0U);
+  EXPECT_EQ(plan->attacks[1].kind, AttackKind::NetworkInSei);
+  EXPECT_DOUBLE_EQ(plan->attacks[1].start.count(), 2.5);
+  EXPECT_EQ(plan->attacks[1].max_windows, 4U);
+}
+
+TEST(RuntimeAttackPlan, SrOff_FromTheParams) {
+  Params p = two_attacks();
+  p.numbers["sr.enabled"] = 0;
+  EXPECT_EQ(p.plan()->sr, Rejuvenation::Off);
+}
+
+TEST(RuntimeAttackPlan, UnknownKind_Error) {
+  Params p = two_attacks();
+  p.texts["attack.1.kind"] = "STEAL_KEYS";
+  auto plan = p.plan();
+  ASSERT_FALSE(plan.has_value());
+  EXPECT_EQ(plan.error().param, "attack.1.kind");
+}
+
+TEST(RuntimeAttackPlan, NegativeStart_Error) {
+  Params p = two_attacks();
+  p.numbers["attack.0.start_s"] = -1;
+  auto plan = p.plan();
+  ASSERT_FALSE(plan.has_value());
+  EXPECT_EQ(plan.error().param, "attack.0.start_s");
+}
+
+TEST(RuntimeAttackPlan, FractionalMaxWindows_Error) {
+  Params p = two_attacks();
+  p.numbers["attack.1.max_windows"] = 1.5;
+  auto plan = p.plan();
+  ASSERT_FALSE(plan.has_value());
+  EXPECT_EQ(plan.error().param, "attack.1.max_windows");
+}
+
+TEST(RuntimeAttackPlan, BadCount_Error) {
+  Params p = two_attacks();
+  p.numbers["attack.count"] = -2;
+  auto plan = p.plan();
+  ASSERT_FALSE(plan.has_value());
+  EXPECT_EQ(plan.error().param, "attack.count");
+}
+
+// One SR cycle per epoch: a secure interval, then an MC window (DESIGN §8).
+struct Tick {
+  Nanos t;
+  SrMode mode;
+  std::uint32_t epoch;
+};
+
+int attacked(WindowClock& c, const std::vector<Tick>& ticks) {
+  int n = 0;
+  for (const Tick& k : ticks) n += c.begins(k.t, k.mode, Epoch{k.epoch}) ? 1 : 0;
+  return n;
+}
+
+std::vector<Tick> cycles(int epochs, Nanos cycle = 1s) {
+  std::vector<Tick> out;
+  for (int e = 0; e < epochs; ++e) {
+    const Nanos t0 = cycle * e;
+    for (int i = 0; i < 3; ++i) out.push_back({t0 + i * 10ms, i == 0 ? SrMode::RB : SrMode::SC, static_cast<std::uint32_t>(e)});
+    for (int i = 0; i < 5; ++i) out.push_back({t0 + 100ms + i * 10ms, SrMode::MC, static_cast<std::uint32_t>(e)});
+  }
+  return out;
+}
+
+TEST(WindowClock, EveryMcWindowOnce) {
+  WindowClock c({.kind = AttackKind::ForgedSlot, .start = Seconds{0}, .max_windows = 0}, Rejuvenation::On);
+  EXPECT_EQ(attacked(c, cycles(4)), 4);
+}
+
+TEST(WindowClock, SecureIntervalAttack_EverySecureIntervalOnce) {
+  WindowClock c({.kind = AttackKind::NetworkInSei, .start = Seconds{0}, .max_windows = 0}, Rejuvenation::On);
+  const auto ticks = cycles(3);
+  for (const Tick& k : ticks) {
+    const bool begins = c.begins(k.t, k.mode, Epoch{k.epoch});
+    if (begins) {
+      EXPECT_NE(k.mode, SrMode::MC);
+    }
+  }
+  WindowClock again({.kind = AttackKind::NetworkInSei, .start = Seconds{0}, .max_windows = 0}, Rejuvenation::On);
+  EXPECT_EQ(attacked(again, ticks), 3);
+}
+
+TEST(WindowClock, MaxWindowsAndStart) {
+  WindowClock c({.kind = AttackKind::FloodBroker, .start = Seconds{1.5}, .max_windows = 2}, Rejuvenation::On);
+  // Windows of epochs 2 and 3 (the first secure interval at or after 1.5 s is that of epoch 2).
+  int n = 0;
+  for (const Tick& k : cycles(6)) {
+    if (c.begins(k.t, k.mode, Epoch{k.epoch})) {
+      EXPECT_GE(k.epoch, 2U);
+      EXPECT_LE(k.epoch, 3U);
+      EXPECT_EQ(c.ordinal(), k.epoch - 2U);
+      ++n;
+    }
+  }
+  EXPECT_EQ(n, 2);
+}
+
+TEST(WindowClock, RestoredImage_KnowsItsWindowFromTheEpoch) {
+  // The image is the clock as it was at the checkpoint (end of the secure interval of epoch 0); restored into
+  // epoch 1, then 2, it attacks each MC window once and stops after max_windows, remembering nothing.
+  WindowClock live({.kind = AttackKind::OpenSocket, .start = Seconds{0}, .max_windows = 2}, Rejuvenation::On);
+  EXPECT_FALSE(live.begins(0ms, SrMode::SC, Epoch{0}));
+  const WindowClock image = live;  // checkpoint (CP)
+  EXPECT_TRUE(live.begins(50ms, SrMode::MC, Epoch{0}));
+  for (std::uint32_t e = 1; e <= 3; ++e) {
+    WindowClock restored = image;  // the rollback wipes what the live process learned
+    EXPECT_FALSE(restored.begins(Nanos{e * 1'000'000'000LL}, SrMode::RB, Epoch{e}));
+    EXPECT_EQ(restored.begins(Nanos{e * 1'000'000'000LL + 50'000'000}, SrMode::MC, Epoch{e}), e < 2) << "epoch " << e;
+  }
+}
+
+TEST(WindowClock, SrOff_OneEndlessWindowAttackedOnce) {
+  WindowClock c({.kind = AttackKind::WriteLimits, .start = Seconds{0.5}, .max_windows = 0}, Rejuvenation::Off);
+  EXPECT_FALSE(c.begins(100ms, SrMode::MC, Epoch{0}));
+  EXPECT_TRUE(c.begins(600ms, SrMode::MC, Epoch{0}));
+  EXPECT_FALSE(c.begins(700ms, SrMode::MC, Epoch{0}));
+}
+
+}  // namespace
+}  // namespace rejuv::attacks

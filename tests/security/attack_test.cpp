@@ -1,0 +1,262 @@
+// Every runtime attack of the catalogue (idl/launch.proto AttackKind 2…11; DESIGN §11, issue 3(b)) carried
+// out by a compromised service of a real graph, and denied or contained: real kernel, real service processes
+// (tests/security/services/attack_service.cpp with the hooks of services/attacks), real channels and seccomp
+// filters, lockstep driven by the test (TimeMaster::Manual), SR on. The attack plan is the launch text's
+// `attack` section, so the path launch → boot params → hook is the one `rejuv run` uses.
+//
+// Each test checks the kernel's counters (the attempt was seen and refused) and the state the attack aimed at
+// (no checkpoint taken, no timer armed, limits and persistent cell unchanged, actuator outputs only from the
+// driver, the network unused, images alive, the flood bounded). No timing is asserted.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "graph_fixture.hpp"
+#include "rejuv/attacks/plan.hpp"
+#include "rejuv/channel/wire.hpp"
+
+namespace rejuv::testing {
+namespace {
+
+using attacks::AttackKind;
+
+constexpr double kForgedLimit = 1.0e6;       // attacks::kForgedLimit (hooks.hpp; not linked here)
+constexpr std::uint64_t kForgedCell = 0xA7A7'A7A7'A7A7'A7A7ULL;  // attacks::kForgedPersistentByte × 8
+constexpr std::uint32_t kFloodMessages = 10000;  // attacks::kFloodMessages
+
+std::string attack_launch(AttackKind kind, const std::string& attacker) {
+  const auto service = [](const std::string& name, const std::string& body) {
+    return "services {\n  name: \"" + name + "\"\n  executable: \"rejuv_attack_test_service\"\n" +
+           "  params { name: \"role\" text: \"" + name + "\" }\n" + body + "}\n";
+  };
+  std::string t = "name: \"attacks\"\npolicy: \"attacks.policy.pbtxt\"\nclock: LOCKSTEP\nseed: 1\n";
+  t += service("rejuv",
+               "  uses { object: \"verdicts\" rights: \"W\" }\n  uses { object: \"checkpoint\" rights: \"W\" }\n"
+               "  uses { object: \"limits\" rights: \"W\" }\n  uses { object: \"mode\" rights: \"W\" }\n"
+               "  uses { object: \"cell\" rights: \"RW\" }\n");
+  t += service("worker", "  uses { object: \"numbers\" rights: \"W\" }\n  uses { object: \"verdicts\" rights: \"W\" }\n");
+  t += service("link", "  uses { object: \"net\" rights: \"RW\" }\n  uses { object: \"verdicts\" rights: \"W\" }\n");
+  t += service("driver",
+               "  rejuvenate: false\n  uses { object: \"numbers\" rights: \"R\" }\n  uses { object: \"limits\" rights: \"R\" }\n"
+               "  uses { object: \"actuator_outputs\" rights: \"W\" }\n  uses { object: \"verdicts\" rights: \"W\" }\n");
+  t += "sr { enabled: true t_mc_s: 0.04 t_est_s: 0.01 rho_m: 0.1 rho_s: 0.05 keep_generations: 2"
+       " box { position_m: 0.5 velocity_m_s: 1 angle_rad: 0.3 rate_rad_s: 2 } restricted_limit_fraction: 0.3 }\n";
+  t += "mission { waypoints { north_m: 0 east_m: 0 down_m: -3 } acceptance_radius_m: 0.1 timeout_s: 600 }\n";
+  t += "network { bind_address: \"127.0.0.1\" bind_port: 0 }\n";
+  t += "attack {\n  enabled: true\n  attacks { kind: " + std::string(attacks::to_string(kind)) + " service: \"" +
+       attacker + "\" }\n}\n";
+  return t;
+}
+
+class Attacks : public ::testing::Test {
+ protected:
+  void start(AttackKind kind, const std::string& attacker) {
+    kind_ = kind;
+    attacker_ = attacker;
+    auto loaded = launch::parse_launch(attack_launch(kind, attacker), std::filesystem::path(REJUV_SOURCE_DIR) /
+                                                                          "tests/security/graphs/attacks.launch.pbtxt");
+    ASSERT_TRUE(loaded.has_value()) << loaded.error().to_string();
+    kernel::KernelOptions o = test_options();
+    o.log = std::getenv("REJUV_TEST_LOG") != nullptr ? stderr : nullptr;  // quiet unless asked
+    o.verbose = o.log != nullptr;
+    auto k = kernel::Kernel::create(std::move(*loaded), o, &recorder_);
+    ASSERT_TRUE(k.has_value()) << k.error().to_string() << "\n" << ::testing::PrintToString(k.error().findings);
+    k_ = std::move(*k);
+    auto booted = k_->boot();
+    ASSERT_TRUE(booted.has_value()) << booted.error().to_string();
+  }
+  ServiceId id(std::string_view name) const { return *k_->find_service(name); }
+  void step_until_rollbacks(std::uint64_t n, int limit = 600) {
+    for (int i = 0; i < limit && k_->sr_stats().rollbacks < n; ++i) {
+      auto r = k_->step(k_->now() + std::chrono::milliseconds{4});
+      ASSERT_TRUE(r.has_value()) << r.error().to_string();
+      ASSERT_FALSE(k_->stop_reason().has_value()) << k_->stop_detail();
+    }
+    ASSERT_GE(k_->sr_stats().rollbacks, n) << "not enough SR cycles";
+    step_n(*k_, 1);  // the images of the last rollback are resumed and live (still in the secure interval)
+  }
+  // Records on `verdicts` with `tag` from `who` (any publisher when empty).
+  std::vector<rejuv_msg_SensorBaro> verdicts(double tag, std::string_view who = "") const {
+    std::vector<rejuv_msg_SensorBaro> out;
+    for (const Seen* s : recorder_.on("verdicts")) {
+      const auto r = Recorder::as<rejuv_msg_SensorBaro>(*s);
+      if (r.pressure_pa == tag && (who.empty() || s->publisher == id(who))) out.push_back(r);
+    }
+    return out;
+  }
+  std::vector<rejuv_msg_SensorBaro> attempts() const { return verdicts(100.0 + static_cast<double>(kind_), attacker_); }
+  std::uint64_t denials_of(std::string_view who, cap::Operation op) const {
+    std::uint64_t n = 0;
+    for (const cap::CapError e : cap::kAllCapErrors) n += k_->caps().denials().at(id(who), e, op);
+    return n;
+  }
+
+  // What no attack may change (DESIGN §3, §7, §8): only the honest SR cycle checkpointed and armed the timer,
+  // the limits and the cell hold what `rejuv` wrote, motor outputs come from the driver alone, the network
+  // sent nothing, every image is alive and the run goes on.
+  void expect_runtime_intact() const {
+    const kernel::SrStats& sr = k_->sr_stats();
+    const std::size_t taken = verdicts(3, "rejuv").size();
+    EXPECT_EQ(sr.checkpoints, taken) << "a checkpoint the SR cycle did not take";
+    EXPECT_EQ(sr.timer_arms, taken) << "a timer arm the SR cycle did not make";
+    EXPECT_EQ(sr.timer_arm_refused, 0U);
+    EXPECT_EQ(sr.fallbacks, 0U);
+    EXPECT_EQ(sr.cold_restarts, 0U);
+    const auto limits = verdicts(1, "driver");
+    ASSERT_FALSE(limits.empty());
+    for (const auto& l : limits) EXPECT_EQ(l.altitude_m, 0.3) << "the limits the driver applies changed";
+    const auto cells = verdicts(2, "rejuv");
+    ASSERT_FALSE(cells.empty());
+    for (const auto& c : cells) EXPECT_LT(c.altitude_m, 1000.0) << "the persistent cell was overwritten";
+    const auto outputs = recorder_.on("actuator_outputs");
+    ASSERT_FALSE(outputs.empty());
+    for (const Seen* s : outputs) {
+      EXPECT_EQ(s->publisher, id("driver"));
+      EXPECT_EQ(Recorder::as<rejuv_msg_ActuatorOutputs>(*s).motor[0], 0.5);
+    }
+    EXPECT_EQ(k_->net_stats().sent, 0U);
+    for (const char* who : {"rejuv", "worker", "link"}) {
+      for (const int pid : k_->image_pids(id(who))) EXPECT_EQ(::kill(pid, 0), 0) << who << " image " << pid;
+    }
+    for (const char* who : {"rejuv", "worker", "link", "driver"}) EXPECT_TRUE(k_->stats(id(who)).alive) << who;
+    EXPECT_FALSE(k_->stop_reason().has_value());
+  }
+  // Every attempt that got an answer was refused with a capability error (Reply.error = 1 + CapError).
+  void expect_all_denied(std::size_t at_least) const {
+    const auto a = attempts();
+    EXPECT_GE(a.size(), at_least);
+    for (const auto& r : a) {
+      EXPECT_NE(r.altitude_m, 0.0) << "accepted on slot " << r.temperature_c;
+      if (r.altitude_m > 0) {
+        EXPECT_LE(r.altitude_m, static_cast<double>(cap::kAllCapErrors.size())) << "not a denial";
+      }
+    }
+  }
+
+  AttackKind kind_ = AttackKind::ForgedSlot;
+  std::string attacker_;
+  Recorder recorder_;
+  std::unique_ptr<kernel::Kernel> k_;
+};
+
+TEST_F(Attacks, InvokeCheckpoint_InMc_DeniedAndNoCheckpointTaken) {
+  start(AttackKind::InvokeCheckpoint, "rejuv");  // the rejuvenation service itself, compromised in MC
+  step_until_rollbacks(3);
+  expect_all_denied(2 * 4);
+  EXPECT_GE(denials_of("rejuv", cap::Operation::CheckpointCreate), 2U * 4U);
+  EXPECT_GE(denials_of("rejuv", cap::Operation::CheckpointRollback), 2U * 4U);
+  EXPECT_EQ(k_->sr_stats().rollbacks, k_->sr_stats().timer_rollbacks) << "a rollback the timer did not fire";
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, ArmTimer_InMc_DeniedAndTheTimerArmedOncePerEpoch) {
+  start(AttackKind::ArmTimer, "rejuv");
+  step_until_rollbacks(3);
+  expect_all_denied(2 * 4);
+  EXPECT_GE(denials_of("rejuv", cap::Operation::TimerArm), 2U * 4U);
+  EXPECT_EQ(k_->sr_stats().rollbacks, k_->sr_stats().timer_rollbacks);
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, WriteLimits_InMc_DeniedAndTheDriverKeepsTheRestrictedLimits) {
+  start(AttackKind::WriteLimits, "rejuv");
+  step_until_rollbacks(3);
+  expect_all_denied(2 * 4);
+  EXPECT_GE(denials_of("rejuv", cap::Operation::LimitsWrite), 2U * 4U);
+  for (const auto& l : verdicts(1, "driver")) EXPECT_NE(l.altitude_m, kForgedLimit);
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, PublishActuatorOutputs_NoOutputButTheDriversAndEveryPublishRefused) {
+  start(AttackKind::PublishActuatorOutputs, "worker");
+  step_until_rollbacks(3);
+  const auto a = attempts();
+  ASSERT_GE(a.size(), 2U * 3U);  // numbers, verdicts and never-held slots, per window
+  // Refused by the cap check (slots it does not hold, or without Write) or, on its own topics, by size.
+  const std::uint64_t refused = denials_of("worker", cap::Operation::Publish) + k_->stats(id("worker")).wrong_size;
+  EXPECT_GE(refused, a.size());
+  EXPECT_GE(k_->stats(id("worker")).wrong_size, 2U);  // numbers and verdicts: an ActuatorOutputs does not fit
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, WritePersistent_InMc_DeniedAndTheCellKeepsItsValue) {
+  start(AttackKind::WritePersistent, "rejuv");
+  step_until_rollbacks(3);
+  expect_all_denied(2 * 4);
+  EXPECT_GE(denials_of("rejuv", cap::Operation::PersistentWrite), 2U * 4U);
+  const auto cells = verdicts(2, "rejuv");
+  for (const auto& c : cells) EXPECT_NE(c.altitude_m, static_cast<double>(kForgedCell));
+  // The cell counts the SR cycles (read before each write): 0, 1, 2, … with no forged value in between.
+  for (std::size_t i = 0; i < cells.size(); ++i) EXPECT_LE(cells[i].altitude_m, static_cast<double>(i));
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, ForgedSlot_EveryRequestOnASlotNeverHeldDenied) {
+  start(AttackKind::ForgedSlot, "worker");
+  step_until_rollbacks(3);
+  expect_all_denied(2 * 4 * 5);
+  const cap::DenialCounters& d = k_->caps().denials();
+  const ServiceId w = id("worker");
+  std::uint64_t empty = 0;
+  std::uint64_t out_of_range = 0;
+  for (const cap::Operation op : cap::kAllOperations) {
+    empty += d.at(w, cap::CapError::EmptySlot, op);
+    out_of_range += d.at(w, cap::CapError::SlotOutOfRange, op);
+  }
+  EXPECT_GE(out_of_range, 2U * 2U * 6U);  // two slots beyond any CSpace, six requests each, per window
+  EXPECT_GT(empty, 0U);
+  EXPECT_GT(d.at(w, cap::CapError::SlotOutOfRange, cap::Operation::Publish), 0U);
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, NetworkInSei_NetSendDeniedAndNothingSent) {
+  start(AttackKind::NetworkInSei, "link");
+  step_until_rollbacks(3);
+  expect_all_denied(3);
+  // Its own Network cap is empty outside MC: the gate never sees the datagram.
+  EXPECT_GE(denials_of("link", cap::Operation::NetSend), 3U);
+  EXPECT_EQ(k_->net_stats().sent, 0U);
+  EXPECT_GE(k_->net_stats().send_refused, 3U);
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, KillImage_TheSandboxEndsTheAttackerAndTheRollbackContainsIt) {
+  start(AttackKind::KillImage, "worker");
+  const int test_pid = ::getpid();
+  step_until_rollbacks(4);
+  // Each attacked window the first forbidden call (kill, ptrace, process_vm_readv, pidfd_open) ended the
+  // worker by SIGSYS: counted, and the worker was rolled back with the graph — no call ever returned.
+  EXPECT_TRUE(attempts().empty()) << "a forbidden system call returned";
+  EXPECT_GE(k_->stats(id("worker")).sandbox_violations, 2U);
+  EXPECT_LT(k_->sr_stats().timer_rollbacks, k_->sr_stats().rollbacks) << "no rollback by the violation";
+  EXPECT_EQ(::getpid(), test_pid);  // the kernel (this process) is untouched
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, OpenSocket_TheSandboxEndsTheAttackerAndTheRollbackContainsIt) {
+  start(AttackKind::OpenSocket, "worker");
+  step_until_rollbacks(4);
+  EXPECT_TRUE(attempts().empty()) << "socket() or socketpair() returned";
+  EXPECT_GE(k_->stats(id("worker")).sandbox_violations, 2U);
+  EXPECT_LT(k_->sr_stats().timer_rollbacks, k_->sr_stats().rollbacks);
+  expect_runtime_intact();
+}
+
+TEST_F(Attacks, FloodBroker_BoundedPerStepAndTheReaderLosesOnlyItsOldest) {
+  start(AttackKind::FloodBroker, "worker");
+  step_until_rollbacks(3);
+  const kernel::ServiceStats worker = k_->stats(id("worker"));
+  // Each flood is cut at the per-step bound: at least kFloodMessages - 4096 dropped per attacked window.
+  EXPECT_GE(worker.flood_dropped, 2U * (kFloodMessages - 4096U));
+  // The driver (never rolled back) reads `numbers` with a ring of 64: it lost messages, not its footing.
+  const kernel::ServiceStats driver = k_->stats(id("driver"));
+  EXPECT_GT(driver.lost, 0U);
+  EXPECT_FALSE(driver.hung);
+  expect_runtime_intact();
+}
+
+}  // namespace
+}  // namespace rejuv::testing

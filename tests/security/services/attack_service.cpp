@@ -1,0 +1,139 @@
+// The security tests' service (tests/security/attack_test.cpp; graphs/attacks.policy.pbtxt): one binary,
+// its role chosen by the text param `role`, and in every role the runtime attack hooks of the launch plan
+// (services/attacks) — the test's launch text names which service is compromised with which attack.
+//
+// Records on `verdicts` are SensorBaro used as a generic record: pressure_pa = tag, altitude_m = value,
+// temperature_c = detail.
+//   tag 1        driver: the limits it read (LimitsRead), value = the first double
+//   tag 2        rejuv: the persistent cell before its own write, value = the cell as a uint64
+//   tag 3        rejuv: a checkpoint it took (Taken), value = the generation
+//   tag 100 + k  an attempt of attack kind k: value = Attempt::code, detail = target (slot or pid)
+//
+//   rejuv   the SR cycle in miniature (checkpoint_p): in the secure interval, after `sei_ticks` ticks, reads and
+//           writes the cell, writes the restricted limits, checkpoints; on Taken arms the rejuvenation timer
+//           for `t_mc_ms` and requests MC; a restored image starts the secure interval again.
+//   worker  publishes one number per tick on `numbers`.
+//   link    holds the network (MC); sends nothing itself.
+//   driver  every tick reads the limits and publishes actuator_outputs (the only writer).
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <string>
+
+#include "rejuv/attacks/hooks.hpp"
+#include "rejuv/sdk/service.hpp"
+
+namespace {
+
+using rejuv::sdk::CheckpointOutcome;
+using rejuv::sdk::LogLevel;
+using rejuv::sdk::Service;
+using Record = rejuv_msg_SensorBaro;
+using Op = rejuv::cap::Operation;
+
+constexpr double kRestrictedLimit = 0.3;  // what rejuv writes: the legitimate Ū
+constexpr auto kTick = std::chrono::milliseconds(4);
+
+int fail(Service& svc, const std::string& what) {
+  svc.log(LogLevel::Error, what);
+  return 3;
+}
+
+Record record(const Service& svc, double tag, double value, double detail) {
+  Record r{};
+  r.timestamp_ns = static_cast<std::uint64_t>(svc.now().count());
+  r.pressure_pa = tag;
+  r.altitude_m = value;
+  r.temperature_c = detail;
+  return r;
+}
+
+int run_rejuv(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
+  const auto sei_ticks = static_cast<int>(svc.param("sei_ticks", 3));
+  const auto t_mc = std::chrono::milliseconds(static_cast<std::int64_t>(svc.param("t_mc_ms", 40)));
+  int ticks = 0;
+  std::uint64_t cycles = 0;
+  auto timer = svc.every(kTick, [&] {
+    if (svc.mode() == rejuv::SrMode::MC || ++ticks != sei_ticks) return;
+    std::uint64_t cell = 0;
+    if (auto r = svc.invoke("cell", Op::PersistentRead, 0, 8, {}, std::as_writable_bytes(std::span(&cell, 1))); r) {
+      (void)verdicts.publish(record(svc, 2, static_cast<double>(cell), 0));
+    }
+    cycles = cell + 1;
+    (void)svc.invoke("cell", Op::PersistentWrite, 0, 0, std::as_bytes(std::span(&cycles, 1)));
+    std::array<double, 16> limits{};
+    limits.fill(kRestrictedLimit);
+    (void)svc.invoke("limits", Op::LimitsWrite, 0, 0, std::as_bytes(std::span(limits)));
+    auto taken = svc.checkpoint();
+    if (!taken) {
+      svc.logf(LogLevel::Error, "checkpoint: %s", taken.error().to_string().c_str());
+      return;
+    }
+    if (taken->kind == CheckpointOutcome::Kind::Restored) {
+      ticks = 0;  // a new secure interval (RB): checkpoint again after sei_ticks
+      return;
+    }
+    (void)verdicts.publish(record(svc, 3, static_cast<double>(taken->generation.value()), 0));
+    if (auto a = svc.invoke("checkpoint", Op::TimerArm, static_cast<std::uint64_t>(std::chrono::nanoseconds(t_mc).count())); !a) {
+      svc.logf(LogLevel::Error, "arm: %s", a.error().to_string().c_str());
+    }
+    (void)svc.invoke("mode", Op::ModeRequest, rejuv::index_of(rejuv::SrMode::MC));
+  });
+  if (!timer) return fail(svc, "timer: " + timer.error().to_string());
+  return svc.run();
+}
+
+int run_worker(Service& svc) {
+  auto out = svc.advertise<Record>("numbers");
+  if (!out) return fail(svc, "advertise numbers: " + out.error().to_string());
+  double n = 0;
+  auto timer = svc.every(kTick, [&] { (void)out->publish(record(svc, 0, ++n, 0)); });
+  if (!timer) return fail(svc, "timer: " + timer.error().to_string());
+  return svc.run();
+}
+
+int run_driver(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
+  auto outputs = svc.advertise<rejuv_msg_ActuatorOutputs>("actuator_outputs");
+  if (!outputs) return fail(svc, "advertise actuator_outputs: " + outputs.error().to_string());
+  auto numbers = svc.subscribe<Record>("numbers");
+  if (!numbers) return fail(svc, "subscribe numbers: " + numbers.error().to_string());
+  auto timer = svc.every(kTick, [&] {
+    std::array<double, 16> limits{};
+    if (auto r = svc.invoke("limits", Op::LimitsRead, 0, 0, {}, std::as_writable_bytes(std::span(limits))); r && r->data_size > 0) {
+      (void)verdicts.publish(record(svc, 1, limits[0], static_cast<double>(r->data_size)));
+    }
+    rejuv_msg_ActuatorOutputs u{};
+    u.timestamp_ns = static_cast<std::uint64_t>(svc.now().count());
+    for (double& m : u.motor) m = 0.5;
+    (void)outputs->publish(u);
+  });
+  if (!timer) return fail(svc, "timer: " + timer.error().to_string());
+  return svc.run();
+}
+
+}  // namespace
+
+int main() {
+  auto connected = Service::connect();
+  if (!connected) return rejuv::sdk::report_connect_failure(connected.error());
+  Service& s = **connected;
+  const std::string role(s.text_param("role", ""));
+  auto verdicts = s.advertise<Record>("verdicts");
+  if (!verdicts) return fail(s, "advertise verdicts: " + verdicts.error().to_string());
+  // ==== ATTACK HOOKS ====: whatever the launch plan names for this service; every attempt is reported.
+  auto hooks = rejuv::attacks::install(s);
+  if (!s.require(hooks, "bad attack params")) return 1;
+  if (*hooks) {
+    (*hooks)->on_attempt([&](const rejuv::attacks::Attempt& a) {
+      (void)verdicts->publish(record(s, 100.0 + static_cast<double>(a.kind), static_cast<double>(a.code),
+                                     static_cast<double>(a.target)));
+    });
+  }
+  if (role == "rejuv") return run_rejuv(s, *verdicts);
+  if (role == "worker") return run_worker(s);
+  if (role == "driver") return run_driver(s, *verdicts);
+  if (role == "link") return s.run();
+  return fail(s, "unknown role '" + role + "'");
+}

@@ -1,0 +1,98 @@
+#include "rejuv/image/image_store.hpp"
+#include "rejuv/sys/event.hpp"
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <csignal>
+
+namespace rejuv::image {
+namespace {
+
+// A stand-in image: a child that waits for the kernel to kill it or to close its resume socket.
+Image make_image(ServiceId service) {
+  auto pair = sys::SeqPacket::pair();
+  EXPECT_TRUE(pair.has_value());
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    pair->first.close();
+    std::array<std::byte, 64> buf{};
+    (void)pair->second.receive(buf);  // returns when the kernel's end closes
+    ::_exit(0);
+  }
+  pair->second.close();
+  auto child = sys::ChildProcess::adopt(pid);
+  EXPECT_TRUE(child.has_value());
+  return Image{.service = service, .process = std::move(*child), .resume = std::move(pair->first)};
+}
+
+GenerationRecord make_generation(Generation g, std::size_t services) {
+  GenerationRecord r{.g = g, .t_cp = Nanos{static_cast<std::int64_t>(g.value()) * 1000}, .images = {},
+                     .services = {}, .queues = {}};
+  for (std::size_t i = 0; i < services; ++i) {
+    r.images.push_back(make_image(ServiceId(static_cast<std::uint32_t>(i))));
+    r.services.push_back(SavedService{.service = ServiceId(static_cast<std::uint32_t>(i)), .subscriptions = {}, .timers = {}});
+  }
+  return r;
+}
+
+TEST(ImageStore, KeepsTheNewestKGenerationsAndReapsTheRest) {
+  const int fds_before = *sys::count_open_fds();
+  const int children_before = *sys::count_children(::getpid());
+  {
+    ImageStore store(2);
+    std::vector<int> first_pids;
+    for (int k = 0; k < 5; ++k) {
+      const Generation g = store.next_generation();
+      EXPECT_EQ(g.value(), static_cast<std::uint64_t>(k + 1));
+      auto rec = make_generation(g, 3);
+      if (k == 0) {
+        for (const Image& i : rec.images) first_pids.push_back(i.process.pid());
+      }
+      for (GenerationRecord& old : store.commit(std::move(rec))) destroy(old);
+      EXPECT_LE(store.size(), 2U);
+    }
+    EXPECT_EQ(store.generations(), (std::vector<Generation>{Generation{4}, Generation{5}}));
+    EXPECT_EQ(store.image_count(), 6U);
+    EXPECT_EQ(store.image_pids(ServiceId(1)).size(), 2U);
+    for (const int pid : first_pids) EXPECT_FALSE(store.owns(pid));
+    EXPECT_EQ(*sys::count_children(::getpid()), children_before + 6);
+  }
+  EXPECT_EQ(*sys::count_children(::getpid()), children_before);
+  EXPECT_EQ(*sys::count_open_fds(), fds_before);
+}
+
+TEST(ImageStore, FindsADeadImage) {
+  ImageStore store(3);
+  EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 2)).empty());
+  EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 2)).empty());
+  GenerationRecord* newest = store.newest();
+  ASSERT_NE(newest, nullptr);
+  EXPECT_FALSE(newest->dead_image().has_value());
+  ASSERT_TRUE(newest->image_of(ServiceId(1))->process.signal(SIGKILL).has_value());
+  // The pidfd becomes readable once the child is gone.
+  ASSERT_TRUE(sys::wait_fd(newest->image_of(ServiceId(1))->process.pidfd(), sys::WaitFor::Readable,
+                           std::chrono::seconds(5)).has_value());
+  EXPECT_EQ(newest->dead_image(), ServiceId(1));
+  store.discard(newest->g);
+  EXPECT_EQ(store.size(), 1U);
+  EXPECT_EQ(store.newest()->g, Generation{1});
+  EXPECT_FALSE(store.newest()->dead_image().has_value());
+}
+
+TEST(ImageStore, ClosingTheResumeSocketEndsAnImage) {
+  ImageStore store(1);
+  EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 1)).empty());
+  Image* image = store.newest()->image_of(ServiceId(0));
+  image->resume.close();
+  ASSERT_TRUE(sys::wait_fd(image->process.pidfd(), sys::WaitFor::Readable, std::chrono::seconds(5)).has_value());
+  auto status = image->process.try_wait();
+  ASSERT_TRUE(status.has_value());
+  ASSERT_TRUE(status->has_value());
+  EXPECT_EQ((*status)->how, sys::ExitStatus::How::Exited);
+  EXPECT_EQ((*status)->value, 0);
+}
+
+}  // namespace
+}  // namespace rejuv::image
