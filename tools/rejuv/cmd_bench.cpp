@@ -147,6 +147,17 @@ int run_bench(std::span<const std::string_view> args) {
   std::printf("%-14s %10.3f %10.3f   ≈20 ms\n", "checkpoint", cp.p50, cp.max);
   std::printf("%-14s %10.3f %10.3f   ≈15 ms\n", "rollback", rb.p50, rb.max);
   std::printf("%-14s %10.3f %10.3f   (restart-based baseline)\n", "cold restart", cr.p50, cr.max);
+  const auto phase = [](const char* label, const std::vector<double>& v) {
+    const Summary p = summarize(v);
+    std::printf("  %-12s %10.3f %10.3f\n", label, p.p50, p.max);
+  };
+  std::printf("phases:\n");
+  phase("cp: snapshot", sr.checkpoint_phases.a);
+  phase("cp: taken", sr.checkpoint_phases.b);
+  phase("cp: save", sr.checkpoint_phases.c);
+  phase("rb: kill", sr.rollback_phases.a);
+  phase("rb: resume", sr.rollback_phases.b);
+  phase("rb: restore", sr.rollback_phases.c);
   std::printf("ratio cold restart / rollback (p50): %.1fx; cold restart / checkpoint (p50): %.1fx\n",
               rb.p50 > 0 ? cr.p50 / rb.p50 : 0.0, cp.p50 > 0 ? cr.p50 / cp.p50 : 0.0);
   std::printf("targets: checkpoint p50 <= 0.5 ms: %s; rollback p50 <= 0.5 ms: %s\n", cp.p50 <= 0.5 ? "met" : "NOT met",

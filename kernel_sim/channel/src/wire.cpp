@@ -24,6 +24,7 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::BootEnd:
     case FrameKind::TimerFired:
     case FrameKind::Snapshot:
+    case FrameKind::Fork:
     case FrameKind::Shutdown: rule = kEmpty; return true;
     case FrameKind::Publish:
     case FrameKind::Deliver: rule = kMessage; return true;
@@ -31,6 +32,7 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::TimerArm: rule = exactly(sizeof(TimerSpec)); return true;
     case FrameKind::Log: rule = {sizeof(LogHeader), sizeof(LogHeader) + kMaxLogText}; return true;
     case FrameKind::Taken:
+    case FrameKind::Copied:
     case FrameKind::Resumed: rule = exactly(sizeof(TakenBody)); return true;
     case FrameKind::Resume: rule = exactly(sizeof(ResumeBody)); return true;
     case FrameKind::NetDatagram: rule = {1, kMaxDatagramBytes}; return true;
@@ -70,6 +72,8 @@ std::string_view to_string(FrameKind kind) {
     case FrameKind::Shutdown: return "Shutdown";
     case FrameKind::Resume: return "Resume";
     case FrameKind::NetDatagram: return "NetDatagram";
+    case FrameKind::Fork: return "Fork";
+    case FrameKind::Copied: return "Copied";
   }
   return "?";
 }

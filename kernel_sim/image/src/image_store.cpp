@@ -1,6 +1,10 @@
 #include "rejuv/image/image_store.hpp"
 
 #include <algorithm>
+#include <array>
+#include <cerrno>
+
+#include "rejuv/channel/wire.hpp"
 
 #include "rejuv/core/result.hpp"
 
@@ -20,19 +24,49 @@ const SavedService* GenerationRecord::saved(ServiceId service) const {
   return nullptr;
 }
 
+std::size_t Image::refresh() {
+  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
+  while (resume.valid()) {
+    auto got = resume.receive(buf);
+    if (!got || got->closed) break;  // EAGAIN: nothing more
+    auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel);
+    if (!frame || frame->kind != wire::FrameKind::Copied) continue;  // a frozen copy has nothing else to say
+    if (spares_pending > 0) --spares_pending;
+    const pid_t pid = wire::payload_as<wire::TakenBody>(*frame).image_pid;
+    if (pid <= 0) continue;
+    const bool known = std::find(resumed.begin(), resumed.end(), pid) != resumed.end() ||
+                       std::any_of(copies.begin(), copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
+    if (auto child = known ? sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"known", EEXIST}))
+                           : sys::ChildProcess::adopt_child(pid)) {
+      copies.push_back(std::move(*child));
+    }
+  }
+  std::erase_if(copies, [](sys::ChildProcess& c) {
+    if (!c.running()) return true;
+    auto status = c.try_wait();
+    return !status || status->has_value();
+  });
+  return copies.size();
+}
+
+bool Image::request_spare(Generation g) {
+  wire::FrameBuffer tx;
+  if (!tx.build(wire::FrameKind::Fork, 0, 0, g.value()) || !resume.send(tx.bytes())) return false;
+  ++spares_pending;
+  return true;
+}
+
 std::optional<ServiceId> GenerationRecord::dead_image() {
   for (Image& i : images) {
-    if (!i.process.running()) return i.service;
-    auto status = i.process.try_wait();
-    if (!status || *status) return i.service;
+    if (i.refresh() == 0) return i.service;
   }
   return std::nullopt;
 }
 
 void destroy(GenerationRecord& record) {
   for (Image& i : record.images) {
-    i.resume.close();  // an image blocked on it exits by itself; the kill makes sure
-    i.process.kill_and_reap();
+    i.resume.close();  // a copy blocked on it exits by itself; the kill makes sure
+    for (sys::ChildProcess& c : i.copies) c.kill_and_reap();
   }
   record.images.clear();
 }
@@ -53,14 +87,21 @@ std::vector<GenerationRecord> ImageStore::commit(GenerationRecord record) {
 
 GenerationRecord* ImageStore::newest() { return generations_.empty() ? nullptr : &generations_.back(); }
 
-void ImageStore::discard(Generation g) {
+std::optional<GenerationRecord> ImageStore::take(Generation g) {
   for (auto it = generations_.begin(); it != generations_.end(); ++it) {
     if (it->g == g) {
-      destroy(*it);
+      GenerationRecord out = std::move(*it);
       generations_.erase(it);
-      return;
+      return out;
     }
   }
+  return std::nullopt;
+}
+
+std::vector<GenerationRecord> ImageStore::take_all() {
+  std::vector<GenerationRecord> out = std::move(generations_);
+  generations_.clear();
+  return out;
 }
 
 void ImageStore::clear() {
@@ -71,6 +112,20 @@ void ImageStore::clear() {
 std::size_t ImageStore::image_count() const {
   std::size_t n = 0;
   for (const GenerationRecord& r : generations_) n += r.images.size();
+  return n;
+}
+
+void ImageStore::refresh_all() {
+  for (GenerationRecord& r : generations_) {
+    for (Image& i : r.images) (void)i.refresh();
+  }
+}
+
+std::size_t ImageStore::spares_pending() const {
+  std::size_t n = 0;
+  for (const GenerationRecord& r : generations_) {
+    for (const Image& i : r.images) n += i.copies.empty() ? 0 : i.spares_pending;
+  }
   return n;
 }
 
@@ -85,7 +140,20 @@ std::vector<int> ImageStore::image_pids(ServiceId service) const {
   std::vector<int> out;
   for (const GenerationRecord& r : generations_) {
     for (const Image& i : r.images) {
-      if (i.service == service) out.push_back(i.process.pid());
+      if (i.service != service) continue;
+      for (const sys::ChildProcess& c : i.copies) out.push_back(c.pid());
+    }
+  }
+  return out;
+}
+
+std::vector<int> ImageStore::image_pids(ServiceId service, Generation g) const {
+  std::vector<int> out;
+  for (const GenerationRecord& r : generations_) {
+    if (r.g != g) continue;
+    for (const Image& i : r.images) {
+      if (i.service != service) continue;
+      for (const sys::ChildProcess& c : i.copies) out.push_back(c.pid());
     }
   }
   return out;
@@ -93,7 +161,9 @@ std::vector<int> ImageStore::image_pids(ServiceId service) const {
 
 bool ImageStore::owns(int pid) const {
   return std::any_of(generations_.begin(), generations_.end(), [&](const GenerationRecord& r) {
-    return std::any_of(r.images.begin(), r.images.end(), [&](const Image& i) { return i.process.pid() == pid; });
+    return std::any_of(r.images.begin(), r.images.end(), [&](const Image& i) {
+      return std::any_of(i.copies.begin(), i.copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
+    });
   });
 }
 

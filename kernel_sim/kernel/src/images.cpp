@@ -53,15 +53,74 @@ void Kernel::Impl::set_mode(SrMode mode) {
   publish_sr_mode();
 }
 
+// ---- socket pairs made ahead ----
+
+std::optional<std::pair<sys::SeqPacket, sys::SeqPacket>> Kernel::Impl::take_pair() {
+  if (!pair_pool.empty()) {
+    auto pair = std::move(pair_pool.back());
+    pair_pool.pop_back();
+    return pair;
+  }
+  auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
+  if (!pair || !sys::set_nonblocking(pair->first.fd(), true)) return std::nullopt;
+  return std::move(*pair);
+}
+
+void Kernel::Impl::refill_pairs() {
+  closing.clear();
+  // One checkpoint or one rollback of every rejuvenated service.
+  const std::size_t want = static_cast<std::size_t>(
+      std::count_if(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.rejuvenate && !s.skip; }));
+  while (pair_pool.size() < want) {
+    auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
+    if (!pair || !sys::set_nonblocking(pair->first.fd(), true)) return;
+    pair_pool.push_back(std::move(*pair));
+  }
+}
+
+// ---- retired generations ----
+
+void Kernel::Impl::retire(image::GenerationRecord record) {
+  retiring.push_back(std::move(record));
+  finish_retiring(false);
+}
+
+void Kernel::Impl::finish_retiring(bool final) {
+  const Nanos deadline = wall() + std::chrono::milliseconds{final ? 200 : 0};
+  do {
+    std::erase_if(retiring, [&](image::GenerationRecord& r) {
+      bool settled = true;
+      for (image::Image& im : r.images) {
+        if (im.refresh() > 0 && im.spares_pending > 0) settled = false;
+      }
+      if (!settled) return false;
+      for (image::Image& im : r.images) {  // killed now, reaped off the critical path (service_images)
+        im.resume.close();
+        for (sys::ChildProcess& c : im.copies) {
+          (void)c.signal(SIGKILL);
+          reaping.push_back(std::move(c));
+        }
+      }
+      return true;
+    });
+  } while (final && !retiring.empty() && wall() < deadline);
+  if (final) {
+    for (image::GenerationRecord& r : retiring) image::destroy(r);
+    retiring.clear();
+  }
+}
+
 // ---- safe points ----
 
 bool Kernel::Impl::service_images() {
   // Killed incarnations of earlier rollbacks: reaped here, off the rollback's critical path.
+  if (!retiring.empty()) finish_retiring(false);
   std::erase_if(reaping, [](sys::ChildProcess& p) {
     auto status = p.try_wait();
     return !status || *status;
   });
   if (!sr || stopping || checkpoint) return false;
+  if (!rollback_request && !checkpoint_request) refill_pairs();  // off the critical paths
   if (rollback_request) {
     const std::string reason = std::move(*rollback_request);
     rollback_request.reset();
@@ -98,9 +157,9 @@ void Kernel::Impl::run_checkpoint() {
   flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   for (ServiceRuntime& s : services) {
     if (!s.rejuvenate || s.phase != Phase::Ready) continue;
-    auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
+    auto pair = take_pair();
     if (!pair) {
-      run.failure = "resume socket: " + pair.error().to_string();
+      run.failure = "resume socket: out of fds?";
       break;
     }
     const int image_end = pair->second.fd();
@@ -110,10 +169,12 @@ void Kernel::Impl::run_checkpoint() {
       break;
     }
     ++s.stats.frames_out;
-    run.record.images.push_back(image::Image{.service = s.id, .process = {}, .resume = std::move(pair->first)});
+    closing.push_back(pair->second.take_fd());
+    run.record.images.push_back(image::Image{.service = s.id, .copies = {}, .resume = std::move(pair->first)});
     run.waiting.push_back(s.id);
   }
   checkpoint = std::move(run);
+  const Nanos t_sent = wall();
   // Every other event is handled meanwhile (pump); Taken frames come through handle_frame → on_taken.
   const Nanos deadline = wall() + options.snapshot_deadline;
   bool late = false;
@@ -150,6 +211,7 @@ void Kernel::Impl::run_checkpoint() {
     answer(op_code(wire::OpError::Refused), 0);
     return;
   }
+  const Nanos t_taken = wall();
   flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
   const std::vector<clock::KernelTimer> armed = timers.armed();
   for (const image::Image& im : done.record.images) {
@@ -162,13 +224,8 @@ void Kernel::Impl::run_checkpoint() {
   }
   broker.snapshot_into(done.record.queues);
   if (observer != nullptr) observer->on_checkpoint(g, broker);
-  for (image::GenerationRecord& old : images.commit(std::move(done.record))) {
-    for (image::Image& im : old.images) {  // killed now, reaped off the critical path (service_images)
-      im.resume.close();
-      (void)im.process.signal(SIGKILL);
-      reaping.push_back(std::move(im.process));
-    }
-  }
+  std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
+  const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
   routing_frozen = false;
   for (ServiceRuntime& s : services) {
     if (s.live()) {
@@ -177,7 +234,12 @@ void Kernel::Impl::run_checkpoint() {
     }
   }
   answer(0, g.value());
-  const Nanos took = wall() - t0;
+  for (image::GenerationRecord& old : evicted) retire(std::move(old));
+  const Nanos took = t_saved - t0;
+  sr_stats.checkpoint_phases.a.push_back(to_ms(t_sent - t0));
+  sr_stats.checkpoint_phases.b.push_back(to_ms(t_taken - t_sent));
+  sr_stats.checkpoint_phases.c.push_back(to_ms(t_saved - t_taken));
+  for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
   ++sr_stats.checkpoints;
   sr_stats.checkpoint_ms.push_back(to_ms(took));
   charge += took;
@@ -211,8 +273,10 @@ void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
                      std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& o) {
                        return o.process.pid() == pid;
                      }) ||
-                     std::any_of(run.record.images.begin(), run.record.images.end(),
-                                 [&](const image::Image& i) { return i.process.pid() == pid; });
+                     std::any_of(run.record.images.begin(), run.record.images.end(), [&](const image::Image& i) {
+                       return std::any_of(i.copies.begin(), i.copies.end(),
+                                          [&](const sys::ChildProcess& c) { return c.pid() == pid; });
+                     });
   auto child = known ? sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"known pid", EEXIST}))
                      : sys::ChildProcess::adopt_child(pid);
   if (!child) {
@@ -220,7 +284,7 @@ void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
                   child.error().to_string() + ")";
     return;
   }
-  run.record.image_of(s.id)->process = std::move(*child);
+  run.record.image_of(s.id)->copies.push_back(std::move(*child));
 }
 
 // ---- rollback ----
@@ -257,36 +321,35 @@ void Kernel::Impl::retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying
   }
 }
 
-bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::string& failure) {
+bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::string& failure, Nanos& resumed_at) {
   const Epoch next{time_page.current().epoch.value() + 1};
   struct Pending {
     ServiceRuntime* service = nullptr;
     image::Image* image = nullptr;
-    sys::SeqPacket channel{};      // the kernel's end of the new channel
-    sys::SeqPacket next_resume{};  // the kernel's end of the next frozen copy's resume socket
+    sys::SeqPacket channel{};  // the kernel's end of the new channel
   };
   std::vector<Pending> pending;
   pending.reserve(record.images.size());
-  // All Resumes first: the images fork their copies in parallel.
+  // All Resumes first: the images wake in parallel. No fork here: a spare copy takes the Resume.
   for (image::Image& im : record.images) {
-    auto channel = sys::SeqPacket::pair(sys::Blocking::Yes);
-    auto resume = sys::SeqPacket::pair(sys::Blocking::Yes);
-    if (!channel || !resume || !sys::set_nonblocking(channel->first.fd(), true)) {
+    ServiceRuntime& s = services[im.service.value()];
+    auto channel = take_pair();
+    if (!channel) {
       failure = "channel for a restored image: out of fds?";
       break;
     }
     const wire::ResumeBody body{.epoch = next.value(), .reserved = 0};
     if (!tx.build_with(wire::FrameKind::Resume, 0, 0, record.g.value(), body)) break;
-    const std::array<int, 2> fds{channel->second.fd(), resume->second.fd()};
-    if (auto sent = im.resume.send(tx.bytes(), fds); !sent) {
-      failure = "Resume to the image of '" + services[im.service.value()].name + "': " + sent.error().to_string();
+    const int service_end = channel->second.fd();
+    if (auto sent = im.resume.send(tx.bytes(), std::span(&service_end, 1)); !sent) {
+      failure = "Resume to the image of '" + s.name + "': " + sent.error().to_string();
       break;
     }
-    pending.push_back(Pending{.service = &services[im.service.value()], .image = &im,
-                              .channel = std::move(channel->first), .next_resume = std::move(resume->first)});
+    closing.push_back(channel->second.take_fd());
+    pending.push_back(Pending{.service = &s, .image = &im, .channel = std::move(channel->first)});
   }
   // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
-  // (on a failure the caller retires it again), its next frozen copy replaces the image in the record.
+  // (on a failure the caller retires it again).
   const Nanos deadline = wall() + options.resume_deadline;
   std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
   for (Pending& p : pending) {
@@ -296,18 +359,22 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
     auto got = ready && *ready ? p.channel.receive(buf) : sys::SysResult<sys::Received>(std::unexpected(sys::SysError{"wait", ETIMEDOUT}));
     auto frame = got && !got->closed ? wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel)
                                      : Result<wire::FrameView, wire::FrameError>(std::unexpected(wire::FrameError::TooShort));
-    if (!frame || frame->kind != wire::FrameKind::Resumed || frame->header.aux != record.g.value()) {
+    const pid_t pid = frame && frame->kind == wire::FrameKind::Resumed && frame->header.aux == record.g.value()
+                          ? wire::payload_as<wire::TakenBody>(*frame).image_pid
+                          : 0;
+    auto copy = std::find_if(p.image->copies.begin(), p.image->copies.end(),
+                             [&](const sys::ChildProcess& c) { return pid > 0 && c.pid() == pid; });
+    if (copy != p.image->copies.end()) {
+      s.process = std::move(*copy);  // the copy is now the live service
+      p.image->copies.erase(copy);
+    } else if (auto spare = pid > 0 ? sys::ChildProcess::adopt_child(pid)
+                                    : sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"Resumed", EPROTO}))) {
+      s.process = std::move(*spare);  // a spare whose Copied is still on its way took the Resume
+    } else {
       if (failure.empty()) failure = "no Resumed from the image of '" + s.name + "' within the resume deadline";
-      continue;  // its image is killed with the generation
+      continue;  // its copies are killed with the generation
     }
-    const pid_t copy = wire::payload_as<wire::TakenBody>(*frame).image_pid;
-    s.process = std::move(p.image->process);  // the image is now the live service
-    p.image->process = sys::ChildProcess{};
-    p.image->resume = std::move(p.next_resume);
-    if (copy > 0) {
-      if (auto adopted = sys::ChildProcess::adopt_child(copy); adopted) p.image->process = std::move(*adopted);
-    }
-    // (no copy: the generation has no image of this service any more; the next rollback falls back)
+    p.image->resumed.push_back(pid);
     s.channel = std::move(p.channel);
     s.phase = Phase::Ready;
     s.frames_base = s.stats.frames_out;
@@ -318,6 +385,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
   }
   if (pending.size() != record.images.size() && failure.empty()) failure = "not every image could be resumed";
   if (!failure.empty()) return false;
+  resumed_at = wall();
   if (auto restored = broker.restore(record.queues); !restored) {
     failure = "queue state: " + std::string(broker::to_string(restored.error()));
     return false;
@@ -338,22 +406,33 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
 
 void Kernel::Impl::run_rollback(const std::string& reason) {
   const Nanos t0 = wall();
-  set_mode(SrMode::RB);  // the network is revoked before anything else happens
+  // A checkpoint asked for by an incarnation that is about to die is void: nobody waits for its answer.
+  if (checkpoint_request && checkpoint_request->first && services[checkpoint_request->first->value()].rejuvenate) {
+    checkpoint_request.reset();
+  }
+  // The network is revoked before anything else happens; sr_mode is published once the services are back
+  // (the ones about to die need not be woken for it).
+  if (auto changed = caps.apply_mode(SrMode::RB); !changed) {
+    log("mode RB: %s", std::string(cap::to_string(changed.error())).c_str());
+  }
+  time_page.write(clock::TimeSample{.now = now(), .mode = SrMode::RB, .epoch = time_page.current().epoch});
   std::vector<sys::ChildProcess> dying;
   retire_live_rejuvenated(dying);
+  const Nanos t_killed = wall();
+  Nanos t_resumed = t_killed;
   image::GenerationRecord* restored = nullptr;
   while (image::GenerationRecord* record = images.newest()) {
     std::string failure;
     if (const auto dead = record->dead_image()) {
       failure = "the image of '" + services[dead->value()].name + "' is gone";
-    } else if (resume_generation(*record, failure)) {
+    } else if (resume_generation(*record, failure, t_resumed)) {
       restored = record;
       break;
     }
     log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
     ++sr_stats.fallbacks;
     retire_live_rejuvenated(dying);  // whatever of it was resumed
-    images.discard(record->g);
+    if (auto taken = images.take(record->g)) retire(std::move(*taken));
   }
   for (sys::ChildProcess& p : dying) reaping.push_back(std::move(p));
   if (restored == nullptr) {
@@ -378,6 +457,10 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     }
   }
   const Nanos took = wall() - t0;
+  sr_stats.rollback_phases.a.push_back(to_ms(t_killed - t0));
+  sr_stats.rollback_phases.b.push_back(to_ms(t_resumed - t_killed));
+  sr_stats.rollback_phases.c.push_back(to_ms(t0 + took - t_resumed));
+  for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
   ++sr_stats.rollbacks;
   sr_stats.rollback_ms.push_back(to_ms(took));
   charge += took;
@@ -390,7 +473,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
 void Kernel::Impl::cold_restart(const std::string& reason) {
   log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats.cold_restarts;
-  images.clear();
+  for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   std::vector<sys::ChildProcess> dying;
   retire_live_rejuvenated(dying);
   for (sys::ChildProcess& p : dying) reaping.push_back(std::move(p));

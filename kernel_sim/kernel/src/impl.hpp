@@ -217,6 +217,9 @@ struct Kernel::Impl {
   bool watching_samples = false;
   std::uint32_t rounds = 0;
   Nanos step_started_wall{0};
+  Nanos last_step_done_wall{0};      // lockstep with the plant: for the stall report (supervisor.cpp)
+  bool stall_reported = false;
+  void report_stall();
   std::vector<ServiceId> hung_this_step;
   std::uint64_t steps_done = 0;
   std::uint64_t next_manual_step = 0;
@@ -249,6 +252,17 @@ struct Kernel::Impl {
   SrStats sr_stats{};
   Nanos charge{0};                          // real time of checkpoints/rollbacks in this lockstep step
   std::vector<sys::ChildProcess> reaping;   // incarnations killed by a rollback, reaped at the next safe point
+  // Socket pairs made ahead (kernel end non-blocking), so that no socketpair() is on the critical path of
+  // a checkpoint (resume sockets) or a rollback (channels); refilled at safe points.
+  std::vector<std::pair<sys::SeqPacket, sys::SeqPacket>> pair_pool;
+  std::vector<sys::UniqueFd> closing;       // service ends already passed on: closed after the timed part
+  // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
+  // be unknown children): destroyed once they have (images.cpp, service_images).
+  std::vector<image::GenerationRecord> retiring;
+  void retire(image::GenerationRecord record);
+  void finish_retiring(bool final);
+  [[nodiscard]] std::optional<std::pair<sys::SeqPacket, sys::SeqPacket>> take_pair();
+  void refill_pairs();
 
   // ---- run state ----
   bool booted = false;
@@ -307,7 +321,7 @@ struct Kernel::Impl {
   void request_rollback(std::string reason);
   void run_rollback(const std::string& reason);
   // Resumes every image of `record`; false (and everything resumed killed again) if one fails.
-  bool resume_generation(image::GenerationRecord& record, std::string& failure);
+  bool resume_generation(image::GenerationRecord& record, std::string& failure, Nanos& resumed_at);
   void cold_restart(const std::string& reason);
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
   [[nodiscard]] Result<void, KernelError> settle_images();

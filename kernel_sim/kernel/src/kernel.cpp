@@ -505,6 +505,7 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
     if (s.live() && s.channel_closed_at) consider(*s.channel_closed_at + kChannelCloseGrace);
   }
   if (active_step) consider(step_started_wall + options.idle_deadline);
+  if (plant_started && !stall_reported && last_step_done_wall > Nanos{0}) consider(last_step_done_wall + std::chrono::seconds{3});
   return best;
 }
 
@@ -570,6 +571,8 @@ void Kernel::Impl::finish_step() {
     }
   }
   charge = Nanos{0};
+  last_step_done_wall = wall();
+  stall_reported = false;
   if (observer != nullptr) observer->on_step(step.step, step.t, caps.mode());
   check_stop_conditions();
 }
@@ -779,7 +782,29 @@ Result<void, KernelError> Kernel::rollback_now(bool cold) {
   return k.settle_images();
 }
 Epoch Kernel::epoch() const { return impl_->time_page.current().epoch; }
-std::vector<int> Kernel::image_pids(ServiceId service) const { return impl_->images.image_pids(service); }
+void Kernel::settle_images() {
+  Impl& k = *impl_;
+  const Nanos deadline = k.wall() + std::chrono::milliseconds{500};
+  for (;;) {
+    k.images.refresh_all();
+    k.finish_retiring(false);
+    bool pending = !k.retiring.empty();
+    if (k.images.spares_pending() > 0) pending = true;
+    if (!pending || k.wall() > deadline) break;
+    (void)sys::wait_fd(k.epoll.fd(), sys::WaitFor::Readable, std::chrono::milliseconds{1});
+  }
+  for (sys::ChildProcess& p : k.reaping) p.kill_and_reap();
+  k.reaping.clear();
+}
+
+std::vector<int> Kernel::image_pids(ServiceId service) {
+  impl_->images.refresh_all();
+  return impl_->images.image_pids(service);
+}
+std::vector<int> Kernel::image_pids(ServiceId service, Generation g) {
+  impl_->images.refresh_all();
+  return impl_->images.image_pids(service, g);
+}
 std::vector<Generation> Kernel::generations() const { return impl_->images.generations(); }
 
 std::optional<ServiceId> Kernel::find_service(std::string_view name) const {

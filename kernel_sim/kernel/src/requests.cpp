@@ -132,8 +132,10 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       on_taken(s, f);  // images.cpp
       return;
     case wire::FrameKind::Resumed:
-      // Read by the rollback itself on the new channel (images.cpp); anywhere else it is a lie.
-      refuse(s, "Resumed outside a rollback");
+    case wire::FrameKind::Copied:
+      // Read by the image store itself (Resumed on a new channel, Copied on a resume socket; images.cpp);
+      // on a service's channel it is a lie.
+      refuse(s, std::string(wire::to_string(f.kind)) + " on a service channel");
       return;
     case wire::FrameKind::Boot:
     case wire::FrameKind::BootCap:
@@ -147,6 +149,7 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Shutdown:
     case wire::FrameKind::Resume:
     case wire::FrameKind::NetDatagram:
+    case wire::FrameKind::Fork:
       refuse(s, "kernel-to-service frame kind");  // decode(ToKernel) already refuses these
       return;
   }

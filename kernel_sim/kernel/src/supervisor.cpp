@@ -263,8 +263,38 @@ void Kernel::Impl::on_plant_exit() {
   stop_run(StopReason::PlantExited, "the plant " + (**status).to_string());
 }
 
+// Lockstep with the plant: no step has completed for a while. Says what the kernel is waiting for (a step's
+// samples, an idle service, a checkpoint's quiescence) once per stall, so that a hang is never silent.
+void Kernel::Impl::report_stall() {
+  stall_reported = true;
+  std::string what;
+  if (!active_step) {
+    what = pending_steps.empty() ? "no SimStep from the plant"
+                                 : "step " + std::to_string(pending_steps.front().step) + " waits for samples: " +
+                                       std::to_string(samples_received) + " of " +
+                                       std::to_string(pending_steps.front().samples_needed);
+  } else {
+    what = "step " + std::to_string(active_step->step) + " in round " + std::to_string(rounds);
+    for (const ServiceRuntime& s : services) {
+      if (!s.live() || s.idle()) continue;
+      what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.phase)) + ", idle " +
+              std::to_string(s.idle_count + s.frames_base) + "/" + std::to_string(s.stats.frames_out) +
+              (s.has_held ? ", held" : "") + (s.outq.empty() ? "" : ", queued " + std::to_string(s.outq.size())) +
+              (s.sweep ? ", sweep" : "") + ")";
+    }
+    if (checkpoint_request) what += "; a checkpoint waits for quiescence";
+    if (rollback_request) what += "; a rollback is pending";
+    if (!staged.empty()) what += "; " + std::to_string(staged.size()) + " staged";
+  }
+  log("no lockstep step completed for %.1f s: %s", to_seconds(wall() - last_step_done_wall).count(), what.c_str());
+}
+
 void Kernel::Impl::check_deadlines() {
   const Nanos t = wall();
+  if (plant_started && clock_mode == ClockMode::Lockstep && !stall_reported && last_step_done_wall > Nanos{0} &&
+      t - last_step_done_wall > std::chrono::seconds{3}) {
+    report_stall();
+  }
   for (ServiceRuntime& s : services) {
     if ((s.phase == Phase::Spawned || s.phase == Phase::Booted) && t - s.spawned_at > options.boot_deadline) {
       kill_hung(s, "not Ready within the boot deadline (" + std::to_string(to_seconds(options.boot_deadline).count()) + " s)");
@@ -328,7 +358,8 @@ void Kernel::Impl::shutdown_all() {
     plant.kill_and_reap();
   }
   // Every image and every killed incarnation (DESIGN §7): killed and reaped.
-  images.clear();
+  for (image::GenerationRecord& r : images.take_all()) retiring.push_back(std::move(r));
+  finish_retiring(true);
   for (sys::ChildProcess& p : reaping) p.kill_and_reap();
   reaping.clear();
   // Close every fd the run opened: DDS (participant, sockets, threads), the timerfd.

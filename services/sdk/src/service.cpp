@@ -288,41 +288,40 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g) {
   return false;
 }
 
-// The frozen image: blocks on its resume socket until the kernel sends Resume{g, epoch} with a new channel
-// and the resume socket of the next frozen copy. It forks that copy first (so g can be restored again),
-// then takes the new channel at fd 3 and continues as the live service. The kernel closing the resume
-// socket (generation discarded) or killing it ends the image.
+// The frozen image (DESIGN §7): blocks on its resume socket, which every frozen copy of g of this service
+// shares. `Fork`: one copy forks a spare (g stays restorable after it is resumed) and answers `Copied{pid}`.
+// `Resume{g, epoch}` with a new channel: the copy that reads it takes the channel at fd 3, answers
+// `Resumed{g, its pid}` and continues as the live service. The kernel closing the socket (generation
+// discarded) or killing the copy ends it.
 bool Service::Impl::become_image(std::uint64_t g, sys::UniqueFd resume_fd) {
   (void)sys::make_non_dumpable();
   sys::SeqPacket resume(std::move(resume_fd));
   (void)sys::set_nonblocking(resume.fd(), false);
   std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::ResumeBody)> buf{};
   for (;;) {
-    auto got = resume.receive(buf, 2);
+    auto got = resume.receive(buf, 1);
     if (!got || got->closed) std::_Exit(0);
     auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToService);
-    if (!frame || frame->kind != wire::FrameKind::Resume || frame->header.aux != g || got->fds.size() != 2) {
-      std::_Exit(3);  // the kernel is trusted: anything else here is a broken kernel
-    }
-    const auto body = wire::payload_as<wire::ResumeBody>(*frame);
-    auto copy = sys::fork_sibling();
-    if (copy && *copy == 0) {
-      resume = sys::SeqPacket(std::move(got->fds[1]));  // the next frozen copy of g
-      (void)sys::set_nonblocking(resume.fd(), false);
+    if (!frame || frame->header.aux != g) std::_Exit(3);  // the kernel is trusted: this is a broken kernel
+    if (frame->kind == wire::FrameKind::Fork) {
+      auto copy = sys::fork_sibling();
+      if (copy && *copy == 0) continue;  // the spare: frozen like us
+      const wire::TakenBody body{.image_pid = copy ? *copy : 0, .reserved = 0};
+      if (tx.build_with(wire::FrameKind::Copied, 0, 0, g, body)) (void)resume.send(tx.bytes());
       continue;
     }
+    if (frame->kind != wire::FrameKind::Resume || got->fds.size() != 1) std::_Exit(3);
+    const auto body = wire::payload_as<wire::ResumeBody>(*frame);
     resume.close();
-    if (!sys::install_fd(std::move(got->fds[0]), wire::kChannelFd) ||
-        !sys::set_nonblocking(wire::kChannelFd, true)) {
+    if (!sys::install_fd(std::move(got->fds[0]), wire::kChannelFd) || !sys::set_nonblocking(wire::kChannelFd, true)) {
       std::_Exit(3);
     }
-    got->fds[1].reset();
     frames_received = 0;  // Idle counts frames on this channel (docs/protocol.md "Idle")
     idle_reported = 0;
     restored = CheckpointOutcome{.kind = CheckpointOutcome::Kind::Restored, .generation = Generation{g},
                                  .epoch = Epoch{body.epoch}};
     if (workers != nullptr) workers = WorkerSet::respawn_in_image(workers);
-    const wire::TakenBody answer{.image_pid = copy ? *copy : 0, .reserved = 0};
+    const wire::TakenBody answer{.image_pid = sys::current_pid(), .reserved = 0};
     if (!tx.build_with(wire::FrameKind::Resumed, 0, 0, g, answer) || !send_built() || !flush()) std::_Exit(3);
     return true;
   }
@@ -744,6 +743,7 @@ int Service::run() {
       case wire::FrameKind::BootParam:
       case wire::FrameKind::BootEnd:
       case wire::FrameKind::Resume:       // only ever on an image's resume socket
+      case wire::FrameKind::Fork:
         ++s.bad_frames;
         break;
       case wire::FrameKind::NetDatagram: {  // network gate (docs/protocol.md): slot = our Network cap
@@ -769,6 +769,7 @@ int Service::run() {
       case wire::FrameKind::Ready:
       case wire::FrameKind::Taken:
       case wire::FrameKind::Resumed:
+      case wire::FrameKind::Copied:
         ++s.bad_frames;  // decode() refuses service → kernel kinds here; unreachable
         break;
     }

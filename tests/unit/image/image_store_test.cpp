@@ -24,7 +24,10 @@ Image make_image(ServiceId service) {
   pair->second.close();
   auto child = sys::ChildProcess::adopt(pid);
   EXPECT_TRUE(child.has_value());
-  return Image{.service = service, .process = std::move(*child), .resume = std::move(pair->first)};
+  EXPECT_TRUE(sys::set_nonblocking(pair->first.fd(), true).has_value());
+  Image image{.service = service, .copies = {}, .resume = std::move(pair->first)};
+  image.copies.push_back(std::move(*child));
+  return image;
 }
 
 GenerationRecord make_generation(Generation g, std::size_t services) {
@@ -48,7 +51,7 @@ TEST(ImageStore, KeepsTheNewestKGenerationsAndReapsTheRest) {
       EXPECT_EQ(g.value(), static_cast<std::uint64_t>(k + 1));
       auto rec = make_generation(g, 3);
       if (k == 0) {
-        for (const Image& i : rec.images) first_pids.push_back(i.process.pid());
+        for (const Image& i : rec.images) first_pids.push_back(i.copies.front().pid());
       }
       for (GenerationRecord& old : store.commit(std::move(rec))) destroy(old);
       EXPECT_LE(store.size(), 2U);
@@ -70,12 +73,14 @@ TEST(ImageStore, FindsADeadImage) {
   GenerationRecord* newest = store.newest();
   ASSERT_NE(newest, nullptr);
   EXPECT_FALSE(newest->dead_image().has_value());
-  ASSERT_TRUE(newest->image_of(ServiceId(1))->process.signal(SIGKILL).has_value());
+  sys::ChildProcess& copy = newest->image_of(ServiceId(1))->copies.front();
+  ASSERT_TRUE(copy.signal(SIGKILL).has_value());
   // The pidfd becomes readable once the child is gone.
-  ASSERT_TRUE(sys::wait_fd(newest->image_of(ServiceId(1))->process.pidfd(), sys::WaitFor::Readable,
-                           std::chrono::seconds(5)).has_value());
+  ASSERT_TRUE(sys::wait_fd(copy.pidfd(), sys::WaitFor::Readable, std::chrono::seconds(5)).has_value());
   EXPECT_EQ(newest->dead_image(), ServiceId(1));
-  store.discard(newest->g);
+  auto taken = store.take(newest->g);
+  ASSERT_TRUE(taken.has_value());
+  destroy(*taken);
   EXPECT_EQ(store.size(), 1U);
   EXPECT_EQ(store.newest()->g, Generation{1});
   EXPECT_FALSE(store.newest()->dead_image().has_value());
@@ -86,8 +91,9 @@ TEST(ImageStore, ClosingTheResumeSocketEndsAnImage) {
   EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 1)).empty());
   Image* image = store.newest()->image_of(ServiceId(0));
   image->resume.close();
-  ASSERT_TRUE(sys::wait_fd(image->process.pidfd(), sys::WaitFor::Readable, std::chrono::seconds(5)).has_value());
-  auto status = image->process.try_wait();
+  sys::ChildProcess& copy = image->copies.front();
+  ASSERT_TRUE(sys::wait_fd(copy.pidfd(), sys::WaitFor::Readable, std::chrono::seconds(5)).has_value());
+  auto status = copy.try_wait();
   ASSERT_TRUE(status.has_value());
   ASSERT_TRUE(status->has_value());
   EXPECT_EQ((*status)->how, sys::ExitStatus::How::Exited);

@@ -38,7 +38,8 @@ enum class FrameKind : std::uint16_t {
   Ready = 9,        // boot done (subscriptions and timers made): the graph may start
   Taken = 10,       // checkpoint (DESIGN §7): aux = generation; payload = TakenBody
   Resumed = 11,     // a restored image is live on its new channel: aux = generation; payload = TakenBody
-                    // (the pid of the new frozen copy of g it forked first)
+                    // (its own pid: which of g's frozen copies took the Resume)
+  Copied = 12,      // on a resume socket: a frozen image forked a spare copy (Fork): aux = g; payload = TakenBody
   // ---- kernel → service ----
   Boot = 100,       // payload = BootHeader; then BootCap × cap_count, BootParam × param_count, BootEnd
   BootCap = 101,    // payload = BootCap
@@ -51,8 +52,9 @@ enum class FrameKind : std::uint16_t {
   RollbackSignal = 114,  // aux = generation restored; payload = RollbackBody
   Shutdown = 115,
   Resume = 116,     // on an image's resume socket (DESIGN §7): aux = generation; payload = ResumeBody;
-                    // carries two fds: the new channel, then the resume socket of the new frozen copy
+                    // carries one fd: the new channel
   NetDatagram = 117,  // network gate (DESIGN §2): slot = the Network cap; payload = one datagram as received
+  Fork = 118,       // on a resume socket: one of g's frozen copies forks a spare and answers Copied
 };
 
 [[nodiscard]] std::string_view to_string(FrameKind kind);

@@ -43,11 +43,21 @@ struct SavedService {
   std::vector<clock::KernelTimer> timers{};
 };
 
-// One service's frozen image of a generation.
+// One service's frozen image of a generation: the process the service forked at the cut and the spares it
+// forked in turn (Fork/Copied), all blocked on one shared resume socket. A rollback resumes one of them
+// (whichever reads the Resume) and asks a survivor for a new spare, so no fork is on the rollback's
+// critical path and g stays restorable.
 struct Image {
   ServiceId service{};
-  sys::ChildProcess process{};  // the kernel's child; killed and reaped when the generation goes
-  sys::SeqPacket resume{};      // the kernel's end of the image's resume socket
+  std::vector<sys::ChildProcess> copies{};  // the kernel's children; killed and reaped when the generation goes
+  sys::SeqPacket resume{};                  // the kernel's end of the shared resume socket (non-blocking)
+  std::size_t spares_pending = 0;           // Fork sent, Copied not read yet
+  std::vector<int> resumed{};               // copies that became live services: never adopted as copies again
+  // Reads the Copied answers that have arrived (adopting each new spare) and drops the copies that died.
+  // Returns how many copies are alive.
+  std::size_t refresh();
+  // Asks one copy of generation g for a spare (answered by Copied, read by refresh()).
+  bool request_spare(Generation g);
 };
 
 struct GenerationRecord {
@@ -59,7 +69,7 @@ struct GenerationRecord {
 
   [[nodiscard]] Image* image_of(ServiceId service);
   [[nodiscard]] const SavedService* saved(ServiceId service) const;
-  // The first image that is no longer running (reaped here), if any: the generation is broken.
+  // The first service none of whose copies still runs, if any: the generation is broken.
   [[nodiscard]] std::optional<ServiceId> dead_image();
 };
 
@@ -81,15 +91,20 @@ class ImageStore {
   [[nodiscard]] std::vector<GenerationRecord> commit(GenerationRecord record);
   // The newest generation, or nullptr.
   [[nodiscard]] GenerationRecord* newest();
-  // Discards a generation (kills and reaps its images). Unknown g: nothing.
-  void discard(Generation g);
+  // Takes a generation (or all) out of the store; the caller destroys it (destroy(), or retires it once its
+  // pending spares have reported, so that no forked copy goes unreaped).
+  [[nodiscard]] std::optional<GenerationRecord> take(Generation g);
+  [[nodiscard]] std::vector<GenerationRecord> take_all();
   void clear();
 
   [[nodiscard]] std::size_t size() const { return generations_.size(); }
   [[nodiscard]] std::size_t image_count() const;
   [[nodiscard]] std::vector<Generation> generations() const;  // oldest first
-  // pids of every image of a service, oldest generation first (tests, diagnostics).
+  void refresh_all();  // Image::refresh of every image
+  [[nodiscard]] std::size_t spares_pending() const;
+  // pids of every frozen copy of a service, oldest generation first; of one generation (tests, faults).
   [[nodiscard]] std::vector<int> image_pids(ServiceId service) const;
+  [[nodiscard]] std::vector<int> image_pids(ServiceId service, Generation g) const;
   // Whether `pid` is one of the store's images.
   [[nodiscard]] bool owns(int pid) const;
 

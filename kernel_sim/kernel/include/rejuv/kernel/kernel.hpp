@@ -78,7 +78,9 @@ struct KernelOptions {
   std::vector<std::string> plant_args{};        // extra arguments for the plant process
   // Real-time bounds so that a hung service cannot hang the kernel (faults, not timings).
   Nanos boot_deadline{std::chrono::seconds{20}};      // spawn → Ready
-  Nanos idle_deadline{std::chrono::seconds{10}};      // a lockstep step: every service idle
+  // A lockstep step: every service idle. Below the plant's ack timeout (10 s), so that a hung service is
+  // found (and, with SR, rolled back) before the plant gives up.
+  Nanos idle_deadline{std::chrono::seconds{5}};
   Nanos shutdown_grace{std::chrono::seconds{2}};      // Shutdown → exit, before SIGKILL
   Nanos snapshot_deadline{std::chrono::seconds{2}};   // Snapshot → Taken from every service (DESIGN §7 Faults)
   Nanos resume_deadline{std::chrono::seconds{2}};     // Resume → Resumed from every image
@@ -184,6 +186,13 @@ struct SrStats {
   std::uint64_t timer_rollbacks = 0;      // rollbacks the rejuvenation timer fired
   std::vector<double> checkpoint_ms{};    // Snapshot sent → generation committed, per checkpoint
   std::vector<double> rollback_ms{};      // trigger → routing resumed, per rollback
+  // Phases (DESIGN §7 "durations of every phase"): checkpoint = freeze + Snapshots sent, Taken awaited,
+  // state saved + committed; rollback = mode RB + services killed, images resumed, state restored.
+  struct Phases {
+    std::vector<double> a{}, b{}, c{};
+  };
+  Phases checkpoint_phases{};  // a: snapshot, b: taken, c: save  [ms]
+  Phases rollback_phases{};    // a: kill, b: resume, c: restore  [ms]
 };
 
 // Result of one manual lockstep step.
@@ -256,8 +265,13 @@ class Kernel {
   [[nodiscard]] const SrStats& sr_stats() const;
   [[nodiscard]] Epoch epoch() const;
   // pids of the frozen images of a service, oldest generation first (tests and fault injection).
-  [[nodiscard]] std::vector<int> image_pids(ServiceId service) const;
+  // Reads the spare copies' reports first, so that every frozen copy is listed.
+  [[nodiscard]] std::vector<int> image_pids(ServiceId service);
+  [[nodiscard]] std::vector<int> image_pids(ServiceId service, Generation g);
   [[nodiscard]] std::vector<Generation> generations() const;
+  // Waits (briefly) until the asynchronous image work is done: requested spares reported, retired
+  // generations destroyed, killed incarnations reaped. Tests count processes and fds after it.
+  void settle_images();
   // The network gate (netgate.cpp): its counters, and the UDP port it is bound to (nullopt: no gate).
   [[nodiscard]] NetStats net_stats() const;
   [[nodiscard]] std::optional<std::uint16_t> network_port() const;
