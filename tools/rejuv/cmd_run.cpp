@@ -4,7 +4,8 @@
 // (proto::RunSummary, runner "run"). The metrics come from what the kernel routes — ground truth from the
 // plant, the estimate, the setpoint, the actuator outputs — measured with the same path, ellipsoid P and
 // control design as `rejuv sim` (rejuv_sr_sim / rejuv_control), so the two runners compare directly.
-// Exit 0 when the mission completes inside the safety set, 1 when it fails, 2 on bad input.
+// A vehicle lost (V > 100, `rejuv sim`'s rule) ends the run at once. Exit 0 when the mission completes
+// inside the safety set, 1 when it fails (or leaves the safety set), 2 on bad input.
 #include <google/protobuf/util/json_util.h>
 #include <unistd.h>
 
@@ -20,6 +21,7 @@
 #include "args.hpp"
 #include "report.hpp"
 #include "commands.hpp"
+#include "run_recorder.hpp"
 #include "rejuv/cap/capability.hpp"
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/flight_io/messages.hpp"
@@ -38,122 +40,6 @@ struct FileCloser {
 };
 using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
 
-template <class T>
-T as(std::span<const std::byte> payload) {
-  T v{};
-  std::memcpy(&v, payload.data(), std::min(sizeof(T), payload.size()));
-  return v;
-}
-
-template <class T>
-bool is(const kernel::Publication& p) {
-  return p.type == msgs::TopicTraits<T>::name;
-}
-
-// Records the run from the routed publications: tracking error against the waypoint polyline (ground truth),
-// V = ‖x − x_sp‖²_P, the estimation error ‖x − x̂‖²_P, gaps between actuator outputs, the CSV trace (the same
-// columns as `rejuv sim --csv`) and progress lines.
-class RunRecorder final : public kernel::Observer {
- public:
-  // `flight_start`: the end of the plant's pre-flight alignment (the vehicle rests at its start pose until
-  // then, rejuv_plant --align-s): the metrics, the trace and the mission time start there, like `rejuv sim`'s
-  // t = 0 after its alignment.
-  RunRecorder(flight::ControlDesign design, flight::WaypointPath path, std::FILE* csv, bool tty, Nanos flight_start)
-      : design_(std::move(design)), path_(std::move(path)), csv_(csv), tty_(tty), flight_start_(flight_start) {
-    if (csv_ != nullptr) write_trace_header(csv_);
-  }
-
-  void on_publication(const kernel::Publication& p) override {
-    if (is<rejuv_msg_GroundTruth>(p)) {
-      on_truth(as<rejuv_msg_GroundTruth>(p.payload), p.t);
-    } else if (is<rejuv_msg_VehicleStateEstimate>(p)) {
-      if (auto x = flight_io::state_from_message(as<rejuv_msg_VehicleStateEstimate>(p.payload))) x_hat_ = *x;
-    } else if (is<rejuv_msg_Setpoint>(p)) {
-      const auto m = as<rejuv_msg_Setpoint>(p.payload);
-      if (auto x = flight_io::setpoint_from_message(m)) x_sp_ = *x;
-      if (m.mission_done == 1 && !completed_at_) completed_at_ = std::max(p.t - flight_start_, Nanos{0});
-    } else if (is<rejuv_msg_ActuatorControls>(p)) {
-      if (auto u = flight_io::controls_from_message(as<rejuv_msg_ActuatorControls>(p.payload))) u_ = *u;
-    } else if (is<rejuv_msg_ActuatorOutputs>(p)) {
-      const Nanos stamp{static_cast<std::int64_t>(as<rejuv_msg_ActuatorOutputs>(p.payload).timestamp_ns)};
-      if (stamp < flight_start_) return;  // aligning: the plant does not apply them
-      if (last_output_ && stamp > *last_output_) max_gap_ = std::max(max_gap_, stamp - *last_output_);
-      last_output_ = stamp;
-    } else if (is<rejuv_msg_SrMode>(p)) {
-      if (auto m = flight_io::mode_from_message(as<rejuv_msg_SrMode>(p.payload))) mode_ = *m;
-    }
-  }
-
-  void on_step(std::uint64_t /*step*/, Nanos t, SrMode mode) override {
-    mode_ = mode;
-    const Nanos every = tty_ ? std::chrono::seconds{1} : std::chrono::seconds{10};
-    if (t - last_progress_ < every) return;
-    last_progress_ = t;
-    const flight::StateVec& x = x_;
-    std::fprintf(stderr, "rejuv run: t = %6.1f s  mode %s  position (%.2f, %.2f, %.2f) m  d_max %.1f cm  max V %.3f\n",
-                 to_seconds(t).count(), mode_name(mode_), x[0], x[1], x[2], 100.0 * d_max_, max_V_);
-  }
-
-  void fill(proto::RunSummary& s, Nanos end) const {
-    s.set_mission_completed(completed_at_.has_value());
-    s.set_mission_time_s(to_seconds(completed_at_.value_or(std::max(end - flight_start_, Nanos{0}))).count());
-    s.set_d_mean_m(d_count_ > 0 ? d_sum_ / static_cast<double>(d_count_) : 0.0);
-    s.set_d_max_m(d_max_);
-    s.set_max_v(max_V_);
-    s.set_max_est_err_p(max_est_err_);
-    s.set_left_safety_set(max_V_ >= 1.0);
-    s.set_max_control_gap_ms(std::chrono::duration<double, std::milli>(max_gap_).count());
-  }
-
- private:
-  void on_truth(const rejuv_msg_GroundTruth& g, Nanos t) {
-    const Eigen::Vector3d p(g.p_N_m[0], g.p_N_m[1], g.p_N_m[2]);
-    const Eigen::Quaterniond q(g.q_NB[0], g.q_NB[1], g.q_NB[2], g.q_NB[3]);
-    x_ = flight::make_state(p, Eigen::Vector3d(g.v_N_m_s[0], g.v_N_m_s[1], g.v_N_m_s[2]),
-                            flight::euler_from_quaternion(q.normalized()),
-                            Eigen::Vector3d(g.omega_B_rad_s[0], g.omega_B_rad_s[1], g.omega_B_rad_s[2]));
-    if (!x_.allFinite() || t < flight_start_) return;  // aligning: at rest, not flying yet
-    const double d = path_.distance_to(p);
-    d_sum_ += d;
-    d_max_ = std::max(d_max_, d);
-    ++d_count_;
-    double V = 0;
-    if (x_sp_) {
-      V = design_.ellipsoid.V(x_, *x_sp_);
-      max_V_ = std::max(max_V_, V);
-    }
-    if (x_hat_) max_est_err_ = std::max(max_est_err_, design_.ellipsoid.V(x_, *x_hat_));
-    if (csv_ != nullptr) write_csv_row(t - flight_start_, V);
-  }
-
-  void write_csv_row(Nanos t, double V) {
-    write_trace_row(csv_, flight::TraceRow{.t = t,
-                                           .x = x_,
-                                           .x_hat = x_hat_.value_or(flight::StateVec::Zero()),
-                                           .x_sp = x_sp_.value_or(flight::StateVec::Zero()),
-                                           .mode = mode_,
-                                           .u = u_,
-                                           .V = V});
-  }
-
-  flight::ControlDesign design_;
-  flight::WaypointPath path_;
-  std::FILE* csv_;
-  bool tty_;
-  Nanos flight_start_;
-  flight::StateVec x_ = flight::StateVec::Zero();
-  std::optional<flight::StateVec> x_hat_;
-  std::optional<flight::StateVec> x_sp_;
-  flight::InputVec u_ = flight::InputVec::Zero();
-  SrMode mode_ = SrMode::MC;
-  double d_sum_ = 0, d_max_ = 0, max_V_ = 0, max_est_err_ = 0;
-  std::uint64_t d_count_ = 0;
-  std::optional<Nanos> completed_at_;
-  std::optional<Nanos> last_output_;
-  Nanos max_gap_{0};
-  Nanos last_progress_{0};
-};
-
 std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outcome) {
   std::string denials;
   for (const auto& [kind, n] : s.denials()) {
@@ -167,6 +53,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 "  safety      max V = %.4f (%s), max estimation error ||x - x_hat||^2_P = %.4f\n"
                 "  control     max gap between actuator outputs %.1f ms\n"
                 "  images      %llu checkpoints (p50 %.3f ms, max %.3f ms), %llu rollbacks (p50 %.3f ms, max %.3f ms)\n"
+                "  attacks     %llu attacked MC windows\n"
                 "  denials     %s\n"
                 "  network     %s\n",
                 s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? "on" : "off",
@@ -177,6 +64,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe", s.max_est_err_p(), s.max_control_gap_ms(),
                 static_cast<unsigned long long>(s.checkpoints()), s.checkpoint_ms().p50(), s.checkpoint_ms().max(),
                 static_cast<unsigned long long>(s.rollbacks()), s.rollback_ms().p50(), s.rollback_ms().max(),
+                static_cast<unsigned long long>(s.attacks()),
                 denials.empty() ? "none" : denials.c_str(), describe_network(s.network()).c_str());
   return buf;
 }
@@ -200,6 +88,7 @@ int run_run(std::span<const std::string_view> args) {
                    "the mission timeout; with it, the run lasts exactly that long (e.g. a hover).\n"
                    "With the graph's sr.enabled (and without --no-sr) the services are checkpointed and rolled back\n"
                    "by the image store (DESIGN §7) on the rejuvenation timer; checkpoint_p drives the SR cycle.\n"
+                   "The run stops when the vehicle is lost (V = ||x - x_sp||^2_P > 100, as `rejuv sim`).\n"
                    "Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when\n"
                    "it fails, 2 on bad flags, a bad launch file or a policy that fails its audit.");
   parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
@@ -278,20 +167,11 @@ int run_run(std::span<const std::string_view> args) {
     }
   }
   // The reference for the metrics: the same path, control design and P as `rejuv sim` (services/flight/sim).
-  flight::SimOverrides overrides;
-  overrides.sr = flight::SrSwitch::Off;
-  if (options.seed) overrides.seed = *options.seed;
-  auto reference = flight::config_from_launch(*loaded, overrides);
-  if (!reference) return bad_input(reference.error().to_string());
-  auto design = flight::design_control(reference->control);
-  if (!design) return bad_input("rejuv run: control design: " + design.error().to_string());
-  auto path = flight::WaypointPath::make(reference->waypoints);
-  if (!path) return bad_input("rejuv run: mission path: " + path.error().message);
+  auto reference = run_reference(*loaded, options.seed);
+  if (!reference) return bad_input(reference.error());
   // The plant aligns as long as `rejuv sim` does (its SimConfig), so that both fly from a converged estimate.
-  const Nanos alignment = std::chrono::round<Nanos>(reference->alignment);
-  options.plant_args.insert(options.plant_args.end(),
-                            {"--align-s", std::to_string(to_seconds(alignment).count())});
-  if (options.duration) *options.duration += alignment;
+  align_plant_like_the_model(options, *reference);
+  if (options.duration) *options.duration += reference->alignment;
 
   UniqueFile json_file, csv_file;
   if (json_set) {
@@ -302,8 +182,8 @@ int run_run(std::span<const std::string_view> args) {
     csv_file.reset(std::fopen(csv_path.c_str(), "w"));
     if (!csv_file) return bad_input("rejuv run: cannot write --csv file '" + csv_path + "'");
   }
-  RunRecorder recorder(std::move(*design), std::move(*path), csv_file.get(), isatty(STDERR_FILENO) == 1,
-                       alignment);
+  RunRecorder recorder(std::move(*reference), csv_file.get(),
+                       isatty(STDERR_FILENO) == 1 ? RunRecorder::Progress::Every1s : RunRecorder::Progress::Every10s);
 
   const std::string graph_name = loaded->graph.name();
   const bool attack = loaded->graph.attack().enabled() && !no_attack;
@@ -312,6 +192,7 @@ int run_run(std::span<const std::string_view> args) {
     std::fprintf(stderr, "rejuv run: %s\n", k.error().to_string().c_str());
     return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
   }
+  recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
   std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),
                std::string(kernel::to_string((*k)->clock_mode())).c_str(), (*k)->sr_enabled() ? "on" : "off",
                static_cast<unsigned long long>(options.seed.value_or((*k)->graph().graph.seed())));
@@ -319,6 +200,11 @@ int run_run(std::span<const std::string_view> args) {
   if (!outcome) {
     std::fprintf(stderr, "rejuv run: %s\n", outcome.error().to_string().c_str());
     return static_cast<int>(outcome.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+  if (const auto& lost = recorder.lost()) {
+    char why[128];
+    std::snprintf(why, sizeof why, "vehicle lost at t = %.1f s (V = %.4g)", to_seconds(lost->t).count(), lost->V);
+    outcome->detail = why;
   }
 
   proto::RunSummary s;

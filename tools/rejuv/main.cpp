@@ -22,6 +22,8 @@ constexpr Command kCommands[] = {
     {"gcs", "ground station: upload a mission over the network gate and show telemetry", rejuv::cli::run_gcs},
     {"bench", "benchmarks side by side: `bench images` (checkpoint/rollback vs cold restart)", rejuv::cli::run_bench},
     {"sim", "model-level simulation of the SR scheme in one process (no runtime)", rejuv::cli::run_sim},
+    {"report", "`report table`: Table I, runtime (rejuv run) beside model (rejuv sim), four configurations",
+     rejuv::cli::run_report},
 };
 
 void print_usage(std::FILE* to) {

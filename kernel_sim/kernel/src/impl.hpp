@@ -218,6 +218,7 @@ struct Kernel::Impl {
   std::uint32_t rounds = 0;
   Nanos step_started_wall{0};
   Nanos last_step_done_wall{0};      // lockstep with the plant: for the stall report (supervisor.cpp)
+  std::optional<Nanos> short_of_samples_since{};  // wall time a step began to wait for missing samples
   bool stall_reported = false;
   void report_stall();
   std::vector<ServiceId> hung_this_step;

@@ -672,8 +672,20 @@ Result<RunOutcome, KernelError> Kernel::run() {
     case ClockMode::Lockstep:
       for (;;) {
         if (k.stop && (!graceful(*k.stop) || !k.active_step)) break;
+        // A sample DDS never delivers must not stall the run: after a second the step goes on without it
+        // (logged; the counts are re-synchronised so that the next steps do not wait for it either).
+        if (!k.active_step && !k.pending_steps.empty() && k.samples_received < k.pending_steps.front().samples_needed) {
+          if (!k.short_of_samples_since) k.short_of_samples_since = k.wall();
+          if (k.wall() - *k.short_of_samples_since > std::chrono::seconds{1}) {
+            k.log("step %llu: %llu sensor sample(s) never arrived; the step goes on without them",
+                  static_cast<unsigned long long>(k.pending_steps.front().step),
+                  static_cast<unsigned long long>(k.pending_steps.front().samples_needed - k.samples_received));
+            k.samples_received = k.pending_steps.front().samples_needed;
+          }
+        }
         if (!k.active_step && !k.pending_steps.empty() && !k.stop &&
             k.samples_received >= k.pending_steps.front().samples_needed) {
+          k.short_of_samples_since.reset();
           const PendingStep next = k.pending_steps.front();
           k.pending_steps.erase(k.pending_steps.begin());
           k.begin_step(next);
@@ -687,7 +699,7 @@ Result<RunOutcome, KernelError> Kernel::run() {
         const bool short_of_samples = !k.active_step && !k.pending_steps.empty() &&
                                       k.samples_received < k.pending_steps.front().samples_needed;
         k.watch_sample_readers(short_of_samples);
-        if (auto ok = k.pump(std::nullopt); !ok) {
+        if (auto ok = k.pump(short_of_samples ? std::optional<Nanos>(std::chrono::milliseconds{100}) : std::nullopt); !ok) {
           k.shutdown_all();
           return fail(ok.error());
         }

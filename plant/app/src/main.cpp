@@ -55,9 +55,12 @@ struct Endpoints {
   static dds::DdsResult<Endpoints> open(dds::DomainId domain, ClockMode clock);
 };
 
+// A step that the kernel charged for a checkpoint or rollback (DESIGN §6) covers more than one sensor period:
+// the writers keep enough history that a reliable reader loses none of a long step's samples.
+constexpr std::int32_t kSensorDepth = 256;
 template <class T>
 dds::DdsResult<dds::Writer> make_writer(const dds::Participant& p, topics::Topic<T> topic) {
-  return dds::Writer::create(p, topic.name, topics::type_of(topic));
+  return dds::Writer::create(p, topic.name, topics::type_of(topic), dds::EndpointQos{.history_depth = kSensorDepth});
 }
 template <class T>
 dds::DdsResult<dds::Reader> make_reader(const dds::Participant& p, topics::Topic<T> topic,

@@ -1,0 +1,279 @@
+// `rejuv report table GRAPH`: Table I of the paper (§VI-D) for the four configurations (SR on/off × attack
+// on/off), each row the multi-process runtime (`rejuv run`, one real mission per row: kernel, plant over DDS,
+// one process per service, lockstep) beside the model-level simulation (`rejuv sim`) for the same graph and
+// seed. The runtime rows are flown by `rejuv run` itself, as child processes of this one, so that they are
+// exactly what a user gets from `rejuv run` (summary, metrics, exit code); their summaries, traces and logs
+// go to --out. Exit 0 once every row ran, 1 when a runtime mission could not be run (or was interrupted), 2 on
+// bad input.
+#include <google/protobuf/util/json_util.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "args.hpp"
+#include "commands.hpp"
+#include "report.hpp"
+#include "rejuv/flight/sr_sim.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/event.hpp"
+#include "rejuv/sys/process.hpp"
+
+extern char** environ;  // NOLINT: the environment the runtime missions inherit (CYCLONEDDS_URI, REJUV_*)
+
+namespace rejuv::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
+
+// One configuration of Table I.
+struct Row {
+  const char* label;
+  const char* key;  // file names under --out
+  bool sr;
+  bool attack;
+};
+constexpr Row kRows[] = {{"no SR, no attack", "nosr_noattack", false, false},
+                         {"SR, no attack", "sr_noattack", true, false},
+                         {"no SR, attack", "nosr_attack", false, true},
+                         {"SR, attack", "sr_attack", true, true}};
+
+std::optional<std::string> read_text(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return std::nullopt;
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::optional<proto::RunSummary> read_summary(const fs::path& path) {
+  const auto text = read_text(path);
+  if (!text) return std::nullopt;
+  proto::RunSummary s;
+  if (!google::protobuf::util::JsonStringToMessage(*text, &s).ok()) return std::nullopt;
+  return s;
+}
+
+// The last progress line `rejuv run` wrote to its log ("rejuv run: t = …").
+std::string last_progress(const fs::path& log) {
+  const auto text = read_text(log);
+  if (!text) return {};
+  const auto at = text->rfind("rejuv run: t =");
+  if (at == std::string::npos) return {};
+  const auto end = text->find('\n', at);
+  return text->substr(at + 11, end == std::string::npos ? std::string::npos : end - at - 11);
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+struct Mission {
+  std::optional<proto::RunSummary> summary{};  // nullopt: the run failed to produce one
+  std::string problem{};                     // why not
+  bool interrupted = false;
+};
+
+// Flies one row with `rejuv run` (this executable) and reads back its summary.
+Mission fly(const Row& row, const std::string& graph, std::uint64_t seed, const std::optional<std::string>& domain,
+            const fs::path& out, const sys::SignalFd& signals, bool tty) {
+  const fs::path json = out / ("run_" + std::string(row.key) + ".json");
+  const fs::path csv = out / ("run_" + std::string(row.key) + ".csv");
+  const fs::path log = out / ("run_" + std::string(row.key) + ".log");
+  std::error_code ec;
+  fs::remove(json, ec);
+  UniqueFile log_file(std::fopen(log.c_str(), "w"));
+  if (!log_file) return Mission{.problem = "cannot write " + log.string()};
+  sys::SpawnSpec spec;
+  spec.executable = fs::read_symlink("/proc/self/exe", ec).string();
+  if (ec) return Mission{.problem = "cannot find this executable: " + ec.message()};
+  spec.args = {"run", graph, "--seed", std::to_string(seed), "--summary-json", json.string(), "--csv", csv.string()};
+  if (!row.sr) spec.args.emplace_back("--no-sr");
+  if (!row.attack) spec.args.emplace_back("--no-attack");
+  if (domain) spec.args.insert(spec.args.end(), {"--domain", *domain});
+  for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
+  spec.fds = {{1, fileno(log_file.get())}, {2, fileno(log_file.get())}};
+  auto child = sys::spawn(spec);
+  if (!child) return Mission{.problem = "cannot start rejuv run: " + child.error().to_string()};
+
+  const auto start = std::chrono::steady_clock::now();
+  auto last_note = start;
+  const auto every = tty ? std::chrono::seconds{2} : std::chrono::seconds{15};
+  bool interrupted = false;
+  while (true) {
+    auto status = child->try_wait();
+    if (!status) return Mission{.problem = "waiting for rejuv run: " + status.error().to_string()};
+    if (*status) {
+      // 0: completed safely; 1: a failed mission (e.g. no SR under attack) — a row of the table all the same.
+      if (interrupted) return Mission{.problem = "interrupted", .interrupted = true};
+      const auto s = read_summary(json);
+      if (!s) {
+        return Mission{.problem = "rejuv run " + (*status)->to_string() + " without a summary; see " + log.string()};
+      }
+      return Mission{.summary = *s};
+    }
+    if (auto sig = signals.read(); sig && *sig && !interrupted) {
+      interrupted = true;  // let the mission stop cleanly (its kernel shuts every process down), then give up
+      (void)child->signal(**sig);
+    }
+    if (std::chrono::steady_clock::now() - last_note >= every) {
+      last_note = std::chrono::steady_clock::now();
+      std::fprintf(stderr, "rejuv report:   %5.0f s wall  %s\n", seconds_since(start), last_progress(log).c_str());
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds{100});
+  }
+}
+
+std::string outcome_text(const proto::RunSummary& s) {
+  std::string o = s.mission_completed() ? "completed" : "NOT COMPLETED";
+  if (s.left_safety_set()) o += ", LEFT SAFETY SET";
+  return o;
+}
+
+std::string table_text(const std::string& graph, std::uint64_t seed, const std::vector<proto::RunSummary>& run,
+                       const std::vector<proto::RunSummary>& sim) {
+  std::string out = "Table I (" + graph + ", seed " + std::to_string(seed) +
+                    "): runtime (rejuv run) | model (rejuv sim)\n";
+  char line[512];
+  std::snprintf(line, sizeof line, "%-17s | %-15s | %-19s | %-17s | %-15s | %s\n", "", "d_mean [cm]", "max V",
+                "rollbacks/attacks", "mission time [s]", "outcome (runtime | model)");
+  out += line;
+  std::snprintf(line, sizeof line, "%-17s | %7s %7s | %9s %9s | %8s %8s | %7s %7s |\n", "configuration", "run",
+                "sim", "run", "sim", "run", "sim", "run", "sim");
+  out += line;
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    const proto::RunSummary& r = run[i];
+    const proto::RunSummary& m = sim[i];
+    const auto ra = std::to_string(r.rollbacks()) + "/" + std::to_string(r.attacks());
+    const auto ma = std::to_string(m.rollbacks()) + "/" + std::to_string(m.attacks());
+    std::snprintf(line, sizeof line, "%-17s | %7.2f %7.2f | %9.4f %9.4f | %8s %8s | %7.1f %7.1f | %s | %s\n",
+                  kRows[i].label, 100.0 * r.d_mean_m(), 100.0 * m.d_mean_m(), r.max_v(), m.max_v(), ra.c_str(),
+                  ma.c_str(), r.mission_time_s(), m.mission_time_s(), outcome_text(r).c_str(),
+                  outcome_text(m).c_str());
+    out += line;
+  }
+  return out;
+}
+
+}  // namespace
+
+int run_report(std::span<const std::string_view> args) {
+  std::string what, graph_path, seed_text, out_text, domain_text, reuse_text;
+  bool seed_set = false, out_set = false, domain_set = false, reuse_set = false;
+  ArgParser parser("report",
+                   "Reports that compare the runtime with the model.\n"
+                   "  table GRAPH  Table I (§VI-D): SR on/off x attack on/off, each row a mission flown by the\n"
+                   "               multi-process runtime (`rejuv run`, lockstep) beside `rejuv sim` for the same seed:\n"
+                   "               d_mean, max V, rollbacks/attacks, mission time. The four runtime missions take a\n"
+                   "               few minutes; progress on stderr. Per row, --out gets run_<row>.json (summary),\n"
+                   "               .csv (trace) and .log (the run's output), and table.txt the table.\n"
+                   "Exit 0 once every row ran (a row may be a failed mission: that is what Table I shows), 1 when a\n"
+                   "runtime mission could not be run, 2 on bad input.");
+  parser.positional("WHAT", what, "what to report: table")
+      .positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
+      .option("--seed", "N", seed_text, "seed of every run (default: the graph's)", &seed_set)
+      .option("--out", "DIR", out_text, "where the runs' files go (default: out/table)", &out_set)
+      .option("--domain", "N", domain_text, "DDS domain id of the runtime missions (default: the graph's)",
+              &domain_set)
+      .option("--sr-attack-json", "FILE", reuse_text,
+              "the runtime's 'SR, attack' row from this `rejuv run --summary-json` (same graph and seed) instead of "
+              "flying it again (e.g. the demo's main mission)",
+              &reuse_set);
+  const auto parsed = parser.parse(args);
+  if (!parsed) return bad_input("rejuv report: " + parsed.error());
+  switch (*parsed) {
+    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
+    case ParseOutcome::Run: break;
+  }
+  if (what != "table") return bad_input("rejuv report: unknown report '" + what + "' (expected: table)");
+  flight::SimOverrides overrides;
+  if (seed_set) {
+    const auto seed = to_u64(seed_text, "--seed");
+    if (!seed) return bad_input("rejuv report: " + seed.error());
+    overrides.seed = *seed;
+  }
+  if (domain_set) {
+    const auto d = to_u64(domain_text, "--domain");
+    if (!d) return bad_input("rejuv report: " + d.error());
+  }
+  auto loaded = launch::load_launch(graph_path);
+  if (!loaded) return bad_input(loaded.error().to_string());
+  auto config = flight::config_from_launch(*loaded, overrides);
+  if (!config) return bad_input(config.error().to_string());
+  const std::uint64_t seed = config->seed;
+
+  std::optional<proto::RunSummary> reused;
+  if (reuse_set) {
+    reused = read_summary(reuse_text);
+    if (!reused) return bad_input("rejuv report: --sr-attack-json: cannot read a run summary from '" + reuse_text + "'");
+    if (reused->runner() != "run" || !reused->sr() || !reused->attack() || reused->seed() != seed ||
+        reused->graph() != config->graph_name) {
+      return bad_input("rejuv report: --sr-attack-json: '" + reuse_text + "' is not `rejuv run` of " +
+                       config->graph_name + " with SR and attacks, seed " + std::to_string(seed));
+    }
+  }
+  const fs::path out = out_set ? fs::path(out_text) : fs::path("out/table");
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) return bad_input("rejuv report: --out: cannot create '" + out.string() + "': " + ec.message());
+  // SIGINT/SIGTERM stop the mission in flight cleanly (forwarded to it), then the report.
+  auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
+  if (!signals) {
+    std::fprintf(stderr, "rejuv report: signalfd: %s\n", signals.error().to_string().c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  const bool tty = isatty(STDERR_FILENO) == 1;
+  const std::optional<std::string> domain = domain_set ? std::optional<std::string>(domain_text) : std::nullopt;
+
+  std::vector<proto::RunSummary> run, sim;
+  const auto start = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < std::size(kRows); ++i) {
+    const Row& row = kRows[i];
+    // The model first: it takes a second.
+    flight::SimConfig c = *config;
+    c.sr = row.sr ? flight::SrSwitch::On : flight::SrSwitch::Off;
+    c.attack.enabled = row.attack ? flight::AttackSwitch::On : flight::AttackSwitch::Off;
+    const auto model = flight::run_simulation(c);
+    if (!model) return bad_input("rejuv report: " + model.error().to_string());
+    sim.push_back(*model);
+    if (row.sr && row.attack && reused) {
+      std::fprintf(stderr, "rejuv report: [%zu/4] %s: runtime row from %s\n", i + 1, row.label, reuse_text.c_str());
+      run.push_back(*reused);
+      continue;
+    }
+    std::fprintf(stderr, "rejuv report: [%zu/4] %s: rejuv run (log: %s)\n", i + 1, row.label,
+                 (out / ("run_" + std::string(row.key) + ".log")).c_str());
+    const auto mission_start = std::chrono::steady_clock::now();
+    Mission m = fly(row, graph_path, seed, domain, out, *signals, tty);
+    if (!m.summary) {
+      std::fprintf(stderr, "rejuv report: %s: %s\n", row.label, m.problem.c_str());
+      return static_cast<int>(Exit::Findings);
+    }
+    std::fprintf(stderr, "rejuv report: [%zu/4] %s: %s, max V %.4f, %llu rollbacks, %.1f s flight in %.0f s wall\n",
+                 i + 1, row.label, outcome_text(*m.summary).c_str(), m.summary->max_v(),
+                 static_cast<unsigned long long>(m.summary->rollbacks()), m.summary->mission_time_s(),
+                 seconds_since(mission_start));
+    run.push_back(*m.summary);
+  }
+  const std::string table = table_text(config->graph_name, seed, run, sim);
+  std::fputs(table.c_str(), stdout);
+  std::fprintf(stderr, "rejuv report: Table I in %.0f s wall; files in %s\n", seconds_since(start), out.c_str());
+  if (UniqueFile f(std::fopen((out / "table.txt").c_str(), "w")); f) std::fputs(table.c_str(), f.get());
+  return static_cast<int>(Exit::Ok);
+}
+
+}  // namespace rejuv::cli
