@@ -103,10 +103,8 @@ int main() {
     svc.log(sdk::LogLevel::Info, "sr.enabled = 0: no rollback handler runs");
     return svc.run();
   }
-  auto design = flight_io::control_design(params);
-  if (!svc.require(design, "bad params")) return 1;
-  auto mission = flight_io::mission_params(params);
-  if (!svc.require(mission, "bad params")) return 1;
+  auto start = flight_io::control_start(params);
+  if (!svc.require(start, "bad params")) return 1;
   for (const char* object : {"sr_mode_control", "checkpoint", "actuator_limits"}) {
     if (!svc.require(svc.cap(object), object)) return 1;
   }
@@ -114,14 +112,10 @@ int main() {
   if (!svc.require(requests, "setpoint_update_request")) return 1;
 
   SdkEffects effects(svc, *requests);
-  const flight::PathWaypoint& first = mission->waypoints.front();
-  services::SrManager manager(services::SrManagerConfig{.cycle = *cycle, .restricted = design->restricted},
-                              design->ellipsoid, effects, flight::hover_setpoint(first.p_N_m, first.yaw_rad));
+  services::SrManager manager(services::SrManagerConfig{.cycle = *cycle, .restricted = start->design.restricted},
+                              start->design.ellipsoid, effects, start->x_sp);
 
-  std::uint64_t refused = 0;
-  const auto refuse = [&](const flight_io::InputFailure& e) {
-    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "ignoring a message: " + e.to_string());
-  };
+  flight_io::FirstRefusalLog refuse(svc, "ignoring a message");
   auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state",
                                                              [&](const rejuv_msg_VehicleStateEstimate& m) {
                                                                if (auto ok = manager.on_state(m); !ok)
@@ -132,13 +126,7 @@ int main() {
   });
   auto rollback = svc.subscribe<rejuv_msg_RollbackSignal>(
       "rollback_signal", [&](const rejuv_msg_RollbackSignal& m) { manager.on_rollback_signal(m); });
-  for (const auto* error : {state ? nullptr : &state.error(), setpoint ? nullptr : &setpoint.error(),
-                            rollback ? nullptr : &rollback.error()}) {
-    if (error != nullptr) {
-      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
-      return 1;
-    }
-  }
+  if (!svc.require_all("subscribe", state, setpoint, rollback)) return 1;
   // The check of (1) every check_period (§V-B: "after every 2 ms"); the handler ignores ticks outside a run.
   auto ticks = svc.every(to_nanos(cycle->tracking.check_period), [&] { manager.tick(); });
   if (!svc.require(ticks, "timer")) return 1;

@@ -44,12 +44,7 @@ int main() {
                    checked->waypoints.size());
         }
       });
-  for (const auto* error : {modes ? nullptr : &modes.error(), uploads ? nullptr : &uploads.error()}) {
-    if (error != nullptr) {
-      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
-      return 1;
-    }
-  }
+  if (!svc.require_all("subscribe", modes, uploads)) return 1;
   // Right after the start of the clock (every service has subscribed by then: the kernel starts it only
   // when all are Ready), so gen_set_point has the mission before the first estimate needs it.
   auto start = svc.after(Nanos{1}, [&] {

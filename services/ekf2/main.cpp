@@ -17,10 +17,7 @@ int main() {
 
   auto state = svc.advertise<rejuv_msg_VehicleStateEstimate>("vehicle_state");
   if (!svc.require(state, "vehicle_state")) return 1;
-  std::uint64_t refused = 0;
-  const auto refuse = [&](const flight_io::InputFailure& e) {
-    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "dropping a sample: " + e.to_string());
-  };
+  flight_io::FirstRefusalLog refuse(svc, "dropping a sample");
   auto combined =
       svc.subscribe<rejuv_msg_SensorCombined>("sensor_combined", [&](const rejuv_msg_SensorCombined& m) {
         auto x_hat = ekf2.on_combined(m);
@@ -46,21 +43,12 @@ int main() {
           svc.logf(sdk::LogLevel::Debug, "rollback to g %llu (epoch %u): estimator re-armed",
                    static_cast<unsigned long long>(m.generation), m.epoch);
         });
-    if (!rollback) {
-      svc.log(sdk::LogLevel::Error, "subscribe: " + rollback.error().to_string());
-      return 1;
-    }
+    if (!svc.require(rollback, "subscribe")) return 1;
   } else {
     svc.log(sdk::LogLevel::Warn,
             "the policy grants no rollback_signal to ekf2: the estimator is not re-armed after a rollback "
             "(the simulation re-arms it)");
   }
-  for (const auto* error : {combined ? nullptr : &combined.error(), mag ? nullptr : &mag.error(),
-                            baro ? nullptr : &baro.error(), gps ? nullptr : &gps.error()}) {
-    if (error != nullptr) {
-      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
-      return 1;
-    }
-  }
+  if (!svc.require_all("subscribe", combined, mag, baro, gps)) return 1;
   return svc.run();
 }

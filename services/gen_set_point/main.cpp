@@ -31,10 +31,7 @@ int main() {
       }
     }
   };
-  std::uint64_t refused = 0;
-  const auto refuse = [&](const flight_io::InputFailure& e) {
-    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "ignoring a message: " + e.to_string());
-  };
+  flight_io::FirstRefusalLog refuse(svc, "ignoring a message");
   const auto on_mission = [&](const rejuv_msg_MissionWaypoints& m) {
     if (auto ok = node.on_mission(m); !ok) {
       svc.log(sdk::LogLevel::Error, "refusing the mission: " + ok.error().to_string());
@@ -53,12 +50,6 @@ int main() {
   auto mission = svc.subscribe<rejuv_msg_MissionWaypoints>("mission", on_mission);
   auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state", on_state);
   auto request = svc.subscribe<rejuv_msg_SetpointUpdateRequest>("setpoint_update_request", on_request);
-  for (const auto* error : {mission ? nullptr : &mission.error(), state ? nullptr : &state.error(),
-                            request ? nullptr : &request.error()}) {
-    if (error != nullptr) {
-      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
-      return 1;
-    }
-  }
+  if (!svc.require_all("subscribe", mission, state, request)) return 1;
   return svc.run();
 }

@@ -18,12 +18,9 @@ int main() {
   sdk::Service& svc = **connected;
 
   const flight_io::Params params = flight_io::params_of(svc);
-  auto design = flight_io::control_design(params);
-  if (!svc.require(design, "bad params")) return 1;
-  auto mission = flight_io::mission_params(params);
-  if (!svc.require(mission, "bad params")) return 1;
-  const flight::PathWaypoint& first = mission->waypoints.front();
-  services::MissionControl control(*design, flight::hover_setpoint(first.p_N_m, first.yaw_rad));
+  auto start = flight_io::control_start(params);
+  if (!svc.require(start, "bad params")) return 1;
+  services::MissionControl control(start->design, start->x_sp);
 
 #if defined(REJUV_ATTACK_HOOKS)
   // ==== ATTACK HOOK (test builds only) ====: the launch plan's worst-case control attack (§VI-D), when an
@@ -33,7 +30,7 @@ int main() {
   if (!svc.require(plan, "bad attack params")) return 1;
   std::optional<services::WorstCaseAttack> attack;
   if (*plan) {
-    attack.emplace(**plan, *design);
+    attack.emplace(**plan, start->design);
     svc.logf(sdk::LogLevel::Warn, "attack hook armed: worst-case control from t = %g s, %s",
              (*plan)->start.count(),
              (*plan)->max_windows == 0 ? "every MC window"
@@ -52,10 +49,7 @@ int main() {
 
   auto controls = svc.advertise<rejuv_msg_ActuatorControls>("actuator_controls");
   if (!svc.require(controls, "actuator_controls")) return 1;
-  std::uint64_t refused = 0;
-  const auto refuse = [&](const flight_io::InputFailure& e) {
-    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "ignoring a message: " + e.to_string());
-  };
+  flight_io::FirstRefusalLog refuse(svc, "ignoring a message");
   auto setpoint = svc.subscribe<rejuv_msg_Setpoint>("setpoint", [&](const rejuv_msg_Setpoint& m) {
     if (auto ok = control.on_setpoint(m); !ok) refuse(ok.error());
   });
@@ -68,11 +62,6 @@ int main() {
     }
   };
   auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state", on_state);
-  for (const auto* error : {setpoint ? nullptr : &setpoint.error(), state ? nullptr : &state.error()}) {
-    if (error != nullptr) {
-      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
-      return 1;
-    }
-  }
+  if (!svc.require_all("subscribe", setpoint, state)) return 1;
   return svc.run();
 }

@@ -19,12 +19,7 @@ int main() {
 
   auto outputs = svc.advertise<rejuv_msg_ActuatorOutputs>("actuator_outputs");
   if (!svc.require(outputs, "actuator_outputs")) return 1;
-  std::uint64_t refused = 0;
-  const auto refuse = [&](const flight_io::InputFailure& e) {
-    if (refused++ == 0) {
-      svc.log(sdk::LogLevel::Warn, "ignoring a message (the outputs in force stay): " + e.to_string());
-    }
-  };
+  flight_io::FirstRefusalLog refuse(svc, "ignoring a message (the outputs in force stay)");
   // §IV-C: entering MC, Ū as checkpoint_p wrote it (through the Limits cap, never from a topic).
   const bool has_limits_cap = svc.cap("actuator_limits").has_value();
   const auto read_limits = [&] {
@@ -48,11 +43,6 @@ int main() {
         if (!out) return refuse(out.error());
         (void)outputs->publish(*out);  // granted in every mode
       });
-  for (const auto* error : {modes ? nullptr : &modes.error(), controls ? nullptr : &controls.error()}) {
-    if (error != nullptr) {
-      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
-      return 1;
-    }
-  }
+  if (!svc.require_all("subscribe", modes, controls)) return 1;
   return svc.run();
 }

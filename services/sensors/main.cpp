@@ -1,6 +1,6 @@
 // rejuv_sensors: raw IMU topics → sensor_combined (services/sensors/include/rejuv/services/sensors/
 // imu_combiner.hpp). No command line: started by the kernel, which passes everything through the channel.
-#include "rejuv/flight_io/params.hpp"
+#include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/sensors/imu_combiner.hpp"
 
@@ -12,10 +12,7 @@ int main() {
 
   auto combined = svc.advertise<rejuv_msg_SensorCombined>("sensor_combined");
   if (!svc.require(combined, "sensor_combined")) return 1;
-  std::uint64_t refused = 0;
-  const auto refuse = [&](const flight_io::InputFailure& e) {
-    if (refused++ == 0) svc.log(sdk::LogLevel::Warn, "dropping a sample: " + e.to_string());
-  };
+  flight_io::FirstRefusalLog refuse(svc, "dropping a sample");
   services::ImuCombiner combiner(flight_io::imu_period(), [&](const rejuv_msg_SensorCombined& m) {
     (void)combined->publish(m);  // granted in every mode; a refusal is the kernel's to count
   });
@@ -28,11 +25,6 @@ int main() {
   });
   // sensor_mag, sensor_baro and sensor_gps are granted to this service too (PX4's sensors hub reads them
   // all), but ekf2 reads them directly: subscribing here would only cost deliveries.
-  for (const auto* error : {gyro ? nullptr : &gyro.error(), accel ? nullptr : &accel.error()}) {
-    if (error != nullptr) {
-      svc.log(sdk::LogLevel::Error, "subscribe: " + error->to_string());
-      return 1;
-    }
-  }
+  if (!svc.require_all("subscribe", gyro, accel)) return 1;
   return svc.run();
 }

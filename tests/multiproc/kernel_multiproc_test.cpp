@@ -189,7 +189,9 @@ TEST(KernelMultiproc, StalledSubscriberInRealtime_LosesMessagesAndBlocksNobody) 
   const ServiceStats stall = k->stats(id_of(*k, "stall"));
   const ServiceStats echo = k->stats(id_of(*k, "echo"));
   const std::size_t published = recorder.on("numbers").size();
-  ASSERT_GT(published, 2000U);
+  // Enough to overrun the stalled subscriber's ring (depth 8) many times; how many more a loaded machine
+  // manages in 1.5 s of real time is not the point (no timing asserted).
+  ASSERT_GT(published, 200U);
   EXPECT_GT(stall.lost, 0U) << "the stalled subscriber's ring overran";
   EXPECT_FALSE(stall.hung) << "realtime has no idle deadline";
   // The echo kept being served the whole run, far beyond what the stalled one could take.

@@ -245,6 +245,15 @@ Result<MissionSpec, InputFailure> mission_params(const Params& params) {
   return m;
 }
 
+Result<ControlStart, InputFailure> control_start(const Params& params) {
+  auto design = control_design(params);
+  if (!design) return fail(std::move(design.error()));
+  auto mission = mission_params(params);
+  if (!mission) return fail(std::move(mission.error()));
+  const flight::PathWaypoint& first = mission->waypoints.front();
+  return ControlStart{.design = std::move(*design), .x_sp = flight::hover_setpoint(first.p_N_m, first.yaw_rad)};
+}
+
 Nanos imu_period() {
   return plant::SensorParams::defaults().gyro_period;
 }

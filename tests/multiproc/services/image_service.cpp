@@ -24,30 +24,19 @@
 #include <thread>
 
 #include "rejuv/sdk/service.hpp"
+#include "test_records.hpp"
 
 namespace {
 
 using rejuv::sdk::CheckpointOutcome;
 using rejuv::sdk::LogLevel;
 using rejuv::sdk::Service;
-using Record = rejuv_msg_SensorBaro;
+using rejuv::test_services::fail;
+using rejuv::test_services::Record;
+using rejuv::test_services::record;
 
 std::chrono::nanoseconds period(const Service& svc) {
   return std::chrono::microseconds(static_cast<std::int64_t>(svc.param("period_ms", 4) * 1000));
-}
-
-int fail(Service& svc, const std::string& what) {
-  svc.log(LogLevel::Error, what);
-  return 3;
-}
-
-Record record(const Service& svc, double number, double value, double tag) {
-  Record r{};
-  r.timestamp_ns = static_cast<std::uint64_t>(svc.now().count());
-  r.pressure_pa = number;
-  r.altitude_m = value;
-  r.temperature_c = tag;
-  return r;
 }
 
 int run_counter(Service& svc) {

@@ -24,31 +24,20 @@
 
 #include "rejuv/attacks/hooks.hpp"
 #include "rejuv/sdk/service.hpp"
+#include "services/test_records.hpp"
 
 namespace {
 
 using rejuv::sdk::CheckpointOutcome;
 using rejuv::sdk::LogLevel;
 using rejuv::sdk::Service;
-using Record = rejuv_msg_SensorBaro;
+using rejuv::test_services::fail;
+using rejuv::test_services::Record;
+using rejuv::test_services::record;
 using Op = rejuv::cap::Operation;
 
 constexpr double kRestrictedLimit = 0.3;  // what rejuv writes: the legitimate Ū
 constexpr auto kTick = std::chrono::milliseconds(4);
-
-int fail(Service& svc, const std::string& what) {
-  svc.log(LogLevel::Error, what);
-  return 3;
-}
-
-Record record(const Service& svc, double tag, double value, double detail) {
-  Record r{};
-  r.timestamp_ns = static_cast<std::uint64_t>(svc.now().count());
-  r.pressure_pa = tag;
-  r.altitude_m = value;
-  r.temperature_c = detail;
-  return r;
-}
 
 int run_rejuv(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
   const auto sei_ticks = static_cast<int>(svc.param("sei_ticks", 3));

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <vector>
 
+#include "default_design_fixture.hpp"
 #include "rejuv/services/gen_set_point/setpoint_node.hpp"
 
 namespace rejuv::services {
@@ -31,16 +32,8 @@ rejuv_msg_SetpointUpdateRequest request_at(Nanos t, double rho_m = 0.0) {
   return m;
 }
 
-class SetpointNodeTest : public ::testing::Test {
+class SetpointNodeTest : public testing::DefaultDesignTest {
  protected:
-  // The design (a DARE and a Lyapunov solve) is the same for every test: made once.
-  static void SetUpTestSuite() {
-    auto d = flight_io::control_design(flight_io::Params::from_table({}));
-    ASSERT_TRUE(d) << d.error().to_string();
-    design_.emplace(std::move(*d));
-  }
-  static void TearDownTestSuite() { design_.reset(); }
-
   void SetUp() override {
     ASSERT_TRUE(design_.has_value());
     auto m = flight_io::mission_params(flight_io::Params::from_table({}));
@@ -55,7 +48,6 @@ class SetpointNodeTest : public ::testing::Test {
     return SetpointNode(design_->ellipsoid, *t);
   }
 
-  static inline std::optional<flight::ControlDesign> design_;
   rejuv_msg_MissionWaypoints square_{};
 };
 

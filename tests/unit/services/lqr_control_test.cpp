@@ -4,49 +4,24 @@
 #include <chrono>
 #include <random>
 
+#include "default_design_fixture.hpp"
 #include "rejuv/flight_io/params.hpp"
 #include "rejuv/services/lqr_control/mission_control.hpp"
+#include "service_test_messages.hpp"
 
 namespace rejuv::services {
 namespace {
 
 using std::chrono::milliseconds;
+using testing::state_message;
 
-class MissionControlTest : public ::testing::Test {
+class MissionControlTest : public testing::DefaultDesignTest {
  protected:
-  // The design (a DARE and a Lyapunov solve) is the same for every test: made once.
-  static void SetUpTestSuite() {
-    auto d = flight_io::control_design(flight_io::Params::from_table({}));
-    ASSERT_TRUE(d) << d.error().to_string();
-    design_.emplace(std::move(*d));
-  }
-  static void TearDownTestSuite() { design_.reset(); }
-
   void SetUp() override {
     ASSERT_TRUE(design_.has_value());
     control_.emplace(*design_);
   }
 
-  static rejuv_msg_VehicleStateEstimate state_message(const flight::StateVec& x, Nanos t) {
-    rejuv_msg_VehicleStateEstimate m{};
-    m.timestamp_ns = flight_io::stamp(t);
-    const Eigen::Vector3d euler = x.segment<3>(flight::idx::kAtt);
-    const Eigen::Quaterniond q = Eigen::AngleAxisd(euler.z(), Eigen::Vector3d::UnitZ()) *
-                                 Eigen::AngleAxisd(euler.y(), Eigen::Vector3d::UnitY()) *
-                                 Eigen::AngleAxisd(euler.x(), Eigen::Vector3d::UnitX());
-    for (int i = 0; i < 3; ++i) {
-      m.p_N_m[i] = x[flight::idx::kPos + i];
-      m.v_N_m_s[i] = x[flight::idx::kVel + i];
-      m.omega_B_rad_s[i] = x[flight::idx::kRate + i];
-    }
-    m.q_NB[0] = q.w();
-    m.q_NB[1] = q.x();
-    m.q_NB[2] = q.y();
-    m.q_NB[3] = q.z();
-    return m;
-  }
-
-  static inline std::optional<flight::ControlDesign> design_;
   std::optional<MissionControl> control_;
 };
 

@@ -8,6 +8,7 @@
 
 #include "rejuv/flight_io/params.hpp"
 #include "rejuv/services/safety_control/safety_control.hpp"
+#include "default_design_fixture.hpp"
 #include "service_test_messages.hpp"
 
 namespace rejuv::services {
@@ -16,18 +17,7 @@ namespace {
 using std::chrono::milliseconds;
 using testing::state_message;
 
-class SafetyControlTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    auto d = flight_io::control_design(flight_io::Params::from_table({}));
-    ASSERT_TRUE(d) << d.error().to_string();
-    design_.emplace(std::move(*d));
-  }
-  static void TearDownTestSuite() { design_.reset(); }
-  void SetUp() override { ASSERT_TRUE(design_.has_value()); }
-
-  static inline std::optional<flight::ControlDesign> design_;
-};
+class SafetyControlTest : public testing::DefaultDesignTest {};
 
 TEST_F(SafetyControlTest, SafetyControl_NoSetpointYet_PublishesNothing) {
   SafetyControl control(*design_);

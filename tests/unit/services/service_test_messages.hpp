@@ -1,4 +1,5 @@
-// Message builders shared by the SR services' tests (safety_control, checkpoint_p, the lqr_control attack).
+// Message builders shared by the SR services' tests (lqr_control, safety_control, checkpoint_p and the
+// lqr_control attack).
 #pragma once
 
 #include <Eigen/Geometry>

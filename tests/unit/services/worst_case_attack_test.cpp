@@ -14,6 +14,7 @@
 #include "rejuv/flight_io/params.hpp"
 #include "rejuv/services/lqr_control/mission_control.hpp"
 #include "rejuv/services/lqr_control/worst_case_attack.hpp"
+#include "default_design_fixture.hpp"
 #include "service_test_messages.hpp"
 
 namespace rejuv::services {
@@ -68,16 +69,8 @@ TEST(WorstCaseAttackPlan, Plan_FractionalMaxWindows_Refused) {
   EXPECT_EQ(plan.error().where, "attack.0.max_windows");
 }
 
-class WorstCaseAttackTest : public ::testing::Test {
+class WorstCaseAttackTest : public testing::DefaultDesignTest {
  protected:
-  static void SetUpTestSuite() {
-    auto d = flight_io::control_design(flight_io::Params::from_table({}));
-    ASSERT_TRUE(d) << d.error().to_string();
-    design_.emplace(std::move(*d));
-  }
-  static void TearDownTestSuite() { design_.reset(); }
-  void SetUp() override { ASSERT_TRUE(design_.has_value()); }
-
   // One SR cycle of lqr_control's life: the SEI of `epoch` (restored image + SC steps), the checkpoint (the
   // image kept for the next rollback) and the MC window. Returns whether the window was attacked.
   static bool cycle(WorstCaseAttack& image, Epoch epoch, Nanos sei_at, Nanos mc_at) {
@@ -89,8 +82,6 @@ class WorstCaseAttackTest : public ::testing::Test {
     EXPECT_EQ(live.decide(mc_at + milliseconds{200}, SrMode::MC, epoch), first) << "decided once per window";
     return first;
   }
-
-  static inline std::optional<flight::ControlDesign> design_;
 };
 
 TEST_F(WorstCaseAttackTest, Decide_EveryWindow_AttacksEachMcWindowOnly) {

@@ -113,6 +113,15 @@ struct MissionSpec {
 };
 [[nodiscard]] Result<MissionSpec, InputFailure> mission_params(const Params& params);
 
+// What a controller starts from (lqr_control, safety_control, checkpoint_p's handler): the control design,
+// and the hover at the mission's first waypoint as the setpoint until the first Setpoint arrives.
+struct ControlStart {
+  flight::ControlDesign design;
+  flight::StateVec x_sp;  // hover_setpoint(first waypoint)
+};
+// control_design, then mission_params; the first failure.
+[[nodiscard]] Result<ControlStart, InputFailure> control_start(const Params& params);
+
 // The IMU period of the plant's sensor suite (gyro and accel, 250 Hz): the estimator's step and the
 // controllers' period.
 [[nodiscard]] Nanos imu_period();

@@ -390,6 +390,12 @@ class Service {
     log(LogLevel::Error, std::string(what) + ": " + result.error().to_string());
     return false;
   }
+  // require() over several results in order (e.g. every subscription, with what = "subscribe"): logs the
+  // first failure only.
+  template <class... R>
+  [[nodiscard]] bool require_all(std::string_view what, const R&... results) {
+    return (require(results, what) && ...);
+  }
   void logf(LogLevel level, const char* format, ...) __attribute__((format(printf, 3, 4)));
 
   // ---- event loop ----
