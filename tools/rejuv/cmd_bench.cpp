@@ -29,14 +29,11 @@
 namespace rejuv::cli {
 namespace {
 
-struct Summary {
-  double p50 = 0;
-  double max = 0;
-};
-Summary summarize(std::vector<double> v) {
-  if (v.empty()) return {};
-  std::sort(v.begin(), v.end());
-  return Summary{.p50 = v[v.size() / 2], .max = v.back()};
+// p50 and max, the way the run summary reports them (report.hpp).
+proto::Percentiles summarize(const std::vector<double>& v) {
+  proto::Percentiles p;
+  fill_percentiles(p, v);
+  return p;
 }
 
 double ms_since(Nanos start) { return static_cast<double>((sys::monotonic_now() - start).count()) / 1e6; }
@@ -138,18 +135,18 @@ int run_bench(std::span<const std::string_view> args) {
     if (!step()) return static_cast<int>(Exit::Findings);
   }
   const kernel::SrStats& sr = k.sr_stats();
-  const Summary cp = summarize(sr.checkpoint_ms);
-  const Summary rb = summarize(sr.rollback_ms);
-  const Summary cr = summarize(cold);
+  const proto::Percentiles cp = summarize(sr.checkpoint_ms);
+  const proto::Percentiles rb = summarize(sr.rollback_ms);
+  const proto::Percentiles cr = summarize(cold);
   std::printf("images: %s, %zu rejuvenated services + queue state, %zu checkpoints, %zu rollbacks, %zu cold restarts\n",
               name.c_str(), rejuvenated, sr.checkpoint_ms.size(), sr.rollback_ms.size(), cold.size());
   std::printf("%-14s %10s %10s   %s\n", "", "p50 [ms]", "max [ms]", "paper (PX4 kernel module)");
-  std::printf("%-14s %10.3f %10.3f   ≈20 ms\n", "checkpoint", cp.p50, cp.max);
-  std::printf("%-14s %10.3f %10.3f   ≈15 ms\n", "rollback", rb.p50, rb.max);
-  std::printf("%-14s %10.3f %10.3f   (restart-based baseline)\n", "cold restart", cr.p50, cr.max);
+  std::printf("%-14s %10.3f %10.3f   ≈20 ms\n", "checkpoint", cp.p50(), cp.max());
+  std::printf("%-14s %10.3f %10.3f   ≈15 ms\n", "rollback", rb.p50(), rb.max());
+  std::printf("%-14s %10.3f %10.3f   (restart-based baseline)\n", "cold restart", cr.p50(), cr.max());
   const auto phase = [](const char* label, const std::vector<double>& v) {
-    const Summary p = summarize(v);
-    std::printf("  %-12s %10.3f %10.3f\n", label, p.p50, p.max);
+    const proto::Percentiles p = summarize(v);
+    std::printf("  %-12s %10.3f %10.3f\n", label, p.p50(), p.max());
   };
   std::printf("phases:\n");
   phase("cp: snapshot", sr.checkpoint_phases.a);
@@ -159,9 +156,9 @@ int run_bench(std::span<const std::string_view> args) {
   phase("rb: resume", sr.rollback_phases.b);
   phase("rb: restore", sr.rollback_phases.c);
   std::printf("ratio cold restart / rollback (p50): %.1fx; cold restart / checkpoint (p50): %.1fx\n",
-              rb.p50 > 0 ? cr.p50 / rb.p50 : 0.0, cp.p50 > 0 ? cr.p50 / cp.p50 : 0.0);
-  std::printf("targets: checkpoint p50 <= 0.5 ms: %s; rollback p50 <= 0.5 ms: %s\n", cp.p50 <= 0.5 ? "met" : "NOT met",
-              rb.p50 <= 0.5 ? "met" : "NOT met");
+              rb.p50() > 0 ? cr.p50() / rb.p50() : 0.0, cp.p50() > 0 ? cr.p50() / cp.p50() : 0.0);
+  std::printf("targets: checkpoint p50 <= 0.5 ms: %s; rollback p50 <= 0.5 ms: %s\n", cp.p50() <= 0.5 ? "met" : "NOT met",
+              rb.p50() <= 0.5 ? "met" : "NOT met");
   k.shutdown();
   return static_cast<int>(Exit::Ok);
 }

@@ -40,7 +40,6 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::BootCap: rule = exactly(sizeof(BootCap)); return true;
     case FrameKind::BootParam: rule = exactly(sizeof(BootParam)); return true;
     case FrameKind::Reply: rule = {sizeof(ReplyHeader), kMaxPayloadBytes}; return true;
-    case FrameKind::RollbackSignal: rule = exactly(sizeof(RollbackBody)); return true;
   }
   return false;
 }
@@ -68,7 +67,6 @@ std::string_view to_string(FrameKind kind) {
     case FrameKind::Reply: return "Reply";
     case FrameKind::TimerFired: return "TimerFired";
     case FrameKind::Snapshot: return "Snapshot";
-    case FrameKind::RollbackSignal: return "RollbackSignal";
     case FrameKind::Shutdown: return "Shutdown";
     case FrameKind::Resume: return "Resume";
     case FrameKind::NetDatagram: return "NetDatagram";

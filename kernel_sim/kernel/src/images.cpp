@@ -31,7 +31,6 @@ namespace rejuv::kernel {
 
 namespace {
 
-std::int32_t op_code(wire::OpError e) { return static_cast<std::int32_t>(e); }
 double to_ms(Nanos d) { return static_cast<double>(d.count()) / 1e6; }
 unsigned long long num(Generation g) { return static_cast<unsigned long long>(g.value()); }
 
@@ -107,6 +106,16 @@ void Kernel::Impl::finish_retiring(bool final) {
   if (final) {
     for (image::GenerationRecord& r : retiring) image::destroy(r);
     retiring.clear();
+  }
+}
+
+// Every live service's pending ring messages go out, in ring order (after a cut, a restore, an abandoned
+// checkpoint: what was published meanwhile was not pushed, DESIGN §7).
+void Kernel::Impl::resume_routing() {
+  for (ServiceRuntime& s : services) {
+    if (!s.live()) continue;
+    s.sweep = true;
+    drain(s);
   }
 }
 
@@ -202,12 +211,7 @@ void Kernel::Impl::run_checkpoint() {
     if (late) {
       for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
     }
-    for (ServiceRuntime& s : services) {
-      if (s.live()) {
-        s.sweep = true;
-        drain(s);
-      }
-    }
+    resume_routing();
     answer(op_code(wire::OpError::Refused), 0);
     return;
   }
@@ -227,12 +231,7 @@ void Kernel::Impl::run_checkpoint() {
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
   routing_frozen = false;
-  for (ServiceRuntime& s : services) {
-    if (s.live()) {
-      s.sweep = true;  // what was published during the cut, in ring order
-      drain(s);
-    }
-  }
+  resume_routing();
   answer(0, g.value());
   for (image::GenerationRecord& old : evicted) retire(std::move(old));
   const Nanos took = t_saved - t0;
@@ -321,6 +320,22 @@ void Kernel::Impl::retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying
   }
 }
 
+namespace {
+// The first frame on a restored image's new channel: Resumed{g, its pid}; 0 on anything else or no frame
+// before `deadline`.
+pid_t read_resumed(const sys::SeqPacket& channel, Generation g, Nanos deadline) {
+  const Nanos left = std::max(Nanos{0}, deadline - sys::monotonic_now());
+  auto ready = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, left);
+  if (!ready || !*ready) return 0;
+  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
+  auto got = channel.receive(buf);
+  if (!got || got->closed) return 0;
+  auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel);
+  if (!frame || frame->kind != wire::FrameKind::Resumed || frame->header.aux != g.value()) return 0;
+  return wire::payload_as<wire::TakenBody>(*frame).image_pid;
+}
+}  // namespace
+
 bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::string& failure, Nanos& resumed_at) {
   const Epoch next{time_page.current().epoch.value() + 1};
   struct Pending {
@@ -351,17 +366,9 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
   // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
   // (on a failure the caller retires it again).
   const Nanos deadline = wall() + options.resume_deadline;
-  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
   for (Pending& p : pending) {
     ServiceRuntime& s = *p.service;
-    const Nanos left = std::max(Nanos{0}, deadline - wall());
-    auto ready = sys::wait_fd(p.channel.fd(), sys::WaitFor::Readable, left);
-    auto got = ready && *ready ? p.channel.receive(buf) : sys::SysResult<sys::Received>(std::unexpected(sys::SysError{"wait", ETIMEDOUT}));
-    auto frame = got && !got->closed ? wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel)
-                                     : Result<wire::FrameView, wire::FrameError>(std::unexpected(wire::FrameError::TooShort));
-    const pid_t pid = frame && frame->kind == wire::FrameKind::Resumed && frame->header.aux == record.g.value()
-                          ? wire::payload_as<wire::TakenBody>(*frame).image_pid
-                          : 0;
+    const pid_t pid = read_resumed(p.channel, record.g, deadline);
     auto copy = std::find_if(p.image->copies.begin(), p.image->copies.end(),
                              [&](const sys::ChildProcess& c) { return pid > 0 && c.pid() == pid; });
     if (copy != p.image->copies.end()) {
@@ -450,12 +457,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     publish_as_kernel(*topic, std::as_bytes(std::span(&signal, 1)));
   }
   publish_sr_mode();
-  for (ServiceRuntime& s : services) {
-    if (s.live()) {
-      s.sweep = true;
-      drain(s);
-    }
-  }
+  resume_routing();
   const Nanos took = wall() - t0;
   sr_stats.rollback_phases.a.push_back(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.push_back(to_ms(t_resumed - t_killed));

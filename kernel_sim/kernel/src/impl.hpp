@@ -324,6 +324,7 @@ struct Kernel::Impl {
   // Resumes every image of `record`; false (and everything resumed killed again) if one fails.
   bool resume_generation(image::GenerationRecord& record, std::string& failure, Nanos& resumed_at);
   void cold_restart(const std::string& reason);
+  void resume_routing();
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
   [[nodiscard]] Result<void, KernelError> settle_images();
   void retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying);
@@ -391,6 +392,9 @@ struct Kernel::Impl {
   void check_stop_conditions();
   [[nodiscard]] std::optional<Nanos> next_wall_deadline() const;
 };
+
+// ReplyHeader::error of an operation error (docs/protocol.md: ≥ 100).
+[[nodiscard]] constexpr std::int32_t op_code(wire::OpError e) { return static_cast<std::int32_t>(e); }
 
 // The boot params of a service: its own launch params, then the graph-wide ones (services/sdk service.hpp).
 [[nodiscard]] std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRuntime& s);

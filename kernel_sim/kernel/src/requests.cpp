@@ -145,7 +145,6 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Reply:
     case wire::FrameKind::TimerFired:
     case wire::FrameKind::Snapshot:
-    case wire::FrameKind::RollbackSignal:
     case wire::FrameKind::Shutdown:
     case wire::FrameKind::Resume:
     case wire::FrameKind::NetDatagram:
@@ -163,7 +162,6 @@ void Kernel::Impl::reply(ServiceRuntime& s, std::uint32_t seq, std::int32_t erro
 
 namespace {
 std::int32_t denial_code(cap::CapError e) { return 1 + static_cast<std::int32_t>(e); }
-std::int32_t op_code(wire::OpError e) { return static_cast<std::int32_t>(e); }
 
 // Rights from their bit pattern (wire: InvokeHeader::arg1 low bits for Copy/Mint).
 Rights rights_from_bits(std::uint64_t bits) {

@@ -736,7 +736,6 @@ int Service::run() {
         }
         break;  // live or restored: the loop goes on (a restored image on its new channel)
       }
-      case wire::FrameKind::RollbackSignal:  // rollback handlers subscribe to the rollback_signal topic
       case wire::FrameKind::Reply:           // a reply nobody waits for
       case wire::FrameKind::Boot:
       case wire::FrameKind::BootCap:

@@ -49,7 +49,7 @@ enum class FrameKind : std::uint16_t {
   Reply = 111,      // seq = the request's seq; payload = ReplyHeader + data
   TimerFired = 112, // aux = timer id
   Snapshot = 113,   // aux = generation g; carries one fd: the image's resume socket (DESIGN §7)
-  RollbackSignal = 114,  // aux = generation restored; payload = RollbackBody
+  // 114 was RollbackSignal: the kernel publishes the rollback_signal topic instead (DESIGN §7 step 3).
   Shutdown = 115,
   Resume = 116,     // on an image's resume socket (DESIGN §7): aux = generation; payload = ResumeBody;
                     // carries one fd: the new channel
@@ -141,11 +141,6 @@ struct ResumeBody {
   std::uint32_t reserved = 0;
 };
 inline constexpr std::size_t kMaxDatagramBytes = 1400;  // network gate: larger datagrams are dropped
-struct RollbackBody {
-  std::uint32_t epoch = 0;
-  std::uint32_t reserved = 0;
-  std::uint64_t checkpoint_time_ns = 0;
-};
 
 // The time page (DESIGN §6): written only by the kernel, mapped read-only by services; a seqlock.
 struct TimePage {
