@@ -52,10 +52,15 @@ endfunction()
 # Service and plant executables all live in one folder the kernel knows (REJUV_SERVICE_BIN_DIR), so a
 # launch graph names them by file name: `executable: "rejuv_ekf2"`.
 set(REJUV_SERVICE_BIN_DIR ${CMAKE_BINARY_DIR}/bin CACHE INTERNAL "where service executables are built")
+# DYNAMIC: a process of the bin folder that is no service and is never imaged (the plant, which talks DDS).
 function(rejuv_service_executable name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "DYNAMIC" "" "SOURCES;DEPS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${REJUV_SERVICE_BIN_DIR})
+  if(REJUV_STATIC_SERVICES AND NOT ARG_DYNAMIC)  # see REJUV_STATIC_SERVICES in the top CMakeLists.txt
+    set_target_properties(${name} PROPERTIES REJUV_STATIC_LINK ON)
+    target_link_options(${name} PRIVATE -static)
+  endif()
   rejuv_warnings(${name})
 endfunction()

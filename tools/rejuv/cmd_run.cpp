@@ -77,8 +77,8 @@ std::filesystem::path service_dir() {
 }  // namespace
 
 int run_run(std::span<const std::string_view> args) {
-  std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text;
-  bool net_port_set = false;
+  std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
+  bool net_port_set = false, cpu_set = false;
   bool realtime = false, no_sr = false, no_attack = false, verbose = false;
   bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
   ArgParser parser("run",
@@ -105,6 +105,10 @@ int run_run(std::span<const std::string_view> args) {
       .option("--net-port", "P", net_port_text,
               "UDP port of the network gate (default: the graph's network.bind_port or 14555; 0 = any free port)",
               &net_port_set)
+      .option("--cpu", "N|all", cpu_text,
+              "run the kernel, the services and the plant on CPU N, or on all CPUs (default: a lockstep run stays\n"
+              "on the CPU it starts on: its steps are one chain of wake-ups, cheapest without inter-CPU interrupts)",
+              &cpu_set)
       .flag("--verbose", verbose, "also print the services' debug log lines");
   const auto parsed = parser.parse(args);
   if (!parsed) return bad_input("rejuv run: " + parsed.error());
@@ -148,6 +152,16 @@ int run_run(std::span<const std::string_view> args) {
     if (!p) return bad_input("rejuv run: " + p.error());
     if (*p > 0xFFFF) return bad_input("rejuv run: --net-port: expected 0..65535, got " + net_port_text);
     options.network_port = static_cast<std::uint16_t>(*p);
+  }
+  if (cpu_set) {
+    if (cpu_text == "all") {
+      options.placement = kernel::KernelOptions::Placement::Spread;
+    } else {
+      const auto c = to_u64(cpu_text, "--cpu");
+      if (!c || *c >= 1024) return bad_input("rejuv run: --cpu: expected a CPU number or 'all', got '" + cpu_text + "'");
+      options.placement = kernel::KernelOptions::Placement::Cpu;
+      options.cpu = static_cast<int>(*c);
+    }
   }
   if (skip_set) {
     std::string_view rest = skip_text;

@@ -181,6 +181,8 @@ struct Kernel::Impl {
   bool sr = false;
   std::uint64_t seed = 1;
   std::uint32_t domain = 0;
+  std::optional<int> pinned_cpu;  // KernelOptions::placement: the CPU of the whole run, if pinned
+  std::optional<int> image_cpu;   // pinned: another CPU, lent to half of the services during checkpoint/rollback
 
   // ---- components ----
   cap::CapSystem caps;
@@ -331,6 +333,7 @@ struct Kernel::Impl {
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
   void set_mode(SrMode mode);
+  void place_services(bool spread);  // half of the rejuvenated services on image_cpu (spread) or all back
   [[nodiscard]] std::optional<ObjectId> kernel_topic(std::string_view type) const;
 
   // ---- channel input (requests.cpp) ----

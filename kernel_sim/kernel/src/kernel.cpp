@@ -232,6 +232,26 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
                                  .type = k.objects[object->value()].type,
                                  .inbound = b.direction() == proto::BRIDGE_IN});
   }
+  // Before the bridge: Cyclone's threads, the services and the plant inherit the CPU mask (KernelOptions).
+  using Placement = KernelOptions::Placement;
+  const Placement placement = k.options.placement;
+  if (placement == Placement::Cpu || (placement == Placement::Auto && clock_mode == ClockMode::Lockstep)) {
+    auto allowed = sys::allowed_cpus();
+    if (!allowed) return fail(kernel_error(K::System, allowed.error().to_string()));
+    if (placement == Placement::Cpu && std::find(allowed->begin(), allowed->end(), k.options.cpu) == allowed->end()) {
+      return fail(kernel_error(K::Config, "CPU " + std::to_string(k.options.cpu) + " is not available to this process"));
+    }
+    auto cpu = sys::pin_to_one_cpu(placement == Placement::Cpu ? std::optional<int>(k.options.cpu) : std::nullopt);
+    if (!cpu) return fail(kernel_error(K::System, "pinning to one CPU: " + cpu.error().to_string()));
+    k.pinned_cpu = *cpu;
+    // A second CPU takes half of the services' forks and resumes during a checkpoint or rollback (images.cpp).
+    for (const int c : *allowed) {
+      if (c != *cpu) {
+        k.image_cpu = c;
+        break;
+      }
+    }
+  }
   const bool plant_lockstep = k.options.time_master == TimeMaster::Plant && clock_mode == ClockMode::Lockstep;
   if (!bridges.empty() || plant_lockstep) {
     if (std::getenv("CYCLONEDDS_URI") == nullptr) {
@@ -614,10 +634,11 @@ Result<void, KernelError> Kernel::boot() {
     return fail(std::move(e));
   }
   k.booted = true;
-  k.log("%zu services ready (%s clock%s)", static_cast<std::size_t>(std::count_if(
-                                               k.services.begin(), k.services.end(),
-                                               [](const ServiceRuntime& s) { return !s.skip; })),
-        std::string(to_string(k.clock_mode)).c_str(), k.sr ? ", SR on" : ", SR off");
+  const std::string where = k.pinned_cpu ? ", on CPU " + std::to_string(*k.pinned_cpu) : std::string();
+  k.log("%zu services ready (%s clock%s%s)", static_cast<std::size_t>(std::count_if(
+                                                 k.services.begin(), k.services.end(),
+                                                 [](const ServiceRuntime& s) { return !s.skip; })),
+        std::string(to_string(k.clock_mode)).c_str(), k.sr ? ", SR on" : ", SR off", where.c_str());
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
     if (auto ok = k.spawn_plant(); !ok) {
       k.shutdown_all();

@@ -7,6 +7,7 @@
 #include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -268,6 +269,38 @@ SysResult<pid_t> fork_sibling() {
 
 SysResult<void> make_non_dumpable() {
   if (::prctl(PR_SET_DUMPABLE, 0, 0, 0, 0) != 0) return last_error("prctl(PR_SET_DUMPABLE)");
+  return {};
+}
+
+SysResult<int> pin_to_one_cpu(std::optional<int> cpu) {
+  const int chosen = cpu.value_or(::sched_getcpu());
+  if (chosen < 0) return last_error("sched_getcpu");
+  if (auto ok = set_cpu(0, chosen); !ok) return std::unexpected(ok.error());
+  return chosen;
+}
+
+SysResult<void> set_cpu(pid_t pid, int cpu) {
+  if (cpu < 0 || cpu >= CPU_SETSIZE) return std::unexpected(SysError{"sched_setaffinity", EINVAL});
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  if (::sched_setaffinity(pid, sizeof(set), &set) != 0) return last_error("sched_setaffinity");
+  return {};
+}
+
+SysResult<std::vector<int>> allowed_cpus() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::sched_getaffinity(0, sizeof(set), &set) != 0) return last_error("sched_getaffinity");
+  std::vector<int> cpus;
+  for (int c = 0; c < CPU_SETSIZE; ++c) {
+    if (CPU_ISSET(c, &set)) cpus.push_back(c);
+  }
+  return cpus;
+}
+
+SysResult<void> lower_priority(pid_t pid) {
+  if (::setpriority(PRIO_PROCESS, static_cast<id_t>(pid), 19) != 0) return last_error("setpriority");
   return {};
 }
 

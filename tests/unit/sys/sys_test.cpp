@@ -1,12 +1,18 @@
 #include <gtest/gtest.h>
 
 #include <signal.h>
+#include <sched.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <array>
 #include <cstring>
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <thread>
+#include <vector>
 
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/process.hpp"
@@ -235,6 +241,91 @@ TEST(Subreaper, CountChildren_SeesSpawnedProcess) {
   EXPECT_EQ(count_children(::getpid()).value(), *before + 1);
   child->kill_and_reap();
   EXPECT_EQ(count_children(::getpid()).value(), *before);
+}
+
+
+// ---- CPU placement (KernelOptions::placement, DESIGN §6) ----
+
+// Runs `body` in a thread of its own, so that pinning it leaves the test process's mask alone.
+template <class F>
+void in_thread(F body) {
+  std::thread t(body);
+  t.join();
+}
+
+std::string cpus_allowed_list(pid_t pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("Cpus_allowed_list:", 0) == 0) return line.substr(line.find_first_not_of(" \t", 18));
+  }
+  return {};
+}
+
+TEST(CpuPlacement, AllowedCpus_NonEmptyAndAscending) {
+  auto cpus = allowed_cpus();
+  ASSERT_TRUE(cpus.has_value()) << cpus.error().to_string();
+  ASSERT_FALSE(cpus->empty());
+  EXPECT_TRUE(std::is_sorted(cpus->begin(), cpus->end()));
+}
+
+TEST(CpuPlacement, PinToOneCpu_OnlyThatCpuAllowedAndInherited) {
+  in_thread([] {
+    const auto before = allowed_cpus();
+    ASSERT_TRUE(before.has_value());
+    const int want = before->back();
+    auto pinned = pin_to_one_cpu(want);
+    ASSERT_TRUE(pinned.has_value()) << pinned.error().to_string();
+    EXPECT_EQ(*pinned, want);
+    EXPECT_EQ(*allowed_cpus(), std::vector<int>{want});
+    // A process spawned from the pinned thread inherits the mask (the services and the plant do).
+    auto child = spawn(probe("sleep"));
+    ASSERT_TRUE(child.has_value()) << child.error().to_string();
+    EXPECT_EQ(cpus_allowed_list(child->pid()), std::to_string(want));
+  });
+}
+
+TEST(CpuPlacement, PinToOneCpu_Current_StaysWhereItRuns) {
+  in_thread([] {
+    const int here = ::sched_getcpu();
+    auto pinned = pin_to_one_cpu(std::nullopt);
+    ASSERT_TRUE(pinned.has_value()) << pinned.error().to_string();
+    EXPECT_GE(*pinned, 0);
+    EXPECT_EQ(allowed_cpus()->size(), 1U);
+    (void)here;  // the thread may have migrated between the two calls: only "exactly one CPU" is certain
+  });
+}
+
+TEST(CpuPlacement, SetCpu_OutOfRange_EinvalAsValue) {
+  auto r = set_cpu(0, CPU_SETSIZE);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().error, EINVAL);
+  auto negative = set_cpu(0, -1);
+  ASSERT_FALSE(negative.has_value());
+  EXPECT_EQ(negative.error().error, EINVAL);
+}
+
+TEST(CpuPlacement, SetCpu_OtherProcess_Moved) {
+  auto child = spawn(probe("sleep"));
+  ASSERT_TRUE(child.has_value()) << child.error().to_string();
+  const int cpu = allowed_cpus()->front();
+  ASSERT_TRUE(set_cpu(child->pid(), cpu).has_value());
+  EXPECT_EQ(cpus_allowed_list(child->pid()), std::to_string(cpu));
+}
+
+TEST(CpuPlacement, LowerPriority_Nice19) {
+  auto child = spawn(probe("sleep"));
+  ASSERT_TRUE(child.has_value()) << child.error().to_string();
+  ASSERT_TRUE(lower_priority(child->pid()).has_value());
+  errno = 0;
+  EXPECT_EQ(::getpriority(PRIO_PROCESS, static_cast<id_t>(child->pid())), 19);
+  EXPECT_EQ(errno, 0);
+}
+
+TEST(CpuPlacement, LowerPriority_NoSuchProcess_ErrorValue) {
+  auto r = lower_priority(0x3FFFFFFF);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().error, ESRCH);
 }
 
 }  // namespace

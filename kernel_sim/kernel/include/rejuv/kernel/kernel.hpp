@@ -87,6 +87,14 @@ struct KernelOptions {
   // Network gate (DESIGN §2): the UDP port of the external link, overriding the graph's `network.bind_port`
   // (0 = ephemeral: Kernel::network_port() tells which; tests use it).
   std::optional<std::uint16_t> network_port{};
+  // CPU placement (DESIGN §6). A lockstep step is one chain of wake-ups (plant → kernel → services → kernel →
+  // plant) with nothing to run in parallel: on one CPU each hop is a context switch; across CPUs it is an
+  // inter-processor interrupt that, on a virtual machine whose idle vCPU halts, costs tens of µs (the square
+  // without SR: 3.1× real time spread over 2 vCPUs, 9.7× on one; docs/performance.md). Auto pins a lockstep
+  // run to the CPU the kernel is on and leaves a realtime run alone; Cpu pins to `cpu`; Spread never pins.
+  enum class Placement : std::uint8_t { Auto, Cpu, Spread };
+  Placement placement = Placement::Auto;
+  int cpu = 0;                                  // with Placement::Cpu
   std::FILE* log = stderr;                      // kernel and service log lines; nullptr = silent
   bool verbose = false;                         // also Debug-level service logs
 };

@@ -86,6 +86,18 @@ struct SpawnSpec {
 // PR_SET_DUMPABLE 0: no core dump, no ptrace or /proc/<pid>/mem access by other processes of its uid.
 [[nodiscard]] SysResult<void> make_non_dumpable();
 
+// ---- CPU placement (DESIGN §6) ----
+// Pins the calling thread to one CPU: `cpu`, or the one it runs on now. Threads and processes it creates
+// afterwards inherit the mask. Returns the CPU. EINVAL: `cpu` is not one this process may use.
+[[nodiscard]] SysResult<int> pin_to_one_cpu(std::optional<int> cpu);
+// Pins process (or thread) `pid` (0: the caller) to CPU `cpu`.
+[[nodiscard]] SysResult<void> set_cpu(pid_t pid, int cpu);
+// The CPUs the calling thread may run on, ascending.
+[[nodiscard]] SysResult<std::vector<int>> allowed_cpus();
+// Gives `pid` the lowest CFS priority (nice 19), e.g. before killing it, so that its exit — tearing down its
+// address space, ~0.1 ms here — runs when the CPU has time and not inside a rollback (DESIGN §7).
+[[nodiscard]] SysResult<void> lower_priority(pid_t pid);
+
 // Counts the live processes whose parent is `parent` (from /proc), for leak checks in tests.
 [[nodiscard]] SysResult<int> count_children(pid_t parent);
 
