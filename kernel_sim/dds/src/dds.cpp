@@ -1,6 +1,7 @@
 #include "rejuv/dds/dds.hpp"
 
 #include <cerrno>
+#include <atomic>
 #include <cstring>
 #include <thread>
 #include <utility>
@@ -266,16 +267,20 @@ DdsResult<void> Writer::wait_for_readers(std::uint32_t count, Nanos timeout) con
 // ---- Reader ----
 
 struct Reader::State {
+  State(detail::EventFd fd, std::size_t size, std::size_t stride)
+      : ready(std::move(fd)), sample_size(size), storage(stride * kTakeBatch), samples(kTakeBatch), infos(kTakeBatch) {}
   detail::EventFd ready;
   std::size_t sample_size = 0;
   std::vector<std::max_align_t> storage;  // kTakeBatch samples, each at a multiple of max_align_t
   std::vector<void*> samples;             // pointers into storage, handed to dds_take
   std::vector<dds_sample_info_t> infos;
+  std::atomic<bool> signalling{true};     // Reader::set_signalling
 
   // Runs on a Cyclone thread: signal the event loop and touch nothing else (DESIGN §5; the kernel is
   // single-threaded).
   static void on_data_available(dds_entity_t /*reader*/, void* arg) {
-    static_cast<const State*>(arg)->ready.signal();
+    const State& s = *static_cast<const State*>(arg);
+    if (s.signalling.load(std::memory_order_acquire)) s.ready.signal();
   }
 };
 
@@ -290,11 +295,7 @@ DdsResult<Reader> Reader::create(const Participant& participant, std::string_vie
     return fail(DdsError{.kind = DdsError::Kind::Os, .call = "eventfd", .code = ready.error().error});
   }
   const std::size_t stride = (type.size + sizeof(std::max_align_t) - 1) / sizeof(std::max_align_t);
-  auto state = std::make_unique<State>(State{.ready = std::move(*ready),
-                                             .sample_size = type.size,
-                                             .storage = std::vector<std::max_align_t>(stride * kTakeBatch),
-                                             .samples = std::vector<void*>(kTakeBatch),
-                                             .infos = std::vector<dds_sample_info_t>(kTakeBatch)});
+  auto state = std::make_unique<State>(std::move(*ready), type.size, stride);
   for (std::size_t i = 0; i < kTakeBatch; ++i) {
     state->samples[i] = &state->storage[i * stride];
   }
@@ -354,10 +355,17 @@ int Reader::ready_fd() const {
   return state_ ? state_->ready.fd() : -1;
 }
 
+void Reader::set_signalling(bool on) {
+  REJUV_ASSERT(state_ != nullptr, "set_signalling on an empty Reader");
+  state_->signalling.store(on, std::memory_order_release);
+}
+
 DdsResult<std::size_t> Reader::take_erased(SampleFn fn, void* context) {
   REJUV_ASSERT(valid() && state_, "take on an empty Reader");
   State& s = *state_;
-  s.ready.drain();  // before taking: a sample arriving from now on signals again
+  // Before taking: a sample arriving from now on signals again. Not signalling: nothing to drain (a stale
+  // readiness from before set_signalling(false) only makes one spurious wake-up once it is on again).
+  if (s.signalling.load(std::memory_order_acquire)) s.ready.drain();
   std::size_t delivered = 0;
   for (;;) {
     const dds_return_t n = dds_take(reader_, s.samples.data(), s.infos.data(), kTakeBatch,

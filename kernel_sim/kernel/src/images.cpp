@@ -52,21 +52,6 @@ void Kernel::Impl::set_mode(SrMode mode) {
   publish_sr_mode();
 }
 
-// ---- CPUs (KernelOptions::placement) ----
-
-// A pinned run (lockstep) steps on one CPU, but a checkpoint is eight independent forks and a rollback eight
-// independent resumes: every other rejuvenated service gets the second CPU while they run. An image inherits
-// the CPU of the service that forked it, so a rollback resumes the same half there, and their spare copies
-// are forked there too, off the stepping CPU. Afterwards the live services come back (place_services(false)).
-void Kernel::Impl::place_services(bool spread) {
-  if (!pinned_cpu || !image_cpu) return;
-  std::size_t n = 0;
-  for (ServiceRuntime& s : services) {
-    if (!s.rejuvenate || !s.live()) continue;
-    if (n++ % 2 == 1 || !spread) (void)sys::set_cpu(s.process.pid(), spread ? *image_cpu : *pinned_cpu);
-  }
-}
-
 // ---- socket pairs made ahead ----
 
 std::optional<std::pair<sys::SeqPacket, sys::SeqPacket>> Kernel::Impl::take_pair() {
@@ -180,7 +165,6 @@ void Kernel::Impl::run_checkpoint() {
   run.record.t_cp = now();
   routing_frozen = true;
   flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
-  place_services(true);
   for (ServiceRuntime& s : services) {
     if (!s.rejuvenate || s.phase != Phase::Ready) continue;
     auto pair = take_pair();
@@ -216,7 +200,6 @@ void Kernel::Impl::run_checkpoint() {
   }
   CheckpointRun done = std::move(*checkpoint);
   checkpoint.reset();
-  place_services(false);
   if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
   const auto answer = [&](std::int32_t error, std::uint64_t value) {
     if (caller) reply(services[caller->value()], seq, error, value);
@@ -465,7 +448,6 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     cold_restart(reason + "; no usable generation");
     return;
   }
-  place_services(false);
   // The rollback is the rejuvenation: a pending once-timer is spent; a periodic one runs on.
   rejuvenation.due = rejuvenation.period > Nanos{0} ? std::optional<Nanos>(now() + rejuvenation.period) : std::nullopt;
   arm_timerfd();

@@ -182,7 +182,6 @@ struct Kernel::Impl {
   std::uint64_t seed = 1;
   std::uint32_t domain = 0;
   std::optional<int> pinned_cpu;  // KernelOptions::placement: the CPU of the whole run, if pinned
-  std::optional<int> image_cpu;   // pinned: another CPU, lent to half of the services during checkpoint/rollback
 
   // ---- components ----
   cap::CapSystem caps;
@@ -281,7 +280,8 @@ struct Kernel::Impl {
   Nanos last_progress{0};
   std::uint64_t denials_drained = 0;
   std::uint64_t kernel_bad_frames = 0;
-  alignas(8) std::array<std::byte, wire::kMaxFrameBytes> rx{};
+  // read_channel: one frame slot per recvmmsg entry (8-byte aligned slots: the wire layouts need it).
+  alignas(8) std::array<std::byte, wire::kMaxFrameBytes * sys::kMaxReceiveBatch> rx_batch{};
   wire::FrameBuffer tx;
 
   Impl(launch::LoadedLaunch g, KernelOptions o, Observer* obs, policy::Policy p, cap::CapSystem c, broker::Broker b,
@@ -333,7 +333,6 @@ struct Kernel::Impl {
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
   void set_mode(SrMode mode);
-  void place_services(bool spread);  // half of the rejuvenated services on image_cpu (spread) or all back
   [[nodiscard]] std::optional<ObjectId> kernel_topic(std::string_view type) const;
 
   // ---- channel input (requests.cpp) ----

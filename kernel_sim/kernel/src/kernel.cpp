@@ -244,13 +244,6 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
     auto cpu = sys::pin_to_one_cpu(placement == Placement::Cpu ? std::optional<int>(k.options.cpu) : std::nullopt);
     if (!cpu) return fail(kernel_error(K::System, "pinning to one CPU: " + cpu.error().to_string()));
     k.pinned_cpu = *cpu;
-    // A second CPU takes half of the services' forks and resumes during a checkpoint or rollback (images.cpp).
-    for (const int c : *allowed) {
-      if (c != *cpu) {
-        k.image_cpu = c;
-        break;
-      }
-    }
   }
   const bool plant_lockstep = k.options.time_master == TimeMaster::Plant && clock_mode == ClockMode::Lockstep;
   if (!bridges.empty() || plant_lockstep) {
@@ -279,7 +272,10 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
     for (std::size_t i = 0; i < k.bridge->readers().size(); ++i) {
       // Lockstep with the plant: the samples of a step are taken when its SimStep arrives (they were
       // published before it), so only the step reader wakes the kernel — one wakeup per step, not per sample.
-      if (plant_lockstep && k.bridge->readers()[i].role != DdsBridge::Role::Step) continue;
+      if (plant_lockstep && k.bridge->readers()[i].role != DdsBridge::Role::Step) {
+        k.bridge->readers()[i].reader.set_signalling(false);  // until a step is short of samples
+        continue;
+      }
       if (auto ok = add(k.bridge->readers()[i].reader.ready_fd(), token(Source::Dds, i)); !ok) return fail(ok.error());
     }
   }
@@ -483,11 +479,12 @@ void Kernel::Impl::watch_sample_readers(bool watch) {
   watching_samples = watch;
   for (std::size_t i = 0; i < bridge->readers().size(); ++i) {
     if (bridge->readers()[i].role == DdsBridge::Role::Step) continue;
-    const int fd = bridge->readers()[i].reader.ready_fd();
+    dds::Reader& reader = bridge->readers()[i].reader;
+    reader.set_signalling(watch);  // on before the fd is watched; the collect_samples below takes the rest
     if (watch) {
-      (void)epoll.add(fd, token(Source::Dds, i));
+      (void)epoll.add(reader.ready_fd(), token(Source::Dds, i));
     } else {
-      (void)epoll.remove(fd);
+      (void)epoll.remove(reader.ready_fd());
     }
   }
   if (watch) collect_samples();

@@ -11,37 +11,48 @@
 namespace rejuv::kernel {
 
 void Kernel::Impl::read_channel(ServiceRuntime& s) {
-  for (std::size_t i = 0; i < kFramesPerWakeup; ++i) {
+  // A burst of frames per recvmmsg (sys::SeqPacket::receive_batch); at most kFramesPerWakeup per wakeup.
+  std::array<std::span<std::byte>, sys::kMaxReceiveBatch> buffers{};
+  for (std::size_t i = 0; i < buffers.size(); ++i) buffers[i] = std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, wire::kMaxFrameBytes);
+  std::array<sys::Received, sys::kMaxReceiveBatch> got{};
+  for (std::size_t read = 0; read < kFramesPerWakeup;) {
     if (!s.live() || !s.channel.valid()) return;
-    auto r = s.channel.receive(rx, 0);  // no fds are ever expected from a service
-    if (!r) {
-      if (r.error().error == EAGAIN) return;
-      if (r.error().error != ECONNRESET) log("channel of '%s': %s", s.name.c_str(), r.error().to_string().c_str());
-      r = sys::Received{.size = 0, .truncated = false, .closed = true, .fds_truncated = false, .fds = {}};
+    auto n = s.channel.receive_batch(buffers, got);  // no fds are ever expected from a service
+    if (!n) {
+      if (n.error().error == EAGAIN) return;
+      if (n.error().error != ECONNRESET) log("channel of '%s': %s", s.name.c_str(), n.error().to_string().c_str());
+      got[0] = sys::Received{.size = 0, .truncated = false, .closed = true, .fds_truncated = false, .fds = {}};
+      n = 1;
     }
-    if (r->closed) {
-      // The service closed fd 3, or is exiting (its pidfd tells which, soon). A live service without a
-      // channel cannot be driven: check_deadlines loses it if it is still running after a grace period.
-      (void)epoll.remove(s.channel.fd());
-      s.channel.close();
-      s.channel_closed_at = wall();
-      return;
+    read += *n;
+    for (std::size_t i = 0; i < *n; ++i) {
+      if (!s.live() || !s.channel.valid()) return;  // a frame before this one lost the service
+      const sys::Received& r = got[i];
+      if (r.closed) {
+        // The service closed fd 3, or is exiting (its pidfd tells which, soon). A live service without a
+        // channel cannot be driven: check_deadlines loses it if it is still running after a grace period.
+        (void)epoll.remove(s.channel.fd());
+        s.channel.close();
+        s.channel_closed_at = wall();
+        return;
+      }
+      ++s.stats.frames_in;
+      if (r.truncated) {
+        refuse(s, "frame longer than the maximum frame size");
+        continue;
+      }
+      if (r.fds_truncated) {
+        refuse(s, "frame carried file descriptors (closed)");
+        continue;
+      }
+      auto frame = wire::decode(buffers[i].first(r.size), wire::Direction::ToKernel);
+      if (!frame) {
+        refuse(s, wire::to_string(frame.error()));
+        continue;
+      }
+      handle_frame(s, *frame);
     }
-    ++s.stats.frames_in;
-    if (r->truncated) {
-      refuse(s, "frame longer than the maximum frame size");
-      continue;
-    }
-    if (r->fds_truncated) {
-      refuse(s, "frame carried file descriptors (closed)");
-      continue;
-    }
-    auto frame = wire::decode(std::span<const std::byte>(rx.data(), r->size), wire::Direction::ToKernel);
-    if (!frame) {
-      refuse(s, wire::to_string(frame.error()));
-      continue;
-    }
-    handle_frame(s, *frame);
+    if (*n < buffers.size()) return;  // drained: no second system call to find the channel empty
   }
 }
 

@@ -3,6 +3,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstring>
@@ -53,28 +54,17 @@ SysResult<void> SeqPacket::send(std::span<const std::byte> frame, std::span<cons
   return {};
 }
 
-SysResult<Received> SeqPacket::receive(std::span<std::byte> buf, std::size_t max_fds) const {
-  iovec iov{buf.data(), buf.size()};
-  msghdr msg{};
-  msg.msg_iov = &iov;
-  msg.msg_iovlen = 1;
-  // Always offer room for fds, so that fds a hostile peer sends are received here and closed, not leaked.
-  alignas(cmsghdr) std::array<char, CMSG_SPACE(sizeof(int) * kMaxFdsPerFrame)> control{};
-  msg.msg_control = control.data();
-  msg.msg_controllen = control.size();
-  ssize_t n = -1;
-  do {
-    n = ::recvmsg(fd_.get(), &msg, MSG_CMSG_CLOEXEC);
-  } while (n < 0 && errno == EINTR);
-  if (n < 0) {
-    return last_error("recvmsg");
-  }
+namespace {
+
+// What recvmsg/recvmmsg reported for one datagram: its size, flags and the fds it carried (beyond max_fds:
+// closed here and flagged, so that a hostile peer's fds are never leaked).
+Received describe(const msghdr& msg, std::size_t n, std::size_t buffer_size, std::size_t max_fds) {
   Received r;
-  r.size = static_cast<std::size_t>(n);
+  r.size = n;
   r.truncated = (msg.msg_flags & MSG_TRUNC) != 0;
   r.fds_truncated = (msg.msg_flags & MSG_CTRUNC) != 0;
-  r.closed = n == 0 && buf.size() > 0 && !r.truncated;
-  for (cmsghdr* cmsg = CMSG_FIRSTHDR(&msg); cmsg != nullptr; cmsg = CMSG_NXTHDR(&msg, cmsg)) {
+  r.closed = n == 0 && buffer_size > 0 && !r.truncated;
+  for (const cmsghdr* cmsg = CMSG_FIRSTHDR(&msg); cmsg != nullptr; cmsg = CMSG_NXTHDR(const_cast<msghdr*>(&msg), const_cast<cmsghdr*>(cmsg))) {  // NOLINT: the macro is not const-correct
     if (cmsg->cmsg_level != SOL_SOCKET || cmsg->cmsg_type != SCM_RIGHTS) {
       continue;
     }
@@ -91,6 +81,57 @@ SysResult<Received> SeqPacket::receive(std::span<std::byte> buf, std::size_t max
     }
   }
   return r;
+}
+
+using Control = std::array<char, CMSG_SPACE(sizeof(int) * kMaxFdsPerFrame)>;
+
+}  // namespace
+
+SysResult<Received> SeqPacket::receive(std::span<std::byte> buf, std::size_t max_fds) const {
+  iovec iov{buf.data(), buf.size()};
+  msghdr msg{};
+  msg.msg_iov = &iov;
+  msg.msg_iovlen = 1;
+  // Always offer room for fds, so that fds a hostile peer sends are received here and closed, not leaked.
+  alignas(cmsghdr) Control control{};
+  msg.msg_control = control.data();
+  msg.msg_controllen = control.size();
+  ssize_t n = -1;
+  do {
+    n = ::recvmsg(fd_.get(), &msg, MSG_CMSG_CLOEXEC);
+  } while (n < 0 && errno == EINTR);
+  if (n < 0) {
+    return last_error("recvmsg");
+  }
+  return describe(msg, static_cast<std::size_t>(n), buf.size(), max_fds);
+}
+
+SysResult<std::size_t> SeqPacket::receive_batch(std::span<const std::span<std::byte>> buffers,
+                                                std::span<Received> out) const {
+  const std::size_t n = std::min({buffers.size(), out.size(), kMaxReceiveBatch});
+  if (n == 0) return 0;
+  std::array<iovec, kMaxReceiveBatch> iov{};
+  std::array<mmsghdr, kMaxReceiveBatch> msgs{};
+  alignas(cmsghdr) std::array<Control, kMaxReceiveBatch> control{};
+  for (std::size_t i = 0; i < n; ++i) {
+    iov[i] = iovec{buffers[i].data(), buffers[i].size()};
+    msgs[i].msg_hdr.msg_iov = &iov[i];
+    msgs[i].msg_hdr.msg_iovlen = 1;
+    msgs[i].msg_hdr.msg_control = control[i].data();
+    msgs[i].msg_hdr.msg_controllen = control[i].size();
+  }
+  int got = -1;
+  do {
+    got = ::recvmmsg(fd_.get(), msgs.data(), static_cast<unsigned>(n), MSG_DONTWAIT | MSG_CMSG_CLOEXEC, nullptr);
+  } while (got < 0 && errno == EINTR);
+  if (got < 0) {
+    return last_error("recvmmsg");
+  }
+  for (std::size_t i = 0; i < static_cast<std::size_t>(got); ++i) {
+    out[i] = describe(msgs[i].msg_hdr, msgs[i].msg_len, buffers[i].size(), 0);
+    if (out[i].closed) return i + 1;  // end of stream: what follows it is more of the same
+  }
+  return static_cast<std::size_t>(got);
 }
 
 }  // namespace rejuv::sys

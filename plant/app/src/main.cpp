@@ -162,6 +162,7 @@ class PlantProcess {
   void watch_outputs(bool watch) {
     if (watch == watching_outputs_) return;
     watching_outputs_ = watch;
+    io_.actuator_outputs.set_signalling(watch);  // unwatched, a sample costs no eventfd write or read
     const int fd = io_.actuator_outputs.ready_fd();
     const std::uint64_t token = static_cast<std::uint64_t>(fd);
     if (auto ok = watch ? epoll_.add(fd, token) : epoll_.remove(fd); !ok) log(ok.error().to_string());
@@ -288,7 +289,10 @@ class PlantProcess {
         watch_outputs(false);
         return *ack;
       }
-      if (ack) watch_outputs(true);
+      if (ack && !watching_outputs_) {
+        watch_outputs(true);
+        continue;  // take once more: an output that came before signalling was on wakes nobody
+      }
 
       auto sig = pending_signal();
       if (!sig) return fail(sig.error());
@@ -385,6 +389,7 @@ ExitCode run(std::span<const std::string_view> args) {
     return kExitFailure;
   }
   // Lockstep waits for the ack (PlantProcess::watch_outputs); realtime takes the outputs every tick.
+  if (options.clock == ClockMode::Lockstep) endpoints->actuator_outputs.set_signalling(false);
   for (const int fd : {signals->fd(), endpoints->ack ? endpoints->ack->ready_fd() : -1}) {
     if (fd < 0) continue;
     if (auto ok = epoll->add(fd, static_cast<std::uint64_t>(fd)); !ok) {

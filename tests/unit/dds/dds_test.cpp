@@ -165,6 +165,44 @@ TEST_F(DdsTest, ReadyFd_DataArrives_BecomesReadableAndTakeClearsIt) {
   EXPECT_FALSE(readable_now(r->ready_fd()));
 }
 
+TEST_F(DdsTest, SignallingOff_DataArrives_FdStaysUnreadableButTakeGetsIt) {
+  Participant a = participant();
+  Participant b = participant();
+  auto w = Writer::create(a, "rejuv/test_gyro", gyro_type());
+  auto r = Reader::create(b, "rejuv/test_gyro", gyro_type());
+  ASSERT_TRUE(w && r);
+  connect(*w, *r);
+  r->set_signalling(false);
+  ASSERT_TRUE(w->write_value(gyro_sample(1)).has_value());
+  std::size_t taken = 0;
+  // The sample arrives on Cyclone's thread without a signal: poll take() until it is there.
+  const auto deadline = std::chrono::steady_clock::now() + kLiveness;
+  while (taken == 0 && std::chrono::steady_clock::now() < deadline) {
+    auto n = r->take([](std::span<const std::byte>) {});
+    ASSERT_TRUE(n.has_value());
+    taken += *n;
+  }
+  EXPECT_EQ(taken, 1U);
+  EXPECT_FALSE(readable_now(r->ready_fd()));
+}
+
+TEST_F(DdsTest, SignallingBackOn_NextSampleMakesFdReadable) {
+  Participant a = participant();
+  Participant b = participant();
+  auto w = Writer::create(a, "rejuv/test_gyro", gyro_type());
+  auto r = Reader::create(b, "rejuv/test_gyro", gyro_type());
+  ASSERT_TRUE(w && r);
+  connect(*w, *r);
+  r->set_signalling(false);
+  r->set_signalling(true);
+  ASSERT_TRUE(w->write_value(gyro_sample(2)).has_value());
+  EXPECT_TRUE(readable_within(r->ready_fd(), kLiveness));
+  auto n = r->take([](std::span<const std::byte>) {});
+  ASSERT_TRUE(n.has_value());
+  EXPECT_EQ(*n, 1U);
+  EXPECT_FALSE(readable_now(r->ready_fd()));
+}
+
 TEST_F(DdsTest, Take_NoData_ReturnsZero) {
   Participant a = participant();
   auto r = Reader::create(a, "rejuv/test_gyro", gyro_type());

@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <cstdint>
 #include <cstring>
 #include <algorithm>
 #include <filesystem>
@@ -96,6 +97,100 @@ TEST(SeqPacket, Receive_NonBlockingEmpty_EagainAsValue) {
   auto r = pair->second.receive(buf);
   ASSERT_FALSE(r.has_value());
   EXPECT_EQ(r.error().error, EAGAIN);
+}
+
+// ---- receive_batch (one recvmmsg for a burst: the kernel's read_channel) ----
+
+struct BatchBuffers {
+  std::array<std::array<std::byte, 16>, kMaxReceiveBatch> storage{};
+  std::array<std::span<std::byte>, kMaxReceiveBatch> spans{};
+  std::array<Received, kMaxReceiveBatch> out{};
+  BatchBuffers() {
+    for (std::size_t i = 0; i < spans.size(); ++i) spans[i] = storage[i];
+  }
+};
+
+TEST(SeqPacketBatch, ThreeFrames_OneCallInOrderWithBoundaries) {
+  auto pair = SeqPacket::pair(Blocking::No);
+  ASSERT_TRUE(pair.has_value());
+  for (std::uint8_t i = 1; i <= 3; ++i) {
+    const std::array<std::byte, 2> frame{std::byte{i}, std::byte{i}};
+    ASSERT_TRUE(pair->first.send(std::span(frame).first(i == 2 ? 1 : 2)).has_value());
+  }
+  BatchBuffers b;
+  auto n = pair->second.receive_batch(b.spans, b.out);
+  ASSERT_TRUE(n.has_value()) << n.error().to_string();
+  ASSERT_EQ(*n, 3U);
+  EXPECT_EQ(b.out[0].size, 2U);
+  EXPECT_EQ(b.out[1].size, 1U);
+  EXPECT_EQ(b.out[2].size, 2U);
+  EXPECT_EQ(b.storage[2][0], std::byte{3});
+  auto again = pair->second.receive_batch(b.spans, b.out);
+  ASSERT_FALSE(again.has_value());
+  EXPECT_EQ(again.error().error, EAGAIN);
+}
+
+TEST(SeqPacketBatch, MoreFramesThanSlots_RestOnTheNextCall) {
+  auto pair = SeqPacket::pair(Blocking::No);
+  ASSERT_TRUE(pair.has_value());
+  const std::array<std::byte, 1> frame{std::byte{5}};
+  for (std::size_t i = 0; i < kMaxReceiveBatch + 3; ++i) ASSERT_TRUE(pair->first.send(frame).has_value());
+  BatchBuffers b;
+  auto first = pair->second.receive_batch(b.spans, b.out);
+  ASSERT_TRUE(first.has_value());
+  EXPECT_EQ(*first, kMaxReceiveBatch);
+  auto second = pair->second.receive_batch(b.spans, b.out);
+  ASSERT_TRUE(second.has_value());
+  EXPECT_EQ(*second, 3U);
+}
+
+TEST(SeqPacketBatch, OversizedFrame_TruncatedFlaggedOthersIntact) {
+  auto pair = SeqPacket::pair(Blocking::No);
+  ASSERT_TRUE(pair.has_value());
+  const std::array<std::byte, 64> big{};
+  const std::array<std::byte, 4> small{std::byte{1}, std::byte{2}, std::byte{3}, std::byte{4}};
+  ASSERT_TRUE(pair->first.send(big).has_value());
+  ASSERT_TRUE(pair->first.send(small).has_value());
+  BatchBuffers b;
+  auto n = pair->second.receive_batch(b.spans, b.out);
+  ASSERT_TRUE(n.has_value());
+  ASSERT_EQ(*n, 2U);
+  EXPECT_TRUE(b.out[0].truncated);
+  EXPECT_FALSE(b.out[1].truncated);
+  EXPECT_EQ(b.out[1].size, 4U);
+  EXPECT_EQ(b.storage[1][3], std::byte{4});
+}
+
+TEST(SeqPacketBatch, UnexpectedFds_ClosedAndFlagged) {
+  auto pair = SeqPacket::pair(Blocking::No);
+  auto carried = SeqPacket::pair();
+  ASSERT_TRUE(pair && carried);
+  const auto before = count_open_fds();
+  ASSERT_TRUE(before.has_value());
+  const std::array<std::byte, 1> tag{std::byte{7}};
+  const std::array<int, 2> fds{carried->first.fd(), carried->second.fd()};
+  ASSERT_TRUE(pair->first.send(tag, fds).has_value());
+  BatchBuffers b;
+  auto n = pair->second.receive_batch(b.spans, b.out);
+  ASSERT_TRUE(n.has_value());
+  ASSERT_EQ(*n, 1U);
+  EXPECT_TRUE(b.out[0].fds_truncated);
+  EXPECT_TRUE(b.out[0].fds.empty());
+  EXPECT_EQ(*count_open_fds(), *before);
+}
+
+TEST(SeqPacketBatch, PeerClosed_EndsTheBatchWithClosed) {
+  auto pair = SeqPacket::pair(Blocking::No);
+  ASSERT_TRUE(pair.has_value());
+  const std::array<std::byte, 1> frame{std::byte{1}};
+  ASSERT_TRUE(pair->first.send(frame).has_value());
+  pair->first.close();
+  BatchBuffers b;
+  auto n = pair->second.receive_batch(b.spans, b.out);
+  ASSERT_TRUE(n.has_value());
+  ASSERT_EQ(*n, 2U);
+  EXPECT_FALSE(b.out[0].closed);
+  EXPECT_TRUE(b.out[1].closed);
 }
 
 TEST(SeqPacket, PassFd_ArrivesUsable) {

@@ -147,6 +147,12 @@ class Reader {
   ~Reader();
 
   [[nodiscard]] int ready_fd() const;
+  // Whether arriving data makes ready_fd() readable (default on). Off for a reader that is only ever taken
+  // when something else wakes the loop (the kernel's sensor readers in lockstep: taken with the SimStep):
+  // then the Cyclone thread writes no eventfd per sample and take() reads none — two system calls per
+  // sample saved. Turn it on before adding ready_fd() to a poll set, then take() once: what arrived while
+  // it was off is taken then, and everything after it signals.
+  void set_signalling(bool on);
 
   // Takes every available sample, oldest first, and calls on_sample(span of type().size bytes, aligned for
   // the type) for each; returns how many. The span is valid only during the call. Not reentrant: on_sample

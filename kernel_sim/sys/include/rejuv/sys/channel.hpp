@@ -14,6 +14,8 @@ namespace rejuv::sys {
 enum class Blocking : std::uint8_t { Yes, No };
 
 // What one receive produced.
+inline constexpr std::size_t kMaxReceiveBatch = 16;
+
 struct Received {
   std::size_t size = 0;            // bytes written into the buffer
   bool truncated = false;          // the datagram was longer than the buffer (rest discarded)
@@ -35,6 +37,12 @@ class SeqPacket {
   // Receives one frame into buf; at most max_fds fds are accepted. EAGAIN on a non-blocking end is an error
   // value with error == EAGAIN.
   [[nodiscard]] SysResult<Received> receive(std::span<std::byte> buf, std::size_t max_fds = 0) const;
+  // Up to kMaxReceiveBatch frames in one recvmmsg without waiting: frame i lands in buffers[i] and is
+  // described by out[i] as receive(buffers[i], 0) would (fds are closed and flagged). Returns how many
+  // (≥ 1), ending at an end-of-stream entry (closed); EAGAIN as an error value when no frame is waiting.
+  // One system call for a burst of frames instead of one per frame plus the one that finds none.
+  [[nodiscard]] SysResult<std::size_t> receive_batch(std::span<const std::span<std::byte>> buffers,
+                                                     std::span<Received> out) const;
 
   [[nodiscard]] int fd() const { return fd_.get(); }
   [[nodiscard]] bool valid() const { return fd_.valid(); }
