@@ -107,7 +107,7 @@ SysResult<Received> SeqPacket::receive(std::span<std::byte> buf, std::size_t max
 }
 
 SysResult<std::size_t> SeqPacket::receive_batch(std::span<const std::span<std::byte>> buffers,
-                                                std::span<Received> out) const {
+                                                std::span<Received> out, std::size_t max_fds) const {
   const std::size_t n = std::min({buffers.size(), out.size(), kMaxReceiveBatch});
   if (n == 0) return 0;
   std::array<iovec, kMaxReceiveBatch> iov{};
@@ -128,7 +128,7 @@ SysResult<std::size_t> SeqPacket::receive_batch(std::span<const std::span<std::b
     return last_error("recvmmsg");
   }
   for (std::size_t i = 0; i < static_cast<std::size_t>(got); ++i) {
-    out[i] = describe(msgs[i].msg_hdr, msgs[i].msg_len, buffers[i].size(), 0);
+    out[i] = describe(msgs[i].msg_hdr, msgs[i].msg_len, buffers[i].size(), max_fds);
     if (out[i].closed) return i + 1;  // end of stream: what follows it is more of the same
   }
   return static_cast<std::size_t>(got);

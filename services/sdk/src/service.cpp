@@ -209,18 +209,51 @@ struct Service::Impl {
   }
   SdkResult<void> send_built() { return queue(tx.bytes()); }
 
+  // Frames read ahead: one recvmmsg takes a burst (sys::SeqPacket::receive_batch), receive() hands them out
+  // one by one through rx. A batch smaller than the buffer means the channel was empty after it, so the
+  // drained check that follows costs no system call. An image resumed by a rollback drops what is left
+  // (forget_batch): nothing sent to the old incarnation is read by the restored one (DESIGN §7).
+  static constexpr std::size_t kBatch = 4;
+  alignas(8) std::array<std::byte, wire::kMaxFrameBytes * kBatch> batch_bytes{};
+  std::array<sys::Received, kBatch> batch{};
+  std::size_t batch_next = 0;
+  std::size_t batch_count = 0;
+  bool batch_drained = false;  // the last recvmmsg returned fewer frames than it had room for
+  void forget_batch() {
+    for (sys::Received& r : batch) r.fds.clear();
+    batch_next = batch_count = 0;
+    batch_drained = false;
+  }
+
   // Reads one frame into rx; nullopt when none is ready and `wait` is false.
   SdkResult<std::optional<std::size_t>> receive(bool wait) {
     for (;;) {
-      auto r = channel.receive(rx, 1);
-      if (r) {
-        if (r->closed) return error(SdkError::ChannelClosed);
+      if (batch_next < batch_count) {
+        sys::Received& r = batch[batch_next];
+        const std::byte* bytes = batch_bytes.data() + batch_next * wire::kMaxFrameBytes;
+        ++batch_next;
+        if (r.closed) return error(SdkError::ChannelClosed);
         ++frames_received;
-        rx_fds = std::move(r->fds);
-        if (r->truncated) return std::optional<std::size_t>(0);  // decodes as TooShort: counted as bad
-        return std::optional<std::size_t>(r->size);
+        rx_fds = std::move(r.fds);
+        if (r.truncated) return std::optional<std::size_t>(0);  // decodes as TooShort: counted as bad
+        std::memcpy(rx.data(), bytes, r.size);
+        return std::optional<std::size_t>(r.size);
       }
-      if (r.error().error != EAGAIN) return io_error(r.error());
+      if (batch_drained && !wait) {
+        batch_drained = false;
+        return std::optional<std::size_t>{};
+      }
+      std::array<std::span<std::byte>, kBatch> slots{};
+      for (std::size_t i = 0; i < kBatch; ++i) slots[i] = std::span(batch_bytes).subspan(i * wire::kMaxFrameBytes, wire::kMaxFrameBytes);
+      auto n = channel.receive_batch(slots, batch, 1);
+      if (n) {
+        batch_next = 0;
+        batch_count = *n;
+        batch_drained = *n < kBatch && !batch[*n - 1].closed;
+        continue;
+      }
+      batch_drained = false;
+      if (n.error().error != EAGAIN) return io_error(n.error());
       if (!wait) return std::optional<std::size_t>{};
       if (auto w = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::nullopt); !w) return io_error(w.error());
     }
@@ -318,6 +351,7 @@ bool Service::Impl::become_image(std::uint64_t g, sys::UniqueFd resume_fd) {
     }
     frames_received = 0;  // Idle counts frames on this channel (docs/protocol.md "Idle")
     idle_reported = 0;
+    forget_batch();       // frames read ahead on the old channel belong to the old incarnation
     restored = CheckpointOutcome{.kind = CheckpointOutcome::Kind::Restored, .generation = Generation{g},
                                  .epoch = Epoch{body.epoch}};
     if (workers != nullptr) workers = WorkerSet::respawn_in_image(workers);

@@ -38,11 +38,11 @@ class SeqPacket {
   // value with error == EAGAIN.
   [[nodiscard]] SysResult<Received> receive(std::span<std::byte> buf, std::size_t max_fds = 0) const;
   // Up to kMaxReceiveBatch frames in one recvmmsg without waiting: frame i lands in buffers[i] and is
-  // described by out[i] as receive(buffers[i], 0) would (fds are closed and flagged). Returns how many
-  // (≥ 1), ending at an end-of-stream entry (closed); EAGAIN as an error value when no frame is waiting.
-  // One system call for a burst of frames instead of one per frame plus the one that finds none.
+  // described by out[i] as receive(buffers[i], max_fds) would. Returns how many (≥ 1), ending at an
+  // end-of-stream entry (closed); EAGAIN as an error value when no frame is waiting. One system call for a
+  // burst of frames instead of one per frame plus the one that finds none.
   [[nodiscard]] SysResult<std::size_t> receive_batch(std::span<const std::span<std::byte>> buffers,
-                                                     std::span<Received> out) const;
+                                                     std::span<Received> out, std::size_t max_fds = 0) const;
 
   [[nodiscard]] int fd() const { return fd_.get(); }
   [[nodiscard]] bool valid() const { return fd_.valid(); }
