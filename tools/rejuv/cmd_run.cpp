@@ -106,8 +106,7 @@ int run_run(std::span<const std::string_view> args) {
               "UDP port of the network gate (default: the graph's network.bind_port or 14555; 0 = any free port)",
               &net_port_set)
       .option("--cpu", "N|all", cpu_text,
-              "run the kernel, the services and the plant on CPU N, or on all CPUs (default: a lockstep run stays\n"
-              "on the CPU it starts on: its steps are one chain of wake-ups, cheapest without inter-CPU interrupts)",
+              "kernel, services and plant on CPU N or on all (default: lockstep stays on the CPU it starts on)",
               &cpu_set)
       .flag("--verbose", verbose, "also print the services' debug log lines");
   const auto parsed = parser.parse(args);

@@ -218,6 +218,26 @@ TEST_F(RejuvCli, Help_Exit0) {
   EXPECT_NE(r.out.find("--launch"), std::string::npos) << r.out;
 }
 
+// `rejuv run --cpu N|all` (KernelOptions::placement): refused before anything is spawned.
+TEST_F(RejuvCli, RunCpu_NotACpu_Exit2NamesTheFlag) {
+  const Outcome r = rejuv({"run", kQuadSquare, "--cpu", "fast"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--cpu"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("fast"), std::string::npos) << r.err;
+}
+
+TEST_F(RejuvCli, RunCpu_Unavailable_Exit2SaysWhich) {
+  const Outcome r = rejuv({"run", kQuadSquare, "--cpu", "1023"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("CPU 1023 is not available"), std::string::npos) << r.err;
+}
+
+TEST_F(RejuvCli, RunHelp_ListsCpu) {
+  const Outcome r = rejuv({"run", "--help"});
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_NE(r.out.find("--cpu N|all"), std::string::npos) << r.out;
+}
+
 TEST_F(RejuvCli, JsonClean_ValidDocumentOkTrue) {
   const Outcome r = rejuv({"audit", kQuadSr, "--launch", kQuadSquare, "--format", "json"});
   EXPECT_EQ(r.exit_code, 0) << r.err;
