@@ -18,7 +18,7 @@ SysResult<std::size_t> send_batch(int fd, std::span<const std::span<const std::b
   }
   int sent = -1;
   do {
-    sent = ::sendmmsg(fd, msgs.data(), static_cast<unsigned>(n), MSG_NOSIGNAL);
+    sent = ::sendmmsg(fd, msgs.data(), static_cast<unsigned>(n), MSG_NOSIGNAL | MSG_DONTWAIT);
   } while (sent < 0 && errno == EINTR);
   if (sent < 0) return last_error("sendmmsg");
   return static_cast<std::size_t>(sent);

@@ -107,7 +107,7 @@ SysResult<Received> SeqPacket::receive(std::span<std::byte> buf, std::size_t max
 }
 
 SysResult<std::size_t> SeqPacket::receive_batch(std::span<const std::span<std::byte>> buffers,
-                                                std::span<Received> out, std::size_t max_fds) const {
+                                                std::span<Received> out, std::size_t max_fds, Wait wait) const {
   const std::size_t n = std::min({buffers.size(), out.size(), kMaxReceiveBatch});
   if (n == 0) return 0;
   std::array<iovec, kMaxReceiveBatch> iov{};
@@ -122,7 +122,8 @@ SysResult<std::size_t> SeqPacket::receive_batch(std::span<const std::span<std::b
   }
   int got = -1;
   do {
-    got = ::recvmmsg(fd_.get(), msgs.data(), static_cast<unsigned>(n), MSG_DONTWAIT | MSG_CMSG_CLOEXEC, nullptr);
+    const int when = wait == Wait::ForOne ? MSG_WAITFORONE : MSG_DONTWAIT;
+    got = ::recvmmsg(fd_.get(), msgs.data(), static_cast<unsigned>(n), when | MSG_CMSG_CLOEXEC, nullptr);
   } while (got < 0 && errno == EINTR);
   if (got < 0) {
     return last_error("recvmmsg");

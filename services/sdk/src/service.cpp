@@ -245,7 +245,7 @@ struct Service::Impl {
       }
       std::array<std::span<std::byte>, kBatch> slots{};
       for (std::size_t i = 0; i < kBatch; ++i) slots[i] = std::span(batch_bytes).subspan(i * wire::kMaxFrameBytes, wire::kMaxFrameBytes);
-      auto n = channel.receive_batch(slots, batch, 1);
+      auto n = channel.receive_batch(slots, batch, 1, wait ? sys::Wait::ForOne : sys::Wait::No);
       if (n) {
         batch_next = 0;
         batch_count = *n;
@@ -255,6 +255,7 @@ struct Service::Impl {
       batch_drained = false;
       if (n.error().error != EAGAIN) return io_error(n.error());
       if (!wait) return std::optional<std::size_t>{};
+      // Only on a non-blocking channel (the wait is otherwise inside recvmmsg): wait, then read.
       if (auto w = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::nullopt); !w) return io_error(w.error());
     }
   }
@@ -346,7 +347,7 @@ bool Service::Impl::become_image(std::uint64_t g, sys::UniqueFd resume_fd) {
     if (frame->kind != wire::FrameKind::Resume || got->fds.size() != 1) std::_Exit(3);
     const auto body = wire::payload_as<wire::ResumeBody>(*frame);
     resume.close();
-    if (!sys::install_fd(std::move(got->fds[0]), wire::kChannelFd) || !sys::set_nonblocking(wire::kChannelFd, true)) {
+    if (!sys::install_fd(std::move(got->fds[0]), wire::kChannelFd) || !sys::set_nonblocking(wire::kChannelFd, false)) {
       std::_Exit(3);
     }
     frames_received = 0;  // Idle counts frames on this channel (docs/protocol.md "Idle")
@@ -390,7 +391,9 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
   if (!page) return error(SdkError::NotAService, "time page: " + page.error().to_string());
   impl->time = std::move(*page);
   impl->channel = sys::SeqPacket(sys::UniqueFd(options.channel_fd));
-  if (auto nb = sys::set_nonblocking(options.channel_fd, true); !nb) return io_error(nb.error());
+  // Blocking for reads, so that waiting for a frame is the read itself (receive_batch, Wait::ForOne); every
+  // read that must not wait and every send say so per call (MSG_DONTWAIT).
+  if (auto nb = sys::set_nonblocking(options.channel_fd, false); !nb) return io_error(nb.error());
 
   // Hello, then Boot, BootCap × n, BootParam × m, BootEnd (docs/protocol.md "Boot").
   if (!impl->tx.build(wire::FrameKind::Hello, 0, 0, wire::kProtocolVersion)) return error(SdkError::Protocol);
@@ -712,21 +715,21 @@ int Service::run() {
       bytes = held;
     } else {
       auto got = s.receive(false);
-      if (!got) {
-        if (got.error().code == SdkError::ChannelClosed) return 1;
-        std::fprintf(stderr, "[%s] channel: %s\n", s.name.c_str(), got.error().to_string().c_str());
-        return 1;
-      }
-      if (!*got) {
+      if (got && !*got) {
         // Drained: everything received has been handled (docs/protocol.md "Idle").
         if (s.lockstep && s.frames_received != s.idle_reported) {
           if (!s.tx.build(wire::FrameKind::Idle, 0, 0, s.frames_received) || !s.send_built()) return 1;
           s.idle_reported = s.frames_received;
         }
         if (!s.flush()) return 1;
-        if (!sys::wait_fd(s.channel.fd(), sys::WaitFor::Readable, std::nullopt)) return 1;
-        continue;
+        got = s.receive(true);  // sleeps in recvmmsg until the next frame: the wait is the read
       }
+      if (!got) {
+        if (got.error().code == SdkError::ChannelClosed) return 1;
+        std::fprintf(stderr, "[%s] channel: %s\n", s.name.c_str(), got.error().to_string().c_str());
+        return 1;
+      }
+      if (!*got) continue;
       bytes = std::span<const std::byte>(s.rx.data(), **got);
     }
     auto frame = wire::decode(bytes, wire::Direction::ToService);

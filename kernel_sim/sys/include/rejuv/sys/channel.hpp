@@ -12,6 +12,8 @@
 namespace rejuv::sys {
 
 enum class Blocking : std::uint8_t { Yes, No };
+// receive_batch: return at once (EAGAIN when nothing waits), or, on a blocking fd, wait for the first frame.
+enum class Wait : std::uint8_t { No, ForOne };
 
 // What one receive produced.
 inline constexpr std::size_t kMaxReceiveBatch = 16;
@@ -37,12 +39,14 @@ class SeqPacket {
   // Receives one frame into buf; at most max_fds fds are accepted. EAGAIN on a non-blocking end is an error
   // value with error == EAGAIN.
   [[nodiscard]] SysResult<Received> receive(std::span<std::byte> buf, std::size_t max_fds = 0) const;
-  // Up to kMaxReceiveBatch frames in one recvmmsg without waiting: frame i lands in buffers[i] and is
-  // described by out[i] as receive(buffers[i], max_fds) would. Returns how many (≥ 1), ending at an
-  // end-of-stream entry (closed); EAGAIN as an error value when no frame is waiting. One system call for a
-  // burst of frames instead of one per frame plus the one that finds none.
+  // Up to kMaxReceiveBatch frames in one recvmmsg: frame i lands in buffers[i] and is described by out[i]
+  // as receive(buffers[i], max_fds) would. Returns how many (≥ 1), ending at an end-of-stream entry
+  // (closed); EAGAIN as an error value when no frame is waiting and `wait` is No (or the fd is
+  // non-blocking). Wait::ForOne on a blocking fd sleeps until the first frame, then takes what else is
+  // there (MSG_WAITFORONE): the wait is the read. One system call for a burst instead of one per frame.
   [[nodiscard]] SysResult<std::size_t> receive_batch(std::span<const std::span<std::byte>> buffers,
-                                                     std::span<Received> out, std::size_t max_fds = 0) const;
+                                                     std::span<Received> out, std::size_t max_fds = 0,
+                                                     Wait wait = Wait::No) const;
 
   [[nodiscard]] int fd() const { return fd_.get(); }
   [[nodiscard]] bool valid() const { return fd_.valid(); }
