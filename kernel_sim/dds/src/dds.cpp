@@ -1,7 +1,7 @@
 #include "rejuv/dds/dds.hpp"
 
-#include <cerrno>
 #include <atomic>
+#include <cerrno>
 #include <cstring>
 #include <thread>
 #include <utility>

@@ -2,6 +2,7 @@
 // and the clock (lockstep steps and realtime). Routing is in router.cpp, channel requests in requests.cpp,
 // processes in supervisor.cpp.
 #include <algorithm>
+#include <cerrno>
 #include <csignal>
 #include <cstdarg>
 #include <cstdlib>
@@ -236,12 +237,10 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   using Placement = KernelOptions::Placement;
   const Placement placement = k.options.placement;
   if (placement == Placement::Cpu || (placement == Placement::Auto && clock_mode == ClockMode::Lockstep)) {
-    auto allowed = sys::allowed_cpus();
-    if (!allowed) return fail(kernel_error(K::System, allowed.error().to_string()));
-    if (placement == Placement::Cpu && std::find(allowed->begin(), allowed->end(), k.options.cpu) == allowed->end()) {
+    auto cpu = sys::pin_to_one_cpu(placement == Placement::Cpu ? std::optional<int>(k.options.cpu) : std::nullopt);
+    if (!cpu && placement == Placement::Cpu && cpu.error().error == EINVAL) {
       return fail(kernel_error(K::Config, "CPU " + std::to_string(k.options.cpu) + " is not available to this process"));
     }
-    auto cpu = sys::pin_to_one_cpu(placement == Placement::Cpu ? std::optional<int>(k.options.cpu) : std::nullopt);
     if (!cpu) return fail(kernel_error(K::System, "pinning to one CPU: " + cpu.error().to_string()));
     k.pinned_cpu = *cpu;
   }

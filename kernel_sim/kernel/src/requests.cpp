@@ -12,12 +12,10 @@ namespace rejuv::kernel {
 
 void Kernel::Impl::read_channel(ServiceRuntime& s) {
   // A burst of frames per recvmmsg (sys::SeqPacket::receive_batch); at most kFramesPerWakeup per wakeup.
-  std::array<std::span<std::byte>, sys::kMaxReceiveBatch> buffers{};
-  for (std::size_t i = 0; i < buffers.size(); ++i) buffers[i] = std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, wire::kMaxFrameBytes);
   std::array<sys::Received, sys::kMaxReceiveBatch> got{};
   for (std::size_t read = 0; read < kFramesPerWakeup;) {
     if (!s.live() || !s.channel.valid()) return;
-    auto n = s.channel.receive_batch(buffers, got);  // no fds are ever expected from a service
+    auto n = s.channel.receive_batch(rx_batch, wire::kMaxFrameBytes, got);  // a service never sends fds
     if (!n) {
       if (n.error().error == EAGAIN) return;
       if (n.error().error != ECONNRESET) log("channel of '%s': %s", s.name.c_str(), n.error().to_string().c_str());
@@ -45,14 +43,14 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
         refuse(s, "frame carried file descriptors (closed)");
         continue;
       }
-      auto frame = wire::decode(buffers[i].first(r.size), wire::Direction::ToKernel);
+      auto frame = wire::decode(std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, r.size), wire::Direction::ToKernel);
       if (!frame) {
         refuse(s, wire::to_string(frame.error()));
         continue;
       }
       handle_frame(s, *frame);
     }
-    if (*n < buffers.size()) return;  // drained: no second system call to find the channel empty
+    if (*n < got.size()) return;  // drained: no second system call to find the channel empty
   }
 }
 

@@ -58,13 +58,13 @@ namespace {
 
 // What recvmsg/recvmmsg reported for one datagram: its size, flags and the fds it carried (beyond max_fds:
 // closed here and flagged, so that a hostile peer's fds are never leaked).
-Received describe(const msghdr& msg, std::size_t n, std::size_t buffer_size, std::size_t max_fds) {
+Received describe(msghdr& msg, std::size_t n, std::size_t buffer_size, std::size_t max_fds) {
   Received r;
   r.size = n;
   r.truncated = (msg.msg_flags & MSG_TRUNC) != 0;
   r.fds_truncated = (msg.msg_flags & MSG_CTRUNC) != 0;
   r.closed = n == 0 && buffer_size > 0 && !r.truncated;
-  for (const cmsghdr* cmsg = CMSG_FIRSTHDR(&msg); cmsg != nullptr; cmsg = CMSG_NXTHDR(const_cast<msghdr*>(&msg), const_cast<cmsghdr*>(cmsg))) {  // NOLINT: the macro is not const-correct
+  for (cmsghdr* cmsg = CMSG_FIRSTHDR(&msg); cmsg != nullptr; cmsg = CMSG_NXTHDR(&msg, cmsg)) {
     if (cmsg->cmsg_level != SOL_SOCKET || cmsg->cmsg_type != SCM_RIGHTS) {
       continue;
     }
@@ -106,15 +106,15 @@ SysResult<Received> SeqPacket::receive(std::span<std::byte> buf, std::size_t max
   return describe(msg, static_cast<std::size_t>(n), buf.size(), max_fds);
 }
 
-SysResult<std::size_t> SeqPacket::receive_batch(std::span<const std::span<std::byte>> buffers,
+SysResult<std::size_t> SeqPacket::receive_batch(std::span<std::byte> slots, std::size_t slot_bytes,
                                                 std::span<Received> out, std::size_t max_fds, Wait wait) const {
-  const std::size_t n = std::min({buffers.size(), out.size(), kMaxReceiveBatch});
+  const std::size_t n = slot_bytes == 0 ? 0 : std::min({slots.size() / slot_bytes, out.size(), kMaxReceiveBatch});
   if (n == 0) return 0;
   std::array<iovec, kMaxReceiveBatch> iov{};
   std::array<mmsghdr, kMaxReceiveBatch> msgs{};
   alignas(cmsghdr) std::array<Control, kMaxReceiveBatch> control{};
   for (std::size_t i = 0; i < n; ++i) {
-    iov[i] = iovec{buffers[i].data(), buffers[i].size()};
+    iov[i] = iovec{slots.data() + i * slot_bytes, slot_bytes};
     msgs[i].msg_hdr.msg_iov = &iov[i];
     msgs[i].msg_hdr.msg_iovlen = 1;
     msgs[i].msg_hdr.msg_control = control[i].data();
@@ -129,7 +129,7 @@ SysResult<std::size_t> SeqPacket::receive_batch(std::span<const std::span<std::b
     return last_error("recvmmsg");
   }
   for (std::size_t i = 0; i < static_cast<std::size_t>(got); ++i) {
-    out[i] = describe(msgs[i].msg_hdr, msgs[i].msg_len, buffers[i].size(), max_fds);
+    out[i] = describe(msgs[i].msg_hdr, msgs[i].msg_len, slot_bytes, max_fds);
     if (out[i].closed) return i + 1;  // end of stream: what follows it is more of the same
   }
   return static_cast<std::size_t>(got);

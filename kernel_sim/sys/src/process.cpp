@@ -274,29 +274,13 @@ SysResult<void> make_non_dumpable() {
 
 SysResult<int> pin_to_one_cpu(std::optional<int> cpu) {
   const int chosen = cpu.value_or(::sched_getcpu());
-  if (chosen < 0) return last_error("sched_getcpu");
-  if (auto ok = set_cpu(0, chosen); !ok) return std::unexpected(ok.error());
+  if (chosen < 0 && !cpu) return last_error("sched_getcpu");
+  if (chosen < 0 || chosen >= CPU_SETSIZE) return std::unexpected(SysError{"sched_setaffinity", EINVAL});
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(chosen, &set);
+  if (::sched_setaffinity(0, sizeof(set), &set) != 0) return last_error("sched_setaffinity");
   return chosen;
-}
-
-SysResult<void> set_cpu(pid_t pid, int cpu) {
-  if (cpu < 0 || cpu >= CPU_SETSIZE) return std::unexpected(SysError{"sched_setaffinity", EINVAL});
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  CPU_SET(cpu, &set);
-  if (::sched_setaffinity(pid, sizeof(set), &set) != 0) return last_error("sched_setaffinity");
-  return {};
-}
-
-SysResult<std::vector<int>> allowed_cpus() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (::sched_getaffinity(0, sizeof(set), &set) != 0) return last_error("sched_getaffinity");
-  std::vector<int> cpus;
-  for (int c = 0; c < CPU_SETSIZE; ++c) {
-    if (CPU_ISSET(c, &set)) cpus.push_back(c);
-  }
-  return cpus;
 }
 
 SysResult<void> lower_priority(pid_t pid) {

@@ -210,7 +210,8 @@ struct Service::Impl {
   SdkResult<void> send_built() { return queue(tx.bytes()); }
 
   // Frames read ahead: one recvmmsg takes a burst (sys::SeqPacket::receive_batch), receive() hands them out
-  // one by one through rx. A batch smaller than the buffer means the channel was empty after it, so the
+  // one by one through rx (copied: rx stays the home of the frame being handled until the next receive,
+  // the rule the datagram and request() paths are written against). A batch smaller than the buffer means the channel was empty after it, so the
   // drained check that follows costs no system call. An image resumed by a rollback drops what is left
   // (forget_batch): nothing sent to the old incarnation is read by the restored one (DESIGN §7).
   static constexpr std::size_t kBatch = 4;
@@ -243,9 +244,7 @@ struct Service::Impl {
         batch_drained = false;
         return std::optional<std::size_t>{};
       }
-      std::array<std::span<std::byte>, kBatch> slots{};
-      for (std::size_t i = 0; i < kBatch; ++i) slots[i] = std::span(batch_bytes).subspan(i * wire::kMaxFrameBytes, wire::kMaxFrameBytes);
-      auto n = channel.receive_batch(slots, batch, 1, wait ? sys::Wait::ForOne : sys::Wait::No);
+      auto n = channel.receive_batch(batch_bytes, wire::kMaxFrameBytes, batch, 1, wait ? sys::Wait::ForOne : sys::Wait::No);
       if (n) {
         batch_next = 0;
         batch_count = *n;

@@ -39,12 +39,13 @@ class SeqPacket {
   // Receives one frame into buf; at most max_fds fds are accepted. EAGAIN on a non-blocking end is an error
   // value with error == EAGAIN.
   [[nodiscard]] SysResult<Received> receive(std::span<std::byte> buf, std::size_t max_fds = 0) const;
-  // Up to kMaxReceiveBatch frames in one recvmmsg: frame i lands in buffers[i] and is described by out[i]
-  // as receive(buffers[i], max_fds) would. Returns how many (≥ 1), ending at an end-of-stream entry
-  // (closed); EAGAIN as an error value when no frame is waiting and `wait` is No (or the fd is
-  // non-blocking). Wait::ForOne on a blocking fd sleeps until the first frame, then takes what else is
-  // there (MSG_WAITFORONE): the wait is the read. One system call for a burst instead of one per frame.
-  [[nodiscard]] SysResult<std::size_t> receive_batch(std::span<const std::span<std::byte>> buffers,
+  // Up to kMaxReceiveBatch frames in one recvmmsg: `slots` is cut into slots of `slot_bytes`; frame i lands
+  // in slot i and is described by out[i] as receive(slot i, max_fds) would. Returns how many (≥ 1), ending
+  // at an end-of-stream entry (closed); EAGAIN as an error value when no frame is waiting and `wait` is No
+  // (or the fd is non-blocking). Wait::ForOne on a blocking fd sleeps until the first frame, then takes
+  // what else is there (MSG_WAITFORONE): the wait is the read. One system call for a burst instead of one
+  // per frame.
+  [[nodiscard]] SysResult<std::size_t> receive_batch(std::span<std::byte> slots, std::size_t slot_bytes,
                                                      std::span<Received> out, std::size_t max_fds = 0,
                                                      Wait wait = Wait::No) const;
 

@@ -88,12 +88,9 @@ struct SpawnSpec {
 
 // ---- CPU placement (DESIGN §6) ----
 // Pins the calling thread to one CPU: `cpu`, or the one it runs on now. Threads and processes it creates
-// afterwards inherit the mask. Returns the CPU. EINVAL: `cpu` is not one this process may use.
+// afterwards inherit the mask. Returns the CPU. EINVAL: `cpu` is not one this process may use (out of
+// range, offline, or outside its cpuset).
 [[nodiscard]] SysResult<int> pin_to_one_cpu(std::optional<int> cpu);
-// Pins process (or thread) `pid` (0: the caller) to CPU `cpu`.
-[[nodiscard]] SysResult<void> set_cpu(pid_t pid, int cpu);
-// The CPUs the calling thread may run on, ascending.
-[[nodiscard]] SysResult<std::vector<int>> allowed_cpus();
 // Gives `pid` the lowest CFS priority (nice 19), e.g. before killing it, so that its exit — tearing down its
 // address space, ~0.1 ms here — runs when the CPU has time and not inside a rollback (DESIGN §7).
 [[nodiscard]] SysResult<void> lower_priority(pid_t pid);
