@@ -30,13 +30,13 @@ int main() {
   services::ExtLink link;
   auto uploads = svc.advertise<rejuv_msg_MissionWaypoints>("mission_upload");
   if (!svc.require(uploads, "mission_upload")) return 1;
-  auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state");
+  auto state = svc.subscribe_polled<rejuv_msg_VehicleStateEstimate>("vehicle_state");
   if (!svc.require(state, "vehicle_state")) return 1;
-  auto setpoint = svc.subscribe<rejuv_msg_Setpoint>("setpoint");
+  auto setpoint = svc.subscribe_polled<rejuv_msg_Setpoint>("setpoint");
   if (!svc.require(setpoint, "setpoint")) return 1;
-  auto modes = svc.subscribe<rejuv_msg_SrMode>("sr_mode");
+  auto modes = svc.subscribe_polled<rejuv_msg_SrMode>("sr_mode");
   if (!svc.require(modes, "sr_mode")) return 1;
-  auto events = svc.subscribe<rejuv_msg_SecurityEvent>("security_event");
+  auto events = svc.subscribe_polled<rejuv_msg_SecurityEvent>("security_event");
   if (!svc.require(events, "security_event")) return 1;
 
   const auto send = [&](const link::Datagram& d, const char* what) {

@@ -315,6 +315,7 @@ void Kernel::Impl::retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying
     s.has_held = false;
     s.want_writable = false;
     s.sweep = false;
+    s.polled_pending = false;
     s.control_pool.clear();
     s.control_free.clear();
     s.channel_closed_at.reset();

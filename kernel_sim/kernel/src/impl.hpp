@@ -87,6 +87,7 @@ struct ServiceRuntime {
   // Delivery and flow control.
   FixedRing<OutEntry> outq{kOutQueueCapacity};
   bool sweep = false;              // outq overflowed: drain every subscription once it empties
+  bool polled_pending = false;     // a polled subscription has news, handed over at the next wake-up
   std::vector<std::vector<std::byte>> control_pool{};
   std::vector<std::uint32_t> control_free{};
   std::vector<std::byte> held{};   // a frame the channel refused (EAGAIN): sent first when it drains
@@ -203,6 +204,7 @@ struct Kernel::Impl {
     ServiceId service{};
     Slot slot{};
     std::uint64_t routed = 0;
+    bool polled = false;  // wire::kSubscribePolled
   };
   std::vector<SubscriberInfo> subscribers;
 
@@ -242,6 +244,7 @@ struct Kernel::Impl {
   std::vector<std::byte> cork_bytes;
   std::vector<std::uint32_t> cork_count;           // by service: frames in cork_frames
   std::vector<std::span<const std::byte>> cork_batch;  // send scratch
+  std::vector<std::byte> control_copy;  // send_control: its frame (often in tx) while polled news goes first
 
   // ---- images (images.cpp, DESIGN §7) ----
   image::ImageStore images{2};
@@ -358,6 +361,8 @@ struct Kernel::Impl {
   void publish_sr_mode();
   // Output to a service (flow control).
   void push_ring(ServiceRuntime& s, broker::SubscriberId subscriber);
+  // What the polled subscriptions of `s` have pending, pushed ahead of a frame that wakes `s` anyway.
+  void hand_over_polled(ServiceRuntime& s);
   void send_control(ServiceRuntime& s, std::span<const std::byte> frame);
   void drain(ServiceRuntime& s);
   void cork();

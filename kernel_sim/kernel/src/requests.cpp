@@ -183,6 +183,11 @@ Rights rights_from_bits(std::uint64_t bits) {
 }  // namespace
 
 void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f) {
+  if ((f.header.aux & ~wire::kSubscribePolled) != 0) {
+    reply(s, f.header.seq, op_code(wire::OpError::BadArgument));
+    return;
+  }
+  const bool polled = f.header.aux == wire::kSubscribePolled;
   auto inv = caps.decode(s.id, Slot(f.header.slot), cap::Operation::Subscribe);
   if (!inv) {
     reply(s, f.header.seq, denial_code(inv.error()));
@@ -198,11 +203,17 @@ void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f)
   }
   if (subscribers.size() <= sub->value()) subscribers.resize(sub->value() + 1);
   subscribers[sub->value()] = SubscriberInfo{.service = s.id, .slot = Slot(f.header.slot),
-                                             .routed = broker.pending(*sub).value_or(0)};
-  s.subscriptions.push_back(SubscriptionRecord{.slot = Slot(f.header.slot), .topic = inv->object(), .id = *sub});
+                                             .routed = broker.pending(*sub).value_or(0), .polled = polled};
+  s.subscriptions.push_back(
+      SubscriptionRecord{.slot = Slot(f.header.slot), .topic = inv->object(), .id = *sub, .polled = polled});
   reply(s, f.header.seq, 0);
-  // uORB: a new subscriber first gets the latest message already published, if any.
-  push_ring(s, *sub);
+  // uORB: a new subscriber first gets the latest message already published, if any (a polled one with its
+  // next wake-up).
+  if (polled) {
+    s.polled_pending = broker.pending(*sub).value_or(0) > 0;
+  } else {
+    push_ring(s, *sub);
+  }
 }
 
 void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {

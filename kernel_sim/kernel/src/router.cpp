@@ -154,8 +154,25 @@ void Kernel::Impl::finish_routes(ObjectId topic) {
   auto routes = broker.subscribers_of(topic);
   if (!routes) return;
   for (const broker::Route& r : *routes) {
-    if (r.subscriber.value() < subscribers.size()) ++subscribers[r.subscriber.value()].routed;
-    push_ring(services[r.service.value()], r.subscriber);
+    ServiceRuntime& s = services[r.service.value()];
+    if (r.subscriber.value() < subscribers.size()) {
+      SubscriberInfo& info = subscribers[r.subscriber.value()];
+      ++info.routed;
+      if (info.polled) {  // stays in the ring until something else wakes the service (hand_over_polled)
+        s.polled_pending = true;
+        continue;
+      }
+    }
+    push_ring(s, r.subscriber);
+  }
+}
+
+void Kernel::Impl::hand_over_polled(ServiceRuntime& s) {
+  if (!s.polled_pending || routing_frozen) return;
+  s.polled_pending = false;  // first: push_ring below comes back here
+  for (const SubscriptionRecord& r : s.subscriptions) {
+    if (!r.polled) continue;
+    for (std::size_t n = broker.pending(r.id).value_or(0); n > 0; --n) push_ring(s, r.id);
   }
 }
 
@@ -207,6 +224,7 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
 void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
   if (s.phase != Phase::Booted && s.phase != Phase::Ready) return;
   if (routing_frozen) return;  // a checkpoint is cutting (images.cpp): it stays in the ring, swept afterwards
+  hand_over_polled(s);         // the service is about to wake: its polled news goes first
   if (s.has_held || !s.outq.empty() || s.sweep) {
     // Keep publish order: behind what is already waiting. A full out-queue only loses the order, never
     // messages: the sweep drains every subscription once the queue is empty.
@@ -222,6 +240,11 @@ void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber)
 
 void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> frame) {
   if (!s.live() || !s.channel.valid()) return;
+  if (s.polled_pending && !routing_frozen) {
+    control_copy.assign(frame.begin(), frame.end());  // `frame` is usually tx, which the deliveries reuse
+    frame = control_copy;
+    hand_over_polled(s);
+  }
   if (!s.has_held && s.outq.empty() && !s.sweep) {
     (void)send_now(s, frame);
     return;

@@ -521,13 +521,15 @@ SdkResult<void> Service::publish_bytes(const CapInfo& cap, std::span<const std::
   return impl_->send_built();
 }
 
-SdkResult<void> Service::request_subscribe(const CapInfo& cap) {
+SdkResult<void> Service::request_subscribe(const CapInfo& cap, bool polled) {
   if (cap.slot.value() < impl_->subscription_by_slot.size() &&
       impl_->subscription_by_slot[cap.slot.value()] != nullptr) {
     return error(SdkError::AlreadySubscribed, cap.object);
   }
   const std::uint32_t seq = ++impl_->seq;
-  if (!impl_->tx.build(wire::FrameKind::Subscribe, cap.slot.value(), seq, 0)) return error(SdkError::Protocol);
+  if (!impl_->tx.build(wire::FrameKind::Subscribe, cap.slot.value(), seq, polled ? wire::kSubscribePolled : 0)) {
+    return error(SdkError::Protocol);
+  }
   auto reply = impl_->request({}, "subscribe " + cap.object);
   if (!reply) return std::unexpected(reply.error());
   return {};

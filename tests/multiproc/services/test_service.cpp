@@ -85,6 +85,26 @@ int run_echo(Service& svc) {
   return svc.run();
 }
 
+// Reads numbers through a polled subscription (deliveries never wake it) on a timer of 20 periods, and reports on
+// echoes what it found: pressure_pa = the newest number it holds, altitude_m = deliveries received so far,
+// temperature_c = 4.
+int run_poller(Service& svc) {
+  auto out = svc.advertise<Record>("echoes");
+  if (!out) return fail(svc, "advertise echoes: " + out.error().to_string());
+  auto in = svc.subscribe_polled<Record>("numbers");
+  if (!in) return fail(svc, "subscribe numbers: " + in.error().to_string());
+  auto timer = svc.every(period(svc) * 20, [&] {
+    Record r{};
+    r.timestamp_ns = static_cast<std::uint64_t>(svc.now().count());
+    r.pressure_pa = in->valid() ? in->copy().pressure_pa : -1;
+    r.altitude_m = static_cast<double>(in->received());
+    r.temperature_c = 4;
+    (void)out->publish(r);
+  });
+  if (!timer) return fail(svc, "timer: " + timer.error().to_string());
+  return svc.run();
+}
+
 // Hashes the order in which it sees numbers, echoes and security events; publishes the digest every period.
 int run_sink(Service& svc) {
   auto out = svc.advertise<Record>("digest");
@@ -202,6 +222,7 @@ int main() {
   const std::string role(s.text_param("role", ""));
   if (role == "source") return run_source(s);
   if (role == "echo") return run_echo(s);
+  if (role == "poller") return run_poller(s);
   if (role == "sink") return run_sink(s);
   if (role == "stall") return run_stall(s);
   if (role == "intruder") return run_intruder(s);

@@ -225,6 +225,35 @@ TEST_F(SdkTest, Subscribe_DeliversInOrderWithUorbSemanticsAndCountsGaps) {
   EXPECT_FALSE(sub->updated());
 }
 
+TEST_F(SdkTest, SubscribePolled_AsksForAPolledSubscriptionAndReadsLikeAnyOther) {
+  kernel.reply(1, 0);
+  auto sub = svc->subscribe_polled<Record>("numbers");
+  ASSERT_TRUE(sub.has_value()) << sub.error().to_string();
+  const auto request = kernel.sent();
+  ASSERT_EQ(request.size(), 1U);
+  EXPECT_EQ(request[0].kind, wire::FrameKind::Subscribe);
+  EXPECT_EQ(request[0].header.slot, 1U);
+  EXPECT_EQ(request[0].header.aux, wire::kSubscribePolled);
+  // Handed over by the kernel (before a frame that wakes the service), a delivery reads like any other.
+  Record r{};
+  r.pressure_pa = 7;
+  kernel.deliver(1, 3, r);
+  kernel.send(wire::FrameKind::Shutdown, 0, 0, 0);
+  EXPECT_EQ(svc->run(), 0);
+  ASSERT_TRUE(sub->updated());
+  EXPECT_DOUBLE_EQ(sub->copy().pressure_pa, 7);
+  EXPECT_EQ(sub->generation(), 3U);
+}
+
+TEST_F(SdkTest, Subscribe_AsksForDeliveriesThatWakeTheService) {
+  kernel.reply(1, 0);
+  auto sub = svc->subscribe<Record>("numbers");
+  ASSERT_TRUE(sub.has_value()) << sub.error().to_string();
+  const auto request = kernel.sent();
+  ASSERT_EQ(request.size(), 1U);
+  EXPECT_EQ(request[0].header.aux, 0U);
+}
+
 TEST_F(SdkTest, SubscribeDenied_ReturnsTheCapError) {
   kernel.reply(1, 1 + static_cast<std::int32_t>(cap::CapError::InsufficientRights));
   auto sub = svc->subscribe<Record>("numbers");

@@ -22,6 +22,12 @@ inline constexpr int kTimePageFd = 4;    // the kernel's read-only time page (me
 inline constexpr std::size_t kMaxFrameBytes = 8192;
 inline constexpr std::uint16_t kProtocolVersion = 1;
 
+// Subscribe{aux}: a polled subscription (PX4's uORB::Subscription, not SubscriptionCallback). Its
+// deliveries never wake the service: the kernel keeps them in the ring and hands them over just before the
+// next frame that does (a timer, a delivery of a waking subscription, a reply), so the service sees the
+// latest message whenever it runs, at no wake-up of its own.
+inline constexpr std::uint64_t kSubscribePolled = 1;
+
 // Who sends a kind of frame.
 enum class Direction : std::uint8_t { ToKernel, ToService };
 
@@ -29,7 +35,7 @@ enum class FrameKind : std::uint16_t {
   // ---- service → kernel ----
   Hello = 1,        // first frame after exec; aux = kProtocolVersion. The kernel answers with Boot…BootEnd.
   Publish = 2,      // slot = Topic cap (Write); payload = the topic struct, exactly its size
-  Subscribe = 3,    // slot = Topic cap (Read); deliveries of that topic follow as Deliver frames
+  Subscribe = 3,    // slot = Topic cap (Read); aux = 0 or kSubscribePolled; deliveries follow as Deliver frames
   Invoke = 4,       // slot = a non-topic cap; payload = InvokeHeader + data; answered by Reply(seq)
   TimerArm = 5,     // payload = TimerSpec: a service timer (kernel object, DESIGN §6)
   TimerCancel = 6,  // aux = timer id

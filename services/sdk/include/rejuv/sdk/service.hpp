@@ -330,6 +330,12 @@ class Service {
   template <class T>
   [[nodiscard]] SdkResult<Subscription<T>> subscribe(std::string_view object,
                                                      std::function<void(const T&)> on_message = {});
+  // A polled subscription (PX4's uORB::Subscription, read with updated()/copy() from a timer or another
+  // callback): its deliveries never wake this service. The kernel hands them over just before the next
+  // frame that wakes it anyway, so whenever the service runs it sees the latest message, and a topic it
+  // only samples (telemetry at 10 Hz of a 250 Hz estimate) costs it no wake-up per message.
+  template <class T>
+  [[nodiscard]] SdkResult<Subscription<T>> subscribe_polled(std::string_view object);
 
   // ---- timers (kernel clock) ----
   // Fires every `period` [ns of kernel time], first at now() + `phase` (default: one period).
@@ -426,7 +432,10 @@ class Service {
   explicit Service(std::unique_ptr<Impl> impl);
   [[nodiscard]] SdkResult<const CapInfo*> topic_cap(std::string_view object, std::string_view type,
                                                     std::size_t size, Right needed) const;
-  [[nodiscard]] SdkResult<void> request_subscribe(const CapInfo& cap);
+  [[nodiscard]] SdkResult<void> request_subscribe(const CapInfo& cap, bool polled);
+  template <class T>
+  [[nodiscard]] SdkResult<Subscription<T>> make_subscription(std::string_view object,
+                                                             std::function<void(const T&)> on_message, bool polled);
   detail::SubscriptionBase* add_subscription(std::unique_ptr<detail::SubscriptionBase> sub);
 
   std::unique_ptr<Impl> impl_;
@@ -462,6 +471,17 @@ SdkResult<Publisher<T>> Service::advertise(std::string_view object) {
 template <class T>
 SdkResult<Subscription<T>> Service::subscribe(std::string_view object,
                                               std::function<void(const T&)> on_message) {
+  return make_subscription<T>(object, std::move(on_message), false);
+}
+
+template <class T>
+SdkResult<Subscription<T>> Service::subscribe_polled(std::string_view object) {
+  return make_subscription<T>(object, {}, true);
+}
+
+template <class T>
+SdkResult<Subscription<T>> Service::make_subscription(std::string_view object,
+                                                      std::function<void(const T&)> on_message, bool polled) {
   static_assert(std::is_trivially_copyable_v<T>);
   auto found = topic_cap(object, msgs::TopicTraits<T>::name, sizeof(T), Right::Read);
   if (!found) {
@@ -470,7 +490,7 @@ SdkResult<Subscription<T>> Service::subscribe(std::string_view object,
   auto state = std::make_unique<detail::TypedSubscription<T>>((*found)->slot, (*found)->object,
                                                               std::move(on_message));
   auto* typed = state.get();
-  if (auto sent = request_subscribe(**found); !sent) {
+  if (auto sent = request_subscribe(**found, polled); !sent) {
     return fail(std::move(sent.error()));
   }
   add_subscription(std::move(state));
