@@ -244,7 +244,6 @@ struct Kernel::Impl {
   std::vector<std::byte> cork_bytes;
   std::vector<std::uint32_t> cork_count;           // by service: frames in cork_frames
   std::vector<std::span<const std::byte>> cork_batch;  // send scratch
-  std::vector<std::byte> control_copy;  // send_control: its frame (often in tx) while polled news goes first
 
   // ---- images (images.cpp, DESIGN §7) ----
   image::ImageStore images{2};
@@ -285,7 +284,8 @@ struct Kernel::Impl {
   std::uint64_t kernel_bad_frames = 0;
   // read_channel: one frame slot per recvmmsg entry (8-byte aligned slots: the wire layouts need it).
   alignas(8) std::array<std::byte, wire::kMaxFrameBytes * sys::kMaxReceiveBatch> rx_batch{};
-  wire::FrameBuffer tx;
+  wire::FrameBuffer tx;          // control frames (Reply, TimerFired, Boot …), passed to send_control
+  wire::FrameBuffer deliver_tx;  // Deliver frames (deliver_one), which may go out while a control frame is in tx
 
   Impl(launch::LoadedLaunch g, KernelOptions o, Observer* obs, policy::Policy p, cap::CapSystem c, broker::Broker b,
        clock::TimePageWriter tp, std::size_t service_count, sys::Epoll e)

@@ -204,13 +204,12 @@ void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f)
   if (subscribers.size() <= sub->value()) subscribers.resize(sub->value() + 1);
   subscribers[sub->value()] = SubscriberInfo{.service = s.id, .slot = Slot(f.header.slot),
                                              .routed = broker.pending(*sub).value_or(0), .polled = polled};
-  s.subscriptions.push_back(
-      SubscriptionRecord{.slot = Slot(f.header.slot), .topic = inv->object(), .id = *sub, .polled = polled});
+  s.subscriptions.push_back(SubscriptionRecord{.slot = Slot(f.header.slot), .topic = inv->object(), .id = *sub});
   reply(s, f.header.seq, 0);
   // uORB: a new subscriber first gets the latest message already published, if any (a polled one with its
-  // next wake-up).
+  // next wake-up; hand_over_polled finds nothing if there is none).
   if (polled) {
-    s.polled_pending = broker.pending(*sub).value_or(0) > 0;
+    s.polled_pending = true;
   } else {
     push_ring(s, *sub);
   }

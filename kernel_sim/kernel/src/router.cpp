@@ -171,7 +171,7 @@ void Kernel::Impl::hand_over_polled(ServiceRuntime& s) {
   if (!s.polled_pending || routing_frozen) return;
   s.polled_pending = false;  // first: push_ring below comes back here
   for (const SubscriptionRecord& r : s.subscriptions) {
-    if (!r.polled) continue;
+    if (!subscribers[r.id.value()].polled) continue;
     for (std::size_t n = broker.pending(r.id).value_or(0); n > 0; --n) push_ring(s, r.id);
   }
 }
@@ -216,9 +216,9 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
   const broker::Delivery& d = **next;
   s.stats.lost += d.lost;
   const Slot slot = subscribers[subscriber.value()].slot;
-  if (!tx.build(wire::FrameKind::Deliver, slot.value(), 0, d.generation.value(), d.payload)) return false;
+  if (!deliver_tx.build(wire::FrameKind::Deliver, slot.value(), 0, d.generation.value(), d.payload)) return false;
   ++s.stats.delivered;
-  return send_now(s, tx.bytes()) == SendResult::Sent;
+  return send_now(s, deliver_tx.bytes()) == SendResult::Sent;
 }
 
 void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
@@ -240,11 +240,7 @@ void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber)
 
 void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> frame) {
   if (!s.live() || !s.channel.valid()) return;
-  if (s.polled_pending && !routing_frozen) {
-    control_copy.assign(frame.begin(), frame.end());  // `frame` is usually tx, which the deliveries reuse
-    frame = control_copy;
-    hand_over_polled(s);
-  }
+  hand_over_polled(s);  // the service is about to wake: its polled news goes first
   if (!s.has_held && s.outq.empty() && !s.sweep) {
     (void)send_now(s, frame);
     return;

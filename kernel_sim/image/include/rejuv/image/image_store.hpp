@@ -33,7 +33,6 @@ struct SavedSubscription {
   Slot slot{};
   ObjectId topic{};
   broker::SubscriberId id{};
-  bool polled = false;  // wire::kSubscribePolled: deliveries wait for the service's next wake-up
   friend bool operator==(const SavedSubscription&, const SavedSubscription&) = default;
 };
 

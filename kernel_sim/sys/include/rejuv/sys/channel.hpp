@@ -15,9 +15,10 @@ enum class Blocking : std::uint8_t { Yes, No };
 // receive_batch: return at once (EAGAIN when nothing waits), or, on a blocking fd, wait for the first frame.
 enum class Wait : std::uint8_t { No, ForOne };
 
-// What one receive produced.
+// receive_batch: frames per recvmmsg at most.
 inline constexpr std::size_t kMaxReceiveBatch = 16;
 
+// What one receive produced.
 struct Received {
   std::size_t size = 0;            // bytes written into the buffer
   bool truncated = false;          // the datagram was longer than the buffer (rest discarded)
