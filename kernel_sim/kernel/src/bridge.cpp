@@ -1,6 +1,10 @@
 #include "bridge.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cstring>
+#include <iterator>
+#include <type_traits>
 
 #include "rejuv/dds/plant_topics.hpp"
 
@@ -29,7 +33,22 @@ Result<DdsBridge, std::string> DdsBridge::open(std::uint32_t domain, std::span<c
     }
   }
   if (plant_lockstep) {
-    // Every sample topic of the plant counts toward SimStep.samples_published, bridged or not.
+    const auto step_reader = [&](auto topic) {
+      using T = typename decltype(topic)::type;
+      for (std::size_t i = 0; i < b.in_.size(); ++i) {
+        const dds::Reader& r = b.in_[i].reader;
+        if (r.topic_name() == topic.name && r.type().name == msgs::TopicTraits<T>::name) return static_cast<int>(i);
+      }
+      return -1;
+    };
+    b.step_readers_ = StepReaders{.gyro = step_reader(topics::kSensorGyro),
+                                  .accel = step_reader(topics::kSensorAccel),
+                                  .mag = step_reader(topics::kSensorMag),
+                                  .baro = step_reader(topics::kSensorBaro),
+                                  .gps = step_reader(topics::kSensorGps),
+                                  .ground_truth = step_reader(topics::kGroundTruth)};
+    // Samples that do not fit their SimStep come on the plant's sample topics, bridged or not, and count
+    // toward SimStep.samples_published.
     const auto ensure = [&](auto topic) -> Result<void, std::string> {
       for (const BridgeSpec& s : specs) {
         if (s.inbound && s.dds_name == topic.name) return {};
@@ -55,9 +74,7 @@ Result<DdsBridge, std::string> DdsBridge::open(std::uint32_t domain, std::span<c
   return b;
 }
 
-Result<bool, std::string> DdsBridge::write_out(ObjectId topic, std::span<const std::byte> payload) {
-  if (topic.value() >= out_of_topic_.size() || out_of_topic_[topic.value()] < 0) return false;
-  Out& o = out_[static_cast<std::size_t>(out_of_topic_[topic.value()])];
+Result<void, std::string> DdsBridge::write_on_topic(Out& o, std::span<const std::byte> payload) {
   if (o.actuator_outputs && plant_lockstep_ && !outputs_matched_) {
     // Volatile samples written before the plant's reader matched are lost, and the plant waits for the
     // count of outputs in the ack: make sure the first one arrives.
@@ -68,10 +85,36 @@ Result<bool, std::string> DdsBridge::write_out(ObjectId topic, std::span<const s
   }
   if (auto ok = o.writer.write(payload); !ok) return fail("DDS write " + o.writer.topic_name() + ": " + ok.error().to_string());
   if (o.actuator_outputs) ++outputs_published_;
+  return {};
+}
+
+Result<bool, std::string> DdsBridge::write_out(ObjectId topic, std::span<const std::byte> payload) {
+  if (topic.value() >= out_of_topic_.size() || out_of_topic_[topic.value()] < 0) return false;
+  Out& o = out_[static_cast<std::size_t>(out_of_topic_[topic.value()])];
+  if (!(o.actuator_outputs && plant_lockstep_)) {
+    if (auto ok = write_on_topic(o, payload); !ok) return fail(ok.error());
+    return true;
+  }
+  // Held for the ack, newest last; when the ack is full its oldest output goes out on the topic first (the
+  // plant applies those before the ack's own).
+  REJUV_ASSERT(payload.size() == sizeof(rejuv_msg_ActuatorOutputs), "the broker checked the payload size");
+  constexpr std::size_t kHeld = std::extent_v<decltype(rejuv_msg_SimStepAck::outputs)>;
+  if (held_.outputs_count == kHeld) {
+    if (auto ok = write_on_topic(o, std::as_bytes(std::span(&held_.outputs[0], 1))); !ok) return fail(ok.error());
+    std::copy(std::begin(held_.outputs) + 1, std::end(held_.outputs), std::begin(held_.outputs));
+    --held_.outputs_count;
+  }
+  std::memcpy(&held_.outputs[held_.outputs_count++], payload.data(), payload.size());
   return true;
 }
 
-Result<void, std::string> DdsBridge::write_ack(const rejuv_msg_SimStepAck& ack) {
+Result<void, std::string> DdsBridge::write_ack(std::uint64_t step, std::uint64_t time_ns, std::uint64_t charged_ns) {
+  rejuv_msg_SimStepAck ack = held_;
+  ack.step = step;
+  ack.time_ns = time_ns;
+  ack.charged_ns = charged_ns;
+  ack.outputs_published = outputs_published_;
+  held_.outputs_count = 0;
   if (!ack_) return fail(std::string("no ack writer"));
   if (!ack_matched_) {
     // The plant matched our writer before it sent its first step; make sure our side sees it too, or the

@@ -387,6 +387,8 @@ struct Kernel::Impl {
   void on_dds_ready(std::size_t reader);
   void collect_samples();  // takes every sample reader (lockstep with the plant: on each SimStep)
   void sync_realtime_clock(std::span<const std::byte> first_sample);
+  void stage_sample(std::size_t reader, std::span<const std::byte> bytes);
+  void stage_step_samples(const rejuv_msg_SimStep& step);
   void watch_sample_readers(bool watch);  // lockstep: also wake on samples while a step waits for them
   void fire_timers();
   void arm_timerfd();

@@ -6,7 +6,9 @@
 #include <csignal>
 #include <cstdarg>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
+#include <iterator>
 
 #include "impl.hpp"
 #include "rejuv/policy/audit.hpp"
@@ -415,6 +417,7 @@ void Kernel::Impl::on_dds_ready(std::size_t index) {
         pending_steps.push_back(PendingStep{.step = step.step,
                                             .t = Nanos{static_cast<std::int64_t>(step.time_ns)},
                                             .samples_needed = step.samples_published});
+        stage_step_samples(step);
       });
       if (!n) log("DDS take sim_step: %s", n.error().to_string().c_str());
       if (samples_on_step && n && *n > 0) collect_samples();
@@ -436,17 +439,42 @@ void Kernel::Impl::on_dds_ready(std::size_t index) {
           publish_as_kernel(topic, bytes, From::Bridge);
           return;
         }
-        // Lockstep: held for the step that covers it, then routed in canonical order (route_samples).
-        std::uint64_t stamp = 0;
-        if (bytes.size() >= sizeof(stamp)) std::memcpy(&stamp, bytes.data(), sizeof(stamp));
-        samples.push_back(StagedSample{.reader = static_cast<std::uint32_t>(index), .timestamp = stamp,
-                                       .offset = static_cast<std::uint32_t>(sample_bytes.size()),
-                                       .size = static_cast<std::uint32_t>(bytes.size())});
-        sample_bytes.insert(sample_bytes.end(), bytes.begin(), bytes.end());
+        stage_sample(index, bytes);
       });
       if (!n) log("DDS take %s: %s", in.reader.topic_name().c_str(), n.error().to_string().c_str());
       break;
     }
+  }
+}
+
+// Lockstep: a sample is held for the step that covers it, then routed in canonical order (route_samples).
+void Kernel::Impl::stage_sample(std::size_t reader, std::span<const std::byte> bytes) {
+  std::uint64_t stamp = 0;
+  if (bytes.size() >= sizeof(stamp)) std::memcpy(&stamp, bytes.data(), sizeof(stamp));
+  samples.push_back(StagedSample{.reader = static_cast<std::uint32_t>(reader), .timestamp = stamp,
+                                 .offset = static_cast<std::uint32_t>(sample_bytes.size()),
+                                 .size = static_cast<std::uint32_t>(bytes.size())});
+  sample_bytes.insert(sample_bytes.end(), bytes.begin(), bytes.end());
+}
+
+// The samples a SimStep carries (idl/sim.idl), staged as if the reader that bridges their topic had taken
+// them: the same canonical order as samples that came on their own topics, and the same routes.
+void Kernel::Impl::stage_step_samples(const rejuv_msg_SimStep& step) {
+  if (stopping) return;
+  const DdsBridge::StepReaders& r = bridge->step_readers();
+  const auto stage_all = [&](int reader, const auto& array, std::uint8_t count) {
+    if (reader < 0) return;  // not bridged: dropped, as the count-only readers drop theirs
+    for (std::size_t i = 0; i < std::min<std::size_t>(count, std::size(array)); ++i) {
+      stage_sample(static_cast<std::size_t>(reader), std::as_bytes(std::span(&array[i], 1)));
+    }
+  };
+  stage_all(r.gyro, step.gyro, step.gyro_count);
+  stage_all(r.accel, step.accel, step.accel_count);
+  stage_all(r.mag, step.mag, step.mag_count);
+  stage_all(r.baro, step.baro, step.baro_count);
+  stage_all(r.gps, step.gps, step.gps_count);
+  if (r.ground_truth >= 0) {
+    stage_sample(static_cast<std::size_t>(r.ground_truth), std::as_bytes(std::span(&step.ground_truth, 1)));
   }
 }
 
@@ -577,11 +605,9 @@ void Kernel::Impl::finish_step() {
   active_step.reset();
   ++steps_done;
   if (bridge && bridge->has_step_reader() && options.time_master == TimeMaster::Plant) {
-    const rejuv_msg_SimStepAck ack{.step = step.step,
-                                   .time_ns = static_cast<std::uint64_t>(step.t.count()),
-                                   .charged_ns = static_cast<std::uint64_t>(charge.count()),  // DESIGN §6
-                                   .outputs_published = bridge->outputs_published()};
-    if (auto ok = bridge->write_ack(ack); !ok) {
+    if (auto ok = bridge->write_ack(step.step, static_cast<std::uint64_t>(step.t.count()),
+                                    static_cast<std::uint64_t>(charge.count()));  // DESIGN §6
+        !ok) {
       log("%s", ok.error().c_str());
       stop_run(StopReason::PlantExited, ok.error());
     }

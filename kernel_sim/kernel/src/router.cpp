@@ -214,8 +214,11 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
   auto next = broker.next(subscriber);
   if (!next || !*next) return false;
   const broker::Delivery& d = **next;
-  s.stats.lost += d.lost;
-  const Slot slot = subscribers[subscriber.value()].slot;
+  const SubscriberInfo& info = subscribers[subscriber.value()];
+  // A polled subscription skips what its service slept through by design (uORB::Subscription reads the
+  // newest): the service sees the gap in the generations; only a push subscriber that fell behind counts.
+  if (!info.polled) s.stats.lost += d.lost;
+  const Slot slot = info.slot;
   if (!deliver_tx.build(wire::FrameKind::Deliver, slot.value(), 0, d.generation.value(), d.payload)) return false;
   ++s.stats.delivered;
   return send_now(s, deliver_tx.bytes()) == SendResult::Sent;

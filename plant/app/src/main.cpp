@@ -4,8 +4,10 @@
 // docs/protocol.md ("Lockstep with the plant").
 #include <signal.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
+#include <iterator>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -13,6 +15,7 @@
 #include <vector>
 
 #include "os.hpp"
+#include "rejuv/core/overloaded.hpp"
 #include "rejuv/dds/dds.hpp"
 #include "rejuv/dds/plant_topics.hpp"
 #include "rejuv/plant_app/options.hpp"
@@ -29,11 +32,6 @@ namespace topics = dds::plant_topics;
 constexpr Nanos kMaxChargePerStep = std::chrono::seconds{60};
 // The kernel may publish a few actuator outputs per step; the reader must hold them all until the ack.
 constexpr std::int32_t kActuatorDepth = 64;
-
-template <class... F>
-struct Overloaded : F... {
-  using F::operator()...;
-};
 
 void log(const std::string& line) {
   std::fprintf(stderr, "rejuv_plant: %s\n", line.c_str());
@@ -200,14 +198,19 @@ class PlantProcess {
     return {};
   }
 
-  // Applies actuator outputs as they arrive: the last one is held until the next (DESIGN §6).
+  // The last command applied is held until the next (DESIGN §6).
+  void apply(const rejuv_msg_ActuatorOutputs& u) {
+    if (!sim_.set_motor_command(u) && !warned_non_finite_) {
+      log("ignoring actuator outputs with a non-finite motor command (holding the previous one)");
+      warned_non_finite_ = true;
+    }
+  }
+
+  // Applies the actuator outputs that came on their own topic, as they arrive.
   [[nodiscard]] dds::DdsResult<void> take_actuator_outputs() {
     auto n = io_.actuator_outputs.take_as<rejuv_msg_ActuatorOutputs>([&](const rejuv_msg_ActuatorOutputs& u) {
       ++outputs_received_;
-      if (!sim_.set_motor_command(u) && !warned_non_finite_) {
-        log("ignoring actuator outputs with a non-finite motor command (holding the previous one)");
-        warned_non_finite_ = true;
-      }
+      apply(u);
     });
     if (!n) return fail(n.error());
     return {};
@@ -220,12 +223,15 @@ class PlantProcess {
     Nanos charged{0};
     for (std::uint64_t k = 0;; ++k) {
       batch_.clear();
+      overflow_.clear();
       sim_.advance(options_.step + charged, batch_);
-      if (auto ok = publish_sensors(batch_); !ok) return dds_failure(ok.error());
-      if (auto ok = publish_ground_truth(); !ok) return dds_failure(ok.error());
-      const rejuv_msg_SimStep step{.step = k,
-                                   .time_ns = static_cast<std::uint64_t>(sim_.now().count()),
-                                   .samples_published = samples_published_};
+      // The step carries its samples and the ground truth; only what does not fit goes out on its own.
+      rejuv_msg_SimStep step{};
+      pack_step(batch_, sim_.ground_truth(), step, overflow_);
+      if (auto ok = publish_sensors(overflow_); !ok) return dds_failure(ok.error());
+      step.step = k;
+      step.time_ns = static_cast<std::uint64_t>(sim_.now().count());
+      step.samples_published = samples_published_;
       if (auto ok = io_.sim_step->write_value(step); !ok) return dds_failure(ok.error());
 
       auto ack = wait_for_step_done(step);
@@ -273,9 +279,10 @@ class PlantProcess {
     return wait_matched([&](Nanos s) { return io_.actuator_outputs.wait_for_writers(1, s); });
   }
 
-  // Step k is done when its ack has arrived and, with it, every actuator output the ack counts (DDS orders
-  // samples per writer only, so the outputs may trail the ack). Returns the ack, or the exit code: 0 on a
-  // signal, kExitKernelLost when --ack-timeout-ms passes first.
+  // Step k is done when its ack has arrived and, with it, every actuator output the ack counts on their own
+  // topic (DDS orders samples per writer only, so those may trail the ack); then the ack's own outputs, the
+  // newest, are applied. Returns the ack, or the exit code: 0 on a signal, kExitKernelLost when
+  // --ack-timeout-ms passes first.
   Result<rejuv_msg_SimStepAck, ExitCode> wait_for_step_done(const rejuv_msg_SimStep& step) {
     const Nanos deadline = sys::monotonic_now() + options_.ack_timeout;
     std::optional<rejuv_msg_SimStepAck> ack;
@@ -287,6 +294,9 @@ class PlantProcess {
       if (auto ok = take_actuator_outputs(); !ok) return fail(dds_failure(ok.error()));
       if (ack && outputs_received_ >= ack->outputs_published) {
         watch_outputs(false);
+        for (std::size_t i = 0; i < std::min<std::size_t>(ack->outputs_count, std::size(ack->outputs)); ++i) {
+          apply(ack->outputs[i]);
+        }
         return *ack;
       }
       if (ack && !watching_outputs_) {
@@ -353,8 +363,9 @@ class PlantProcess {
   Endpoints io_;
   PlantSim sim_;
   std::vector<SensorMessage> batch_;
-  std::uint64_t samples_published_ = 0;  // sensor + ground-truth samples, for SimStep
-  std::uint64_t outputs_received_ = 0;   // actuator outputs, against SimStepAck.outputs_published
+  std::vector<SensorMessage> overflow_;  // lockstep: the step's samples that its SimStep cannot hold
+  std::uint64_t samples_published_ = 0;  // samples published on their own topics (lockstep: for SimStep)
+  std::uint64_t outputs_received_ = 0;   // outputs on their own topic, against SimStepAck.outputs_published
   bool watching_outputs_ = false;        // the outputs reader is in epoll (lockstep: only while short)
   bool warned_non_finite_ = false;
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "rejuv/core/result.hpp"
+#include "rejuv/core/overloaded.hpp"
 
 namespace rejuv::plant_app {
 
@@ -30,7 +31,32 @@ plant::QuadState initial_state(const PlantSimConfig& c) {
   return plant::Quadrotor::hover_at(plant::QuadParams::jmavsim_default(), c.start_N_m);
 }
 
+// Appends `m` to a fixed array of a SimStep; false when it is full.
+template <class T, std::size_t N>
+bool put(T (&array)[N], std::uint8_t& count, const T& m) {
+  if (count >= N) return false;
+  array[count++] = m;
+  return true;
+}
+
 }  // namespace
+
+void pack_step(const std::vector<SensorMessage>& batch, const rejuv_msg_GroundTruth& truth, rejuv_msg_SimStep& step,
+               std::vector<SensorMessage>& overflow) {
+  step.gyro_count = step.accel_count = step.mag_count = step.baro_count = step.gps_count = 0;
+  for (const SensorMessage& m : batch) {
+    const bool packed = std::visit(Overloaded{
+                                       [&](const rejuv_msg_SensorGyro& s) { return put(step.gyro, step.gyro_count, s); },
+                                       [&](const rejuv_msg_SensorAccel& s) { return put(step.accel, step.accel_count, s); },
+                                       [&](const rejuv_msg_SensorMag& s) { return put(step.mag, step.mag_count, s); },
+                                       [&](const rejuv_msg_SensorBaro& s) { return put(step.baro, step.baro_count, s); },
+                                       [&](const rejuv_msg_SensorGps& s) { return put(step.gps, step.gps_count, s); },
+                                   },
+                                   m);
+    if (!packed) overflow.push_back(m);
+  }
+  step.ground_truth = truth;
+}
 
 PlantSim::PlantSim(const PlantSimConfig& config)
     : config_(config),

@@ -1,6 +1,7 @@
 // The plant process's parts that need no DDS: strict option parsing and the I/O-free simulation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -254,6 +255,52 @@ TEST(PlantSim, FullThrottle_Climbs) {
   std::vector<SensorMessage> out;
   sim.advance(500ms, out);
   EXPECT_LT(sim.ground_truth().p_N_m[2], -3.1);  // NED: up is negative z
+}
+
+// A usual 4 ms step fits its SimStep whole: nothing goes out on its own topic.
+TEST(PackStep, UsualStep_EverySampleInTheStep) {
+  PlantSim sim(PlantSimConfig{.seed = 1});
+  std::vector<SensorMessage> batch;
+  std::vector<SensorMessage> overflow;
+  std::size_t packed = 0;
+  for (int k = 0; k < 250; ++k) {  // one second: every sensor has delivered at least once
+    batch.clear();
+    sim.advance(4ms, batch);
+    rejuv_msg_SimStep step{};
+    step.gyro_count = 9;  // the counts start from zero whatever the struct held
+    pack_step(batch, sim.ground_truth(), step, overflow);
+    packed += step.gyro_count + step.accel_count + step.mag_count + step.baro_count + step.gps_count;
+    ASSERT_EQ(step.gyro_count, 1);
+    ASSERT_EQ(step.accel_count, 1);
+    EXPECT_EQ(std::memcmp(&step.gyro[0], &std::get<rejuv_msg_SensorGyro>(batch[0]), sizeof step.gyro[0]), 0);
+    EXPECT_EQ(step.ground_truth.timestamp_ns, static_cast<std::uint64_t>(sim.now().count()));
+  }
+  EXPECT_TRUE(overflow.empty());
+  EXPECT_GT(packed, 500U + 2 * 49U);  // gyro, accel, mag, baro and GPS all travelled in steps
+}
+
+// A step that follows a charged checkpoint covers several sensor periods: the oldest samples of a kind
+// fill its array, the rest keep their order on the side.
+TEST(PackStep, LongStep_OldestInTheStepRestInOrderOnTheSide) {
+  PlantSim sim(PlantSimConfig{.seed = 1});
+  std::vector<SensorMessage> batch;
+  sim.advance(24ms, batch);  // six gyro and six accel samples, one or two of mag and baro
+  rejuv_msg_SimStep step{};
+  std::vector<SensorMessage> overflow;
+  pack_step(batch, sim.ground_truth(), step, overflow);
+  ASSERT_EQ(step.gyro_count, 2);
+  ASSERT_EQ(step.accel_count, 2);
+  std::vector<std::uint64_t> side_gyro;
+  for (const SensorMessage& m : overflow) {
+    if (const auto* g = std::get_if<rejuv_msg_SensorGyro>(&m)) side_gyro.push_back(g->timestamp_ns);
+  }
+  ASSERT_EQ(side_gyro.size(), 4U);
+  EXPECT_LT(step.gyro[0].timestamp_ns, step.gyro[1].timestamp_ns);
+  EXPECT_LT(step.gyro[1].timestamp_ns, side_gyro.front());
+  EXPECT_TRUE(std::is_sorted(side_gyro.begin(), side_gyro.end()));
+  const std::size_t total = step.gyro_count + step.accel_count + step.mag_count + step.baro_count +
+                            step.gps_count + overflow.size();
+  EXPECT_EQ(total, batch.size());  // nothing lost, nothing twice
 }
 
 }  // namespace

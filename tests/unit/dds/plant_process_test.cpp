@@ -7,6 +7,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <deque>
 #include <optional>
@@ -62,7 +63,8 @@ double hover_level() {
 }
 
 // The kernel side of the lockstep protocol (plant_topics.hpp), reduced to what the tests need: it records
-// every sample the plant publishes, answers each SimStep with actuator outputs and an ack.
+// every sample the plant publishes (in its SimSteps and on their own topics), answers each SimStep with an
+// ack that carries the actuator outputs (or with the outputs on their own topic first).
 class MinimalKernel {
  public:
   // Readers first with sim_step last, writers with sim_step_ack last (the protocol's creation order; the
@@ -92,9 +94,15 @@ class MinimalKernel {
     const auto deadline = std::chrono::steady_clock::now() + kLiveness;
     while (std::chrono::steady_clock::now() < deadline) {
       collect();
-      auto n = sim_step_.take_as<rejuv_msg_SimStep>([&](const rejuv_msg_SimStep& s) { steps_.push_back(s); });
+      auto n = sim_step_.take_as<rejuv_msg_SimStep>([&](const rejuv_msg_SimStep& s) {
+        steps_.push_back(s);
+        gyro.insert(gyro.end(), s.gyro, s.gyro + s.gyro_count);
+        accel.insert(accel.end(), s.accel, s.accel + s.accel_count);
+        truth.push_back(s.ground_truth);
+        in_steps_ += s.gyro_count + s.accel_count + s.mag_count + s.baro_count + s.gps_count + 1U;
+      });
       REJUV_ASSERT(n.has_value(), "take sim_step");
-      if (!steps_.empty() && samples_received() >= steps_.front().samples_published) {
+      if (!steps_.empty() && samples_on_topics() >= steps_.front().samples_published) {
         const rejuv_msg_SimStep s = steps_.front();
         steps_.pop_front();
         return s;
@@ -115,21 +123,29 @@ class MinimalKernel {
     return std::nullopt;
   }
 
-  [[nodiscard]] std::uint64_t samples_received() const {
-    return gyro.size() + accel.size() + mag_count_ + baro_count_ + gps_count_ + truth.size();
-  }
+  // Samples that came on their own topics (what SimStep.samples_published counts), and in the steps.
+  [[nodiscard]] std::uint64_t samples_on_topics() const { return on_topics_; }
+  [[nodiscard]] std::uint64_t samples_in_steps() const { return in_steps_; }
 
-  // Actuator outputs for the step (all motors at `level`), then the ack.
-  [[nodiscard]] bool ack(const rejuv_msg_SimStep& step, double level, std::uint64_t charged_ns = 0) {
+  enum class Outputs : std::uint8_t { InAck, OnTopic };
+  // The ack of `step` with actuator outputs at `level` on every motor: in the ack, or on their own topic
+  // before it (what the kernel does with the outputs an ack cannot hold).
+  [[nodiscard]] bool ack(const rejuv_msg_SimStep& step, double level, std::uint64_t charged_ns = 0,
+                         Outputs outputs = Outputs::InAck) {
     rejuv_msg_ActuatorOutputs u{};
     u.timestamp_ns = step.time_ns;
     for (double& m : u.motor) m = level;
-    if (!actuators_.write_value(u)) return false;
-    ++outputs_published_;
-    const rejuv_msg_SimStepAck a{.step = step.step,
-                                 .time_ns = step.time_ns,
-                                 .charged_ns = charged_ns,
-                                 .outputs_published = outputs_published_};
+    rejuv_msg_SimStepAck a{};
+    a.step = step.step;
+    a.time_ns = step.time_ns;
+    a.charged_ns = charged_ns;
+    if (outputs == Outputs::OnTopic) {
+      if (!actuators_.write_value(u)) return false;
+      ++outputs_published_;
+    } else {
+      a.outputs[a.outputs_count++] = u;
+    }
+    a.outputs_published = outputs_published_;
     return ack_.write_value(a).has_value();
   }
 
@@ -147,15 +163,16 @@ class MinimalKernel {
 
   // Takes every sample that has arrived.
   void collect() {
-    REJUV_ASSERT(gyro_.take_as<rejuv_msg_SensorGyro>([&](const auto& s) { gyro.push_back(s); }).has_value(),
-                 "");
-    REJUV_ASSERT(
-        accel_.take_as<rejuv_msg_SensorAccel>([&](const auto& s) { accel.push_back(s); }).has_value(), "");
-    REJUV_ASSERT(
-        truth_.take_as<rejuv_msg_GroundTruth>([&](const auto& s) { truth.push_back(s); }).has_value(), "");
-    REJUV_ASSERT(mag_.take([&](auto) { ++mag_count_; }).has_value(), "");
-    REJUV_ASSERT(baro_.take([&](auto) { ++baro_count_; }).has_value(), "");
-    REJUV_ASSERT(gps_.take([&](auto) { ++gps_count_; }).has_value(), "");
+    const auto counted = [&](DdsResult<std::size_t> n) {
+      REJUV_ASSERT(n.has_value(), "take");
+      on_topics_ += *n;
+    };
+    counted(gyro_.take_as<rejuv_msg_SensorGyro>([&](const auto& s) { gyro.push_back(s); }));
+    counted(accel_.take_as<rejuv_msg_SensorAccel>([&](const auto& s) { accel.push_back(s); }));
+    counted(truth_.take_as<rejuv_msg_GroundTruth>([&](const auto& s) { truth.push_back(s); }));
+    counted(mag_.take([](auto) {}));
+    counted(baro_.take([](auto) {}));
+    counted(gps_.take([](auto) {}));
   }
 
   std::vector<rejuv_msg_SensorGyro> gyro;
@@ -187,7 +204,7 @@ class MinimalKernel {
   Reader gyro_, accel_, mag_, baro_, gps_, truth_, sim_step_;
   Writer actuators_, ack_;
   std::deque<rejuv_msg_SimStep> steps_;
-  std::uint64_t mag_count_ = 0, baro_count_ = 0, gps_count_ = 0;
+  std::uint64_t on_topics_ = 0, in_steps_ = 0;
   std::uint64_t outputs_published_ = 0;
 };
 
@@ -289,6 +306,42 @@ TEST_F(PlantProcessTest, Lockstep_FullThrottle_VehicleClimbs) {
   EXPECT_LT(kernel.truth.back().p_N_m[2], -3.05);  // NED: climbing makes z more negative
 }
 
+// Outputs the ack could not hold come on their own topic first: the plant waits for them and applies them.
+TEST_F(PlantProcessTest, Lockstep_OutputsOnTheirTopic_WaitedForAndApplied) {
+  MinimalKernel kernel(test_support::test_domain());
+  sys::ChildProcess plant = spawn_plant(plant_args(3, {"--ack-timeout-ms", "20000"}));
+  ASSERT_TRUE(kernel.connect());
+  for (int i = 0; i < 60; ++i) {
+    const auto s = kernel.next_step(plant);
+    ASSERT_TRUE(s.has_value());
+    ASSERT_TRUE(kernel.ack(*s, 1.0, 0, MinimalKernel::Outputs::OnTopic));
+  }
+  ASSERT_TRUE(kernel.next_step(plant).has_value());
+  EXPECT_LT(kernel.truth.back().p_N_m[2], -3.05);  // full throttle reached the vehicle
+}
+
+// A step that follows a long charge (a checkpoint, DESIGN §6) has more samples than its SimStep holds: the
+// rest come on their own topics, the step waits for them, and none is lost or doubled.
+TEST_F(PlantProcessTest, Lockstep_LongChargedStep_SamplesBeyondTheStepOnTheirTopics) {
+  MinimalKernel kernel(test_support::test_domain());
+  sys::ChildProcess plant = spawn_plant(plant_args(3, {"--ack-timeout-ms", "20000"}));
+  ASSERT_TRUE(kernel.connect());
+  const auto s0 = kernel.next_step(plant);
+  ASSERT_TRUE(s0.has_value());
+  EXPECT_EQ(s0->samples_published, 0U);  // a usual step travels whole
+  ASSERT_TRUE(kernel.ack(*s0, hover_level(), 20'000'000));  // 20 ms charged: the next step is 24 ms long
+  const auto s1 = kernel.next_step(plant);
+  ASSERT_TRUE(s1.has_value());
+  EXPECT_EQ(s1->time_ns, 2 * kStepNs + 20'000'000);
+  EXPECT_GT(s1->samples_published, 0U);
+  EXPECT_EQ(kernel.samples_on_topics(), s1->samples_published);  // next_step waited for every one
+  std::vector<std::uint64_t> stamps;
+  for (const rejuv_msg_SensorGyro& g : kernel.gyro) stamps.push_back(g.timestamp_ns);
+  std::sort(stamps.begin(), stamps.end());
+  ASSERT_EQ(stamps.size(), 7U);  // 250 Hz over 28 ms, each once
+  for (std::size_t i = 1; i < stamps.size(); ++i) EXPECT_EQ(stamps[i] - stamps[i - 1], kStepNs) << i;
+}
+
 TEST_F(PlantProcessTest, Lockstep_AcksStop_ExitsKernelLost) {
   MinimalKernel kernel(test_support::test_domain());
   sys::ChildProcess plant = spawn_plant(plant_args(3, {"--ack-timeout-ms", "300"}));
@@ -347,7 +400,8 @@ TEST_F(PlantProcessTest, Lockstep_Duration_ExitsAfterItsLastStep) {
   const auto steps = kernel.run_hover(plant, 100);  // ends when the plant exits
   ASSERT_EQ(steps.size(), 10U);                     // 40 ms / 4 ms
   EXPECT_EQ(steps.back().time_ns, 40'000'000U);
-  EXPECT_EQ(kernel.samples_received(), steps.back().samples_published);  // the count is exact
+  EXPECT_EQ(kernel.samples_on_topics(), steps.back().samples_published);  // the count is exact
+  EXPECT_GT(kernel.samples_in_steps(), 2 * steps.size());  // gyro, accel and ground truth in every step
   const auto status = wait_exit(plant);
   ASSERT_TRUE(status.has_value());
   EXPECT_TRUE(status->success()) << status->to_string();

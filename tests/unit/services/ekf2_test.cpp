@@ -7,6 +7,7 @@
 #include <variant>
 #include <vector>
 
+#include "rejuv/core/overloaded.hpp"
 #include "rejuv/plant_app/plant_sim.hpp"
 #include "rejuv/services/ekf2/ekf2_node.hpp"
 #include "rejuv/services/sensors/imu_combiner.hpp"
@@ -15,11 +16,6 @@ namespace rejuv::services {
 namespace {
 
 using std::chrono::milliseconds;
-
-template <class... F>
-struct Overloaded : F... {
-  using F::operator()...;
-};
 
 const Eigen::Vector3d kStart_N_m(0, 0, -3);
 

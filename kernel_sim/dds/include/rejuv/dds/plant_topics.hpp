@@ -11,14 +11,18 @@
 //      written before a match are lost.
 //   2. Step k: the plant advances physics by the step period (plus the charged time of ack k−1) with the last
 //      actuator outputs held (during its pre-flight alignment, --align-s, the vehicle rests at its start pose
-//      and the outputs are not applied yet), publishes the sensor samples due in that interval and the ground truth, then
-//      SimStep{k, time_ns, samples_published} (the running total of sensor + ground-truth samples).
+//      and the outputs are not applied yet) and writes SimStep{k, time_ns, samples_published, …} with the
+//      sensor samples due in that interval and the ground truth inside it (idl/sim.idl). Samples beyond what
+//      the step holds (a long, charged step) are published on their own topics first; samples_published is
+//      the running total of those.
 //   3. DDS orders samples per writer only, so the kernel handles step k once it has received
-//      samples_published samples: it sets its clock to time_ns, runs the graph until every service is idle,
-//      publishes the step's actuator outputs, then SimStepAck{k, time_ns, charged_ns, outputs_published}
-//      (the running total of actuator outputs). charged_ns is the real time spent in checkpoint/rollback,
+//      samples_published samples on their topics: it routes the step's samples, runs the graph until every
+//      service is idle, then writes SimStepAck{k, time_ns, charged_ns, outputs_published, outputs} with the
+//      step's newest actuator outputs inside (older ones that did not fit went out on actuator_outputs;
+//      outputs_published is their running total). charged_ns is the real time spent in checkpoint/rollback,
 //      which the plant adds to simulated time with the motors held (the gaps of Fig. 7).
-//   4. The plant applies the step once it has the ack and outputs_published outputs. Nothing within its
+//   4. The plant applies the step once it has the ack and outputs_published outputs on their topic, then the
+//      ack's own outputs. Nothing within its
 //      --ack-timeout-ms means the kernel died: it exits with status 3, never hangs.
 #pragma once
 

@@ -160,7 +160,8 @@ struct ServiceStats {
   std::uint64_t denials = 0;        // refused by the capability check
   std::uint64_t wrong_size = 0;     // publications of the wrong size for the topic
   std::uint64_t delivered = 0;      // Deliver frames sent
-  std::uint64_t lost = 0;           // messages its subscriptions skipped (ring overrun)
+  std::uint64_t lost = 0;           // messages its push subscriptions skipped (ring overrun; a polled one
+                                    // skips what its service slept through by design and is not counted)
   std::uint64_t log_suppressed = 0; // log lines dropped by the rate limit
   std::uint64_t flood_dropped = 0;  // publications dropped over the per-step bound (lockstep)
   std::uint64_t sandbox_violations = 0;  // incarnations ended by the seccomp filter (SIGSYS: socket, ptrace, kill …)

@@ -30,6 +30,13 @@ struct PlantSimConfig {
 using SensorMessage = std::variant<rejuv_msg_SensorGyro, rejuv_msg_SensorAccel, rejuv_msg_SensorMag,
                                    rejuv_msg_SensorBaro, rejuv_msg_SensorGps>;
 
+// Packs the sensor messages of one lockstep step (in `batch`, in order) and the ground truth into a SimStep
+// (idl/sim.idl): each kind fills its array oldest first; what does not fit is appended to `overflow`, in
+// order, to be published on its own topic before the step. `step.step`, `time_ns` and `samples_published`
+// are left for the caller. Every array count of `step` starts from zero.
+void pack_step(const std::vector<SensorMessage>& batch, const rejuv_msg_GroundTruth& truth, rejuv_msg_SimStep& step,
+               std::vector<SensorMessage>& overflow);
+
 class PlantSim {
  public:
   explicit PlantSim(const PlantSimConfig& config);
