@@ -194,6 +194,23 @@ TEST(KernelMultiproc, GarbageFrames_AreRefusedAndRoutingContinues) {
             Recorder::as<rejuv_msg_SensorBaro>(*digests[digests.size() / 2]).pressure_pa);
 }
 
+TEST(KernelMultiproc, PackedDatagram_FramesBeforeABadOneHandledTheRestDropped) {
+  GraphSpec spec;
+  spec.intruder = Role{"intruder", "  params { name: \"attack\" text: \"packed\" }\n"};
+  auto k = make_kernel(spec);
+  ASSERT_NE(k, nullptr);
+  ASSERT_TRUE(k->boot().has_value());
+  step_n(*k, 20);
+  ASSERT_FALSE(k->stop_reason().has_value()) << k->stop_detail();
+  const ServiceId intruder = id_of(*k, "intruder");
+  const ServiceStats st = k->stats(intruder);
+  // One datagram per tick: its first Publish reached the capability check (denied), its garbage header was
+  // refused, its third frame was never read. Were the third read, the denials would be twice the refusals.
+  EXPECT_GE(st.bad_frames, 15U);
+  EXPECT_EQ(k->caps().denials().at(intruder, cap::CapError::InsufficientRights, cap::Operation::Publish), st.bad_frames);
+  EXPECT_TRUE(st.alive);
+}
+
 // ---- flow control ----
 
 TEST(KernelMultiproc, StalledSubscriberInLockstep_IsKilledAtTheIdleDeadlineAndTheStepEnds) {

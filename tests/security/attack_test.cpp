@@ -245,15 +245,18 @@ TEST_F(Attacks, OpenSocket_TheSandboxEndsTheAttackerAndTheRollbackContainsIt) {
   expect_runtime_intact();
 }
 
-TEST_F(Attacks, FloodBroker_BoundedPerStepAndTheReaderLosesOnlyItsOldest) {
+TEST_F(Attacks, FloodBroker_BoundedPerStepAndTheReaderGetsOrCountsEveryMessage) {
   start(AttackKind::FloodBroker, "worker");
   step_until_rollbacks(3);
   const kernel::ServiceStats worker = k_->stats(id("worker"));
   // Each flood is cut at the per-step bound: at least kFloodMessages - 4096 dropped per attacked window.
   EXPECT_GE(worker.flood_dropped, 2U * (kFloodMessages - 4096U));
-  // The driver (never rolled back) reads `numbers` with a ring of 64: it lost messages, not its footing.
+  // The driver (never rolled back) reads `numbers` with a ring of 64. Whether it keeps up depends on how
+  // much its channel holds (deliveries travel packed, up to 64 per datagram): every message of the floods
+  // that passed the bound was delivered to it or counted lost (ring overrun), never silently gone, and it
+  // kept its footing.
   const kernel::ServiceStats driver = k_->stats(id("driver"));
-  EXPECT_GT(driver.lost, 0U);
+  EXPECT_GE(driver.delivered + driver.lost, 2U * 4096U);
   EXPECT_FALSE(driver.hung);
   expect_runtime_intact();
 }

@@ -1,5 +1,7 @@
 #include "rejuv/channel/wire.hpp"
 
+#include <algorithm>
+
 namespace rejuv::wire {
 
 namespace {
@@ -132,6 +134,19 @@ Result<FrameView, FrameError> decode(std::span<const std::byte> bytes, Direction
     return fail(FrameError::BadPayloadSize);
   }
   return FrameView{kind, header, bytes.subspan(sizeof(FrameHeader))};
+}
+
+std::span<const std::byte> next_frame(std::span<const std::byte> datagram, std::size_t& offset) {
+  const std::span<const std::byte> rest = datagram.subspan(std::min(offset, datagram.size()));
+  std::size_t size = rest.size();
+  if (rest.size() >= sizeof(FrameHeader)) {
+    FrameHeader header;
+    std::memcpy(&header, rest.data(), sizeof(header));
+    const std::size_t whole = sizeof(FrameHeader) + std::size_t{header.length};
+    if (whole <= rest.size()) size = whole;
+  }
+  offset = std::min(datagram.size(), datagram.size() - rest.size() + aligned_frame_size(size));
+  return rest.first(size);
 }
 
 bool FrameBuffer::build(FrameKind kind, std::uint32_t slot, std::uint32_t seq, std::uint64_t aux,

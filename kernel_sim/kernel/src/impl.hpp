@@ -233,7 +233,7 @@ struct Kernel::Impl {
   std::vector<std::byte> sample_bytes;
   std::vector<std::uint32_t> order;                // sort scratch
   // Output batching within a lockstep routing round (router.cpp, cork/uncork): frames to a service are
-  // collected and leave in one sendmmsg per service, so a service that gets several frames wakes once.
+  // collected and leave packed in one datagram per service, so a service that gets several frames wakes once.
   struct CorkedFrame {
     std::uint32_t service = 0;
     std::uint32_t offset = 0;
@@ -243,7 +243,8 @@ struct Kernel::Impl {
   std::vector<CorkedFrame> cork_frames;
   std::vector<std::byte> cork_bytes;
   std::vector<std::uint32_t> cork_count;           // by service: frames in cork_frames
-  std::vector<std::span<const std::byte>> cork_batch;  // send scratch
+  std::vector<std::span<const std::byte>> cork_batch;  // send scratch: one service's frames
+  std::vector<std::byte> pack_bytes;                   // send scratch: those frames packed in one datagram
 
   // ---- images (images.cpp, DESIGN §7) ----
   image::ImageStore images{2};

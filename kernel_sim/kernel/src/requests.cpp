@@ -34,21 +34,25 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
         s.channel_closed_at = wall();
         return;
       }
-      ++s.stats.frames_in;
-      if (r.truncated) {
-        refuse(s, "frame longer than the maximum frame size");
+      if (r.truncated || r.fds_truncated) {
+        ++s.stats.frames_in;
+        refuse(s, r.truncated ? "datagram longer than the maximum frame size" : "frame carried file descriptors (closed)");
         continue;
       }
-      if (r.fds_truncated) {
-        refuse(s, "frame carried file descriptors (closed)");
-        continue;
-      }
-      auto frame = wire::decode(std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, r.size), wire::Direction::ToKernel);
-      if (!frame) {
-        refuse(s, wire::to_string(frame.error()));
-        continue;
-      }
-      handle_frame(s, *frame);
+      // One frame or several back to back (wire::next_frame). A frame that does not decode ends its
+      // datagram: past it the framing cannot be trusted.
+      const std::span<const std::byte> datagram = std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, r.size);
+      std::size_t offset = 0;
+      do {
+        if (!s.live() || !s.channel.valid()) return;  // a frame before this one lost the service
+        ++s.stats.frames_in;
+        auto frame = wire::decode(wire::next_frame(datagram, offset), wire::Direction::ToKernel);
+        if (!frame) {
+          refuse(s, wire::to_string(frame.error()));
+          break;
+        }
+        handle_frame(s, *frame);
+      } while (offset < datagram.size());
     }
     if (*n < got.size()) return;  // drained: no second system call to find the channel empty
   }

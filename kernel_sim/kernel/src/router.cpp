@@ -14,7 +14,6 @@
 #include <numeric>
 
 #include "impl.hpp"
-#include "rejuv/sys/batch.hpp"
 
 namespace rejuv::kernel {
 
@@ -269,9 +268,10 @@ void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> fr
 // ---- output batching (lockstep rounds) ----
 //
 // Between cork() and uncork() a frame that would go out at once (the service has nothing waiting) is
-// appended to the cork instead, and uncork() sends each service's frames in one sendmmsg: the deliveries of a
-// routing round wake a service once, not once per frame (the service would otherwise wake on the first,
-// report Idle, and wake again). Only the step code corks (begin_step, advance_step), around routing that
+// appended to the cork instead, and uncork() sends each service's frames packed in one datagram
+// (wire::next_frame): the deliveries of a routing round wake a service once, not once per frame (the
+// service would otherwise wake on the first, report Idle, and wake again; sendmmsg of one datagram per
+// frame did that, docs/performance.md). Only the step code corks (begin_step, advance_step), around routing that
 // sends nothing else on the channels. A service's batch is capped at kMaxBatchFrames, so what a full channel
 // refuses (EAGAIN) fits in its control queue: the first frame becomes the held frame, the rest wait in the
 // out-queue as control frames, in order (its out-queue was empty, or the frames would not be in the cork).
@@ -302,9 +302,18 @@ void Kernel::Impl::uncork_service(ServiceRuntime& s) {
   cork_count[id] = 0;
   std::size_t first = 0;
   while (first < cork_batch.size() && s.channel.valid()) {
-    auto sent = sys::send_batch(s.channel.fd(), std::span(cork_batch).subspan(first));
+    // As many frames as fit in one datagram (wire::next_frame): the service wakes once for all of them.
+    pack_bytes.clear();
+    std::size_t end = first;
+    for (; end < cork_batch.size(); ++end) {
+      const std::size_t at = wire::aligned_frame_size(pack_bytes.size());
+      if (at + cork_batch[end].size() > wire::kMaxFrameBytes) break;
+      pack_bytes.resize(at, std::byte{0});
+      pack_bytes.insert(pack_bytes.end(), cork_batch[end].begin(), cork_batch[end].end());
+    }
+    auto sent = s.channel.send(pack_bytes);
     if (sent) {
-      first += *sent;
+      first = end;
       continue;
     }
     if (sent.error().error != EAGAIN) return;  // EPIPE: the service is gone; its pidfd will say so

@@ -10,7 +10,6 @@
 
 #include "rejuv/clock/time_page.hpp"
 #include "rejuv/clock/timers.hpp"
-#include "rejuv/sys/batch.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/event.hpp"
 #include "rejuv/sys/process.hpp"
@@ -158,8 +157,9 @@ struct Service::Impl {
   alignas(8) std::array<std::byte, wire::kMaxFrameBytes> rx{};
   wire::FrameBuffer tx;
 
-  // Outgoing frames are queued and leave together (sendmmsg) when the service next waits — for frames or
-  // for a Reply — so that a callback's publications and the following Idle wake the kernel once.
+  // Outgoing frames are queued and leave together, packed in one datagram (wire::next_frame), when the
+  // service next waits — for frames or for a Reply — so that a callback's publications and the following
+  // Idle wake the kernel once.
   static constexpr std::size_t kOutBytes = 64 * 1024;
   alignas(8) std::array<std::byte, kOutBytes> out_arena{};
   std::array<std::span<const std::byte>, sys::kMaxBatchFrames> out_frames{};
@@ -173,17 +173,30 @@ struct Service::Impl {
     }
     std::memcpy(out_arena.data() + out_used, frame.data(), frame.size());
     out_frames[out_count++] = std::span<const std::byte>(out_arena.data() + out_used, frame.size());
-    out_used += (frame.size() + 7U) & ~std::size_t{7};
+    const std::size_t padded = wire::aligned_frame_size(frame.size());
+    std::memset(out_arena.data() + out_used + frame.size(), 0, padded - frame.size());
+    out_used += padded;
     return {};
+  }
+
+  // The queued frames from `first` on that fit in one datagram, as queue() laid them out (aligned, padded
+  // with zeros: wire::next_frame); `end` is set past the last of them.
+  [[nodiscard]] std::span<const std::byte> packed(std::size_t first, std::size_t& end) const {
+    const std::byte* start = out_frames[first].data();
+    const auto end_of = [&](std::size_t i) { return out_frames[i].data() + out_frames[i].size(); };
+    end = first + 1;
+    while (end < out_count && static_cast<std::size_t>(end_of(end) - start) <= wire::kMaxFrameBytes) ++end;
+    return {start, end_of(end - 1)};
   }
 
   // Sends everything queued, waiting for room if the kernel has not drained the channel yet.
   SdkResult<void> flush() {
     std::size_t first = 0;
     while (first < out_count) {
-      auto sent = sys::send_batch(channel.fd(), std::span(out_frames).subspan(first, out_count - first));
+      std::size_t end = first;
+      auto sent = channel.send(packed(first, end));
       if (sent) {
-        first += *sent;
+        first = end;
         continue;
       }
       if (sent.error().error == EPIPE || sent.error().error == ECONNRESET) {
@@ -219,26 +232,42 @@ struct Service::Impl {
   std::array<sys::Received, kBatch> batch{};
   std::size_t batch_next = 0;
   std::size_t batch_count = 0;
-  bool batch_drained = false;  // the last recvmmsg returned fewer frames than it had room for
+  std::size_t frame_offset = 0;  // where the next frame of datagram batch_next starts (wire::next_frame)
+  bool batch_drained = false;  // the last recvmmsg returned fewer datagrams than it had room for
   void forget_batch() {
     for (sys::Received& r : batch) r.fds.clear();
-    batch_next = batch_count = 0;
+    batch_next = batch_count = frame_offset = 0;
     batch_drained = false;
   }
 
-  // Reads one frame into rx; nullopt when none is ready and `wait` is false.
+  // Reads one frame into rx; nullopt when none is ready and `wait` is false. A datagram may carry several
+  // frames (wire::next_frame): they are handed out one by one, the datagram's fds with the first.
   SdkResult<std::optional<std::size_t>> receive(bool wait) {
     for (;;) {
       if (batch_next < batch_count) {
         sys::Received& r = batch[batch_next];
-        const std::byte* bytes = batch_bytes.data() + batch_next * wire::kMaxFrameBytes;
-        ++batch_next;
-        if (r.closed) return error(SdkError::ChannelClosed);
+        if (r.closed) {
+          ++batch_next;
+          return error(SdkError::ChannelClosed);
+        }
         ++frames_received;
-        rx_fds = std::move(r.fds);
-        if (r.truncated) return std::optional<std::size_t>(0);  // decodes as TooShort: counted as bad
-        std::memcpy(rx.data(), bytes, r.size);
-        return std::optional<std::size_t>(r.size);
+        if (frame_offset == 0) {
+          rx_fds = std::move(r.fds);
+        } else {
+          rx_fds.clear();
+        }
+        if (r.truncated) {
+          ++batch_next;
+          return std::optional<std::size_t>(0);  // decodes as TooShort: counted as bad
+        }
+        const std::span<const std::byte> bytes(batch_bytes.data() + batch_next * wire::kMaxFrameBytes, r.size);
+        const std::span<const std::byte> frame = wire::next_frame(bytes, frame_offset);
+        if (frame_offset >= bytes.size()) {
+          ++batch_next;
+          frame_offset = 0;
+        }
+        std::memcpy(rx.data(), frame.data(), frame.size());
+        return std::optional<std::size_t>(frame.size());
       }
       if (batch_drained && !wait) {
         batch_drained = false;
@@ -368,8 +397,10 @@ Service::~Service() {
     impl_->workers = nullptr;
   }
   // One attempt, never a wait: a service leaving must not hang on a kernel that stopped reading.
-  if (impl_ && impl_->out_count > 0) {
-    (void)sys::send_batch(impl_->channel.fd(), std::span(impl_->out_frames).first(impl_->out_count));
+  if (impl_) {
+    for (std::size_t first = 0, end = 0; first < impl_->out_count; first = end) {
+      if (!impl_->channel.send(impl_->packed(first, end))) break;
+    }
   }
 }
 

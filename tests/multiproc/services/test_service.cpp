@@ -155,6 +155,9 @@ int run_stall(Service& svc) {
 // Hostile: on every tick, from `start_ms` on, does what param `attack` says.
 //   forge:   publishes on numbers (held with Read only) and on forged/empty slots — all denied.
 //   garbage: sends malformed frames of every kind of wrongness, plus a frame carrying an fd.
+//   packed:  sends one datagram of three frames (wire::next_frame): a Publish on the Read-only slot (denied),
+//            a garbage header (refused), and the same Publish again (never read: past a bad frame the
+//            kernel drops the rest of the datagram).
 //   crash:   aborts (a service killed mid-run).
 //   none:    only reads numbers.
 int run_intruder(Service& svc) {
@@ -205,6 +208,20 @@ int run_intruder(Service& svc) {
         (void)raw.send(fb.bytes(), fds);
       }
       (void)raw.take_fd().release();  // fd 3 still belongs to the SDK
+    } else if (attack == "packed") {
+      const Record r{};
+      std::vector<std::byte> datagram;
+      const auto append = [&](std::span<const std::byte> frame) {
+        datagram.resize(rejuv::wire::aligned_frame_size(datagram.size()), std::byte{0});
+        datagram.insert(datagram.end(), frame.begin(), frame.end());
+      };
+      if (!fb.build(rejuv::wire::FrameKind::Publish, read_only_slot.value(), 0, 0, std::as_bytes(std::span(&r, 1)))) return;
+      append(fb.bytes());
+      rejuv::wire::FrameHeader junk{};
+      junk.kind = 999;
+      append(std::as_bytes(std::span(&junk, 1)));
+      append(fb.bytes());
+      (void)svc.send_raw(datagram);
     } else if (attack == "crash") {
       std::abort();
     }

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -91,6 +92,98 @@ TEST(Wire, Decode_RandomBytes_NeverAcceptsInconsistentFrames) {
       EXPECT_EQ(view->payload.size() + sizeof(FrameHeader), bytes.size());
       EXPECT_EQ(direction_of(view->kind), Direction::ToKernel);
     }
+  }
+}
+
+// ---- several frames in one datagram ----
+
+std::vector<std::byte> packed(const std::vector<std::vector<std::byte>>& frames) {
+  std::vector<std::byte> out;
+  for (const auto& f : frames) {
+    out.resize(aligned_frame_size(out.size()), std::byte{0});
+    out.insert(out.end(), f.begin(), f.end());
+  }
+  return out;
+}
+
+std::vector<std::byte> frame_of(FrameKind kind, std::uint64_t aux, std::size_t payload_bytes) {
+  FrameBuffer f;
+  const std::vector<std::byte> payload(payload_bytes, std::byte{0x5A});
+  EXPECT_TRUE(f.build(kind, 0, 0, aux, payload));
+  return {f.bytes().begin(), f.bytes().end()};
+}
+
+TEST(Wire, NextFrame_SplitsPackedFramesAtAlignedOffsets) {
+  // 24 + 13 bytes (padded to 40), 24 + 0, 24 + 17 (the last one unpadded).
+  const auto a = frame_of(FrameKind::Log, 1, 13);
+  const auto b = frame_of(FrameKind::Idle, 2, 0);
+  const auto c = frame_of(FrameKind::Log, 3, 17);
+  const auto datagram = packed({a, b, c});
+  ASSERT_EQ(datagram.size(), 40U + 24U + 41U);
+  std::size_t offset = 0;
+  std::vector<std::uint64_t> seen;
+  do {
+    const auto view = decode(next_frame(datagram, offset), Direction::ToKernel);
+    ASSERT_TRUE(view.has_value()) << to_string(view.error());
+    seen.push_back(view->header.aux);
+  } while (offset < datagram.size());
+  EXPECT_EQ(seen, (std::vector<std::uint64_t>{1, 2, 3}));
+  EXPECT_EQ(offset, datagram.size());
+}
+
+TEST(Wire, NextFrame_OneFrameDatagram_IsTheWholeDatagram) {
+  const auto a = frame_of(FrameKind::Idle, 9, 0);
+  std::size_t offset = 0;
+  EXPECT_EQ(next_frame(a, offset).size(), a.size());
+  EXPECT_EQ(offset, a.size());
+}
+
+TEST(Wire, NextFrame_ClaimedLengthBeyondTheDatagram_TakesTheRestAndFailsDecode) {
+  FrameHeader h{.kind = static_cast<std::uint16_t>(FrameKind::Log), .flags = 0, .slot = 0, .seq = 0,
+                .length = 4000, .aux = 0};
+  const auto datagram = packed({frame_of(FrameKind::Idle, 1, 0), raw(h, 10)});
+  std::size_t offset = 0;
+  ASSERT_TRUE(decode(next_frame(datagram, offset), Direction::ToKernel).has_value());
+  const auto rest = next_frame(datagram, offset);
+  EXPECT_EQ(rest.size(), sizeof(FrameHeader) + 10);
+  EXPECT_EQ(offset, datagram.size());
+  EXPECT_EQ(decode(rest, Direction::ToKernel).error(), FrameError::LengthMismatch);
+}
+
+TEST(Wire, NextFrame_ShortTailAndEmptyDatagram_OneUndecodableFrame) {
+  auto datagram = frame_of(FrameKind::Idle, 1, 0);
+  datagram.insert(datagram.end(), 5, std::byte{0x11});  // 5 bytes after it: no room for a header
+  std::size_t offset = 0;
+  (void)next_frame(datagram, offset);
+  const auto tail = next_frame(datagram, offset);
+  EXPECT_EQ(tail.size(), 5U);
+  EXPECT_EQ(decode(tail, Direction::ToKernel).error(), FrameError::TooShort);
+  EXPECT_EQ(offset, datagram.size());
+  const std::vector<std::byte> empty;
+  offset = 0;
+  EXPECT_TRUE(next_frame(empty, offset).empty());
+  EXPECT_EQ(offset, 0U);
+}
+
+TEST(Wire, NextFrame_RandomDatagrams_AlwaysAdvanceAndStayInside) {
+  std::mt19937 rng(99);
+  std::uniform_int_distribution<int> byte(0, 255);
+  std::uniform_int_distribution<std::size_t> len(1, 300);
+  for (int i = 0; i < 5000; ++i) {
+    std::vector<std::byte> bytes(len(rng));
+    for (auto& b : bytes) b = static_cast<std::byte>(byte(rng));
+    std::size_t offset = 0;
+    std::size_t frames = 0;
+    do {
+      const std::size_t before = offset;
+      const auto f = next_frame(bytes, offset);
+      ASSERT_GT(offset, before);  // progress: a datagram ends after at most size/8 + 1 frames
+      ASSERT_LE(offset, bytes.size());
+      ASSERT_GE(f.data(), bytes.data());
+      ASSERT_LE(f.data() + f.size(), bytes.data() + bytes.size());
+      ++frames;
+    } while (offset < bytes.size());
+    EXPECT_LE(frames, bytes.size() / kFrameAlign + 1);
   }
 }
 

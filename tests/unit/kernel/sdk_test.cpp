@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cerrno>
+#include <deque>
 #include <thread>
 #include <vector>
 
@@ -107,34 +108,46 @@ class ScriptedKernel {
 
   // Every frame the SDK has sent so far.
   std::vector<Sent> sent() {
-    std::vector<Sent> out;
-    std::array<std::byte, wire::kMaxFrameBytes> buf{};
-    for (;;) {
-      auto ready = sys::wait_fd(kernel_.fd(), sys::WaitFor::Readable, Nanos{0});
-      if (!ready || !*ready) return out;
-      auto r = kernel_.receive(buf);
-      if (!r || r->closed) return out;
-      auto f = wire::decode(std::span<const std::byte>(buf.data(), r->size), wire::Direction::ToKernel);
-      EXPECT_TRUE(f.has_value());
-      if (!f) continue;
-      out.push_back(Sent{f->kind, f->header, std::vector<std::byte>(f->payload.begin(), f->payload.end())});
+    std::vector<Sent> out(pending_.begin(), pending_.end());
+    pending_.clear();
+    while (sys::wait_fd(kernel_.fd(), sys::WaitFor::Readable, Nanos{0}).value_or(false) && receive_datagram()) {
+      out.insert(out.end(), pending_.begin(), pending_.end());
+      pending_.clear();
     }
+    return out;
   }
   // Blocks for the next frame the SDK sends.
   Sent next() {
-    std::array<std::byte, wire::kMaxFrameBytes> buf{};
-    auto r = kernel_.receive(buf);
-    EXPECT_TRUE(r.has_value());
-    auto f = wire::decode(std::span<const std::byte>(buf.data(), r->size), wire::Direction::ToKernel);
-    EXPECT_TRUE(f.has_value());
-    return Sent{f->kind, f->header, std::vector<std::byte>(f->payload.begin(), f->payload.end())};
+    if (pending_.empty()) {
+      EXPECT_TRUE(receive_datagram());
+    }
+    if (pending_.empty()) return Sent{};
+    Sent f = std::move(pending_.front());
+    pending_.pop_front();
+    return f;
   }
 
   clock::TimePageWriter& page() { return *page_; }
+  // Reads one datagram and queues each frame of it (the SDK packs what it sends: wire::next_frame).
+  bool receive_datagram() {
+    std::array<std::byte, wire::kMaxFrameBytes> buf{};
+    auto r = kernel_.receive(buf);
+    if (!r || r->closed) return false;
+    const std::span<const std::byte> datagram(buf.data(), r->size);
+    std::size_t offset = 0;
+    do {
+      auto f = wire::decode(wire::next_frame(datagram, offset), wire::Direction::ToKernel);
+      EXPECT_TRUE(f.has_value());
+      if (!f) return true;
+      pending_.push_back(Sent{f->kind, f->header, std::vector<std::byte>(f->payload.begin(), f->payload.end())});
+    } while (offset < datagram.size());
+    return true;
+  }
   void close() { kernel_.close(); }
 
  private:
   sys::SeqPacket kernel_;
+  std::deque<Sent> pending_;  // frames of a datagram read, not yet handed out
   int service_fd_ = -1;
   std::optional<clock::TimePageWriter> page_;
 };

@@ -1,5 +1,7 @@
-// The kernel ↔ service wire protocol (DESIGN §2, §3, §6, §7): the kernel's ABI. One frame = one
-// SOCK_SEQPACKET datagram = a fixed 24-byte header + a payload whose size the header states exactly.
+// The kernel ↔ service wire protocol (DESIGN §2, §3, §6, §7): the kernel's ABI. A frame = a fixed 24-byte
+// header + a payload whose size the header states exactly. A SOCK_SEQPACKET datagram carries one frame or
+// several back to back (next_frame): a routing round's frames for one service, or a service's publications
+// and its Idle, then wake the receiver once (sendmmsg can wake it once per datagram).
 // The kernel never parses attacker-controlled bytes beyond this fixed framing: decode() checks the
 // header, the kind, the direction and the payload size rule of the kind before anything looks inside.
 #pragma once
@@ -180,6 +182,20 @@ struct FrameView {
 // Checks everything the framing promises: size, kind, direction, payload size of the kind. Topic payload
 // sizes (Publish, Deliver) are checked later against the capability's topic, not here.
 [[nodiscard]] Result<FrameView, FrameError> decode(std::span<const std::byte> bytes, Direction expected);
+
+// A datagram carries one frame or several packed back to back, each starting at a multiple of kFrameAlign
+// from the datagram's start (the gap after a frame is zero), the whole at most kMaxFrameBytes. A datagram
+// that carries an fd (Snapshot, Resume) carries that frame only. The kernel refuses a frame that does not
+// decode and the rest of its datagram with it.
+inline constexpr std::size_t kFrameAlign = 8;
+[[nodiscard]] constexpr std::size_t aligned_frame_size(std::size_t size) {
+  return (size + kFrameAlign - 1) & ~(kFrameAlign - 1);
+}
+// The frame of `datagram` that starts at `offset`: its header and the payload that header states, or, when
+// the datagram holds less than that (or less than a header), everything left (decode() then refuses it).
+// Advances `offset` past the frame and its padding (at most to the datagram's end). An empty datagram
+// yields one empty frame.
+[[nodiscard]] std::span<const std::byte> next_frame(std::span<const std::byte> datagram, std::size_t& offset);
 
 // Reads a fixed payload struct out of a frame (the caller has decoded the frame, so the size is right).
 template <class T>

@@ -17,6 +17,9 @@ enum class Wait : std::uint8_t { No, ForOne };
 
 // receive_batch: frames per recvmmsg at most.
 inline constexpr std::size_t kMaxReceiveBatch = 16;
+// At most this many frames queued to go out together (the kernel's cork per service, the SDK's out queue);
+// they leave packed in as few datagrams as fit (wire::next_frame).
+inline constexpr std::size_t kMaxBatchFrames = 64;
 
 // What one receive produced.
 struct Received {
