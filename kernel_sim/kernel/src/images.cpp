@@ -306,7 +306,7 @@ void Kernel::Impl::retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying
     }
     if (s.channel.valid()) {
       (void)epoll.remove(s.channel.fd());
-      s.channel.close();
+      closing.push_back(s.channel.take_fd());  // closed off the critical path (refill_pairs)
     }
     s.phase = Phase::Dead;
     broker.remove_service(s.id);
