@@ -292,32 +292,28 @@ TEST_F(PlantProcessTest, Lockstep_OtherSeed_OtherSensorSamples) {
   EXPECT_NE(std::memcmp(&a.gyro[0], &b.gyro[0], sizeof a.gyro[0]), 0);
 }
 
-TEST_F(PlantProcessTest, Lockstep_FullThrottle_VehicleClimbs) {
+// 60 steps at full throttle, the outputs sent `how`: the plant applies them and the vehicle climbs.
+void expect_climb_at_full_throttle(MinimalKernel::Outputs how) {
   MinimalKernel kernel(test_support::test_domain());
   sys::ChildProcess plant = spawn_plant(plant_args(3, {"--ack-timeout-ms", "20000"}));
   ASSERT_TRUE(kernel.connect());
   for (int i = 0; i < 60; ++i) {
     const auto s = kernel.next_step(plant);
     ASSERT_TRUE(s.has_value());
-    ASSERT_TRUE(kernel.ack(*s, 1.0));
+    ASSERT_TRUE(kernel.ack(*s, 1.0, 0, how));
   }
   ASSERT_TRUE(kernel.next_step(plant).has_value());  // its samples have all arrived
   ASSERT_EQ(kernel.truth.size(), 61U);
   EXPECT_LT(kernel.truth.back().p_N_m[2], -3.05);  // NED: climbing makes z more negative
 }
 
+TEST_F(PlantProcessTest, Lockstep_FullThrottle_VehicleClimbs) {
+  expect_climb_at_full_throttle(MinimalKernel::Outputs::InAck);
+}
+
 // Outputs the ack could not hold come on their own topic first: the plant waits for them and applies them.
 TEST_F(PlantProcessTest, Lockstep_OutputsOnTheirTopic_WaitedForAndApplied) {
-  MinimalKernel kernel(test_support::test_domain());
-  sys::ChildProcess plant = spawn_plant(plant_args(3, {"--ack-timeout-ms", "20000"}));
-  ASSERT_TRUE(kernel.connect());
-  for (int i = 0; i < 60; ++i) {
-    const auto s = kernel.next_step(plant);
-    ASSERT_TRUE(s.has_value());
-    ASSERT_TRUE(kernel.ack(*s, 1.0, 0, MinimalKernel::Outputs::OnTopic));
-  }
-  ASSERT_TRUE(kernel.next_step(plant).has_value());
-  EXPECT_LT(kernel.truth.back().p_N_m[2], -3.05);  // full throttle reached the vehicle
+  expect_climb_at_full_throttle(MinimalKernel::Outputs::OnTopic);
 }
 
 // A step that follows a long charge (a checkpoint, DESIGN §6) has more samples than its SimStep holds: the
