@@ -29,7 +29,8 @@ Result<DdsBridge, std::string> DdsBridge::open(std::uint32_t domain, std::span<c
       if (!w) return fail("DDS writer " + s.dds_name + ": " + w.error().to_string());
       b.out_of_topic_[s.topic.value()] = static_cast<int>(b.out_.size());
       b.out_.push_back(Out{.writer = std::move(*w), .topic = s.topic,
-                           .actuator_outputs = s.dds_name == topics::kActuatorOutputs.name});
+                           .actuator_outputs = s.dds_name == topics::kActuatorOutputs.name &&
+                                               s.type->name == msgs::TopicTraits<rejuv_msg_ActuatorOutputs>::name});
     }
   }
   if (plant_lockstep) {
