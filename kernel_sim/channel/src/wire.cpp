@@ -149,6 +149,17 @@ std::span<const std::byte> next_frame(std::span<const std::byte> datagram, std::
   return rest.first(size);
 }
 
+std::size_t datagram_prefix(std::span<const std::byte> frames) {
+  std::size_t end = 0;
+  for (std::size_t offset = 0; offset < frames.size();) {
+    const std::span<const std::byte> frame = next_frame(frames, offset);
+    const auto frame_end = static_cast<std::size_t>(frame.data() + frame.size() - frames.data());
+    if (end > 0 && frame_end > kMaxFrameBytes) break;
+    end = frame_end;
+  }
+  return end;
+}
+
 bool FrameBuffer::build(FrameKind kind, std::uint32_t slot, std::uint32_t seq, std::uint64_t aux,
                         std::span<const std::byte> payload, std::span<const std::byte> more) {
   size_ = 0;

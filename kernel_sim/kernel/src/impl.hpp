@@ -33,6 +33,7 @@ namespace rejuv::kernel {
 inline constexpr std::size_t kOutQueueCapacity = 4096;       // pending deliveries per service
 inline constexpr Nanos kChannelCloseGrace{std::chrono::seconds{1}};  // closed fd 3 but still running: lost
 inline constexpr std::size_t kControlPoolCapacity = 256;     // queued non-ring frames per service
+inline constexpr std::size_t kMaxCorkedFrames = 64;          // frames per service per cork (router.cpp)
 inline constexpr std::size_t kFramesPerWakeup = 64;          // fairness: frames read per channel per wakeup
 inline constexpr std::size_t kMaxStagedPerStep = 4096;       // publications per service per lockstep step
 inline constexpr std::uint32_t kMaxRoundsPerStep = 256;      // a step that never settles is cut here
@@ -232,19 +233,15 @@ struct Kernel::Impl {
   std::vector<StagedSample> samples;
   std::vector<std::byte> sample_bytes;
   std::vector<std::uint32_t> order;                // sort scratch
-  // Output batching within a lockstep routing round (router.cpp, cork/uncork): frames to a service are
-  // collected and leave packed in one datagram per service, so a service that gets several frames wakes once.
-  struct CorkedFrame {
-    std::uint32_t service = 0;
-    std::uint32_t offset = 0;
-    std::uint32_t size = 0;
+  // Output batching within a lockstep routing round (router.cpp, cork/uncork): a service's frames are laid
+  // out as in a datagram as they are sent, and leave together when the round is routed, so a service that
+  // gets several frames wakes once.
+  struct Cork {
+    std::vector<std::byte> frames;  // back to back, aligned (wire::next_frame)
+    std::size_t count = 0;
   };
   bool corked = false;
-  std::vector<CorkedFrame> cork_frames;
-  std::vector<std::byte> cork_bytes;
-  std::vector<std::uint32_t> cork_count;           // by service: frames in cork_frames
-  std::vector<std::span<const std::byte>> cork_batch;  // send scratch: one service's frames
-  std::vector<std::byte> pack_bytes;                   // send scratch: those frames packed in one datagram
+  std::vector<Cork> corks;  // by service
 
   // ---- images (images.cpp, DESIGN §7) ----
   image::ImageStore images{2};

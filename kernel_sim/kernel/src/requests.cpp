@@ -11,9 +11,11 @@
 namespace rejuv::kernel {
 
 void Kernel::Impl::read_channel(ServiceRuntime& s) {
-  // A burst of frames per recvmmsg (sys::SeqPacket::receive_batch); at most kFramesPerWakeup per wakeup.
+  // A burst of datagrams per recvmmsg (sys::SeqPacket::receive_batch); no new burst once kFramesPerWakeup
+  // frames were read in this wakeup (a packed datagram holds many).
   std::array<sys::Received, sys::kMaxReceiveBatch> got{};
-  for (std::size_t read = 0; read < kFramesPerWakeup;) {
+  const std::uint64_t frames_before = s.stats.frames_in;
+  while (s.stats.frames_in - frames_before < kFramesPerWakeup) {
     if (!s.live() || !s.channel.valid()) return;
     auto n = s.channel.receive_batch(rx_batch, wire::kMaxFrameBytes, got);  // a service never sends fds
     if (!n) {
@@ -22,7 +24,6 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
       got[0] = sys::Received{.size = 0, .truncated = false, .closed = true, .fds_truncated = false, .fds = {}};
       n = 1;
     }
-    read += *n;
     for (std::size_t i = 0; i < *n; ++i) {
       if (!s.live() || !s.channel.valid()) return;  // a frame before this one lost the service
       const sys::Received& r = got[i];
@@ -44,7 +45,6 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
       const std::span<const std::byte> datagram = std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, r.size);
       std::size_t offset = 0;
       do {
-        if (!s.live() || !s.channel.valid()) return;  // a frame before this one lost the service
         ++s.stats.frames_in;
         auto frame = wire::decode(wire::next_frame(datagram, offset), wire::Direction::ToKernel);
         if (!frame) {
@@ -52,7 +52,7 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
           break;
         }
         handle_frame(s, *frame);
-      } while (offset < datagram.size());
+      } while (offset < datagram.size() && s.live() && s.channel.valid());  // a frame may lose the service
     }
     if (*n < got.size()) return;  // drained: no second system call to find the channel empty
   }

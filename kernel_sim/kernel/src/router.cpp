@@ -187,12 +187,11 @@ Kernel::Impl::SendResult Kernel::Impl::send_now(ServiceRuntime& s, std::span<con
   if (!s.channel.valid()) return SendResult::Failed;
   if (corked) {
     // Counted now: the service is not idle until it has reported these frames too.
-    cork_frames.push_back(CorkedFrame{.service = s.id.value(),
-                                      .offset = static_cast<std::uint32_t>(cork_bytes.size()),
-                                      .size = static_cast<std::uint32_t>(frame.size())});
-    cork_bytes.insert(cork_bytes.end(), frame.begin(), frame.end());
+    Cork& c = corks[s.id.value()];
+    c.frames.resize(wire::aligned_frame_size(c.frames.size()), std::byte{0});
+    c.frames.insert(c.frames.end(), frame.begin(), frame.end());
     ++s.stats.frames_out;
-    if (++cork_count[s.id.value()] == sys::kMaxBatchFrames) uncork_service(s);
+    if (++c.count == kMaxCorkedFrames) uncork_service(s);
     return SendResult::Sent;
   }
   auto sent = s.channel.send(frame);
@@ -268,63 +267,54 @@ void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> fr
 // ---- output batching (lockstep rounds) ----
 //
 // Between cork() and uncork() a frame that would go out at once (the service has nothing waiting) is
-// appended to the cork instead, and uncork() sends each service's frames packed in one datagram
-// (wire::next_frame): the deliveries of a routing round wake a service once, not once per frame (the
-// service would otherwise wake on the first, report Idle, and wake again; sendmmsg of one datagram per
-// frame did that, docs/performance.md). Only the step code corks (begin_step, advance_step), around routing that
-// sends nothing else on the channels. A service's batch is capped at kMaxBatchFrames, so what a full channel
-// refuses (EAGAIN) fits in its control queue: the first frame becomes the held frame, the rest wait in the
-// out-queue as control frames, in order (its out-queue was empty, or the frames would not be in the cork).
+// appended to the service's cork instead, laid out as in a datagram, and uncork() sends it in as few
+// datagrams as hold it (wire::datagram_prefix): the deliveries of a routing round wake a service once, not
+// once per frame (the service would otherwise wake on the first, report Idle, and wake again; sendmmsg of
+// one datagram per frame did that, docs/performance.md). Only the step code corks (begin_step,
+// advance_step), around routing that sends nothing else on the channels. A cork is capped at
+// kMaxCorkedFrames, so what a full channel refuses (EAGAIN) fits in the service's control queue: the first
+// frame becomes the held frame, the rest wait in the out-queue as control frames, in order (its out-queue
+// was empty, or the frames would not be in the cork).
 
 void Kernel::Impl::cork() {
-  if (cork_count.size() != services.size()) cork_count.assign(services.size(), 0);
+  if (corks.size() != services.size()) corks.resize(services.size());
   corked = true;
 }
 
 void Kernel::Impl::uncork() {
   corked = false;
-  if (cork_frames.empty()) return;
   for (ServiceRuntime& s : services) {
-    if (cork_count[s.id.value()] > 0) uncork_service(s);
+    if (corks[s.id.value()].count > 0) uncork_service(s);
   }
-  cork_frames.clear();
-  cork_bytes.clear();
 }
 
 void Kernel::Impl::uncork_service(ServiceRuntime& s) {
-  const std::uint32_t id = s.id.value();
-  cork_batch.clear();
-  for (CorkedFrame& f : cork_frames) {
-    if (f.service != id) continue;
-    cork_batch.push_back(std::span<const std::byte>(cork_bytes).subspan(f.offset, f.size));
-    f.service = kNoOrigin;  // taken
-  }
-  cork_count[id] = 0;
-  std::size_t first = 0;
-  while (first < cork_batch.size() && s.channel.valid()) {
-    // As many frames as fit in one datagram (wire::next_frame): the service wakes once for all of them.
-    pack_bytes.clear();
-    std::size_t end = first;
-    for (; end < cork_batch.size(); ++end) {
-      const std::size_t at = wire::aligned_frame_size(pack_bytes.size());
-      if (at + cork_batch[end].size() > wire::kMaxFrameBytes) break;
-      pack_bytes.resize(at, std::byte{0});
-      pack_bytes.insert(pack_bytes.end(), cork_batch[end].begin(), cork_batch[end].end());
-    }
-    auto sent = s.channel.send(pack_bytes);
+  Cork& c = corks[s.id.value()];
+  const std::span<const std::byte> frames(c.frames);
+  for (std::size_t start = 0; start < frames.size() && s.channel.valid();) {
+    const std::span<const std::byte> rest = frames.subspan(start);
+    const std::size_t size = wire::datagram_prefix(rest);
+    auto sent = s.channel.send(rest.first(size));
     if (sent) {
-      first = end;
+      start += wire::aligned_frame_size(size);
       continue;
     }
-    if (sent.error().error != EAGAIN) return;  // EPIPE: the service is gone; its pidfd will say so
-    // The channel is full: keep the rest, in order, and count each again when it really leaves.
-    s.stats.frames_out -= cork_batch.size() - first;
-    s.held.assign(cork_batch[first].begin(), cork_batch[first].end());
+    if (sent.error().error != EAGAIN) break;  // EPIPE: the service is gone; its pidfd will say so
+    // The channel is full: keep the rest, in order, and count each frame again when it really leaves.
+    std::size_t offset = 0;
+    const std::span<const std::byte> first = wire::next_frame(rest, offset);
+    s.held.assign(first.begin(), first.end());
     s.has_held = true;
+    --s.stats.frames_out;
     set_writable_interest(s, true);
-    for (std::size_t i = first + 1; i < cork_batch.size(); ++i) send_control(s, cork_batch[i]);
-    return;
+    while (offset < rest.size()) {
+      --s.stats.frames_out;
+      send_control(s, wire::next_frame(rest, offset));
+    }
+    break;
   }
+  c.frames.clear();
+  c.count = 0;
 }
 
 void Kernel::Impl::drain(ServiceRuntime& s) {

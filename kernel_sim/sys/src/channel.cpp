@@ -43,7 +43,7 @@ SysResult<void> SeqPacket::send(std::span<const std::byte> frame, std::span<cons
   }
   ssize_t n = -1;
   do {
-    n = ::sendmsg(fd_.get(), &msg, MSG_NOSIGNAL);
+    n = ::sendmsg(fd_.get(), &msg, MSG_NOSIGNAL | MSG_DONTWAIT);
   } while (n < 0 && errno == EINTR);
   if (n < 0) {
     return last_error("sendmsg");
@@ -56,7 +56,7 @@ SysResult<void> SeqPacket::send(std::span<const std::byte> frame, std::span<cons
 
 namespace {
 
-// What recvmsg/recvmmsg reported for one datagram: its size, flags and the fds it carried (beyond max_fds:
+// What recvmmsg reported for one datagram: its size, flags and the fds it carried (beyond max_fds:
 // closed here and flagged, so that a hostile peer's fds are never leaked).
 Received describe(msghdr& msg, std::size_t n, std::size_t buffer_size, std::size_t max_fds) {
   Received r;
@@ -88,22 +88,12 @@ using Control = std::array<char, CMSG_SPACE(sizeof(int) * kMaxFdsPerFrame)>;
 }  // namespace
 
 SysResult<Received> SeqPacket::receive(std::span<std::byte> buf, std::size_t max_fds) const {
-  iovec iov{buf.data(), buf.size()};
-  msghdr msg{};
-  msg.msg_iov = &iov;
-  msg.msg_iovlen = 1;
-  // Always offer room for fds, so that fds a hostile peer sends are received here and closed, not leaked.
-  alignas(cmsghdr) Control control{};
-  msg.msg_control = control.data();
-  msg.msg_controllen = control.size();
-  ssize_t n = -1;
-  do {
-    n = ::recvmsg(fd_.get(), &msg, MSG_CMSG_CLOEXEC);
-  } while (n < 0 && errno == EINTR);
-  if (n < 0) {
-    return last_error("recvmsg");
-  }
-  return describe(msg, static_cast<std::size_t>(n), buf.size(), max_fds);
+  REJUV_ASSERT(!buf.empty(), "receive into an empty buffer");
+  // A batch of one: MSG_WAITFORONE only stops waiting after the first datagram, so this waits exactly as
+  // recvmsg would on this fd (blocking or not).
+  std::array<Received, 1> out{};
+  if (auto n = receive_batch(buf, buf.size(), out, max_fds, Wait::ForOne); !n) return std::unexpected(n.error());
+  return std::move(out[0]);
 }
 
 SysResult<std::size_t> SeqPacket::receive_batch(std::span<std::byte> slots, std::size_t slot_bytes,

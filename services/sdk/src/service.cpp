@@ -162,56 +162,46 @@ struct Service::Impl {
   // Idle wake the kernel once.
   static constexpr std::size_t kOutBytes = 64 * 1024;
   alignas(8) std::array<std::byte, kOutBytes> out_arena{};
-  std::array<std::span<const std::byte>, sys::kMaxBatchFrames> out_frames{};
-  std::size_t out_used = 0;
-  std::size_t out_count = 0;
+  std::size_t out_used = 0;  // bytes of out_arena: the queued frames, laid out as in a datagram
   bool lockstep = true;  // Idle is only meaningful in lockstep (docs/protocol.md "Idle")
 
   SdkResult<void> queue(std::span<const std::byte> frame) {
-    if (out_count == out_frames.size() || out_used + frame.size() > out_arena.size()) {
+    const std::size_t padded = wire::aligned_frame_size(frame.size());
+    if (out_used + padded > out_arena.size()) {
       if (auto f = flush(); !f) return f;
     }
     std::memcpy(out_arena.data() + out_used, frame.data(), frame.size());
-    out_frames[out_count++] = std::span<const std::byte>(out_arena.data() + out_used, frame.size());
-    const std::size_t padded = wire::aligned_frame_size(frame.size());
     std::memset(out_arena.data() + out_used + frame.size(), 0, padded - frame.size());
     out_used += padded;
     return {};
   }
 
-  // The queued frames from `first` on that fit in one datagram, as queue() laid them out (aligned, padded
-  // with zeros: wire::next_frame); `end` is set past the last of them.
-  [[nodiscard]] std::span<const std::byte> packed(std::size_t first, std::size_t& end) const {
-    const std::byte* start = out_frames[first].data();
-    const auto end_of = [&](std::size_t i) { return out_frames[i].data() + out_frames[i].size(); };
-    end = first + 1;
-    while (end < out_count && static_cast<std::size_t>(end_of(end) - start) <= wire::kMaxFrameBytes) ++end;
-    return {start, end_of(end - 1)};
+  // The next datagram of what is queued from byte `start` on: as many whole frames as fit.
+  [[nodiscard]] std::span<const std::byte> packed(std::size_t start) const {
+    const std::span<const std::byte> rest(out_arena.data() + start, out_used - start);
+    return rest.first(wire::datagram_prefix(rest));
   }
 
   // Sends everything queued, waiting for room if the kernel has not drained the channel yet.
   SdkResult<void> flush() {
-    std::size_t first = 0;
-    while (first < out_count) {
-      std::size_t end = first;
-      auto sent = channel.send(packed(first, end));
+    std::size_t start = 0;
+    while (start < out_used) {
+      const std::span<const std::byte> next = packed(start);
+      auto sent = channel.send(next);
       if (sent) {
-        first = end;
+        start += wire::aligned_frame_size(next.size());
         continue;
       }
       if (sent.error().error == EPIPE || sent.error().error == ECONNRESET) {
-        out_count = 0;
         out_used = 0;
         return error(SdkError::ChannelClosed);
       }
       if (sent.error().error != EAGAIN) {
-        out_count = 0;
         out_used = 0;
         return io_error(sent.error());
       }
       if (auto w = sys::wait_fd(channel.fd(), sys::WaitFor::Writable, std::nullopt); !w) return io_error(w.error());
     }
-    out_count = 0;
     out_used = 0;
     return {};
   }
@@ -224,8 +214,8 @@ struct Service::Impl {
 
   // Frames read ahead: one recvmmsg takes a burst (sys::SeqPacket::receive_batch), receive() hands them out
   // one by one through rx (copied: rx stays the home of the frame being handled until the next receive,
-  // the rule the datagram and request() paths are written against). A batch smaller than the buffer means the channel was empty after it, so the
-  // drained check that follows costs no system call. An image resumed by a rollback drops what is left
+  // the rule the datagram and request() paths are written against). A batch smaller than the buffer means
+  // the channel was empty after it, so the drained check that follows costs no system call. An image resumed by a rollback drops what is left
   // (forget_batch): nothing sent to the old incarnation is read by the restored one (DESIGN §7).
   static constexpr std::size_t kBatch = 4;
   alignas(8) std::array<std::byte, wire::kMaxFrameBytes * kBatch> batch_bytes{};
@@ -398,8 +388,10 @@ Service::~Service() {
   }
   // One attempt, never a wait: a service leaving must not hang on a kernel that stopped reading.
   if (impl_) {
-    for (std::size_t first = 0, end = 0; first < impl_->out_count; first = end) {
-      if (!impl_->channel.send(impl_->packed(first, end))) break;
+    for (std::size_t start = 0; start < impl_->out_used;) {
+      const std::span<const std::byte> next = impl_->packed(start);
+      if (!impl_->channel.send(next)) break;
+      start += wire::aligned_frame_size(next.size());
     }
   }
 }

@@ -165,6 +165,22 @@ TEST(Wire, NextFrame_ShortTailAndEmptyDatagram_OneUndecodableFrame) {
   EXPECT_EQ(offset, 0U);
 }
 
+// A sender's queue of frames leaves in datagrams of whole frames, each at most kMaxFrameBytes.
+TEST(Wire, DatagramPrefix_WholeFramesThatFitOneDatagram) {
+  const auto small = frame_of(FrameKind::Log, 1, 13);                   // 40 bytes with its padding
+  const auto big = frame_of(FrameKind::Log, 2, kMaxPayloadBytes - 8);  // kMaxFrameBytes - 8 bytes
+  EXPECT_EQ(datagram_prefix(packed({small, small})), 40U + small.size());
+  const auto queue = packed({small, big, small});
+  const std::size_t first = datagram_prefix(queue);
+  EXPECT_EQ(first, small.size());  // the big frame would take the datagram past kMaxFrameBytes
+  const auto rest = std::span<const std::byte>(queue).subspan(aligned_frame_size(first));
+  const std::size_t second = datagram_prefix(rest);
+  EXPECT_LE(second, kMaxFrameBytes);
+  EXPECT_EQ(second, big.size());  // the small one after it does not fit either
+  EXPECT_EQ(datagram_prefix(rest.subspan(aligned_frame_size(second))), small.size());
+  EXPECT_EQ(datagram_prefix({}), 0U);
+}
+
 TEST(Wire, NextFrame_RandomDatagrams_AlwaysAdvanceAndStayInside) {
   std::mt19937 rng(99);
   std::uniform_int_distribution<int> byte(0, 255);

@@ -68,6 +68,17 @@ TEST(SeqPacket, SendReceive_KeepsFrameBoundaries) {
   EXPECT_EQ(buf[0], std::byte{9});
 }
 
+// A service's channel blocks for its reads only: a send to a full channel says so instead of waiting.
+TEST(SeqPacket, Send_FullBlockingChannel_EagainNotAWait) {
+  auto pair = SeqPacket::pair(Blocking::Yes);
+  ASSERT_TRUE(pair.has_value());
+  const std::array<std::byte, 512> frame{};
+  SysResult<void> sent;
+  for (int i = 0; i < 100000 && sent; ++i) sent = pair->first.send(frame);  // nobody reads the other end
+  ASSERT_FALSE(sent.has_value());
+  EXPECT_EQ(sent.error().error, EAGAIN);
+}
+
 TEST(SeqPacket, Receive_OversizedFrame_ReportedTruncated) {
   auto pair = SeqPacket::pair();
   ASSERT_TRUE(pair.has_value());

@@ -1,7 +1,6 @@
 // The kernel ↔ service wire protocol (DESIGN §2, §3, §6, §7): the kernel's ABI. A frame = a fixed 24-byte
-// header + a payload whose size the header states exactly. A SOCK_SEQPACKET datagram carries one frame or
-// several back to back (next_frame): a routing round's frames for one service, or a service's publications
-// and its Idle, then wake the receiver once (sendmmsg can wake it once per datagram).
+// header + a payload whose size the header states exactly; a SOCK_SEQPACKET datagram carries one frame or
+// several back to back (next_frame, below).
 // The kernel never parses attacker-controlled bytes beyond this fixed framing: decode() checks the
 // header, the kind, the direction and the payload size rule of the kind before anything looks inside.
 #pragma once
@@ -184,9 +183,11 @@ struct FrameView {
 [[nodiscard]] Result<FrameView, FrameError> decode(std::span<const std::byte> bytes, Direction expected);
 
 // A datagram carries one frame or several packed back to back, each starting at a multiple of kFrameAlign
-// from the datagram's start (the gap after a frame is zero), the whole at most kMaxFrameBytes. A datagram
-// that carries an fd (Snapshot, Resume) carries that frame only. The kernel refuses a frame that does not
-// decode and the rest of its datagram with it.
+// from the datagram's start (the gap after a frame is zero), the whole at most kMaxFrameBytes: a routing
+// round's frames for one service, or a service's publications and its Idle, then wake the receiver once
+// (sendmmsg of one datagram per frame could wake it once per frame). A datagram that carries an fd
+// (Snapshot, Resume) carries that frame only. The kernel refuses a frame that does not decode and the rest
+// of its datagram with it.
 inline constexpr std::size_t kFrameAlign = 8;
 [[nodiscard]] constexpr std::size_t aligned_frame_size(std::size_t size) {
   return (size + kFrameAlign - 1) & ~(kFrameAlign - 1);
@@ -196,6 +197,10 @@ inline constexpr std::size_t kFrameAlign = 8;
 // Advances `offset` past the frame and its padding (at most to the datagram's end). An empty datagram
 // yields one empty frame.
 [[nodiscard]] std::span<const std::byte> next_frame(std::span<const std::byte> datagram, std::size_t& offset);
+// `frames`: frames laid out as in a datagram, possibly more than one datagram holds (a sender's queue). The
+// length of its longest prefix of whole frames that fits in one datagram; never less than the first frame.
+// The next datagram starts at aligned_frame_size(that length).
+[[nodiscard]] std::size_t datagram_prefix(std::span<const std::byte> frames);
 
 // Reads a fixed payload struct out of a frame (the caller has decoded the frame, so the size is right).
 template <class T>

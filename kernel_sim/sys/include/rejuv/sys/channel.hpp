@@ -17,9 +17,6 @@ enum class Wait : std::uint8_t { No, ForOne };
 
 // receive_batch: frames per recvmmsg at most.
 inline constexpr std::size_t kMaxReceiveBatch = 16;
-// At most this many frames queued to go out together (the kernel's cork per service, the SDK's out queue);
-// they leave packed in as few datagrams as fit (wire::next_frame).
-inline constexpr std::size_t kMaxBatchFrames = 64;
 
 // What one receive produced.
 struct Received {
@@ -38,10 +35,11 @@ class SeqPacket {
   // A connected pair, close-on-exec; Blocking::No makes both ends non-blocking.
   [[nodiscard]] static SysResult<std::pair<SeqPacket, SeqPacket>> pair(Blocking blocking = Blocking::Yes);
 
-  // Sends one frame (and fds). Never raises SIGPIPE: a closed peer is EPIPE.
+  // Sends one datagram (and fds), never waiting, also on a blocking fd (a service's channel blocks for its
+  // reads only): a full channel is EAGAIN as an error value. Never raises SIGPIPE: a closed peer is EPIPE.
   [[nodiscard]] SysResult<void> send(std::span<const std::byte> frame, std::span<const int> fds = {}) const;
-  // Receives one frame into buf; at most max_fds fds are accepted. EAGAIN on a non-blocking end is an error
-  // value with error == EAGAIN.
+  // Receives one datagram into buf (not empty); at most max_fds fds are accepted. Waits as the fd says; EAGAIN
+  // on a non-blocking end is an error value with error == EAGAIN.
   [[nodiscard]] SysResult<Received> receive(std::span<std::byte> buf, std::size_t max_fds = 0) const;
   // Up to kMaxReceiveBatch frames in one recvmmsg: `slots` is cut into slots of `slot_bytes`; frame i lands
   // in slot i and is described by out[i] as receive(slot i, max_fds) would. Returns how many (≥ 1), ending
