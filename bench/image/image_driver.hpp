@@ -1,0 +1,246 @@
+// Drives image_service processes through checkpoints and rollbacks, both ways (bench/image and
+// its smoke test): by fork, as the runtime images its services today, and by copy into
+// holders forked from a zygote (rejuv/image/memory_image.hpp). The driver plays the kernel's part.
+#pragma once
+
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <array>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "memory_image.hpp"
+#include "rejuv/sys/channel.hpp"
+#include "rejuv/sys/process.hpp"
+
+namespace rejuv::bench_image {
+
+using sys::ChildProcess;
+using sys::SeqPacket;
+using sys::UniqueFd;
+
+struct Answer {
+  char kind = 0;
+  std::array<std::byte, 64> body{};
+  UniqueFd fd;
+  template <typename T>
+  [[nodiscard]] T at(std::size_t offset) const {
+    T v{};
+    std::memcpy(&v, body.data() + offset, sizeof(T));
+    return v;
+  }
+};
+
+class ImageDriver {
+ public:
+  // Everything the driver does either succeeds or ends the program with what failed (a bench and a test
+  // fixture: there is nothing to recover).
+  static void check(bool ok, const std::string& what) {
+    if (!ok) {
+      std::fprintf(stderr, "image driver: %s\n", what.c_str());
+      std::exit(2);
+    }
+  }
+
+  ImageDriver(const std::string& executable, int services) {
+    for (int i = 0; i < services; ++i) {
+      auto pair = SeqPacket::pair();
+      check(pair.has_value(), "socketpair");
+      sys::SpawnSpec spec{.executable = executable, .args = {}, .env = {}, .fds = {{3, pair->second.fd()}},
+                          .seccomp = nullptr, .uid = {}, .own_process_group = true};
+      auto child = sys::spawn(spec);
+      check(child.has_value(), "spawn " + executable);
+      Unit u;
+      u.live = std::move(*child);
+      u.channel = std::move(pair->first);
+      const int memfd = ::memfd_create("rejuv-image", MFD_CLOEXEC);
+      check(memfd >= 0 && ::ftruncate(memfd, kImageBytes) == 0, "memfd");
+      u.image = UniqueFd(memfd);
+      void* map = ::mmap(nullptr, kImageBytes, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, memfd, 0);
+      check(map != MAP_FAILED, "mmap image");
+      u.bytes = std::span(static_cast<std::byte*>(map), kImageBytes);
+      units_.push_back(std::move(u));
+    }
+  }
+  ImageDriver(const ImageDriver&) = delete;
+  ImageDriver& operator=(const ImageDriver&) = delete;
+  ~ImageDriver() {
+    for (Unit& u : units_) ::munmap(u.bytes.data(), u.bytes.size());
+  }
+
+  [[nodiscard]] std::size_t size() const { return units_.size(); }
+  [[nodiscard]] std::uint64_t counter(std::size_t i) const { return units_[i].counter; }
+  [[nodiscard]] std::uint64_t saved_counter(std::size_t i) const { return units_[i].saved_counter; }
+  [[nodiscard]] const Layout& layout(std::size_t i) const { return units_[i].layout; }
+  [[nodiscard]] pid_t live_pid(std::size_t i) const { return units_[i].live.pid(); }
+  [[nodiscard]] pid_t holder_pid(std::size_t i) const { return units_[i].holder.pid(); }
+  [[nodiscard]] pid_t zygote_pid(std::size_t i) const { return units_[i].zygote.pid(); }
+
+  void tick() {
+    for (Unit& u : units_) send(u.channel, 't');
+    for (Unit& u : units_) {
+      const Answer a = expect(u.channel, 'a');
+      u.counter = a.at<std::uint64_t>(0);
+    }
+  }
+
+  // ---- by fork ----
+  void checkpoint_by_fork() {
+    for (Unit& u : units_) {
+      auto pair = SeqPacket::pair();
+      check(pair.has_value(), "socketpair");
+      send(u.channel, 'f', {}, pair->second.fd());
+      u.fork_resume = std::move(pair->first);
+    }
+    for (Unit& u : units_) {
+      u.fork_image = adopt(expect(u.channel, 'p'));
+      u.saved_counter = u.counter;
+    }
+  }
+  void rollback_by_fork() {
+    retire_live();
+    for (Unit& u : units_) u.channel = resume(u.fork_resume);
+    for (Unit& u : units_) {
+      u.counter = expect(u.channel, 'r').at<std::uint64_t>(0);
+      u.live = std::move(u.fork_image);
+      u.fork_resume.close();
+    }
+  }
+
+  // ---- by copy ----
+  void start_zygotes() {
+    for (Unit& u : units_) {
+      auto pair = SeqPacket::pair();
+      check(pair.has_value(), "socketpair");
+      send(u.channel, 'z', {}, pair->second.fd());
+      u.zygote_sock = std::move(pair->first);
+      u.zygote = adopt(expect(u.channel, 'p'));
+    }
+  }
+  // Off the critical path: a holder per service, forked by its zygote.
+  void make_holders() {
+    for (Unit& u : units_) {
+      auto pair = SeqPacket::pair();
+      check(pair.has_value(), "socketpair");
+      send(u.zygote_sock, 'f', {}, pair->second.fd());
+      u.holder_sock = std::move(pair->first);
+      u.holder = adopt(expect(u.zygote_sock, 'p'));
+    }
+  }
+  void checkpoint_by_copy() {
+    std::vector<SeqPacket> done;
+    done.reserve(units_.size());
+    for (Unit& u : units_) {
+      auto pair = SeqPacket::pair();
+      check(pair.has_value(), "socketpair");
+      send(u.channel, 's', {}, pair->second.fd());
+      done.push_back(std::move(pair->first));
+    }
+    for (std::size_t i = 0; i < units_.size(); ++i) {
+      Unit& u = units_[i];
+      const Answer a = expect(u.channel, 'l');
+      u.layout = a.at<Layout>(0);
+      const auto pid = a.at<std::int32_t>(sizeof(Layout));
+      check(pid == u.live.pid(), "the layout of another process");
+      const auto t0 = std::chrono::steady_clock::now();
+      auto read = read_process(pid, u.layout, u.bytes);
+      read_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
+      check(read.has_value(), read ? "" : read.error().to_string());
+      done[i].close();  // the service goes on
+      u.saved_counter = u.counter;
+    }
+  }
+  // Off the critical path: each holder reads the newest image.
+  void load_holders() {
+    for (Unit& u : units_) {
+      send(u.holder_sock, 'l', std::as_bytes(std::span(&u.layout, 1)), u.image.get());
+      (void)expect(u.holder_sock, 'k');
+    }
+  }
+  void rollback_by_copy() {
+    retire_live();
+    for (Unit& u : units_) u.channel = resume(u.holder_sock);
+    for (Unit& u : units_) {
+      u.counter = expect(u.channel, 'r').at<std::uint64_t>(0);
+      u.live = std::move(u.holder);
+      u.holder_sock.close();
+    }
+  }
+
+  std::vector<double> read_us;  // each read_process of checkpoint_by_copy
+  // The killed incarnations, reaped off the measured paths.
+  void reap() {
+    for (ChildProcess& p : dying_) p.kill_and_reap();
+    dying_.clear();
+  }
+
+ private:
+  static constexpr std::size_t kImageBytes = std::size_t{8} << 20;
+
+  struct Unit {
+    ChildProcess live;
+    SeqPacket channel;
+    std::uint64_t counter = 0;
+    std::uint64_t saved_counter = 0;
+    ChildProcess fork_image;
+    SeqPacket fork_resume;
+    ChildProcess zygote;
+    SeqPacket zygote_sock;
+    ChildProcess holder;
+    SeqPacket holder_sock;
+    Layout layout{};
+    UniqueFd image;
+    std::span<std::byte> bytes;
+  };
+
+  static void send(const SeqPacket& to, char kind, std::span<const std::byte> body = {}, int fd = -1) {
+    std::array<std::byte, 80> buf{};
+    buf[0] = static_cast<std::byte>(kind);
+    std::memcpy(buf.data() + 1, body.data(), body.size());
+    auto sent = fd >= 0 ? to.send(std::span<const std::byte>(buf.data(), 1 + body.size()), std::span(&fd, 1))
+                        : to.send(std::span<const std::byte>(buf.data(), 1 + body.size()));
+    check(sent.has_value(), std::string("send '") + kind + "'");
+  }
+  static Answer expect(const SeqPacket& from, char kind) {
+    std::array<std::byte, 80> buf{};
+    auto got = from.receive(buf, 1);
+    check(got.has_value() && !got->closed && got->size > 0 && static_cast<char>(buf[0]) == kind,
+          std::string("no '") + kind + "' answer");
+    Answer a;
+    a.kind = kind;
+    std::memcpy(a.body.data(), buf.data() + 1, std::min(got->size - 1, a.body.size()));
+    if (!got->fds.empty()) a.fd = std::move(got->fds.front());
+    return a;
+  }
+  static ChildProcess adopt(const Answer& a) {
+    auto child = ChildProcess::adopt_child(a.at<std::int32_t>(0));
+    check(child.has_value(), "adopt the new process");
+    return std::move(*child);
+  }
+  // Sends 'g' with a new channel on `resume`; returns the driver's end of that channel.
+  static SeqPacket resume(const SeqPacket& resume_socket) {
+    auto pair = SeqPacket::pair();
+    check(pair.has_value(), "socketpair");
+    send(resume_socket, 'g', {}, pair->second.fd());
+    return std::move(pair->first);
+  }
+  void retire(ChildProcess& p) {
+    (void)sys::lower_priority(p.pid());
+    (void)p.signal(SIGKILL);
+    dying_.push_back(std::move(p));
+  }
+  void retire_live() {
+    for (Unit& u : units_) retire(u.live);
+  }
+
+  std::vector<Unit> units_;
+  std::vector<ChildProcess> dying_;
+};
+
+}  // namespace rejuv::bench_image

@@ -1,0 +1,91 @@
+// Images taken by copying memory instead of by fork (DESIGN §7, the paper's §V-B create_checkpoint and
+// §V-C rollback, which copy the task's memory inside the kernel module).
+//
+// Kept in bench/image, not in the runtime: measured against fork images (image_bench), it is 1.1–1.5× slower
+// on this VM — the copy is bandwidth-bound (≈ 4 GB/s through process_vm_readv, ~130 µs for a 550 KB service
+// against ~100 µs for its fork) — see docs/performance.md "Images by copy".
+//
+// A static, single-threaded service keeps all of its private writable memory in three regions: data+bss, the
+// brk heap and the used part of its stack. The scheme, for one service:
+//   - At start the service calls prepare_self(): malloc stays in the brk heap (no mmap, one arena), the
+//     fixed regions are recorded and a standby stack is mapped (outside every region).
+//   - A *zygote* is forked once and waits on the standby stack; it forks *holders* on request. Holders are
+//     never forked from the live service, so the live service takes no copy-on-write faults and no fork chain
+//     grows (a fork copies the anon_vma chain of every ancestor, see docs/performance.md).
+//   - Checkpoint: the service saves its context (REJUV_IMAGE_SAVE, in a frame that outlives the copy),
+//     reports layout_at(its stack pointer) and waits; the kernel copies the layout with read_process().
+//   - Load (off the critical path): a holder receives the bytes (a memfd) and calls load_self(), which makes
+//     its heap and stack as large as the image's and reads the image over its own memory.
+//   - Rollback: the holder's resume_saved() jumps into the saved context: the process continues where the
+//     image was taken, as the image, in a process that has never run compromised code.
+//
+// Single-threaded processes of one static executable only (their regions are the same in every copy).
+#pragma once
+
+#include <sys/types.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "rejuv/sys/fd.hpp"
+
+namespace rejuv::bench_image {
+
+struct Region {
+  std::uintptr_t lo = 0;
+  std::uintptr_t hi = 0;
+  [[nodiscard]] std::size_t size() const { return hi > lo ? hi - lo : 0; }
+  friend bool operator==(const Region&, const Region&) = default;
+};
+
+// The private writable memory of a service at one moment; also its wire form (trivially copyable).
+struct Layout {
+  Region data;   // .data + .bss (fixed)
+  Region heap;   // brk heap: start fixed, end as the image had it
+  Region stack;  // from below the saved stack pointer to the top of the stack (argv, environment, auxv)
+  [[nodiscard]] std::size_t bytes() const { return data.size() + heap.size() + stack.size(); }
+  friend bool operator==(const Layout&, const Layout&) = default;
+};
+
+// Largest image accepted (a service reporting more is refused, not copied).
+inline constexpr std::size_t kMaxImageBytes = std::size_t{64} << 20;
+
+// What is wrong with a layout a service reported, or nullptr: every region non-empty, page-aligned, in
+// order data < heap < stack without overlap, at most kMaxImageBytes in all.
+[[nodiscard]] const char* check(const Layout& layout);
+
+// ---- in the service ----
+
+// Once, before the service allocates much and before it forks anything.
+[[nodiscard]] sys::SysResult<void> prepare_self();
+[[nodiscard]] bool prepared();
+// An address below every local of the calling function (the address of a local of a callee).
+[[nodiscard]] std::uintptr_t stack_pointer();
+// The layout now, with the stack from `stack_pointer` (less a margin for the red zone) to its top.
+[[nodiscard]] Layout layout_at(std::uintptr_t stack_pointer);
+
+// A saved execution context. REJUV_IMAGE_SAVE(ctx) is 0 when it saves and 1 when resume_saved(ctx) comes
+// back to it (in a holder, after load_self). Like setjmp: the function that saves must still be running
+// when the image is copied, and locals it changes after saving are undefined after the return with 1.
+using Context = void* [5];
+#define REJUV_IMAGE_SAVE(ctx) __builtin_setjmp(ctx)  // NOLINT(cppcoreguidelines-macro-usage)
+
+// Runs fn(arg) on the standby stack; never returns (a zygote or holder lives there, so that loading an image
+// over the main stack does not pull the ground from under it).
+[[noreturn]] void run_on_standby_stack(void (*fn)(int), int arg);
+
+// In a holder (on the standby stack): grows the heap and the stack to the image's and reads `image` (the
+// three regions back to back, as read_process() wrote them) over this process's memory. EINVAL if the
+// fixed parts of the layout are not this executable's.
+[[nodiscard]] sys::SysResult<void> load_self(const Layout& layout, int image_fd);
+
+// In a loaded holder: continues in the saved context (REJUV_IMAGE_SAVE returns 1 there).
+[[noreturn]] void resume_saved(Context& ctx);
+
+// ---- in the kernel ----
+
+// Copies `layout` of process `pid` (stopped at its save point) into `into` (layout.bytes() long).
+[[nodiscard]] sys::SysResult<void> read_process(pid_t pid, const Layout& layout, std::span<std::byte> into);
+
+}  // namespace rejuv::bench_image
