@@ -92,56 +92,32 @@ class ImageDriver {
 
   // ---- by fork ----
   void checkpoint_by_fork() {
-    for (Unit& u : units_) {
-      auto pair = SeqPacket::pair();
-      check(pair.has_value(), "socketpair");
-      send(u.channel, 'f', {}, pair->second.fd());
-      u.fork_resume = std::move(pair->first);
-    }
+    for (Unit& u : units_) u.fork_resume = send_socket(u.channel, 'f');
     for (Unit& u : units_) {
       u.fork_image = adopt(expect(u.channel, 'p'));
       u.saved_counter = u.counter;
     }
   }
-  void rollback_by_fork() {
-    retire_live();
-    for (Unit& u : units_) u.channel = resume(u.fork_resume);
-    for (Unit& u : units_) {
-      u.counter = expect(u.channel, 'r').at<std::uint64_t>(0);
-      u.live = std::move(u.fork_image);
-      u.fork_resume.close();
-    }
-  }
+  void rollback_by_fork() { rollback_to(&Unit::fork_image, &Unit::fork_resume); }
 
   // ---- by copy ----
   void start_zygotes() {
     for (Unit& u : units_) {
-      auto pair = SeqPacket::pair();
-      check(pair.has_value(), "socketpair");
-      send(u.channel, 'z', {}, pair->second.fd());
-      u.zygote_sock = std::move(pair->first);
+      u.zygote_sock = send_socket(u.channel, 'z');
       u.zygote = adopt(expect(u.channel, 'p'));
     }
   }
   // Off the critical path: a holder per service, forked by its zygote.
   void make_holders() {
     for (Unit& u : units_) {
-      auto pair = SeqPacket::pair();
-      check(pair.has_value(), "socketpair");
-      send(u.zygote_sock, 'f', {}, pair->second.fd());
-      u.holder_sock = std::move(pair->first);
+      u.holder_sock = send_socket(u.zygote_sock, 'f');
       u.holder = adopt(expect(u.zygote_sock, 'p'));
     }
   }
   void checkpoint_by_copy() {
     std::vector<SeqPacket> done;
     done.reserve(units_.size());
-    for (Unit& u : units_) {
-      auto pair = SeqPacket::pair();
-      check(pair.has_value(), "socketpair");
-      send(u.channel, 's', {}, pair->second.fd());
-      done.push_back(std::move(pair->first));
-    }
+    for (Unit& u : units_) done.push_back(send_socket(u.channel, 's'));
     for (std::size_t i = 0; i < units_.size(); ++i) {
       Unit& u = units_[i];
       const Answer a = expect(u.channel, 'l');
@@ -163,15 +139,7 @@ class ImageDriver {
       (void)expect(u.holder_sock, 'k');
     }
   }
-  void rollback_by_copy() {
-    retire_live();
-    for (Unit& u : units_) u.channel = resume(u.holder_sock);
-    for (Unit& u : units_) {
-      u.counter = expect(u.channel, 'r').at<std::uint64_t>(0);
-      u.live = std::move(u.holder);
-      u.holder_sock.close();
-    }
-  }
+  void rollback_by_copy() { rollback_to(&Unit::holder, &Unit::holder_sock); }
 
   std::vector<double> read_us;  // each read_process of checkpoint_by_copy
   // The killed incarnations, reaped off the measured paths.
@@ -223,12 +191,24 @@ class ImageDriver {
     check(child.has_value(), "adopt the new process");
     return std::move(*child);
   }
-  // Sends 'g' with a new channel on `resume`; returns the driver's end of that channel.
-  static SeqPacket resume(const SeqPacket& resume_socket) {
+  // Sends `kind` with one end of a new socket pair on `to` (a resume socket, a done socket, a new channel);
+  // returns the driver's end.
+  static SeqPacket send_socket(const SeqPacket& to, char kind) {
     auto pair = SeqPacket::pair();
     check(pair.has_value(), "socketpair");
-    send(resume_socket, 'g', {}, pair->second.fd());
+    send(to, kind, {}, pair->second.fd());
     return std::move(pair->first);
+  }
+  // Kills the live services, resumes each `image` (a fork image or a loaded holder) through its `socket`
+  // with a new channel, and waits for every one to answer with its counter.
+  void rollback_to(ChildProcess Unit::*image, SeqPacket Unit::*socket) {
+    retire_live();
+    for (Unit& u : units_) u.channel = send_socket(u.*socket, 'g');
+    for (Unit& u : units_) {
+      u.counter = expect(u.channel, 'r').at<std::uint64_t>(0);
+      u.live = std::move(u.*image);
+      (u.*socket).close();
+    }
   }
   void retire(ChildProcess& p) {
     (void)sys::lower_priority(p.pid());
