@@ -40,7 +40,7 @@ void timed(Stat& s, F&& f) {
 
 void verify(const rejuv::bench_image::ImageDriver& d, const char* how) {
   for (std::size_t i = 0; i < d.size(); ++i) {
-    rejuv::bench_image::ImageDriver::check(d.counter(i) == d.saved_counter(i),
+    rejuv::bench_image::ImageDriver::require(d.counter(i) == d.saved_counter(i),
                                            std::string(how) + ": a service came back with another counter");
   }
 }

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "image_messages.hpp"
 #include "memory_image.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/process.hpp"
@@ -25,23 +26,11 @@ using sys::ChildProcess;
 using sys::SeqPacket;
 using sys::UniqueFd;
 
-struct Answer {
-  char kind = 0;
-  std::array<std::byte, 64> body{};
-  UniqueFd fd;
-  template <typename T>
-  [[nodiscard]] T at(std::size_t offset) const {
-    T v{};
-    std::memcpy(&v, body.data() + offset, sizeof(T));
-    return v;
-  }
-};
-
 class ImageDriver {
  public:
   // Everything the driver does either succeeds or ends the program with what failed (a bench and a test
   // fixture: there is nothing to recover).
-  static void check(bool ok, const std::string& what) {
+  static void require(bool ok, const std::string& what) {
     if (!ok) {
       std::fprintf(stderr, "image driver: %s\n", what.c_str());
       std::exit(2);
@@ -51,19 +40,19 @@ class ImageDriver {
   ImageDriver(const std::string& executable, int services) {
     for (int i = 0; i < services; ++i) {
       auto pair = SeqPacket::pair();
-      check(pair.has_value(), "socketpair");
+      require(pair.has_value(), "socketpair");
       sys::SpawnSpec spec{.executable = executable, .args = {}, .env = {}, .fds = {{3, pair->second.fd()}},
                           .seccomp = nullptr, .uid = {}, .own_process_group = true};
       auto child = sys::spawn(spec);
-      check(child.has_value(), "spawn " + executable);
+      require(child.has_value(), "spawn " + executable);
       Unit u;
       u.live = std::move(*child);
       u.channel = std::move(pair->first);
       const int memfd = ::memfd_create("rejuv-image", MFD_CLOEXEC);
-      check(memfd >= 0 && ::ftruncate(memfd, kImageBytes) == 0, "memfd");
+      require(memfd >= 0 && ::ftruncate(memfd, kImageBytes) == 0, "memfd");
       u.image = UniqueFd(memfd);
       void* map = ::mmap(nullptr, kImageBytes, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, memfd, 0);
-      check(map != MAP_FAILED, "mmap image");
+      require(map != MAP_FAILED, "mmap image");
       u.bytes = std::span(static_cast<std::byte*>(map), kImageBytes);
       units_.push_back(std::move(u));
     }
@@ -83,9 +72,9 @@ class ImageDriver {
   [[nodiscard]] pid_t zygote_pid(std::size_t i) const { return units_[i].zygote.pid(); }
 
   void tick() {
-    for (Unit& u : units_) send(u.channel, 't');
+    for (Unit& u : units_) require(send_message(u.channel, 't', -1), "send 't'");
     for (Unit& u : units_) {
-      const Answer a = expect(u.channel, 'a');
+      const Message a = expect(u.channel, 'a');
       u.counter = a.at<std::uint64_t>(0);
     }
   }
@@ -120,14 +109,14 @@ class ImageDriver {
     for (Unit& u : units_) done.push_back(send_socket(u.channel, 's'));
     for (std::size_t i = 0; i < units_.size(); ++i) {
       Unit& u = units_[i];
-      const Answer a = expect(u.channel, 'l');
+      const Message a = expect(u.channel, 'l');
       u.layout = a.at<Layout>(0);
       const auto pid = a.at<std::int32_t>(sizeof(Layout));
-      check(pid == u.live.pid(), "the layout of another process");
+      require(pid == u.live.pid(), "the layout of another process");
       const auto t0 = std::chrono::steady_clock::now();
       auto read = read_process(pid, u.layout, u.bytes);
       read_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
-      check(read.has_value(), read ? "" : read.error().to_string());
+      require(read.has_value(), read ? "" : read.error().to_string());
       done[i].close();  // the service goes on
       u.saved_counter = u.counter;
     }
@@ -135,7 +124,7 @@ class ImageDriver {
   // Off the critical path: each holder reads the newest image.
   void load_holders() {
     for (Unit& u : units_) {
-      send(u.holder_sock, 'l', std::as_bytes(std::span(&u.layout, 1)), u.image.get());
+      require(send_message(u.holder_sock, 'l', u.image.get(), u.layout), "send 'l'");
       (void)expect(u.holder_sock, 'k');
     }
   }
@@ -167,36 +156,22 @@ class ImageDriver {
     std::span<std::byte> bytes;
   };
 
-  static void send(const SeqPacket& to, char kind, std::span<const std::byte> body = {}, int fd = -1) {
-    std::array<std::byte, 80> buf{};
-    buf[0] = static_cast<std::byte>(kind);
-    std::memcpy(buf.data() + 1, body.data(), body.size());
-    auto sent = fd >= 0 ? to.send(std::span<const std::byte>(buf.data(), 1 + body.size()), std::span(&fd, 1))
-                        : to.send(std::span<const std::byte>(buf.data(), 1 + body.size()));
-    check(sent.has_value(), std::string("send '") + kind + "'");
+  static Message expect(const SeqPacket& from, char kind) {
+    Message m;
+    require(receive_message(from, m) && m.kind == kind, std::string("no '") + kind + "' answer");
+    return m;
   }
-  static Answer expect(const SeqPacket& from, char kind) {
-    std::array<std::byte, 80> buf{};
-    auto got = from.receive(buf, 1);
-    check(got.has_value() && !got->closed && got->size > 0 && static_cast<char>(buf[0]) == kind,
-          std::string("no '") + kind + "' answer");
-    Answer a;
-    a.kind = kind;
-    std::memcpy(a.body.data(), buf.data() + 1, std::min(got->size - 1, a.body.size()));
-    if (!got->fds.empty()) a.fd = std::move(got->fds.front());
-    return a;
-  }
-  static ChildProcess adopt(const Answer& a) {
+  static ChildProcess adopt(const Message& a) {
     auto child = ChildProcess::adopt_child(a.at<std::int32_t>(0));
-    check(child.has_value(), "adopt the new process");
+    require(child.has_value(), "adopt the new process");
     return std::move(*child);
   }
   // Sends `kind` with one end of a new socket pair on `to` (a resume socket, a done socket, a new channel);
   // returns the driver's end.
   static SeqPacket send_socket(const SeqPacket& to, char kind) {
     auto pair = SeqPacket::pair();
-    check(pair.has_value(), "socketpair");
-    send(to, kind, {}, pair->second.fd());
+    require(pair.has_value(), "socketpair");
+    require(send_message(to, kind, pair->second.fd()), std::string("send '") + kind + "'");
     return std::move(pair->first);
   }
   // Kills the live services, resumes each `image` (a fork image or a loaded holder) through its `socket`

@@ -19,49 +19,32 @@
 #include <cstring>
 #include <vector>
 
+#include "image_messages.hpp"
 #include "memory_image.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/process.hpp"
 
+namespace rejuv::bench_image {
 namespace {
 
-using rejuv::bench_image::Layout;
-using rejuv::sys::SeqPacket;
-using rejuv::sys::UniqueFd;
+using sys::SeqPacket;
+using sys::UniqueFd;
 
 constexpr int kChannelFd = 3;
 constexpr std::size_t kWorkWords = 30'000;  // the heap then is ≈ 370 KB, like rejuv_ekf2's
 
 std::uint64_t counter = 0;
 std::vector<std::uint64_t>* work = nullptr;
-rejuv::bench_image::Context saved{};
+Context saved{};
 SeqPacket* channel = nullptr;  // fd 3 in every incarnation
 
-struct Message {
-  char kind = 0;
-  std::array<std::byte, 64> body{};
-  std::size_t body_size = 0;
-  UniqueFd fd;
-};
-
-bool receive(const SeqPacket& from, Message& m) {
-  std::array<std::byte, 80> buf{};
-  auto got = from.receive(buf, 1);
-  if (!got || got->closed || got->size == 0) return false;
-  m.kind = static_cast<char>(buf[0]);
-  m.body_size = got->size - 1;
-  std::memcpy(m.body.data(), buf.data() + 1, std::min(m.body_size, m.body.size()));
-  m.fd = got->fds.empty() ? UniqueFd() : std::move(got->fds.front());
-  return true;
+void answer(const SeqPacket& to, char kind, const auto&... parts) {
+  if (!send_message(to, kind, -1, parts...)) std::_Exit(4);
 }
 
-template <typename... T>
-void answer(const SeqPacket& to, char kind, const T&... parts) {
-  std::array<std::byte, 80> buf{};
-  buf[0] = static_cast<std::byte>(kind);
-  std::size_t at = 1;
-  ((std::memcpy(buf.data() + at, &parts, sizeof(parts)), at += sizeof(parts)), ...);
-  if (!to.send(std::span<const std::byte>(buf.data(), at))) std::_Exit(4);
+// Answers the pid a fork_sibling() gave this process (0 when it failed).
+void answer_fork(const SeqPacket& to, const sys::SysResult<pid_t>& pid) {
+  answer(to, 'p', static_cast<std::int32_t>(pid ? *pid : 0));
 }
 
 // Moves `fd` to the channel's number, as the live service had it.
@@ -72,7 +55,7 @@ void take_channel(UniqueFd fd) {
 // A frozen fork image: waits for 'g', then returns to be the service.
 void frozen(SeqPacket resume) {
   Message m;
-  if (!receive(resume, m) || m.kind != 'g' || !m.fd.valid()) std::_Exit(0);
+  if (!receive_message(resume, m) || m.kind != 'g' || !m.fd.valid()) std::_Exit(0);
   take_channel(std::move(m.fd));
   resume.close();
   answer(*channel, 'r', counter);
@@ -83,24 +66,22 @@ void standby(int fd) {
   SeqPacket sock{UniqueFd(fd)};
   for (;;) {
     Message m;
-    if (!receive(sock, m)) std::_Exit(0);
+    if (!receive_message(sock, m)) std::_Exit(0);
     if (m.kind == 'f' && m.fd.valid()) {
-      auto pid = rejuv::sys::fork_sibling();
+      auto pid = sys::fork_sibling();
       if (pid && *pid == 0) {  // the holder: serves the new socket
         sock = SeqPacket(std::move(m.fd));
         continue;
       }
-      answer(sock, 'p', static_cast<std::int32_t>(pid ? *pid : 0));
+      answer_fork(sock, pid);
     } else if (m.kind == 'l' && m.fd.valid() && m.body_size == sizeof(Layout)) {
-      Layout layout;
-      std::memcpy(&layout, m.body.data(), sizeof(layout));
-      if (!rejuv::bench_image::load_self(layout, m.fd.get())) std::_Exit(6);
+      if (!load_self(m.at<Layout>(0), m.fd.get())) std::_Exit(6);
       m.fd.reset();
       answer(sock, 'k');
     } else if (m.kind == 'g' && m.fd.valid()) {
       sock.close();  // first: it may hold fd 3 (the zygote closed the service's channel)
       take_channel(std::move(m.fd));
-      rejuv::bench_image::resume_saved(saved);
+      resume_saved(saved);
     } else {
       std::_Exit(7);
     }
@@ -110,7 +91,7 @@ void standby(int fd) {
 [[noreturn]] void serve() {
   for (;;) {
     Message m;
-    if (!receive(*channel, m)) std::_Exit(0);
+    if (!receive_message(*channel, m)) std::_Exit(0);
     switch (m.kind) {
       case 't':
         ++counter;
@@ -118,31 +99,31 @@ void standby(int fd) {
         answer(*channel, 'a', counter);
         break;
       case 'f': {
-        auto pid = rejuv::sys::fork_sibling();
+        auto pid = sys::fork_sibling();
         if (pid && *pid == 0) {
           frozen(SeqPacket(std::move(m.fd)));
           break;
         }
-        answer(*channel, 'p', static_cast<std::int32_t>(pid ? *pid : 0));
+        answer_fork(*channel, pid);
         break;
       }
       case 'z': {
-        auto pid = rejuv::sys::fork_sibling();
+        auto pid = sys::fork_sibling();
         if (pid && *pid == 0) {
           ::close(kChannelFd);
-          rejuv::bench_image::run_on_standby_stack(standby, m.fd.release());
+          run_on_standby_stack(standby, m.fd.release());
         }
-        answer(*channel, 'p', static_cast<std::int32_t>(pid ? *pid : 0));
+        answer_fork(*channel, pid);
         break;
       }
       case 's': {
         if (REJUV_IMAGE_SAVE(saved) != 0) {
-          // A holder, resumed: this frame is the image's; the new channel is at fd 3 like the old one was.
-          (void)m.fd.release();  // the image's number for its done socket, nothing of this process
+          // A holder, resumed: this frame is the image's (m.fd was handed to the wait below before the
+          // copy, so nothing of the old process is closed here); the new channel is at fd 3 like the old one.
           answer(*channel, 'r', counter);
           break;
         }
-        answer(*channel, 'l', rejuv::bench_image::layout_at(rejuv::bench_image::stack_pointer()),
+        answer(*channel, 'l', layout_at(stack_pointer()),
                static_cast<std::int32_t>(::getpid()));
         std::array<std::byte, 1> wait{};
         (void)SeqPacket(std::move(m.fd)).receive(wait);  // the bench closes it once it has copied
@@ -154,11 +135,14 @@ void standby(int fd) {
   }
 }
 
-}  // namespace
-
-int main() {
-  if (!rejuv::bench_image::prepare_self()) return 2;
+int run() {
+  if (!prepare_self()) return 2;
   work = new std::vector<std::uint64_t>(kWorkWords, 1);
   channel = new SeqPacket(UniqueFd(kChannelFd));
   serve();
 }
+
+}  // namespace
+}  // namespace rejuv::bench_image
+
+int main() { return rejuv::bench_image::run(); }

@@ -28,7 +28,6 @@ std::uintptr_t page_down(std::uintptr_t a) { return a & ~(kPage - 1); }
 // The fixed facts of this executable's address space, the same in every process forked from it. They live
 // in .bss, so loading an image writes the same values over them.
 struct Self {
-  bool prepared = false;
   Region data;
   std::uintptr_t heap_lo = 0;
   std::uintptr_t stack_hi = 0;
@@ -103,7 +102,7 @@ const char* check(const Layout& l) {
 }
 
 sys::SysResult<void> prepare_self() {
-  if (self.prepared) return {};
+  if (self.standby_lo != 0) return {};  // prepared already
   // Every allocation in the brk heap, which the layout covers: no mmap for large blocks, no second arena.
   if (::mallopt(M_MMAP_MAX, 0) == 0 || ::mallopt(M_ARENA_MAX, 1) == 0) {
     return std::unexpected(sys::SysError{"mallopt", EINVAL});
@@ -113,11 +112,8 @@ sys::SysResult<void> prepare_self() {
                          MAP_PRIVATE | MAP_ANONYMOUS | MAP_STACK, -1, 0);
   if (standby == MAP_FAILED) return sys::last_error("mmap(standby stack)");
   self.standby_lo = reinterpret_cast<std::uintptr_t>(standby);
-  self.prepared = true;
   return {};
 }
-
-bool prepared() { return self.prepared; }
 
 [[gnu::noinline]] std::uintptr_t stack_pointer() {
   volatile char here = 0;

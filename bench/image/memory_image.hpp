@@ -59,7 +59,6 @@ inline constexpr std::size_t kMaxImageBytes = std::size_t{64} << 20;
 
 // Once, before the service allocates much and before it forks anything.
 [[nodiscard]] sys::SysResult<void> prepare_self();
-[[nodiscard]] bool prepared();
 // An address below every local of the calling function (the address of a local of a callee).
 [[nodiscard]] std::uintptr_t stack_pointer();
 // The layout now, with the stack from `stack_pointer` (less a margin for the red zone) to its top.
