@@ -11,7 +11,8 @@
 //      t_cp are saved beside the images; the oldest generation beyond K is discarded; the caller gets its
 //      Reply (Taken in the live process); routing resumes.
 // Rollback (the rejuvenation timer, a CheckpointRollback, a rejuvenated service lost):
-//   1. Mode RB (network revoked). Every live rejuvenated service is killed; its channel closed.
+//   1. Mode RB (network revoked). Every live rejuvenated service is stopped (SIGSTOP; killed once the
+//      rollback is over, kill_stopped); its channel closed.
 //   2. Each image of the newest intact generation gets Resume{g, epoch} with a new channel and the resume
 //      socket of its next frozen copy; it forks that copy and answers Resumed{g, copy pid} on the new channel.
 //   3. The queue state and kernel objects are restored (periodic and one-shot timers shifted by now − t_cp);
@@ -96,7 +97,7 @@ void Kernel::Impl::finish_retiring(bool final) {
       for (image::Image& im : r.images) {  // killed now, reaped off the critical path (service_images)
         im.resume.close();
         for (sys::ChildProcess& c : im.copies) {
-          (void)sys::lower_priority(c.pid());  // its exit runs when the CPU has time (sys::lower_priority)
+          (void)sys::lower_priority(c.pid());
           (void)c.signal(SIGKILL);
           reaping.push_back(std::move(c));
         }
@@ -123,7 +124,8 @@ void Kernel::Impl::resume_routing() {
 // ---- safe points ----
 
 bool Kernel::Impl::service_images() {
-  // Killed incarnations of earlier rollbacks: reaped here, off the rollback's critical path.
+  // Incarnations stopped by a rollback: killed here; killed ones reaped, all off the rollback's critical path.
+  kill_stopped();
   if (!retiring.empty()) finish_retiring(false);
   std::erase_if(reaping, [](sys::ChildProcess& p) {
     auto status = p.try_wait();
@@ -293,15 +295,23 @@ void Kernel::Impl::request_rollback(std::string reason) {
   if (!rollback_request) rollback_request = std::move(reason);
 }
 
-void Kernel::Impl::retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying) {
+void Kernel::Impl::kill_stopped() {
+  for (sys::ChildProcess& p : stopped) {
+    (void)sys::lower_priority(p.pid());
+    (void)p.signal(SIGKILL);
+    reaping.push_back(std::move(p));
+  }
+  stopped.clear();
+}
+
+void Kernel::Impl::retire_live_rejuvenated() {
   std::erase_if(staged, [&](const Staged& e) { return services[e.origin].rejuvenate; });
   for (ServiceRuntime& s : services) {
     if (!s.rejuvenate || s.skip || s.phase == Phase::NotStarted) continue;
     if (s.live()) {
-      (void)sys::lower_priority(s.process.pid());  // its exit is not part of the rollback (sys::lower_priority)
-      (void)s.process.signal(SIGKILL);
+      (void)s.process.signal(SIGSTOP);  // killed after the rollback (kill_stopped)
       (void)epoll.remove(s.process.pidfd());
-      dying.push_back(std::move(s.process));
+      stopped.push_back(std::move(s.process));
       s.process = sys::ChildProcess{};
     }
     if (s.channel.valid()) {
@@ -426,8 +436,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     log("mode RB: %s", std::string(cap::to_string(changed.error())).c_str());
   }
   time_page.write(clock::TimeSample{.now = now(), .mode = SrMode::RB, .epoch = time_page.current().epoch});
-  std::vector<sys::ChildProcess> dying;
-  retire_live_rejuvenated(dying);
+  retire_live_rejuvenated();
   const Nanos t_killed = wall();
   Nanos t_resumed = t_killed;
   image::GenerationRecord* restored = nullptr;
@@ -441,10 +450,9 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     }
     log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
     ++sr_stats.fallbacks;
-    retire_live_rejuvenated(dying);  // whatever of it was resumed
+    retire_live_rejuvenated();  // whatever of it was resumed
     if (auto taken = images.take(record->g)) retire(std::move(*taken));
   }
-  for (sys::ChildProcess& p : dying) reaping.push_back(std::move(p));
   if (restored == nullptr) {
     cold_restart(reason + "; no usable generation");
     return;
@@ -479,9 +487,8 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats.cold_restarts;
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
-  std::vector<sys::ChildProcess> dying;
-  retire_live_rejuvenated(dying);
-  for (sys::ChildProcess& p : dying) reaping.push_back(std::move(p));
+  retire_live_rejuvenated();
+  kill_stopped();
   rejuvenation = RejuvenationTimer{};
   arm_timerfd();
   const Epoch next{time_page.current().epoch.value() + 1};

@@ -254,6 +254,10 @@ struct Kernel::Impl {
   SrStats sr_stats{};
   Nanos charge{0};                          // real time of checkpoints/rollbacks in this lockstep step
   std::vector<sys::ChildProcess> reaping;   // incarnations killed by a rollback, reaped at the next safe point
+  // Incarnations a rollback stopped (SIGSTOP), killed at the next safe point: a SIGKILL makes its victim run
+  // its exit at once (≈ 0.09 ms each on this VM, nice 19 or not), a SIGSTOP costs ≈ 0.01 ms. Stopped, an
+  // incarnation runs no instruction of its own, and its channel is closed (retire_live_rejuvenated).
+  std::vector<sys::ChildProcess> stopped;
   // Socket pairs made ahead (kernel end non-blocking), so that no socketpair() is on the critical path of
   // a checkpoint (resume sockets) or a rollback (channels); refilled at safe points.
   std::vector<std::pair<sys::SeqPacket, sys::SeqPacket>> pair_pool;
@@ -330,7 +334,8 @@ struct Kernel::Impl {
   void resume_routing();
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
   [[nodiscard]] Result<void, KernelError> settle_images();
-  void retire_live_rejuvenated(std::vector<sys::ChildProcess>& dying);
+  void retire_live_rejuvenated();
+  void kill_stopped();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
   void set_mode(SrMode mode);

@@ -328,7 +328,10 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g) {
     if (auto q = send_built(); !q) return q;
     return flush();
   };
-  if (!resume.valid() || (workers != nullptr && !workers->park_all(kWorkerParkDeadline))) {
+  // The resume socket is made blocking here, for the image (the live process never reads it): a new copy
+  // then has nothing to set up before it blocks on it.
+  if (!resume.valid() || !sys::set_nonblocking(resume.get(), false) ||
+      (workers != nullptr && !workers->park_all(kWorkerParkDeadline))) {
     if (auto a = answer(wire::FrameKind::Taken, 0); !a) return std::unexpected(a.error());
     return false;
   }
@@ -346,9 +349,7 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g) {
 // `Resumed{g, its pid}` and continues as the live service. The kernel closing the socket (generation
 // discarded) or killing the copy ends it.
 bool Service::Impl::become_image(std::uint64_t g, sys::UniqueFd resume_fd) {
-  (void)sys::make_non_dumpable();
-  sys::SeqPacket resume(std::move(resume_fd));
-  (void)sys::set_nonblocking(resume.fd(), false);
+  sys::SeqPacket resume(std::move(resume_fd));  // blocking and not dumpable already (take_image, connect)
   std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::ResumeBody)> buf{};
   for (;;) {
     auto got = resume.receive(buf, 1);
@@ -409,6 +410,9 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
     if (!program) return error(SdkError::Seccomp, program.error().to_string());
     if (auto ok = program->install(); !ok) return error(SdkError::Seccomp, ok.error().to_string());
   }
+  // Not dumpable: no process of its uid (its own images, say) can open its /proc/<pid>/mem or ptrace it.
+  // Its images inherit this at fork (become_image).
+  if (auto nd = sys::make_non_dumpable(); !nd) return error(SdkError::NotAService, nd.error().to_string());
   auto page = clock::TimePageReader::map(options.time_page_fd);
   if (!page) return error(SdkError::NotAService, "time page: " + page.error().to_string());
   impl->time = std::move(*page);
