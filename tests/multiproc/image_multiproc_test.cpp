@@ -128,6 +128,11 @@ TEST_F(Images, CounterContinuesFromTheCheckpointAndTheQueuesAreRestored) {
   expect_exactly_once("listener");
   EXPECT_NE(k_->stats(id("listener")).pid, listener_pid);
   EXPECT_EQ(k_->stats(id("driver")).pid, driver_pid);
+  // The retired incarnation, stopped during the rollback, is killed and reaped once the images settle.
+  k_->settle_images();
+  errno = 0;
+  EXPECT_EQ(::kill(listener_pid, 0), -1);
+  EXPECT_EQ(errno, ESRCH);
   const auto driver = records("echoes", "driver");
   EXPECT_EQ(driver.back().altitude_m, static_cast<double>(driver.size()));
   EXPECT_EQ(k_->sr_stats().checkpoints, 2U);  // g1, and g2 taken by the restored counter
