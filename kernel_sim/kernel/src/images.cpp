@@ -461,6 +461,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   rejuvenation.due = rejuvenation.period > Nanos{0} ? std::optional<Nanos>(now() + rejuvenation.period) : std::nullopt;
   arm_timerfd();
   const Epoch epoch = time_page.current().epoch;
+  hold_bridge_out = true;  // released after the timed part
   if (const auto topic = kernel_topic(msgs::TopicTraits<rejuv_msg_RollbackSignal>::name)) {
     const rejuv_msg_RollbackSignal signal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
                                           .generation = restored->g.value(),
@@ -470,6 +471,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   publish_sr_mode();
   resume_routing();
   const Nanos took = wall() - t0;
+  release_bridge_out();
   sr_stats.rollback_phases.a.push_back(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.push_back(to_ms(t_resumed - t_killed));
   sr_stats.rollback_phases.c.push_back(to_ms(t0 + took - t_resumed));

@@ -119,6 +119,23 @@ void Kernel::Impl::publish_sr_mode() {
   }
 }
 
+bool Kernel::Impl::write_to_bridge(ObjectId topic, std::span<const std::byte> payload) {
+  if (auto ok = bridge->write_out(topic, payload); !ok) {
+    log("%s", ok.error().c_str());
+    stop_run(StopReason::PlantExited, ok.error());
+    return false;
+  }
+  return true;
+}
+
+void Kernel::Impl::release_bridge_out() {
+  hold_bridge_out = false;
+  for (const auto& [topic, payload] : held_bridge_out) {
+    if (!bridge || !write_to_bridge(topic, payload)) break;
+  }
+  held_bridge_out.clear();
+}
+
 void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
                                  std::optional<ServiceId> publisher, From from) {
   const ObjectInfo& o = objects[topic.value()];
@@ -127,9 +144,10 @@ void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payl
                                          .generation = g, .t = now(), .publisher = publisher});
   }
   if (bridge && from != From::Bridge) {  // what came in through the bridge does not go back out
-    if (auto ok = bridge->write_out(topic, payload); !ok) {
-      log("%s", ok.error().c_str());
-      stop_run(StopReason::PlantExited, ok.error());
+    if (hold_bridge_out) {
+      held_bridge_out.emplace_back(topic, std::vector<std::byte>(payload.begin(), payload.end()));
+    } else {
+      (void)write_to_bridge(topic, payload);
     }
   }
   if (o.is_setpoint && publisher && !mission_done_seen) {
