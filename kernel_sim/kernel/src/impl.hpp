@@ -259,10 +259,8 @@ struct Kernel::Impl {
   // (≈ 0.1 ms measured); the services get the sample through the broker at once either way.
   bool hold_bridge_out = false;
   std::vector<std::pair<ObjectId, std::vector<std::byte>>> held_bridge_out;
-  // Incarnations a rollback stopped (SIGSTOP), killed at the next safe point: a SIGKILL makes its victim run
-  // its exit at once (≈ 0.09 ms each on this VM, nice 19 or not), a SIGSTOP costs ≈ 0.01 ms. Stopped, an
-  // incarnation runs no instruction of its own, and its channel is closed (retire_live_rejuvenated).
-  std::vector<sys::ChildProcess> stopped;
+  // Incarnations a rollback retired, killed at the next safe point (retire_live_rejuvenated, kill_retired).
+  std::vector<sys::ChildProcess> retired;
   // Socket pairs made ahead (kernel end non-blocking), so that no socketpair() is on the critical path of
   // a checkpoint (resume sockets) or a rollback (channels); refilled at safe points.
   std::vector<std::pair<sys::SeqPacket, sys::SeqPacket>> pair_pool;
@@ -340,7 +338,7 @@ struct Kernel::Impl {
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
   [[nodiscard]] Result<void, KernelError> settle_images();
   void retire_live_rejuvenated();
-  void kill_stopped();
+  void kill_retired();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
   void set_mode(SrMode mode);

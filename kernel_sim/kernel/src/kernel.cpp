@@ -848,7 +848,7 @@ void Kernel::settle_images() {
     if (!pending || k.wall() > deadline) break;
     (void)sys::wait_fd(k.epoll.fd(), sys::WaitFor::Readable, std::chrono::milliseconds{1});
   }
-  k.kill_stopped();
+  k.kill_retired();
   for (sys::ChildProcess& p : k.reaping) p.kill_and_reap();
   k.reaping.clear();
 }

@@ -360,7 +360,7 @@ void Kernel::Impl::shutdown_all() {
   // Every image and every killed incarnation (DESIGN §7): killed and reaped.
   for (image::GenerationRecord& r : images.take_all()) retiring.push_back(std::move(r));
   finish_retiring(true);
-  kill_stopped();
+  kill_retired();
   for (sys::ChildProcess& p : reaping) p.kill_and_reap();
   reaping.clear();
   // Close every fd the run opened: DDS (participant, sockets, threads), the timerfd.

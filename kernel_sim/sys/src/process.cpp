@@ -288,6 +288,12 @@ SysResult<void> lower_priority(pid_t pid) {
   return {};
 }
 
+SysResult<void> idle_priority(pid_t pid) {
+  const sched_param param{};
+  if (::sched_setscheduler(pid, SCHED_IDLE, &param) != 0) return last_error("sched_setscheduler(SCHED_IDLE)");
+  return {};
+}
+
 SysResult<int> count_children(pid_t parent) {
   DIR* dir = ::opendir("/proc");
   if (dir == nullptr) {

@@ -93,9 +93,11 @@ struct SpawnSpec {
 [[nodiscard]] SysResult<int> pin_to_one_cpu(std::optional<int> cpu);
 // Gives `pid` the lowest CFS priority (nice 19), e.g. before killing it. A SIGKILL still makes its victim run
 // its exit — tearing down its address space, ≈ 0.09 ms here — at once, whatever its priority (measured:
-// 8 kills 0.68 ms, 0.69 ms at nice 19; 8 SIGSTOPs 0.08 ms), so a rollback stops its victims and kills them
-// after (DESIGN §7, kernel images.cpp).
+// 8 kills 0.68 ms, 0.69 ms at nice 19), so a rollback kills its victims only after (idle_priority).
 [[nodiscard]] SysResult<void> lower_priority(pid_t pid);
+// Puts `pid` under SCHED_IDLE: it then runs only when no other task on its CPU can. Unlike a signal, this
+// does not wake it (a rollback's retired incarnations, DESIGN §7).
+[[nodiscard]] SysResult<void> idle_priority(pid_t pid);
 
 // Counts the live processes whose parent is `parent` (from /proc), for leak checks in tests.
 [[nodiscard]] SysResult<int> count_children(pid_t parent);
