@@ -465,7 +465,10 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   rejuvenation.due = rejuvenation.period > Nanos{0} ? std::optional<Nanos>(now() + rejuvenation.period) : std::nullopt;
   arm_timerfd();
   const Epoch epoch = time_page.current().epoch;
-  hold_bridge_out = true;  // released after the timed part
+  // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
+  // woken by a delivery may take the CPU at once and run its step.
+  routing_frozen = true;
+  hold_bridge_out = true;
   if (const auto topic = kernel_topic(msgs::TopicTraits<rejuv_msg_RollbackSignal>::name)) {
     const rejuv_msg_RollbackSignal signal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
                                           .generation = restored->g.value(),
@@ -473,9 +476,10 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     publish_as_kernel(*topic, std::as_bytes(std::span(&signal, 1)));
   }
   publish_sr_mode();
-  resume_routing();
-  const Nanos took = wall() - t0;
+  const Nanos took = wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
+  routing_frozen = false;
   release_bridge_out();
+  resume_routing();
   sr_stats.rollback_phases.a.push_back(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.push_back(to_ms(t_resumed - t_killed));
   sr_stats.rollback_phases.c.push_back(to_ms(t0 + took - t_resumed));

@@ -242,7 +242,7 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
 
 void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
   if (s.phase != Phase::Booted && s.phase != Phase::Ready) return;
-  if (routing_frozen) return;  // a checkpoint is cutting (images.cpp): it stays in the ring, swept afterwards
+  if (routing_frozen) return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
   hand_over_polled(s);         // the service is about to wake: its polled news goes first
   if (s.has_held || !s.outq.empty() || s.sweep) {
     // Keep publish order: behind what is already waiting. A full out-queue only loses the order, never
