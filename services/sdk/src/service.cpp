@@ -136,6 +136,13 @@ struct Service::Impl {
   std::vector<std::unique_ptr<detail::SubscriptionBase>> subscriptions;
   std::vector<detail::SubscriptionBase*> subscription_by_slot;
   std::array<TimerSlot, Service::kMaxTimers> timers{};
+  // The armed slot of timer `id` (its index in the low byte, a serial above), or nullptr: cancelled, fired
+  // once, or an id that names no slot (a stale handle, a broken frame).
+  TimerSlot* timer_slot(std::uint64_t timer_id) {
+    const std::size_t index = timer_id & 0xFFU;
+    if (index >= timers.size() || !timers[index].armed || timers[index].id != timer_id) return nullptr;
+    return &timers[index];
+  }
   std::uint64_t timer_serial = 0;
   std::uint32_t seq = 0;
   std::uint64_t frames_received = 0;  // every frame read from the channel since boot (docs/protocol.md Idle)
@@ -305,7 +312,7 @@ struct Service::Impl {
         if (head.error != 0) return reply_error(head.error, std::string(what));
         const auto data = frame->payload.subspan(sizeof(wire::ReplyHeader));
         const std::size_t n = std::min(data.size(), out.size());
-        std::memcpy(out.data(), data.data(), n);
+        if (n > 0) std::memcpy(out.data(), data.data(), n);  // out may be empty (a null data())
         return InvokeReply{.value = head.value, .data_size = n};
       }
       queued.emplace_back(bytes.begin(), bytes.end());
@@ -607,12 +614,12 @@ SdkResult<Timer> Service::after(Nanos delay, std::function<void()> on_fire) {
 }
 
 SdkResult<void> Service::cancel(const Timer& timer) {
-  TimerSlot& slot = impl_->timers[timer.id() & 0xFFU];
-  if (!slot.armed || slot.id != timer.id()) return error(SdkError::NoSuchTimer);
+  TimerSlot* slot = impl_->timer_slot(timer.id());
+  if (slot == nullptr) return error(SdkError::NoSuchTimer);
   if (!impl_->tx.build(wire::FrameKind::TimerCancel, 0, 0, timer.id())) return error(SdkError::Protocol);
   if (auto s = impl_->send_built(); !s) return std::unexpected(s.error());
-  slot.armed = false;
-  slot.on_fire = nullptr;
+  slot->armed = false;
+  slot->on_fire = nullptr;
   return {};
 }
 
@@ -777,9 +784,9 @@ int Service::run() {
         break;
       }
       case wire::FrameKind::TimerFired: {
-        const std::uint64_t id = frame->header.aux;
-        TimerSlot& t = s.timers[id & 0xFFU];
-        if (!t.armed || t.id != id) break;  // cancelled meanwhile
+        TimerSlot* slot = s.timer_slot(frame->header.aux);
+        if (slot == nullptr) break;  // cancelled meanwhile, or no id of ours
+        TimerSlot& t = *slot;
         if (!t.periodic) {
           t.armed = false;
           const std::function<void()> fn = std::move(t.on_fire);
