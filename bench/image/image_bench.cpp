@@ -1,9 +1,10 @@
-// Fork images vs copy images, side by side in one run (DESIGN §11): 8 service-sized processes (the
-// rejuvenated part of quad_square) checkpointed and rolled back `cycles` times each way, pinned to one CPU
-// like a lockstep run. Every rollback is checked: each service answers with the counter it had at the
-// checkpoint. Prints p50 / max of both and the ratios; the paper's module took ≈20 ms / ≈15 ms.
+// Fork images vs copy images vs images by written pages, side by side in one run (DESIGN §11): 8
+// service-sized processes (the rejuvenated part of quad_square) checkpointed and rolled back `cycles` times
+// each way, pinned to one CPU like a lockstep run. Every rollback is checked: each service answers with the
+// counter it had at the checkpoint. Prints p50 / max of each and the ratios; the paper's module took ≈20 ms /
+// ≈15 ms.
 //
-//   image_bench [--services N] [--cycles N] [--only fork|copy]
+//   image_bench [--services N] [--cycles N] [--pages-per-tick N] [--only fork|copy|written]
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -49,6 +50,24 @@ void progress(const char* how, int c, int cycles) {
   if ((c + 1) % 50 == 0 || c + 1 == cycles) std::fprintf(stderr, "  %s: %d/%d cycles\n", how, c + 1, cycles);
 }
 
+// Cycles of one way that images into holders: `checkpoint`, the holders loaded off the critical path, three
+// ticks, the rollback into the holders (checked), a new holder per service forked off the critical path.
+template <typename Checkpoint>
+void holder_cycles(rejuv::bench_image::ImageDriver& d, int cycles, const char* how, Stat& cp, Stat& rb,
+                   Checkpoint checkpoint) {
+  for (int c = 0; c < cycles; ++c) {
+    timed(cp, checkpoint);
+    d.load_holders();
+    for (int i = 0; i < 3; ++i) d.tick();
+    timed(rb, [&] { d.rollback_by_copy(); });
+    verify(d, how);
+    d.reap();
+    d.make_holders();
+    d.tick();
+    progress(how, c, cycles);
+  }
+}
+
 int parse(const char* v, const char* flag) {
   char* end = nullptr;
   const long n = std::strtol(v, &end, 10);
@@ -64,15 +83,18 @@ int parse(const char* v, const char* flag) {
 int main(int argc, char** argv) {
   int services = 8;
   int cycles = 200;
+  int pages_per_tick = 0;  // the service's default: its whole work area
   std::string only;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if ((a == "--services" || a == "--cycles") && i + 1 < argc) {
-      (a == "--services" ? services : cycles) = parse(argv[++i], a.c_str());
-    } else if (a == "--only" && i + 1 < argc && (std::string(argv[i + 1]) == "fork" || std::string(argv[i + 1]) == "copy")) {
+    if ((a == "--services" || a == "--cycles" || a == "--pages-per-tick") && i + 1 < argc) {
+      (a == "--services" ? services : a == "--cycles" ? cycles : pages_per_tick) = parse(argv[++i], a.c_str());
+    } else if (a == "--only" && i + 1 < argc &&
+               (std::string(argv[i + 1]) == "fork" || std::string(argv[i + 1]) == "copy" ||
+                std::string(argv[i + 1]) == "written")) {
       only = argv[++i];
     } else {
-      std::fprintf(stderr, "usage: image_bench [--services N] [--cycles N] [--only fork|copy]\n");
+      std::fprintf(stderr, "usage: image_bench [--services N] [--cycles N] [--pages-per-tick N] [--only fork|copy|written]\n");
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }
@@ -80,7 +102,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "image_bench: %s\n", cpu.error().to_string().c_str());
     return 2;
   }
-  rejuv::bench_image::ImageDriver d(REJUV_IMAGE_SERVICE, services);
+  rejuv::bench_image::ImageDriver d(REJUV_IMAGE_SERVICE, services, pages_per_tick);
   for (int i = 0; i < 20; ++i) d.tick();
   d.start_zygotes();
   d.make_holders();
@@ -90,7 +112,7 @@ int main(int argc, char** argv) {
   Stat copy_rb;
   std::printf("image_bench: %d services, %d cycles each way, one CPU\n", services, cycles);
   // One way after the other, so that neither inherits the other's page state.
-  for (int c = 0; c < cycles && only != "copy"; ++c) {
+  for (int c = 0; c < cycles && (only.empty() || only == "fork"); ++c) {
     // By fork: the image is forked at the checkpoint and resumed at the rollback.
     timed(fork_cp, [&] { d.checkpoint_by_fork(); });
     for (int i = 0; i < 3; ++i) d.tick();
@@ -100,18 +122,19 @@ int main(int argc, char** argv) {
     d.tick();
     progress("by fork", c, cycles);
   }
-  for (int c = 0; c < cycles && only != "fork"; ++c) {
-    // By copy: the image is read at the checkpoint, loaded into a holder off the critical path and resumed
-    // at the rollback; a new holder is forked by the zygote off the critical path.
-    timed(copy_cp, [&] { d.checkpoint_by_copy(); });
-    d.load_holders();
-    for (int i = 0; i < 3; ++i) d.tick();
-    timed(copy_rb, [&] { d.rollback_by_copy(); });
-    verify(d, "by copy");
-    d.reap();
-    d.make_holders();
-    d.tick();
-    progress("by copy", c, cycles);
+  // By copy: the image is read at the checkpoint, loaded into a holder off the critical path and resumed
+  // at the rollback; a new holder is forked by the zygote off the critical path.
+  if (only.empty() || only == "copy") holder_cycles(d, cycles, "by copy", copy_cp, copy_rb, [&] { d.checkpoint_by_copy(); });
+  // By written pages: after a full base image, each checkpoint copies only the pages written since the
+  // previous one (the service copies them itself and goes on), loaded into a holder off the critical path
+  // like an image by copy; the rollback is the same as by copy.
+  Stat written_cp;
+  Stat written_rb;
+  std::string untracked;
+  if (only.empty() || only == "written") untracked = d.start_tracking();
+  if ((only.empty() || only == "written") && untracked.empty()) {
+    d.checkpoint_by_copy();  // the base image (the services re-arm their tracking)
+    holder_cycles(d, cycles, "by written pages", written_cp, written_rb, [&] { d.checkpoint_by_written(); });
   }
   const Stat read{d.read_us};
   std::printf("image by copy: %zu KB (service 0), read_process p50 %.0f us, max %.0f us\n",
@@ -121,9 +144,21 @@ int main(int argc, char** argv) {
   std::printf("checkpoint, copy   %8.3f   %8.3f\n", copy_cp.p50(), copy_cp.max());
   std::printf("rollback,   fork   %8.3f   %8.3f\n", fork_rb.p50(), fork_rb.max());
   std::printf("rollback,   copy   %8.3f   %8.3f\n", copy_rb.p50(), copy_rb.max());
+  if (!untracked.empty()) {
+    std::printf("by written pages: not measured (%s)\n", untracked.c_str());
+  } else if (!written_cp.ms.empty()) {
+    const Stat pages{d.written_pages};
+    std::printf("checkpoint, written %7.3f   %8.3f   (%.0f pages p50 per service, max %.0f)\n", written_cp.p50(),
+                written_cp.max(), pages.p50(), pages.max());
+    std::printf("rollback,   written %7.3f   %8.3f\n", written_rb.p50(), written_rb.max());
+  }
   if (only.empty()) {
     std::printf("ratio copy / fork (p50; < 1: copy faster): checkpoint %.2f, rollback %.2f\n",
                 copy_cp.p50() / fork_cp.p50(), copy_rb.p50() / fork_rb.p50());
+    if (!written_cp.ms.empty()) {
+      std::printf("ratio written / fork (p50): checkpoint %.2f, rollback %.2f\n", written_cp.p50() / fork_cp.p50(),
+                  written_rb.p50() / fork_rb.p50());
+    }
   }
   return 0;
 }

@@ -37,11 +37,14 @@ class ImageDriver {
     }
   }
 
-  ImageDriver(const std::string& executable, int services) {
+  // `pages_per_tick` 0: the service's default (it writes its whole work area, ≈ 60 pages).
+  ImageDriver(const std::string& executable, int services, int pages_per_tick = 0) {
     for (int i = 0; i < services; ++i) {
       auto pair = SeqPacket::pair();
       require(pair.has_value(), "socketpair");
-      sys::SpawnSpec spec{.executable = executable, .args = {}, .env = {}, .fds = {{3, pair->second.fd()}},
+      std::vector<std::string> args;
+      if (pages_per_tick > 0) args.push_back(std::to_string(pages_per_tick));
+      sys::SpawnSpec spec{.executable = executable, .args = args, .env = {}, .fds = {{3, pair->second.fd()}},
                           .seccomp = nullptr, .uid = {}, .own_process_group = true};
       auto child = sys::spawn(spec);
       require(child.has_value(), "spawn " + executable);
@@ -54,13 +57,22 @@ class ImageDriver {
       void* map = ::mmap(nullptr, kImageBytes, PROT_READ | PROT_WRITE, MAP_SHARED | MAP_POPULATE, memfd, 0);
       require(map != MAP_FAILED, "mmap image");
       u.bytes = std::span(static_cast<std::byte*>(map), kImageBytes);
+      const int deltafd = ::memfd_create("rejuv-written-pages", MFD_CLOEXEC);
+      require(deltafd >= 0 && ::ftruncate(deltafd, kDeltaBytes) == 0, "memfd");
+      u.delta = UniqueFd(deltafd);
+      void* dmap = ::mmap(nullptr, kDeltaBytes, PROT_READ, MAP_SHARED, deltafd, 0);
+      require(dmap != MAP_FAILED, "mmap written pages");
+      u.delta_bytes = std::span(static_cast<const std::byte*>(dmap), kDeltaBytes);
       units_.push_back(std::move(u));
     }
   }
   ImageDriver(const ImageDriver&) = delete;
   ImageDriver& operator=(const ImageDriver&) = delete;
   ~ImageDriver() {
-    for (Unit& u : units_) ::munmap(u.bytes.data(), u.bytes.size());
+    for (Unit& u : units_) {
+      ::munmap(u.bytes.data(), u.bytes.size());
+      ::munmap(const_cast<std::byte*>(u.delta_bytes.data()), u.delta_bytes.size());  // NOLINT(cppcoreguidelines-pro-type-const-cast)
+    }
   }
 
   [[nodiscard]] std::size_t size() const { return units_.size(); }
@@ -130,6 +142,39 @@ class ImageDriver {
   }
   void rollback_by_copy() { rollback_to(&Unit::holder, &Unit::holder_sock); }
 
+  // ---- by written pages ----
+  // Every service starts tracking its writes; "" when all do, else why not (the kernel lacks async
+  // userfaultfd write-protection or PAGEMAP_SCAN). The next checkpoint_by_copy() is the base image.
+  [[nodiscard]] std::string start_tracking() {
+    for (Unit& u : units_) require(send_message(u.channel, 'w', -1), "send 'w'");
+    std::string why;
+    for (Unit& u : units_) {
+      const int error = expect(u.channel, 'w').at<std::int32_t>(0);
+      if (error != 0 && why.empty()) why = std::strerror(error);
+    }
+    return why;
+  }
+  // Each service copies the pages it wrote since the previous image into its memfd and goes on; the driver
+  // patches them into its copy of the image (the same buffer load_holders() hands to the holders).
+  void checkpoint_by_written() {
+    for (Unit& u : units_) require(send_message(u.channel, 'd', u.delta.get()), "send 'd'");
+    for (Unit& u : units_) {
+      const Message a = expect(u.channel, 'D');
+      const auto pages = a.at<std::uint32_t>(0);
+      require(a.at<Layout>(sizeof(std::uint32_t)) == u.layout, "the layout changed since the base image");
+      require(pages <= kMaxWrittenPages, "more written pages than records");
+      for (std::uint32_t i = 0; i < pages; ++i) {
+        std::uint64_t address = 0;
+        std::memcpy(&address, u.delta_bytes.data() + i * sizeof(std::uint64_t), sizeof(address));
+        const std::size_t at = offset_in_image(u.layout, address);
+        std::memcpy(u.bytes.data() + at, u.delta_bytes.data() + kWrittenPagesAt + std::size_t{i} * kPage, kPage);
+      }
+      written_pages.push_back(pages);
+      u.saved_counter = u.counter;
+    }
+  }
+  std::vector<double> written_pages;  // per service and checkpoint_by_written
+
   std::vector<double> read_us;  // each read_process of checkpoint_by_copy
   // The killed incarnations, reaped off the measured paths.
   void reap() {
@@ -139,6 +184,19 @@ class ImageDriver {
 
  private:
   static constexpr std::size_t kImageBytes = std::size_t{8} << 20;
+  static constexpr std::size_t kPage = 4096;
+  static constexpr std::size_t kDeltaBytes = kWrittenPagesAt + kMaxWrittenPages * kPage;
+
+  // Where the page at `address` is in an image of `layout` (its three regions back to back).
+  static std::size_t offset_in_image(const Layout& l, std::uint64_t address) {
+    std::size_t base = 0;
+    for (const Region& r : {l.data, l.heap, l.stack}) {
+      if (address >= r.lo && address + kPage <= r.hi) return base + (address - r.lo);
+      base += r.size();
+    }
+    require(false, "a written page outside the image");
+    return 0;
+  }
 
   struct Unit {
     ChildProcess live;
@@ -154,6 +212,8 @@ class ImageDriver {
     Layout layout{};
     UniqueFd image;
     std::span<std::byte> bytes;
+    UniqueFd delta;  // the pages a service wrote since its previous image (checkpoint_by_written)
+    std::span<const std::byte> delta_bytes;
   };
 
   static Message expect(const SeqPacket& from, char kind) {

@@ -1,11 +1,15 @@
 // The service of bench/image and its smoke test: a static, single-threaded process the
-// size of a flight service (≈ 370 KB of heap, 240 KB of it written every tick) that can be imaged both ways, by fork (what
+// size of a flight service (≈ 370 KB of heap, 240 KB of it written every tick, or argv[1] pages) that can be imaged both ways, by fork (what
 // the runtime does today) and by copy (rejuv/image/memory_image.hpp). Its channel is fd 3; one byte of
 // command, an optional body, an optional fd:
 //   't'            tick: counter + 1, every 512th word of the work area rewritten; answers 'a' + counter
 //   'f' + fd       fork image: a child of the bench (clone(CLONE_PARENT)) frozen on fd; answers 'p' + pid
 //   's' + fd       copy image: saves its context, answers 'l' + Layout + pid and waits until fd closes
 //   'z' + fd       zygote: a child on the standby stack serving fd; answers 'p' + pid
+//   'w'            start tracking writes (memory_image.hpp); answers 'w' + errno (0: tracking)
+//   'd' + fd       image by written pages: saves its context, copies the pages written since the previous
+//                  image into the memfd fd and goes on; answers 'D' + page count + Layout
+// While it tracks writes, 's' answers the tracked layout and re-arms the tracking (the base image).
 // A frozen fork image, a zygote and a holder serve their own socket:
 //   'f' + fd       (zygote) fork a holder serving fd; answers 'p' + pid
 //   'l' + Layout + fd   (holder) load the image in the memfd fd; answers 'k'
@@ -13,8 +17,10 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <vector>
@@ -32,6 +38,8 @@ using sys::UniqueFd;
 
 constexpr int kChannelFd = 3;
 constexpr std::size_t kWorkWords = 30'000;  // the heap then is ≈ 370 KB, like rejuv_ekf2's
+constexpr std::size_t kPageWords = 512;
+std::size_t tick_stride = kPageWords;       // a tick writes one word every `tick_stride` (argv[1]: pages per tick)
 
 std::uint64_t counter = 0;
 std::vector<std::uint64_t>* work = nullptr;
@@ -95,7 +103,7 @@ void standby(int fd) {
     switch (m.kind) {
       case 't':
         ++counter;
-        for (std::size_t i = 0; i < work->size(); i += 512) (*work)[i] += counter;
+        for (std::size_t i = 0; i < work->size(); i += tick_stride) (*work)[i] += counter;
         answer(*channel, 'a', counter);
         break;
       case 'f': {
@@ -111,6 +119,7 @@ void standby(int fd) {
         auto pid = sys::fork_sibling();
         if (pid && *pid == 0) {
           ::close(kChannelFd);
+          forget_tracking();
           run_on_standby_stack(standby, m.fd.release());
         }
         answer_fork(*channel, pid);
@@ -123,10 +132,33 @@ void standby(int fd) {
           answer(*channel, 'r', counter);
           break;
         }
-        answer(*channel, 'l', layout_at(stack_pointer()),
+        if (tracking_writes() && !copy_written_self(-1)) std::_Exit(8);
+        answer(*channel, 'l', tracking_writes() ? tracked_layout() : layout_at(stack_pointer()),
                static_cast<std::int32_t>(::getpid()));
         std::array<std::byte, 1> wait{};
         (void)SeqPacket(std::move(m.fd)).receive(wait);  // the bench closes it once it has copied
+        break;
+      }
+      case 'w': {
+        auto tracked = track_writes_self();
+        answer(*channel, 'w', static_cast<std::int32_t>(tracked ? 0 : tracked.error().error));
+        break;
+      }
+      case 'd': {
+        // Out of `m` first: the image is taken with this frame, and a resumed holder must not close the
+        // number, which names nothing of its own.
+        const int delta = m.fd.release();
+        if (REJUV_IMAGE_SAVE(saved) != 0) {  // a holder, resumed (as after 's')
+          answer(*channel, 'r', counter);
+          break;
+        }
+        auto pages = copy_written_self(delta);
+        ::close(delta);
+        if (!pages) {
+          std::fprintf(stderr, "image_service: %s\n", pages.error().to_string().c_str());
+          std::_Exit(8);
+        }
+        answer(*channel, 'D', static_cast<std::uint32_t>(*pages), tracked_layout());
         break;
       }
       default:
@@ -135,7 +167,12 @@ void standby(int fd) {
   }
 }
 
-int run() {
+int run(int argc, char** argv) {
+  if (argc > 1) {  // pages written per tick (the flight services write 9-15, docs/performance.md)
+    const long pages = std::strtol(argv[1], nullptr, 10);
+    if (pages < 1) return 2;
+    tick_stride = std::max<std::size_t>(kPageWords, kWorkWords / static_cast<std::size_t>(pages));
+  }
   if (!prepare_self()) return 2;
   work = new std::vector<std::uint64_t>(kWorkWords, 1);
   channel = new SeqPacket(UniqueFd(kChannelFd));
@@ -145,4 +182,4 @@ int run() {
 }  // namespace
 }  // namespace rejuv::bench_image
 
-int main() { return rejuv::bench_image::run(); }
+int main(int argc, char** argv) { return rejuv::bench_image::run(argc, argv); }

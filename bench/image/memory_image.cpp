@@ -2,6 +2,8 @@
 
 #include <fcntl.h>
 #include <malloc.h>
+#include <linux/userfaultfd.h>
+#include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <sys/syscall.h>
 #include <sys/uio.h>
@@ -30,12 +32,58 @@ std::uintptr_t page_down(std::uintptr_t a) { return a & ~(kPage - 1); }
 struct Self {
   Region data;
   std::uintptr_t heap_lo = 0;
+  std::uintptr_t stack_lo = 0;  // the stack mapping's bottom when the maps were read
   std::uintptr_t stack_hi = 0;
+  int uffd = -1;                // write tracking (track_writes_self), this process's own
+  int pagemap = -1;
+  Layout tracked{};
   std::uintptr_t standby_lo = 0;
   void (*standby_fn)(int) = nullptr;
   int standby_arg = -1;
 };
 Self self;
+
+// Write tracking (track_writes_self). Linux ≥ 6.7; Debian 12's linux/fs.h and linux/userfaultfd.h predate it.
+constexpr std::uint64_t kUffdFeatureWpUnpopulated = 1U << 13;
+constexpr std::uint64_t kUffdFeatureWpAsync = 1U << 15;
+constexpr std::uint64_t kPageIsWritten = 1U << 1;
+constexpr std::uint64_t kScanWpMatching = 1U << 0;
+constexpr std::uint64_t kScanCheckWpAsync = 1U << 1;
+struct PageRegion {
+  std::uint64_t start, end, categories;
+};
+struct PmScanArg {
+  std::uint64_t size, flags, start, end, walk_end, vec, vec_len, max_pages, category_inverted, category_mask,
+      category_anyof_mask, return_mask;
+};
+constexpr unsigned long kPagemapScan = _IOWR('f', 16, PmScanArg);
+
+// Above the channel's fd 3 and anything a service passes around.
+int high_fd(int fd) {
+  if (fd < 0) return fd;
+  const int moved = ::fcntl(fd, F_DUPFD_CLOEXEC, 100);
+  ::close(fd);
+  return moved;
+}
+
+// What copy_written_self fills: outside every tracked region (mapped on its own, like the standby stack),
+// so that filling it marks no page written.
+struct Scratch {
+  PmScanArg arg;  // the kernel writes it back (walk_end): not on the tracked stack either
+  std::array<PageRegion, 512> scanned;
+  std::array<std::uint64_t, kMaxWrittenPages> addresses;
+  std::array<iovec, 512> pages;
+};
+Scratch* scratch = nullptr;
+
+// Mapped by prepare_self, before the zygote is forked, so that every holder has it at the same address.
+Scratch* map_scratch() {
+  if (scratch != nullptr) return scratch;
+  void* m = ::mmap(nullptr, sizeof(Scratch), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (m == MAP_FAILED) return nullptr;
+  scratch = static_cast<Scratch*>(m);
+  return scratch;
+}
 
 // /proc/self/maps read with plain system calls into a static buffer (no allocation: it runs before and
 // while malloc is being tied to the brk heap).
@@ -76,7 +124,10 @@ sys::SysResult<void> read_maps() {
         }
       }
       if (std::strcmp(path, "[heap]") == 0) self.heap_lo = lo;
-      if (std::strcmp(path, "[stack]") == 0) self.stack_hi = hi;
+      if (std::strcmp(path, "[stack]") == 0) {
+        self.stack_lo = lo;
+        self.stack_hi = hi;
+      }
     }
     line = next;
   }
@@ -112,6 +163,7 @@ sys::SysResult<void> prepare_self() {
                          MAP_PRIVATE | MAP_ANONYMOUS | MAP_STACK, -1, 0);
   if (standby == MAP_FAILED) return sys::last_error("mmap(standby stack)");
   self.standby_lo = reinterpret_cast<std::uintptr_t>(standby);
+  if (map_scratch() == nullptr) return sys::last_error("mmap(scratch)");
   return {};
 }
 
@@ -152,7 +204,9 @@ sys::SysResult<void> load_self(const Layout& layout, int image_fd) {
   // A fault below the stack mapping grows it (the image may have used more stack than this process).
   (void)*reinterpret_cast<volatile const char*>(layout.stack.lo);
   // From here on this process's data, heap and stack are the image's: raw system calls only, locals on the
-  // standby stack only.
+  // standby stack only. The image's tracking descriptors are its process's; this one keeps its own.
+  const int own_uffd = self.uffd;
+  const int own_pagemap = self.pagemap;
   off_t at = 0;
   for (const Region& r : {layout.data, layout.heap, layout.stack}) {
     std::size_t done = 0;
@@ -164,10 +218,91 @@ sys::SysResult<void> load_self(const Layout& layout, int image_fd) {
     }
     at += static_cast<off_t>(r.size());
   }
+  const bool image_tracked = self.uffd >= 0;
+  self.uffd = own_uffd;
+  self.pagemap = own_pagemap;
+  if (image_tracked) return track_writes_self();  // from the image as loaded
   return {};
 }
 
 void resume_saved(Context& ctx) { __builtin_longjmp(ctx, 1); }
+
+// ---- written pages ----
+
+bool tracking_writes() { return self.uffd >= 0 && self.pagemap >= 0; }
+
+void forget_tracking() {
+  if (self.uffd >= 0) ::close(self.uffd);
+  if (self.pagemap >= 0) ::close(self.pagemap);
+  self.uffd = -1;
+  self.pagemap = -1;
+}
+
+Layout tracked_layout() { return self.tracked; }
+
+sys::SysResult<void> track_writes_self() {
+  forget_tracking();
+  if (scratch == nullptr) return std::unexpected(sys::SysError{"track_writes_self: call prepare_self first", EINVAL});
+  const auto brk = reinterpret_cast<std::uintptr_t>(::sbrk(0));
+  self.tracked = Layout{.data = self.data,
+                        .heap = Region{self.heap_lo, (brk + kPage - 1) & ~(kPage - 1)},
+                        .stack = Region{self.stack_lo, self.stack_hi}};
+  const int uffd = high_fd(static_cast<int>(::syscall(SYS_userfaultfd, O_CLOEXEC | O_NONBLOCK)));
+  if (uffd < 0) return sys::last_error("userfaultfd");
+  self.uffd = uffd;
+  uffdio_api api{.api = UFFD_API, .features = kUffdFeatureWpAsync | kUffdFeatureWpUnpopulated, .ioctls = 0};
+  if (::ioctl(uffd, UFFDIO_API, &api) != 0) {
+    forget_tracking();
+    return sys::last_error("UFFDIO_API (WP_ASYNC)");
+  }
+  for (const Region& r : {self.tracked.data, self.tracked.heap, self.tracked.stack}) {
+    uffdio_register reg{.range = {.start = r.lo, .len = r.size()}, .mode = UFFDIO_REGISTER_MODE_WP, .ioctls = 0};
+    uffdio_writeprotect wp{.range = {.start = r.lo, .len = r.size()}, .mode = UFFDIO_WRITEPROTECT_MODE_WP};
+    if (::ioctl(uffd, UFFDIO_REGISTER, &reg) != 0 || ::ioctl(uffd, UFFDIO_WRITEPROTECT, &wp) != 0) {
+      forget_tracking();
+      return sys::last_error("UFFDIO_REGISTER/WRITEPROTECT");
+    }
+  }
+  self.pagemap = high_fd(::open("/proc/self/pagemap", O_RDONLY | O_CLOEXEC));
+  if (self.pagemap < 0) {
+    forget_tracking();
+    return sys::last_error("open(/proc/self/pagemap)");
+  }
+  return {};
+}
+
+sys::SysResult<std::size_t> copy_written_self(int fd) {
+  if (!tracking_writes()) return std::unexpected(sys::SysError{"copy_written_self: not tracking", EINVAL});
+  std::size_t n = 0;
+  std::size_t iovs = 0;
+  for (const Region& r : {self.tracked.data, self.tracked.heap, self.tracked.stack}) {
+    PmScanArg& arg = scratch->arg;
+    arg = PmScanArg{.size = sizeof(PmScanArg), .flags = kScanWpMatching | kScanCheckWpAsync, .start = r.lo,
+                  .end = r.hi, .walk_end = 0, .vec = reinterpret_cast<std::uint64_t>(scratch->scanned.data()),
+                  .vec_len = scratch->scanned.size(), .max_pages = 0, .category_inverted = 0,
+                  .category_mask = kPageIsWritten, .category_anyof_mask = 0, .return_mask = kPageIsWritten};
+    const int got = ::ioctl(self.pagemap, kPagemapScan, &arg);
+    if (got < 0) return sys::last_error("PAGEMAP_SCAN");
+    if (arg.walk_end != r.hi) return std::unexpected(sys::SysError{"PAGEMAP_SCAN: more runs than fit", E2BIG});
+    for (int i = 0; i < got; ++i) {
+      const PageRegion& run = scratch->scanned[static_cast<std::size_t>(i)];
+      if (iovs == scratch->pages.size()) return std::unexpected(sys::SysError{"copy_written_self: runs", E2BIG});
+      scratch->pages[iovs++] = iovec{reinterpret_cast<void*>(run.start), run.end - run.start};
+      for (std::uint64_t a = run.start; a < run.end; a += kPage) {
+        if (n == scratch->addresses.size()) return std::unexpected(sys::SysError{"copy_written_self: pages", E2BIG});
+        scratch->addresses[n++] = a;
+      }
+    }
+  }
+  if (fd < 0) return n;  // re-armed only
+  const auto table = static_cast<ssize_t>(n * sizeof(std::uint64_t));
+  if (::pwrite(fd, scratch->addresses.data(), static_cast<std::size_t>(table), 0) != table) return sys::last_error("pwrite");
+  if (iovs > 0 && ::pwritev(fd, scratch->pages.data(), static_cast<int>(iovs), static_cast<off_t>(kWrittenPagesAt)) !=
+                      static_cast<ssize_t>(n * kPage)) {
+    return sys::last_error("pwritev");
+  }
+  return n;
+}
 
 sys::SysResult<void> read_process(pid_t pid, const Layout& layout, std::span<std::byte> into) {
   if (const char* bad = check(layout); bad != nullptr) return std::unexpected(sys::SysError{bad, EINVAL});

@@ -19,6 +19,11 @@
 //   - Rollback: the holder's resume_saved() jumps into the saved context: the process continues where the
 //     image was taken, as the image, in a process that has never run compromised code.
 //
+// Images by written pages (session 8): the same, but after one full image a checkpoint takes only the pages
+// written since the previous one. The service tracks its writes (track_writes_self), copies those pages
+// itself into a memfd (copy_written_self) and goes on without waiting; the kernel patches them into its copy
+// of the image, which holders load as before.
+//
 // Single-threaded processes of one static executable only (their regions are the same in every copy).
 #pragma once
 
@@ -76,11 +81,31 @@ using Context = void* [5];
 
 // In a holder (on the standby stack): grows the heap and the stack to the image's and reads `image` (the
 // three regions back to back, as read_process() wrote them) over this process's memory. EINVAL if the
-// fixed parts of the layout are not this executable's.
+// fixed parts of the layout are not this executable's. If the image's process tracked its writes, the
+// holder tracks its own from the image as loaded.
 [[nodiscard]] sys::SysResult<void> load_self(const Layout& layout, int image_fd);
 
 // In a loaded holder: continues in the saved context (REJUV_IMAGE_SAVE returns 1 there).
 [[noreturn]] void resume_saved(Context& ctx);
+
+// ---- images by written pages (a checkpoint copies only what changed since the previous one) ----
+// Starts tracking writes to this process's data+bss, its heap as it is now and its whole stack mapping:
+// userfaultfd write-protection in its asynchronous mode (UFFD_FEATURE_WP_ASYNC), read and re-armed with the
+// PAGEMAP_SCAN ioctl (Linux ≥ 6.7). A process forked from this one does not inherit the tracking (call it
+// again there, e.g. in a holder after load_self). The error where the kernel lacks either.
+[[nodiscard]] sys::SysResult<void> track_writes_self();
+// Whether track_writes_self() succeeded in this process.
+[[nodiscard]] bool tracking_writes();
+// In a process forked from a tracking one: drops the descriptors it inherited (they name the parent).
+void forget_tracking();
+// The layout written pages are relative to: data+bss, the heap now, the whole stack mapping.
+[[nodiscard]] Layout tracked_layout();
+// Pages written since tracking started or since the last call, write-protected again, copied into `fd` as
+// records: the addresses (std::uint64_t each) from offset 0, the pages from kWrittenPagesAt on, in order.
+// Returns how many. Save the context first: the pages are the image as of now. `fd` −1: only re-arms.
+[[nodiscard]] sys::SysResult<std::size_t> copy_written_self(int fd);
+inline constexpr std::size_t kMaxWrittenPages = 4096;
+inline constexpr std::size_t kWrittenPagesAt = kMaxWrittenPages * sizeof(std::uint64_t);
 
 // ---- in the kernel ----
 
