@@ -1,6 +1,7 @@
 #include "rejuv/flight_io/messages.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <span>
 #include <string>
@@ -233,16 +234,20 @@ Result<DecodedLimits, InputFailure> limits_from_bytes(std::span<const std::byte>
 }
 
 Result<SrMode, InputFailure> mode_from_message(const rejuv_msg_SrMode& m) {
-  switch (m.mode) {
-    case rejuv_msg_SR_MODE_MC: return SrMode::MC;
-    case rejuv_msg_SR_MODE_RB: return SrMode::RB;
-    case rejuv_msg_SR_MODE_SC: return SrMode::SC;
-    case rejuv_msg_SR_MODE_UPDATE: return SrMode::Update;
-    case rejuv_msg_SR_MODE_CP: return SrMode::CP;
-  }
+  // The field's bytes as an integer first: a value outside the enumeration is bad input, and reading it as
+  // the enumeration would already be undefined behaviour.
+  std::uint32_t raw = 0;
+  static_assert(sizeof(m.mode) == sizeof(raw));
+  std::memcpy(&raw, &m.mode, sizeof(raw));
+  const auto is = [raw](rejuv_msg_SrModeKind k) { return raw == static_cast<std::uint32_t>(k); };
+  if (is(rejuv_msg_SR_MODE_MC)) return SrMode::MC;
+  if (is(rejuv_msg_SR_MODE_RB)) return SrMode::RB;
+  if (is(rejuv_msg_SR_MODE_SC)) return SrMode::SC;
+  if (is(rejuv_msg_SR_MODE_UPDATE)) return SrMode::Update;
+  if (is(rejuv_msg_SR_MODE_CP)) return SrMode::CP;
   return fail(InputFailure{.kind = InputError::OutOfRange,
                            .where = "sr_mode.mode",
-                           .message = "not a mode of Fig. 1: " + std::to_string(static_cast<int>(m.mode))});
+                           .message = "not a mode of Fig. 1: " + std::to_string(raw)});
 }
 
 // ---- mission ----
