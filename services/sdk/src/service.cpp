@@ -356,9 +356,6 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g) {
 // `Resumed{g, its pid}` and continues as the live service. The kernel closing the socket (generation
 // discarded) or killing the copy ends it.
 bool Service::Impl::become_image(std::uint64_t g, sys::UniqueFd resume_fd) {
-#if defined(__SANITIZE_ADDRESS__)
-  (void)sys::make_non_dumpable();  // the live process is not, in these builds (Service::connect)
-#endif
   sys::SeqPacket resume(std::move(resume_fd));  // blocking and not dumpable already (take_image, connect)
   std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::ResumeBody)> buf{};
   for (;;) {
@@ -421,11 +418,8 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
     if (auto ok = program->install(); !ok) return error(SdkError::Seccomp, ok.error().to_string());
   }
   // Not dumpable: no process of its uid (its own images, say) can open its /proc/<pid>/mem or ptrace it.
-  // Its images inherit this at fork (become_image). Not in AddressSanitizer builds: LeakSanitizer's check at
-  // exit ptraces the process's own threads, which a non-dumpable process without privileges cannot.
-#if !defined(__SANITIZE_ADDRESS__)
+  // Its images inherit this at fork (become_image).
   if (auto nd = sys::make_non_dumpable(); !nd) return error(SdkError::NotAService, nd.error().to_string());
-#endif
   auto page = clock::TimePageReader::map(options.time_page_fd);
   if (!page) return error(SdkError::NotAService, "time page: " + page.error().to_string());
   impl->time = std::move(*page);
