@@ -16,6 +16,7 @@
 #include "rejuv/sys/event.hpp"
 #include "rejuv/sys/fd.hpp"
 #include "rejuv/sys/process.hpp"
+#include "../test_domain.hpp"
 
 namespace rejuv::testing {
 
@@ -74,7 +75,7 @@ inline kernel::KernelOptions test_options() {
   o.boot_deadline = std::chrono::seconds{20};
   o.idle_deadline = std::chrono::seconds{3};
   o.shutdown_grace = std::chrono::seconds{3};
-  o.dds_domain = static_cast<std::uint32_t>(sys::current_pid() % 200 + 1);
+  o.dds_domain = test_support::kOwnDdsDomain;  // this process's own (tests/test_domain.hpp)
   return o;
 }
 

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <string>
 
+#include "../../test_domain.hpp"
 #include "rejuv/dds/dds.hpp"
 
 namespace rejuv::dds::test_support {
@@ -23,10 +24,7 @@ inline void use_loopback_config() {
 }
 
 // One domain per test process (ctest runs each test in its own process), so parallel tests never meet.
-// Domain 0 is the demo's; ids go up to kMaxDomainId.
-inline DomainId test_domain() {
-  return DomainId{1 + static_cast<std::uint32_t>(::getpid()) % kMaxDomainId};
-}
+inline DomainId test_domain() { return DomainId{rejuv::test_support::kOwnDdsDomain}; }
 
 inline constexpr auto kLiveness = std::chrono::seconds{20};
 
