@@ -58,11 +58,11 @@ class ImageDriver {
       require(map != MAP_FAILED, "mmap image");
       u.bytes = std::span(static_cast<std::byte*>(map), kImageBytes);
       const int deltafd = ::memfd_create("rejuv-written-pages", MFD_CLOEXEC);
-      require(deltafd >= 0 && ::ftruncate(deltafd, kDeltaBytes) == 0, "memfd");
+      require(deltafd >= 0 && ::ftruncate(deltafd, kMaxWrittenBytes) == 0, "memfd");
       u.delta = UniqueFd(deltafd);
-      void* dmap = ::mmap(nullptr, kDeltaBytes, PROT_READ, MAP_SHARED, deltafd, 0);
+      void* dmap = ::mmap(nullptr, kMaxWrittenBytes, PROT_READ, MAP_SHARED, deltafd, 0);
       require(dmap != MAP_FAILED, "mmap written pages");
-      u.delta_bytes = std::span(static_cast<const std::byte*>(dmap), kDeltaBytes);
+      u.delta_bytes = std::span(static_cast<const std::byte*>(dmap), kMaxWrittenBytes);
       units_.push_back(std::move(u));
     }
   }
@@ -166,8 +166,10 @@ class ImageDriver {
       for (std::uint32_t i = 0; i < pages; ++i) {
         std::uint64_t address = 0;
         std::memcpy(&address, u.delta_bytes.data() + i * sizeof(std::uint64_t), sizeof(address));
-        const std::size_t at = offset_in_image(u.layout, address);
-        std::memcpy(u.bytes.data() + at, u.delta_bytes.data() + kWrittenPagesAt + std::size_t{i} * kPage, kPage);
+        const std::optional<std::size_t> at = offset_in_image(u.layout, address);
+        require(at.has_value(), "a written page outside the image");
+        std::memcpy(u.bytes.data() + *at, u.delta_bytes.data() + kWrittenPagesAt + std::size_t{i} * kPageBytes,
+                    kPageBytes);
       }
       written_pages.push_back(pages);
       u.saved_counter = u.counter;
@@ -184,19 +186,6 @@ class ImageDriver {
 
  private:
   static constexpr std::size_t kImageBytes = std::size_t{8} << 20;
-  static constexpr std::size_t kPage = 4096;
-  static constexpr std::size_t kDeltaBytes = kWrittenPagesAt + kMaxWrittenPages * kPage;
-
-  // Where the page at `address` is in an image of `layout` (its three regions back to back).
-  static std::size_t offset_in_image(const Layout& l, std::uint64_t address) {
-    std::size_t base = 0;
-    for (const Region& r : {l.data, l.heap, l.stack}) {
-      if (address >= r.lo && address + kPage <= r.hi) return base + (address - r.lo);
-      base += r.size();
-    }
-    require(false, "a written page outside the image");
-    return 0;
-  }
 
   struct Unit {
     ChildProcess live;

@@ -19,7 +19,7 @@ namespace rejuv::bench_image {
 
 namespace {
 
-constexpr std::uintptr_t kPage = 4096;
+constexpr std::uintptr_t kPage = kPageBytes;
 constexpr std::size_t kStandbyStackBytes = std::size_t{256} << 10;
 // Below the saved stack pointer: the red zone and the frames of the calls the service makes after saving
 // (they are scratch in the image, but copying a little more keeps the page that holds the pointer whole).
@@ -302,6 +302,15 @@ sys::SysResult<std::size_t> copy_written_self(int fd) {
     return sys::last_error("pwritev");
   }
   return n;
+}
+
+std::optional<std::size_t> offset_in_image(const Layout& layout, std::uintptr_t address) {
+  std::size_t base = 0;
+  for (const Region& r : {layout.data, layout.heap, layout.stack}) {
+    if (address >= r.lo && address + kPage <= r.hi) return base + (address - r.lo);
+    base += r.size();
+  }
+  return std::nullopt;
 }
 
 sys::SysResult<void> read_process(pid_t pid, const Layout& layout, std::span<std::byte> into) {

@@ -31,6 +31,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 
 #include "rejuv/sys/fd.hpp"
@@ -104,10 +105,16 @@ void forget_tracking();
 // records: the addresses (std::uint64_t each) from offset 0, the pages from kWrittenPagesAt on, in order.
 // Returns how many. Save the context first: the pages are the image as of now. `fd` −1: only re-arms.
 [[nodiscard]] sys::SysResult<std::size_t> copy_written_self(int fd);
+inline constexpr std::size_t kPageBytes = 4096;
 inline constexpr std::size_t kMaxWrittenPages = 4096;
 inline constexpr std::size_t kWrittenPagesAt = kMaxWrittenPages * sizeof(std::uint64_t);
+inline constexpr std::size_t kMaxWrittenBytes = kWrittenPagesAt + kMaxWrittenPages * kPageBytes;  // a full record file
 
 // ---- in the kernel ----
+
+// Where the page at `address` lies in an image of `layout` (its three regions back to back, as read_process
+// writes it and load_self reads it); nullopt if it lies in none of them.
+[[nodiscard]] std::optional<std::size_t> offset_in_image(const Layout& layout, std::uintptr_t address);
 
 // Copies `layout` of process `pid` (stopped at its save point) into `into` (layout.bytes() long).
 [[nodiscard]] sys::SysResult<void> read_process(pid_t pid, const Layout& layout, std::span<std::byte> into);

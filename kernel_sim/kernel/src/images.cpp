@@ -111,9 +111,12 @@ void Kernel::Impl::finish_retiring(bool final) {
   }
 }
 
-// Every live service's pending ring messages go out, in ring order (after a cut, a restore, an abandoned
-// checkpoint: what was published meanwhile was not pushed, DESIGN §7).
+// Routing resumes after a cut, a restore or an abandoned checkpoint: what was published meanwhile was not
+// pushed (DESIGN §7). The kernel's held DDS bridge writes go out, then every live service's pending ring
+// messages, in ring order.
 void Kernel::Impl::resume_routing() {
+  routing_frozen = false;
+  release_bridge_out();
   for (ServiceRuntime& s : services) {
     if (!s.live()) continue;
     s.sweep = true;
@@ -210,7 +213,6 @@ void Kernel::Impl::run_checkpoint() {
     ++sr_stats.checkpoint_failures;
     log("checkpoint %llu abandoned: %s", num(g), done.failure.c_str());
     image::destroy(done.record);
-    routing_frozen = false;
     if (late) {
       for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
     }
@@ -233,7 +235,6 @@ void Kernel::Impl::run_checkpoint() {
   if (observer != nullptr) observer->on_checkpoint(g, broker);
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
-  routing_frozen = false;
   resume_routing();
   answer(0, g.value());
   for (image::GenerationRecord& old : evicted) retire(std::move(old));
@@ -466,9 +467,8 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   arm_timerfd();
   const Epoch epoch = time_page.current().epoch;
   // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
-  // woken by a delivery may take the CPU at once and run its step.
+  // woken by a delivery, or the plant's thread woken by a DDS write, may take the CPU at once.
   routing_frozen = true;
-  hold_bridge_out = true;
   if (const auto topic = kernel_topic(msgs::TopicTraits<rejuv_msg_RollbackSignal>::name)) {
     const rejuv_msg_RollbackSignal signal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
                                           .generation = restored->g.value(),
@@ -477,8 +477,6 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   }
   publish_sr_mode();
   const Nanos took = wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
-  routing_frozen = false;
-  release_bridge_out();
   resume_routing();
   sr_stats.rollback_phases.a.push_back(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.push_back(to_ms(t_resumed - t_killed));

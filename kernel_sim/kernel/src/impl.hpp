@@ -248,17 +248,15 @@ struct Kernel::Impl {
   // The caller and its Invoke seq; no caller: the kernel's own (Kernel::checkpoint_now, benchmarks).
   std::optional<std::pair<std::optional<ServiceId>, std::uint32_t>> checkpoint_request;
   std::optional<CheckpointRun> checkpoint;  // between the Snapshots and the commit
-  bool routing_frozen = false;              // while a checkpoint or rollback is timed: publications land in the
-                                            // rings undelivered (images.cpp)
+  // While a checkpoint or rollback is timed: publications land in the rings undelivered and the kernel's
+  // DDS bridge writes are held (a woken service or plant thread would take the CPU at once); resume_routing.
+  bool routing_frozen = false;
   std::optional<std::string> rollback_request;  // the reason; carried out at the next safe point
   RejuvenationTimer rejuvenation{};
   SrStats sr_stats{};
   Nanos charge{0};                          // real time of checkpoints/rollbacks in this lockstep step
   std::vector<sys::ChildProcess> reaping;   // incarnations killed by a rollback, reaped at the next safe point
-  // What the kernel publishes to the DDS bridge at the end of a rollback (sr_mode): written right after the
-  // timed part. A DDS write wakes the plant's receive thread, which then takes the CPU from the rollback.
-  bool hold_bridge_out = false;
-  std::vector<std::pair<ObjectId, std::vector<std::byte>>> held_bridge_out;
+  std::vector<std::pair<ObjectId, std::vector<std::byte>>> held_bridge_out;  // while routing is frozen
   // Incarnations a rollback retired, killed at the next safe point (retire_live_rejuvenated, kill_retired).
   std::vector<sys::ChildProcess> retired;
   // Socket pairs made ahead (kernel end non-blocking), so that no socketpair() is on the critical path of

@@ -129,7 +129,6 @@ bool Kernel::Impl::write_to_bridge(ObjectId topic, std::span<const std::byte> pa
 }
 
 void Kernel::Impl::release_bridge_out() {
-  hold_bridge_out = false;
   for (const auto& [topic, payload] : held_bridge_out) {
     if (!bridge || !write_to_bridge(topic, payload)) break;
   }
@@ -144,7 +143,7 @@ void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payl
                                          .generation = g, .t = now(), .publisher = publisher});
   }
   if (bridge && from != From::Bridge) {  // what came in through the bridge does not go back out
-    if (hold_bridge_out) {
+    if (routing_frozen) {  // a checkpoint or rollback is timed: written by resume_routing
       held_bridge_out.emplace_back(topic, std::vector<std::byte>(payload.begin(), payload.end()));
     } else {
       (void)write_to_bridge(topic, payload);
