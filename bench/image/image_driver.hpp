@@ -1,6 +1,6 @@
 // Drives image_service processes through checkpoints and rollbacks, both ways (bench/image and
 // its smoke test): by fork, as the runtime images its services today, and by copy into
-// holders forked from a zygote (rejuv/image/memory_image.hpp). The driver plays the kernel's part.
+// holders forked from a zygote (rejuv/sdk/memory_image.hpp). The driver plays the kernel's part.
 #pragma once
 
 #include <sys/mman.h>
@@ -16,11 +16,12 @@
 #include <vector>
 
 #include "image_messages.hpp"
-#include "memory_image.hpp"
+#include "rejuv/sdk/memory_image.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/process.hpp"
 
 namespace rejuv::bench_image {
+using namespace memory_image;  // NOLINT(google-build-using-namespace): the bench is built on it
 
 using sys::ChildProcess;
 using sys::SeqPacket;

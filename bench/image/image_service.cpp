@@ -1,6 +1,6 @@
 // The service of bench/image and its smoke test: a static, single-threaded process the
 // size of a flight service (≈ 370 KB of heap, 240 KB of it written every tick, or argv[1] pages) that can be imaged both ways, by fork (what
-// the runtime does today) and by copy (rejuv/image/memory_image.hpp). Its channel is fd 3; one byte of
+// the runtime does today) and by copy (rejuv/sdk/memory_image.hpp). Its channel is fd 3; one byte of
 // command, an optional body, an optional fd:
 //   't'            tick: counter + 1, every 512th word of the work area rewritten; answers 'a' + counter
 //   'f' + fd       fork image: a child of the bench (clone(CLONE_PARENT)) frozen on fd; answers 'p' + pid
@@ -26,11 +26,12 @@
 #include <vector>
 
 #include "image_messages.hpp"
-#include "memory_image.hpp"
+#include "rejuv/sdk/memory_image.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/process.hpp"
 
 namespace rejuv::bench_image {
+using namespace memory_image;  // NOLINT(google-build-using-namespace): the bench is built on it
 namespace {
 
 using sys::SeqPacket;

@@ -67,6 +67,7 @@ class Images : public ::testing::Test {
     kernel::KernelOptions o = test_options();
     o.log = std::getenv("REJUV_TEST_LOG") != nullptr ? stderr : nullptr;  // quiet unless asked
     o.verbose = o.log != nullptr;
+    o.images_by_pages = !fork_only_;
     auto k = kernel::Kernel::create(std::move(*loaded), o, &recorder);
     ASSERT_TRUE(k.has_value()) << k.error().to_string() << "\n" << ::testing::PrintToString(k.error().findings);
     k_ = std::move(*k);
@@ -104,6 +105,7 @@ class Images : public ::testing::Test {
 
   ImageRecorder recorder;
   std::unique_ptr<kernel::Kernel> k_;
+  bool fork_only_ = false;
 };
 
 TEST_F(Images, CounterContinuesFromTheCheckpointAndTheQueuesAreRestored) {
@@ -146,6 +148,20 @@ TEST_F(Images, BurstAcrossACheckpoint_NothingLostOrDuplicated) {
   expect_exactly_once("listener");
   const auto driver = records("echoes", "driver");
   EXPECT_EQ(driver.back().altitude_m, static_cast<double>(driver.size()));
+  // The second rollback restored g2, whose images were taken by written pages against g1 (the services are
+  // static): what the listener and the counter did after it is checked above.
+  EXPECT_GT(k_->sr_stats().images_by_pages, 0U);
+}
+
+// The same burst with every image by fork (KernelOptions::images_by_pages off): the other way gives the same.
+TEST_F(Images, BurstAcrossACheckpoint_ImagesByForkOnly) {
+  fork_only_ = true;
+  start({.counter = param("burst", 20) + param("checkpoint_at", 3) + param("rollback_at", 6) + param("max_cycles", 2),
+         .keep = 2, .worker = false});
+  step_until([&] { return k_->sr_stats().rollbacks == 2 && records("numbers", "counter").size() >= 200; }, 200);
+  expect_exactly_once("listener");
+  EXPECT_EQ(k_->sr_stats().images_by_pages, 0U);
+  EXPECT_GT(k_->sr_stats().images_by_fork, 0U);
 }
 
 TEST_F(Images, ThousandCycles_ProcessAndFdCountsStayFlat) {
@@ -165,6 +181,7 @@ TEST_F(Images, ThousandCycles_ProcessAndFdCountsStayFlat) {
     EXPECT_EQ(k_->generations().size(), 2U);
     EXPECT_EQ(records("numbers", "counter").back().altitude_m, 1000.0);  // the persistent cell
     EXPECT_EQ(k_->sr_stats().fallbacks, 0U);
+    EXPECT_GT(k_->sr_stats().images_by_pages, k_->sr_stats().images_by_fork);  // by written pages once tracking
     k_->shutdown();
     k_.reset();
   }

@@ -148,6 +148,8 @@ int run_bench(std::span<const std::string_view> args) {
     const proto::Percentiles p = summarize(v);
     std::printf("  %-12s %10.3f %10.3f\n", label, p.p50(), p.max());
   };
+  std::printf("service images: %llu by written pages, %llu by fork\n",
+              static_cast<unsigned long long>(sr.images_by_pages), static_cast<unsigned long long>(sr.images_by_fork));
   std::printf("phases:\n");
   phase("cp: snapshot", sr.checkpoint_phases.a);
   phase("cp: taken", sr.checkpoint_phases.b);

@@ -25,7 +25,6 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::Ready:
     case FrameKind::BootEnd:
     case FrameKind::TimerFired:
-    case FrameKind::Snapshot:
     case FrameKind::Fork:
     case FrameKind::Shutdown: rule = kEmpty; return true;
     case FrameKind::Publish:
@@ -37,6 +36,9 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::Copied:
     case FrameKind::Resumed: rule = exactly(sizeof(TakenBody)); return true;
     case FrameKind::Resume: rule = exactly(sizeof(ResumeBody)); return true;
+    case FrameKind::Snapshot: rule = exactly(sizeof(SnapshotBody)); return true;
+    case FrameKind::TakenPages: rule = exactly(sizeof(TakenPagesBody)); return true;
+    case FrameKind::Patch: rule = exactly(sizeof(PatchBody)); return true;
     case FrameKind::NetDatagram: rule = {1, kMaxDatagramBytes}; return true;
     case FrameKind::Boot: rule = exactly(sizeof(BootHeader)); return true;
     case FrameKind::BootCap: rule = exactly(sizeof(BootCap)); return true;
@@ -74,6 +76,8 @@ std::string_view to_string(FrameKind kind) {
     case FrameKind::NetDatagram: return "NetDatagram";
     case FrameKind::Fork: return "Fork";
     case FrameKind::Copied: return "Copied";
+    case FrameKind::TakenPages: return "TakenPages";
+    case FrameKind::Patch: return "Patch";
   }
   return "?";
 }

@@ -31,7 +31,11 @@ std::size_t Image::refresh() {
     if (!got || got->closed) break;  // EAGAIN: nothing more
     auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel);
     if (!frame || frame->kind != wire::FrameKind::Copied) continue;  // a frozen copy has nothing else to say
-    if (spares_pending > 0) --spares_pending;
+    if (patch_pending) {
+      patch_pending = false;  // the first Copied on a patched image's socket is the image itself
+    } else if (spares_pending > 0) {
+      --spares_pending;
+    }
     const pid_t pid = wire::payload_as<wire::TakenBody>(*frame).image_pid;
     if (pid <= 0) continue;
     const bool known = std::find(resumed.begin(), resumed.end(), pid) != resumed.end() ||
@@ -58,7 +62,7 @@ bool Image::request_spare(Generation g) {
 
 std::optional<ServiceId> GenerationRecord::dead_image() {
   for (Image& i : images) {
-    if (i.refresh() == 0) return i.service;
+    if (i.refresh() == 0 && !i.patch_pending) return i.service;
   }
   return std::nullopt;
 }
@@ -86,6 +90,13 @@ std::vector<GenerationRecord> ImageStore::commit(GenerationRecord record) {
 }
 
 GenerationRecord* ImageStore::newest() { return generations_.empty() ? nullptr : &generations_.back(); }
+
+GenerationRecord* ImageStore::find(Generation g) {
+  for (GenerationRecord& r : generations_) {
+    if (r.g == g) return &r;
+  }
+  return nullptr;
+}
 
 std::optional<GenerationRecord> ImageStore::take(Generation g) {
   for (auto it = generations_.begin(); it != generations_.end(); ++it) {
@@ -124,7 +135,7 @@ void ImageStore::refresh_all() {
 std::size_t ImageStore::spares_pending() const {
   std::size_t n = 0;
   for (const GenerationRecord& r : generations_) {
-    for (const Image& i : r.images) n += i.copies.empty() ? 0 : i.spares_pending;
+    for (const Image& i : r.images) n += (i.copies.empty() && !i.patch_pending ? 0 : i.spares_pending) + (i.patch_pending ? 1 : 0);
   }
   return n;
 }

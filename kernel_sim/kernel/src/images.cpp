@@ -21,6 +21,8 @@
 // Faults: a refused or late Taken abandons the generation (a late service is killed, which is itself a
 // rollback trigger); a dead image or a failed resume falls back to the previous generation, then to a cold
 // restart of the rejuvenated services from their binaries in SC (network off). Every path is logged.
+#include <fcntl.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <csignal>
@@ -75,6 +77,15 @@ void Kernel::Impl::refill_pairs() {
     auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
     if (!pair || !sys::set_nonblocking(pair->first.fd(), true)) return;
     pair_pool.push_back(std::move(*pair));
+  }
+  // The pagemap of every live incarnation that may take its next image by written pages: a service is not
+  // dumpable and cannot open its own; the Snapshot hands it over (one open per incarnation, here).
+  for (ServiceRuntime& s : services) {
+    if (!options.images_by_pages || !s.rejuvenate || !s.live() || s.image_base.value() == 0) continue;
+    if (s.pagemap.valid() && s.pagemap_pid == s.process.pid()) continue;
+    const std::string path = "/proc/" + std::to_string(s.process.pid()) + "/pagemap";
+    s.pagemap = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    s.pagemap_pid = s.process.pid();
   }
 }
 
@@ -177,15 +188,19 @@ void Kernel::Impl::run_checkpoint() {
       run.failure = "resume socket: out of fds?";
       break;
     }
-    const int image_end = pair->second.fd();
-    if (!tx.build(wire::FrameKind::Snapshot, 0, 0, g.value())) break;
-    if (auto sent = s.channel.send(tx.bytes(), std::span(&image_end, 1)); !sent) {
+    const Generation base = pages_base_for(s);
+    const std::array<int, 2> fds{pair->second.fd(), s.pagemap.get()};
+    const wire::SnapshotBody body{.base = base.value()};
+    if (!tx.build_with(wire::FrameKind::Snapshot, 0, 0, g.value(), body)) break;
+    if (auto sent = s.channel.send(tx.bytes(), std::span(fds).first(base.value() != 0 ? 2 : 1)); !sent) {
       run.failure = "Snapshot to '" + s.name + "': " + sent.error().to_string();
       break;
     }
     ++s.stats.frames_out;
-    closing.push_back(pair->second.take_fd());
-    run.record.images.push_back(image::Image{.service = s.id, .copies = {}, .resume = std::move(pair->first)});
+    // The image end stays with the kernel until the answer: by fork it is closed, by written pages it goes
+    // to the copy of the base that becomes the image (send_patches).
+    run.record.images.push_back(image::Image{.service = s.id, .copies = {}, .resume = std::move(pair->first),
+                                             .base = base, .image_end = pair->second.take_fd()});
     run.waiting.push_back(s.id);
   }
   checkpoint = std::move(run);
@@ -233,10 +248,15 @@ void Kernel::Impl::run_checkpoint() {
   }
   broker.snapshot_into(done.record.queues);
   if (observer != nullptr) observer->on_checkpoint(g, broker);
+  for (image::Image& im : done.record.images) {
+    services[im.service.value()].image_base = g;
+    if (im.image_end.valid() && !im.pages.valid()) closing.push_back(std::move(im.image_end));  // by fork
+  }
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();
   answer(0, g.value());
+  send_patches(*images.newest());  // before old generations go: a base may be among them
   for (image::GenerationRecord& old : evicted) retire(std::move(old));
   const Nanos took = t_saved - t0;
   sr_stats.checkpoint_phases.a.push_back(to_ms(t_sent - t0));
@@ -249,23 +269,87 @@ void Kernel::Impl::run_checkpoint() {
   if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }
 
-void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
+bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& frame) {
   if (!checkpoint) {
-    refuse(s, "Taken without a checkpoint in progress");
-    return;
+    refuse(s, std::string(wire::to_string(frame.kind)) + " without a checkpoint in progress");
+    return false;
   }
   CheckpointRun& run = *checkpoint;
   const auto waiting = std::find(run.waiting.begin(), run.waiting.end(), s.id);
   if (waiting == run.waiting.end()) {
-    refuse(s, "Taken it was not asked for");
-    return;
+    refuse(s, std::string(wire::to_string(frame.kind)) + " it was not asked for");
+    return false;
   }
   run.waiting.erase(waiting);
-  const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
   if (frame.header.aux != run.record.g.value()) {
-    run.failure = "'" + s.name + "' answered Taken for generation " + std::to_string(frame.header.aux);
-    return;
+    run.failure = "'" + s.name + "' answered " + std::string(wire::to_string(frame.kind)) + " for generation " +
+                  std::to_string(frame.header.aux);
+    return false;
   }
+  return true;
+}
+
+Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
+  const Generation base = s.image_base;
+  if (!options.images_by_pages || base.value() == 0 || images.keep() < 2) return Generation{};
+  if (!s.pagemap.valid() || s.pagemap_pid != s.process.pid()) return Generation{};
+  // The base must outlive this checkpoint's commit, which keeps the newest keep − 1 generations and the new one.
+  const std::vector<Generation> kept = images.generations();
+  const std::size_t survivors = std::min(kept.size(), images.keep() - 1);
+  if (std::find(kept.end() - static_cast<std::ptrdiff_t>(survivors), kept.end(), base) == kept.end()) return Generation{};
+  image::GenerationRecord* record = images.find(base);
+  image::Image* im = record != nullptr ? record->image_of(s.id) : nullptr;
+  if (im == nullptr || (im->refresh() == 0 && !im->patch_pending)) return Generation{};
+  return base;
+}
+
+void Kernel::Impl::on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages) {
+  if (!expecting_image(s, frame)) return;
+  CheckpointRun& run = *checkpoint;
+  image::Image* im = run.record.image_of(s.id);
+  const auto body = wire::payload_as<wire::TakenPagesBody>(frame);
+  // What the service may not choose: the base (the one offered), and pages that change after this answer
+  // (every seal that freezes the memfd's contents).
+  constexpr int kSeals = F_SEAL_SEAL | F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_WRITE;
+  const int seals = ::fcntl(pages.get(), F_GET_SEALS);
+  if (im == nullptr || im->base.value() == 0 || body.base != im->base.value()) {
+    run.failure = "'" + s.name + "' took its image against generation " + std::to_string(body.base) +
+                  ", which was not offered";
+  } else if (seals < 0 || (seals & kSeals) != kSeals) {
+    run.failure = "'" + s.name + "' sent written pages that are not sealed";
+  } else if (body.pages > wire::kMaxImagePages) {
+    run.failure = "'" + s.name + "' sent " + std::to_string(body.pages) + " written pages (at most " +
+                  std::to_string(wire::kMaxImagePages) + ")";
+  } else {
+    im->pages = std::move(pages);
+    im->page_count = body.pages;
+  }
+}
+
+void Kernel::Impl::send_patches(image::GenerationRecord& record) {
+  for (image::Image& im : record.images) {
+    if (!im.pages.valid()) continue;
+    ++sr_stats.images_by_pages;
+    image::GenerationRecord* base = images.find(im.base);
+    image::Image* from = base != nullptr ? base->image_of(im.service) : nullptr;
+    const wire::PatchBody body{.generation = record.g.value(), .pages = im.page_count};
+    const std::array<int, 2> fds{im.pages.get(), im.image_end.get()};
+    if (from != nullptr && tx.build_with(wire::FrameKind::Patch, 0, 0, im.base.value(), body) &&
+        from->resume.send(tx.bytes(), fds)) {
+      im.patch_pending = true;
+    } else {  // no image: a rollback to this generation falls back (image::GenerationRecord::dead_image)
+      log("generation %llu: no copy of generation %llu's image of '%s' to make its image from",
+          num(record.g), num(im.base), services[im.service.value()].name.c_str());
+    }
+    closing.push_back(std::move(im.pages));
+    closing.push_back(std::move(im.image_end));
+  }
+}
+
+void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
+  if (!expecting_image(s, frame)) return;
+  CheckpointRun& run = *checkpoint;
+  const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
   if (pid <= 0) {
     run.failure = "'" + s.name + "' could not take its image";
     return;
@@ -287,7 +371,10 @@ void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
                   child.error().to_string() + ")";
     return;
   }
-  run.record.image_of(s.id)->copies.push_back(std::move(*child));
+  image::Image* im = run.record.image_of(s.id);
+  im->copies.push_back(std::move(*child));
+  im->base = Generation{};  // by fork
+  ++sr_stats.images_by_fork;
 }
 
 // ---- rollback ----
@@ -400,6 +487,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
       continue;  // its copies are killed with the generation
     }
     p.image->resumed.push_back(pid);
+    s.image_base = record.g;
     s.channel = std::move(p.channel);
     s.phase = Phase::Ready;
     s.frames_base = s.stats.frames_out;

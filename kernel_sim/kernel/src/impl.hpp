@@ -75,6 +75,9 @@ struct ServiceRuntime {
   std::string name{};
   const proto::ServiceSpec* spec = nullptr;
   bool rejuvenate = true;          // false = driver level (DESIGN §2)
+  Generation image_base{};         // the generation this incarnation's memory derives from (0: a fresh start)
+  sys::UniqueFd pagemap{};         // /proc/<pid>/pagemap of pagemap_pid, for the Snapshot (refill_pairs)
+  pid_t pagemap_pid = 0;
   bool skip = false;               // not started (KernelOptions::skip_services, or SR-only with SR off)
   std::string skip_reason{};
   std::string executable{};
@@ -326,7 +329,14 @@ struct Kernel::Impl {
   bool service_images();
   [[nodiscard]] bool quiescent_for_checkpoint() const;
   void run_checkpoint();
+  // Taken or TakenPages from `s`: whether the checkpoint in progress waits for it (no longer, once true).
+  bool expecting_image(ServiceRuntime& s, const wire::FrameView& frame);
   void on_taken(ServiceRuntime& s, const wire::FrameView& frame);
+  void on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages);
+  // The base generation a Snapshot to `s` offers for an image by written pages (0: by fork).
+  [[nodiscard]] Generation pages_base_for(const ServiceRuntime& s);
+  // After a commit: has a copy of each base image make the new generation's images by written pages.
+  void send_patches(image::GenerationRecord& record);
   void request_rollback(std::string reason);
   void run_rollback(const std::string& reason);
   // Resumes every image of `record`; false (and everything resumed killed again) if one fails.

@@ -17,7 +17,8 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
   const std::uint64_t frames_before = s.stats.frames_in;
   while (s.stats.frames_in - frames_before < kFramesPerWakeup) {
     if (!s.live() || !s.channel.valid()) return;
-    auto n = s.channel.receive_batch(rx_batch, wire::kMaxFrameBytes, got);  // a service never sends fds
+    // One fd at most per datagram: TakenPages carries its pages; on any other frame an fd is refused.
+    auto n = s.channel.receive_batch(rx_batch, wire::kMaxFrameBytes, got, 1);
     if (!n) {
       if (n.error().error == EAGAIN) return;
       if (n.error().error != ECONNRESET) log("channel of '%s': %s", s.name.c_str(), n.error().to_string().c_str());
@@ -26,7 +27,7 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
     }
     for (std::size_t i = 0; i < *n; ++i) {
       if (!s.live() || !s.channel.valid()) return;  // a frame before this one lost the service
-      const sys::Received& r = got[i];
+      sys::Received& r = got[i];
       if (r.closed) {
         // The service closed fd 3, or is exiting (its pidfd tells which, soon). A live service without a
         // channel cannot be driven: check_deadlines loses it if it is still running after a grace period.
@@ -43,6 +44,17 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
       // One frame or several back to back (wire::next_frame). A frame that does not decode ends its
       // datagram: past it the framing cannot be trusted.
       const std::span<const std::byte> datagram = std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, r.size);
+      if (!r.fds.empty()) {  // a datagram with an fd is one TakenPages frame (docs/protocol.md "Framing")
+        ++s.stats.frames_in;
+        auto frame = wire::decode(datagram, wire::Direction::ToKernel);
+        if (!frame || frame->kind != wire::FrameKind::TakenPages) {
+          refuse(s, "frame carried file descriptors (closed)");
+          continue;
+        }
+        on_taken_pages(s, *frame, std::move(r.fds.front()));  // images.cpp
+        r.fds.clear();
+        continue;
+      }
       std::size_t offset = 0;
       do {
         ++s.stats.frames_in;
@@ -144,6 +156,9 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Taken:
       on_taken(s, f);  // images.cpp
       return;
+    case wire::FrameKind::TakenPages:
+      refuse(s, "TakenPages without its pages (an fd)");  // with them it is read in read_channel
+      return;
     case wire::FrameKind::Resumed:
     case wire::FrameKind::Copied:
       // Read by the image store itself (Resumed on a new channel, Copied on a resume socket; images.cpp);
@@ -162,6 +177,7 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Resume:
     case wire::FrameKind::NetDatagram:
     case wire::FrameKind::Fork:
+    case wire::FrameKind::Patch:
       refuse(s, "kernel-to-service frame kind");  // decode(ToKernel) already refuses these
       return;
   }

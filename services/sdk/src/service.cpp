@@ -8,12 +8,18 @@
 #include <deque>
 #include <string>
 
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include "rejuv/clock/time_page.hpp"
 #include "rejuv/clock/timers.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/event.hpp"
 #include "rejuv/sys/process.hpp"
 #include "rejuv/sys/seccomp.hpp"
+#include "rejuv/sdk/memory_image.hpp"
 #include "workers.hpp"
 
 #if defined(__SANITIZE_ADDRESS__)
@@ -164,9 +170,14 @@ struct Service::Impl {
   // sends reuses rx for the Reply).
   std::vector<std::pair<std::uint32_t, std::function<void(std::span<const std::byte>)>>> datagram_handlers;
   std::array<std::byte, wire::kMaxDatagramBytes> datagram{};
-  std::vector<sys::UniqueFd> rx_fds;          // fds that came with the frame in rx (Snapshot: one)
+  std::vector<sys::UniqueFd> rx_fds;          // fds that came with the frame in rx (Snapshot: one or two)
   // Images (DESIGN §7): set in a restored image, the answer of the checkpoint() call it was taken in.
   std::optional<CheckpointOutcome> restored;
+  // Images by written pages (memory_image.hpp): whether this process can take them at all (static, prepared
+  // at connect), and the generation its memory derives from as far as its write tracking goes (0: none, the
+  // next image is by fork).
+  bool pages_capable = false;
+  std::uint64_t tracked_base = 0;
   WorkerSet* workers = nullptr;  // owned; raw because a restored image leaks its copy (workers.hpp)
   alignas(8) std::array<std::byte, wire::kMaxFrameBytes> rx{};
   wire::FrameBuffer tx;
@@ -277,7 +288,7 @@ struct Service::Impl {
         batch_drained = false;
         return std::optional<std::size_t>{};
       }
-      auto n = channel.receive_batch(batch_bytes, wire::kMaxFrameBytes, batch, 1, wait ? sys::Wait::ForOne : sys::Wait::No);
+      auto n = channel.receive_batch(batch_bytes, wire::kMaxFrameBytes, batch, 2, wait ? sys::Wait::ForOne : sys::Wait::No);
       if (n) {
         batch_next = 0;
         batch_count = *n;
@@ -294,8 +305,8 @@ struct Service::Impl {
 
   // Images (DESIGN §7): defined below, next to the constructor.
   static constexpr std::chrono::milliseconds kWorkerParkDeadline{500};
-  SdkResult<bool> take_image(std::uint64_t g);
-  bool become_image(std::uint64_t g, sys::UniqueFd resume_fd);
+  SdkResult<bool> take_image(std::uint64_t g, std::uint64_t base);
+  SdkResult<bool> resumed_image();
 
   // Sends a request and waits for its Reply, queueing every other frame (handled later, in order).
   SdkResult<InvokeReply> request(std::span<std::byte> out, std::string_view what) {
@@ -309,7 +320,7 @@ struct Service::Impl {
       if (frame && frame->kind == wire::FrameKind::Snapshot) {
         // A checkpoint while this process waits (the caller of checkpoint() always does): the image is
         // taken inside the call and, once restored, returns from it with RolledBack (DESIGN §7).
-        auto resumed = take_image(frame->header.aux);
+        auto resumed = take_image(frame->header.aux, wire::payload_as<wire::SnapshotBody>(*frame).base);
         if (!resumed) return std::unexpected(resumed.error());
         if (*resumed) return error(SdkError::RolledBack, std::string(what));
         continue;
@@ -327,14 +338,129 @@ struct Service::Impl {
   }
 };
 
-// Snapshot{g} (DESIGN §7, docs/protocol.md "Checkpoint and rollback"): everything received before it has
-// been handled (channels are FIFO). Parks the workers, sends what is queued (so that nothing sent before
-// the cut is sent again by a restored image), forks the image as the kernel's child and answers Taken{g,
-// pid}. Returns false in the live process; true when this process is the image, resumed by a rollback and
-// now live on its new channel. A refusal (no resume socket, workers that do not park, a failed fork) is a
-// Taken with pid 0: the kernel abandons generation g.
-SdkResult<bool> Service::Impl::take_image(std::uint64_t g) {
-  sys::UniqueFd resume = rx_fds.size() == 1 ? std::move(rx_fds.front()) : sys::UniqueFd();
+namespace {
+
+// The context an image is taken in (memory_image.hpp REJUV_IMAGE_SAVE) and what a frozen copy hands to it
+// when it is resumed. In .bss: part of every image, written by a copy only just before it jumps.
+memory_image::Context image_context{};
+struct Handoff {
+  std::uint64_t generation = 0;  // of the image (before the jump: which one a new copy serves)
+  std::uint32_t epoch = 0;       // Resume: the epoch the restored incarnation runs in
+  bool tracking = false;         // Resume: the copy tracks its writes from the image
+  bool pages_capable = false;    // copies track their writes (set once at connect)
+};
+Handoff handoff{};
+
+// A frozen copy tracks its writes from the image, so that once resumed its next image can be by written
+// pages. Its tracking state lives outside data, heap and stack (memory_image.hpp).
+void track_copy() {
+  memory_image::forget_tracking();  // the inherited descriptors name the process it was forked from
+  if (handoff.pages_capable) (void)memory_image::track_writes_self();
+}
+
+// Sends one frame on a resume socket from a frozen copy (standby stack, no allocation).
+void send_on(int fd, wire::FrameKind kind, std::uint64_t g, pid_t pid) {
+  wire::FrameBuffer out;
+  const wire::TakenBody body{.image_pid = pid, .reserved = 0};
+  if (out.build_with(kind, 0, 0, g, body)) (void)::send(fd, out.bytes().data(), out.bytes().size(), MSG_NOSIGNAL);
+}
+
+// A frozen image of generation handoff.generation (DESIGN §7), on the standby stack: blocks on its resume
+// socket, which every frozen copy of the generation shares.
+//   Fork: one copy forks a spare (g stays restorable after it is resumed) and answers Copied{pid}.
+//   Patch{g', pages} with the sealed pages and g''s resume socket: one copy forks a copy that applies the
+//     pages (memory_image::apply_written) and serves g''s socket as g''s image, answering Copied there.
+//   Resume{g, epoch} with a new channel: the copy that reads it takes the channel at fd 3 and jumps into the
+//     context the image was taken in (take_image), where it continues as the live service.
+// The kernel closing the socket (generation discarded) or killing the copy ends it. Until the jump it
+// writes nothing but its standby stack and memory_image's scratch (the rule memory_image.hpp states).
+[[noreturn]] void frozen_image(int resume_fd) {
+  std::uint64_t g = handoff.generation;
+  track_copy();
+  for (;;) {
+    alignas(8) std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::PatchBody)> buf{};
+    alignas(cmsghdr) std::array<char, CMSG_SPACE(2 * sizeof(int))> control{};
+    iovec iov{buf.data(), buf.size()};
+    msghdr msg{};
+    msg.msg_iov = &iov;
+    msg.msg_iovlen = 1;
+    msg.msg_control = control.data();
+    msg.msg_controllen = control.size();
+    const ssize_t n = ::recvmsg(resume_fd, &msg, MSG_CMSG_CLOEXEC);
+    if (n < 0 && errno == EINTR) continue;
+    std::array<int, 2> fds{-1, -1};
+    std::size_t nfds = 0;
+    for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
+      if (c->cmsg_level != SOL_SOCKET || c->cmsg_type != SCM_RIGHTS) continue;
+      nfds = std::min<std::size_t>((c->cmsg_len - CMSG_LEN(0)) / sizeof(int), fds.size());
+      std::memcpy(fds.data(), CMSG_DATA(c), nfds * sizeof(int));
+    }
+    if (n <= 0) std::_Exit(0);  // closed: the generation is gone
+    auto frame = wire::decode(std::span<const std::byte>(buf.data(), static_cast<std::size_t>(n)), wire::Direction::ToService);
+    if (!frame || frame->header.aux != g) std::_Exit(3);  // the kernel is trusted: this is a broken kernel
+    if (frame->kind == wire::FrameKind::Fork && nfds == 0) {
+      auto copy = sys::fork_sibling();
+      if (copy && *copy == 0) {  // the spare: frozen like us
+        track_copy();
+        continue;
+      }
+      send_on(resume_fd, wire::FrameKind::Copied, g, copy ? *copy : 0);
+      continue;
+    }
+    if (frame->kind == wire::FrameKind::Patch && nfds == 2) {
+      const auto body = wire::payload_as<wire::PatchBody>(*frame);
+      auto copy = sys::fork_sibling();
+      if (copy && *copy == 0) {  // the new image: g's memory made g''s
+        memory_image::forget_tracking();
+        if (!memory_image::apply_written(fds[0], body.pages)) std::_Exit(3);
+        ::close(fds[0]);
+        ::close(resume_fd);
+        resume_fd = fds[1];
+        g = body.generation;
+        handoff.generation = g;  // dead bytes for the live program; what a spare of this copy serves
+        track_copy();
+        send_on(resume_fd, wire::FrameKind::Copied, g, sys::current_pid());
+        continue;
+      }
+      if (!copy) send_on(fds[1], wire::FrameKind::Copied, body.generation, 0);  // g' has no image
+      ::close(fds[0]);
+      ::close(fds[1]);
+      continue;
+    }
+    if (frame->kind != wire::FrameKind::Resume || nfds != 1) std::_Exit(3);
+    ::close(resume_fd);
+    if (!sys::install_fd(sys::UniqueFd(fds[0]), wire::kChannelFd) || !sys::set_nonblocking(wire::kChannelFd, false)) {
+      std::_Exit(3);
+    }
+    handoff.generation = g;
+    handoff.epoch = wire::payload_as<wire::ResumeBody>(*frame).epoch;
+    handoff.tracking = memory_image::tracking_writes();
+    memory_image::resume_saved(image_context);
+  }
+}
+
+}  // namespace
+
+// Snapshot{g, base} (DESIGN §7, docs/protocol.md "Checkpoint and rollback"): everything received before it
+// has been handled (channels are FIFO). Sends what is queued (so that nothing sent before the cut is sent
+// again by a restored image) and takes the image in one of two ways:
+//   - by written pages, when the kernel offers a base generation this process's memory derives from and
+//     its tracked layout still holds: the pages written since the base go into a sealed memfd, answered
+//     with TakenPages{g, base, pages}; the kernel has a copy of the base image make g's image from them,
+//     off the critical path. No fork, no copy-on-write faults afterwards.
+//   - by fork otherwise (the first image, workers, a changed layout, a dynamic build): parks the workers,
+//     starts tracking writes afresh, forks the image as the kernel's child and answers Taken{g, pid}.
+// Returns false in the live process; true when this process is the image, resumed by a rollback and now
+// live on its new channel. A refusal (no resume socket, workers that do not park, a failed fork) is a Taken
+// with pid 0: the kernel abandons generation g.
+//
+// Both ways save the context here (REJUV_IMAGE_SAVE) and the image resumes by jumping back into it, so no
+// local that owns anything may live across the save: a resumed image returns through this frame and would
+// run its destructors with the live process's values.
+SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
+  // The resume socket, and with a base offered this process's pagemap (it cannot open its own: not dumpable).
+  const int resume_fd = !rx_fds.empty() ? rx_fds.front().release() : -1;
+  sys::UniqueFd pagemap = rx_fds.size() == 2 ? std::move(rx_fds.back()) : sys::UniqueFd();
   rx_fds.clear();
   const auto answer = [&](wire::FrameKind kind, pid_t pid) -> SdkResult<void> {
     const wire::TakenBody body{.image_pid = pid, .reserved = 0};
@@ -342,57 +468,72 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g) {
     if (auto q = send_built(); !q) return q;
     return flush();
   };
+  if (base != 0 && base == tracked_base && workers == nullptr &&
+      memory_image::layout_unchanged(memory_image::stack_pointer())) {
+    if (resume_fd >= 0) ::close(resume_fd);  // the image is made from the base's, which has its own
+    const int scan = pagemap.release();      // no owner across the save (above)
+    if (auto f = flush(); !f) return std::unexpected(f.error());
+    const int pages = ::memfd_create("rejuv-image-pages", MFD_CLOEXEC | MFD_ALLOW_SEALING);
+    if (pages < 0) return io_error(sys::SysError{"memfd_create", errno});
+    if (REJUV_IMAGE_SAVE(image_context) != 0) return resumed_image();
+    auto n = memory_image::copy_written_self(pages, scan);
+    if (scan >= 0) ::close(scan);
+    constexpr int kSeals = F_SEAL_SEAL | F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_WRITE;
+    tracked_base = 0;  // until the answer is on its way: a failure leaves the tracking in no known state
+    if (!n || ::fcntl(pages, F_ADD_SEALS, kSeals) != 0) {
+      ::close(pages);
+      if (auto a = answer(wire::FrameKind::Taken, 0); !a) return std::unexpected(a.error());  // g is abandoned
+      return false;
+    }
+    tracked_base = g;
+    const wire::TakenPagesBody body{.base = base, .pages = *n};
+    if (!tx.build_with(wire::FrameKind::TakenPages, 0, 0, g, body)) return error(SdkError::Protocol);
+    auto sent = channel.send(tx.bytes(), std::span(&pages, 1));
+    ::close(pages);
+    if (!sent) return io_error(sent.error());
+    return false;
+  }
+  pagemap.reset();
   // The resume socket is made blocking here, for the image (the live process never reads it): a new copy
   // then has nothing to set up before it blocks on it.
-  if (!resume.valid() || !sys::set_nonblocking(resume.get(), false) ||
+  if (resume_fd < 0 || !sys::set_nonblocking(resume_fd, false) ||
       (workers != nullptr && !workers->park_all(kWorkerParkDeadline))) {
+    if (resume_fd >= 0) ::close(resume_fd);
     if (auto a = answer(wire::FrameKind::Taken, 0); !a) return std::unexpected(a.error());
     return false;
   }
-  if (auto f = flush(); !f) return std::unexpected(f.error());
+  if (auto f = flush(); !f) {
+    ::close(resume_fd);
+    return std::unexpected(f.error());
+  }
+  handoff.generation = g;
+  if (REJUV_IMAGE_SAVE(image_context) != 0) return resumed_image();
+  // Tracking starts (again) before the fork: what this process writes from here on is what its next image
+  // by written pages carries over g's.
+  tracked_base = pages_capable && workers == nullptr && memory_image::track_writes_self() ? g : 0;
   auto pid = sys::fork_sibling();
-  if (pid && *pid == 0) return become_image(g, std::move(resume));
+  if (pid && *pid == 0) memory_image::run_on_standby_stack(frozen_image, resume_fd);  // never returns
+  ::close(resume_fd);
   if (workers != nullptr) workers->unpark_all();
   if (auto a = answer(wire::FrameKind::Taken, pid ? *pid : 0); !a) return std::unexpected(a.error());
   return false;
 }
 
-// The frozen image (DESIGN §7): blocks on its resume socket, which every frozen copy of g of this service
-// shares. `Fork`: one copy forks a spare (g stays restorable after it is resumed) and answers `Copied{pid}`.
-// `Resume{g, epoch}` with a new channel: the copy that reads it takes the channel at fd 3, answers
-// `Resumed{g, its pid}` and continues as the live service. The kernel closing the socket (generation
-// discarded) or killing the copy ends it.
-bool Service::Impl::become_image(std::uint64_t g, sys::UniqueFd resume_fd) {
-  sys::SeqPacket resume(std::move(resume_fd));  // blocking and not dumpable already (take_image, connect)
-  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::ResumeBody)> buf{};
-  for (;;) {
-    auto got = resume.receive(buf, 1);
-    if (!got || got->closed) std::_Exit(0);
-    auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToService);
-    if (!frame || frame->header.aux != g) std::_Exit(3);  // the kernel is trusted: this is a broken kernel
-    if (frame->kind == wire::FrameKind::Fork) {
-      auto copy = sys::fork_sibling();
-      if (copy && *copy == 0) continue;  // the spare: frozen like us
-      const wire::TakenBody body{.image_pid = copy ? *copy : 0, .reserved = 0};
-      if (tx.build_with(wire::FrameKind::Copied, 0, 0, g, body)) (void)resume.send(tx.bytes());
-      continue;
-    }
-    if (frame->kind != wire::FrameKind::Resume || got->fds.size() != 1) std::_Exit(3);
-    const auto body = wire::payload_as<wire::ResumeBody>(*frame);
-    resume.close();
-    if (!sys::install_fd(std::move(got->fds[0]), wire::kChannelFd) || !sys::set_nonblocking(wire::kChannelFd, false)) {
-      std::_Exit(3);
-    }
-    frames_received = 0;  // Idle counts frames on this channel (docs/protocol.md "Idle")
-    idle_reported = 0;
-    forget_batch();       // frames read ahead on the old channel belong to the old incarnation
-    restored = CheckpointOutcome{.kind = CheckpointOutcome::Kind::Restored, .generation = Generation{g},
-                                 .epoch = Epoch{body.epoch}};
-    if (workers != nullptr) workers = WorkerSet::respawn_in_image(workers);
-    const wire::TakenBody answer{.image_pid = sys::current_pid(), .reserved = 0};
-    if (!tx.build_with(wire::FrameKind::Resumed, 0, 0, g, answer) || !send_built() || !flush()) std::_Exit(3);
-    return true;
+// In a copy of an image that a Resume woke (frozen_image), back in take_image's frame on the main stack:
+// the restored incarnation, live on its new channel (fd 3).
+SdkResult<bool> Service::Impl::resumed_image() {
+  frames_received = 0;  // Idle counts frames on this channel (docs/protocol.md "Idle")
+  idle_reported = 0;
+  forget_batch();       // frames read ahead on the old channel belong to the old incarnation
+  restored = CheckpointOutcome{.kind = CheckpointOutcome::Kind::Restored, .generation = Generation{handoff.generation},
+                               .epoch = Epoch{handoff.epoch}};
+  tracked_base = handoff.tracking ? handoff.generation : 0;
+  if (workers != nullptr) workers = WorkerSet::respawn_in_image(workers);
+  const wire::TakenBody answer{.image_pid = sys::current_pid(), .reserved = 0};
+  if (!tx.build_with(wire::FrameKind::Resumed, 0, 0, handoff.generation, answer) || !send_built() || !flush()) {
+    std::_Exit(3);
   }
+  return true;
 }
 
 Service::Service(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -414,7 +555,12 @@ Service::~Service() {
 SdkResult<void> Service::flush() { return impl_->flush(); }
 
 SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& options) {
+  // First, before the service allocates much: malloc tied to the brk heap, the stack grown once, so that a
+  // static build can take its images by written pages (memory_image.hpp). Elsewhere, every image is by fork.
+  const bool pages_capable = memory_image::prepare_self().has_value() && memory_image::whole_memory_tracked();
+  handoff.pages_capable = pages_capable;
   auto impl = std::make_unique<Impl>();
+  impl->pages_capable = pages_capable;
   if (const char* name = std::getenv("REJUV_SERVICE"); name != nullptr) impl->name = name;
   if (!sys::fd_is_open(options.channel_fd) || !sys::fd_is_open(options.time_page_fd)) {
     return error(SdkError::NotAService, "fd 3 (channel) and fd 4 (time page) must be open: run under the kernel");
@@ -808,7 +954,7 @@ int Service::run() {
         if (s.on_shutdown) s.on_shutdown();
         return leave(0);
       case wire::FrameKind::Snapshot: {
-        auto resumed = s.take_image(frame->header.aux);
+        auto resumed = s.take_image(frame->header.aux, wire::payload_as<wire::SnapshotBody>(*frame).base);
         if (!resumed) {
           std::fprintf(stderr, "[%s] checkpoint: %s\n", s.name.c_str(), resumed.error().to_string().c_str());
           return 1;
@@ -822,6 +968,7 @@ int Service::run() {
       case wire::FrameKind::BootEnd:
       case wire::FrameKind::Resume:       // only ever on an image's resume socket
       case wire::FrameKind::Fork:
+      case wire::FrameKind::Patch:
         ++s.bad_frames;
         break;
       case wire::FrameKind::NetDatagram: {  // network gate (docs/protocol.md): slot = our Network cap
@@ -846,6 +993,7 @@ int Service::run() {
       case wire::FrameKind::Idle:
       case wire::FrameKind::Ready:
       case wire::FrameKind::Taken:
+      case wire::FrameKind::TakenPages:
       case wire::FrameKind::Resumed:
       case wire::FrameKind::Copied:
         ++s.bad_frames;  // decode() refuses service → kernel kinds here; unreachable

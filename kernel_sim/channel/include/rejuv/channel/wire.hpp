@@ -46,7 +46,10 @@ enum class FrameKind : std::uint16_t {
   Taken = 10,       // checkpoint (DESIGN §7): aux = generation; payload = TakenBody
   Resumed = 11,     // a restored image is live on its new channel: aux = generation; payload = TakenBody
                     // (its own pid: which of g's frozen copies took the Resume)
-  Copied = 12,      // on a resume socket: a frozen image forked a spare copy (Fork): aux = g; payload = TakenBody
+  Copied = 12,      // on a resume socket: a frozen image forked a spare copy (Fork), or a copy of a base image
+                    // made generation g's image from written pages (Patch): aux = g; payload = TakenBody
+  TakenPages = 13,  // checkpoint by written pages (DESIGN §7): aux = generation; payload = TakenPagesBody;
+                    // carries one fd: a sealed memfd of the pages written since the base image
   // ---- kernel → service ----
   Boot = 100,       // payload = BootHeader; then BootCap × cap_count, BootParam × param_count, BootEnd
   BootCap = 101,    // payload = BootCap
@@ -55,13 +58,17 @@ enum class FrameKind : std::uint16_t {
   Deliver = 110,    // slot = the subscriber's Topic cap; aux = generation; payload = the message
   Reply = 111,      // seq = the request's seq; payload = ReplyHeader + data
   TimerFired = 112, // aux = timer id
-  Snapshot = 113,   // aux = generation g; carries one fd: the image's resume socket (DESIGN §7)
+  Snapshot = 113,   // aux = generation g; payload = SnapshotBody; carries one fd: the image's resume socket
+                    // (DESIGN §7)
   // 114 was RollbackSignal: the kernel publishes the rollback_signal topic instead (DESIGN §7 step 3).
   Shutdown = 115,
   Resume = 116,     // on an image's resume socket (DESIGN §7): aux = generation; payload = ResumeBody;
                     // carries one fd: the new channel
   NetDatagram = 117,  // network gate (DESIGN §2): slot = the Network cap; payload = one datagram as received
   Fork = 118,       // on a resume socket: one of g's frozen copies forks a spare and answers Copied
+  Patch = 119,      // on a base image's resume socket: aux = the base generation; payload = PatchBody; carries
+                    // two fds: the sealed pages (TakenPages) and the new image's resume socket. One copy forks
+                    // a copy that applies the pages and answers Copied on the new socket as the new image
 };
 
 [[nodiscard]] std::string_view to_string(FrameKind kind);
@@ -142,6 +149,20 @@ struct BootParam {
 struct TakenBody {
   std::int32_t image_pid = 0;  // the frozen image (DESIGN §7)
   std::uint32_t reserved = 0;
+};
+// Snapshot: the generation whose image the kernel holds and keeps past this checkpoint and which the service
+// may take its image against by written pages (TakenPages), if its memory derives from it; 0: by fork.
+struct SnapshotBody {
+  std::uint64_t base = 0;
+};
+inline constexpr std::uint64_t kMaxImagePages = 4096;  // written pages in one TakenPages at most (16 MB)
+struct TakenPagesBody {
+  std::uint64_t base = 0;   // the base generation (the Snapshot's)
+  std::uint64_t pages = 0;  // pages in the memfd (memory_image.hpp record file)
+};
+struct PatchBody {
+  std::uint64_t generation = 0;  // the new image's
+  std::uint64_t pages = 0;
 };
 struct ResumeBody {
   std::uint32_t epoch = 0;     // the epoch the restored incarnation runs in

@@ -53,6 +53,14 @@ struct Image {
   sys::SeqPacket resume{};                  // the kernel's end of the shared resume socket (non-blocking)
   std::size_t spares_pending = 0;           // Fork sent, Copied not read yet
   std::vector<int> resumed{};               // copies that became live services: never adopted as copies again
+  // An image taken by written pages (TakenPages) is made off the critical path: a copy of the base
+  // generation's image forks and applies the pages (Patch), and that copy answers Copied on this image's
+  // resume socket. Until then `copies` is empty and the image is pending, not dead.
+  Generation base{};                        // the generation offered in the Snapshot (0: by fork)
+  sys::UniqueFd pages{};                    // the sealed pages, until the Patch is sent
+  std::uint64_t page_count = 0;
+  sys::UniqueFd image_end{};                // the resume socket's image end, until Taken or the Patch
+  bool patch_pending = false;               // Patch sent, Copied not read yet
   // Reads the Copied answers that have arrived (adopting each new spare) and drops the copies that died.
   // Returns how many copies are alive.
   std::size_t refresh();
@@ -69,7 +77,7 @@ struct GenerationRecord {
 
   [[nodiscard]] Image* image_of(ServiceId service);
   [[nodiscard]] const SavedService* saved(ServiceId service) const;
-  // The first service none of whose copies still runs, if any: the generation is broken.
+  // The first service none of whose copies still runs and none is on its way, if any: the generation is broken.
   [[nodiscard]] std::optional<ServiceId> dead_image();
 };
 
@@ -91,6 +99,8 @@ class ImageStore {
   [[nodiscard]] std::vector<GenerationRecord> commit(GenerationRecord record);
   // The newest generation, or nullptr.
   [[nodiscard]] GenerationRecord* newest();
+  // Generation g, or nullptr.
+  [[nodiscard]] GenerationRecord* find(Generation g);
   // Takes a generation (or all) out of the store; the caller destroys it (destroy(), or retires it once its
   // pending spares have reported, so that no forked copy goes unreaped).
   [[nodiscard]] std::optional<GenerationRecord> take(Generation g);

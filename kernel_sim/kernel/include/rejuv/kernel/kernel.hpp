@@ -84,6 +84,10 @@ struct KernelOptions {
   Nanos shutdown_grace{std::chrono::seconds{2}};      // Shutdown → exit, before SIGKILL
   Nanos snapshot_deadline{std::chrono::seconds{2}};   // Snapshot → Taken from every service (DESIGN §7 Faults)
   Nanos resume_deadline{std::chrono::seconds{2}};     // Resume → Resumed from every image
+  // Images by written pages (DESIGN §7, docs/protocol.md "Checkpoint and rollback"): a Snapshot offers the
+  // base generation a service's memory derives from, so that it need not fork. false: every image by fork
+  // (`rejuv run|bench images --images fork`, for comparison).
+  bool images_by_pages = true;
   // Network gate (DESIGN §2): the UDP port of the external link, overriding the graph's `network.bind_port`
   // (0 = ephemeral: Kernel::network_port() tells which; tests use it).
   std::optional<std::uint16_t> network_port{};
@@ -193,6 +197,8 @@ struct SrStats {
   std::uint64_t timer_arms = 0;           // rejuvenation timer arms accepted
   std::uint64_t timer_arm_refused = 0;    // a second arm in one epoch (DESIGN §7)
   std::uint64_t timer_rollbacks = 0;      // rollbacks the rejuvenation timer fired
+  std::uint64_t images_by_fork = 0;       // service images taken by fork (Taken)
+  std::uint64_t images_by_pages = 0;      // service images taken by written pages (TakenPages)
   std::vector<double> checkpoint_ms{};    // Snapshot sent → generation committed, per checkpoint
   std::vector<double> rollback_ms{};      // trigger → routing resumed, per rollback
   // Phases (DESIGN §7 "durations of every phase"): checkpoint = freeze + Snapshots sent, Taken awaited,

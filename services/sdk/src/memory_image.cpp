@@ -1,4 +1,4 @@
-#include "memory_image.hpp"
+#include "rejuv/sdk/memory_image.hpp"
 
 #include <fcntl.h>
 #include <malloc.h>
@@ -14,13 +14,16 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <new>
 
-namespace rejuv::bench_image {
+namespace rejuv::memory_image {
 
 namespace {
 
 constexpr std::uintptr_t kPage = kPageBytes;
 constexpr std::size_t kStandbyStackBytes = std::size_t{256} << 10;
+constexpr std::size_t kStackReserve = std::size_t{256} << 10;  // the stack grown by this much at start
+constexpr int kHeapTopPad = 256 << 10;                        // malloc grows the heap by this much more
 // Below the saved stack pointer: the red zone and the frames of the calls the service makes after saving
 // (they are scratch in the image, but copying a little more keeps the page that holds the pointer whole).
 constexpr std::uintptr_t kStackMargin = 512;
@@ -28,22 +31,19 @@ constexpr std::uintptr_t kStackMargin = 512;
 std::uintptr_t page_down(std::uintptr_t a) { return a & ~(kPage - 1); }
 
 // The fixed facts of this executable's address space, the same in every process forked from it. They live
-// in .bss, so loading an image writes the same values over them.
+// in .bss and are written once, by prepare_self before any copy exists, so an image has the same values.
 struct Self {
   Region data;
   std::uintptr_t heap_lo = 0;
-  std::uintptr_t stack_lo = 0;  // the stack mapping's bottom when the maps were read
+  std::uintptr_t stack_lo = 0;  // the stack mapping's bottom when the maps were read (after pre-growing it)
   std::uintptr_t stack_hi = 0;
-  int uffd = -1;                // write tracking (track_writes_self), this process's own
-  int pagemap = -1;
-  Layout tracked{};
   std::uintptr_t standby_lo = 0;
-  void (*standby_fn)(int) = nullptr;
-  int standby_arg = -1;
+  bool other_writable = false;  // a private writable mapping beyond data+bss, heap and stack (a library's)
 };
 Self self;
 
 // Write tracking (track_writes_self). Linux ≥ 6.7; Debian 12's linux/fs.h and linux/userfaultfd.h predate it.
+constexpr int kUffdUserModeOnly = 1;  // UFFD_USER_MODE_ONLY (Linux ≥ 5.11)
 constexpr std::uint64_t kUffdFeatureWpUnpopulated = 1U << 13;
 constexpr std::uint64_t kUffdFeatureWpAsync = 1U << 15;
 constexpr std::uint64_t kPageIsWritten = 1U << 1;
@@ -66,9 +66,17 @@ int high_fd(int fd) {
   return moved;
 }
 
-// What copy_written_self fills: outside every tracked region (mapped on its own, like the standby stack),
-// so that filling it marks no page written.
+// This process's own mutable state of the scheme and what copy_written_self fills: outside every tracked
+// region (mapped on its own, like the standby stack), so that neither marks a page written nor differs
+// between an image and the process it was taken from in a page the image is made of (a copy of an image
+// writes here, never into data, heap or stack, until it is resumed).
 struct Scratch {
+  int uffd = -1;  // write tracking (track_writes_self), this process's own
+  int pagemap = -1;
+  Layout tracked{};
+  void (*standby_fn)(int) = nullptr;
+  int standby_arg = -1;
+  ucontext_t standby_context;
   PmScanArg arg;  // the kernel writes it back (walk_end): not on the tracked stack either
   std::array<PageRegion, 512> scanned;
   std::array<std::uint64_t, kMaxWrittenPages> addresses;
@@ -81,7 +89,7 @@ Scratch* map_scratch() {
   if (scratch != nullptr) return scratch;
   void* m = ::mmap(nullptr, sizeof(Scratch), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
   if (m == MAP_FAILED) return nullptr;
-  scratch = static_cast<Scratch*>(m);
+  scratch = new (m) Scratch{};
   return scratch;
 }
 
@@ -123,11 +131,14 @@ sys::SysResult<void> read_maps() {
           in_data = true;
         }
       }
-      if (std::strcmp(path, "[heap]") == 0) self.heap_lo = lo;
-      if (std::strcmp(path, "[stack]") == 0) {
+      const bool heap = std::strcmp(path, "[heap]") == 0;
+      const bool stack = std::strcmp(path, "[stack]") == 0;
+      if (heap) self.heap_lo = lo;
+      if (stack) {
         self.stack_lo = lo;
         self.stack_hi = hi;
       }
+      if (rw_private && !in_data && !heap && !stack) self.other_writable = true;
     }
     line = next;
   }
@@ -136,9 +147,12 @@ sys::SysResult<void> read_maps() {
   return {};
 }
 
-ucontext_t standby_context;
+void standby_entry() { scratch->standby_fn(scratch->standby_arg); ::_exit(3); }
 
-void standby_entry() { self.standby_fn(self.standby_arg); ::_exit(3); }
+// Set once a process of this executable tracks its writes; the same in its images (written only while false).
+bool tracks_writes_flag = false;
+
+bool in_region(const Region& r, std::uintptr_t page) { return page >= r.lo && page + kPage <= r.hi; }
 
 }  // namespace
 
@@ -152,12 +166,24 @@ const char* check(const Layout& l) {
   return nullptr;
 }
 
+// Grows the stack mapping `bytes` below the caller's frame, so that it need not grow later (a tracked
+// layout covers the stack mapping as it is; a page below it would be a page no image has).
+[[gnu::noinline]] void grow_stack(std::size_t bytes) {
+  const std::uintptr_t sp = stack_pointer();
+  for (std::uintptr_t a = page_down(sp); a > sp - bytes; a -= kPage) {
+    (void)*reinterpret_cast<volatile const char*>(a);
+  }
+}
+
 sys::SysResult<void> prepare_self() {
   if (self.standby_lo != 0) return {};  // prepared already
-  // Every allocation in the brk heap, which the layout covers: no mmap for large blocks, no second arena.
-  if (::mallopt(M_MMAP_MAX, 0) == 0 || ::mallopt(M_ARENA_MAX, 1) == 0) {
+  // Every allocation in the brk heap, which the layout covers: no mmap for large blocks, no second arena,
+  // no trimming (a heap that shrinks and grows again is a layout that changed), room to grow in steps.
+  if (::mallopt(M_MMAP_MAX, 0) == 0 || ::mallopt(M_ARENA_MAX, 1) == 0 ||
+      ::mallopt(M_TRIM_THRESHOLD, kHeapTopPad * 4) == 0 || ::mallopt(M_TOP_PAD, kHeapTopPad) == 0) {
     return std::unexpected(sys::SysError{"mallopt", EINVAL});
   }
+  grow_stack(kStackReserve);
   if (auto maps = read_maps(); !maps) return maps;
   void* standby = ::mmap(nullptr, kStandbyStackBytes, PROT_READ | PROT_WRITE,
                          MAP_PRIVATE | MAP_ANONYMOUS | MAP_STACK, -1, 0);
@@ -166,6 +192,8 @@ sys::SysResult<void> prepare_self() {
   if (map_scratch() == nullptr) return sys::last_error("mmap(scratch)");
   return {};
 }
+
+bool whole_memory_tracked() { return self.standby_lo != 0 && !self.other_writable; }
 
 [[gnu::noinline]] std::uintptr_t stack_pointer() {
   volatile char here = 0;
@@ -180,14 +208,15 @@ Layout layout_at(std::uintptr_t stack_pointer) {
 }
 
 void run_on_standby_stack(void (*fn)(int), int arg) {
-  self.standby_fn = fn;
-  self.standby_arg = arg;
-  if (::getcontext(&standby_context) != 0) ::_exit(3);
-  standby_context.uc_stack.ss_sp = reinterpret_cast<void*>(self.standby_lo);
-  standby_context.uc_stack.ss_size = kStandbyStackBytes;
-  standby_context.uc_link = nullptr;
-  ::makecontext(&standby_context, standby_entry, 0);
-  ::setcontext(&standby_context);
+  scratch->standby_fn = fn;
+  scratch->standby_arg = arg;
+  ucontext_t& ctx = scratch->standby_context;
+  if (::getcontext(&ctx) != 0) ::_exit(3);
+  ctx.uc_stack.ss_sp = reinterpret_cast<void*>(self.standby_lo);
+  ctx.uc_stack.ss_size = kStandbyStackBytes;
+  ctx.uc_link = nullptr;
+  ::makecontext(&ctx, standby_entry, 0);
+  ::setcontext(&ctx);
   ::_exit(3);  // setcontext does not return on success
 }
 
@@ -204,9 +233,7 @@ sys::SysResult<void> load_self(const Layout& layout, int image_fd) {
   // A fault below the stack mapping grows it (the image may have used more stack than this process).
   (void)*reinterpret_cast<volatile const char*>(layout.stack.lo);
   // From here on this process's data, heap and stack are the image's: raw system calls only, locals on the
-  // standby stack only. The image's tracking descriptors are its process's; this one keeps its own.
-  const int own_uffd = self.uffd;
-  const int own_pagemap = self.pagemap;
+  // standby stack only.
   off_t at = 0;
   for (const Region& r : {layout.data, layout.heap, layout.stack}) {
     std::size_t done = 0;
@@ -218,10 +245,7 @@ sys::SysResult<void> load_self(const Layout& layout, int image_fd) {
     }
     at += static_cast<off_t>(r.size());
   }
-  const bool image_tracked = self.uffd >= 0;
-  self.uffd = own_uffd;
-  self.pagemap = own_pagemap;
-  if (image_tracked) return track_writes_self();  // from the image as loaded
+  if (tracks_writes_flag) return track_writes_self();  // the image's process tracked: from the image as loaded
   return {};
 }
 
@@ -229,33 +253,44 @@ void resume_saved(Context& ctx) { __builtin_longjmp(ctx, 1); }
 
 // ---- written pages ----
 
-bool tracking_writes() { return self.uffd >= 0 && self.pagemap >= 0; }
+bool tracking_writes() { return scratch != nullptr && scratch->uffd >= 0; }
 
 void forget_tracking() {
-  if (self.uffd >= 0) ::close(self.uffd);
-  if (self.pagemap >= 0) ::close(self.pagemap);
-  self.uffd = -1;
-  self.pagemap = -1;
+  if (scratch == nullptr) return;
+  if (scratch->uffd >= 0) ::close(scratch->uffd);
+  if (scratch->pagemap >= 0) ::close(scratch->pagemap);
+  scratch->uffd = -1;
+  scratch->pagemap = -1;
 }
 
-Layout tracked_layout() { return self.tracked; }
+Layout tracked_layout() { return scratch != nullptr ? scratch->tracked : Layout{}; }
+
+bool layout_unchanged(std::uintptr_t stack_pointer) {
+  if (!tracking_writes()) return false;
+  const Layout now = layout_at(stack_pointer);
+  return now.heap == scratch->tracked.heap && now.stack.lo >= scratch->tracked.stack.lo;
+}
 
 sys::SysResult<void> track_writes_self() {
   forget_tracking();
   if (scratch == nullptr) return std::unexpected(sys::SysError{"track_writes_self: call prepare_self first", EINVAL});
   const auto brk = reinterpret_cast<std::uintptr_t>(::sbrk(0));
-  self.tracked = Layout{.data = self.data,
-                        .heap = Region{self.heap_lo, (brk + kPage - 1) & ~(kPage - 1)},
-                        .stack = Region{self.stack_lo, self.stack_hi}};
-  const int uffd = high_fd(static_cast<int>(::syscall(SYS_userfaultfd, O_CLOEXEC | O_NONBLOCK)));
+  scratch->tracked = Layout{.data = self.data,
+                            .heap = Region{self.heap_lo, (brk + kPage - 1) & ~(kPage - 1)},
+                            .stack = Region{self.stack_lo, self.stack_hi}};
+  // User-mode faults only: what an unprivileged process may ask for (vm.unprivileged_userfaultfd = 0). The
+  // asynchronous mode resolves every write fault, the kernel's own included, without a handler.
+  int uffd = high_fd(static_cast<int>(::syscall(SYS_userfaultfd, O_CLOEXEC | O_NONBLOCK | kUffdUserModeOnly)));
+  if (uffd < 0) uffd = high_fd(static_cast<int>(::syscall(SYS_userfaultfd, O_CLOEXEC | O_NONBLOCK)));
   if (uffd < 0) return sys::last_error("userfaultfd");
-  self.uffd = uffd;
+  scratch->uffd = uffd;
   uffdio_api api{.api = UFFD_API, .features = kUffdFeatureWpAsync | kUffdFeatureWpUnpopulated, .ioctls = 0};
   if (::ioctl(uffd, UFFDIO_API, &api) != 0) {
     forget_tracking();
     return sys::last_error("UFFDIO_API (WP_ASYNC)");
   }
-  for (const Region& r : {self.tracked.data, self.tracked.heap, self.tracked.stack}) {
+  for (const Region& r : {scratch->tracked.data, scratch->tracked.heap, scratch->tracked.stack}) {
+    if (r.size() == 0) continue;
     uffdio_register reg{.range = {.start = r.lo, .len = r.size()}, .mode = UFFDIO_REGISTER_MODE_WP, .ioctls = 0};
     uffdio_writeprotect wp{.range = {.start = r.lo, .len = r.size()}, .mode = UFFDIO_WRITEPROTECT_MODE_WP};
     if (::ioctl(uffd, UFFDIO_REGISTER, &reg) != 0 || ::ioctl(uffd, UFFDIO_WRITEPROTECT, &wp) != 0) {
@@ -263,25 +298,27 @@ sys::SysResult<void> track_writes_self() {
       return sys::last_error("UFFDIO_REGISTER/WRITEPROTECT");
     }
   }
-  self.pagemap = high_fd(::open("/proc/self/pagemap", O_RDONLY | O_CLOEXEC));
-  if (self.pagemap < 0) {
-    forget_tracking();
-    return sys::last_error("open(/proc/self/pagemap)");
-  }
+  // A non-dumpable process of another uid than root cannot open its own pagemap: its kernel hands it one
+  // (copy_written_self's `pagemap`).
+  scratch->pagemap = high_fd(::open("/proc/self/pagemap", O_RDONLY | O_CLOEXEC));
+  if (!tracks_writes_flag) tracks_writes_flag = true;
   return {};
 }
 
-sys::SysResult<std::size_t> copy_written_self(int fd) {
+sys::SysResult<std::size_t> copy_written_self(int fd, int pagemap) {
   if (!tracking_writes()) return std::unexpected(sys::SysError{"copy_written_self: not tracking", EINVAL});
+  if (pagemap < 0) pagemap = scratch->pagemap;
+  if (pagemap < 0) return std::unexpected(sys::SysError{"copy_written_self: no pagemap", EBADF});
   std::size_t n = 0;
   std::size_t iovs = 0;
-  for (const Region& r : {self.tracked.data, self.tracked.heap, self.tracked.stack}) {
+  for (const Region& r : {scratch->tracked.data, scratch->tracked.heap, scratch->tracked.stack}) {
+    if (r.size() == 0) continue;
     PmScanArg& arg = scratch->arg;
     arg = PmScanArg{.size = sizeof(PmScanArg), .flags = kScanWpMatching | kScanCheckWpAsync, .start = r.lo,
                   .end = r.hi, .walk_end = 0, .vec = reinterpret_cast<std::uint64_t>(scratch->scanned.data()),
                   .vec_len = scratch->scanned.size(), .max_pages = 0, .category_inverted = 0,
                   .category_mask = kPageIsWritten, .category_anyof_mask = 0, .return_mask = kPageIsWritten};
-    const int got = ::ioctl(self.pagemap, kPagemapScan, &arg);
+    const int got = ::ioctl(pagemap, kPagemapScan, &arg);
     if (got < 0) return sys::last_error("PAGEMAP_SCAN");
     if (arg.walk_end != r.hi) return std::unexpected(sys::SysError{"PAGEMAP_SCAN: more runs than fit", E2BIG});
     for (int i = 0; i < got; ++i) {
@@ -302,6 +339,47 @@ sys::SysResult<std::size_t> copy_written_self(int fd) {
     return sys::last_error("pwritev");
   }
   return n;
+}
+
+sys::SysResult<void> apply_written(int fd, std::size_t pages) {
+  if (scratch == nullptr || pages > kMaxWrittenPages) return std::unexpected(sys::SysError{"apply_written: pages", EINVAL});
+  const auto table = static_cast<ssize_t>(pages * sizeof(std::uint64_t));
+  if (::pread(fd, scratch->addresses.data(), static_cast<std::size_t>(table), 0) != table) {
+    return sys::last_error("pread(page addresses)");
+  }
+  // Every page inside this process's data+bss, heap and stack: the same layout the pages were taken from
+  // (a service takes an image by written pages only while its layout is the one its base image has).
+  const Layout own = layout_at(self.stack_lo + kStackMargin);
+  std::uintptr_t previous = 0;
+  for (std::size_t i = 0; i < pages; ++i) {
+    const std::uintptr_t a = scratch->addresses[i];
+    if (a % kPage != 0 || (i > 0 && a <= previous) ||
+        !(in_region(own.data, a) || in_region(own.heap, a) || in_region(own.stack, a))) {
+      return std::unexpected(sys::SysError{"apply_written: a page outside the image", EINVAL});
+    }
+    previous = a;
+  }
+  // From here on: raw system calls and standby-stack locals only (the pages land in data, heap and stack).
+  std::size_t done = 0;
+  while (done < pages) {
+    std::size_t iovs = 0;
+    std::size_t first = done;
+    while (done < pages && iovs < scratch->pages.size()) {
+      const std::uintptr_t a = scratch->addresses[done];
+      if (iovs > 0 && reinterpret_cast<std::uintptr_t>(scratch->pages[iovs - 1].iov_base) +
+                              scratch->pages[iovs - 1].iov_len == a) {
+        scratch->pages[iovs - 1].iov_len += kPage;
+      } else {
+        scratch->pages[iovs++] = iovec{reinterpret_cast<void*>(a), kPage};
+      }
+      ++done;
+    }
+    const auto want = static_cast<long>((done - first) * kPage);
+    const ssize_t n = ::preadv(fd, scratch->pages.data(), static_cast<int>(iovs),
+                               static_cast<off_t>(kWrittenPagesAt + first * kPage));
+    if (n != want) return std::unexpected(sys::SysError{"preadv(pages)", n < 0 ? EFAULT : EIO});
+  }
+  return {};
 }
 
 std::optional<std::size_t> offset_in_image(const Layout& layout, std::uintptr_t address) {
@@ -326,4 +404,4 @@ sys::SysResult<void> read_process(pid_t pid, const Layout& layout, std::span<std
   return {};
 }
 
-}  // namespace rejuv::bench_image
+}  // namespace rejuv::memory_image

@@ -1,30 +1,27 @@
-// Images taken by copying memory instead of by fork (DESIGN §7, the paper's §V-B create_checkpoint and
-// §V-C rollback, which copy the task's memory inside the kernel module).
-//
-// Kept in bench/image, not in the runtime: measured against fork images (image_bench), it is 1.1–1.5× slower
-// on this VM — the copy is bandwidth-bound (≈ 4 GB/s through process_vm_readv, ~130 µs for a 550 KB service
-// against ~100 µs for its fork) — see docs/performance.md "Images by copy".
+// Images by memory instead of by fork alone (DESIGN §7, the paper's §V-B create_checkpoint and §V-C rollback,
+// which copy the task's memory inside the kernel module).
 //
 // A static, single-threaded service keeps all of its private writable memory in three regions: data+bss, the
-// brk heap and the used part of its stack. The scheme, for one service:
-//   - At start the service calls prepare_self(): malloc stays in the brk heap (no mmap, one arena), the
-//     fixed regions are recorded and a standby stack is mapped (outside every region).
-//   - A *zygote* is forked once and waits on the standby stack; it forks *holders* on request. Holders are
-//     never forked from the live service, so the live service takes no copy-on-write faults and no fork chain
-//     grows (a fork copies the anon_vma chain of every ancestor, see docs/performance.md).
-//   - Checkpoint: the service saves its context (REJUV_IMAGE_SAVE, in a frame that outlives the copy),
-//     reports layout_at(its stack pointer) and waits; the kernel copies the layout with read_process().
-//   - Load (off the critical path): a holder receives the bytes (a memfd) and calls load_self(), which makes
-//     its heap and stack as large as the image's and reads the image over its own memory.
-//   - Rollback: the holder's resume_saved() jumps into the saved context: the process continues where the
-//     image was taken, as the image, in a process that has never run compromised code.
+// brk heap and its stack (prepare_self ties malloc to the brk heap and grows the stack once, so that neither
+// moves). Two uses:
 //
-// Images by written pages (session 8): the same, but after one full image a checkpoint takes only the pages
-// written since the previous one. The service tracks its writes (track_writes_self), copies those pages
-// itself into a memfd (copy_written_self) and goes on without waiting; the kernel patches them into its copy
-// of the image, which holders load as before.
+// - The runtime's images by written pages (services/sdk/src/service.cpp, docs/protocol.md "Checkpoint and
+//   rollback"). The service tracks its writes (track_writes_self: userfaultfd write-protection in its
+//   asynchronous mode, read and re-armed with PAGEMAP_SCAN). A checkpoint whose base image the kernel still
+//   holds takes no fork: the service saves its context (REJUV_IMAGE_SAVE), copies the pages written since
+//   its base image into a sealed memfd (copy_written_self) and goes on. Off the critical path, a frozen copy
+//   of the base image forks, applies the pages to itself (apply_written) on its standby stack, and is the
+//   new image; resumed, it jumps into the saved context (resume_saved).
+// - bench/image, which measures images by fork, by copy (read_process/load_self into holders forked from a
+//   zygote) and by written pages side by side (docs/performance.md).
 //
-// Single-threaded processes of one static executable only (their regions are the same in every copy).
+// The rule that keeps an image equal to its process: a copy of an image writes only its standby stack and
+// the scratch mapping (this process's tracking state, the scan buffers) until it is resumed — never data,
+// heap or stack, which are what an image is made of. Bytes it must write there (the frames of the call that
+// took the image, below the saved context) are dead once the saved context is resumed.
+//
+// Single-threaded processes of one static executable only (their regions are the same in every copy);
+// whole_memory_tracked() says whether this process is one.
 #pragma once
 
 #include <sys/types.h>
@@ -36,7 +33,7 @@
 
 #include "rejuv/sys/fd.hpp"
 
-namespace rejuv::bench_image {
+namespace rejuv::memory_image {
 
 struct Region {
   std::uintptr_t lo = 0;
@@ -65,6 +62,9 @@ inline constexpr std::size_t kMaxImageBytes = std::size_t{64} << 20;
 
 // Once, before the service allocates much and before it forks anything.
 [[nodiscard]] sys::SysResult<void> prepare_self();
+// Prepared, and no private writable mapping beyond data+bss, heap and stack (a dynamically linked or
+// sanitized build has libraries' data): only then is an image by written pages the whole process.
+[[nodiscard]] bool whole_memory_tracked();
 // An address below every local of the calling function (the address of a local of a callee).
 [[nodiscard]] std::uintptr_t stack_pointer();
 // The layout now, with the stack from `stack_pointer` (less a margin for the red zone) to its top.
@@ -101,10 +101,19 @@ using Context = void* [5];
 void forget_tracking();
 // The layout written pages are relative to: data+bss, the heap now, the whole stack mapping.
 [[nodiscard]] Layout tracked_layout();
+// Tracking, and the heap and stack still where tracking started, with `stack_pointer` inside the tracked
+// stack: the written pages are then the whole difference from the base image.
+[[nodiscard]] bool layout_unchanged(std::uintptr_t stack_pointer);
 // Pages written since tracking started or since the last call, write-protected again, copied into `fd` as
 // records: the addresses (std::uint64_t each) from offset 0, the pages from kWrittenPagesAt on, in order.
 // Returns how many. Save the context first: the pages are the image as of now. `fd` −1: only re-arms.
-[[nodiscard]] sys::SysResult<std::size_t> copy_written_self(int fd);
+// `pagemap`: this process's /proc/<pid>/pagemap opened by someone allowed to (its kernel), or −1 for the
+// one track_writes_self opened itself, if it could.
+[[nodiscard]] sys::SysResult<std::size_t> copy_written_self(int fd, int pagemap = -1);
+// In a copy of the base image, on the standby stack: writes `pages` pages of a record file that
+// copy_written_self filled (and that nobody can change any more: a sealed memfd) over this process's
+// memory. EINVAL if an address is not a page of this process's data+bss, heap or stack, or out of order.
+[[nodiscard]] sys::SysResult<void> apply_written(int fd, std::size_t pages);
 inline constexpr std::size_t kPageBytes = 4096;
 inline constexpr std::size_t kMaxWrittenPages = 4096;
 inline constexpr std::size_t kWrittenPagesAt = kMaxWrittenPages * sizeof(std::uint64_t);
@@ -119,4 +128,4 @@ inline constexpr std::size_t kMaxWrittenBytes = kWrittenPagesAt + kMaxWrittenPag
 // Copies `layout` of process `pid` (stopped at its save point) into `into` (layout.bytes() long).
 [[nodiscard]] sys::SysResult<void> read_process(pid_t pid, const Layout& layout, std::span<std::byte> into);
 
-}  // namespace rejuv::bench_image
+}  // namespace rejuv::memory_image
