@@ -189,14 +189,17 @@ void Kernel::Impl::run_checkpoint() {
       break;
     }
     const Generation base = pages_base_for(s);
+    // The pagemap goes with the first Snapshot that offers a base to this incarnation; the service keeps it.
+    const bool with_pagemap = base.value() != 0 && s.pagemap_sent != s.process.pid();
     const std::array<int, 2> fds{pair->second.fd(), s.pagemap.get()};
     const wire::SnapshotBody body{.base = base.value()};
     if (!tx.build_with(wire::FrameKind::Snapshot, 0, 0, g.value(), body)) break;
-    if (auto sent = s.channel.send(tx.bytes(), std::span(fds).first(base.value() != 0 ? 2 : 1)); !sent) {
+    if (auto sent = s.channel.send(tx.bytes(), std::span(fds).first(with_pagemap ? 2 : 1)); !sent) {
       run.failure = "Snapshot to '" + s.name + "': " + sent.error().to_string();
       break;
     }
     ++s.stats.frames_out;
+    if (with_pagemap) s.pagemap_sent = s.process.pid();
     // The image end stays with the kernel until the answer: by fork it is closed, by written pages it goes
     // to the copy of the base that becomes the image (send_patches).
     run.record.images.push_back(image::Image{.service = s.id, .copies = {}, .resume = std::move(pair->first),
@@ -299,7 +302,9 @@ Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
   if (std::find(kept.end() - static_cast<std::ptrdiff_t>(survivors), kept.end(), base) == kept.end()) return Generation{};
   image::GenerationRecord* record = images.find(base);
   image::Image* im = record != nullptr ? record->image_of(s.id) : nullptr;
-  if (im == nullptr || (im->refresh() == 0 && !im->patch_pending)) return Generation{};
+  // No refresh() here (a receive and a wait per copy, on the critical path): a copy that died since is found
+  // when the Patch goes unanswered, and a rollback to this generation falls back (dead_image).
+  if (im == nullptr || (im->copies.empty() && !im->patch_pending)) return Generation{};
   return base;
 }
 

@@ -78,6 +78,7 @@ struct ServiceRuntime {
   Generation image_base{};         // the generation this incarnation's memory derives from (0: a fresh start)
   sys::UniqueFd pagemap{};         // /proc/<pid>/pagemap of pagemap_pid, for the Snapshot (refill_pairs)
   pid_t pagemap_pid = 0;
+  pid_t pagemap_sent = 0;          // the incarnation that has it (the service keeps it)
   bool skip = false;               // not started (KernelOptions::skip_services, or SR-only with SR off)
   std::string skip_reason{};
   std::string executable{};

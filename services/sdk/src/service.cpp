@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <deque>
 #include <string>
+#include <utility>
 
 #include <fcntl.h>
 #include <sys/mman.h>
@@ -178,6 +179,10 @@ struct Service::Impl {
   // next image is by fork).
   bool pages_capable = false;
   std::uint64_t tracked_base = 0;
+  // This incarnation's pagemap (the kernel's, with its first Snapshot that offers a base) and the memfd the
+  // next image's pages go into (made after a checkpoint, when the next frame comes: off its critical path).
+  int pagemap_fd = -1;
+  int next_pages_fd = -1;
   WorkerSet* workers = nullptr;  // owned; raw because a restored image leaks its copy (workers.hpp)
   alignas(8) std::array<std::byte, wire::kMaxFrameBytes> rx{};
   wire::FrameBuffer tx;
@@ -307,6 +312,12 @@ struct Service::Impl {
   static constexpr std::chrono::milliseconds kWorkerParkDeadline{500};
   SdkResult<bool> take_image(std::uint64_t g, std::uint64_t base);
   SdkResult<bool> resumed_image();
+  // The memfd for the next image by written pages, if tracking and none is made yet.
+  void prepare_pages_fd() {
+    if (next_pages_fd < 0 && tracked_base != 0) {
+      next_pages_fd = ::memfd_create("rejuv-image-pages", MFD_CLOEXEC | MFD_ALLOW_SEALING);
+    }
+  }
 
   // Sends a request and waits for its Reply, queueing every other frame (handled later, in order).
   SdkResult<InvokeReply> request(std::span<std::byte> out, std::string_view what) {
@@ -458,9 +469,13 @@ void send_on(int fd, wire::FrameKind kind, std::uint64_t g, pid_t pid) {
 // local that owns anything may live across the save: a resumed image returns through this frame and would
 // run its destructors with the live process's values.
 SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
-  // The resume socket, and with a base offered this process's pagemap (it cannot open its own: not dumpable).
+  // The resume socket, and with the first base offered this process's pagemap (it cannot open its own: it is
+  // not dumpable), kept for the next ones.
   const int resume_fd = !rx_fds.empty() ? rx_fds.front().release() : -1;
-  sys::UniqueFd pagemap = rx_fds.size() == 2 ? std::move(rx_fds.back()) : sys::UniqueFd();
+  if (rx_fds.size() == 2) {
+    if (pagemap_fd >= 0) ::close(pagemap_fd);
+    pagemap_fd = rx_fds.back().release();
+  }
   rx_fds.clear();
   const auto answer = [&](wire::FrameKind kind, pid_t pid) -> SdkResult<void> {
     const wire::TakenBody body{.image_pid = pid, .reserved = 0};
@@ -471,13 +486,12 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
   if (base != 0 && base == tracked_base && workers == nullptr &&
       memory_image::layout_unchanged(memory_image::stack_pointer())) {
     if (resume_fd >= 0) ::close(resume_fd);  // the image is made from the base's, which has its own
-    const int scan = pagemap.release();      // no owner across the save (above)
     if (auto f = flush(); !f) return std::unexpected(f.error());
-    const int pages = ::memfd_create("rejuv-image-pages", MFD_CLOEXEC | MFD_ALLOW_SEALING);
+    prepare_pages_fd();
+    const int pages = std::exchange(next_pages_fd, -1);
     if (pages < 0) return io_error(sys::SysError{"memfd_create", errno});
     if (REJUV_IMAGE_SAVE(image_context) != 0) return resumed_image();
-    auto n = memory_image::copy_written_self(pages, scan);
-    if (scan >= 0) ::close(scan);
+    auto n = memory_image::copy_written_self(pages, pagemap_fd);
     constexpr int kSeals = F_SEAL_SEAL | F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_WRITE;
     tracked_base = 0;  // until the answer is on its way: a failure leaves the tracking in no known state
     if (!n || ::fcntl(pages, F_ADD_SEALS, kSeals) != 0) {
@@ -493,7 +507,6 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
     if (!sent) return io_error(sent.error());
     return false;
   }
-  pagemap.reset();
   // The resume socket is made blocking here, for the image (the live process never reads it): a new copy
   // then has nothing to set up before it blocks on it.
   if (resume_fd < 0 || !sys::set_nonblocking(resume_fd, false) ||
@@ -506,6 +519,7 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
     ::close(resume_fd);
     return std::unexpected(f.error());
   }
+  if (next_pages_fd >= 0) ::close(std::exchange(next_pages_fd, -1));  // not into the image's fd table
   handoff.generation = g;
   if (REJUV_IMAGE_SAVE(image_context) != 0) return resumed_image();
   // Tracking starts (again) before the fork: what this process writes from here on is what its next image
@@ -528,6 +542,8 @@ SdkResult<bool> Service::Impl::resumed_image() {
   restored = CheckpointOutcome{.kind = CheckpointOutcome::Kind::Restored, .generation = Generation{handoff.generation},
                                .epoch = Epoch{handoff.epoch}};
   tracked_base = handoff.tracking ? handoff.generation : 0;
+  pagemap_fd = -1;     // the numbers were the live process's: this one's kernel sends its own
+  next_pages_fd = -1;
   if (workers != nullptr) workers = WorkerSet::respawn_in_image(workers);
   const wire::TakenBody answer{.image_pid = sys::current_pid(), .reserved = 0};
   if (!tx.build_with(wire::FrameKind::Resumed, 0, 0, handoff.generation, answer) || !send_built() || !flush()) {
@@ -911,6 +927,7 @@ int Service::run() {
         }
         if (!s.flush()) return 1;
         got = s.receive(true);  // sleeps in recvmmsg until the next frame: the wait is the read
+        s.prepare_pages_fd();   // after a checkpoint's commit (no frame comes before it), not inside it
       }
       if (!got) {
         if (got.error().code == SdkError::ChannelClosed) return 1;
