@@ -86,7 +86,7 @@ struct KernelOptions {
   Nanos resume_deadline{std::chrono::seconds{2}};     // Resume → Resumed from every image
   // Images by written pages (DESIGN §7, docs/protocol.md "Checkpoint and rollback"): a Snapshot offers the
   // base generation a service's memory derives from, so that it need not fork. false: every image by fork
-  // (`rejuv run|bench images --images fork`, for comparison).
+  // (tests compare the two ways).
   bool images_by_pages = true;
   // Network gate (DESIGN §2): the UDP port of the external link, overriding the graph's `network.bind_port`
   // (0 = ephemeral: Kernel::network_port() tells which; tests use it).
