@@ -62,7 +62,8 @@ bool Image::request_spare(Generation g) {
 
 std::optional<ServiceId> GenerationRecord::dead_image() {
   for (Image& i : images) {
-    if (i.refresh() == 0 && !i.patch_pending) return i.service;
+    (void)i.refresh();
+    if (!i.has_copy_or_patch()) return i.service;
   }
   return std::nullopt;
 }
@@ -135,7 +136,9 @@ void ImageStore::refresh_all() {
 std::size_t ImageStore::spares_pending() const {
   std::size_t n = 0;
   for (const GenerationRecord& r : generations_) {
-    for (const Image& i : r.images) n += (i.copies.empty() && !i.patch_pending ? 0 : i.spares_pending) + (i.patch_pending ? 1 : 0);
+    for (const Image& i : r.images) {
+      if (i.has_copy_or_patch()) n += i.spares_pending + (i.patch_pending ? 1 : 0);
+    }
   }
   return n;
 }

@@ -4,8 +4,10 @@
 // Checkpoint g (the caller — checkpoint_p in CP — invoked CheckpointCreate and waits for its Reply):
 //   1. At a quiescent point (lockstep: every other service idle; every channel drained) routing freezes:
 //      publications still land in the rings but nothing is delivered, so no service reads past the cut.
-//   2. Every live rejuvenated service gets Snapshot{g} with a fresh resume socket, forks its image (the
-//      kernel's child, clone(CLONE_PARENT)) and answers Taken{g, pid}. The caller forks inside its call.
+//   2. Every live rejuvenated service gets Snapshot{g, base} with a fresh resume socket. Where it can, it
+//      copies the pages written since `base` into a sealed memfd and answers TakenPages (after the commit a
+//      copy of base's image makes g's from them: send_patches); otherwise it forks its image (the kernel's
+//      child, clone(CLONE_PARENT)) and answers Taken{g, pid}. The caller takes its image inside its call.
 //   3. Publications that arrive before their sender's Taken belong before the cut: they are applied to the
 //      rings, undelivered. Then the rings, generations, cursors, each service's subscriptions and timers and
 //      t_cp are saved beside the images; the oldest generation beyond K is discarded; the caller gets its
@@ -13,8 +15,8 @@
 // Rollback (the rejuvenation timer, a CheckpointRollback, a rejuvenated service lost):
 //   1. Mode RB (network revoked). Every live rejuvenated service is cut off (its channel out of the loop,
 //      closed after the timed part) and set to SCHED_IDLE; it is killed once the rollback is over.
-//   2. Each image of the newest intact generation gets Resume{g, epoch} with a new channel and the resume
-//      socket of its next frozen copy; it forks that copy and answers Resumed{g, copy pid} on the new channel.
+//   2. Each image of the newest intact generation gets Resume{g, epoch} with a new channel; the frozen copy
+//      that reads it answers Resumed{g, its pid} on the new channel; a Fork afterwards makes a new spare.
 //   3. The queue state and kernel objects are restored (periodic and one-shot timers shifted by now − t_cp);
 //      rollback_signal and sr_mode are published; routing resumes. Driver-level services (output_driver) are
 //      never touched: the broker re-bases their cursors to the restored head.
@@ -78,14 +80,14 @@ void Kernel::Impl::refill_pairs() {
     if (!pair || !sys::set_nonblocking(pair->first.fd(), true)) return;
     pair_pool.push_back(std::move(*pair));
   }
-  // The pagemap of every live incarnation that may take its next image by written pages: a service is not
-  // dumpable and cannot open its own; the Snapshot hands it over (one open per incarnation, here).
+}
+
+void Kernel::Impl::open_pagemaps() {
+  if (!options.images_by_pages) return;
   for (ServiceRuntime& s : services) {
-    if (!options.images_by_pages || !s.rejuvenate || !s.live() || s.image_base.value() == 0) continue;
-    if (s.pagemap.valid() && s.pagemap_pid == s.process.pid()) continue;
+    if (!s.rejuvenate || !s.live() || s.image_base.value() == 0 || s.pagemap.valid()) continue;
     const std::string path = "/proc/" + std::to_string(s.process.pid()) + "/pagemap";
     s.pagemap = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-    s.pagemap_pid = s.process.pid();
   }
 }
 
@@ -146,7 +148,10 @@ bool Kernel::Impl::service_images() {
     return !status || *status;
   });
   if (!sr || stopping || checkpoint) return false;
-  if (!rollback_request && !checkpoint_request) refill_pairs();  // off the critical paths
+  if (!rollback_request && !checkpoint_request) {  // off the critical paths
+    refill_pairs();
+    open_pagemaps();
+  }
   if (rollback_request) {
     const std::string reason = std::move(*rollback_request);
     rollback_request.reset();
@@ -190,7 +195,7 @@ void Kernel::Impl::run_checkpoint() {
     }
     const Generation base = pages_base_for(s);
     // The pagemap goes with the first Snapshot that offers a base to this incarnation; the service keeps it.
-    const bool with_pagemap = base.value() != 0 && s.pagemap_sent != s.process.pid();
+    const bool with_pagemap = base.value() != 0 && !s.pagemap_sent;
     const std::array<int, 2> fds{pair->second.fd(), s.pagemap.get()};
     const wire::SnapshotBody body{.base = base.value()};
     if (!tx.build_with(wire::FrameKind::Snapshot, 0, 0, g.value(), body)) break;
@@ -199,8 +204,8 @@ void Kernel::Impl::run_checkpoint() {
       break;
     }
     ++s.stats.frames_out;
-    if (with_pagemap) s.pagemap_sent = s.process.pid();
-    // The image end stays with the kernel until the answer: by fork it is closed, by written pages it goes
+    if (with_pagemap) s.pagemap_sent = true;
+    // The image end stays with the kernel until the commit: by fork it is closed, by written pages it goes
     // to the copy of the base that becomes the image (send_patches).
     run.record.images.push_back(image::Image{.service = s.id, .copies = {}, .resume = std::move(pair->first),
                                              .base = base, .image_end = pair->second.take_fd()});
@@ -208,7 +213,8 @@ void Kernel::Impl::run_checkpoint() {
   }
   checkpoint = std::move(run);
   const Nanos t_sent = wall();
-  // Every other event is handled meanwhile (pump); Taken frames come through handle_frame → on_taken.
+  // Every other event is handled meanwhile (pump); Taken frames come through handle_frame → on_taken,
+  // TakenPages (with its fd) through read_channel → on_taken_pages.
   const Nanos deadline = wall() + options.snapshot_deadline;
   bool late = false;
   while (checkpoint->failure.empty() && !checkpoint->waiting.empty() && !stopping) {
@@ -251,10 +257,7 @@ void Kernel::Impl::run_checkpoint() {
   }
   broker.snapshot_into(done.record.queues);
   if (observer != nullptr) observer->on_checkpoint(g, broker);
-  for (image::Image& im : done.record.images) {
-    services[im.service.value()].image_base = g;
-    if (im.image_end.valid() && !im.pages.valid()) closing.push_back(std::move(im.image_end));  // by fork
-  }
+  for (const image::Image& im : done.record.images) services[im.service.value()].image_base = g;
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();
@@ -295,7 +298,7 @@ bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& fra
 Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
   const Generation base = s.image_base;
   if (!options.images_by_pages || base.value() == 0 || images.keep() < 2) return Generation{};
-  if (!s.pagemap.valid() || s.pagemap_pid != s.process.pid()) return Generation{};
+  if (!s.pagemap.valid()) return Generation{};
   // The base must outlive this checkpoint's commit, which keeps the newest keep − 1 generations and the new one.
   const std::vector<Generation> kept = images.generations();
   const std::size_t survivors = std::min(kept.size(), images.keep() - 1);
@@ -304,7 +307,7 @@ Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
   image::Image* im = record != nullptr ? record->image_of(s.id) : nullptr;
   // No refresh() here (a receive and a wait per copy, on the critical path): a copy that died since is found
   // when the Patch goes unanswered, and a rollback to this generation falls back (dead_image).
-  if (im == nullptr || (im->copies.empty() && !im->patch_pending)) return Generation{};
+  if (im == nullptr || !im->has_copy_or_patch()) return Generation{};
   return base;
 }
 
@@ -315,12 +318,11 @@ void Kernel::Impl::on_taken_pages(ServiceRuntime& s, const wire::FrameView& fram
   const auto body = wire::payload_as<wire::TakenPagesBody>(frame);
   // What the service may not choose: the base (the one offered), and pages that change after this answer
   // (every seal that freezes the memfd's contents).
-  constexpr int kSeals = F_SEAL_SEAL | F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_WRITE;
   const int seals = ::fcntl(pages.get(), F_GET_SEALS);
   if (im == nullptr || im->base.value() == 0 || body.base != im->base.value()) {
     run.failure = "'" + s.name + "' took its image against generation " + std::to_string(body.base) +
                   ", which was not offered";
-  } else if (seals < 0 || (seals & kSeals) != kSeals) {
+  } else if (seals < 0 || (seals & wire::kPagesSeals) != wire::kPagesSeals) {
     run.failure = "'" + s.name + "' sent written pages that are not sealed";
   } else if (body.pages > wire::kMaxImagePages) {
     run.failure = "'" + s.name + "' sent " + std::to_string(body.pages) + " written pages (at most " +
@@ -333,7 +335,11 @@ void Kernel::Impl::on_taken_pages(ServiceRuntime& s, const wire::FrameView& fram
 
 void Kernel::Impl::send_patches(image::GenerationRecord& record) {
   for (image::Image& im : record.images) {
-    if (!im.pages.valid()) continue;
+    if (!im.pages.valid()) {  // by fork: the image is its own process
+      ++sr_stats.images_by_fork;
+      closing.push_back(std::move(im.image_end));
+      continue;
+    }
     ++sr_stats.images_by_pages;
     image::GenerationRecord* base = images.find(im.base);
     image::Image* from = base != nullptr ? base->image_of(im.service) : nullptr;
@@ -376,10 +382,7 @@ void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
                   child.error().to_string() + ")";
     return;
   }
-  image::Image* im = run.record.image_of(s.id);
-  im->copies.push_back(std::move(*child));
-  im->base = Generation{};  // by fork
-  ++sr_stats.images_by_fork;
+  run.record.image_of(s.id)->copies.push_back(std::move(*child));
 }
 
 // ---- rollback ----
@@ -492,7 +495,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
       continue;  // its copies are killed with the generation
     }
     p.image->resumed.push_back(pid);
-    s.image_base = record.g;
+    s.start_incarnation(record.g);
     s.channel = std::move(p.channel);
     s.phase = Phase::Ready;
     s.frames_base = s.stats.frames_out;

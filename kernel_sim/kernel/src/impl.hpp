@@ -75,10 +75,11 @@ struct ServiceRuntime {
   std::string name{};
   const proto::ServiceSpec* spec = nullptr;
   bool rejuvenate = true;          // false = driver level (DESIGN §2)
-  Generation image_base{};         // the generation this incarnation's memory derives from (0: a fresh start)
-  sys::UniqueFd pagemap{};         // /proc/<pid>/pagemap of pagemap_pid, for the Snapshot (refill_pairs)
-  pid_t pagemap_pid = 0;
-  pid_t pagemap_sent = 0;          // the incarnation that has it (the service keeps it)
+  // Images by written pages, per incarnation (start_incarnation): the generation its memory derives from
+  // (0: a fresh start), its /proc/<pid>/pagemap (open_pagemaps) and whether a Snapshot has handed it over.
+  Generation image_base{};
+  sys::UniqueFd pagemap{};
+  bool pagemap_sent = false;
   bool skip = false;               // not started (KernelOptions::skip_services, or SR-only with SR off)
   std::string skip_reason{};
   std::string executable{};
@@ -111,6 +112,12 @@ struct ServiceRuntime {
   std::uint64_t staged_this_step = 0;
   ServiceStats stats{};
 
+  // A new process is this service: spawned (base 0) or resumed from generation `base`'s image.
+  void start_incarnation(Generation base) {
+    image_base = base;
+    pagemap.reset();
+    pagemap_sent = false;
+  }
   [[nodiscard]] bool live() const { return phase == Phase::Spawned || phase == Phase::Booted || phase == Phase::Ready; }
   [[nodiscard]] bool idle() const {
     return phase != Phase::Ready || (idle_count + frames_base == stats.frames_out && drained());
@@ -274,6 +281,9 @@ struct Kernel::Impl {
   void finish_retiring(bool final);
   [[nodiscard]] std::optional<std::pair<sys::SeqPacket, sys::SeqPacket>> take_pair();
   void refill_pairs();
+  // Opens the pagemap of every live incarnation that may take its next image by written pages (a service is
+  // not dumpable and cannot open its own; the Snapshot hands it over). Off the critical paths, like refill_pairs.
+  void open_pagemaps();
 
   // ---- run state ----
   bool booted = false;

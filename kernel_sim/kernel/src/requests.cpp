@@ -52,7 +52,6 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
           continue;
         }
         on_taken_pages(s, *frame, std::move(r.fds.front()));  // images.cpp
-        r.fds.clear();
         continue;
       }
       std::size_t offset = 0;

@@ -130,7 +130,7 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   s.process = std::move(*child);
   s.channel = std::move(kernel_end);
   s.phase = Phase::Spawned;
-  s.image_base = Generation{};  // a fresh process: its first image is by fork
+  s.start_incarnation(Generation{});  // a fresh process: its first image is by fork
   s.spawned_at = wall();
   s.limiter.last = s.spawned_at;
   if (auto ok = epoll.add(s.channel.fd(), token(Source::Channel, s.id.value())); !ok) return system_error(ok.error());

@@ -56,14 +56,9 @@ SysResult<void> SeqPacket::send(std::span<const std::byte> frame, std::span<cons
 
 namespace {
 
-// What recvmmsg reported for one datagram: its size, flags and the fds it carried (beyond max_fds:
-// closed here and flagged, so that a hostile peer's fds are never leaked).
-Received describe(msghdr& msg, std::size_t n, std::size_t buffer_size, std::size_t max_fds) {
-  Received r;
-  r.size = n;
-  r.truncated = (msg.msg_flags & MSG_TRUNC) != 0;
-  r.fds_truncated = (msg.msg_flags & MSG_CTRUNC) != 0;
-  r.closed = n == 0 && buffer_size > 0 && !r.truncated;
+// Calls take(fd) for every fd a received message carried (SCM_RIGHTS); the callee owns it.
+template <class F>
+void for_each_fd(msghdr& msg, F take) {
   for (cmsghdr* cmsg = CMSG_FIRSTHDR(&msg); cmsg != nullptr; cmsg = CMSG_NXTHDR(&msg, cmsg)) {
     if (cmsg->cmsg_level != SOL_SOCKET || cmsg->cmsg_type != SCM_RIGHTS) {
       continue;
@@ -72,14 +67,27 @@ Received describe(msghdr& msg, std::size_t n, std::size_t buffer_size, std::size
     for (std::size_t i = 0; i < count; ++i) {
       int fd = -1;
       std::memcpy(&fd, CMSG_DATA(cmsg) + i * sizeof(int), sizeof(int));
-      UniqueFd owned(fd);
-      if (r.fds.size() < max_fds) {
-        r.fds.push_back(std::move(owned));
-      } else {
-        r.fds_truncated = true;  // unexpected fd: closed right here by UniqueFd
-      }
+      take(fd);
     }
   }
+}
+
+// What recvmmsg reported for one datagram: its size, flags and the fds it carried (beyond max_fds:
+// closed here and flagged, so that a hostile peer's fds are never leaked).
+Received describe(msghdr& msg, std::size_t n, std::size_t buffer_size, std::size_t max_fds) {
+  Received r;
+  r.size = n;
+  r.truncated = (msg.msg_flags & MSG_TRUNC) != 0;
+  r.fds_truncated = (msg.msg_flags & MSG_CTRUNC) != 0;
+  r.closed = n == 0 && buffer_size > 0 && !r.truncated;
+  for_each_fd(msg, [&](int fd) {
+    UniqueFd owned(fd);
+    if (r.fds.size() < max_fds) {
+      r.fds.push_back(std::move(owned));
+    } else {
+      r.fds_truncated = true;  // unexpected fd: closed right here by UniqueFd
+    }
+  });
   return r;
 }
 
@@ -123,6 +131,31 @@ SysResult<std::size_t> SeqPacket::receive_batch(std::span<std::byte> slots, std:
     if (out[i].closed) return i + 1;  // end of stream: what follows it is more of the same
   }
   return static_cast<std::size_t>(got);
+}
+
+SysResult<std::size_t> SeqPacket::receive_into(std::span<std::byte> buf, std::span<int> fds,
+                                               std::size_t& fd_count) const {
+  iovec iov{buf.data(), buf.size()};
+  alignas(cmsghdr) Control control{};
+  msghdr msg{};
+  msg.msg_iov = &iov;
+  msg.msg_iovlen = 1;
+  msg.msg_control = control.data();
+  msg.msg_controllen = control.size();
+  ssize_t n = -1;
+  do {
+    n = ::recvmsg(fd_.get(), &msg, MSG_CMSG_CLOEXEC);
+  } while (n < 0 && errno == EINTR);
+  fd_count = 0;
+  if (n < 0) return last_error("recvmsg");
+  for_each_fd(msg, [&](int fd) {
+    if (fd_count < fds.size()) {
+      fds[fd_count++] = fd;
+    } else {
+      ::close(fd);
+    }
+  });
+  return static_cast<std::size_t>(n);
 }
 
 }  // namespace rejuv::sys

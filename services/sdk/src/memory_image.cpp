@@ -29,6 +29,7 @@ constexpr int kHeapTopPad = 256 << 10;                        // malloc grows th
 constexpr std::uintptr_t kStackMargin = 512;
 
 std::uintptr_t page_down(std::uintptr_t a) { return a & ~(kPage - 1); }
+std::uintptr_t page_up(std::uintptr_t a) { return page_down(a + kPage - 1); }
 
 // The fixed facts of this executable's address space, the same in every process forked from it. They live
 // in .bss and are written once, by prepare_self before any copy exists, so an image has the same values.
@@ -152,7 +153,12 @@ void standby_entry() { scratch->standby_fn(scratch->standby_arg); ::_exit(3); }
 // Set once a process of this executable tracks its writes; the same in its images (written only while false).
 bool tracks_writes_flag = false;
 
-bool in_region(const Region& r, std::uintptr_t page) { return page >= r.lo && page + kPage <= r.hi; }
+// Data+bss, the heap as it is now and the whole stack mapping: what tracking covers and pages may land in.
+Layout whole_layout() {
+  return Layout{.data = self.data,
+                .heap = Region{self.heap_lo, page_up(reinterpret_cast<std::uintptr_t>(::sbrk(0)))},
+                .stack = Region{self.stack_lo, self.stack_hi}};
+}
 
 }  // namespace
 
@@ -193,7 +199,7 @@ sys::SysResult<void> prepare_self() {
   return {};
 }
 
-bool whole_memory_tracked() { return self.standby_lo != 0 && !self.other_writable; }
+bool whole_memory_tracked() { return scratch != nullptr && !self.other_writable; }
 
 [[gnu::noinline]] std::uintptr_t stack_pointer() {
   volatile char here = 0;
@@ -201,10 +207,9 @@ bool whole_memory_tracked() { return self.standby_lo != 0 && !self.other_writabl
 }
 
 Layout layout_at(std::uintptr_t stack_pointer) {
-  const auto brk = reinterpret_cast<std::uintptr_t>(::sbrk(0));
-  return Layout{.data = self.data,
-                .heap = Region{self.heap_lo, (brk + kPage - 1) & ~(kPage - 1)},
-                .stack = Region{page_down(stack_pointer - kStackMargin), self.stack_hi}};
+  Layout now = whole_layout();
+  now.stack.lo = page_down(stack_pointer - kStackMargin);
+  return now;
 }
 
 void run_on_standby_stack(void (*fn)(int), int arg) {
@@ -274,10 +279,7 @@ bool layout_unchanged(std::uintptr_t stack_pointer) {
 sys::SysResult<void> track_writes_self() {
   forget_tracking();
   if (scratch == nullptr) return std::unexpected(sys::SysError{"track_writes_self: call prepare_self first", EINVAL});
-  const auto brk = reinterpret_cast<std::uintptr_t>(::sbrk(0));
-  scratch->tracked = Layout{.data = self.data,
-                            .heap = Region{self.heap_lo, (brk + kPage - 1) & ~(kPage - 1)},
-                            .stack = Region{self.stack_lo, self.stack_hi}};
+  scratch->tracked = whole_layout();
   // User-mode faults only: what an unprivileged process may ask for (vm.unprivileged_userfaultfd = 0). The
   // asynchronous mode resolves every write fault, the kernel's own included, without a handler.
   int uffd = high_fd(static_cast<int>(::syscall(SYS_userfaultfd, O_CLOEXEC | O_NONBLOCK | kUffdUserModeOnly)));
@@ -349,12 +351,11 @@ sys::SysResult<void> apply_written(int fd, std::size_t pages) {
   }
   // Every page inside this process's data+bss, heap and stack: the same layout the pages were taken from
   // (a service takes an image by written pages only while its layout is the one its base image has).
-  const Layout own = layout_at(self.stack_lo + kStackMargin);
+  const Layout own = whole_layout();
   std::uintptr_t previous = 0;
   for (std::size_t i = 0; i < pages; ++i) {
     const std::uintptr_t a = scratch->addresses[i];
-    if (a % kPage != 0 || (i > 0 && a <= previous) ||
-        !(in_region(own.data, a) || in_region(own.heap, a) || in_region(own.stack, a))) {
+    if (a % kPage != 0 || (i > 0 && a <= previous) || !offset_in_image(own, a)) {
       return std::unexpected(sys::SysError{"apply_written: a page outside the image", EINVAL});
     }
     previous = a;

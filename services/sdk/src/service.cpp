@@ -174,10 +174,9 @@ struct Service::Impl {
   std::vector<sys::UniqueFd> rx_fds;          // fds that came with the frame in rx (Snapshot: one or two)
   // Images (DESIGN §7): set in a restored image, the answer of the checkpoint() call it was taken in.
   std::optional<CheckpointOutcome> restored;
-  // Images by written pages (memory_image.hpp): whether this process can take them at all (static, prepared
-  // at connect), and the generation its memory derives from as far as its write tracking goes (0: none, the
-  // next image is by fork).
-  bool pages_capable = false;
+  // Images by written pages (memory_image.hpp; possible at all where memory_image::whole_memory_tracked()):
+  // the generation this process's memory derives from as far as its write tracking goes (0: none, the next
+  // image is by fork).
   std::uint64_t tracked_base = 0;
   // This incarnation's pagemap (the kernel's, with its first Snapshot that offers a base) and the memfd the
   // next image's pages go into (made after a checkpoint, when the next frame comes: off its critical path).
@@ -358,22 +357,21 @@ struct Handoff {
   std::uint64_t generation = 0;  // of the image (before the jump: which one a new copy serves)
   std::uint32_t epoch = 0;       // Resume: the epoch the restored incarnation runs in
   bool tracking = false;         // Resume: the copy tracks its writes from the image
-  bool pages_capable = false;    // copies track their writes (set once at connect)
 };
 Handoff handoff{};
+static_assert(memory_image::kMaxWrittenPages == wire::kMaxImagePages, "one limit on an image's written pages");
 
-// A frozen copy tracks its writes from the image, so that once resumed its next image can be by written
-// pages. Its tracking state lives outside data, heap and stack (memory_image.hpp).
+// A frozen copy tracks its writes from the image (track_writes_self drops what it inherited first), so that
+// once resumed its next image can be by written pages. Its tracking state lives outside data, heap and stack.
 void track_copy() {
-  memory_image::forget_tracking();  // the inherited descriptors name the process it was forked from
-  if (handoff.pages_capable) (void)memory_image::track_writes_self();
+  if (memory_image::whole_memory_tracked()) (void)memory_image::track_writes_self();
 }
 
-// Sends one frame on a resume socket from a frozen copy (standby stack, no allocation).
-void send_on(int fd, wire::FrameKind kind, std::uint64_t g, pid_t pid) {
+// Copied{g, pid} on a resume socket, from a frozen copy (standby stack, no allocation).
+void answer_copied(const sys::SeqPacket& to, std::uint64_t g, pid_t pid) {
   wire::FrameBuffer out;
   const wire::TakenBody body{.image_pid = pid, .reserved = 0};
-  if (out.build_with(kind, 0, 0, g, body)) (void)::send(fd, out.bytes().data(), out.bytes().size(), MSG_NOSIGNAL);
+  if (out.build_with(wire::FrameKind::Copied, 0, 0, g, body)) (void)to.send(out.bytes());
 }
 
 // A frozen image of generation handoff.generation (DESIGN §7), on the standby stack: blocks on its resume
@@ -384,30 +382,19 @@ void send_on(int fd, wire::FrameKind kind, std::uint64_t g, pid_t pid) {
 //   Resume{g, epoch} with a new channel: the copy that reads it takes the channel at fd 3 and jumps into the
 //     context the image was taken in (take_image), where it continues as the live service.
 // The kernel closing the socket (generation discarded) or killing the copy ends it. Until the jump it
-// writes nothing but its standby stack and memory_image's scratch (the rule memory_image.hpp states).
+// writes nothing but its standby stack and memory_image's scratch (the rule memory_image.hpp states): no
+// allocation, so the socket is read with SeqPacket::receive_into.
 [[noreturn]] void frozen_image(int resume_fd) {
   std::uint64_t g = handoff.generation;
+  sys::SeqPacket resume{sys::UniqueFd(resume_fd)};
   track_copy();
   for (;;) {
     alignas(8) std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::PatchBody)> buf{};
-    alignas(cmsghdr) std::array<char, CMSG_SPACE(2 * sizeof(int))> control{};
-    iovec iov{buf.data(), buf.size()};
-    msghdr msg{};
-    msg.msg_iov = &iov;
-    msg.msg_iovlen = 1;
-    msg.msg_control = control.data();
-    msg.msg_controllen = control.size();
-    const ssize_t n = ::recvmsg(resume_fd, &msg, MSG_CMSG_CLOEXEC);
-    if (n < 0 && errno == EINTR) continue;
     std::array<int, 2> fds{-1, -1};
     std::size_t nfds = 0;
-    for (cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr; c = CMSG_NXTHDR(&msg, c)) {
-      if (c->cmsg_level != SOL_SOCKET || c->cmsg_type != SCM_RIGHTS) continue;
-      nfds = std::min<std::size_t>((c->cmsg_len - CMSG_LEN(0)) / sizeof(int), fds.size());
-      std::memcpy(fds.data(), CMSG_DATA(c), nfds * sizeof(int));
-    }
-    if (n <= 0) std::_Exit(0);  // closed: the generation is gone
-    auto frame = wire::decode(std::span<const std::byte>(buf.data(), static_cast<std::size_t>(n)), wire::Direction::ToService);
+    auto n = resume.receive_into(buf, fds, nfds);
+    if (!n || *n == 0) std::_Exit(0);  // closed: the generation is gone
+    auto frame = wire::decode(std::span<const std::byte>(buf.data(), *n), wire::Direction::ToService);
     if (!frame || frame->header.aux != g) std::_Exit(3);  // the kernel is trusted: this is a broken kernel
     if (frame->kind == wire::FrameKind::Fork && nfds == 0) {
       auto copy = sys::fork_sibling();
@@ -415,31 +402,27 @@ void send_on(int fd, wire::FrameKind kind, std::uint64_t g, pid_t pid) {
         track_copy();
         continue;
       }
-      send_on(resume_fd, wire::FrameKind::Copied, g, copy ? *copy : 0);
+      answer_copied(resume, g, copy ? *copy : 0);
       continue;
     }
     if (frame->kind == wire::FrameKind::Patch && nfds == 2) {
       const auto body = wire::payload_as<wire::PatchBody>(*frame);
+      sys::UniqueFd pages(fds[0]);
+      sys::SeqPacket next{sys::UniqueFd(fds[1])};
       auto copy = sys::fork_sibling();
       if (copy && *copy == 0) {  // the new image: g's memory made g''s
-        memory_image::forget_tracking();
-        if (!memory_image::apply_written(fds[0], body.pages)) std::_Exit(3);
-        ::close(fds[0]);
-        ::close(resume_fd);
-        resume_fd = fds[1];
+        if (!memory_image::apply_written(pages.get(), body.pages)) std::_Exit(3);
+        resume = std::move(next);
         g = body.generation;
-        handoff.generation = g;  // dead bytes for the live program; what a spare of this copy serves
         track_copy();
-        send_on(resume_fd, wire::FrameKind::Copied, g, sys::current_pid());
+        answer_copied(resume, g, sys::current_pid());
         continue;
       }
-      if (!copy) send_on(fds[1], wire::FrameKind::Copied, body.generation, 0);  // g' has no image
-      ::close(fds[0]);
-      ::close(fds[1]);
-      continue;
+      if (!copy) answer_copied(next, body.generation, 0);  // g' has no image
+      continue;                                            // pages and next closed here
     }
     if (frame->kind != wire::FrameKind::Resume || nfds != 1) std::_Exit(3);
-    ::close(resume_fd);
+    resume.close();
     if (!sys::install_fd(sys::UniqueFd(fds[0]), wire::kChannelFd) || !sys::set_nonblocking(wire::kChannelFd, false)) {
       std::_Exit(3);
     }
@@ -483,18 +466,16 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
     if (auto q = send_built(); !q) return q;
     return flush();
   };
-  if (base != 0 && base == tracked_base && workers == nullptr &&
+  prepare_pages_fd();  // normally made already, after the previous checkpoint
+  if (base != 0 && base == tracked_base && workers == nullptr && next_pages_fd >= 0 &&
       memory_image::layout_unchanged(memory_image::stack_pointer())) {
     if (resume_fd >= 0) ::close(resume_fd);  // the image is made from the base's, which has its own
     if (auto f = flush(); !f) return std::unexpected(f.error());
-    prepare_pages_fd();
     const int pages = std::exchange(next_pages_fd, -1);
-    if (pages < 0) return io_error(sys::SysError{"memfd_create", errno});
     if (REJUV_IMAGE_SAVE(image_context) != 0) return resumed_image();
     auto n = memory_image::copy_written_self(pages, pagemap_fd);
-    constexpr int kSeals = F_SEAL_SEAL | F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_WRITE;
     tracked_base = 0;  // until the answer is on its way: a failure leaves the tracking in no known state
-    if (!n || ::fcntl(pages, F_ADD_SEALS, kSeals) != 0) {
+    if (!n || ::fcntl(pages, F_ADD_SEALS, wire::kPagesSeals) != 0) {
       ::close(pages);
       if (auto a = answer(wire::FrameKind::Taken, 0); !a) return std::unexpected(a.error());  // g is abandoned
       return false;
@@ -524,7 +505,7 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
   if (REJUV_IMAGE_SAVE(image_context) != 0) return resumed_image();
   // Tracking starts (again) before the fork: what this process writes from here on is what its next image
   // by written pages carries over g's.
-  tracked_base = pages_capable && workers == nullptr && memory_image::track_writes_self() ? g : 0;
+  tracked_base = memory_image::whole_memory_tracked() && workers == nullptr && memory_image::track_writes_self() ? g : 0;
   auto pid = sys::fork_sibling();
   if (pid && *pid == 0) memory_image::run_on_standby_stack(frozen_image, resume_fd);  // never returns
   ::close(resume_fd);
@@ -572,11 +553,10 @@ SdkResult<void> Service::flush() { return impl_->flush(); }
 
 SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& options) {
   // First, before the service allocates much: malloc tied to the brk heap, the stack grown once, so that a
-  // static build can take its images by written pages (memory_image.hpp). Elsewhere, every image is by fork.
-  const bool pages_capable = memory_image::prepare_self().has_value() && memory_image::whole_memory_tracked();
-  handoff.pages_capable = pages_capable;
+  // static build can take its images by written pages (memory_image.hpp). Where that fails, or the process
+  // has more writable memory (whole_memory_tracked() says which), every image is by fork.
+  (void)memory_image::prepare_self();
   auto impl = std::make_unique<Impl>();
-  impl->pages_capable = pages_capable;
   if (const char* name = std::getenv("REJUV_SERVICE"); name != nullptr) impl->name = name;
   if (!sys::fd_is_open(options.channel_fd) || !sys::fd_is_open(options.time_page_fd)) {
     return error(SdkError::NotAService, "fd 3 (channel) and fd 4 (time page) must be open: run under the kernel");
@@ -587,7 +567,7 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
     if (auto ok = program->install(); !ok) return error(SdkError::Seccomp, ok.error().to_string());
   }
   // Not dumpable: no process of its uid (its own images, say) can open its /proc/<pid>/mem or ptrace it.
-  // Its images inherit this at fork (become_image).
+  // Its images inherit this at fork (frozen_image).
   if (auto nd = sys::make_non_dumpable(); !nd) return error(SdkError::NotAService, nd.error().to_string());
   auto page = clock::TimePageReader::map(options.time_page_fd);
   if (!page) return error(SdkError::NotAService, "time page: " + page.error().to_string());

@@ -189,6 +189,34 @@ TEST(SeqPacketBatch, UnexpectedFds_ClosedAndFlagged) {
   EXPECT_EQ(*count_open_fds(), *before);
 }
 
+// receive_into (no allocation, for frozen images): the fds that fit are handed over, the rest closed; a
+// closed peer is size 0.
+TEST(SeqPacket, ReceiveInto_FdsBeyondRoomClosed_ThenPeerClosedIsZero) {
+  auto pair = SeqPacket::pair();
+  auto carried = SeqPacket::pair();
+  ASSERT_TRUE(pair && carried);
+  const auto before = count_open_fds();
+  ASSERT_TRUE(before.has_value());
+  const std::array<std::byte, 3> frame{std::byte{1}, std::byte{2}, std::byte{3}};
+  const std::array<int, 2> sent{carried->first.fd(), carried->second.fd()};
+  ASSERT_TRUE(pair->first.send(frame, sent).has_value());
+  std::array<std::byte, 16> buf{};
+  std::array<int, 1> fds{-1};
+  std::size_t count = 9;
+  auto n = pair->second.receive_into(buf, fds, count);
+  ASSERT_TRUE(n.has_value());
+  EXPECT_EQ(*n, 3U);
+  EXPECT_EQ(buf[2], std::byte{3});
+  ASSERT_EQ(count, 1U);
+  EXPECT_EQ(*count_open_fds(), *before + 1);  // the one handed over; the second was closed
+  ::close(fds[0]);
+  pair->first.close();
+  n = pair->second.receive_into(buf, fds, count);
+  ASSERT_TRUE(n.has_value());
+  EXPECT_EQ(*n, 0U);
+  EXPECT_EQ(count, 0U);
+}
+
 TEST(SeqPacketBatch, PeerClosed_EndsTheBatchWithClosed) {
   auto pair = SeqPacket::pair(Blocking::No);
   ASSERT_TRUE(pair.has_value());

@@ -5,6 +5,8 @@
 // header, the kind, the direction and the payload size rule of the kind before anything looks inside.
 #pragma once
 
+#include <fcntl.h>
+
 #include <array>
 #include <atomic>
 #include <cstddef>
@@ -156,6 +158,8 @@ struct SnapshotBody {
   std::uint64_t base = 0;
 };
 inline constexpr std::uint64_t kMaxImagePages = 4096;  // written pages in one TakenPages at most (16 MB)
+// The seals a TakenPages memfd carries: nothing can change its pages after the answer.
+inline constexpr int kPagesSeals = F_SEAL_SEAL | F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_WRITE;
 struct TakenPagesBody {
   std::uint64_t base = 0;   // the base generation (the Snapshot's)
   std::uint64_t pages = 0;  // pages in the memfd (memory_image.hpp record file)

@@ -56,11 +56,13 @@ struct Image {
   // An image taken by written pages (TakenPages) is made off the critical path: a copy of the base
   // generation's image forks and applies the pages (Patch), and that copy answers Copied on this image's
   // resume socket. Until then `copies` is empty and the image is pending, not dead.
-  Generation base{};                        // the generation offered in the Snapshot (0: by fork)
+  Generation base{};                        // the generation offered in the Snapshot (0: none)
   sys::UniqueFd pages{};                    // the sealed pages, until the Patch is sent
   std::uint64_t page_count = 0;
   sys::UniqueFd image_end{};                // the resume socket's image end, until Taken or the Patch
   bool patch_pending = false;               // Patch sent, Copied not read yet
+  // A copy to resume, or one on its way (the Patch's): the image is not dead (as far as the last refresh knows).
+  [[nodiscard]] bool has_copy_or_patch() const { return !copies.empty() || patch_pending; }
   // Reads the Copied answers that have arrived (adopting each new spare) and drops the copies that died.
   // Returns how many copies are alive.
   std::size_t refresh();

@@ -50,6 +50,11 @@ class SeqPacket {
   [[nodiscard]] SysResult<std::size_t> receive_batch(std::span<std::byte> slots, std::size_t slot_bytes,
                                                      std::span<Received> out, std::size_t max_fds = 0,
                                                      Wait wait = Wait::No) const;
+  // receive() without allocating, for a process that must not touch its heap (a frozen service image,
+  // services/sdk memory_image.hpp): the fds go into `fds` (`fd_count` of them; more are closed). Returns the
+  // datagram's size; 0: the peer closed.
+  [[nodiscard]] SysResult<std::size_t> receive_into(std::span<std::byte> buf, std::span<int> fds,
+                                                    std::size_t& fd_count) const;
 
   [[nodiscard]] int fd() const { return fd_.get(); }
   [[nodiscard]] bool valid() const { return fd_.valid(); }
