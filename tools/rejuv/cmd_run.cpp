@@ -45,7 +45,18 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
   for (const auto& [kind, n] : s.denials()) {
     denials += (denials.empty() ? "" : ", ") + kind + " " + std::to_string(n);
   }
-  char buf[1536];
+  const proto::ImagePhases& ph = s.image_phases();
+  char phases[384] = "";
+  if (s.checkpoints() + s.rollbacks() > 0) {
+    std::snprintf(phases, sizeof phases,
+                  "  phases      p50 [ms]: checkpoint snapshot %.3f, taken %.3f, save %.3f; rollback kill %.3f, "
+                  "resume %.3f, restore %.3f; images %llu by written pages, %llu by fork\n",
+                  ph.checkpoint_snapshot().p50(), ph.checkpoint_taken().p50(), ph.checkpoint_save().p50(),
+                  ph.rollback_kill().p50(), ph.rollback_resume().p50(), ph.rollback_restore().p50(),
+                  static_cast<unsigned long long>(ph.images_by_pages()),
+                  static_cast<unsigned long long>(ph.images_by_fork()));
+  }
+  char buf[2048];
   std::snprintf(buf, sizeof buf,
                 "%s (run): sr=%s attack=%s seed=%llu — %s%s%s\n"
                 "  mission     %s in %.1f s (simulated %.1f s in %.1f s wall, %.1fx real time)\n"
@@ -53,6 +64,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 "  safety      max V = %.4f (%s), max estimation error ||x - x_hat||^2_P = %.4f\n"
                 "  control     max gap between actuator outputs %.1f ms\n"
                 "  images      %llu checkpoints (p50 %.3f ms, max %.3f ms), %llu rollbacks (p50 %.3f ms, max %.3f ms)\n"
+                "%s"
                 "  attacks     %llu attacked MC windows\n"
                 "  denials     %s\n"
                 "  network     %s\n",
@@ -63,7 +75,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 s.wall_time_s(), s.realtime_factor(), 100.0 * s.d_mean_m(), 100.0 * s.d_max_m(), s.max_v(),
                 s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe", s.max_est_err_p(), s.max_control_gap_ms(),
                 static_cast<unsigned long long>(s.checkpoints()), s.checkpoint_ms().p50(), s.checkpoint_ms().max(),
-                static_cast<unsigned long long>(s.rollbacks()), s.rollback_ms().p50(), s.rollback_ms().max(),
+                static_cast<unsigned long long>(s.rollbacks()), s.rollback_ms().p50(), s.rollback_ms().max(), phases,
                 static_cast<unsigned long long>(s.attacks()),
                 denials.empty() ? "none" : denials.c_str(), describe_network(s.network()).c_str());
   return buf;
@@ -260,6 +272,15 @@ int run_run(std::span<const std::string_view> args) {
   s.set_rollbacks(sr.rollbacks);
   fill_percentiles(*s.mutable_checkpoint_ms(), sr.checkpoint_ms);
   fill_percentiles(*s.mutable_rollback_ms(), sr.rollback_ms);
+  proto::ImagePhases& phases = *s.mutable_image_phases();
+  fill_percentiles(*phases.mutable_checkpoint_snapshot(), sr.checkpoint_phases.a);
+  fill_percentiles(*phases.mutable_checkpoint_taken(), sr.checkpoint_phases.b);
+  fill_percentiles(*phases.mutable_checkpoint_save(), sr.checkpoint_phases.c);
+  fill_percentiles(*phases.mutable_rollback_kill(), sr.rollback_phases.a);
+  fill_percentiles(*phases.mutable_rollback_resume(), sr.rollback_phases.b);
+  fill_percentiles(*phases.mutable_rollback_restore(), sr.rollback_phases.c);
+  phases.set_images_by_pages(sr.images_by_pages);
+  phases.set_images_by_fork(sr.images_by_fork);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
 
   std::fputs(describe(s, *outcome).c_str(), stdout);
