@@ -10,6 +10,7 @@
 #include <ucontext.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstdio>
@@ -81,6 +82,7 @@ struct Scratch {
   PmScanArg arg;  // the kernel writes it back (walk_end): not on the tracked stack either
   std::array<PageRegion, 512> scanned;
   std::array<std::uint64_t, kMaxWrittenPages> addresses;
+  std::size_t written = 0;  // how many of `addresses` the last copy_written_self or apply_written found
   std::array<iovec, 512> pages;
 };
 Scratch* scratch = nullptr;
@@ -333,6 +335,7 @@ sys::SysResult<std::size_t> copy_written_self(int fd, int pagemap) {
       }
     }
   }
+  scratch->written = n;
   if (fd < 0) return n;  // re-armed only
   const auto table = static_cast<ssize_t>(n * sizeof(std::uint64_t));
   if (::pwrite(fd, scratch->addresses.data(), static_cast<std::size_t>(table), 0) != table) return sys::last_error("pwrite");
@@ -380,7 +383,35 @@ sys::SysResult<void> apply_written(int fd, std::size_t pages) {
                                static_cast<off_t>(kWrittenPagesAt + first * kPage));
     if (n != want) return std::unexpected(sys::SysError{"preadv(pages)", n < 0 ? EFAULT : EIO});
   }
+  scratch->written = pages;
   return {};
+}
+
+sys::SysResult<sys::UniqueFd> make_record_file() {
+  sys::UniqueFd fd(::memfd_create("rejuv-image-pages", MFD_CLOEXEC | MFD_ALLOW_SEALING));
+  if (!fd.valid()) return sys::last_error("memfd_create");
+  // Room for the address table's first page and for twice the pages the last image carried (at least
+  // kRecordPagesAhead); a larger image allocates the rest inside copy_written_self. Best effort.
+  const std::size_t last = scratch != nullptr ? scratch->written : 0;
+  const std::size_t pages = std::clamp(2 * last, kRecordPagesAhead, 4 * kRecordPagesAhead);
+  if (::fallocate(fd.get(), 0, 0, static_cast<off_t>(kPage)) == 0) {
+    (void)::fallocate(fd.get(), 0, static_cast<off_t>(kWrittenPagesAt), static_cast<off_t>(pages * kPage));
+  }
+  return fd;
+}
+
+void touch_working_set() {
+  if (scratch == nullptr) return;
+  const Layout own = whole_layout();
+  const std::size_t n = std::min(scratch->written, kMaxTouchedPages);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uintptr_t a = scratch->addresses[i];
+    if (!offset_in_image(own, a)) continue;
+    // The byte written back as read: the image's contents stay what they are, the page becomes this
+    // process's own (copied from the one it shared since the fork) and writable.
+    auto* byte = reinterpret_cast<volatile unsigned char*>(a);
+    *byte = *byte;
+  }
 }
 
 std::optional<std::size_t> offset_in_image(const Layout& layout, std::uintptr_t address) {

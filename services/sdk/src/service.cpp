@@ -314,7 +314,7 @@ struct Service::Impl {
   // The memfd for the next image by written pages, if tracking and none is made yet.
   void prepare_pages_fd() {
     if (next_pages_fd < 0 && tracked_base != 0) {
-      next_pages_fd = ::memfd_create("rejuv-image-pages", MFD_CLOEXEC | MFD_ALLOW_SEALING);
+      if (auto made = memory_image::make_record_file()) next_pages_fd = made->release();
     }
   }
 
@@ -367,6 +367,11 @@ void track_copy() {
   if (memory_image::whole_memory_tracked()) (void)memory_image::track_writes_self();
 }
 
+// After a fork, in both copies: the working set made each one's own again (memory_image.hpp), so that the
+// copy a Resume wakes does not take its copy-on-write faults on the rollback's critical path (mission,
+// 3 A/B pairs: rollback p50 0.87, 0.85, 1.10 ms without → 0.66, 0.72, 0.79 ms with).
+void own_working_set() { memory_image::touch_working_set(); }
+
 // Copied{g, pid} on a resume socket, from a frozen copy (standby stack, no allocation).
 void answer_copied(const sys::SeqPacket& to, std::uint64_t g, pid_t pid) {
   wire::FrameBuffer out;
@@ -388,6 +393,7 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, pid_t pid) {
   std::uint64_t g = handoff.generation;
   sys::SeqPacket resume{sys::UniqueFd(resume_fd)};
   track_copy();
+  own_working_set();
   for (;;) {
     alignas(8) std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::PatchBody)> buf{};
     std::array<int, 2> fds{-1, -1};
@@ -400,9 +406,11 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, pid_t pid) {
       auto copy = sys::fork_sibling();
       if (copy && *copy == 0) {  // the spare: frozen like us
         track_copy();
+        own_working_set();
         continue;
       }
       answer_copied(resume, g, copy ? *copy : 0);
+      own_working_set();
       continue;
     }
     if (frame->kind == wire::FrameKind::Patch && nfds == 2) {
@@ -415,10 +423,12 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, pid_t pid) {
         resume = std::move(next);
         g = body.generation;
         track_copy();
+        own_working_set();
         answer_copied(resume, g, sys::current_pid());
         continue;
       }
       if (!copy) answer_copied(next, body.generation, 0);  // g' has no image
+      own_working_set();
       continue;                                            // pages and next closed here
     }
     if (frame->kind != wire::FrameKind::Resume || nfds != 1) std::_Exit(3);
