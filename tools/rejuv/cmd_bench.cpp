@@ -41,8 +41,8 @@ double ms_since(Nanos start) { return static_cast<double>((sys::monotonic_now() 
 }  // namespace
 
 int run_bench(std::span<const std::string_view> args) {
-  std::string what, graph_path, cycles_text, restarts_text;
-  bool cycles_set = false, restarts_set = false;
+  std::string what, graph_path, cycles_text, restarts_text, between_text;
+  bool cycles_set = false, restarts_set = false, between_set = false;
   ArgParser parser("bench",
                    "Benchmarks, side by side in one run.\n"
                    "  images [GRAPH]  checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
@@ -51,7 +51,11 @@ int run_bench(std::span<const std::string_view> args) {
   parser.positional("WHAT", what, "what to measure: images")
       .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square.launch.pbtxt)", false)
       .option("--cycles", "N", cycles_text, "checkpoint + rollback cycles (default 200)", &cycles_set)
-      .option("--restarts", "N", restarts_text, "cold restarts (default 20)", &restarts_set);
+      .option("--restarts", "N", restarts_text, "cold restarts (default 20)", &restarts_set)
+      .option("--between", "MS", between_text,
+              "simulated ms between a checkpoint and its rollback and between a rollback and the next checkpoint\n"
+              "(default 1: the next one comes while the images are still being made; a mission has seconds)",
+              &between_set);
   const auto parsed = parser.parse(args);
   if (!parsed) return bad_input("rejuv bench: " + parsed.error());
   switch (*parsed) {
@@ -69,6 +73,12 @@ int run_bench(std::span<const std::string_view> args) {
     auto n = to_u64(restarts_text, "--restarts");
     if (!n || *n == 0 || *n > 1000) return bad_input("rejuv bench: --restarts: expected 1..1000, got '" + restarts_text + "'");
     restarts = *n;
+  }
+  std::uint64_t between = 1;
+  if (between_set) {
+    auto n = to_u64(between_text, "--between");
+    if (!n || *n == 0 || *n > 10000) return bad_input("rejuv bench: --between: expected 1..10000, got '" + between_text + "'");
+    between = *n;
   }
   if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square.launch.pbtxt";
   auto loaded = launch::load_launch(graph_path);
@@ -99,14 +109,15 @@ int run_bench(std::span<const std::string_view> args) {
     const kernel::ServiceStats st = k.stats(ServiceId(static_cast<std::uint32_t>(i)));
     if (st.started && launch::rejuvenate(k.graph().graph.services(static_cast<int>(i)))) ++rejuvenated;
   }
-  const auto step = [&]() -> bool {
-    auto r = k.step(k.now() + std::chrono::milliseconds{1});
+  const auto step = [&](std::uint64_t ms = 1) -> bool {
+    auto r = k.step(k.now() + std::chrono::milliseconds{ms});
     if (!r) std::fprintf(stderr, "rejuv bench: step: %s\n", r.error().to_string().c_str());
     return r.has_value() && !k.stop_reason();
   };
-  std::fprintf(stderr, "rejuv bench images: %s, %zu rejuvenated services + queues; %llu cycles, %llu cold restarts\n",
+  std::fprintf(stderr,
+               "rejuv bench images: %s, %zu rejuvenated services + queues; %llu cycles %llu ms apart, %llu cold restarts\n",
                name.c_str(), rejuvenated, static_cast<unsigned long long>(cycles),
-               static_cast<unsigned long long>(restarts));
+               static_cast<unsigned long long>(between), static_cast<unsigned long long>(restarts));
   for (int i = 0; i < 5; ++i) {
     if (!step()) return static_cast<int>(Exit::Findings);
   }
@@ -115,12 +126,12 @@ int run_bench(std::span<const std::string_view> args) {
       std::fprintf(stderr, "rejuv bench: checkpoint: %s\n", g.error().to_string().c_str());
       return static_cast<int>(Exit::Findings);
     }
-    if (!step()) return static_cast<int>(Exit::Findings);
+    if (!step(between)) return static_cast<int>(Exit::Findings);
     if (auto ok = k.rollback_now(); !ok) {
       std::fprintf(stderr, "rejuv bench: rollback: %s\n", ok.error().to_string().c_str());
       return static_cast<int>(Exit::Findings);
     }
-    if (!step()) return static_cast<int>(Exit::Findings);
+    if (!step(between)) return static_cast<int>(Exit::Findings);
     if ((c + 1) % 50 == 0) std::fprintf(stderr, "  %llu/%llu cycles\n", static_cast<unsigned long long>(c + 1),
                                         static_cast<unsigned long long>(cycles));
   }

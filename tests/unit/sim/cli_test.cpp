@@ -1,4 +1,5 @@
-// `rejuv sim` as a user runs it (the real binary): exit codes, precise errors, the JSON summary.
+// `rejuv sim` as a user runs it (the real binary): exit codes, precise errors, the JSON summary; and the bad
+// flags of `rejuv bench`, refused before anything is started.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
@@ -18,9 +19,9 @@ struct Outcome {
   std::string output;  // stdout and stderr
 };
 
-Outcome run(const std::string& args) {
+Outcome run(const std::string& args, const std::string& command_name = "sim") {
   Outcome out;
-  const std::string command = kRejuv + " sim " + args + " 2>&1";
+  const std::string command = kRejuv + " " + command_name + " " + args + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   if (pipe == nullptr) return out;
   char buf[4096];
@@ -58,6 +59,18 @@ TEST(SimCli, BadSeed_ExitsTwo) {
 }
 
 TEST(SimCli, MissingGraph_ExitsTwo) { EXPECT_EQ(run("").exit_code, 2); }
+
+TEST(BenchCli, BadFlags_ExitTwoNamingTheFlag) {
+  for (const auto& [args, named] : {std::pair{"images --between 0", "--between"},
+                                    std::pair{"images --between soon", "--between"},
+                                    std::pair{"images --cycles -3", "--cycles"},
+                                    std::pair{"images --restarts 100000", "--restarts"},
+                                    std::pair{"everything", "unknown benchmark 'everything'"}}) {
+    const auto r = run(args, "bench");
+    EXPECT_EQ(r.exit_code, 2) << args;
+    EXPECT_NE(r.output.find(named), std::string::npos) << args << ": " << r.output;
+  }
+}
 
 TEST(SimCli, TableWithCsv_ExitsTwo) { EXPECT_EQ(run(kSquare + " --table --csv /dev/null").exit_code, 2); }
 
