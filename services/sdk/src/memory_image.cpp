@@ -215,6 +215,13 @@ Layout layout_at(std::uintptr_t stack_pointer) {
 }
 
 void run_on_standby_stack(void (*fn)(int), int arg) {
+  if (scratch == nullptr || self.standby_lo == 0) {
+    // Not prepared (prepare_self failed, e.g. a sanitized build whose allocator refuses mallopt): on this
+    // stack, below the caller's frames, which are what the image resumes into (resume_saved jumps up to
+    // them). Such a process only ever takes its images by fork, which is all it needs.
+    fn(arg);
+    ::_exit(3);
+  }
   scratch->standby_fn = fn;
   scratch->standby_arg = arg;
   ucontext_t& ctx = scratch->standby_context;

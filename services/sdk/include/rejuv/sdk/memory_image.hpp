@@ -77,7 +77,8 @@ using Context = void* [5];
 #define REJUV_IMAGE_SAVE(ctx) __builtin_setjmp(ctx)  // NOLINT(cppcoreguidelines-macro-usage)
 
 // Runs fn(arg) on the standby stack; never returns (a zygote or holder lives there, so that loading an image
-// over the main stack does not pull the ground from under it).
+// over the main stack does not pull the ground from under it). In a process prepare_self failed in, on the
+// current stack instead (its images are by fork only: nothing is ever loaded over it).
 [[noreturn]] void run_on_standby_stack(void (*fn)(int), int arg);
 
 // In a holder (on the standby stack): grows the heap and the stack to the image's and reads `image` (the
