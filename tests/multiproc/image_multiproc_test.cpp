@@ -141,6 +141,14 @@ TEST_F(Images, CounterContinuesFromTheCheckpointAndTheQueuesAreRestored) {
   EXPECT_EQ(k_->sr_stats().fallbacks, 0U);
 }
 
+// A sanitized build's services take every image by fork (memory_image::prepare_self fails: the sanitizer's
+// allocator refuses mallopt), so what is asserted about images by written pages holds only without one.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+constexpr bool kImagesByPagesPossible = false;
+#else
+constexpr bool kImagesByPagesPossible = true;
+#endif
+
 TEST_F(Images, BurstAcrossACheckpoint_NothingLostOrDuplicated) {
   start({.counter = param("burst", 20) + param("checkpoint_at", 3) + param("rollback_at", 6) + param("max_cycles", 2),
          .keep = 2, .worker = false});
@@ -150,7 +158,9 @@ TEST_F(Images, BurstAcrossACheckpoint_NothingLostOrDuplicated) {
   EXPECT_EQ(driver.back().altitude_m, static_cast<double>(driver.size()));
   // The second rollback restored g2, whose images were taken by written pages against g1 (the services are
   // static): what the listener and the counter did after it is checked above.
-  EXPECT_GT(k_->sr_stats().images_by_pages, 0U);
+  if (kImagesByPagesPossible) {
+    EXPECT_GT(k_->sr_stats().images_by_pages, 0U);
+  }
 }
 
 // The same burst with every image by fork (KernelOptions::images_by_pages off): the other way gives the same.
@@ -181,7 +191,9 @@ TEST_F(Images, ThousandCycles_ProcessAndFdCountsStayFlat) {
     EXPECT_EQ(k_->generations().size(), 2U);
     EXPECT_EQ(records("numbers", "counter").back().altitude_m, 1000.0);  // the persistent cell
     EXPECT_EQ(k_->sr_stats().fallbacks, 0U);
-    EXPECT_GT(k_->sr_stats().images_by_pages, k_->sr_stats().images_by_fork);  // by written pages once tracking
+    if (kImagesByPagesPossible) {
+      EXPECT_GT(k_->sr_stats().images_by_pages, k_->sr_stats().images_by_fork);  // by written pages once tracking
+    }
     k_->shutdown();
     k_.reset();
   }
