@@ -155,19 +155,20 @@ int run_bench(std::span<const std::string_view> args) {
   std::printf("%-14s %10.3f %10.3f   ≈20 ms\n", "checkpoint", cp.p50(), cp.max());
   std::printf("%-14s %10.3f %10.3f   ≈15 ms\n", "rollback", rb.p50(), rb.max());
   std::printf("%-14s %10.3f %10.3f   (restart-based baseline)\n", "cold restart", cr.p50(), cr.max());
-  const auto phase = [](const char* label, const std::vector<double>& v) {
-    const proto::Percentiles p = summarize(v);
+  proto::ImagePhases ph;
+  fill_image_phases(ph, sr);
+  const auto phase = [](const char* label, const proto::Percentiles& p) {
     std::printf("  %-12s %10.3f %10.3f\n", label, p.p50(), p.max());
   };
   std::printf("service images: %llu by written pages, %llu by fork\n",
-              static_cast<unsigned long long>(sr.images_by_pages), static_cast<unsigned long long>(sr.images_by_fork));
+              static_cast<unsigned long long>(ph.images_by_pages()), static_cast<unsigned long long>(ph.images_by_fork()));
   std::printf("phases:\n");
-  phase("cp: snapshot", sr.checkpoint_phases.a);
-  phase("cp: taken", sr.checkpoint_phases.b);
-  phase("cp: save", sr.checkpoint_phases.c);
-  phase("rb: kill", sr.rollback_phases.a);
-  phase("rb: resume", sr.rollback_phases.b);
-  phase("rb: restore", sr.rollback_phases.c);
+  phase("cp: snapshot", ph.checkpoint_snapshot());
+  phase("cp: taken", ph.checkpoint_taken());
+  phase("cp: save", ph.checkpoint_save());
+  phase("rb: kill", ph.rollback_kill());
+  phase("rb: resume", ph.rollback_resume());
+  phase("rb: restore", ph.rollback_restore());
   std::printf("ratio cold restart / rollback (p50): %.1fx; cold restart / checkpoint (p50): %.1fx\n",
               rb.p50() > 0 ? cr.p50() / rb.p50() : 0.0, cp.p50() > 0 ? cr.p50() / cp.p50() : 0.0);
   std::printf("targets: checkpoint p50 <= 0.5 ms: %s; rollback p50 <= 0.5 ms: %s\n", cp.p50() <= 0.5 ? "met" : "NOT met",

@@ -272,15 +272,7 @@ int run_run(std::span<const std::string_view> args) {
   s.set_rollbacks(sr.rollbacks);
   fill_percentiles(*s.mutable_checkpoint_ms(), sr.checkpoint_ms);
   fill_percentiles(*s.mutable_rollback_ms(), sr.rollback_ms);
-  proto::ImagePhases& phases = *s.mutable_image_phases();
-  fill_percentiles(*phases.mutable_checkpoint_snapshot(), sr.checkpoint_phases.a);
-  fill_percentiles(*phases.mutable_checkpoint_taken(), sr.checkpoint_phases.b);
-  fill_percentiles(*phases.mutable_checkpoint_save(), sr.checkpoint_phases.c);
-  fill_percentiles(*phases.mutable_rollback_kill(), sr.rollback_phases.a);
-  fill_percentiles(*phases.mutable_rollback_resume(), sr.rollback_phases.b);
-  fill_percentiles(*phases.mutable_rollback_restore(), sr.rollback_phases.c);
-  phases.set_images_by_pages(sr.images_by_pages);
-  phases.set_images_by_fork(sr.images_by_fork);
+  fill_image_phases(*s.mutable_image_phases(), sr);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
 
   std::fputs(describe(s, *outcome).c_str(), stdout);

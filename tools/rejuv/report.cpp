@@ -32,6 +32,17 @@ void fill_percentiles(proto::Percentiles& out, std::vector<double> values) {
   out.set_max(values.back());
 }
 
+void fill_image_phases(proto::ImagePhases& out, const kernel::SrStats& sr) {
+  fill_percentiles(*out.mutable_checkpoint_snapshot(), sr.checkpoint_phases.a);
+  fill_percentiles(*out.mutable_checkpoint_taken(), sr.checkpoint_phases.b);
+  fill_percentiles(*out.mutable_checkpoint_save(), sr.checkpoint_phases.c);
+  fill_percentiles(*out.mutable_rollback_kill(), sr.rollback_phases.a);
+  fill_percentiles(*out.mutable_rollback_resume(), sr.rollback_phases.b);
+  fill_percentiles(*out.mutable_rollback_restore(), sr.rollback_phases.c);
+  out.set_images_by_pages(sr.images_by_pages);
+  out.set_images_by_fork(sr.images_by_fork);
+}
+
 std::string to_json(const proto::RunSummary& summary) {
   google::protobuf::util::JsonPrintOptions options;
   options.preserve_proto_field_names = true;

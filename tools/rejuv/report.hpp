@@ -18,6 +18,9 @@ int bad_input(const std::string& message);
 // p50, max and count of `values` (empty: all zero).
 void fill_percentiles(proto::Percentiles& out, std::vector<double> values);
 
+// Where the checkpoints' and rollbacks' time went (their phases) and how the images were made.
+void fill_image_phases(proto::ImagePhases& out, const kernel::SrStats& sr);
+
 // Two-letter mode names for progress lines and the CSV (UPDATE is "UP").
 [[nodiscard]] const char* mode_name(SrMode mode);
 
