@@ -46,7 +46,8 @@ class ImageDriver {
       std::vector<std::string> args;
       if (pages_per_tick > 0) args.push_back(std::to_string(pages_per_tick));
       sys::SpawnSpec spec{.executable = executable, .args = args, .env = {}, .fds = {{3, pair->second.fd()}},
-                          .seccomp = nullptr, .uid = {}, .own_process_group = true};
+                          .seccomp = nullptr, .uid = {}, .session = sys::Session::OwnProcessGroup,
+                          .isolation = sys::Isolation::None, .limits = {}};
       auto child = sys::spawn(spec);
       require(child.has_value(), "spawn " + executable);
       Unit u;

@@ -147,6 +147,7 @@ bool Kernel::Impl::service_images() {
     auto status = p.try_wait();
     return !status || *status;
   });
+  if (!stopping && !checkpoint && !rollback_request && !checkpoint_request) sweep_if_due();  // sandbox.cpp
   if (!sr || stopping || checkpoint) return false;
   if (!rollback_request && !checkpoint_request) {  // off the critical paths
     refill_pairs();
@@ -270,6 +271,7 @@ void Kernel::Impl::run_checkpoint() {
   sr_stats.checkpoint_phases.c.push_back(to_ms(t_saved - t_taken));
   for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
   ++sr_stats.checkpoints;
+  sweep_due = "a checkpoint's commit";  // off the critical path, once the spares have reported (sandbox.cpp)
   sr_stats.checkpoint_ms.push_back(to_ms(took));
   charge += took;
   if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
@@ -579,6 +581,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   sr_stats.rollback_phases.c.push_back(to_ms(t0 + took - t_resumed));
   for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
   ++sr_stats.rollbacks;
+  sweep_due = "a rollback";
   sr_stats.rollback_ms.push_back(to_ms(took));
   charge += took;
   if (options.verbose) {

@@ -109,6 +109,12 @@ struct ServiceRuntime {
   std::optional<Nanos> channel_closed_at{};  // wall clock: the service closed fd 3 (its pidfd should follow)
   std::string loss_reason{};
   LogLimiter limiter{};
+  // Containment (sandbox.cpp): the listener of its seccomp filter (shared by every process of the service),
+  // the read end of the pipe on its fds 1-2, and the session ids of its incarnations spawned so far.
+  sys::SeccompListener seccomp{};
+  sys::UniqueFd output{};
+  std::string output_partial{};
+  std::vector<pid_t> sessions{};
   std::uint64_t staged_this_step = 0;
   ServiceStats stats{};
 
@@ -179,7 +185,9 @@ struct RejuvenationTimer {
   std::optional<Epoch> armed_in{};   // the epoch of the last arm
 };
 
-enum class Source : std::uint8_t { Channel = 1, Pidfd = 2, Signal = 3, Timer = 4, Dds = 5, Plant = 6, Net = 7 };
+enum class Source : std::uint8_t {
+  Channel = 1, Pidfd = 2, Signal = 3, Timer = 4, Dds = 5, Plant = 6, Net = 7, Seccomp = 8, Output = 9
+};
 [[nodiscard]] constexpr std::uint64_t token(Source s, std::uint64_t index) {
   return (static_cast<std::uint64_t>(s) << 56U) | index;
 }
@@ -333,6 +341,24 @@ struct Kernel::Impl {
   void kill_hung(ServiceRuntime& s, std::string reason);
   void check_deadlines();
   void shutdown_all();
+
+  // ---- containment (sandbox.cpp, DESIGN §7 "Protection") ----
+  enum class Violation : std::uint8_t { ForbiddenCall, StrayProcess };
+  // Calls the filter referred to the kernel: boot calls continue while the service boots; anything else
+  // kills the caller and counts a violation.
+  void on_seccomp_notice(ServiceRuntime& s);
+  // Lines the service wrote on fds 1-2, logged under its name (rate-limited, control characters escaped).
+  void on_service_output(ServiceRuntime& s, bool final = false);
+  // Kills every process of a service's session that is neither its live incarnation nor an image the kernel
+  // knows (strays): at every commit, after every rollback, about once a simulated second, and at shutdown.
+  // Deferred while copies the kernel asked for are on their way (their pids are not known yet).
+  void sweep_strays(std::string_view when, bool final = false);
+  void sweep_if_due();  // at a safe point off the critical paths: sweep_due, or a simulated second since the last
+  void record_violation(ServiceRuntime& s, Violation kind, std::string_view what);
+  void close_sandbox(ServiceRuntime& s);  // listener and output pipe, out of epoll
+  [[nodiscard]] sys::ResourceLimits limits_for(const ServiceRuntime& s) const;
+  std::optional<std::string_view> sweep_due;  // why a sweep is wanted (a commit, a rollback, a violation)
+  Nanos last_sweep{0};                        // kernel clock
 
   // ---- images (images.cpp) ----
   // Runs what is pending at a safe point (between routing rounds): a requested rollback, else a requested

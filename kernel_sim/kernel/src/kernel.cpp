@@ -163,7 +163,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   auto epoll = sys::Epoll::create();
   if (!epoll) return fail(kernel_error(K::System, epoll.error().to_string()));
   // Built before any fork (libseccomp allocates); loaded in each child between fork and exec.
-  auto seccomp = sys::SeccompProgram::service_policy(sys::SeccompStage::BeforeExec);
+  auto seccomp = sys::SeccompProgram::service_policy(sys::Enforcement::Supervised);
   if (!seccomp) return fail(kernel_error(K::System, "seccomp: " + seccomp.error().to_string()));
 
   const std::size_t service_count = policy->services().size();
@@ -401,6 +401,17 @@ Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
         break;
       case Source::Dds: on_dds_ready(index); break;
       case Source::Net: net_poll(); break;  // realtime only; lockstep polls at the start of a step
+      case Source::Seccomp: {
+        ServiceRuntime& s = services[index];
+        on_seccomp_notice(s);
+        // No process uses the filter any more (the service and its images are gone): nothing more can come.
+        if (e.hangup && !e.readable && s.seccomp.valid()) {
+          (void)epoll.remove(s.seccomp.fd());
+          s.seccomp.close();
+        }
+        break;
+      }
+      case Source::Output: on_service_output(services[index]); break;
     }
   }
   drain_denials();

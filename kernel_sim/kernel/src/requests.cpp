@@ -415,7 +415,8 @@ void Kernel::Impl::drain_denials() {
                                        .slot = d.slot.value(),
                                        .operation = static_cast<std::uint8_t>(d.operation),
                                        .error = static_cast<std::uint8_t>(d.error),
-                                       .mode = static_cast<rejuv_msg_SrModeKind>(index_of(d.mode))};
+                                       .mode = static_cast<rejuv_msg_SrModeKind>(index_of(d.mode)),
+                                       .kind = rejuv_msg_SECURITY_CAPABILITY_DENIAL};
       publish_as_kernel(*events, std::as_bytes(std::span(&ev, 1)));
     }
   }

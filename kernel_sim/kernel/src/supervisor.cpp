@@ -112,21 +112,45 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   if (!pair) return system_error(pair.error());
   auto& [kernel_end, service_end] = *pair;
   if (auto ok = sys::set_nonblocking(kernel_end.fd(), true); !ok) return system_error(ok.error());
+  // No terminal (DESIGN §7 "Protection"): /dev/null to read, a pipe the kernel logs under the service's name
+  // to write, and a session of its own with no controlling terminal.
+  auto null = sys::open_null();
+  if (!null) return system_error(null.error());
+  auto out = sys::make_pipe();
+  if (!out) return system_error(out.error());
   sys::SpawnSpec spec;
   spec.executable = s.executable;
   spec.env = {"REJUV_SERVICE=" + s.name};
   for (const char* keep : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "TSAN_OPTIONS", "LSAN_OPTIONS"}) {
     if (const char* v = std::getenv(keep); v != nullptr) spec.env.push_back(std::string(keep) + "=" + v);
   }
-  spec.fds = {{wire::kChannelFd, service_end.fd()}, {wire::kTimePageFd, time_page.read_only_fd().get()}};
+  spec.fds = {{0, null->get()}, {1, out->write.get()}, {2, out->write.get()},
+              {wire::kChannelFd, service_end.fd()}, {wire::kTimePageFd, time_page.read_only_fd().get()}};
   spec.seccomp = &*seccomp;
+  spec.session = sys::Session::NewSession;
+  spec.isolation = options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
+  spec.limits = limits_for(s);
   if (sys::running_as_root()) spec.uid = kServiceUidBase + s.id.value();
-  auto child = sys::spawn(spec);
-  if (!child) {
-    return fail(KernelError{.kind = KernelError::Kind::Boot,
-                            .message = "spawn '" + s.name + "' (" + s.executable + "): " + child.error().to_string(),
-                            .findings = {}});
+  auto spawned = sys::spawn_supervised(spec);
+  if (!spawned) {
+    std::string message = "spawn '" + s.name + "' (" + s.executable + "): " + spawned.error().to_string();
+    const std::string_view call = spawned.error().call;
+    if (call.starts_with("unshare") || call.starts_with("read-only mounts")) {
+      message += " — the sandbox runs each service in an empty network namespace and a read-only mount namespace,"
+                 " which takes root or unprivileged user namespaces; `rejuv run --insecure-sandbox` runs without"
+                 " them (and says so in the summary)";
+    }
+    return fail(KernelError{.kind = KernelError::Kind::Boot, .message = std::move(message), .findings = {}});
   }
+  close_sandbox(s);  // a cold restart: the previous incarnations' listener and pipe
+  auto* child = &spawned->process;
+  s.seccomp = std::move(spawned->listener);
+  s.output = std::move(out->read);
+  s.sessions.push_back(child->pid());
+  if (s.seccomp.valid()) {
+    if (auto ok = epoll.add(s.seccomp.fd(), token(Source::Seccomp, s.id.value())); !ok) return system_error(ok.error());
+  }
+  if (auto ok = epoll.add(s.output.get(), token(Source::Output, s.id.value())); !ok) return system_error(ok.error());
   s.process = std::move(*child);
   s.channel = std::move(kernel_end);
   s.phase = Phase::Spawned;
@@ -222,13 +246,15 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
   s.outq.clear();
   s.has_held = false;
   s.sweep = false;
-  // The seccomp filter ends a service that tries to leave its sandbox as if by SIGSYS (seccomp.hpp); the
-  // kernel never sends SIGSYS, so this death is a sandbox violation: counted, then contained like any loss.
-  const bool violation = s.loss_reason.empty() && (**status).how == sys::ExitStatus::How::Signaled &&
-                         (**status).value == SIGSYS;
-  if (violation) {
-    ++s.stats.sandbox_violations;
-    s.loss_reason = "sandbox violation (a forbidden system call)";
+  // What it wrote last (often why it ended) before the kernel's own line about it.
+  on_service_output(s);
+  // A forbidden call is killed by the kernel itself (sandbox.cpp, loss_reason set). A death by SIGSYS is a
+  // filter of the service's own that refused a call: the kernel never sends SIGSYS, so it counts the same.
+  const bool sigsys = s.loss_reason.empty() && (**status).how == sys::ExitStatus::How::Signaled &&
+                      (**status).value == SIGSYS;
+  if (sigsys) {
+    s.loss_reason = "sandbox violation (killed by SIGSYS)";
+    record_violation(s, Violation::ForbiddenCall, "unknown (SIGSYS)");
   }
   if (stopping) return;
   std::string reason = s.loss_reason.empty() ? (**status).to_string() : s.loss_reason + " (" + (**status).to_string() + ")";
@@ -366,6 +392,9 @@ void Kernel::Impl::shutdown_all() {
   kill_retired();
   for (sys::ChildProcess& p : reaping) p.kill_and_reap();
   reaping.clear();
+  // And whatever else a service left (DESIGN §7 "Protection"): nothing outlives the run.
+  sweep_strays("shutdown", true);
+  for (ServiceRuntime& s : services) close_sandbox(s);
   // Close every fd the run opened: DDS (participant, sockets, threads), the timerfd.
   bridge.reset();
   timerfd.reset();

@@ -432,4 +432,14 @@ const proto::ServiceSpec* find_service(const proto::Launch& graph, std::string_v
   return nullptr;
 }
 
+SandboxLimitValues sandbox_limits(const proto::Launch& graph, const proto::ServiceSpec& service) {
+  SandboxLimitValues v;
+  for (const proto::SandboxLimits* l : {&graph.sandbox_limits(), &service.limits()}) {  // the service's last
+    if (l->has_max_processes()) v.max_processes = l->max_processes();
+    if (l->has_max_memory_mb()) v.max_memory_mb = l->max_memory_mb();
+    if (l->has_max_open_files()) v.max_open_files = l->max_open_files();
+  }
+  return v;
+}
+
 }  // namespace rejuv::launch

@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
 #include <cstring>
 
@@ -57,6 +58,31 @@ SysResult<int> count_open_fds() {
   }
   ::closedir(dir);
   return count - 1;  // the directory stream's own fd
+}
+
+SysResult<Pipe> make_pipe() {
+  std::array<int, 2> fds{-1, -1};
+  if (::pipe2(fds.data(), O_CLOEXEC) != 0) return last_error("pipe2");
+  Pipe p{UniqueFd(fds[0]), UniqueFd(fds[1])};
+  const int flags = ::fcntl(p.read.get(), F_GETFL);
+  if (flags < 0 || ::fcntl(p.read.get(), F_SETFL, flags | O_NONBLOCK) != 0) return last_error("fcntl(O_NONBLOCK)");
+  return p;
+}
+
+SysResult<UniqueFd> open_null() {
+  UniqueFd fd(::open("/dev/null", O_RDONLY | O_CLOEXEC));
+  if (!fd) return last_error("open(/dev/null)");
+  return fd;
+}
+
+SysResult<std::optional<std::size_t>> read_some(int fd, std::span<char> into) {
+  for (;;) {
+    const ssize_t n = ::read(fd, into.data(), into.size());
+    if (n >= 0) return std::optional<std::size_t>{static_cast<std::size_t>(n)};
+    if (errno == EINTR) continue;
+    if (errno == EAGAIN || errno == EWOULDBLOCK) return std::optional<std::size_t>{};
+    return last_error("read");
+  }
 }
 
 }  // namespace rejuv::sys

@@ -4,6 +4,9 @@
 #include <fcntl.h>
 #include <grp.h>
 #include <linux/close_range.h>
+#include <poll.h>
+#include <sys/mount.h>
+#include <sys/socket.h>
 #include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
@@ -12,6 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cstdlib>
@@ -147,15 +151,132 @@ struct Prepared {
   std::vector<sock_filter> seccomp_scratch;
 };
 
-[[noreturn]] void child_fail(int pipe_fd, int stage, int err) {
+// The stages a child reports a failure at (its index into kStage) and the listener hand-over.
+enum ChildStage : int {
+  kStageSpawn, kStagePdeathsig, kStageSession, kStageDupfd, kStageDup2, kStageCloseRange, kStageSetuid,
+  kStageSeccomp, kStageExec, kStageUserns, kStageUnshare, kStageMount, kStageRlimit, kStageListener,
+};
+constexpr std::array<std::string_view, 14> kStage{
+    "spawn", "prctl(PR_SET_PDEATHSIG)", "setsid/setpgid", "fcntl(F_DUPFD)", "dup2", "close_range", "setuid",
+    "seccomp", "execve", "unshare(CLONE_NEWUSER)", "unshare(CLONE_NEWNET|CLONE_NEWNS|CLONE_NEWIPC)",
+    "read-only mounts (mount_setattr)", "setrlimit", "seccomp listener"};
+
+void child_report(int socket_fd, int stage, int err, int fd_to_pass) {
   const std::array<int, 2> report{stage, err};
-  (void)!::write(pipe_fd, report.data(), sizeof(report));
+  iovec iov{const_cast<int*>(report.data()), sizeof(report)};  // NOLINT: sendmsg's signature
+  alignas(cmsghdr) std::array<char, CMSG_SPACE(sizeof(int))> control{};
+  msghdr msg{};
+  msg.msg_iov = &iov;
+  msg.msg_iovlen = 1;
+  if (fd_to_pass >= 0) {
+    msg.msg_control = control.data();
+    msg.msg_controllen = control.size();
+    cmsghdr* c = CMSG_FIRSTHDR(&msg);
+    c->cmsg_level = SOL_SOCKET;
+    c->cmsg_type = SCM_RIGHTS;
+    c->cmsg_len = CMSG_LEN(sizeof(int));
+    std::memcpy(CMSG_DATA(c), &fd_to_pass, sizeof(int));
+  }
+  (void)!::sendmsg(socket_fd, &msg, MSG_NOSIGNAL);
+}
+
+[[noreturn]] void child_fail(int socket_fd, int stage, int err) {
+  child_report(socket_fd, stage, err, -1);
   ::_exit(127);
+}
+
+// struct mount_attr of <linux/mount.h> (Linux 5.12), which Debian 12's C library headers do not declare.
+struct MountAttr {
+  std::uint64_t attr_set;
+  std::uint64_t attr_clr;
+  std::uint64_t propagation;
+  std::uint64_t userns_fd;
+};
+constexpr std::uint64_t kMountAttrRdonly = 0x1;
+constexpr std::uint64_t kMountAttrNosuid = 0x2;
+constexpr std::uint64_t kMountAttrNodev = 0x4;
+#ifndef AT_RECURSIVE
+constexpr int AT_RECURSIVE = 0x8000;  // NOLINT(readability-identifier-naming): <linux/fcntl.h>'s name
+#endif
+#ifndef SYS_mount_setattr
+constexpr long SYS_mount_setattr = 442;  // NOLINT(readability-identifier-naming): the kernel's name
+#endif
+
+// The child's isolation (async-signal-safe: raw system calls only).
+void isolate_in_child(int wfd) {
+  if (::geteuid() != 0 && ::unshare(CLONE_NEWUSER) != 0) child_fail(wfd, kStageUserns, errno);
+  if (::unshare(CLONE_NEWNET | CLONE_NEWNS | CLONE_NEWIPC) != 0) child_fail(wfd, kStageUnshare, errno);
+  // Nothing it mounts or remounts propagates back, and every mount it sees is read-only.
+  if (::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) child_fail(wfd, kStageMount, errno);
+  MountAttr attr{.attr_set = kMountAttrRdonly | kMountAttrNosuid | kMountAttrNodev, .attr_clr = 0,
+                 .propagation = 0, .userns_fd = 0};
+  if (::syscall(SYS_mount_setattr, AT_FDCWD, "/", AT_RECURSIVE, &attr, sizeof(attr)) != 0) {
+    child_fail(wfd, kStageMount, errno);
+  }
+}
+
+void limit_in_child(int wfd, const ResourceLimits& limits) {
+  const auto set = [&](int resource, const std::optional<std::uint64_t>& value) {
+    if (!value) return;
+    const rlimit lim{static_cast<rlim_t>(*value), static_cast<rlim_t>(*value)};
+    if (::setrlimit(resource, &lim) != 0) child_fail(wfd, kStageRlimit, errno);
+  };
+  set(RLIMIT_NPROC, limits.processes);
+  set(RLIMIT_AS, limits.address_space);
+  set(RLIMIT_NOFILE, limits.open_files);
+  set(RLIMIT_FSIZE, limits.file_size);
+}
+
+// Reads the child's reports until exec closes the socket. A supervised child's exec is a boot call: it is let
+// through here (the child's only one before exec).
+SysResult<SeccompListener> await_exec(ChildProcess& child, int report_fd) {
+  SeccompListener listener;
+  bool exec_let_through = false;  // from then on the program runs: its notices are the supervisor's
+  for (;;) {
+    std::array<pollfd, 2> polls{pollfd{report_fd, POLLIN, 0}, pollfd{listener.fd(), POLLIN, 0}};
+    const bool watch_listener = listener.valid() && !exec_let_through;
+    const int rc = ::poll(polls.data(), watch_listener ? 2 : 1, -1);
+    if (rc < 0 && errno == EINTR) continue;
+    if (rc < 0) return last_error("poll(spawn)");
+    if (watch_listener && (polls[1].revents & POLLIN) != 0) {
+      auto notice = listener.receive();
+      if (!notice) return std::unexpected(notice.error());
+      if (*notice) {  // the child's only call between the filter and exec that the filter refers is the exec
+        exec_let_through = (*notice)->pid == child.pid() && syscall_number("execve") == (*notice)->nr;
+        auto answered = exec_let_through ? listener.allow((*notice)->id) : listener.refuse((*notice)->id, EPERM);
+        if (!answered) return std::unexpected(answered.error());
+      }
+    }
+    if (polls[0].revents == 0) continue;
+    std::array<int, 2> report{0, 0};
+    iovec iov{report.data(), sizeof(report)};
+    alignas(cmsghdr) std::array<char, CMSG_SPACE(sizeof(int))> control{};
+    msghdr msg{};
+    msg.msg_iov = &iov;
+    msg.msg_iovlen = 1;
+    msg.msg_control = control.data();
+    msg.msg_controllen = control.size();
+    const ssize_t n = ::recvmsg(report_fd, &msg, MSG_CMSG_CLOEXEC);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return listener;  // closed at exec: the program runs
+    int passed = -1;
+    if (const cmsghdr* c = CMSG_FIRSTHDR(&msg); c != nullptr && c->cmsg_type == SCM_RIGHTS) {
+      std::memcpy(&passed, CMSG_DATA(c), sizeof(int));
+    }
+    if (n == static_cast<ssize_t>(sizeof(report)) && report[0] == kStageListener && passed >= 0) {
+      listener = SeccompListener(UniqueFd(passed));
+      continue;
+    }
+    if (passed >= 0) ::close(passed);
+    const auto stage = static_cast<std::size_t>(report[0]);
+    (void)child.wait();
+    return std::unexpected(SysError{stage < kStage.size() ? kStage[stage] : "spawn", report[1]});
+  }
 }
 
 }  // namespace
 
-SysResult<ChildProcess> spawn(const SpawnSpec& spec) {
+SysResult<Spawned> spawn_supervised(const SpawnSpec& spec) {
   Prepared prep;
   prep.argv.push_back(const_cast<char*>(spec.executable.c_str()));  // NOLINT: execve's signature
   for (const std::string& a : spec.args) prep.argv.push_back(const_cast<char*>(a.c_str()));  // NOLINT
@@ -173,12 +294,13 @@ SysResult<ChildProcess> spawn(const SpawnSpec& spec) {
     max_target = std::max(max_target, target);
   }
 
-  std::array<int, 2> report_pipe{-1, -1};
-  if (::pipe2(report_pipe.data(), O_CLOEXEC) != 0) {
-    return last_error("pipe2");
+  // The child's reports (a failed step, the seccomp listener) come back on a socket closed at exec.
+  std::array<int, 2> report_pair{-1, -1};
+  if (::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, report_pair.data()) != 0) {
+    return last_error("socketpair(spawn)");
   }
-  UniqueFd report_read(report_pipe[0]);
-  UniqueFd report_write(report_pipe[1]);
+  UniqueFd report_read(report_pair[0]);
+  UniqueFd report_write(report_pair[1]);
   const pid_t parent = ::getpid();
 
   const pid_t pid = ::fork();
@@ -187,69 +309,84 @@ SysResult<ChildProcess> spawn(const SpawnSpec& spec) {
   }
   if (pid == 0) {
     // ---- child: async-signal-safe calls only ----
-    // The report pipe moves above the fd layout first, so that placing the fds cannot clobber it.
+    // The report socket moves above the fd layout first, so that placing the fds cannot clobber it.
     int wfd = ::fcntl(report_write.get(), F_DUPFD_CLOEXEC, max_target + 1);
     if (wfd < 0) wfd = report_write.get();
-    if (::prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0) child_fail(wfd, 1, errno);
+    if (::prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0) child_fail(wfd, kStagePdeathsig, errno);
     if (::getppid() != parent) ::_exit(127);  // the kernel died before the prctl took effect
-    if (spec.own_process_group && ::setpgid(0, 0) != 0) child_fail(wfd, 2, errno);
+    switch (spec.session) {
+      case Session::OwnProcessGroup:
+        if (::setpgid(0, 0) != 0) child_fail(wfd, kStageSession, errno);
+        break;
+      case Session::NewSession:
+        if (::setsid() < 0) child_fail(wfd, kStageSession, errno);
+        break;
+    }
     // Move the sources out of the way first (they may collide with targets), then place them.
     std::array<int, 16> staged{};
-    if (spec.fds.size() > staged.size()) child_fail(wfd, 3, EMFILE);
+    if (spec.fds.size() > staged.size()) child_fail(wfd, kStageDupfd, EMFILE);
     for (std::size_t i = 0; i < spec.fds.size(); ++i) {
       staged[i] = ::fcntl(spec.fds[i].second, F_DUPFD_CLOEXEC, max_target + 1 + 16);
-      if (staged[i] < 0) child_fail(wfd, 3, errno);
+      if (staged[i] < 0) child_fail(wfd, kStageDupfd, errno);
     }
     for (std::size_t i = 0; i < spec.fds.size(); ++i) {
-      if (::dup2(staged[i], spec.fds[i].first) < 0) child_fail(wfd, 4, errno);  // dup2 clears CLOEXEC
+      if (::dup2(staged[i], spec.fds[i].first) < 0) child_fail(wfd, kStageDup2, errno);  // dup2 clears CLOEXEC
     }
-    // Every other fd (above stderr) closes at exec, the report pipe included.
+    // Every other fd (above stderr) closes at exec, the report socket included.
     for (int fd = 3; fd <= max_target; ++fd) {
       bool wanted = false;
       for (const auto& [target, source] : spec.fds) wanted = wanted || target == fd;
       if (!wanted) ::close(fd);
     }
-    if (::syscall(SYS_close_range, max_target + 1, ~0U, CLOSE_RANGE_CLOEXEC) != 0) child_fail(wfd, 5, errno);
+    if (::syscall(SYS_close_range, max_target + 1, ~0U, CLOSE_RANGE_CLOEXEC) != 0) {
+      child_fail(wfd, kStageCloseRange, errno);
+    }
+    if (spec.isolation == Isolation::Namespaces) isolate_in_child(wfd);
     if (spec.uid) {
       const gid_t gid = *spec.uid;
       if (::setgroups(0, nullptr) != 0 || ::setresgid(gid, gid, gid) != 0 ||
           ::setresuid(*spec.uid, *spec.uid, *spec.uid) != 0) {
-        child_fail(wfd, 6, errno);
+        child_fail(wfd, kStageSetuid, errno);
       }
     }
+    limit_in_child(wfd, spec.limits);  // after the uid: RLIMIT_NPROC counts the service uid's processes
     sigset_t none;
     sigemptyset(&none);
     ::sigprocmask(SIG_SETMASK, &none, nullptr);
     if (spec.seccomp != nullptr) {
-      if (const int err = spec.seccomp->install_in_child(prep.seccomp_scratch.data(), ::getpid()); err != 0) {
-        child_fail(wfd, 7, err);
+      int listener = -1;
+      if (const int err = spec.seccomp->install_in_child(prep.seccomp_scratch.data(), ::getpid(), &listener);
+          err != 0) {
+        child_fail(wfd, kStageSeccomp, err);
+      }
+      if (listener >= 0) {
+        child_report(wfd, kStageListener, 0, listener);
+        ::close(listener);
       }
     }
     ::execve(spec.executable.c_str(), prep.argv.data(), prep.envp.data());
-    child_fail(wfd, 8, errno);
+    child_fail(wfd, kStageExec, errno);
   }
   // ---- parent ----
   report_write.reset();
   auto child = ChildProcess::adopt(pid);
-  std::array<int, 2> report{0, 0};
-  ssize_t n = -1;
-  do {
-    n = ::read(report_read.get(), report.data(), sizeof(report));
-  } while (n < 0 && errno == EINTR);
   if (!child) {
     ::kill(pid, SIGKILL);
     ::waitpid(pid, nullptr, 0);
     return std::unexpected(child.error());
   }
-  if (n == static_cast<ssize_t>(sizeof(report))) {
-    static constexpr std::array<std::string_view, 9> kStage{
-        "spawn", "prctl(PR_SET_PDEATHSIG)", "setpgid", "fcntl(F_DUPFD)", "dup2", "close_range",
-        "setuid", "seccomp", "execve"};
-    const auto stage = static_cast<std::size_t>(report[0]);
-    (void)child->wait();
-    return std::unexpected(SysError{stage < kStage.size() ? kStage[stage] : "spawn", report[1]});
+  auto listener = await_exec(*child, report_read.get());
+  if (!listener) return std::unexpected(listener.error());
+  return Spawned{.process = std::move(*child), .listener = std::move(*listener)};
+}
+
+SysResult<ChildProcess> spawn(const SpawnSpec& spec) {
+  if (spec.seccomp != nullptr && spec.seccomp->enforcement() == Enforcement::Supervised) {
+    return std::unexpected(SysError{"spawn: a supervised filter needs spawn_supervised", EINVAL});
   }
-  return std::move(*child);
+  auto spawned = spawn_supervised(spec);
+  if (!spawned) return std::unexpected(spawned.error());
+  return std::move(spawned->process);
 }
 
 SysResult<void> become_subreaper() {
@@ -314,6 +451,36 @@ SysResult<int> count_children(pid_t parent) {
   }
   ::closedir(dir);
   return count;
+}
+
+bool signal_if(pid_t pid, int sig, const std::function<bool()>& still_same) {
+  const UniqueFd fd(pidfd_open(pid, 0));
+  if (!fd || !still_same()) return false;
+  return pidfd_send_signal(fd.get(), sig) == 0;
+}
+
+SysResult<std::vector<pid_t>> own_children() {
+  // Each thread has its own list (a child belongs to the thread that forked it; an orphan to the thread the
+  // subreaper's exit handling picked), so all of them are read.
+  DIR* tasks = ::opendir("/proc/self/task");
+  if (tasks == nullptr) return last_error("opendir(/proc/self/task)");
+  std::vector<pid_t> out;
+  while (const dirent* entry = ::readdir(tasks)) {
+    if (entry->d_name[0] < '0' || entry->d_name[0] > '9') continue;
+    std::ifstream list(std::string("/proc/self/task/") + entry->d_name + "/children");
+    long pid = 0;
+    while (list >> pid) out.push_back(static_cast<pid_t>(pid));
+  }
+  ::closedir(tasks);
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+SysResult<pid_t> session_of(pid_t pid) {
+  const pid_t sid = ::getsid(pid);
+  if (sid < 0) return last_error("getsid");
+  return sid;
 }
 
 }  // namespace rejuv::sys

@@ -1,14 +1,23 @@
 #include "rejuv/sys/seccomp.hpp"
 
 #include <fcntl.h>
+#include <linux/fs.h>
 #include <linux/seccomp.h>
+#include <linux/userfaultfd.h>
+#include <poll.h>
+#include <sched.h>
 #include <seccomp.h>
+#include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/syscall.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <memory>
 
@@ -20,54 +29,236 @@ namespace {
 // it exceeds PID_MAX_LIMIT = 2^22).
 constexpr std::uint32_t kSelfPidSentinel = 0x7EAD5E1FU;
 
+// PAGEMAP_SCAN (Linux 6.7): the request code memory_image uses to find the pages written since an image
+// (<linux/fs.h> of Debian 12 predates it).
+constexpr unsigned long kPagemapScan = 0xC0606610UL;  // _IOWR('f', 16, struct pm_scan_arg)
+
+// The image fork (sys::fork_sibling) and a thread of the C library (pthread_create's clone fallback).
+constexpr std::uint64_t kImageForkFlags = CLONE_PARENT | SIGCHLD;
+constexpr std::uint64_t kThreadFlags = CLONE_VM | CLONE_FS | CLONE_FILES | CLONE_SIGHAND | CLONE_THREAD |
+                                       CLONE_SYSVSEM | CLONE_SETTLS | CLONE_PARENT_SETTID | CLONE_CHILD_CLEARTID;
+
+// The ioctl request codes a running service may use: userfaultfd set-up and write-protection, PAGEMAP_SCAN
+// (images by written pages, memory_image.cpp), and TCGETS, which the C library's isatty() asks of fds 1-2.
+constexpr std::array<unsigned long, 5> kIoctlCodes{UFFDIO_API, UFFDIO_REGISTER, UFFDIO_WRITEPROTECT,
+                                                   kPagemapScan, TCGETS};
+// The prctl options a running service may use (any other only while booting): read its own dumpable flag and
+// name, and set the name of a worker thread.
+constexpr std::array<int, 3> kPrctlOptions{PR_GET_DUMPABLE, PR_SET_NAME, PR_GET_NAME};
+
+// The allow-list (DESIGN §7 "Protection"; docs/sandbox.md prints it). x86-64 names, as libseccomp spells
+// them; a name this architecture lacks is skipped.
+constexpr std::array kRules{
+    // ---- the channel to the kernel (a Unix SOCK_SEQPACKET pair it was given; no socket can be made) ----
+    SyscallRule{"read", Allowance::Always, ArgCheck::None, "channel, resume socket, time page fd"},
+    SyscallRule{"write", Allowance::Always, ArgCheck::None, "stdout/stderr (pipes the kernel logs), channel"},
+    SyscallRule{"readv", Allowance::Always, ArgCheck::None, "the C library's stdio"},
+    SyscallRule{"writev", Allowance::Always, ArgCheck::None, "the C library's stdio"},
+    SyscallRule{"sendmsg", Allowance::Always, ArgCheck::None, "frames and fds on the channel"},
+    SyscallRule{"recvmsg", Allowance::Always, ArgCheck::None, "frames and fds on the channel"},
+    SyscallRule{"sendto", Allowance::Always, ArgCheck::None, "send() on the channel (no address: connected pair)"},
+    SyscallRule{"recvfrom", Allowance::Always, ArgCheck::None, "recv() on the channel"},
+    SyscallRule{"recvmmsg", Allowance::Always, ArgCheck::None, "batched receive of frames"},
+    SyscallRule{"sendmmsg", Allowance::Always, ArgCheck::None, "batched send of frames"},
+    SyscallRule{"poll", Allowance::Always, ArgCheck::None, "waiting for the channel with a deadline"},
+    SyscallRule{"ppoll", Allowance::Always, ArgCheck::None, "waiting for the channel with a deadline"},
+    SyscallRule{"close", Allowance::Always, ArgCheck::None, "fds the kernel passed (resume sockets, memfds)"},
+    SyscallRule{"close_range", Allowance::Always, ArgCheck::None, "dropping fds a restored image must not keep"},
+    SyscallRule{"dup", Allowance::Always, ArgCheck::None, "moving a new channel to fd 3 (a restored image)"},
+    SyscallRule{"dup2", Allowance::Always, ArgCheck::None, "moving a new channel to fd 3 (a restored image)"},
+    SyscallRule{"dup3", Allowance::Always, ArgCheck::None, "moving a new channel to fd 3 (a restored image)"},
+    SyscallRule{"fcntl", Allowance::Always, ArgCheck::None, "blocking mode, close-on-exec, memfd seals"},
+    SyscallRule{"lseek", Allowance::Always, ArgCheck::None, "sizes of memfds the service made"},
+    SyscallRule{"fstat", Allowance::Always, ArgCheck::None, "stdio asks what fds 1-2 are"},
+    SyscallRule{"newfstatat", Allowance::Always, ArgCheck::EmptyPathStat,
+                "fstat() of an fd (AT_EMPTY_PATH); a path only while booting (the loader)"},
+    SyscallRule{"pread64", Allowance::Always, ArgCheck::None, "a restored copy reads its pages from a memfd"},
+    SyscallRule{"pwrite64", Allowance::Always, ArgCheck::None, "the written pages into a memfd"},
+    SyscallRule{"preadv", Allowance::Always, ArgCheck::None, "as pread64, page by page"},
+    SyscallRule{"pwritev", Allowance::Always, ArgCheck::None, "as pwrite64, page by page"},
+    // ---- memory (never executable once booted: W^X) ----
+    SyscallRule{"mmap", Allowance::Always, ArgCheck::ExecOnlyBooting, "heap, thread stacks, the time page"},
+    SyscallRule{"mprotect", Allowance::Always, ArgCheck::ExecOnlyBooting, "guard pages, RELRO"},
+    SyscallRule{"munmap", Allowance::Always, ArgCheck::None, "the allocator returns memory"},
+    SyscallRule{"mremap", Allowance::Always, ArgCheck::None, "the allocator grows a mapping"},
+    SyscallRule{"madvise", Allowance::Always, ArgCheck::None, "the allocator returns pages"},
+    SyscallRule{"brk", Allowance::Always, ArgCheck::None, "the heap (images restore its end)"},
+    // ---- images (DESIGN §7) ----
+    SyscallRule{"clone", Allowance::Always, ArgCheck::CloneFlags,
+                "an image is forked as the kernel's child (CLONE_PARENT|SIGCHLD); registered worker threads. "
+                "No other process can be made: every process of a service is the kernel's child"},
+    SyscallRule{"clone3", Allowance::Enosys, ArgCheck::None,
+                "its flags are in memory, out of seccomp's reach: ENOSYS makes the C library use clone"},
+    SyscallRule{"memfd_create", Allowance::Always, ArgCheck::None, "the pages of an image by written pages"},
+    SyscallRule{"ftruncate", Allowance::Always, ArgCheck::None, "sizing that memfd"},
+    SyscallRule{"fallocate", Allowance::Always, ArgCheck::None, "allocating that memfd ahead"},
+    SyscallRule{"userfaultfd", Allowance::Always, ArgCheck::None, "tracking the pages written since an image"},
+    SyscallRule{"ioctl", Allowance::Always, ArgCheck::IoctlCodes,
+                "userfaultfd and PAGEMAP_SCAN requests; TCGETS (isatty). Nothing else: no TIOCSTI"},
+    // ---- threads, signals to itself, time, identity ----
+    SyscallRule{"futex", Allowance::Always, ArgCheck::None, "locks, condition variables, joining workers"},
+    SyscallRule{"set_robust_list", Allowance::Always, ArgCheck::None, "a new thread's robust futex list"},
+    SyscallRule{"rseq", Allowance::Always, ArgCheck::None, "a new thread registers restartable sequences"},
+    SyscallRule{"sched_yield", Allowance::Always, ArgCheck::None, "spinning workers"},
+    SyscallRule{"nanosleep", Allowance::Always, ArgCheck::None, "parking workers"},
+    SyscallRule{"clock_nanosleep", Allowance::Always, ArgCheck::None, "parking workers"},
+    SyscallRule{"clock_gettime", Allowance::Always, ArgCheck::None, "deadlines (when the vDSO cannot answer)"},
+    SyscallRule{"gettimeofday", Allowance::Always, ArgCheck::None, "as clock_gettime"},
+    SyscallRule{"rt_sigaction", Allowance::Always, ArgCheck::None, "the C library's own handlers"},
+    SyscallRule{"rt_sigprocmask", Allowance::Always, ArgCheck::None, "getcontext/setcontext (images), threads"},
+    SyscallRule{"rt_sigreturn", Allowance::Always, ArgCheck::None, "returning from a handler"},
+    SyscallRule{"sigaltstack", Allowance::Always, ArgCheck::None, "a thread's alternate signal stack"},
+    SyscallRule{"kill", Allowance::Always, ArgCheck::SelfPid, "raise() and abort(): to itself only"},
+    SyscallRule{"tgkill", Allowance::Always, ArgCheck::SelfPid, "raise() and abort(): to itself only"},
+    SyscallRule{"getpid", Allowance::Always, ArgCheck::None, "its own pid"},
+    SyscallRule{"gettid", Allowance::Always, ArgCheck::None, "its own thread id"},
+    SyscallRule{"getppid", Allowance::Always, ArgCheck::None, "checking that the kernel is its parent"},
+    SyscallRule{"getuid", Allowance::Always, ArgCheck::None, "identity (harmless)"},
+    SyscallRule{"geteuid", Allowance::Always, ArgCheck::None, "identity (harmless)"},
+    SyscallRule{"getgid", Allowance::Always, ArgCheck::None, "identity (harmless)"},
+    SyscallRule{"getegid", Allowance::Always, ArgCheck::None, "identity (harmless)"},
+    SyscallRule{"getrandom", Allowance::Always, ArgCheck::None, "the C++ library's random_device, hash seeds"},
+    SyscallRule{"sched_getaffinity", Allowance::Always, ArgCheck::None, "hardware_concurrency(); never set"},
+    SyscallRule{"getcpu", Allowance::Always, ArgCheck::None, "sched_getcpu() (when the vDSO cannot answer)"},
+    SyscallRule{"prctl", Allowance::Always, ArgCheck::PrctlOptions,
+                "thread names and the dumpable flag; the SDK's non-dumpable switch only while booting"},
+    SyscallRule{"restart_syscall", Allowance::Always, ArgCheck::None, "a call interrupted by a stop"},
+    SyscallRule{"exit", Allowance::Always, ArgCheck::None, "a thread ends"},
+    SyscallRule{"exit_group", Allowance::Always, ArgCheck::None, "the process ends"},
+    // ---- exec and start-up: only until the service is ready ----
+    SyscallRule{"execve", Allowance::WhileBooting, ArgCheck::None, "the kernel execs the service's binary"},
+    SyscallRule{"execveat", Allowance::WhileBooting, ArgCheck::None, "as execve"},
+    SyscallRule{"open", Allowance::WhileBooting, ArgCheck::None, "the dynamic loader opens libraries"},
+    SyscallRule{"openat", Allowance::WhileBooting, ArgCheck::None,
+                "the loader's libraries; the SDK reads /proc/self/maps once (memory_image::prepare_self)"},
+    SyscallRule{"access", Allowance::WhileBooting, ArgCheck::None, "the loader"},
+    SyscallRule{"faccessat", Allowance::WhileBooting, ArgCheck::None, "the loader"},
+    SyscallRule{"faccessat2", Allowance::WhileBooting, ArgCheck::None, "the loader"},
+    SyscallRule{"stat", Allowance::WhileBooting, ArgCheck::None, "the loader"},
+    SyscallRule{"lstat", Allowance::WhileBooting, ArgCheck::None, "the loader"},
+    SyscallRule{"statx", Allowance::WhileBooting, ArgCheck::None, "the loader"},
+    SyscallRule{"statfs", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
+    SyscallRule{"fstatfs", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
+    SyscallRule{"readlink", Allowance::WhileBooting, ArgCheck::None, "the SDK reads /proc/self/exe once"},
+    SyscallRule{"readlinkat", Allowance::WhileBooting, ArgCheck::None, "as readlink"},
+    SyscallRule{"getdents64", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
+    SyscallRule{"getcwd", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
+    SyscallRule{"arch_prctl", Allowance::WhileBooting, ArgCheck::None, "thread-local storage of the main thread"},
+    SyscallRule{"set_tid_address", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
+    SyscallRule{"prlimit64", Allowance::WhileBooting, ArgCheck::None, "the C library reads its stack limit"},
+    SyscallRule{"getrlimit", Allowance::WhileBooting, ArgCheck::None, "as prlimit64 (reading only)"},
+    SyscallRule{"uname", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
+    SyscallRule{"sysinfo", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
+};
+
 struct CtxDeleter {
   void operator()(void* ctx) const { seccomp_release(ctx); }
 };
 
+// The rules libseccomp gets for one entry under `enforcement`. `allow` is ALLOW; calls that fail an argument
+// check fall through to the default action (the supervisor, or death).
+int add_rule(scmp_filter_ctx ctx, const SyscallRule& rule, int nr, Enforcement enforcement) {
+  const std::uint32_t allow = SCMP_ACT_ALLOW;
+  if (rule.allowance == Allowance::Enosys) return seccomp_rule_add(ctx, SCMP_ACT_ERRNO(ENOSYS), nr, 0);
+  if (rule.allowance == Allowance::WhileBooting) {
+    // Supervised: the default action already sends it to the kernel. Standalone: allowed.
+    return enforcement == Enforcement::Standalone ? seccomp_rule_add(ctx, allow, nr, 0) : 0;
+  }
+  int rc = 0;
+  switch (rule.check) {
+    case ArgCheck::None: return seccomp_rule_add(ctx, allow, nr, 0);
+    case ArgCheck::SelfPid: return seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, kSelfPidSentinel));
+    case ArgCheck::CloneFlags:
+      rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, kImageForkFlags));
+      rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, kThreadFlags));
+      return rc;
+    case ArgCheck::ExecOnlyBooting:
+      if (enforcement == Enforcement::Standalone) return seccomp_rule_add(ctx, allow, nr, 0);
+      return seccomp_rule_add(ctx, allow, nr, 1, SCMP_A2(SCMP_CMP_MASKED_EQ, PROT_EXEC, 0));
+    case ArgCheck::IoctlCodes:
+      for (const unsigned long code : kIoctlCodes) {
+        rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A1(SCMP_CMP_EQ, static_cast<scmp_datum_t>(code)));
+      }
+      return rc;
+    case ArgCheck::PrctlOptions:
+      if (enforcement == Enforcement::Standalone) return seccomp_rule_add(ctx, allow, nr, 0);
+      for (const int option : kPrctlOptions) {
+        rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, static_cast<scmp_datum_t>(option)));
+      }
+      return rc;
+    case ArgCheck::EmptyPathStat:
+      if (enforcement == Enforcement::Standalone) return seccomp_rule_add(ctx, allow, nr, 0);
+      return seccomp_rule_add(ctx, allow, nr, 1, SCMP_A3(SCMP_CMP_MASKED_EQ, AT_EMPTY_PATH, AT_EMPTY_PATH));
+  }
+  return -EINVAL;
+}
+
+const SyscallRule* rule_of(int nr) {
+  for (const SyscallRule& r : kRules) {
+    if (syscall_number(r.name) == nr) return &r;
+  }
+  return nullptr;
+}
+
 }  // namespace
 
-SysResult<SeccompProgram> SeccompProgram::service_policy(SeccompStage stage) {
-  std::unique_ptr<void, CtxDeleter> ctx(seccomp_init(SCMP_ACT_ALLOW));
-  if (!ctx) {
-    return std::unexpected(SysError{"seccomp_init", ENOMEM});
+std::span<const SyscallRule> service_syscalls() { return kRules; }
+
+std::optional<int> syscall_number(std::string_view name) {
+  const std::string n(name);
+  const int nr = seccomp_syscall_resolve_name(n.c_str());
+  if (nr == __NR_SCMP_ERROR || nr < 0) return std::nullopt;
+  return nr;
+}
+
+std::string syscall_name(int nr) {
+  char* name = seccomp_syscall_resolve_num_arch(SCMP_ARCH_NATIVE, nr);
+  if (name == nullptr) return "syscall " + std::to_string(nr);
+  std::string out(name);
+  std::free(name);  // NOLINT(cppcoreguidelines-no-malloc): libseccomp's allocation
+  return out;
+}
+
+NoticeKind classify(const SeccompNotice& notice) {
+  const SyscallRule* rule = rule_of(notice.nr);
+  if (rule == nullptr) return NoticeKind::Forbidden;
+  switch (rule->allowance) {
+    case Allowance::WhileBooting: return NoticeKind::BootCall;
+    case Allowance::Enosys: return NoticeKind::Forbidden;  // never notified
+    case Allowance::Always: break;
   }
-  // A call that tries to leave the sandbox ends the process (SIGSYS) instead of failing with EPERM: the
-  // kernel, its parent, sees the death on its pidfd, counts a sandbox violation and contains it like any
-  // lost service (a rollback with SR on). An EPERM would be invisible to the kernel and leave a compromised
-  // process running that probes on (DESIGN §7 "Protection", §11).
-  const auto deny = [&](int syscall) { return seccomp_rule_add(ctx.get(), SCMP_ACT_KILL_PROCESS, syscall, 0); };
-  const auto deny_unless_self = [&](int syscall) {
-    return seccomp_rule_add(ctx.get(), SCMP_ACT_KILL_PROCESS, syscall, 1,
-                            SCMP_A0(SCMP_CMP_NE, kSelfPidSentinel));
-  };
-  int rc = 0;
-  // No network and no new sockets of any family: a service reaches the world only through its channel.
-  for (const int sc : {SCMP_SYS(socket), SCMP_SYS(socketpair), SCMP_SYS(connect), SCMP_SYS(bind),
-                       SCMP_SYS(listen), SCMP_SYS(accept), SCMP_SYS(accept4)}) {
-    rc |= deny(sc);
+  // An Always entry whose argument check failed: some fail only after boot.
+  switch (rule->check) {
+    case ArgCheck::ExecOnlyBooting:
+    case ArgCheck::PrctlOptions:
+    case ArgCheck::EmptyPathStat: return NoticeKind::BootCall;
+    case ArgCheck::None:
+    case ArgCheck::SelfPid:
+    case ArgCheck::CloneFlags:
+    case ArgCheck::IoctlCodes: return NoticeKind::Forbidden;
   }
-  // No debugging or memory access of other processes, no stealing their fds.
-  for (const int sc : {SCMP_SYS(ptrace), SCMP_SYS(process_vm_readv), SCMP_SYS(process_vm_writev),
-                       SCMP_SYS(pidfd_getfd), SCMP_SYS(pidfd_open), SCMP_SYS(pidfd_send_signal),
-                       SCMP_SYS(kcmp), SCMP_SYS(tkill)}) {
-    rc |= deny(sc);
-  }
-  // Signals only to itself (raise/abort use tgkill on their own pid).
-  for (const int sc : {SCMP_SYS(kill), SCMP_SYS(tgkill), SCMP_SYS(rt_sigqueueinfo), SCMP_SYS(rt_tgsigqueueinfo)}) {
-    rc |= deny_unless_self(sc);
-  }
-  if (stage == SeccompStage::AfterExec) {
-    rc |= deny(SCMP_SYS(execve));
-    rc |= deny(SCMP_SYS(execveat));
-  }
-  if (rc != 0) {
-    return std::unexpected(SysError{"seccomp_rule_add", -rc});
+  return NoticeKind::Forbidden;
+}
+
+SysResult<SeccompProgram> SeccompProgram::service_policy(Enforcement enforcement) {
+  // Supervised: what the table does not allow goes to the kernel, which names it, counts it and kills the
+  // process (an EPERM would leave a compromised process running that probes on). Standalone: death by SIGSYS.
+  const std::uint32_t deflt = enforcement == Enforcement::Supervised ? SCMP_ACT_NOTIFY : SCMP_ACT_KILL_PROCESS;
+  std::unique_ptr<void, CtxDeleter> ctx(seccomp_init(deflt));
+  if (!ctx) return std::unexpected(SysError{"seccomp_init", ENOMEM});
+  int rc = seccomp_attr_set(ctx.get(), SCMP_FLTATR_ACT_BADARCH, SCMP_ACT_KILL_PROCESS);  // no 32-bit ABI
+  rc |= seccomp_attr_set(ctx.get(), SCMP_FLTATR_CTL_OPTIMIZE, 2);  // binary tree: O(log n) per call
+  if (rc != 0) return std::unexpected(SysError{"seccomp_attr_set", -rc});
+  for (const SyscallRule& rule : kRules) {
+    const auto nr = syscall_number(rule.name);
+    if (!nr) continue;  // not on this architecture (open/stat on arm64, say)
+    if (const int erc = add_rule(ctx.get(), rule, *nr, enforcement); erc != 0) {
+      return std::unexpected(SysError{"seccomp_rule_add", -erc});
+    }
   }
   // libseccomp 2.5 exports to an fd only: go through a memfd.
   UniqueFd mem(::memfd_create("rejuv-seccomp", MFD_CLOEXEC));
-  if (!mem) {
-    return last_error("memfd_create");
-  }
+  if (!mem) return last_error("memfd_create");
   if (const int erc = seccomp_export_bpf(ctx.get(), mem.get()); erc != 0) {
     return std::unexpected(SysError{"seccomp_export_bpf", -erc});
   }
@@ -76,6 +267,7 @@ SysResult<SeccompProgram> SeccompProgram::service_policy(SeccompStage stage) {
     return std::unexpected(SysError{"seccomp_export_bpf", EINVAL});
   }
   SeccompProgram program;
+  program.enforcement_ = enforcement;
   program.filter_.resize(static_cast<std::size_t>(size) / sizeof(sock_filter));
   if (::pread(mem.get(), program.filter_.data(), static_cast<std::size_t>(size), 0) != size) {
     return last_error("pread");
@@ -83,35 +275,68 @@ SysResult<SeccompProgram> SeccompProgram::service_policy(SeccompStage stage) {
   return program;
 }
 
-SysResult<void> SeccompProgram::install() const {
+SysResult<UniqueFd> SeccompProgram::install() const {
   std::vector<sock_filter> copy = filter_;
-  if (const int err = install_in_child(copy.data(), ::getpid()); err != 0) {
-    return std::unexpected(SysError{"prctl(PR_SET_SECCOMP)", err});
+  int listener = -1;
+  if (const int err = install_in_child(copy.data(), ::getpid(), &listener); err != 0) {
+    return std::unexpected(SysError{"seccomp(SECCOMP_SET_MODE_FILTER)", err});
+  }
+  return UniqueFd(listener);
+}
+
+int SeccompProgram::install_in_child(sock_filter* scratch, pid_t self, int* listener) const noexcept {
+  for (std::size_t i = 0; i < filter_.size(); ++i) {
+    scratch[i] = filter_[i];
+    if (scratch[i].k == kSelfPidSentinel) scratch[i].k = static_cast<std::uint32_t>(self);
+  }
+  // No core dump when the process is killed: nothing of a service's memory is written to disk.
+  const rlimit no_core{0, 0};
+  if (::setrlimit(RLIMIT_CORE, &no_core) != 0) return errno;
+  if (::prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0) return errno;
+  sock_fprog prog{static_cast<unsigned short>(filter_.size()), scratch};
+  const unsigned flags = enforcement_ == Enforcement::Supervised ? SECCOMP_FILTER_FLAG_NEW_LISTENER : 0U;
+  const long rc = ::syscall(SYS_seccomp, SECCOMP_SET_MODE_FILTER, flags, &prog);
+  if (rc < 0) return errno;
+  if (listener != nullptr) *listener = enforcement_ == Enforcement::Supervised ? static_cast<int>(rc) : -1;
+  return 0;
+}
+
+// ---- the supervisor's side ----
+
+SysResult<std::optional<SeccompNotice>> SeccompListener::receive() const {
+  // NOTIF_RECV waits for a notice whatever the fd's flags: ask poll first.
+  pollfd p{fd_.get(), POLLIN, 0};
+  if (::poll(&p, 1, 0) < 0) return last_error("poll(seccomp listener)");
+  if ((p.revents & POLLIN) == 0) return std::optional<SeccompNotice>{};
+  seccomp_notif n{};
+  if (::ioctl(fd_.get(), SECCOMP_IOCTL_NOTIF_RECV, &n) != 0) {
+    if (errno == ENOENT || errno == EINTR) return std::optional<SeccompNotice>{};  // its process died meanwhile
+    return last_error("ioctl(SECCOMP_IOCTL_NOTIF_RECV)");
+  }
+  SeccompNotice out{.id = n.id, .pid = static_cast<pid_t>(n.pid), .nr = n.data.nr, .args = {}};
+  for (std::size_t i = 0; i < out.args.size(); ++i) out.args[i] = n.data.args[i];
+  return std::optional<SeccompNotice>{out};
+}
+
+SysResult<void> SeccompListener::allow(std::uint64_t id) const {
+  seccomp_notif_resp r{.id = id, .val = 0, .error = 0, .flags = SECCOMP_USER_NOTIF_FLAG_CONTINUE};
+  if (::ioctl(fd_.get(), SECCOMP_IOCTL_NOTIF_SEND, &r) != 0 && errno != ENOENT) {
+    return last_error("ioctl(SECCOMP_IOCTL_NOTIF_SEND)");
   }
   return {};
 }
 
-int SeccompProgram::install_in_child(sock_filter* scratch, pid_t self) const noexcept {
-  for (std::size_t i = 0; i < filter_.size(); ++i) {
-    scratch[i] = filter_[i];
-    if (scratch[i].k == kSelfPidSentinel) {
-      scratch[i].k = static_cast<std::uint32_t>(self);
-    }
+SysResult<void> SeccompListener::refuse(std::uint64_t id, int error) const {
+  seccomp_notif_resp r{.id = id, .val = 0, .error = -error, .flags = 0};
+  if (::ioctl(fd_.get(), SECCOMP_IOCTL_NOTIF_SEND, &r) != 0 && errno != ENOENT) {
+    return last_error("ioctl(SECCOMP_IOCTL_NOTIF_SEND)");
   }
-  // No core dump when the filter ends the process (SIGSYS dumps core by default): nothing of a service's
-  // memory is written to disk, and nothing is left behind in the working directory.
-  const rlimit no_core{0, 0};
-  if (::setrlimit(RLIMIT_CORE, &no_core) != 0) {
-    return errno;
-  }
-  if (::prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0) {
-    return errno;
-  }
-  sock_fprog prog{static_cast<unsigned short>(filter_.size()), scratch};
-  if (::prctl(PR_SET_SECCOMP, SECCOMP_MODE_FILTER, &prog, 0, 0) != 0) {
-    return errno;
-  }
-  return 0;
+  return {};
+}
+
+bool SeccompListener::still_waiting(std::uint64_t id) const {
+  std::uint64_t copy = id;
+  return ::ioctl(fd_.get(), SECCOMP_IOCTL_NOTIF_ID_VALID, &copy) == 0;
 }
 
 }  // namespace rejuv::sys

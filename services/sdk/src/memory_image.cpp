@@ -154,6 +154,8 @@ void standby_entry() { scratch->standby_fn(scratch->standby_arg); ::_exit(3); }
 
 // Set once a process of this executable tracks its writes; the same in its images (written only while false).
 bool tracks_writes_flag = false;
+// Set by opens_done() at the end of a service's boot (and so in all its images).
+bool no_more_opens = false;
 
 // Data+bss, the heap as it is now and the whole stack mapping: what tracking covers and pages may land in.
 Layout whole_layout() {
@@ -311,10 +313,12 @@ sys::SysResult<void> track_writes_self() {
   }
   // A non-dumpable process of another uid than root cannot open its own pagemap: its kernel hands it one
   // (copy_written_self's `pagemap`).
-  scratch->pagemap = high_fd(::open("/proc/self/pagemap", O_RDONLY | O_CLOEXEC));
+  scratch->pagemap = no_more_opens ? -1 : high_fd(::open("/proc/self/pagemap", O_RDONLY | O_CLOEXEC));
   if (!tracks_writes_flag) tracks_writes_flag = true;
   return {};
 }
+
+void opens_done() { no_more_opens = true; }
 
 sys::SysResult<std::size_t> copy_written_self(int fd, int pagemap) {
   if (!tracking_writes()) return std::unexpected(sys::SysError{"copy_written_self: not tracking", EINVAL});

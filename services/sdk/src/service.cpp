@@ -570,11 +570,9 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
   if (!sys::fd_is_open(options.channel_fd) || !sys::fd_is_open(options.time_page_fd)) {
     return error(SdkError::NotAService, "fd 3 (channel) and fd 4 (time page) must be open: run under the kernel");
   }
-  if (options.install_seccomp) {
-    auto program = sys::SeccompProgram::service_policy(sys::SeccompStage::AfterExec);
-    if (!program) return error(SdkError::Seccomp, program.error().to_string());
-    if (auto ok = program->install(); !ok) return error(SdkError::Seccomp, ok.error().to_string());
-  }
+  // The sandbox is the kernel's (installed before exec, DESIGN §7 "Protection"): from the first Ready on,
+  // this process opens nothing and maps nothing executable.
+  memory_image::opens_done();
   // Not dumpable: no process of its uid (its own images, say) can open its /proc/<pid>/mem or ptrace it.
   // Its images inherit this at fork (frozen_image).
   if (auto nd = sys::make_non_dumpable(); !nd) return error(SdkError::NotAService, nd.error().to_string());

@@ -100,8 +100,7 @@ class ScriptedKernel {
 
   std::unique_ptr<Service> connect() {
     auto svc = Service::connect(ConnectOptions{.channel_fd = service_fd_,
-                                               .time_page_fd = page_->read_only_fd().get(),
-                                               .install_seccomp = false});
+                                               .time_page_fd = page_->read_only_fd().get()});
     EXPECT_TRUE(svc.has_value()) << svc.error().to_string();
     return svc ? std::move(*svc) : nullptr;
   }
@@ -361,7 +360,7 @@ TEST_F(SdkTest, KernelGone_EndsRunWithOne) {
 }
 
 TEST(SdkConnect, WithoutTheKernelsFds_IsNotAService) {
-  auto svc = Service::connect(ConnectOptions{.channel_fd = 900, .time_page_fd = 901, .install_seccomp = false});
+  auto svc = Service::connect(ConnectOptions{.channel_fd = 900, .time_page_fd = 901});
   ASSERT_FALSE(svc.has_value());
   EXPECT_EQ(svc.error().code, SdkError::NotAService);
 }

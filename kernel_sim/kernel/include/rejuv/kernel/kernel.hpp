@@ -99,6 +99,12 @@ struct KernelOptions {
   enum class Placement : std::uint8_t { Auto, Cpu, Spread };
   Placement placement = Placement::Auto;
   int cpu = 0;                                  // with Placement::Cpu
+  // Containment (DESIGN §7 "Protection"): Strict runs every service in an empty network namespace and a
+  // read-only mount namespace, and refuses to start where they cannot be made; Insecure (rejuv run
+  // --insecure-sandbox) runs without them and says so in the summary. The allow-list filter, the resource
+  // limits, the sweeps and the logged output hold in both.
+  enum class Sandbox : std::uint8_t { Strict, Insecure };
+  Sandbox sandbox = Sandbox::Strict;
   std::FILE* log = stderr;                      // kernel and service log lines; nullptr = silent
   bool verbose = false;                         // also Debug-level service logs
 };
@@ -168,7 +174,12 @@ struct ServiceStats {
                                     // skips what its service slept through by design and is not counted)
   std::uint64_t log_suppressed = 0; // log lines dropped by the rate limit
   std::uint64_t flood_dropped = 0;  // publications dropped over the per-step bound (lockstep)
-  std::uint64_t sandbox_violations = 0;  // incarnations ended by the seccomp filter (SIGSYS: socket, ptrace, kill …)
+  // Containment (DESIGN §7 "Protection", docs/sandbox.md): every violation is proof of compromise.
+  std::uint64_t sandbox_violations = 0;  // all kinds below
+  std::uint64_t forbidden_calls = 0;     // a call outside the allow-list (or a boot call after boot): killed
+  std::uint64_t stray_processes = 0;     // a process of its session that is neither live nor an image: killed
+  std::vector<std::pair<std::string, std::uint64_t>> calls_refused{};  // forbidden calls by name
+  std::uint64_t output_lines = 0;        // lines it wrote on fds 1-2 (logged under its name)
 };
 
 // Counters of the network gate (DESIGN §2; docs/protocol.md "Network gate"). Every datagram read is

@@ -44,6 +44,11 @@ inline constexpr std::size_t kMaxWaypoints = 16;       // idl/control.idl Missio
 inline constexpr std::uint32_t kMaxDdsDomainId = 232;  // DDSI-RTPS port mapping limit
 inline constexpr std::string_view kDdsNamePrefix = "rejuv/";
 inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // relative to the repository
+// Sandbox limits of a service's processes (DESIGN §7 "Protection"): a live incarnation, K generations of
+// images with a spare each, workers; a few hundred fds; the address space of a service with room to spare.
+inline constexpr std::uint32_t kSandboxProcesses = 64;
+inline constexpr std::uint32_t kSandboxMemoryMb = 4096;
+inline constexpr std::uint32_t kSandboxOpenFiles = 256;
 }  // namespace defaults
 
 // K, the number of checkpoint generations kept (DESIGN §7).
@@ -64,6 +69,14 @@ inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // rela
 // Cyclone XML config: as written (relative to the launch file), else config/cyclonedds.xml of `repo_root`.
 [[nodiscard]] std::filesystem::path dds_config(const LoadedLaunch& launch,
                                                const std::filesystem::path& repo_root);
+
+// A service's resource limits: its own `limits`, else the graph's `sandbox_limits`, else the defaults.
+struct SandboxLimitValues {
+  std::uint32_t max_processes = defaults::kSandboxProcesses;
+  std::uint32_t max_memory_mb = defaults::kSandboxMemoryMb;  // 0 = no limit
+  std::uint32_t max_open_files = defaults::kSandboxOpenFiles;
+};
+[[nodiscard]] SandboxLimitValues sandbox_limits(const proto::Launch& graph, const proto::ServiceSpec& service);
 
 // The service called `name`, or nullptr.
 [[nodiscard]] const proto::ServiceSpec* find_service(const proto::Launch& graph, std::string_view name);

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <string>
+#include <optional>
+#include <span>
 #include <string_view>
 
 #include "rejuv/core/result.hpp"
@@ -55,5 +57,16 @@ class UniqueFd {
 // channel at fd 3 (DESIGN §7). Whatever was open at `target` is closed.
 [[nodiscard]] SysResult<void> install_fd(UniqueFd fd, int target);
 [[nodiscard]] SysResult<int> count_open_fds();
+
+// A pipe: {read end (non-blocking), write end (blocking)}, both close-on-exec (a spawn places the write end).
+struct Pipe {
+  UniqueFd read;
+  UniqueFd write;
+};
+[[nodiscard]] SysResult<Pipe> make_pipe();
+// /dev/null opened read-only (a service's fd 0: it has no terminal to read).
+[[nodiscard]] SysResult<UniqueFd> open_null();
+// Reads what is there without waiting: the byte count, 0 at end of file, nullopt when nothing waits.
+[[nodiscard]] SysResult<std::optional<std::size_t>> read_some(int fd, std::span<char> into);
 
 }  // namespace rejuv::sys

@@ -5,6 +5,7 @@
 
 #include <sys/types.h>
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -59,18 +60,51 @@ class ChildProcess {
   std::optional<ExitStatus> status_;
 };
 
+// Resource limits of a spawned process (setrlimit, soft = hard, so it cannot raise them). Unset: inherited.
+struct ResourceLimits {
+  std::optional<std::uint64_t> processes{};       // RLIMIT_NPROC: processes of its (real) uid
+  std::optional<std::uint64_t> address_space{};   // RLIMIT_AS, bytes
+  std::optional<std::uint64_t> open_files{};      // RLIMIT_NOFILE
+  std::optional<std::uint64_t> file_size{};       // RLIMIT_FSIZE, bytes (memfds count: shmem files)
+};
+
+// What a spawned process is cut off from (DESIGN §7 "Protection").
+enum class Isolation : std::uint8_t {
+  None,
+  // An empty network namespace (no interface up: no address, loopback included, reaches anything), an IPC
+  // namespace of its own, and a mount namespace in which every mount is read-only, nosuid and nodev. Root
+  // makes them directly; anyone else through a new user namespace where the system allows that.
+  Namespaces,
+};
+
+// Where it stands towards terminals and job control.
+enum class Session : std::uint8_t {
+  OwnProcessGroup,  // terminal signals (Ctrl-C) go to the kernel only
+  NewSession,       // setsid: also no controlling terminal, and its session id marks every process it makes
+};
+
 struct SpawnSpec {
   std::string executable{};                      // path; not searched in PATH
   std::vector<std::string> args{};               // argv[1..]
   std::vector<std::string> env{};                // "NAME=value"; the child gets exactly these
   std::vector<std::pair<int, int>> fds{};        // {fd in the child, fd in the parent}: the only fds it keeps
-  const SeccompProgram* seccomp = nullptr;       // BeforeExec-stage filter, or none
+  const SeccompProgram* seccomp = nullptr;       // the service filter, or none
   std::optional<uid_t> uid{};                    // drop to this uid/gid (kernel runs as root)
-  bool own_process_group = true;                 // terminal signals go to the kernel only
+  Session session = Session::OwnProcessGroup;
+  Isolation isolation = Isolation::None;
+  ResourceLimits limits{};
+};
+
+// A spawned process and, when its filter is supervised, the listener for the calls it refers to the spawner.
+struct Spawned {
+  ChildProcess process;
+  SeccompListener listener;
 };
 
 // fork + exec with every step checked; an exec failure in the child comes back as an error value here
-// (through a close-on-exec pipe), not as a mysterious exit code.
+// (through a close-on-exec socket), not as a mysterious exit code. With a supervised filter the exec itself is
+// a boot call the spawner lets through (seccomp.hpp); spawn() is for unsupervised filters or none.
+[[nodiscard]] SysResult<Spawned> spawn_supervised(const SpawnSpec& spec);
 [[nodiscard]] SysResult<ChildProcess> spawn(const SpawnSpec& spec);
 
 // Makes this process the reaper of its orphaned descendants (PR_SET_CHILD_SUBREAPER), so that images
@@ -98,6 +132,16 @@ struct SpawnSpec {
 // Puts `pid` under SCHED_IDLE: it then runs only when no other task on its CPU can. Unlike a signal, this
 // does not wake it (a rollback's retired incarnations, DESIGN §7).
 [[nodiscard]] SysResult<void> idle_priority(pid_t pid);
+
+// Sends `sig` to `pid` through a pidfd, only if `still_same()` holds once the pidfd is open (so that a pid
+// reused meanwhile is never signalled). False when the process is gone or the check failed.
+[[nodiscard]] bool signal_if(pid_t pid, int sig, const std::function<bool()>& still_same);
+
+// The pids of this process's own children (every thread's, from /proc/self/task/*/children), ascending.
+[[nodiscard]] SysResult<std::vector<pid_t>> own_children();
+// The session id of `pid` (a service is a session of its own; setsid is not on its allow-list, so every
+// process it makes stays in it).
+[[nodiscard]] SysResult<pid_t> session_of(pid_t pid);
 
 // Counts the live processes whose parent is `parent` (from /proc), for leak checks in tests.
 [[nodiscard]] SysResult<int> count_children(pid_t parent);

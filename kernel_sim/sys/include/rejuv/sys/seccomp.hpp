@@ -1,48 +1,138 @@
-// Seccomp filters for service processes (DESIGN §7 "Protection"): no sockets, no ptrace, no process_vm_*,
-// no signals to other processes, no exec. The BPF program is built (with libseccomp, which allocates) before
-// the kernel forks; the child only copies it, patches its own pid in and loads it with prctl — all
-// async-signal-safe, as required between fork and exec in a process that has DDS threads.
+// The services' system-call allow-list (DESIGN §7 "Protection (containment)", docs/sandbox.md).
+//
+// One table (service_syscalls(), seccomp.cpp) is the source of truth: every call a service may make, with the
+// argument checks that matter and the reason it is needed. Everything else is refused. The kernel installs
+// the filter between fork and exec, so it binds any executable a graph names, and images inherit it.
+//
+// Two kinds of entry:
+//   - Always: the calls of a running service (its channel, memory, time, images, workers).
+//   - WhileBooting: what exec, the dynamic loader and the SDK's start-up need (open, exec, executable
+//     mappings …) and a booted service never does again. The filter sends them to the kernel (seccomp user
+//     notification), which lets them continue while the service has not yet said Ready and treats them as
+//     a violation afterwards: "no open after boot" and W^X hold for any executable, not only SDK code, and
+//     the decision rests on what the kernel knows, not on the caller's arguments (no TOCTOU).
+// A call outside the table also goes to the kernel, which learns its name, counts the violation, kills the
+// process and contains it (a rollback). A process without a supervisor (tests) uses the standalone form:
+// boot calls allowed, everything else ends the process as if by SIGSYS.
+//
+// The BPF program is built with libseccomp (binary-tree layout) before the kernel forks; the child only copies
+// it, patches its own pid in and loads it — async-signal-safe, as required between fork and exec in a process
+// that has DDS threads.
 #pragma once
 
 #include <linux/filter.h>
 #include <sys/types.h>
 
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "rejuv/sys/fd.hpp"
 
 namespace rejuv::sys {
 
-enum class SeccompStage : std::uint8_t {
-  // Installed by the kernel between fork and exec: everything of the service policy except the exec ban
-  // (the service must still exec its binary).
-  BeforeExec,
-  // Installed by the service SDK right after exec, before it reads its channel: adds the exec ban.
-  // Filters stack, so the service ends up with both.
-  AfterExec,
+// When an entry of the allow-list holds.
+enum class Allowance : std::uint8_t {
+  Always,        // at any time
+  WhileBooting,  // until the service is ready; the supervisor decides (seccomp user notification)
+  Enosys,        // refused with ENOSYS, not a violation (clone3: glibc falls back to clone, whose flags are checked)
+};
+
+// The argument checks of an entry (on register values only: seccomp cannot read memory).
+enum class ArgCheck : std::uint8_t {
+  None,
+  SelfPid,         // arg 0 is the calling process's own pid (signals only to itself)
+  CloneFlags,      // arg 0 is exactly the image fork's (CLONE_PARENT|SIGCHLD) or a thread's flags
+  ExecOnlyBooting, // mmap/mprotect: PROT_EXEC only while booting (W^X once booted)
+  IoctlCodes,      // arg 1 is one of the request codes the image code uses (userfaultfd, PAGEMAP_SCAN, TCGETS)
+  PrctlOptions,    // arg 0 is one of the options a running service uses; any other only while booting
+  EmptyPathStat,   // newfstatat on an fd (AT_EMPTY_PATH); a path only while booting
+};
+
+struct SyscallRule {
+  std::string_view name;
+  Allowance allowance = Allowance::Always;
+  ArgCheck check = ArgCheck::None;
+  std::string_view reason;
+};
+
+// The allow-list, in the order docs/sandbox.md shows it.
+[[nodiscard]] std::span<const SyscallRule> service_syscalls();
+
+// How a refused call is handled.
+enum class Enforcement : std::uint8_t {
+  // The kernel supervises: WhileBooting calls and calls outside the list are sent to it (user notification).
+  Supervised,
+  // No supervisor (tests, tools): WhileBooting calls are allowed, anything outside the list ends the process
+  // (SECCOMP_RET_KILL_PROCESS, seen by its parent as SIGSYS).
+  Standalone,
 };
 
 class SeccompProgram {
  public:
-  // The service policy for a stage. A denied call ends the process as if by SIGSYS (SECCOMP_RET_KILL_PROCESS,
-  // no core dump): its parent, the kernel, sees that on the pidfd, counts a sandbox violation and contains it
-  // (a rollback with SR on). An EPERM would leave the attempt invisible to the kernel.
-  // Signals are allowed to the service's own pid only: the pid of the first incarnation (a restored image has
-  // another pid, so its raise()/abort() also end it by SIGSYS).
-  [[nodiscard]] static SysResult<SeccompProgram> service_policy(SeccompStage stage);
+  [[nodiscard]] static SysResult<SeccompProgram> service_policy(Enforcement enforcement);
 
-  // Loads the filter into the calling process (not async-signal-safe; for the SDK after exec).
-  [[nodiscard]] SysResult<void> install() const;
+  // Loads the filter into the calling process (not async-signal-safe). Supervised: returns the listener fd.
+  [[nodiscard]] SysResult<UniqueFd> install() const;
 
-  // Async-signal-safe load for a freshly forked child: copies the program into `scratch` (which the
-  // parent sized with scratch_size() before the fork), patches the child's pid, sets RLIMIT_CORE 0 and
-  // no_new_privs and loads it. Returns 0 or an errno.
-  [[nodiscard]] int install_in_child(sock_filter* scratch, pid_t self) const noexcept;
+  // Async-signal-safe load for a freshly forked child: copies the program into `scratch` (sized with
+  // scratch_size() before the fork), patches the child's pid, sets RLIMIT_CORE 0 and no_new_privs and loads
+  // it. Supervised: *listener receives the listener fd. Returns 0 or an errno.
+  [[nodiscard]] int install_in_child(sock_filter* scratch, pid_t self, int* listener) const noexcept;
   [[nodiscard]] std::size_t scratch_size() const { return filter_.size(); }
   [[nodiscard]] std::size_t instructions() const { return filter_.size(); }
+  [[nodiscard]] Enforcement enforcement() const { return enforcement_; }
 
  private:
   std::vector<sock_filter> filter_;
+  Enforcement enforcement_ = Enforcement::Standalone;
+};
+
+// ---- the supervisor's side (the kernel) ----
+
+// One call a supervised process made that the filter sent to its supervisor; the process waits in the call.
+struct SeccompNotice {
+  std::uint64_t id = 0;
+  pid_t pid = 0;  // in the supervisor's pid namespace
+  int nr = -1;
+  std::array<std::uint64_t, 6> args{};
+};
+
+// What the table says of a notice.
+enum class NoticeKind : std::uint8_t {
+  BootCall,   // a WhileBooting call (or the boot-only form of an Always call): fine until the service is ready
+  Forbidden,  // outside the allow-list: a sandbox violation
+};
+[[nodiscard]] NoticeKind classify(const SeccompNotice& notice);
+
+// The call's name ("socket", "io_uring_setup"), or "syscall <nr>".
+[[nodiscard]] std::string syscall_name(int nr);
+// The call's number for this architecture, if it has one.
+[[nodiscard]] std::optional<int> syscall_number(std::string_view name);
+
+// The listener fd of a filter (readable when a notice waits).
+class SeccompListener {
+ public:
+  SeccompListener() = default;
+  explicit SeccompListener(UniqueFd fd) : fd_(std::move(fd)) {}
+  [[nodiscard]] int fd() const { return fd_.get(); }
+  [[nodiscard]] bool valid() const { return fd_.valid(); }
+  void close() { fd_.reset(); }
+  // The next notice, or nullopt if none waits (or its process died before it was read).
+  [[nodiscard]] SysResult<std::optional<SeccompNotice>> receive() const;
+  // Lets the call run as if no filter had seen it (only for decisions that do not depend on pointer arguments).
+  [[nodiscard]] SysResult<void> allow(std::uint64_t id) const;
+  // Fails the call with `error` (an errno).
+  [[nodiscard]] SysResult<void> refuse(std::uint64_t id, int error) const;
+  // Whether the notice's process still waits in that call (its pid was not reused).
+  [[nodiscard]] bool still_waiting(std::uint64_t id) const;
+
+ private:
+  UniqueFd fd_;
 };
 
 }  // namespace rejuv::sys

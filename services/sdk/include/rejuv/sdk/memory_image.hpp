@@ -96,6 +96,9 @@ using Context = void* [5];
 // PAGEMAP_SCAN ioctl (Linux ≥ 6.7). A process forked from this one does not inherit the tracking (call it
 // again there, e.g. in a holder after load_self). The error where the kernel lacks either.
 [[nodiscard]] sys::SysResult<void> track_writes_self();
+// From here on track_writes_self opens nothing (its pagemap comes from the kernel): a service's sandbox
+// allows no open once it is booted (DESIGN §7 "Protection"). Called by the SDK at the end of its boot.
+void opens_done();
 // Whether track_writes_self() succeeded in this process.
 [[nodiscard]] bool tracking_writes();
 // In a process forked from a tracking one: drops the descriptors it inherited (they name the parent).

@@ -5,7 +5,7 @@
 // kernel_sim/channel/wire.hpp for it and gives the service author a small, typed, single-threaded API:
 //
 //   int main() {
-//     auto svc = rejuv::sdk::Service::connect();           // Hello/Boot, AfterExec seccomp stage
+//     auto svc = rejuv::sdk::Service::connect();           // Hello/Boot
 //     if (!svc) { return rejuv::sdk::report_connect_failure(svc.error()); }
 //     auto out = (*svc)->advertise<rejuv_msg_ActuatorControls>("actuator_controls");
 //     auto est = (*svc)->subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state");
@@ -54,7 +54,7 @@ namespace rejuv::sdk {
 // What went wrong in an SDK call. One enum for the SDK (CONVENTIONS); Error adds the detail.
 enum class SdkError : std::uint8_t {
   NotAService,       // fd 3 is not a channel, fd 4 not a time page, or REJUV_SERVICE is unset
-  Seccomp,           // the AfterExec seccomp stage could not be installed
+  Seccomp,           // unused since the kernel installs the whole filter (kept: the numbers are stable)
   ChannelIo,         // a send or receive on fd 3 failed (errno in Error::detail)
   ChannelClosed,     // the kernel closed the channel
   Protocol,          // the kernel sent something the protocol does not allow here (boot sequence, reply)
@@ -270,8 +270,6 @@ class Timer {
 struct ConnectOptions {
   int channel_fd = wire::kChannelFd;
   int time_page_fd = wire::kTimePageFd;
-  // Install the AfterExec seccomp stage (exec banned from here on). Always on in a real service.
-  bool install_seccomp = true;
 };
 
 // A service's connection to the kernel and its event loop.
@@ -291,7 +289,7 @@ class Service {
  public:
   static constexpr std::size_t kMaxTimers = 32;  // per service (docs/protocol.md)
 
-  // Connects on fd 3 / fd 4: installs the AfterExec seccomp stage, maps the time page read-only, sends
+  // Connects on fd 3 / fd 4: maps the time page read-only (the sandbox is the kernel's, installed before exec), sends
   // Hello, reads Boot…BootEnd. Does not send Ready: run() does that, after the service has made its
   // subscriptions and timers (docs/protocol.md "Boot").
   [[nodiscard]] static SdkResult<std::unique_ptr<Service>> connect(const ConnectOptions& options = {});

@@ -1,0 +1,238 @@
+// Containment (DESIGN §7 "Protection (containment)", docs/sandbox.md). A rollback erases only what is inside
+// the image, so nothing a service does may escape it:
+//   - the allow-list filter (kernel_sim/sys seccomp.hpp) refers boot calls and forbidden calls to the kernel
+//     (on_seccomp_notice): boot calls continue until the service is ready, a forbidden call kills its caller;
+//   - every process a service can make is the kernel's child in the service's session (the filter allows
+//     clone only with the image fork's flags or a thread's, and no setsid): sweep_strays finds and kills
+//     what is neither the live incarnation nor an image;
+//   - its fds 1-2 are a pipe the kernel reads (on_service_output): no terminal, nothing unattributed.
+// A violation is proof of compromise (§II: the attacker has the service): counted by kind, logged with the
+// call's name, published on the security-event topic, and in MC it triggers a rollback at once (waiting
+// for T_MC only gives the attacker time); the rejuvenation timer keeps its schedule otherwise.
+#include <algorithm>
+#include <csignal>
+
+#include "impl.hpp"
+
+namespace rejuv::kernel {
+
+namespace {
+
+constexpr std::size_t kNoticesPerWakeup = 64;     // fairness: a service flooding the kernel with calls
+constexpr std::size_t kOutputReadsPerWakeup = 16;  // × 4 KiB
+constexpr std::size_t kMaxOutputLine = 1024;       // a longer line is cut and logged in pieces
+constexpr std::size_t kMaxNamedCalls = 32;         // distinct call names kept per service
+constexpr Nanos kSweepPeriod{std::chrono::seconds{1}};  // kernel clock
+
+// What may reach the user's terminal of a line a service wrote: printable ASCII, tabs and UTF-8 bytes; control
+// characters (escape sequences, carriage returns that would overwrite the kernel's own lines) as '?'.
+std::string printable(std::string_view line) {
+  std::string out(line);
+  for (char& c : out) {
+    const auto u = static_cast<unsigned char>(c);
+    if ((u < 0x20 && c != '\t') || u == 0x7F) c = '?';
+  }
+  return out;
+}
+
+}  // namespace
+
+sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
+  const launch::SandboxLimitValues v = launch::sandbox_limits(graph.graph, *s.spec);
+  sys::ResourceLimits limits;
+  // RLIMIT_NPROC counts the processes of a uid: only meaningful when each service has its own (root).
+  if (sys::running_as_root()) limits.processes = v.max_processes;
+  limits.open_files = v.max_open_files;
+#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+  // A sanitizer reserves terabytes of address space for its shadow memory.
+  if (v.max_memory_mb > 0) limits.address_space = std::uint64_t{v.max_memory_mb} << 20U;
+#endif
+  // No file can be opened after boot and every mount is read-only; what is left to write is the memfd of an
+  // image by written pages (allocated ahead for twice the largest image, docs/protocol.md).
+  limits.file_size = 2 * wire::kMaxImagePages * 4096 + (1U << 20U);
+  return limits;
+}
+
+void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::string_view what) {
+  ++s.stats.sandbox_violations;
+  std::uint32_t detail = 0;
+  switch (kind) {
+    case Violation::ForbiddenCall: {
+      ++s.stats.forbidden_calls;
+      auto& calls = s.stats.calls_refused;
+      auto it = std::find_if(calls.begin(), calls.end(), [&](const auto& c) { return c.first == what; });
+      if (it != calls.end()) {
+        ++it->second;
+      } else if (calls.size() < kMaxNamedCalls) {
+        calls.emplace_back(std::string(what), 1);
+      }
+      if (const auto nr = sys::syscall_number(what)) detail = static_cast<std::uint32_t>(*nr);
+      if (s.limiter.allow(wall())) {
+        log("sandbox violation: '%s' made a forbidden system call: %.*s (mode %s)", s.name.c_str(),
+            static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
+      }
+      break;
+    }
+    case Violation::StrayProcess:
+      ++s.stats.stray_processes;
+      if (s.limiter.allow(wall())) {
+        log("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
+            static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
+      }
+      break;
+  }
+  if (const auto events = kernel_topic(msgs::TopicTraits<rejuv_msg_SecurityEvent>::name)) {
+    const rejuv_msg_SecurityEvent ev{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
+                                     .service_id = s.id.value(),
+                                     .slot = detail,
+                                     .operation = 0,
+                                     .error = 0,
+                                     .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
+                                     .kind = kind == Violation::ForbiddenCall ? rejuv_msg_SECURITY_FORBIDDEN_CALL
+                                                                              : rejuv_msg_SECURITY_STRAY_PROCESS};
+    publish_as_kernel(*events, std::as_bytes(std::span(&ev, 1)));
+  }
+  // In MC the attacker has the service now: roll back at once rather than at the end of T_MC.
+  if (sr && caps.mode() == SrMode::MC && !stopping) {
+    request_rollback("sandbox violation by '" + s.name + "': " + std::string(what));
+  }
+}
+
+void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
+  for (std::size_t i = 0; i < kNoticesPerWakeup && s.seccomp.valid(); ++i) {
+    auto got = s.seccomp.receive();
+    if (!got) {
+      log("'%s': seccomp listener: %s", s.name.c_str(), got.error().to_string().c_str());
+      close_sandbox(s);
+      return;
+    }
+    if (!*got) return;
+    const sys::SeccompNotice& notice = **got;
+    // Only the live incarnation boots; images and anything else it made never run the loader or the SDK's
+    // start-up, so their boot calls are violations too.
+    const bool booting = (s.phase == Phase::Spawned || s.phase == Phase::Booted) && s.process.pid() == notice.pid;
+    if (booting && sys::classify(notice) == sys::NoticeKind::BootCall) {
+      (void)s.seccomp.allow(notice.id);
+      continue;
+    }
+    const std::string call = sys::syscall_name(notice.nr);
+    const bool live = s.live() && s.process.pid() == notice.pid;
+    if (live && s.loss_reason.empty()) s.loss_reason = "sandbox violation (forbidden system call " + call + ")";
+    // Killed while it waits in the call: the call never runs. The pidfd is opened before the notice is checked
+    // again, so a pid reused meanwhile is never hit.
+    (void)sys::signal_if(notice.pid, SIGKILL, [&] { return s.seccomp.still_waiting(notice.id); });
+    record_violation(s, Violation::ForbiddenCall, call);
+    if (!live) sweep_due = "a forbidden call";  // a stray (its zombie is reaped by the sweep) or an image (the store sees it)
+  }
+}
+
+void Kernel::Impl::on_service_output(ServiceRuntime& s, bool final) {
+  if (!s.output.valid()) return;
+  std::array<char, 4096> buf{};
+  bool closed = false;
+  for (std::size_t i = 0; i < kOutputReadsPerWakeup || final; ++i) {
+    auto n = sys::read_some(s.output.get(), buf);
+    if (!n || !*n) break;       // error, or nothing waits
+    if (**n == 0) {             // every writer is gone
+      closed = true;
+      break;
+    }
+    s.output_partial.append(buf.data(), **n);
+    std::size_t start = 0;
+    for (;;) {
+      const std::size_t nl = s.output_partial.find('\n', start);
+      const bool cut = nl == std::string::npos && s.output_partial.size() - start >= kMaxOutputLine;
+      if (nl == std::string::npos && !cut) break;
+      const std::size_t end = cut ? start + kMaxOutputLine : nl;
+      ++s.stats.output_lines;
+      service_log(s, wire::LogLevel::Info,
+                  printable(std::string_view(s.output_partial).substr(start, end - start)));
+      start = cut ? end : nl + 1;
+    }
+    s.output_partial.erase(0, start);
+  }
+  if (closed || final) {
+    if (!s.output_partial.empty()) {
+      ++s.stats.output_lines;
+      service_log(s, wire::LogLevel::Info, printable(s.output_partial));
+      s.output_partial.clear();
+    }
+  }
+  if (closed) {
+    (void)epoll.remove(s.output.get());
+    s.output.reset();
+  }
+}
+
+void Kernel::Impl::close_sandbox(ServiceRuntime& s) {
+  if (s.seccomp.valid()) {
+    (void)epoll.remove(s.seccomp.fd());
+    s.seccomp.close();
+  }
+  if (s.output.valid()) {
+    on_service_output(s, true);
+    if (s.output.valid()) (void)epoll.remove(s.output.get());
+    s.output.reset();
+  }
+}
+
+void Kernel::Impl::sweep_if_due() {
+  if (sweep_due) {
+    sweep_strays(*sweep_due);
+  } else if (now() - last_sweep >= kSweepPeriod) {
+    sweep_strays("the periodic sweep");
+  }
+}
+
+void Kernel::Impl::sweep_strays(std::string_view when, bool final) {
+  // A copy the kernel asked for (a spare, a Patch, an image at a checkpoint) is the kernel's child before its
+  // pid is reported: sweep only when none is on its way.
+  const bool copies_pending =
+      checkpoint.has_value() || images.spares_pending() > 0 ||
+      std::any_of(retiring.begin(), retiring.end(), [](const image::GenerationRecord& r) {
+        return std::any_of(r.images.begin(), r.images.end(),
+                           [](const image::Image& im) { return im.spares_pending > 0 || im.patch_pending; });
+      });
+  if (copies_pending && !final) {
+    if (!sweep_due) sweep_due = when;
+    return;
+  }
+  sweep_due.reset();
+  last_sweep = now();
+  auto children = sys::own_children();
+  if (!children) return;
+  const auto known = [&](pid_t pid) {
+    if (plant_started && plant.pid() == pid) return true;
+    for (const ServiceRuntime& s : services) {
+      if (s.process.pid() == pid) return true;
+    }
+    if (images.owns(pid)) return true;
+    for (const image::GenerationRecord& r : retiring) {
+      for (const image::Image& im : r.images) {
+        for (const sys::ChildProcess& c : im.copies) {
+          if (c.pid() == pid) return true;
+        }
+      }
+    }
+    const auto in = [&](const std::vector<sys::ChildProcess>& v) {
+      return std::any_of(v.begin(), v.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
+    };
+    return in(reaping) || in(retired);
+  };
+  for (const pid_t pid : *children) {
+    if (!final && known(pid)) continue;
+    const auto sid = sys::session_of(pid);
+    if (!sid) continue;
+    for (ServiceRuntime& s : services) {
+      if (std::find(s.sessions.begin(), s.sessions.end(), *sid) == s.sessions.end()) continue;
+      if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
+      auto stray = sys::ChildProcess::adopt_child(pid);
+      if (stray) stray->kill_and_reap();
+      record_violation(s, Violation::StrayProcess,
+                       "pid " + std::to_string(pid) + ", killed at " + std::string(when));
+      break;
+    }
+  }
+}
+
+}  // namespace rejuv::kernel
