@@ -5,7 +5,8 @@
 // plant, the estimate, the setpoint, the actuator outputs — measured with the same path, ellipsoid P and
 // control design as `rejuv sim` (rejuv_sr_sim / rejuv_control), so the two runners compare directly.
 // A vehicle lost (V > 100, `rejuv sim`'s rule) ends the run at once. Exit 0 when the mission completes
-// inside the safety set, 1 when it fails (or leaves the safety set), 2 on bad input.
+// inside the safety set, 1 when it fails (or leaves the safety set, or a service fails at boot, or the policy
+// fails its audit), 2 on input the loaders refuse (README "Exit codes").
 #include <google/protobuf/util/json_util.h>
 #include <unistd.h>
 
@@ -102,7 +103,8 @@ int run_run(std::span<const std::string_view> args) {
                    "by the image store (DESIGN §7) on the rejuvenation timer; checkpoint_p drives the SR cycle.\n"
                    "The run stops when the vehicle is lost (V = ||x - x_sp||^2_P > 100, as `rejuv sim`).\n"
                    "Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when\n"
-                   "it fails, 2 on bad flags, a bad launch file or a policy that fails its audit.");
+                   "it fails, a service fails at boot or the graph's policy fails its audit (as `rejuv audit`), 2 on\n"
+                   "bad flags or a file the loaders refuse (README \"Exit codes\").");
   parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
       .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
       .flag("--no-sr", no_sr, "no rejuvenation: mission control only, checkpoint_p not started")

@@ -66,7 +66,15 @@ std::optional<std::pair<sys::SeqPacket, sys::SeqPacket>> Kernel::Impl::take_pair
     return pair;
   }
   auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
-  if (!pair || !sys::set_nonblocking(pair->first.fd(), true)) return std::nullopt;
+  if (!pair) {
+    // Out of fds or memory (EMFILE, ENFILE, ENOMEM): said, never silent; the caller abandons or falls back.
+    log("a channel for a checkpoint or rollback: %s", pair.error().to_string().c_str());
+    return std::nullopt;
+  }
+  if (auto ok = sys::set_nonblocking(pair->first.fd(), true); !ok) {
+    log("a channel for a checkpoint or rollback: %s", ok.error().to_string().c_str());
+    return std::nullopt;
+  }
   return std::move(*pair);
 }
 
@@ -77,7 +85,13 @@ void Kernel::Impl::refill_pairs() {
       std::count_if(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.rejuvenate && !s.skip; }));
   while (pair_pool.size() < want) {
     auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
-    if (!pair || !sys::set_nonblocking(pair->first.fd(), true)) return;
+    if (!pair) {
+      if (!pair_shortage_logged) log("socket pairs made ahead: %s", pair.error().to_string().c_str());
+      pair_shortage_logged = true;
+      return;
+    }
+    if (!sys::set_nonblocking(pair->first.fd(), true)) return;
+    pair_shortage_logged = false;
     pair_pool.push_back(std::move(*pair));
   }
 }

@@ -108,6 +108,7 @@ struct ServiceRuntime {
   Nanos spawned_at{0};             // wall clock
   std::optional<Nanos> channel_closed_at{};  // wall clock: the service closed fd 3 (its pidfd should follow)
   std::string loss_reason{};
+  std::string last_error{};        // its last Error-level log line: named when it fails at boot
   LogLimiter limiter{};
   // Containment (sandbox.cpp): the listener of its seccomp filter (shared by every process of the service),
   // the read end of the pipe on its fds 1-2, and the session ids of its incarnations spawned so far.
@@ -281,6 +282,7 @@ struct Kernel::Impl {
   // Socket pairs made ahead (kernel end non-blocking), so that no socketpair() is on the critical path of
   // a checkpoint (resume sockets) or a rollback (channels); refilled at safe points.
   std::vector<std::pair<sys::SeqPacket, sys::SeqPacket>> pair_pool;
+  bool pair_shortage_logged = false;  // refill_pairs: an fd shortage is logged once per shortage
   std::vector<sys::UniqueFd> closing;       // service ends already passed on: closed after the timed part
   // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
   // be unknown children): destroyed once they have (images.cpp, service_images).

@@ -90,10 +90,12 @@ std::string KernelError::to_string() const {
 }
 
 bool KernelError::is_bad_input() const {
+  // README "Exit codes": an audit finding is a verdict on a well-formed policy (exit 1, as `rejuv audit`
+  // gives it), not a file the loader refused (exit 2).
   switch (kind) {
     case Kind::Policy:
-    case Kind::Audit:
     case Kind::Config: return true;
+    case Kind::Audit:
     case Kind::Dds:
     case Kind::System:
     case Kind::Boot: return false;
@@ -204,7 +206,11 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
     if (!s.skip) {
       std::error_code ec;
       if (!std::filesystem::is_regular_file(s.executable, ec)) {
-        return fail(kernel_error(K::Config, "service '" + s.name + "': executable " + s.executable +
+        int index = 0;
+        const proto::Launch& graph_now = k.graph.graph;  // `g` was moved into k
+        while (index < graph_now.services_size() && graph_now.services(index).name() != s.name) ++index;
+        return fail(kernel_error(K::Config, k.graph.locations.locate({{"services", index}}, "executable").to_string() +
+                                                ": error: service '" + s.name + "': executable " + s.executable +
                                                 " not found (not built yet? skip it with --skip " + s.name + ")"));
       }
     }
@@ -222,7 +228,8 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
     const std::filesystem::path exe(k.graph.graph.plant().executable());
     const std::filesystem::path path = exe.is_absolute() ? exe : service_dir / exe;
     if (!std::filesystem::is_regular_file(path, ec)) {
-      return fail(kernel_error(K::Config, "plant executable " + path.string() + " not found (not built yet?)"));
+      return fail(kernel_error(K::Config, k.graph.locations.locate({{"plant", -1}}, "executable").to_string() +
+                                              ": error: plant executable " + path.string() + " not found (not built yet?)"));
     }
   }
 
@@ -315,6 +322,7 @@ bool LogLimiter::allow(Nanos wall_now) {
 }
 
 void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view text) {
+  if (level == wire::LogLevel::Error) s.last_error.assign(text);  // kept even when the line is rate-limited
   if (level == wire::LogLevel::Debug && !options.verbose) return;
   if (!s.limiter.allow(wall())) {
     ++s.stats.log_suppressed;
@@ -654,9 +662,22 @@ Result<void, KernelError> Kernel::boot() {
     k.shutdown_all();
     return ok;
   }
+  // Bounded in every path: a service that is not Ready by its boot deadline is killed (check_deadlines) and
+  // a loss before the graph is booted stops the run (lose_service); this is the backstop behind both.
+  const Nanos boot_limit = k.wall() + k.options.boot_deadline + k.options.shutdown_grace + kChannelCloseGrace;
   while (!k.all_ready()) {
     if (k.stop) break;
-    if (auto ok = k.pump(std::nullopt); !ok) {
+    if (k.wall() >= boot_limit) {
+      std::string waiting;
+      for (const ServiceRuntime& s : k.services) {
+        if (!s.skip && s.phase != Phase::Ready) waiting += (waiting.empty() ? "'" : ", '") + s.name + "'";
+      }
+      k.stop_run(StopReason::ServiceFailed, "the graph did not boot within " +
+                                                std::to_string(to_seconds(k.options.boot_deadline).count()) +
+                                                " s; not ready: " + waiting);
+      break;
+    }
+    if (auto ok = k.pump(boot_limit - k.wall()); !ok) {
       k.shutdown_all();
       return ok;
     }

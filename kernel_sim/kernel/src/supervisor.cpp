@@ -234,6 +234,14 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
   if (s.phase == Phase::Dead || s.phase == Phase::NotStarted) return;
   auto status = s.process.try_wait();
   if (!status || !*status) return;  // not yet (spurious wakeup)
+  if (!booted) {
+    // Its last words may still be in the channel (the pidfd can be handled first): read them, so that a
+    // boot failure is reported with the service's own error (lose_service).
+    for (std::uint64_t before = ~std::uint64_t{0}; s.live() && s.channel.valid() && before != s.stats.frames_in;) {
+      before = s.stats.frames_in;
+      read_channel(s);
+    }
+  }
   (void)epoll.remove(s.process.pidfd());
   if (s.channel.valid()) {
     (void)epoll.remove(s.channel.fd());
@@ -263,6 +271,15 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
 
 void Kernel::Impl::lose_service(ServiceRuntime& s, std::string reason) {
   log("service '%s' lost at t = %.3f s: %s", s.name.c_str(), to_seconds(now()).count(), reason.c_str());
+  // Before the graph has booted (every service Ready once) no checkpoint exists: there is no image to roll
+  // back to, and a restart from the binary would fail the same way (a refused parameter, a wrong
+  // executable). The run stops with the service's own error, SR on or off.
+  if (!booted) {
+    std::string detail = "service '" + s.name + "' (" + s.executable + ") failed at boot: " + reason;
+    if (!s.last_error.empty()) detail += "; its last error: " + s.last_error;
+    stop_run(StopReason::ServiceFailed, std::move(detail));
+    return;
+  }
   // DESIGN §7: a rejuvenated service dying is one of the three rollback triggers (images.cpp). Without SR,
   // or for a driver-level service (never rolled back), the run cannot continue safely.
   if (sr && s.rejuvenate) {

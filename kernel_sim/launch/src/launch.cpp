@@ -1,5 +1,6 @@
 #include "rejuv/launch/launch.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <set>
@@ -36,6 +37,60 @@ bool is_plain_name(std::string_view s) {
   return true;
 }
 
+// UTF-8 as RFC 3629 defines it (no overlongs, no surrogates, at most U+10FFFF): names and texts of a graph
+// reach logs, JSON summaries and the services' boot info.
+bool is_utf8(std::string_view s) {
+  std::size_t i = 0;
+  while (i < s.size()) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    std::size_t n = 0;
+    std::uint32_t cp = 0;
+    if (c < 0x80) {
+      ++i;
+      continue;
+    }
+    if ((c & 0xE0U) == 0xC0U) {
+      n = 1;
+      cp = c & 0x1FU;
+    } else if ((c & 0xF0U) == 0xE0U) {
+      n = 2;
+      cp = c & 0x0FU;
+    } else if ((c & 0xF8U) == 0xF0U) {
+      n = 3;
+      cp = c & 0x07U;
+    } else {
+      return false;
+    }
+    if (i + n >= s.size()) {
+      return false;
+    }
+    for (std::size_t k = 1; k <= n; ++k) {
+      const auto cc = static_cast<unsigned char>(s[i + k]);
+      if ((cc & 0xC0U) != 0x80U) {
+        return false;
+      }
+      cp = (cp << 6U) | (cc & 0x3FU);
+    }
+    const std::uint32_t min = n == 1 ? 0x80U : n == 2 ? 0x800U : 0x10000U;
+    if (cp < min || cp > 0x10FFFFU || (cp >= 0xD800U && cp <= 0xDFFFU)) {
+      return false;
+    }
+    i += n + 1;
+  }
+  return true;
+}
+
+std::string kind_list(const std::vector<proto::AttackKind>& kinds) {
+  if (kinds.empty()) {
+    return "none";
+  }
+  std::string out;
+  for (const proto::AttackKind k : kinds) {
+    out += (out.empty() ? "" : ", ") + proto::AttackKind_Name(k);
+  }
+  return out;
+}
+
 // Validates one parsed graph; the first problem found is returned (the user fixes and reruns).
 class Validator {
  public:
@@ -43,8 +98,8 @@ class Validator {
       : g_(g), locs_(locs), path_(path) {}
 
   Result<std::filesystem::path, LoadError> run() {
-    for (Check c : {check_header(), check_services(), check_plant(), check_dds(), check_sr(), check_mission(),
-                    check_attack()}) {
+    for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(),
+                    check_mission(), check_attack()}) {
       if (!c) {
         return fail(std::move(c.error()));
       }
@@ -62,7 +117,73 @@ class Validator {
     return locs_.locate(path, field, index);
   }
 
+  // Every text of the graph is valid UTF-8 (protobuf's text parser does not check proto3 strings).
+  Check check_text() const {
+    const auto utf8 = [&](const std::string& v, SourceLocation where, std::string_view what) -> Check {
+      if (!is_utf8(v)) {
+        return fail(error(std::move(where), std::string(what) + " is not valid UTF-8"));
+      }
+      return {};
+    };
+    const auto params = [&](const auto& list, std::string_view owner, const auto& locate) -> Check {
+      for (int p = 0; p < list.size(); ++p) {
+        if (Check c = utf8(list[p].name(), locate(p, "name"), std::string(owner) + " parameter name"); !c) return c;
+        if (Check c = utf8(list[p].text(), locate(p, "text"), std::string(owner) + " parameter text"); !c) return c;
+      }
+      return {};
+    };
+    if (Check c = utf8(g_.name(), at({}, "name"), "the graph's `name`"); !c) return c;
+    if (Check c = utf8(g_.policy(), at({}, "policy"), "`policy`"); !c) return c;
+    for (int i = 0; i < g_.services_size(); ++i) {
+      const proto::ServiceSpec& s = g_.services(i);
+      if (Check c = utf8(s.name(), at({{"services", i}}, "name"), "a service `name`"); !c) return c;
+      if (Check c = utf8(s.executable(), at({{"services", i}}, "executable"), "an `executable`"); !c) return c;
+      for (int u = 0; u < s.uses_size(); ++u) {
+        if (Check c = utf8(s.uses(u).object(), at({{"services", i}, {"uses", u}}, "object"), "a used `object`"); !c) {
+          return c;
+        }
+        if (Check c = utf8(s.uses(u).rights(), at({{"services", i}, {"uses", u}}, "rights"), "`rights`"); !c) return c;
+      }
+      if (Check c = params(s.params(), "a service",
+                           [&](int p, std::string_view f) { return at({{"services", i}, {"params", p}}, f); });
+          !c) {
+        return c;
+      }
+    }
+    if (Check c = utf8(g_.plant().executable(), at({{"plant", -1}}, "executable"), "the plant's `executable`"); !c) {
+      return c;
+    }
+    if (Check c = params(g_.plant().params(), "a plant",
+                         [&](int p, std::string_view f) { return at({{"plant", -1}, {"params", p}}, f); });
+        !c) {
+      return c;
+    }
+    if (Check c = utf8(g_.dds().config(), at({{"dds", -1}}, "config"), "`dds.config`"); !c) return c;
+    for (int b = 0; b < g_.dds().bridges_size(); ++b) {
+      const proto::Bridge& br = g_.dds().bridges(b);
+      if (Check c = utf8(br.topic(), at({{"dds", -1}, {"bridges", b}}, "topic"), "a bridge `topic`"); !c) return c;
+      if (Check c = utf8(br.dds_name(), at({{"dds", -1}, {"bridges", b}}, "dds_name"), "a `dds_name`"); !c) return c;
+    }
+    for (int a = 0; a < g_.attack().attacks_size(); ++a) {
+      if (Check c = utf8(g_.attack().attacks(a).service(), at({{"attack", -1}, {"attacks", a}}, "service"),
+                         "an attack's `service`");
+          !c) {
+        return c;
+      }
+    }
+    if (Check c = utf8(g_.network().bind_address(), at({{"network", -1}}, "bind_address"), "`network.bind_address`");
+        !c) {
+      return c;
+    }
+    return utf8(g_.network().object(), at({{"network", -1}}, "object"), "`network.object`");
+  }
+
   Check check_header() const {
+    // proto3 enums are open: a number the schema does not name parses; refuse it where it was written.
+    if (!proto::ClockMode_IsValid(g_.clock())) {
+      return fail(error(at({}, "clock"), "unknown `clock` " + std::to_string(g_.clock()) +
+                                             ": expected LOCKSTEP or REALTIME"));
+    }
     if (g_.name().empty()) {
       return fail(error(at({}, "name"), "missing `name`: expected name: \"<graph name>\""));
     }
@@ -142,10 +263,13 @@ class Validator {
     if (p.executable().empty()) {
       return fail(error(at({}, "plant"), "`plant` has no `executable`"));
     }
-    if (!std::isfinite(p.physics_rate_hz()) || p.physics_rate_hz() < 0.0) {
+    const double rate = p.physics_rate_hz();
+    if (!std::isfinite(rate) || rate < 0.0 ||
+        (rate != 0.0 && (rate < defaults::kMinPhysicsRateHz || rate > defaults::kMaxPhysicsRateHz))) {
       return fail(error(at({{"plant", -1}}, "physics_rate_hz"),
-                        "plant.physics_rate_hz must be a finite rate >= 0 Hz (0 = default " +
-                            num(defaults::kPhysicsRateHz) + "), got " + num(p.physics_rate_hz())));
+                        "plant.physics_rate_hz must be " + num(defaults::kMinPhysicsRateHz) + " to " +
+                            num(defaults::kMaxPhysicsRateHz) + " Hz (0 = default " +
+                            num(defaults::kPhysicsRateHz) + "), got " + num(rate)));
     }
     if (!std::isfinite(p.wind_mean_m_s()) || p.wind_mean_m_s() < 0.0) {
       return fail(
@@ -176,6 +300,11 @@ class Validator {
       const proto::Bridge& b = d.bridges(i);
       if (b.topic().empty()) {
         return fail(error(at({{"dds", -1}, {"bridges", i}}, "topic"), "bridge without a `topic`"));
+      }
+      if (!proto::BridgeDirection_IsValid(b.direction())) {
+        return fail(error(at({{"dds", -1}, {"bridges", i}}, "direction"),
+                          "unknown bridge `direction` " + std::to_string(b.direction()) +
+                              ": expected BRIDGE_OUT or BRIDGE_IN"));
       }
       // One bridge per topic: IN and OUT on the same topic would echo the kernel's own publications.
       if (!topics.insert(b.topic()).second) {
@@ -217,8 +346,9 @@ class Validator {
     if (sr.t_mc_s() <= 0.0) {
       return fail(error(loc("t_mc_s"), "sr.t_mc_s (T_MC) must be > 0 s, got " + num(sr.t_mc_s())));
     }
-    if (sr.t_est_s() < 0.0) {
-      return fail(error(loc("t_est_s"), "sr.t_est_s (T_est) must be >= 0 s, got " + num(sr.t_est_s())));
+    // §II: the safety controller needs a positive T_est to bring x̂ back into E(ρ_s) before (1) is checked.
+    if (sr.t_est_s() <= 0.0) {
+      return fail(error(loc("t_est_s"), "sr.t_est_s (T_est) must be > 0 s, got " + num(sr.t_est_s())));
     }
     if (sr.t_min_s() < 0.0) {
       return fail(error(loc("t_min_s"), "sr.t_min_s (t_min) must be >= 0 s, got " + num(sr.t_min_s())));
@@ -239,10 +369,29 @@ class Validator {
                         "sr.check_period_s must be > 0 s (omit it for the default 0.002 s), got " +
                             num(sr.check_period_s())));
     }
-    if (sr.has_keep_generations() && sr.keep_generations() < 1) {
-      return fail(
-          error(loc("keep_generations"), "sr.keep_generations must be >= 1 (omit it for the default " +
-                                             std::to_string(defaults::kKeepGenerations) + ")"));
+    if (sr.has_check_period_s() && sr.check_period_s() < defaults::kMinPeriodS) {
+      return fail(error(loc("check_period_s"), "sr.check_period_s must be at least " + num(defaults::kMinPeriodS) +
+                                                   " s (the kernel's timers count ns), got " +
+                                                   num(sr.check_period_s())));
+    }
+    // Durations beyond the bound overflow the kernel's ns clock or never elapse.
+    for (const auto& [v, f] : {std::pair{sr.t_mc_s(), "t_mc_s"},
+                               {sr.t_est_s(), "t_est_s"},
+                               {sr.t_min_s(), "t_min_s"},
+                               {sr.check_period_s(), "check_period_s"}}) {
+      if (v > defaults::kMaxDurationS) {
+        return fail(error(loc(f), "sr." + std::string(f) + " must be at most " + num(defaults::kMaxDurationS) +
+                                      " s, got " + num(v)));
+      }
+    }
+    if (sr.has_keep_generations() &&
+        (sr.keep_generations() < 1 || sr.keep_generations() > defaults::kMaxKeepGenerations)) {
+      return fail(error(loc("keep_generations"),
+                        "sr.keep_generations must be 1 to " + std::to_string(defaults::kMaxKeepGenerations) +
+                            " (each generation keeps a frozen process of every rejuvenated service; omit it "
+                            "for the default " +
+                            std::to_string(defaults::kKeepGenerations) + "), got " +
+                            std::to_string(sr.keep_generations())));
     }
     const proto::StateBox& box = sr.box();
     for (const auto& [v, f] : {std::pair{box.position_m(), "position_m"},
@@ -285,14 +434,28 @@ class Validator {
                             "waypoint " + std::to_string(i) + ": " + f + " must be a finite number"));
         }
       }
+      for (const auto& [v, f] : {std::pair{w.north_m(), "north_m"}, {w.east_m(), "east_m"}, {w.down_m(), "down_m"}}) {
+        if (std::abs(v) > defaults::kMaxWaypointOffsetM) {
+          return fail(error(at({{"mission", -1}, {"waypoints", i}}, f),
+                            "waypoint " + std::to_string(i) + ": " + f + " must be within ±" +
+                                num(defaults::kMaxWaypointOffsetM) + " m of the origin, got " + num(v)));
+        }
+      }
+      // NED: down_m > 0 is under the ground plane the plant stands on (an altitude of 3 m is down_m: -3).
+      if (w.down_m() > 0.0) {
+        return fail(error(at({{"mission", -1}, {"waypoints", i}}, "down_m"),
+                          "waypoint " + std::to_string(i) + " is below the ground: down_m must be <= 0 (NED; "
+                          "an altitude of 3 m is down_m: -3), got " + num(w.down_m())));
+      }
     }
     if (!std::isfinite(m.acceptance_radius_m()) || m.acceptance_radius_m() <= 0.0) {
       return fail(error(at({{"mission", -1}}, "acceptance_radius_m"),
                         "mission.acceptance_radius_m must be > 0 m, got " + num(m.acceptance_radius_m())));
     }
-    if (!std::isfinite(m.timeout_s()) || m.timeout_s() <= 0.0) {
+    if (!std::isfinite(m.timeout_s()) || m.timeout_s() <= 0.0 || m.timeout_s() > defaults::kMaxDurationS) {
       return fail(error(at({{"mission", -1}}, "timeout_s"),
-                        "mission.timeout_s must be > 0 s, got " + num(m.timeout_s())));
+                        "mission.timeout_s must be > 0 s and at most " + num(defaults::kMaxDurationS) + " s, got " +
+                            num(m.timeout_s())));
     }
     return {};
   }
@@ -305,11 +468,27 @@ class Validator {
         return fail(error(at({{"attack", -1}, {"attacks", i}}, "kind"),
                           "attack without a `kind`: expected e.g. kind: WORST_CASE_CONTROL"));
       }
-      if (find_service(g_, a.service()) == nullptr) {
+      if (!proto::AttackKind_IsValid(a.kind())) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "kind"),
+                          "unknown attack `kind` " + std::to_string(a.kind()) +
+                              ": expected a name of idl/launch.proto AttackKind, e.g. WORST_CASE_CONTROL"));
+      }
+      const proto::ServiceSpec* target = find_service(g_, a.service());
+      if (target == nullptr) {
         return fail(error(at({{"attack", -1}, {"attacks", i}}, "service"),
                           a.service().empty()
                               ? std::string("attack without a `service` to compromise")
                               : "attack names service \"" + a.service() + "\", which is not in the graph"));
+      }
+      // DESIGN §9: a kind the service has no hook for would do nothing at run time, while `rejuv sim`
+      // models it anyway: refused, so that model and runtime never disagree without a word.
+      if (const auto hooks = attack_hooks_of(target->executable()); hooks) {
+        if (std::find(hooks->begin(), hooks->end(), a.kind()) == hooks->end()) {
+          return fail(error(at({{"attack", -1}, {"attacks", i}}, "kind"),
+                            "service \"" + a.service() + "\" (" + target->executable() + ") has no hook for " +
+                                proto::AttackKind_Name(a.kind()) + "; the kinds it supports: " +
+                                kind_list(*hooks)));
+        }
       }
       if (!std::isfinite(a.start_s()) || a.start_s() < 0.0) {
         return fail(error(at({{"attack", -1}, {"attacks", i}}, "start_s"),
@@ -377,6 +556,30 @@ Result<LoadedLaunch, LoadError> parse_launch(std::string_view text, const std::f
     return fail(std::move(locs.error()));
   }
   return validate(std::move(graph), std::move(*locs), as_path);
+}
+
+std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view executable) {
+  // services/*/main.cpp: lqr_control carries the worst-case control law (worst_case_attack.cpp); checkpoint_p,
+  // commander and ext_link install the runtime hooks of services/attacks (attacks::install); the others
+  // have none.
+  const std::vector<proto::AttackKind> runtime{
+      proto::INVOKE_CHECKPOINT, proto::ARM_TIMER,  proto::WRITE_LIMITS, proto::PUBLISH_ACTUATOR_OUTPUTS,
+      proto::WRITE_PERSISTENT,  proto::FORGED_SLOT, proto::NETWORK_IN_SEI, proto::KILL_IMAGE,
+      proto::OPEN_SOCKET,       proto::FLOOD_BROKER};
+  const std::string name = std::filesystem::path(executable).filename().string();
+  if (name == "rejuv_lqr_control") {
+    return std::vector<proto::AttackKind>{proto::WORST_CASE_CONTROL};
+  }
+  if (name == "rejuv_checkpoint_p" || name == "rejuv_commander" || name == "rejuv_ext_link") {
+    return runtime;
+  }
+  for (const char* none : {"rejuv_sensors", "rejuv_ekf2", "rejuv_safety_control", "rejuv_gen_set_point",
+                           "rejuv_output_driver"}) {
+    if (name == none) {
+      return std::vector<proto::AttackKind>{};
+    }
+  }
+  return std::nullopt;
 }
 
 std::uint32_t keep_generations(const proto::SrParams& sr) {

@@ -14,6 +14,10 @@ std::string_view to_string(Invariant invariant) {
     case Invariant::Limits: return "limits";
     case Invariant::Persistent: return "persistent";
     case Invariant::Lateral: return "lateral";
+    case Invariant::Checkpoint: return "checkpoint";
+    case Invariant::Mode: return "mode";
+    case Invariant::Restricted: return "restricted";
+    case Invariant::Controls: return "controls";
     case Invariant::Coverage: return "coverage";
     case Invariant::Deny: return "deny";
   }
@@ -146,6 +150,129 @@ void check_lateral(const Context& c, Findings& out) {
           "grant of " + describe(c.policy, g, g.modes) + ": \"" + c.policy.service(g.service).name +
               "\" is network-facing and may not publish the " + std::string(to_string(o.role)) + " topic \"" +
               o.name + "\"; route it through a validating service",
+          g.where);
+    }
+  }
+}
+
+// §V, Fig. 5: the rollback handler takes the checkpoints. A rejuvenation service without Checkpoint Write in
+// the secure interval can never take one, and an SR graph without such a service never has an image: its
+// first rollback has nothing to restore.
+bool can_checkpoint(const Policy& p, ServiceId service) {
+  return std::any_of(p.grants().begin(), p.grants().end(), [&](const Grant& g) {
+    return g.service == service && p.object(g.object).kind == ObjectKind::Checkpoint && g.rights.has(Right::Write) &&
+           !only(g.modes, kSei).empty();
+  });
+}
+
+void check_checkpoint(const Context& c, Findings& out) {
+  const Policy& p = c.policy;
+  bool any = false;
+  for (const Service& s : p.services()) {
+    if (!s.rejuvenation) {
+      continue;
+    }
+    if (can_checkpoint(p, s.id)) {
+      any = true;
+      continue;
+    }
+    add(out, Invariant::Checkpoint,
+        "rejuvenation service \"" + s.name +
+            "\" holds no Write on a Checkpoint object in the secure interval (RB, SC, UPDATE, CP): it could "
+            "never take a checkpoint, so there would be no image to roll back to (§V)",
+        s.where);
+    any = true;  // reported once, at the service
+  }
+  if (c.graph != nullptr && c.graph->graph.sr().enabled() && !any) {
+    add(out, Invariant::Checkpoint,
+        "the graph runs SR (sr.enabled) but the policy " + p.file() +
+            " has no rejuvenation service (`rejuvenation: true`) holding Checkpoint Write in the secure interval: "
+            "no checkpoint could ever be taken (§V)",
+        c.graph->locations.locate({{"sr", -1}}, "enabled"));
+  }
+}
+
+// A service the network reaches: declared network-facing, or able to receive from a Network object (a
+// send-only holder takes no input from outside).
+bool reached_by_network(const Policy& p, ServiceId service) {
+  if (p.service(service).declared_network_facing) {
+    return true;
+  }
+  return std::any_of(p.grants().begin(), p.grants().end(), [&](const Grant& g) {
+    return g.service == service && p.object(g.object).kind == ObjectKind::Network && g.rights.has(Right::Read);
+  });
+}
+
+// §III, §IV-C: the mode switch is part of the SR machinery. A service the network reaches that may request
+// a mode in MC could leave MC (or skip the rollback's SC) at an attacker's command.
+void check_mode(const Context& c, Findings& out) {
+  for (const Grant& g : c.policy.grants()) {
+    if (c.policy.object(g.object).kind == ObjectKind::Mode && !g.rights.empty() && g.modes.has(SrMode::MC) &&
+        reached_by_network(c.policy, g.service)) {
+      add(out, Invariant::Mode,
+          "grant of " + describe(c.policy, g, kMcOnly) + ": \"" + c.policy.service(g.service).name +
+              "\" is reached by the network; a mode request from it in MC would put the SR cycle in an "
+              "attacker's hands (§III, §IV-C)",
+          g.where);
+    }
+  }
+}
+
+// §III "Limits on Control Uncertainty": the restricted limits Ū are what bounds an attack in MC, so the
+// driver that applies them must read them in MC; without it the driver falls back to the graph's Ū and
+// the rejuvenation service's limits never apply.
+void check_restricted(const Context& c, Findings& out) {
+  const Policy& p = c.policy;
+  for (const Grant& g : p.grants()) {
+    if (p.object(g.object).kind == ObjectKind::Limits && g.rights.has(Right::Read) &&
+        p.service(g.service).level == ServiceLevel::Driver && !g.modes.has(SrMode::MC)) {
+      add(out, Invariant::Restricted,
+          "grant of " + describe(p, g, g.modes) + ": the driver reads the limits only in the secure interval; "
+              "they bind in MC (§III): add MC",
+          g.where);
+    }
+  }
+  for (const Object& o : p.objects()) {
+    if (o.kind != ObjectKind::Limits) {
+      continue;
+    }
+    const auto writer = std::find_if(p.grants().begin(), p.grants().end(), [&](const Grant& g) {
+      return g.object == o.id && g.rights.has(Right::Write);
+    });
+    const bool read_in_mc = std::any_of(p.grants().begin(), p.grants().end(), [&](const Grant& g) {
+      return g.object == o.id && g.rights.has(Right::Read) && p.service(g.service).level == ServiceLevel::Driver;
+    });
+    if (writer != p.grants().end() && !read_in_mc) {
+      add(out, Invariant::Restricted,
+          "grant of " + describe(p, *writer, writer->modes) + ": the limits \"" + o.name +
+              "\" are written but no driver-level service reads them, so they never apply (§III)",
+          writer->where);
+    }
+  }
+}
+
+// Fig. 1, DESIGN §8: in the secure interval only the safety controller drives. The mission controller (a
+// rolled-back service that publishes an ACTUATOR topic in MC, where it may be compromised) publishes none
+// there. Driver-level services are trusted and never rolled back.
+void check_controls(const Context& c, Findings& out) {
+  const Policy& p = c.policy;
+  for (const Grant& g : p.grants()) {
+    const Object& o = p.object(g.object);
+    if (o.kind != ObjectKind::Topic || o.role != TopicRole::Actuator || !g.rights.has(Right::Write) ||
+        p.service(g.service).level == ServiceLevel::Driver) {
+      continue;
+    }
+    const bool drives_in_mc = std::any_of(p.grants().begin(), p.grants().end(), [&](const Grant& h) {
+      const Object& ho = p.object(h.object);
+      return h.service == g.service && ho.kind == ObjectKind::Topic && ho.role == TopicRole::Actuator &&
+             h.rights.has(Right::Write) && h.modes.has(SrMode::MC);
+    });
+    const ModeSet bad = only(g.modes, kSei);
+    if (drives_in_mc && !bad.empty()) {
+      add(out, Invariant::Controls,
+          "grant of " + describe(p, g, bad) + ": \"" + p.service(g.service).name +
+              "\" drives in MC (the mission controller); in the secure interval only the safety controller "
+              "publishes actuator topics (Fig. 1)",
           g.where);
     }
   }
@@ -386,6 +513,10 @@ constexpr std::array kChecks{
     InvariantCheck{Invariant::Limits, check_limits},
     InvariantCheck{Invariant::Persistent, check_persistent},
     InvariantCheck{Invariant::Lateral, check_lateral},
+    InvariantCheck{Invariant::Checkpoint, check_checkpoint},
+    InvariantCheck{Invariant::Mode, check_mode},
+    InvariantCheck{Invariant::Restricted, check_restricted},
+    InvariantCheck{Invariant::Controls, check_controls},
     InvariantCheck{Invariant::Coverage, check_coverage},
     InvariantCheck{Invariant::Deny, check_deny},
 };

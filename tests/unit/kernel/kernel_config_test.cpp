@@ -83,7 +83,7 @@ TEST_F(KernelConfig, PolicyFailingTheAudit_IsRefusedWithItsFindings) {
   ASSERT_FALSE(k.error().findings.empty());
   EXPECT_NE(k.error().findings[0].find("orphan"), std::string::npos) << k.error().findings[0];
   EXPECT_NE(k.error().findings[0].find("p.policy.pbtxt:"), std::string::npos) << "findings carry file:line";
-  EXPECT_TRUE(k.error().is_bad_input());
+  EXPECT_FALSE(k.error().is_bad_input());  // a finding, exit 1 like `rejuv audit` (README "Exit codes")
 }
 
 TEST_F(KernelConfig, UnreadablePolicy_IsAPolicyError) {
@@ -96,13 +96,20 @@ TEST_F(KernelConfig, SrRequested_StartsInSafeControl_NoSrStartsInMissionControl)
   const std::string sr = "sr { enabled: true t_mc_s: 0.3 t_est_s: 3 rho_m: 0.1 rho_s: 0.05 "
                          "box { position_m: 0.5 velocity_m_s: 1 angle_rad: 0.3 rate_rad_s: 2 } "
                          "restricted_limit_fraction: 0.3 }\n";
-  auto k = create(policy, launch("/bin/true", sr));
-  ASSERT_TRUE(k.has_value()) << k.error().to_string();
+  // SR needs a rejuvenation service that can take checkpoints (audit invariant `checkpoint`): `stall` is one.
+  std::string sr_policy = policy + "objects { name: \"checkpoint\" kind: CHECKPOINT }\n"
+                                   "grants { service: \"stall\" object: \"checkpoint\" rights: \"W\" modes: [RB, SC, UPDATE, CP] }\n";
+  sr_policy.replace(sr_policy.find("services { name: \"stall\" }"), 26, "services { name: \"stall\" rejuvenation: true }");
+  std::string sr_launch = launch("/bin/true", sr);
+  const std::string stall_uses = "name: \"stall\" executable: \"/bin/true\" uses { object: \"numbers\" rights: \"R\" }";
+  sr_launch.insert(sr_launch.find(stall_uses) + stall_uses.size(), " uses { object: \"checkpoint\" rights: \"W\" }");
+  auto k = create(sr_policy, sr_launch);
+  ASSERT_TRUE(k.has_value()) << k.error().to_string() << ::testing::PrintToString(k.error().findings);
   EXPECT_TRUE((*k)->sr_enabled());
   EXPECT_EQ((*k)->mode(), SrMode::SC);  // DESIGN §7 Faults: the safe mode, network off
   KernelOptions o = manual();
   o.no_sr = true;
-  auto without = create(policy, launch("/bin/true", sr), o);
+  auto without = create(sr_policy, sr_launch, o);
   ASSERT_TRUE(without.has_value()) << without.error().to_string();
   EXPECT_FALSE((*without)->sr_enabled());
   EXPECT_EQ((*without)->mode(), SrMode::MC);
@@ -114,6 +121,9 @@ TEST_F(KernelConfig, MissingExecutable_NamesTheServiceAndTheSkipFlag) {
   EXPECT_EQ(k.error().kind, KernelError::Kind::Config);
   EXPECT_NE(k.error().message.find("'source'"), std::string::npos) << k.error().message;
   EXPECT_NE(k.error().message.find("--skip"), std::string::npos);
+  // Where the executable was named: the launch file's line of `executable` (services[0] is on line 3).
+  EXPECT_NE(k.error().message.find("g.launch.pbtxt:3:"), std::string::npos) << k.error().message;
+  EXPECT_NE(k.error().message.find(": error: "), std::string::npos) << k.error().message;
 }
 
 TEST_F(KernelConfig, LockstepWithoutAPlant_NeedsManualStepping) {

@@ -2,6 +2,7 @@
 // refused with the file:line:column of the offending field (CONVENTIONS "Errors are values").
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <string>
@@ -332,6 +333,80 @@ TEST(LaunchLoader, PolicyEmpty_Semantic) {
 TEST(LaunchLoader, DdsConfigMissing_Semantic) {
   expect_semantic_at("bridges { topic: \"x\"", "config: \"nope.xml\"\n  bridges { topic: \"x\"",
                      "DDS config");
+}
+
+
+// ---- launch values nobody checked (issue "wave failures", item 4) ----
+
+TEST(LaunchLoader, SrTestZero_Semantic) {
+  expect_semantic_at("t_est_s: 3", "t_est_s: 0", "sr.t_est_s (T_est) must be > 0 s");
+}
+TEST(LaunchLoader, SrKeepGenerationsHuge_Semantic) {
+  expect_semantic_at("keep_generations: 2", "keep_generations: 4294967295", "sr.keep_generations must be 1 to 16");
+}
+TEST(LaunchLoader, SrTmcHuge_Semantic) {
+  expect_semantic_at("t_mc_s: 0.3", "t_mc_s: 1e308", "sr.t_mc_s must be at most");
+}
+TEST(LaunchLoader, SrCheckPeriodBelowANanosecondTick_Semantic) {
+  expect_semantic_at("check_period_s: 0.002", "check_period_s: 1e-300", "sr.check_period_s must be at least");
+}
+TEST(LaunchLoader, ClockUnknownNumber_Semantic) {
+  expect_semantic_at("services {\n  name: \"a\"", "clock: 99\nservices {\n  name: \"a\"", "unknown `clock` 99");
+}
+TEST(LaunchLoader, AttackKindUnknownNumber_Semantic) {
+  expect_semantic_at("kind: WORST_CASE_CONTROL", "kind: 99", "unknown attack `kind` 99");
+}
+TEST(LaunchLoader, BridgeDirectionUnknownNumber_Semantic) {
+  expect_semantic_at("direction: BRIDGE_OUT", "direction: 7", "unknown bridge `direction` 7");
+}
+TEST(LaunchLoader, PlantRateTiny_Semantic) {
+  expect_semantic_at("physics_rate_hz: 1000", "physics_rate_hz: 1e-06", "plant.physics_rate_hz must be 100 to 100000 Hz");
+}
+TEST(LaunchLoader, PlantRateHuge_Semantic) {
+  expect_semantic_at("physics_rate_hz: 1000", "physics_rate_hz: 1e12", "plant.physics_rate_hz must be 100 to 100000 Hz");
+}
+TEST(LaunchLoader, WaypointFarAway_Semantic) {
+  expect_semantic_at("north_m: 0 east_m: 0 down_m: -3", "north_m: 1e300 east_m: 0 down_m: -3",
+                     "north_m must be within");
+}
+TEST(LaunchLoader, WaypointBelowTheGround_Semantic) {
+  expect_semantic_at("down_m: -3", "down_m: 5", "waypoint 0 is below the ground");
+}
+TEST(LaunchLoader, GraphNameInvalidUtf8_Semantic) {
+  expect_semantic_at("name: \"unit\"", "name: \"un\\377it\"", "is not valid UTF-8");
+}
+TEST(LaunchLoader, ParamTextInvalidUtf8_Semantic) {
+  expect_semantic_at("params { name: \"gain\" number: 2 }", "params { name: \"gain\" text: \"\\300\\200\" }",
+                     "parameter text is not valid UTF-8", false);
+}
+TEST(LaunchLoader, ParamTextValidUtf8_Loads) {
+  const Mutated m = mutate("params { name: \"gain\" number: 2 }", "params { name: \"label\" text: \"ρ_s ✓\" }");
+  const auto r = parse_launch(m.text, kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+}
+
+// DESIGN §9: a plan naming a kind the service has no hook for is refused at load, naming what it supports.
+TEST(LaunchLoader, AttackKindWithoutHookInTheService_SemanticNamesSupportedKinds) {
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_ekf2\"");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
+  const std::size_t kind_at = m.text.find("kind: WORST_CASE_CONTROL");
+  const int kind_line = static_cast<int>(std::count(m.text.begin(), m.text.begin() + static_cast<long>(kind_at), '\n')) + 1;
+  EXPECT_EQ(r.error().where.line, kind_line) << r.error().to_string();
+  EXPECT_NE(r.error().message.find("has no hook for WORST_CASE_CONTROL"), std::string::npos) << r.error().to_string();
+  EXPECT_NE(r.error().message.find("supports: none"), std::string::npos) << r.error().to_string();
+}
+TEST(LaunchLoader, AttackKindWithoutHook_ListsTheRuntimeKindsOfAHookedService) {
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_checkpoint_p\"");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().message.find("INVOKE_CHECKPOINT, ARM_TIMER"), std::string::npos) << r.error().to_string();
+}
+TEST(LaunchLoader, AttackKindTheServiceHooks_Loads) {
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_lqr_control\"");
+  const auto r = parse_launch(m.text, kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
 }
 
 }  // namespace

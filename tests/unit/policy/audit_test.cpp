@@ -52,7 +52,7 @@ objects { name: "net" kind: NETWORK }
 objects { name: "limits" kind: LIMITS }
 objects { name: "cell" kind: PERSISTENT size_bytes: 4 }
 grants { service: "app" object: "data" rights: "RW" modes: [MC, RB, SC, UPDATE, CP] }
-grants { service: "app" object: "controls" rights: "W" modes: [MC, RB, SC, UPDATE, CP] }
+grants { service: "app" object: "controls" rights: "W" modes: [MC] }
 grants { service: "app" object: "setpoint" rights: "RW" modes: [MC, RB, SC, UPDATE, CP] }
 grants { service: "rejuv" object: "checkpoint" rights: "W" modes: [RB, SC, UPDATE, CP] }
 grants { service: "rejuv" object: "limits" rights: "W" modes: [RB, SC, UPDATE, CP] }
@@ -347,7 +347,7 @@ objects { name: "outputs" kind: TOPIC type: "T" role: ACTUATOR }
 grants { service: "est" object: "sensors" rights: "R" modes: [MC, RB, SC, UPDATE, CP] }
 grants { service: "est" object: "state" rights: "W" modes: [MC, RB, SC, UPDATE, CP] }
 grants { service: "ctl" object: "state" rights: "R" modes: [MC, RB, SC, UPDATE, CP] }
-grants { service: "ctl" object: "controls" rights: "W" modes: [MC, RB, SC, UPDATE, CP] }
+grants { service: "ctl" object: "controls" rights: "W" modes: [MC] }
 grants { service: "drv" object: "controls" rights: "R" modes: [MC, RB, SC, UPDATE, CP] }
 grants { service: "drv" object: "outputs" rights: "W" modes: [MC, RB, SC, UPDATE, CP] }
 )pb";
@@ -443,8 +443,8 @@ TEST(AuditGraph, UseOfUnknownObject_Finding) {
 
 TEST(AuditGraph, GrantNotUsed_DeadGrantFinding) {
   const auto f = audit_graph(
-      replaced(kGraphPolicy, "rights: \"W\" modes: [MC, RB, SC, UPDATE, CP] }\ngrants { service: \"drv\"",
-               "rights: \"RW\" modes: [MC, RB, SC, UPDATE, CP] }\ngrants { service: \"drv\""),
+      replaced(kGraphPolicy, "rights: \"W\" modes: [MC] }\ngrants { service: \"drv\"",
+               "rights: \"RW\" modes: [MC] }\ngrants { service: \"drv\""),
       kGraph);
   expect_one_coverage(f, "mem.policy", 12, "dead grant");
 }
@@ -487,6 +487,80 @@ TEST(AuditGraph, BridgeOfUnknownTopic_FindingAtBridge) {
 TEST(AuditGraph, DriverLevelMismatch_Finding) {
   const auto f = audit_graph(kGraphPolicy, replaced(kGraph, "  rejuvenate: false\n", ""));
   expect_one_coverage(f, "unit_graph", 16, "level: DRIVER");
+}
+
+
+// ---- checkpoint, mode, restricted, controls (issue: audit holes) ----
+
+std::vector<Finding> audit_text(std::string_view text) { return audit(must_parse(text)); }
+
+void expect_only_at(const std::vector<Finding>& f, std::string_view id, int line) {
+  ASSERT_FALSE(f.empty()) << "no finding";
+  for (const Finding& x : f) {
+    EXPECT_EQ(x.id(), id) << ids(f);
+    EXPECT_EQ(x.where.line, line) << ids(f);
+  }
+}
+
+TEST(AuditCheckpoint, RejuvenationServiceWithoutCheckpointObject_FindingAtService) {
+  std::string text = replaced(kBase, "objects { name: \"checkpoint\" kind: CHECKPOINT }\n", "");
+  text = replaced(text, "grants { service: \"rejuv\" object: \"checkpoint\" rights: \"W\" modes: [RB, SC, UPDATE, CP] }\n", "");
+  expect_only_at(audit_text(text), "checkpoint", 3);  // services { name: "rejuv" rejuvenation: true }
+}
+TEST(AuditCheckpoint, CheckpointReadOnly_Finding) {
+  const std::string text = replaced(kBase, "object: \"checkpoint\" rights: \"W\"", "object: \"checkpoint\" rights: \"R\"");
+  expect_only_at(audit_text(text), "checkpoint", 3);
+}
+TEST(AuditCheckpoint, SrGraphWithoutRejuvenationService_FindingAtSrEnabled) {
+  const std::string sr =
+      "sr {\n  enabled: true\n  t_mc_s: 0.3 t_est_s: 3 rho_m: 0.1 rho_s: 0.05\n"
+      "  box { position_m: 0.5 velocity_m_s: 1 angle_rad: 0.3 rate_rad_s: 2 }\n  restricted_limit_fraction: 0.3\n}\n";
+  const std::string graph = std::string(kGraph) + sr;
+  const int sr_line = static_cast<int>(std::count(graph.begin(), graph.begin() + static_cast<long>(graph.find("enabled: true")), '\n')) + 1;
+  const auto f = audit_graph(kGraphPolicy, graph);
+  ASSERT_EQ(f.size(), 1U) << ids(f);
+  EXPECT_EQ(f[0].id(), "checkpoint");
+  EXPECT_NE(f[0].where.file.find("unit_graph.launch.pbtxt"), std::string::npos) << ids(f);
+  EXPECT_EQ(f[0].where.line, sr_line) << ids(f);
+  // The same graph without SR needs no rejuvenation service.
+  EXPECT_TRUE(audit_graph(kGraphPolicy, kGraph).empty());
+}
+
+constexpr std::string_view kModeObject = "objects { name: \"mode\" kind: MODE }\n";
+TEST(AuditMode, NetworkFacingServiceHoldsModeInMc_Finding) {
+  const auto f = audit_text(std::string(kBase) + std::string(kModeObject) +
+                            "grants { service: \"link\" object: \"mode\" rights: \"W\" modes: [MC] }\n"
+                            "grants { service: \"rejuv\" object: \"mode\" rights: \"W\" modes: [SC] }\n");
+  expect_only_at(f, "mode", kBaseLines + 2);
+}
+TEST(AuditMode, RejuvenationServiceHoldsModeInSei_Clean) {
+  const auto f = audit_text(std::string(kBase) + std::string(kModeObject) +
+                            "grants { service: \"rejuv\" object: \"mode\" rights: \"W\" modes: [RB, SC, UPDATE, CP] }\n");
+  EXPECT_TRUE(f.empty()) << ids(f);
+}
+
+TEST(AuditRestricted, DriverReadsLimitsOnlyInSei_FindingAtTheRead) {
+  const std::string text = replaced(kBase, "grants { service: \"drv\" object: \"limits\" rights: \"R\" modes: [MC, RB, SC, UPDATE, CP] }",
+                                    "grants { service: \"drv\" object: \"limits\" rights: \"R\" modes: [RB, SC, UPDATE, CP] }");
+  expect_only_at(audit_text(text), "restricted", 20);
+}
+TEST(AuditRestricted, LimitsWrittenButReadByNoDriver_FindingAtTheWrite) {
+  const std::string text = replaced(kBase, "grants { service: \"drv\" object: \"limits\" rights: \"R\" modes: [MC, RB, SC, UPDATE, CP] }\n", "");
+  expect_only_at(audit_text(text), "restricted", 17);  // rejuv → limits
+}
+
+TEST(AuditControls, MissionControllerAlsoDrivesInSc_Finding) {
+  const std::string text = replaced(kBase, "grants { service: \"app\" object: \"controls\" rights: \"W\" modes: [MC] }",
+                                    "grants { service: \"app\" object: \"controls\" rights: \"W\" modes: [MC, SC] }");
+  const auto f = audit_text(text);
+  expect_only_at(f, "controls", 14);
+  ASSERT_EQ(f.size(), 1U);
+  EXPECT_NE(f[0].message.find("in SC"), std::string::npos) << ids(f);
+}
+TEST(AuditControls, SafetyControllerDrivesOnlyInSei_Clean) {
+  const auto f = audit_with("grants { service: \"link\" object: \"controls\" rights: \"W\" modes: [SC] }\n");
+  // link is network-facing: `lateral` objects to it, `controls` does not (it does not drive in MC).
+  EXPECT_FALSE(has(f, "controls")) << ids(f);
 }
 
 }  // namespace

@@ -232,6 +232,25 @@ TEST_F(RejuvCli, RunCpu_Unavailable_Exit2SaysWhich) {
   EXPECT_NE(r.err.find("CPU 1023 is not available"), std::string::npos) << r.err;
 }
 
+// README "Exit codes": an audit violation is exit 1 whichever command finds it. `rejuv run` audits the
+// graph's policy before it starts anything.
+TEST_F(RejuvCli, RunPolicyFailingTheAudit_Exit1LikeAudit) {
+  std::string policy = slurp(kQuadSr);
+  const std::string grant = "object: \"checkpoint\"              rights: \"W\"  modes: [RB, SC, UPDATE, CP]";
+  ASSERT_NE(policy.find(grant), std::string::npos);
+  policy.replace(policy.find(grant), grant.size(),
+                 "object: \"checkpoint\"              rights: \"W\"  modes: [MC, RB, SC, UPDATE, CP]");
+  const auto policy_path = write("p.policy.pbtxt", policy);
+  std::string graph = slurp(kQuadSquare);
+  const std::string rel = "policy: \"../policies/quad_sr.policy.pbtxt\"";
+  graph.replace(graph.find(rel), rel.size(), "policy: \"" + policy_path.string() + "\"");
+  const auto graph_path = write("g.launch.pbtxt", graph);
+  const Outcome r = rejuv({"run", graph_path.string()});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("violation [timer]"), std::string::npos) << r.err;
+  EXPECT_EQ(rejuv({"audit", policy_path.string()}).exit_code, 1);
+}
+
 TEST_F(RejuvCli, RunHelp_ListsCpu) {
   const Outcome r = rejuv({"run", "--help"});
   EXPECT_EQ(r.exit_code, 0);

@@ -123,7 +123,8 @@ struct KernelError {
   std::string message{};
   std::vector<std::string> findings{};
   [[nodiscard]] std::string to_string() const;
-  // User input problems (Policy, Audit, Config): `rejuv run` exits 2 on those.
+  // Input the loaders or the kernel refused (Policy, Config): `rejuv run` exits 2 on those; an Audit finding
+  // exits 1, as in `rejuv audit` (README "Exit codes").
   [[nodiscard]] bool is_bad_input() const;
 };
 

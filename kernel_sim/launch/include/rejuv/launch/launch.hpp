@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "launch.pb.h"
 #include "rejuv/core/result.hpp"
@@ -49,7 +50,19 @@ inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // rela
 inline constexpr std::uint32_t kSandboxProcesses = 64;
 inline constexpr std::uint32_t kSandboxMemoryMb = 4096;
 inline constexpr std::uint32_t kSandboxOpenFiles = 256;
+// Bounds of what a graph may ask for (refused at load, file:line:column):
+inline constexpr double kMaxDurationS = 1e6;           // any duration [s]: ~11 days, far inside int64 ns
+inline constexpr double kMinPeriodS = 1e-6;            // a period the kernel's ns clock can represent [s]
+inline constexpr std::uint32_t kMaxKeepGenerations = 16;  // each one holds a frozen process per service
+inline constexpr double kMinPhysicsRateHz = 100.0;     // below the sensor and control rates the model breaks
+inline constexpr double kMaxPhysicsRateHz = 100000.0;  // 10 µs RK4 steps: beyond, a run never ends
+inline constexpr double kMaxWaypointOffsetM = 10000.0; // |north|, |east|, |down| of a waypoint [m]
 }  // namespace defaults
+
+// The attack kinds (idl/launch.proto AttackKind) that an in-tree service has a hook for (DESIGN §9: a plan
+// naming a kind that service has no hook for is refused at load), by executable file name; nullopt for an
+// executable this table does not know (a service outside the tree, a test service): not checked.
+[[nodiscard]] std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view executable);
 
 // K, the number of checkpoint generations kept (DESIGN §7).
 [[nodiscard]] std::uint32_t keep_generations(const proto::SrParams& sr);

@@ -17,12 +17,25 @@
 
 namespace rejuv::policy {
 
-// The invariants of DESIGN §4 (ids as printed: timer, sei, limits, persistent, lateral, coverage) plus
-// the policy's own deny rules (printed as deny:<rule id>).
-enum class Invariant : std::uint8_t { Timer, Sei, Limits, Persistent, Lateral, Coverage, Deny };
-inline constexpr std::array kAllInvariants{Invariant::Timer,      Invariant::Sei,     Invariant::Limits,
-                                           Invariant::Persistent, Invariant::Lateral, Invariant::Coverage,
-                                           Invariant::Deny};
+// The invariants of DESIGN §4 (ids as printed: timer, sei, limits, persistent, lateral, checkpoint, mode,
+// restricted, controls, coverage) plus the policy's own deny rules (printed as deny:<rule id>).
+enum class Invariant : std::uint8_t {
+  Timer,
+  Sei,
+  Limits,
+  Persistent,
+  Lateral,
+  Checkpoint,  // the rejuvenation service can take checkpoints (and an SR graph has one)
+  Mode,        // no mode switch within the network's reach in MC
+  Restricted,  // the limits Ū bind in MC: a driver reads them there
+  Controls,    // the mission controller does not drive in the secure interval
+  Coverage,
+  Deny
+};
+inline constexpr std::array kAllInvariants{Invariant::Timer,      Invariant::Sei,      Invariant::Limits,
+                                           Invariant::Persistent, Invariant::Lateral,  Invariant::Checkpoint,
+                                           Invariant::Mode,       Invariant::Restricted, Invariant::Controls,
+                                           Invariant::Coverage,   Invariant::Deny};
 [[nodiscard]] std::string_view to_string(Invariant invariant);
 
 struct Finding {

@@ -1,0 +1,144 @@
+// `rejuv run` of a graph whose service fails at boot (issue "wave failures", item 1): the real binary, the real
+// flight graph (launch/quad_square) with one thing wrong. Before the graph has booted there is no image to
+// roll back to, so the run stops — SR on or off — with exit 1 and the service's own error, instead of
+// waiting for ever. The test finishing at all is part of what it checks (ctest TIMEOUT); no timing is asserted.
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "../test_domain.hpp"
+
+namespace {
+
+const std::filesystem::path kRepo(REJUV_SOURCE_DIR);
+const std::filesystem::path kRejuv = std::filesystem::path(REJUV_BINARY_DIR) / "tools" / "rejuv" / "rejuv";
+
+std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+struct Outcome {
+  int exit_code = -1;  // -1: ended by a signal
+  std::string out, err;
+};
+
+class BootFailure : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           ("rejuv_boot_failure_" + std::to_string(::getpid()) + "_" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    std::filesystem::remove_all(dir_, ec);
+  }
+
+  // The shipped square graph, its policy path made absolute, then `edit`ed.
+  std::filesystem::path graph(const std::function<std::string(std::string)>& edit) const {
+    std::string text = slurp(kRepo / "launch" / "quad_square.launch.pbtxt");
+    const std::string rel = "policy: \"../policies/quad_sr.policy.pbtxt\"";
+    text.replace(text.find(rel), rel.size(), "policy: \"" + (kRepo / "policies" / "quad_sr.policy.pbtxt").string() + "\"");
+    const auto p = dir_ / "g.launch.pbtxt";
+    std::ofstream(p) << edit(text);
+    return p;
+  }
+
+  // `rejuv run GRAPH <extra>` on this process's own DDS domain, output captured.
+  Outcome run(const std::filesystem::path& graph, const std::vector<std::string>& extra) const {
+    const std::string out = (dir_ / "stdout").string();
+    const std::string err = (dir_ / "stderr").string();
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    std::vector<std::string> all{kRejuv.string(), "run", graph.string(), "--domain",
+                                 std::to_string(rejuv::test_support::kOwnDdsDomain)};
+    all.insert(all.end(), extra.begin(), extra.end());
+    std::vector<char*> argv;
+    for (std::string& a : all) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    pid_t pid = -1;
+    Outcome r;
+    if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) {
+      int status = 0;
+      if (::waitpid(pid, &status, 0) == pid && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+    }
+    posix_spawn_file_actions_destroy(&actions);
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+  }
+
+  std::filesystem::path dir_;
+};
+
+// ext_link refuses telemetry_period_s: -1 and exits 1 before it is Ready.
+std::string refused_parameter(std::string text) {
+  const std::string exe = "executable: \"rejuv_ext_link\"\n";
+  return text.insert(text.find(exe) + exe.size(), "  params { name: \"telemetry_period_s\" number: -1 }\n");
+}
+
+// Every service is /bin/true: it exits 0 without ever saying Hello.
+std::string all_bin_true(std::string text) {
+  return std::regex_replace(text, std::regex("executable: \"rejuv_(?!plant)[a-z0-9_]+\""), "executable: \"/bin/true\"");
+}
+
+TEST_F(BootFailure, RefusedParameterWithSr_Exit1WithTheServicesError) {
+  const Outcome r = run(graph(refused_parameter), {});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("service 'ext_link'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("failed at boot"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("telemetry_period_s: expected 0.01 to 10 s"), std::string::npos) << r.err;
+}
+
+TEST_F(BootFailure, RefusedParameterWithoutSr_Exit1WithTheServicesError) {
+  const Outcome r = run(graph(refused_parameter), {"--no-sr"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("service 'ext_link'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("telemetry_period_s: expected 0.01 to 10 s"), std::string::npos) << r.err;
+}
+
+TEST_F(BootFailure, BinTrueWithSr_Exit1NamingTheServiceAndItsExit) {
+  const Outcome r = run(graph(all_bin_true), {});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("(/bin/true) failed at boot: "), std::string::npos) << r.err;
+}
+
+TEST_F(BootFailure, BinTrueWithoutSr_Exit1NamingTheServiceAndItsExit) {
+  const Outcome r = run(graph(all_bin_true), {"--no-sr"});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("(/bin/true) failed at boot: "), std::string::npos) << r.err;
+}
+
+// tests/test_domain.hpp: this process's domain is one byte of one fixed lock file, held for its whole life
+// (another open file description cannot take it), so no per-domain file is left behind in /tmp.
+TEST(TestDomain, OwnDomainIsAByteOfTheOneLockFile_HeldByThisProcess) {
+  ASSERT_TRUE(std::filesystem::exists(rejuv::test_support::kDomainLockFile));
+  const int fd = ::open(rejuv::test_support::kDomainLockFile, O_RDWR | O_CLOEXEC);
+  ASSERT_GE(fd, 0);
+  struct flock range{};
+  range.l_type = F_WRLCK;
+  range.l_whence = SEEK_SET;
+  range.l_start = static_cast<off_t>(rejuv::test_support::kOwnDdsDomain);
+  range.l_len = 1;
+  EXPECT_NE(::fcntl(fd, F_OFD_SETLK, &range), 0) << "domain " << rejuv::test_support::kOwnDdsDomain << " is not held";
+  ::close(fd);
+}
+
+}  // namespace
