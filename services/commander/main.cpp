@@ -34,15 +34,21 @@ int main() {
   });
   auto uploads =
       svc.subscribe<rejuv_msg_MissionWaypoints>("mission_upload", [&](const rejuv_msg_MissionWaypoints& m) {
-        // The hook: validated and reported; applying uploads comes with the ground-link work.
+        // Validated, then kept in the kernel's cell: the rollback that ends this MC window erases everything
+        // else this process learns now. gen_set_point checks it again and applies it in UPDATE.
         auto checked = commander->validate_upload(m, mode);
         if (!checked) {
           svc.log(sdk::LogLevel::Warn, "mission upload refused: " + checked.error().to_string());
-        } else {
-          svc.logf(sdk::LogLevel::Info,
-                   "mission upload of %zu waypoints is valid; uploads are not applied yet",
-                   checked->waypoints.size());
+          return;
         }
+        auto kept = flight_io::write_mission_cell(svc, "uploaded_mission",
+                                                  flight_io::MissionRecord{.mission = *checked, .cursor = {}, .done = false});
+        if (!kept || !*kept) {
+          svc.log(sdk::LogLevel::Warn, "mission upload not kept: " + (kept ? std::string("no uploaded_mission cell in this mode") : kept.error()));
+          return;
+        }
+        svc.logf(sdk::LogLevel::Info, "mission upload of %zu waypoints accepted: flown from the next setpoint update",
+                 checked->waypoints.size());
       });
   if (!svc.require_all("subscribe", modes, uploads)) return 1;
   // Right after the start of the clock (every service has subscribed by then: the kernel starts it only

@@ -12,8 +12,16 @@ int main() {
 
   auto mission = flight_io::mission_params(flight_io::params_of(svc));
   if (!svc.require(mission, "bad params")) return 1;
-  services::Ekf2Node ekf2(flight_io::ekf_params(), flight_io::ekf_initial_state(*mission),
-                          flight_io::imu_period());
+  // At the first boot the vehicle rests at its take-off point, the mission's first waypoint. After a cold
+  // restart (the kernel counts them in boot.cold_restarts) it is wherever the mission had taken it: the filter
+  // starts from the first GPS fix instead (DESIGN §7 "Cold restart"), level, with the mission's first heading
+  // (the magnetometer corrects it).
+  const bool cold_restart = svc.param("boot.cold_restarts", 0.0) > 0.0;
+  const flight::EkfState take_off = flight_io::ekf_initial_state(*mission);
+  services::Ekf2Node ekf2 =
+      cold_restart ? services::Ekf2Node::from_first_fix(flight_io::ekf_params(), take_off.q_NB, flight_io::imu_period())
+                   : services::Ekf2Node(flight_io::ekf_params(), take_off, flight_io::imu_period());
+  if (cold_restart) svc.log(sdk::LogLevel::Info, "cold restart: the estimate starts from the first GPS fix");
 
   auto state = svc.advertise<rejuv_msg_VehicleStateEstimate>("vehicle_state");
   if (!svc.require(state, "vehicle_state")) return 1;
@@ -22,7 +30,7 @@ int main() {
       svc.subscribe<rejuv_msg_SensorCombined>("sensor_combined", [&](const rejuv_msg_SensorCombined& m) {
         auto x_hat = ekf2.on_combined(m);
         if (!x_hat) return refuse(x_hat.error());
-        (void)state->publish(*x_hat);  // granted in every mode
+        if (*x_hat) (void)state->publish(**x_hat);  // granted in every mode
       });
   auto mag = svc.subscribe<rejuv_msg_SensorMag>("sensor_mag", [&](const rejuv_msg_SensorMag& m) {
     if (auto ok = ekf2.on_mag(m); !ok) refuse(ok.error());

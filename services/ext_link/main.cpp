@@ -51,6 +51,12 @@ int main() {
   };
   auto gate = svc.on_datagram(kNet, [&](std::span<const std::byte> datagram) {
     auto inbound = link.on_datagram(datagram, svc.now());
+    // The verdict goes to the kernel: a valid message makes its sender the ground station telemetry goes
+    // to; a refusal is counted there by reason (the run summary), where no rollback erases it.
+    const std::uint32_t verdict = inbound ? 0U : 1U + static_cast<std::uint32_t>(inbound.error());
+    if (auto judged = svc.judge_datagram(kNet, verdict); !judged) {
+      svc.log(sdk::LogLevel::Warn, "judging a datagram: " + judged.error().to_string());
+    }
     if (!inbound) {
       std::uint64_t suppressed = 0;
       if (link.should_log_refusal(svc.now(), suppressed)) {

@@ -1,5 +1,7 @@
 // rejuv_gen_set_point: the setpoint generator as a process (services/gen_set_point/include/rejuv/services/
 // gen_set_point/setpoint_node.hpp). No command line: started by the kernel.
+#include <string_view>
+
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/gen_set_point/setpoint_node.hpp"
@@ -19,6 +21,46 @@ int main() {
 
   auto setpoint = svc.advertise<rejuv_msg_Setpoint>("setpoint");
   if (!svc.require(setpoint, "setpoint")) return 1;
+  // The mission state the kernel keeps (paper §III "Persistent data"; DESIGN §7 "Cold restart"): after a
+  // cold restart the record says which mission is flown and where x_sp was, so the restarted generator goes
+  // on from there instead of from waypoint 0. At the first boot the cell is empty.
+  constexpr std::string_view kState = "mission_state";
+  constexpr std::string_view kUpload = "uploaded_mission";
+  if (auto kept = flight_io::read_mission_cell(svc, kState); !kept) {
+    svc.log(sdk::LogLevel::Error, "the kept mission state is unusable: " + kept.error());
+  } else if (*kept) {
+    if (auto ok = node.restore(**kept, svc.now()); !ok) {
+      svc.log(sdk::LogLevel::Error, "the kept mission state is unusable: " + ok.error().to_string());
+    } else {
+      svc.logf(sdk::LogLevel::Info, "cold restart: continuing the kept mission (%zu waypoints) on segment %zu at %.3f",
+               (**kept).mission.waypoints.size(), (**kept).cursor.segment, (**kept).cursor.tau);
+    }
+  }
+  // Written only where the policy grants it (UPDATE: inside the secure execution interval).
+  const auto keep_state = [&] {
+    const auto record = node.record();
+    if (!record) return;
+    if (auto ok = flight_io::write_mission_cell(svc, kState, *record); !ok) {
+      svc.log(sdk::LogLevel::Error, "keeping the mission state: " + ok.error());
+    }
+  };
+  // A validated upload (commander wrote it to the cell in MC) takes effect at the setpoint update. Read and
+  // checked again here, in the secure execution interval, by code restored from a clean image.
+  const auto apply_upload = [&] {
+    auto pending = flight_io::read_mission_cell(svc, kUpload);
+    if (!pending) {
+      svc.log(sdk::LogLevel::Warn, "ignoring the uploaded mission: " + pending.error());
+      return;
+    }
+    if (!*pending) return;
+    auto applied = node.apply_upload((**pending).mission, svc.now());
+    if (!applied) {
+      svc.log(sdk::LogLevel::Warn, "ignoring the uploaded mission: " + applied.error().to_string());
+    } else if (*applied == services::SetpointNode::UploadOutcome::Applied) {
+      svc.logf(sdk::LogLevel::Info, "flying the uploaded mission of %zu waypoints from the current setpoint",
+               (**pending).mission.waypoints.size());
+    }
+  };
   bool announced_done = false;
   // After every input: publish a changed setpoint as soon as the mode grants it (the SEI).
   const auto publish_changed = [&] {
@@ -44,12 +86,18 @@ int main() {
     publish_changed();
   };
   const auto on_request = [&](const rejuv_msg_SetpointUpdateRequest& m) {
+    apply_upload();
     (void)node.on_update_request(m);
+    keep_state();
     publish_changed();
   };
   auto mission = svc.subscribe<rejuv_msg_MissionWaypoints>("mission", on_mission);
   auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state", on_state);
   auto request = svc.subscribe<rejuv_msg_SetpointUpdateRequest>("setpoint_update_request", on_request);
   if (!svc.require_all("subscribe", mission, state, request)) return 1;
+  // A restored setpoint goes out right after the clock starts, before the first estimate: the controllers
+  // restarted with it must not steer for the take-off point meanwhile.
+  auto boot = svc.after(Nanos{1}, publish_changed);
+  if (!svc.require(boot, "timer")) return 1;
   return svc.run();
 }

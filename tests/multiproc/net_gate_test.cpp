@@ -293,5 +293,29 @@ TEST_F(NetGate, OversizeAndGarbageDatagrams_RefusedWithoutHarm) {
   EXPECT_EQ(stats("ext_link").bad_frames, 0U);
 }
 
+// Item 5 of the fault report: any relayed datagram used to redirect telemetry to its sender. Now only a
+// message ext_link judges valid names the ground station; garbage from elsewhere is refused, counted by
+// reason in the kernel (for the run summary) and steers nothing.
+TEST_F(NetGate, GarbageFromAnotherSender_DoesNotRedirectTelemetry) {
+  ground_->send({.sequence = 1, .body = link::Hello{}});
+  step_until([&] {
+    ground_->collect();
+    return !ground_->all<link::Telemetry>().empty();
+  });
+  Ground stranger(*kernel_->network_port());
+  std::vector<std::byte> garbage(20, std::byte{0x5A});  // no "RJLK": BadMagic
+  stranger.send(garbage);
+  step_until([&] { return kernel_->net_stats().judged_refused == 1; });
+  ground_->clear();
+  step(50);  // 0.2 s: 10 telemetry periods
+  ground_->collect();
+  stranger.collect();
+  EXPECT_TRUE(stranger.received.empty() && stranger.raw.empty()) << "telemetry followed the garbage";
+  EXPECT_FALSE(ground_->all<link::Telemetry>().empty()) << "telemetry still goes to the ground station";
+  const kernel::NetStats st = kernel_->net_stats();
+  EXPECT_EQ(st.judged_valid, 1U);
+  EXPECT_EQ(st.refused_by_reason[1 + static_cast<std::size_t>(link::DecodeError::BadMagic)], 1U);
+}
+
 }  // namespace
 }  // namespace rejuv::testing

@@ -5,8 +5,11 @@
 // Skipped (not failed) while a service or the plant is not built.
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <filesystem>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "graph_fixture.hpp"
 #include "run_recorder.hpp"
@@ -26,6 +29,7 @@ struct Mission {
   kernel::RunOutcome outcome;
   kernel::SrStats sr;
   std::uint64_t mc_windows = 0;  // epochs in which the kernel published mode MC
+  std::size_t killed = 0;        // processes a KillGroup killed
   bool lost = false;             // the recorder declared the vehicle lost (V > 100) and stopped the run
   Nanos alignment{0};
 };
@@ -41,9 +45,50 @@ enum class Sr : std::uint8_t { On, Off };
 enum class Attack : std::uint8_t { On, Off };
 enum class Path : std::uint8_t { Square, FirstLeg };  // FirstLeg: only the first 1 m side of the square
 
+// A fault: at the first lockstep step at or after `after` (flight time, past the alignment) every process of
+// `service` — the live one and every frozen image — is killed. No generation is left to roll back to, so the
+// kernel must cold-restart the graph (DESIGN §7 "Faults", "Cold restart").
+struct KillGroup {
+  std::string service;
+  Nanos after{0};
+};
+
+// Forwards everything to `rejuv run`'s recorder and carries out a KillGroup.
+class FaultInjector final : public kernel::Observer {
+ public:
+  FaultInjector(kernel::Observer& inner, KillGroup fault, Nanos alignment)
+      : inner_(inner), fault_(std::move(fault)), at_(alignment + fault_.after) {}
+  void attach(Kernel* k) { kernel_ = k; }
+  [[nodiscard]] std::size_t killed() const { return killed_; }
+
+  void on_publication(const kernel::Publication& p) override { inner_.on_publication(p); }
+  void on_step(std::uint64_t step, Nanos t, SrMode mode) override {
+    inner_.on_step(step, t, mode);
+    if (done_ || kernel_ == nullptr || t < at_) return;
+    done_ = true;
+    const auto id = kernel_->find_service(fault_.service);
+    if (!id) return;
+    std::vector<int> pids = kernel_->image_pids(*id);
+    pids.push_back(kernel_->stats(*id).pid);
+    for (const int pid : pids) {
+      if (pid > 0 && ::kill(pid, SIGKILL) == 0) ++killed_;
+    }
+  }
+  void on_checkpoint(Generation g, const broker::Broker& q) override { inner_.on_checkpoint(g, q); }
+  void on_restore(Generation g, const broker::Broker& q) override { inner_.on_restore(g, q); }
+
+ private:
+  kernel::Observer& inner_;
+  KillGroup fault_;
+  Nanos at_;
+  Kernel* kernel_ = nullptr;
+  bool done_ = false;
+  std::size_t killed_ = 0;
+};
+
 // Flies launch/quad_square.launch.pbtxt (seed 1) as `rejuv run` does. nullopt: not built (the caller skips)
 // or a failure already reported.
-std::optional<Mission> fly(Sr sr, Attack attack, Path path) {
+std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGroup> fault = std::nullopt) {
   auto graph = launch::load_launch(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
   if (!graph) {
     ADD_FAILURE() << graph.error().to_string();
@@ -69,11 +114,14 @@ std::optional<Mission> fly(Sr sr, Attack attack, Path path) {
   Mission m;
   m.alignment = reference->alignment;
   cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);
-  auto k = Kernel::create(std::move(*graph), options, &recorder);
+  std::optional<FaultInjector> injector;
+  if (fault) injector.emplace(recorder, *fault, m.alignment);
+  auto k = Kernel::create(std::move(*graph), options, injector ? static_cast<kernel::Observer*>(&*injector) : &recorder);
   if (!k) {
     ADD_FAILURE() << k.error().to_string();
     return std::nullopt;
   }
+  if (injector) injector->attach(k->get());
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });
   auto outcome = (*k)->run();
   if (!outcome) {
@@ -86,6 +134,7 @@ std::optional<Mission> fly(Sr sr, Attack attack, Path path) {
   m.summary.set_rollbacks(m.sr.rollbacks);
   m.summary.set_checkpoints(m.sr.checkpoints);
   m.mc_windows = recorder.mc_windows();
+  m.killed = injector ? injector->killed() : 0;
   m.lost = recorder.lost().has_value();
   ::testing::Test::RecordProperty("max_V", std::to_string(m.summary.max_v()));
   ::testing::Test::RecordProperty("rollbacks", std::to_string(m.sr.rollbacks));
@@ -147,6 +196,24 @@ TEST(SrEndToEnd, SrWithoutAttack_CompletesAOneMetreLegInsideTheSafetySet) {
   EXPECT_EQ(m->summary.attacks(), 0U);
   EXPECT_LT(m->summary.max_v(), 1.0);
   expect_one_timer_arm_per_epoch(*m);
+}
+
+// Item 2 of the fault report: a cold restart in the middle of the square (every process of gen_set_point
+// killed 130 s into the ≈265 s flight, so that no generation can be restored) must not throw the vehicle out
+// of the safety set. The restarted graph flies on from the kept mission state (x_sp, the waypoint) in SC with
+// the network off, its estimator started from the sensors, and completes the mission. Without the kept state
+// and the estimator's start from the sensors the same run reaches max V ≈ 2.35 (seed 1).
+TEST(SrEndToEnd, ColdRestartMidSquare_StaysInsideTheSafetySetAndCompletesTheMission) {
+  const auto m = fly(Sr::On, Attack::On, Path::Square,
+                     KillGroup{.service = "gen_set_point", .after = std::chrono::seconds{130}});
+  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_GE(m->killed, 2U) << "the live gen_set_point and at least one image";
+  EXPECT_EQ(m->sr.cold_restarts, 1U);
+  EXPECT_EQ(m->outcome.reason, StopReason::MissionDone) << m->outcome.detail;
+  EXPECT_TRUE(m->summary.mission_completed());
+  EXPECT_FALSE(m->lost);
+  EXPECT_LT(m->summary.max_v(), 1.0);
+  EXPECT_FALSE(m->summary.left_safety_set());
 }
 
 }  // namespace

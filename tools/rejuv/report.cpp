@@ -1,5 +1,7 @@
 #include "report.hpp"
 
+#include "rejuv/services/ext_link/link_protocol.hpp"
+
 #include <google/protobuf/util/json_util.h>
 
 #include <algorithm>
@@ -64,6 +66,16 @@ void fill_network(proto::NetworkSummary& out, const kernel::NetStats& s, std::op
   out.set_sent(s.sent);
   out.set_send_refused(s.send_refused);
   out.set_unsent_no_ground(s.unsent_no_ground);
+  out.set_link_valid(s.judged_valid);
+  out.set_link_refused(s.judged_refused);
+  // ext_link's verdict code is 1 + link::DecodeError (services/ext_link/main.cpp).
+  for (std::size_t code = 1; code < s.refused_by_reason.size(); ++code) {
+    if (s.refused_by_reason[code] == 0) continue;
+    proto::LinkRefusals* r = out.add_link_refused_by_reason();
+    r->set_reason(code - 1 < link::kDecodeErrorCount ? std::string(link::to_string(static_cast<link::DecodeError>(code - 1)))
+                                                     : "reason " + std::to_string(code));
+    r->set_count(s.refused_by_reason[code]);
+  }
 }
 
 std::string describe_network(const proto::NetworkSummary& n) {
@@ -77,7 +89,15 @@ std::string describe_network(const proto::NetworkSummary& n) {
                 static_cast<unsigned long long>(n.dropped_oversize()), static_cast<unsigned long long>(n.dropped_other()),
                 static_cast<unsigned long long>(n.sent()), static_cast<unsigned long long>(n.send_refused()),
                 static_cast<unsigned long long>(n.unsent_no_ground()));
-  return buf;
+  std::string out = buf;
+  std::snprintf(buf, sizeof buf, "; ext_link: %llu valid, %llu refused", static_cast<unsigned long long>(n.link_valid()),
+                static_cast<unsigned long long>(n.link_refused()));
+  out += buf;
+  for (const proto::LinkRefusals& r : n.link_refused_by_reason()) {
+    out += (&r == &n.link_refused_by_reason(0) ? " (" : ", ") + r.reason() + " " + std::to_string(r.count());
+  }
+  if (n.link_refused_by_reason_size() > 0) out += ")";
+  return out;
 }
 
 void write_trace_header(std::FILE* csv) {

@@ -489,7 +489,9 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
       failure = "Resume to the image of '" + s.name + "': " + sent.error().to_string();
       break;
     }
-    closing.push_back(channel->second.take_fd());
+    // Closed now, not after the timed part: then the image's end is the channel's only other end, and a copy
+    // that dies after taking its Resume hangs the channel up at once instead of costing the resume deadline.
+    (void)channel->second.take_fd();
     pending.push_back(Pending{.service = &s, .image = &im, .channel = std::move(channel->first)});
   }
   // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
@@ -618,6 +620,7 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   for (ServiceRuntime& s : services) {
     if (!s.rejuvenate || s.skip) continue;
     s.subscriptions.clear();
+    s.params = build_params(*this, s);  // boot.cold_restarts: the estimator starts from the sensors
     s.idle_count = 0;
     s.frames_base = s.stats.frames_out;
     if (auto ok = spawn_one(s); !ok) {

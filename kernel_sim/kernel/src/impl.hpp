@@ -435,7 +435,9 @@ struct Kernel::Impl {
   // lockstep: at the start of each step, so that what a service sees does not depend on scheduling).
   void net_poll();
   // NetSend / NetReceive invocations (decode through the cap system, then act).
-  void net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, cap::Operation op, std::span<const std::byte> data);
+  // NetReceive: arg0 = the id of a relayed datagram (NetDatagram aux), arg1 = the receiver's verdict on it.
+  void net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, cap::Operation op, std::uint64_t arg0,
+                  std::uint64_t arg1, std::span<const std::byte> data);
 
   // ---- loop (kernel.cpp) ----
   [[nodiscard]] Result<void, KernelError> pump(std::optional<Nanos> max_wait);

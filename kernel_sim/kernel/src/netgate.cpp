@@ -3,8 +3,9 @@
 // current mode (ext_link, in MC only) as one NetDatagram frame; otherwise it is dropped and counted — in
 // RB/SC/UPDATE/CP no service holds Network (the secure execution interval, §III), so nothing from the
 // network reaches the vehicle then. The kernel never interprets the bytes: it checks the size and the cap.
-// NetSend goes out to the ground station (the source of the last relayed datagram) after the cap check,
-// so a send outside MC is a denial like any other.
+// NetSend goes out to the ground station after the cap check, so a send outside MC is a denial like any
+// other. The ground station is the source of the last datagram the receiver judged valid (NetReceive with
+// its verdict): the kernel does not interpret the bytes, ext_link does, and garbage must not steer telemetry.
 #include <algorithm>
 #include <cerrno>
 #include <string>
@@ -126,6 +127,7 @@ void Kernel::Impl::net_poll() {
     bool held = false;
     bool running = false;
     bool sent = false;
+    const std::uint64_t id = net.next_id;
     for (const NetGate::Reader& reader : net.readers) {
       const auto c = caps.lookup(cap::CapRef{.space = reader.service, .slot = reader.slot});
       if (!c || c->kind != ObjectKind::Network || c->object != *net.object || !c->rights.has(Right::Read)) continue;
@@ -136,7 +138,7 @@ void Kernel::Impl::net_poll() {
       // A service that does not read its channel gets no more: queued frames are bounded, and overflowing
       // them would be its fault (docs/protocol.md "flow control") — a flood must not make it one.
       if (s.has_held || !s.outq.empty() || s.sweep) continue;
-      if (!tx.build(wire::FrameKind::NetDatagram, reader.slot.value(), 0, 0, bytes)) continue;
+      if (!tx.build(wire::FrameKind::NetDatagram, reader.slot.value(), 0, id, bytes)) continue;
       send_control(s, tx.bytes());
       sent = true;
     }
@@ -152,13 +154,15 @@ void Kernel::Impl::net_poll() {
       ++st.dropped_busy;
     } else {
       ++st.relayed;
-      net.peer = r->from;
+      // Its source becomes the ground station only once the receiver judges it valid (net_invoke).
+      net.recent[id % kRecentDatagrams] = NetGate::Relayed{.id = id, .from = r->from, .judged = false};
+      ++net.next_id;
     }
   }
 }
 
-void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, cap::Operation op,
-                              std::span<const std::byte> data) {
+void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, cap::Operation op, std::uint64_t arg0,
+                              std::uint64_t arg1, std::span<const std::byte> data) {
   auto inv = caps.decode(s.id, slot, op);
   if (!inv) {
     if (op == cap::Operation::NetSend) ++net.stats.send_refused;
@@ -170,8 +174,23 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, c
     reply(s, seq, static_cast<std::int32_t>(e));
   };
   if (op != cap::Operation::NetSend) {
-    // NetReceive: delivery is pushed (NetDatagram frames), there is nothing to pull.
-    reply(s, seq, static_cast<std::int32_t>(wire::OpError::BadArgument));
+    // NetReceive: delivery is pushed (NetDatagram frames); what the receiver sends back is its verdict on
+    // one of them: arg0 = its id, arg1 = 0 valid, else its refusal reason. Checked before anything changes:
+    // a datagram relayed to this gate lately, not judged yet, and a known code.
+    NetGate::Relayed& d = net.recent[arg0 % kRecentDatagrams];
+    if (arg0 == 0 || d.id != arg0 || d.judged || arg1 >= kNetVerdictCodes) {
+      reply(s, seq, static_cast<std::int32_t>(wire::OpError::BadArgument));
+      return;
+    }
+    d.judged = true;
+    if (arg1 == 0) {
+      ++net.stats.judged_valid;
+      net.peer = d.from;
+    } else {
+      ++net.stats.judged_refused;
+      ++net.stats.refused_by_reason[arg1];
+    }
+    reply(s, seq, 0);
     return;
   }
   if (data.empty() || data.size() > wire::kMaxDatagramBytes) {

@@ -17,6 +17,8 @@ namespace rejuv::kernel {
 
 inline constexpr std::uint16_t kDefaultNetworkPort = 14555;  // launch `network.bind_port` unset
 inline constexpr std::size_t kDatagramsPerPoll = 64;         // fairness: datagrams read per wakeup / step
+// Relayed datagrams a verdict may still name (the receiver judges each as it handles it, so within a step).
+inline constexpr std::size_t kRecentDatagrams = 256;
 
 struct NetGate {
   // A policy slot that may hold the gate's object with Read in some mode (checked in the current mode
@@ -29,7 +31,17 @@ struct NetGate {
   std::optional<ObjectId> object{};       // the NETWORK object it serves
   std::uint16_t port = 0;                 // bound port
   std::vector<Reader> readers{};
-  std::optional<sys::UdpAddress> peer{};  // the ground station: source of the last relayed datagram
+  // The ground station: the source of the last datagram its receiver judged valid (NetReceive verdict 0).
+  // Not simply the last relayed one: anyone can send garbage, and telemetry must not follow it.
+  std::optional<sys::UdpAddress> peer{};
+  // The datagrams relayed lately, by id (NetDatagram aux), each judged at most once.
+  struct Relayed {
+    std::uint64_t id = 0;
+    std::optional<sys::UdpAddress> from{};
+    bool judged = false;
+  };
+  std::array<Relayed, kRecentDatagrams> recent{};
+  std::uint64_t next_id = 1;
   NetStats stats{};
   // Drop and refusal log lines: 10 of burst, 1 per second sustained (a flood must not flood the log).
   double log_tokens = 10;

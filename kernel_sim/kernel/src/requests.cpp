@@ -286,7 +286,7 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
     }
     case cap::Operation::NetSend:
     case cap::Operation::NetReceive:
-      net_invoke(s, seq, slot, op, data);  // the network gate (netgate.cpp)
+      net_invoke(s, seq, slot, op, head.arg0, head.arg1, data);  // the network gate (netgate.cpp)
       return;
     case cap::Operation::CheckpointCreate:
     case cap::Operation::CheckpointRollback:

@@ -90,6 +90,8 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   }
   number("attack.enabled", attacks > 0 ? 1 : 0);
   number("attack.count", attacks);
+  // > 0: this incarnation was started by a cold restart (DESIGN §7): the vehicle is not at its take-off point.
+  number("boot.cold_restarts", static_cast<double>(k.sr_stats.cold_restarts));
   return out;
 }
 

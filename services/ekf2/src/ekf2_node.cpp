@@ -5,10 +5,18 @@
 namespace rejuv::services {
 
 Ekf2Node::Ekf2Node(const flight::EkfParams& params, const flight::EkfState& initial, Nanos imu_period)
-    : node_(params, initial, imu_period) {}
+    : params_(params), imu_period_(imu_period), node_(std::in_place, params, initial, imu_period) {}
+
+Ekf2Node::Ekf2Node(const flight::EkfParams& params, const Eigen::Quaterniond& attitude, Nanos imu_period)
+    : params_(params), imu_period_(imu_period), waiting_attitude_(attitude) {}
+
+Ekf2Node Ekf2Node::from_first_fix(const flight::EkfParams& params, const Eigen::Quaterniond& attitude,
+                                  Nanos imu_period) {
+  return Ekf2Node(params, attitude, imu_period);
+}
 
 void Ekf2Node::flush_held() {
-  (void)node_.on_samples(held_);  // no gyro sample: fuses only, x̂ is published with the next tick
+  if (node_) (void)node_->on_samples(held_);  // no gyro sample: fuses only, x̂ is published with the next tick
   held_ = {};
 }
 
@@ -31,6 +39,17 @@ Result<void, flight_io::InputFailure> Ekf2Node::on_baro(const rejuv_msg_SensorBa
 Result<void, flight_io::InputFailure> Ekf2Node::on_gps(const rejuv_msg_SensorGps& message) {
   auto s = flight_io::gps_sample(message);
   if (!s) return fail(std::move(s.error()));
+  if (!node_) {
+    // The first fix after a cold restart: the filter starts here. The fix is gps_delay old; in the hover the
+    // vehicle keeps, its velocity carries it forward well enough (the gates take the rest).
+    node_.emplace(params_,
+                  flight::EkfState{.p_N_m = s->p_N_m + s->v_N_m_s * params_.gps_delay.count(),
+                                   .v_N_m_s = s->v_N_m_s,
+                                   .q_NB = waiting_attitude_},
+                  imu_period_);
+    held_ = {};
+    return {};
+  }
   if (held_.gps) flush_held();
   held_.gps = *s;
   return {};
@@ -38,26 +57,30 @@ Result<void, flight_io::InputFailure> Ekf2Node::on_gps(const rejuv_msg_SensorGps
 
 void Ekf2Node::on_rollback(const flight::EkfRearm& rearm) {
   held_ = {};
-  node_.on_rollback(rearm);
+  if (node_) node_->on_rollback(rearm);
 }
 
-Result<rejuv_msg_VehicleStateEstimate, flight_io::InputFailure> Ekf2Node::on_combined(
+Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> Ekf2Node::on_combined(
     const rejuv_msg_SensorCombined& message) {
   auto tick = flight_io::imu_tick(message);
   if (!tick) return fail(std::move(tick.error()));
+  if (!node_) {
+    held_ = {};
+    return std::optional<rejuv_msg_VehicleStateEstimate>{};
+  }
   plant::SensorSamples samples = held_;
   samples.gyro = tick->gyro;
   samples.accel = tick->accel;
   held_ = {};
-  const flight::EkfCounters before = node_.ekf().counters();
-  const bool integrated = node_.on_samples(samples);
+  const flight::EkfCounters before = node_->ekf().counters();
+  const bool integrated = node_->on_samples(samples);
   REJUV_ASSERT(integrated, "a sample set with a gyro sample is integrated");
   integrated_ = true;
-  return flight_io::vehicle_state_message(node_, tick->gyro.t, flags(before));
+  return std::optional(flight_io::vehicle_state_message(*node_, tick->gyro.t, flags(before)));
 }
 
 std::uint32_t Ekf2Node::flags(const flight::EkfCounters& before) const {
-  const flight::EkfCounters& now = node_.ekf().counters();
+  const flight::EkfCounters& now = node_->ekf().counters();
   std::uint32_t f = 0;
   if (integrated_) f |= flight_io::kStateAttitudeValid;
   // Position: the filter starts from the known take-off point; it is valid once GPS has confirmed it.

@@ -1,6 +1,7 @@
 #include "rejuv/services/gen_set_point/setpoint_node.hpp"
 
 #include <cmath>
+#include <string>
 #include <utility>
 
 namespace rejuv::services {
@@ -28,6 +29,7 @@ SetpointNode::SetpointNode(const flight::SafetyEllipsoid& ellipsoid,
 Result<void, flight_io::InputFailure> SetpointNode::on_mission(const rejuv_msg_MissionWaypoints& message) {
   auto mission = flight_io::mission_from_message(message);
   if (!mission) return fail(std::move(mission.error()));
+  if (restored_) return {};
   if (mission_ && same_mission(*mission_, *mission)) return {};
   auto path = flight::WaypointPath::make(mission->waypoints);
   if (!path) {
@@ -42,6 +44,69 @@ Result<void, flight_io::InputFailure> SetpointNode::on_mission(const rejuv_msg_M
   done_at_.reset();
   changed(flight_io::time_of(message.timestamp_ns));
   return {};
+}
+
+Result<void, flight_io::InputFailure> SetpointNode::restore(const flight_io::MissionRecord& record, Nanos now) {
+  auto path = flight::WaypointPath::make(record.mission.waypoints);
+  if (!path) {
+    return fail(flight_io::InputFailure{
+        .kind = flight_io::InputError::OutOfRange, .where = "mission record", .message = path.error().message});
+  }
+  auto shared = std::make_shared<const flight::WaypointPath>(std::move(*path));
+  auto generator = flight::SetpointGenerator::resume_at(shared, record.cursor);
+  if (!generator) {
+    return fail(flight_io::InputFailure{.kind = flight_io::InputError::OutOfRange,
+                                        .where = "mission record.cursor",
+                                        .message = "expected a point on the mission's path"});
+  }
+  path_ = std::move(shared);
+  generator_ = std::move(*generator);
+  mission_ = record.mission;
+  next_check_ = Nanos{0};
+  hold_until_ = Nanos{0};
+  done_at_ = record.done ? std::optional<Nanos>(now) : std::nullopt;
+  restored_ = true;
+  changed(now);
+  return {};
+}
+
+Result<SetpointNode::UploadOutcome, flight_io::InputFailure> SetpointNode::apply_upload(
+    const flight_io::MissionSpec& upload, Nanos now) {
+  if (upload.waypoints.empty() || upload.waypoints.size() + 1 > flight_io::kMaxWaypoints) {
+    return fail(flight_io::InputFailure{.kind = flight_io::InputError::OutOfRange,
+                                        .where = "mission upload.count",
+                                        .message = "expected 1 to " + std::to_string(flight_io::kMaxWaypoints - 1) +
+                                                   " waypoints (the path starts at the current setpoint)"});
+  }
+  if (!generator_ || !mission_) return UploadOutcome::Unchanged;
+  // The mission flown after an upload is [x_sp then] + the upload: the same upload again (a retransmission
+  // whose ack was lost, or the cell read at the next update) changes nothing, also after a cold restart.
+  flight_io::MissionSpec tail{.waypoints = {}, .acceptance_radius_m = mission_->acceptance_radius_m,
+                              .from_defaults = false};
+  if (mission_->waypoints.size() > 1) tail.waypoints.assign(mission_->waypoints.begin() + 1, mission_->waypoints.end());
+  if (same_mission(tail, upload)) return UploadOutcome::Unchanged;
+  const flight::StateVec& x_sp = generator_->setpoint();
+  flight_io::MissionSpec flown{.waypoints = {}, .acceptance_radius_m = upload.acceptance_radius_m,
+                               .from_defaults = false};
+  flown.waypoints.push_back(flight::PathWaypoint{.p_N_m = x_sp.segment<3>(flight::idx::kPos),
+                                                 .yaw_rad = x_sp[flight::idx::kYaw]});
+  flown.waypoints.insert(flown.waypoints.end(), upload.waypoints.begin(), upload.waypoints.end());
+  auto path = flight::WaypointPath::make(flown.waypoints);
+  if (!path) {
+    return fail(flight_io::InputFailure{
+        .kind = flight_io::InputError::OutOfRange, .where = "mission upload", .message = path.error().message});
+  }
+  path_ = std::make_shared<const flight::WaypointPath>(std::move(*path));
+  generator_.emplace(path_);
+  mission_ = std::move(flown);
+  done_at_.reset();
+  changed(now);
+  return UploadOutcome::Applied;
+}
+
+std::optional<flight_io::MissionRecord> SetpointNode::record() const {
+  if (!generator_ || !mission_) return std::nullopt;
+  return flight_io::MissionRecord{.mission = *mission_, .cursor = generator_->cursor(), .done = done_at_.has_value()};
 }
 
 Result<void, flight_io::InputFailure> SetpointNode::on_state(const rejuv_msg_VehicleStateEstimate& message) {

@@ -171,6 +171,7 @@ struct Service::Impl {
   // sends reuses rx for the Reply).
   std::vector<std::pair<std::uint32_t, std::function<void(std::span<const std::byte>)>>> datagram_handlers;
   std::array<std::byte, wire::kMaxDatagramBytes> datagram{};
+  std::uint64_t datagram_id = 0;  // the kernel's id of the datagram being handled (0: none)
   std::vector<sys::UniqueFd> rx_fds;          // fds that came with the frame in rx (Snapshot: one or two)
   // Images (DESIGN §7): set in a restored image, the answer of the checkpoint() call it was taken in.
   std::optional<CheckpointOutcome> restored;
@@ -850,6 +851,22 @@ SdkResult<void> Service::send_datagram(std::string_view object, std::span<const 
   return {};
 }
 
+SdkResult<void> Service::judge_datagram(std::string_view object, std::uint32_t verdict) {
+  auto found = cap(object);
+  if (!found) return std::unexpected(found.error());
+  const CapInfo& c = **found;
+  if (c.kind != ObjectKind::Network) return error(SdkError::WrongObjectKind, std::string(object) + " is not a Network object");
+  if (impl_->datagram_id == 0) return error(SdkError::BadArgument, "judge_datagram outside an on_datagram handler");
+  if (verdict >= kernel_net_verdict_codes) {
+    return error(SdkError::BadArgument, "a verdict is 0 (valid) or a reason 1 … " + std::to_string(kernel_net_verdict_codes - 1));
+  }
+  if (!c.rights_in(mode()).has(Right::Read)) return error(SdkError::NotHeldInMode, c.object);
+  const std::uint64_t id = std::exchange(impl_->datagram_id, 0);  // one verdict per datagram
+  auto reply = invoke_slot(c.slot, cap::Operation::NetReceive, id, verdict);
+  if (!reply) return std::unexpected(reply.error());
+  return {};
+}
+
 bool Service::may_send(std::string_view object) const {
   auto found = cap(object);
   return found && (*found)->rights_in(mode()).has(Right::Write);
@@ -984,7 +1001,9 @@ int Service::run() {
         }
         const std::size_t n = frame->payload.size();
         std::memcpy(s.datagram.data(), frame->payload.data(), n);
+        s.datagram_id = frame->header.aux;
         handler->second(std::span<const std::byte>(s.datagram.data(), n));
+        s.datagram_id = 0;
         break;
       }
       case wire::FrameKind::Hello:

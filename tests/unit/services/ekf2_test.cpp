@@ -69,7 +69,7 @@ class HoverChain {
     for (const rejuv_msg_SensorCombined& m : combined_) {
       auto out = ekf2_.on_combined(m);
       ASSERT_TRUE(out) << out.error().to_string();
-      published_ = *out;
+      if (*out) published_ = **out;
     }
     combined_.clear();
     on_tick(samples);

@@ -2,6 +2,7 @@
 // no-SR tracking rule or on update requests (SR), and sets mission_done at the end.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <chrono>
 #include <vector>
 
@@ -215,6 +216,49 @@ TEST_F(SetpointNodeTest, SetpointNode_MissionWithTooManyWaypoints_Refused) {
   ASSERT_FALSE(r);
   EXPECT_EQ(r.error().kind, flight_io::InputError::OutOfRange);
   EXPECT_EQ(node.generator(), nullptr);
+}
+
+// Cold restart (DESIGN §7): the record kept by one incarnation restores x_sp and the waypoint in the next,
+// through the cell's bytes, and the launch mission commander publishes at boot does not send it back to 0.
+TEST_F(SetpointNodeTest, SetpointNode_RestoredFromItsRecord_ContinuesWhereItWasNotAtWaypointZero) {
+  SetpointNode before = make(flight::SrSwitch::On);
+  ASSERT_TRUE(before.on_mission(square_));
+  (void)before.take_changed();
+  flight::StateVec x_hat = flight::hover_setpoint({0, 0, -3}, 0);
+  for (int i = 0; i < 40; ++i) {  // perfect tracking: well into the second side
+    ASSERT_TRUE(before.on_state(estimate_at(x_hat, milliseconds{10 * i + 1})));
+    (void)before.on_update_request(request_at(milliseconds{10 * i + 2}));
+    x_hat = before.generator()->setpoint();
+  }
+  ASSERT_GE(before.generator()->target_waypoint(), 2U);
+  const auto record = before.record();
+  ASSERT_TRUE(record.has_value());
+  const flight_io::MissionRecordBytes bytes = flight_io::encode_mission_record(*record);
+
+  SetpointNode after = make(flight::SrSwitch::On);
+  auto decoded = flight_io::decode_mission_record(bytes);
+  ASSERT_TRUE(decoded && decoded->has_value());
+  ASSERT_TRUE(after.restore(**decoded, milliseconds{500}));
+  ASSERT_TRUE(after.on_mission(square_));  // commander's boot mission: ignored
+  const auto sp = after.take_changed();
+  ASSERT_TRUE(sp.has_value());
+  EXPECT_TRUE(flight_io::setpoint_from_message(*sp)->isApprox(before.generator()->setpoint(), 1e-12));
+  EXPECT_EQ(sp->waypoint_index, before.generator()->target_waypoint());
+}
+
+TEST_F(SetpointNodeTest, MissionRecord_NeverWrittenCell_DecodesAsNone) {
+  const std::array<std::byte, flight_io::kMissionCellBytes> zeros{};
+  auto decoded = flight_io::decode_mission_record(zeros);
+  ASSERT_TRUE(decoded.has_value());
+  EXPECT_FALSE(decoded->has_value());
+}
+
+TEST_F(SetpointNodeTest, MissionRecord_CursorOffThePath_Refused) {
+  auto m = flight_io::mission_params(flight_io::Params::from_table({}));
+  ASSERT_TRUE(m);
+  auto bytes = flight_io::encode_mission_record(
+      flight_io::MissionRecord{.mission = *m, .cursor = {.segment = m->waypoints.size(), .tau = 0}, .done = false});
+  EXPECT_FALSE(flight_io::decode_mission_record(bytes).has_value());
 }
 
 }  // namespace

@@ -69,6 +69,18 @@ SetpointGenerator::SetpointGenerator(std::shared_ptr<const WaypointPath> path) :
   x_sp_ = path_->setpoint_at(0, 0.0);
 }
 
+std::optional<SetpointGenerator> SetpointGenerator::resume_at(std::shared_ptr<const WaypointPath> path,
+                                                              PathCursor cursor) {
+  const std::size_t segments = path->segment_count();
+  const bool on_path = segments == 0 ? cursor.segment == 0 && cursor.tau == 0.0
+                                     : cursor.segment < segments && cursor.tau >= 0.0 && cursor.tau <= 1.0;
+  if (!on_path) return std::nullopt;  // also a NaN τ
+  SetpointGenerator g(std::move(path));
+  g.cursor_ = cursor;
+  g.x_sp_ = g.path_->setpoint_at(cursor.segment, cursor.tau);
+  return g;
+}
+
 bool SetpointGenerator::finished() const {
   return cursor_.segment + 1 == path_->segment_count() && cursor_.tau >= 1.0;
 }

@@ -14,6 +14,7 @@
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -183,6 +184,9 @@ struct ServiceStats {
   std::uint64_t output_lines = 0;        // lines it wrote on fds 1-2 (logged under its name)
 };
 
+// NetReceive verdict codes: 0 = valid, 1 … kNetVerdictCodes − 1 = the receiver's refusal reasons.
+inline constexpr std::size_t kNetVerdictCodes = 32;
+
 // Counters of the network gate (DESIGN §2; docs/protocol.md "Network gate"). Every datagram read is
 // received = relayed + the dropped_* counters.
 struct NetStats {
@@ -196,6 +200,12 @@ struct NetStats {
   std::uint64_t sent = 0;                     // NetSend datagrams sent to the ground station
   std::uint64_t send_refused = 0;             // NetSend refused: denied by the cap check, bad data, send error
   std::uint64_t unsent_no_ground = 0;         // NetSend before any ground station spoke (Refused, not counted above)
+  // The receiver's verdicts on relayed datagrams (NetReceive, docs/protocol.md "Network gate"): valid ones
+  // make their source the ground station; refused ones are counted by the receiver's reason code 1 … 31
+  // (ext_link: 1 + link::DecodeError). Kernel state, so a rollback does not erase them.
+  std::uint64_t judged_valid = 0;
+  std::uint64_t judged_refused = 0;
+  std::array<std::uint64_t, kNetVerdictCodes> refused_by_reason{};  // index = code; [0] unused
 };
 
 // What the image store did (DESIGN §7): counts, and the real duration of every checkpoint and rollback

@@ -2,6 +2,12 @@
 // that the flight_io library itself does not depend on the SDK: only the services' main.cpp include it.
 #pragma once
 
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "rejuv/flight_io/mission_record.hpp"
+
 #include <cstdint>
 #include <limits>
 #include <optional>
@@ -20,6 +26,35 @@ namespace rejuv::flight_io {
     if (!service.has_param(name)) return std::nullopt;
     return service.param(name, std::numeric_limits<double>::quiet_NaN());
   });
+}
+
+// The mission record in the Persistent cell `object` (mission_record.hpp), read if the current mode grants this
+// service Read on it (nullopt otherwise, and for a cell never written). Errors are the SDK's or the decoder's.
+[[nodiscard]] inline Result<std::optional<MissionRecord>, std::string> read_mission_cell(sdk::Service& service,
+                                                                                       std::string_view object) {
+  auto found = service.cap(object);
+  if (!found || !(*found)->rights_in(service.mode()).has(Right::Read)) return std::optional<MissionRecord>{};
+  MissionRecordBytes bytes{};
+  auto read = service.invoke(object, cap::Operation::PersistentRead, 0, bytes.size(), {}, bytes);
+  if (!read) return fail(read.error().to_string());
+  if (read->data_size != bytes.size()) {
+    return fail("expected " + std::to_string(bytes.size()) + " bytes, got " + std::to_string(read->data_size));
+  }
+  auto record = decode_mission_record(bytes);
+  if (!record) return fail(record.error().to_string());
+  return std::move(*record);
+}
+
+// Writes `record` into the Persistent cell `object` if the current mode grants this service Write on it.
+// False, and nothing written, when it does not (an honest service causes no denial).
+[[nodiscard]] inline Result<bool, std::string> write_mission_cell(sdk::Service& service, std::string_view object,
+                                                                 const MissionRecord& record) {
+  auto found = service.cap(object);
+  if (!found || !(*found)->rights_in(service.mode()).has(Right::Write)) return false;
+  const MissionRecordBytes bytes = encode_mission_record(record);
+  auto written = service.invoke(object, cap::Operation::PersistentWrite, 0, 0, bytes);
+  if (!written) return fail(written.error().to_string());
+  return true;
 }
 
 // A service's handler of refused inputs: logs the first one at Warn as "<what>: <failure>" and only counts

@@ -370,6 +370,12 @@ class Service {
   [[nodiscard]] SdkResult<void> send_datagram(std::string_view object, std::span<const std::byte> datagram);
   // True when the current mode grants Write on the cap of `object`.
   [[nodiscard]] bool may_send(std::string_view object) const;
+  // Inside an on_datagram handler: tells the kernel what the datagram being handled was (NetReceive; once per
+  // datagram). 0 = valid: its sender becomes the ground station that send_datagram reaches; 1 …
+  // kernel_net_verdict_codes − 1 = refused, for that reason (counted by the kernel, in the run summary).
+  // Until a valid datagram has been judged, send_datagram is Refused: garbage never redirects replies.
+  static constexpr std::uint32_t kernel_net_verdict_codes = 32;  // kernel::kNetVerdictCodes
+  [[nodiscard]] SdkResult<void> judge_datagram(std::string_view object, std::uint32_t verdict);
 
   // ---- images (DESIGN §7) ----
   // Takes checkpoint g through the Checkpoint cap of `object` (§V create_checkpoint). Like fork(), it

@@ -2,8 +2,9 @@
 // `lateral`): the only path from the ground to the mission.
 //
 // Topics: out mission (MissionWaypoints), published once at start from the launch graph's mission; in
-// mission_upload (from ext_link, in MC) — validated here; applying an upload comes with the ground-link
-// work, for now a valid upload is reported and not applied — and sr_mode (uploads are expected in MC only:
+// mission_upload (from ext_link, in MC) — validated here (flight_io::check_upload: count, geofence, altitude
+// floor) and, if valid, kept in the Persistent cell uploaded_mission, which gen_set_point applies at the
+// next setpoint update (docs/link_protocol.md "Upload") — and sr_mode (uploads are expected in MC only:
 // the SEI has no network).
 //
 // Params — the launch graph's mission, as the kernel passes it to every service (sdk/service.hpp):
@@ -16,6 +17,8 @@
 // A bad mission (more than 16 waypoints, a missing or non-finite coordinate) is refused with the name of the
 // param at fault, and the service exits without publishing anything.
 #pragma once
+
+#include "rejuv/flight_io/mission_record.hpp"
 
 #include <cstdint>
 
@@ -37,7 +40,9 @@ class Commander {
 
   // The mission_upload hook: the upload, validated, or why it is refused. Outside MC an upload is refused
   // (the network is off in the SEI, so one arriving then did not come from the ground link).
-  enum class UploadError : std::uint8_t { OutsideMissionControl, Invalid };
+  // Invalid: a field mission_from_message refuses; Bounds: flight_io::check_upload refuses it (too many
+  // waypoints, outside the geofence around home, below the altitude floor).
+  enum class UploadError : std::uint8_t { OutsideMissionControl, Invalid, Bounds };
   struct UploadRefusal {
     UploadError kind = UploadError::Invalid;
     std::string message{};
@@ -47,8 +52,10 @@ class Commander {
       const rejuv_msg_MissionWaypoints& upload, SrMode mode) const;
 
  private:
-  explicit Commander(flight_io::MissionSpec mission) : mission_(std::move(mission)) {}
+  Commander(flight_io::MissionSpec mission, flight_io::UploadBounds bounds)
+      : mission_(std::move(mission)), bounds_(bounds) {}
   flight_io::MissionSpec mission_;
+  flight_io::UploadBounds bounds_;
 };
 
 }  // namespace rejuv::services

@@ -26,14 +26,20 @@ namespace rejuv::services {
 class Ekf2Node {
  public:
   Ekf2Node(const flight::EkfParams& params, const flight::EkfState& initial, Nanos imu_period);
+  // After a cold restart (DESIGN §7) the vehicle is wherever the mission had taken it, not at its take-off
+  // point: the filter starts from the first GPS fix (position predicted over the fix's delay, its velocity)
+  // with `attitude` (the hover is level; the heading the kept x_sp says) and publishes nothing before it.
+  [[nodiscard]] static Ekf2Node from_first_fix(const flight::EkfParams& params, const Eigen::Quaterniond& attitude,
+                                               Nanos imu_period);
 
   // Raw aiding samples: held until the next IMU tick. Non-finite ones (and GPS without a 3D fix) are refused.
   Result<void, flight_io::InputFailure> on_mag(const rejuv_msg_SensorMag& message);
   Result<void, flight_io::InputFailure> on_baro(const rejuv_msg_SensorBaro& message);
   Result<void, flight_io::InputFailure> on_gps(const rejuv_msg_SensorGps& message);
 
-  // One IMU tick: predict, fuse the held samples, and return the estimate to publish.
-  [[nodiscard]] Result<rejuv_msg_VehicleStateEstimate, flight_io::InputFailure> on_combined(
+  // One IMU tick: predict, fuse the held samples, and return the estimate to publish (nullopt: waiting for
+  // the first GPS fix, from_first_fix).
+  [[nodiscard]] Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> on_combined(
       const rejuv_msg_SensorCombined& message);
 
   // RollbackSignal (DESIGN §7 step 3): this image was just restored; its estimate is T_MC + T_RB old. As the
@@ -41,16 +47,24 @@ class Ekf2Node {
   // (EstimatorNode::on_rollback), so that the measurements pull the estimate back within T_est.
   void on_rollback(const flight::EkfRearm& rearm);
 
-  [[nodiscard]] const flight::EstimatorNode& node() const { return node_; }
-  // x̂ as the controllers will read it from vehicle_state.
-  [[nodiscard]] const flight::StateVec& estimate() const { return node_.estimate(); }
+  // Precondition: started (started()).
+  [[nodiscard]] const flight::EstimatorNode& node() const { return *node_; }
+  // x̂ as the controllers will read it from vehicle_state. Precondition: started().
+  [[nodiscard]] const flight::StateVec& estimate() const { return node_->estimate(); }
+  // False only while a node made by from_first_fix waits for its first GPS fix.
+  [[nodiscard]] bool started() const { return node_.has_value(); }
 
  private:
   // Fuses the held samples without a prediction (a second sample of a sensor arrived before the IMU tick).
   void flush_held();
   [[nodiscard]] std::uint32_t flags(const flight::EkfCounters& before) const;
 
-  flight::EstimatorNode node_;
+  Ekf2Node(const flight::EkfParams& params, const Eigen::Quaterniond& attitude, Nanos imu_period);
+
+  flight::EkfParams params_;
+  Nanos imu_period_;
+  Eigen::Quaterniond waiting_attitude_ = Eigen::Quaterniond::Identity();  // from_first_fix, until the fix
+  std::optional<flight::EstimatorNode> node_;
   plant::SensorSamples held_;  // aiding samples only (mag, baro, gps)
   bool integrated_ = false;    // at least one IMU tick
 };

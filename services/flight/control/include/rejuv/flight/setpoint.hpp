@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -76,6 +77,10 @@ class SetpointGenerator {
  public:
   // Starts at the first waypoint.
   explicit SetpointGenerator(std::shared_ptr<const WaypointPath> path);
+  // Starts where a kept record says the setpoint was (a cold restart, DESIGN §7; §III "Persistent data"):
+  // nullopt unless the cursor lies on the path (segment < segment_count, τ ∈ [0, 1]; a one-waypoint path: 0, 0).
+  [[nodiscard]] static std::optional<SetpointGenerator> resume_at(std::shared_ptr<const WaypointPath> path,
+                                                                  PathCursor cursor);
 
   [[nodiscard]] const StateVec& setpoint() const { return x_sp_; }
   [[nodiscard]] const PathCursor& cursor() const { return cursor_; }

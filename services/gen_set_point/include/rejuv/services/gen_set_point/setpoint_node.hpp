@@ -18,6 +18,8 @@
 // at which it happened, even if the mode delays the publication.
 #pragma once
 
+#include "rejuv/flight_io/mission_record.hpp"
+
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -32,8 +34,21 @@ class SetpointNode {
  public:
   SetpointNode(const flight::SafetyEllipsoid& ellipsoid, const flight_io::TrackingParams& tracking);
 
-  // A mission (re)starts the generator at its first waypoint; the same mission again changes nothing.
+  // A mission (re)starts the generator at its first waypoint; the same mission again changes nothing. Ignored
+  // after restore(): the kept record, not the launch graph's mission that commander publishes at boot, says
+  // what is being flown.
   Result<void, flight_io::InputFailure> on_mission(const rejuv_msg_MissionWaypoints& message);
+  // A cold restart (DESIGN §7): continue the kept mission where the record says x_sp was, and publish that
+  // x_sp (stamped `now`) as soon as the mode allows. Refused (nothing changed) if its mission is no path.
+  Result<void, flight_io::InputFailure> restore(const flight_io::MissionRecord& record, Nanos now);
+  // A validated mission upload (docs/link_protocol.md), applied at a setpoint update: the new path runs from
+  // the current x_sp through the uploaded waypoints, so x_sp does not jump; the update rule then moves it.
+  // At most kMaxWaypoints − 1 waypoints (the current x_sp is the first). Nothing changes when it is refused
+  // or when it is the upload already being flown (the cell keeps an upload until the next one).
+  enum class UploadOutcome : std::uint8_t { Applied, Unchanged };
+  Result<UploadOutcome, flight_io::InputFailure> apply_upload(const flight_io::MissionSpec& upload, Nanos now);
+  // What the kept record should say now (nullopt before a mission).
+  [[nodiscard]] std::optional<flight_io::MissionRecord> record() const;
   // The latest x̂; runs the no-SR tracking rule and the completion check.
   Result<void, flight_io::InputFailure> on_state(const rejuv_msg_VehicleStateEstimate& message);
   // publish_update_sp() of Fig. 5. Ignored without SR, before a mission or before the first estimate.
@@ -64,6 +79,7 @@ class SetpointNode {
   Nanos hold_until_{0};
   std::optional<Nanos> done_at_;
   std::optional<Nanos> changed_at_;  // pending publication
+  bool restored_ = false;            // from a kept record: on_mission is ignored
 };
 
 }  // namespace rejuv::services
