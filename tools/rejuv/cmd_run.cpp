@@ -41,6 +41,17 @@ struct FileCloser {
 };
 using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
 
+std::string describe_sandbox(const proto::SandboxViolations& v) {
+  std::string out = v.isolation() + ", " + std::to_string(v.total()) + " violation" + (v.total() == 1 ? "" : "s");
+  if (v.total() == 0) return out;
+  out += " (" + std::to_string(v.forbidden_calls()) + " forbidden calls, " + std::to_string(v.stray_processes()) +
+         " stray processes";
+  std::string calls;
+  for (const auto& [name, n] : v.calls()) calls += (calls.empty() ? "" : ", ") + name + " " + std::to_string(n);
+  if (!calls.empty()) out += ": " + calls;
+  return out + ")";
+}
+
 std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outcome) {
   std::string denials;
   for (const auto& [kind, n] : s.denials()) {
@@ -57,7 +68,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                   static_cast<unsigned long long>(ph.images_by_pages()),
                   static_cast<unsigned long long>(ph.images_by_fork()));
   }
-  char buf[2048];
+  char buf[4096];
   std::snprintf(buf, sizeof buf,
                 "%s (run): sr=%s attack=%s seed=%llu — %s%s%s\n"
                 "  mission     %s in %.1f s (simulated %.1f s in %.1f s wall, %.1fx real time)\n"
@@ -68,6 +79,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 "%s"
                 "  attacks     %llu attacked MC windows\n"
                 "  denials     %s\n"
+                "  sandbox     %s\n"
                 "  network     %s\n",
                 s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? "on" : "off",
                 static_cast<unsigned long long>(s.seed()), std::string(kernel::to_string(outcome.reason)).c_str(),
@@ -78,8 +90,21 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 static_cast<unsigned long long>(s.checkpoints()), s.checkpoint_ms().p50(), s.checkpoint_ms().max(),
                 static_cast<unsigned long long>(s.rollbacks()), s.rollback_ms().p50(), s.rollback_ms().max(), phases,
                 static_cast<unsigned long long>(s.attacks()),
-                denials.empty() ? "none" : denials.c_str(), describe_network(s.network()).c_str());
+                denials.empty() ? "none" : denials.c_str(), describe_sandbox(s.sandbox_violations()).c_str(),
+                describe_network(s.network()).c_str());
   return buf;
+}
+
+void fill_sandbox(proto::SandboxViolations& out, const kernel::Kernel& k, bool insecure) {
+  out.set_isolation(insecure ? "none (--insecure-sandbox)" : "namespaces");
+  for (std::size_t i = 0; i < k.service_count(); ++i) {
+    const kernel::ServiceStats st = k.stats(ServiceId{static_cast<std::uint32_t>(i)});
+    out.set_total(out.total() + st.sandbox_violations);
+    out.set_forbidden_calls(out.forbidden_calls() + st.forbidden_calls);
+    out.set_stray_processes(out.stray_processes() + st.stray_processes);
+    if (st.sandbox_violations > 0) (*out.mutable_by_service())[st.name] = st.sandbox_violations;
+    for (const auto& [name, n] : st.calls_refused) (*out.mutable_calls())[name] += n;
+  }
 }
 
 std::filesystem::path service_dir() {
@@ -92,7 +117,7 @@ std::filesystem::path service_dir() {
 int run_run(std::span<const std::string_view> args) {
   std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
   bool net_port_set = false, cpu_set = false;
-  bool realtime = false, no_sr = false, no_attack = false, verbose = false;
+  bool realtime = false, no_sr = false, no_attack = false, verbose = false, insecure_sandbox = false;
   bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
   ArgParser parser("run",
                    "Run a launch graph on the multi-process runtime: the kernel spawns every service and the plant,\n"
@@ -122,6 +147,9 @@ int run_run(std::span<const std::string_view> args) {
       .option("--cpu", "N|all", cpu_text,
               "kernel, services and plant on CPU N or on all (default: lockstep stays on the CPU it starts on)",
               &cpu_set)
+      .flag("--insecure-sandbox", insecure_sandbox,
+            "run the services without their network and mount namespaces (where neither root nor unprivileged\n"
+            "user namespaces are available); the allow-list, limits and sweeps still hold; the summary says so")
       .flag("--verbose", verbose, "also print the services' debug log lines");
   const auto parsed = parser.parse(args);
   if (!parsed) return bad_input("rejuv run: " + parsed.error());
@@ -134,6 +162,7 @@ int run_run(std::span<const std::string_view> args) {
   options.no_sr = no_sr;
   options.no_attack = no_attack;
   options.verbose = verbose;
+  options.sandbox = insecure_sandbox ? kernel::KernelOptions::Sandbox::Insecure : kernel::KernelOptions::Sandbox::Strict;
   options.service_dir = service_dir();
   options.repo_root = REJUV_SOURCE_DIR;
   if (realtime) options.clock = kernel::ClockMode::Realtime;
@@ -258,6 +287,7 @@ int run_run(std::span<const std::string_view> args) {
     wrong_size += st.wrong_size;
     overrun += st.lost;
   }
+  fill_sandbox(*s.mutable_sandbox_violations(), **k, insecure_sandbox);
   for (const auto& [kind, n] : {std::pair{"SandboxViolation", sandbox}, std::pair{"FloodDropped", flood},
                                 std::pair{"WrongSize", wrong_size}, std::pair{"RingOverrun", overrun}}) {
     if (n > 0) (*s.mutable_denials())[kind] = n;

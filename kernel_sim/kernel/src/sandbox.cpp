@@ -40,8 +40,9 @@ std::string printable(std::string_view line) {
 sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
   const launch::SandboxLimitValues v = launch::sandbox_limits(graph.graph, *s.spec);
   sys::ResourceLimits limits;
-  // RLIMIT_NPROC counts the processes of a uid: only meaningful when each service has its own (root).
-  if (sys::running_as_root()) limits.processes = v.max_processes;
+  // RLIMIT_NPROC counts the processes of a uid in a user namespace: meaningful when each service has its
+  // own uid (root) or its own user namespace (the strict sandbox without root, process.cpp isolate_in_child).
+  if (sys::running_as_root() || options.sandbox == KernelOptions::Sandbox::Strict) limits.processes = v.max_processes;
   limits.open_files = v.max_open_files;
 #if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
   // A sanitizer reserves terabytes of address space for its shadow memory.
@@ -67,18 +68,15 @@ void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::stri
         calls.emplace_back(std::string(what), 1);
       }
       if (const auto nr = sys::syscall_number(what)) detail = static_cast<std::uint32_t>(*nr);
-      if (s.limiter.allow(wall())) {
-        log("sandbox violation: '%s' made a forbidden system call: %.*s (mode %s)", s.name.c_str(),
-            static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
-      }
+      // Not rate-limited: each one ends a process (and a stray sweep is bounded by the process limit).
+      log("sandbox violation: '%s' made a forbidden system call: %.*s (mode %s)", s.name.c_str(),
+          static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
       break;
     }
     case Violation::StrayProcess:
       ++s.stats.stray_processes;
-      if (s.limiter.allow(wall())) {
-        log("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
-            static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
-      }
+      log("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
+          static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
       break;
   }
   if (const auto events = kernel_topic(msgs::TopicTraits<rejuv_msg_SecurityEvent>::name)) {
@@ -111,8 +109,9 @@ void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
     // Only the live incarnation boots; images and anything else it made never run the loader or the SDK's
     // start-up, so their boot calls are violations too.
     const bool booting = (s.phase == Phase::Spawned || s.phase == Phase::Booted) && s.process.pid() == notice.pid;
-    if (booting && sys::classify(notice) == sys::NoticeKind::BootCall) {
-      (void)s.seccomp.allow(notice.id);
+    const sys::NoticeKind kind = sys::classify(notice);
+    if ((booting && kind == sys::NoticeKind::BootCall) || kind == sys::NoticeKind::SignalToSelf) {
+      (void)s.seccomp.allow(notice.id);  // decided on register values and the kernel's own state: no TOCTOU
       continue;
     }
     const std::string call = sys::syscall_name(notice.nr);
@@ -185,19 +184,26 @@ void Kernel::Impl::sweep_if_due() {
 }
 
 void Kernel::Impl::sweep_strays(std::string_view when, bool final) {
-  // A copy the kernel asked for (a spare, a Patch, an image at a checkpoint) is the kernel's child before its
-  // pid is reported: sweep only when none is on its way.
-  const bool copies_pending =
-      checkpoint.has_value() || images.spares_pending() > 0 ||
-      std::any_of(retiring.begin(), retiring.end(), [](const image::GenerationRecord& r) {
-        return std::any_of(r.images.begin(), r.images.end(),
-                           [](const image::Image& im) { return im.spares_pending > 0 || im.patch_pending; });
-      });
-  if (copies_pending && !final) {
-    if (!sweep_due) sweep_due = when;
-    return;
+  // A copy the kernel asked for (a spare, a Patch's image, an image at a checkpoint) is the kernel's child
+  // before its pid is reported: a service with such a copy on its way is swept once it has reported. The
+  // answers that have arrived are read first, so that only copies really on their way defer a sweep.
+  images.refresh_all();
+  if (!retiring.empty()) finish_retiring(false);
+  std::vector<bool> pending(services.size(), checkpoint.has_value() && !final);
+  const auto note = [&](const image::Image& im) {
+    if (im.spares_pending > 0 || im.patch_pending) pending[im.service.value()] = !final;
+  };
+  for (const Generation g : images.generations()) {
+    for (const image::Image& im : images.find(g)->images) note(im);
   }
-  sweep_due.reset();
+  for (const image::GenerationRecord& r : retiring) {
+    for (const image::Image& im : r.images) note(im);
+  }
+  if (std::any_of(pending.begin(), pending.end(), [](bool p) { return p; })) {
+    if (!sweep_due) sweep_due = when;
+  } else {
+    sweep_due.reset();
+  }
   last_sweep = now();
   auto children = sys::own_children();
   if (!children) return;
@@ -225,6 +231,7 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final) {
     if (!sid) continue;
     for (ServiceRuntime& s : services) {
       if (std::find(s.sessions.begin(), s.sessions.end(), *sid) == s.sessions.end()) continue;
+      if (pending[s.id.value()]) break;  // one of its copies is on its way: next time
       if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
       auto stray = sys::ChildProcess::adopt_child(pid);
       if (stray) stray->kill_and_reap();

@@ -108,8 +108,9 @@ constexpr std::array kRules{
     SyscallRule{"rt_sigprocmask", Allowance::Always, ArgCheck::None, "getcontext/setcontext (images), threads"},
     SyscallRule{"rt_sigreturn", Allowance::Always, ArgCheck::None, "returning from a handler"},
     SyscallRule{"sigaltstack", Allowance::Always, ArgCheck::None, "a thread's alternate signal stack"},
-    SyscallRule{"kill", Allowance::Always, ArgCheck::SelfPid, "raise() and abort(): to itself only"},
-    SyscallRule{"tgkill", Allowance::Always, ArgCheck::SelfPid, "raise() and abort(): to itself only"},
+    SyscallRule{"kill", Allowance::Always, ArgCheck::SelfPid,
+                "raise() and abort(): to itself only (the kernel compares the target with the caller's pid)"},
+    SyscallRule{"tgkill", Allowance::Always, ArgCheck::SelfPid, "as kill"},
     SyscallRule{"getpid", Allowance::Always, ArgCheck::None, "its own pid"},
     SyscallRule{"gettid", Allowance::Always, ArgCheck::None, "its own thread id"},
     SyscallRule{"getppid", Allowance::Always, ArgCheck::None, "checking that the kernel is its parent"},
@@ -167,7 +168,11 @@ int add_rule(scmp_filter_ctx ctx, const SyscallRule& rule, int nr, Enforcement e
   int rc = 0;
   switch (rule.check) {
     case ArgCheck::None: return seccomp_rule_add(ctx, allow, nr, 0);
-    case ArgCheck::SelfPid: return seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, kSelfPidSentinel));
+    case ArgCheck::SelfPid:
+      // Supervised: the kernel compares the target with the caller's pid (a restored image has another pid
+      // than the process the filter was installed in). Standalone: the installing process's pid.
+      if (enforcement == Enforcement::Supervised) return 0;
+      return seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, kSelfPidSentinel));
     case ArgCheck::CloneFlags:
       rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, kImageForkFlags));
       rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, kThreadFlags));
@@ -232,8 +237,12 @@ NoticeKind classify(const SeccompNotice& notice) {
     case ArgCheck::ExecOnlyBooting:
     case ArgCheck::PrctlOptions:
     case ArgCheck::EmptyPathStat: return NoticeKind::BootCall;
+    case ArgCheck::SelfPid:  // kill(pid, …), tgkill(tgid, …): the caller's own
+      // pid_t is 32 bits: the upper half of the register is not the caller's to rely on.
+      return static_cast<std::uint32_t>(notice.args[0]) == static_cast<std::uint32_t>(notice.pid)
+                 ? NoticeKind::SignalToSelf
+                 : NoticeKind::Forbidden;
     case ArgCheck::None:
-    case ArgCheck::SelfPid:
     case ArgCheck::CloneFlags:
     case ArgCheck::IoctlCodes: return NoticeKind::Forbidden;
   }

@@ -42,7 +42,8 @@ bool sandboxed() {
   return false;
 }
 
-AttackHooks::AttackHooks(sdk::Service& svc, RuntimeAttackPlan plan) : svc_(svc), plan_(std::move(plan)) {
+AttackHooks::AttackHooks(sdk::Service& svc, RuntimeAttackPlan plan)
+    : svc_(svc), plan_(std::move(plan)), sandboxed_(sandboxed()) {
   clocks_.reserve(plan_.attacks.size());
   for (const RuntimeAttack& a : plan_.attacks) clocks_.emplace_back(a, plan_.sr);
 }
@@ -178,7 +179,7 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
 }
 
 void AttackHooks::kill_image(std::uint32_t variant) {
-  if (!sandboxed()) {
+  if (!sandboxed_) {
     svc_.log(sdk::LogLevel::Warn, "attack KILL_IMAGE skipped: not under a seccomp filter");
     return;
   }
@@ -220,7 +221,7 @@ void AttackHooks::kill_image(std::uint32_t variant) {
 }
 
 void AttackHooks::open_socket(std::uint32_t variant) {
-  if (!sandboxed()) {
+  if (!sandboxed_) {
     svc_.log(sdk::LogLevel::Warn, "attack OPEN_SOCKET skipped: not under a seccomp filter");
     return;
   }

@@ -419,6 +419,15 @@ TEST(SeccompTable, Classify_BootCallsAndForbiddenCalls) {
   EXPECT_EQ(classify(notice("clone")), NoticeKind::Forbidden);  // flags other than the image fork's
   EXPECT_EQ(classify(notice("ioctl")), NoticeKind::Forbidden);  // a code outside the list (TIOCSTI …)
   EXPECT_EQ(syscall_name(*syscall_number("io_uring_enter")), "io_uring_enter");
+  // Signals: to the caller itself only, whatever pid it has (a restored image has a new one).
+  SeccompNotice self = notice("kill");
+  self.pid = 4242;
+  self.args[0] = 4242;
+  EXPECT_EQ(classify(self), NoticeKind::SignalToSelf);
+  self.args[0] = 4243;
+  EXPECT_EQ(classify(self), NoticeKind::Forbidden);
+  self.args[0] = static_cast<std::uint64_t>(-1);  // every process it may signal
+  EXPECT_EQ(classify(self), NoticeKind::Forbidden);
 }
 
 // The supervised form: the kernel's. Boot calls are referred to the supervisor, which lets them continue
@@ -459,7 +468,8 @@ class SeccompSupervised : public ::testing::Test {
       auto notice = spawned->listener.receive();
       EXPECT_TRUE(notice.has_value());
       if (notice && *notice) {
-        if (!ready && classify(**notice) == NoticeKind::BootCall) {
+        const NoticeKind kind = classify(**notice);
+        if ((!ready && kind == NoticeKind::BootCall) || kind == NoticeKind::SignalToSelf) {
           EXPECT_TRUE(spawned->listener.allow((*notice)->id).has_value());
         } else {
           violation = syscall_name((*notice)->nr);

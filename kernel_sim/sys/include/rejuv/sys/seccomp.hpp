@@ -45,7 +45,7 @@ enum class Allowance : std::uint8_t {
 // The argument checks of an entry (on register values only: seccomp cannot read memory).
 enum class ArgCheck : std::uint8_t {
   None,
-  SelfPid,         // arg 0 is the calling process's own pid (signals only to itself)
+  SelfPid,         // arg 0 is the calling process's own pid (signals only to itself; supervised: checked by the kernel)
   CloneFlags,      // arg 0 is exactly the image fork's (CLONE_PARENT|SIGCHLD) or a thread's flags
   ExecOnlyBooting, // mmap/mprotect: PROT_EXEC only while booting (W^X once booted)
   IoctlCodes,      // arg 1 is one of the request codes the image code uses (userfaultfd, PAGEMAP_SCAN, TCGETS)
@@ -104,8 +104,9 @@ struct SeccompNotice {
 
 // What the table says of a notice.
 enum class NoticeKind : std::uint8_t {
-  BootCall,   // a WhileBooting call (or the boot-only form of an Always call): fine until the service is ready
-  Forbidden,  // outside the allow-list: a sandbox violation
+  BootCall,      // a WhileBooting call (or the boot-only form of an Always call): fine until the service is ready
+  SignalToSelf,  // kill/tgkill whose target is the caller itself: fine at any time
+  Forbidden,     // outside the allow-list: a sandbox violation
 };
 [[nodiscard]] NoticeKind classify(const SeccompNotice& notice);
 

@@ -97,13 +97,16 @@ class AttackHooks {
   std::uint64_t windows_attacked_ = 0;
   std::uint32_t attempts_ = 0;  // in the current attack: for the default log line
   std::uint32_t accepted_ = 0;
+  // Read once, at boot: a booted service may open nothing (DESIGN §7 "Protection"), /proc/self/status included.
+  bool sandboxed_ = false;
 };
 
 // Reads the plan from the boot params; with no runtime attack for this service returns nullptr and arms
 // nothing. Otherwise arms the hooks' timer and logs the plan (Warn).
 [[nodiscard]] Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc);
 
-// True when this process runs under a seccomp filter (/proc/self/status "Seccomp: 2").
+// True when this process runs under a seccomp filter (/proc/self/status "Seccomp: 2"). Opens a file: only
+// while the service boots.
 [[nodiscard]] bool sandboxed();
 
 }  // namespace rejuv::attacks
