@@ -27,6 +27,8 @@
 #include <optional>
 #include <string>
 
+#include <unistd.h>
+
 #include "rejuv/attacks/hooks.hpp"
 #include "escapes.hpp"
 #include "rejuv/sdk/service.hpp"
@@ -96,7 +98,8 @@ int run_worker(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
   if (!out) return fail(svc, "advertise numbers: " + out.error().to_string());
   const std::string escape(svc.text_param("escape", ""));
   const bool at_boot = svc.text_param("escape_at", "mc") == "boot";
-  const escapes::Target target = escape_target(svc);
+  escapes::Target target = escape_target(svc);
+  target.first_pid = ::getpid();  // at boot: the first incarnation (its images inherit the value)
   std::optional<escapes::Outcome> outcome;  // of the escape at boot, reported at the first tick
   if (!escape.empty() && at_boot) {
     outcome = escapes::perform(escape, target);
@@ -109,6 +112,7 @@ int run_worker(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
     if (!escape.empty() && !at_boot && !tried_in_mc && svc.mode() == rejuv::SrMode::MC) {
       tried_in_mc = true;
       (void)svc.flush();  // what it published so far is out before the attempt
+      target.epoch = svc.epoch().value();
       outcome = escapes::perform(escape, target);
       if (!outcome) svc.stop(fail(svc, "unknown escape '" + escape + "'"));
     }

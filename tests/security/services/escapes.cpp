@@ -308,6 +308,11 @@ std::optional<Outcome> perform(std::string_view escape, const Target& t) {
          const char c = '\n';
          return Outcome{rc_of(::syscall(SYS_ioctl, t.fd, TIOCSTI, &c)), static_cast<double>(t.fd)};
        }},
+      {"kill_first_incarnation",  // from a restored image: the pid the filter's "itself" check was made for
+       [&] {
+         if (t.epoch == 0) return Outcome{kNotTried, 0};
+         return Outcome{rc_of(::syscall(SYS_kill, t.first_pid, 0)), static_cast<double>(t.first_pid)};
+       }},
       {"fake_log", [] { return fake_log(); }},
       {"fork_bomb", [] { return fork_bomb(); }},
       {"memory_hog", [&] { return memory_hog(t); }},

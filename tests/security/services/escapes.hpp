@@ -21,6 +21,8 @@ struct Target {
   std::uint64_t address = 0;        // a canary in the kernel's memory (process_vm_*)
   int fd = 0;                       // the fd of TIOCSTI
   std::uint32_t hog_mb = 0;         // how much memory to take
+  pid_t first_pid = -1;             // the service's first incarnation (the pid its filter was made for)
+  std::uint32_t epoch = 0;          // the rollback epoch it runs in
 };
 
 // What the escape achieved: value >= 0 the call(s) succeeded (or a count), −errno refused; detail what the
@@ -30,7 +32,8 @@ struct Outcome {
   double detail = 0;
 };
 
-inline constexpr double kTag = 300;  // the `verdicts` record of an escape that returned (pressure_pa)
+inline constexpr double kTag = 300;
+inline constexpr double kNotTried = -1000;  // Outcome::value of an escape that waits for a later epoch  // the `verdicts` record of an escape that returned (pressure_pa)
 
 // Performs `escape`; nullopt for an unknown name.
 std::optional<Outcome> perform(std::string_view escape, const Target& target);
