@@ -17,6 +17,7 @@
 #include "graph_fixture.hpp"
 #include "rejuv/attacks/plan.hpp"
 #include "rejuv/channel/wire.hpp"
+#include "security_launch.hpp"
 
 namespace rejuv::testing {
 namespace {
@@ -28,27 +29,8 @@ constexpr std::uint64_t kForgedCell = 0xA7A7'A7A7'A7A7'A7A7ULL;  // attacks::kFo
 constexpr std::uint32_t kFloodMessages = 10000;  // attacks::kFloodMessages
 
 std::string attack_launch(AttackKind kind, const std::string& attacker) {
-  const auto service = [](const std::string& name, const std::string& body) {
-    return "services {\n  name: \"" + name + "\"\n  executable: \"rejuv_attack_test_service\"\n" +
-           "  params { name: \"role\" text: \"" + name + "\" }\n" + body + "}\n";
-  };
-  std::string t = "name: \"attacks\"\npolicy: \"attacks.policy.pbtxt\"\nclock: LOCKSTEP\nseed: 1\n";
-  t += service("rejuv",
-               "  uses { object: \"verdicts\" rights: \"W\" }\n  uses { object: \"checkpoint\" rights: \"W\" }\n"
-               "  uses { object: \"limits\" rights: \"W\" }\n  uses { object: \"mode\" rights: \"W\" }\n"
-               "  uses { object: \"cell\" rights: \"RW\" }\n");
-  t += service("worker", "  uses { object: \"numbers\" rights: \"W\" }\n  uses { object: \"verdicts\" rights: \"W\" }\n");
-  t += service("link", "  uses { object: \"net\" rights: \"RW\" }\n  uses { object: \"verdicts\" rights: \"W\" }\n");
-  t += service("driver",
-               "  rejuvenate: false\n  uses { object: \"numbers\" rights: \"R\" }\n  uses { object: \"limits\" rights: \"R\" }\n"
-               "  uses { object: \"actuator_outputs\" rights: \"W\" }\n  uses { object: \"verdicts\" rights: \"W\" }\n");
-  t += "sr { enabled: true t_mc_s: 0.04 t_est_s: 0.01 rho_m: 0.1 rho_s: 0.05 keep_generations: 2"
-       " box { position_m: 0.5 velocity_m_s: 1 angle_rad: 0.3 rate_rad_s: 2 } restricted_limit_fraction: 0.3 }\n";
-  t += "mission { waypoints { north_m: 0 east_m: 0 down_m: -3 } acceptance_radius_m: 0.1 timeout_s: 600 }\n";
-  t += "network { bind_address: \"127.0.0.1\" bind_port: 0 }\n";
-  t += "attack {\n  enabled: true\n  attacks { kind: " + std::string(attacks::to_string(kind)) + " service: \"" +
-       attacker + "\" }\n}\n";
-  return t;
+  return security_launch({.worker_extra = "", .attack = "attack {\n  enabled: true\n  attacks { kind: " +
+                                    std::string(attacks::to_string(kind)) + " service: \"" + attacker + "\" }\n}\n"});
 }
 
 class Attacks : public ::testing::Test {

@@ -8,11 +8,15 @@
 //   tag 2        rejuv: the persistent cell before its own write, value = the cell as a uint64
 //   tag 3        rejuv: a checkpoint it took (Taken), value = the generation
 //   tag 100 + k  an attempt of attack kind k: value = Attempt::code, detail = target (slot or pid)
+//   tag 300      worker: an escape that returned (escapes.hpp): value = Outcome::value, detail = Outcome::detail
 //
 //   rejuv   the SR cycle in miniature (checkpoint_p): in the secure interval, after `sei_ticks` ticks, reads and
 //           writes the cell, writes the restricted limits, checkpoints; on Taken arms the rejuvenation timer
 //           for `t_mc_ms` and requests MC; a restored image starts the secure interval again.
-//   worker  publishes one number per tick on `numbers`.
+//   worker  publishes one number per tick on `numbers`. With the text param `escape` (hostile_test.cpp) it is
+//           compromised: it tries that escape once at `escape_at` = "boot" (after connect, before Ready: boot
+//           calls such as open still pass) or "mc" (its first tick in each MC window), against the targets in
+//           the params udp_port, path, victim, address, fd, hog_mb.
 //   link    holds the network (MC); sends nothing itself.
 //   driver  every tick reads the limits and publishes actuator_outputs (the only writer).
 #include <array>
@@ -20,9 +24,13 @@
 #include <cstdint>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 
+#include <unistd.h>
+
 #include "rejuv/attacks/hooks.hpp"
+#include "escapes.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "services/test_records.hpp"
 
@@ -74,11 +82,45 @@ int run_rejuv(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
   return svc.run();
 }
 
-int run_worker(Service& svc) {
+namespace escapes = rejuv::test_services::escapes;
+
+escapes::Target escape_target(const Service& svc) {
+  return escapes::Target{.udp_port = static_cast<std::uint16_t>(svc.param("udp_port", 0)),
+                         .path = std::string(svc.text_param("path", "")),
+                         .victim = static_cast<pid_t>(svc.param("victim", -1)),
+                         .address = static_cast<std::uint64_t>(svc.param("address", 0)),
+                         .fd = static_cast<int>(svc.param("fd", 0)),
+                         .hog_mb = static_cast<std::uint32_t>(svc.param("hog_mb", 0))};
+}
+
+int run_worker(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
   auto out = svc.advertise<Record>("numbers");
   if (!out) return fail(svc, "advertise numbers: " + out.error().to_string());
+  const std::string escape(svc.text_param("escape", ""));
+  const bool at_boot = svc.text_param("escape_at", "mc") == "boot";
+  escapes::Target target = escape_target(svc);
+  target.first_pid = ::getpid();  // at boot: the first incarnation (its images inherit the value)
+  std::optional<escapes::Outcome> outcome;  // of the escape at boot, reported at the first tick
+  if (!escape.empty() && at_boot) {
+    outcome = escapes::perform(escape, target);
+    if (!outcome) return fail(svc, "unknown escape '" + escape + "'");
+  }
+  bool tried_in_mc = false;  // in this MC window (a restored image starts again from its checkpoint)
   double n = 0;
-  auto timer = svc.every(kTick, [&] { (void)out->publish(record(svc, 0, ++n, 0)); });
+  auto timer = svc.every(kTick, [&] {
+    (void)out->publish(record(svc, 0, ++n, 0));
+    if (!escape.empty() && !at_boot && !tried_in_mc && svc.mode() == rejuv::SrMode::MC) {
+      tried_in_mc = true;
+      (void)svc.flush();  // what it published so far is out before the attempt
+      target.epoch = svc.epoch().value();
+      outcome = escapes::perform(escape, target);
+      if (!outcome) svc.stop(fail(svc, "unknown escape '" + escape + "'"));
+    }
+    if (outcome) {
+      (void)verdicts.publish(record(svc, escapes::kTag, outcome->value, outcome->detail));
+      outcome.reset();
+    }
+  });
   if (!timer) return fail(svc, "timer: " + timer.error().to_string());
   return svc.run();
 }
@@ -121,7 +163,7 @@ int main() {
     });
   }
   if (role == "rejuv") return run_rejuv(s, *verdicts);
-  if (role == "worker") return run_worker(s);
+  if (role == "worker") return run_worker(s, *verdicts);
   if (role == "driver") return run_driver(s, *verdicts);
   if (role == "link") return s.run();
   return fail(s, "unknown role '" + role + "'");
