@@ -283,9 +283,11 @@ void Kernel::Impl::run_checkpoint() {
   sr_stats.checkpoint_phases.a.push_back(to_ms(t_sent - t0));
   sr_stats.checkpoint_phases.b.push_back(to_ms(t_taken - t_sent));
   sr_stats.checkpoint_phases.c.push_back(to_ms(t_saved - t_taken));
+  // Strays (sandbox.cpp): after the timed part, before the new spares are on their way, so that only the
+  // copies still on their way from earlier requests can defer it.
+  sweep_strays("a checkpoint's commit");
   for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
   ++sr_stats.checkpoints;
-  sweep_due = "a checkpoint's commit";  // off the critical path, once the spares have reported (sandbox.cpp)
   sr_stats.checkpoint_ms.push_back(to_ms(took));
   charge += took;
   if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
@@ -595,9 +597,9 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   sr_stats.rollback_phases.a.push_back(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.push_back(to_ms(t_resumed - t_killed));
   sr_stats.rollback_phases.c.push_back(to_ms(t0 + took - t_resumed));
+  sweep_strays("a rollback", false, SweepWait::ForCopies);  // as after a commit: before the new spares go out
   for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
   ++sr_stats.rollbacks;
-  sweep_due = "a rollback";
   sr_stats.rollback_ms.push_back(to_ms(took));
   charge += took;
   if (options.verbose) {

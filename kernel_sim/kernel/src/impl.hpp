@@ -354,7 +354,10 @@ struct Kernel::Impl {
   // Kills every process of a service's session that is neither its live incarnation nor an image the kernel
   // knows (strays): at every commit, after every rollback, about once a simulated second, and at shutdown.
   // Deferred while copies the kernel asked for are on their way (their pids are not known yet).
-  void sweep_strays(std::string_view when, bool final = false);
+  // After a rollback it first waits (briefly, off the critical path) for copies asked for earlier, so that no
+  // stray outlives the rollback (ForCopies); elsewhere a service with a copy on its way is swept next time.
+  enum class SweepWait : std::uint8_t { No, ForCopies };
+  void sweep_strays(std::string_view when, bool final = false, SweepWait wait = SweepWait::No);
   void sweep_if_due();  // at a safe point off the critical paths: sweep_due, or a simulated second since the last
   void record_violation(ServiceRuntime& s, Violation kind, std::string_view what);
   void close_sandbox(ServiceRuntime& s);  // listener and output pipe, out of epoll

@@ -23,6 +23,8 @@ constexpr std::size_t kOutputReadsPerWakeup = 16;  // × 4 KiB
 constexpr std::size_t kMaxOutputLine = 1024;       // a longer line is cut and logged in pieces
 constexpr std::size_t kMaxNamedCalls = 32;         // distinct call names kept per service
 constexpr Nanos kSweepPeriod{std::chrono::seconds{1}};  // kernel clock
+// How long a rollback's sweep waits for copies requested earlier to report (a fork: tens of µs), wall clock.
+constexpr Nanos kCopiesWait{std::chrono::milliseconds{50}};
 
 // What may reach the user's terminal of a line a service wrote: printable ASCII, tabs and UTF-8 bytes; control
 // characters (escape sequences, carriage returns that would overwrite the kernel's own lines) as '?'.
@@ -183,21 +185,27 @@ void Kernel::Impl::sweep_if_due() {
   }
 }
 
-void Kernel::Impl::sweep_strays(std::string_view when, bool final) {
+void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wait) {
   // A copy the kernel asked for (a spare, a Patch's image, an image at a checkpoint) is the kernel's child
   // before its pid is reported: a service with such a copy on its way is swept once it has reported. The
   // answers that have arrived are read first, so that only copies really on their way defer a sweep.
-  images.refresh_all();
-  if (!retiring.empty()) finish_retiring(false);
-  std::vector<bool> pending(services.size(), checkpoint.has_value() && !final);
-  const auto note = [&](const image::Image& im) {
-    if (im.spares_pending > 0 || im.patch_pending) pending[im.service.value()] = !final;
-  };
-  for (const Generation g : images.generations()) {
-    for (const image::Image& im : images.find(g)->images) note(im);
-  }
-  for (const image::GenerationRecord& r : retiring) {
-    for (const image::Image& im : r.images) note(im);
+  std::vector<bool> pending(services.size(), false);
+  const Nanos wait_until = wall() + (wait == SweepWait::ForCopies ? kCopiesWait : Nanos{0});
+  for (;;) {
+    images.refresh_all();
+    if (!retiring.empty()) finish_retiring(false);
+    std::fill(pending.begin(), pending.end(), checkpoint.has_value() && !final);
+    const auto note = [&](const image::Image& im) {
+      if (im.spares_pending > 0 || im.patch_pending) pending[im.service.value()] = !final;
+    };
+    for (const Generation g : images.generations()) {
+      for (const image::Image& im : images.find(g)->images) note(im);
+    }
+    for (const image::GenerationRecord& r : retiring) {
+      for (const image::Image& im : r.images) note(im);
+    }
+    if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || wall() >= wait_until) break;
+    (void)sys::wait_fd(epoll.fd(), sys::WaitFor::Readable, std::chrono::microseconds{100});
   }
   if (std::any_of(pending.begin(), pending.end(), [](bool p) { return p; })) {
     if (!sweep_due) sweep_due = when;
