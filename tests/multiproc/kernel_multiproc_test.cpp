@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <csignal>
 
+#include <seccomp.h>
+#include <sys/wait.h>
+
 #include "graph_fixture.hpp"
 #include "rejuv/cap/capability.hpp"
 
@@ -74,6 +77,46 @@ TEST(KernelMultiproc, ServiceNeverReady_FailsBootAndLeavesNothing) {
   }
   EXPECT_EQ(Resources::now().children, before.children);
   EXPECT_EQ(Resources::now().fds, before.fds);
+}
+
+// ---- the sandbox (DESIGN §7 "Protection", docs/sandbox.md) ----
+
+// Where namespaces cannot be made, the kernel refuses to start and names --insecure-sandbox; with it the graph
+// runs. Run in a child process whose own filter makes unshare fail (EPERM), as it does for a user without root
+// and without unprivileged user namespaces. Exit code of the child: 0 as expected, 1 + which check failed.
+TEST(KernelMultiproc, NoNamespaces_RefusesUnlessInsecureSandbox) {
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    scmp_filter_ctx ctx = seccomp_init(SCMP_ACT_ALLOW);
+    if (ctx == nullptr || seccomp_rule_add(ctx, SCMP_ACT_ERRNO(EPERM), SCMP_SYS(unshare), 0) != 0 ||
+        seccomp_load(ctx) != 0) {
+      ::_exit(10);
+    }
+    seccomp_release(ctx);
+    {
+      auto k = Kernel::create(load(GraphSpec{}), test_options());
+      if (!k) ::_exit(11);
+      auto booted = (*k)->boot();
+      if (booted.has_value()) ::_exit(12);  // it started without its namespaces
+      if (booted.error().message.find("--insecure-sandbox") == std::string::npos) ::_exit(13);
+    }
+    {
+      auto options = test_options();
+      options.sandbox = kernel::KernelOptions::Sandbox::Insecure;
+      auto k = Kernel::create(load(GraphSpec{}), options);
+      if (!k) ::_exit(14);
+      if (!(*k)->boot()) ::_exit(15);
+      step_n(**k, 5);
+      if ((*k)->stop_reason()) ::_exit(16);
+      (*k)->shutdown();
+    }
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "check " << WEXITSTATUS(status) << " failed (see the test's comment)";
 }
 
 // ---- routing ----

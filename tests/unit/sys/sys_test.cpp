@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 #include <vector>
 
@@ -404,6 +405,19 @@ TEST(SeccompTable, EveryEntryNamesACallAndAReason) {
   for (const SyscallRule& r : service_syscalls()) {
     EXPECT_TRUE(syscall_number(r.name).has_value()) << r.name;
     EXPECT_FALSE(r.reason.empty()) << r.name;
+  }
+}
+
+TEST(SeccompTable, DocsSandboxListsEveryEntry) {
+  std::ifstream doc(std::string(REJUV_SOURCE_DIR) + "/docs/sandbox.md");
+  ASSERT_TRUE(doc.good());
+  std::stringstream buffer;
+  buffer << doc.rdbuf();
+  const std::string text = buffer.str();
+  for (const SyscallRule& r : service_syscalls()) {
+    const std::string when = r.allowance == Allowance::Always ? "always" : r.allowance == Allowance::WhileBooting ? "until Ready" : "ENOSYS";
+    EXPECT_NE(text.find("| `" + std::string(r.name) + "` | " + when + " |"), std::string::npos)
+        << "docs/sandbox.md does not list " << r.name << " as '" << when << "'";
   }
 }
 
