@@ -51,15 +51,7 @@ class Attacks : public ::testing::Test {
     ASSERT_TRUE(booted.has_value()) << booted.error().to_string();
   }
   ServiceId id(std::string_view name) const { return *k_->find_service(name); }
-  void step_until_rollbacks(std::uint64_t n, int limit = 600) {
-    for (int i = 0; i < limit && k_->sr_stats().rollbacks < n; ++i) {
-      auto r = k_->step(k_->now() + std::chrono::milliseconds{4});
-      ASSERT_TRUE(r.has_value()) << r.error().to_string();
-      ASSERT_FALSE(k_->stop_reason().has_value()) << k_->stop_detail();
-    }
-    ASSERT_GE(k_->sr_stats().rollbacks, n) << "not enough SR cycles";
-    step_n(*k_, 1);  // the images of the last rollback are resumed and live (still in the secure interval)
-  }
+  void step_until_rollbacks(std::uint64_t n, int limit = 600) { testing::step_until_rollbacks(*k_, n, limit); }
   // Records on `verdicts` with `tag` from `who` (any publisher when empty).
   std::vector<rejuv_msg_SensorBaro> verdicts(double tag, std::string_view who = "") const {
     std::vector<rejuv_msg_SensorBaro> out;

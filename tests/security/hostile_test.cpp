@@ -221,15 +221,7 @@ class Hostile : public ::testing::Test {
   }
 
   ServiceId id(std::string_view name) const { return *k_->find_service(name); }
-  void step_until_rollbacks(std::uint64_t n, int limit = 600) {
-    for (int i = 0; i < limit && k_->sr_stats().rollbacks < n; ++i) {
-      auto r = k_->step(k_->now() + std::chrono::milliseconds{4});
-      ASSERT_TRUE(r.has_value()) << r.error().to_string();
-      ASSERT_FALSE(k_->stop_reason().has_value()) << k_->stop_detail();
-    }
-    ASSERT_GE(k_->sr_stats().rollbacks, n) << "not enough SR cycles";
-    step_n(*k_, 1);  // the images of the last rollback are resumed and live
-  }
+  void step_until_rollbacks(std::uint64_t n, int limit = 600) { testing::step_until_rollbacks(*k_, n, limit); }
   // What the worker reported of an escape that returned (value, detail).
   std::vector<std::pair<double, double>> outcomes() const {
     std::vector<std::pair<double, double>> out;

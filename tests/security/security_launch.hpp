@@ -5,7 +5,13 @@
 // happen in a few hundred steps.
 #pragma once
 
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdint>
 #include <string>
+
+#include "graph_fixture.hpp"
 
 namespace rejuv::testing {
 
@@ -36,6 +42,18 @@ inline std::string security_launch(const SecurityGraph& g) {
   t += "network { bind_address: \"127.0.0.1\" bind_port: 0 }\n";
   t += g.attack;
   return t;
+}
+
+// Steps the kernel 4 ms at a time until `n` rollbacks have happened (the run must go on meanwhile), then one
+// more step: the images of the last rollback are resumed and live (still in the secure interval).
+inline void step_until_rollbacks(kernel::Kernel& k, std::uint64_t n, int limit = 600) {
+  for (int i = 0; i < limit && k.sr_stats().rollbacks < n; ++i) {
+    auto r = k.step(k.now() + std::chrono::milliseconds{4});
+    ASSERT_TRUE(r.has_value()) << r.error().to_string();
+    ASSERT_FALSE(k.stop_reason().has_value()) << k.stop_detail();
+  }
+  ASSERT_GE(k.sr_stats().rollbacks, n) << "not enough SR cycles";
+  step_n(k, 1);
 }
 
 }  // namespace rejuv::testing
