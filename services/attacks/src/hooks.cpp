@@ -74,7 +74,8 @@ bool sandboxed() {
   return false;
 }
 
-AttackHooks::AttackHooks(sdk::Service& svc, RuntimeAttackPlan plan) : svc_(svc), plan_(std::move(plan)) {
+AttackHooks::AttackHooks(sdk::Service& svc, RuntimeAttackPlan plan)
+    : svc_(svc), plan_(std::move(plan)), under_filter_(sandboxed()) {
   clocks_.reserve(plan_.attacks.size());
   for (const RuntimeAttack& a : plan_.attacks) {
     if (occasion_of(a.kind) == Occasion::EveryWindow) clocks_.emplace_back(a, plan_.sr);
@@ -213,7 +214,7 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
 }
 
 void AttackHooks::kill_image(std::uint32_t variant) {
-  if (!sandboxed()) {
+  if (!under_filter_) {
     svc_.log(sdk::LogLevel::Warn, "attack KILL_IMAGE skipped: not under a seccomp filter");
     return;
   }
@@ -255,7 +256,7 @@ void AttackHooks::kill_image(std::uint32_t variant) {
 }
 
 void AttackHooks::open_socket(std::uint32_t variant) {
-  if (!sandboxed()) {
+  if (!under_filter_) {
     svc_.log(sdk::LogLevel::Warn, "attack OPEN_SOCKET skipped: not under a seccomp filter");
     return;
   }
@@ -307,7 +308,7 @@ void AttackHooks::flood() {
 }
 
 void AttackHooks::escape_helper() {
-  if (!sandboxed()) {
+  if (!under_filter_) {
     svc_.log(sdk::LogLevel::Warn, "attack ESCAPE_HELPER skipped: not under a seccomp filter");
     return;
   }

@@ -104,6 +104,10 @@ class AttackHooks {
   std::vector<WindowClock> clocks_;
   AttemptReporter reporter_{};
   std::uint64_t windows_attacked_ = 0;
+  // Whether this process runs under a seccomp filter, read once when the hooks are made (install, at boot):
+  // after boot the open of /proc/self/status is itself a forbidden call, which would end the attacker before
+  // the call it meant to try.
+  bool under_filter_ = false;
   std::uint32_t attempts_ = 0;  // in the current attack: for the default log line
   std::uint32_t accepted_ = 0;
 };
@@ -113,7 +117,8 @@ class AttackHooks {
 // windowed attack is in the plan, arms the hooks' timer.
 [[nodiscard]] Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc);
 
-// True when this process runs under a seccomp filter (/proc/self/status "Seccomp: 2").
+// True when this process runs under a seccomp filter (/proc/self/status "Seccomp: 2"). Opens a file: under
+// the kernel's filter only while booting.
 [[nodiscard]] bool sandboxed();
 
 }  // namespace rejuv::attacks
