@@ -3,12 +3,22 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/ekf2/ekf2_node.hpp"
+#if defined(REJUV_ATTACK_HOOKS)
+#include "rejuv/attacks/hooks.hpp"
+#endif
 
 int main() {
   using namespace rejuv;
   auto connected = sdk::Service::connect();
   if (!connected) return sdk::report_connect_failure(connected.error());
   sdk::Service& svc = **connected;
+
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOKS (test builds only) ====: the launch plan's runtime attacks that name this service
+  // (services/attacks; wiped by rollback like any corruption — what outlives an image, the kernel removes).
+  auto attack_hooks = attacks::install(svc);
+  if (!svc.require(attack_hooks, "bad attack params")) return 1;
+#endif
 
   auto mission = flight_io::mission_params(flight_io::params_of(svc));
   if (!svc.require(mission, "bad params")) return 1;

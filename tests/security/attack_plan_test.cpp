@@ -74,6 +74,36 @@ TEST(RuntimeAttackPlan, RuntimeKindsInOrder_ControllerAttackSkipped) {
   EXPECT_EQ(plan->attacks[1].max_windows, 4U);
 }
 
+// Issue 17: ESCAPE_HELPER is carried out once, at boot; its target port is the service param escape_port.
+TEST(RuntimeAttackPlan, EscapeHelper_OnceAtBootWithTheDefaultPort) {
+  Params p;
+  p.numbers = {{"attack.enabled", 1}, {"attack.count", 1}};
+  p.texts = {{"attack.0.kind", "ESCAPE_HELPER"}};
+  auto plan = p.plan();
+  ASSERT_TRUE(plan.has_value()) << plan.error().to_string();
+  ASSERT_EQ(plan->attacks.size(), 1U);
+  EXPECT_EQ(plan->attacks[0].kind, AttackKind::EscapeHelper);
+  EXPECT_EQ(occasion_of(AttackKind::EscapeHelper), Occasion::OnceAtBoot);
+  EXPECT_EQ(occasion_of(AttackKind::OpenSocket), Occasion::EveryWindow);
+  EXPECT_EQ(plan->escape_port, kDefaultEscapePort);
+}
+TEST(RuntimeAttackPlan, EscapePortParam_Used) {
+  Params p = two_attacks();
+  p.numbers["escape_port"] = 40123;
+  auto plan = p.plan();
+  ASSERT_TRUE(plan.has_value()) << plan.error().to_string();
+  EXPECT_EQ(plan->escape_port, 40123);
+}
+TEST(RuntimeAttackPlan, EscapePortNotAPort_ErrorNamesTheParam) {
+  for (const double bad : {0.0, 65536.0, 12.5, -1.0}) {
+    Params p = two_attacks();
+    p.numbers["escape_port"] = bad;
+    auto plan = p.plan();
+    ASSERT_FALSE(plan.has_value()) << bad;
+    EXPECT_EQ(plan.error().param, "escape_port");
+  }
+}
+
 TEST(RuntimeAttackPlan, SrOff_FromTheParams) {
   Params p = two_attacks();
   p.numbers["sr.enabled"] = 0;

@@ -560,21 +560,20 @@ Result<LoadedLaunch, LoadError> parse_launch(std::string_view text, const std::f
 
 std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view executable) {
   // services/*/main.cpp: lqr_control carries the worst-case control law (worst_case_attack.cpp); checkpoint_p,
-  // commander and ext_link install the runtime hooks of services/attacks (attacks::install); the others
-  // have none.
+  // commander, ext_link and ekf2 install the runtime hooks of services/attacks (attacks::install), which
+  // carry out every runtime kind (ESCAPE_HELPER included); the others have none.
   const std::vector<proto::AttackKind> runtime{
       proto::INVOKE_CHECKPOINT, proto::ARM_TIMER,  proto::WRITE_LIMITS, proto::PUBLISH_ACTUATOR_OUTPUTS,
       proto::WRITE_PERSISTENT,  proto::FORGED_SLOT, proto::NETWORK_IN_SEI, proto::KILL_IMAGE,
-      proto::OPEN_SOCKET,       proto::FLOOD_BROKER};
+      proto::OPEN_SOCKET,       proto::FLOOD_BROKER, proto::ESCAPE_HELPER};
   const std::string name = std::filesystem::path(executable).filename().string();
   if (name == "rejuv_lqr_control") {
     return std::vector<proto::AttackKind>{proto::WORST_CASE_CONTROL};
   }
-  if (name == "rejuv_checkpoint_p" || name == "rejuv_commander" || name == "rejuv_ext_link") {
+  if (name == "rejuv_checkpoint_p" || name == "rejuv_commander" || name == "rejuv_ext_link" || name == "rejuv_ekf2") {
     return runtime;
   }
-  for (const char* none : {"rejuv_sensors", "rejuv_ekf2", "rejuv_safety_control", "rejuv_gen_set_point",
-                           "rejuv_output_driver"}) {
+  for (const char* none : {"rejuv_sensors", "rejuv_safety_control", "rejuv_gen_set_point", "rejuv_output_driver"}) {
     if (name == none) {
       return std::vector<proto::AttackKind>{};
     }

@@ -2,6 +2,10 @@
 // compromised service, and what it calls is the point of the test (the sandbox must stop it).
 #include "rejuv/attacks/hooks.hpp"
 
+#include <arpa/inet.h>
+#include <linux/io_uring.h>
+#include <netinet/in.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/ptrace.h>
 #include <sys/socket.h>
@@ -12,6 +16,7 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <ctime>
 #include <fstream>
 #include <string>
 
@@ -31,6 +36,33 @@ std::vector<std::byte> actuator_outputs_payload() {
   return {bytes.begin(), bytes.end()};
 }
 
+// ESCAPE_HELPER's helper: a copy of the service made by a bare clone, so only system calls here (no
+// allocation, no stdio, no SDK: the C library's locks and the channel belong to the service). It tries the
+// network until something ends it; under the kernel the first try does.
+[[noreturn]] void escaped_helper(std::uint16_t port) {
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(port);
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  static constexpr char kText[] = "rejuv attack: escaped helper";
+  constexpr auto kPause = std::chrono::duration_cast<std::chrono::nanoseconds>(kEscapePeriod);
+  for (std::uint64_t i = 0;; ++i) {
+    if (i % 2 == 0) {
+      const long fd = ::syscall(SYS_socket, AF_INET, SOCK_DGRAM, 0);
+      if (fd >= 0) {
+        (void)::syscall(SYS_sendto, fd, kText, sizeof kText - 1, 0, &to, sizeof to);
+        (void)::syscall(SYS_close, fd);
+      }
+    } else {
+      io_uring_params params{};
+      const long fd = ::syscall(SYS_io_uring_setup, 8, &params);
+      if (fd >= 0) (void)::syscall(SYS_close, fd);
+    }
+    timespec pause{.tv_sec = 0, .tv_nsec = static_cast<long>(kPause.count())};
+    (void)::syscall(SYS_nanosleep, &pause, nullptr);
+  }
+}
+
 }  // namespace
 
 bool sandboxed() {
@@ -43,9 +75,11 @@ bool sandboxed() {
 }
 
 AttackHooks::AttackHooks(sdk::Service& svc, RuntimeAttackPlan plan)
-    : svc_(svc), plan_(std::move(plan)), sandboxed_(sandboxed()) {
+    : svc_(svc), plan_(std::move(plan)), under_filter_(sandboxed()) {
   clocks_.reserve(plan_.attacks.size());
-  for (const RuntimeAttack& a : plan_.attacks) clocks_.emplace_back(a, plan_.sr);
+  for (const RuntimeAttack& a : plan_.attacks) {
+    if (occasion_of(a.kind) == Occasion::EveryWindow) clocks_.emplace_back(a, plan_.sr);
+  }
 }
 
 void AttackHooks::tick() {
@@ -169,6 +203,7 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
     case AttackKind::KillImage: kill_image(variant); break;
     case AttackKind::OpenSocket: open_socket(variant); break;
     case AttackKind::FloodBroker: flood(); break;
+    case AttackKind::EscapeHelper: escape_helper(); break;
   }
   if (!reporter_) {
     svc_.logf(sdk::LogLevel::Warn, "attack %.*s (epoch %u, %s): %u attempts, %u accepted",
@@ -179,7 +214,7 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
 }
 
 void AttackHooks::kill_image(std::uint32_t variant) {
-  if (!sandboxed_) {
+  if (!under_filter_) {
     svc_.log(sdk::LogLevel::Warn, "attack KILL_IMAGE skipped: not under a seccomp filter");
     return;
   }
@@ -221,7 +256,7 @@ void AttackHooks::kill_image(std::uint32_t variant) {
 }
 
 void AttackHooks::open_socket(std::uint32_t variant) {
-  if (!sandboxed_) {
+  if (!under_filter_) {
     svc_.log(sdk::LogLevel::Warn, "attack OPEN_SOCKET skipped: not under a seccomp filter");
     return;
   }
@@ -272,6 +307,27 @@ void AttackHooks::flood() {
          Attempt::kFireAndForget);
 }
 
+void AttackHooks::escape_helper() {
+  if (!under_filter_) {
+    svc_.log(sdk::LogLevel::Warn, "attack ESCAPE_HELPER skipped: not under a seccomp filter");
+    return;
+  }
+  const std::uint16_t port = plan_.escape_port;
+  // The image fork's flags, the only ones the filter lets a service clone a process with: the helper is the
+  // kernel's child in the service's session, which is where the kernel looks for strays.
+  const long pid = ::syscall(SYS_clone, CLONE_PARENT | SIGCHLD, 0, 0, 0, 0);
+  if (pid == 0) escaped_helper(port);
+  const int clone_errno = errno;
+  report(AttackKind::EscapeHelper, "clone(CLONE_PARENT|SIGCHLD)", pid > 0 ? static_cast<std::uint64_t>(pid) : 0,
+         outcome(pid));
+  if (pid > 0) {
+    svc_.logf(sdk::LogLevel::Warn, "attack ESCAPE_HELPER: helper pid %ld tries UDP to 127.0.0.1:%u and io_uring",
+              pid, static_cast<unsigned>(port));
+  } else {
+    svc_.logf(sdk::LogLevel::Warn, "attack ESCAPE_HELPER: clone refused (errno %d)", clone_errno);
+  }
+}
+
 Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc) {
   auto plan = runtime_attack_plan(
       [&svc](std::string_view name) -> std::optional<double> {
@@ -283,15 +339,28 @@ Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc) {
   if (plan->attacks.empty()) return std::unique_ptr<AttackHooks>{};
   auto hooks = std::make_unique<AttackHooks>(svc, std::move(*plan));
   AttackHooks* raw = hooks.get();
-  auto timer = svc.every(kTickPeriod, [raw] { raw->tick(); });
-  if (!timer) return fail(PlanError{.param = "attack", .message = "cannot arm the hooks' timer: " + timer.error().to_string()});
   std::string kinds;
+  bool windowed = false;
   for (const RuntimeAttack& a : raw->plan().attacks) {
     kinds += (kinds.empty() ? "" : ", ") + std::string(to_string(a.kind));
+    if (occasion_of(a.kind) == Occasion::OnceAtBoot) {
+      kinds += " at boot";
+      continue;
+    }
+    windowed = true;
     if (a.start.count() > 0) kinds += " from t = " + std::to_string(a.start.count()) + " s";
     if (a.max_windows > 0) kinds += " in " + std::to_string(a.max_windows) + " window(s)";
   }
   svc.logf(sdk::LogLevel::Warn, "attack hooks armed: %s", kinds.c_str());
+  if (windowed) {
+    auto timer = svc.every(kTickPeriod, [raw] { raw->tick(); });
+    if (!timer) {
+      return fail(PlanError{.param = "attack", .message = "cannot arm the hooks' timer: " + timer.error().to_string()});
+    }
+  }
+  for (const RuntimeAttack& a : raw->plan().attacks) {
+    if (occasion_of(a.kind) == Occasion::OnceAtBoot) raw->carry_out(a.kind, 0);
+  }
   return hooks;
 }
 

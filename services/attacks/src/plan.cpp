@@ -17,6 +17,7 @@ std::string_view to_string(AttackKind kind) {
     case AttackKind::KillImage: return "KILL_IMAGE";
     case AttackKind::OpenSocket: return "OPEN_SOCKET";
     case AttackKind::FloodBroker: return "FLOOD_BROKER";
+    case AttackKind::EscapeHelper: return "ESCAPE_HELPER";
   }
   return "?";
 }
@@ -30,6 +31,10 @@ std::optional<AttackKind> attack_kind_from_name(std::string_view name) {
 
 WindowKind window_kind_of(AttackKind kind) {
   return kind == AttackKind::NetworkInSei ? WindowKind::SecureInterval : WindowKind::MissionControl;
+}
+
+Occasion occasion_of(AttackKind kind) {
+  return kind == AttackKind::EscapeHelper ? Occasion::OnceAtBoot : Occasion::EveryWindow;
 }
 
 namespace {
@@ -69,6 +74,12 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
     auto windows = whole(number, prefix + "max_windows", 4294967295.0);
     if (!windows) return fail(std::move(windows.error()));
     plan.attacks.push_back(RuntimeAttack{.kind = *kind, .start = Seconds{start}, .max_windows = *windows});
+  }
+  if (const auto port = number("escape_port")) {
+    if (!std::isfinite(*port) || *port < 1.0 || *port > 65535.0 || *port != std::floor(*port)) {
+      return fail(bad("escape_port", "expected a UDP port, a whole number in [1, 65535]"));
+    }
+    plan.escape_port = static_cast<std::uint16_t>(*port);
   }
   return plan;
 }

@@ -387,7 +387,7 @@ TEST(LaunchLoader, ParamTextValidUtf8_Loads) {
 
 // DESIGN §9: a plan naming a kind the service has no hook for is refused at load, naming what it supports.
 TEST(LaunchLoader, AttackKindWithoutHookInTheService_SemanticNamesSupportedKinds) {
-  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_ekf2\"");
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_sensors\"");
   const auto r = parse_launch(m.text, kAsPath);
   ASSERT_FALSE(r.has_value());
   EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
@@ -402,6 +402,24 @@ TEST(LaunchLoader, AttackKindWithoutHook_ListsTheRuntimeKindsOfAHookedService) {
   const auto r = parse_launch(m.text, kAsPath);
   ASSERT_FALSE(r.has_value());
   EXPECT_NE(r.error().message.find("INVOKE_CHECKPOINT, ARM_TIMER"), std::string::npos) << r.error().to_string();
+}
+// Issue 17: ekf2 installs the runtime hooks, so a plan may compromise it with a helper process at boot.
+TEST(LaunchLoader, EscapeHelperOnEkf2_Loads) {
+  Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_ekf2\"");
+  const std::size_t kind_at = m.text.find("kind: WORST_CASE_CONTROL");
+  ASSERT_NE(kind_at, std::string::npos);
+  m.text.replace(kind_at, std::string_view("kind: WORST_CASE_CONTROL").size(), "kind: ESCAPE_HELPER");
+  const auto r = parse_launch(m.text, kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+}
+TEST(LaunchLoader, EscapeHelperOnAServiceWithoutHooks_Semantic) {
+  Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_sensors\"");
+  const std::size_t kind_at = m.text.find("kind: WORST_CASE_CONTROL");
+  ASSERT_NE(kind_at, std::string::npos);
+  m.text.replace(kind_at, std::string_view("kind: WORST_CASE_CONTROL").size(), "kind: ESCAPE_HELPER");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().message.find("has no hook for ESCAPE_HELPER"), std::string::npos) << r.error().to_string();
 }
 TEST(LaunchLoader, AttackKindTheServiceHooks_Loads) {
   const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_lqr_control\"");

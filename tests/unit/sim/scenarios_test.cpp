@@ -30,6 +30,36 @@ proto::RunSummary run(SimOverrides overrides) {
   return *summary;
 }
 
+// The square's graph with `attacks` as its plan (the model ignores what is not a control attack).
+SimConfig square_config_with_plan(const std::string& attacks) {
+  std::ifstream in(kSquare);
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string t = text.str();
+  const std::string control = "  attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }\n";
+  const std::size_t at = t.find(control);
+  EXPECT_NE(at, std::string::npos) << "the square's plan changed";
+  if (at != std::string::npos) t.replace(at, control.size(), attacks);
+  auto loaded = launch::parse_launch(t, kSquare);
+  EXPECT_TRUE(loaded.has_value()) << (loaded ? "" : loaded.error().to_string());
+  auto config = config_from_launch(*loaded, {});
+  EXPECT_TRUE(config.has_value()) << (config ? "" : config.error().to_string());
+  return config.value_or(SimConfig::defaults());
+}
+
+// Issue 17: a runtime attack (ESCAPE_HELPER on ekf2) is the runtime's business; the model flies without attack.
+TEST(SimConfigFromLaunch, OnlyARuntimeAttack_ModelAttackOff) {
+  const SimConfig c = square_config_with_plan("  attacks { kind: ESCAPE_HELPER service: \"ekf2\" }\n");
+  EXPECT_EQ(c.attack.enabled, AttackSwitch::Off);
+}
+TEST(SimConfigFromLaunch, RuntimeAttackBesideTheControlAttack_ModelKeepsTheControlAttack) {
+  const SimConfig c = square_config_with_plan(
+      "  attacks { kind: ESCAPE_HELPER service: \"ekf2\" }\n"
+      "  attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" start_s: 2 }\n");
+  EXPECT_EQ(c.attack.enabled, AttackSwitch::On);
+  EXPECT_DOUBLE_EQ(c.attack.start.count(), 2.0);
+}
+
 // (a) Table I, first row: the tracking algorithm alone follows the square closely.
 TEST(SimScenario, NoSrNoAttack_CompletesWithinFiveCentimetres) {
   const auto s = run({.sr = SrSwitch::Off, .attack = AttackSwitch::Off});

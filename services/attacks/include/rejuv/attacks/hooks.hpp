@@ -1,4 +1,4 @@
-// The runtime attack hooks (DESIGN §9, §11; idl/launch.proto AttackKind 2…11): a compromised service
+// The runtime attack hooks (DESIGN §9, §11; idl/launch.proto AttackKind 2…12): a compromised service
 // carrying out the launch plan's attacks against the runtime, through its real channel and real system
 // calls — nothing is simulated, the kernel and the sandbox decide. Test builds only (REJUV_ATTACK_HOOKS).
 //
@@ -8,8 +8,8 @@
 //   #endif
 //
 // install() reads the plan from the boot params (plan.hpp) and, if a runtime attack names this service,
-// arms one kernel timer; at the first tick of every attacked window (WindowClock) it carries out each
-// attack of the plan once:
+// carries out the boot-time attacks at once and, if a windowed one is left, arms one kernel timer; at the
+// first tick of every attacked window (WindowClock) it carries out each windowed attack of the plan once:
 //   INVOKE_CHECKPOINT  CheckpointCreate and CheckpointRollback on its Checkpoint caps, other caps and never-held slots
 //   ARM_TIMER          TimerArm (periodic) on the same
 //   WRITE_LIMITS       LimitsWrite of full-range limits (kForgedLimit) on its Limits caps, other caps, never-held slots
@@ -22,9 +22,16 @@
 //   KILL_IMAGE         kill(parent, SIGKILL), kill(pid guesses, 0), ptrace(ATTACH), process_vm_readv, pidfd_open
 //   OPEN_SOCKET        socket(AF_INET), socketpair(AF_UNIX), socket(AF_UNIX, SEQPACKET)
 //   FLOOD_BROKER       kFloodMessages publishes in one callback on a topic it may write (else on every topic)
+// and, once, at install (boot):
+//   ESCAPE_HELPER      makes a helper process the only way the sandbox lets it (clone(CLONE_PARENT|SIGCHLD):
+//                      the kernel's child, in the service's session) that, for as long as it lives, every
+//                      kEscapePeriod tries the network: socket(AF_INET, SOCK_DGRAM) + sendto 127.0.0.1:
+//                      escape_port, and io_uring_setup, in turn. Reported once (target: the helper's pid).
+//                      A rollback cannot erase a process, so the kernel must (the forbidden call, the sweep).
 // The system-call attacks start, window by window, at the next variant of their list and go on through it:
 // the first forbidden call ends the process (seccomp), so each window tries another one. They run only in a
-// process that is under a seccomp filter (a hook that ran outside the kernel must not signal anyone).
+// process that is under a seccomp filter (a hook that ran outside the kernel must not signal anyone, nor
+// leave a helper behind).
 //
 // Everything the hooks hold is in the service's memory: a rollback wipes it like any other corruption, and
 // the timer and plan come back with the image (the plan is boot params; windows are counted from epochs).
@@ -46,6 +53,7 @@ inline constexpr std::uint32_t kFloodMessages = 10000;     // publications in on
 inline constexpr double kForgedLimit = 1.0e6;              // every value of a forged LimitsWrite
 inline constexpr std::byte kForgedPersistentByte{0xA7};    // every byte of a forged PersistentWrite
 inline constexpr Nanos kTickPeriod{std::chrono::milliseconds{2}};  // the hook's kernel timer
+inline constexpr std::chrono::milliseconds kEscapePeriod{100};       // between an escaped helper's tries (real time)
 
 // One thing the attacker tried and what came back.
 struct Attempt {
@@ -89,24 +97,28 @@ class AttackHooks {
   void kill_image(std::uint32_t variant);
   void open_socket(std::uint32_t variant);
   void flood();
+  void escape_helper();
 
   sdk::Service& svc_;
   RuntimeAttackPlan plan_;
   std::vector<WindowClock> clocks_;
   AttemptReporter reporter_{};
   std::uint64_t windows_attacked_ = 0;
+  // Whether this process runs under a seccomp filter, read once when the hooks are made (install, at boot):
+  // after boot the open of /proc/self/status is itself a forbidden call, which would end the attacker before
+  // the call it meant to try.
+  bool under_filter_ = false;
   std::uint32_t attempts_ = 0;  // in the current attack: for the default log line
   std::uint32_t accepted_ = 0;
-  // Read once, at boot: a booted service may open nothing (DESIGN §7 "Protection"), /proc/self/status included.
-  bool sandboxed_ = false;
 };
 
 // Reads the plan from the boot params; with no runtime attack for this service returns nullptr and arms
-// nothing. Otherwise arms the hooks' timer and logs the plan (Warn).
+// nothing. Otherwise logs the plan (Warn), carries out the boot-time attacks (ESCAPE_HELPER) and, when a
+// windowed attack is in the plan, arms the hooks' timer.
 [[nodiscard]] Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc);
 
-// True when this process runs under a seccomp filter (/proc/self/status "Seccomp: 2"). Opens a file: only
-// while the service boots.
+// True when this process runs under a seccomp filter (/proc/self/status "Seccomp: 2"). Opens a file: under
+// the kernel's filter only while booting.
 [[nodiscard]] bool sandboxed();
 
 }  // namespace rejuv::attacks

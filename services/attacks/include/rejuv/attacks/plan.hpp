@@ -1,7 +1,9 @@
-// The runtime part of the launch graph's attack plan (idl/launch.proto AttackKind 2…11; DESIGN §9, §11):
+// The runtime part of the launch graph's attack plan (idl/launch.proto AttackKind 2…12; DESIGN §9, §11):
 // which attacks a compromised service carries out against the runtime, from when, in how many windows, and
 // when a window starts. Built from the service's boot params (attack.enabled, attack.count,
-// attack.<j>.kind (text), attack.<j>.start_s, attack.<j>.max_windows; docs/protocol.md "Boot params").
+// attack.<j>.kind (text), attack.<j>.start_s, attack.<j>.max_windows; docs/protocol.md "Boot params"), and
+// the service param escape_port (ESCAPE_HELPER's target). ESCAPE_HELPER is carried out once, at boot, not
+// per window (its start_s and max_windows are ignored).
 // WORST_CASE_CONTROL (kind 1) is the controller's attack (services/lqr_control) and is skipped here.
 //
 // Everything here lives in the service's memory, so a rollback wipes it like any other corruption; the
@@ -35,12 +37,13 @@ enum class AttackKind : std::uint8_t {
   KillImage = 9,               // kill / ptrace / process_vm_readv other processes (its images, its parent)
   OpenSocket = 10,             // socket(), socketpair()
   FloodBroker = 11,            // thousands of publishes in one callback
+  EscapeHelper = 12,           // once at boot: a helper process that keeps trying the network (UDP, io_uring)
 };
 inline constexpr std::array kAllAttackKinds{
     AttackKind::InvokeCheckpoint, AttackKind::ArmTimer,     AttackKind::WriteLimits,
     AttackKind::PublishActuatorOutputs, AttackKind::WritePersistent, AttackKind::ForgedSlot,
     AttackKind::NetworkInSei,     AttackKind::KillImage,    AttackKind::OpenSocket,
-    AttackKind::FloodBroker};
+    AttackKind::FloodBroker,      AttackKind::EscapeHelper};
 // The AttackKind enum name of idl/launch.proto, e.g. "INVOKE_CHECKPOINT".
 [[nodiscard]] std::string_view to_string(AttackKind kind);
 // The kind named `name` (the proto enum name); nullopt for anything that is not a runtime attack.
@@ -49,6 +52,14 @@ inline constexpr std::array kAllAttackKinds{
 // Which windows an attack acts in: MC windows, or (NETWORK_IN_SEI) the secure intervals.
 enum class WindowKind : std::uint8_t { MissionControl, SecureInterval };
 [[nodiscard]] WindowKind window_kind_of(AttackKind kind);
+
+// When an attack is carried out: at the start of its windows (WindowClock), or once when the hooks are
+// installed, at boot (ESCAPE_HELPER: what it leaves behind must outlive the boot to matter).
+enum class Occasion : std::uint8_t { EveryWindow, OnceAtBoot };
+[[nodiscard]] Occasion occasion_of(AttackKind kind);
+
+// ESCAPE_HELPER's UDP target port on 127.0.0.1 when the service has no escape_port param (discard).
+inline constexpr std::uint16_t kDefaultEscapePort = 9;
 
 enum class Rejuvenation : std::uint8_t { On, Off };
 
@@ -61,6 +72,7 @@ struct RuntimeAttack {
 struct RuntimeAttackPlan {
   std::vector<RuntimeAttack> attacks{};
   Rejuvenation sr = Rejuvenation::On;
+  std::uint16_t escape_port = kDefaultEscapePort;  // service param escape_port (ESCAPE_HELPER)
 };
 
 // A malformed attack param: which one and what was expected.
@@ -75,8 +87,9 @@ using NumberLookup = std::function<std::optional<double>(std::string_view)>;
 using TextLookup = std::function<std::string(std::string_view)>;
 
 // The runtime attacks of the boot params, in plan order; empty when attacks are off or none is a runtime
-// attack. An unknown kind name, a negative or non-finite start, or a count/max_windows that is not a whole
-// number is an error (bad input never aborts, CONVENTIONS).
+// attack. An unknown kind name, a negative or non-finite start, a count/max_windows that is not a whole
+// number, or an escape_port that is not a whole number in [1, 65535] is an error (bad input never aborts,
+// CONVENTIONS).
 [[nodiscard]] Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& number,
                                                                        const TextLookup& text);
 
