@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/ext_link/ext_link.hpp"
 #if defined(REJUV_ATTACK_HOOKS)
@@ -27,7 +28,10 @@ int main() {
     return 1;
   }
   constexpr std::string_view kNet = "ext_net";
-  services::ExtLink link;
+  // Uploads are judged by commander's check, with the same params (the mission's home, geofence.*).
+  auto made = services::ExtLink::from_params(flight_io::params_of(svc));
+  if (!svc.require(made, "refusing the mission")) return 1;
+  services::ExtLink& link = *made;
   auto uploads = svc.advertise<rejuv_msg_MissionWaypoints>("mission_upload");
   if (!svc.require(uploads, "mission_upload")) return 1;
   auto state = svc.subscribe_polled<rejuv_msg_VehicleStateEstimate>("vehicle_state");
@@ -78,6 +82,13 @@ int main() {
       send(link.forwarded(*forward), "mission ack");
     } else if (const auto* again = std::get_if<services::ExtLink::Reacknowledge>(&*inbound)) {
       send(link.acknowledge(again->sequence), "mission ack");
+    } else if (const auto* refuse = std::get_if<services::ExtLink::Refuse>(&*inbound)) {
+      // Well-formed but not a mission commander would keep: the ground station is told why; nothing is
+      // published (a retransmission is refused again: the verdict depends on the upload only).
+      if (link.uploads_refused() == 0) {
+        svc.logf(sdk::LogLevel::Warn, "mission upload #%u refused: %s", refuse->sequence, refuse->message.c_str());
+      }
+      send(link.refused_upload(*refuse), "mission ack");
     }
   });
   if (!svc.require(gate, "ext_net")) return 1;

@@ -5,8 +5,17 @@
 // garbage datagrams are refused without harm.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cerrno>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -315,6 +324,100 @@ TEST_F(NetGate, GarbageFromAnotherSender_DoesNotRedirectTelemetry) {
   const kernel::NetStats st = kernel_->net_stats();
   EXPECT_EQ(st.judged_valid, 1U);
   EXPECT_EQ(st.refused_by_reason[1 + static_cast<std::size_t>(link::DecodeError::BadMagic)], 1U);
+}
+
+// Issue 18 item 5: a well-formed upload that commander would refuse (here 12 m east of home, outside the 10 m
+// geofence) is answered with a negative acknowledgement naming the reason and the waypoint; nothing reaches
+// commander's topic. It used to be acknowledged as forwarded (and then dropped by commander, silently).
+TEST_F(NetGate, UploadOutsideTheGeofence_NegativelyAcknowledgedNotPublished) {
+  link::MissionUpload far = upload_of(3);
+  far.waypoints[1].east_m = 12;
+  for (int i = 0; i < 2; ++i) {  // the second is a retransmission: refused again
+    ground_->send({.sequence = 31, .body = far});
+    const std::uint64_t want = static_cast<std::uint64_t>(i) + 1;
+    step_until([&] { return kernel_->net_stats().relayed == want; });
+  }
+  step_until([&] {
+    ground_->collect();
+    return ground_->all<link::MissionAck>().size() == 2;
+  });
+  for (const link::MissionAck& ack : ground_->all<link::MissionAck>()) {
+    EXPECT_EQ(ack.upload_sequence, 31U);
+    EXPECT_EQ(ack.status, link::AckStatus::Refused);
+    EXPECT_EQ(ack.reason, link::RefusalReason::OutsideGeofence);
+    EXPECT_EQ(ack.waypoint, 1U);
+  }
+  step(20);
+  EXPECT_EQ(uploads_seen(), 0U);
+  // A valid message: the sender is the ground station, and the verdict the kernel counts is "valid".
+  EXPECT_EQ(kernel_->net_stats().judged_valid, 2U);
+  EXPECT_EQ(kernel_->net_stats().judged_refused, 0U);
+}
+
+// `rejuv gcs` as a user runs it (the real binary, in real time) against the real gate and ext_link (stepped
+// by the test until it exits): its exit code and what it prints.
+struct GcsOutcome {
+  int exit_code = -1;
+  std::string out;
+};
+
+class NetGateGcs : public NetGate {
+ protected:
+  GcsOutcome gcs(const std::string& waypoints) {
+    const std::filesystem::path rejuv = std::filesystem::path(REJUV_BINARY_DIR) / "tools" / "rejuv" / "rejuv";
+    const std::filesystem::path out =
+        std::filesystem::temp_directory_path() / ("rejuv_net_gate_gcs_" + std::to_string(::getpid()));
+    std::vector<std::string> args{rejuv.string(), "gcs", "--port", std::to_string(*kernel_->network_port()),
+                                  "--waypoints", waypoints, "--timeout", "60"};
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    pid_t pid = -1;
+    GcsOutcome r;
+    const int spawned = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    EXPECT_EQ(spawned, 0) << rejuv;
+    if (spawned != 0) return r;
+    // gcs gives up by itself after --timeout; the cap only keeps a broken test from spinning forever.
+    int status = 0;
+    bool exited = false;
+    for (int i = 0; i < 2'000'000 && !exited; ++i) {
+      step_n(*kernel_, 1);
+      exited = ::waitpid(pid, &status, WNOHANG) == pid;
+    }
+    if (!exited) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &status, 0);
+      ADD_FAILURE() << "rejuv gcs did not exit";
+    } else if (WIFEXITED(status)) {
+      r.exit_code = WEXITSTATUS(status);
+    }
+    std::ifstream in(out);
+    std::ostringstream text;
+    text << in.rdbuf();
+    r.out = text.str();
+    std::error_code ec;
+    std::filesystem::remove(out, ec);
+    return r;
+  }
+};
+
+TEST_F(NetGateGcs, RefusedUpload_Exit1PrintsTheReason) {
+  const GcsOutcome r = gcs("1,0.5,-3;0,12,-3");  // the second waypoint 12 m east of home
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_NE(r.out.find("refused"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("outside the geofence (waypoint 2"), std::string::npos) << r.out;
+  EXPECT_EQ(uploads_seen(), 0U);
+}
+
+TEST_F(NetGateGcs, ValidUpload_Exit0) {
+  const GcsOutcome r = gcs("1,0.5,-3;0,2,-3");
+  EXPECT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_NE(r.out.find("upload acknowledged"), std::string::npos) << r.out;
+  EXPECT_EQ(uploads_seen(), 1U);
 }
 
 }  // namespace

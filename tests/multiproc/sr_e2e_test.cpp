@@ -5,13 +5,19 @@
 // Skipped (not failed) while a service or the plant is not built.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cerrno>
+#include <cmath>
 #include <csignal>
+#include <cstring>
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "graph_fixture.hpp"
+#include "rejuv/services/ext_link/link_protocol.hpp"
+#include "rejuv/sys/udp.hpp"
 #include "run_recorder.hpp"
 
 namespace rejuv::testing {
@@ -24,6 +30,19 @@ using kernel::StopReason;
 // §VI-D: "at least 45 attacks" over the square (the model: 77 attacked windows and 77 rollbacks, seed 1).
 constexpr std::uint64_t kMinAttacks = 45;
 
+// What the ground station of a GroundUpload (below) saw.
+struct GroundReport {
+  std::vector<link::MissionAck> acks;  // the answers to the upload
+  std::uint64_t transmissions = 0;
+  std::uint64_t mission_upload_published = 0;  // publications on commander's mission_upload topic
+  std::optional<std::uint64_t> rollbacks_when_off_path{};  // rollbacks before a setpoint first left the launch path
+  std::optional<std::uint64_t> rollbacks_when_at_upload{};  // … when it first reached the upload's last waypoint
+  std::uint64_t rollbacks = 0;
+  std::array<double, 3> last_setpoint{};
+  bool last_setpoint_done = false;
+  double max_off_path_m = 0;  // the farthest a setpoint was from the launch graph's first leg
+};
+
 struct Mission {
   proto::RunSummary summary;  // as `rejuv run` fills it (recorder + the image store's counters)
   kernel::RunOutcome outcome;
@@ -32,6 +51,7 @@ struct Mission {
   std::size_t killed = 0;        // processes a KillGroup killed
   bool lost = false;             // the recorder declared the vehicle lost (V > 100) and stopped the run
   Nanos alignment{0};
+  GroundReport ground{};         // with a GroundUpload
 };
 
 bool all_built(const launch::LoadedLaunch& g) {
@@ -86,9 +106,84 @@ class FaultInjector final : public kernel::Observer {
   std::size_t killed_ = 0;
 };
 
+// The ground station (docs/link_protocol.md) played from the kernel's loop: from `after` (flight time) on it
+// sends `upload` over UDP to the kernel's network gate every 200 ms of kernel time until ext_link answers it
+// (the gate drops everything in the secure execution interval, so it waits for an MC window, as `rejuv gcs`
+// does). It watches the setpoints the vehicle flies and counts the rollbacks around them.
+struct GroundUpload {
+  link::MissionUpload upload{};
+  Nanos after{0};
+};
+
+class GroundStation final : public kernel::Observer {
+ public:
+  GroundStation(kernel::Observer& inner, GroundUpload spec, Nanos alignment)
+      : inner_(inner), spec_(std::move(spec)), start_(alignment + spec_.after) {
+    auto s = sys::UdpSocket::bind(sys::UdpAddress::loopback(0), sys::Blocking::No);
+    EXPECT_TRUE(s.has_value());
+    if (s) socket_ = std::move(*s);
+  }
+  void attach(Kernel* k) { kernel_ = k; }
+  [[nodiscard]] const GroundReport& report() const { return report_; }
+
+  void on_publication(const kernel::Publication& p) override {
+    inner_.on_publication(p);
+    if (p.name == "mission_upload") ++report_.mission_upload_published;
+    if (p.name != "setpoint" || p.payload.size() != sizeof(rejuv_msg_Setpoint)) return;
+    rejuv_msg_Setpoint sp{};
+    std::memcpy(&sp, p.payload.data(), sizeof sp);
+    report_.last_setpoint = {sp.p_N_m[0], sp.p_N_m[1], sp.p_N_m[2]};
+    report_.last_setpoint_done = sp.mission_done != 0;
+    // The launch graph's first leg: (0, 0, −3) → (1, 0, −3).
+    const double off = std::hypot(sp.p_N_m[1], sp.p_N_m[2] + 3.0) + std::max(0.0, sp.p_N_m[0] - 1.0) +
+                       std::max(0.0, -sp.p_N_m[0]);
+    report_.max_off_path_m = std::max(report_.max_off_path_m, off);
+    if (off > 1e-6 && !report_.rollbacks_when_off_path) report_.rollbacks_when_off_path = report_.rollbacks;
+    const link::UploadWaypoint& end = spec_.upload.waypoints[spec_.upload.count - 1];
+    const double to_end = std::hypot(sp.p_N_m[0] - end.north_m, sp.p_N_m[1] - end.east_m, sp.p_N_m[2] - end.down_m);
+    if (to_end < 1e-6 && !report_.rollbacks_when_at_upload) report_.rollbacks_when_at_upload = report_.rollbacks;
+  }
+  void on_step(std::uint64_t step, Nanos t, SrMode mode) override {
+    inner_.on_step(step, t, mode);
+    if (kernel_ == nullptr || t < start_) return;
+    std::array<std::byte, link::kMaxLinkDatagramBytes + 1> buf{};
+    for (;;) {
+      auto r = socket_.receive(buf);
+      if (!r) break;
+      auto m = link::decode(std::span<const std::byte>(buf.data(), r->size), link::Direction::ToGround);
+      if (!m) continue;
+      if (const auto* ack = std::get_if<link::MissionAck>(&m->body); ack != nullptr && ack->upload_sequence == kSequence) {
+        report_.acks.push_back(*ack);
+      }
+    }
+    if (!report_.acks.empty() || t < next_send_) return;
+    const auto port = kernel_->network_port();
+    if (!port) return;
+    const link::Datagram d = link::encode({.sequence = kSequence, .body = spec_.upload});
+    if (socket_.send_to(d.view(), sys::UdpAddress::loopback(*port))) ++report_.transmissions;
+    next_send_ = t + std::chrono::milliseconds{200};
+  }
+  void on_checkpoint(Generation g, const broker::Broker& q) override { inner_.on_checkpoint(g, q); }
+  void on_restore(Generation g, const broker::Broker& q) override {
+    inner_.on_restore(g, q);
+    ++report_.rollbacks;
+  }
+
+ private:
+  static constexpr std::uint32_t kSequence = 4242;
+  kernel::Observer& inner_;
+  GroundUpload spec_;
+  Nanos start_;
+  Nanos next_send_{0};
+  sys::UdpSocket socket_;
+  Kernel* kernel_ = nullptr;
+  GroundReport report_{};
+};
+
 // Flies launch/quad_square.launch.pbtxt (seed 1) as `rejuv run` does. nullopt: not built (the caller skips)
 // or a failure already reported.
-std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGroup> fault = std::nullopt) {
+std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGroup> fault = std::nullopt,
+                           std::optional<GroundUpload> ground = std::nullopt) {
   auto graph = launch::load_launch(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
   if (!graph) {
     ADD_FAILURE() << graph.error().to_string();
@@ -116,12 +211,19 @@ std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGr
   cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);
   std::optional<FaultInjector> injector;
   if (fault) injector.emplace(recorder, *fault, m.alignment);
-  auto k = Kernel::create(std::move(*graph), options, injector ? static_cast<kernel::Observer*>(&*injector) : &recorder);
+  kernel::Observer* observer = injector ? static_cast<kernel::Observer*>(&*injector) : &recorder;
+  std::optional<GroundStation> station;
+  if (ground) {
+    station.emplace(*observer, *ground, m.alignment);
+    observer = &*station;
+  }
+  auto k = Kernel::create(std::move(*graph), options, observer);
   if (!k) {
     ADD_FAILURE() << k.error().to_string();
     return std::nullopt;
   }
   if (injector) injector->attach(k->get());
+  if (station) station->attach(k->get());
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });
   auto outcome = (*k)->run();
   if (!outcome) {
@@ -136,6 +238,7 @@ std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGr
   m.mc_windows = recorder.mc_windows();
   m.killed = injector ? injector->killed() : 0;
   m.lost = recorder.lost().has_value();
+  if (station) m.ground = station->report();
   ::testing::Test::RecordProperty("max_V", std::to_string(m.summary.max_v()));
   ::testing::Test::RecordProperty("rollbacks", std::to_string(m.sr.rollbacks));
   ::testing::Test::RecordProperty("attacks", std::to_string(m.summary.attacks()));
@@ -214,6 +317,68 @@ TEST(SrEndToEnd, ColdRestartMidSquare_StaysInsideTheSafetySetAndCompletesTheMiss
   EXPECT_FALSE(m->lost);
   EXPECT_LT(m->summary.max_v(), 1.0);
   EXPECT_FALSE(m->summary.left_safety_set());
+}
+
+// Issue 18 item 5: a mission uploaded over the ground link is flown, and survives the rollbacks that wipe
+// everything else an MC window leaves behind (commander keeps it in the Persistent cell uploaded_mission,
+// gen_set_point flies it from the next setpoint update and records it in mission_state). The vehicle flies
+// the square's first leg north; 3 s in, the ground station uploads a 1 m leg west of it (inside the geofence).
+// The setpoints leave the launch path for the uploaded waypoint, with rollbacks between the upload's
+// application and its end, the mission completes there, and max V < 1.
+TEST(SrEndToEnd, UploadedMission_FlownAcrossRollbacksToItsEnd) {
+  GroundUpload ground;
+  ground.upload.count = 1;
+  ground.upload.acceptance_radius_m = 0.05;
+  ground.upload.waypoints[0] = {.north_m = 0, .east_m = -1, .down_m = -3, .yaw_rad = 0};
+  ground.after = std::chrono::seconds{3};
+  const auto m = fly(Sr::On, Attack::Off, Path::FirstLeg, std::nullopt, ground);
+  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  const GroundReport& g = m->ground;
+  ASSERT_FALSE(g.acks.empty()) << "no answer after " << g.transmissions << " transmissions";
+  EXPECT_EQ(g.acks.front().status, link::AckStatus::Forwarded);
+  EXPECT_GE(g.mission_upload_published, 1U);
+  ASSERT_TRUE(g.rollbacks_when_off_path.has_value()) << "the setpoints never left the launch path";
+  ASSERT_TRUE(g.rollbacks_when_at_upload.has_value()) << "the setpoints never reached the uploaded waypoint";
+  EXPECT_GT(*g.rollbacks_when_at_upload, *g.rollbacks_when_off_path) << "no rollback while the upload was flown";
+  EXPECT_NEAR(g.last_setpoint[0], 0.0, 1e-9);
+  EXPECT_NEAR(g.last_setpoint[1], -1.0, 1e-9);
+  EXPECT_NEAR(g.last_setpoint[2], -3.0, 1e-9);
+  EXPECT_TRUE(g.last_setpoint_done);
+  EXPECT_EQ(m->outcome.reason, StopReason::MissionDone) << m->outcome.detail;
+  EXPECT_TRUE(m->summary.mission_completed());
+  EXPECT_FALSE(m->lost);
+  EXPECT_LT(m->summary.max_v(), 1.0);
+  EXPECT_EQ(m->sr.cold_restarts, 0U);
+  ::testing::Test::RecordProperty("rollbacks_flying_upload",
+                                  std::to_string(*g.rollbacks_when_at_upload - *g.rollbacks_when_off_path));
+}
+
+// A refused upload (a waypoint 12 m east of home: outside the 10 m geofence) is negatively acknowledged with
+// the reason and the waypoint, reaches nobody, and the launch graph's mission is flown unchanged.
+TEST(SrEndToEnd, RefusedUpload_NegativelyAcknowledgedAndTheMissionFlownUnchanged) {
+  GroundUpload ground;
+  ground.upload.count = 2;
+  ground.upload.acceptance_radius_m = 0.05;
+  ground.upload.waypoints[0] = {.north_m = 0.5, .east_m = 0.5, .down_m = -3, .yaw_rad = 0};
+  ground.upload.waypoints[1] = {.north_m = 0.5, .east_m = 12, .down_m = -3, .yaw_rad = 0};
+  ground.after = std::chrono::seconds{3};
+  const auto m = fly(Sr::On, Attack::Off, Path::FirstLeg, std::nullopt, ground);
+  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  const GroundReport& g = m->ground;
+  ASSERT_FALSE(g.acks.empty()) << "no answer after " << g.transmissions << " transmissions";
+  EXPECT_EQ(g.acks.front().status, link::AckStatus::Refused);
+  EXPECT_EQ(g.acks.front().reason, link::RefusalReason::OutsideGeofence);
+  EXPECT_EQ(g.acks.front().waypoint, 1U);
+  EXPECT_EQ(g.mission_upload_published, 0U);
+  EXPECT_FALSE(g.rollbacks_when_off_path.has_value()) << "a setpoint left the launch path";
+  EXPECT_LT(g.max_off_path_m, 1e-6);
+  EXPECT_NEAR(g.last_setpoint[0], 1.0, 1e-9);  // the first leg's end
+  EXPECT_NEAR(g.last_setpoint[1], 0.0, 1e-9);
+  EXPECT_TRUE(g.last_setpoint_done);
+  EXPECT_EQ(m->outcome.reason, StopReason::MissionDone) << m->outcome.detail;
+  EXPECT_TRUE(m->summary.mission_completed());
+  EXPECT_GT(m->sr.rollbacks, 0U);
+  EXPECT_LT(m->summary.max_v(), 1.0);
 }
 
 }  // namespace

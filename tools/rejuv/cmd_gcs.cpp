@@ -2,7 +2,8 @@
 // §10; docs/link_protocol.md). It uploads a mission — retransmitting it until ext_link acknowledges, so an
 // upload made during the secure execution interval simply waits for MC — and prints the telemetry ext_link
 // sends (MC only). Exit 0 when the upload was acknowledged (or, watching only, when telemetry arrived), 1
-// when it was not within --timeout (or no telemetry came), 2 on bad flags or a bad launch file.
+// when it was refused (a negative acknowledgement: the reason is printed), not acknowledged within --timeout
+// (or no telemetry came), 2 on bad flags or a bad launch file.
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -104,8 +105,9 @@ int run_gcs(std::span<const std::string_view> args) {
                    "the secure execution interval the gate drops everything, so the upload waits for MC), then\n"
                    "prints the telemetry ext_link sends in MC. The kernel's port is in `rejuv run`'s log\n"
                    "(\"network gate: udp 127.0.0.1:P\"; launch `network.bind_port`, default 14555).\n"
-                   "Exit 0 when the upload was acknowledged (watching only: when telemetry arrived), 1 otherwise,\n"
-                   "2 on bad flags.");
+                   "Exit 0 when the upload was acknowledged (watching only: when telemetry arrived), 1 when it\n"
+                   "was refused (the reason is printed: outside the geofence, below the altitude floor, too many\n"
+                   "waypoints) or not acknowledged in time, 2 on bad flags.");
   parser.option("--port", "P", port_text, "the kernel's network gate port (required)", &port_set)
       .option("--host", "IP", host_text, "the kernel's address (default 127.0.0.1)", &host_set)
       .option("--upload", "LAUNCH_FILE", upload_path, "upload the mission of this launch graph", &upload_set)
@@ -224,6 +226,20 @@ int run_gcs(std::span<const std::string_view> args) {
         continue;
       }
       if (const auto* ack = std::get_if<link::MissionAck>(&m->body)) {
+        if (!acked && ack->upload_sequence == upload_sequence && ack->status == link::AckStatus::Refused) {
+          // A negative acknowledgement: the upload is not a mission commander would keep; nothing changed.
+          std::printf("rejuv gcs: upload refused by ext_link after %.1f s and %llu transmission(s): %s",
+                      elapsed(), static_cast<unsigned long long>(transmissions),
+                      std::string(link::to_string(ack->reason)).c_str());
+          if (ack->reason == link::RefusalReason::OutsideGeofence ||
+              ack->reason == link::RefusalReason::BelowAltitudeFloor) {
+            const link::UploadWaypoint& w = upload->waypoints[ack->waypoint];
+            std::printf(" (waypoint %u: N %.2f E %.2f D %.2f m)", ack->waypoint + 1U, w.north_m, w.east_m, w.down_m);
+          }
+          std::printf("; the vehicle flies on unchanged\n");
+          std::fflush(stdout);
+          return static_cast<int>(Exit::Findings);
+        }
         if (!acked && ack->upload_sequence == upload_sequence) {
           acked = true;
           acked_at = sys::monotonic_now();

@@ -24,18 +24,12 @@ Result<flight_io::MissionSpec, Commander::UploadRefusal> Commander::validate_upl
                               .message = "mission upload in mode " + std::string(to_string(mode)) +
                                          ": the ground link is off outside MC"});
   }
-  auto mission = flight_io::mission_from_message(upload);
+  // The one validator of the ground link (ext_link ran it already to answer the ground station).
+  auto mission = flight_io::validate_upload(upload, mission_.waypoints.front(), bounds_);
   if (!mission) {
-    return fail(UploadRefusal{.kind = UploadError::Invalid, .message = mission.error().to_string()});
-  }
-  std::size_t where = 0;
-  if (const auto check = flight_io::check_upload(*mission, mission_.waypoints.front(), bounds_, &where);
-      check != flight_io::UploadCheck::Accepted) {
-    return fail(UploadRefusal{.kind = UploadError::Bounds,
-                              .message = std::string(flight_io::to_string(check)) +
-                                         (check == flight_io::UploadCheck::TooManyWaypoints
-                                              ? ""
-                                              : " (waypoint " + std::to_string(where) + ")")});
+    return fail(UploadRefusal{.kind = mission.error().check == flight_io::UploadCheck::Invalid ? UploadError::Invalid
+                                                                                              : UploadError::Bounds,
+                              .message = mission.error().message});
   }
   return std::move(*mission);
 }

@@ -17,6 +17,29 @@ rejuv_msg_MissionWaypoints to_message(const link::MissionUpload& upload, Nanos n
   return m;
 }
 
+Result<ExtLink, flight_io::InputFailure> ExtLink::from_params(const flight_io::Params& params) {
+  auto mission = flight_io::mission_params(params);
+  if (!mission) return fail(std::move(mission.error()));
+  auto bounds = flight_io::upload_bounds(params);
+  if (!bounds) return fail(std::move(bounds.error()));
+  return ExtLink(UploadGuard{.home = mission->waypoints.front(), .bounds = *bounds});
+}
+
+namespace {
+
+link::RefusalReason reason_of(flight_io::UploadCheck check) {
+  switch (check) {
+    case flight_io::UploadCheck::TooManyWaypoints: return link::RefusalReason::TooManyWaypoints;
+    case flight_io::UploadCheck::OutsideGeofence: return link::RefusalReason::OutsideGeofence;
+    case flight_io::UploadCheck::BelowAltitudeFloor: return link::RefusalReason::BelowAltitudeFloor;
+    case flight_io::UploadCheck::Accepted:  // not a refusal: never here
+    case flight_io::UploadCheck::Invalid: return link::RefusalReason::InvalidMission;
+  }
+  return link::RefusalReason::InvalidMission;
+}
+
+}  // namespace
+
 Result<ExtLink::Inbound, link::DecodeError> ExtLink::on_datagram(std::span<const std::byte> datagram, Nanos now) {
   auto message = link::decode(datagram, link::Direction::ToVehicle);
   if (!message) {
@@ -34,7 +57,25 @@ Result<ExtLink::Inbound, link::DecodeError> ExtLink::on_datagram(std::span<const
   if (last_upload_ && *last_upload_ == *upload && last_upload_sequence_ == message->sequence) {
     return Reacknowledge{.sequence = message->sequence};
   }
-  return Forward{.upload = to_message(*upload, now), .decoded = *upload, .sequence = message->sequence};
+  rejuv_msg_MissionWaypoints forward = to_message(*upload, now);
+  // The check commander applies, so that the ground station learns the verdict (docs/link_protocol.md).
+  if (auto valid = flight_io::validate_upload(forward, guard_.home, guard_.bounds); !valid) {
+    const std::size_t at = valid.error().waypoint < link::kMaxUploadWaypoints ? valid.error().waypoint : 0;
+    return Refuse{.sequence = message->sequence,
+                  .reason = reason_of(valid.error().check),
+                  .waypoint = static_cast<std::uint16_t>(at),
+                  .message = valid.error().message};
+  }
+  return Forward{.upload = forward, .decoded = *upload, .sequence = message->sequence};
+}
+
+link::Datagram ExtLink::refused_upload(const Refuse& refuse) {
+  ++uploads_refused_;
+  return link::encode(link::Message{.sequence = next_sequence_++,
+                                    .body = link::MissionAck{.upload_sequence = refuse.sequence,
+                                                             .status = link::AckStatus::Refused,
+                                                             .reason = refuse.reason,
+                                                             .waypoint = refuse.waypoint}});
 }
 
 link::Datagram ExtLink::forwarded(const Forward& forward) {

@@ -102,9 +102,18 @@ Result<Body, DecodeError> decode_ack(Reader& r) {
   MissionAck a;
   a.upload_sequence = r.u32();
   const std::uint8_t status = r.u8();
-  if (status != static_cast<std::uint8_t>(AckStatus::Forwarded)) return fail(DecodeError::OutOfRange);
-  a.status = AckStatus::Forwarded;
-  if (r.u8() != 0 || r.u16() != 0) return fail(DecodeError::BadReserved);
+  if (status == static_cast<std::uint8_t>(AckStatus::Forwarded)) {
+    a.status = AckStatus::Forwarded;
+    if (r.u8() != 0 || r.u16() != 0) return fail(DecodeError::BadReserved);
+    return a;
+  }
+  if (status != static_cast<std::uint8_t>(AckStatus::Refused)) return fail(DecodeError::OutOfRange);
+  a.status = AckStatus::Refused;
+  const std::uint8_t reason = r.u8();
+  if (reason < 1 || reason > kMaxRefusalReason) return fail(DecodeError::OutOfRange);
+  a.reason = static_cast<RefusalReason>(reason);
+  a.waypoint = r.u16();
+  if (a.waypoint >= kMaxUploadWaypoints) return fail(DecodeError::OutOfRange);
   return a;
 }
 
@@ -137,6 +146,17 @@ std::string_view to_string(MessageType type) {
     case MessageType::MissionUpload: return "MissionUpload";
     case MessageType::MissionAck: return "MissionAck";
     case MessageType::Telemetry: return "Telemetry";
+  }
+  return "?";
+}
+
+std::string_view to_string(RefusalReason reason) {
+  switch (reason) {
+    case RefusalReason::None: return "none";
+    case RefusalReason::InvalidMission: return "not a valid mission";
+    case RefusalReason::TooManyWaypoints: return "too many waypoints";
+    case RefusalReason::OutsideGeofence: return "outside the geofence";
+    case RefusalReason::BelowAltitudeFloor: return "below the altitude floor";
   }
   return "?";
 }
@@ -195,6 +215,10 @@ Datagram encode(const Message& message) {
   std::uint32_t count = 0;
   if (const auto* up = std::get_if<MissionUpload>(&message.body)) count = up->count;
   REJUV_ASSERT(count <= kMaxUploadWaypoints, "an upload holds at most 16 waypoints");
+  if (const auto* ack = std::get_if<MissionAck>(&message.body); ack != nullptr && ack->status == AckStatus::Refused) {
+    REJUV_ASSERT(ack->reason != RefusalReason::None && ack->waypoint < kMaxUploadWaypoints,
+                 "a refusal names its reason and a waypoint of the upload");
+  }
   for (const std::uint8_t m : kMagic) w.u8(m);
   w.u8(kLinkVersion);
   w.u8(static_cast<std::uint8_t>(type));
@@ -218,8 +242,9 @@ Datagram encode(const Message& message) {
     void operator()(const MissionAck& a) const {
       w.u32(a.upload_sequence);
       w.u8(static_cast<std::uint8_t>(a.status));
-      w.u8(0);
-      w.u16(0);
+      const bool refused = a.status == AckStatus::Refused;
+      w.u8(refused ? static_cast<std::uint8_t>(a.reason) : 0);
+      w.u16(refused ? a.waypoint : 0);
     }
     void operator()(const Telemetry& t) const {
       w.u64(t.time_ns);

@@ -90,6 +90,7 @@ std::string_view to_string(UploadCheck check) {
     case UploadCheck::TooManyWaypoints: return "too many waypoints";
     case UploadCheck::OutsideGeofence: return "outside the geofence";
     case UploadCheck::BelowAltitudeFloor: return "below the altitude floor";
+    case UploadCheck::Invalid: return "not a valid mission";
   }
   return "unknown";
 }
@@ -105,6 +106,23 @@ UploadCheck check_upload(const MissionSpec& upload, const flight::PathWaypoint& 
     if (!(-upload.waypoints[i].p_N_m.z() >= bounds.min_altitude_m)) return UploadCheck::BelowAltitudeFloor;
   }
   return UploadCheck::Accepted;
+}
+
+Result<MissionSpec, UploadRefusal> validate_upload(const rejuv_msg_MissionWaypoints& upload,
+                                                  const flight::PathWaypoint& home, const UploadBounds& bounds) {
+  auto mission = mission_from_message(upload);
+  if (!mission) {
+    return fail(UploadRefusal{.check = UploadCheck::Invalid, .waypoint = 0, .message = mission.error().to_string()});
+  }
+  std::size_t where = 0;
+  if (const UploadCheck check = check_upload(*mission, home, bounds, &where); check != UploadCheck::Accepted) {
+    const bool names_waypoint = check != UploadCheck::TooManyWaypoints;
+    return fail(UploadRefusal{
+        .check = check,
+        .waypoint = names_waypoint ? where : 0,
+        .message = std::string(to_string(check)) + (names_waypoint ? " (waypoint " + std::to_string(where) + ")" : "")});
+  }
+  return std::move(*mission);
 }
 
 }  // namespace rejuv::flight_io

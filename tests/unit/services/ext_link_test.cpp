@@ -29,6 +29,11 @@ link::MissionUpload square_upload() {
   return up;
 }
 
+// Home at 3 m over the origin, the default bounds (10 m geofence, 1 m altitude floor): square_upload passes.
+services::ExtLink guarded_link() {
+  return services::ExtLink({.home = {.p_N_m = Eigen::Vector3d(0, 0, -3), .yaw_rad = 0}, .bounds = {}});
+}
+
 Bytes bytes_of(const link::Message& m) {
   const link::Datagram d = link::encode(m);
   return Bytes(d.view().begin(), d.view().end());
@@ -97,6 +102,12 @@ TEST(LinkCodec, EveryType_RoundTrips) {
       {{.sequence = 3, .body = link::MissionAck{.upload_sequence = 2, .status = link::AckStatus::Forwarded}},
        Direction::ToGround},
       {{.sequence = 4, .body = t}, Direction::ToGround},
+      {{.sequence = 5,
+        .body = link::MissionAck{.upload_sequence = 2,
+                                 .status = link::AckStatus::Refused,
+                                 .reason = link::RefusalReason::OutsideGeofence,
+                                 .waypoint = 3}},
+       Direction::ToGround},
   };
   for (const auto& [message, direction] : cases) {
     const link::Datagram d = link::encode(message);
@@ -112,6 +123,44 @@ TEST(LinkCodec, UploadOfSixteenWaypoints_FitsTheGateLimit) {
   const Bytes b = bytes_of({.sequence = 1, .body = up});
   EXPECT_LE(b.size(), link::kMaxLinkDatagramBytes);
   EXPECT_TRUE(link::decode(b, Direction::ToVehicle).has_value());
+}
+
+// The negative acknowledgement uses the bytes version 1 reserved: a Forwarded ack is byte for byte what it
+// was (status 0, then three zero bytes), a Refused one carries the reason and the waypoint at fault.
+TEST(LinkCodec, MissionAck_ForwardedUnchangedRefusedCarriesReasonAndWaypoint) {
+  const Bytes forwarded = bytes_of({.sequence = 1, .body = link::MissionAck{.upload_sequence = 0x0A0B0C0DU}});
+  ASSERT_EQ(forwarded.size(), 16U + 8U);
+  EXPECT_EQ(forwarded[16], std::byte{0x0D});
+  EXPECT_EQ(forwarded[20], std::byte{0});  // Forwarded
+  EXPECT_EQ(forwarded[21], std::byte{0});
+  EXPECT_EQ(forwarded[22], std::byte{0});
+  EXPECT_EQ(forwarded[23], std::byte{0});
+  Bytes refused = bytes_of({.sequence = 1,
+                            .body = link::MissionAck{.upload_sequence = 9,
+                                                     .status = link::AckStatus::Refused,
+                                                     .reason = link::RefusalReason::BelowAltitudeFloor,
+                                                     .waypoint = 15}});
+  EXPECT_EQ(refused[20], std::byte{1});  // Refused
+  EXPECT_EQ(refused[21], std::byte{4});  // BelowAltitudeFloor
+  EXPECT_EQ(refused[22], std::byte{15});
+  EXPECT_EQ(refused[23], std::byte{0});
+  // ... which decodes only with a waypoint an upload can have (16 and 0x0102 cannot be one).
+  for (const std::uint16_t waypoint : {std::uint16_t{16}, std::uint16_t{0x0102}}) {
+    refused[22] = std::byte{static_cast<std::uint8_t>(waypoint & 0xFFU)};
+    refused[23] = std::byte{static_cast<std::uint8_t>(waypoint >> 8U)};
+    resign(refused);
+    EXPECT_EQ(refusal(refused, Direction::ToGround), DecodeError::OutOfRange) << waypoint;
+  }
+}
+
+TEST(LinkCodec, MissionAck_UnknownStatusOrReason_OutOfRange) {
+  for (const auto& [status, reason] : {std::pair{2, 1}, std::pair{0xFF, 1}, std::pair{1, 0}, std::pair{1, 5}}) {
+    Bytes ack = bytes_of({.sequence = 1, .body = link::MissionAck{}});
+    ack[20] = std::byte{static_cast<std::uint8_t>(status)};
+    ack[21] = std::byte{static_cast<std::uint8_t>(reason)};
+    resign(ack);
+    EXPECT_EQ(refusal(ack, Direction::ToGround), DecodeError::OutOfRange) << status << "/" << reason;
+  }
 }
 
 // ---- codec: malformed (one test per reason) ----
@@ -285,7 +334,7 @@ TEST(LinkCodec, RandomBytes_AlwaysRefusedNeverCrash) {
 // ---- ext_link's logic ----
 
 TEST(ExtLink, Hello_MakesTheGroundKnown) {
-  services::ExtLink link;
+  services::ExtLink link = guarded_link();
   EXPECT_FALSE(link.ground_known());
   auto r = link.on_datagram(bytes_of({.sequence = 1, .body = link::Hello{}}), Nanos{0});
   ASSERT_TRUE(r.has_value());
@@ -294,7 +343,7 @@ TEST(ExtLink, Hello_MakesTheGroundKnown) {
 }
 
 TEST(ExtLink, Upload_ForwardsTheWaypointsAndAcknowledgesItsSequence) {
-  services::ExtLink link;
+  services::ExtLink link = guarded_link();
   auto r = link.on_datagram(upload_bytes(42), std::chrono::seconds{3});
   ASSERT_TRUE(r.has_value());
   const auto* forward = std::get_if<services::ExtLink::Forward>(&*r);
@@ -315,7 +364,7 @@ TEST(ExtLink, Upload_ForwardsTheWaypointsAndAcknowledgesItsSequence) {
 }
 
 TEST(ExtLink, RetransmittedUpload_ReacknowledgedNotRepublished) {
-  services::ExtLink link;
+  services::ExtLink link = guarded_link();
   auto first = link.on_datagram(upload_bytes(5), Nanos{0});
   ASSERT_TRUE(first.has_value());
   (void)link.forwarded(std::get<services::ExtLink::Forward>(*first));
@@ -328,8 +377,55 @@ TEST(ExtLink, RetransmittedUpload_ReacknowledgedNotRepublished) {
   EXPECT_EQ(link.uploads_forwarded(), 1U);
 }
 
+// Issue 18 item 5: an upload commander would refuse is refused here too, with the reason, so that the ground
+// station learns it (it used to be acknowledged as forwarded and then dropped by commander, silently).
+TEST(ExtLink, UploadOutsideTheBounds_RefusedWithItsReasonNotForwarded) {
+  services::ExtLink link = guarded_link();
+  struct Case {
+    link::MissionUpload upload;
+    link::RefusalReason reason;
+    std::uint16_t waypoint;
+  };
+  std::vector<Case> cases;
+  link::MissionUpload far = square_upload();
+  far.waypoints[2].east_m = 12;  // 12 m east of home: outside the 10 m geofence
+  cases.push_back({far, link::RefusalReason::OutsideGeofence, 2});
+  link::MissionUpload low = square_upload();
+  low.waypoints[1].down_m = -0.5;  // 0.5 m up: below the 1 m floor
+  cases.push_back({low, link::RefusalReason::BelowAltitudeFloor, 1});
+  link::MissionUpload many;
+  many.count = 16;  // the path flown starts at x_sp: at most 15 uploaded waypoints
+  for (auto& w : many.waypoints) w = {.north_m = 1, .east_m = 1, .down_m = -3, .yaw_rad = 0};
+  cases.push_back({many, link::RefusalReason::TooManyWaypoints, 0});
+  std::uint32_t sequence = 100;
+  for (const Case& c : cases) {
+    auto r = link.on_datagram(bytes_of({.sequence = sequence, .body = c.upload}), Nanos{0});
+    ASSERT_TRUE(r.has_value()) << "well-formed: not a link refusal";
+    const auto* refuse = std::get_if<services::ExtLink::Refuse>(&*r);
+    ASSERT_NE(refuse, nullptr) << link::to_string(c.reason);
+    EXPECT_EQ(refuse->reason, c.reason);
+    EXPECT_EQ(refuse->waypoint, c.waypoint);
+    auto ack = link::decode(link.refused_upload(*refuse).view(), Direction::ToGround);
+    ASSERT_TRUE(ack.has_value());
+    const auto& a = std::get<link::MissionAck>(ack->body);
+    EXPECT_EQ(a.upload_sequence, sequence);
+    EXPECT_EQ(a.status, link::AckStatus::Refused);
+    EXPECT_EQ(a.reason, c.reason);
+    EXPECT_EQ(a.waypoint, c.waypoint);
+    ++sequence;
+  }
+  EXPECT_EQ(link.uploads_forwarded(), 0U);
+  EXPECT_EQ(link.uploads_refused(), 3U);
+  EXPECT_EQ(link.refused(), 0U);  // the datagrams were valid: the ground station is known
+  EXPECT_TRUE(link.ground_known());
+  // The valid upload after them is forwarded.
+  auto ok = link.on_datagram(upload_bytes(200), Nanos{0});
+  ASSERT_TRUE(ok.has_value());
+  EXPECT_TRUE(std::holds_alternative<services::ExtLink::Forward>(*ok));
+}
+
 TEST(ExtLink, MalformedDatagrams_CountedByReasonWithoutEffect) {
-  services::ExtLink link;
+  services::ExtLink link = guarded_link();
   Bytes bad_magic = upload_bytes();
   bad_magic[1] = std::byte{0};
   Bytes bad_crc = upload_bytes();
@@ -348,7 +444,7 @@ TEST(ExtLink, MalformedDatagrams_CountedByReasonWithoutEffect) {
 }
 
 TEST(ExtLink, Telemetry_ReportsStateSetpointModeAndCounts) {
-  services::ExtLink link;
+  services::ExtLink link = guarded_link();
   (void)link.on_datagram({}, Nanos{0});  // one refusal
   rejuv_msg_VehicleStateEstimate x{};
   x.p_N_m[0] = 0.5;
@@ -378,7 +474,7 @@ TEST(ExtLink, Telemetry_ReportsStateSetpointModeAndCounts) {
 }
 
 TEST(ExtLink, RefusalLog_AtMostOncePerSecondOfKernelTime) {
-  services::ExtLink link;
+  services::ExtLink link = guarded_link();
   std::uint64_t suppressed = 99;
   EXPECT_TRUE(link.should_log_refusal(Nanos{0}, suppressed));
   EXPECT_EQ(suppressed, 0U);

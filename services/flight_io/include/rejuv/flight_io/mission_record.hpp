@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <optional>
 #include <span>
+#include <string>
 
 #include "rejuv/core/result.hpp"
 #include "rejuv/flight/setpoint.hpp"
@@ -51,10 +52,24 @@ struct UploadBounds {
   double min_altitude_m = 1.0;
 };
 [[nodiscard]] Result<UploadBounds, InputFailure> upload_bounds(const Params& params);
-enum class UploadCheck : std::uint8_t { Accepted, TooManyWaypoints, OutsideGeofence, BelowAltitudeFloor };
+enum class UploadCheck : std::uint8_t { Accepted, TooManyWaypoints, OutsideGeofence, BelowAltitudeFloor, Invalid };
 [[nodiscard]] std::string_view to_string(UploadCheck check);
 // The first bound `upload` breaks (with the waypoint in `where`), or Accepted.
 [[nodiscard]] UploadCheck check_upload(const MissionSpec& upload, const flight::PathWaypoint& home,
                                        const UploadBounds& bounds, std::size_t* where = nullptr);
+
+// The whole check a mission upload passes before anything acts on it — the one validator of the ground link:
+// ext_link runs it to answer the ground station (a negative acknowledgement names the reason), commander runs
+// it again before it keeps the upload, gen_set_point checks the kept record once more. The message must be a
+// mission (mission_from_message: Invalid otherwise) that check_upload accepts.
+struct UploadRefusal {
+  UploadCheck check = UploadCheck::Invalid;  // never Accepted
+  std::size_t waypoint = 0;                  // OutsideGeofence, BelowAltitudeFloor: the waypoint at fault
+  std::string message{};                     // for logs: the reason, the waypoint or the field at fault
+  [[nodiscard]] std::string to_string() const { return message; }
+};
+[[nodiscard]] Result<MissionSpec, UploadRefusal> validate_upload(const rejuv_msg_MissionWaypoints& upload,
+                                                                const flight::PathWaypoint& home,
+                                                                const UploadBounds& bounds);
 
 }  // namespace rejuv::flight_io

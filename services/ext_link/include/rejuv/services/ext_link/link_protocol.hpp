@@ -36,7 +36,7 @@ inline constexpr std::size_t kMaxLinkDatagramBytes = 1400;  // = wire::kMaxDatag
 enum class MessageType : std::uint8_t {
   Hello = 1,          // ground → vehicle: "send telemetry here". Body: none.
   MissionUpload = 2,  // ground → vehicle: a mission for commander. Body: MissionUpload.
-  MissionAck = 3,     // vehicle → ground: the upload with this sequence was handed to commander.
+  MissionAck = 3,     // vehicle → ground: the upload with this sequence was handed to commander, or refused.
   Telemetry = 4,      // vehicle → ground: state, setpoint, mode, security events (MC only, ≈10 Hz).
 };
 [[nodiscard]] std::string_view to_string(MessageType type);
@@ -64,11 +64,27 @@ struct MissionUpload {
   friend bool operator==(const MissionUpload&, const MissionUpload&) = default;
 };
 
-// Body: u32 upload_sequence, u8 status (0 = forwarded to commander), 3 reserved bytes (0). 8 bytes.
-enum class AckStatus : std::uint8_t { Forwarded = 0 };
+// Body (8 bytes): u32 upload_sequence, u8 status, then
+//   status 0 Forwarded: 3 reserved bytes (0) — the upload passed the check commander applies and was handed
+//                       to it (version 1's only status: such an ack is unchanged);
+//   status 1 Refused:   u8 reason (RefusalReason, 1 … 4), u16 waypoint (the index in the upload of the
+//                       waypoint at fault, 0 … 15; 0 when the reason names no waypoint).
+enum class AckStatus : std::uint8_t { Forwarded = 0, Refused = 1 };
+// Why ext_link refused a well-formed upload (flight_io::validate_upload, the check commander applies).
+enum class RefusalReason : std::uint8_t {
+  None = 0,                // Forwarded
+  InvalidMission = 1,      // not a mission the flight services accept (e.g. an acceptance radius they refuse)
+  TooManyWaypoints = 2,    // more than 15 (the path flown starts at the current setpoint)
+  OutsideGeofence = 3,     // a waypoint farther from home horizontally than the geofence radius
+  BelowAltitudeFloor = 4,  // a waypoint below the altitude floor
+};
+inline constexpr std::uint8_t kMaxRefusalReason = 4;
+[[nodiscard]] std::string_view to_string(RefusalReason reason);
 struct MissionAck {
   std::uint32_t upload_sequence = 0;
   AckStatus status = AckStatus::Forwarded;
+  RefusalReason reason = RefusalReason::None;  // None iff Forwarded
+  std::uint16_t waypoint = 0;                  // Refused: the waypoint at fault (0 when none is)
   friend bool operator==(const MissionAck&, const MissionAck&) = default;
 };
 
@@ -115,7 +131,7 @@ enum class DecodeError : std::uint8_t {
   BadReserved,     // a reserved field is not zero
   BadCount,        // waypoint count outside 1 … 16
   NonFinite,       // NaN or infinity where a number must be finite
-  OutOfRange,      // e.g. acceptance radius ≤ 0, unknown ack status or mode
+  OutOfRange,      // e.g. acceptance radius ≤ 0, unknown ack status, refusal reason or mode
 };
 inline constexpr std::size_t kDecodeErrorCount = 12;
 [[nodiscard]] std::string_view to_string(DecodeError error);
