@@ -428,7 +428,10 @@ class Injector final : public kernel::Observer {
       case Where::RollbackResumesSent: match = phase == kernel::ImagePhase::RollbackResumesSent; break;
     }
     if (!match) return;
-    const std::vector<int> pids = targets(o.fault, phase ? std::optional(g) : std::nullopt);
+    // Inside a rollback `g` is the generation being restored; inside a checkpoint it is not committed yet
+    // (no image_pids): the image faults then hit the newest committed generation.
+    const bool restoring = phase == kernel::ImagePhase::RollbackKilled || phase == kernel::ImagePhase::RollbackResumesSent;
+    const std::vector<int> pids = targets(o.fault, restoring ? std::optional(g) : std::nullopt);
     if (pids.empty()) return;  // e.g. no image yet after a cold restart: stays armed
     if (evaluating_) maybe_evaluate(flight, true);
     const int sig = o.fault.kind == FaultKind::HangLive || o.fault.kind == FaultKind::StopImage ||
