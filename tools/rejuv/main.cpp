@@ -24,6 +24,8 @@ constexpr Command kCommands[] = {
     {"sim", "model-level simulation of the SR scheme in one process (no runtime)", rejuv::cli::run_sim},
     {"report", "`report table`: Table I, runtime (rejuv run) beside model (rejuv sim), four configurations",
      rejuv::cli::run_report},
+    {"faults", "fault campaign: kill or stop any process at any SR phase; recovery, safety, leaks (DESIGN §11)",
+     rejuv::cli::run_faults},
 };
 
 void print_usage(std::FILE* to) {

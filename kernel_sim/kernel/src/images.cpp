@@ -228,6 +228,7 @@ void Kernel::Impl::run_checkpoint() {
   }
   checkpoint = std::move(run);
   const Nanos t_sent = wall();
+  if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointSnapshotsSent, g);
   // Every other event is handled meanwhile (pump); Taken frames come through handle_frame → on_taken,
   // TakenPages (with its fd) through read_channel → on_taken_pages.
   const Nanos deadline = wall() + options.snapshot_deadline;
@@ -260,6 +261,7 @@ void Kernel::Impl::run_checkpoint() {
     return;
   }
   const Nanos t_taken = wall();
+  if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointTaken, g);
   flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
   const std::vector<clock::KernelTimer> armed = timers.armed();
   for (const image::Image& im : done.record.images) {
@@ -496,6 +498,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
     (void)channel->second.take_fd();
     pending.push_back(Pending{.service = &s, .image = &im, .channel = std::move(channel->first)});
   }
+  if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
   // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
   // (on a failure the caller retires it again).
   const Nanos deadline = wall() + options.resume_deadline;
@@ -563,6 +566,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   image::GenerationRecord* restored = nullptr;
   while (image::GenerationRecord* record = images.newest()) {
     std::string failure;
+    if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
     if (const auto dead = record->dead_image()) {
       failure = "the image of '" + services[dead->value()].name + "' is gone";
     } else if (resume_generation(*record, failure, t_resumed)) {

@@ -38,6 +38,16 @@ std::string_view to_string(StopReason reason) {
   return "?";
 }
 
+std::string_view to_string(ImagePhase phase) {
+  switch (phase) {
+    case ImagePhase::CheckpointSnapshotsSent: return "checkpoint:snapshots-sent";
+    case ImagePhase::CheckpointTaken: return "checkpoint:taken";
+    case ImagePhase::RollbackKilled: return "rollback:killed";
+    case ImagePhase::RollbackResumesSent: return "rollback:resumes-sent";
+  }
+  return "?";
+}
+
 bool is_failure(StopReason reason) {
   switch (reason) {
     case StopReason::MissionDone:
@@ -894,6 +904,10 @@ std::vector<int> Kernel::image_pids(ServiceId service, Generation g) {
   return impl_->images.image_pids(service, g);
 }
 std::vector<Generation> Kernel::generations() const { return impl_->images.generations(); }
+std::optional<int> Kernel::plant_pid() const {
+  if (!impl_->plant_started || impl_->plant.pid() <= 0) return std::nullopt;
+  return impl_->plant.pid();
+}
 
 std::optional<ServiceId> Kernel::find_service(std::string_view name) const {
   for (const ServiceRuntime& s : impl_->services) {

@@ -144,6 +144,18 @@ struct Publication {
   std::optional<ServiceId> publisher{};  // nullopt: the kernel itself or the DDS bridge
 };
 
+// The phase boundaries inside a checkpoint and a rollback (DESIGN §7), for fault injection (`rejuv faults`,
+// DESIGN §11): a fault placed exactly there tests the paths that a fault at a step boundary cannot reach.
+enum class ImagePhase : std::uint8_t {
+  CheckpointSnapshotsSent,  // routing frozen, every Snapshot sent, no Taken read yet
+  CheckpointTaken,          // every Taken read, the generation not yet saved nor committed
+  RollbackKilled,           // mode RB, the live rejuvenated services cut off, no Resume sent yet
+  RollbackResumesSent,      // every Resume of the generation tried sent, no Resumed read yet
+};
+inline constexpr std::array kAllImagePhases{ImagePhase::CheckpointSnapshotsSent, ImagePhase::CheckpointTaken,
+                                            ImagePhase::RollbackKilled, ImagePhase::RollbackResumesSent};
+[[nodiscard]] std::string_view to_string(ImagePhase phase);
+
 // Receives what happens during a run. Called from the kernel's loop: must not block.
 class Observer {
  public:
@@ -158,6 +170,10 @@ class Observer {
   // run since). Tests compare the broker's state at both points.
   virtual void on_checkpoint(Generation /*g*/, const broker::Broker& /*queues*/) {}
   virtual void on_restore(Generation /*g*/, const broker::Broker& /*queues*/) {}
+  // The fault-injection seam: called at each ImagePhase boundary of a checkpoint or rollback of generation
+  // `g` (a rollback: the generation it tries; again for each one it falls back to). Only for observers; the
+  // kernel does nothing else there.
+  virtual void on_image_phase(ImagePhase /*phase*/, Generation /*g*/) {}
 };
 
 // Per-service counters, for tests, the summary and diagnostics.
@@ -310,6 +326,8 @@ class Kernel {
   [[nodiscard]] std::vector<int> image_pids(ServiceId service);
   [[nodiscard]] std::vector<int> image_pids(ServiceId service, Generation g);
   [[nodiscard]] std::vector<Generation> generations() const;
+  // The plant process's pid (nullopt: not started or already reaped): fault injection.
+  [[nodiscard]] std::optional<int> plant_pid() const;
   // Waits (briefly) until the asynchronous image work is done: requested spares reported, retired
   // generations destroyed, killed incarnations reaped. Tests count processes and fds after it.
   void settle_images();

@@ -1,0 +1,643 @@
+// The fault campaign's missions (fault_campaign.hpp): the plan, the injector (an Observer that forwards
+// everything to `rejuv run`'s recorder and carries out the faults, at lockstep steps or exactly at the
+// kernel's ImagePhase boundaries) and the mission-level checks (leaks, the wall-clock watchdog).
+#include "fault_campaign.hpp"
+
+#include <dirent.h>
+#include <pthread.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <random>
+#include <sstream>
+#include <thread>
+#include <utility>
+
+#include "run_recorder.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "rejuv/launch/launch.hpp"
+
+#ifndef REJUV_SOURCE_DIR
+#define REJUV_SOURCE_DIR ""
+#endif
+#ifndef REJUV_SERVICE_DIR
+#define REJUV_SERVICE_DIR ""
+#endif
+
+namespace rejuv::cli::faults {
+
+std::string_view to_string(FaultKind kind) {
+  switch (kind) {
+    case FaultKind::KillLive: return "kill-live";
+    case FaultKind::HangLive: return "hang-live";
+    case FaultKind::KillImage: return "kill-image";
+    case FaultKind::StopImage: return "stop-image";
+    case FaultKind::KillImages: return "kill-all-images";
+    case FaultKind::KillGroup: return "kill-group";
+    case FaultKind::StallPlant: return "stall-plant-1s";
+    case FaultKind::KillDriver: return "kill-output-driver";
+    case FaultKind::KillPlant: return "kill-plant";
+  }
+  return "?";
+}
+
+bool is_terminal(FaultKind kind) { return kind == FaultKind::KillDriver || kind == FaultKind::KillPlant; }
+
+std::string_view to_string(Where where) {
+  switch (where) {
+    case Where::MC: return "MC";
+    case Where::SecureInterval: return "secure-interval";
+    case Where::CheckpointSnapshotsSent: return "ckpt:snapshots-sent";
+    case Where::CheckpointTaken: return "ckpt:taken";
+    case Where::RollbackKilled: return "rb:killed";
+    case Where::RollbackResumesSent: return "rb:resumes-sent";
+  }
+  return "?";
+}
+
+bool makes_sense(FaultKind kind, Where where) {
+  const bool in_rollback = where == Where::RollbackKilled || where == Where::RollbackResumesSent;
+  switch (kind) {
+    case FaultKind::KillLive:
+    case FaultKind::HangLive: return !in_rollback;
+    case FaultKind::KillPlant: return where != Where::CheckpointTaken && where != Where::RollbackResumesSent;
+    case FaultKind::KillImage:
+    case FaultKind::StopImage:
+    case FaultKind::KillImages:
+    case FaultKind::KillGroup:
+    case FaultKind::StallPlant:
+    case FaultKind::KillDriver: return true;
+  }
+  return false;
+}
+
+std::vector<Mission> plan(std::uint64_t seed, std::uint32_t injections, std::uint32_t per_mission,
+                          const std::vector<std::string>& rejuvenated, Nanos flight) {
+  std::mt19937_64 rng(seed);
+  std::vector<std::pair<FaultKind, Where>> ordinary, terminal;
+  for (const FaultKind k : kAllFaultKinds) {
+    for (const Where w : kAllWheres) {
+      if (makes_sense(k, w)) (is_terminal(k) ? terminal : ordinary).emplace_back(k, w);
+    }
+  }
+  std::shuffle(ordinary.begin(), ordinary.end(), rng);
+  std::shuffle(terminal.begin(), terminal.end(), rng);
+  std::vector<Planned> drawn;
+  std::size_t next_ordinary = 0, next_terminal = 0;
+  for (std::uint32_t i = 0; i < injections; ++i) {
+    const bool take_terminal = i % 10 == 9;  // about one in ten: each ends its mission
+    auto& list = take_terminal ? terminal : ordinary;
+    std::size_t& next = take_terminal ? next_terminal : next_ordinary;
+    if (next == list.size()) {
+      std::shuffle(list.begin(), list.end(), rng);
+      next = 0;
+    }
+    const auto [kind, where] = list[next++];
+    Planned p{.kind = kind, .where = where, .target = {}, .at = Nanos{0}};
+    switch (kind) {
+      case FaultKind::KillDriver: p.target = "output_driver"; break;
+      case FaultKind::KillPlant:
+      case FaultKind::StallPlant: p.target = "plant"; break;
+      case FaultKind::KillLive:
+      case FaultKind::HangLive:
+      case FaultKind::KillImage:
+      case FaultKind::StopImage:
+      case FaultKind::KillImages:
+      case FaultKind::KillGroup: p.target = rejuvenated[rng() % rejuvenated.size()]; break;
+    }
+    drawn.push_back(std::move(p));
+  }
+  std::vector<Mission> missions;
+  Mission current;
+  const auto close = [&] {
+    if (current.faults.empty()) return;
+    // Spread over the flight: one slot each, the moment drawn in the first 60 % of its slot so that the
+    // kernel has recovered before the next one is armed.
+    const Nanos start = std::chrono::seconds{6};
+    const Nanos slot = (flight - start) / static_cast<std::int64_t>(current.faults.size());
+    std::uniform_real_distribution<double> u(0.0, 0.6);
+    for (std::size_t j = 0; j < current.faults.size(); ++j) {
+      current.faults[j].at = start + slot * static_cast<std::int64_t>(j) +
+                             Nanos{static_cast<std::int64_t>(u(rng) * static_cast<double>(slot.count()))};
+    }
+    current.index = static_cast<std::uint32_t>(missions.size());
+    missions.push_back(std::move(current));
+    current = Mission{};
+  };
+  for (Planned& p : drawn) {
+    const bool terminal_fault = is_terminal(p.kind);
+    current.faults.push_back(std::move(p));
+    if (terminal_fault || current.faults.size() >= per_mission) close();
+  }
+  close();
+  return missions;
+}
+
+// ---- encoding (job → parent) ----
+
+namespace {
+std::string clean(std::string s) {
+  std::replace(s.begin(), s.end(), '\t', ' ');
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  return s;
+}
+}  // namespace
+
+std::string encode(const Outcome& o) {
+  std::ostringstream out;
+  out << o.mission << '\t' << static_cast<int>(o.fault.kind) << '\t' << static_cast<int>(o.fault.where) << '\t'
+      << clean(o.fault.target) << '\t' << o.fault.at.count() << '\t' << o.fired << '\t' << o.fired_at_s << '\t'
+      << clean(o.path) << '\t' << o.recovered << '\t' << o.unsafe << '\t' << o.leaked << '\t' << o.hung << '\t'
+      << clean(o.note) << '\n';
+  return out.str();
+}
+
+bool decode(std::string_view line, Outcome& o) {
+  std::vector<std::string> f;
+  std::string cur;
+  for (const char c : line) {
+    if (c == '\t') {
+      f.push_back(std::move(cur));
+      cur.clear();
+    } else if (c != '\n') {
+      cur += c;
+    }
+  }
+  f.push_back(std::move(cur));
+  if (f.size() != 13) return false;
+  const auto kind = std::stoi(f[1]), where = std::stoi(f[2]);
+  if (kind < 0 || kind >= static_cast<int>(kAllFaultKinds.size()) || where < 0 ||
+      where >= static_cast<int>(kAllWheres.size())) {
+    return false;
+  }
+  o.mission = static_cast<std::uint32_t>(std::stoul(f[0]));
+  o.fault.kind = kAllFaultKinds[static_cast<std::size_t>(kind)];
+  o.fault.where = kAllWheres[static_cast<std::size_t>(where)];
+  o.fault.target = f[3];
+  o.fault.at = Nanos{std::stoll(f[4])};
+  o.fired = f[5] == "1";
+  o.fired_at_s = std::stod(f[6]);
+  o.path = f[7];
+  o.recovered = f[8] == "1";
+  o.unsafe = f[9] == "1";
+  o.leaked = f[10] == "1";
+  o.hung = f[11] == "1";
+  o.note = f[12];
+  return true;
+}
+
+namespace {
+
+// ---- the process's own resources (the leak check) ----
+
+std::size_t count_fds() {
+  std::size_t n = 0;
+  if (DIR* d = ::opendir("/proc/self/fd"); d != nullptr) {
+    while (const dirent* e = ::readdir(d)) {
+      if (e->d_name[0] != '.') ++n;
+    }
+    ::closedir(d);
+    --n;  // the directory's own
+  }
+  return n;
+}
+
+std::vector<int> children() {
+  std::vector<int> out;
+  const int self = ::getpid();
+  if (DIR* d = ::opendir("/proc"); d != nullptr) {
+    while (const dirent* e = ::readdir(d)) {
+      if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
+      std::ifstream stat(std::string("/proc/") + e->d_name + "/stat");
+      std::string text;
+      std::getline(stat, text);  // one line (istreambuf_iterator trips g++ 12's -Wnull-dereference at -O2)
+      const auto paren = text.rfind(')');
+      if (paren == std::string::npos) continue;
+      std::istringstream rest(text.substr(paren + 1));
+      char state = 0;
+      int ppid = 0;
+      rest >> state >> ppid;
+      if (ppid == self) out.push_back(std::atoi(e->d_name));
+    }
+    ::closedir(d);
+  }
+  return out;
+}
+
+long rss_kb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::atol(line.c_str() + 6);
+  }
+  return 0;
+}
+
+// ---- the helper thread: SIGCONT after a stall, and the mission's watchdog ----
+
+class Helper {
+ public:
+  Helper() : thread_([this] { loop(); }) {}
+  Helper(const Helper&) = delete;
+  Helper& operator=(const Helper&) = delete;
+  ~Helper() {
+    stop_ = true;
+    thread_.join();
+  }
+  void cont_after(int pid, Nanos wall_delay) {
+    const std::lock_guard lock(mu_);
+    conts_.emplace_back(pid, sys_now() + wall_delay);
+  }
+  void clear_conts() {
+    const std::lock_guard lock(mu_);
+    conts_.clear();
+  }
+  void arm_watchdog(Nanos bound) {
+    const std::lock_guard lock(mu_);
+    watchdog_ = sys_now() + bound;
+    expired_ = false;
+  }
+  void disarm_watchdog() {
+    const std::lock_guard lock(mu_);
+    watchdog_.reset();
+  }
+  [[nodiscard]] bool expired() {
+    const std::lock_guard lock(mu_);
+    return expired_;
+  }
+
+ private:
+  static Nanos sys_now() { return std::chrono::duration_cast<Nanos>(std::chrono::steady_clock::now().time_since_epoch()); }
+  void loop() {
+    // Every signal blocked here: the kernel's SIGTERM (the watchdog) goes to its signalfd.
+    sigset_t all;
+    sigfillset(&all);
+    ::pthread_sigmask(SIG_BLOCK, &all, nullptr);
+    while (!stop_) {
+      std::this_thread::sleep_for(std::chrono::milliseconds{20});
+      const std::lock_guard lock(mu_);
+      const Nanos now = sys_now();
+      std::erase_if(conts_, [&](const std::pair<int, Nanos>& c) {
+        if (c.second > now) return false;
+        ::kill(c.first, SIGCONT);
+        return true;
+      });
+      if (watchdog_ && now > *watchdog_) {
+        if (!expired_) {
+          expired_ = true;
+          ::kill(::getpid(), SIGTERM);  // the kernel stops (StopReason::Signal) and shuts everything down
+          watchdog_ = now + std::chrono::seconds{60};
+        } else {
+          std::fprintf(stderr, "rejuv faults: a mission did not stop 60 s after SIGTERM: the job gives up\n");
+          std::_Exit(3);
+        }
+      }
+    }
+  }
+  std::mutex mu_;
+  std::vector<std::pair<int, Nanos>> conts_;
+  std::optional<Nanos> watchdog_;
+  bool expired_ = false;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+struct Counters {
+  std::uint64_t rollbacks = 0, timer_rollbacks = 0, fallbacks = 0, cold_restarts = 0, checkpoint_failures = 0;
+  static Counters of(const kernel::SrStats& s) {
+    return {s.rollbacks, s.timer_rollbacks, s.fallbacks, s.cold_restarts, s.checkpoint_failures};
+  }
+};
+
+std::string recovery_path(const Counters& a, const Counters& b) {
+  if (b.cold_restarts > a.cold_restarts) return "cold restart";
+  if (b.fallbacks > a.fallbacks) return "fallback to an earlier generation";
+  const bool fault_rollback = (b.rollbacks - a.rollbacks) > (b.timer_rollbacks - a.timer_rollbacks);
+  if (b.checkpoint_failures > a.checkpoint_failures) {
+    return fault_rollback ? "checkpoint abandoned, rollback" : "checkpoint abandoned, timer rollback";
+  }
+  if (fault_rollback) return "rollback";
+  if (b.rollbacks > a.rollbacks) return "timer rollback (fault inside the image)";
+  return "none needed";
+}
+
+// Forwards everything to the recorder and carries out the mission's faults.
+class Injector final : public kernel::Observer {
+ public:
+  Injector(RunRecorder& recorder, const Mission& mission, Nanos alignment, Helper& helper)
+      : rec_(recorder), mission_(mission), alignment_(alignment), helper_(helper) {
+    for (const Planned& p : mission.faults) {
+      outcomes_.push_back(Outcome{.mission = mission.index, .fault = p});
+    }
+  }
+  void attach(kernel::Kernel* k) { k_ = k; }
+
+  void on_publication(const kernel::Publication& p) override { rec_.on_publication(p); }
+  void on_checkpoint(Generation g, const broker::Broker& q) override { rec_.on_checkpoint(g, q); }
+  void on_restore(Generation g, const broker::Broker& q) override { rec_.on_restore(g, q); }
+  void on_step(std::uint64_t step, Nanos t, SrMode mode) override {
+    rec_.on_step(step, t, mode);
+    if (k_ == nullptr) return;
+    const Nanos flight = t - alignment_;
+    maybe_evaluate(flight, false);
+    advance(flight, mode, std::nullopt, Generation{});
+  }
+  void on_image_phase(kernel::ImagePhase phase, Generation g) override {
+    if (k_ == nullptr) return;
+    advance(k_->now() - alignment_, std::nullopt, phase, g);
+  }
+
+  // After the run: the last fault judged against how the mission ended.
+  std::vector<Outcome> finish(const kernel::RunOutcome& out, const proto::RunSummary& s, bool lost, bool hung) {
+    if (evaluating_) {
+      Outcome& o = outcomes_[*evaluating_];
+      if (is_terminal(o.fault.kind)) {
+        const bool expected = o.fault.kind == FaultKind::KillDriver
+                                  ? out.reason == kernel::StopReason::ServiceFailed &&
+                                        out.detail.find("output_driver") != std::string::npos
+                                  : out.reason == kernel::StopReason::PlantExited;
+        o.path = "clean stop, exit 1: " + std::string(kernel::to_string(out.reason)) + ": " + out.detail;
+        o.recovered = expected && kernel::is_failure(out.reason);
+        if (!o.recovered) o.note = "expected the run to end for it";
+        if (s.max_v() >= 1.0 && max_v_at_fire_ < 1.0) o.unsafe = true;
+        evaluating_.reset();
+      } else {
+        evaluate(*evaluating_, Counters::of(k_->sr_stats()), s.max_v(), /*final=*/true);
+      }
+    }
+    const bool terminal_mission = std::any_of(outcomes_.begin(), outcomes_.end(), [](const Outcome& o) {
+      return o.fired && is_terminal(o.fault.kind);
+    });
+    const bool completed = out.reason == kernel::StopReason::MissionDone && s.mission_completed() && !lost;
+    if (!terminal_mission && !completed) {
+      // The mission should have completed: the last fault before it stopped is held responsible.
+      for (auto it = outcomes_.rbegin(); it != outcomes_.rend(); ++it) {
+        if (!it->fired) continue;
+        it->unsafe = true;
+        it->recovered = false;
+        it->note += (it->note.empty() ? "" : "; ") + std::string("mission not completed: ") +
+                    std::string(kernel::to_string(out.reason)) + ": " + out.detail;
+        break;
+      }
+    }
+    if (s.max_v() >= 1.0 && std::none_of(outcomes_.begin(), outcomes_.end(), [](const Outcome& o) { return o.unsafe; })) {
+      for (auto it = outcomes_.rbegin(); it != outcomes_.rend(); ++it) {
+        if (it->fired) {
+          it->unsafe = true;
+          it->note += "; max V " + std::to_string(s.max_v());
+          break;
+        }
+      }
+    }
+    if (hung) {
+      for (auto it = outcomes_.rbegin(); it != outcomes_.rend(); ++it) {
+        if (it->fired) {
+          it->hung = true;
+          break;
+        }
+      }
+    }
+    return outcomes_;
+  }
+
+ private:
+  void advance(Nanos flight, std::optional<SrMode> mode, std::optional<kernel::ImagePhase> phase, Generation g) {
+    if (next_ >= outcomes_.size()) return;
+    Outcome& o = outcomes_[next_];
+    if (flight < o.fault.at) return;
+    if (flight > o.fault.at + std::chrono::seconds{60}) {
+      o.note = "not injected: its phase or a target did not come within 60 s of flight";
+      ++next_;
+      return;
+    }
+    bool match = false;
+    switch (o.fault.where) {
+      case Where::MC: match = mode && *mode == SrMode::MC; break;
+      case Where::SecureInterval: match = mode && in_secure_interval(*mode); break;
+      case Where::CheckpointSnapshotsSent: match = phase == kernel::ImagePhase::CheckpointSnapshotsSent; break;
+      case Where::CheckpointTaken: match = phase == kernel::ImagePhase::CheckpointTaken; break;
+      case Where::RollbackKilled: match = phase == kernel::ImagePhase::RollbackKilled; break;
+      case Where::RollbackResumesSent: match = phase == kernel::ImagePhase::RollbackResumesSent; break;
+    }
+    if (!match) return;
+    // Inside a rollback `g` is the generation being restored; inside a checkpoint it is not committed yet
+    // (no image_pids): the image faults then hit the newest committed generation.
+    const bool restoring = phase == kernel::ImagePhase::RollbackKilled || phase == kernel::ImagePhase::RollbackResumesSent;
+    const std::vector<int> pids = targets(o.fault, restoring ? std::optional(g) : std::nullopt);
+    if (pids.empty()) return;  // e.g. no image yet after a cold restart: stays armed
+    if (evaluating_) maybe_evaluate(flight, true);
+    const int sig = o.fault.kind == FaultKind::HangLive || o.fault.kind == FaultKind::StopImage ||
+                            o.fault.kind == FaultKind::StallPlant
+                        ? SIGSTOP
+                        : SIGKILL;
+    for (const int pid : pids) ::kill(pid, sig);
+    if (o.fault.kind == FaultKind::StallPlant) helper_.cont_after(pids.front(), std::chrono::seconds{1});
+    o.fired = true;
+    o.fired_at_s = to_seconds(flight).count();
+    o.note = std::to_string(pids.size()) + " process" + (pids.size() == 1 ? "" : "es");
+    before_ = Counters::of(k_->sr_stats());
+    max_v_at_fire_ = current_max_v();
+    fired_at_ = flight;
+    evaluating_ = next_;
+    ++next_;
+  }
+
+  std::vector<int> targets(const Planned& p, std::optional<Generation> g) {
+    std::vector<int> pids;
+    const auto live = [&](std::string_view name) {
+      if (const auto id = k_->find_service(name)) {
+        const kernel::ServiceStats st = k_->stats(*id);
+        if (st.alive && st.pid > 0) pids.push_back(st.pid);
+      }
+    };
+    const auto id = k_->find_service(p.target);
+    switch (p.kind) {
+      case FaultKind::KillLive:
+      case FaultKind::HangLive: live(p.target); break;
+      case FaultKind::KillImage:
+      case FaultKind::StopImage: {
+        if (!id) break;
+        const std::vector<Generation> gens = k_->generations();
+        if (gens.empty()) break;
+        pids = k_->image_pids(*id, g.value_or(gens.back()));
+        break;
+      }
+      case FaultKind::KillImages:
+        if (id) pids = k_->image_pids(*id);
+        break;
+      case FaultKind::KillGroup:
+        if (!id) break;
+        pids = k_->image_pids(*id);
+        if (pids.empty()) break;  // a group with images: else it is only a KillLive
+        live(p.target);
+        break;
+      case FaultKind::KillDriver: live("output_driver"); break;
+      case FaultKind::StallPlant:
+      case FaultKind::KillPlant:
+        if (const auto pid = k_->plant_pid()) pids.push_back(*pid);
+        break;
+    }
+    return pids;
+  }
+
+  double current_max_v() {
+    proto::RunSummary s;
+    rec_.fill(s, k_->now());
+    return s.max_v();
+  }
+
+  // The fault in flight is judged once its target has had time to come back (10 s of flight, or at once
+  // when the next one is about to fire).
+  void maybe_evaluate(Nanos flight, bool now) {
+    if (!evaluating_) return;
+    Outcome& o = outcomes_[*evaluating_];
+    if (is_terminal(o.fault.kind)) return;  // judged by how the run ends
+    if (!now && flight < fired_at_ + std::chrono::seconds{10}) return;
+    if (!now && k_->mode() == SrMode::RB) return;
+    evaluate(*evaluating_, Counters::of(k_->sr_stats()), current_max_v(), false);
+  }
+
+  void evaluate(std::size_t index, const Counters& after, double max_v, bool final) {
+    Outcome& o = outcomes_[index];
+    o.path = recovery_path(before_, after);
+    bool back = true;
+    if (o.fault.kind == FaultKind::StallPlant) {
+      back = k_->plant_pid().has_value();
+    } else if (const auto id = k_->find_service(o.fault.target)) {
+      back = final || k_->stats(*id).alive;
+    }
+    o.recovered = back && (final || !k_->stop_reason().has_value());
+    if (!back) o.note += "; '" + o.fault.target + "' not back";
+    if (max_v >= 1.0 && max_v_at_fire_ < 1.0) {
+      o.unsafe = true;
+      o.note += "; max V " + std::to_string(max_v);
+    }
+    evaluating_.reset();
+  }
+
+  RunRecorder& rec_;
+  const Mission& mission_;
+  Nanos alignment_;
+  Helper& helper_;
+  kernel::Kernel* k_ = nullptr;
+  std::vector<Outcome> outcomes_;
+  std::size_t next_ = 0;
+  std::optional<std::size_t> evaluating_;
+  Counters before_{};
+  double max_v_at_fire_ = 0;
+  Nanos fired_at_{0};
+};
+
+}  // namespace
+
+std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>& missions) {
+  std::vector<Outcome> all;
+  std::FILE* log = config.log.empty() ? nullptr : std::fopen(config.log.c_str(), "w");
+  Helper helper;
+  std::optional<std::size_t> fd_baseline;
+  long rss_baseline = 0;
+  const std::size_t fds_before = count_fds();
+  for (const Mission& mission : missions) {
+    const auto fail_all = [&](const std::string& why) {
+      for (const Planned& p : mission.faults) {
+        all.push_back(Outcome{.mission = mission.index, .fault = p, .note = why});
+      }
+    };
+    auto graph = launch::load_launch(config.graph);
+    if (!graph) {
+      fail_all(graph.error().to_string());
+      continue;
+    }
+    auto reference = run_reference(*graph, std::nullopt);
+    if (!reference) {
+      fail_all(reference.error());
+      continue;
+    }
+    kernel::KernelOptions options;
+    options.time_master = kernel::TimeMaster::Plant;
+    options.service_dir = REJUV_SERVICE_DIR;
+    if (const char* env = std::getenv("REJUV_SERVICE_DIR"); env != nullptr && *env != '\0') options.service_dir = env;
+    options.repo_root = REJUV_SOURCE_DIR;
+    options.dds_domain = config.dds_domain;
+    options.network_port = 0;
+    options.idle_deadline = std::chrono::seconds{3};
+    options.placement = kernel::KernelOptions::Placement::Cpu;
+    options.cpu = config.cpu;
+    options.log = log;
+    align_plant_like_the_model(options, *reference);
+    const Nanos alignment = reference->alignment;
+    RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
+    Injector injector(recorder, mission, alignment, helper);
+    auto k = kernel::Kernel::create(std::move(*graph), options, &injector);
+    if (!k) {
+      fail_all("kernel: " + k.error().to_string());
+      continue;
+    }
+    injector.attach(k->get());
+    recorder.on_vehicle_lost([kp = k->get()] { kp->request_stop(); });
+    if (log != nullptr) std::fprintf(log, "---- mission %u ----\n", mission.index), std::fflush(log);
+    helper.arm_watchdog(config.mission_wall_bound);
+    auto out = (*k)->run();
+    helper.disarm_watchdog();
+    const bool hung = helper.expired();
+    kernel::RunOutcome outcome = out ? *out : kernel::RunOutcome{.reason = kernel::StopReason::ServiceFailed,
+                                                                  .detail = out.error().to_string()};
+    proto::RunSummary summary;
+    recorder.fill(summary, outcome.sim_time);
+    std::vector<Outcome> done = injector.finish(outcome, summary, recorder.lost().has_value(), hung);
+    k->reset();
+    helper.clear_conts();
+    if (log != nullptr) std::fflush(log);
+    // Nothing left: no child of this process (the kernel is a subreaper: whatever it started and lost would
+    // be ours now), no fd above the baseline, RSS within 64 MiB of it.
+    std::string leak;
+    std::vector<int> left = children();
+    for (int i = 0; i < 20 && !left.empty(); ++i) {  // zombies being reaped: give them 1 s
+      std::this_thread::sleep_for(std::chrono::milliseconds{50});
+      left = children();
+    }
+    if (!left.empty()) {
+      leak += std::to_string(left.size()) + " processes left (killed now)";
+      for (const int pid : left) ::kill(pid, SIGKILL);
+    }
+    const std::size_t fds = count_fds();
+    const long rss = rss_kb();
+    if (!fd_baseline) {
+      // The first mission sets the baseline (libraries' one-time state); said if it grew.
+      fd_baseline = fds;
+      rss_baseline = rss;
+      if (fds > fds_before) {
+        std::fprintf(stderr, "rejuv faults: fds %zu before the first mission, %zu after (baseline)\n", fds_before, fds);
+      }
+    } else if (fds > *fd_baseline) {
+      leak += (leak.empty() ? "" : ", ") + std::to_string(fds - *fd_baseline) + " fds above the baseline";
+    }
+    if (rss > rss_baseline + 64 * 1024) {
+      leak += (leak.empty() ? "" : ", ") + std::string("RSS ") + std::to_string(rss / 1024) + " MiB (baseline " +
+              std::to_string(rss_baseline / 1024) + " MiB)";
+    }
+    for (Outcome& o : done) {
+      if (!leak.empty() && o.fired) {
+        o.leaked = true;
+        o.note += "; mission leak: " + leak;
+      }
+      all.push_back(std::move(o));
+    }
+    std::fprintf(stderr, "rejuv faults: mission %u: %s%s%s (%.1f s wall)%s%s\n", mission.index,
+                 std::string(kernel::to_string(outcome.reason)).c_str(), outcome.detail.empty() ? "" : ": ",
+                 outcome.detail.c_str(), to_seconds(outcome.wall_time).count(), hung ? " HUNG" : "",
+                 leak.empty() ? "" : (" LEAK: " + leak).c_str());
+  }
+  if (log != nullptr) std::fclose(log);
+  return all;
+}
+
+}  // namespace rejuv::cli::faults

@@ -1,0 +1,107 @@
+// `rejuv faults`: the fault campaign (DESIGN §7 "Faults", §11; issue 19 item 1). Missions of a launch graph
+// fly one after another (or in --jobs parallel processes, each with its own DDS domain), each with a few
+// faults injected at moments and phases drawn from the seed; after each one the campaign records the path by
+// which the kernel recovered, whether the vehicle stayed inside the safety set, whether anything leaked and
+// whether the mission hung. This header is the plan and the per-injection record; fault_campaign.cpp flies
+// the missions, cmd_faults.cpp is the command (table, JSON).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rejuv/core/time.hpp"
+
+namespace rejuv::cli::faults {
+
+// What is done to which process.
+enum class FaultKind : std::uint8_t {
+  KillLive,    // SIGKILL the live incarnation of a rejuvenated service
+  HangLive,    // SIGSTOP it: hung past the idle (or snapshot) deadline
+  KillImage,   // SIGKILL every copy of one image (the newest generation's, or the one being restored)
+  StopImage,   // SIGSTOP them: the image cannot answer its Resume
+  KillImages,  // SIGKILL every image of a service (all generations)
+  KillGroup,   // SIGKILL the live incarnation and every image of a service: nothing left to restore
+  StallPlant,  // SIGSTOP the plant for 1 s of wall time, then SIGCONT: the lockstep link stalls
+  KillDriver,  // SIGKILL output_driver (driver level, never rolled back): the run must end cleanly, exit 1
+  KillPlant,   // SIGKILL the plant: the run must end cleanly, exit 1
+};
+inline constexpr std::array kAllFaultKinds{FaultKind::KillLive,   FaultKind::HangLive,  FaultKind::KillImage,
+                                           FaultKind::StopImage,  FaultKind::KillImages, FaultKind::KillGroup,
+                                           FaultKind::StallPlant, FaultKind::KillDriver, FaultKind::KillPlant};
+[[nodiscard]] std::string_view to_string(FaultKind kind);
+// A fault after which the run cannot go on (what cannot be rejuvenated): the last of its mission.
+[[nodiscard]] bool is_terminal(FaultKind kind);
+
+// When: at a lockstep step in a mode, or exactly at a phase boundary inside a checkpoint or a rollback
+// (kernel::ImagePhase, the kernel's fault-injection seam).
+enum class Where : std::uint8_t {
+  MC,                       // a step in mission control
+  SecureInterval,           // a step in SC, UPDATE or CP
+  CheckpointSnapshotsSent,  // between the Snapshots and the Takens
+  CheckpointTaken,          // between the last Taken and the commit
+  RollbackKilled,           // between the kill of the live services and the first Resume
+  RollbackResumesSent,      // between the Resumes and the last Resumed
+};
+inline constexpr std::array kAllWheres{Where::MC,
+                                       Where::SecureInterval,
+                                       Where::CheckpointSnapshotsSent,
+                                       Where::CheckpointTaken,
+                                       Where::RollbackKilled,
+                                       Where::RollbackResumesSent};
+[[nodiscard]] std::string_view to_string(Where where);
+// The (kind, where) pairs the campaign draws from: a live incarnation is no target inside a rollback (it
+// is already cut off).
+[[nodiscard]] bool makes_sense(FaultKind kind, Where where);
+
+struct Planned {
+  FaultKind kind = FaultKind::KillLive;
+  Where where = Where::MC;
+  std::string target{};  // a rejuvenated service, "output_driver" or "plant"
+  Nanos at{0};           // flight time (after the alignment) from which it is armed
+};
+
+struct Mission {
+  std::uint32_t index = 0;
+  std::vector<Planned> faults{};  // by time; a terminal one last
+};
+
+// The whole campaign from the seed: missions of up to `per_mission` faults, `injections` in all, every
+// (kind, where) pair drawn in turn from a seeded shuffle; terminal faults about one in ten.
+[[nodiscard]] std::vector<Mission> plan(std::uint64_t seed, std::uint32_t injections, std::uint32_t per_mission,
+                                        const std::vector<std::string>& rejuvenated, Nanos flight);
+
+// What became of one planned fault.
+struct Outcome {
+  std::uint32_t mission = 0;
+  Planned fault{};
+  bool fired = false;        // false: its phase or a target never came in its window (not an injection)
+  double fired_at_s = 0;     // flight time
+  std::string path{};        // how the kernel recovered: rollback, fallback, cold restart, clean stop, ...
+  bool recovered = false;
+  bool unsafe = false;       // max V >= 1, or the mission not completed where it should
+  bool leaked = false;       // its mission left fds, children or RSS above the baseline
+  bool hung = false;         // its mission exceeded the wall-clock bound
+  std::string note{};
+};
+
+struct JobConfig {
+  std::filesystem::path graph{};
+  std::uint32_t dds_domain = 120;
+  int cpu = 0;
+  Nanos mission_wall_bound{std::chrono::seconds{300}};
+  std::filesystem::path log{};  // the kernels' log lines
+};
+
+// Flies `missions` in this process, one after another. Returns every outcome; the mission-level leak and
+// hang checks are applied to the outcomes of their mission.
+[[nodiscard]] std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>& missions);
+
+// One outcome per line (tab-separated; the job processes hand them to the parent).
+[[nodiscard]] std::string encode(const Outcome& o);
+[[nodiscard]] bool decode(std::string_view line, Outcome& o);
+
+}  // namespace rejuv::cli::faults
