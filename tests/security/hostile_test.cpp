@@ -457,7 +457,8 @@ TEST_F(Hostile, ForkBomb_AllSweptAtTheNextRollbackAndTheRunGoesOn) {
   ASSERT_FALSE(o.empty()) << "the worker never reported its bomb";
   std::uint64_t made = 0;
   for (const auto& [n, first_error] : o) made += static_cast<std::uint64_t>(n);
-  EXPECT_GE(made, 2U * 50U) << "later bombs found the process limit still full";  // ≥ 2 windows' worth
+  // How many a bomb makes is not asserted: RLIMIT_NPROC counts the service uid's processes machine-wide, and a
+  // test running beside this one may use the same uid (61000 + id).
   EXPECT_GE(k_->stats(id("worker")).stray_processes, made);
   EXPECT_EQ(k_->sr_stats().fallbacks, 0U);
   expect_nothing_escaped();
