@@ -56,9 +56,12 @@ TEST(MemoryImage, RecordFileIsSealableWithPagesAllocatedAhead) {
 
 TEST(MemoryImage, TouchedWorkingSetIsUnchangedAndTakesNoFaultAfterTheFork) {
   const int failed = in_child([]() -> int {
-              if (!prepare_self() || !track_writes_self()) return kNoTracking;
+              if (!prepare_self()) return kNoTracking;
+              // Allocated before tracking starts, so that it lies in the tracked heap (tracking covers the heap
+              // as it is then; where a later allocation lands depended on what the binary allocated before).
               auto* buf = static_cast<unsigned char*>(std::aligned_alloc(kPageBytes, kPages * kPageBytes));
               if (buf == nullptr) return 2;
+              if (!track_writes_self()) return kNoTracking;
               for (std::size_t i = 0; i < kPages * kPageBytes; ++i) buf[i] = static_cast<unsigned char>(i * 7 + 1);
               // The working set: what copy_written_self found (these pages among them).
               auto file = make_record_file();
