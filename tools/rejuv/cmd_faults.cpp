@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "rejuv/sys/process.hpp"
 #include "commands.hpp"
 #include "fault_campaign.hpp"
 #include "report.hpp"
@@ -114,10 +115,13 @@ int run_faults(std::span<const std::string_view> args) {
   const long cpus = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
   std::vector<pid_t> pids;
   std::fflush(nullptr);
+  const pid_t campaign = ::getpid();
   for (std::uint64_t j = 0; j < *jobs; ++j) {
     const pid_t pid = ::fork();
     if (pid < 0) return bad_input("rejuv faults: fork failed");
     if (pid == 0) {
+      // A job never outlives the campaign (Ctrl-C, a kill): SIGTERM stops its kernel, which shuts its mission down.
+      if (!sys::die_with_parent(campaign, SIGTERM)) ::_exit(1);
       std::vector<faults::Mission> mine;
       for (std::size_t m = j; m < missions.size(); m += *jobs) mine.push_back(missions[m]);
       const faults::JobConfig config{.graph = graph_path,

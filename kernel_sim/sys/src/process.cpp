@@ -389,6 +389,12 @@ SysResult<ChildProcess> spawn(const SpawnSpec& spec) {
   return std::move(spawned->process);
 }
 
+SysResult<void> die_with_parent(pid_t parent, int sig) {
+  if (::prctl(PR_SET_PDEATHSIG, sig, 0, 0, 0) != 0) return last_error("prctl(PR_SET_PDEATHSIG)");
+  if (::getppid() != parent) ::_exit(1);  // the parent died before the prctl took effect
+  return {};
+}
+
 SysResult<void> become_subreaper() {
   if (::prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0) != 0) {
     return last_error("prctl(PR_SET_CHILD_SUBREAPER)");

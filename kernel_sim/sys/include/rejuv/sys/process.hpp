@@ -107,6 +107,10 @@ struct Spawned {
 [[nodiscard]] SysResult<Spawned> spawn_supervised(const SpawnSpec& spec);
 [[nodiscard]] SysResult<ChildProcess> spawn(const SpawnSpec& spec);
 
+// The calling process gets `sig` when its parent dies (PR_SET_PDEATHSIG), or ends at once (exit 1) if the
+// parent `parent` is already gone: a worker forked by a command never outlives the command.
+[[nodiscard]] SysResult<void> die_with_parent(pid_t parent, int sig);
+
 // Makes this process the reaper of its orphaned descendants (PR_SET_CHILD_SUBREAPER), so that images
 // double-forked by services become the kernel's children (DESIGN §7).
 [[nodiscard]] SysResult<void> become_subreaper();
