@@ -24,6 +24,8 @@ constexpr Command kCommands[] = {
     {"sim", "model-level simulation of the SR scheme in one process (no runtime)", rejuv::cli::run_sim},
     {"report", "`report table`: Table I, runtime (rejuv run) beside model (rejuv sim), four configurations",
      rejuv::cli::run_report},
+    {"soak", "fly a graph with SR and attacks for N cycles; fail if memory, fds or processes grow",
+     rejuv::cli::run_soak},
 };
 
 void print_usage(std::FILE* to) {
