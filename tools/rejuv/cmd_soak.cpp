@@ -1,16 +1,18 @@
-// `rejuv soak GRAPH`: a soak of a flight graph (DESIGN §11, issue 19). One kernel in this process (as
-// `rejuv run`) flies the graph's mission with SR and its attacks — the closed waypoint loop repeated as often
-// as a mission holds (16 waypoints), then a hover at the last waypoint, SR and attacks going on — until N
-// rollbacks (SR cycles). Every C cycles it samples from /proc: this process's (the kernel's) RSS, mappings,
-// open fds and threads, the processes descending from it, and for the plant and each live service its RSS,
-// mappings, fds and (services) the processes of its session (the live incarnation and its frozen images).
-// Progress on stderr; the samples as CSV (and a PNG through tools/plots/soak.gp when gnuplot is present).
+// `rejuv soak GRAPH`: a soak of a flight graph (DESIGN §11, issue 19). Kernels in this process (as `rejuv run`)
+// fly the graph's mission with SR and its attacks — the closed waypoint loop repeated as often as a mission
+// holds (16 waypoints: three laps of the square, ≈ 240 SR cycles) — one mission after the other, each in a new
+// kernel, until N rollbacks (SR cycles) in all; with --one-kernel a single kernel flies the mission and then
+// hovers at its last waypoint with SR and attacks going on. Every C cycles it samples from /proc: this process's
+// (the kernel's) RSS, mappings, open fds and threads, the processes descending from it, and for the plant and
+// each live service its RSS, mappings, fds and (services) the processes of its session (the live incarnation
+// and its frozen images). Progress on stderr; the samples as CSV (and a PNG through tools/plots/soak.gp when
+// gnuplot is present).
 //
 // The verdict compares, per series, the median of the last 20 % of the samples with the median of the 20 %
 // after a warm-up of 10 %: RSS may grow by at most --kernel-rss-kb (this process) or --service-rss-kb (each
-// service and the plant); fds, mappings, threads and processes not beyond the largest value seen in the
-// baseline window (its jitter). Exit 0 when every series stays in its bound and the run reached N cycles
-// without a failure, 1 otherwise (naming the series), 2 on bad input.
+// service and the plant); fds, threads and processes not beyond the largest value seen in the baseline window
+// (its jitter), mappings by --maps-slack more. Exit 0 when every series stays in its bound and the soak reached
+// N cycles without a failure, 1 otherwise (naming the series), 2 on bad input.
 //
 // What is readable: the kernel runs as root (or with CAP_SYS_PTRACE over its children's user namespaces) and
 // reads every file used here even though the services are not dumpable (PR_SET_DUMPABLE 0 makes their
@@ -138,17 +140,22 @@ int descendants_of(pid_t root, const std::vector<Proc>& procs) {
 // The columns of the CSV, in groups that tools/plots/soak.gp plots together.
 struct Series {
   std::string name;   // CSV column, e.g. "ekf2_rss_kb"
-  enum class Kind : std::uint8_t { KernelRss, ServiceRss, Count } kind = Kind::Count;
+  enum class Kind : std::uint8_t { KernelRss, ServiceRss, Maps, Count } kind = Kind::Count;
   std::vector<double> values{};
 };
 
 class Soak final : public kernel::Observer {
  public:
-  Soak(RunRecorder& recorder, std::uint64_t cycles, std::uint64_t every)
-      : recorder_(recorder), cycles_(cycles), every_(every), started_(std::chrono::steady_clock::now()) {}
+  Soak(std::uint64_t cycles, std::uint64_t every)
+      : cycles_(cycles), every_(every), started_(std::chrono::steady_clock::now()) {}
 
-  void attach(kernel::Kernel& k) {
+  // The recorder of the mission about to start (one per kernel).
+  void record_with(RunRecorder& recorder) { recorder_ = &recorder; }
+  // A booted kernel; its rollbacks count on from the cycles of the kernels before it.
+  void attach(kernel::Kernel& k, std::uint64_t cycles_before) {
     k_ = &k;
+    offset_ = cycles_before;
+    if (!series_.empty()) return;  // the same graph: the same services and series
     for (std::size_t i = 0; i < k.service_count(); ++i) {
       const kernel::ServiceStats st = k.stats(ServiceId{static_cast<std::uint32_t>(i)});
       if (st.started) services_.push_back({ServiceId{static_cast<std::uint32_t>(i)}, st.name});
@@ -160,21 +167,26 @@ class Soak final : public kernel::Observer {
     add("kernel_fds", Series::Kind::Count);
     add("plant_fds", Series::Kind::Count);
     for (const auto& s : services_) add(s.name + "_fds", Series::Kind::Count);
-    add("kernel_maps", Series::Kind::Count);
-    add("plant_maps", Series::Kind::Count);
-    for (const auto& s : services_) add(s.name + "_maps", Series::Kind::Count);
+    add("kernel_maps", Series::Kind::Maps);
+    add("plant_maps", Series::Kind::Maps);
+    for (const auto& s : services_) add(s.name + "_maps", Series::Kind::Maps);
     add("kernel_threads", Series::Kind::Count);
     add("kernel_children", Series::Kind::Count);
     add("processes", Series::Kind::Count);
     for (const auto& s : services_) add(s.name + "_procs", Series::Kind::Count);
   }
 
-  void on_publication(const kernel::Publication& p) override { recorder_.on_publication(p); }
+  void detach() { k_ = nullptr; }
+  void stop_recording() { recorder_ = nullptr; }
+
+  void on_publication(const kernel::Publication& p) override {
+    if (recorder_ != nullptr) recorder_->on_publication(p);
+  }
 
   void on_step(std::uint64_t step, Nanos t, SrMode mode) override {
-    recorder_.on_step(step, t, mode);
+    if (recorder_ != nullptr) recorder_->on_step(step, t, mode);
     if (k_ == nullptr || done_) return;
-    const std::uint64_t rollbacks = k_->sr_stats().rollbacks;
+    const std::uint64_t rollbacks = offset_ + k_->sr_stats().rollbacks;
     // Sample at one phase of the cycle — the first MC step once the count is due — so that what a cycle
     // holds for a moment (the spares on their way after a rollback) does not decide a sample.
     if (rollbacks >= next_ && mode == SrMode::MC) {
@@ -261,9 +273,9 @@ class Soak final : public kernel::Observer {
                  to_seconds(t).count(), v["kernel_rss_kb"], v["processes"], eta);
   }
 
-  RunRecorder& recorder_;
+  RunRecorder* recorder_ = nullptr;
   kernel::Kernel* k_ = nullptr;
-  std::uint64_t cycles_, every_, next_ = 0;
+  std::uint64_t cycles_, every_, next_ = 0, offset_ = 0;
   bool done_ = false;
   std::chrono::steady_clock::time_point started_;
   std::vector<Service> services_;
@@ -287,7 +299,7 @@ struct Verdict {
 };
 
 // Baseline: samples [10 %, 30 %) (after the warm-up); last: the last 20 %.
-Verdict judge(const Series& s, double kernel_rss_kb, double service_rss_kb) {
+Verdict judge(const Series& s, double kernel_rss_kb, double service_rss_kb, double maps_slack) {
   Verdict v{.name = s.name};
   const std::size_t n = s.values.size();
   const std::size_t b0 = n / 10, b1 = std::max(b0 + 1, (n * 3) / 10), l0 = n - std::max<std::size_t>(1, n / 5);
@@ -307,6 +319,9 @@ Verdict judge(const Series& s, double kernel_rss_kb, double service_rss_kb) {
   switch (s.kind) {
     case Series::Kind::KernelRss: v.bound = kernel_rss_kb; break;
     case Series::Kind::ServiceRss: v.bound = service_rss_kb; break;
+    case Series::Kind::Maps:
+      v.bound = *std::max_element(base.begin(), base.end()) - v.baseline + maps_slack;
+      break;
     case Series::Kind::Count: v.bound = *std::max_element(base.begin(), base.end()) - v.baseline; break;  // jitter
   }
   v.ok = v.growth <= v.bound;
@@ -330,16 +345,29 @@ void repeat_the_loop(proto::Mission& m) {
   }
 }
 
+// Long enough for any --cycles (an SR cycle is seconds of simulated time); the soak stops itself.
+constexpr double kLimitS = launch::defaults::kMaxDurationS / 2;
+
+// The graph as the soak flies it: the loop repeated, no mission timeout within reach.
+Result<launch::LoadedLaunch, std::string> soak_graph(const std::string& path) {
+  auto loaded = launch::load_launch(path);
+  if (!loaded) return std::unexpected(loaded.error().to_string());
+  if (!loaded->graph.sr().enabled()) return std::unexpected("rejuv soak: " + path + ": the graph has sr.enabled false");
+  repeat_the_loop(*loaded->graph.mutable_mission());
+  loaded->graph.mutable_mission()->set_timeout_s(2 * kLimitS);
+  return std::move(*loaded);
+}
+
 }  // namespace
 
 int run_soak(std::span<const std::string_view> args) {
   std::string graph_path, cycles_text = "1000", every_text = "10", seed_text, out_text = "out/soak", domain_text;
-  std::string kernel_rss_text = "512", service_rss_text = "256", net_port_text = "0";
-  bool seed_set = false, domain_set = false, insecure_sandbox = false;
+  std::string kernel_rss_text = "512", service_rss_text = "256", net_port_text = "0", maps_slack_text = "2";
+  bool seed_set = false, domain_set = false, insecure_sandbox = false, one_kernel = false;
   ArgParser parser("soak",
-                   "Soak a launch graph (DESIGN §11): one kernel in this process flies the mission with SR and its\n"
-                   "attacks (the closed waypoint loop repeated as often as a mission holds, then a hover) until\n"
-                   "--cycles rollbacks, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
+                   "Soak a launch graph (DESIGN §11): kernels in this process fly the mission with SR and its attacks\n"
+                   "(the closed waypoint loop repeated as often as a mission holds), one mission after the other, until\n"
+                   "--cycles rollbacks in all, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
                    "the plant and every service, the kernel's threads and children, the processes under it and in\n"
                    "each service's session. Writes DIR/soak.csv (and DIR/soak.png with gnuplot). Compares the median\n"
                    "of the last 20 % of the samples with that of the 20 % after a 10 % warm-up: RSS may grow by the\n"
@@ -352,8 +380,14 @@ int run_soak(std::span<const std::string_view> args) {
       .option("--out", "DIR", out_text, "where soak.csv and soak.png go (default out/soak)")
       .option("--kernel-rss-kb", "K", kernel_rss_text, "allowed growth of the kernel's RSS (default 512 kB)")
       .option("--service-rss-kb", "K", service_rss_text, "allowed growth of a service's or the plant's RSS (256 kB)")
+      .option("--maps-slack", "M", maps_slack_text,
+              "mappings a process may gain beyond the baseline's jitter (default 2: a new process of each\n"
+              "mission may get one more malloc arena or thread stack than the first; a leak keeps growing)")
       .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
       .option("--net-port", "P", net_port_text, "UDP port of the network gate (default 0: any free port)")
+      .flag("--one-kernel", one_kernel,
+            "one kernel for the whole soak (the mission, then a hover at its last waypoint) instead of a new\n"
+            "kernel in this process for each mission")
       .flag("--insecure-sandbox", insecure_sandbox, "as `rejuv run --insecure-sandbox`");
   const auto parsed = parser.parse(args);
   if (!parsed) return bad_input("rejuv soak: " + parsed.error());
@@ -366,6 +400,8 @@ int run_soak(std::span<const std::string_view> args) {
   const auto kernel_rss = to_double(kernel_rss_text, "--kernel-rss-kb");
   const auto service_rss = to_double(service_rss_text, "--service-rss-kb");
   const auto net_port = to_u64(net_port_text, "--net-port");
+  const auto maps_slack = to_u64(maps_slack_text, "--maps-slack");
+  if (!maps_slack) return bad_input("rejuv soak: " + maps_slack.error());
   if (!cycles) return bad_input("rejuv soak: " + cycles.error());
   if (!every) return bad_input("rejuv soak: " + every.error());
   if (!kernel_rss) return bad_input("rejuv soak: " + kernel_rss.error());
@@ -383,7 +419,6 @@ int run_soak(std::span<const std::string_view> args) {
   options.service_dir = service_dir();
   options.repo_root = REJUV_SOURCE_DIR;
   options.network_port = static_cast<std::uint16_t>(*net_port);
-  options.stop_on_mission_done = false;  // hover on after the mission; the soak stops itself at --cycles
   if (seed_set) {
     const auto seed = to_u64(seed_text, "--seed");
     if (!seed) return bad_input("rejuv soak: " + seed.error());
@@ -399,18 +434,8 @@ int run_soak(std::span<const std::string_view> args) {
     options.dds_domain = static_cast<std::uint32_t>(*d);
   }
 
-  auto loaded = launch::load_launch(graph_path);
-  if (!loaded) return bad_input(loaded.error().to_string());
-  if (!loaded->graph.sr().enabled()) return bad_input("rejuv soak: " + graph_path + ": the graph has sr.enabled false");
-  repeat_the_loop(*loaded->graph.mutable_mission());
-  // Long enough for any --cycles (an SR cycle is seconds of simulated time); the soak stops itself.
-  const double limit_s = launch::defaults::kMaxDurationS / 2;
-  loaded->graph.mutable_mission()->set_timeout_s(limit_s * 2);
-  auto reference = run_reference(*loaded, options.seed);
-  if (!reference) return bad_input(reference.error());
-  align_plant_like_the_model(options, *reference);
-  options.duration = to_nanos(Seconds{limit_s}) + reference->alignment;
-
+  auto loaded = soak_graph(graph_path);
+  if (!loaded) return bad_input(loaded.error());
   std::error_code ec;
   const fs::path out(out_text);
   fs::create_directories(out, ec);
@@ -418,42 +443,82 @@ int run_soak(std::span<const std::string_view> args) {
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> csv(std::fopen(csv_path.c_str(), "w"), &std::fclose);
   if (!csv) return bad_input("rejuv soak: cannot write " + csv_path.string());
 
-  RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
-  Soak soak(recorder, *cycles, *every);
+  // One mission per kernel (default) or one kernel for the whole soak (--one-kernel: the mission, then a hover).
+  if (one_kernel) {
+    options.stop_on_mission_done = false;
+  }
+  Soak soak(*cycles, *every);
   const std::string graph_name = loaded->graph.name();
-  auto k = kernel::Kernel::create(std::move(*loaded), options, &soak);
-  if (!k) {
-    std::fprintf(stderr, "rejuv soak: %s\n", k.error().to_string().c_str());
-    return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
-  }
-  recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });
-  if (auto booted = (*k)->boot(); !booted) {
-    std::fprintf(stderr, "rejuv soak: %s\n", booted.error().to_string().c_str());
-    return static_cast<int>(Exit::Findings);
-  }
-  soak.attach(**k);
-  std::fprintf(stderr, "rejuv soak: %s, %llu SR cycles, a sample every %llu, seed %llu\n", graph_name.c_str(),
+  std::fprintf(stderr, "rejuv soak: %s, %llu SR cycles, a sample every %llu, seed %llu, %s\n", graph_name.c_str(),
                static_cast<unsigned long long>(*cycles), static_cast<unsigned long long>(*every),
-               static_cast<unsigned long long>(options.seed.value_or((*k)->graph().graph.seed())));
-  auto outcome = (*k)->run();
-  if (!outcome) {
-    std::fprintf(stderr, "rejuv soak: %s\n", outcome.error().to_string().c_str());
-    return static_cast<int>(Exit::Findings);
+               static_cast<unsigned long long>(options.seed.value_or(loaded->graph.seed())),
+               one_kernel ? "one kernel" : "a new kernel for each mission");
+  std::uint64_t cycles_done = 0, missions = 0, checkpoints = 0, fallbacks = 0, cold = 0, attacked = 0;
+  double max_v = 0, sim_s = 0, wall_s = 0;
+  bool left = false, failed = false;
+  std::string stopped;
+  while (!soak.done() && !failed) {
+    auto graph = soak_graph(graph_path);
+    if (!graph) return bad_input(graph.error());
+    auto reference = run_reference(*graph, options.seed);
+    if (!reference) return bad_input(reference.error());
+    kernel::KernelOptions o = options;
+    align_plant_like_the_model(o, *reference);
+    if (one_kernel) o.duration = to_nanos(Seconds{kLimitS}) + reference->alignment;
+    RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
+    soak.record_with(recorder);
+    auto k = kernel::Kernel::create(std::move(*graph), o, &soak);
+    if (!k) {
+      std::fprintf(stderr, "rejuv soak: %s\n", k.error().to_string().c_str());
+      return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+    }
+    recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });
+    if (auto booted = (*k)->boot(); !booted) {
+      std::fprintf(stderr, "rejuv soak: %s\n", booted.error().to_string().c_str());
+      soak.stop_recording();
+      failed = true;
+      stopped = booted.error().to_string();
+      break;
+    }
+    soak.attach(**k, cycles_done);
+    auto outcome = (*k)->run();
+    (*k)->shutdown();
+    soak.detach();
+    if (!outcome) {
+      failed = true;
+      stopped = outcome.error().to_string();
+      break;
+    }
+    const kernel::SrStats& sr = (*k)->sr_stats();
+    proto::RunSummary s;
+    recorder.fill(s, outcome->sim_time);
+    ++missions;
+    cycles_done += sr.rollbacks;
+    checkpoints += sr.checkpoints;
+    fallbacks += sr.fallbacks;
+    cold += sr.cold_restarts;
+    attacked += recorder.attacked_windows();
+    max_v = std::max(max_v, s.max_v());
+    left = left || s.left_safety_set();
+    sim_s += to_seconds(outcome->sim_time).count();
+    wall_s += to_seconds(outcome->wall_time).count();
+    stopped = std::string(kernel::to_string(outcome->reason)) + (outcome->detail.empty() ? "" : ": ") + outcome->detail;
+    const bool mission_done = outcome->reason == kernel::StopReason::MissionDone && !one_kernel;
+    const bool soak_done = outcome->reason == kernel::StopReason::Requested && soak.done();
+    if (recorder.lost() || !(mission_done || soak_done)) failed = true;
+    std::fprintf(stderr, "rejuv soak: mission %llu: %s (%llu rollbacks, %llu in all)\n",
+                 static_cast<unsigned long long>(missions), stopped.c_str(),
+                 static_cast<unsigned long long>(sr.rollbacks), static_cast<unsigned long long>(cycles_done));
+    soak.stop_recording();  // before this mission's recorder goes; the next mission gets its own
   }
-  const kernel::SrStats& sr = (*k)->sr_stats();
-  proto::RunSummary s;
-  recorder.fill(s, outcome->sim_time);
-  std::printf("%s (soak): %s%s%s\n", graph_name.c_str(), std::string(kernel::to_string(outcome->reason)).c_str(),
-              outcome->detail.empty() ? "" : ": ", outcome->detail.c_str());
-  std::printf("  flight      %.1f s simulated in %.1f s wall, mission %s, max V = %.4f (%s)\n",
-              to_seconds(outcome->sim_time).count(), to_seconds(outcome->wall_time).count(),
-              s.mission_completed() ? "completed" : "NOT COMPLETED", s.max_v(),
-              s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe");
+  std::printf("%s (soak): %llu missions, the last stopped with: %s\n", graph_name.c_str(),
+              static_cast<unsigned long long>(missions), stopped.c_str());
+  std::printf("  flight      %.1f s simulated in %.1f s wall, max V = %.4f (%s)\n", sim_s, wall_s, max_v,
+              left ? "LEFT THE SAFETY SET" : "safe");
   std::printf("  images      %llu checkpoints, %llu rollbacks (%llu fallbacks, %llu cold restarts), %llu attacked MC windows\n",
-              static_cast<unsigned long long>(sr.checkpoints), static_cast<unsigned long long>(sr.rollbacks),
-              static_cast<unsigned long long>(sr.fallbacks), static_cast<unsigned long long>(sr.cold_restarts),
-              static_cast<unsigned long long>(recorder.attacked_windows()));
-  (*k)->shutdown();
+              static_cast<unsigned long long>(checkpoints), static_cast<unsigned long long>(cycles_done),
+              static_cast<unsigned long long>(fallbacks), static_cast<unsigned long long>(cold),
+              static_cast<unsigned long long>(attacked));
 
   soak.write_csv(csv.get());
   csv.reset();
@@ -478,7 +543,7 @@ int run_soak(std::span<const std::string_view> args) {
   bool flat = true;
   std::printf("  %-26s %12s %12s %10s %10s\n", "series", "baseline", "last 20 %", "growth", "bound");
   for (const Series& x : soak.series()) {
-    const Verdict v = judge(x, *kernel_rss, *service_rss);
+    const Verdict v = judge(x, *kernel_rss, *service_rss, static_cast<double>(*maps_slack));
     if (!v.readable) {
       std::printf("  %-26s %12s\n", v.name.c_str(), "unreadable");
       continue;
@@ -487,8 +552,8 @@ int run_soak(std::span<const std::string_view> args) {
                 v.ok ? "" : "  GREW");
     flat = flat && v.ok;
   }
-  const bool reached = soak.done() && outcome->reason == kernel::StopReason::Requested && !recorder.lost();
-  const bool safe = !s.left_safety_set();
+  const bool reached = soak.done() && !failed;
+  const bool safe = !left;
   if (!reached) std::printf("rejuv soak: FAILED: the run stopped before %llu cycles\n", static_cast<unsigned long long>(*cycles));
   if (!safe) std::printf("rejuv soak: FAILED: the vehicle left the safety set\n");
   if (!flat) std::printf("rejuv soak: FAILED: a series grew beyond its bound (GREW above)\n");
