@@ -30,7 +30,8 @@ namespace rejuv::cli {
 namespace {
 
 // p50 and max, the way the run summary reports them (report.hpp).
-proto::Percentiles summarize(const std::vector<double>& v) {
+template <class Samples>
+proto::Percentiles summarize(const Samples& v) {
   proto::Percentiles p;
   fill_percentiles(p, v);
   return p;
@@ -150,7 +151,8 @@ int run_bench(std::span<const std::string_view> args) {
   const proto::Percentiles rb = summarize(sr.rollback_ms);
   const proto::Percentiles cr = summarize(cold);
   std::printf("images: %s, %zu rejuvenated services + queue state, %zu checkpoints, %zu rollbacks, %zu cold restarts\n",
-              name.c_str(), rejuvenated, sr.checkpoint_ms.size(), sr.rollback_ms.size(), cold.size());
+              name.c_str(), rejuvenated, static_cast<std::size_t>(sr.checkpoint_ms.count()),
+              static_cast<std::size_t>(sr.rollback_ms.count()), cold.size());
   std::printf("%-14s %10s %10s   %s\n", "", "p50 [ms]", "max [ms]", "paper (PX4 kernel module)");
   std::printf("%-14s %10.3f %10.3f   ≈20 ms\n", "checkpoint", cp.p50(), cp.max());
   std::printf("%-14s %10.3f %10.3f   ≈15 ms\n", "rollback", rb.p50(), rb.max());

@@ -14,5 +14,6 @@ int run_gcs(std::span<const std::string_view> args);    // cmd_gcs.cpp
 int run_bench(std::span<const std::string_view> args);  // cmd_bench.cpp
 int run_report(std::span<const std::string_view> args);  // cmd_report.cpp
 int run_faults(std::span<const std::string_view> args);  // cmd_faults.cpp
+int run_soak(std::span<const std::string_view> args);    // cmd_soak.cpp
 
 }  // namespace rejuv::cli

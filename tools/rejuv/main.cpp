@@ -26,6 +26,8 @@ constexpr Command kCommands[] = {
      rejuv::cli::run_report},
     {"faults", "fault campaign: kill or stop any process at any SR phase; recovery, safety, leaks (DESIGN §11)",
      rejuv::cli::run_faults},
+    {"soak", "fly a graph with SR and attacks for N cycles; fail if memory, fds or processes grow",
+     rejuv::cli::run_soak},
 };
 
 void print_usage(std::FILE* to) {

@@ -34,6 +34,13 @@ void fill_percentiles(proto::Percentiles& out, std::vector<double> values) {
   out.set_max(values.back());
 }
 
+void fill_percentiles(proto::Percentiles& out, const kernel::DurationSamples& samples) {
+  const std::span<const double> kept = samples.values();
+  fill_percentiles(out, std::vector<double>(kept.begin(), kept.end()));
+  out.set_count(samples.count());
+  out.set_max(samples.max());
+}
+
 void fill_image_phases(proto::ImagePhases& out, const kernel::SrStats& sr) {
   fill_percentiles(*out.mutable_checkpoint_snapshot(), sr.checkpoint_phases.a);
   fill_percentiles(*out.mutable_checkpoint_taken(), sr.checkpoint_phases.b);

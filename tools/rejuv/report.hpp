@@ -17,6 +17,8 @@ namespace rejuv::cli {
 int bad_input(const std::string& message);
 // p50, max and count of `values` (empty: all zero).
 void fill_percentiles(proto::Percentiles& out, std::vector<double> values);
+// The same of the kernel's bounded durations: count and max exact, p50 of the kept sample.
+void fill_percentiles(proto::Percentiles& out, const kernel::DurationSamples& samples);
 
 // Where the checkpoints' and rollbacks' time went (their phases) and how the images were made.
 void fill_image_phases(proto::ImagePhases& out, const kernel::SrStats& sr);

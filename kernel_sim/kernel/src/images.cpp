@@ -282,15 +282,15 @@ void Kernel::Impl::run_checkpoint() {
   send_patches(*images.newest());  // before old generations go: a base may be among them
   for (image::GenerationRecord& old : evicted) retire(std::move(old));
   const Nanos took = t_saved - t0;
-  sr_stats.checkpoint_phases.a.push_back(to_ms(t_sent - t0));
-  sr_stats.checkpoint_phases.b.push_back(to_ms(t_taken - t_sent));
-  sr_stats.checkpoint_phases.c.push_back(to_ms(t_saved - t_taken));
+  sr_stats.checkpoint_phases.a.add(to_ms(t_sent - t0));
+  sr_stats.checkpoint_phases.b.add(to_ms(t_taken - t_sent));
+  sr_stats.checkpoint_phases.c.add(to_ms(t_saved - t_taken));
   // Strays (sandbox.cpp): after the timed part, before the new spares are on their way, so that only the
   // copies still on their way from earlier requests can defer it.
   sweep_strays("a checkpoint's commit");
   for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
   ++sr_stats.checkpoints;
-  sr_stats.checkpoint_ms.push_back(to_ms(took));
+  sr_stats.checkpoint_ms.add(to_ms(took));
   charge += took;
   if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }
@@ -598,13 +598,13 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   publish_sr_mode();
   const Nanos took = wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
   resume_routing();
-  sr_stats.rollback_phases.a.push_back(to_ms(t_killed - t0));
-  sr_stats.rollback_phases.b.push_back(to_ms(t_resumed - t_killed));
-  sr_stats.rollback_phases.c.push_back(to_ms(t0 + took - t_resumed));
+  sr_stats.rollback_phases.a.add(to_ms(t_killed - t0));
+  sr_stats.rollback_phases.b.add(to_ms(t_resumed - t_killed));
+  sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
   sweep_strays("a rollback", false, SweepWait::ForCopies);  // as after a commit: before the new spares go out
   for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
   ++sr_stats.rollbacks;
-  sr_stats.rollback_ms.push_back(to_ms(took));
+  sr_stats.rollback_ms.add(to_ms(took));
   charge += took;
   if (options.verbose) {
     log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(), to_ms(took),

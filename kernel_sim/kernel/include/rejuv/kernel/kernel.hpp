@@ -228,6 +228,42 @@ struct NetStats {
   std::array<std::uint64_t, kNetVerdictCodes> refused_by_reason{};  // index = code; [0] unused
 };
 
+// Durations of one kind [ms], bounded: the first kCapacity are kept, after that each new one replaces a
+// uniformly chosen kept one with probability kCapacity / count (reservoir sampling, Vitter's algorithm R, with
+// a fixed-seed generator so that a lockstep run stays deterministic). A kernel that runs for days then holds
+// at most 8 kB per series instead of 8 bytes per SR cycle for ever (issue 19, `rejuv soak`); the count and
+// the maximum stay exact, the median is that of a uniform sample (exact up to kCapacity durations).
+class DurationSamples {
+ public:
+  static constexpr std::size_t kCapacity = 1024;
+  void add(double ms) {
+    ++count_;
+    if (count_ == 1 || ms > max_) max_ = ms;
+    if (kept_.size() < kCapacity) {
+      if (kept_.capacity() < kCapacity) kept_.reserve(kCapacity);  // one allocation, not a doubling each time
+      kept_.push_back(ms);
+      return;
+    }
+    // splitmix64: a uniform index in [0, count_); kept when it falls inside the reservoir.
+    state_ += 0x9E3779B97F4A7C15ULL;
+    std::uint64_t z = state_;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    if (const std::uint64_t j = z % count_; j < kCapacity) kept_[j] = ms;
+  }
+  [[nodiscard]] std::span<const double> values() const { return kept_; }  // the sample, in no order
+  [[nodiscard]] std::uint64_t count() const { return count_; }           // every duration added
+  [[nodiscard]] double max() const { return max_; }                       // 0 when none
+  [[nodiscard]] bool empty() const { return count_ == 0; }
+
+ private:
+  std::vector<double> kept_{};
+  std::uint64_t count_ = 0;
+  double max_ = 0;
+  std::uint64_t state_ = 0;
+};
+
 // What the image store did (DESIGN §7): counts, and the real duration of every checkpoint and rollback
 // (the Fig. 7 analogue; in lockstep also charged to simulated time).
 struct SrStats {
@@ -241,12 +277,12 @@ struct SrStats {
   std::uint64_t timer_rollbacks = 0;      // rollbacks the rejuvenation timer fired
   std::uint64_t images_by_fork = 0;       // service images taken by fork (Taken)
   std::uint64_t images_by_pages = 0;      // service images taken by written pages (TakenPages)
-  std::vector<double> checkpoint_ms{};    // Snapshot sent → generation committed, per checkpoint
-  std::vector<double> rollback_ms{};      // trigger → routing resumed, per rollback
+  DurationSamples checkpoint_ms{};        // Snapshot sent → generation committed, per checkpoint
+  DurationSamples rollback_ms{};          // trigger → routing resumed, per rollback
   // Phases (DESIGN §7 "durations of every phase"): checkpoint = freeze + Snapshots sent, Taken awaited,
   // state saved + committed; rollback = mode RB + services killed, images resumed, state restored.
   struct Phases {
-    std::vector<double> a{}, b{}, c{};
+    DurationSamples a{}, b{}, c{};
   };
   Phases checkpoint_phases{};  // a: snapshot, b: taken, c: save  [ms]
   Phases rollback_phases{};    // a: kill, b: resume, c: restore  [ms]

@@ -1,0 +1,564 @@
+// `rejuv soak GRAPH`: a soak of a flight graph (DESIGN §11, issue 19). Kernels in this process (as `rejuv run`)
+// fly the graph's mission with SR and its attacks — the closed waypoint loop repeated as often as a mission
+// holds (16 waypoints: three laps of the square, ≈ 240 SR cycles) — one mission after the other, each in a new
+// kernel, until N rollbacks (SR cycles) in all; with --one-kernel a single kernel flies the mission and then
+// hovers at its last waypoint with SR and attacks going on. Every C cycles it samples from /proc: this process's
+// (the kernel's) RSS, mappings, open fds and threads, the processes descending from it, and for the plant and
+// each live service its RSS, mappings, fds and (services) the processes of its session (the live incarnation
+// and its frozen images). Progress on stderr; the samples as CSV (and a PNG through tools/plots/soak.gp when
+// gnuplot is present).
+//
+// The verdict compares, per series, the median of the last 20 % of the samples with the median of the 20 %
+// after a warm-up of 10 %: RSS may grow by at most --kernel-rss-kb (this process) or --service-rss-kb (each
+// service and the plant); fds, threads and processes not beyond the largest value seen in the baseline window
+// (its jitter), mappings by --maps-slack more. Exit 0 when every series stays in its bound and the soak reached
+// N cycles without a failure, 1 otherwise (naming the series), 2 on bad input.
+//
+// What is readable: the kernel runs as root (or with CAP_SYS_PTRACE over its children's user namespaces) and
+// reads every file used here even though the services are not dumpable (PR_SET_DUMPABLE 0 makes their
+// /proc files root's); /proc/<pid>/status is readable by anyone. A file that cannot be read gives NaN in the
+// CSV and the series is reported as unreadable instead of judged.
+#include <dirent.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "args.hpp"
+#include "commands.hpp"
+#include "report.hpp"
+#include "run_recorder.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/process.hpp"
+
+#ifndef REJUV_SERVICE_DIR
+#define REJUV_SERVICE_DIR ""
+#endif
+
+namespace rejuv::cli {
+namespace {
+
+namespace fs = std::filesystem;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// ---- /proc ----
+
+// "VmRSS:" and "Threads:" of /proc/<pid>/status [kB, count]; NaN when unreadable.
+struct Status {
+  double rss_kb = kNaN;
+  double threads = kNaN;
+};
+Status read_status(const std::string& proc) {
+  std::ifstream in(proc + "/status");
+  Status s;
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.starts_with("VmRSS:")) s.rss_kb = std::strtod(line.c_str() + 6, nullptr);
+    if (line.starts_with("Threads:")) s.threads = std::strtod(line.c_str() + 8, nullptr);
+  }
+  return s;
+}
+
+double count_lines(const std::string& file) {
+  std::ifstream in(file);
+  if (!in) return kNaN;
+  double n = 0;
+  std::string line;
+  while (std::getline(in, line)) ++n;
+  return n;
+}
+
+double count_entries(const std::string& dir) {
+  std::error_code ec;
+  double n = 0;
+  for (auto it = fs::directory_iterator(dir, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) ++n;
+  return ec ? kNaN : n;
+}
+
+// Every process of the machine: pid, parent, session (from /proc/<pid>/stat), and its command name.
+struct Proc {
+  pid_t pid = 0, ppid = 0, session = 0;
+  std::string comm;
+};
+std::vector<Proc> all_processes() {
+  std::vector<Proc> out;
+  std::error_code ec;
+  for (auto it = fs::directory_iterator("/proc", ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.empty() || name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream stat(it->path() / "stat");
+    std::string line;
+    if (!std::getline(stat, line)) continue;
+    // pid (comm) state ppid pgrp session ...: comm may hold spaces and parentheses; parse from the last ')'.
+    const auto open = line.find('('), close = line.rfind(')');
+    if (open == std::string::npos || close == std::string::npos || close + 4 > line.size()) continue;
+    if (line[close + 2] == 'X' || line[close + 2] == 'Z') continue;  // dead, or a zombie not yet reaped
+    Proc p;
+    p.pid = static_cast<pid_t>(std::strtol(line.c_str(), nullptr, 10));
+    p.comm = line.substr(open + 1, close - open - 1);
+    char* end = nullptr;
+    p.ppid = static_cast<pid_t>(std::strtol(line.c_str() + close + 4, &end, 10));
+    const long pgrp = std::strtol(end, &end, 10);
+    (void)pgrp;
+    p.session = static_cast<pid_t>(std::strtol(end, nullptr, 10));
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
+int descendants_of(pid_t root, const std::vector<Proc>& procs) {
+  std::vector<pid_t> frontier{root};
+  int n = 0;
+  while (!frontier.empty()) {
+    const pid_t parent = frontier.back();
+    frontier.pop_back();
+    for (const Proc& p : procs) {
+      if (p.ppid == parent) {
+        ++n;
+        frontier.push_back(p.pid);
+      }
+    }
+  }
+  return n;
+}
+
+// ---- samples ----
+
+// The columns of the CSV, in groups that tools/plots/soak.gp plots together.
+struct Series {
+  std::string name;   // CSV column, e.g. "ekf2_rss_kb"
+  enum class Kind : std::uint8_t { KernelRss, ServiceRss, Maps, Count } kind = Kind::Count;
+  std::vector<double> values{};
+};
+
+class Soak final : public kernel::Observer {
+ public:
+  Soak(std::uint64_t cycles, std::uint64_t every)
+      : cycles_(cycles), every_(every), started_(std::chrono::steady_clock::now()) {}
+
+  // The recorder of the mission about to start (one per kernel).
+  void record_with(RunRecorder& recorder) { recorder_ = &recorder; }
+  // A booted kernel; its rollbacks count on from the cycles of the kernels before it.
+  void attach(kernel::Kernel& k, std::uint64_t cycles_before) {
+    k_ = &k;
+    offset_ = cycles_before;
+    if (!series_.empty()) return;  // the same graph: the same services and series
+    for (std::size_t i = 0; i < k.service_count(); ++i) {
+      const kernel::ServiceStats st = k.stats(ServiceId{static_cast<std::uint32_t>(i)});
+      if (st.started) services_.push_back({ServiceId{static_cast<std::uint32_t>(i)}, st.name});
+    }
+    const auto add = [&](std::string name, Series::Kind kind) { series_.push_back({std::move(name), kind}); };
+    add("kernel_rss_kb", Series::Kind::KernelRss);
+    add("plant_rss_kb", Series::Kind::ServiceRss);
+    for (const auto& s : services_) add(s.name + "_rss_kb", Series::Kind::ServiceRss);
+    add("kernel_fds", Series::Kind::Count);
+    add("plant_fds", Series::Kind::Count);
+    for (const auto& s : services_) add(s.name + "_fds", Series::Kind::Count);
+    add("kernel_maps", Series::Kind::Maps);
+    add("plant_maps", Series::Kind::Maps);
+    for (const auto& s : services_) add(s.name + "_maps", Series::Kind::Maps);
+    add("kernel_threads", Series::Kind::Count);
+    add("kernel_children", Series::Kind::Count);
+    add("processes", Series::Kind::Count);
+    for (const auto& s : services_) add(s.name + "_procs", Series::Kind::Count);
+  }
+
+  void detach() { k_ = nullptr; }
+  void stop_recording() { recorder_ = nullptr; }
+
+  void on_publication(const kernel::Publication& p) override {
+    if (recorder_ != nullptr) recorder_->on_publication(p);
+  }
+
+  void on_step(std::uint64_t step, Nanos t, SrMode mode) override {
+    if (recorder_ != nullptr) recorder_->on_step(step, t, mode);
+    if (k_ == nullptr || done_) return;
+    const std::uint64_t rollbacks = offset_ + k_->sr_stats().rollbacks;
+    // Sample at one phase of the cycle — the first MC step once the count is due — so that what a cycle
+    // holds for a moment (the spares on their way after a rollback) does not decide a sample.
+    if (rollbacks >= next_ && mode == SrMode::MC) {
+      sample(rollbacks, t);
+      next_ = (rollbacks / every_ + 1) * every_;
+      if (rollbacks >= cycles_) {
+        done_ = true;
+        k_->request_stop();
+      }
+    }
+  }
+
+  [[nodiscard]] bool done() const { return done_; }
+  [[nodiscard]] const std::vector<Series>& series() const { return series_; }
+  [[nodiscard]] std::size_t samples() const { return cycle_.size(); }
+
+  void write_csv(std::FILE* f) const {
+    std::fprintf(f, "cycle,t_sim_s,wall_s");
+    for (const Series& s : series_) std::fprintf(f, ",%s", s.name.c_str());
+    std::fprintf(f, "\n");
+    for (std::size_t i = 0; i < cycle_.size(); ++i) {
+      std::fprintf(f, "%llu,%.3f,%.3f", static_cast<unsigned long long>(cycle_[i]), t_sim_[i], wall_[i]);
+      for (const Series& s : series_) {
+        if (std::isnan(s.values[i])) {
+          std::fprintf(f, ",NaN");
+        } else {
+          std::fprintf(f, ",%.0f", s.values[i]);
+        }
+      }
+      std::fprintf(f, "\n");
+    }
+  }
+
+ private:
+  struct Service {
+    ServiceId id;
+    std::string name;
+  };
+
+  void sample(std::uint64_t rollbacks, Nanos t) {
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - started_).count();
+    cycle_.push_back(rollbacks);
+    t_sim_.push_back(to_seconds(t).count());
+    wall_.push_back(wall);
+    const std::vector<Proc> procs = all_processes();
+    const pid_t self = ::getpid();
+    std::optional<pid_t> plant;
+    for (const Proc& p : procs) {
+      if (p.ppid == self && p.comm.starts_with("rejuv_plant")) plant = p.pid;
+    }
+    std::map<std::string, double> v;
+    const auto per_process = [&](const std::string& who, std::optional<pid_t> pid) {
+      const std::string proc = pid ? "/proc/" + std::to_string(*pid) : std::string("/proc/none");
+      v[who + "_rss_kb"] = read_status(proc).rss_kb;
+      v[who + "_fds"] = count_entries(proc + "/fd");
+      v[who + "_maps"] = count_lines(proc + "/maps");
+    };
+    per_process("kernel", self);
+    v["kernel_threads"] = read_status("/proc/self").threads;
+    per_process("plant", plant);
+    int children = 0;
+    for (const Proc& p : procs) children += p.ppid == self ? 1 : 0;
+    v["kernel_children"] = children;
+    v["processes"] = descendants_of(self, procs);
+    for (const Service& s : services_) {
+      const kernel::ServiceStats st = k_->stats(s.id);
+      const std::optional<pid_t> pid = st.alive && st.pid > 0 ? std::optional<pid_t>(st.pid) : std::nullopt;
+      per_process(s.name, pid);
+      double in_session = kNaN;
+      if (pid) {
+        if (const auto sid = sys::session_of(*pid)) {
+          in_session = 0;
+          for (const Proc& p : procs) in_session += p.session == *sid ? 1 : 0;
+        }
+      }
+      v[s.name + "_procs"] = in_session;
+    }
+    for (Series& s : series_) s.values.push_back(v.contains(s.name) ? v[s.name] : kNaN);
+
+    const double done = static_cast<double>(std::min(rollbacks, cycles_)) / static_cast<double>(cycles_);
+    const double eta = done > 0 ? wall * (1 - done) / done : 0;
+    std::fprintf(stderr, "rejuv soak: cycle %llu/%llu (%.0f %%), t = %.0f s, kernel RSS %.0f kB, %.0f processes, ETA %.0f s\n",
+                 static_cast<unsigned long long>(rollbacks), static_cast<unsigned long long>(cycles_), 100 * done,
+                 to_seconds(t).count(), v["kernel_rss_kb"], v["processes"], eta);
+  }
+
+  RunRecorder* recorder_ = nullptr;
+  kernel::Kernel* k_ = nullptr;
+  std::uint64_t cycles_, every_, next_ = 0, offset_ = 0;
+  bool done_ = false;
+  std::chrono::steady_clock::time_point started_;
+  std::vector<Service> services_;
+  std::vector<Series> series_;
+  std::vector<std::uint64_t> cycle_;
+  std::vector<double> t_sim_, wall_;
+};
+
+// ---- the verdict ----
+
+double median(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 == 1 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
+}
+
+struct Verdict {
+  std::string name;
+  double baseline = kNaN, last = kNaN, growth = kNaN, bound = kNaN;
+  bool readable = true, ok = true;
+};
+
+// Baseline: samples [10 %, 30 %) (after the warm-up); last: the last 20 %.
+Verdict judge(const Series& s, double kernel_rss_kb, double service_rss_kb, double maps_slack) {
+  Verdict v{.name = s.name};
+  const std::size_t n = s.values.size();
+  const std::size_t b0 = n / 10, b1 = std::max(b0 + 1, (n * 3) / 10), l0 = n - std::max<std::size_t>(1, n / 5);
+  std::vector<double> base, last;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isnan(s.values[i])) continue;
+    if (i >= b0 && i < b1) base.push_back(s.values[i]);
+    if (i >= l0) last.push_back(s.values[i]);
+  }
+  if (base.empty() || last.empty()) {
+    v.readable = false;
+    return v;
+  }
+  v.baseline = median(base);
+  v.last = median(last);
+  v.growth = v.last - v.baseline;
+  switch (s.kind) {
+    case Series::Kind::KernelRss: v.bound = kernel_rss_kb; break;
+    case Series::Kind::ServiceRss: v.bound = service_rss_kb; break;
+    case Series::Kind::Maps:
+      v.bound = *std::max_element(base.begin(), base.end()) - v.baseline + maps_slack;
+      break;
+    case Series::Kind::Count: v.bound = *std::max_element(base.begin(), base.end()) - v.baseline; break;  // jitter
+  }
+  v.ok = v.growth <= v.bound;
+  return v;
+}
+
+std::filesystem::path service_dir() {
+  if (const char* env = std::getenv("REJUV_SERVICE_DIR"); env != nullptr && *env != '\0') return env;
+  return REJUV_SERVICE_DIR;
+}
+
+// The graph's closed waypoint loop (first == last) repeated while the mission holds it.
+void repeat_the_loop(proto::Mission& m) {
+  const int n = m.waypoints_size();
+  if (n < 3) return;
+  const auto& a = m.waypoints(0);
+  const auto& z = m.waypoints(n - 1);
+  if (a.north_m() != z.north_m() || a.east_m() != z.east_m() || a.down_m() != z.down_m()) return;
+  while (m.waypoints_size() + (n - 1) <= 16) {
+    for (int i = 1; i < n; ++i) *m.add_waypoints() = m.waypoints(i);
+  }
+}
+
+// Long enough for any --cycles (an SR cycle is seconds of simulated time); the soak stops itself.
+constexpr double kLimitS = launch::defaults::kMaxDurationS / 2;
+
+// The graph as the soak flies it: the loop repeated, no mission timeout within reach.
+Result<launch::LoadedLaunch, std::string> soak_graph(const std::string& path) {
+  auto loaded = launch::load_launch(path);
+  if (!loaded) return std::unexpected(loaded.error().to_string());
+  if (!loaded->graph.sr().enabled()) return std::unexpected("rejuv soak: " + path + ": the graph has sr.enabled false");
+  repeat_the_loop(*loaded->graph.mutable_mission());
+  loaded->graph.mutable_mission()->set_timeout_s(2 * kLimitS);
+  return std::move(*loaded);
+}
+
+}  // namespace
+
+int run_soak(std::span<const std::string_view> args) {
+  std::string graph_path, cycles_text = "1000", every_text = "10", seed_text, out_text = "out/soak", domain_text;
+  std::string kernel_rss_text = "512", service_rss_text = "256", net_port_text = "0", maps_slack_text = "2";
+  bool seed_set = false, domain_set = false, insecure_sandbox = false, one_kernel = false;
+  ArgParser parser("soak",
+                   "Soak a launch graph (DESIGN §11): kernels in this process fly the mission with SR and its attacks\n"
+                   "(the closed waypoint loop repeated as often as a mission holds), one mission after the other, until\n"
+                   "--cycles rollbacks in all, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
+                   "the plant and every service, the kernel's threads and children, the processes under it and in\n"
+                   "each service's session. Writes DIR/soak.csv (and DIR/soak.png with gnuplot). Compares the median\n"
+                   "of the last 20 % of the samples with that of the 20 % after a 10 % warm-up: RSS may grow by the\n"
+                   "bounds below, counts not beyond the baseline's jitter. Exit 0 when flat, 1 when a series grew or\n"
+                   "the run failed (the series are named), 2 on bad input.");
+  parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
+      .option("--cycles", "N", cycles_text, "SR cycles (rollbacks) to fly (default 1000)")
+      .option("--sample-every", "C", every_text, "cycles between samples (default 10)")
+      .option("--seed", "N", seed_text, "seed of the plant and the services (default: the graph's)", &seed_set)
+      .option("--out", "DIR", out_text, "where soak.csv and soak.png go (default out/soak)")
+      .option("--kernel-rss-kb", "K", kernel_rss_text, "allowed growth of the kernel's RSS (default 512 kB)")
+      .option("--service-rss-kb", "K", service_rss_text, "allowed growth of a service's or the plant's RSS (256 kB)")
+      .option("--maps-slack", "M", maps_slack_text,
+              "mappings a process may gain beyond the baseline's jitter (default 2: a new process of each\n"
+              "mission may get one more malloc arena or thread stack than the first; a leak keeps growing)")
+      .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
+      .option("--net-port", "P", net_port_text, "UDP port of the network gate (default 0: any free port)")
+      .flag("--one-kernel", one_kernel,
+            "one kernel for the whole soak (the mission, then a hover at its last waypoint) instead of a new\n"
+            "kernel in this process for each mission")
+      .flag("--insecure-sandbox", insecure_sandbox, "as `rejuv run --insecure-sandbox`");
+  const auto parsed = parser.parse(args);
+  if (!parsed) return bad_input("rejuv soak: " + parsed.error());
+  switch (*parsed) {
+    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
+    case ParseOutcome::Run: break;
+  }
+  const auto cycles = to_u64(cycles_text, "--cycles");
+  const auto every = to_u64(every_text, "--sample-every");
+  const auto kernel_rss = to_double(kernel_rss_text, "--kernel-rss-kb");
+  const auto service_rss = to_double(service_rss_text, "--service-rss-kb");
+  const auto net_port = to_u64(net_port_text, "--net-port");
+  const auto maps_slack = to_u64(maps_slack_text, "--maps-slack");
+  if (!maps_slack) return bad_input("rejuv soak: " + maps_slack.error());
+  if (!cycles) return bad_input("rejuv soak: " + cycles.error());
+  if (!every) return bad_input("rejuv soak: " + every.error());
+  if (!kernel_rss) return bad_input("rejuv soak: " + kernel_rss.error());
+  if (!service_rss) return bad_input("rejuv soak: " + service_rss.error());
+  if (!net_port) return bad_input("rejuv soak: " + net_port.error());
+  if (*cycles < 1 || *cycles > 10'000'000) return bad_input("rejuv soak: --cycles: expected 1..10000000, got " + cycles_text);
+  if (*every < 1 || *every > *cycles) {
+    return bad_input("rejuv soak: --sample-every: expected 1..--cycles, got " + every_text);
+  }
+  if (*net_port > 0xFFFF) return bad_input("rejuv soak: --net-port: expected 0..65535, got " + net_port_text);
+  if (!(*kernel_rss >= 0) || !(*service_rss >= 0)) return bad_input("rejuv soak: the RSS bounds must be >= 0 kB");
+
+  kernel::KernelOptions options;
+  options.sandbox = insecure_sandbox ? kernel::KernelOptions::Sandbox::Insecure : kernel::KernelOptions::Sandbox::Strict;
+  options.service_dir = service_dir();
+  options.repo_root = REJUV_SOURCE_DIR;
+  options.network_port = static_cast<std::uint16_t>(*net_port);
+  if (seed_set) {
+    const auto seed = to_u64(seed_text, "--seed");
+    if (!seed) return bad_input("rejuv soak: " + seed.error());
+    options.seed = *seed;
+  }
+  if (domain_set) {
+    const auto d = to_u64(domain_text, "--domain");
+    if (!d) return bad_input("rejuv soak: " + d.error());
+    if (*d > launch::defaults::kMaxDdsDomainId) {
+      return bad_input("rejuv soak: --domain: expected 0.." + std::to_string(launch::defaults::kMaxDdsDomainId) +
+                       ", got " + domain_text);
+    }
+    options.dds_domain = static_cast<std::uint32_t>(*d);
+  }
+
+  auto loaded = soak_graph(graph_path);
+  if (!loaded) return bad_input(loaded.error());
+  std::error_code ec;
+  const fs::path out(out_text);
+  fs::create_directories(out, ec);
+  const fs::path csv_path = out / "soak.csv";
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> csv(std::fopen(csv_path.c_str(), "w"), &std::fclose);
+  if (!csv) return bad_input("rejuv soak: cannot write " + csv_path.string());
+
+  // One mission per kernel (default) or one kernel for the whole soak (--one-kernel: the mission, then a hover).
+  if (one_kernel) {
+    options.stop_on_mission_done = false;
+  }
+  Soak soak(*cycles, *every);
+  const std::string graph_name = loaded->graph.name();
+  std::fprintf(stderr, "rejuv soak: %s, %llu SR cycles, a sample every %llu, seed %llu, %s\n", graph_name.c_str(),
+               static_cast<unsigned long long>(*cycles), static_cast<unsigned long long>(*every),
+               static_cast<unsigned long long>(options.seed.value_or(loaded->graph.seed())),
+               one_kernel ? "one kernel" : "a new kernel for each mission");
+  std::uint64_t cycles_done = 0, missions = 0, checkpoints = 0, fallbacks = 0, cold = 0, attacked = 0;
+  double max_v = 0, sim_s = 0, wall_s = 0;
+  bool left = false, failed = false;
+  std::string stopped;
+  while (!soak.done() && !failed) {
+    auto graph = soak_graph(graph_path);
+    if (!graph) return bad_input(graph.error());
+    auto reference = run_reference(*graph, options.seed);
+    if (!reference) return bad_input(reference.error());
+    kernel::KernelOptions o = options;
+    align_plant_like_the_model(o, *reference);
+    if (one_kernel) o.duration = to_nanos(Seconds{kLimitS}) + reference->alignment;
+    RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
+    soak.record_with(recorder);
+    auto k = kernel::Kernel::create(std::move(*graph), o, &soak);
+    if (!k) {
+      std::fprintf(stderr, "rejuv soak: %s\n", k.error().to_string().c_str());
+      return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+    }
+    recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });
+    if (auto booted = (*k)->boot(); !booted) {
+      std::fprintf(stderr, "rejuv soak: %s\n", booted.error().to_string().c_str());
+      soak.stop_recording();
+      failed = true;
+      stopped = booted.error().to_string();
+      break;
+    }
+    soak.attach(**k, cycles_done);
+    auto outcome = (*k)->run();
+    (*k)->shutdown();
+    soak.detach();
+    if (!outcome) {
+      failed = true;
+      stopped = outcome.error().to_string();
+      break;
+    }
+    const kernel::SrStats& sr = (*k)->sr_stats();
+    proto::RunSummary s;
+    recorder.fill(s, outcome->sim_time);
+    ++missions;
+    cycles_done += sr.rollbacks;
+    checkpoints += sr.checkpoints;
+    fallbacks += sr.fallbacks;
+    cold += sr.cold_restarts;
+    attacked += recorder.attacked_windows();
+    max_v = std::max(max_v, s.max_v());
+    left = left || s.left_safety_set();
+    sim_s += to_seconds(outcome->sim_time).count();
+    wall_s += to_seconds(outcome->wall_time).count();
+    stopped = std::string(kernel::to_string(outcome->reason)) + (outcome->detail.empty() ? "" : ": ") + outcome->detail;
+    const bool mission_done = outcome->reason == kernel::StopReason::MissionDone && !one_kernel;
+    const bool soak_done = outcome->reason == kernel::StopReason::Requested && soak.done();
+    if (recorder.lost() || !(mission_done || soak_done)) failed = true;
+    std::fprintf(stderr, "rejuv soak: mission %llu: %s (%llu rollbacks, %llu in all)\n",
+                 static_cast<unsigned long long>(missions), stopped.c_str(),
+                 static_cast<unsigned long long>(sr.rollbacks), static_cast<unsigned long long>(cycles_done));
+    soak.stop_recording();  // before this mission's recorder goes; the next mission gets its own
+  }
+  std::printf("%s (soak): %llu missions, the last stopped with: %s\n", graph_name.c_str(),
+              static_cast<unsigned long long>(missions), stopped.c_str());
+  std::printf("  flight      %.1f s simulated in %.1f s wall, max V = %.4f (%s)\n", sim_s, wall_s, max_v,
+              left ? "LEFT THE SAFETY SET" : "safe");
+  std::printf("  images      %llu checkpoints, %llu rollbacks (%llu fallbacks, %llu cold restarts), %llu attacked MC windows\n",
+              static_cast<unsigned long long>(checkpoints), static_cast<unsigned long long>(cycles_done),
+              static_cast<unsigned long long>(fallbacks), static_cast<unsigned long long>(cold),
+              static_cast<unsigned long long>(attacked));
+
+  soak.write_csv(csv.get());
+  csv.reset();
+  std::printf("  samples     %zu, written to %s\n", soak.samples(), csv_path.c_str());
+  const std::string gp = std::string(REJUV_SOURCE_DIR) + "/tools/plots/soak.gp";
+  if (soak.samples() >= 2 && std::system("command -v gnuplot >/dev/null 2>&1") == 0 && fs::exists(gp)) {
+    std::size_t rss = 0, fds = 0, maps = 0;
+    for (const Series& x : soak.series()) {
+      rss += x.name.ends_with("_rss_kb") ? 1 : 0;
+      fds += x.name.ends_with("_fds") ? 1 : 0;
+      maps += x.name.ends_with("_maps") ? 1 : 0;
+    }
+    const fs::path png = out / "soak.png";
+    const std::string cmd = "gnuplot -e \"csv='" + csv_path.string() + "'; png='" + png.string() +
+                            "'; nrss=" + std::to_string(rss) + "; nfds=" + std::to_string(fds) +
+                            "; nmaps=" + std::to_string(maps) + "; ncols=" + std::to_string(3 + soak.series().size()) +
+                            "\" '" + gp + "'";
+    if (std::system(cmd.c_str()) == 0) std::printf("  plot        %s\n", png.c_str());
+  }
+
+  // The verdict, one line per series.
+  bool flat = true;
+  std::printf("  %-26s %12s %12s %10s %10s\n", "series", "baseline", "last 20 %", "growth", "bound");
+  for (const Series& x : soak.series()) {
+    const Verdict v = judge(x, *kernel_rss, *service_rss, static_cast<double>(*maps_slack));
+    if (!v.readable) {
+      std::printf("  %-26s %12s\n", v.name.c_str(), "unreadable");
+      continue;
+    }
+    std::printf("  %-26s %12.0f %12.0f %+10.0f %10.0f%s\n", v.name.c_str(), v.baseline, v.last, v.growth, v.bound,
+                v.ok ? "" : "  GREW");
+    flat = flat && v.ok;
+  }
+  const bool reached = soak.done() && !failed;
+  const bool safe = !left;
+  if (!reached) std::printf("rejuv soak: FAILED: the run stopped before %llu cycles\n", static_cast<unsigned long long>(*cycles));
+  if (!safe) std::printf("rejuv soak: FAILED: the vehicle left the safety set\n");
+  if (!flat) std::printf("rejuv soak: FAILED: a series grew beyond its bound (GREW above)\n");
+  if (reached && safe && flat) std::printf("rejuv soak: flat over %llu cycles\n", static_cast<unsigned long long>(*cycles));
+  return static_cast<int>(reached && safe && flat ? Exit::Ok : Exit::Findings);
+}
+
+}  // namespace rejuv::cli
