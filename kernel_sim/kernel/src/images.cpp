@@ -234,6 +234,14 @@ void Kernel::Impl::run_checkpoint() {
   const Nanos deadline = wall() + options.snapshot_deadline;
   bool late = false;
   while (checkpoint->failure.empty() && !checkpoint->waiting.empty() && !stopping) {
+    // A service the checkpoint waits for that died meanwhile will never answer: abandon now rather than at the
+    // deadline (the fault campaign killed safety_control between the Snapshots and the commit).
+    if (const auto gone = std::find_if(checkpoint->waiting.begin(), checkpoint->waiting.end(),
+                                       [&](ServiceId id) { return !services[id.value()].live(); });
+        gone != checkpoint->waiting.end()) {
+      checkpoint->failure = "'" + services[gone->value()].name + "' was lost before its Taken";
+      break;
+    }
     const Nanos left = deadline - wall();
     if (left <= Nanos{0}) {
       late = true;
