@@ -117,6 +117,7 @@ struct ServiceRuntime {
   std::string output_partial{};
   std::vector<pid_t> sessions{};
   std::uint64_t staged_this_step = 0;
+  bool scripted = false;           // a test seam's socket pair, no process (Kernel::attach_scripted_services)
   ServiceStats stats{};
 
   // A new process is this service: spawned (base 0) or resumed from generation `base`'s image.
@@ -127,7 +128,7 @@ struct ServiceRuntime {
   }
   [[nodiscard]] bool live() const { return phase == Phase::Spawned || phase == Phase::Booted || phase == Phase::Ready; }
   [[nodiscard]] bool idle() const {
-    return phase != Phase::Ready || (idle_count + frames_base == stats.frames_out && drained());
+    return phase != Phase::Ready || scripted || (idle_count + frames_base == stats.frames_out && drained());
   }
   [[nodiscard]] bool drained() const { return !has_held && outq.empty() && !sweep;
   }
@@ -396,6 +397,9 @@ struct Kernel::Impl {
 
   // ---- channel input (requests.cpp) ----
   void read_channel(ServiceRuntime& s);
+  // The frames of one datagram read from the service's channel (no fd): handled one by one until one does
+  // not decode (the rest of its datagram is refused with it) or the service is lost.
+  void receive_datagram(ServiceRuntime& s, std::span<const std::byte> datagram);
   void handle_frame(ServiceRuntime& s, const wire::FrameView& frame);
   void handle_subscribe(ServiceRuntime& s, const wire::FrameView& frame);
   void handle_invoke(ServiceRuntime& s, const wire::FrameView& frame);

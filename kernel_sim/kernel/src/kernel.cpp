@@ -140,7 +140,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
 
   // Capabilities: start in MC without SR (the mode never changes), in SC (safe) with it (DESIGN §7 Faults).
   const cap::ModeTable table = policy::compile(*policy);
-  auto caps = cap::CapSystem::create(table, cap::CapSystemConfig{.cspace_slots = 256,
+  auto caps = cap::CapSystem::create(table, cap::CapSystemConfig{.cspace_slots = wire::kCSpaceSlots,
                                                                  .audit_capacity = 4096,
                                                                  .initial_mode = sr_requested ? SrMode::SC : SrMode::MC});
   if (!caps) return fail(kernel_error(K::Config, "capability table: " + caps.error().to_string()));

@@ -54,19 +54,23 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
         on_taken_pages(s, *frame, std::move(r.fds.front()));  // images.cpp
         continue;
       }
-      std::size_t offset = 0;
-      do {
-        ++s.stats.frames_in;
-        auto frame = wire::decode(wire::next_frame(datagram, offset), wire::Direction::ToKernel);
-        if (!frame) {
-          refuse(s, wire::to_string(frame.error()));
-          break;
-        }
-        handle_frame(s, *frame);
-      } while (offset < datagram.size() && s.live() && s.channel.valid());  // a frame may lose the service
+      receive_datagram(s, datagram);
     }
     if (*n < got.size()) return;  // drained: no second system call to find the channel empty
   }
+}
+
+void Kernel::Impl::receive_datagram(ServiceRuntime& s, std::span<const std::byte> datagram) {
+  std::size_t offset = 0;
+  do {
+    ++s.stats.frames_in;
+    auto frame = wire::decode(wire::next_frame(datagram, offset), wire::Direction::ToKernel);
+    if (!frame) {
+      refuse(s, wire::to_string(frame.error()));
+      break;
+    }
+    handle_frame(s, *frame);
+  } while (offset < datagram.size() && s.live() && s.channel.valid());  // a frame may lose the service
 }
 
 void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {

@@ -205,9 +205,10 @@ sys::SysResult<void> prepare_self() {
 
 bool whole_memory_tracked() { return scratch != nullptr && !self.other_writable; }
 
+// This function's frame: a local's address would do as well, but clang warns on it, and under ASan a local
+// may live on a fake stack elsewhere.
 [[gnu::noinline]] std::uintptr_t stack_pointer() {
-  volatile char here = 0;
-  return reinterpret_cast<std::uintptr_t>(&here);
+  return reinterpret_cast<std::uintptr_t>(__builtin_frame_address(0));
 }
 
 Layout layout_at(std::uintptr_t stack_pointer) {

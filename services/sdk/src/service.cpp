@@ -615,6 +615,9 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
     if (!f) return std::unexpected(f.error());
     if (f->kind != wire::FrameKind::BootCap) return error(SdkError::Protocol, "expected BootCap");
     const auto c = wire::payload_as<wire::BootCap>(*f);
+    // The slot sizes a table below (subscription_by_slot): one out of the CSpace is a broken boot script,
+    // not a reason to allocate gigabytes (found by tests/fuzz sdk_frames).
+    if (c.slot >= wire::kCSpaceSlots) return error(SdkError::Protocol, "BootCap slot " + std::to_string(c.slot) + " out of range");
     CapInfo info;
     info.object = std::string(wire::read_name(c.object));
     info.slot = Slot(c.slot);

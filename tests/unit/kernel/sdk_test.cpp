@@ -127,6 +127,7 @@ class ScriptedKernel {
   }
 
   clock::TimePageWriter& page() { return *page_; }
+  [[nodiscard]] int service_fd() const { return service_fd_; }
   // Reads one datagram and queues each frame of it (the SDK packs what it sends: wire::next_frame).
   bool receive_datagram() {
     std::array<std::byte, wire::kMaxFrameBytes> buf{};
@@ -357,6 +358,22 @@ TEST_F(SdkTest, MalformedFramesFromTheKernel_AreIgnored) {
 TEST_F(SdkTest, KernelGone_EndsRunWithOne) {
   kernel.close();
   EXPECT_EQ(svc->run(), 1);
+}
+
+// Found by tests/fuzz sdk_frames (regressions/sdk_frames/boot_cap_huge_slot): a slot sized a table.
+TEST(SdkConnect, BootCapSlotOutsideTheCSpace_IsAProtocolError) {
+  ScriptedKernel kernel;
+  wire::BootHeader h{};
+  h.cap_count = 1;
+  kernel.send_body(wire::FrameKind::Boot, 0, 0, wire::kProtocolVersion, h);
+  wire::BootCap c{};
+  c.slot = 0xF900'0001U;
+  kernel.send_body(wire::FrameKind::BootCap, 0, 0, 0, c);
+  kernel.send(wire::FrameKind::BootEnd, 0, 0, 0);
+  auto svc = Service::connect(ConnectOptions{.channel_fd = kernel.service_fd(),
+                                             .time_page_fd = kernel.page().read_only_fd().get()});
+  ASSERT_FALSE(svc.has_value());
+  EXPECT_EQ(svc.error().code, SdkError::Protocol);
 }
 
 TEST(SdkConnect, WithoutTheKernelsFds_IsNotAService) {

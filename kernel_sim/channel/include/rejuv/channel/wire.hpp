@@ -24,6 +24,8 @@ inline constexpr int kChannelFd = 3;     // a service's channel to the kernel is
 inline constexpr int kTimePageFd = 4;    // the kernel's read-only time page (memfd) is always fd 4
 inline constexpr std::size_t kMaxFrameBytes = 8192;
 inline constexpr std::uint16_t kProtocolVersion = 1;
+// Slots of a service's CSpace (the kernel's CapSystemConfig::cspace_slots): a slot on the wire is below it.
+inline constexpr std::size_t kCSpaceSlots = 256;
 
 // Subscribe{aux}: a polled subscription (PX4's uORB::Subscription, not SubscriptionCallback). Its
 // deliveries never wake the service: the kernel keeps them in the ring and hands them over just before the

@@ -32,6 +32,7 @@
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/process.hpp"
 
 namespace rejuv::kernel {
@@ -371,6 +372,17 @@ class Kernel {
   [[nodiscard]] NetStats net_stats() const;
   [[nodiscard]] std::optional<std::uint16_t> network_port() const;
   [[nodiscard]] const launch::LoadedLaunch& graph() const;
+
+  // ---- test seam: the channel-input fuzzer only (tests/fuzz/channel_frames.cpp) ----
+  // Instead of boot(): every service is attached to a socket pair with no process behind it, in phase
+  // Spawned (as right after exec), and the graph counts as booted, so that step() runs. A scripted service
+  // counts as idle in a lockstep step (no Idle frames needed). Returns the services' ends, by ServiceId
+  // (empty for a skipped service); the caller reads them to keep the channels from filling up.
+  [[nodiscard]] Result<std::vector<sys::SeqPacket>, KernelError> attach_scripted_services();
+  // Handles `datagram` exactly as read_channel handles one read from the service's channel (framing,
+  // protocol phase, request handlers, staging for the router), then drains the capability denials as the
+  // loop does after each wake-up. Ignored for a service that is not live.
+  void inject_datagram(ServiceId service, std::span<const std::byte> datagram);
 
   struct Impl;
 
