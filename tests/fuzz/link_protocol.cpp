@@ -25,7 +25,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   for (const auto d : {rejuv::link::Direction::ToVehicle, rejuv::link::Direction::ToGround}) {
     if (auto m = rejuv::link::decode(bytes, d)) round_trip(*m, d);
   }
-  rejuv::services::ExtLink link;
+  // home at the square's start, 3 m up; the default bounds (the geofence commander also applies)
+  rejuv::services::ExtLink link(rejuv::services::ExtLink::UploadGuard{.home = {.p_N_m = Eigen::Vector3d(0.0, 0.0, -3.0), .yaw_rad = 0.0}, .bounds = {}});
   (void)link.on_datagram(bytes, rejuv::Nanos{0});
   (void)link.on_datagram(bytes, rejuv::Nanos{1});  // a retransmission of the same datagram
   return 0;
