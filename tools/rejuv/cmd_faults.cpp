@@ -53,6 +53,8 @@ struct Row {
 int run_faults(std::span<const std::string_view> args) {
   std::string graph_path, injections_text = "200", seed_text = "1", jobs_text = "1", out_text = "out/faults",
                           per_text = "6", domain_text = "120", bound_text = "300";
+  std::string mission_text;
+  bool mission_set = false;
   ArgParser parser("faults",
                    "Fault campaign (DESIGN §7 \"Faults\", §11): flies GRAPH several times and injects, at moments and\n"
                    "phases drawn from the seed, SIGKILL/SIGSTOP of a live service, of one image, of every image of a\n"
@@ -68,7 +70,10 @@ int run_faults(std::span<const std::string_view> args) {
       .option("--per-mission", "K", per_text, "faults per mission at most (default 6)")
       .option("--domain", "D", domain_text, "DDS domain of job 0; job j uses D + j (default 120)")
       .option("--mission-timeout", "S", bound_text, "wall-clock bound of one mission: the watchdog (default 300)")
-      .option("--out", "DIR", out_text, "where faults.json and the logs go (default out/faults)");
+      .option("--out", "DIR", out_text, "where faults.json and the logs go (default out/faults)")
+      .option("--mission", "M", mission_text,
+              "fly only mission M of the plan (the same seed, --injections and --per-mission): to reproduce one",
+              &mission_set);
   const auto parsed = parser.parse(args);
   if (!parsed) return bad_input("rejuv faults: " + parsed.error());
   switch (*parsed) {
@@ -100,9 +105,15 @@ int run_faults(std::span<const std::string_view> args) {
     return bad_input("rejuv faults: " + graph_path + ": the graph has no rejuvenated service or SR is off");
   }
   // The square flies ≈265 s with SR: the faults are spread over the first 230 s of flight.
-  const std::vector<faults::Mission> missions =
+  std::vector<faults::Mission> missions =
       faults::plan(*seed, static_cast<std::uint32_t>(*injections), static_cast<std::uint32_t>(*per), rejuvenated,
                    std::chrono::seconds{230});
+  if (mission_set) {
+    const auto only = to_u64(mission_text, "--mission");
+    if (!only) return bad_input("rejuv faults: " + only.error());
+    std::erase_if(missions, [&](const faults::Mission& m) { return m.index != *only; });
+    if (missions.empty()) return bad_input("rejuv faults: --mission: the plan has no mission " + mission_text);
+  }
   const fs::path out_dir = out_text;
   std::error_code ec;
   fs::create_directories(out_dir, ec);
