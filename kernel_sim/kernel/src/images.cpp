@@ -254,6 +254,13 @@ void Kernel::Impl::run_checkpoint() {
   CheckpointRun done = std::move(*checkpoint);
   checkpoint.reset();
   if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
+  // A service that died after its Taken has left the broker and the timer table (on_child_exit): its kernel
+  // objects would be missing from the generation, and an image restored from it would receive nothing (the
+  // fault campaign: ekf2 killed right after its Taken, restored deaf, the vehicle lost). Not a generation.
+  for (const image::Image& im : done.record.images) {
+    const ServiceRuntime& s = services[im.service.value()];
+    if (done.failure.empty() && !s.live()) done.failure = "'" + s.name + "' was lost before the commit";
+  }
   const auto answer = [&](std::int32_t error, std::uint64_t value) {
     if (caller) reply(services[caller->value()], seq, error, value);
   };
