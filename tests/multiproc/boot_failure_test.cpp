@@ -17,37 +17,18 @@
 #include <string>
 #include <vector>
 
+#include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
 
 namespace {
 
-const std::filesystem::path kRepo(REJUV_SOURCE_DIR);
-const std::filesystem::path kRejuv = std::filesystem::path(REJUV_BINARY_DIR) / "tools" / "rejuv" / "rejuv";
+using rejuv::test_support::kRepo;
+using rejuv::test_support::slurp;
+using Outcome = rejuv::test_support::CliOutcome;
 
-std::string slurp(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-struct Outcome {
-  int exit_code = -1;  // -1: ended by a signal
-  std::string out, err;
-};
-
-class BootFailure : public ::testing::Test {
+class BootFailure : public rejuv::test_support::ScratchDirTest {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("rejuv_boot_failure_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    std::filesystem::remove_all(dir_, ec);
-  }
+  BootFailure() : ScratchDirTest("rejuv_boot_failure_") {}
 
   // The shipped square graph, its policy path made absolute, then `edit`ed.
   std::filesystem::path graph(const std::function<std::string(std::string)>& edit) const {
@@ -61,31 +42,10 @@ class BootFailure : public ::testing::Test {
 
   // `rejuv run GRAPH <extra>` on this process's own DDS domain, output captured.
   Outcome run(const std::filesystem::path& graph, const std::vector<std::string>& extra) const {
-    const std::string out = (dir_ / "stdout").string();
-    const std::string err = (dir_ / "stderr").string();
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    std::vector<std::string> all{kRejuv.string(), "run", graph.string(), "--domain",
-                                 std::to_string(rejuv::test_support::kOwnDdsDomain)};
-    all.insert(all.end(), extra.begin(), extra.end());
-    std::vector<char*> argv;
-    for (std::string& a : all) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    pid_t pid = -1;
-    Outcome r;
-    if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) {
-      int status = 0;
-      if (::waitpid(pid, &status, 0) == pid && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-    }
-    posix_spawn_file_actions_destroy(&actions);
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
+    std::vector<std::string> args{"run", graph.string(), "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain)};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return rejuv::test_support::run_rejuv(dir_, std::move(args));
   }
-
-  std::filesystem::path dir_;
 };
 
 // ext_link refuses telemetry_period_s: -1 and exits 1 before it is Ready.

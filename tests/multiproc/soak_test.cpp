@@ -16,68 +16,34 @@
 #include <string>
 #include <vector>
 
+#include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
 
 namespace {
 
-const std::filesystem::path kRepo(REJUV_SOURCE_DIR);
-const std::filesystem::path kRejuv = std::filesystem::path(REJUV_BINARY_DIR) / "tools" / "rejuv" / "rejuv";
+using rejuv::test_support::kRepo;
+using rejuv::test_support::slurp;
 
-std::string slurp(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-struct Outcome {
-  int exit_code = -1;  // -1: ended by a signal
-  std::string out, err, csv;
+struct Outcome : rejuv::test_support::CliOutcome {
+  std::string csv;  // DIR/soak.csv
 };
 
-class Soak : public ::testing::Test {
+class Soak : public rejuv::test_support::ScratchDirTest {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("rejuv_soak_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    if (!HasFailure()) std::filesystem::remove_all(dir_, ec);  // kept on failure: soak.csv tells what grew
-  }
+  Soak() : ScratchDirTest("rejuv_soak_") {}
+  [[nodiscard]] bool keep_on_failure() const override { return true; }  // soak.csv tells what grew
 
   // `rejuv soak launch/quad_square.launch.pbtxt <extra>` on this process's own DDS domain. The soak's kernel
   // kills and reaps every process it started before it exits (Kernel::shutdown).
   Outcome soak(const std::vector<std::string>& extra) const {
-    const std::string out = (dir_ / "stdout").string();
-    const std::string err = (dir_ / "stderr").string();
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    std::vector<std::string> all{kRejuv.string(), "soak", (kRepo / "launch" / "quad_square.launch.pbtxt").string(),
-                                 "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain), "--out",
-                                 dir_.string()};
-    all.insert(all.end(), extra.begin(), extra.end());
-    std::vector<char*> argv;
-    for (std::string& a : all) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    pid_t pid = -1;
+    std::vector<std::string> args{"soak", (kRepo / "launch" / "quad_square.launch.pbtxt").string(), "--domain",
+                                  std::to_string(rejuv::test_support::kOwnDdsDomain), "--out", dir_.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
     Outcome r;
-    if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) {
-      int status = 0;
-      if (::waitpid(pid, &status, 0) == pid && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
-    }
-    posix_spawn_file_actions_destroy(&actions);
-    r.out = slurp(out);
-    r.err = slurp(err);
+    static_cast<rejuv::test_support::CliOutcome&>(r) = rejuv::test_support::run_rejuv(dir_, std::move(args));
     r.csv = slurp(dir_ / "soak.csv");
     return r;
   }
-
-  std::filesystem::path dir_;
 };
 
 std::size_t lines(const std::string& text) {

@@ -279,16 +279,15 @@ int run_run(std::span<const std::string_view> args) {
   if (const std::uint64_t bad = (*k)->bad_frames_total(); bad > 0) (*s.mutable_denials())["BadFrame"] = bad;
   // Contained below the cap check (DESIGN §11): sandbox violations (the seccomp filter ended the process),
   // publications over the per-step bound or of the wrong size, and messages overrun in the rings.
-  std::uint64_t sandbox = 0, flood = 0, wrong_size = 0, overrun = 0;
+  std::uint64_t flood = 0, wrong_size = 0, overrun = 0;
   for (std::size_t i = 0; i < (*k)->service_count(); ++i) {
     const kernel::ServiceStats st = (*k)->stats(ServiceId{static_cast<std::uint32_t>(i)});
-    sandbox += st.sandbox_violations;
     flood += st.flood_dropped;
     wrong_size += st.wrong_size;
     overrun += st.lost;
   }
   fill_sandbox(*s.mutable_sandbox_violations(), **k, insecure_sandbox);
-  for (const auto& [kind, n] : {std::pair{"SandboxViolation", sandbox}, std::pair{"FloodDropped", flood},
+  for (const auto& [kind, n] : {std::pair{"SandboxViolation", s.sandbox_violations().total()}, std::pair{"FloodDropped", flood},
                                 std::pair{"WrongSize", wrong_size}, std::pair{"RingOverrun", overrun}}) {
     if (n > 0) (*s.mutable_denials())[kind] = n;
   }

@@ -191,6 +191,22 @@ bool Kernel::Impl::quiescent_for_checkpoint() const {
 
 // ---- checkpoint ----
 
+bool Kernel::Impl::lost_during(CheckpointRun& run) const {
+  // A service of the checkpoint that died before the commit — before its Taken (it will never answer) or after
+  // it — has left the broker and the timer table (on_child_exit): the generation would lack its kernel objects
+  // and an image restored from it would receive nothing (the fault campaign: ekf2 killed right after its Taken,
+  // restored deaf, the vehicle lost). Not a generation.
+  if (!run.failure.empty()) return true;
+  for (const image::Image& im : run.record.images) {
+    const ServiceRuntime& s = services[im.service.value()];
+    if (!s.live()) {
+      run.failure = "'" + s.name + "' was lost during the checkpoint";
+      return true;
+    }
+  }
+  return false;
+}
+
 void Kernel::Impl::run_checkpoint() {
   const auto [caller, seq] = *checkpoint_request;
   checkpoint_request.reset();
@@ -234,14 +250,7 @@ void Kernel::Impl::run_checkpoint() {
   const Nanos deadline = wall() + options.snapshot_deadline;
   bool late = false;
   while (checkpoint->failure.empty() && !checkpoint->waiting.empty() && !stopping) {
-    // A service the checkpoint waits for that died meanwhile will never answer: abandon now rather than at the
-    // deadline (the fault campaign killed safety_control between the Snapshots and the commit).
-    if (const auto gone = std::find_if(checkpoint->waiting.begin(), checkpoint->waiting.end(),
-                                       [&](ServiceId id) { return !services[id.value()].live(); });
-        gone != checkpoint->waiting.end()) {
-      checkpoint->failure = "'" + services[gone->value()].name + "' was lost before its Taken";
-      break;
-    }
+    if (lost_during(*checkpoint)) break;  // abandoned now rather than at the deadline
     const Nanos left = deadline - wall();
     if (left <= Nanos{0}) {
       late = true;
@@ -254,13 +263,7 @@ void Kernel::Impl::run_checkpoint() {
   CheckpointRun done = std::move(*checkpoint);
   checkpoint.reset();
   if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
-  // A service that died after its Taken has left the broker and the timer table (on_child_exit): its kernel
-  // objects would be missing from the generation, and an image restored from it would receive nothing (the
-  // fault campaign: ekf2 killed right after its Taken, restored deaf, the vehicle lost). Not a generation.
-  for (const image::Image& im : done.record.images) {
-    const ServiceRuntime& s = services[im.service.value()];
-    if (done.failure.empty() && !s.live()) done.failure = "'" + s.name + "' was lost before the commit";
-  }
+  (void)lost_during(done);  // a death read in the last pump
   const auto answer = [&](std::int32_t error, std::uint64_t value) {
     if (caller) reply(services[caller->value()], seq, error, value);
   };

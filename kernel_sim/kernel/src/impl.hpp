@@ -372,6 +372,8 @@ struct Kernel::Impl {
   bool service_images();
   [[nodiscard]] bool quiescent_for_checkpoint() const;
   void run_checkpoint();
+  // Whether a service of the checkpoint in progress died (sets its failure): the generation is abandoned.
+  [[nodiscard]] bool lost_during(CheckpointRun& run) const;
   // Taken or TakenPages from `s`: whether the checkpoint in progress waits for it (no longer, once true).
   bool expecting_image(ServiceRuntime& s, const wire::FrameView& frame);
   void on_taken(ServiceRuntime& s, const wire::FrameView& frame);

@@ -195,8 +195,11 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
     images.refresh_all();
     if (!retiring.empty()) finish_retiring(false);
     std::fill(pending.begin(), pending.end(), checkpoint.has_value() && !final);
+    int answer_fd = -1;  // where the next Copied of a copy on its way arrives
     const auto note = [&](const image::Image& im) {
-      if (im.spares_pending > 0 || im.patch_pending) pending[im.service.value()] = !final;
+      if (im.spares_pending == 0 && !im.patch_pending) return;
+      pending[im.service.value()] = !final;
+      if (answer_fd < 0 && im.resume.valid()) answer_fd = im.resume.fd();
     };
     for (const Generation g : images.generations()) {
       for (const image::Image& im : images.find(g)->images) note(im);
@@ -205,7 +208,9 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
       for (const image::Image& im : r.images) note(im);
     }
     if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || wall() >= wait_until) break;
-    (void)sys::wait_fd(epoll.fd(), sys::WaitFor::Readable, std::chrono::microseconds{100});
+    // On that copy's answer, not on epoll: the kernel's other fds may well be readable now (a spin).
+    if (answer_fd < 0) break;
+    (void)sys::wait_fd(answer_fd, sys::WaitFor::Readable, std::max(Nanos{0}, wait_until - wall()));
   }
   if (std::any_of(pending.begin(), pending.end(), [](bool p) { return p; })) {
     if (!sweep_due) sweep_due = when;

@@ -15,75 +15,27 @@
 #include <string>
 #include <vector>
 
+#include "../../rejuv_cli.hpp"
+
 namespace {
 
-const std::filesystem::path kRepo(REJUV_SOURCE_DIR);
-const std::filesystem::path kRejuv = std::filesystem::path(REJUV_BINARY_DIR) / "tools" / "rejuv" / "rejuv";
-
-struct Outcome {
-  int exit_code = -1;
-  std::string out, err;
-};
-
-std::string slurp(const std::filesystem::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using rejuv::test_support::kRepo;
+using rejuv::test_support::slurp;
+using Outcome = rejuv::test_support::CliOutcome;
 
 // A scratch folder for this process, removed at the end of each test.
-class RejuvCli : public ::testing::Test {
+class RejuvCli : public rejuv::test_support::ScratchDirTest {
  protected:
-  void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("rejuv_cli_test_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    std::filesystem::remove_all(dir_, ec);
-  }
+  RejuvCli() : ScratchDirTest("rejuv_cli_test_") {}
 
   // Runs `rejuv <args>` with stdout and stderr captured to files (no shell, no quoting issues).
-  Outcome rejuv(const std::vector<std::string>& args) const {
-    const std::string out = (dir_ / "stdout").string();
-    const std::string err = (dir_ / "stderr").string();
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
-                                     0600);
-    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
-                                     0600);
-    std::vector<std::string> all{kRejuv.string()};
-    all.insert(all.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (std::string& a : all) {
-      argv.push_back(a.data());
-    }
-    argv.push_back(nullptr);
-    pid_t pid = -1;
-    Outcome r;
-    if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) {
-      int status = 0;
-      if (::waitpid(pid, &status, 0) == pid && WIFEXITED(status)) {
-        r.exit_code = WEXITSTATUS(status);  // a signal (crash) leaves -1
-      }
-    }
-    posix_spawn_file_actions_destroy(&actions);
-    r.out = slurp(out);
-    r.err = slurp(err);
-    return r;
-  }
+  Outcome rejuv(const std::vector<std::string>& args) const { return ::rejuv::test_support::run_rejuv(dir_, args); }
 
   std::filesystem::path write(const std::string& name, const std::string& text) const {
     const auto p = dir_ / name;
     std::ofstream(p) << text;
     return p;
   }
-
-  std::filesystem::path dir_;
 };
 
 std::string example(std::string_view name) {

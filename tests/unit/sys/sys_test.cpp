@@ -532,7 +532,7 @@ TEST(Isolation, WithoutNamespaces_TheFileIsWritten) {  // the counterpart: the p
   std::filesystem::remove(path);
 }
 
-TEST(Isolation, ResourceLimits_AppliedAndNotRaisable) {
+TEST(Isolation, ResourceLimits_Applied) {
   SpawnSpec spec = probe("rlimit-files");
   spec.limits.open_files = 37;
   EXPECT_EQ(exit_code_of(spec), 37);

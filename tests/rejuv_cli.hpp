@@ -1,0 +1,85 @@
+// Running the `rejuv` program as a user does, from a test: the real binary, no shell (no quoting issues), its
+// stdout and stderr captured to files in a scratch folder of the test's own. Shared by the CLI tests
+// (tests/unit/policy/cli_test.cpp) and the multi-process tests that drive `rejuv run` / `rejuv soak`.
+#pragma once
+
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+extern char** environ;  // NOLINT: the child gets the test's environment (CYCLONEDDS_URI, …)
+
+namespace rejuv::test_support {
+
+inline const std::filesystem::path kRepo(REJUV_SOURCE_DIR);
+inline const std::filesystem::path kRejuv = std::filesystem::path(REJUV_BINARY_DIR) / "tools" / "rejuv" / "rejuv";
+
+inline std::string slurp(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+struct CliOutcome {
+  int exit_code = -1;  // -1: ended by a signal (a crash)
+  std::string out, err;
+};
+
+// Runs `rejuv <args>` with stdout and stderr captured to `dir`/stdout and `dir`/stderr.
+inline CliOutcome run_rejuv(const std::filesystem::path& dir, std::vector<std::string> args) {
+  const std::string out = (dir / "stdout").string();
+  const std::string err = (dir / "stderr").string();
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  std::vector<char*> argv;
+  std::string program = kRejuv.string();
+  argv.push_back(program.data());
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  CliOutcome r;
+  if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) {
+    int status = 0;
+    if (::waitpid(pid, &status, 0) == pid && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  r.out = slurp(out);
+  r.err = slurp(err);
+  return r;
+}
+
+// A fixture with a scratch folder per test (`<prefix><pid>_<test name>` in the temp directory), removed after
+// the test — or kept when it failed and keep_on_failure() says so.
+class ScratchDirTest : public ::testing::Test {
+ protected:
+  explicit ScratchDirTest(std::string prefix) : prefix_(std::move(prefix)) {}
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() /
+           (prefix_ + std::to_string(::getpid()) + "_" + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    if (!(keep_on_failure() && HasFailure())) std::filesystem::remove_all(dir_, ec);
+  }
+  [[nodiscard]] virtual bool keep_on_failure() const { return false; }
+
+  std::filesystem::path dir_;
+
+ private:
+  std::string prefix_;
+};
+
+}  // namespace rejuv::test_support
