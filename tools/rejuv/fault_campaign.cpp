@@ -442,7 +442,9 @@ class Injector final : public kernel::Observer {
     if (o.fault.kind == FaultKind::StallPlant) helper_.cont_after(pids.front(), std::chrono::seconds{1});
     o.fired = true;
     o.fired_at_s = to_seconds(flight).count();
-    o.note = std::to_string(pids.size()) + " process" + (pids.size() == 1 ? "" : "es");
+    o.note = std::to_string(pids.size()) + " process" + (pids.size() == 1 ? "" : "es") + " (pid";
+    for (const int pid : pids) o.note += " " + std::to_string(pid);
+    o.note += ")";
     before_ = Counters::of(k_->sr_stats());
     max_v_at_fire_ = current_max_v();
     fired_at_ = flight;
@@ -519,6 +521,12 @@ class Injector final : public kernel::Observer {
     if (max_v >= 1.0 && max_v_at_fire_ < 1.0) {
       o.unsafe = true;
       o.note += "; max V " + std::to_string(max_v);
+      // What the kernel believed of the target when the vehicle was lost: the clue to an unexplained case.
+      if (const auto id = k_->find_service(o.fault.target)) {
+        const kernel::ServiceStats st = k_->stats(*id);
+        o.note += "; '" + o.fault.target + "' then " + (st.alive ? "alive" : "dead") + ", pid " + std::to_string(st.pid) +
+                  ", mode " + std::string(to_string(k_->mode()));
+      }
     }
     evaluating_.reset();
   }

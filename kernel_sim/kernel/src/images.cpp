@@ -542,8 +542,13 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
     s.frames_base = s.stats.frames_out;
     s.idle_count = 0;
     s.stats.pid = s.process.pid();
-    (void)epoll.add(s.channel.fd(), token(Source::Channel, s.id.value()));
-    (void)epoll.add(s.process.pidfd(), token(Source::Pidfd, s.id.value()));
+    // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
+    // generation is unusable rather than half-installed.
+    for (const auto& [fd, source] : {std::pair{s.channel.fd(), Source::Channel}, std::pair{s.process.pidfd(), Source::Pidfd}}) {
+      if (auto added = epoll.add(fd, token(source, s.id.value())); !added && failure.empty()) {
+        failure = "watching the restored '" + s.name + "': " + added.error().to_string();
+      }
+    }
   }
   if (pending.size() != record.images.size() && failure.empty()) failure = "not every image could be resumed";
   if (!failure.empty()) return false;

@@ -235,7 +235,14 @@ void Kernel::Impl::send_boot(ServiceRuntime& s) {
 void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
   if (s.phase == Phase::Dead || s.phase == Phase::NotStarted) return;
   auto status = s.process.try_wait();
-  if (!status || !*status) return;  // not yet (spurious wakeup)
+  if (status && !*status) return;  // not yet (spurious wakeup)
+  if (!status) {
+    // Its pidfd said it ended but it cannot be waited for (reaped elsewhere?): it is gone all the same. Lost
+    // with the error, never ignored: an unnoticed death leaves the graph without the service and SR without
+    // its rollback (the fault campaign's one unexplained unsafe case had neither a loss nor a rollback).
+    log("service '%s': its end cannot be read (%s): counted as lost", s.name.c_str(), status.error().to_string().c_str());
+    status = std::optional<sys::ExitStatus>{sys::ExitStatus{.how = sys::ExitStatus::How::Signaled, .value = SIGKILL}};
+  }
   if (!booted) {
     // Its last words may still be in the channel (the pidfd can be handled first): read them, so that a
     // boot failure is reported with the service's own error (lose_service).
