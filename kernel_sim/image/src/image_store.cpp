@@ -40,9 +40,14 @@ std::size_t Image::refresh() {
     if (pid <= 0) continue;
     const bool known = std::find(resumed.begin(), resumed.end(), pid) != resumed.end() ||
                        std::any_of(copies.begin(), copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
-    if (auto child = known ? sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"known", EEXIST}))
-                           : sys::ChildProcess::adopt_child(pid)) {
+    auto child = known ? sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"known", EEXIST}))
+                       : sys::ChildProcess::adopt_child(pid);
+    if (child) {
       copies.push_back(std::move(*child));
+    } else if (sys::out_of_fds(child.error().error)) {
+      // The kernel's own copy, which it has no fd to keep: killed now, not left for a sweep to count as a
+      // stray. The generation then lacks a copy, which its rollback reports (unusable, fallback).
+      (void)sys::kill_and_reap_own_child(pid);
     }
   }
   std::erase_if(copies, [](sys::ChildProcess& c) {
@@ -79,7 +84,7 @@ void destroy(GenerationRecord& record) {
 ImageStore::ImageStore(std::size_t keep) : keep_(std::max<std::size_t>(keep, 1)) {}
 
 std::vector<GenerationRecord> ImageStore::commit(GenerationRecord record) {
-  REJUV_ASSERT(record.g == next_generation(), "generations are committed in order");
+  REJUV_ASSERT(record.g.value() >= next_, "generations are committed in order");
   next_ = record.g.value() + 1;
   generations_.push_back(std::move(record));
   std::vector<GenerationRecord> out;

@@ -270,6 +270,8 @@ void Kernel::Impl::run_checkpoint() {
   if (!done.failure.empty()) {
     ++sr_stats.checkpoint_failures;
     log("checkpoint %llu abandoned: %s", num(g), done.failure.c_str());
+    abandoned = Abandoned{.g = g, .waiting = done.waiting};
+    images.abandon(g);
     image::destroy(done.record);
     if (late) {
       for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
@@ -305,6 +307,7 @@ void Kernel::Impl::run_checkpoint() {
   sr_stats.checkpoint_phases.c.add(to_ms(t_saved - t_taken));
   // Strays (sandbox.cpp): after the timed part, before the new spares are on their way, so that only the
   // copies still on their way from earlier requests can defer it.
+  abandoned.reset();  // an image still owed to an abandoned checkpoint is a stray from now on
   sweep_strays("a checkpoint's commit");
   for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
   ++sr_stats.checkpoints;
@@ -313,7 +316,24 @@ void Kernel::Impl::run_checkpoint() {
   if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }
 
+bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
+  if (!abandoned || frame.header.aux != abandoned->g.value()) return false;
+  const auto waiting = std::find(abandoned->waiting.begin(), abandoned->waiting.end(), s.id);
+  if (waiting == abandoned->waiting.end()) return false;
+  abandoned->waiting.erase(waiting);
+  // TakenPages: its pages fd closes with the frame. Taken: the image is a process of the service's session
+  // that the kernel made it fork and no longer wants. Anything else the pid could name is left alone.
+  if (frame.kind != wire::FrameKind::Taken) return true;
+  const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
+  const auto sid = pid > 0 && !knows_process(pid, nullptr) ? sys::session_of(pid) : sys::SysResult<pid_t>(std::unexpected(sys::SysError{"pid", ESRCH}));
+  if (sid && std::find(s.sessions.begin(), s.sessions.end(), *sid) != s.sessions.end()) {
+    (void)sys::kill_and_reap_own_child(pid);
+  }
+  return true;
+}
+
 bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& frame) {
+  if (late_image(s, frame)) return false;  // the answer of an abandoned checkpoint: not a protocol error
   if (!checkpoint) {
     refuse(s, std::string(wire::to_string(frame.kind)) + " without a checkpoint in progress");
     return false;
@@ -395,6 +415,17 @@ void Kernel::Impl::send_patches(image::GenerationRecord& record) {
   }
 }
 
+bool Kernel::Impl::knows_process(pid_t pid, const image::GenerationRecord* taking) const {
+  const auto in = [&](const image::GenerationRecord& r) {
+    return std::any_of(r.images.begin(), r.images.end(), [&](const image::Image& i) {
+      return std::any_of(i.copies.begin(), i.copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
+    });
+  };
+  return images.owns(pid) || (plant_started && plant.pid() == pid) ||
+         std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& o) { return o.process.pid() == pid; }) ||
+         (taking != nullptr && in(*taking));
+}
+
 void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
   if (!expecting_image(s, frame)) return;
   CheckpointRun& run = *checkpoint;
@@ -405,16 +436,17 @@ void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
   }
   // The pid must be the kernel's child and no process the kernel already knows: a service cannot make the
   // kernel take charge of (and later kill) anything but its own image.
-  const bool known = images.owns(pid) || (plant_started && plant.pid() == pid) ||
-                     std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& o) {
-                       return o.process.pid() == pid;
-                     }) ||
-                     std::any_of(run.record.images.begin(), run.record.images.end(), [&](const image::Image& i) {
-                       return std::any_of(i.copies.begin(), i.copies.end(),
-                                          [&](const sys::ChildProcess& c) { return c.pid() == pid; });
-                     });
+  const bool known = knows_process(pid, &run.record);
   auto child = known ? sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"known pid", EEXIST}))
                      : sys::ChildProcess::adopt_child(pid);
+  if (!child && sys::out_of_fds(child.error().error)) {
+    // The kernel is out of fds (keep_generations against ulimit -n): the image cannot be kept. It is the
+    // kernel's own copy, not the service's stray: killed now, so that no sweep counts it as a violation.
+    (void)sys::kill_and_reap_own_child(pid);
+    run.failure = "no fd left to keep the image of '" + s.name + "' (" + child.error().to_string() +
+                  "): raise ulimit -n or lower keep_generations";
+    return;
+  }
   if (!child) {
     run.failure = "'" + s.name + "' reported pid " + std::to_string(pid) + ", which is not its image (" +
                   child.error().to_string() + ")";

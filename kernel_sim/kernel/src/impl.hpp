@@ -269,6 +269,13 @@ struct Kernel::Impl {
   // The caller and its Invoke seq; no caller: the kernel's own (Kernel::checkpoint_now, benchmarks).
   std::optional<std::pair<std::optional<ServiceId>, std::uint32_t>> checkpoint_request;
   std::optional<CheckpointRun> checkpoint;  // between the Snapshots and the commit
+  // The last abandoned checkpoint and the services whose Taken it had not read: an image taken for it that
+  // reports late is the kernel's own process, killed then (late_image) rather than swept as a stray.
+  struct Abandoned {
+    Generation g{};
+    std::vector<ServiceId> waiting{};
+  };
+  std::optional<Abandoned> abandoned;
   // While a checkpoint or rollback is timed: publications land in the rings undelivered and the kernel's
   // DDS bridge writes are held (a woken service or plant thread would take the CPU at once); resume_routing.
   bool routing_frozen = false;
@@ -376,6 +383,8 @@ struct Kernel::Impl {
   [[nodiscard]] bool lost_during(CheckpointRun& run) const;
   // Taken or TakenPages from `s`: whether the checkpoint in progress waits for it (no longer, once true).
   bool expecting_image(ServiceRuntime& s, const wire::FrameView& frame);
+  bool late_image(ServiceRuntime& s, const wire::FrameView& frame);
+  [[nodiscard]] bool knows_process(pid_t pid, const image::GenerationRecord* taking) const;
   void on_taken(ServiceRuntime& s, const wire::FrameView& frame);
   void on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages);
   // The base generation a Snapshot to `s` offers for an image by written pages (0: by fork).

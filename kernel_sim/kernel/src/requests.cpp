@@ -36,6 +36,17 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
         s.channel_closed_at = wall();
         return;
       }
+      if (!r.truncated && r.fds_truncated && checkpoint) {
+        // A TakenPages whose pages fd the kernel could not install (out of fds: MSG_CTRUNC) is its answer all
+        // the same: the checkpoint is abandoned now, instead of killing every service at the snapshot deadline.
+        const std::span<const std::byte> datagram = std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, r.size);
+        auto frame = wire::decode(datagram, wire::Direction::ToKernel);
+        if (frame && frame->kind == wire::FrameKind::TakenPages && expecting_image(s, *frame)) {
+          ++s.stats.frames_in;
+          checkpoint->failure = "the written pages of '" + s.name + "' could not be received (is the kernel out of fds?)";
+          continue;
+        }
+      }
       if (r.truncated || r.fds_truncated) {
         ++s.stats.frames_in;
         refuse(s, r.truncated ? "datagram longer than the maximum frame size" : "frame carried file descriptors (closed)");

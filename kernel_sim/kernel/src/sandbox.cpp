@@ -246,8 +246,17 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
       if (std::find(s.sessions.begin(), s.sessions.end(), *sid) == s.sessions.end()) continue;
       if (pending[s.id.value()]) break;  // one of its copies is on its way: next time
       if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
-      auto stray = sys::ChildProcess::adopt_child(pid);
-      if (stray) stray->kill_and_reap();
+      // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,
+      // not counted. Until the next commit (images.cpp), then a stray like any other.
+      const bool owed = abandoned && std::find(abandoned->waiting.begin(), abandoned->waiting.end(), s.id) !=
+                                         abandoned->waiting.end();
+      // Without a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
+      if (auto stray = sys::ChildProcess::adopt_child(pid)) {
+        stray->kill_and_reap();
+      } else {
+        (void)sys::kill_and_reap_own_child(pid);
+      }
+      if (owed) break;
       record_violation(s, Violation::StrayProcess,
                        "pid " + std::to_string(pid) + ", killed at " + std::string(when));
       break;

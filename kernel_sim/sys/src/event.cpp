@@ -1,6 +1,7 @@
 #include "rejuv/sys/event.hpp"
 
 #include <fcntl.h>
+#include <algorithm>
 #include <poll.h>
 #include <pthread.h>
 #include <signal.h>
@@ -8,6 +9,7 @@
 #include <sys/signalfd.h>
 #include <sys/timerfd.h>
 #include <time.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <array>
@@ -182,5 +184,15 @@ bool fd_is_open(int fd) { return ::fcntl(fd, F_GETFD) != -1; }
 int current_pid() { return static_cast<int>(::getpid()); }
 
 bool running_as_root() { return ::geteuid() == 0; }
+
+SysResult<std::uint64_t> ensure_open_files(std::uint64_t wanted) {
+  rlimit lim{};
+  if (::getrlimit(RLIMIT_NOFILE, &lim) != 0) return last_error("getrlimit(RLIMIT_NOFILE)");
+  if (lim.rlim_cur >= wanted) return static_cast<std::uint64_t>(lim.rlim_cur);
+  rlimit raised = lim;
+  raised.rlim_cur = lim.rlim_max == RLIM_INFINITY ? 2 * wanted : std::min<rlim_t>(lim.rlim_max, 2 * wanted);
+  if (raised.rlim_cur > lim.rlim_cur && ::setrlimit(RLIMIT_NOFILE, &raised) == 0) return static_cast<std::uint64_t>(raised.rlim_cur);
+  return static_cast<std::uint64_t>(lim.rlim_cur);
+}
 
 }  // namespace rejuv::sys

@@ -338,7 +338,11 @@ SysResult<Spawned> spawn_supervised(const SpawnSpec& spec) {
       for (const auto& [target, source] : spec.fds) wanted = wanted || target == fd;
       if (!wanted) ::close(fd);
     }
-    if (::syscall(SYS_close_range, max_target + 1, ~0U, CLOSE_RANGE_CLOEXEC) != 0) {
+    // Closed now, not at exec: the fds the child makes before exec (the seccomp listener) must fit under its
+    // RLIMIT_NOFILE, which a graph may set below the kernel's highest fd (max_open_files: 64 failed every
+    // spawn with EMFILE once the kernel held more than 64 fds). The report socket stays open until exec.
+    if ((wfd > max_target + 1 && ::syscall(SYS_close_range, max_target + 1, wfd - 1, 0) != 0) ||
+        ::syscall(SYS_close_range, std::max(wfd + 1, max_target + 1), ~0U, 0) != 0) {
       child_fail(wfd, kStageCloseRange, errno);
     }
     if (spec.isolation == Isolation::Namespaces) isolate_in_child(wfd);
@@ -463,6 +467,17 @@ bool signal_if(pid_t pid, int sig, const std::function<bool()>& still_same) {
   const UniqueFd fd(pidfd_open(pid, 0));
   if (!fd || !still_same()) return false;
   return pidfd_send_signal(fd.get(), sig) == 0;
+}
+
+bool kill_and_reap_own_child(pid_t pid) {
+  if (pid <= 0) return false;
+  // WNOWAIT: only asks whether it is ours (ECHILD otherwise) — before anything is signalled.
+  siginfo_t info{};
+  if (::waitid(P_PID, static_cast<id_t>(pid), &info, WEXITED | WNOHANG | WNOWAIT) != 0) return false;
+  ::kill(pid, SIGKILL);
+  while (::waitpid(pid, nullptr, 0) < 0 && errno == EINTR) {
+  }
+  return true;
 }
 
 SysResult<std::vector<pid_t>> own_children() {

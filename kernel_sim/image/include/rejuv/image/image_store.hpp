@@ -13,6 +13,8 @@
 // decides when to commit, roll back and fall back.
 #pragma once
 
+#include <algorithm>
+
 #include <cstddef>
 #include <optional>
 #include <string>
@@ -95,6 +97,9 @@ class ImageStore {
   [[nodiscard]] std::size_t keep() const { return keep_; }
   // The number the next checkpoint uses (1, 2, …; never reused).
   [[nodiscard]] Generation next_generation() const { return Generation{next_}; }
+  // A generation that was begun and abandoned: its number is never used again, so that a late answer to it
+  // can never be taken for an answer to the next checkpoint (whose images would then be of two moments).
+  void abandon(Generation g) { next_ = std::max(next_, g.value() + 1); }
   // Adds a complete generation (its number must be next_generation()). The oldest beyond K leave the
   // store and are returned with their images still to be killed and reaped (destroy(), or the caller's own
   // asynchronous reaping: a checkpoint need not wait for old images to die).

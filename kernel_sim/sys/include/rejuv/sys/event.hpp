@@ -98,4 +98,8 @@ enum class WaitFor : std::uint8_t { Readable, Writable };
 [[nodiscard]] int current_pid();
 [[nodiscard]] bool running_as_root();
 
+// Makes sure this process may open at least `wanted` fds: raises its soft RLIMIT_NOFILE towards the hard one
+// (up to 2 × wanted) when it is below. Returns the soft limit it ends with, which may still be below `wanted`.
+[[nodiscard]] SysResult<std::uint64_t> ensure_open_files(std::uint64_t wanted);
+
 }  // namespace rejuv::sys

@@ -3,6 +3,8 @@
 // reaped when their handle goes away, so that no process is ever left behind.
 #pragma once
 
+#include <cerrno>
+
 #include <sys/types.h>
 
 #include <functional>
@@ -143,6 +145,13 @@ struct Spawned {
 
 // The pids of this process's own children (every thread's, from /proc/self/task/*/children), ascending.
 [[nodiscard]] SysResult<std::vector<pid_t>> own_children();
+// Kills and reaps a child of this process by pid, without a pidfd: the fallback when no fd is left to open one
+// (EMFILE). An unreaped child's pid cannot be reused, so the pid names the same process until the wait below;
+// the wait is by that pid only. False when `pid` is not a child of this process (nothing is signalled).
+[[nodiscard]] bool kill_and_reap_own_child(pid_t pid);
+// True for the errors of a process out of file descriptors (its own limit or the system's).
+[[nodiscard]] inline bool out_of_fds(int error) { return error == EMFILE || error == ENFILE; }
+
 // The session id of `pid` (a service is a session of its own; setsid is not on its allow-list, so every
 // process it makes stays in it).
 [[nodiscard]] SysResult<pid_t> session_of(pid_t pid);
