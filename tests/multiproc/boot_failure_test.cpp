@@ -4,6 +4,7 @@
 // waiting for ever. The test finishing at all is part of what it checks (ctest TIMEOUT); no timing is asserted.
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -88,6 +89,36 @@ TEST_F(BootFailure, BinTrueWithoutSr_Exit1NamingTheServiceAndItsExit) {
 
 // tests/test_domain.hpp: this process's domain is one byte of one fixed lock file, held for its whole life
 // (another open file description cannot take it), so no per-domain file is left behind in /tmp.
+// keep_generations 16 needs more fds than a hard limit of 256 allows: refused before anything starts, with
+// what to change, instead of failing spawns or checkpoints in flight (issue 19 item 4).
+TEST_F(BootFailure, TooFewFdsForKeepGenerations_Exit1NamingTheLimit) {
+  const auto g = graph([](std::string text) {
+    const std::string k = "keep_generations: 2";
+    return text.replace(text.find(k), k.size(), "keep_generations: 16");
+  });
+  // `rejuv run` in a child whose hard fd limit is 256 (this process keeps its own).
+  const std::string out = (dir_ / "stdout").string(), err = (dir_ / "stderr").string();
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const rlimit low{256, 256};
+    const int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (::setrlimit(RLIMIT_NOFILE, &low) != 0 || o < 0 || e < 0 || ::dup2(o, 1) < 0 || ::dup2(e, 2) < 0) ::_exit(99);
+    const std::string exe = rejuv::test_support::kRejuv.string(), domain = std::to_string(rejuv::test_support::kOwnDdsDomain);
+    ::execl(exe.c_str(), exe.c_str(), "run", g.c_str(), "--domain", domain.c_str(), "--duration", "5", nullptr);
+    ::_exit(98);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  const Outcome r{.exit_code = WEXITSTATUS(status), .out = slurp(out), .err = slurp(err)};
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("keep_generations 16"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ulimit -n"), std::string::npos) << r.err;
+  EXPECT_EQ((r.out + r.err).find("services ready"), std::string::npos) << "no service may have started: " << r.err;
+}
+
 TEST(TestDomain, OwnDomainIsAByteOfTheOneLockFile_HeldByThisProcess) {
   ASSERT_TRUE(std::filesystem::exists(rejuv::test_support::kDomainLockFile));
   const int fd = ::open(rejuv::test_support::kDomainLockFile, O_RDWR | O_CLOEXEC);

@@ -66,6 +66,22 @@ TEST(ImageStore, KeepsTheNewestKGenerationsAndReapsTheRest) {
   EXPECT_EQ(*sys::count_open_fds(), fds_before);
 }
 
+// A generation begun and abandoned (a failed checkpoint) keeps its number: the next checkpoint takes a new one,
+// so that a late answer to the abandoned one cannot be read as an answer to it.
+TEST(ImageStore, AnAbandonedGenerationsNumberIsNeverReused) {
+  ImageStore store(2);
+  const Generation first = store.next_generation();
+  for (GenerationRecord& old : store.commit(make_generation(first, 1))) destroy(old);
+  const Generation abandoned = store.next_generation();
+  store.abandon(abandoned);
+  const Generation next = store.next_generation();
+  EXPECT_GT(next.value(), abandoned.value());
+  for (GenerationRecord& old : store.commit(make_generation(next, 1))) destroy(old);
+  EXPECT_EQ(store.generations(), (std::vector<Generation>{first, next}));
+  store.abandon(first);  // an old number changes nothing
+  EXPECT_EQ(store.next_generation().value(), next.value() + 1);
+}
+
 TEST(ImageStore, FindsADeadImage) {
   ImageStore store(3);
   EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 2)).empty());

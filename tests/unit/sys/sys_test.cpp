@@ -640,3 +640,19 @@ TEST(CpuPlacement, LowerPriority_NoSuchProcess_ErrorValue) {
 
 }  // namespace
 }  // namespace rejuv::sys
+
+// The pid fallback when no pidfd can be opened: only a child of this process is signalled, and it is reaped.
+TEST(Process, KillAndReapOwnChild_KillsAChildAndLeavesOthersAlone) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::pause();
+    ::_exit(0);
+  }
+  ASSERT_GT(child, 0);
+  EXPECT_FALSE(rejuv::sys::kill_and_reap_own_child(::getppid()));  // not a child: nothing signalled
+  EXPECT_EQ(::kill(::getppid(), 0), 0);
+  EXPECT_TRUE(rejuv::sys::kill_and_reap_own_child(child));
+  EXPECT_EQ(::kill(child, 0), -1) << "killed and reaped: the pid names nothing";
+  EXPECT_EQ(errno, ESRCH);
+  EXPECT_FALSE(rejuv::sys::kill_and_reap_own_child(child));
+}
