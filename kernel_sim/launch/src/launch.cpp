@@ -98,7 +98,7 @@ class Validator {
       : g_(g), locs_(locs), path_(path) {}
 
   Result<std::filesystem::path, LoadError> run() {
-    for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(),
+    for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(), check_limits(),
                     check_mission(), check_attack()}) {
       if (!c) {
         return fail(std::move(c.error()));
@@ -315,6 +315,40 @@ class Validator {
         return fail(error(at({{"dds", -1}, {"bridges", i}}, "dds_name"),
                           "DDS name \"" + dds_name(b) + "\" is used by two bridges"));
       }
+    }
+    return {};
+  }
+
+  // Sandbox limits (DESIGN §7 "Protection") that SR can live with: every process of a rejuvenated service —
+  // the live one, an image and a spare per kept generation, and the generation being taken — counts against
+  // its max_processes (RLIMIT_NPROC); below that its image fork fails at a checkpoint (issue 19 item 4).
+  Check check_limits() const {
+    const auto where = [&](int i, std::string_view field) {
+      return i < 0 ? at({{"sandbox_limits", -1}}, field) : at({{"services", i}, {"limits", -1}}, field);
+    };
+    for (int i = -1; i < g_.services_size(); ++i) {
+      const proto::SandboxLimits& l = i < 0 ? g_.sandbox_limits() : g_.services(i).limits();
+      if (l.has_max_open_files() && l.max_open_files() < defaults::kMinSandboxOpenFiles) {
+        return fail(error(where(i, "max_open_files"), "max_open_files must be at least " +
+                                                          std::to_string(defaults::kMinSandboxOpenFiles) +
+                                                          " (a service's channel, pagemap and image files), got " +
+                                                          std::to_string(l.max_open_files())));
+      }
+    }
+    if (!g_.sr().enabled()) return {};
+    const std::uint32_t k = keep_generations(g_.sr());
+    const std::uint32_t needed = 1 + 2 * (k + 1);
+    for (int i = 0; i < g_.services_size(); ++i) {
+      const proto::ServiceSpec& s = g_.services(i);
+      if (!rejuvenate(s)) continue;
+      const SandboxLimitValues v = sandbox_limits(g_, s);
+      if (v.max_processes >= needed) continue;
+      const int from = s.limits().has_max_processes() ? i : -1;
+      return fail(error(where(from, "max_processes"),
+                        "max_processes " + std::to_string(v.max_processes) + " of '" + s.name() + "' is too low for keep_generations " +
+                            std::to_string(k) + ": a rejuvenated service needs " + std::to_string(needed) +
+                            " processes (the live one, an image and a spare for each of the " + std::to_string(k + 1) +
+                            " generations of a checkpoint)"));
     }
     return {};
   }

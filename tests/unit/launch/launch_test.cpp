@@ -229,6 +229,29 @@ TEST(LaunchLoader, SrKeepGenerationsExplicitZero_Semantic) {
   expect_semantic_at("keep_generations: 2", "keep_generations: 0", "keep_generations");
 }
 
+// K = 2 needs 1 + 2 × 3 = 7 processes per rejuvenated service (issue 19 item 4: refused at load, not a failed
+// image fork in flight). The error points at the limits line, the one after the executable.
+void expect_limits_refused(std::string_view limits, std::string_view message_part) {
+  const std::string exe = "  executable: \"rejuv_b\"\n";
+  const Mutated m = mutate(exe, exe + std::string(limits));
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value()) << "accepted: " << limits;
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic) << r.error().to_string();
+  EXPECT_EQ(r.error().where.line, m.line + 1) << r.error().to_string();
+  EXPECT_NE(r.error().message.find(message_part), std::string::npos) << r.error().to_string();
+}
+
+TEST(LaunchLoader, MaxProcessesBelowWhatKeepGenerationsNeeds_Semantic) {
+  expect_limits_refused("  limits { max_processes: 6 }\n",
+                        "max_processes 6 of 'b' is too low for keep_generations 2: a rejuvenated service needs 7");
+  const Mutated ok = mutate("  executable: \"rejuv_b\"\n", "  executable: \"rejuv_b\"\n  limits { max_processes: 7 }\n");
+  EXPECT_TRUE(parse_launch(ok.text, kAsPath).has_value());
+}
+
+TEST(LaunchLoader, MaxOpenFilesBelowTheSdksNeed_Semantic) {
+  expect_limits_refused("  limits { max_open_files: 8 }\n", "max_open_files must be at least 16");
+}
+
 TEST(LaunchLoader, SrBoxEntryZero_Semantic) {
   expect_semantic_at("angle_rad: 0.35", "angle_rad: 0", "sr.box.angle_rad");
 }

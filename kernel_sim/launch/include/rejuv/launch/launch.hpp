@@ -50,6 +50,7 @@ inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // rela
 inline constexpr std::uint32_t kSandboxProcesses = 64;
 inline constexpr std::uint32_t kSandboxMemoryMb = 4096;
 inline constexpr std::uint32_t kSandboxOpenFiles = 256;
+inline constexpr std::uint32_t kMinSandboxOpenFiles = 16;  // below it the SDK cannot boot
 // Bounds of what a graph may ask for (refused at load, file:line:column):
 inline constexpr double kMaxDurationS = 1e6;           // any duration [s]: ~11 days, far inside int64 ns
 inline constexpr double kMinPeriodS = 1e-6;            // a period the kernel's ns clock can represent [s]
