@@ -657,9 +657,13 @@ void Kernel::Impl::finish_step() {
 }
 
 // DESIGN §6: the first images of every service are forked during the alignment, untimed, so that the
-// checkpoints of the flight all take theirs by written pages. Once, at the first step of a run with a plant.
+// checkpoints of the flight all take theirs by written pages. Once, at the first step of a run with a plant
+// (lockstep or realtime); never in manual stepping, whose tests count their generations.
 void Kernel::Impl::request_priming() {
-  if (primed || !sr || options.time_master != TimeMaster::Plant || checkpoint_request || rollback_request) return;
+  if (primed || !sr || options.time_master != TimeMaster::Plant || !graph.graph.has_plant() || checkpoint_request ||
+      rollback_request) {
+    return;
+  }
   primed = true;
   priming_request = true;
   checkpoint_request = std::pair(std::optional<ServiceId>{}, std::uint32_t{0});
