@@ -189,8 +189,8 @@ void BM_LockstepMission(benchmark::State& state, const std::string& graph_file, 
   options.no_sr = true;
   options.no_attack = true;
   options.dds_domain = domain(11);
-  constexpr double kAlignment_s = 20;  // the plant's default, as `rejuv sim` (flight::SimConfig::alignment)
-  options.plant_args = {"--align-s", std::to_string(kAlignment_s)};
+  // The graph's alignment (launch lockstep.alignment_s, 20 s as `rejuv sim`), which the kernel gives the plant.
+  const double kAlignment_s = launch::alignment(graph->graph.lockstep()).count();
   if (duration_s > 0) {
     options.duration = to_nanos(Seconds{kAlignment_s + duration_s});
     options.stop_on_mission_done = false;

@@ -1,6 +1,8 @@
 // rejuv_checkpoint_p: the rollback handler as a process (services/checkpoint_p/include/rejuv/services/
 // checkpoint_p/sr_manager.hpp). This file binds SrEffects to the SDK and the handler to a kernel timer and
 // the topics. No command line: started by the kernel.
+#include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <span>
 #include <string>
@@ -130,8 +132,11 @@ int main() {
   // The check of (1) every check_period (§V-B: "after every 2 ms"); the handler ignores ticks outside a run.
   auto ticks = svc.every(to_nanos(cycle->tracking.check_period), [&] { manager.tick(); });
   if (!svc.require(ticks, "timer")) return 1;
-  // The first cycle right after the clock starts (every service is Ready then), as the simulation boots.
-  auto boot = svc.after(Nanos{1}, [&] { manager.start(); });
+  // The first cycle at the mission's t = 0, as the simulation boots (DESIGN §6: SR starts with the flight; the
+  // kernel passes the end of the plant's alignment on its clock). Never before the clock starts (every service
+  // is Ready then).
+  const Nanos flight_start = std::chrono::round<Nanos>(Seconds{svc.param("flight.start_s", 0.0)});
+  auto boot = svc.after(std::max(Nanos{1}, flight_start - svc.now()), [&] { manager.start(); });
   if (!svc.require(boot, "timer")) return 1;
   return svc.run();
 }

@@ -26,13 +26,9 @@ constexpr double kHoverBound_m = 0.10;
 constexpr double kSimAgreement_m = 0.01;
 
 // The plant's pre-flight alignment, as long as `rejuv sim`'s (the vehicle rests at its start pose; the
-// flight, and every statistic here, starts after it).
+// flight, and every statistic here, starts after it): the graphs set none, so both take the default (the
+// kernel passes the launch file's lockstep.alignment_s to the plant).
 const Nanos kAlignment = to_nanos(flight::SimConfig{}.alignment);
-
-void align_like_the_simulation(kernel::KernelOptions& options) {
-  options.plant_args.insert(options.plant_args.end(),
-                            {"--align-s", std::to_string(to_seconds(kAlignment).count())});
-}
 
 bool flying(const rejuv_msg_GroundTruth& g) {
   return Nanos{static_cast<std::int64_t>(g.timestamp_ns)} >= kAlignment;
@@ -66,7 +62,6 @@ std::optional<FlightRun> fly_hover(double seconds, std::uint64_t seed) {
   }
   kernel::KernelOptions options = test_options();
   options.time_master = kernel::TimeMaster::Plant;
-  align_like_the_simulation(options);
   options.duration = kAlignment + to_nanos(Seconds{seconds});
   options.stop_on_mission_done = false;
   options.seed = seed;
@@ -147,7 +142,6 @@ TEST(FlightMultiproc, SquareMission_AgreesWithTheModelLevelSimulation) {
   options.no_sr = true;
   options.no_attack = true;
   options.idle_deadline = std::chrono::seconds{10};
-  align_like_the_simulation(options);
   for (const std::string& name : missing_binaries(*graph)) {
     if (std::find(kNotFlightCritical.begin(), kNotFlightCritical.end(), name) == kNotFlightCritical.end()) {
       GTEST_SKIP() << name << " is not built";

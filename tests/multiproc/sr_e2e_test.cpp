@@ -205,8 +205,7 @@ std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGr
   options.no_attack = attack == Attack::Off;
   options.idle_deadline = std::chrono::seconds{10};
   options.network_port = 0;  // any free port: tests may run side by side
-  cli::align_plant_like_the_model(options, *reference);
-  Mission m;
+  Mission m;  // the plant aligns as long as the model (launch lockstep.alignment_s, passed by the kernel)
   m.alignment = reference->alignment;
   cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);
   std::optional<FaultInjector> injector;

@@ -225,7 +225,6 @@ TEST(CompromisedMission, Ekf2ForksANetworkHelperAtBoot_NoDatagramHelperGoneByFir
   options.time_master = kernel::TimeMaster::Plant;
   options.idle_deadline = std::chrono::seconds{10};
   options.network_port = 0;  // the ground link on any free port: tests may run side by side
-  cli::align_plant_like_the_model(options, *reference);
   RunLog log;
   ASSERT_NE(log.get(), nullptr);
   options.log = log.get();

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "charge.hpp"
 #include "rejuv/sys/process.hpp"
 #include "commands.hpp"
 #include "fault_campaign.hpp"
@@ -53,7 +54,7 @@ struct Row {
 int run_faults(std::span<const std::string_view> args) {
   std::string graph_path, injections_text = "200", seed_text = "1", jobs_text = "1", out_text = "out/faults",
                           per_text = "6", domain_text = "120", bound_text = "300";
-  std::string mission_text;
+  std::string mission_text, charge_text = "measured";
   bool mission_set = false;
   ArgParser parser("faults",
                    "Fault campaign (DESIGN §7 \"Faults\", §11): flies GRAPH several times and injects, at moments and\n"
@@ -71,6 +72,8 @@ int run_faults(std::span<const std::string_view> args) {
       .option("--domain", "D", domain_text, "DDS domain of job 0; job j uses D + j (default 120)")
       .option("--mission-timeout", "S", bound_text, "wall-clock bound of one mission: the watchdog (default 300)")
       .option("--out", "DIR", out_text, "where faults.json and the logs go (default out/faults)")
+      .option("--charge", "model|measured", charge_text,
+              std::string(kChargeHelp) + " (default: measured: a fault's recovery costs the flight its real time)")
       .option("--mission", "M", mission_text,
               "fly only mission M of the plan (the same seed, --injections and --per-mission): to reproduce one",
               &mission_set);
@@ -94,6 +97,8 @@ int run_faults(std::span<const std::string_view> args) {
   if (*per == 0 || *per > 50) return bad_input("rejuv faults: --per-mission: expected 1..50");
   if (*domain + *jobs - 1 > launch::defaults::kMaxDdsDomainId) return bad_input("rejuv faults: --domain too high");
   if (*bound < 10) return bad_input("rejuv faults: --mission-timeout: expected at least 10 s");
+  const auto charge = to_charge(charge_text, "--charge");
+  if (!charge) return bad_input("rejuv faults: " + charge.error());
 
   auto graph = launch::load_launch(graph_path);
   if (!graph) return bad_input(graph.error().to_string());
@@ -139,7 +144,8 @@ int run_faults(std::span<const std::string_view> args) {
                                      .dds_domain = static_cast<std::uint32_t>(*domain + j),
                                      .cpu = static_cast<int>(j % static_cast<std::uint64_t>(cpus)),
                                      .mission_wall_bound = std::chrono::seconds{*bound},
-                                     .log = out_dir / ("job-" + std::to_string(j) + ".log")};
+                                     .log = out_dir / ("job-" + std::to_string(j) + ".log"),
+                                     .charge = *charge};
       const std::vector<Outcome> outcomes = faults::run_job(config, mine);
       std::ofstream f(out_dir / ("job-" + std::to_string(j) + ".tsv"));
       for (const Outcome& o : outcomes) f << faults::encode(o);

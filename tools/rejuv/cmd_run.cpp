@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "charge.hpp"
 #include "report.hpp"
 #include "commands.hpp"
 #include "run_recorder.hpp"
@@ -68,6 +69,16 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                   static_cast<unsigned long long>(ph.images_by_pages()),
                   static_cast<unsigned long long>(ph.images_by_fork()));
   }
+  const proto::Charging& ch = s.charging();
+  char charged[384] = "";
+  if (s.checkpoints() + s.rollbacks() > 0 || ch.priming_images() > 0) {
+    std::snprintf(charged, sizeof charged,
+                  "  charged     %s: %.3f s of simulated time (real %.3f s); first checkpoint %.3f ms, p99 %.3f ms; "
+                  "%llu images forked in the %.1f s alignment\n",
+                  ch.charge() == "model" ? "model" : ch.charge().c_str(), ch.charged_s(), ch.measured_s(),
+                  ch.first_checkpoint_ms(), ch.checkpoint_p99_ms(),
+                  static_cast<unsigned long long>(ch.priming_images()), ch.alignment_s());
+  }
   char buf[4096];
   std::snprintf(buf, sizeof buf,
                 "%s (run): sr=%s attack=%s seed=%llu — %s%s%s\n"
@@ -76,6 +87,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 "  safety      max V = %.4f (%s), max estimation error ||x - x_hat||^2_P = %.4f\n"
                 "  control     max gap between actuator outputs %.1f ms\n"
                 "  images      %llu checkpoints (p50 %.3f ms, max %.3f ms), %llu rollbacks (p50 %.3f ms, max %.3f ms)\n"
+                "%s"
                 "%s"
                 "  attacks     %llu attacked MC windows\n"
                 "  denials     %s\n"
@@ -88,7 +100,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 s.wall_time_s(), s.realtime_factor(), 100.0 * s.d_mean_m(), 100.0 * s.d_max_m(), s.max_v(),
                 s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe", s.max_est_err_p(), s.max_control_gap_ms(),
                 static_cast<unsigned long long>(s.checkpoints()), s.checkpoint_ms().p50(), s.checkpoint_ms().max(),
-                static_cast<unsigned long long>(s.rollbacks()), s.rollback_ms().p50(), s.rollback_ms().max(), phases,
+                static_cast<unsigned long long>(s.rollbacks()), s.rollback_ms().p50(), s.rollback_ms().max(), phases, charged,
                 static_cast<unsigned long long>(s.attacks()),
                 denials.empty() ? "none" : denials.c_str(), describe_sandbox(s.sandbox_violations()).c_str(),
                 describe_network(s.network()).c_str());
@@ -107,6 +119,25 @@ void fill_sandbox(proto::SandboxViolations& out, const kernel::Kernel& k, bool i
   }
 }
 
+// DESIGN §6: what was charged to simulated time, and the real durations beside it (wall-clock fields).
+void fill_charging(proto::Charging& out, const kernel::Kernel& k, kernel::KernelOptions::Charge charge) {
+  const kernel::SrStats& sr = k.sr_stats();
+  const bool lockstep = k.clock_mode() == kernel::ClockMode::Lockstep;
+  out.set_charge(lockstep ? std::string(to_string(charge)) : "none");
+  if (lockstep && charge == kernel::KernelOptions::Charge::Model) {
+    const proto::LockstepTiming& timing = k.graph().graph.lockstep();
+    out.set_checkpoint_charge_ms(launch::checkpoint_charge(timing).count() * 1e3);
+    out.set_rollback_charge_ms(launch::rollback_charge(timing).count() * 1e3);
+  }
+  out.set_charged_s(to_seconds(sr.charged).count());
+  out.set_measured_s(to_seconds(sr.measured).count());
+  out.set_first_checkpoint_ms(sr.first_checkpoint_ms.value_or(0.0));
+  out.set_checkpoint_p99_ms(sr.checkpoint_ms.quantile(0.99));
+  out.set_rollback_p99_ms(sr.rollback_ms.quantile(0.99));
+  out.set_alignment_s(to_seconds(k.flight_start()).count());
+  out.set_priming_images(sr.priming_images);
+}
+
 std::filesystem::path service_dir() {
   if (const char* env = std::getenv("REJUV_SERVICE_DIR"); env != nullptr && *env != '\0') return env;
   return REJUV_SERVICE_DIR;
@@ -116,7 +147,8 @@ std::filesystem::path service_dir() {
 
 int run_run(std::span<const std::string_view> args) {
   std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
-  bool net_port_set = false, cpu_set = false;
+  std::string charge_text;
+  bool net_port_set = false, cpu_set = false, charge_set = false;
   bool realtime = false, no_sr = false, no_attack = false, verbose = false, insecure_sandbox = false;
   bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
   ArgParser parser("run",
@@ -139,6 +171,7 @@ int run_run(std::span<const std::string_view> args) {
               "stop after S seconds of flight (kernel time after the plant's pre-flight alignment)", &duration_set)
       .option("--summary-json", "FILE", json_path, "write the RunSummary as JSON", &json_set)
       .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step", &csv_set)
+      .option("--charge", "model|measured", charge_text, std::string(kChargeHelp) + " (default: model)", &charge_set)
       .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
       .option("--skip", "NAMES", skip_text, "comma-separated services not to start (e.g. not built yet)", &skip_set)
       .option("--net-port", "P", net_port_text,
@@ -166,6 +199,11 @@ int run_run(std::span<const std::string_view> args) {
   options.service_dir = service_dir();
   options.repo_root = REJUV_SOURCE_DIR;
   if (realtime) options.clock = kernel::ClockMode::Realtime;
+  if (charge_set) {
+    const auto charge = to_charge(charge_text, "--charge");
+    if (!charge) return bad_input("rejuv run: " + charge.error());
+    options.charge = *charge;
+  }
   if (seed_set) {
     const auto seed = to_u64(seed_text, "--seed");
     if (!seed) return bad_input("rejuv run: " + seed.error());
@@ -225,8 +263,8 @@ int run_run(std::span<const std::string_view> args) {
   // The reference for the metrics: the same path, control design and P as `rejuv sim` (services/flight/sim).
   auto reference = run_reference(*loaded, options.seed);
   if (!reference) return bad_input(reference.error());
-  // The plant aligns as long as `rejuv sim` does (its SimConfig), so that both fly from a converged estimate.
-  align_plant_like_the_model(options, *reference);
+  // The plant aligns as long as `rejuv sim` does (launch lockstep.alignment_s, passed by the kernel), so that both
+  // fly from a converged estimate; --duration counts from the end of it.
   if (options.duration) *options.duration += reference->alignment;
 
   UniqueFile json_file, csv_file;
@@ -304,6 +342,7 @@ int run_run(std::span<const std::string_view> args) {
   fill_percentiles(*s.mutable_checkpoint_ms(), sr.checkpoint_ms);
   fill_percentiles(*s.mutable_rollback_ms(), sr.rollback_ms);
   fill_image_phases(*s.mutable_image_phases(), sr);
+  fill_charging(*s.mutable_charging(), **k, options.charge);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
 
   std::fputs(describe(s, *outcome).c_str(), stdout);

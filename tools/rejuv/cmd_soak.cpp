@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "charge.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "run_recorder.hpp"
@@ -362,6 +363,7 @@ Result<launch::LoadedLaunch, std::string> soak_graph(const std::string& path) {
 
 int run_soak(std::span<const std::string_view> args) {
   std::string graph_path, cycles_text = "1000", every_text = "10", seed_text, out_text = "out/soak", domain_text;
+  std::string charge_text = "model";
   std::string kernel_rss_text = "512", service_rss_text = "256", net_port_text = "0", maps_slack_text = "2";
   bool seed_set = false, domain_set = false, insecure_sandbox = false, one_kernel = false;
   ArgParser parser("soak",
@@ -384,6 +386,7 @@ int run_soak(std::span<const std::string_view> args) {
               "mappings a process may gain beyond the baseline's jitter (default 2: a new process of each\n"
               "mission may get one more malloc arena or thread stack than the first; a leak keeps growing)")
       .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
+      .option("--charge", "model|measured", charge_text, std::string(kChargeHelp) + " (default: model)")
       .option("--net-port", "P", net_port_text, "UDP port of the network gate (default 0: any free port)")
       .flag("--one-kernel", one_kernel,
             "one kernel for the whole soak (the mission, then a hover at its last waypoint) instead of a new\n"
@@ -414,7 +417,10 @@ int run_soak(std::span<const std::string_view> args) {
   if (*net_port > 0xFFFF) return bad_input("rejuv soak: --net-port: expected 0..65535, got " + net_port_text);
   if (!(*kernel_rss >= 0) || !(*service_rss >= 0)) return bad_input("rejuv soak: the RSS bounds must be >= 0 kB");
 
+  const auto charge = to_charge(charge_text, "--charge");
+  if (!charge) return bad_input("rejuv soak: " + charge.error());
   kernel::KernelOptions options;
+  options.charge = *charge;
   options.sandbox = insecure_sandbox ? kernel::KernelOptions::Sandbox::Insecure : kernel::KernelOptions::Sandbox::Strict;
   options.service_dir = service_dir();
   options.repo_root = REJUV_SOURCE_DIR;
@@ -463,7 +469,6 @@ int run_soak(std::span<const std::string_view> args) {
     auto reference = run_reference(*graph, options.seed);
     if (!reference) return bad_input(reference.error());
     kernel::KernelOptions o = options;
-    align_plant_like_the_model(o, *reference);
     if (one_kernel) o.duration = to_nanos(Seconds{kLimitS}) + reference->alignment;
     RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
     soak.record_with(recorder);

@@ -581,7 +581,7 @@ std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>
     options.cpu = config.cpu;
     options.log = log;
     options.verbose = std::getenv("REJUV_FAULTS_VERBOSE") != nullptr;  // every checkpoint and rollback in the job log
-    align_plant_like_the_model(options, *reference);
+    options.charge = config.charge;
     const Nanos alignment = reference->alignment;
     RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
     Injector injector(recorder, mission, alignment, helper);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "rejuv/core/time.hpp"
+#include "rejuv/kernel/kernel.hpp"
 
 namespace rejuv::cli::faults {
 
@@ -94,6 +95,9 @@ struct JobConfig {
   int cpu = 0;
   Nanos mission_wall_bound{std::chrono::seconds{300}};
   std::filesystem::path log{};  // the kernels' log lines
+  // What a checkpoint or rollback costs the flight (DESIGN §6). Measured by default here: a fault that stalls a
+  // resume or forces a fallback costs the vehicle its real duration, which is what the campaign judges.
+  kernel::KernelOptions::Charge charge = kernel::KernelOptions::Charge::Measured;
 };
 
 // Flies `missions` in this process, one after another. Returns every outcome; the mission-level leak and

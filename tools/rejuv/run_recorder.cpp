@@ -55,11 +55,6 @@ Result<RunReference, std::string> run_reference(const launch::LoadedLaunch& grap
                       .lost_V = config->lost_V};
 }
 
-void align_plant_like_the_model(kernel::KernelOptions& options, const RunReference& reference) {
-  options.plant_args.insert(options.plant_args.end(),
-                            {"--align-s", std::to_string(to_seconds(reference.alignment).count())});
-}
-
 RunRecorder::RunRecorder(RunReference reference, std::FILE* csv, Progress progress)
     : ref_(std::move(reference)), csv_(csv), progress_(progress) {
   if (csv_ != nullptr) write_trace_header(csv_);

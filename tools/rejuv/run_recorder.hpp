@@ -27,14 +27,12 @@ namespace rejuv::cli {
 struct RunReference {
   flight::ControlDesign design;
   flight::WaypointPath path;
-  Nanos alignment{0};    // the plant's pre-flight alignment (rejuv_plant --align-s), as long as the model's
+  Nanos alignment{0};    // the plant's pre-flight alignment (launch lockstep.alignment_s), as long as the model's
   double lost_V = 100;   // V above which the vehicle is lost and the run ends (flight::SimConfig::lost_V)
 };
 // From the graph and the seed (nullopt: the graph's). The error is a message for the user (bad input).
 [[nodiscard]] Result<RunReference, std::string> run_reference(const launch::LoadedLaunch& graph,
                                                               std::optional<std::uint64_t> seed);
-// The plant arguments that make it align as long as the model does.
-void align_plant_like_the_model(kernel::KernelOptions& options, const RunReference& reference);
 
 // When the vehicle was declared lost.
 struct VehicleLost {

@@ -29,6 +29,7 @@
 #include <cerrno>
 #include <csignal>
 #include <cstring>
+#include <utility>
 
 #include "impl.hpp"
 
@@ -210,6 +211,7 @@ bool Kernel::Impl::lost_during(CheckpointRun& run) const {
 void Kernel::Impl::run_checkpoint() {
   const auto [caller, seq] = *checkpoint_request;
   checkpoint_request.reset();
+  const bool priming = std::exchange(priming_request, false);
   const Nanos t0 = wall();
   const Generation g = images.next_generation();
   CheckpointRun run{.caller = caller, .seq = seq, .record = {}, .waiting = {}, .failure = {}};
@@ -268,8 +270,8 @@ void Kernel::Impl::run_checkpoint() {
     if (caller) reply(services[caller->value()], seq, error, value);
   };
   if (!done.failure.empty()) {
-    ++sr_stats.checkpoint_failures;
-    log("checkpoint %llu abandoned: %s", num(g), done.failure.c_str());
+    if (!priming) ++sr_stats.checkpoint_failures;
+    log("%s %llu abandoned: %s", priming ? "the alignment's checkpoint" : "checkpoint", num(g), done.failure.c_str());
     abandoned = Abandoned{.g = g, .waiting = done.waiting};
     images.abandon(g);
     image::destroy(done.record);
@@ -299,20 +301,30 @@ void Kernel::Impl::run_checkpoint() {
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();
   answer(0, g.value());
+  const std::uint64_t forks_before = sr_stats.images_by_fork;
   send_patches(*images.newest());  // before old generations go: a base may be among them
   for (image::GenerationRecord& old : evicted) retire(std::move(old));
   const Nanos took = t_saved - t0;
-  sr_stats.checkpoint_phases.a.add(to_ms(t_sent - t0));
-  sr_stats.checkpoint_phases.b.add(to_ms(t_taken - t_sent));
-  sr_stats.checkpoint_phases.c.add(to_ms(t_saved - t_taken));
   // Strays (sandbox.cpp): after the timed part, before the new spares are on their way, so that only the
   // copies still on their way from earlier requests can defer it.
   abandoned.reset();  // an image still owed to an abandoned checkpoint is a stray from now on
   sweep_strays("a checkpoint's commit");
   for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
+  if (priming) {
+    // DESIGN §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
+    sr_stats.priming_images += sr_stats.images_by_fork - forks_before;
+    sr_stats.images_by_fork = forks_before;
+    log("the alignment's checkpoint: %zu images by fork in %.3f ms (untimed, not charged)",
+        images.newest()->images.size(), to_ms(took));
+    return;
+  }
+  sr_stats.checkpoint_phases.a.add(to_ms(t_sent - t0));
+  sr_stats.checkpoint_phases.b.add(to_ms(t_taken - t_sent));
+  sr_stats.checkpoint_phases.c.add(to_ms(t_saved - t_taken));
   ++sr_stats.checkpoints;
   sr_stats.checkpoint_ms.add(to_ms(took));
-  charge += took;
+  if (!sr_stats.first_checkpoint_ms) sr_stats.first_checkpoint_ms = to_ms(took);
+  charge_image_work(took, checkpoint_charge);
   if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }
 
@@ -330,6 +342,17 @@ bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
     (void)sys::kill_and_reap_own_child(pid);
   }
   return true;
+}
+
+// DESIGN §6: the simulated time a checkpoint or rollback costs the plant's world (controls held) is the launch
+// file's model by default, so that a lockstep run is deterministic; its real duration only with --charge
+// measured. Realtime: the world went on by itself; nothing to charge.
+void Kernel::Impl::charge_image_work(Nanos measured, Nanos modelled) {
+  sr_stats.measured += measured;
+  if (clock_mode != ClockMode::Lockstep) return;
+  const Nanos charged = options.charge == KernelOptions::Charge::Model ? modelled : measured;
+  charge += charged;
+  sr_stats.charged += charged;
 }
 
 bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& frame) {
@@ -660,7 +683,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
   ++sr_stats.rollbacks;
   sr_stats.rollback_ms.add(to_ms(took));
-  charge += took;
+  charge_image_work(took, rollback_charge);
   if (options.verbose) {
     log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(), to_ms(took),
         reason.c_str());

@@ -282,7 +282,16 @@ struct Kernel::Impl {
   std::optional<std::string> rollback_request;  // the reason; carried out at the next safe point
   RejuvenationTimer rejuvenation{};
   SrStats sr_stats{};
-  Nanos charge{0};                          // real time of checkpoints/rollbacks in this lockstep step
+  Nanos charge{0};                          // simulated time charged to this lockstep step (charge_image_work)
+  Nanos checkpoint_charge{0};               // the launch file's model of a checkpoint (KernelOptions::charge)
+  Nanos rollback_charge{0};                 // and of a rollback
+  Nanos flight_start{0};                    // the end of the plant's alignment: the mission's t = 0
+  // The untimed checkpoint of the alignment that forks every service's first image (DESIGN §6): asked for at
+  // the first step (priming_request), carried out as any checkpoint but neither timed, counted nor charged.
+  bool primed = false;
+  bool priming_request = false;
+  void charge_image_work(Nanos measured, Nanos modelled);
+  void request_priming();
   std::vector<sys::ChildProcess> reaping;   // incarnations killed by a rollback, reaped at the next safe point
   std::vector<std::pair<ObjectId, std::vector<std::byte>>> held_bridge_out;  // while routing is frozen
   // Incarnations a rollback retired, killed at the next safe point (retire_live_rejuvenated, kill_retired).

@@ -204,6 +204,13 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   k.sr = sr_requested;
   k.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
   k.seed = k.options.seed.value_or(k.graph.graph.seed());
+  const proto::LockstepTiming& timing = k.graph.graph.lockstep();
+  k.checkpoint_charge = std::chrono::round<Nanos>(launch::checkpoint_charge(timing));
+  k.rollback_charge = std::chrono::round<Nanos>(launch::rollback_charge(timing));
+  // The plant aligns (held at rest) before the mission's t = 0; without a plant there is no alignment.
+  if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
+    k.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));
+  }
   k.domain = k.options.dds_domain.value_or(k.graph.graph.dds().domain_id());
   k.signals.emplace(std::move(*signals));
   k.seccomp = std::move(*seccomp);
@@ -606,6 +613,7 @@ void Kernel::Impl::begin_step(const PendingStep& step) {
   for (ServiceRuntime& s : services) s.staged_this_step = 0;
   set_now(step.t);
   if (!sr_mode_announced) publish_sr_mode();
+  request_priming();
   fire_rejuvenation();  // DESIGN §7: a due rejuvenation timer rolls back before anything else of the step
   (void)service_images();
   // DESIGN §6: set the clock, fire due timers, route the step's samples; then rounds until idle. Each
@@ -664,12 +672,25 @@ void Kernel::Impl::finish_step() {
   check_stop_conditions();
 }
 
+// DESIGN §6: the first images of every service are forked during the alignment, untimed, so that the
+// checkpoints of the flight all take theirs by written pages. Once, at the first step of a run with a plant
+// (lockstep or realtime); never in manual stepping, whose tests count their generations.
+void Kernel::Impl::request_priming() {
+  if (primed || !sr || options.time_master != TimeMaster::Plant || !graph.graph.has_plant() || checkpoint_request ||
+      rollback_request) {
+    return;
+  }
+  primed = true;
+  priming_request = true;
+  checkpoint_request = std::pair(std::optional<ServiceId>{}, std::uint32_t{0});
+}
+
 void Kernel::Impl::check_stop_conditions() {
   if (options.duration && now() >= *options.duration) {
     stop_run(StopReason::Duration, "t = " + std::to_string(to_seconds(now()).count()) + " s");
   }
-  const Seconds timeout = launch::mission_timeout(graph.graph.mission());
-  if (timeout.count() > 0 && now() >= to_nanos(timeout)) {
+  const Seconds timeout = launch::mission_timeout(graph.graph.mission());  // of the flight, after the alignment
+  if (timeout.count() > 0 && now() >= flight_start + to_nanos(timeout)) {
     stop_run(StopReason::MissionTimeout, "mission not completed within " + std::to_string(timeout.count()) + " s");
   }
 }
@@ -812,6 +833,7 @@ Result<RunOutcome, KernelError> Kernel::run() {
       k.set_now(Nanos{0});
       k.publish_sr_mode();
       k.flush_staged();  // anything published during boot
+      k.request_priming();
       k.arm_timerfd();
       std::uint64_t ticks = 0;
       while (!k.stop) {
@@ -895,6 +917,7 @@ Result<void, KernelError> Kernel::rollback_now(bool cold) {
   return k.settle_images();
 }
 Epoch Kernel::epoch() const { return impl_->time_page.current().epoch; }
+Nanos Kernel::flight_start() const { return impl_->flight_start; }
 void Kernel::settle_images() {
   Impl& k = *impl_;
   const Nanos deadline = k.wall() + std::chrono::milliseconds{500};

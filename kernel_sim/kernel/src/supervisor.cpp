@@ -92,6 +92,8 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   number("attack.count", attacks);
   // > 0: this incarnation was started by a cold restart (DESIGN §7): the vehicle is not at its take-off point.
   number("boot.cold_restarts", static_cast<double>(k.sr_stats.cold_restarts));
+  // The mission's t = 0 on the kernel clock (the end of the plant's alignment): SR starts there (DESIGN §6).
+  number("flight.start_s", to_seconds(k.flight_start).count());
   return out;
 }
 
@@ -186,6 +188,8 @@ Result<void, KernelError> Kernel::Impl::spawn_plant() {
   if (g.plant().wind_gust_m_s() != 0) {
     spec.args.insert(spec.args.end(), {"--wind-gust", format_double(g.plant().wind_gust_m_s())});
   }
+  // The pre-flight alignment of the launch file (DESIGN §6), as long as `rejuv sim`'s (SimConfig::alignment).
+  spec.args.insert(spec.args.end(), {"--align-s", format_double(to_seconds(flight_start).count())});
   spec.args.insert(spec.args.end(), options.plant_args.begin(), options.plant_args.end());
   for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
   auto child = sys::spawn(spec);

@@ -98,8 +98,8 @@ class Validator {
       : g_(g), locs_(locs), path_(path) {}
 
   Result<std::filesystem::path, LoadError> run() {
-    for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(), check_limits(),
-                    check_mission(), check_attack()}) {
+    for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(),
+                    check_limits(), check_lockstep(), check_mission(), check_attack()}) {
       if (!c) {
         return fail(std::move(c.error()));
       }
@@ -280,6 +280,26 @@ class Validator {
       return fail(
           error(at({{"plant", -1}}, "wind_gust_m_s"),
                 "plant.wind_gust_m_s must be a finite intensity >= 0 m/s, got " + num(p.wind_gust_m_s())));
+    }
+    return {};
+  }
+
+  Check check_lockstep() const {
+    if (!g_.has_lockstep()) {
+      return {};
+    }
+    const proto::LockstepTiming& l = g_.lockstep();
+    const auto loc = [&](std::string_view field) { return at({{"lockstep", -1}}, field); };
+    for (const auto& [v, f] : {std::pair{l.checkpoint_charge_ms(), "checkpoint_charge_ms"},
+                               {l.rollback_charge_ms(), "rollback_charge_ms"}}) {
+      if (!std::isfinite(v) || v < 0.0 || v > defaults::kMaxChargeMs) {
+        return fail(error(loc(f), "lockstep." + std::string(f) + " must be 0 to " + num(defaults::kMaxChargeMs) +
+                                      " ms, got " + num(v)));
+      }
+    }
+    if (!std::isfinite(l.alignment_s()) || l.alignment_s() < 0.0 || l.alignment_s() > defaults::kMaxAlignmentS) {
+      return fail(error(loc("alignment_s"), "lockstep.alignment_s must be 0 to " + num(defaults::kMaxAlignmentS) +
+                                                " s, got " + num(l.alignment_s())));
     }
     return {};
   }
@@ -632,6 +652,17 @@ Seconds t_min(const proto::SrParams& sr) {
 }
 Seconds mission_timeout(const proto::Mission& mission) {
   return Seconds(mission.timeout_s());
+}
+Seconds checkpoint_charge(const proto::LockstepTiming& lockstep) {
+  return lockstep.has_checkpoint_charge_ms() ? Seconds(lockstep.checkpoint_charge_ms() / 1000.0)
+                                             : defaults::kCheckpointCharge;
+}
+Seconds rollback_charge(const proto::LockstepTiming& lockstep) {
+  return lockstep.has_rollback_charge_ms() ? Seconds(lockstep.rollback_charge_ms() / 1000.0)
+                                           : defaults::kRollbackCharge;
+}
+Seconds alignment(const proto::LockstepTiming& lockstep) {
+  return lockstep.has_alignment_s() ? Seconds(lockstep.alignment_s()) : defaults::kAlignment;
 }
 
 double physics_rate_hz(const proto::PlantSpec& plant) {

@@ -364,6 +364,36 @@ TEST(LaunchLoader, DdsConfigMissing_Semantic) {
 TEST(LaunchLoader, SrTestZero_Semantic) {
   expect_semantic_at("t_est_s: 3", "t_est_s: 0", "sr.t_est_s (T_est) must be > 0 s");
 }
+// ---- lockstep timing (issue 20: the charge model and the alignment) ----
+
+TEST(LaunchLoader, LockstepUnset_DefaultsOfTheLoader) {
+  const auto r = parse_launch(kGood, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_EQ(checkpoint_charge(r->graph.lockstep()), defaults::kCheckpointCharge);
+  EXPECT_EQ(rollback_charge(r->graph.lockstep()), defaults::kRollbackCharge);
+  EXPECT_EQ(alignment(r->graph.lockstep()), defaults::kAlignment);
+}
+TEST(LaunchLoader, LockstepSet_ValuesInSeconds) {
+  const Mutated m = mutate("mission {", "lockstep { checkpoint_charge_ms: 2 rollback_charge_ms: 0 alignment_s: 0 }\nmission {");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_DOUBLE_EQ(checkpoint_charge(r->graph.lockstep()).count(), 0.002);
+  EXPECT_DOUBLE_EQ(rollback_charge(r->graph.lockstep()).count(), 0.0);  // set to 0: no default
+  EXPECT_DOUBLE_EQ(alignment(r->graph.lockstep()).count(), 0.0);
+}
+TEST(LaunchLoader, LockstepAlignmentNegative_Semantic) {
+  expect_semantic_at("mission {", "lockstep { alignment_s: -1 }\nmission {", "lockstep.alignment_s must be 0 to 3600 s",
+                     false);
+}
+TEST(LaunchLoader, LockstepCheckpointChargeNan_Semantic) {
+  expect_semantic_at("mission {", "lockstep { checkpoint_charge_ms: nan }\nmission {",
+                     "lockstep.checkpoint_charge_ms must be 0 to 1000 ms", false);
+}
+TEST(LaunchLoader, LockstepRollbackChargeHuge_Semantic) {
+  expect_semantic_at("mission {", "lockstep { rollback_charge_ms: 1e9 }\nmission {",
+                     "lockstep.rollback_charge_ms must be 0 to 1000 ms", false);
+}
+
 TEST(LaunchLoader, SrKeepGenerationsHuge_Semantic) {
   expect_semantic_at("keep_generations: 2", "keep_generations: 4294967295", "sr.keep_generations must be 1 to 16");
 }

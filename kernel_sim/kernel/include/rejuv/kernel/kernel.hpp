@@ -14,7 +14,9 @@
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <filesystem>
@@ -94,6 +96,11 @@ struct KernelOptions {
   // base generation a service's memory derives from, so that it need not fork. false: every image by fork
   // (tests compare the two ways).
   bool images_by_pages = true;
+  // Lockstep charges (DESIGN §6): Model charges the simulated time the launch file gives a checkpoint and a
+  // rollback (lockstep.*_charge_ms), so that two runs with one seed are identical; Measured charges their real
+  // durations (timing studies: the gaps of Fig. 7 as this machine makes them). Both are reported (SrStats).
+  enum class Charge : std::uint8_t { Model, Measured };
+  Charge charge = Charge::Model;
   // Network gate (DESIGN §2): the UDP port of the external link, overriding the graph's `network.bind_port`
   // (0 = ephemeral: Kernel::network_port() tells which; tests use it).
   std::optional<std::uint16_t> network_port{};
@@ -257,6 +264,15 @@ class DurationSamples {
   [[nodiscard]] std::uint64_t count() const { return count_; }           // every duration added
   [[nodiscard]] double max() const { return max_; }                       // 0 when none
   [[nodiscard]] bool empty() const { return count_ == 0; }
+  // The q-quantile (0 ≤ q ≤ 1, nearest rank) of the sample; 0 when empty.
+  [[nodiscard]] double quantile(double q) const {
+    if (kept_.empty()) return 0;
+    std::vector<double> sorted = kept_;
+    const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(sorted.size())));
+    const std::size_t i = std::min(sorted.size() - 1, rank > 0 ? rank - 1 : 0);
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(i), sorted.end());
+    return sorted[i];
+  }
 
  private:
   std::vector<double> kept_{};
@@ -278,6 +294,14 @@ struct SrStats {
   std::uint64_t timer_rollbacks = 0;      // rollbacks the rejuvenation timer fired
   std::uint64_t images_by_fork = 0;       // service images taken by fork (Taken)
   std::uint64_t images_by_pages = 0;      // service images taken by written pages (TakenPages)
+  // Charges (DESIGN §6): the simulated time charged for checkpoints and rollbacks (lockstep with a plant;
+  // KernelOptions::charge) and their real durations, in all.
+  Nanos charged{0};
+  Nanos measured{0};
+  std::optional<double> first_checkpoint_ms{};  // the real duration of the first checkpoint of the flight [ms]
+  // The untimed checkpoint of the alignment (DESIGN §6: SR starts with the flight) that makes every service's
+  // first image by fork, so that no checkpoint in flight pays for one; counted here only.
+  std::uint64_t priming_images = 0;
   DurationSamples checkpoint_ms{};        // Snapshot sent → generation committed, per checkpoint
   DurationSamples rollback_ms{};          // trigger → routing resumed, per rollback
   // Phases (DESIGN §7 "durations of every phase"): checkpoint = freeze + Snapshots sent, Taken awaited,
@@ -358,6 +382,9 @@ class Kernel {
   [[nodiscard]] std::uint64_t bad_frames_total() const;
   [[nodiscard]] const SrStats& sr_stats() const;
   [[nodiscard]] Epoch epoch() const;
+  // The kernel time of the mission's t = 0: the end of the plant's pre-flight alignment (launch lockstep.
+  // alignment_s). SR starts there (DESIGN §6).
+  [[nodiscard]] Nanos flight_start() const;
   // pids of the frozen images of a service, oldest generation first (tests and fault injection).
   // Reads the spare copies' reports first, so that every frozen copy is listed.
   [[nodiscard]] std::vector<int> image_pids(ServiceId service);

@@ -41,6 +41,13 @@ namespace defaults {
 inline constexpr std::uint32_t kKeepGenerations = 2;   // DESIGN §7: the last K generations are kept
 inline constexpr double kPhysicsRateHz = 1000.0;       // DESIGN §9: RK4 at 1 kHz
 inline constexpr Seconds kCheckPeriod{0.002};          // §V-B: condition (1) is checked every 2 ms
+// Lockstep charges (DESIGN §6, idl/launch.proto LockstepTiming): the p50 of `rejuv bench images` (docs/
+// performance.md "Deterministic lockstep") on the project's 2-vCPU machines, for a graph that sets none.
+inline constexpr Seconds kCheckpointCharge{0.00055};
+inline constexpr Seconds kRollbackCharge{0.0005};
+inline constexpr Seconds kAlignment{20.0};             // pre-flight alignment before the mission's t = 0
+inline constexpr double kMaxChargeMs = 1000.0;         // the plant refuses a step charged more than 1 s
+inline constexpr double kMaxAlignmentS = 3600.0;       // the plant's --align-s bound
 inline constexpr std::size_t kMaxWaypoints = 16;       // idl/control.idl MissionWaypoints.waypoints[16]
 inline constexpr std::uint32_t kMaxDdsDomainId = 232;  // DDSI-RTPS port mapping limit
 inline constexpr std::string_view kDdsNamePrefix = "rejuv/";
@@ -73,6 +80,10 @@ inline constexpr double kMaxWaypointOffsetM = 10000.0; // |north|, |east|, |down
 [[nodiscard]] Seconds t_est(const proto::SrParams& sr);
 [[nodiscard]] Seconds t_min(const proto::SrParams& sr);
 [[nodiscard]] Seconds mission_timeout(const proto::Mission& mission);
+// LockstepTiming with its defaults: the simulated time a checkpoint / rollback is charged, the alignment.
+[[nodiscard]] Seconds checkpoint_charge(const proto::LockstepTiming& lockstep);
+[[nodiscard]] Seconds rollback_charge(const proto::LockstepTiming& lockstep);
+[[nodiscard]] Seconds alignment(const proto::LockstepTiming& lockstep);
 // Physics rate of the plant [Hz]; 0 in the file means the default.
 [[nodiscard]] double physics_rate_hz(const proto::PlantSpec& plant);
 [[nodiscard]] Seconds physics_step(const proto::PlantSpec& plant);

@@ -1,0 +1,137 @@
+// Experiments a researcher can trust (issue 20): `rejuv run` in lockstep is deterministic for a seed, and SR
+// starts with the flight (DESIGN §6). The real binary on the real flight graph (launch/quad_square) with a
+// short alignment and a short T_est, so that a few seconds of flight hold several SR cycles: flown twice with
+// one seed, the traces (--csv) are byte-identical and the summaries equal but for their wall-clock fields; a
+// flight shorter than T_est has no checkpoint, rollback or rejuvenation timer at all, and its setpoint has not
+// moved. No timing is asserted: the charged time is the launch file's model, not a measurement.
+#include <google/protobuf/util/json_util.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "../rejuv_cli.hpp"
+#include "../test_domain.hpp"
+#include "summary.pb.h"
+
+namespace {
+
+using rejuv::test_support::kRepo;
+using rejuv::test_support::slurp;
+using Outcome = rejuv::test_support::CliOutcome;
+
+// The eight rejuvenated services of the square (all but output_driver, which is driver level).
+constexpr std::uint64_t kRejuvenated = 8;
+
+class Determinism : public rejuv::test_support::ScratchDirTest {
+ protected:
+  Determinism() : ScratchDirTest("rejuv_determinism_") {}
+  [[nodiscard]] bool keep_on_failure() const override { return true; }  // the traces to diff
+
+  // The shipped square with its policy path made absolute, a 2 s alignment and T_est = 0.5 s.
+  std::filesystem::path graph() const {
+    std::string text = slurp(kRepo / "launch" / "quad_square.launch.pbtxt");
+    const std::string rel = "policy: \"../policies/quad_sr.policy.pbtxt\"";
+    text.replace(text.find(rel), rel.size(), "policy: \"" + (kRepo / "policies" / "quad_sr.policy.pbtxt").string() + "\"");
+    const std::string t_est = "t_est_s: 3.0";
+    text.replace(text.find(t_est), t_est.size(), "t_est_s: 0.5");
+    const std::string align = "alignment_s: 20";
+    text.replace(text.find(align), align.size(), "alignment_s: 2");
+    const auto p = dir_ / "g.launch.pbtxt";
+    std::ofstream(p) << text;
+    return p;
+  }
+
+  struct Flight {
+    Outcome outcome;
+    std::string csv;
+    rejuv::proto::RunSummary summary;
+  };
+
+  Flight fly(const std::string& name, const std::string& duration_s) const {
+    const auto csv = dir_ / (name + ".csv");
+    const auto json = dir_ / (name + ".json");
+    Flight f;
+    f.outcome = rejuv::test_support::run_rejuv(
+        dir_, {"run", graph().string(), "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain), "--net-port",
+               "0", "--seed", "7", "--duration", duration_s, "--csv", csv.string(), "--summary-json", json.string()});
+    f.csv = slurp(csv);
+    const auto parsed = google::protobuf::util::JsonStringToMessage(slurp(json), &f.summary);
+    EXPECT_TRUE(parsed.ok()) << name << ": " << parsed.ToString() << "\n" << f.outcome.err;
+    return f;
+  }
+};
+
+// Every field measured on the wall clock (or chosen by the OS, the gate's ephemeral port) cleared.
+rejuv::proto::RunSummary without_wall_clock(rejuv::proto::RunSummary s) {
+  s.clear_checkpoint_ms();
+  s.clear_rollback_ms();
+  s.clear_image_phases();
+  s.clear_realtime_factor();
+  s.clear_wall_time_s();
+  s.mutable_network()->clear_port();
+  rejuv::proto::Charging& c = *s.mutable_charging();
+  c.clear_measured_s();
+  c.clear_first_checkpoint_ms();
+  c.clear_checkpoint_p99_ms();
+  c.clear_rollback_p99_ms();
+  return s;
+}
+
+std::string text_of(const rejuv::proto::RunSummary& s) {
+  std::string out;
+  (void)google::protobuf::util::MessageToJsonString(s, &out);
+  return out;
+}
+
+TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
+  const Flight a = fly("a", "8");
+  const Flight b = fly("b", "8");
+  ASSERT_EQ(a.outcome.exit_code, 0) << a.outcome.err;
+  ASSERT_EQ(b.outcome.exit_code, 0) << b.outcome.err;
+  // The flight did what is compared: SR cycles with checkpoints and rollbacks, charged by the model.
+  EXPECT_GT(a.summary.checkpoints(), 1U) << a.outcome.out;
+  EXPECT_GT(a.summary.rollbacks(), 1U) << a.outcome.out;
+  EXPECT_EQ(a.summary.charging().charge(), "model");
+  EXPECT_GT(a.summary.charging().charged_s(), 0.0);
+  EXPECT_GT(a.csv.size(), 1000U);
+  // The flight's first checkpoint takes its images by written pages like every other (the forks were made in
+  // the alignment): none of the flight's images is by fork.
+  EXPECT_EQ(a.summary.image_phases().images_by_fork(), 0U) << a.outcome.out;
+  EXPECT_EQ(a.summary.charging().priming_images(), kRejuvenated);
+  // Byte-identical traces (the first differing row is in the kept scratch folder when this fails).
+  EXPECT_TRUE(a.csv == b.csv) << "traces differ: diff " << (dir_ / "a.csv") << " " << (dir_ / "b.csv");
+  EXPECT_EQ(text_of(without_wall_clock(a.summary)), text_of(without_wall_clock(b.summary)));
+}
+
+TEST_F(Determinism, FlightShorterThanTest_NoCheckpointRollbackOrTimerBeforeTheCycle) {
+  // 0.3 s of flight: less than T_est (0.5 s), so the first SR cycle has not reached its checkpoint. Before the
+  // change the runtime cycled during the alignment: `--duration 1` reported 4 rollbacks, the setpoint had moved.
+  const Flight f = fly("short", "0.3");
+  ASSERT_EQ(f.outcome.exit_code, 0) << f.outcome.err;
+  EXPECT_EQ(f.summary.checkpoints(), 0U) << f.outcome.out;
+  EXPECT_EQ(f.summary.rollbacks(), 0U) << f.outcome.out;
+  EXPECT_EQ(f.summary.attacks(), 0U) << f.outcome.out;  // no MC window: no rejuvenation timer armed
+  EXPECT_EQ(f.summary.image_phases().images_by_fork(), 0U);
+  EXPECT_EQ(f.summary.image_phases().images_by_pages(), 0U);
+  // The alignment's images (one per rejuvenated service, by fork) are made, but not counted as the flight's.
+  EXPECT_EQ(f.summary.charging().priming_images(), kRejuvenated);
+  EXPECT_DOUBLE_EQ(f.summary.charging().alignment_s(), 2.0);
+  EXPECT_DOUBLE_EQ(f.summary.charging().charged_s(), 0.0);
+  // Every row of the trace: the setpoint is still the first waypoint (0, 0, -3), the mode SC.
+  std::istringstream rows(f.csv);
+  std::string row;
+  std::getline(rows, row);  // the header
+  std::size_t n = 0;
+  while (std::getline(rows, row)) {
+    ++n;
+    EXPECT_NE(row.find(",0,0,-3,0,SC,"), std::string::npos) << "row " << n << ": " << row;
+    if (HasFailure()) break;
+  }
+  EXPECT_GT(n, 10U);
+}
+
+}  // namespace
