@@ -48,13 +48,20 @@ std::optional<ObjectId> Kernel::Impl::kernel_topic(std::string_view type) const 
   return std::nullopt;
 }
 
-void Kernel::Impl::set_mode(SrMode mode) {
+void Kernel::Impl::set_mode(SrMode mode, std::optional<ServiceId> by) {
   if (auto changed = caps.apply_mode(mode); !changed) {
     log("mode %s: %s", std::string(to_string(mode)).c_str(), std::string(cap::to_string(changed.error())).c_str());
     return;
   }
   time_page.write(clock::TimeSample{.now = now(), .mode = mode, .epoch = time_page.current().epoch});
   publish_sr_mode();
+  sr_event(SrEventKind::Mode, {}, {}, by);
+}
+
+void Kernel::Impl::sr_event(SrEventKind kind, Generation g, Nanos span, std::optional<ServiceId> by) {
+  if (observer == nullptr) return;
+  observer->on_sr_event(SrEvent{.kind = kind, .t = now(), .wall = wall(), .epoch = time_page.current().epoch,
+                                .g = g, .mode = caps.mode(), .span = span, .by = by});
 }
 
 // ---- socket pairs made ahead ----
@@ -269,6 +276,7 @@ void Kernel::Impl::run_checkpoint() {
   };
   if (!done.failure.empty()) {
     ++sr_stats.checkpoint_failures;
+    sr_event(SrEventKind::CheckpointFailed, g, wall() - t0, caller);
     log("checkpoint %llu abandoned: %s", num(g), done.failure.c_str());
     image::destroy(done.record);
     if (late) {
@@ -307,6 +315,7 @@ void Kernel::Impl::run_checkpoint() {
   // copies still on their way from earlier requests can defer it.
   sweep_strays("a checkpoint's commit");
   for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
+  sr_event(SrEventKind::Checkpoint, g, took, caller);
   ++sr_stats.checkpoints;
   sr_stats.checkpoint_ms.add(to_ms(took));
   charge += took;
@@ -578,6 +587,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     log("mode RB: %s", std::string(cap::to_string(changed.error())).c_str());
   }
   time_page.write(clock::TimeSample{.now = now(), .mode = SrMode::RB, .epoch = time_page.current().epoch});
+  sr_event(SrEventKind::Mode);
   retire_live_rejuvenated();
   const Nanos t_killed = wall();
   Nanos t_resumed = t_killed;
@@ -621,6 +631,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
   sweep_strays("a rollback", false, SweepWait::ForCopies);  // as after a commit: before the new spares go out
   for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
+  sr_event(SrEventKind::Rollback, restored->g, took);
   ++sr_stats.rollbacks;
   sr_stats.rollback_ms.add(to_ms(took));
   charge += took;
@@ -633,6 +644,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
 void Kernel::Impl::cold_restart(const std::string& reason) {
   log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats.cold_restarts;
+  sr_event(SrEventKind::ColdRestart);
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
   kill_retired();
@@ -684,6 +696,7 @@ void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos 
     // DESIGN §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
     ++sr_stats.timer_arm_refused;
     log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(), epoch.value());
+    sr_event(SrEventKind::TimerRefused, {}, after, s.id);
     reply(s, seq, op_code(wire::OpError::Refused));
     return;
   }
@@ -693,6 +706,7 @@ void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos 
   }
   rejuvenation = RejuvenationTimer{.due = now() + after, .period = period, .armed_in = epoch};
   ++sr_stats.timer_arms;
+  sr_event(SrEventKind::TimerArmed, {}, after, s.id);
   arm_timerfd();
   reply(s, seq, 0, static_cast<std::uint64_t>(rejuvenation.due->count()));
 }
