@@ -14,6 +14,7 @@
 namespace {
 
 using rejuv::test_support::kRepo;
+using rejuv::test_support::count_of;
 using rejuv::test_support::slurp;
 namespace fs = std::filesystem;
 
@@ -22,12 +23,6 @@ class RunFigures : public rejuv::test_support::ScratchDirTest {
   RunFigures() : ScratchDirTest("rejuv_run_figures_") {}
   [[nodiscard]] bool keep_on_failure() const override { return true; }
 };
-
-std::size_t count(const std::string& text, const std::string& needle) {
-  std::size_t n = 0;
-  for (std::size_t at = text.find(needle); at != std::string::npos; at = text.find(needle, at + 1)) ++n;
-  return n;
-}
 
 TEST_F(RunFigures, RunOut_WritesTheRecordsAndTheFigures) {
   const fs::path out = dir_ / "run";
@@ -38,15 +33,15 @@ TEST_F(RunFigures, RunOut_WritesTheRecordsAndTheFigures) {
   const std::string control = slurp(out / "control.csv");
   const std::string events = slurp(out / "events.csv");
   // A control update every 4 ms for 9 s of flight; at least one rollback (T_est = 3 s, T_MC = 0.3 s).
-  EXPECT_GT(count(control, "\n"), 1000U);
+  EXPECT_GT(count_of(control, "\n"), 1000U);
   // Marked in simulated time (the interval the charge lengthened) and in real time (the one it happened in).
-  EXPECT_GE(count(control, ",RB,\n") + count(control, ",RB,RB\n"), 1U) << events;
-  EXPECT_GE(count(control, ",CP,\n") + count(control, ",CP,CP\n"), 1U) << events;
-  EXPECT_GE(count(control, ",RB\n"), 1U) << events;
-  EXPECT_GE(count(control, ",CP\n"), 1U) << events;
-  EXPECT_GE(count(events, ",rollback,"), 1U);
-  EXPECT_GE(count(events, ",checkpoint,"), 1U);
-  EXPECT_EQ(count(events, ",timer_armed,"), count(events, ",checkpoint,"));  // one arm per committed generation
+  EXPECT_GE(count_of(control, ",RB,\n") + count_of(control, ",RB,RB\n"), 1U) << events;
+  EXPECT_GE(count_of(control, ",CP,\n") + count_of(control, ",CP,CP\n"), 1U) << events;
+  EXPECT_GE(count_of(control, ",RB\n"), 1U) << events;
+  EXPECT_GE(count_of(control, ",CP\n"), 1U) << events;
+  EXPECT_GE(count_of(events, ",rollback,"), 1U);
+  EXPECT_GE(count_of(events, ",checkpoint,"), 1U);
+  EXPECT_EQ(count_of(events, ",timer_armed,"), count_of(events, ",checkpoint,"));  // one arm per committed generation
   EXPECT_NE(events.find(",mode,"), std::string::npos);
   EXPECT_NE(events.find("checkpoint_p"), std::string::npos);  // who asked, by name
   EXPECT_NE(slurp(out / "summary.json").find("control_interval_ms"), std::string::npos);

@@ -23,7 +23,7 @@ do for [fmt in 'png svg'] {
   if (fmt eq 'png') { set terminal pngcairo size 1400,900 font 'sans,11' } else { set terminal svg size 1400,900 font 'sans,11' }
   set output dir.'/fig7_control_intervals.'.fmt
   set multiplot layout (runner eq 'run' ? 2 : 1),1 title 'Fig. 7: control inputs updating time — '.title font 'sans,13' noenhanced
-  set title sprintf('Interval between consecutive control updates, simulated time (%d intervals)', n)
+  set title sprintf('Interval between consecutive control updates in simulated time (%d intervals; a checkpoint or rollback lengthens one by the time it is charged)', n)
   set xlabel 'flight time t [s]'; set ylabel 'interval [ms]'
   set yrange [0:*]
   prev = -1

@@ -124,7 +124,7 @@ std::filesystem::path service_dir() {
 int run_run(std::span<const std::string_view> args) {
   std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
   std::string out_text, trace_text = "compact";
-  bool net_port_set = false, cpu_set = false, out_set = false, trace_set = false;
+  bool net_port_set = false, cpu_set = false, out_set = false, trace_set = false, no_figures = false;
   bool realtime = false, no_sr = false, no_attack = false, verbose = false, insecure_sandbox = false;
   bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
   ArgParser parser("run",
@@ -149,6 +149,7 @@ int run_run(std::span<const std::string_view> args) {
       .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step", &csv_set)
       .option("--out", "DIR", out_text, kOutHelp, &out_set)
       .option("--trace", "compact|full", trace_text, kTraceHelp, &trace_set)
+      .flag("--no-figures", no_figures, kNoFiguresHelp)
       .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
       .option("--skip", "NAMES", skip_text, "comma-separated services not to start (e.g. not built yet)", &skip_set)
       .option("--net-port", "P", net_port_text,
@@ -171,6 +172,7 @@ int run_run(std::span<const std::string_view> args) {
   const auto trace_detail = parse_trace_detail(trace_text);
   if (!trace_detail) return bad_input("rejuv run: " + trace_detail.error());
   if (trace_set && !out_set) return bad_input("rejuv run: --trace is the detail of --out's trace: give --out DIR");
+  if (no_figures && !out_set) return bad_input("rejuv run: --no-figures goes with --out DIR");
 
   kernel::KernelOptions options;
   options.no_sr = no_sr;
@@ -328,7 +330,7 @@ int run_run(std::span<const std::string_view> args) {
   fill_image_phases(*s.mutable_image_phases(), sr);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
 
-  const bool out_ok = !files || finish_out_dir(*files, s, "rejuv run");
+  const bool out_ok = !files || finish_out_dir(*files, s, "rejuv run", no_figures ? Figures::Skip : Figures::Draw);
   std::fputs(describe(s, *outcome).c_str(), stdout);
   if (json_file) std::fputs((to_json(s) + "\n").c_str(), json_file.get());
   const bool completed_run = s.mission_completed() || outcome->reason == kernel::StopReason::Duration;

@@ -65,7 +65,7 @@ bool run_is_good(const proto::RunSummary& s) { return s.mission_completed() && !
 int run_sim(std::span<const std::string_view> args) {
   std::string graph_path, seed_text, json_path, csv_path, out_text, trace_text = "compact";
   bool no_sr = false, no_attack = false, table = false, seed_set = false, json_set = false, csv_set = false;
-  bool out_set = false, trace_set = false;
+  bool out_set = false, trace_set = false, no_figures = false;
   ArgParser parser("sim",
                    "Model-level simulation of the CPS SR scheme (paper §II, §IV–§VI) in one process: plant at 1 kHz,\n"
                    "sensors, EKF, LQR controllers, the modes MC/RB/SC/update/CP and the worst-case attack of §VI-D.\n"
@@ -81,6 +81,7 @@ int run_sim(std::span<const std::string_view> args) {
               &csv_set)
       .option("--out", "DIR", out_text, kOutHelp, &out_set)
       .option("--trace", "compact|full", trace_text, kTraceHelp, &trace_set)
+      .flag("--no-figures", no_figures, kNoFiguresHelp)
       .flag("--table", table, "run Table I: SR on/off x attack on/off, and print the comparison");
   const auto parsed = parser.parse(args);
   if (!parsed) return bad_input("rejuv sim: " + parsed.error());
@@ -101,6 +102,7 @@ int run_sim(std::span<const std::string_view> args) {
   const auto trace_detail = parse_trace_detail(trace_text);
   if (!trace_detail) return bad_input("rejuv sim: " + trace_detail.error());
   if (trace_set && !out_set) return bad_input("rejuv sim: --trace is the detail of --out's trace: give --out DIR");
+  if (no_figures && !out_set) return bad_input("rejuv sim: --no-figures goes with --out DIR");
   if (no_sr) overrides.sr = flight::SrSwitch::Off;
   if (no_attack) overrides.attack = flight::AttackSwitch::Off;
 
@@ -142,7 +144,7 @@ int run_sim(std::span<const std::string_view> args) {
     }
     auto summary = flight::run_simulation(*config, obs);
     if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
-    const bool out_ok = !files || finish_out_dir(*files, *summary, "rejuv sim");
+    const bool out_ok = !files || finish_out_dir(*files, *summary, "rejuv sim", no_figures ? Figures::Skip : Figures::Draw);
     print(stdout, describe(*summary));
     if (json_file) print(json_file.get(), to_json(*summary) + "\n");
     return static_cast<int>(run_is_good(*summary) && out_ok ? Exit::Ok : Exit::Findings);

@@ -120,7 +120,7 @@ bool draw_and_report(const fs::path& dir, const std::string& runner, const std::
   return true;
 }
 
-bool finish_out_dir(RunFiles& files, proto::RunSummary& summary, const char* command) {
+bool finish_out_dir(RunFiles& files, proto::RunSummary& summary, const char* command, Figures figures) {
   const auto trace_bytes = files.finish(summary);
   if (!trace_bytes) {
     std::fprintf(stderr, "%s: %s\n", command, trace_bytes.error().c_str());
@@ -128,6 +128,7 @@ bool finish_out_dir(RunFiles& files, proto::RunSummary& summary, const char* com
   }
   std::fprintf(stderr, "%s: wrote %s: summary.json, trace.csv (%.1f MB), control.csv, events.csv\n", command,
                files.dir().c_str(), static_cast<double>(*trace_bytes) / 1e6);
+  if (figures == Figures::Skip) return true;
   const std::string title = summary.graph() + ", SR " + (summary.sr() ? "on" : "off") + ", attack " +
                             (summary.attack() ? "on" : "off") + ", seed " + std::to_string(summary.seed()) + " (rejuv " +
                             summary.runner() + ")";

@@ -7,6 +7,7 @@
 //   safety                  V = ‖x − x_sp‖²_P and the estimation error ‖x − x̂‖²_P against time
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -21,6 +22,7 @@ namespace rejuv::cli {
 inline constexpr const char* kOutHelp =
     "write DIR/summary.json, trace.csv, control.csv (every interval between control updates, CP/RB marked),\n"
     "events.csv (the SR events) and, with gnuplot, Figs. 7-10 and V/estimation error as PNG and SVG";
+inline constexpr const char* kNoFiguresHelp = "with --out: the CSVs and the summary only, no pictures (sweeps)";
 inline constexpr const char* kTraceHelp =
     "the trace in --out: compact (default: a row every 20 ms and at every mode change or SR event) or full\n"
     "(every 4 ms control period)";
@@ -49,8 +51,10 @@ bool draw_and_report(const std::filesystem::path& dir, const std::string& runner
                      const char* command);
 
 // The end of an `--out` run: finishes `files` (summary.json with the control intervals), says how large the
-// trace is, and draws the figures. False when a file could not be written or gnuplot failed (exit 1).
-bool finish_out_dir(RunFiles& files, proto::RunSummary& summary, const char* command);
+// trace is, and draws the figures (unless `figures` is Skip: `--no-figures`, e.g. in a sweep). False when a
+// file could not be written or gnuplot failed (exit 1).
+enum class Figures : std::uint8_t { Draw, Skip };
+bool finish_out_dir(RunFiles& files, proto::RunSummary& summary, const char* command, Figures figures);
 
 // tools/plots of the source tree (REJUV_PLOTS_DIR overrides it).
 [[nodiscard]] std::filesystem::path plots_dir();
