@@ -30,6 +30,13 @@ inline std::string slurp(const std::filesystem::path& p) {
   return s.str();
 }
 
+// How many times `needle` occurs in `text` (e.g. rows of a CSV that end a certain way).
+inline std::size_t count_of(const std::string& text, const std::string& needle) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(needle); at != std::string::npos; at = text.find(needle, at + 1)) ++n;
+  return n;
+}
+
 struct CliOutcome {
   int exit_code = -1;  // -1: ended by a signal (a crash)
   std::string out, err;

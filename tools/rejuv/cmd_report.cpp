@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "figures.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "rejuv/flight/sr_sim.hpp"
@@ -169,6 +170,26 @@ std::string table_text(const std::string& graph, std::uint64_t seed, const std::
   return out;
 }
 
+// `rejuv report figures DIR`: the figures of an earlier `--out` run, from its files.
+int report_figures(const fs::path& dir) {
+  if (auto ok = check_run_dir(dir); !ok) return bad_input("rejuv report figures: " + ok.error());
+  const auto summary = read_summary(dir / RunFiles::kSummary);
+  if (!summary || (summary->runner() != "run" && summary->runner() != "sim")) {
+    return bad_input("rejuv report figures: " + (dir / RunFiles::kSummary).string() +
+                     ": error: not the RunSummary JSON of `rejuv run` or `rejuv sim`");
+  }
+  const std::string title = summary->graph() + ", SR " + (summary->sr() ? "on" : "off") + ", attack " +
+                            (summary->attack() ? "on" : "off") + ", seed " + std::to_string(summary->seed()) +
+                            " (rejuv " + summary->runner() + ")";
+  const auto drawn = draw_figures(dir, plots_dir(), summary->runner(), title);
+  if (!drawn) {
+    std::fprintf(stderr, "rejuv report figures: %s\n", drawn.error().c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  for (const fs::path& p : *drawn) std::printf("%s\n", p.c_str());
+  return static_cast<int>(Exit::Ok);
+}
+
 }  // namespace
 
 int run_report(std::span<const std::string_view> args) {
@@ -181,10 +202,12 @@ int run_report(std::span<const std::string_view> args) {
                    "               d_mean, max V, rollbacks/attacks, mission time. The four runtime missions take a\n"
                    "               few minutes; progress on stderr. Per row, --out gets run_<row>.json (summary),\n"
                    "               .csv (trace) and .log (the run's output), and table.txt the table.\n"
+                   "  figures DIR  Figs. 7-10 and V/estimation error again (PNG and SVG, gnuplot) from the CSVs an\n"
+                   "               earlier `rejuv run ... --out DIR` or `rejuv sim ... --out DIR` wrote there.\n"
                    "Exit 0 once every row ran (a row may be a failed mission: that is what Table I shows), 1 when a\n"
                    "runtime mission could not be run, 2 on bad input.");
-  parser.positional("WHAT", what, "what to report: table")
-      .positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
+  parser.positional("WHAT", what, "what to report: table or figures")
+      .positional("GRAPH|DIR", graph_path, "table: the launch graph (*.launch.pbtxt); figures: a run's --out DIR")
       .option("--seed", "N", seed_text, "seed of every run (default: the graph's)", &seed_set)
       .option("--out", "DIR", out_text, "where the runs' files go (default: out/table)", &out_set)
       .option("--domain", "N", domain_text, "DDS domain id of the runtime missions (default: the graph's)",
@@ -199,7 +222,13 @@ int run_report(std::span<const std::string_view> args) {
     case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
     case ParseOutcome::Run: break;
   }
-  if (what != "table") return bad_input("rejuv report: unknown report '" + what + "' (expected: table)");
+  if (what == "figures") {
+    if (seed_set || out_set || domain_set || reuse_set) {
+      return bad_input("rejuv report figures: takes only DIR (--seed, --out, --domain, --sr-attack-json are for table)");
+    }
+    return report_figures(graph_path);
+  }
+  if (what != "table") return bad_input("rejuv report: unknown report '" + what + "' (expected: table or figures)");
   flight::SimOverrides overrides;
   if (seed_set) {
     const auto seed = to_u64(seed_text, "--seed");

@@ -21,6 +21,7 @@
 
 #include "args.hpp"
 #include "charge.hpp"
+#include "figures.hpp"
 #include "report.hpp"
 #include "commands.hpp"
 #include "run_recorder.hpp"
@@ -138,6 +139,12 @@ void fill_charging(proto::Charging& out, const kernel::Kernel& k, kernel::Kernel
   out.set_priming_images(sr.priming_images);
 }
 
+std::vector<std::string> service_names(const kernel::Kernel& k) {
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < k.service_count(); ++i) names.push_back(k.stats(ServiceId{static_cast<std::uint32_t>(i)}).name);
+  return names;
+}
+
 std::filesystem::path service_dir() {
   if (const char* env = std::getenv("REJUV_SERVICE_DIR"); env != nullptr && *env != '\0') return env;
   return REJUV_SERVICE_DIR;
@@ -147,8 +154,8 @@ std::filesystem::path service_dir() {
 
 int run_run(std::span<const std::string_view> args) {
   std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
-  std::string charge_text;
-  bool net_port_set = false, cpu_set = false, charge_set = false;
+  std::string charge_text, out_text, trace_text = "compact";
+  bool net_port_set = false, cpu_set = false, charge_set = false, out_set = false, trace_set = false, no_figures = false;
   bool realtime = false, no_sr = false, no_attack = false, verbose = false, insecure_sandbox = false;
   bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
   ArgParser parser("run",
@@ -172,6 +179,9 @@ int run_run(std::span<const std::string_view> args) {
       .option("--summary-json", "FILE", json_path, "write the RunSummary as JSON", &json_set)
       .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step", &csv_set)
       .option("--charge", "model|measured", charge_text, std::string(kChargeHelp) + " (default: model)", &charge_set)
+      .option("--out", "DIR", out_text, kOutHelp, &out_set)
+      .option("--trace", "compact|full", trace_text, kTraceHelp, &trace_set)
+      .flag("--no-figures", no_figures, kNoFiguresHelp)
       .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
       .option("--skip", "NAMES", skip_text, "comma-separated services not to start (e.g. not built yet)", &skip_set)
       .option("--net-port", "P", net_port_text,
@@ -190,6 +200,11 @@ int run_run(std::span<const std::string_view> args) {
     case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
     case ParseOutcome::Run: break;
   }
+
+  const auto trace_detail = parse_trace_detail(trace_text);
+  if (!trace_detail) return bad_input("rejuv run: " + trace_detail.error());
+  if (trace_set && !out_set) return bad_input("rejuv run: --trace is the detail of --out's trace: give --out DIR");
+  if (no_figures && !out_set) return bad_input("rejuv run: --no-figures goes with --out DIR");
 
   kernel::KernelOptions options;
   options.no_sr = no_sr;
@@ -278,6 +293,13 @@ int run_run(std::span<const std::string_view> args) {
   }
   RunRecorder recorder(std::move(*reference), csv_file.get(),
                        isatty(STDERR_FILENO) == 1 ? RunRecorder::Progress::Every1s : RunRecorder::Progress::Every10s);
+  std::optional<RunFiles> files;
+  if (out_set) {
+    auto opened = RunFiles::open(out_text, *trace_detail);
+    if (!opened) return bad_input("rejuv run: " + opened.error());
+    files.emplace(std::move(*opened));
+    recorder.record_to(&*files);
+  }
 
   const std::string graph_name = loaded->graph.name();
   const bool attack = loaded->graph.attack().enabled() && !no_attack;
@@ -287,6 +309,7 @@ int run_run(std::span<const std::string_view> args) {
     return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
   }
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
+  if (files) files->set_service_names(service_names(**k));
   std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),
                std::string(kernel::to_string((*k)->clock_mode())).c_str(), (*k)->sr_enabled() ? "on" : "off",
                static_cast<unsigned long long>(options.seed.value_or((*k)->graph().graph.seed())));
@@ -345,11 +368,12 @@ int run_run(std::span<const std::string_view> args) {
   fill_charging(*s.mutable_charging(), **k, options.charge);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
 
+  const bool out_ok = !files || finish_out_dir(*files, s, "rejuv run", no_figures ? Figures::Skip : Figures::Draw);
   std::fputs(describe(s, *outcome).c_str(), stdout);
   if (json_file) std::fputs((to_json(s) + "\n").c_str(), json_file.get());
   const bool completed_run = s.mission_completed() || outcome->reason == kernel::StopReason::Duration;
   const bool good = completed_run && !kernel::is_failure(outcome->reason) && !s.left_safety_set() &&
-                    outcome->reason != kernel::StopReason::Signal;
+                    outcome->reason != kernel::StopReason::Signal && out_ok;
   return static_cast<int>(good ? Exit::Ok : Exit::Findings);
 }
 

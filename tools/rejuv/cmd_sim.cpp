@@ -7,10 +7,12 @@
 
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "args.hpp"
+#include "figures.hpp"
 #include "report.hpp"
 #include "commands.hpp"
 #include "rejuv/flight/sr_sim.hpp"
@@ -61,8 +63,9 @@ bool run_is_good(const proto::RunSummary& s) { return s.mission_completed() && !
 }  // namespace
 
 int run_sim(std::span<const std::string_view> args) {
-  std::string graph_path, seed_text, json_path, csv_path;
+  std::string graph_path, seed_text, json_path, csv_path, out_text, trace_text = "compact";
   bool no_sr = false, no_attack = false, table = false, seed_set = false, json_set = false, csv_set = false;
+  bool out_set = false, trace_set = false, no_figures = false;
   ArgParser parser("sim",
                    "Model-level simulation of the CPS SR scheme (paper §II, §IV–§VI) in one process: plant at 1 kHz,\n"
                    "sensors, EKF, LQR controllers, the modes MC/RB/SC/update/CP and the worst-case attack of §VI-D.\n"
@@ -76,6 +79,9 @@ int run_sim(std::span<const std::string_view> args) {
               &json_set)
       .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V every control period",
               &csv_set)
+      .option("--out", "DIR", out_text, kOutHelp, &out_set)
+      .option("--trace", "compact|full", trace_text, kTraceHelp, &trace_set)
+      .flag("--no-figures", no_figures, kNoFiguresHelp)
       .flag("--table", table, "run Table I: SR on/off x attack on/off, and print the comparison");
   const auto parsed = parser.parse(args);
   if (!parsed) return bad_input("rejuv sim: " + parsed.error());
@@ -89,10 +95,14 @@ int run_sim(std::span<const std::string_view> args) {
     if (!seed) return bad_input("rejuv sim: " + seed.error());
     overrides.seed = *seed;
   }
-  if (table && (no_sr || no_attack || csv_set)) {
+  if (table && (no_sr || no_attack || csv_set || out_set)) {
     return bad_input("rejuv sim: --table runs all four configurations; it cannot be combined with --no-sr, "
-                     "--no-attack or --csv");
+                     "--no-attack, --csv or --out");
   }
+  const auto trace_detail = parse_trace_detail(trace_text);
+  if (!trace_detail) return bad_input("rejuv sim: " + trace_detail.error());
+  if (trace_set && !out_set) return bad_input("rejuv sim: --trace is the detail of --out's trace: give --out DIR");
+  if (no_figures && !out_set) return bad_input("rejuv sim: --no-figures goes with --out DIR");
   if (no_sr) overrides.sr = flight::SrSwitch::Off;
   if (no_attack) overrides.attack = flight::AttackSwitch::Off;
 
@@ -111,19 +121,33 @@ int run_sim(std::span<const std::string_view> args) {
     csv_file.reset(std::fopen(csv_path.c_str(), "w"));
     if (!csv_file) return bad_input("rejuv sim: cannot write --csv file '" + csv_path + "'");
   }
+  std::optional<RunFiles> files;
+  if (out_set) {
+    auto opened = RunFiles::open(out_text, *trace_detail);
+    if (!opened) return bad_input("rejuv sim: " + opened.error());
+    files.emplace(std::move(*opened));
+  }
   const bool tty = isatty(STDERR_FILENO) == 1;
 
   if (!table) {
     flight::SimObservers obs = progress_observers(config->graph_name, tty);
-    if (csv_file) {
-      write_trace_header(csv_file.get());
-      obs.trace = [f = csv_file.get()](const flight::TraceRow& r) { write_trace_row(f, r); };
+    if (csv_file) write_trace_header(csv_file.get());
+    if (csv_file || files) {
+      obs.trace = [f = csv_file.get(), out = files ? &*files : nullptr](const flight::TraceRow& r) {
+        if (f != nullptr) write_trace_row(f, r);
+        if (out != nullptr) out->trace(r);
+      };
     }
-    const auto summary = flight::run_simulation(*config, obs);
+    if (files) {
+      obs.control_update = [out = &*files](Nanos t, Nanos wall) { out->control_update(t, wall); };
+      obs.sr_event = [out = &*files](const SrEvent& e) { out->sr_event(e); };
+    }
+    auto summary = flight::run_simulation(*config, obs);
     if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
+    const bool out_ok = !files || finish_out_dir(*files, *summary, "rejuv sim", no_figures ? Figures::Skip : Figures::Draw);
     print(stdout, describe(*summary));
     if (json_file) print(json_file.get(), to_json(*summary) + "\n");
-    return static_cast<int>(run_is_good(*summary) ? Exit::Ok : Exit::Findings);
+    return static_cast<int>(run_is_good(*summary) && out_ok ? Exit::Ok : Exit::Findings);
   }
 
   // Table I (§VI-D): the four configurations, same seed, same tracking algorithm.

@@ -22,7 +22,7 @@ constexpr Command kCommands[] = {
     {"gcs", "ground station: upload a mission over the network gate and show telemetry", rejuv::cli::run_gcs},
     {"bench", "benchmarks side by side: `bench images` (checkpoint/rollback vs cold restart)", rejuv::cli::run_bench},
     {"sim", "model-level simulation of the SR scheme in one process (no runtime)", rejuv::cli::run_sim},
-    {"report", "`report table`: Table I, runtime (rejuv run) beside model (rejuv sim), four configurations",
+    {"report", "`report table`: Table I, runtime beside model; `report figures DIR`: a --out run's Figs. 7-10 again",
      rejuv::cli::run_report},
     {"faults", "fault campaign: kill or stop any process at any SR phase; recovery, safety, leaks (DESIGN §11)",
      rejuv::cli::run_faults},

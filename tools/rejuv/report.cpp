@@ -115,7 +115,7 @@ void write_trace_header(std::FILE* csv) {
       std::fprintf(csv, ",%s%s", prefix, name);
     }
   }
-  std::fputs(",sp_n_m,sp_e_m,sp_d_m,sp_yaw_rad,mode,F_N,tau_phi_N_m,tau_theta_N_m,tau_psi_N_m,V\n", csv);
+  std::fputs(",sp_n_m,sp_e_m,sp_d_m,sp_yaw_rad,mode,F_N,tau_phi_N_m,tau_theta_N_m,tau_psi_N_m,V,est_err_P\n", csv);
 }
 
 void write_trace_row(std::FILE* csv, const flight::TraceRow& r) {
@@ -126,7 +126,7 @@ void write_trace_row(std::FILE* csv, const flight::TraceRow& r) {
   std::fprintf(csv, ",%.6g,%.6g,%.6g,%.6g,%s", r.x_sp[0], r.x_sp[1], r.x_sp[2], r.x_sp[flight::idx::kYaw],
                mode_name(r.mode));
   for (Eigen::Index j = 0; j < flight::kInputDim; ++j) std::fprintf(csv, ",%.6g", r.u[j]);
-  std::fprintf(csv, ",%.6g\n", r.V);
+  std::fprintf(csv, ",%.6g,%.6g\n", r.V, r.est_err);
 }
 
 }  // namespace rejuv::cli

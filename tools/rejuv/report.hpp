@@ -33,7 +33,7 @@ void fill_image_phases(proto::ImagePhases& out, const kernel::SrStats& sr);
 void fill_network(proto::NetworkSummary& out, const kernel::NetStats& stats, std::optional<std::uint16_t> port);
 [[nodiscard]] std::string describe_network(const proto::NetworkSummary& network);
 
-// The trace CSV: t, x (12), x̂ (12), x_sp (position, yaw), mode, u (4), V.
+// The trace CSV: t, x (12), x̂ (12), x_sp (position, yaw), mode, u (4), V, ‖x − x̂‖²_P.
 void write_trace_header(std::FILE* csv);
 void write_trace_row(std::FILE* csv, const flight::TraceRow& row);
 

@@ -97,6 +97,17 @@ void RunRecorder::on_publication(const kernel::Publication& p) {
   }
 }
 
+void RunRecorder::on_control_update(Nanos t, Nanos wall) {
+  if (files_ != nullptr && t >= ref_.alignment) files_->control_update(t - ref_.alignment, wall);
+}
+
+void RunRecorder::on_sr_event(const SrEvent& event) {
+  if (files_ == nullptr) return;
+  SrEvent e = event;
+  e.t -= ref_.alignment;
+  files_->sr_event(e);
+}
+
 void RunRecorder::on_step(std::uint64_t /*step*/, Nanos t, SrMode mode) {
   mode_ = mode;
   if (progress_ == Progress::Off) return;
@@ -168,15 +179,19 @@ void RunRecorder::on_truth(const rejuv_msg_GroundTruth& g, Nanos t) {
     if (std::isfinite(V)) max_V_ = std::max(max_V_, V);
     if (!std::isfinite(V) || V > ref_.lost_V) declare_lost(t, V);
   }
-  if (x_hat_) max_est_err_ = std::max(max_est_err_, ref_.design.ellipsoid.V(x_, *x_hat_));
-  if (csv_ != nullptr) {
-    write_trace_row(csv_, flight::TraceRow{.t = t - ref_.alignment,
-                                           .x = x_,
-                                           .x_hat = x_hat_.value_or(flight::StateVec::Zero()),
-                                           .x_sp = x_sp_.value_or(flight::StateVec::Zero()),
-                                           .mode = mode_,
-                                           .u = u_,
-                                           .V = V});
+  const double est_err = x_hat_ ? ref_.design.ellipsoid.V(x_, *x_hat_) : 0.0;
+  max_est_err_ = std::max(max_est_err_, est_err);
+  if (csv_ != nullptr || files_ != nullptr) {
+    const flight::TraceRow row{.t = t - ref_.alignment,
+                               .x = x_,
+                               .x_hat = x_hat_.value_or(flight::StateVec::Zero()),
+                               .x_sp = x_sp_.value_or(flight::StateVec::Zero()),
+                               .mode = mode_,
+                               .u = u_,
+                               .V = V,
+                               .est_err = est_err};
+    if (csv_ != nullptr) write_trace_row(csv_, row);
+    if (files_ != nullptr) files_->trace(row);
   }
 }
 

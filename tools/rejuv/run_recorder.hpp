@@ -19,6 +19,7 @@
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/msgs/topic_types.hpp"
+#include "figure_data.hpp"
 #include "summary.pb.h"
 
 namespace rejuv::cli {
@@ -56,8 +57,14 @@ class RunRecorder final : public kernel::Observer {
   // `rejuv run` and the tests pass Kernel::request_stop.
   void on_vehicle_lost(std::function<void()> stop) { stop_ = std::move(stop); }
 
+  // `--out DIR` (figure_data.hpp): the trace, every control update and SR event (flight time: after the
+  // alignment) also go to `files`. Not owned; nullptr: none.
+  void record_to(RunFiles* files) { files_ = files; }
+
   void on_publication(const kernel::Publication& p) override;
   void on_step(std::uint64_t step, Nanos t, SrMode mode) override;
+  void on_control_update(Nanos t, Nanos wall) override;
+  void on_sr_event(const SrEvent& event) override;
 
   // The metrics into the summary (mission, tracking, safety, control gap, attacks); `end` is the kernel
   // time at which the run stopped.
@@ -78,6 +85,7 @@ class RunRecorder final : public kernel::Observer {
 
   RunReference ref_;
   std::FILE* csv_;
+  RunFiles* files_ = nullptr;
   Progress progress_;
   std::function<void()> stop_;
   flight::StateVec x_ = flight::StateVec::Zero();

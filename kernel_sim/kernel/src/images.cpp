@@ -49,13 +49,20 @@ std::optional<ObjectId> Kernel::Impl::kernel_topic(std::string_view type) const 
   return std::nullopt;
 }
 
-void Kernel::Impl::set_mode(SrMode mode) {
+void Kernel::Impl::set_mode(SrMode mode, std::optional<ServiceId> by) {
   if (auto changed = caps.apply_mode(mode); !changed) {
     log("mode %s: %s", std::string(to_string(mode)).c_str(), std::string(cap::to_string(changed.error())).c_str());
     return;
   }
   time_page.write(clock::TimeSample{.now = now(), .mode = mode, .epoch = time_page.current().epoch});
   publish_sr_mode();
+  sr_event(SrEventKind::Mode, {}, {}, by);
+}
+
+void Kernel::Impl::sr_event(SrEventKind kind, Generation g, Nanos span, std::optional<ServiceId> by) {
+  if (observer == nullptr) return;
+  observer->on_sr_event(SrEvent{.kind = kind, .t = now(), .wall = wall(), .epoch = time_page.current().epoch,
+                                .g = g, .mode = caps.mode(), .span = span, .by = by});
 }
 
 // ---- socket pairs made ahead ----
@@ -271,6 +278,7 @@ void Kernel::Impl::run_checkpoint() {
   };
   if (!done.failure.empty()) {
     if (!priming) ++sr_stats.checkpoint_failures;
+    if (!priming) sr_event(SrEventKind::CheckpointFailed, g, wall() - t0, caller);
     log("%s %llu abandoned: %s", priming ? "the alignment's checkpoint" : "checkpoint", num(g), done.failure.c_str());
     abandoned = Abandoned{.g = g, .waiting = done.waiting};
     images.abandon(g);
@@ -322,6 +330,7 @@ void Kernel::Impl::run_checkpoint() {
   sr_stats.checkpoint_phases.b.add(to_ms(t_taken - t_sent));
   sr_stats.checkpoint_phases.c.add(to_ms(t_saved - t_taken));
   ++sr_stats.checkpoints;
+  sr_event(SrEventKind::Checkpoint, g, took, caller);
   sr_stats.checkpoint_ms.add(to_ms(took));
   if (!sr_stats.first_checkpoint_ms) sr_stats.first_checkpoint_ms = to_ms(took);
   charge_image_work(took, checkpoint_charge);
@@ -638,6 +647,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     log("mode RB: %s", std::string(cap::to_string(changed.error())).c_str());
   }
   time_page.write(clock::TimeSample{.now = now(), .mode = SrMode::RB, .epoch = time_page.current().epoch});
+  sr_event(SrEventKind::Mode);
   retire_live_rejuvenated();
   const Nanos t_killed = wall();
   Nanos t_resumed = t_killed;
@@ -681,6 +691,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
   sweep_strays("a rollback", false, SweepWait::ForCopies);  // as after a commit: before the new spares go out
   for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
+  sr_event(SrEventKind::Rollback, restored->g, took);
   ++sr_stats.rollbacks;
   sr_stats.rollback_ms.add(to_ms(took));
   charge_image_work(took, rollback_charge);
@@ -693,6 +704,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
 void Kernel::Impl::cold_restart(const std::string& reason) {
   log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats.cold_restarts;
+  sr_event(SrEventKind::ColdRestart);
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
   kill_retired();
@@ -744,6 +756,7 @@ void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos 
     // DESIGN §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
     ++sr_stats.timer_arm_refused;
     log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(), epoch.value());
+    sr_event(SrEventKind::TimerRefused, {}, after, s.id);
     reply(s, seq, op_code(wire::OpError::Refused));
     return;
   }
@@ -753,6 +766,7 @@ void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos 
   }
   rejuvenation = RejuvenationTimer{.due = now() + after, .period = period, .armed_in = epoch};
   ++sr_stats.timer_arms;
+  sr_event(SrEventKind::TimerArmed, {}, after, s.id);
   arm_timerfd();
   reply(s, seq, 0, static_cast<std::uint64_t>(rejuvenation.due->count()));
 }

@@ -142,6 +142,7 @@ struct ObjectInfo {
   const msgs::TopicType* type = nullptr;  // topics only
   policy::KernelEndpoint kernel = policy::KernelEndpoint::None;
   bool is_setpoint = false;               // watched for mission_done (rejuv::msg::Setpoint)
+  bool is_actuator_outputs = false;       // a control update (Fig. 7): Observer::on_control_update
   std::vector<std::byte> persistent{};    // Persistent cells (survive rollback, DESIGN §3)
   std::vector<std::byte> limits{};        // Limits: the last LimitsWrite data
 };
@@ -412,7 +413,9 @@ struct Kernel::Impl {
   void kill_retired();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
-  void set_mode(SrMode mode);
+  void set_mode(SrMode mode, std::optional<ServiceId> by = std::nullopt);
+  // Observer::on_sr_event, stamped with now, the wall clock, the epoch and the mode (Figs. 7 and 8).
+  void sr_event(SrEventKind kind, Generation g = {}, Nanos span = {}, std::optional<ServiceId> by = std::nullopt);
   [[nodiscard]] std::optional<ObjectId> kernel_topic(std::string_view type) const;
 
   // ---- channel input (requests.cpp) ----

@@ -150,7 +150,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   std::vector<broker::TopicConfig> topics;
   for (const policy::Object& o : policy->objects()) {
     ObjectInfo info{.id = o.id, .name = o.name, .kind = o.kind, .type = nullptr, .kernel = o.kernel,
-                    .is_setpoint = false, .persistent = {}, .limits = {}};
+                    .is_setpoint = false, .is_actuator_outputs = false, .persistent = {}, .limits = {}};
     if (o.kind == ObjectKind::Topic) {
       info.type = msgs::find_topic_type(o.type);
       if (info.type == nullptr) {
@@ -158,6 +158,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
                                                 "', which is not a topic type of idl/"));
       }
       info.is_setpoint = info.type->name == msgs::TopicTraits<rejuv_msg_Setpoint>::name;
+      info.is_actuator_outputs = info.type->name == msgs::TopicTraits<rejuv_msg_ActuatorOutputs>::name;
       topics.push_back(broker::TopicConfig{.object = o.id, .name = o.name, .payload_size = info.type->size,
                                            .depth = o.queue_depth == 0 ? policy::kDefaultQueueDepth : o.queue_depth});
     }

@@ -354,6 +354,7 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
         return;
       }
       o.limits.assign(data.begin(), data.end());
+      sr_event(SrEventKind::LimitsWritten, {}, {}, s.id);
       reply(s, seq, 0, o.limits.size());
       return;
     case cap::Operation::LimitsRead:
@@ -385,7 +386,7 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
         return;
       }
       reply(s, seq, 0, head.arg0);
-      set_mode(static_cast<SrMode>(head.arg0));  // images.cpp: caps, time page, sr_mode
+      set_mode(static_cast<SrMode>(head.arg0), s.id);  // images.cpp: caps, time page, sr_mode
       return;
     }
     case cap::Operation::Publish:

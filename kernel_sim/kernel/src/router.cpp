@@ -141,6 +141,7 @@ void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payl
   if (observer != nullptr) {
     observer->on_publication(Publication{.topic = topic, .name = o.name, .type = o.type->name, .payload = payload,
                                          .generation = g, .t = now(), .publisher = publisher});
+    if (o.is_actuator_outputs && publisher) observer->on_control_update(now(), wall());
   }
   if (bridge && from != From::Bridge) {  // what came in through the bridge does not go back out
     if (routing_frozen) {  // a checkpoint or rollback is timed: written by resume_routing

@@ -110,6 +110,10 @@ struct SrSimulation::Impl {
   bool completed = false, lost = false, done = false;
   Nanos completed_at{0};
   WallClock::time_point wall_start = WallClock::now();
+  // The observers of the step in progress (nullptr outside step()); SR events before the first step (the
+  // boot cycle's) wait in `early_events`.
+  const SimObservers* active_obs = nullptr;
+  std::vector<SrEvent> early_events;
 
   Impl(SimConfig config, ControlDesign d, std::shared_ptr<const WaypointPath> p, const plant::QuadState& initial,
        const EkfState& ekf_initial)
@@ -128,6 +132,24 @@ struct SrSimulation::Impl {
         calm(cfg.wind.gust_std_m_s == 0.0) {}
 
   [[nodiscard]] bool sr_on() const { return cfg.sr == SrSwitch::On; }
+
+  [[nodiscard]] Nanos wall_now() const { return std::chrono::duration_cast<Nanos>(WallClock::now() - wall_start); }
+
+  // The model's SrEvent (sr_event.hpp), as the runtime's kernel reports it; the handler is the only requester.
+  void event(SrEventKind kind, Nanos now, Generation g = {}, Nanos span = {}) {
+    const SrEvent e{.kind = kind, .t = now, .wall = wall_now(), .epoch = epoch, .g = g, .mode = mode, .span = span,
+                    .by = std::nullopt};
+    if (active_obs == nullptr) {
+      early_events.push_back(e);
+    } else if (active_obs->sr_event) {
+      active_obs->sr_event(e);
+    }
+  }
+
+  void begin_handler_run(Nanos now) {
+    event(SrEventKind::HandlerRun, now);
+    handle(sw.handler.on_rollback_signal(now), now);
+  }
 
   // The same sensors, at the same hover, for `alignment` before t = 0 (the plant is at rest there: a = 0).
   void align(const plant::QuadState& hover) {
@@ -153,25 +175,34 @@ struct SrSimulation::Impl {
         mode = SrMode::SC;
         driver.set_limits(LimitSet::Full);
         attacking = false;
+        event(SrEventKind::Mode, now);
         return;
       case HandlerRequest::UpdateSetpoint:
         mode = SrMode::Update;
+        event(SrEventKind::Mode, now);
         (void)sw.setpoints.update(sw.estimator.estimate(), design.ellipsoid, cfg.rho_M);
         return;
-      case HandlerRequest::Checkpoint:
+      case HandlerRequest::Checkpoint: {
         // The image is the software as it is now, its handler inside checkpoint(): restored later, that call
         // returns Restored (DESIGN §7). The software then stops for T_CP; controls from SC are held (§II).
         mode = SrMode::CP;
-        (void)images.save(sw, now);
+        event(SrEventKind::Mode, now);
+        const Generation g = images.save(sw, now);
         ++checkpoints;
+        // At the start of the stop, as the kernel's comes before the step's charge (figure_data.hpp).
+        event(SrEventKind::Checkpoint, now, g, to_nanos(cfg.t_cp));
         freeze = Freeze::Checkpoint;
         freeze_until = now + to_nanos(cfg.t_cp);
         return;
+      }
       case HandlerRequest::ArmTimerAndEnterMission:
         // A refusal is impossible in a correct run (one Taken per epoch); the count is reported for comparison.
-        (void)timer.arm(epoch, now, to_nanos(cfg.t_mc));
+        event(timer.arm(epoch, now, to_nanos(cfg.t_mc)) ? SrEventKind::TimerArmed : SrEventKind::TimerRefused, now,
+              {}, to_nanos(cfg.t_mc));
         driver.set_limits(LimitSet::Restricted);
+        event(SrEventKind::LimitsWritten, now);
         mode = SrMode::MC;
+        event(SrEventKind::Mode, now);
         begin_mc_window(now);
         return;
     }
@@ -201,6 +232,7 @@ struct SrSimulation::Impl {
         return;  // the software is stopped: the output driver holds the last controls
     }
     driver.publish(now, u);
+    if (active_obs != nullptr && active_obs->control_update) active_obs->control_update(now, wall_now());
   }
 
   void track_without_sr(Nanos now) {
@@ -245,6 +277,14 @@ struct SrSimulation::Impl {
     freeze = Freeze::Rollback;
     freeze_until = now + to_nanos(cfg.t_rb);
     ++rollbacks;
+    event(SrEventKind::Mode, now);
+    // At the start of the stop, with the generation it restores and the epoch it opens (figure_data.hpp).
+    if (const auto* entry = images.latest(); entry != nullptr) {
+      const Epoch current = epoch;
+      epoch = Epoch{epoch.value() + 1};
+      event(SrEventKind::Rollback, now, entry->generation, to_nanos(cfg.t_rb));
+      epoch = current;
+    }
   }
 
   void finish_rollback(Nanos now) {
@@ -258,7 +298,7 @@ struct SrSimulation::Impl {
     handle(sw.handler.on_checkpoint_return(CheckpointRestored{entry->generation, epoch}), now);
     // RollbackSignal to the services that asked for it (DESIGN §7 step 3): ekf2 and checkpoint_p.
     sw.estimator.on_rollback(cfg.ekf_rearm);
-    handle(sw.handler.on_rollback_signal(now), now);
+    begin_handler_run(now);
   }
 
   void finish_checkpoint(Nanos now) {
@@ -299,7 +339,8 @@ struct SrSimulation::Impl {
     }
     if (observers.trace) {
       observers.trace(TraceRow{.t = now, .x = x, .x_hat = sw.estimator.estimate(), .x_sp = sw.setpoints.setpoint(),
-                               .mode = mode, .u = driver.applied_u(), .V = V});
+                               .mode = mode, .u = driver.applied_u(), .V = V,
+                               .est_err = design.ellipsoid.V(x, sw.estimator.estimate())});
     }
   }
 
@@ -317,8 +358,21 @@ struct SrSimulation::Impl {
                                       .final = kind == Report::Final});
   }
 
-  bool step(const SimObservers& observers) {
+  bool step(const SimObservers& obs) {
     if (done) return false;
+    active_obs = &obs;
+    if (!early_events.empty()) {
+      if (obs.sr_event) {
+        for (const SrEvent& e : early_events) obs.sr_event(e);
+      }
+      early_events.clear();
+    }
+    const bool going_on = step_once(obs);
+    active_obs = nullptr;
+    return going_on;
+  }
+
+  bool step_once(const SimObservers& observers) {
     const Nanos now = t;
     const plant::SensorSamples samples = sensors.step(now, plant.state(), plant.acceleration_N());
     if (freeze == Freeze::Rollback && now >= freeze_until) finish_rollback(now);
@@ -392,7 +446,7 @@ Result<SrSimulation, SimFailure> SrSimulation::create(const SimConfig& config) {
   impl->align(initial);
   if (impl->sr_on()) {
     // Boot: the first cycle is a rollback-handler run without a rollback (SC, T_est, (1), update, CP, MC).
-    impl->handle(impl->sw.handler.on_rollback_signal(Nanos{0}), Nanos{0});
+    impl->begin_handler_run(Nanos{0});
   } else {
     impl->mode = SrMode::MC;
     impl->driver.set_limits(LimitSet::Restricted);

@@ -31,6 +31,7 @@
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
+#include "rejuv/core/sr_event.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/launch/launch.hpp"
@@ -182,6 +183,13 @@ class Observer {
   // `g` (a rollback: the generation it tries; again for each one it falls back to). Only for observers; the
   // kernel does nothing else there.
   virtual void on_image_phase(ImagePhase /*phase*/, Generation /*g*/) {}
+  // Fig. 7 (§VI-B): every control update, i.e. every ActuatorOutputs the kernel routes (the output driver's,
+  // on their way to the plant), at kernel time `t` and real (monotonic) time `wall`. On the hot path: an
+  // observer keeps what it needs without allocating per call.
+  virtual void on_control_update(Nanos /*t*/, Nanos /*wall*/) {}
+  // Fig. 8: what the SR machinery did (mode transitions, timer arms and refusals, limits, checkpoints,
+  // rollbacks, cold restarts), as the kernel saw it: no service log needed.
+  virtual void on_sr_event(const SrEvent& /*event*/) {}
 };
 
 // Per-service counters, for tests, the summary and diagnostics.

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "rejuv/core/result.hpp"
+#include "rejuv/core/sr_event.hpp"
 #include "rejuv/core/textproto.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
@@ -103,6 +104,7 @@ struct TraceRow {
   SrMode mode = SrMode::MC;
   InputVec u;      // controls applied by the output driver
   double V = 0;    // ‖x − x_sp‖²_P (true state)
+  double est_err = 0;  // ‖x − x̂‖²_P: the estimation error (§VI-D, Fig. 11(b))
 };
 
 struct ProgressReport {
@@ -118,6 +120,11 @@ struct ProgressReport {
 struct SimObservers {
   std::function<void(const TraceRow&)> trace;
   std::function<void(const ProgressReport&)> progress;
+  // Fig. 7: every control update (the output driver's publication) at simulated time t, real time `wall`
+  // since the run was created; Fig. 8: what the SR cycle did (the same events as the runtime's kernel
+  // reports; span = T_CP / T_RB, the model's charge). Events of the boot cycle come with the first step.
+  std::function<void(Nanos t, Nanos wall)> control_update;
+  std::function<void(const SrEvent&)> sr_event;
   Seconds progress_every{10.0};  // simulated time between progress reports
 };
 

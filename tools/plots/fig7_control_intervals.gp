@@ -1,0 +1,45 @@
+# Fig. 7 of the paper (§VI-B, "Control inputs updating time"): every interval between two consecutive control
+# updates (actuator outputs routed to the plant) against time, the intervals in which a checkpoint (CP) or a
+# rollback (RB) happened marked. Top: simulated time (what the plant sees: in lockstep the real duration of a
+# checkpoint or rollback is charged to the plant's next step, so the mark is on the interval it lengthened);
+# bottom (`rejuv run` only): real time between the same updates, the mark on the interval it happened in.
+# Usage: gnuplot -e "dir='out/run'; runner='run'; title='...'" tools/plots/fig7_control_intervals.gp
+if (!exists("dir")) dir = 'out/run'
+if (!exists("runner")) runner = 'run'
+if (!exists("title")) title = 'run'
+csv = dir.'/control.csv'
+set datafile separator ','
+set key outside right top box
+set grid
+is(m) = strcol(5) eq m
+isw(m) = strcol(6) eq m
+# An interval equal to the previous one (to 1 µs: in simulated time nearly all are the 4 ms period) is drawn
+# once per 50 only: the same picture, an SVG of a few hundred kB instead of megabytes. CP and RB: every one.
+prev = -1
+fresh(v) = (d = abs(v - prev) > 0.001 || int(column(0)) % 50 == 0, prev = v, d)
+stats csv using 3 nooutput
+n = STATS_records
+do for [fmt in 'png svg'] {
+  if (fmt eq 'png') { set terminal pngcairo size 1400,900 font 'sans,11' } else { set terminal svg size 1400,900 font 'sans,11' }
+  set output dir.'/fig7_control_intervals.'.fmt
+  set multiplot layout (runner eq 'run' ? 2 : 1),1 title 'Fig. 7: control inputs updating time — '.title font 'sans,13' noenhanced
+  set title sprintf('Interval between consecutive control updates in simulated time (%d intervals; a checkpoint or rollback lengthens one by the time it is charged)', n)
+  set xlabel 'flight time t [s]'; set ylabel 'interval [ms]'
+  set yrange [0:*]
+  prev = -1
+  plot csv using 1:(is('') && fresh($3) ? $3 : 1/0) with points pt 7 ps 0.3 lc rgb '#1f77b4' title 'update', \
+       ''  using 1:(is('CP') ? $3 : 1/0) with points pt 9 ps 1.2 lc rgb '#2ca02c' title 'checkpoint (CP) in the interval', \
+       ''  using 1:(is('RB') ? $3 : 1/0) with points pt 11 ps 1.2 lc rgb '#d62728' title 'rollback (RB) in the interval'
+  if (runner eq 'run') {
+    set title 'The same intervals in real time (wall clock of the kernel routing them)'
+    set ylabel 'interval [ms]'
+    set logscale y
+    set yrange [*:*]
+    # Real intervals all differ (scheduling jitter): in the SVG one normal update in 4 is drawn.
+    plot csv every (fmt eq 'svg' ? 4 : 1) using 1:(isw('') ? $4 : 1/0) with points pt 7 ps 0.3 lc rgb '#1f77b4' title 'update', \
+         ''  using 1:(isw('CP') ? $4 : 1/0) with points pt 9 ps 1.2 lc rgb '#2ca02c' title 'checkpoint (CP) in the interval', \
+         ''  using 1:(isw('RB') ? $4 : 1/0) with points pt 11 ps 1.2 lc rgb '#d62728' title 'rollback (RB) in the interval'
+    unset logscale y
+  }
+  unset multiplot
+}
