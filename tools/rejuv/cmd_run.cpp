@@ -23,6 +23,7 @@
 #include "report.hpp"
 #include "commands.hpp"
 #include "run_recorder.hpp"
+#include "ulog_recorder.hpp"
 #include "rejuv/cap/capability.hpp"
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/flight_io/messages.hpp"
@@ -116,6 +117,8 @@ std::filesystem::path service_dir() {
 
 int run_run(std::span<const std::string_view> args) {
   std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
+  std::string ulog_path;
+  bool ulog_set = false;
   bool net_port_set = false, cpu_set = false;
   bool realtime = false, no_sr = false, no_attack = false, verbose = false, insecure_sandbox = false;
   bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
@@ -139,6 +142,9 @@ int run_run(std::span<const std::string_view> args) {
               "stop after S seconds of flight (kernel time after the plant's pre-flight alignment)", &duration_set)
       .option("--summary-json", "FILE", json_path, "write the RunSummary as JSON", &json_set)
       .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step", &csv_set)
+      .option("--ulog", "FILE", ulog_path,
+              "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
+              "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)", &ulog_set)
       .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
       .option("--skip", "NAMES", skip_text, "comma-separated services not to start (e.g. not built yet)", &skip_set)
       .option("--net-port", "P", net_port_text,
@@ -243,10 +249,22 @@ int run_run(std::span<const std::string_view> args) {
 
   const std::string graph_name = loaded->graph.name();
   const bool attack = loaded->graph.attack().enabled() && !no_attack;
-  auto k = kernel::Kernel::create(std::move(*loaded), options, &recorder);
+  kernel::ObserverFanout observers;
+  observers.add(&recorder);
+  auto k = kernel::Kernel::create(std::move(*loaded), options, &observers);
   if (!k) {
     std::fprintf(stderr, "rejuv run: %s\n", k.error().to_string().c_str());
     return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+  std::unique_ptr<UlogRecorder> ulog;
+  if (ulog_set) {
+    auto opened = write_ulog_to(ulog_path, **k,
+                                {.seed = options.seed.value_or((*k)->graph().graph.seed()),
+                                 .sr = (*k)->sr_enabled(),
+                                 .attack = attack});
+    if (!opened) return bad_input("rejuv run: --ulog: " + opened.error());
+    ulog = std::move(*opened);
+    observers.add(ulog.get());
   }
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
   std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),
@@ -305,6 +323,17 @@ int run_run(std::span<const std::string_view> args) {
   fill_percentiles(*s.mutable_rollback_ms(), sr.rollback_ms);
   fill_image_phases(*s.mutable_image_phases(), sr);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
+  if (ulog) {
+    const auto bytes = ulog->close();
+    if (!bytes) {
+      std::fprintf(stderr, "rejuv run: %s\n", bytes.error().c_str());
+      return static_cast<int>(Exit::Findings);
+    }
+    ulog->fill(*s.mutable_ulog(), *bytes);
+    std::fprintf(stderr, "rejuv run: wrote %s (%.1f MB, %llu data messages, %llu logged strings)\n", ulog_path.c_str(),
+                 static_cast<double>(*bytes) / 1e6, static_cast<unsigned long long>(s.ulog().data_messages()),
+                 static_cast<unsigned long long>(s.ulog().logged_strings()));
+  }
 
   std::fputs(describe(s, *outcome).c_str(), stdout);
   if (json_file) std::fputs((to_json(s) + "\n").c_str(), json_file.get());

@@ -270,6 +270,7 @@ void Kernel::Impl::run_checkpoint() {
   if (!done.failure.empty()) {
     ++sr_stats.checkpoint_failures;
     log("checkpoint %llu abandoned: %s", num(g), done.failure.c_str());
+    sr_event(SrEvent::Kind::CheckpointFailed, g);
     image::destroy(done.record);
     if (late) {
       for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
@@ -292,6 +293,7 @@ void Kernel::Impl::run_checkpoint() {
   }
   broker.snapshot_into(done.record.queues);
   if (observer != nullptr) observer->on_checkpoint(g, broker);
+  sr_event(SrEvent::Kind::Checkpoint, g);
   for (const image::Image& im : done.record.images) services[im.service.value()].image_base = g;
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
@@ -553,6 +555,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
     return false;
   }
   if (observer != nullptr) observer->on_restore(record.g, broker);
+  sr_event(SrEvent::Kind::Rollback, record.g);
   for (const image::SavedService& saved : record.services) {
     ServiceRuntime& s = services[saved.service.value()];
     s.subscriptions = saved.subscriptions;
@@ -633,6 +636,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
 void Kernel::Impl::cold_restart(const std::string& reason) {
   log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats.cold_restarts;
+  sr_event(SrEvent::Kind::ColdRestart);
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
   kill_retired();

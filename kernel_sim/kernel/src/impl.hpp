@@ -322,6 +322,7 @@ struct Kernel::Impl {
 
   // ---- logging (kernel.cpp) ----
   void log(const char* format, ...) __attribute__((format(printf, 2, 3)));
+  void sr_event(SrEvent::Kind kind, Generation g = Generation{});  // to the observer, at now()
   void service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view text);
   void refuse(ServiceRuntime& s, std::string_view what);  // counts and logs (rate-limited) a bad frame
 

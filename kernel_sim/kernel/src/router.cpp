@@ -106,6 +106,7 @@ void Kernel::Impl::publish_as_kernel(ObjectId topic, std::span<const std::byte> 
 
 void Kernel::Impl::publish_sr_mode() {
   sr_mode_announced = true;
+  sr_event(SrEvent::Kind::Mode);
   for (const ObjectInfo& o : objects) {
     if (o.type == nullptr || o.type->name != msgs::TopicTraits<rejuv_msg_SrMode>::name ||
         o.kernel != policy::KernelEndpoint::Publishes) {
