@@ -261,10 +261,10 @@ int run_run(std::span<const std::string_view> args) {
     auto opened = write_ulog_to(ulog_path, **k,
                                 {.seed = options.seed.value_or((*k)->graph().graph.seed()),
                                  .sr = (*k)->sr_enabled(),
-                                 .attack = attack});
+                                 .attack = attack},
+                                observers);
     if (!opened) return bad_input("rejuv run: --ulog: " + opened.error());
     ulog = std::move(*opened);
-    observers.add(ulog.get());
   }
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
   std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),
@@ -324,15 +324,10 @@ int run_run(std::span<const std::string_view> args) {
   fill_image_phases(*s.mutable_image_phases(), sr);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
   if (ulog) {
-    const auto bytes = ulog->close();
-    if (!bytes) {
-      std::fprintf(stderr, "rejuv run: %s\n", bytes.error().c_str());
+    if (auto done = finish_ulog(*ulog, s); !done) {
+      std::fprintf(stderr, "rejuv run: %s\n", done.error().c_str());
       return static_cast<int>(Exit::Findings);
     }
-    ulog->fill(*s.mutable_ulog(), *bytes);
-    std::fprintf(stderr, "rejuv run: wrote %s (%.1f MB, %llu data messages, %llu logged strings)\n", ulog_path.c_str(),
-                 static_cast<double>(*bytes) / 1e6, static_cast<unsigned long long>(s.ulog().data_messages()),
-                 static_cast<unsigned long long>(s.ulog().logged_strings()));
   }
 
   std::fputs(describe(s, *outcome).c_str(), stdout);

@@ -228,4 +228,24 @@ Result<std::uint64_t, std::string> UlogRecorder::close() {
   return *size;
 }
 
+Result<std::unique_ptr<UlogRecorder>, std::string> write_ulog_to(const std::filesystem::path& path,
+                                                                 const kernel::Kernel& kernel,
+                                                                 const UlogRecorder::RunInfo& info,
+                                                                 kernel::ObserverFanout& observers) {
+  auto recorder = UlogRecorder::create(path, kernel, info);
+  if (recorder) observers.add(recorder->get());
+  return recorder;
+}
+
+Result<void, std::string> finish_ulog(UlogRecorder& recorder, proto::RunSummary& summary) {
+  const auto bytes = recorder.close();
+  if (!bytes) return fail(bytes.error());
+  recorder.fill(*summary.mutable_ulog(), *bytes);
+  const proto::UlogSummary& u = summary.ulog();
+  std::fprintf(stderr, "rejuv run: wrote %s (%.1f MB, %llu data messages, %llu logged strings)\n", u.path().c_str(),
+               static_cast<double>(u.bytes()) / 1e6, static_cast<unsigned long long>(u.data_messages()),
+               static_cast<unsigned long long>(u.logged_strings()));
+  return {};
+}
+
 }  // namespace rejuv::cli

@@ -58,12 +58,14 @@ class UlogRecorder final : public kernel::Observer {
   std::string error_;  // the first write error (reported by close)
 };
 
-// The ULog of one run, for `rejuv run --ulog FILE` and `--out DIR` (DIR/run.ulg): a recorder writing to
-// `path`, to be added to the kernel's ObserverFanout after Kernel::create and before the run, and closed
-// after it (cmd_run.cpp does so for --ulog).
-[[nodiscard]] inline Result<std::unique_ptr<UlogRecorder>, std::string> write_ulog_to(
-    const std::filesystem::path& path, const kernel::Kernel& kernel, const UlogRecorder::RunInfo& info) {
-  return UlogRecorder::create(path, kernel, info);
-}
+// The ULog of one run, for `rejuv run --ulog FILE` and `--out DIR` (DIR/run.ulg): opens a recorder on `path`
+// and adds it to `observers` (the fanout the kernel was created with; call after Kernel::create, before the
+// run). After the run, finish_ulog closes the file and fills the summary's `ulog` section.
+[[nodiscard]] Result<std::unique_ptr<UlogRecorder>, std::string> write_ulog_to(const std::filesystem::path& path,
+                                                                               const kernel::Kernel& kernel,
+                                                                               const UlogRecorder::RunInfo& info,
+                                                                               kernel::ObserverFanout& observers);
+// Closes the file, fills `summary.ulog` and says on stderr what was written. The error is a message.
+[[nodiscard]] Result<void, std::string> finish_ulog(UlogRecorder& recorder, proto::RunSummary& summary);
 
 }  // namespace rejuv::cli
