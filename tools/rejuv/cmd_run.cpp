@@ -25,6 +25,7 @@
 #include "report.hpp"
 #include "commands.hpp"
 #include "run_recorder.hpp"
+#include "ulog_recorder.hpp"
 #include "rejuv/cap/capability.hpp"
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/flight_io/messages.hpp"
@@ -154,8 +155,9 @@ std::filesystem::path service_dir() {
 
 int run_run(std::span<const std::string_view> args) {
   std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
-  std::string charge_text, out_text, trace_text = "compact";
+  std::string charge_text, out_text, trace_text = "compact", ulog_path;
   bool net_port_set = false, cpu_set = false, charge_set = false, out_set = false, trace_set = false, no_figures = false;
+  bool ulog_set = false;
   bool realtime = false, no_sr = false, no_attack = false, verbose = false, insecure_sandbox = false;
   bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
   ArgParser parser("run",
@@ -182,6 +184,9 @@ int run_run(std::span<const std::string_view> args) {
       .option("--out", "DIR", out_text, kOutHelp, &out_set)
       .option("--trace", "compact|full", trace_text, kTraceHelp, &trace_set)
       .flag("--no-figures", no_figures, kNoFiguresHelp)
+      .option("--ulog", "FILE", ulog_path,
+              "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
+              "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)", &ulog_set)
       .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
       .option("--skip", "NAMES", skip_text, "comma-separated services not to start (e.g. not built yet)", &skip_set)
       .option("--net-port", "P", net_port_text,
@@ -303,10 +308,22 @@ int run_run(std::span<const std::string_view> args) {
 
   const std::string graph_name = loaded->graph.name();
   const bool attack = loaded->graph.attack().enabled() && !no_attack;
-  auto k = kernel::Kernel::create(std::move(*loaded), options, &recorder);
+  kernel::ObserverFanout observers;
+  observers.add(&recorder);
+  auto k = kernel::Kernel::create(std::move(*loaded), options, &observers);
   if (!k) {
     std::fprintf(stderr, "rejuv run: %s\n", k.error().to_string().c_str());
     return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+  std::unique_ptr<UlogRecorder> ulog;
+  if (ulog_set || out_set) {  // --out DIR writes DIR/run.ulg too, unless --ulog names another file
+    auto opened = write_ulog_to(ulog_set ? std::filesystem::path(ulog_path) : std::filesystem::path(out_text) / "run.ulg", **k,
+                                {.seed = options.seed.value_or((*k)->graph().graph.seed()),
+                                 .sr = (*k)->sr_enabled(),
+                                 .attack = attack},
+                                observers);
+    if (!opened) return bad_input("rejuv run: --ulog: " + opened.error());
+    ulog = std::move(*opened);
   }
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
   if (files) files->set_service_names(service_names(**k));
@@ -367,6 +384,12 @@ int run_run(std::span<const std::string_view> args) {
   fill_image_phases(*s.mutable_image_phases(), sr);
   fill_charging(*s.mutable_charging(), **k, options.charge);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
+  if (ulog) {
+    if (auto done = finish_ulog(*ulog, s); !done) {
+      std::fprintf(stderr, "rejuv run: %s\n", done.error().c_str());
+      return static_cast<int>(Exit::Findings);
+    }
+  }
 
   const bool out_ok = !files || finish_out_dir(*files, s, "rejuv run", no_figures ? Figures::Skip : Figures::Draw);
   std::fputs(describe(s, *outcome).c_str(), stdout);

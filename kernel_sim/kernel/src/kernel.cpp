@@ -333,14 +333,19 @@ Kernel::~Kernel() { shutdown(); }
 // ---- logging and time ----
 
 void Kernel::Impl::log(const char* format, ...) {
-  if (options.log == nullptr) return;
+  if (options.log == nullptr && observer == nullptr) return;
   std::array<char, 2048> buf{};
   va_list args;
   va_start(args, format);
   std::vsnprintf(buf.data(), buf.size(), format, args);
   va_end(args);
+  if (observer != nullptr) {
+    observer->on_log(LogLine{.t = now(), .source = "kernel", .level = LogLine::Level::Info, .text = buf.data()});
+  }
+  if (options.log == nullptr) return;
   std::fprintf(options.log, "[kernel %8.3f] %s\n", to_seconds(now()).count(), buf.data());
 }
+
 
 bool LogLimiter::allow(Nanos wall_now) {
   // 50 lines of burst, 20 lines per second sustained.
@@ -362,6 +367,16 @@ void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::str
     ++s.stats.log_suppressed;
     ++s.limiter.suppressed_since_print;
     return;
+  }
+  if (observer != nullptr) {
+    LogLine::Level l = LogLine::Level::Info;
+    switch (level) {
+      case wire::LogLevel::Debug: l = LogLine::Level::Debug; break;
+      case wire::LogLevel::Info: l = LogLine::Level::Info; break;
+      case wire::LogLevel::Warn: l = LogLine::Level::Warning; break;
+      case wire::LogLevel::Error: l = LogLine::Level::Error; break;
+    }
+    observer->on_log(LogLine{.t = now(), .source = s.name, .level = l, .text = text});
   }
   if (options.log == nullptr) return;
   if (s.limiter.suppressed_since_print > 0) {
@@ -890,6 +905,13 @@ const cap::CapSystem& Kernel::caps() const { return impl_->caps; }
 const broker::Broker& Kernel::broker() const { return impl_->broker; }
 std::size_t Kernel::service_count() const { return impl_->services.size(); }
 const launch::LoadedLaunch& Kernel::graph() const { return impl_->graph; }
+std::vector<Kernel::TopicInfo> Kernel::topics() const {
+  std::vector<TopicInfo> out;
+  for (const ObjectInfo& o : impl_->objects) {
+    if (o.kind == ObjectKind::Topic && o.type != nullptr) out.push_back({.id = o.id, .name = o.name, .type = o.type->name});
+  }
+  return out;
+}
 std::uint64_t Kernel::bad_frames_total() const { return impl_->kernel_bad_frames; }
 const SrStats& Kernel::sr_stats() const { return impl_->sr_stats; }
 

@@ -165,7 +165,19 @@ inline constexpr std::array kAllImagePhases{ImagePhase::CheckpointSnapshotsSent,
                                             ImagePhase::RollbackKilled, ImagePhase::RollbackResumesSent};
 [[nodiscard]] std::string_view to_string(ImagePhase phase);
 
-// Receives what happens during a run. Called from the kernel's loop: must not block.
+// A log line of the kernel (`source` "kernel") or of a service (its name), as printed to KernelOptions::log
+// (after the services' rate limit; Debug lines only with `verbose`), also when that is nullptr.
+struct LogLine {
+  enum class Level : std::uint8_t { Debug, Info, Warning, Error };
+  Nanos t{0};                   // kernel clock
+  std::string_view source{};
+  Level level = Level::Info;
+  std::string_view text{};
+};
+
+
+// Receives what happens during a run. Called from the kernel's loop: must not block. Every hook is a
+// virtual call behind one null check, so a run without an observer pays a branch per event.
 class Observer {
  public:
   Observer() = default;
@@ -190,6 +202,30 @@ class Observer {
   // Fig. 8: what the SR machinery did (mode transitions, timer arms and refusals, limits, checkpoints,
   // rollbacks, cold restarts), as the kernel saw it: no service log needed.
   virtual void on_sr_event(const SrEvent& /*event*/) {}
+  // Every log line of the kernel and of the services it relays (ULog, docs/ulog.md).
+  virtual void on_log(const LogLine& /*line*/) {}
+};
+
+// Hands every event to each of several observers in turn (e.g. `rejuv run`'s metrics and its ULog). One
+// may be added after Kernel::create (it may need the kernel), before the kernel boots.
+class ObserverFanout final : public Observer {
+ public:
+  ObserverFanout() = default;
+  explicit ObserverFanout(std::vector<Observer*> observers) : observers_(std::move(observers)) {}
+  void add(Observer* observer) { observers_.push_back(observer); }
+  void on_publication(const Publication& p) override { for (Observer* o : observers_) o->on_publication(p); }
+  void on_step(std::uint64_t step, Nanos t, SrMode mode) override {
+    for (Observer* o : observers_) o->on_step(step, t, mode);
+  }
+  void on_checkpoint(Generation g, const broker::Broker& q) override { for (Observer* o : observers_) o->on_checkpoint(g, q); }
+  void on_restore(Generation g, const broker::Broker& q) override { for (Observer* o : observers_) o->on_restore(g, q); }
+  void on_image_phase(ImagePhase phase, Generation g) override { for (Observer* o : observers_) o->on_image_phase(phase, g); }
+  void on_log(const LogLine& line) override { for (Observer* o : observers_) o->on_log(line); }
+  void on_sr_event(const SrEvent& e) override { for (Observer* o : observers_) o->on_sr_event(e); }
+  void on_control_update(Nanos t, Nanos wall) override { for (Observer* o : observers_) o->on_control_update(t, wall); }
+
+ private:
+  std::vector<Observer*> observers_;
 };
 
 // Per-service counters, for tests, the summary and diagnostics.
@@ -407,6 +443,13 @@ class Kernel {
   [[nodiscard]] NetStats net_stats() const;
   [[nodiscard]] std::optional<std::uint16_t> network_port() const;
   [[nodiscard]] const launch::LoadedLaunch& graph() const;
+  // Every topic of the graph's policy, in object order (recorders define their formats from it).
+  struct TopicInfo {
+    ObjectId id{};
+    std::string_view name{};   // policy object name
+    std::string_view type{};   // IDL type name
+  };
+  [[nodiscard]] std::vector<TopicInfo> topics() const;
 
   // ---- test seam: the channel-input fuzzer only (tests/fuzz/channel_frames.cpp) ----
   // Instead of boot(): every service is attached to a socket pair with no process behind it, in phase

@@ -1,0 +1,263 @@
+#include "ulog_recorder.hpp"
+
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/message.h>
+
+#include <cstdio>
+#include <cstring>
+
+#include "rejuv/ulog/topics.hpp"
+
+namespace rejuv::cli {
+namespace {
+
+namespace pb = google::protobuf;
+
+std::uint64_t micros(Nanos t) { return t.count() <= 0 ? 0 : static_cast<std::uint64_t>(t.count()) / 1000; }
+
+// `git describe` of the source tree the binary was built from, when git and the tree are there.
+std::string version_of_sources() {
+  const std::string cmd = "git -C '" + std::string(REJUV_SOURCE_DIR) + "' describe --always --dirty 2>/dev/null";
+  std::FILE* p = ::popen(cmd.c_str(), "r");
+  if (p == nullptr) return "unknown";
+  std::array<char, 128> buf{};
+  std::string out;
+  while (std::fgets(buf.data(), buf.size(), p) != nullptr) out += buf.data();
+  const int status = ::pclose(p);
+  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+  return status == 0 && !out.empty() ? out : "unknown";
+}
+
+// Every set numeric or boolean field of a launch message as a ULog parameter `prefix.field` (nested
+// messages as `prefix.field.sub`): floats for numbers, int32 for booleans and enums. Text goes to info.
+Result<void, ulog::UlogError> parameters_of(ulog::Encoder& enc, const pb::Message& m, const std::string& prefix) {
+  const pb::Reflection* r = m.GetReflection();
+  std::vector<const pb::FieldDescriptor*> fields;
+  r->ListFields(m, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    if (f->is_repeated()) continue;
+    const std::string name = prefix + "." + f->name();
+    Result<void, ulog::UlogError> ok{};
+    switch (f->cpp_type()) {
+      case pb::FieldDescriptor::CPPTYPE_DOUBLE: ok = enc.parameter(name, static_cast<float>(r->GetDouble(m, f))); break;
+      case pb::FieldDescriptor::CPPTYPE_FLOAT: ok = enc.parameter(name, r->GetFloat(m, f)); break;
+      case pb::FieldDescriptor::CPPTYPE_INT32: ok = enc.parameter(name, r->GetInt32(m, f)); break;
+      case pb::FieldDescriptor::CPPTYPE_UINT32: ok = enc.parameter(name, static_cast<std::int32_t>(r->GetUInt32(m, f))); break;
+      case pb::FieldDescriptor::CPPTYPE_INT64: ok = enc.parameter(name, static_cast<float>(r->GetInt64(m, f))); break;
+      case pb::FieldDescriptor::CPPTYPE_UINT64: ok = enc.parameter(name, static_cast<float>(r->GetUInt64(m, f))); break;
+      case pb::FieldDescriptor::CPPTYPE_BOOL: ok = enc.parameter(name, std::int32_t{r->GetBool(m, f) ? 1 : 0}); break;
+      case pb::FieldDescriptor::CPPTYPE_ENUM: ok = enc.parameter(name, r->GetEnumValue(m, f)); break;
+      case pb::FieldDescriptor::CPPTYPE_STRING: ok = enc.info_string(name, r->GetString(m, f)); break;
+      case pb::FieldDescriptor::CPPTYPE_MESSAGE: ok = parameters_of(enc, r->GetMessage(m, f), name); break;
+    }
+    if (!ok) return ok;
+  }
+  return {};
+}
+
+// A launch Param: a number is a float parameter, text an info string.
+Result<void, ulog::UlogError> param(ulog::Encoder& enc, const std::string& owner, const proto::Param& p) {
+  const std::string name = owner + "." + p.name();
+  if (p.has_text()) return enc.info_string(name, p.text());
+  return enc.parameter(name, static_cast<float>(p.number()));
+}
+
+// rejuv_sr_event: the SR events of the kernel (rejuv::SrEvent, core/sr_event.hpp), one message each.
+#pragma pack(push, 1)
+struct SrEventMessage {
+  std::uint64_t timestamp;   // [µs]
+  std::uint64_t generation;
+  std::uint32_t epoch;
+  std::uint8_t kind;         // SrEventKind: 0 mode, 1 handler_run, 2 timer_armed, 3 timer_refused, 4 limits_written,
+                             // 5 checkpoint, 6 checkpoint_failed, 7 rollback, 8 cold_restart
+  std::uint8_t mode;         // SrMode in force after it: 0 MC, 1 RB, 2 SC, 3 UPDATE, 4 CP
+};
+#pragma pack(pop)
+const ulog::Format kSrEventFormat{.name = "rejuv_sr_event",
+                                  .fields = {{.type = "uint64_t", .name = "timestamp"},
+                                             {.type = "uint64_t", .name = "generation"},
+                                             {.type = "uint32_t", .name = "epoch"},
+                                             {.type = "uint8_t", .name = "kind"},
+                                             {.type = "uint8_t", .name = "mode"}}};
+
+std::string with(std::string_view what, ulog::UlogError e) { return std::string(what) + ": " + std::string(ulog::to_string(e)); }
+
+}  // namespace
+
+Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const std::filesystem::path& path,
+                                                                        const kernel::Kernel& kernel,
+                                                                        const RunInfo& info) {
+  auto file = ulog::FileWriter::create(path, 0);
+  if (!file) return fail("cannot write the ULog file '" + path.string() + "'");
+  std::unique_ptr<UlogRecorder> rec(new UlogRecorder(std::move(*file)));
+  ulog::Encoder& enc = rec->writer_.encoder();
+  const proto::Launch& graph = kernel.graph().graph;
+  // Information (PX4's keys where they exist: sys_name, ver_sw).
+  for (const auto& [key, value] : {std::pair<std::string, std::string>{"sys_name", "Rejuv"},
+                                   {"ver_sw", version_of_sources()},
+                                   {"graph", graph.name()},
+                                   {"graph_file", kernel.graph().path.string()},
+                                   {"clock", std::string(kernel::to_string(kernel.clock_mode()))},
+                                   {"sr", info.sr ? "on" : "off"},
+                                   {"attack", info.attack ? "on" : "off"}}) {
+    if (auto ok = enc.info_string(key, value); !ok) return fail(with("info " + key, ok.error()));
+  }
+  if (auto ok = enc.info_u64("seed", info.seed); !ok) return fail(with("info seed", ok.error()));
+  // Parameters: the SR parameters, the plant's, every service's.
+  if (auto ok = parameters_of(enc, graph.sr(), "sr"); !ok) return fail(with("sr parameters", ok.error()));
+  for (const proto::Param& p : graph.plant().params()) {
+    if (auto ok = param(enc, "plant", p); !ok) return fail(with("plant parameter " + p.name(), ok.error()));
+  }
+  for (const proto::ServiceSpec& s : graph.services()) {
+    for (const proto::Param& p : s.params()) {
+      if (auto ok = param(enc, s.name(), p); !ok) return fail(with(s.name() + " parameter " + p.name(), ok.error()));
+    }
+  }
+  // A format per topic (named after the policy object), then a subscription to each.
+  const std::vector<kernel::Kernel::TopicInfo> topics = kernel.topics();
+  for (const kernel::Kernel::TopicInfo& t : topics) {
+    const ulog::TopicLayout* layout = ulog::find_layout(t.type);
+    if (layout == nullptr) return fail("no ULog layout for the topic type " + std::string(t.type));
+    if (auto ok = enc.format(ulog::topic_format(t.name, *layout)); !ok) return fail(with("format " + std::string(t.name), ok.error()));
+  }
+  if (auto ok = enc.format(kSrEventFormat); !ok) return fail(with("format rejuv_sr_event", ok.error()));
+  for (const kernel::Kernel::TopicInfo& t : topics) {
+    const auto id = enc.add_logged(t.name);
+    if (!id) return fail(with("subscription " + std::string(t.name), id.error()));
+    if (rec->by_object_.size() <= t.id.value()) {
+      rec->by_object_.resize(t.id.value() + 1);
+      rec->names_.resize(t.id.value() + 1);
+      rec->routed_.resize(t.id.value() + 1);
+    }
+    rec->by_object_[t.id.value()] = *id;
+    rec->names_[t.id.value()] = std::string(t.name);
+  }
+  const auto sr_id = enc.add_logged(kSrEventFormat.name);
+  if (!sr_id) return fail(with("subscription rejuv_sr_event", sr_id.error()));
+  rec->sr_event_id_ = *sr_id;
+  return rec;
+}
+
+void UlogRecorder::on_publication(const kernel::Publication& p) {
+  if (p.topic.value() >= by_object_.size() || !by_object_[p.topic.value()]) return;
+  ++routed_[p.topic.value()];
+  const std::uint64_t t = micros(p.t);
+  scratch_.resize(sizeof t + p.payload.size());
+  std::memcpy(scratch_.data(), &t, sizeof t);
+  std::memcpy(scratch_.data() + sizeof t, p.payload.data(), p.payload.size());
+  if (auto ok = writer_.encoder().data(*by_object_[p.topic.value()], scratch_); !ok) {
+    if (error_.empty()) error_ = with("data of " + std::string(p.name), ok.error());
+    return;
+  }
+  ++data_messages_;
+  writer_.flush_if_large();
+}
+
+void UlogRecorder::log(ulog::LogLevel level, Nanos t, std::string_view text) {
+  writer_.encoder().log(level, micros(t), text);
+  ++logged_strings_;
+  writer_.flush_if_large();
+}
+
+void UlogRecorder::on_log(const kernel::LogLine& line) {
+  ulog::LogLevel level = ulog::LogLevel::Info;
+  switch (line.level) {
+    case kernel::LogLine::Level::Debug: level = ulog::LogLevel::Debug; break;
+    case kernel::LogLine::Level::Info: level = ulog::LogLevel::Info; break;
+    case kernel::LogLine::Level::Warning: level = ulog::LogLevel::Warning; break;
+    case kernel::LogLine::Level::Error: level = ulog::LogLevel::Error; break;
+  }
+  std::string text(line.source);
+  text += ": ";
+  text += line.text;
+  log(level, line.t, text);
+}
+
+void UlogRecorder::on_sr_event(const SrEvent& e) {
+  const SrEventMessage m{.timestamp = micros(e.t),
+                         .generation = e.g.value(),
+                         .epoch = e.epoch.value(),
+                         .kind = static_cast<std::uint8_t>(e.kind),
+                         .mode = static_cast<std::uint8_t>(index_of(e.mode))};
+  if (auto ok = writer_.encoder().data(sr_event_id_, std::as_bytes(std::span(&m, 1))); !ok) {
+    if (error_.empty()) error_ = with("data of rejuv_sr_event", ok.error());
+  } else {
+    ++data_messages_;
+    ++sr_events_;
+  }
+  char text[160];
+  const auto generation = static_cast<unsigned long long>(e.g.value());
+  switch (e.kind) {
+    case SrEventKind::Mode:
+      std::snprintf(text, sizeof text, "sr: mode %s (epoch %u)", std::string(to_string(e.mode)).c_str(), e.epoch.value());
+      break;
+    case SrEventKind::HandlerRun:
+      std::snprintf(text, sizeof text, "sr: handler run (epoch %u)", e.epoch.value());
+      break;
+    case SrEventKind::TimerArmed:
+      std::snprintf(text, sizeof text, "sr: timer armed for %.3f s (epoch %u)", to_seconds(e.span).count(), e.epoch.value());
+      break;
+    case SrEventKind::TimerRefused:
+      std::snprintf(text, sizeof text, "sr: second timer arm in epoch %u refused", e.epoch.value());
+      break;
+    case SrEventKind::LimitsWritten:
+      std::snprintf(text, sizeof text, "sr: restricted limits written (epoch %u)", e.epoch.value());
+      break;
+    case SrEventKind::Checkpoint:
+      std::snprintf(text, sizeof text, "sr: checkpoint generation %llu committed", generation);
+      break;
+    case SrEventKind::CheckpointFailed:
+      std::snprintf(text, sizeof text, "sr: checkpoint generation %llu abandoned", generation);
+      break;
+    case SrEventKind::Rollback:
+      std::snprintf(text, sizeof text, "sr: rollback to generation %llu (epoch %u)", generation, e.epoch.value());
+      break;
+    case SrEventKind::ColdRestart:
+      std::snprintf(text, sizeof text, "sr: cold restart of the rejuvenated services");
+      break;
+  }
+  const bool routine = e.kind == SrEventKind::Mode || e.kind == SrEventKind::Checkpoint ||
+                       e.kind == SrEventKind::TimerArmed || e.kind == SrEventKind::LimitsWritten ||
+                       e.kind == SrEventKind::HandlerRun;
+  log(routine ? ulog::LogLevel::Info : ulog::LogLevel::Notice, e.t, text);
+}
+
+void UlogRecorder::fill(proto::UlogSummary& s, std::uint64_t bytes) const {
+  s.set_path(writer_.path().string());
+  s.set_bytes(bytes);
+  s.set_data_messages(data_messages_);
+  s.set_logged_strings(logged_strings_);
+  s.set_sr_events(sr_events_);
+  for (std::size_t i = 0; i < names_.size(); ++i) {
+    if (by_object_[i]) (*s.mutable_routed_by_topic())[names_[i]] = routed_[i];
+  }
+}
+
+Result<std::uint64_t, std::string> UlogRecorder::close() {
+  auto size = writer_.close();
+  if (!error_.empty()) return fail("ULog file '" + writer_.path().string() + "': " + error_);
+  if (!size) return fail("ULog file '" + writer_.path().string() + "': " + std::string(ulog::to_string(size.error())));
+  return *size;
+}
+
+Result<std::unique_ptr<UlogRecorder>, std::string> write_ulog_to(const std::filesystem::path& path,
+                                                                 const kernel::Kernel& kernel,
+                                                                 const UlogRecorder::RunInfo& info,
+                                                                 kernel::ObserverFanout& observers) {
+  auto recorder = UlogRecorder::create(path, kernel, info);
+  if (recorder) observers.add(recorder->get());
+  return recorder;
+}
+
+Result<void, std::string> finish_ulog(UlogRecorder& recorder, proto::RunSummary& summary) {
+  const auto bytes = recorder.close();
+  if (!bytes) return fail(bytes.error());
+  recorder.fill(*summary.mutable_ulog(), *bytes);
+  const proto::UlogSummary& u = summary.ulog();
+  std::fprintf(stderr, "rejuv run: wrote %s (%.1f MB, %llu data messages, %llu logged strings)\n", u.path().c_str(),
+               static_cast<double>(u.bytes()) / 1e6, static_cast<unsigned long long>(u.data_messages()),
+               static_cast<unsigned long long>(u.logged_strings()));
+  return {};
+}
+
+}  // namespace rejuv::cli
