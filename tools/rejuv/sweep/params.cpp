@@ -205,6 +205,14 @@ Result<void, std::string> set_field(proto::Launch& launch, std::string_view path
     return m->GetReflection();
   };
   const int index = steps->back().index;
+  // The four integer types differ only in their range and their reflection setters.
+  const auto set_integer = [&]<class T>(auto set, auto set_repeated) -> Result<void, std::string> {
+    const auto v = integer<T>(value, where);
+    if (!v) return fail(v.error());
+    const pb::Reflection* r = descend();
+    index >= 0 ? (r->*set_repeated)(m, leaf, index, *v) : (r->*set)(m, leaf, *v);
+    return {};
+  };
   switch (leaf->cpp_type()) {
     case pb::FieldDescriptor::CPPTYPE_MESSAGE: break;  // resolve() refuses a message leaf
     case pb::FieldDescriptor::CPPTYPE_DOUBLE:
@@ -220,34 +228,16 @@ Result<void, std::string> set_field(proto::Launch& launch, std::string_view path
       }
       return {};
     }
-    case pb::FieldDescriptor::CPPTYPE_INT32: {
-      const auto v = integer<std::int32_t>(value, where);
-      if (!v) return fail(v.error());
-      const pb::Reflection* r = descend();
-      index >= 0 ? r->SetRepeatedInt32(m, leaf, index, *v) : r->SetInt32(m, leaf, *v);
-      return {};
-    }
-    case pb::FieldDescriptor::CPPTYPE_INT64: {
-      const auto v = integer<std::int64_t>(value, where);
-      if (!v) return fail(v.error());
-      const pb::Reflection* r = descend();
-      index >= 0 ? r->SetRepeatedInt64(m, leaf, index, *v) : r->SetInt64(m, leaf, *v);
-      return {};
-    }
-    case pb::FieldDescriptor::CPPTYPE_UINT32: {
-      const auto v = integer<std::uint32_t>(value, where);
-      if (!v) return fail(v.error());
-      const pb::Reflection* r = descend();
-      index >= 0 ? r->SetRepeatedUInt32(m, leaf, index, *v) : r->SetUInt32(m, leaf, *v);
-      return {};
-    }
-    case pb::FieldDescriptor::CPPTYPE_UINT64: {
-      const auto v = integer<std::uint64_t>(value, where);
-      if (!v) return fail(v.error());
-      const pb::Reflection* r = descend();
-      index >= 0 ? r->SetRepeatedUInt64(m, leaf, index, *v) : r->SetUInt64(m, leaf, *v);
-      return {};
-    }
+    case pb::FieldDescriptor::CPPTYPE_INT32:
+      return set_integer.template operator()<std::int32_t>(&pb::Reflection::SetInt32, &pb::Reflection::SetRepeatedInt32);
+    case pb::FieldDescriptor::CPPTYPE_INT64:
+      return set_integer.template operator()<std::int64_t>(&pb::Reflection::SetInt64, &pb::Reflection::SetRepeatedInt64);
+    case pb::FieldDescriptor::CPPTYPE_UINT32:
+      return set_integer.template operator()<std::uint32_t>(&pb::Reflection::SetUInt32,
+                                                            &pb::Reflection::SetRepeatedUInt32);
+    case pb::FieldDescriptor::CPPTYPE_UINT64:
+      return set_integer.template operator()<std::uint64_t>(&pb::Reflection::SetUInt64,
+                                                            &pb::Reflection::SetRepeatedUInt64);
     case pb::FieldDescriptor::CPPTYPE_BOOL: {
       if (value != "true" && value != "false") {
         return fail(where + ": expected true or false, got '" + std::string(value) + "'");
