@@ -53,6 +53,7 @@ do for [fmt in "png svg"] {
     } else {
       set ylabel zlabel noenhanced
       set yrange [0:zmax]
+      set offsets graph 0.05, graph 0.05, 0, 0
       set grid
       plot f using 1:col with linespoints pt 7 lw 2 title 'max over seeds', \
            f using 1:(column(col + 2)) with linespoints pt 6 dt 3 title 'mean over seeds', \
