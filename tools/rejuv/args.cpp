@@ -24,6 +24,19 @@ ArgParser& ArgParser::option(std::string name, std::string metavar, std::string&
   return *this;
 }
 
+ArgParser& ArgParser::repeated(std::string name, std::string metavar, std::vector<std::string>& out,
+                               std::string help) {
+  opts_.push_back(Opt{.name = std::move(name), .metavar = std::move(metavar), .help = std::move(help), .list_out = &out});
+  return *this;
+}
+
+ArgParser& ArgParser::positionals(std::string name, std::vector<std::string>& out, std::string help) {
+  rest_ = &out;
+  rest_name_ = std::move(name);
+  rest_help_ = std::move(help);
+  return *this;
+}
+
 ArgParser& ArgParser::positional(std::string name, std::string& out, std::string help, bool required) {
   pos_.push_back(Pos{std::move(name), std::move(help), &out, required});
   return *this;
@@ -38,10 +51,15 @@ std::string ArgParser::help() const {
   for (const Pos& p : pos_) {
     s << (p.required ? " " : " [") << p.name << (p.required ? "" : "]");
   }
+  if (rest_ != nullptr) s << " " << rest_name_ << "...";
   s << "\n\n" << summary_ << "\n";
-  if (!pos_.empty()) {
+  if (!pos_.empty() || rest_ != nullptr) {
     s << "\narguments:\n";
     for (const Pos& p : pos_) s << "  " << p.name << std::string(p.name.size() < 22 ? 22 - p.name.size() : 1, ' ') << p.help << "\n";
+    if (rest_ != nullptr) {
+      s << "  " << rest_name_ << "..." << std::string(rest_name_.size() < 19 ? 19 - rest_name_.size() : 1, ' ')
+        << rest_help_ << "\n";
+    }
   }
   s << "\noptions:\n";
   for (const Opt& o : opts_) {
@@ -88,8 +106,16 @@ Result<ParseOutcome, std::string> ArgParser::parse(std::span<const std::string_v
       if (value.empty()) {
         return fail("option '" + std::string(name) + "' needs a non-empty value " + found->metavar + see);
       }
+      if (found->list_out != nullptr) {
+        found->list_out->emplace_back(value);
+        continue;
+      }
       *found->value_out = std::string(value);
       if (found->set_out != nullptr) *found->set_out = true;
+      continue;
+    }
+    if (next_pos >= pos_.size() && rest_ != nullptr) {
+      rest_->emplace_back(a);
       continue;
     }
     if (next_pos >= pos_.size()) {
@@ -102,6 +128,7 @@ Result<ParseOutcome, std::string> ArgParser::parse(std::span<const std::string_v
       return fail("missing argument " + pos_[p].name + see);
     }
   }
+  if (rest_ != nullptr && rest_->empty()) return fail("missing argument " + rest_name_ + see);
   return ParseOutcome::Run;
 }
 

@@ -31,8 +31,12 @@ class ArgParser {
   // --name VALUE or --name=VALUE; `set` is true once given.
   ArgParser& option(std::string name, std::string metavar, std::string& out, std::string help,
                     bool* set = nullptr);
+  // --name VALUE that may be given several times (each value appended).
+  ArgParser& repeated(std::string name, std::string metavar, std::vector<std::string>& out, std::string help);
   // A positional argument; required ones must be present.
   ArgParser& positional(std::string name, std::string& out, std::string help, bool required = true);
+  // Every positional argument after the named ones (at least one), e.g. `merge DIR...`.
+  ArgParser& positionals(std::string name, std::vector<std::string>& out, std::string help);
 
   // Parses args (without the program and command names). On error: the message to print.
   [[nodiscard]] Result<ParseOutcome, std::string> parse(std::span<const std::string_view> args);
@@ -44,6 +48,7 @@ class ArgParser {
     bool* flag_out = nullptr;
     std::string* value_out = nullptr;
     bool* set_out = nullptr;
+    std::vector<std::string>* list_out = nullptr;
   };
   struct Pos {
     std::string name, help;
@@ -53,6 +58,8 @@ class ArgParser {
   std::string command_, summary_;
   std::vector<Opt> opts_;
   std::vector<Pos> pos_;
+  std::vector<std::string>* rest_ = nullptr;
+  std::string rest_name_, rest_help_;
 };
 
 // Typed conversions of option values, with the option named in the error.

@@ -24,12 +24,11 @@
 #include "figures.hpp"
 #include "commands.hpp"
 #include "report.hpp"
+#include "run_child.hpp"
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/sys/event.hpp"
 #include "rejuv/sys/process.hpp"
-
-extern char** environ;  // NOLINT: the environment the runtime missions inherit (CYCLONEDDS_URI, REJUV_*)
 
 namespace rejuv::cli {
 namespace {
@@ -53,32 +52,6 @@ constexpr Row kRows[] = {{"no SR, no attack", "nosr_noattack", false, false},
                          {"no SR, attack", "nosr_attack", false, true},
                          {"SR, attack", "sr_attack", true, true}};
 
-std::optional<std::string> read_text(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) return std::nullopt;
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::optional<proto::RunSummary> read_summary(const fs::path& path) {
-  const auto text = read_text(path);
-  if (!text) return std::nullopt;
-  proto::RunSummary s;
-  if (!google::protobuf::util::JsonStringToMessage(*text, &s).ok()) return std::nullopt;
-  return s;
-}
-
-// The last progress line `rejuv run` wrote to its log ("rejuv run: t = …").
-std::string last_progress(const fs::path& log) {
-  const auto text = read_text(log);
-  if (!text) return {};
-  const auto at = text->rfind("rejuv run: t =");
-  if (at == std::string::npos) return {};
-  const auto end = text->find('\n', at);
-  return text->substr(at + 11, end == std::string::npos ? std::string::npos : end - at - 11);
-}
-
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -97,19 +70,13 @@ Mission fly(const Row& row, const std::string& graph, std::uint64_t seed, const 
   const fs::path log = out / ("run_" + std::string(row.key) + ".log");
   std::error_code ec;
   fs::remove(json, ec);
-  UniqueFile log_file(std::fopen(log.c_str(), "w"));
-  if (!log_file) return Mission{.problem = "cannot write " + log.string()};
-  sys::SpawnSpec spec;
-  spec.executable = fs::read_symlink("/proc/self/exe", ec).string();
-  if (ec) return Mission{.problem = "cannot find this executable: " + ec.message()};
-  spec.args = {"run", graph, "--seed", std::to_string(seed), "--summary-json", json.string(), "--csv", csv.string()};
-  if (!row.sr) spec.args.emplace_back("--no-sr");
-  if (!row.attack) spec.args.emplace_back("--no-attack");
-  if (domain) spec.args.insert(spec.args.end(), {"--domain", *domain});
-  for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
-  spec.fds = {{1, fileno(log_file.get())}, {2, fileno(log_file.get())}};
-  auto child = sys::spawn(spec);
-  if (!child) return Mission{.problem = "cannot start rejuv run: " + child.error().to_string()};
+  std::vector<std::string> args = {graph, "--seed", std::to_string(seed), "--summary-json", json.string(), "--csv",
+                                   csv.string()};
+  if (!row.sr) args.emplace_back("--no-sr");
+  if (!row.attack) args.emplace_back("--no-attack");
+  if (domain) args.insert(args.end(), {"--domain", *domain});
+  auto child = start_rejuv_run(args, log);
+  if (!child) return Mission{.problem = child.error()};
 
   const auto start = std::chrono::steady_clock::now();
   auto last_note = start;

@@ -98,7 +98,10 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? "on" : "off",
                 static_cast<unsigned long long>(s.seed()), std::string(kernel::to_string(outcome.reason)).c_str(),
                 outcome.detail.empty() ? "" : ": ", outcome.detail.c_str(),
-                s.mission_completed() ? "completed" : "NOT COMPLETED", s.mission_time_s(), s.sim_time_s(),
+                s.mission_completed()       ? "completed"
+                : s.stopped_after_attacks() ? "stopped after the attacks (stop_after_attacks)"
+                                            : "NOT COMPLETED",
+                s.mission_time_s(), s.sim_time_s(),
                 s.wall_time_s(), s.realtime_factor(), 100.0 * s.d_mean_m(), 100.0 * s.d_max_m(), s.max_v(),
                 s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe", s.max_est_err_p(), s.max_control_gap_ms(),
                 static_cast<unsigned long long>(s.checkpoints()), s.checkpoint_ms().p50(), s.checkpoint_ms().max(),
@@ -308,6 +311,7 @@ int run_run(std::span<const std::string_view> args) {
 
   const std::string graph_name = loaded->graph.name();
   const bool attack = loaded->graph.attack().enabled() && !no_attack;
+  const std::uint32_t stop_after_attacks = loaded->graph.stop_after_attacks();
   kernel::ObserverFanout observers;
   observers.add(&recorder);
   auto k = kernel::Kernel::create(std::move(*loaded), options, &observers);
@@ -327,6 +331,7 @@ int run_run(std::span<const std::string_view> args) {
   }
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
   if (files) files->set_service_names(service_names(**k));
+  if ((*k)->sr_enabled()) recorder.stop_after_attacks(stop_after_attacks, [kernel = k->get()] { kernel->request_stop(); });
   std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),
                std::string(kernel::to_string((*k)->clock_mode())).c_str(), (*k)->sr_enabled() ? "on" : "off",
                static_cast<unsigned long long>(options.seed.value_or((*k)->graph().graph.seed())));
@@ -334,6 +339,9 @@ int run_run(std::span<const std::string_view> args) {
   if (!outcome) {
     std::fprintf(stderr, "rejuv run: %s\n", outcome.error().to_string().c_str());
     return static_cast<int>(outcome.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+  if (recorder.stopped_after_attacks()) {
+    outcome->detail = std::to_string(stop_after_attacks) + " attacked MC windows (stop_after_attacks)";
   }
   if (const auto& lost = recorder.lost()) {
     char why[128];
@@ -394,7 +402,8 @@ int run_run(std::span<const std::string_view> args) {
   const bool out_ok = !files || finish_out_dir(*files, s, "rejuv run", no_figures ? Figures::Skip : Figures::Draw);
   std::fputs(describe(s, *outcome).c_str(), stdout);
   if (json_file) std::fputs((to_json(s) + "\n").c_str(), json_file.get());
-  const bool completed_run = s.mission_completed() || outcome->reason == kernel::StopReason::Duration;
+  const bool completed_run = s.mission_completed() || outcome->reason == kernel::StopReason::Duration ||
+                             s.stopped_after_attacks();
   const bool good = completed_run && !kernel::is_failure(outcome->reason) && !s.left_safety_set() &&
                     outcome->reason != kernel::StopReason::Signal && out_ok;
   return static_cast<int>(good ? Exit::Ok : Exit::Findings);

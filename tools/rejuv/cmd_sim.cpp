@@ -37,7 +37,9 @@ std::string describe(const proto::RunSummary& s) {
                 "  safety      max V = %.4f (%s), max estimation error ||x - x_hat||^2_P = %.4f\n"
                 "  SR          %llu rollbacks, %llu checkpoints, %llu attacked MC windows, max control gap %.1f ms\n",
                 s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? "on" : "off",
-                static_cast<unsigned long long>(s.seed()), s.mission_completed() ? "completed" : "NOT COMPLETED",
+                static_cast<unsigned long long>(s.seed()), s.mission_completed()       ? "completed"
+                : s.stopped_after_attacks() ? "stopped after the attacks (stop_after_attacks)"
+                                            : "NOT COMPLETED",
                 s.mission_time_s(), s.sim_time_s(), s.realtime_factor(), 100.0 * s.d_mean_m(), 100.0 * s.d_max_m(),
                 s.max_v(), s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe",
                 s.max_est_err_p(), static_cast<unsigned long long>(s.rollbacks()),
@@ -58,7 +60,9 @@ flight::SimObservers progress_observers(const std::string& label, bool tty) {
   return obs;
 }
 
-bool run_is_good(const proto::RunSummary& s) { return s.mission_completed() && !s.left_safety_set(); }
+bool run_is_good(const proto::RunSummary& s) {
+  return (s.mission_completed() || s.stopped_after_attacks()) && !s.left_safety_set();
+}
 
 }  // namespace
 

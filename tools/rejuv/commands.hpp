@@ -15,5 +15,6 @@ int run_bench(std::span<const std::string_view> args);  // cmd_bench.cpp
 int run_report(std::span<const std::string_view> args);  // cmd_report.cpp
 int run_faults(std::span<const std::string_view> args);  // cmd_faults.cpp
 int run_soak(std::span<const std::string_view> args);    // cmd_soak.cpp
+int run_sweep(std::span<const std::string_view> args);   // cmd_sweep.cpp
 
 }  // namespace rejuv::cli

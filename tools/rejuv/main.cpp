@@ -28,6 +28,8 @@ constexpr Command kCommands[] = {
      rejuv::cli::run_faults},
     {"soak", "fly a graph with SR and attacks for N cycles; fail if memory, fds or processes grow",
      rejuv::cli::run_soak},
+    {"sweep", "a grid of launch parameters on the model and/or the runtime: Fig. 11's T_MC x T_est maps (§VI-D)",
+     rejuv::cli::run_sweep},
 };
 
 void print_usage(std::FILE* to) {

@@ -128,7 +128,8 @@ void RunRecorder::fill(proto::RunSummary& s, Nanos end) const {
   s.set_max_est_err_p(max_est_err_);
   s.set_left_safety_set(max_V_ >= 1.0 || lost_.has_value());
   s.set_max_control_gap_ms(std::chrono::duration<double, std::milli>(max_gap_).count());
-  s.set_attacks(attacked_windows());
+  s.set_attacks(stopped_after_attacks_ ? attacked_closed_ : attacked_windows());
+  s.set_stopped_after_attacks(stopped_after_attacks_);
 }
 
 std::uint64_t RunRecorder::attacked_windows() const {
@@ -142,6 +143,12 @@ void RunRecorder::on_mc_controls(const flight::InputVec& u, Nanos stamp, std::ui
   if (!window_ || window_->epoch != epoch) {
     if (window_ && attacked(window_->samples, window_->corners)) ++attacked_closed_;
     window_ = Window{.epoch = epoch};
+    if (stop_after_ > 0 && attacked_closed_ >= stop_after_ && !stopped_after_attacks_) {
+      stopped_after_attacks_ = true;
+      std::fprintf(stderr, "rejuv run: %llu attacked MC windows flown: stopping the run (stop_after_attacks)\n",
+                   static_cast<unsigned long long>(attacked_closed_));
+      if (stop_attacks_) stop_attacks_();
+    }
   }
   ++window_->samples;
   const flight::InputVec corner = flight::worst_case_corner(ref_.design.restricted, ref_.design.ellipsoid.P(),

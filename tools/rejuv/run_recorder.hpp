@@ -56,6 +56,13 @@ class RunRecorder final : public kernel::Observer {
   // being finite): `rejuv sim`'s rule, so that a run without SR under attack ends like the model's does.
   // `rejuv run` and the tests pass Kernel::request_stop.
   void on_vehicle_lost(std::function<void()> stop) { stop_ = std::move(stop); }
+  // The launch's stop_after_attacks (`rejuv sweep --attacks N`, §VI-D): `stop` is called once, when the
+  // first controls of an MC window arrive after `attacks` attacked windows (the last one's secure interval
+  // flown, as `rejuv sim` stops). 0 = never.
+  void stop_after_attacks(std::uint64_t attacks, std::function<void()> stop) {
+    stop_after_ = attacks;
+    stop_attacks_ = std::move(stop);
+  }
 
   // `--out DIR` (figure_data.hpp): the trace, every control update and SR event (flight time: after the
   // alignment) also go to `files`. Not owned; nullptr: none.
@@ -71,6 +78,7 @@ class RunRecorder final : public kernel::Observer {
   void fill(proto::RunSummary& s, Nanos end) const;
 
   [[nodiscard]] const std::optional<VehicleLost>& lost() const { return lost_; }
+  [[nodiscard]] bool stopped_after_attacks() const { return stopped_after_attacks_; }
   // MC windows seen, one per epoch in which the kernel published mode MC (with SR: each one opened by one
   // arm of the rejuvenation timer, §V-A), counted from the start of the run (alignment included).
   [[nodiscard]] std::uint64_t mc_windows() const { return mc_windows_; }
@@ -88,6 +96,9 @@ class RunRecorder final : public kernel::Observer {
   RunFiles* files_ = nullptr;
   Progress progress_;
   std::function<void()> stop_;
+  std::uint64_t stop_after_ = 0;
+  std::function<void()> stop_attacks_;
+  bool stopped_after_attacks_ = false;
   flight::StateVec x_ = flight::StateVec::Zero();
   std::optional<flight::StateVec> x_hat_;
   Nanos x_hat_stamp_{-1};

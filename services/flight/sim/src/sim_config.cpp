@@ -110,6 +110,7 @@ Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& load
     }
   }
   if (overrides.attack) c.attack.enabled = *overrides.attack;
+  c.stop_after_attacks = g.stop_after_attacks();
 
   // The control design must succeed on these numbers: report a failure where the number was written.
   if (auto d = design_control(control_spec_for(c)); !d) {

@@ -107,7 +107,7 @@ struct SrSimulation::Impl {
   double d_sum_m = 0, d_max_m = 0;
   std::uint64_t d_count = 0;
   double max_V = 0, max_est_err_P = 0;
-  bool completed = false, lost = false, done = false;
+  bool completed = false, lost = false, done = false, stopped_after_attacks = false;
   Nanos completed_at{0};
   WallClock::time_point wall_start = WallClock::now();
   // The observers of the step in progress (nullptr outside step()); SR events before the first step (the
@@ -203,6 +203,11 @@ struct SrSimulation::Impl {
         event(SrEventKind::LimitsWritten, now);
         mode = SrMode::MC;
         event(SrEventKind::Mode, now);
+        if (cfg.stop_after_attacks > 0 && attack_windows >= cfg.stop_after_attacks) {
+          stopped_after_attacks = true;  // the last attacked window and its secure interval are flown
+          done = true;
+          return;
+        }
         begin_mc_window(now);
         return;
     }
@@ -412,6 +417,7 @@ struct SrSimulation::Impl {
     s.set_rollbacks(rollbacks);
     s.set_checkpoints(checkpoints);
     s.set_attacks(attack_windows);
+    s.set_stopped_after_attacks(stopped_after_attacks);
     s.set_max_control_gap_ms(std::chrono::duration<double, std::milli>(driver.max_gap()).count());
     const double wall_s = std::chrono::duration<double>(WallClock::now() - wall_start).count();
     const double sim_s = to_seconds(t).count();

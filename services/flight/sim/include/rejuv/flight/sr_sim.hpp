@@ -75,6 +75,9 @@ struct SimConfig {
   Seconds alignment{20.0};
   // A run ends early once V = ‖x − x_sp‖²_P exceeds this (the vehicle is lost; nothing more to measure).
   double lost_V = 100.0;
+  // With SR: the run ends (summary's stopped_after_attacks) when an MC window begins after this many attacked
+  // ones (0 = never), the launch's stop_after_attacks (`rejuv sweep --attacks`, §VI-D's 45 attacks per cell).
+  std::uint32_t stop_after_attacks = 0;
 
   [[nodiscard]] static SimConfig defaults();
 };

@@ -1,0 +1,169 @@
+// `rejuv sweep` as a user runs it, on the model (fast): the outputs, resume, shards and merge, bad input.
+#include <gtest/gtest.h>
+#include <google/protobuf/util/json_util.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "../../rejuv_cli.hpp"
+#include "sweep.pb.h"
+
+namespace rejuv {
+namespace {
+
+namespace fs = std::filesystem;
+using test_support::run_rejuv;
+using test_support::slurp;
+
+const std::string kGraph = (test_support::kRepo / "launch" / "quad_square.launch.pbtxt").string();
+
+class SweepCli : public test_support::ScratchDirTest {
+ protected:
+  SweepCli() : ScratchDirTest("rejuv_sweep_cli_") {}
+  // A 2 × 2 grid, 2 attacks per cell (a few seconds of flight each).
+  test_support::CliOutcome sweep(const fs::path& out, std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"sweep", kGraph, "--param", "sr.t_mc_s=0.2,0.3", "--param", "sr.t_est_s=1:2:1",
+                                     "--attacks", "2", "--jobs", "2", "--out", out.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return run_rejuv(dir_, args);
+  }
+};
+
+proto::SweepReport report_of(const fs::path& out) {
+  proto::SweepReport r;
+  EXPECT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(out / "sweep.json"), &r).ok());
+  return r;
+}
+
+TEST_F(SweepCli, SimSweep_WritesCsvJsonAndFigures) {
+  const fs::path out = dir_ / "s";
+  const auto r = sweep(out);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const proto::SweepReport report = report_of(out);
+  ASSERT_EQ(report.cells_size(), 4);
+  EXPECT_EQ(report.missing(), 0U);
+  for (const proto::SweepCellResult& c : report.cells()) {
+    EXPECT_EQ(c.runner(), "sim");
+    EXPECT_EQ(c.ok(), 1U);
+    EXPECT_EQ(c.completed(), 1U);  // stopped after the attacks: not a failed mission
+    EXPECT_DOUBLE_EQ(c.attacks().max(), 2.0);
+    EXPECT_GT(c.max_v().max(), 0.0);
+    EXPECT_GT(c.max_est_err_p().max(), 0.0);
+  }
+  EXPECT_EQ(report.cells(3).params(0).value(), "0.3");
+  EXPECT_EQ(report.cells(3).params(1).value(), "2");
+  const std::string csv = slurp(out / "sweep.csv");
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 5) << csv;
+  EXPECT_EQ(csv.rfind("sr.t_mc_s,sr.t_est_s,runner,", 0), 0U) << csv;
+  for (const char* f : {"fig11a.png", "fig11a.svg", "fig11b.png", "fig11b.svg"}) {
+    EXPECT_GT(fs::file_size(out / f), 1000U) << f;
+  }
+  EXPECT_EQ(slurp(out / "fig11a.png").substr(1, 3), "PNG");
+}
+
+TEST_F(SweepCli, Resume_FliesNothingTwice) {
+  const fs::path out = dir_ / "s";
+  ASSERT_EQ(sweep(out).exit_code, 0);
+  fs::remove(out / "cells" / "cell-0002_seed-1_sim.json");  // as if interrupted before that one
+  const auto r = sweep(out, {"--resume"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("1 tasks to fly, 3 kept"), std::string::npos) << r.err;
+  EXPECT_EQ(report_of(out).missing(), 0U);
+}
+
+TEST_F(SweepCli, ExistingSweepWithoutResume_Refused) {
+  const fs::path out = dir_ / "s";
+  ASSERT_EQ(sweep(out).exit_code, 0);
+  const auto r = sweep(out);
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--resume"), std::string::npos) << r.err;
+}
+
+TEST_F(SweepCli, ResumeOfAnotherSweep_Refused) {
+  const fs::path out = dir_ / "s";
+  ASSERT_EQ(sweep(out).exit_code, 0);
+  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.t_mc_s=0.2", "--attacks", "2", "--out",
+                                  out.string(), "--resume"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("another sweep"), std::string::npos) << r.err;
+}
+
+TEST_F(SweepCli, ShardsMerged_SameAsOneSweep) {
+  const fs::path a = dir_ / "a", b = dir_ / "b", whole = dir_ / "whole";
+  ASSERT_EQ(sweep(a, {"--shard", "1/2"}).exit_code, 0);
+  ASSERT_EQ(sweep(b, {"--shard", "2/2"}).exit_code, 0);
+  EXPECT_EQ(report_of(a).cells_size(), 2);
+  const auto m = run_rejuv(dir_, {"sweep", "merge", a.string(), b.string(), "--out", (dir_ / "m").string()});
+  ASSERT_EQ(m.exit_code, 0) << m.err;
+  ASSERT_EQ(sweep(whole).exit_code, 0);
+  EXPECT_EQ(slurp(dir_ / "m" / "sweep.csv"), slurp(whole / "sweep.csv"));  // the model is deterministic
+  EXPECT_TRUE(fs::exists(dir_ / "m" / "fig11a.png"));
+}
+
+TEST_F(SweepCli, MergeOfDifferentSweeps_Refused) {
+  ASSERT_EQ(sweep(dir_ / "a", {"--shard", "1/2"}).exit_code, 0);
+  ASSERT_EQ(run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.t_mc_s=0.2", "--attacks", "2", "--out",
+                             (dir_ / "b").string()})
+                .exit_code,
+            0);
+  const auto m = run_rejuv(dir_, {"sweep", "merge", (dir_ / "a").string(), (dir_ / "b").string()});
+  EXPECT_EQ(m.exit_code, 2);
+  EXPECT_NE(m.err.find("another sweep"), std::string::npos) << m.err;
+}
+
+TEST_F(SweepCli, OneParameter_LinePlot) {
+  const fs::path out = dir_ / "s";
+  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.restricted_limit_fraction=0.1,0.2", "--attacks",
+                                  "2", "--seeds", "1-2", "--out", out.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const proto::SweepReport report = report_of(out);
+  ASSERT_EQ(report.cells_size(), 2);
+  EXPECT_EQ(report.cells(0).records_size(), 2);
+  EXPECT_TRUE(fs::exists(out / "fig11a.svg"));
+}
+
+TEST_F(SweepCli, InvalidCell_ReportedNotCrashedOn) {
+  // ρ_s must stay below ρ_M: the cell with ρ_s = 0.5 is refused by the launch checks, the other flies.
+  const fs::path out = dir_ / "s";
+  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.rho_s=0.05,0.5", "--attacks", "2", "--out",
+                                  out.string()});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  const proto::SweepReport report = report_of(out);
+  ASSERT_EQ(report.cells_size(), 2);
+  EXPECT_EQ(report.cells(0).ok(), 1U);
+  EXPECT_EQ(report.cells(1).ok(), 0U);
+  EXPECT_NE(report.cells(1).error().find("rho_s"), std::string::npos) << report.cells(1).error();
+  EXPECT_NE(slurp(out / "sweep.csv").find("rho_s"), std::string::npos);
+}
+
+TEST_F(SweepCli, BadInput_PreciseErrorExit2) {
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--param", "sr.t_mcs=1:2:1"}, "has no field 't_mcs'"},
+      {{"--param", "sr.t_mc_s=3:1:1"}, "inverted"},
+      {{"--param", "sr.t_mc_s=1:2:0"}, "step must be > 0"},
+      {{"--param", "attack.attacks[0].kind=1:2:1"}, "needs a numeric field"},
+      {{"--param", "attack.attacks[5].kind=ARM_TIMER"}, "the launch has 1 element"},
+      {{"--param", "sr=1"}, "is a message"},
+      {{"--param", "sr.t_mc_s=0.2", "--param", "sr.t_mc_s=0.3"}, "given twice"},
+      {{"--param", "sr.t_mc_s=0.2", "--runner", "fast"}, "--runner"},
+      {{"--param", "sr.t_mc_s=0.2", "--jobs", "0"}, "--jobs"},
+      {{"--param", "sr.t_mc_s=0.2", "--seeds", "5-1"}, "inverted"},
+      {{"--param", "sr.t_mc_s=0.2", "--shard", "3/2"}, "--shard"},
+      {{}, "one or two --param"},
+  };
+  for (const auto& [extra, expected] : cases) {
+    std::vector<std::string> args = {"sweep", kGraph, "--out", (dir_ / "never").string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto r = run_rejuv(dir_, args);
+    EXPECT_EQ(r.exit_code, 2) << expected << ": " << r.err;
+    EXPECT_NE(r.err.find(expected), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir_ / "never"));
+  const auto m = run_rejuv(dir_, {"sweep", "merge", (dir_ / "nothing").string()});
+  EXPECT_EQ(m.exit_code, 2);
+  EXPECT_NE(m.err.find("no plan.json"), std::string::npos) << m.err;
+}
+
+}  // namespace
+}  // namespace rejuv

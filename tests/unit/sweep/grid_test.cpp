@@ -1,0 +1,176 @@
+// The bookkeeping of `rejuv sweep`: cells, seeds, shards, cell launches, records kept and read back, the
+// aggregate over the seeds and its CSV.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "sweep/grid.hpp"
+
+namespace rejuv::cli::sweep {
+namespace {
+
+namespace fs = std::filesystem;
+
+proto::SweepPlan plan_2x3() {
+  proto::SweepPlan p;
+  p.set_graph("/x/quad.launch.pbtxt");
+  proto::SweepAxis* a = p.add_axes();
+  a->set_path("sr.t_mc_s");
+  for (const char* v : {"0.2", "0.3"}) a->add_values(v);
+  proto::SweepAxis* b = p.add_axes();
+  b->set_path("sr.t_est_s");
+  for (const char* v : {"1", "2", "3"}) b->add_values(v);
+  p.add_seeds(1);
+  p.add_seeds(2);
+  p.set_attacks(45);
+  p.add_runners("sim");
+  p.add_runners("run");
+  return p;
+}
+
+proto::SweepRecord ok_record(const proto::SweepPlan& plan, std::uint32_t cell, std::uint64_t seed, const char* runner,
+                             double max_V) {
+  proto::SweepRecord r;
+  r.set_cell(cell);
+  for (const proto::SweepParamValue& p : cell_params(plan, cell)) *r.add_params() = p;
+  r.set_seed(seed);
+  r.set_runner(runner);
+  r.set_attacks(plan.attacks());
+  r.set_status("ok");
+  r.mutable_summary()->set_max_v(max_V);
+  r.mutable_summary()->set_attacks(45);
+  r.mutable_summary()->set_stopped_after_attacks(true);
+  return r;
+}
+
+class GridTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("rejuv_sweep_grid_" + std::to_string(::getpid()) + "_" +
+                                        ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::create_directories(dir_ / "cells");
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  fs::path dir_;
+};
+
+TEST(Cells, Product_OuterAxisFirst) {
+  const proto::SweepPlan p = plan_2x3();
+  EXPECT_EQ(cell_count(p), 6U);
+  const auto c4 = cell_params(p, 4);  // (0.3, 2)
+  ASSERT_EQ(c4.size(), 2U);
+  EXPECT_EQ(c4[0].value(), "0.3");
+  EXPECT_EQ(c4[1].value(), "2");
+}
+
+TEST(Tasks, AllShards_CoverEveryTaskOnce) {
+  const proto::SweepPlan p = plan_2x3();
+  const auto all = tasks_of(p, Shard{});
+  EXPECT_EQ(all.size(), 6U * 2 * 2);
+  EXPECT_EQ(all.front().runner, Runner::Sim);  // the model first
+  std::size_t total = 0;
+  for (std::uint32_t i = 0; i < 4; ++i) {
+    const auto part = tasks_of(p, Shard{.index = i, .count = 4});
+    for (const Task& t : part) EXPECT_EQ(t.cell % 4, i);
+    total += part.size();
+  }
+  EXPECT_EQ(total, all.size());
+}
+
+TEST(ParseShard, Valid_ZeroBasedIndex) {
+  const auto s = parse_shard("2/8");
+  ASSERT_TRUE(s) << s.error();
+  EXPECT_EQ(s->index, 1U);
+  EXPECT_EQ(s->count, 8U);
+}
+
+TEST(ParseShard, Invalid_Refused) {
+  for (const char* bad : {"0/4", "5/4", "1/0", "1", "a/b", "1/", "/3"}) EXPECT_FALSE(parse_shard(bad)) << bad;
+}
+
+TEST(ParseSeeds, RangesAndLists_Expanded) {
+  EXPECT_EQ(*parse_seeds("1-5"), (std::vector<std::uint64_t>{1, 2, 3, 4, 5}));
+  EXPECT_EQ(*parse_seeds("3,7,9-10"), (std::vector<std::uint64_t>{3, 7, 9, 10}));
+}
+
+TEST(ParseSeeds, Invalid_Refused) {
+  for (const char* bad : {"", "5-1", "a", "1,,2", "1-", "1,1"}) EXPECT_FALSE(parse_seeds(bad)) << bad;
+}
+
+TEST(CellLaunch, ValuesStopAndAbsolutePaths_Set) {
+  proto::Launch base;
+  base.set_policy("../policies/p.pbtxt");
+  base.mutable_dds()->set_config("cfg.xml");
+  const auto l = cell_launch(base, "/repo/launch", plan_2x3(), 5);
+  ASSERT_TRUE(l) << l.error();
+  EXPECT_DOUBLE_EQ(l->sr().t_mc_s(), 0.3);
+  EXPECT_DOUBLE_EQ(l->sr().t_est_s(), 3.0);
+  EXPECT_EQ(l->stop_after_attacks(), 45U);
+  EXPECT_EQ(l->policy(), "/repo/policies/p.pbtxt");
+  EXPECT_EQ(l->dds().config(), "/repo/launch/cfg.xml");
+}
+
+TEST_F(GridTest, RecordWritten_KeptForItsTaskOnly) {
+  const proto::SweepPlan p = plan_2x3();
+  ASSERT_TRUE(write_record(dir_, ok_record(p, 3, 2, "run", 0.4)));
+  EXPECT_TRUE(kept_record(dir_, p, Task{.cell = 3, .seed = 2, .runner = Runner::Run}));
+  EXPECT_FALSE(kept_record(dir_, p, Task{.cell = 3, .seed = 2, .runner = Runner::Sim}));
+  EXPECT_FALSE(kept_record(dir_, p, Task{.cell = 3, .seed = 1, .runner = Runner::Run}));
+}
+
+TEST_F(GridTest, RecordOfAnotherPlan_NotKept) {
+  const proto::SweepPlan p = plan_2x3();
+  ASSERT_TRUE(write_record(dir_, ok_record(p, 3, 2, "run", 0.4)));
+  proto::SweepPlan other = p;
+  other.mutable_axes(1)->set_values(0, "4");  // cell 3 is (0.3, 1): its values differ
+  EXPECT_FALSE(kept_record(dir_, other, Task{.cell = 3, .seed = 2, .runner = Runner::Run}));
+  other = p;
+  other.set_attacks(10);
+  EXPECT_FALSE(kept_record(dir_, other, Task{.cell = 3, .seed = 2, .runner = Runner::Run}));
+}
+
+TEST_F(GridTest, TornRecord_NotKept) {
+  const proto::SweepPlan p = plan_2x3();
+  const Task t{.cell = 1, .seed = 1, .runner = Runner::Sim};
+  std::ofstream(record_path(dir_, t)) << "{\"cell\": 1, \"seed\":";
+  EXPECT_FALSE(kept_record(dir_, p, t));
+  EXPECT_TRUE(kept_records(dir_, p).empty());
+}
+
+TEST_F(GridTest, Plan_WrittenAndReadBack) {
+  const proto::SweepPlan p = plan_2x3();
+  ASSERT_TRUE(write_plan(dir_, p));
+  const auto back = read_plan(dir_);
+  ASSERT_TRUE(back) << back.error();
+  EXPECT_TRUE(same_plan(*back, p));
+  EXPECT_FALSE(read_plan(dir_ / "cells"));
+}
+
+TEST(Aggregate, Seeds_MaxAndMeanAndMissing) {
+  const proto::SweepPlan p = plan_2x3();
+  std::vector<proto::SweepRecord> records = {ok_record(p, 0, 1, "sim", 0.2), ok_record(p, 0, 2, "sim", 0.4)};
+  proto::SweepRecord refused = ok_record(p, 1, 1, "sim", 0);
+  refused.set_status("invalid");
+  refused.set_error("launch.pbtxt:3:1: error: no");
+  records.push_back(refused);
+  const proto::SweepReport r = aggregate(p, records);
+  ASSERT_EQ(r.cells_size(), 2);
+  EXPECT_DOUBLE_EQ(r.cells(0).max_v().max(), 0.4);
+  EXPECT_DOUBLE_EQ(r.cells(0).max_v().mean(), 0.3);
+  EXPECT_EQ(r.cells(0).ok(), 2U);
+  EXPECT_EQ(r.cells(0).completed(), 2U);
+  EXPECT_EQ(r.cells(1).ok(), 0U);
+  EXPECT_NE(r.cells(1).error().find("error: no"), std::string::npos);
+  EXPECT_EQ(r.missing(), 6U * 2 * 2 - 3);
+  const std::string csv = to_csv(r);
+  EXPECT_NE(csv.find("sr.t_mc_s,sr.t_est_s,runner,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("0.2,1,sim,2,2,2,2,0.4,0.3,"), std::string::npos) << csv;
+}
+
+}  // namespace
+}  // namespace rejuv::cli::sweep

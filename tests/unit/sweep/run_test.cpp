@@ -1,0 +1,43 @@
+// `rejuv sweep --runner run`: one short runtime cell (`rejuv run` as a child, its own DDS domain, CPU and
+// port), stopped cleanly after its attacks, its record kept.
+#include <gtest/gtest.h>
+#include <google/protobuf/util/json_util.h>
+
+#include <filesystem>
+
+#include "../../rejuv_cli.hpp"
+#include "sweep.pb.h"
+
+namespace rejuv {
+namespace {
+
+namespace fs = std::filesystem;
+
+class SweepRun : public test_support::ScratchDirTest {
+ protected:
+  SweepRun() : ScratchDirTest("rejuv_sweep_run_") {}
+  [[nodiscard]] bool keep_on_failure() const override { return true; }
+};
+
+TEST_F(SweepRun, OneRuntimeCell_StoppedAfterItsAttacks) {
+  const fs::path out = dir_ / "s";
+  const auto r = test_support::run_rejuv(
+      dir_, {"sweep", (test_support::kRepo / "launch" / "quad_square.launch.pbtxt").string(), "--param",
+             "sr.t_mc_s=0.3", "--attacks", "3", "--runner", "run", "--out", out.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  proto::SweepReport report;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(test_support::slurp(out / "sweep.json"), &report).ok());
+  ASSERT_EQ(report.cells_size(), 1);
+  const proto::SweepCellResult& c = report.cells(0);
+  EXPECT_EQ(c.runner(), "run");
+  ASSERT_EQ(c.ok(), 1U) << c.error();
+  const proto::RunSummary& s = c.records(0).summary();
+  EXPECT_EQ(s.runner(), "run");
+  EXPECT_TRUE(s.stopped_after_attacks());
+  EXPECT_EQ(s.attacks(), 3U);
+  EXPECT_FALSE(s.left_safety_set());
+  EXPECT_TRUE(fs::exists(out / "fig11a.png"));
+}
+
+}  // namespace
+}  // namespace rejuv

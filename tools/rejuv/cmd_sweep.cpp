@@ -1,0 +1,302 @@
+// `rejuv sweep GRAPH --param PATH=VALUES [--param …]`: the design grid of §VI-D (Fig. 11: T_MC × T_est, 45
+// consecutive worst-case attacks per cell, max ‖x − x_sp‖²_P and max ‖x − x̂‖²_P), for any launch parameter by
+// field path, flown on the model (`sim`, in this process), the runtime (`run`, `rejuv run` children) or both;
+// per cell and runner max V, max estimation error, d̄, max d, rollbacks, attacks and completion over the seeds;
+// DIR/sweep.csv, DIR/sweep.json, DIR/fig11a.* and fig11b.* (gnuplot), resumable, shardable
+// (`--shard i/n`, then `rejuv sweep merge DIR…`). docs/sweep.md. Exit 0 once every task of the sweep (or
+// shard) has flown, 1 when a cell was refused, a mission failed to run or the sweep was interrupted, 2 on bad
+// input.
+#include <google/protobuf/text_format.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "args.hpp"
+#include "commands.hpp"
+#include "report.hpp"
+#include "rejuv/flight/sr_sim.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/event.hpp"
+#include "sweep/execute.hpp"
+#include "sweep/figures.hpp"
+#include "sweep/grid.hpp"
+#include "sweep/params.hpp"
+
+namespace rejuv::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using sweep::Runner;
+using sweep::Task;
+
+std::string table(const proto::SweepReport& report) {
+  std::string out;
+  char line[512];
+  for (const proto::SweepAxis& a : report.plan().axes()) {
+    std::snprintf(line, sizeof line, "%-24s ", a.path().c_str());
+    out += line;
+  }
+  std::snprintf(line, sizeof line, "%-6s %5s %17s %17s %8s %8s %9s %8s %9s\n", "runner", "seeds", "max V max/mean",
+                "est.err max/mean", "d_mean", "d_max", "rollbacks", "attacks", "completed");
+  out += line;
+  for (const proto::SweepCellResult& c : report.cells()) {
+    for (const proto::SweepParamValue& p : c.params()) {
+      std::snprintf(line, sizeof line, "%-24s ", p.value().c_str());
+      out += line;
+    }
+    if (c.ok() == 0) {
+      std::snprintf(line, sizeof line, "%-6s %5u  %s\n", c.runner().c_str(), c.seeds(), c.error().c_str());
+    } else {
+      std::snprintf(line, sizeof line, "%-6s %2u/%-2u %8.3f/%-8.3f %8.3f/%-8.3f %5.1f cm %5.1f cm %9.1f %8.1f %6u/%-2u%s\n",
+                    c.runner().c_str(), c.ok(), c.seeds(), c.max_v().max(), c.max_v().mean(), c.max_est_err_p().max(),
+                    c.max_est_err_p().mean(), 100 * c.d_mean_m().mean(), 100 * c.d_max_m().max(), c.rollbacks().mean(),
+                    c.attacks().mean(), c.completed(), c.ok(), c.safe() < c.ok() ? "  LEFT THE SAFETY SET" : "");
+    }
+    out += line;
+  }
+  return out;
+}
+
+// sweep.csv, sweep.json and the figures of what `dir` holds. Returns the number of refused or failed records.
+Result<std::size_t, std::string> write_outputs(const fs::path& dir, const proto::SweepPlan& plan) {
+  const std::vector<proto::SweepRecord> records = sweep::kept_records(dir, plan);
+  const proto::SweepReport report = sweep::aggregate(plan, records);
+  if (auto w = sweep::write_atomically(dir / "sweep.csv", sweep::to_csv(report)); !w) return fail(w.error());
+  if (auto w = sweep::write_atomically(dir / "sweep.json", sweep::to_json_text(report) + "\n"); !w) return fail(w.error());
+  std::fputs(table(report).c_str(), stdout);
+  std::printf("rejuv sweep: %s/sweep.csv, %s/sweep.json", dir.c_str(), dir.c_str());
+  if (report.missing() > 0) std::printf(" (%u planned records missing)", report.missing());
+  std::printf("\n");
+  if (report.cells_size() > 0) {
+    const auto figures = sweep::draw_figures(dir, report, fs::path(REJUV_SOURCE_DIR) / "tools" / "plots" / "sweep.gp");
+    if (!figures) {
+      std::fprintf(stderr, "rejuv sweep: no figures: %s\n", figures.error().c_str());
+    } else {
+      std::string names;
+      for (const fs::path& p : *figures) names += (names.empty() ? "" : ", ") + p.filename().string();
+      std::printf("rejuv sweep: figures %s in %s\n", names.c_str(), dir.c_str());
+    }
+  }
+  return static_cast<std::size_t>(std::count_if(records.begin(), records.end(),
+                                                [](const proto::SweepRecord& r) { return r.status() != "ok"; }));
+}
+
+int run_merge(std::span<const std::string_view> args) {
+  std::vector<std::string> dirs;
+  std::string out_text;
+  bool out_set = false;
+  ArgParser parser("sweep merge",
+                   "Combine the folders of a sharded sweep (`rejuv sweep … --shard i/n --out DIR_i`, docs/sweep.md):\n"
+                   "their plans must be the same sweep; the records of all go to --out (default: the first DIR),\n"
+                   "which then gets sweep.csv, sweep.json and the figures. Exit 0 when the merged sweep is complete,\n"
+                   "1 when records are missing or a cell was refused or failed, 2 on bad input.");
+  parser.positionals("DIR", dirs, "sweep folders (one per shard)")
+      .option("--out", "DIR", out_text, "where the merged sweep goes (default: the first DIR)", &out_set);
+  const auto parsed = parser.parse(args);
+  if (!parsed) return bad_input("rejuv sweep merge: " + parsed.error());
+  if (*parsed == ParseOutcome::HelpShown) {
+    std::fputs(parser.help().c_str(), stdout);
+    return static_cast<int>(Exit::Ok);
+  }
+  auto plan = sweep::read_plan(dirs.front());
+  if (!plan) return bad_input("rejuv sweep merge: " + plan.error());
+  for (const std::string& d : dirs) {
+    auto other = sweep::read_plan(d);
+    if (!other) return bad_input("rejuv sweep merge: " + other.error());
+    if (!sweep::same_plan(*plan, *other)) {
+      return bad_input("rejuv sweep merge: " + d + " holds another sweep than " + dirs.front() +
+                       " (graph, parameters, seeds, attacks or runners differ: compare their plan.json)");
+    }
+  }
+  const fs::path out = out_set ? fs::path(out_text) : fs::path(dirs.front());
+  std::error_code ec;
+  fs::create_directories(out / "cells", ec);
+  if (ec) return bad_input("rejuv sweep merge: --out: cannot create '" + out.string() + "': " + ec.message());
+  if (auto w = sweep::write_plan(out, *plan); !w) return bad_input("rejuv sweep merge: " + w.error());
+  std::size_t copied = 0;
+  for (const std::string& d : dirs) {
+    if (fs::equivalent(d, out, ec)) continue;
+    for (const proto::SweepRecord& r : sweep::kept_records(d, *plan)) {
+      if (auto w = sweep::write_record(out, r); !w) return bad_input("rejuv sweep merge: " + w.error());
+      ++copied;
+    }
+  }
+  std::fprintf(stderr, "rejuv sweep merge: %zu records from %zu folders into %s\n", copied, dirs.size(), out.c_str());
+  const auto bad = write_outputs(out, *plan);
+  if (!bad) return bad_input("rejuv sweep merge: " + bad.error());
+  const proto::SweepReport report = sweep::aggregate(*plan, sweep::kept_records(out, *plan));
+  return static_cast<int>(*bad == 0 && report.missing() == 0 ? Exit::Ok : Exit::Findings);
+}
+
+}  // namespace
+
+int run_sweep(std::span<const std::string_view> args) {
+  if (!args.empty() && args.front() == "merge") return run_merge(args.subspan(1));
+  std::string graph_path, seeds_text, attacks_text = "45", runner_text = "sim", jobs_text = "1", out_text = "out/sweep",
+                          shard_text;
+  std::vector<std::string> params;
+  bool seeds_set = false, shard_set = false, resume = false;
+  ArgParser parser(
+      "sweep",
+      "Fly a grid of launch parameters (§VI-D, Fig. 11: T_MC x T_est with 45 consecutive worst-case attacks per\n"
+      "cell) on the model (`sim`: in this process, --jobs threads), the runtime (`run`: one `rejuv run` per cell\n"
+      "and seed, --jobs at a time, each on its own CPU, DDS domain and port) or both. Each cell flies until\n"
+      "--attacks MC windows were attacked (launch field stop_after_attacks) or the mission ends. Writes\n"
+      "DIR/sweep.csv, DIR/sweep.json (per cell: params, per seed and max/mean over the seeds of max V, max\n"
+      "estimation error, d_mean, d_max, rollbacks, attacks, completion), DIR/fig11a.{png,svg} (max V, the\n"
+      "V = 1 boundary drawn) and DIR/fig11b.{png,svg} (max estimation error), model and runtime side by side.\n"
+      "Every finished mission is kept in DIR/cells: --resume continues an interrupted sweep. `rejuv sweep merge\n"
+      "DIR...` combines the folders of --shard i/n runs (docs/sweep.md). Exit 0 once every task flew, 1 when a\n"
+      "cell was refused, a mission failed to run or the sweep was interrupted, 2 on bad input.");
+  parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt) the sweep varies")
+      .repeated("--param", "PATH=VALUES", params,
+                "a launch field by path and its values: a:b:step (inclusive), v1,v2,... or one value;\n"
+                "      e.g. sr.t_mc_s=0.2:0.3:0.025, sr.restricted_limit_fraction=0.1,0.2,\n"
+                "      attack.attacks[0].kind=WORST_CASE_CONTROL (one or two --param)")
+      .option("--seeds", "LIST", seeds_text, "seeds of each cell: a-b, a,b,c or one (default: the graph's seed)",
+              &seeds_set)
+      .option("--attacks", "N", attacks_text, "end each mission after N attacked MC windows (default 45; 0 = fly it)")
+      .option("--runner", "sim|run|both", runner_text, "the model, the runtime or both (default sim)")
+      .option("--jobs", "N", jobs_text, "cells flown in parallel (default 1)")
+      .option("--out", "DIR", out_text, "output folder (default out/sweep)")
+      .flag("--resume", resume, "continue the sweep kept in DIR: fly only the tasks without a record")
+      .option("--shard", "i/n", shard_text, "fly only every n-th cell, from the i-th (1-based); see `merge`",
+              &shard_set);
+  const auto parsed = parser.parse(args);
+  if (!parsed) return bad_input("rejuv sweep: " + parsed.error());
+  if (*parsed == ParseOutcome::HelpShown) {
+    std::fputs(parser.help().c_str(), stdout);
+    return static_cast<int>(Exit::Ok);
+  }
+  if (params.empty() || params.size() > 2) {
+    return bad_input("rejuv sweep: expected one or two --param PATH=VALUES, got " + std::to_string(params.size()));
+  }
+  const auto attacks = to_u64(attacks_text, "--attacks");
+  if (!attacks || *attacks > 100000) return bad_input("rejuv sweep: --attacks: expected 0..100000, got '" + attacks_text + "'");
+  const auto jobs = to_u64(jobs_text, "--jobs");
+  if (!jobs || *jobs == 0 || *jobs > 256) return bad_input("rejuv sweep: --jobs: expected 1..256, got '" + jobs_text + "'");
+  const auto runner = to_choice(runner_text, "--runner", {"sim", "run", "both"});
+  if (!runner) return bad_input("rejuv sweep: " + runner.error());
+  sweep::Shard shard;
+  if (shard_set) {
+    const auto s = sweep::parse_shard(shard_text);
+    if (!s) return bad_input("rejuv sweep: " + s.error());
+    shard = *s;
+  }
+
+  auto loaded = launch::load_launch(graph_path);
+  if (!loaded) return bad_input(loaded.error().to_string());
+  proto::SweepPlan plan;
+  std::error_code ec;
+  plan.set_graph(fs::absolute(graph_path, ec).lexically_normal().string());
+  std::set<std::string> paths;
+  for (const std::string& p : params) {
+    auto axis = sweep::make_axis(loaded->graph, p);
+    if (!axis) return bad_input("rejuv sweep: " + axis.error());
+    if (!paths.insert(axis->path()).second) return bad_input("rejuv sweep: --param " + axis->path() + " given twice");
+    *plan.add_axes() = *axis;
+  }
+  if (seeds_set) {
+    const auto seeds = sweep::parse_seeds(seeds_text);
+    if (!seeds) return bad_input("rejuv sweep: " + seeds.error());
+    for (const std::uint64_t s : *seeds) plan.add_seeds(s);
+  } else {
+    plan.add_seeds(loaded->graph.seed());
+  }
+  plan.set_attacks(static_cast<std::uint32_t>(*attacks));
+  if (*runner != "run") plan.add_runners("sim");
+  if (*runner != "sim") plan.add_runners("run");
+  if (sweep::cell_count(plan) > 100000) return bad_input("rejuv sweep: more than 100000 cells");
+
+  // The folder: a new sweep, or (--resume) the same sweep continued.
+  const fs::path dir = out_text;
+  if (fs::exists(dir / "plan.json", ec)) {
+    if (!resume) {
+      return bad_input("rejuv sweep: " + dir.string() + " holds a sweep already: --resume to continue it, or another --out");
+    }
+    const auto kept = sweep::read_plan(dir);
+    if (!kept) return bad_input("rejuv sweep: " + kept.error());
+    if (!sweep::same_plan(*kept, plan)) {
+      return bad_input("rejuv sweep: --resume: " + dir.string() + " holds another sweep (its plan.json differs in graph, "
+                       "parameters, seeds, attacks or runners)");
+    }
+  }
+  fs::create_directories(dir / "cells", ec);
+  if (!ec) fs::create_directories(dir / "launch", ec);
+  if (ec) return bad_input("rejuv sweep: --out: cannot create '" + dir.string() + "': " + ec.message());
+  if (auto w = sweep::write_plan(dir, plan); !w) return bad_input("rejuv sweep: " + w.error());
+
+  // Each cell's launch, checked by the loader of `rejuv run` and `rejuv sim` (and the model's control design).
+  const fs::path base_dir = fs::path(plan.graph()).parent_path();
+  std::vector<sweep::CellLaunch> cells;
+  std::size_t refused = 0;
+  for (std::uint32_t c = 0; c < sweep::cell_count(plan); ++c) {
+    char name[64];
+    std::snprintf(name, sizeof name, "cell-%04u.launch.pbtxt", c);
+    sweep::CellLaunch cell{.file = fs::absolute(dir / "launch" / name, ec), .text = {}, .refused = {}};
+    auto launch = sweep::cell_launch(loaded->graph, base_dir, plan, c);
+    if (!launch) return bad_input("rejuv sweep: " + launch.error());
+    google::protobuf::TextFormat::PrintToString(*launch, &cell.text);
+    cell.text = "# rejuv sweep: cell " + std::to_string(c) + " of " + plan.graph() + "\n" + cell.text;
+    if (auto w = sweep::write_atomically(cell.file, cell.text); !w) return bad_input("rejuv sweep: " + w.error());
+    auto parsed_cell = launch::parse_launch(cell.text, cell.file);
+    if (!parsed_cell) {
+      cell.refused = parsed_cell.error().to_string();
+    } else if (auto config = flight::config_from_launch(*parsed_cell, {}); !config) {
+      cell.refused = config.error().to_string();
+    }
+    refused += cell.refused.empty() ? 0 : 1;
+    cells.push_back(std::move(cell));
+  }
+
+  std::vector<Task> todo;
+  std::size_t kept = 0;
+  for (const Task& t : sweep::tasks_of(plan, shard)) {
+    if (resume && sweep::kept_record(dir, plan, t)) {
+      ++kept;
+    } else {
+      todo.push_back(t);
+    }
+  }
+  const bool tty = isatty(STDERR_FILENO) == 1;
+  std::fprintf(stderr, "rejuv sweep: %u cells x %d seeds x %d runners%s: %zu tasks to fly, %zu kept, %llu jobs%s\n",
+               sweep::cell_count(plan), plan.seeds_size(), plan.runners_size(),
+               shard_set ? (" (shard " + shard_text + ")").c_str() : "", todo.size(), kept,
+               static_cast<unsigned long long>(*jobs),
+               refused > 0 ? (", " + std::to_string(refused) + " cells refused by the launch loader").c_str() : "");
+  auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
+  if (!signals) return bad_input("rejuv sweep: signalfd: " + signals.error().to_string());
+  const auto outcome = sweep::execute(plan, cells, todo, kept,
+                                      sweep::ExecConfig{.dir = dir,
+                                                        .jobs = static_cast<unsigned>(*jobs),
+                                                        .tty = tty,
+                                                        .signals = &*signals});
+  if (!outcome) {
+    std::fprintf(stderr, "rejuv sweep: %s\n", outcome.error().c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  const auto bad = write_outputs(dir, plan);
+  if (!bad) {
+    std::fprintf(stderr, "rejuv sweep: %s\n", bad.error().c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  if (*outcome == sweep::ExecOutcome::Interrupted) {
+    std::fprintf(stderr, "rejuv sweep: interrupted; the finished missions are kept in %s/cells: "
+                 "add --resume to continue\n", dir.c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  if (*bad > 0) {
+    std::fprintf(stderr, "rejuv sweep: %zu tasks refused or failed (sweep.csv, column error)\n", *bad);
+    return static_cast<int>(Exit::Findings);
+  }
+  return static_cast<int>(Exit::Ok);
+}
+
+}  // namespace rejuv::cli
