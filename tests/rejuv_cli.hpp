@@ -42,8 +42,10 @@ struct CliOutcome {
   std::string out, err;
 };
 
-// Runs `rejuv <args>` with stdout and stderr captured to `dir`/stdout and `dir`/stderr.
-inline CliOutcome run_rejuv(const std::filesystem::path& dir, std::vector<std::string> args) {
+// Runs `program <args>` (no shell; the program by path) with stdout and stderr captured to `dir`/stdout and
+// `dir`/stderr.
+inline CliOutcome run_program(const std::filesystem::path& dir, const std::filesystem::path& program_path,
+                              std::vector<std::string> args) {
   const std::string out = (dir / "stdout").string();
   const std::string err = (dir / "stderr").string();
   posix_spawn_file_actions_t actions;
@@ -51,7 +53,7 @@ inline CliOutcome run_rejuv(const std::filesystem::path& dir, std::vector<std::s
   posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
   posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
   std::vector<char*> argv;
-  std::string program = kRejuv.string();
+  std::string program = program_path.string();
   argv.push_back(program.data());
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -65,6 +67,11 @@ inline CliOutcome run_rejuv(const std::filesystem::path& dir, std::vector<std::s
   r.out = slurp(out);
   r.err = slurp(err);
   return r;
+}
+
+// Runs `rejuv <args>` (run_program).
+inline CliOutcome run_rejuv(const std::filesystem::path& dir, std::vector<std::string> args) {
+  return run_program(dir, kRejuv, std::move(args));
 }
 
 // A fixture with a scratch folder per test (`<prefix><pid>_<test name>` in the temp directory), removed after

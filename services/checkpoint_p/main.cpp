@@ -11,9 +11,7 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/checkpoint_p/sr_manager.hpp"
-#if defined(REJUV_ATTACK_HOOKS)
-#include "rejuv/attacks/hooks.hpp"
-#endif
+#include "rejuv/services/service_main.hpp"
 
 namespace {
 
@@ -84,19 +82,8 @@ class SdkEffects final : public services::SrEffects {
   sdk::Publisher<rejuv_msg_SetpointUpdateRequest> requests_;
 };
 
-}  // namespace
-
-int main() {
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
-#if defined(REJUV_ATTACK_HOOKS)
-  // ==== ATTACK HOOKS (test builds only) ====: the launch plan's runtime attacks that name this service
-  // (services/attacks; wiped by rollback like any corruption).
-  auto attack_hooks = attacks::install(svc);
-  if (!svc.require(attack_hooks, "bad attack params")) return 1;
-#endif
-
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   const flight_io::Params params = flight_io::params_of(svc);
   auto cycle = flight_io::sr_cycle_params(params);
   if (!svc.require(cycle, "bad params")) return 1;
@@ -140,3 +127,7 @@ int main() {
   if (!svc.require(boot, "timer")) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return rejuv::services::run_service(serve, services::AttackHooks::Install); }

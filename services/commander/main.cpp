@@ -5,22 +5,14 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/commander/commander.hpp"
-#if defined(REJUV_ATTACK_HOOKS)
-#include "rejuv/attacks/hooks.hpp"
-#endif
+#include "rejuv/services/service_main.hpp"
 
-int main() {
-  using namespace rejuv;
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
-#if defined(REJUV_ATTACK_HOOKS)
-  // ==== ATTACK HOOKS (test builds only) ====: the launch plan's runtime attacks that name this service
-  // (services/attacks; wiped by rollback like any corruption).
-  auto attack_hooks = attacks::install(svc);
-  if (!svc.require(attack_hooks, "bad attack params")) return 1;
-#endif
+namespace {
 
+using namespace rejuv;
+
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   auto commander = services::Commander::from_params(flight_io::params_of(svc));
   if (!svc.require(commander, "refusing the mission")) return 1;
   if (commander->mission().from_defaults) {
@@ -61,3 +53,7 @@ int main() {
   if (!svc.require(start, "timer")) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return services::run_service(serve, services::AttackHooks::Install); }

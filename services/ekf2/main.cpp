@@ -3,23 +3,14 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/ekf2/ekf2_node.hpp"
-#if defined(REJUV_ATTACK_HOOKS)
-#include "rejuv/attacks/hooks.hpp"
-#endif
+#include "rejuv/services/service_main.hpp"
 
-int main() {
-  using namespace rejuv;
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
+namespace {
 
-#if defined(REJUV_ATTACK_HOOKS)
-  // ==== ATTACK HOOKS (test builds only) ====: the launch plan's runtime attacks that name this service
-  // (services/attacks; wiped by rollback like any corruption — what outlives an image, the kernel removes).
-  auto attack_hooks = attacks::install(svc);
-  if (!svc.require(attack_hooks, "bad attack params")) return 1;
-#endif
+using namespace rejuv;
 
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   auto mission = flight_io::mission_params(flight_io::params_of(svc));
   if (!svc.require(mission, "bad params")) return 1;
   // At the first boot the vehicle rests at its take-off point, the mission's first waypoint. After a cold
@@ -70,3 +61,7 @@ int main() {
   if (!svc.require_all("subscribe", combined, mag, baro, gps)) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return services::run_service(serve, services::AttackHooks::Install); }

@@ -6,22 +6,14 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/ext_link/ext_link.hpp"
-#if defined(REJUV_ATTACK_HOOKS)
-#include "rejuv/attacks/hooks.hpp"
-#endif
+#include "rejuv/services/service_main.hpp"
 
-int main() {
-  using namespace rejuv;
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
-#if defined(REJUV_ATTACK_HOOKS)
-  // ==== ATTACK HOOKS (test builds only) ====: the launch plan's runtime attacks that name this service
-  // (services/attacks; wiped by rollback like any corruption).
-  auto attack_hooks = attacks::install(svc);
-  if (!svc.require(attack_hooks, "bad attack params")) return 1;
-#endif
+namespace {
 
+using namespace rejuv;
+
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   const double period_s = svc.param("telemetry_period_s", 0.1);
   if (!(std::isfinite(period_s) && period_s >= 0.01 && period_s <= 10)) {
     svc.logf(sdk::LogLevel::Error, "telemetry_period_s: expected 0.01 to 10 s, got %g", period_s);
@@ -110,3 +102,7 @@ int main() {
   if (!svc.require(telemetry, "timer")) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return services::run_service(serve, services::AttackHooks::Install); }

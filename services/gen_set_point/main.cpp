@@ -5,13 +5,14 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/gen_set_point/setpoint_node.hpp"
+#include "rejuv/services/service_main.hpp"
 
-int main() {
-  using namespace rejuv;
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
+namespace {
 
+using namespace rejuv;
+
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   const flight_io::Params params = flight_io::params_of(svc);
   auto tracking = flight_io::tracking_params(params);
   if (!svc.require(tracking, "bad params")) return 1;
@@ -101,3 +102,7 @@ int main() {
   if (!svc.require(boot, "timer")) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return services::run_service(serve); }

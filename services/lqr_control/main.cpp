@@ -9,14 +9,15 @@
 #include <string_view>
 
 #include "rejuv/services/lqr_control/worst_case_attack.hpp"
+#include "rejuv/services/service_main.hpp"
 #endif
 
-int main() {
-  using namespace rejuv;
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
+namespace {
 
+using namespace rejuv;
+
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   const flight_io::Params params = flight_io::params_of(svc);
   auto start = flight_io::control_start(params);
   if (!svc.require(start, "bad params")) return 1;
@@ -65,3 +66,7 @@ int main() {
   if (!svc.require_all("subscribe", setpoint, state)) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return services::run_service(serve); }

@@ -4,13 +4,14 @@
 #include "rejuv/plant/quadrotor.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/output_driver/driver_node.hpp"
+#include "rejuv/services/service_main.hpp"
 
-int main() {
-  using namespace rejuv;
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
+namespace {
 
+using namespace rejuv;
+
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   auto limits = flight_io::actuator_limits(flight_io::params_of(svc));
   if (!svc.require(limits, "bad params")) return 1;
   // The mixer of the vehicle the plant flies (flight/sim uses the same: plant.mixer().inverse()).
@@ -46,3 +47,7 @@ int main() {
   if (!svc.require_all("subscribe", modes, controls)) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return services::run_service(serve); }

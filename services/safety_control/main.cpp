@@ -3,13 +3,14 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/safety_control/safety_control.hpp"
+#include "rejuv/services/service_main.hpp"
 
-int main() {
-  using namespace rejuv;
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
+namespace {
 
+using namespace rejuv;
+
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   auto start = flight_io::control_start(flight_io::params_of(svc));
   if (!svc.require(start, "bad params")) return 1;
   services::SafetyControl control(start->design, start->x_sp);
@@ -39,3 +40,7 @@ int main() {
   if (!svc.require_all("subscribe", setpoint, state)) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return services::run_service(serve); }

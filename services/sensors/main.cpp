@@ -3,13 +3,14 @@
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/sensors/imu_combiner.hpp"
+#include "rejuv/services/service_main.hpp"
 
-int main() {
-  using namespace rejuv;
-  auto connected = sdk::Service::connect();
-  if (!connected) return sdk::report_connect_failure(connected.error());
-  sdk::Service& svc = **connected;
+namespace {
 
+using namespace rejuv;
+
+// The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
+int serve(sdk::Service& svc) {
   auto combined = svc.advertise<rejuv_msg_SensorCombined>("sensor_combined");
   if (!svc.require(combined, "sensor_combined")) return 1;
   flight_io::FirstRefusalLog refuse(svc, "dropping a sample");
@@ -28,3 +29,7 @@ int main() {
   if (!svc.require_all("subscribe", gyro, accel)) return 1;
   return svc.run();
 }
+
+}  // namespace
+
+int main() { return services::run_service(serve); }

@@ -3,7 +3,7 @@
 #include <filesystem>
 
 #include "policy.pb.h"
-#include "rejuv/core/textproto.hpp"
+#include "rejuv/textproto/textproto.hpp"
 
 namespace rejuv {
 namespace {

@@ -14,7 +14,7 @@
 
 #include "launch.pb.h"
 #include "rejuv/core/result.hpp"
-#include "rejuv/core/textproto.hpp"
+#include "rejuv/textproto/textproto.hpp"
 #include "rejuv/core/time.hpp"
 
 namespace rejuv::launch {

@@ -10,7 +10,7 @@
 #include <string_view>
 #include <vector>
 
-#include "rejuv/core/textproto.hpp"
+#include "rejuv/textproto/textproto.hpp"
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/policy/policy.hpp"

@@ -17,7 +17,7 @@
 #include "rejuv/cap/mode_table.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
-#include "rejuv/core/textproto.hpp"
+#include "rejuv/textproto/textproto.hpp"
 #include "rejuv/core/vocabulary.hpp"
 
 namespace rejuv::policy {

@@ -27,7 +27,7 @@
 #include "rejuv/flight/estimator_node.hpp"
 #include "rejuv/flight/limits.hpp"
 #include "rejuv/flight/setpoint.hpp"
-#include "rejuv/flight/sr_sim.hpp"
+#include "rejuv/flight/sim_config.hpp"
 
 namespace rejuv::flight_io {
 

@@ -21,7 +21,7 @@
 
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/sr_event.hpp"
-#include "rejuv/core/textproto.hpp"
+#include "rejuv/textproto/textproto.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/flight/control_design.hpp"
@@ -29,62 +29,12 @@
 #include "rejuv/flight/estimator_node.hpp"
 #include "rejuv/flight/rollback_handler.hpp"
 #include "rejuv/flight/setpoint.hpp"
+#include "rejuv/flight/sim_config.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/plant/plant.hpp"
 #include "summary.pb.h"
 
 namespace rejuv::flight {
-
-enum class SrSwitch : std::uint8_t { On, Off };
-enum class AttackSwitch : std::uint8_t { On, Off };
-
-// The worst-case control attack of the plan (§VI-D).
-struct AttackConfig {
-  AttackSwitch enabled = AttackSwitch::On;
-  Seconds start{0};               // first MC window at or after this time
-  std::uint32_t max_windows = 0;  // 0 = every MC window
-};
-
-// Everything one run needs. `defaults()` is the experiment of §VI-C (the square at 3 m) with this project's
-// tuning; `config_from_launch` fills it from a launch graph.
-struct SimConfig {
-  std::string graph_name = "quad_square";
-  SrSwitch sr = SrSwitch::On;
-  std::uint64_t seed = 1;
-  Seconds t_mc{0.3};
-  // T_RB and T_CP: the times the software is stopped for a rollback and a checkpoint, controls held. The paper
-  // measured ≈15 ms and ≈20 ms on PX4 (§VI-B, Fig. 7); the model charges the same to simulated time.
-  Seconds t_rb{0.015};
-  Seconds t_cp{0.020};
-  HandlerTiming handler;
-  double rho_M = 0.1;
-  std::uint32_t keep_generations = 2;
-  AttackConfig attack;
-  ControlDesignSpec control;
-  plant::QuadParams quad = plant::QuadParams::jmavsim_default();
-  plant::SensorParams sensors = plant::SensorParams::defaults();
-  plant::WindParams wind;
-  EkfParams ekf = EkfParams::defaults();
-  EkfRearm ekf_rearm;
-  std::vector<PathWaypoint> waypoints;
-  double acceptance_radius_m = 0.05;
-  Seconds timeout{600};
-  Seconds physics_step{0.001};
-  // Pre-flight alignment: the mission starts hovering at the first waypoint (§IV-B), with an estimator that has
-  // converged there; modelled by feeding the EKF this much sensor data of that hover before t = 0.
-  Seconds alignment{20.0};
-  // A run ends early once V = ‖x − x_sp‖²_P exceeds this (the vehicle is lost; nothing more to measure).
-  double lost_V = 100.0;
-  // With SR: the run ends (summary's stopped_after_attacks) when an MC window begins after this many attacked
-  // ones (0 = never), the launch's stop_after_attacks (`rejuv sweep --attacks`, §VI-D's 45 attacks per cell).
-  std::uint32_t stop_after_attacks = 0;
-
-  [[nodiscard]] static SimConfig defaults();
-};
-
-// The control design the engine runs: `config.control` on the plant's vehicle (mass, inertia, k1, k2, L of
-// plant::QuadParams) at the IMU rate of its sensors.
-[[nodiscard]] ControlDesignSpec control_spec_for(const SimConfig& config);
 
 // Command-line overrides of the launch file (`--no-sr`, `--no-attack`, `--seed`).
 struct SimOverrides {

@@ -1,4 +1,4 @@
-#include "rejuv/core/textproto.hpp"
+#include "rejuv/textproto/textproto.hpp"
 
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/io/tokenizer.h>
