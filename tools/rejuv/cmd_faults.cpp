@@ -17,6 +17,7 @@
 
 #include "args.hpp"
 #include "charge.hpp"
+#include "rejuv/sys/dds_domain.hpp"
 #include "rejuv/sys/process.hpp"
 #include "commands.hpp"
 #include "fault_campaign.hpp"
@@ -55,7 +56,7 @@ int run_faults(std::span<const std::string_view> args) {
   std::string graph_path, injections_text = "200", seed_text = "1", jobs_text = "1", out_text = "out/faults",
                           per_text = "6", domain_text = "120", bound_text = "300";
   std::string mission_text, charge_text = "measured";
-  bool mission_set = false;
+  bool mission_set = false, domain_set = false;
   ArgParser parser("faults",
                    "Fault campaign (DESIGN §7 \"Faults\", §11): flies GRAPH several times and injects, at moments and\n"
                    "phases drawn from the seed, SIGKILL/SIGSTOP of a live service, of one image, of every image of a\n"
@@ -69,7 +70,9 @@ int run_faults(std::span<const std::string_view> args) {
       .option("--seed", "S", seed_text, "seed of the plan (default 1)")
       .option("--jobs", "J", jobs_text, "missions in J processes side by side (default 1)")
       .option("--per-mission", "K", per_text, "faults per mission at most (default 6)")
-      .option("--domain", "D", domain_text, "DDS domain of job 0; job j uses D + j (default 120)")
+      .option("--domain", "D", domain_text,
+              "DDS domain of job 0; job j uses D + j (default: each job leases a free domain, as the tests do)",
+              &domain_set)
       .option("--mission-timeout", "S", bound_text, "wall-clock bound of one mission: the watchdog (default 300)")
       .option("--out", "DIR", out_text, "where faults.json and the logs go (default out/faults)")
       .option("--charge", "model|measured", charge_text,
@@ -98,6 +101,16 @@ int run_faults(std::span<const std::string_view> args) {
   if (*domain + *jobs - 1 > launch::defaults::kMaxDdsDomainId) return bad_input("rejuv faults: --domain too high");
   if (*bound < 10) return bad_input("rejuv faults: --mission-timeout: expected at least 10 s");
   const auto charge = to_charge(charge_text, "--charge");
+  // Without --domain each job holds a leased domain (sys/dds_domain.hpp) for the campaign: two campaigns, a
+  // campaign and the tests, or two checkouts' test suites on one machine never share a DDS domain.
+  std::vector<sys::DdsDomainLease> leases;
+  if (!domain_set) {
+    for (std::uint64_t j = 0; j < *jobs; ++j) {
+      auto lease = sys::lease_dds_domain(static_cast<std::uint32_t>(::getpid() + j));
+      if (!lease) return bad_input("rejuv faults: no free DDS domain (" + lease.error().to_string() + "): give --domain");
+      leases.push_back(std::move(*lease));
+    }
+  }
   if (!charge) return bad_input("rejuv faults: " + charge.error());
 
   auto graph = launch::load_launch(graph_path);
@@ -141,7 +154,7 @@ int run_faults(std::span<const std::string_view> args) {
       std::vector<faults::Mission> mine;
       for (std::size_t m = j; m < missions.size(); m += *jobs) mine.push_back(missions[m]);
       const faults::JobConfig config{.graph = graph_path,
-                                     .dds_domain = static_cast<std::uint32_t>(*domain + j),
+                                     .dds_domain = domain_set ? static_cast<std::uint32_t>(*domain + j) : leases[j].domain(),
                                      .cpu = static_cast<int>(j % static_cast<std::uint64_t>(cpus)),
                                      .mission_wall_bound = std::chrono::seconds{*bound},
                                      .log = out_dir / ("job-" + std::to_string(j) + ".log"),
