@@ -6,7 +6,9 @@
 #include <string>
 
 #include "launch.pb.h"
+#include "rejuv/attacks/law.hpp"
 #include "rejuv/attacks/plan.hpp"
+#include "rejuv/flight/attack_library.hpp"
 
 namespace rejuv::attacks {
 namespace {
@@ -43,9 +45,14 @@ TEST(AttackKindNames, SameNamesAndNumbersAsTheLaunchProto) {
     EXPECT_EQ(to_string(k), proto::AttackKind_Name(static_cast<proto::AttackKind>(k)));
     EXPECT_EQ(attack_kind_from_name(to_string(k)), k);
   }
-  // Every runtime kind of the proto (all but the unset value and the controller's attack) is here.
-  EXPECT_EQ(kAllAttackKinds.size(), static_cast<std::size_t>(proto::AttackKind_MAX) - 1);
-  EXPECT_EQ(attack_kind_from_name("WORST_CASE_CONTROL"), std::nullopt);
+  // Every runtime kind of the proto is here: all but the unset value and the attacks on the vehicle (the
+  // controller's worst case and the attack library, flight::AttackLaw), which are not runtime attacks.
+  EXPECT_EQ(kAllAttackKinds.size(),
+            static_cast<std::size_t>(proto::AttackKind_MAX) - flight::kAllAttackLaws.size());
+  for (const flight::AttackLaw law : flight::kAllAttackLaws) {
+    EXPECT_EQ(attack_kind_from_name(flight::to_string(law)), std::nullopt) << flight::to_string(law);
+    EXPECT_EQ(proto::AttackKind_Name(static_cast<proto::AttackKind>(flight::proto_number(law))), flight::to_string(law));
+  }
 }
 
 TEST(RuntimeAttackPlan, AttacksOff_NoAttacks) {
@@ -217,6 +224,77 @@ TEST(WindowClock, SrOff_OneEndlessWindowAttackedOnce) {
   EXPECT_FALSE(c.begins(100ms, SrMode::MC, Epoch{0}));
   EXPECT_TRUE(c.begins(600ms, SrMode::MC, Epoch{0}));
   EXPECT_FALSE(c.begins(700ms, SrMode::MC, Epoch{0}));
+}
+
+}  // namespace
+}  // namespace rejuv::attacks
+
+// The attack library's runtime plan and window (law.hpp): the plan picks the first attack of the service's
+// laws with the kind's default size; τ runs from the first step of each attacked MC window and ends with it.
+namespace rejuv::attacks {
+namespace {
+
+Result<std::optional<LawAttack>, PlanError> law_plan(const std::map<std::string, double>& numbers,
+                                                     const std::map<std::string, std::string>& texts) {
+  return law_attack_plan(
+      [&](std::string_view n) -> std::optional<double> {
+        auto it = numbers.find(std::string(n));
+        return it == numbers.end() ? std::nullopt : std::optional<double>(it->second);
+      },
+      [&](std::string_view n) {
+        auto it = texts.find(std::string(n));
+        return it == texts.end() ? std::string() : it->second;
+      },
+      {flight::AttackLaw::EstimateShift, flight::AttackLaw::EstimateDrift});
+}
+
+TEST(LawAttackPlan, FirstOfTheServiceLawsWithDefaultSize_BadMagnitudeRefused) {
+  const std::map<std::string, std::string> texts{{"attack.0.kind", "FLOOD_BROKER"},
+                                                 {"attack.1.kind", "ESTIMATE_DRIFT"}};
+  std::map<std::string, double> numbers{{"attack.enabled", 1}, {"attack.count", 2}, {"attack.1.start_s", 3}};
+  auto plan = law_plan(numbers, texts);
+  ASSERT_TRUE(plan.has_value()) << plan.error().to_string();
+  ASSERT_TRUE(plan->has_value());
+  EXPECT_EQ((*plan)->law, flight::AttackLaw::EstimateDrift);
+  EXPECT_DOUBLE_EQ((*plan)->magnitude, flight::default_magnitude(flight::AttackLaw::EstimateDrift));
+  EXPECT_DOUBLE_EQ((*plan)->start.count(), 3.0);
+  numbers["attack.1.magnitude"] = -1;
+  auto bad = law_plan(numbers, texts);
+  ASSERT_FALSE(bad.has_value());
+  EXPECT_EQ(bad.error().param, "attack.1.magnitude");
+  numbers["attack.enabled"] = 0;
+  auto off = law_plan(numbers, texts);
+  ASSERT_TRUE(off.has_value());
+  EXPECT_FALSE(off->has_value());
+}
+
+TEST(LawWindow, TauFromEachAttackedWindowStart_NoneOutsideIt) {
+  LawWindow w(LawAttack{.law = flight::AttackLaw::EstimateDrift, .start = Seconds{0}, .sr = Rejuvenation::On});
+  const auto ms = [](int v) { return Nanos{std::chrono::milliseconds{v}}; };
+  EXPECT_FALSE(w.tau(ms(0), SrMode::SC, Epoch{1}).has_value());  // the SEI records the first epoch
+  const auto t0 = w.tau(ms(100), SrMode::MC, Epoch{1});
+  ASSERT_TRUE(t0.has_value());
+  EXPECT_TRUE(w.began_now());
+  EXPECT_DOUBLE_EQ(t0->count(), 0.0);
+  const auto t1 = w.tau(ms(300), SrMode::MC, Epoch{1});
+  ASSERT_TRUE(t1.has_value());
+  EXPECT_FALSE(w.began_now());
+  EXPECT_NEAR(t1->count(), 0.2, 1e-12);
+  EXPECT_FALSE(w.tau(ms(400), SrMode::RB, Epoch{1}).has_value());
+  EXPECT_FALSE(w.tau(ms(500), SrMode::SC, Epoch{2}).has_value());
+  const auto t2 = w.tau(ms(4000), SrMode::MC, Epoch{2});  // the next window starts τ at 0 again
+  ASSERT_TRUE(t2.has_value());
+  EXPECT_DOUBLE_EQ(t2->count(), 0.0);
+}
+
+TEST(LawWindow, WithoutSr_OneEndlessWindowFromStart) {
+  LawWindow w(LawAttack{.law = flight::AttackLaw::SetpointShift, .start = Seconds{1}, .sr = Rejuvenation::Off});
+  const auto s = [](double v) { return to_nanos(Seconds{v}); };
+  EXPECT_FALSE(w.tau(s(0.5), SrMode::MC, Epoch{0}).has_value());
+  ASSERT_TRUE(w.tau(s(1.0), SrMode::MC, Epoch{0}).has_value());
+  const auto later = w.tau(s(11.0), SrMode::MC, Epoch{0});
+  ASSERT_TRUE(later.has_value());
+  EXPECT_NEAR(later->count(), 10.0, 1e-9);
 }
 
 }  // namespace

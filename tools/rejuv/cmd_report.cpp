@@ -22,6 +22,7 @@
 
 #include "args.hpp"
 #include "figures.hpp"
+#include "attack_option.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "run_child.hpp"
@@ -64,7 +65,7 @@ struct Mission {
 
 // Flies one row with `rejuv run` (this executable) and reads back its summary.
 Mission fly(const Row& row, const std::string& graph, std::uint64_t seed, const std::optional<std::string>& domain,
-            const fs::path& out, const sys::SignalFd& signals, bool tty) {
+            const std::optional<std::string>& attack, const fs::path& out, const sys::SignalFd& signals, bool tty) {
   const fs::path json = out / ("run_" + std::string(row.key) + ".json");
   const fs::path csv = out / ("run_" + std::string(row.key) + ".csv");
   const fs::path log = out / ("run_" + std::string(row.key) + ".log");
@@ -75,6 +76,7 @@ Mission fly(const Row& row, const std::string& graph, std::uint64_t seed, const 
   if (!row.sr) args.emplace_back("--no-sr");
   if (!row.attack) args.emplace_back("--no-attack");
   if (domain) args.insert(args.end(), {"--domain", *domain});
+  if (attack) args.insert(args.end(), {"--attack", *attack});
   auto child = start_rejuv_run(args, log);
   if (!child) return Mission{.problem = child.error()};
 
@@ -114,7 +116,8 @@ std::string outcome_text(const proto::RunSummary& s) {
 
 std::string table_text(const std::string& graph, std::uint64_t seed, const std::vector<proto::RunSummary>& run,
                        const std::vector<proto::RunSummary>& sim) {
-  std::string out = "Table I (" + graph + ", seed " + std::to_string(seed) +
+  const std::string kind = sim.empty() ? std::string() : sim.back().attack_kind();
+  std::string out = "Table I (" + graph + ", seed " + std::to_string(seed) + (kind.empty() ? "" : ", attack " + kind) +
                     "): runtime (rejuv run) | model (rejuv sim)\n";
   char line[512];
   std::snprintf(line, sizeof line, "%-17s | %-15s | %-19s | %-17s | %-15s | %s\n", "", "d_mean [cm]", "max V",
@@ -160,8 +163,8 @@ int report_figures(const fs::path& dir) {
 }  // namespace
 
 int run_report(std::span<const std::string_view> args) {
-  std::string what, graph_path, seed_text, out_text, domain_text, reuse_text;
-  bool seed_set = false, out_set = false, domain_set = false, reuse_set = false;
+  std::string what, graph_path, seed_text, out_text, domain_text, reuse_text, attack_text;
+  bool seed_set = false, out_set = false, domain_set = false, reuse_set = false, attack_set = false;
   ArgParser parser("report",
                    "Reports that compare the runtime with the model.\n"
                    "  table GRAPH  Table I (§VI-D): SR on/off x attack on/off, each row a mission flown by the\n"
@@ -179,6 +182,7 @@ int run_report(std::span<const std::string_view> args) {
       .option("--out", "DIR", out_text, "where the runs' files go (default: out/table)", &out_set)
       .option("--domain", "N", domain_text, "DDS domain id of the runtime missions (default: the graph's)",
               &domain_set)
+      .option("--attack", "KIND", attack_text, kAttackOptionHelp, &attack_set)
       .option("--sr-attack-json", "FILE", reuse_text,
               "the runtime's 'SR, attack' row from this `rejuv run --summary-json` (same graph and seed) instead of "
               "flying it again (e.g. the demo's main mission)",
@@ -208,6 +212,10 @@ int run_report(std::span<const std::string_view> args) {
   }
   auto loaded = launch::load_launch(graph_path);
   if (!loaded) return bad_input(loaded.error().to_string());
+  if (attack_set) {
+    auto ok = apply_attack_option(*loaded, attack_text);
+    if (!ok) return bad_input("rejuv report: " + ok.error());
+  }
   auto config = flight::config_from_launch(*loaded, overrides);
   if (!config) return bad_input(config.error().to_string());
   const std::uint64_t seed = config->seed;
@@ -217,7 +225,8 @@ int run_report(std::span<const std::string_view> args) {
     reused = read_summary(reuse_text);
     if (!reused) return bad_input("rejuv report: --sr-attack-json: cannot read a run summary from '" + reuse_text + "'");
     if (reused->runner() != "run" || !reused->sr() || !reused->attack() || reused->seed() != seed ||
-        reused->graph() != config->graph_name) {
+        reused->graph() != config->graph_name ||
+        reused->attack_kind() != std::string(flight::to_string(config->attack.law))) {
       return bad_input("rejuv report: --sr-attack-json: '" + reuse_text + "' is not `rejuv run` of " +
                        config->graph_name + " with SR and attacks, seed " + std::to_string(seed));
     }
@@ -254,7 +263,8 @@ int run_report(std::span<const std::string_view> args) {
     std::fprintf(stderr, "rejuv report: [%zu/4] %s: rejuv run (log: %s)\n", i + 1, row.label,
                  (out / ("run_" + std::string(row.key) + ".log")).c_str());
     const auto mission_start = std::chrono::steady_clock::now();
-    Mission m = fly(row, graph_path, seed, domain, out, *signals, tty);
+    Mission m = fly(row, graph_path, seed, domain, attack_set ? std::optional(attack_text) : std::nullopt, out,
+                    *signals, tty);
     if (!m.summary) {
       std::fprintf(stderr, "rejuv report: %s: %s\n", row.label, m.problem.c_str());
       return static_cast<int>(Exit::Findings);

@@ -22,6 +22,7 @@
 #include "args.hpp"
 #include "charge.hpp"
 #include "figures.hpp"
+#include "attack_option.hpp"
 #include "report.hpp"
 #include "commands.hpp"
 #include "run_recorder.hpp"
@@ -95,7 +96,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 "  denials     %s\n"
                 "  sandbox     %s\n"
                 "  network     %s\n",
-                s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? "on" : "off",
+                s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? (s.attack_kind().empty() ? "on" : s.attack_kind().c_str()) : "off",
                 static_cast<unsigned long long>(s.seed()), std::string(kernel::to_string(outcome.reason)).c_str(),
                 outcome.detail.empty() ? "" : ": ", outcome.detail.c_str(),
                 s.mission_completed()       ? "completed"
@@ -157,6 +158,8 @@ std::filesystem::path service_dir() {
 }  // namespace
 
 int run_run(std::span<const std::string_view> args) {
+  std::string attack_text;
+  bool attack_set = false;
   std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
   std::string charge_text, out_text, trace_text = "compact", ulog_path;
   bool net_port_set = false, cpu_set = false, charge_set = false, out_set = false, trace_set = false, no_figures = false;
@@ -178,6 +181,7 @@ int run_run(std::span<const std::string_view> args) {
       .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
       .flag("--no-sr", no_sr, "no rejuvenation: mission control only, checkpoint_p not started")
       .flag("--no-attack", no_attack, "disable the attack plan")
+      .option("--attack", "KIND", attack_text, kAttackOptionHelp, &attack_set)
       .option("--seed", "N", seed_text, "seed of the plant and the services (default: the graph's)", &seed_set)
       .option("--duration", "S", duration_text,
               "stop after S seconds of flight (kernel time after the plant's pre-flight alignment)", &duration_set)
@@ -278,6 +282,10 @@ int run_run(std::span<const std::string_view> args) {
 
   auto loaded = launch::load_launch(graph_path);
   if (!loaded) return bad_input(loaded.error().to_string());
+  if (attack_set) {
+    auto ok = apply_attack_option(*loaded, attack_text);
+    if (!ok) return bad_input("rejuv run: " + ok.error());
+  }
   for (const std::string& name : options.skip_services) {
     if (launch::find_service(loaded->graph, name) == nullptr) {
       return bad_input("rejuv run: --skip: the graph has no service '" + name + "'");
@@ -289,6 +297,9 @@ int run_run(std::span<const std::string_view> args) {
   // The plant aligns as long as `rejuv sim` does (launch lockstep.alignment_s, passed by the kernel), so that both
   // fly from a converged estimate; --duration counts from the end of it.
   if (options.duration) *options.duration += reference->alignment;
+  // The attack library's laws carry time (a drift, a moving x_sp) or are learnt by the EKF (a gyro bias): they start
+  // with the flight, as in the model, not during the plant's alignment (docs/control.md "Attack library").
+  start_attack_library_after(loaded->graph, reference->alignment);
 
   UniqueFile json_file, csv_file;
   if (json_set) {
@@ -312,6 +323,7 @@ int run_run(std::span<const std::string_view> args) {
   const std::string graph_name = loaded->graph.name();
   const bool attack = loaded->graph.attack().enabled() && !no_attack;
   const std::uint32_t stop_after_attacks = loaded->graph.stop_after_attacks();
+  const std::string attack_kind = attack ? vehicle_attack_kind(loaded->graph) : std::string();
   kernel::ObserverFanout observers;
   observers.add(&recorder);
   auto k = kernel::Kernel::create(std::move(*loaded), options, &observers);
@@ -354,6 +366,7 @@ int run_run(std::span<const std::string_view> args) {
   s.set_runner("run");
   s.set_sr((*k)->sr_enabled());
   s.set_attack(attack);
+  s.set_attack_kind(attack_kind);
   s.set_seed(options.seed.value_or((*k)->graph().graph.seed()));
   recorder.fill(s, outcome->sim_time);
   // Denials by kind, from the capability kernel's counters (DESIGN §3); frames refused before any cap

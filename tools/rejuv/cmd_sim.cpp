@@ -13,6 +13,7 @@
 
 #include "args.hpp"
 #include "figures.hpp"
+#include "attack_option.hpp"
 #include "report.hpp"
 #include "commands.hpp"
 #include "rejuv/flight/sr_sim.hpp"
@@ -36,7 +37,7 @@ std::string describe(const proto::RunSummary& s) {
                 "  tracking    d_mean %.2f cm, d_max %.2f cm\n"
                 "  safety      max V = %.4f (%s), max estimation error ||x - x_hat||^2_P = %.4f\n"
                 "  SR          %llu rollbacks, %llu checkpoints, %llu attacked MC windows, max control gap %.1f ms\n",
-                s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? "on" : "off",
+                s.graph().c_str(), s.sr() ? "on" : "off", s.attack() ? (s.attack_kind().empty() ? "on" : s.attack_kind().c_str()) : "off",
                 static_cast<unsigned long long>(s.seed()), s.mission_completed()       ? "completed"
                 : s.stopped_after_attacks() ? "stopped after the attacks (stop_after_attacks)"
                                             : "NOT COMPLETED",
@@ -67,7 +68,8 @@ bool run_is_good(const proto::RunSummary& s) {
 }  // namespace
 
 int run_sim(std::span<const std::string_view> args) {
-  std::string graph_path, seed_text, json_path, csv_path, out_text, trace_text = "compact";
+  std::string graph_path, seed_text, json_path, csv_path, out_text, trace_text = "compact", attack_text;
+  bool attack_set = false;
   bool no_sr = false, no_attack = false, table = false, seed_set = false, json_set = false, csv_set = false;
   bool out_set = false, trace_set = false, no_figures = false;
   ArgParser parser("sim",
@@ -78,6 +80,7 @@ int run_sim(std::span<const std::string_view> args) {
   parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt): sr, mission, plant, attack")
       .flag("--no-sr", no_sr, "no rejuvenation: the same tracking algorithm in MC for the whole mission")
       .flag("--no-attack", no_attack, "disable the attack plan")
+      .option("--attack", "KIND", attack_text, kAttackOptionHelp, &attack_set)
       .option("--seed", "N", seed_text, "seed of sensor noise and wind (default: the graph's seed)", &seed_set)
       .option("--summary-json", "FILE", json_path, "write the RunSummary as JSON (--table: an array of four)",
               &json_set)
@@ -112,6 +115,10 @@ int run_sim(std::span<const std::string_view> args) {
 
   auto loaded = launch::load_launch(graph_path);
   if (!loaded) return bad_input(loaded.error().to_string());
+  if (attack_set) {
+    auto ok = apply_attack_option(*loaded, attack_text);
+    if (!ok) return bad_input("rejuv sim: " + ok.error());
+  }
   auto config = flight::config_from_launch(*loaded, overrides);
   if (!config) return bad_input(config.error().to_string());
 

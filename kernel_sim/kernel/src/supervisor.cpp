@@ -86,6 +86,7 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
     text(prefix + "kind", attack_kind_name(a.kind()));
     number(prefix + "start_s", a.start_s());
     number(prefix + "max_windows", a.max_windows());
+    number(prefix + "magnitude", a.magnitude());  // the attack library's size (docs/control.md "Attack library")
     ++attacks;
   }
   number("attack.enabled", attacks > 0 ? 1 : 0);

@@ -548,6 +548,10 @@ class Validator {
         return fail(error(at({{"attack", -1}, {"attacks", i}}, "start_s"),
                           "attack start_s must be >= 0 s, got " + num(a.start_s())));
       }
+      if (!std::isfinite(a.magnitude()) || a.magnitude() < 0.0 || a.magnitude() > 1e6) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "magnitude"),
+                          "attack magnitude must be in [0, 1e6] (0 = the kind's default), got " + num(a.magnitude())));
+      }
     }
     return {};
   }
@@ -613,21 +617,30 @@ Result<LoadedLaunch, LoadError> parse_launch(std::string_view text, const std::f
 }
 
 std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view executable) {
-  // services/*/main.cpp: lqr_control carries the worst-case control law (worst_case_attack.cpp); checkpoint_p,
-  // commander, ext_link and ekf2 install the runtime hooks of services/attacks (attacks::install), which
-  // carry out every runtime kind (ESCAPE_HELPER included); the others have none.
+  // services/*/main.cpp: lqr_control carries the worst-case control law (worst_case_attack.cpp) and the gain
+  // overwrite of the attack library; checkpoint_p, commander, ext_link and ekf2 install the runtime hooks of
+  // services/attacks (attacks::install), which carry out every runtime kind (ESCAPE_HELPER included); ekf2,
+  // sensors and gen_set_point carry the attack library's laws on the estimate, the IMU data and x_sp
+  // (docs/control.md "Attack library"); the others have none.
   const std::vector<proto::AttackKind> runtime{
       proto::INVOKE_CHECKPOINT, proto::ARM_TIMER,  proto::WRITE_LIMITS, proto::PUBLISH_ACTUATOR_OUTPUTS,
       proto::WRITE_PERSISTENT,  proto::FORGED_SLOT, proto::NETWORK_IN_SEI, proto::KILL_IMAGE,
       proto::OPEN_SOCKET,       proto::FLOOD_BROKER, proto::ESCAPE_HELPER};
   const std::string name = std::filesystem::path(executable).filename().string();
   if (name == "rejuv_lqr_control") {
-    return std::vector<proto::AttackKind>{proto::WORST_CASE_CONTROL};
+    return std::vector<proto::AttackKind>{proto::WORST_CASE_CONTROL, proto::GAIN_OVERWRITE};
   }
-  if (name == "rejuv_checkpoint_p" || name == "rejuv_commander" || name == "rejuv_ext_link" || name == "rejuv_ekf2") {
+  if (name == "rejuv_ekf2") {
+    std::vector<proto::AttackKind> kinds = runtime;
+    kinds.insert(kinds.end(), {proto::ESTIMATE_SHIFT, proto::ESTIMATE_DRIFT});
+    return kinds;
+  }
+  if (name == "rejuv_sensors") return std::vector<proto::AttackKind>{proto::SENSOR_BIAS};
+  if (name == "rejuv_gen_set_point") return std::vector<proto::AttackKind>{proto::SETPOINT_SHIFT};
+  if (name == "rejuv_checkpoint_p" || name == "rejuv_commander" || name == "rejuv_ext_link") {
     return runtime;
   }
-  for (const char* none : {"rejuv_sensors", "rejuv_safety_control", "rejuv_gen_set_point", "rejuv_output_driver"}) {
+  for (const char* none : {"rejuv_safety_control", "rejuv_output_driver"}) {
     if (name == none) {
       return std::vector<proto::AttackKind>{};
     }

@@ -365,3 +365,25 @@ Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc) {
 }
 
 }  // namespace rejuv::attacks
+
+namespace rejuv::attacks {
+
+Result<std::optional<LawAttack>, PlanError> law_attack_of(sdk::Service& svc,
+                                                         std::initializer_list<flight::AttackLaw> laws) {
+  auto plan = law_attack_plan(
+      [&svc](std::string_view name) -> std::optional<double> {
+        if (!svc.has_param(name)) return std::nullopt;
+        return svc.param(name, 0.0);
+      },
+      [&svc](std::string_view name) { return std::string(svc.text_param(name, "")); }, laws);
+  if (!plan) return fail(std::move(plan.error()));
+  if (*plan) {
+    const LawAttack& a = **plan;
+    svc.logf(sdk::LogLevel::Warn, "attack hook armed: %s (magnitude %g) from t = %g s, %s",
+             std::string(flight::to_string(a.law)).c_str(), a.magnitude, a.start.count(),
+             a.max_windows == 0 ? "every MC window" : (std::to_string(a.max_windows) + " MC window(s)").c_str());
+  }
+  return plan;
+}
+
+}  // namespace rejuv::attacks

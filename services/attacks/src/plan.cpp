@@ -1,5 +1,7 @@
 #include "rejuv/attacks/plan.hpp"
 
+#include "rejuv/flight/attack_library.hpp"
+
 #include <cmath>
 #include <utility>
 
@@ -65,8 +67,9 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
     const std::string name = text(prefix + "kind");
     const auto kind = attack_kind_from_name(name);
     if (!kind) {
-      // The controller's attack and the proto's unset value are not runtime attacks; anything else is a typo.
-      if (name == "WORST_CASE_CONTROL" || name == "ATTACK_UNSPECIFIED") continue;
+      // The attacks on the vehicle (the worst-case control and the attack library: law.hpp) and the proto's unset
+      // value are not runtime attacks; anything else is a typo.
+      if (flight::attack_law_from_name(name) || name == "ATTACK_UNSPECIFIED") continue;
       return fail(bad(prefix + "kind", "unknown attack kind '" + name + "'"));
     }
     const double start = number(prefix + "start_s").value_or(0.0);

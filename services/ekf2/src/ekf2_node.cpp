@@ -76,7 +76,12 @@ Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> E
   const bool integrated = node_->on_samples(samples);
   REJUV_ASSERT(integrated, "a sample set with a gyro sample is integrated");
   integrated_ = true;
-  return std::optional(flight_io::vehicle_state_message(*node_, tick->gyro.t, flags(before)));
+  rejuv_msg_VehicleStateEstimate out = flight_io::vehicle_state_message(*node_, tick->gyro.t, flags(before));
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOK POINT ====
+  if (attack_hook_) attack_hook_(out);
+#endif
+  return std::optional(out);
 }
 
 std::uint32_t Ekf2Node::flags(const flight::EkfCounters& before) const {

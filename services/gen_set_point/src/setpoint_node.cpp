@@ -117,6 +117,15 @@ Result<void, flight_io::InputFailure> SetpointNode::on_state(const rejuv_msg_Veh
   const Nanos now = flight_io::time_of(message.timestamp_ns);
   if (tracking_.sr == flight::SrSwitch::Off) track_without_sr(now);
   check_completion(now);
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOK POINT ====
+  if (attack_hook_) {
+    if (auto offset = attack_hook_(now)) {
+      attack_offset_ = *offset;
+      changed(now);
+    }
+  }
+#endif
   return {};
 }
 
@@ -167,8 +176,12 @@ void SetpointNode::changed(Nanos now) {
 
 std::optional<rejuv_msg_Setpoint> SetpointNode::take_changed() {
   if (!changed_at_ || !generator_) return std::nullopt;
+  flight::StateVec x_sp = generator_->setpoint();
+#if defined(REJUV_ATTACK_HOOKS)
+  x_sp += attack_offset_;
+#endif
   const rejuv_msg_Setpoint m =
-      flight_io::setpoint_message(generator_->setpoint(), *changed_at_,
+      flight_io::setpoint_message(x_sp, *changed_at_,
                                   static_cast<std::uint32_t>(generator_->target_waypoint()), mission_done());
   changed_at_.reset();
   return m;

@@ -20,6 +20,12 @@ Result<std::optional<rejuv_msg_ActuatorControls>, flight_io::InputFailure> Missi
   auto x_hat = flight_io::state_from_message(message);
   if (!x_hat) return fail(std::move(x_hat.error()));
   if (!x_sp_) return std::optional<rejuv_msg_ActuatorControls>{};
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== GAIN HOOK POINT ====
+  if (gain_hook_) {
+    if (auto K = gain_hook_()) mission_ = mission_.with_gain(*K);
+  }
+#endif
   // The simulation's control step in MC (flight/sim: design.mission.control(x̂, x_sp)).
   flight::InputVec u = mission_.control(*x_hat, *x_sp_);
 #if defined(REJUV_ATTACK_HOOKS)

@@ -60,7 +60,12 @@ void ImuCombiner::emit(const plant::GyroSample& gyro) {
   const Seconds gyro_dt = interval(gyro.t, last_gyro_t_);
   const Seconds accel_dt = accel_ ? interval(accel.t, last_accel_t_) : to_seconds(imu_period_);
   ++published_;
-  if (sink_) sink_(flight_io::combined_message(gyro, accel, gyro_dt, accel_dt));
+  rejuv_msg_SensorCombined out = flight_io::combined_message(gyro, accel, gyro_dt, accel_dt);
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOK POINT ====
+  if (attack_hook_) attack_hook_(out);
+#endif
+  if (sink_) sink_(out);
 }
 
 }  // namespace rejuv::services

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <utility>
 
 #include "rejuv/launch/launch.hpp"
 
@@ -440,7 +441,7 @@ TEST(LaunchLoader, ParamTextValidUtf8_Loads) {
 
 // DESIGN §9: a plan naming a kind the service has no hook for is refused at load, naming what it supports.
 TEST(LaunchLoader, AttackKindWithoutHookInTheService_SemanticNamesSupportedKinds) {
-  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_sensors\"");
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_safety_control\"");
   const auto r = parse_launch(m.text, kAsPath);
   ASSERT_FALSE(r.has_value());
   EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
@@ -466,13 +467,50 @@ TEST(LaunchLoader, EscapeHelperOnEkf2_Loads) {
   EXPECT_TRUE(r.has_value()) << r.error().to_string();
 }
 TEST(LaunchLoader, EscapeHelperOnAServiceWithoutHooks_Semantic) {
-  Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_sensors\"");
+  Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_safety_control\"");
   const std::size_t kind_at = m.text.find("kind: WORST_CASE_CONTROL");
   ASSERT_NE(kind_at, std::string::npos);
   m.text.replace(kind_at, std::string_view("kind: WORST_CASE_CONTROL").size(), "kind: ESCAPE_HELPER");
   const auto r = parse_launch(m.text, kAsPath);
   ASSERT_FALSE(r.has_value());
   EXPECT_NE(r.error().message.find("has no hook for ESCAPE_HELPER"), std::string::npos) << r.error().to_string();
+}
+// The attack library (docs/control.md "Attack library"): each kind loads on the service that carries its hook,
+// is refused on another, and its magnitude must be a size >= 0.
+TEST(LaunchLoader, AttackLibraryKindOnItsService_LoadsElsewhereSemantic) {
+  const std::pair<const char*, const char*> kinds[] = {{"ESTIMATE_SHIFT", "rejuv_ekf2"},
+                                                       {"ESTIMATE_DRIFT", "rejuv_ekf2"},
+                                                       {"SENSOR_BIAS", "rejuv_sensors"},
+                                                       {"SETPOINT_SHIFT", "rejuv_gen_set_point"},
+                                                       {"GAIN_OVERWRITE", "rejuv_lqr_control"}};
+  for (const auto& [kind, executable] : kinds) {
+    for (const char* exe : {executable, "rejuv_safety_control"}) {
+      Mutated m = mutate("executable: \"rejuv_a\"", std::string("executable: \"") + exe + "\"");
+      const std::size_t kind_at = m.text.find("kind: WORST_CASE_CONTROL");
+      ASSERT_NE(kind_at, std::string::npos);
+      m.text.replace(kind_at, std::string_view("kind: WORST_CASE_CONTROL").size(), std::string("kind: ") + kind);
+      const auto r = parse_launch(m.text, kAsPath);
+      if (std::string_view(exe) == executable) {
+        EXPECT_TRUE(r.has_value()) << kind << " on " << exe << ": " << r.error().to_string();
+      } else {
+        ASSERT_FALSE(r.has_value()) << kind << " on " << exe;
+        EXPECT_NE(r.error().message.find(std::string("has no hook for ") + kind), std::string::npos)
+            << r.error().to_string();
+      }
+    }
+  }
+}
+TEST(LaunchLoader, AttackMagnitudeNegativeOrNotFinite_Semantic) {
+  for (const char* bad : {"-1", "inf", "nan", "2e6"}) {
+    Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_lqr_control\"");
+    const std::size_t kind_at = m.text.find("kind: WORST_CASE_CONTROL");
+    ASSERT_NE(kind_at, std::string::npos);
+    m.text.insert(kind_at, std::string("magnitude: ") + bad + " ");
+    const auto r = parse_launch(m.text, kAsPath);
+    ASSERT_FALSE(r.has_value()) << bad;
+    EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic) << r.error().to_string();
+    EXPECT_NE(r.error().message.find("magnitude"), std::string::npos) << r.error().to_string();
+  }
 }
 TEST(LaunchLoader, AttackKindTheServiceHooks_Loads) {
   const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_lqr_control\"");

@@ -33,6 +33,12 @@ InputVec LqrController::unclamped(const StateVec& x_hat, const StateVec& x_sp) c
   return u_hover_ - K_ * state_error(x_hat, x_sp);
 }
 
+LqrController LqrController::with_gain(const GainMat& K) const {
+  LqrController c = *this;
+  c.K_ = K;
+  return c;
+}
+
 InputVec LqrController::control(const StateVec& x_hat, const StateVec& x_sp) const {
   return limits_.clamp(unclamped(x_hat, x_sp));
 }

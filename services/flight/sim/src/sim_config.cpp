@@ -79,13 +79,18 @@ Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& load
   c.wind.gust_std_m_s = g.plant().wind_gust_m_s();
   c.alignment = launch::alignment(g.lockstep());  // the runtime's plant aligns as long (idl/launch.proto)
 
-  // Attack plan: the model simulates the worst-case control attack (§VI-D); the other kinds target the
-  // runtime and are exercised by the multi-process security tests.
+  // Attack plan: the model simulates the first attack that acts on the vehicle — the worst-case control attack
+  // (§VI-D) or another kind of the attack library (attack_library.hpp); the other kinds target the runtime
+  // and are exercised by the multi-process security tests.
   c.attack.enabled = AttackSwitch::Off;
   if (g.attack().enabled()) {
     for (const proto::Attack& a : g.attack().attacks()) {
-      if (a.kind() == proto::WORST_CASE_CONTROL) {
-        c.attack = AttackConfig{.enabled = AttackSwitch::On, .start = Seconds{a.start_s()}, .max_windows = a.max_windows()};
+      if (const auto law = attack_law_from_number(a.kind())) {
+        c.attack = AttackConfig{.enabled = AttackSwitch::On,
+                                .law = *law,
+                                .magnitude = a.magnitude(),
+                                .start = Seconds{a.start_s()},
+                                .max_windows = a.max_windows()};
         break;
       }
     }

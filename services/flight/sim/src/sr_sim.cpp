@@ -98,8 +98,17 @@ struct SrSimulation::Impl {
   // Tracker without SR (same update rule, §VI-D Table I).
   Nanos next_check{0};
   Nanos hold_until{0};
-  // Attack state of the compromised controller (wiped by every rollback).
+  // Attack state of the compromised service (wiped by every rollback): whether the current MC window is attacked,
+  // since when (τ of the attack library's laws), and the attack's constants.
   bool attacking = false;
+  Nanos window_began{0};
+  double magnitude = 0.0;
+  StateVec fdi_dir = StateVec::Zero();
+  LqrController overwritten_mission;  // GAIN_OVERWRITE: the mission controller with the attacker's gain
+  // The setpoint as last published on the topic (what the run recorder computes V against in the runtime): the
+  // generator's, or SETPOINT_SHIFT's while the attacker publishes; a rollback does not unpublish it, the
+  // generator's next move does.
+  std::optional<StateVec> attacker_setpoint;
   bool calm = false;
 
   // Metrics.
@@ -129,6 +138,9 @@ struct SrSimulation::Impl {
         images(cfg.keep_generations),
         dt(to_nanos(cfg.physics_step)),
         control_period(cfg.sensors.gyro_period),
+        magnitude(effective_magnitude(cfg.attack.law, cfg.attack.magnitude)),
+        fdi_dir(fdi_direction(design)),
+        overwritten_mission(design.mission.with_gain(overwritten_gain(design.mission.K(), magnitude))),
         calm(cfg.wind.gust_std_m_s == 0.0) {}
 
   [[nodiscard]] bool sr_on() const { return cfg.sr == SrSwitch::On; }
@@ -159,13 +171,41 @@ struct SrSimulation::Impl {
     }
   }
 
-  [[nodiscard]] double V_hat() const { return design.ellipsoid.V(sw.estimator.estimate(), sw.setpoints.setpoint()); }
+  [[nodiscard]] bool attacking_with(AttackLaw law) const { return attacking && cfg.attack.law == law; }
+  [[nodiscard]] Seconds tau() const { return to_seconds(t - window_began); }
+
+  // x̂ as ekf2 publishes it: the filter's, shifted by a compromised ekf2 (ESTIMATE_SHIFT, ESTIMATE_DRIFT).
+  [[nodiscard]] StateVec published_estimate() const {
+    const StateVec& x_hat = sw.estimator.estimate();
+    if (!attacking_with(AttackLaw::EstimateShift) && !attacking_with(AttackLaw::EstimateDrift)) return x_hat;
+    return x_hat + estimate_offset(cfg.attack.law, fdi_dir, magnitude, tau());
+  }
+  // x_sp as lqr_control holds it in MC: the generator's, or the one a compromised gen_set_point publishes.
+  [[nodiscard]] StateVec mission_setpoint() const {
+    if (!attacking_with(AttackLaw::SetpointShift)) return sw.setpoints.setpoint();
+    return sw.setpoints.setpoint() + setpoint_offset(magnitude, tau());
+  }
+  [[nodiscard]] StateVec published_setpoint() const { return attacker_setpoint.value_or(sw.setpoints.setpoint()); }
+
+  [[nodiscard]] double V_hat() const { return design.ellipsoid.V(published_estimate(), sw.setpoints.setpoint()); }
+
+  void begin_attack(Nanos now) {
+    attacking = true;
+    window_began = now;
+    ++attack_windows;
+  }
 
   void begin_mc_window(Nanos now) {
     const AttackConfig& a = cfg.attack;
-    attacking = a.enabled == AttackSwitch::On && now >= to_nanos(a.start) &&
-                (a.max_windows == 0 || attack_windows < a.max_windows);
-    if (attacking) ++attack_windows;
+    if (a.enabled == AttackSwitch::On && now >= to_nanos(a.start) &&
+        (a.max_windows == 0 || attack_windows < a.max_windows)) {
+      begin_attack(now);
+    }
+  }
+
+  // The generator moved x_sp: it publishes it, replacing whatever the attacker published last.
+  void setpoint_moved(UpdateOutcome outcome) {
+    if (outcome == UpdateOutcome::Moved) attacker_setpoint.reset();
   }
 
   void handle(HandlerRequest request, Nanos now) {
@@ -180,7 +220,7 @@ struct SrSimulation::Impl {
       case HandlerRequest::UpdateSetpoint:
         mode = SrMode::Update;
         event(SrEventKind::Mode, now);
-        (void)sw.setpoints.update(sw.estimator.estimate(), design.ellipsoid, cfg.rho_M);
+        setpoint_moved(sw.setpoints.update(published_estimate(), design.ellipsoid, cfg.rho_M));
         return;
       case HandlerRequest::Checkpoint: {
         // The image is the software as it is now, its handler inside checkpoint(): restored later, that call
@@ -213,24 +253,32 @@ struct SrSimulation::Impl {
     }
   }
 
+  // The mission controller's step in MC, as the compromised service of the attack (if any) makes it.
+  [[nodiscard]] InputVec mission_control(const StateVec& x_hat, const StateVec& x_sp) const {
+    if (attacking_with(AttackLaw::WorstCaseControl)) {
+      return worst_case_corner(design.restricted, design.ellipsoid.P(), design.continuous.B, state_error(x_hat, x_sp));
+    }
+    if (attacking_with(AttackLaw::GainOverwrite)) return overwritten_mission.control(x_hat, x_sp);
+    return design.mission.control(x_hat, x_sp);
+  }
+
   void control_step(Nanos now) {
-    const StateVec& x_hat = sw.estimator.estimate();
-    const StateVec& x_sp = sw.setpoints.setpoint();
+    const StateVec x_hat = published_estimate();
     InputVec u = design.u_hover;
     switch (mode) {
-      case SrMode::MC:
+      case SrMode::MC: {
         if (!sr_on() && !attacking && cfg.attack.enabled == AttackSwitch::On && now >= to_nanos(cfg.attack.start) &&
             attack_windows == 0) {
-          attacking = true;  // without SR the one MC window never ends: the attack starts once and stays
-          attack_windows = 1;
+          begin_attack(now);  // without SR the one MC window never ends: the attack starts once and stays
         }
-        u = attacking ? worst_case_corner(design.restricted, design.ellipsoid.P(), design.continuous.B,
-                                          state_error(x_hat, x_sp))
-                      : design.mission.control(x_hat, x_sp);
+        const StateVec x_sp = mission_setpoint();
+        if (attacking_with(AttackLaw::SetpointShift)) attacker_setpoint = x_sp;
+        u = mission_control(x_hat, x_sp);
         break;
+      }
       case SrMode::SC:
       case SrMode::Update:
-        u = design.safety.control(x_hat, x_sp);
+        u = design.safety.control(x_hat, sw.setpoints.setpoint());
         break;
       case SrMode::RB:
       case SrMode::CP:
@@ -246,26 +294,29 @@ struct SrSimulation::Impl {
     if (now < hold_until) return;
     const double rho_s = cfg.handler.rho_s;
     if (V_hat() < rho_s * rho_s) {
-      if (sw.setpoints.update(sw.estimator.estimate(), design.ellipsoid, cfg.rho_M) == UpdateOutcome::Moved) {
-        hold_until = now + to_nanos(cfg.handler.t_min);
-      }
+      const UpdateOutcome outcome = sw.setpoints.update(published_estimate(), design.ellipsoid, cfg.rho_M);
+      setpoint_moved(outcome);
+      if (outcome == UpdateOutcome::Moved) hold_until = now + to_nanos(cfg.handler.t_min);
     }
   }
 
   void check_completion(Nanos now) {
     if (completed || !sw.setpoints.finished()) return;
     const Eigen::Vector3d goal = path->waypoints().back().p_N_m;
-    if ((sw.estimator.estimate().segment<3>(idx::kPos) - goal).norm() <= cfg.acceptance_radius_m) {
+    if ((published_estimate().segment<3>(idx::kPos) - goal).norm() <= cfg.acceptance_radius_m) {
       completed = true;
       completed_at = now;
     }
   }
 
-  void run_software(Nanos now, const plant::SensorSamples& samples) {
+  void run_software(Nanos now, const plant::SensorSamples& raw) {
+    plant::SensorSamples samples = raw;
+    // A compromised sensors service biases the combined IMU data ekf2 integrates (SENSOR_BIAS).
+    if (attacking_with(AttackLaw::SensorBias) && samples.gyro) samples.gyro->omega_B_rad_s += gyro_bias(magnitude);
     const bool fresh = sw.estimator.on_samples(samples);
     if (fresh) {
       const StateVec x = true_state(plant.state());
-      max_est_err_P = std::max(max_est_err_P, design.ellipsoid.V(x, sw.estimator.estimate()));
+      max_est_err_P = std::max(max_est_err_P, design.ellipsoid.V(x, published_estimate()));
       control_step(now);
     }
     if (sr_on()) {
@@ -327,7 +378,7 @@ struct SrSimulation::Impl {
     next_sample += control_period;
     const plant::QuadState& q = plant.state();
     const StateVec x = true_state(q);
-    const double V = design.ellipsoid.V(x, sw.setpoints.setpoint());
+    const double V = design.ellipsoid.V(x, published_setpoint());
     if (!std::isfinite(V) || !x.allFinite()) {
       lost = true;
       done = true;
@@ -343,9 +394,9 @@ struct SrSimulation::Impl {
       done = true;
     }
     if (observers.trace) {
-      observers.trace(TraceRow{.t = now, .x = x, .x_hat = sw.estimator.estimate(), .x_sp = sw.setpoints.setpoint(),
+      observers.trace(TraceRow{.t = now, .x = x, .x_hat = published_estimate(), .x_sp = published_setpoint(),
                                .mode = mode, .u = driver.applied_u(), .V = V,
-                               .est_err = design.ellipsoid.V(x, sw.estimator.estimate())});
+                               .est_err = design.ellipsoid.V(x, published_estimate())});
     }
   }
 
@@ -406,6 +457,7 @@ struct SrSimulation::Impl {
     s.set_runner("sim");
     s.set_sr(sr_on());
     s.set_attack(cfg.attack.enabled == AttackSwitch::On);
+    if (cfg.attack.enabled == AttackSwitch::On) s.set_attack_kind(std::string(to_string(cfg.attack.law)));
     s.set_seed(cfg.seed);
     s.set_mission_completed(completed);
     s.set_mission_time_s(to_seconds(completed ? completed_at : t).count());
@@ -470,6 +522,7 @@ bool SrSimulation::finished() const { return impl_->done; }
 Nanos SrSimulation::now() const { return impl_->t; }
 SrMode SrSimulation::mode() const { return impl_->mode; }
 const StateVec& SrSimulation::estimate() const { return impl_->sw.estimator.estimate(); }
+StateVec SrSimulation::published_estimate() const { return impl_->published_estimate(); }
 const StateVec& SrSimulation::setpoint() const { return impl_->sw.setpoints.setpoint(); }
 StateVec SrSimulation::truth() const { return true_state(impl_->plant.state()); }
 const ControlDesign& SrSimulation::design() const { return impl_->design; }

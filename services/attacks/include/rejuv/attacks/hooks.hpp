@@ -122,3 +122,21 @@ class AttackHooks {
 [[nodiscard]] bool sandboxed();
 
 }  // namespace rejuv::attacks
+
+#include <initializer_list>
+
+#include "rejuv/attacks/law.hpp"
+
+namespace rejuv::attacks {
+
+// The attack library's plan for this service (law.hpp) from its boot params: the first attack of one of
+// `laws`; logs it (Warn) when there is one. An error names the bad param (the caller refuses to boot).
+[[nodiscard]] Result<std::optional<LawAttack>, PlanError> law_attack_of(sdk::Service& svc,
+                                                                       std::initializer_list<flight::AttackLaw> laws);
+
+// The law's window on the service's time page: τ into the attacked MC window, or nullopt.
+[[nodiscard]] inline std::optional<Seconds> law_tau(LawWindow& window, const sdk::Service& svc) {
+  return window.tau(svc.now(), svc.mode(), svc.epoch());
+}
+
+}  // namespace rejuv::attacks

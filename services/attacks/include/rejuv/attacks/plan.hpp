@@ -4,7 +4,7 @@
 // attack.<j>.kind (text), attack.<j>.start_s, attack.<j>.max_windows; docs/protocol.md "Boot params"), and
 // the service param escape_port (ESCAPE_HELPER's target). ESCAPE_HELPER is carried out once, at boot, not
 // per window (its start_s and max_windows are ignored).
-// WORST_CASE_CONTROL (kind 1) is the controller's attack (services/lqr_control) and is skipped here.
+// WORST_CASE_CONTROL (kind 1) and the attack library (13–17, law.hpp) act on the vehicle and are skipped here.
 //
 // Everything here lives in the service's memory, so a rollback wipes it like any other corruption; the
 // windows are counted from rollback epochs (kernel state on the time page), so a restored image knows which

@@ -284,7 +284,7 @@ struct ConnectOptions {
 //   mission.<i>.north_m, mission.<i>.east_m, mission.<i>.down_m, mission.<i>.yaw_rad  (i = 0 … count-1),
 //   attack.enabled (0/1: the plan is on AND names this service), attack.count (attacks naming this
 //   service), attack.<j>.kind (text: the AttackKind name, e.g. "WORST_CASE_CONTROL"), attack.<j>.start_s,
-//   attack.<j>.max_windows.
+//   attack.<j>.max_windows, attack.<j>.magnitude (the attack library's size; 0 = the kind's default).
 class Service {
  public:
   static constexpr std::size_t kMaxTimers = 32;  // per service (docs/protocol.md)

@@ -16,6 +16,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
 
 #include "rejuv/flight/estimator_node.hpp"
@@ -54,6 +55,14 @@ class Ekf2Node {
   // False only while a node made by from_first_fix waits for its first GPS fix.
   [[nodiscard]] bool started() const { return node_.has_value(); }
 
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOK (test builds only; estimate_attack.hpp) ====
+  // Sees every estimate on its way out and may change it (a compromised ekf2). A rollback wipes whatever the
+  // hook holds, like any other corruption of the image.
+  using EstimateHook = std::function<void(rejuv_msg_VehicleStateEstimate&)>;
+  void set_attack_hook(EstimateHook hook) { attack_hook_ = std::move(hook); }
+#endif
+
  private:
   // Fuses the held samples without a prediction (a second sample of a sensor arrived before the IMU tick).
   void flush_held();
@@ -67,6 +76,33 @@ class Ekf2Node {
   std::optional<flight::EstimatorNode> node_;
   plant::SensorSamples held_;  // aiding samples only (mag, baro, gps)
   bool integrated_ = false;    // at least one IMU tick
+#if defined(REJUV_ATTACK_HOOKS)
+  EstimateHook attack_hook_;
+#endif
 };
+
+}  // namespace rejuv::services
+
+namespace rejuv::sdk {
+class Service;
+}  // namespace rejuv::sdk
+
+namespace rejuv::services {
+
+// The attack library on ekf2 (docs/control.md "Attack library", flight/attack_library.hpp): ESTIMATE_SHIFT and
+// ESTIMATE_DRIFT, a compromised estimator that publishes x̂ + offset in attacked MC windows — false data on the
+// topic every controller reads. The offset and the window live in this process's memory (the hook of
+// Ekf2Node), so the rollback to the clean image erases them. Test builds only (REJUV_ATTACK_HOOKS); otherwise
+// arming does nothing.
+#if defined(REJUV_ATTACK_HOOKS)
+// Reads the plan (attack.*), and if it names ESTIMATE_SHIFT or ESTIMATE_DRIFT installs the hook. False (the
+// error logged) on bad params: the service refuses to boot.
+[[nodiscard]] bool arm_estimate_attack(sdk::Service& svc, Ekf2Node& node);
+// The message as x̂ + offset would be published: p, v, ω shifted, the attitude rebuilt from the shifted Euler
+// angles (ZYX, the inverse of flight::euler_from_quaternion), so that state_from_message reads x̂ + offset.
+void shift_estimate(rejuv_msg_VehicleStateEstimate& m, const flight::StateVec& offset);
+#else
+[[nodiscard]] inline bool arm_estimate_attack(sdk::Service& /*svc*/, Ekf2Node& /*node*/) { return true; }
+#endif
 
 }  // namespace rejuv::services

@@ -35,6 +35,9 @@ class LqrController {
   [[nodiscard]] InputVec unclamped(const StateVec& x_hat, const StateVec& x_sp) const;
 
   [[nodiscard]] const GainMat& K() const { return K_; }
+  // The same controller with its gain replaced by K (the attack library's GAIN_OVERWRITE: a compromised
+  // controller's memory; attack_library.hpp). Nothing is checked: the point is a gain no design made.
+  [[nodiscard]] LqrController with_gain(const GainMat& K) const;
   [[nodiscard]] const StateMat& closed_loop() const { return A_cl_; }  // A − B K
   [[nodiscard]] const StateMat& riccati_X() const { return X_; }
   [[nodiscard]] double dare_residual() const { return residual_; }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "rejuv/core/time.hpp"
+#include "rejuv/flight/attack_library.hpp"
 #include "rejuv/flight/control_design.hpp"
 #include "rejuv/flight/ekf.hpp"
 #include "rejuv/flight/estimator_node.hpp"
@@ -20,9 +21,12 @@ namespace rejuv::flight {
 enum class SrSwitch : std::uint8_t { On, Off };
 enum class AttackSwitch : std::uint8_t { On, Off };
 
-// The worst-case control attack of the plan (§VI-D).
+// The attack of the plan that acts on the vehicle: the worst-case control of §VI-D or another law of the
+// attack library.
 struct AttackConfig {
   AttackSwitch enabled = AttackSwitch::On;
+  AttackLaw law = AttackLaw::WorstCaseControl;
+  double magnitude = 0.0;  // 0 = the law's default (attack_library.hpp)
   Seconds start{0};               // first MC window at or after this time
   std::uint32_t max_windows = 0;  // 0 = every MC window
 };

@@ -6,7 +6,9 @@
 // → MC. With SR off the same tracking algorithm runs in MC forever (Table I's configurations "implement the
 // same tracking algorithm"): the setpoint advances by the same rule whenever ‖x̂ − x_sp‖_P < ρ_s.
 // Attacks (§VI-D): the compromised mission controller publishes the corner of Ū that maximises V̇ from the
-// start of every MC window (without SR: from the first and for ever).
+// start of every MC window (without SR: from the first and for ever); or another kind of the attack library
+// (attack_library.hpp: a shifted or drifting estimate, a biased gyro, a moving setpoint, an overwritten gain),
+// each as the runtime's hook in the compromised service does it, erased by the rollback with the image.
 //
 // This engine is the reference the multi-process runtime is compared with: each piece (handler, kernel timer
 // and image store, output driver, estimator node, setpoint generator, controllers) is its own type.
@@ -24,6 +26,7 @@
 #include "rejuv/textproto/textproto.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
+#include "rejuv/flight/attack_library.hpp"
 #include "rejuv/flight/control_design.hpp"
 #include "rejuv/flight/ekf.hpp"
 #include "rejuv/flight/estimator_node.hpp"
@@ -103,6 +106,8 @@ class SrSimulation {
   [[nodiscard]] Nanos now() const;
   [[nodiscard]] SrMode mode() const;
   [[nodiscard]] const StateVec& estimate() const;
+  // x̂ as ekf2 publishes it: estimate(), shifted while a compromised ekf2 attacks (attack_library.hpp).
+  [[nodiscard]] StateVec published_estimate() const;
   [[nodiscard]] const StateVec& setpoint() const;
   [[nodiscard]] StateVec truth() const;
   [[nodiscard]] const ControlDesign& design() const;

@@ -21,6 +21,7 @@
 #include "rejuv/flight_io/mission_record.hpp"
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 
@@ -63,6 +64,15 @@ class SetpointNode {
     return generator_ ? &*generator_ : nullptr;
   }
 
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOK (test builds only; arm_setpoint_attack) ====
+  // Called on every estimate with its time; a returned offset is added to x_sp from then on (a compromised
+  // gen_set_point), and the moved x_sp is published as soon as the mode allows. The offset stays in memory
+  // until a rollback wipes it, like any other corruption of the image.
+  using SetpointHook = std::function<std::optional<flight::StateVec>(Nanos t)>;
+  void set_attack_hook(SetpointHook hook) { attack_hook_ = std::move(hook); }
+#endif
+
  private:
   void track_without_sr(Nanos now);
   void check_completion(Nanos now);
@@ -80,6 +90,29 @@ class SetpointNode {
   std::optional<Nanos> done_at_;
   std::optional<Nanos> changed_at_;  // pending publication
   bool restored_ = false;            // from a kept record: on_mission is ignored
+#if defined(REJUV_ATTACK_HOOKS)
+  SetpointHook attack_hook_;
+  flight::StateVec attack_offset_ = flight::StateVec::Zero();
+#endif
 };
+
+}  // namespace rejuv::services
+
+namespace rejuv::sdk {
+class Service;
+}  // namespace rejuv::sdk
+
+namespace rejuv::services {
+
+// The attack library on gen_set_point (docs/control.md "Attack library", flight/attack_library.hpp):
+// SETPOINT_SHIFT, a compromised generator that moves x_sp down, towards the ground, in attacked MC windows
+// (the policy lets it publish in MC). The offset and the window live in this process's memory: the rollback
+// erases them. Test builds only; otherwise arming does nothing.
+#if defined(REJUV_ATTACK_HOOKS)
+// False (the error logged) on bad attack params: the service refuses to boot.
+[[nodiscard]] bool arm_setpoint_attack(sdk::Service& svc, SetpointNode& node);
+#else
+[[nodiscard]] inline bool arm_setpoint_attack(sdk::Service& /*svc*/, SetpointNode& /*node*/) { return true; }
+#endif
 
 }  // namespace rejuv::services

@@ -37,6 +37,13 @@ class ImuCombiner {
 
   [[nodiscard]] std::uint64_t published() const { return published_; }
 
+#if defined(REJUV_ATTACK_HOOKS)
+  // ==== ATTACK HOOK (test builds only; arm_bias_attack) ====
+  // Sees every combined tick on its way out and may change it (a compromised sensors service).
+  using CombinedHook = std::function<void(rejuv_msg_SensorCombined&)>;
+  void set_attack_hook(CombinedHook hook) { attack_hook_ = std::move(hook); }
+#endif
+
  private:
   void emit(const plant::GyroSample& gyro);
   [[nodiscard]] Seconds interval(Nanos now, std::optional<Nanos>& last) const;
@@ -48,6 +55,28 @@ class ImuCombiner {
   std::optional<Nanos> last_gyro_t_;               // of the last published tick
   std::optional<Nanos> last_accel_t_;
   std::uint64_t published_ = 0;
+#if defined(REJUV_ATTACK_HOOKS)
+  CombinedHook attack_hook_;
+#endif
 };
+
+}  // namespace rejuv::services
+
+namespace rejuv::sdk {
+class Service;
+}  // namespace rejuv::sdk
+
+namespace rejuv::services {
+
+// The attack library on sensors (docs/control.md "Attack library", flight/attack_library.hpp): SENSOR_BIAS, a
+// compromised sensors service that adds a gyro bias to every combined tick in attacked MC windows; ekf2
+// integrates it. The bias and the window live in this process's memory (the hook of ImuCombiner): the rollback
+// erases them (and ekf2's rollback what it integrated). Test builds only; otherwise arming does nothing.
+#if defined(REJUV_ATTACK_HOOKS)
+// False (the error logged) on bad attack params: the service refuses to boot.
+[[nodiscard]] bool arm_bias_attack(sdk::Service& svc, ImuCombiner& combiner);
+#else
+[[nodiscard]] inline bool arm_bias_attack(sdk::Service& /*svc*/, ImuCombiner& /*combiner*/) { return true; }
+#endif
 
 }  // namespace rejuv::services

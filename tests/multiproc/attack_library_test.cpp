@@ -1,0 +1,98 @@
+// The attack library on the multi-process runtime (issue 20 item 6; docs/control.md "Attack library"): each
+// kind flown by `rejuv run` on the square (seed 1) through the real kernel, services and plant, with the hook
+// in the compromised service (ekf2, sensors, gen_set_point, lqr_control) — one test per kind, each two short
+// missions: without SR the attack does harm (the vehicle leaves the safety set, max V >= 1, and the run stops
+// when it is lost, V > 100), with SR the corruption is erased at every rollback and the vehicle stays inside
+// (max V < 1) through the attacked windows of the flight. Asserted by effect; no timing.
+#include <google/protobuf/util/json_util.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "../rejuv_cli.hpp"
+#include "../test_domain.hpp"
+#include "summary.pb.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+using rejuv::test_support::kRepo;
+
+// Seconds of flight: long enough for every kind to lose the vehicle without SR (the model: ≤ 16 s) and for
+// several attacked MC windows with SR (one SR cycle ≈ 3.1 s on the square).
+constexpr double kFlightNoSr = 20.0;
+constexpr double kFlightSr = 16.0;
+
+class AttackLibrary : public rejuv::test_support::ScratchDirTest {
+ protected:
+  AttackLibrary() : ScratchDirTest("rejuv_attack_library_") {}
+  [[nodiscard]] bool keep_on_failure() const override { return true; }
+
+  struct Flight {
+    int exit_code = -1;
+    rejuv::proto::RunSummary summary;
+    std::string err;
+  };
+
+  Flight fly(const std::string& kind, bool sr) {
+    const fs::path json = dir_ / (kind + (sr ? "_sr" : "_nosr") + ".json");
+    std::vector<std::string> args{"run",          (kRepo / "launch/quad_square.launch.pbtxt").string(),
+                                  "--attack",     kind,
+                                  "--seed",       "1",
+                                  "--duration",   std::to_string(sr ? kFlightSr : kFlightNoSr),
+                                  "--domain",     std::to_string(rejuv::test_support::kOwnDdsDomain),
+                                  "--net-port",   "0",
+                                  "--summary-json", json.string()};
+    if (!sr) args.emplace_back("--no-sr");
+    const auto r = rejuv::test_support::run_rejuv(dir_, args);
+    Flight f;
+    f.exit_code = r.exit_code;
+    f.err = r.err;
+    const auto status = google::protobuf::util::JsonStringToMessage(rejuv::test_support::slurp(json), &f.summary);
+    EXPECT_TRUE(status.ok()) << kind << (sr ? " SR" : " no SR") << ": no summary; stderr:\n" << r.err;
+    std::printf("[ %s, SR %s ] exit %d, max V %.4f, d_max %.1f cm, %llu attacked windows, %llu rollbacks, %.1f s\n",
+                kind.c_str(), sr ? "on" : "off", r.exit_code, f.summary.max_v(), 100.0 * f.summary.d_max_m(),
+                static_cast<unsigned long long>(f.summary.attacks()),
+                static_cast<unsigned long long>(f.summary.rollbacks()), f.summary.mission_time_s());
+    return f;
+  }
+
+  // The kind's two missions and what they must show.
+  void harms_without_sr_contained_with_sr(const std::string& kind) {
+    const Flight off = fly(kind, false);
+    EXPECT_EQ(off.summary.attack_kind(), kind);
+    EXPECT_EQ(off.exit_code, 1) << off.err;
+    EXPECT_GE(off.summary.max_v(), 1.0) << "without SR the attack must leave the safety set";
+    EXPECT_TRUE(off.summary.left_safety_set());
+    EXPECT_GT(off.summary.d_max_m(), 0.5) << "the vehicle more than 50 cm off the square";
+
+    const Flight on = fly(kind, true);
+    EXPECT_EQ(on.summary.attack_kind(), kind);
+    EXPECT_EQ(on.exit_code, 0) << on.err;
+    EXPECT_LT(on.summary.max_v(), 1.0) << "with SR the vehicle stays inside the safety set";
+    EXPECT_FALSE(on.summary.left_safety_set());
+    // Every MC window is attacked (the plan's max_windows 0), and every one ends in a rollback. (The summary's
+    // `attacks` counts the windows whose controls were the worst-case corner — the run recorder recognises
+    // WORST_CASE_CONTROL by its effect only — so it is 0 for these kinds.)
+    EXPECT_GE(on.summary.rollbacks(), 3U) << "attacked MC windows, each rolled back";
+  }
+};
+
+TEST_F(AttackLibrary, EstimateShift_HarmsWithoutSrContainedWithSr) { harms_without_sr_contained_with_sr("ESTIMATE_SHIFT"); }
+TEST_F(AttackLibrary, SensorBias_HarmsWithoutSrContainedWithSr) { harms_without_sr_contained_with_sr("SENSOR_BIAS"); }
+TEST_F(AttackLibrary, SetpointShift_HarmsWithoutSrContainedWithSr) { harms_without_sr_contained_with_sr("SETPOINT_SHIFT"); }
+TEST_F(AttackLibrary, GainOverwrite_HarmsWithoutSrContainedWithSr) { harms_without_sr_contained_with_sr("GAIN_OVERWRITE"); }
+TEST_F(AttackLibrary, EstimateDrift_HarmsWithoutSrContainedWithSr) { harms_without_sr_contained_with_sr("ESTIMATE_DRIFT"); }
+
+// --attack is case-insensitive and an unknown kind is refused before any work, naming the valid ones.
+TEST_F(AttackLibrary, UnknownKind_Exit2ListingTheKinds) {
+  const auto r = rejuv::test_support::run_rejuv(
+      dir_, {"run", (kRepo / "launch/quad_square.launch.pbtxt").string(), "--attack", "ESTIMATE_SHIFTY"});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("unknown attack kind 'ESTIMATE_SHIFTY'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("WORST_CASE_CONTROL, ESTIMATE_SHIFT, SENSOR_BIAS"), std::string::npos) << r.err;
+}
+
+}  // namespace

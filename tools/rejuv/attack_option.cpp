@@ -1,0 +1,58 @@
+#include "attack_option.hpp"
+
+#include <algorithm>
+
+namespace rejuv::cli {
+
+Result<flight::AttackLaw, std::string> parse_attack_kind(std::string_view text) {
+  if (const auto law = flight::attack_law_from_name_icase(text)) return *law;
+  return fail("--attack: unknown attack kind '" + std::string(text) +
+              "'; the kinds that act on the vehicle: " + flight::attack_law_names());
+}
+
+Result<void, std::string> override_attack(launch::LoadedLaunch& loaded, flight::AttackLaw law) {
+  proto::AttackPlan& plan = *loaded.graph.mutable_attack();
+  const auto kind = static_cast<proto::AttackKind>(flight::proto_number(law));
+  const std::string service(flight::default_service(law));
+  const proto::ServiceSpec* target = launch::find_service(loaded.graph, service);
+  if (target == nullptr) {
+    return fail("--attack " + std::string(flight::to_string(law)) + ": the graph " + loaded.graph.name() +
+                " has no service \"" + service + "\" (the service this kind compromises)");
+  }
+  if (const auto hooks = launch::attack_hooks_of(target->executable());
+      hooks && std::find(hooks->begin(), hooks->end(), kind) == hooks->end()) {
+    return fail("--attack " + std::string(flight::to_string(law)) + ": service \"" + service + "\" (" +
+                target->executable() + ") has no hook for it");
+  }
+  plan.set_enabled(true);
+  proto::Attack& first = plan.attacks_size() > 0 ? *plan.mutable_attacks(0) : *plan.add_attacks();
+  if (first.kind() != kind) first.set_magnitude(0.0);
+  first.set_kind(kind);
+  first.set_service(service);
+  return {};
+}
+
+Result<void, std::string> apply_attack_option(launch::LoadedLaunch& loaded, std::string_view text) {
+  auto law = parse_attack_kind(text);
+  if (!law) return fail(std::move(law.error()));
+  return override_attack(loaded, *law);
+}
+
+void start_attack_library_after(proto::Launch& graph, Nanos alignment) {
+  for (proto::Attack& a : *graph.mutable_attack()->mutable_attacks()) {
+    const auto law = flight::attack_law_from_number(a.kind());
+    if (law && *law != flight::AttackLaw::WorstCaseControl) {
+      a.set_start_s(a.start_s() + to_seconds(alignment).count());
+    }
+  }
+}
+
+std::string vehicle_attack_kind(const proto::Launch& graph) {
+  if (!graph.attack().enabled()) return "";
+  for (const proto::Attack& a : graph.attack().attacks()) {
+    if (const auto law = flight::attack_law_from_number(a.kind())) return std::string(flight::to_string(*law));
+  }
+  return "";
+}
+
+}  // namespace rejuv::cli
