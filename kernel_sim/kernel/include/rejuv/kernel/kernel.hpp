@@ -6,10 +6,10 @@
 // clock (lockstep with the plant as time master, or realtime), supervises every child through its pidfd and
 // shuts everything down cleanly (SIGINT/SIGTERM, mission end, a duration limit, or a failure).
 //
-// What comes next (DESIGN §7, the image store) slots in at three places, all inside the kernel's sources:
-// the per-service record (channel, pidfd, boot info, subscriptions, timers, counters: one struct), the
-// supervisor's single death handler (today: with SR off a lost service ends the run; then: roll back), and
-// the Checkpoint invocations (today: OpError::NotSupported).
+// With SR (DESIGN §7) the image store checkpoints every rejuvenated service by written pages or fork, with
+// the broker's queue state, and rolls them back on the rejuvenation timer, on a lost service or on a sandbox
+// violation in MC (images.cpp); a lost driver-level service, or any loss without SR, ends the run
+// (supervisor.cpp). Containment: sandbox.cpp and docs/sandbox.md.
 //
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 #pragma once
