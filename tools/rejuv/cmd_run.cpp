@@ -294,6 +294,7 @@ int run_run(std::span<const std::string_view> args) {
   // The reference for the metrics: the same path, control design and P as `rejuv sim` (services/flight/sim).
   auto reference = run_reference(*loaded, options.seed);
   if (!reference) return bad_input(reference.error());
+  if (no_attack) reference->library_attack.reset();
   // The plant aligns as long as `rejuv sim` does (launch lockstep.alignment_s, passed by the kernel), so that both
   // fly from a converged estimate; --duration counts from the end of it.
   if (options.duration) *options.duration += reference->alignment;

@@ -49,10 +49,15 @@ Result<RunReference, std::string> run_reference(const launch::LoadedLaunch& grap
   if (!design) return fail("rejuv run: control design: " + design.error().to_string());
   auto path = flight::WaypointPath::make(config->waypoints);
   if (!path) return fail("rejuv run: mission path: " + path.error().message);
+  std::optional<flight::AttackConfig> library;
+  if (config->attack.enabled == flight::AttackSwitch::On && config->attack.law != flight::AttackLaw::WorstCaseControl) {
+    library = config->attack;
+  }
   return RunReference{.design = std::move(*design),
                       .path = std::move(*path),
                       .alignment = std::chrono::round<Nanos>(config->alignment),
-                      .lost_V = config->lost_V};
+                      .lost_V = config->lost_V,
+                      .library_attack = library};
 }
 
 RunRecorder::RunRecorder(RunReference reference, std::FILE* csv, Progress progress)
@@ -132,8 +137,12 @@ void RunRecorder::fill(proto::RunSummary& s, Nanos end) const {
   s.set_stopped_after_attacks(stopped_after_attacks_);
 }
 
+bool RunRecorder::window_attacked(const Window& w) const {
+  return ref_.library_attack ? w.planned : attacked(w.samples, w.corners);
+}
+
 std::uint64_t RunRecorder::attacked_windows() const {
-  return attacked_closed_ + (window_ && attacked(window_->samples, window_->corners) ? 1 : 0);
+  return attacked_closed_ + (window_ && window_attacked(*window_) ? 1 : 0);
 }
 
 void RunRecorder::on_mc_controls(const flight::InputVec& u, Nanos stamp, std::uint32_t epoch) {
@@ -141,8 +150,14 @@ void RunRecorder::on_mc_controls(const flight::InputVec& u, Nanos stamp, std::ui
   // Only controls computed from the estimate the recorder holds (the controller stamps them with it).
   if (stamp != x_hat_stamp_) return;
   if (!window_ || window_->epoch != epoch) {
-    if (window_ && attacked(window_->samples, window_->corners)) ++attacked_closed_;
+    if (window_ && window_attacked(*window_)) ++attacked_closed_;
     window_ = Window{.epoch = epoch};
+    if (const auto& plan = ref_.library_attack;
+        plan && stamp - ref_.alignment >= std::chrono::round<Nanos>(plan->start) &&
+        (plan->max_windows == 0 || planned_windows_ < plan->max_windows)) {
+      window_->planned = true;
+      ++planned_windows_;
+    }
     if (stop_after_ > 0 && attacked_closed_ >= stop_after_ && !stopped_after_attacks_) {
       stopped_after_attacks_ = true;
       std::fprintf(stderr, "rejuv run: %llu attacked MC windows flown: stopping the run (stop_after_attacks)\n",

@@ -30,6 +30,10 @@ struct RunReference {
   flight::WaypointPath path;
   Nanos alignment{0};    // the plant's pre-flight alignment (launch lockstep.alignment_s), as long as the model's
   double lost_V = 100;   // V above which the vehicle is lost and the run ends (flight::SimConfig::lost_V)
+  // The plan's attack on the vehicle when it is a law of the attack library (not the worst-case control): it
+  // acts through another service (an estimate, a sensor, x_sp, the gain), so the controls carry no signature
+  // of it; its MC windows are counted by the plan (start, max_windows), as the model counts them.
+  std::optional<flight::AttackConfig> library_attack{};
 };
 // From the graph and the seed (nullopt: the graph's). The error is a message for the user (bad input).
 [[nodiscard]] Result<RunReference, std::string> run_reference(const launch::LoadedLaunch& graph,
@@ -119,9 +123,12 @@ class RunRecorder final : public kernel::Observer {
     std::uint32_t epoch = 0;
     std::uint64_t samples = 0;  // controls matched to the estimate they were computed from
     std::uint64_t corners = 0;  // … of which were the worst-case corner
+    bool planned = false;       // a window the library attack acts in (by the plan)
   };
   std::optional<Window> window_;
   std::uint64_t attacked_closed_ = 0;  // attacked windows already closed
+  std::uint64_t planned_windows_ = 0;  // windows the library attack was planned for so far
+  [[nodiscard]] bool window_attacked(const Window& w) const;
 };
 
 }  // namespace rejuv::cli
