@@ -346,7 +346,8 @@ bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
   // that the kernel made it fork and no longer wants. Anything else the pid could name is left alone.
   if (frame.kind != wire::FrameKind::Taken) return true;
   const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
-  const auto sid = pid > 0 && !knows_process(pid, nullptr) ? sys::session_of(pid) : sys::SysResult<pid_t>(std::unexpected(sys::SysError{"pid", ESRCH}));
+  if (pid <= 0 || knows_process(pid, nullptr)) return true;
+  const auto sid = sys::session_of(pid);
   if (sid && std::find(s.sessions.begin(), s.sessions.end(), *sid) != s.sessions.end()) {
     (void)sys::kill_and_reap_own_child(pid);
   }

@@ -221,11 +221,7 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
   auto children = sys::own_children();
   if (!children) return;
   const auto known = [&](pid_t pid) {
-    if (plant_started && plant.pid() == pid) return true;
-    for (const ServiceRuntime& s : services) {
-      if (s.process.pid() == pid) return true;
-    }
-    if (images.owns(pid)) return true;
+    if (knows_process(pid, nullptr)) return true;  // the plant, a live service, an image of a kept generation
     for (const image::GenerationRecord& r : retiring) {
       for (const image::Image& im : r.images) {
         for (const sys::ChildProcess& c : im.copies) {
