@@ -1,5 +1,5 @@
 // The DDS domain of a test process (DESIGN §11: tests run side by side under ctest -j): a lease of
-// rejuv/sys/dds_domain.hpp (the lock file shared with `rejuv sweep`), held for the test process's whole life.
+// rejuv/sys/lease.hpp (the lock file shared with `rejuv sweep`), held for the test process's whole life.
 #pragma once
 
 #include <unistd.h>
@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <optional>
 
-#include "rejuv/sys/dds_domain.hpp"
+#include "rejuv/sys/lease.hpp"
 
 namespace rejuv::test_support {
 
@@ -21,7 +21,7 @@ inline std::uint32_t lock_own_dds_domain() {
   auto taken = sys::lease_dds_domain(start);
   if (!taken) return start + 1;  // no lock file possible, or every domain held: share one, as before
   lease.emplace(std::move(*taken));
-  return lease->domain();
+  return lease->slot();
 }
 
 // Taken once, before main (so that no test sees the lock's fd appear among its resources).

@@ -17,7 +17,7 @@
 
 #include "args.hpp"
 #include "charge.hpp"
-#include "rejuv/sys/dds_domain.hpp"
+#include "rejuv/sys/lease.hpp"
 #include "rejuv/sys/process.hpp"
 #include "commands.hpp"
 #include "fault_campaign.hpp"
@@ -101,7 +101,7 @@ int run_faults(std::span<const std::string_view> args) {
   if (*domain + *jobs - 1 > launch::defaults::kMaxDdsDomainId) return bad_input("rejuv faults: --domain too high");
   if (*bound < 10) return bad_input("rejuv faults: --mission-timeout: expected at least 10 s");
   const auto charge = to_charge(charge_text, "--charge");
-  // Without --domain each job holds a leased domain (sys/dds_domain.hpp) for the campaign: two campaigns, a
+  // Without --domain each job holds a leased domain (sys/lease.hpp) for the campaign: two campaigns, a
   // campaign and the tests, or two checkouts' test suites on one machine never share a DDS domain.
   std::vector<sys::DdsDomainLease> leases;
   if (!domain_set) {
@@ -154,7 +154,7 @@ int run_faults(std::span<const std::string_view> args) {
       std::vector<faults::Mission> mine;
       for (std::size_t m = j; m < missions.size(); m += *jobs) mine.push_back(missions[m]);
       const faults::JobConfig config{.graph = graph_path,
-                                     .dds_domain = domain_set ? static_cast<std::uint32_t>(*domain + j) : leases[j].domain(),
+                                     .dds_domain = domain_set ? static_cast<std::uint32_t>(*domain + j) : leases[j].slot(),
                                      .cpu = static_cast<int>(j % static_cast<std::uint64_t>(cpus)),
                                      .mission_wall_bound = std::chrono::seconds{*bound},
                                      .log = out_dir / ("job-" + std::to_string(j) + ".log"),

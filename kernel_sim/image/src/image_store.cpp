@@ -37,23 +37,32 @@ std::size_t Image::refresh() {
       --spares_pending;
     }
     const pid_t pid = wire::payload_as<wire::TakenBody>(*frame).image_pid;
-    if (pid <= 0) continue;
+    if (pid <= 0) {
+      const auto e = static_cast<int>(wire::payload_as<wire::TakenBody>(*frame).reserved);
+      last_death = "a copy could not fork: " + sys::SysError{"fork", e}.to_string();
+      continue;
+    }
     const bool known = std::find(resumed.begin(), resumed.end(), pid) != resumed.end() ||
                        std::any_of(copies.begin(), copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
     auto child = known ? sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"known", EEXIST}))
                        : sys::ChildProcess::adopt_child(pid);
     if (child) {
       copies.push_back(std::move(*child));
-    } else if (sys::out_of_fds(child.error().error)) {
+      continue;
+    }
+    if (!known) last_death = "copy " + std::to_string(pid) + " could not be adopted: " + child.error().to_string();
+    if (sys::out_of_fds(child.error().error)) {
       // The kernel's own copy, which it has no fd to keep: killed now, not left for a sweep to count as a
       // stray. The generation then lacks a copy, which its rollback reports (unusable, fallback).
       (void)sys::kill_and_reap_own_child(pid);
     }
   }
-  std::erase_if(copies, [](sys::ChildProcess& c) {
+  std::erase_if(copies, [&](sys::ChildProcess& c) {
     if (!c.running()) return true;
     auto status = c.try_wait();
-    return !status || status->has_value();
+    if (status && !status->has_value()) return false;
+    last_death = "copy " + std::to_string(c.pid()) + " " + (status ? (*status)->to_string() : status.error().to_string());
+    return true;
   });
   return copies.size();
 }

@@ -26,6 +26,7 @@
 #include <fcntl.h>
 
 #include <algorithm>
+#include <limits>
 #include <cerrno>
 #include <csignal>
 #include <cstring>
@@ -162,13 +163,11 @@ void Kernel::Impl::resume_routing() {
 // ---- safe points ----
 
 bool Kernel::Impl::service_images() {
-  // Incarnations retired by a rollback: killed here; killed ones reaped, all off the rollback's critical path.
+  // Killed ones reaped (reap_dying); then incarnations retired by a rollback are killed, all off the
+  // rollback's critical path.
+  reap_dying();
   kill_retired();
   if (!retiring.empty()) finish_retiring(false);
-  std::erase_if(reaping, [](sys::ChildProcess& p) {
-    auto status = p.try_wait();
-    return !status || *status;
-  });
   if (!stopping && !checkpoint && !rollback_request && !checkpoint_request) sweep_if_due();  // sandbox.cpp
   if (!sr || stopping || checkpoint) return false;
   if (!rollback_request && !checkpoint_request) {  // off the critical paths
@@ -178,14 +177,58 @@ bool Kernel::Impl::service_images() {
   if (rollback_request) {
     const std::string reason = std::move(*rollback_request);
     rollback_request.reset();
+    settle_dying();
     run_rollback(reason);
     return true;
   }
   if (checkpoint_request && quiescent_for_checkpoint()) {
+    settle_dying();
     run_checkpoint();
     return true;
   }
   return false;
+}
+
+Nanos Kernel::Impl::image_wait_bound() const {
+  const bool seen = clock_mode != ClockMode::Lockstep || options.charge == KernelOptions::Charge::Measured;
+  return seen ? options.resume_deadline : options.unseen_resume_deadline;
+}
+
+// Backpressure before a checkpoint or a rollback, which both need new processes (images, spares): the killed
+// ones hold their uid's process slots (max_processes, RLIMIT_NPROC) until reaped, and on a loaded machine
+// they die slowly — every process of a service shares its session's CPU share. Without this, 1000 SR cycles
+// in 2 s of wall time on 2 cores shared with six other multiproc tests left a copy unable to fork (the
+// generation then unusable). Waits, within image_wait_bound(), until at most as many are dying as every
+// rejuvenated service can spare: half of what its max_processes leaves beside 1 + 2(K + 1).
+void Kernel::Impl::settle_dying() {
+  const auto slack = [&] {
+    std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
+    const std::uint64_t needed = 1 + 2 * (std::uint64_t{launch::keep_generations(graph.graph.sr())} + 1);
+    for (const ServiceRuntime& s : services) {
+      if (!s.rejuvenate || s.skip) continue;
+      if (const auto limit = limits_for(s).processes) least = std::min(least, *limit > needed ? *limit - needed : 0);
+    }
+    return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;
+  }();
+  reap_dying();
+  const Nanos until = wall() + image_wait_bound();
+  while (reaping.size() > slack && wall() < until) {
+    (void)sys::wait_fd(reaping.front().pidfd(), sys::WaitFor::Readable, until - wall());
+    reap_dying();
+  }
+}
+
+// Killed processes reaped; one still dying gets back its normal priority. It was lowered so that its exit
+// would not take the CPU from a checkpoint or rollback; this runs at a safe point after it. Left low, on a
+// loaded machine a process killed at idle priority took seconds to die, and the dying held their uid's
+// process slots: 60 of the worker's 64 in Images.HundredRollbacks on 2 cores shared with six multiproc
+// tests, where its next resumed image could not start its thread.
+void Kernel::Impl::reap_dying() {
+  std::erase_if(reaping, [](sys::ChildProcess& p) {
+    auto status = p.try_wait();
+    if (status && !*status) (void)sys::normal_priority(p.pid());
+    return !status || *status;
+  });
 }
 
 bool Kernel::Impl::quiescent_for_checkpoint() const {
@@ -537,22 +580,30 @@ void Kernel::Impl::retire_live_rejuvenated() {
 }
 
 namespace {
-// The first frame on a restored image's new channel: Resumed{g, its pid}; 0 on anything else or no frame
-// before `deadline`.
-pid_t read_resumed(const sys::SeqPacket& channel, Generation g, Nanos deadline) {
-  const Nanos left = std::max(Nanos{0}, deadline - sys::monotonic_now());
-  auto ready = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, left);
-  if (!ready || !*ready) return 0;
+// The first frame on a restored image's new channel: Resumed{g, its pid}; otherwise why not (a hang-up, no
+// frame before `deadline`, another frame), with the wall time waited.
+std::expected<pid_t, std::string> read_resumed(const sys::SeqPacket& channel, Generation g, Nanos deadline) {
+  const Nanos start = sys::monotonic_now();
+  const auto waited = [&] { return std::to_string(to_ms(sys::monotonic_now() - start)) + " ms"; };
+  auto ready = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::max(Nanos{0}, deadline - start));
+  if (!ready) return std::unexpected("waiting: " + ready.error().to_string());
+  if (!*ready) return std::unexpected("no answer in " + waited());
   std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
   auto got = channel.receive(buf);
-  if (!got || got->closed) return 0;
+  if (!got) return std::unexpected("reading: " + got.error().to_string());
+  if (got->closed) return std::unexpected("its channel hung up after " + waited());
   auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel);
-  if (!frame || frame->kind != wire::FrameKind::Resumed || frame->header.aux != g.value()) return 0;
+  if (!frame) return std::unexpected("an undecodable answer");
+  if (frame->kind != wire::FrameKind::Resumed || frame->header.aux != g.value()) {
+    return std::unexpected(std::string(wire::to_string(frame->kind)) + " for generation " +
+                           std::to_string(frame->header.aux) + " instead of Resumed");
+  }
   return wire::payload_as<wire::TakenBody>(*frame).image_pid;
 }
 }  // namespace
 
-bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::string& failure, Nanos& resumed_at) {
+bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
+                                     Nanos& resumed_at) {
   const Epoch next{time_page.current().epoch.value() + 1};
   struct Pending {
     ServiceRuntime* service = nullptr;
@@ -584,10 +635,10 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
   if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
   // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
   // (on a failure the caller retires it again).
-  const Nanos deadline = wall() + options.resume_deadline;
   for (Pending& p : pending) {
     ServiceRuntime& s = *p.service;
-    const pid_t pid = read_resumed(p.channel, record.g, deadline);
+    const auto answer = read_resumed(p.channel, record.g, deadline);
+    const pid_t pid = answer.value_or(0);
     auto copy = std::find_if(p.image->copies.begin(), p.image->copies.end(),
                              [&](const sys::ChildProcess& c) { return pid > 0 && c.pid() == pid; });
     if (copy != p.image->copies.end()) {
@@ -597,7 +648,14 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, std::strin
                                     : sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"Resumed", EPROTO}))) {
       s.process = std::move(*spare);  // a spare whose Copied is still on its way took the Resume
     } else {
-      if (failure.empty()) failure = "no Resumed from the image of '" + s.name + "' within the resume deadline";
+      if (failure.empty()) {
+        const image::Image& im = *p.image;
+        failure = "no Resumed from the image of '" + s.name + "': " +
+                  (answer ? "pid " + std::to_string(pid) + " is no copy" : answer.error()) + " (" +
+                  std::to_string(im.copies.size()) + " copies, " + std::to_string(im.spares_pending) + " spares and " +
+                  (im.patch_pending ? "its patch" : "no patch") + " on their way" +
+                  (im.last_death.empty() ? "" : "; " + im.last_death) + ")";
+      }
       continue;  // its copies are killed with the generation
     }
     p.image->resumed.push_back(pid);
@@ -652,13 +710,20 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   retire_live_rejuvenated();
   const Nanos t_killed = wall();
   Nanos t_resumed = t_killed;
+  // Real time, or lockstep charging the measured duration: the vehicle waits with us, and each generation
+  // has resume_deadline. Otherwise the whole rollback has unseen_resume_deadline, and a fallback at least
+  // resume_deadline (KernelOptions): below the plant's ack timeout however many generations are kept.
+  const Nanos bound = image_wait_bound();
+  const Nanos unseen_by = t_killed + bound;
   image::GenerationRecord* restored = nullptr;
   while (image::GenerationRecord* record = images.newest()) {
     std::string failure;
     if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
     if (const auto dead = record->dead_image()) {
-      failure = "the image of '" + services[dead->value()].name + "' is gone";
-    } else if (resume_generation(*record, failure, t_resumed)) {
+      const image::Image* im = record->image_of(*dead);
+      failure = "the image of '" + services[dead->value()].name + "' is gone" +
+                (im != nullptr && !im->last_death.empty() ? " (" + im->last_death + ")" : "");
+    } else if (resume_generation(*record, std::max(unseen_by, wall() + options.resume_deadline), failure, t_resumed)) {
       restored = record;
       break;
     }

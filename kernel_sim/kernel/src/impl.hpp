@@ -26,6 +26,7 @@
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/event.hpp"
 #include "rejuv/sys/process.hpp"
+#include "rejuv/sys/lease.hpp"
 #include "rejuv/sys/seccomp.hpp"
 
 namespace rejuv::kernel {
@@ -37,7 +38,6 @@ inline constexpr std::size_t kMaxCorkedFrames = 64;          // frames per servi
 inline constexpr std::size_t kFramesPerWakeup = 64;          // fairness: frames read per channel per wakeup
 inline constexpr std::size_t kMaxStagedPerStep = 4096;       // publications per service per lockstep step
 inline constexpr std::uint32_t kMaxRoundsPerStep = 256;      // a step that never settles is cut here
-inline constexpr std::uint32_t kServiceUidBase = 61000;      // uid of service i when the kernel runs as root
 inline constexpr std::uint32_t kNoOrigin = 0xFFFF'FFFFU;     // the kernel / the DDS bridge
 
 // Where a service is in its life.
@@ -294,6 +294,9 @@ struct Kernel::Impl {
   void charge_image_work(Nanos measured, Nanos modelled);
   void request_priming();
   std::vector<sys::ChildProcess> reaping;   // incarnations killed by a rollback, reaped at the next safe point
+  // As root, service i runs as uid service_uid_base + i, from a block this kernel alone holds (sys/lease.hpp).
+  std::optional<sys::Lease> uid_block;
+  std::uint32_t service_uid_base = 0;
   std::vector<std::pair<ObjectId, std::vector<std::byte>>> held_bridge_out;  // while routing is frozen
   // Incarnations a rollback retired, killed at the next safe point (retire_live_rejuvenated, kill_retired).
   std::vector<sys::ChildProcess> retired;
@@ -404,7 +407,12 @@ struct Kernel::Impl {
   void request_rollback(std::string reason);
   void run_rollback(const std::string& reason);
   // Resumes every image of `record`; false (and everything resumed killed again) if one fails.
-  bool resume_generation(image::GenerationRecord& record, std::string& failure, Nanos& resumed_at);
+  bool resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure, Nanos& resumed_at);
+  // How long the kernel waits for images: resume_deadline where the vehicle waits with it (real time,
+  // measured charge), unseen_resume_deadline otherwise (KernelOptions).
+  [[nodiscard]] Nanos image_wait_bound() const;
+  void settle_dying();  // images.cpp: backpressure on killed processes before a checkpoint or rollback
+  void reap_dying();
   void cold_restart(const std::string& reason);
   void resume_routing();
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).

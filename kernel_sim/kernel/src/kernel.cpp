@@ -196,10 +196,23 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
                                               std::to_string(*limit) + " (ulimit -n): raise the limit or lower keep_generations"));
     }
   }
+  // Service uids of their own (docs/sandbox.md), not shared with another kernel of this machine.
+  std::optional<sys::Lease> uid_block;
+  if (sys::running_as_root()) {
+    if (service_count > sys::kUidsPerBlock) {
+      return fail(kernel_error(K::Config, std::to_string(service_count) + " services: a kernel runs at most " +
+                                              std::to_string(sys::kUidsPerBlock) + " (one uid each)"));
+    }
+    auto block = sys::lease_uid_block(static_cast<std::uint32_t>(::getpid()));
+    if (!block) return fail(kernel_error(K::System, "a block of service uids: " + block.error().to_string()));
+    uid_block.emplace(std::move(*block));
+  }
   auto impl = std::make_unique<Impl>(std::move(graph), std::move(options), observer, std::move(*policy),
                                      std::move(*caps), std::move(*broker), std::move(*page), service_count,
                                      std::move(*epoll));
   Impl& k = *impl;
+  if (uid_block) k.service_uid_base = sys::kServiceUidBase + uid_block->slot() * sys::kUidsPerBlock;
+  k.uid_block = std::move(uid_block);
   k.objects = std::move(objects);
   k.clock_mode = clock_mode;
   k.sr = sr_requested;

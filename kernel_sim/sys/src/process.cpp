@@ -435,6 +435,13 @@ SysResult<void> lower_priority(pid_t pid) {
   return {};
 }
 
+SysResult<void> normal_priority(pid_t pid) {
+  const sched_param param{};
+  if (::sched_setscheduler(pid, SCHED_OTHER, &param) != 0) return last_error("sched_setscheduler(SCHED_OTHER)");
+  if (::setpriority(PRIO_PROCESS, static_cast<id_t>(pid), 0) != 0) return last_error("setpriority");
+  return {};
+}
+
 SysResult<void> idle_priority(pid_t pid) {
   const sched_param param{};
   if (::sched_setscheduler(pid, SCHED_IDLE, &param) != 0) return last_error("sched_setscheduler(SCHED_IDLE)");

@@ -54,6 +54,7 @@ std::string_view to_string(SdkError error) {
     case SdkError::Denied: return "denied";
     case SdkError::OperationFailed: return "operation failed";
     case SdkError::RolledBack: return "rolled back (this is a restored image)";
+    case SdkError::Resources: return "out of resources";
   }
   return "?";
 }
@@ -372,10 +373,12 @@ void start_copy() {
   memory_image::touch_working_set();
 }
 
-// Copied{g, pid} on a resume socket, from a frozen copy (standby stack, no allocation).
-void answer_copied(const sys::SeqPacket& to, std::uint64_t g, pid_t pid) {
+// Copied{g, pid} on a resume socket, from a frozen copy (standby stack, no allocation); a failed fork
+// answers pid 0 with its errno.
+void answer_copied(const sys::SeqPacket& to, std::uint64_t g, const sys::SysResult<pid_t>& copy) {
   wire::FrameBuffer out;
-  const wire::TakenBody body{.image_pid = pid, .reserved = 0};
+  const wire::TakenBody body{.image_pid = copy ? *copy : 0,
+                             .reserved = copy ? 0U : static_cast<std::uint32_t>(copy.error().error)};
   if (out.build_with(wire::FrameKind::Copied, 0, 0, g, body)) (void)to.send(out.bytes());
 }
 
@@ -407,7 +410,7 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, pid_t pid) {
         start_copy();
         continue;
       }
-      answer_copied(resume, g, copy ? *copy : 0);
+      answer_copied(resume, g, copy);
       if (copy) memory_image::touch_working_set();  // the fork shared our pages again
       continue;
     }
@@ -421,13 +424,13 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, pid_t pid) {
         resume = std::move(next);
         g = body.generation;
         start_copy();
-        answer_copied(resume, g, sys::current_pid());
+        answer_copied(resume, g, sys::SysResult<pid_t>(sys::current_pid()));
         continue;
       }
       if (copy) {
         memory_image::touch_working_set();  // the fork shared our pages again
       } else {
-        answer_copied(next, body.generation, 0);  // g' has no image
+        answer_copied(next, body.generation, copy);  // g' has no image
       }
       continue;  // pages and next closed here
     }
@@ -535,7 +538,13 @@ SdkResult<bool> Service::Impl::resumed_image() {
   tracked_base = handoff.tracking ? handoff.generation : 0;
   pagemap_fd = -1;     // the numbers were the live process's: this one's kernel sends its own
   next_pages_fd = -1;
-  if (workers != nullptr) workers = WorkerSet::respawn_in_image(workers);
+  // Without its workers this incarnation would run half a service: it dies at once instead, so the kernel
+  // sees its channel hang up and falls back (an abort here would signal itself, and a copy's signal to
+  // itself waits for the kernel's seccomp supervisor, which is waiting for this Resumed).
+  if (workers != nullptr) {
+    workers = WorkerSet::respawn_in_image(workers);
+    if (workers == nullptr) std::_Exit(3);
+  }
   const wire::TakenBody answer{.image_pid = sys::current_pid(), .reserved = 0};
   if (!tx.build_with(wire::FrameKind::Resumed, 0, 0, handoff.generation, answer) || !send_built() || !flush()) {
     std::_Exit(3);
@@ -808,7 +817,9 @@ SdkResult<void> Service::spawn_worker(std::function<void(WorkerContext&)> body) 
   if (!body) return error(SdkError::BadArgument, "empty worker body");
   if (impl_->workers == nullptr) impl_->workers = new WorkerSet(0);  // NOLINT(cppcoreguidelines-owning-memory)
   if (impl_->workers->size() >= kMaxWorkers) return error(SdkError::BadArgument, "too many workers");
-  impl_->workers->spawn(std::move(body));
+  if (const int e = impl_->workers->spawn(std::move(body)); e != 0) {
+    return error(SdkError::Resources, "a worker thread: " + sys::SysError{"pthread_create", e}.to_string());
+  }
   return {};
 }
 

@@ -1,26 +1,38 @@
 #include "workers.hpp"
 
+#include <cerrno>
+#include <system_error>
+
 namespace rejuv::sdk {
 
 bool WorkerContext::park_point() { return set_->park_point(); }
 
-void WorkerSet::spawn(Body body) {
+int WorkerSet::spawn(Body body) {
   workers_.push_back(Worker{.body = std::move(body), .thread = nullptr});
-  start(workers_.back());
+  const int e = start(workers_.back());
+  if (e != 0) workers_.pop_back();
+  return e;
 }
 
-void WorkerSet::start(Worker& w) {
+int WorkerSet::start(Worker& w) {
   {
     const std::lock_guard lock(mutex_);
     ++running_;
   }
-  w.thread = new std::thread([this, body = &w.body] {  // NOLINT(cppcoreguidelines-owning-memory): see header
-    WorkerContext ctx(this, incarnation_);
-    (*body)(ctx);
+  try {
+    w.thread = new std::thread([this, body = &w.body] {  // NOLINT(cppcoreguidelines-owning-memory): see header
+      WorkerContext ctx(this, incarnation_);
+      (*body)(ctx);
+      const std::lock_guard lock(mutex_);
+      --running_;
+      cv_.notify_all();
+    });
+  } catch (const std::system_error& e) {  // EAGAIN: the uid's max_processes counts threads too
     const std::lock_guard lock(mutex_);
     --running_;
-    cv_.notify_all();
-  });
+    return e.code().value() != 0 ? e.code().value() : EAGAIN;
+  }
+  return 0;
 }
 
 bool WorkerSet::park_point() {
@@ -68,7 +80,9 @@ WorkerSet* WorkerSet::respawn_in_image(WorkerSet* old) {
   for (const Worker& w : old->workers_) {
     fresh->workers_.push_back(Worker{.body = w.body, .thread = nullptr});
   }
-  for (Worker& w : fresh->workers_) fresh->start(w);
+  for (Worker& w : fresh->workers_) {
+    if (fresh->start(w) != 0) return nullptr;  // the caller ends the process: nothing to clean up
+  }
   return fresh;
 }
 

@@ -25,7 +25,8 @@ class WorkerSet {
   ~WorkerSet() { stop_and_join(); }
 
   [[nodiscard]] std::size_t size() const { return workers_.size(); }
-  void spawn(Body body);
+  // 0, or the errno of a thread that could not be created (the worker is then not kept).
+  [[nodiscard]] int spawn(Body body);
 
   // Asks every worker to park and waits until all are (or `deadline` passes: then they are released again
   // and the result is false: the service cannot be forked safely).
@@ -35,7 +36,8 @@ class WorkerSet {
 
   // In a restored image, whose memory holds `old` but none of its threads: a new set running every body
   // again. `old` is leaked on purpose (destroying a std::thread that seems to run terminates the process);
-  // each resume starts from the frozen image, so the leak never grows.
+  // each resume starts from the frozen image, so the leak never grows. nullptr if a thread could not be
+  // created (then the process must not go on).
   [[nodiscard]] static WorkerSet* respawn_in_image(WorkerSet* old);
 
   // WorkerContext::park_point.
@@ -46,7 +48,7 @@ class WorkerSet {
     Body body;
     std::thread* thread = nullptr;  // raw: see respawn_in_image
   };
-  void start(Worker& w);
+  int start(Worker& w);  // 0 or errno
 
   std::uint32_t incarnation_ = 0;
   std::vector<Worker> workers_;

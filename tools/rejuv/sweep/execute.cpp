@@ -12,7 +12,7 @@
 
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/launch/launch.hpp"
-#include "rejuv/sys/dds_domain.hpp"
+#include "rejuv/sys/lease.hpp"
 #include "rejuv/sys/process.hpp"
 #include "run_child.hpp"
 
@@ -281,7 +281,7 @@ Result<ExecOutcome, std::string> fly_runtime(const proto::SweepPlan& plan, const
                .start = Clock::now()};
       fs::remove(f.summary, ec);
       auto child = start_rejuv_run({cell.file.string(), "--seed", std::to_string(task.seed), "--domain",
-                                    std::to_string(slot.lease.domain()), "--net-port", "0", "--cpu",
+                                    std::to_string(slot.lease.slot()), "--net-port", "0", "--cpu",
                                     std::to_string(slot.cpu), "--summary-json", f.summary.string()},
                                    f.log);
       if (!child) return fail(child.error());

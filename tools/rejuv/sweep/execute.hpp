@@ -1,6 +1,6 @@
 // Flying the tasks of `rejuv sweep` (docs/sweep.md). The model (`sim`) runs in this process, `--jobs` threads;
 // the runtime (`run`) as `rejuv run` children (run_child.hpp), up to `--jobs` at a time, each on its own CPU
-// (--cpu K), its own DDS domain (a lease of rejuv/sys/dds_domain.hpp, shared with the tests and any other
+// (--cpu K), its own DDS domain (a lease of rejuv/sys/lease.hpp, shared with the tests and any other
 // sweep, held while its mission flies) and an ephemeral network port (--net-port 0). Each finished task's
 // record is written at once (grid.hpp), so an interrupted sweep loses only the missions in flight.
 // SIGINT/SIGTERM: the missions in flight are stopped cleanly (SIGTERM to each child, which shuts its kernel

@@ -63,6 +63,7 @@ struct Image {
   std::uint64_t page_count = 0;
   sys::UniqueFd image_end{};                // the resume socket's image end, until Taken or the Patch
   bool patch_pending = false;               // Patch sent, Copied not read yet
+  std::string last_death{};                 // how the last copy found dead ended (for the kernel's reports)
   // A copy to resume, or one on its way (the Patch's): the image is not dead (as far as the last refresh knows).
   [[nodiscard]] bool has_copy_or_patch() const { return !copies.empty() || patch_pending; }
   // Reads the Copied answers that have arrived (adopting each new spare) and drops the copies that died.

@@ -138,6 +138,8 @@ struct Spawned {
 // Puts `pid` under SCHED_IDLE: it then runs only when no other task on its CPU can. Unlike a signal, this
 // does not wake it (a rollback's retired incarnations, DESIGN §7).
 [[nodiscard]] SysResult<void> idle_priority(pid_t pid);
+// Undoes both: SCHED_OTHER at nice 0 (a killed process still dying at the next safe point, images.cpp).
+[[nodiscard]] SysResult<void> normal_priority(pid_t pid);
 
 // Sends `sig` to `pid` through a pidfd, only if `still_same()` holds once the pidfd is open (so that a pid
 // reused meanwhile is never signalled). False when the process is gone or the check failed.

@@ -71,6 +71,7 @@ enum class SdkError : std::uint8_t {
   Denied,            // the kernel refused the request: Error::cap_error says why
   OperationFailed,   // the kernel accepted the cap but the operation failed: Error::wire_error ≥ 100
   RolledBack,        // this process is a restored image: the call it was in never gets an answer (DESIGN §7)
+  Resources,         // the process could not get a thread (its max_processes, memory): errno text in detail
 };
 [[nodiscard]] std::string_view to_string(SdkError error);
 
