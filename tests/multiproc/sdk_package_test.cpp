@@ -1,6 +1,7 @@
 // The SDK as a package (issue 21 item 5; docs/writing_a_service.md): install it into a scratch prefix with
 // `cmake --install --component sdk`, configure and build examples/hello_service out of the tree against it
-// (find_package(Rejuv) only), then fly examples/hello_service/hello.launch.pbtxt with the service it built.
+// (find_package(Rejuv) only; its own topic type by rejuv_add_topics), then fly examples/hello_service/hello.launch.pbtxt
+// with the service it built.
 // Every step is the guide's, so the guide cannot rot without this test failing.
 #include <gtest/gtest.h>
 
@@ -65,6 +66,13 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   const std::filesystem::path graph = example_build / "hello.launch.pbtxt";
   ASSERT_NE(slurp(graph).find("executable: \"" + service.string() + "\""), std::string::npos) << slurp(graph);
   ASSERT_TRUE(std::filesystem::exists(example_build / "hello.policy.pbtxt"));
+  // The example's own topic type (hello.idl, rejuv_add_topics): the build printed its policy entry with the
+  // struct's size and alignment as compiled, and appended it to the policy the graph names.
+  EXPECT_NE(slurp(example_build / "hello_topics.types.pbtxt")
+                .find("types { name: \"hello::Summary\" size_bytes: 24 align_bytes: 8 }"),
+            std::string::npos)
+      << slurp(example_build / "hello_topics.types.pbtxt");
+  EXPECT_NE(slurp(example_build / "hello.policy.pbtxt").find("types { name: \"hello::Summary\""), std::string::npos);
 
   // 4. Fly it: 5 s of hover with rejuvenation (the first MC window opens after T_est = 3 s in SC).
   const std::filesystem::path summary = dir_ / "summary.json";
@@ -81,6 +89,7 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   EXPECT_GT(std::stoull(m[1].str()), 0U) << log;
   EXPECT_GT(std::stoull(m[2].str()), 0U) << log;
   EXPECT_EQ(log.find("publishing monitor_state"), std::string::npos) << log;
+  EXPECT_EQ(log.find("publishing hello_summary"), std::string::npos) << log;  // its own type, routed
   const std::string json = slurp(summary);
   ASSERT_FALSE(json.empty());
   EXPECT_NE(json.find("\"denials\": {}"), std::string::npos) << json;  // no denied invocation of any service

@@ -219,6 +219,7 @@ struct Kernel::Impl {
   std::optional<DdsBridge> bridge;
   NetGate net;                                     // the external link's UDP socket (netgate.cpp)
 
+  std::vector<msgs::TopicType> declared_types;     // the policy's own (`types`), pointed to by objects
   std::vector<ObjectInfo> objects;                 // by ObjectId
   std::vector<ServiceRuntime> services;            // by ServiceId
   // By SubscriberId value: whose subscription it is, its slot, and how many messages were routed to it

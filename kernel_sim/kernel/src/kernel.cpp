@@ -148,14 +148,27 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   // Objects and topics (one broker topic per policy Topic object, DESIGN §5).
   std::vector<ObjectInfo> objects;
   std::vector<broker::TopicConfig> topics;
+  // The policy's own topic types (`types`, SDK rejuv_add_topics): no DDS descriptor. Reserved whole, so that
+  // the ObjectInfo pointers into it stay valid (the vector moves into the kernel with its buffer).
+  std::vector<msgs::TopicType> declared_types;
+  declared_types.reserve(policy->types().size());
+  for (const policy::DeclaredType& t : policy->types()) {
+    declared_types.push_back(msgs::TopicType{.name = t.name, .size = t.size_bytes, .align = t.align_bytes, .descriptor = nullptr});
+  }
+  const auto topic_type = [&](std::string_view name) -> const msgs::TopicType* {
+    if (const msgs::TopicType* t = msgs::find_topic_type(name)) return t;
+    const auto it = std::find_if(declared_types.begin(), declared_types.end(),
+                                 [&](const msgs::TopicType& t) { return t.name == name; });
+    return it == declared_types.end() ? nullptr : &*it;
+  };
   for (const policy::Object& o : policy->objects()) {
     ObjectInfo info{.id = o.id, .name = o.name, .kind = o.kind, .type = nullptr, .kernel = o.kernel,
                     .is_setpoint = false, .is_actuator_outputs = false, .persistent = {}, .limits = {}};
     if (o.kind == ObjectKind::Topic) {
-      info.type = msgs::find_topic_type(o.type);
+      info.type = topic_type(o.type);
       if (info.type == nullptr) {
         return fail(kernel_error(K::Config, o.where.to_string() + ": topic '" + o.name + "' has type '" + o.type +
-                                                "', which is not a topic type of idl/"));
+                                                "', which is neither a topic type of idl/ nor declared in the policy's `types`"));
       }
       info.is_setpoint = info.type->name == msgs::TopicTraits<rejuv_msg_Setpoint>::name;
       info.is_actuator_outputs = info.type->name == msgs::TopicTraits<rejuv_msg_ActuatorOutputs>::name;
@@ -211,6 +224,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
                                      std::move(*caps), std::move(*broker), std::move(*page), service_count,
                                      std::move(*epoll));
   Impl& k = *impl;
+  k.declared_types = std::move(declared_types);
   if (uid_block) k.service_uid_base = sys::kServiceUidBase + uid_block->slot() * sys::kUidsPerBlock;
   k.uid_block = std::move(uid_block);
   k.objects = std::move(objects);
@@ -282,9 +296,16 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
 
   // DDS bridge (DESIGN §5): Cyclone reads CYCLONEDDS_URI; default to the graph's config file.
   std::vector<BridgeSpec> bridges;
-  for (const proto::Bridge& b : k.graph.graph.dds().bridges()) {
+  for (int i = 0; i < k.graph.graph.dds().bridges_size(); ++i) {
+    const proto::Bridge& b = k.graph.graph.dds().bridges(i);
     const auto object = k.policy.find_object(b.topic());
     REJUV_ASSERT(object.has_value(), "the audit checked that every bridge names a topic");
+    if (k.objects[object->value()].type->descriptor == nullptr) {
+      return fail(kernel_error(K::Config, k.graph.locations.locate({{"dds", -1}, {"bridges", i}}, "topic").to_string() +
+                                              ": error: topic '" + b.topic() + "' is of the policy's own type '" +
+                                              std::string(k.objects[object->value()].type->name) +
+                                              "', which has no DDS type descriptor: such a topic is routed between services, not bridged"));
+    }
     bridges.push_back(BridgeSpec{.topic = *object, .dds_name = launch::dds_name(b),
                                  .type = k.objects[object->value()].type,
                                  .inbound = b.direction() == proto::BRIDGE_IN});

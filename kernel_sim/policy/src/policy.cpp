@@ -82,6 +82,27 @@ std::optional<KernelEndpoint> to_endpoint(int e) {
 }
 
 // Names appear in boot info, audit output and deny rules ("*" is the wildcard): keep them plain.
+// An IDL scoped name: identifiers (a letter or '_', then letters, digits, '_') joined by "::".
+bool is_scoped_name(std::string_view s) {
+  if (s.empty() || s.size() > 63) return false;  // wire::BootCap::type holds 63 characters
+  bool start = true;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    const char c = s[i];
+    const bool letter = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_';
+    if (start) {
+      if (!letter) return false;
+      start = false;
+    } else if (c == ':') {
+      if (i + 2 >= s.size() || s[i + 1] != ':') return false;
+      ++i;
+      start = true;
+    } else if (!letter && !(c >= '0' && c <= '9')) {
+      return false;
+    }
+  }
+  return !start;
+}
+
 bool is_plain_name(std::string_view s) {
   return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
     return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
@@ -151,7 +172,7 @@ class PolicyBuilder {
   Result<Policy, LoadError> build() {
     p_.name_ = pb_.name();
     p_.file_ = locs_.file();
-    for (Check c : {services(), objects(), grants(), deny()}) {
+    for (Check c : {types(), services(), objects(), grants(), deny()}) {
       if (!c) {
         return fail(std::move(c.error()));
       }
@@ -174,6 +195,42 @@ class PolicyBuilder {
   }
   [[nodiscard]] static std::string line_of(const SourceLocation& w) {
     return "line " + std::to_string(w.line);
+  }
+
+  // The graph's own topic types (proto TopicType). What they are is checked here; whether the structs a
+  // service was built with have these sizes, by the SDK at advertise/subscribe (SdkError::TypeMismatch).
+  Check types() {
+    for (int i = 0; i < pb_.types_size(); ++i) {
+      const proto::TopicType& t = pb_.types(i);
+      const auto field = [&](std::string_view f) { return at({{"types", i}}, f); };
+      if (!is_scoped_name(t.name())) {
+        return fail(error(field("name"), t.name().empty()
+                                             ? std::string("type without a `name`")
+                                             : "type name \"" + t.name() +
+                                                   "\" must be an IDL scoped name such as \"hello::Greeting\""));
+      }
+      if (t.name().starts_with("rejuv::")) {
+        return fail(error(field("name"), "type \"" + t.name() +
+                                             "\": names under rejuv:: are the project's own (idl/*.idl); use "
+                                             "your IDL module's name"));
+      }
+      if (const DeclaredType* dup = p_.find_type(t.name())) {
+        return fail(error(field("name"), "duplicate type \"" + t.name() + "\": already declared at " +
+                                             line_of(dup->where)));
+      }
+      if (t.size_bytes() < 1 || t.size_bytes() > kMaxTopicBytes) {
+        return fail(error(field(t.size_bytes() == 0 ? "name" : "size_bytes"),
+                          "type \"" + t.name() + "\" needs size_bytes in 1.." + std::to_string(kMaxTopicBytes) +
+                              " (a message travels in one channel frame), got " + std::to_string(t.size_bytes())));
+      }
+      if (!std::has_single_bit(t.align_bytes()) || t.align_bytes() > 16 || t.size_bytes() % t.align_bytes() != 0) {
+        return fail(error(field(t.align_bytes() == 0 ? "name" : "align_bytes"),
+                          "type \"" + t.name() + "\" needs align_bytes a power of two up to 16 that divides its size " +
+                              std::to_string(t.size_bytes()) + ", got " + std::to_string(t.align_bytes())));
+      }
+      p_.types_.push_back(DeclaredType{t.name(), t.size_bytes(), t.align_bytes(), at({}, "types", i)});
+    }
+    return {};
   }
 
   Check services() {
@@ -513,6 +570,13 @@ std::optional<ServiceId> Policy::find_service(std::string_view name) const {
     }
   }
   return std::nullopt;
+}
+
+const DeclaredType* Policy::find_type(std::string_view name) const {
+  for (const DeclaredType& t : types_) {
+    if (t.name == name) return &t;
+  }
+  return nullptr;
 }
 
 std::optional<ObjectId> Policy::find_object(std::string_view name) const {

@@ -267,6 +267,49 @@ TEST(PolicyLoader, DenyBadRights_Semantic) {
                   "rights:", "unknown letter 'Q'");
 }
 
+// ---- declared topic types (`types`: the graph's own IDL, SDK rejuv_add_topics) ----
+
+TEST(PolicyLoader, DeclaredType_FoundAndUsableAsATopicType) {
+  const auto r = parse_with_header(
+      "types { name: \"hello::Greeting\" size_bytes: 24 align_bytes: 8 }\n"
+      "objects { name: \"greetings\" kind: TOPIC type: \"hello::Greeting\" }\n");
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  const DeclaredType* t = r->find_type("hello::Greeting");
+  ASSERT_NE(t, nullptr);
+  EXPECT_EQ(t->size_bytes, 24U);
+  EXPECT_EQ(t->align_bytes, 8U);
+  EXPECT_EQ(t->where.line, 6);
+  EXPECT_EQ(r->find_type("hello::Other"), nullptr);
+  EXPECT_EQ(r->object(*r->find_object("greetings")).type, "hello::Greeting");
+}
+
+TEST(PolicyLoader, DeclaredTypeUnderRejuv_Semantic) {
+  expect_semantic("types { name: \"rejuv::msg::Setpoint\" size_bytes: 8 align_bytes: 8 }\n", 6, "name:",
+                  "names under rejuv:: are the project's own");
+}
+
+TEST(PolicyLoader, DeclaredTypeBadName_Semantic) {
+  expect_semantic("types { name: \"hello:Greeting\" size_bytes: 8 align_bytes: 8 }\n", 6, "name:",
+                  "IDL scoped name");
+  expect_semantic("types { name: \"9lives\" size_bytes: 8 align_bytes: 8 }\n", 6, "name:", "IDL scoped name");
+  expect_semantic("types { name: \"hello::\" size_bytes: 8 align_bytes: 8 }\n", 6, "name:", "IDL scoped name");
+}
+
+TEST(PolicyLoader, DeclaredTypeTwice_Semantic) {
+  expect_semantic(
+      "types { name: \"a::B\" size_bytes: 8 align_bytes: 8 }\ntypes { name: \"a::B\" size_bytes: 8 align_bytes: 8 }\n",
+      7, "name:", "duplicate type \"a::B\": already declared at line 6");
+}
+
+TEST(PolicyLoader, DeclaredTypeSizeOrAlignment_Semantic) {
+  expect_semantic("types { name: \"a::B\" align_bytes: 8 }\n", 6, "name:", "needs size_bytes in 1..4096");
+  expect_semantic("types { name: \"a::B\" size_bytes: 5000 align_bytes: 8 }\n", 6, "size_bytes:", "got 5000");
+  expect_semantic("types { name: \"a::B\" size_bytes: 12 align_bytes: 8 }\n", 6, "align_bytes:",
+                  "divides its size 12, got 8");
+  expect_semantic("types { name: \"a::B\" size_bytes: 12 align_bytes: 3 }\n", 6, "align_bytes:", "power of two");
+  expect_semantic("types { name: \"a::B\" size_bytes: 12 }\n", 6, "name:", "got 0");
+}
+
 TEST(PolicyLoader, NoServices_Semantic) {
   const auto r = parse_policy("name: \"empty\"\n", "mem");
   ASSERT_FALSE(r.has_value());

@@ -61,3 +61,12 @@ REJUV_TOPIC_TYPES(REJUV_TOPIC_TRAITS)
 #undef REJUV_TOPIC_TRAITS
 
 }  // namespace rejuv::msgs
+
+// A topic type of a service's own IDL (SDK rejuv_add_topics, docs/writing_a_service.md "A new topic type"),
+// at namespace scope: REJUV_TOPIC_TYPE(hello_Summary, "hello::Summary"). The policy declares the name with
+// the struct's size (`types`); advertise<>/subscribe<> check both. No DDS descriptor: not bridged.
+#define REJUV_TOPIC_TYPE(CType, Name)                    \
+  template <>                                            \
+  struct rejuv::msgs::TopicTraits<CType> {               \
+    static constexpr std::string_view name = Name;       \
+  }

@@ -37,6 +37,7 @@ enum class KernelEndpoint : std::uint8_t { None, Publishes, Subscribes };
 inline constexpr std::uint32_t kDefaultQueueDepth = 4;
 inline constexpr std::uint32_t kMaxQueueDepth = 1024;
 inline constexpr std::uint32_t kMaxPersistentBytes = 4096;
+inline constexpr std::uint32_t kMaxTopicBytes = 4096;  // a declared topic type's size (within one channel frame)
 
 // A service of the policy. Id = declaration order.
 struct Service {
@@ -83,6 +84,14 @@ struct DenyRule {
   SourceLocation where;
 };
 
+// A topic type the policy declares (`types`): one of the graph's own IDL, beside the project's.
+struct DeclaredType {
+  std::string name;         // IDL scoped name, never under rejuv::
+  std::uint32_t size_bytes = 0;
+  std::uint32_t align_bytes = 0;
+  SourceLocation where;
+};
+
 // Rights of one (service, object, mode) and the grant that gave them.
 struct Cell {
   Rights rights;
@@ -98,6 +107,8 @@ class Policy {
   [[nodiscard]] const std::vector<Object>& objects() const { return objects_; }
   [[nodiscard]] const std::vector<Grant>& grants() const { return grants_; }
   [[nodiscard]] const std::vector<DenyRule>& deny_rules() const { return deny_; }
+  [[nodiscard]] const std::vector<DeclaredType>& types() const { return types_; }
+  [[nodiscard]] const DeclaredType* find_type(std::string_view name) const;
 
   [[nodiscard]] const Service& service(ServiceId id) const;
   [[nodiscard]] const Object& object(ObjectId id) const;
@@ -125,6 +136,7 @@ class Policy {
   std::vector<Object> objects_;
   std::vector<Grant> grants_;
   std::vector<DenyRule> deny_;
+  std::vector<DeclaredType> types_;
   std::vector<Cell> cells_;  // [service][object][mode], dense
 };
 
