@@ -32,10 +32,14 @@ Result<void, std::string> override_attack(launch::LoadedLaunch& loaded, flight::
   return {};
 }
 
-Result<void, std::string> apply_attack_option(launch::LoadedLaunch& loaded, std::string_view text) {
-  auto law = parse_attack_kind(text);
-  if (!law) return fail(std::move(law.error()));
-  return override_attack(loaded, *law);
+Result<launch::LoadedLaunch, std::string> load_with_attack(const std::string& path, std::optional<flight::AttackLaw> law,
+                                                           std::string_view command) {
+  auto loaded = launch::load_launch(path);
+  if (!loaded) return fail(loaded.error().to_string());
+  if (law) {
+    if (auto ok = override_attack(*loaded, *law); !ok) return fail(std::string(command) + ": " + ok.error());
+  }
+  return std::move(*loaded);
 }
 
 void start_attack_library_after(proto::Launch& graph, Nanos alignment) {

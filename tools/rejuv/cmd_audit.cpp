@@ -163,40 +163,25 @@ std::string verdict(const policy::Policy& p, const std::vector<policy::Finding>&
 }  // namespace
 
 int run_audit(std::span<const std::string_view> args) {
-  std::string policy_path, launch_path, format_text = "text";
-  bool launch_set = false;
-  ArgParser parser(
-      "audit",
-      "Checks a capability policy against the CPS SR invariants of DESIGN §4 (timer, sei, limits,\n"
-      "persistent, lateral, coverage) and its own deny rules, and prints the service x object x\n"
-      "mode matrix. Exit 0 when clean, 1 on violations, 2 when a file cannot be read or parsed.");
-  parser.positional("POLICY", policy_path, "the policy (*.policy.pbtxt)")
-      .option("--launch", "GRAPH", launch_path, "also check against this launch graph (*.launch.pbtxt)",
-              &launch_set)
-      .option("--format", "text|json", format_text, "output format (json for CI)");
-  const auto parsed = parser.parse(args);
-  if (!parsed) {
-    print(stderr, "rejuv audit: " + parsed.error() + "\n");
-    return static_cast<int>(Exit::BadInput);
-  }
-  switch (*parsed) {
-    case ParseOutcome::HelpShown: print(stdout, parser.help()); return static_cast<int>(Exit::Ok);
-    case ParseOutcome::Run: break;
-  }
-  const auto choice = to_choice(format_text, "--format", {"text", "json"});
-  if (!choice) {
-    print(stderr, "rejuv audit: " + choice.error() + "\n");
-    return static_cast<int>(Exit::BadInput);
-  }
-  const Format format = *choice == "json" ? Format::Json : Format::Text;
+  std::string policy_path;
+  std::optional<std::filesystem::path> launch_path;
+  Format format = Format::Text;
+  Options opts("audit",
+               "Checks a capability policy against the CPS SR invariants of DESIGN §4 (timer, sei, limits,\n"
+               "persistent, lateral, coverage) and its own deny rules, and prints the service x object x\n"
+               "mode matrix. Exit 0 when clean, 1 on violations, 2 when a file cannot be read or parsed.");
+  opts.positional("POLICY", policy_path, "the policy (*.policy.pbtxt)")
+      .path("--launch", "GRAPH", launch_path, "also check against this launch graph (*.launch.pbtxt)")
+      .choice<Format>("--format", {{"text", Format::Text}, {"json", Format::Json}}, format, "output format (json for CI)");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
 
   const auto pol = policy::load_policy(policy_path);
   if (!pol) {
     return bad_input(format, policy_path, pol.error());
   }
   std::optional<launch::LoadedLaunch> graph;
-  if (launch_set) {
-    auto g = launch::load_launch(launch_path);
+  if (launch_path) {
+    auto g = launch::load_launch(*launch_path);
     if (!g) {
       return bad_input(format, policy_path, g.error());
     }
@@ -204,7 +189,7 @@ int run_audit(std::span<const std::string_view> args) {
     // Auditing a candidate policy against a graph that names another one is allowed, but say so.
     std::error_code ec;
     if (format == Format::Text && !std::filesystem::equivalent(graph->policy_path, policy_path, ec)) {
-      print(stderr, "rejuv audit: note: " + launch_path + " names the policy " + graph->policy_path.string() +
+      print(stderr, "rejuv audit: note: " + launch_path->string() + " names the policy " + graph->policy_path.string() +
                         ", not " + policy_path + "\n");
     }
   }
@@ -230,7 +215,7 @@ int run_audit(std::span<const std::string_view> args) {
     }
     case Format::Json: {
       std::string out = "{\"policy\":" + json_string(policy_path) + ",\"name\":" + json_string(pol->name()) +
-                        ",\"launch\":" + (graph ? json_string(launch_path) : std::string("null")) +
+                        ",\"launch\":" + (graph ? json_string(launch_path->string()) : std::string("null")) +
                         ",\"ok\":" + (findings.empty() ? "true" : "false") + ",\"findings\":[";
       for (std::size_t i = 0; i < findings.size(); ++i) {
         const auto& f = findings[i];

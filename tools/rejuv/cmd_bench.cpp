@@ -16,15 +16,12 @@
 #include <vector>
 
 #include "args.hpp"
+#include "common_options.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/sys/event.hpp"
-
-#ifndef REJUV_SERVICE_DIR
-#define REJUV_SERVICE_DIR ""
-#endif
 
 namespace rejuv::cli {
 namespace {
@@ -42,45 +39,22 @@ double ms_since(Nanos start) { return static_cast<double>((sys::monotonic_now() 
 }  // namespace
 
 int run_bench(std::span<const std::string_view> args) {
-  std::string what, graph_path, cycles_text, restarts_text, between_text;
-  bool cycles_set = false, restarts_set = false, between_set = false;
-  ArgParser parser("bench",
-                   "Benchmarks, side by side in one run.\n"
-                   "  images [GRAPH]  checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
-                   "                  launch/quad_square.launch.pbtxt) with the queue state, against a cold restart\n"
-                   "                  of the same services from their binaries.");
-  parser.positional("WHAT", what, "what to measure: images")
+  std::string what, graph_path;
+  std::uint64_t cycles = 200, restarts = 20, between = 1;
+  Options opts("bench",
+               "Benchmarks, side by side in one run.\n"
+               "  images [GRAPH]  checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
+               "                  launch/quad_square.launch.pbtxt) with the queue state, against a cold restart\n"
+               "                  of the same services from their binaries.");
+  opts.positional("WHAT", what, "what to measure: images")
       .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square.launch.pbtxt)", false)
-      .option("--cycles", "N", cycles_text, "checkpoint + rollback cycles (default 200)", &cycles_set)
-      .option("--restarts", "N", restarts_text, "cold restarts (default 20)", &restarts_set)
-      .option("--between", "MS", between_text,
-              "simulated ms between a checkpoint and its rollback and between a rollback and the next checkpoint\n"
-              "(default 1: the next one comes while the images are still being made; a mission has seconds)",
-              &between_set);
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv bench: " + parsed.error());
-  switch (*parsed) {
-    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
-    case ParseOutcome::Run: break;
-  }
+      .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")
+      .integer("--restarts", "N", restarts, {1, 1000}, "cold restarts")
+      .integer("--between", "MS", between, {1, 10000},
+               "simulated ms between a checkpoint and its rollback and between a rollback and the next checkpoint\n"
+               "(1: the next one comes while the images are still being made; a mission has seconds)");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (what != "images") return bad_input("rejuv bench: unknown benchmark '" + what + "' (known: images)");
-  std::uint64_t cycles = 200, restarts = 20;
-  if (cycles_set) {
-    auto n = to_u64(cycles_text, "--cycles");
-    if (!n || *n == 0 || *n > 100000) return bad_input("rejuv bench: --cycles: expected 1..100000, got '" + cycles_text + "'");
-    cycles = *n;
-  }
-  if (restarts_set) {
-    auto n = to_u64(restarts_text, "--restarts");
-    if (!n || *n == 0 || *n > 1000) return bad_input("rejuv bench: --restarts: expected 1..1000, got '" + restarts_text + "'");
-    restarts = *n;
-  }
-  std::uint64_t between = 1;
-  if (between_set) {
-    auto n = to_u64(between_text, "--between");
-    if (!n || *n == 0 || *n > 10000) return bad_input("rejuv bench: --between: expected 1..10000, got '" + between_text + "'");
-    between = *n;
-  }
   if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square.launch.pbtxt";
   auto loaded = launch::load_launch(graph_path);
   if (!loaded) return bad_input(loaded.error().to_string());
@@ -90,8 +64,7 @@ int run_bench(std::span<const std::string_view> args) {
   options.time_master = kernel::TimeMaster::Manual;
   options.no_attack = true;
   options.log = nullptr;
-  const char* env_dir = std::getenv("REJUV_SERVICE_DIR");
-  options.service_dir = env_dir != nullptr && *env_dir != '\0' ? env_dir : REJUV_SERVICE_DIR;
+  options.service_dir = service_dir();
   options.repo_root = REJUV_SOURCE_DIR;
   options.dds_domain = static_cast<std::uint32_t>(::getpid() % 200 + 20);  // apart from a concurrent run
   const std::string name = loaded->graph.name();

@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "args.hpp"
-#include "charge.hpp"
+#include "common_options.hpp"
 #include "rejuv/sys/lease.hpp"
 #include "rejuv/sys/process.hpp"
 #include "commands.hpp"
@@ -53,65 +53,46 @@ struct Row {
 }  // namespace
 
 int run_faults(std::span<const std::string_view> args) {
-  std::string graph_path, injections_text = "200", seed_text = "1", jobs_text = "1", out_text = "out/faults",
-                          per_text = "6", domain_text = "120", bound_text = "300";
-  std::string mission_text, charge_text = "measured";
-  bool mission_set = false, domain_set = false;
-  ArgParser parser("faults",
-                   "Fault campaign (DESIGN §7 \"Faults\", §11): flies GRAPH several times and injects, at moments and\n"
-                   "phases drawn from the seed, SIGKILL/SIGSTOP of a live service, of one image, of every image of a\n"
-                   "service, of a whole service group, a 1 s stall of the plant, and kills of output_driver and the\n"
-                   "plant, in MC, in the secure interval and exactly inside checkpoints and rollbacks. After each it\n"
-                   "records the recovery path, safety (max V < 1, mission completed), leaks and hangs; prints the\n"
-                   "table by kind and phase and writes it as JSON (DIR/faults.json; kernel logs in DIR/job-N.log).\n"
-                   "Exit 0 when nothing is unsafe, leaked, hung or unrecovered.");
-  parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
-      .option("--injections", "N", injections_text, "faults to plan (default 200)")
-      .option("--seed", "S", seed_text, "seed of the plan (default 1)")
-      .option("--jobs", "J", jobs_text, "missions in J processes side by side (default 1)")
-      .option("--per-mission", "K", per_text, "faults per mission at most (default 6)")
-      .option("--domain", "D", domain_text,
-              "DDS domain of job 0; job j uses D + j (default: each job leases a free domain, as the tests do)",
-              &domain_set)
-      .option("--mission-timeout", "S", bound_text, "wall-clock bound of one mission: the watchdog (default 300)")
-      .option("--out", "DIR", out_text, "where faults.json and the logs go (default out/faults)")
-      .option("--charge", "model|measured", charge_text,
-              std::string(kChargeHelp) + " (default: measured: a fault's recovery costs the flight its real time)")
-      .option("--mission", "M", mission_text,
-              "fly only mission M of the plan (the same seed, --injections and --per-mission): to reproduce one",
-              &mission_set);
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv faults: " + parsed.error());
-  switch (*parsed) {
-    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
-    case ParseOutcome::Run: break;
+  std::string graph_path;
+  std::uint64_t injections = 200, seed = 1, jobs = 1, per = 6, bound = 300;
+  std::optional<std::uint64_t> domain, only;
+  std::filesystem::path out_dir = "out/faults";
+  Charge charge = Charge::Measured;
+  Options opts("faults",
+               "Fault campaign (DESIGN §7 \"Faults\", §11): flies GRAPH several times and injects, at moments and\n"
+               "phases drawn from the seed, SIGKILL/SIGSTOP of a live service, of one image, of every image of a\n"
+               "service, of a whole service group, a 1 s stall of the plant, and kills of output_driver and the\n"
+               "plant, in MC, in the secure interval and exactly inside checkpoints and rollbacks. After each it\n"
+               "records the recovery path, safety (max V < 1, mission completed), leaks and hangs; prints the\n"
+               "table by kind and phase and writes it as JSON (DIR/faults.json; kernel logs in DIR/job-N.log).\n"
+               "Exit 0 when nothing is unsafe, leaked, hung or unrecovered.");
+  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
+      .integer("--injections", "N", injections, {1, 100000}, "faults to plan")
+      .integer("--seed", "S", seed, {}, "seed of the plan")
+      .integer("--jobs", "J", jobs, {1, 16}, "missions in J processes side by side")
+      .integer("--per-mission", "K", per, {1, 50}, "faults per mission at most");
+  domain_option(opts, domain, "DDS domain of job 0; job j uses N + j",
+                "each job leases a free domain, as the tests do")
+      .integer("--mission-timeout", "S", bound, {10}, "wall-clock bound of one mission [s]: the watchdog")
+      .path("--out", "DIR", out_dir, "where faults.json and the logs go");
+  charge_option(opts, charge, "\n('measured' here: a fault's recovery costs the flight its real time)")
+      .integer("--mission", "M", only, {},
+               "fly only mission M of the plan (the same seed, --injections and --per-mission): to reproduce one");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (domain && *domain + jobs - 1 > launch::defaults::kMaxDdsDomainId) {
+    return bad_input("rejuv faults: --domain " + std::to_string(*domain) + " + --jobs " + std::to_string(jobs) +
+                     " - 1 is above the highest DDS domain " + std::to_string(launch::defaults::kMaxDdsDomainId));
   }
-  const auto injections = to_u64(injections_text, "--injections");
-  const auto seed = to_u64(seed_text, "--seed");
-  const auto jobs = to_u64(jobs_text, "--jobs");
-  const auto per = to_u64(per_text, "--per-mission");
-  const auto domain = to_u64(domain_text, "--domain");
-  const auto bound = to_u64(bound_text, "--mission-timeout");
-  for (const auto* r : {&injections, &seed, &jobs, &per, &domain, &bound}) {
-    if (!*r) return bad_input("rejuv faults: " + r->error());
-  }
-  if (*injections == 0 || *injections > 100000) return bad_input("rejuv faults: --injections: expected 1..100000");
-  if (*jobs == 0 || *jobs > 16) return bad_input("rejuv faults: --jobs: expected 1..16");
-  if (*per == 0 || *per > 50) return bad_input("rejuv faults: --per-mission: expected 1..50");
-  if (*domain + *jobs - 1 > launch::defaults::kMaxDdsDomainId) return bad_input("rejuv faults: --domain too high");
-  if (*bound < 10) return bad_input("rejuv faults: --mission-timeout: expected at least 10 s");
-  const auto charge = to_charge(charge_text, "--charge");
   // Without --domain each job holds a leased domain (sys/lease.hpp) for the campaign: two campaigns, a
   // campaign and the tests, or two checkouts' test suites on one machine never share a DDS domain.
   std::vector<sys::DdsDomainLease> leases;
-  if (!domain_set) {
-    for (std::uint64_t j = 0; j < *jobs; ++j) {
+  if (!domain) {
+    for (std::uint64_t j = 0; j < jobs; ++j) {
       auto lease = sys::lease_dds_domain(static_cast<std::uint32_t>(::getpid() + j));
       if (!lease) return bad_input("rejuv faults: no free DDS domain (" + lease.error().to_string() + "): give --domain");
       leases.push_back(std::move(*lease));
     }
   }
-  if (!charge) return bad_input("rejuv faults: " + charge.error());
 
   auto graph = launch::load_launch(graph_path);
   if (!graph) return bad_input(graph.error().to_string());
@@ -124,41 +105,38 @@ int run_faults(std::span<const std::string_view> args) {
   }
   // The square flies ≈265 s with SR: the faults are spread over the first 230 s of flight.
   std::vector<faults::Mission> missions =
-      faults::plan(*seed, static_cast<std::uint32_t>(*injections), static_cast<std::uint32_t>(*per), rejuvenated,
+      faults::plan(seed, static_cast<std::uint32_t>(injections), static_cast<std::uint32_t>(per), rejuvenated,
                    std::chrono::seconds{230});
-  if (mission_set) {
-    const auto only = to_u64(mission_text, "--mission");
-    if (!only) return bad_input("rejuv faults: " + only.error());
+  if (only) {
     std::erase_if(missions, [&](const faults::Mission& m) { return m.index != *only; });
-    if (missions.empty()) return bad_input("rejuv faults: --mission: the plan has no mission " + mission_text);
+    if (missions.empty()) return bad_input("rejuv faults: --mission: the plan has no mission " + std::to_string(*only));
   }
-  const fs::path out_dir = out_text;
   std::error_code ec;
   fs::create_directories(out_dir, ec);
-  if (ec) return bad_input("rejuv faults: --out: cannot create '" + out_text + "': " + ec.message());
+  if (ec) return bad_input("rejuv faults: --out: cannot create '" + out_dir.string() + "': " + ec.message());
   std::fprintf(stderr, "rejuv faults: %llu faults in %zu missions, %llu job%s, seed %llu\n",
-               static_cast<unsigned long long>(*injections), missions.size(), static_cast<unsigned long long>(*jobs),
-               *jobs == 1 ? "" : "s", static_cast<unsigned long long>(*seed));
+               static_cast<unsigned long long>(injections), missions.size(), static_cast<unsigned long long>(jobs),
+               jobs == 1 ? "" : "s", static_cast<unsigned long long>(seed));
 
   // One process per job, forked while this one is still single-threaded.
   const long cpus = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
   std::vector<pid_t> pids;
   std::fflush(nullptr);
   const pid_t campaign = ::getpid();
-  for (std::uint64_t j = 0; j < *jobs; ++j) {
+  for (std::uint64_t j = 0; j < jobs; ++j) {
     const pid_t pid = ::fork();
     if (pid < 0) return bad_input("rejuv faults: fork failed");
     if (pid == 0) {
       // A job never outlives the campaign (Ctrl-C, a kill): SIGTERM stops its kernel, which shuts its mission down.
       if (!sys::die_with_parent(campaign, SIGTERM)) ::_exit(1);
       std::vector<faults::Mission> mine;
-      for (std::size_t m = j; m < missions.size(); m += *jobs) mine.push_back(missions[m]);
+      for (std::size_t m = j; m < missions.size(); m += jobs) mine.push_back(missions[m]);
       const faults::JobConfig config{.graph = graph_path,
-                                     .dds_domain = domain_set ? static_cast<std::uint32_t>(*domain + j) : leases[j].slot(),
+                                     .dds_domain = domain ? static_cast<std::uint32_t>(*domain + j) : leases[j].slot(),
                                      .cpu = static_cast<int>(j % static_cast<std::uint64_t>(cpus)),
-                                     .mission_wall_bound = std::chrono::seconds{*bound},
+                                     .mission_wall_bound = std::chrono::seconds{bound},
                                      .log = out_dir / ("job-" + std::to_string(j) + ".log"),
-                                     .charge = *charge};
+                                     .charge = charge};
       const std::vector<Outcome> outcomes = faults::run_job(config, mine);
       std::ofstream f(out_dir / ("job-" + std::to_string(j) + ".tsv"));
       for (const Outcome& o : outcomes) f << faults::encode(o);
@@ -247,7 +225,7 @@ int run_faults(std::span<const std::string_view> args) {
   }
 
   std::ofstream json(out_dir / "faults.json");
-  json << "{\n  \"graph\": \"" << json_escape(graph_path) << "\", \"seed\": " << *seed << ", \"planned\": " << *injections
+  json << "{\n  \"graph\": \"" << json_escape(graph_path) << "\", \"seed\": " << seed << ", \"planned\": " << injections
        << ", \"injected\": " << total.injections << ", \"not_injected\": " << not_fired
        << ", \"recovered\": " << total.recovered << ", \"unsafe\": " << total.unsafe << ", \"leaked\": " << total.leaked
        << ", \"hung\": " << total.hung << ",\n  \"table\": [\n";

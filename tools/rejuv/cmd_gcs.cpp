@@ -59,13 +59,13 @@ Result<link::MissionUpload, std::string> parse_waypoints(std::string_view text) 
   return up;
 }
 
-Result<link::MissionUpload, std::string> mission_of_launch(const std::string& path) {
+Result<link::MissionUpload, std::string> mission_of_launch(const std::filesystem::path& path) {
   auto loaded = launch::load_launch(path);
   if (!loaded) return fail(loaded.error().to_string());
   const proto::Mission& m = loaded->graph.mission();
-  if (m.waypoints_size() == 0) return fail("--upload: " + path + " has no mission waypoints");
+  if (m.waypoints_size() == 0) return fail("--upload: " + path.string() + " has no mission waypoints");
   if (static_cast<std::size_t>(m.waypoints_size()) > link::kMaxUploadWaypoints) {
-    return fail("--upload: " + path + " has " + std::to_string(m.waypoints_size()) + " waypoints; an upload holds at most " +
+    return fail("--upload: " + path.string() + " has " + std::to_string(m.waypoints_size()) + " waypoints; an upload holds at most " +
                 std::to_string(link::kMaxUploadWaypoints));
   }
   link::MissionUpload up;
@@ -79,16 +79,6 @@ Result<link::MissionUpload, std::string> mission_of_launch(const std::string& pa
   return up;
 }
 
-Result<Nanos, std::string> seconds_option(const std::string& text, std::string_view option, double min, double max) {
-  auto v = to_double(text, option);
-  if (!v) return fail(v.error());
-  if (!(*v >= min && *v <= max)) {
-    return fail("option '" + std::string(option) + "' expects seconds in [" + std::to_string(min) + ", " +
-                std::to_string(max) + "], got '" + text + "'");
-  }
-  return to_nanos(Seconds{*v});
-}
-
 const char* mode_text(std::uint8_t mode) {
   return mode < kModeCount ? mode_name(kAllModes[mode]) : "?";
 }
@@ -96,75 +86,51 @@ const char* mode_text(std::uint8_t mode) {
 }  // namespace
 
 int run_gcs(std::span<const std::string_view> args) {
-  std::string port_text, host_text, upload_path, waypoints_text, watch_text, timeout_text, radius_text;
-  bool port_set = false, host_set = false, upload_set = false, waypoints_set = false, watch_set = false,
-       timeout_set = false, radius_set = false, all = false;
-  ArgParser parser("gcs",
-                   "A minimal ground control station for the kernel's network gate (UDP, docs/link_protocol.md).\n"
-                   "Uploads a mission to ext_link, retransmitting it every 200 ms until it is acknowledged (during\n"
-                   "the secure execution interval the gate drops everything, so the upload waits for MC), then\n"
-                   "prints the telemetry ext_link sends in MC. The kernel's port is in `rejuv run`'s log\n"
-                   "(\"network gate: udp 127.0.0.1:P\"; launch `network.bind_port`, default 14555).\n"
-                   "Exit 0 when the upload was acknowledged (watching only: when telemetry arrived), 1 when it\n"
-                   "was refused (the reason is printed: outside the geofence, below the altitude floor, too many\n"
-                   "waypoints) or not acknowledged in time, 2 on bad flags.");
-  parser.option("--port", "P", port_text, "the kernel's network gate port (required)", &port_set)
-      .option("--host", "IP", host_text, "the kernel's address (default 127.0.0.1)", &host_set)
-      .option("--upload", "LAUNCH_FILE", upload_path, "upload the mission of this launch graph", &upload_set)
-      .option("--waypoints", "N,E,D[,YAW];...", waypoints_text, "upload these waypoints (local NED [m], yaw [rad])",
-              &waypoints_set)
-      .option("--acceptance-radius", "M", radius_text, "acceptance radius of the uploaded mission [m]", &radius_set)
-      .option("--watch", "SECONDS", watch_text,
-              "print telemetry for this long (after the upload is acknowledged); default 0 with an upload, 10 without",
-              &watch_set)
-      .option("--timeout", "SECONDS", timeout_text, "give up on the acknowledgement after this long (default 60)",
-              &timeout_set)
+  std::optional<std::uint64_t> port;
+  std::string host = "127.0.0.1";
+  std::optional<std::filesystem::path> upload_path;
+  std::optional<link::MissionUpload> waypoints;
+  std::optional<double> radius, watch_s;
+  double timeout_s = 60;
+  bool all = false;
+  Options opts("gcs",
+               "A minimal ground control station for the kernel's network gate (UDP, docs/link_protocol.md).\n"
+               "Uploads a mission to ext_link, retransmitting it every 200 ms until it is acknowledged (during\n"
+               "the secure execution interval the gate drops everything, so the upload waits for MC), then\n"
+               "prints the telemetry ext_link sends in MC. The kernel's port is in `rejuv run`'s log\n"
+               "(\"network gate: udp 127.0.0.1:P\"; launch `network.bind_port`, default 14555).\n"
+               "Exit 0 when the upload was acknowledged (watching only: when telemetry arrived), 1 when it\n"
+               "was refused (the reason is printed: outside the geofence, below the altitude floor, too many\n"
+               "waypoints) or not acknowledged in time, 2 on bad flags.");
+  opts.integer("--port", "P", port, {1, 0xFFFF}, "the kernel's network gate port; required")
+      .text("--host", "IP", host, "the kernel's address")
+      .path("--upload", "LAUNCH_FILE", upload_path, "upload the mission of this launch graph")
+      .custom<link::MissionUpload>("--waypoints", "N,E,D[,YAW];...", waypoints, parse_waypoints,
+                                   "upload these waypoints (local NED [m], yaw [rad])")
+      .real("--acceptance-radius", "M", radius, {.min = 0, .open_min = true},
+            "acceptance radius of the uploaded mission [m]")
+      .real("--watch", "SECONDS", watch_s, {.min = 0, .max = 1e6},
+            "print telemetry for this long (after the upload is acknowledged)", "0 with an upload, 10 without")
+      .real("--timeout", "SECONDS", timeout_s, {.min = 0.1, .max = 1e6}, "give up on the acknowledgement after this long")
       .flag("--all", all, "print every telemetry message (default: at most two lines a second)");
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv gcs: " + parsed.error());
-  switch (*parsed) {
-    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
-    case ParseOutcome::Run: break;
-  }
-  if (!port_set) return bad_input("rejuv gcs: --port is required (the kernel's network gate port)");
-  const auto port = to_u64(port_text, "--port");
-  if (!port) return bad_input("rejuv gcs: " + port.error());
-  if (*port == 0 || *port > 0xFFFF) return bad_input("rejuv gcs: --port: expected 1..65535, got " + port_text);
-  auto kernel = sys::UdpAddress::parse(host_set ? host_text : "127.0.0.1", static_cast<std::uint16_t>(*port));
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (!port) return bad_input("rejuv gcs: --port is required (the kernel's network gate port)");
+  auto kernel = sys::UdpAddress::parse(host, static_cast<std::uint16_t>(*port));
   if (!kernel) return bad_input("rejuv gcs: --host: " + kernel.error());
-  if (upload_set && waypoints_set) return bad_input("rejuv gcs: give --upload or --waypoints, not both");
-  if (radius_set && !upload_set && !waypoints_set) {
+  if (upload_path && waypoints) return bad_input("rejuv gcs: give --upload or --waypoints, not both");
+  if (radius && !upload_path && !waypoints) {
     return bad_input("rejuv gcs: --acceptance-radius needs --upload or --waypoints");
   }
 
-  std::optional<link::MissionUpload> upload;
-  if (upload_set) {
-    auto m = mission_of_launch(upload_path);
-    if (!m) return bad_input("rejuv gcs: " + m.error());
-    upload = *m;
-  } else if (waypoints_set) {
-    auto m = parse_waypoints(waypoints_text);
+  std::optional<link::MissionUpload> upload = waypoints;
+  if (upload_path) {
+    auto m = mission_of_launch(*upload_path);
     if (!m) return bad_input("rejuv gcs: " + m.error());
     upload = *m;
   }
-  if (upload && radius_set) {
-    const auto r = to_double(radius_text, "--acceptance-radius");
-    if (!r) return bad_input("rejuv gcs: " + r.error());
-    if (!(*r > 0)) return bad_input("rejuv gcs: --acceptance-radius: expected a radius > 0 m, got " + radius_text);
-    upload->acceptance_radius_m = *r;
-  }
-  Nanos watch = upload ? Nanos{0} : to_nanos(Seconds{10});
-  if (watch_set) {
-    auto w = seconds_option(watch_text, "--watch", 0, 1e6);
-    if (!w) return bad_input("rejuv gcs: " + w.error());
-    watch = *w;
-  }
-  Nanos timeout = std::chrono::seconds{60};
-  if (timeout_set) {
-    auto t = seconds_option(timeout_text, "--timeout", 0.1, 1e6);
-    if (!t) return bad_input("rejuv gcs: " + t.error());
-    timeout = *t;
-  }
+  if (upload && radius) upload->acceptance_radius_m = *radius;
+  const Nanos watch = to_nanos(Seconds{watch_s.value_or(upload ? 0.0 : 10.0)});
+  const Nanos timeout = to_nanos(Seconds{timeout_s});
 
   auto socket = sys::UdpSocket::bind(sys::UdpAddress::loopback(0), sys::Blocking::No);
   if (!socket) return bad_input("rejuv gcs: " + socket.error().to_string());

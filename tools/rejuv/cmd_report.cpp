@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "common_options.hpp"
 #include "figures.hpp"
 #include "attack_option.hpp"
 #include "commands.hpp"
@@ -35,11 +36,6 @@ namespace rejuv::cli {
 namespace {
 
 namespace fs = std::filesystem;
-
-struct FileCloser {
-  void operator()(std::FILE* f) const { std::fclose(f); }
-};
-using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
 
 // One configuration of Table I.
 struct Row {
@@ -64,8 +60,8 @@ struct Mission {
 };
 
 // Flies one row with `rejuv run` (this executable) and reads back its summary.
-Mission fly(const Row& row, const std::string& graph, std::uint64_t seed, const std::optional<std::string>& domain,
-            const std::optional<std::string>& attack, const fs::path& out, const sys::SignalFd& signals, bool tty) {
+Mission fly(const Row& row, const std::string& graph, std::uint64_t seed, std::optional<std::uint64_t> domain,
+            std::optional<flight::AttackLaw> attack, const fs::path& out, const sys::SignalFd& signals, bool tty) {
   const fs::path json = out / ("run_" + std::string(row.key) + ".json");
   const fs::path csv = out / ("run_" + std::string(row.key) + ".csv");
   const fs::path log = out / ("run_" + std::string(row.key) + ".log");
@@ -75,8 +71,8 @@ Mission fly(const Row& row, const std::string& graph, std::uint64_t seed, const 
                                    csv.string()};
   if (!row.sr) args.emplace_back("--no-sr");
   if (!row.attack) args.emplace_back("--no-attack");
-  if (domain) args.insert(args.end(), {"--domain", *domain});
-  if (attack) args.insert(args.end(), {"--attack", *attack});
+  if (domain) args.insert(args.end(), {"--domain", std::to_string(*domain)});
+  if (attack) args.insert(args.end(), {"--attack", std::string(flight::to_string(*attack))});
   auto child = start_rejuv_run(args, log);
   if (!child) return Mission{.problem = child.error()};
 
@@ -163,75 +159,61 @@ int report_figures(const fs::path& dir) {
 }  // namespace
 
 int run_report(std::span<const std::string_view> args) {
-  std::string what, graph_path, seed_text, out_text, domain_text, reuse_text, attack_text;
-  bool seed_set = false, out_set = false, domain_set = false, reuse_set = false, attack_set = false;
-  ArgParser parser("report",
-                   "Reports that compare the runtime with the model.\n"
-                   "  table GRAPH  Table I (§VI-D): SR on/off x attack on/off, each row a mission flown by the\n"
-                   "               multi-process runtime (`rejuv run`, lockstep) beside `rejuv sim` for the same seed:\n"
-                   "               d_mean, max V, rollbacks/attacks, mission time. The four runtime missions take a\n"
-                   "               few minutes; progress on stderr. Per row, --out gets run_<row>.json (summary),\n"
-                   "               .csv (trace) and .log (the run's output), and table.txt the table.\n"
-                   "  figures DIR  Figs. 7-10 and V/estimation error again (PNG and SVG, gnuplot) from the CSVs an\n"
-                   "               earlier `rejuv run ... --out DIR` or `rejuv sim ... --out DIR` wrote there.\n"
-                   "Exit 0 once every row ran (a row may be a failed mission: that is what Table I shows), 1 when a\n"
-                   "runtime mission could not be run, 2 on bad input.");
-  parser.positional("WHAT", what, "what to report: table or figures")
-      .positional("GRAPH|DIR", graph_path, "table: the launch graph (*.launch.pbtxt); figures: a run's --out DIR")
-      .option("--seed", "N", seed_text, "seed of every run (default: the graph's)", &seed_set)
-      .option("--out", "DIR", out_text, "where the runs' files go (default: out/table)", &out_set)
-      .option("--domain", "N", domain_text, "DDS domain id of the runtime missions (default: the graph's)",
-              &domain_set)
-      .option("--attack", "KIND", attack_text, kAttackOptionHelp, &attack_set)
-      .option("--sr-attack-json", "FILE", reuse_text,
-              "the runtime's 'SR, attack' row from this `rejuv run --summary-json` (same graph and seed) instead of "
-              "flying it again (e.g. the demo's main mission)",
-              &reuse_set);
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv report: " + parsed.error());
-  switch (*parsed) {
-    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
-    case ParseOutcome::Run: break;
-  }
+  std::string what, graph_path;
+  std::optional<std::uint64_t> seed_flag, domain;
+  std::optional<std::filesystem::path> out_dir, reuse_path;
+  std::optional<flight::AttackLaw> attack_law;
+  Options opts("report",
+               "Reports that compare the runtime with the model.\n"
+               "  table GRAPH  Table I (§VI-D): SR on/off x attack on/off, each row a mission flown by the\n"
+               "               multi-process runtime (`rejuv run`, lockstep) beside `rejuv sim` for the same seed:\n"
+               "               d_mean, max V, rollbacks/attacks, mission time. The four runtime missions take a\n"
+               "               few minutes; progress on stderr. Per row, --out gets run_<row>.json (summary),\n"
+               "               .csv (trace) and .log (the run's output), and table.txt the table.\n"
+               "  figures DIR  Figs. 7-10 and V/estimation error again (PNG and SVG, gnuplot) from the CSVs an\n"
+               "               earlier `rejuv run ... --out DIR` or `rejuv sim ... --out DIR` wrote there.\n"
+               "Exit 0 once every row ran (a row may be a failed mission: that is what Table I shows), 1 when a\n"
+               "runtime mission could not be run, 2 on bad input.");
+  opts.positional("WHAT", what, "what to report: table or figures")
+      .positional("GRAPH|DIR", graph_path, "table: the launch graph (*.launch.pbtxt); figures: a run's --out DIR");
+  seed_option(opts, seed_flag, "seed of every run")
+      .path("--out", "DIR", out_dir, "where the runs' files go", "out/table");
+  domain_option(opts, domain, "DDS domain id of the runtime missions", "the graph's");
+  attack_option(opts, attack_law)
+      .path("--sr-attack-json", "FILE", reuse_path,
+            "the runtime's 'SR, attack' row from this `rejuv run --summary-json` (same graph and seed) instead of\n"
+            "flying it again (e.g. the demo's main mission)");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (what == "figures") {
-    if (seed_set || out_set || domain_set || reuse_set) {
-      return bad_input("rejuv report figures: takes only DIR (--seed, --out, --domain, --sr-attack-json are for table)");
+    if (seed_flag || out_dir || domain || reuse_path || attack_law) {
+      return bad_input("rejuv report figures: takes only DIR (--seed, --out, --domain, --attack, --sr-attack-json are "
+                       "for table)");
     }
     return report_figures(graph_path);
   }
   if (what != "table") return bad_input("rejuv report: unknown report '" + what + "' (expected: table or figures)");
   flight::SimOverrides overrides;
-  if (seed_set) {
-    const auto seed = to_u64(seed_text, "--seed");
-    if (!seed) return bad_input("rejuv report: " + seed.error());
-    overrides.seed = *seed;
-  }
-  if (domain_set) {
-    const auto d = to_u64(domain_text, "--domain");
-    if (!d) return bad_input("rejuv report: " + d.error());
-  }
-  auto loaded = launch::load_launch(graph_path);
-  if (!loaded) return bad_input(loaded.error().to_string());
-  if (attack_set) {
-    auto ok = apply_attack_option(*loaded, attack_text);
-    if (!ok) return bad_input("rejuv report: " + ok.error());
-  }
+  overrides.seed = seed_flag;
+  auto loaded = load_with_attack(graph_path, attack_law, "rejuv report");
+  if (!loaded) return bad_input(loaded.error());
   auto config = flight::config_from_launch(*loaded, overrides);
   if (!config) return bad_input(config.error().to_string());
   const std::uint64_t seed = config->seed;
 
   std::optional<proto::RunSummary> reused;
-  if (reuse_set) {
-    reused = read_summary(reuse_text);
-    if (!reused) return bad_input("rejuv report: --sr-attack-json: cannot read a run summary from '" + reuse_text + "'");
+  if (reuse_path) {
+    reused = read_summary(*reuse_path);
+    if (!reused) {
+      return bad_input("rejuv report: --sr-attack-json: cannot read a run summary from '" + reuse_path->string() + "'");
+    }
     if (reused->runner() != "run" || !reused->sr() || !reused->attack() || reused->seed() != seed ||
         reused->graph() != config->graph_name ||
         reused->attack_kind() != std::string(flight::to_string(config->attack.law))) {
-      return bad_input("rejuv report: --sr-attack-json: '" + reuse_text + "' is not `rejuv run` of " +
+      return bad_input("rejuv report: --sr-attack-json: '" + reuse_path->string() + "' is not `rejuv run` of " +
                        config->graph_name + " with SR and attacks, seed " + std::to_string(seed));
     }
   }
-  const fs::path out = out_set ? fs::path(out_text) : fs::path("out/table");
+  const fs::path out = out_dir.value_or("out/table");
   std::error_code ec;
   fs::create_directories(out, ec);
   if (ec) return bad_input("rejuv report: --out: cannot create '" + out.string() + "': " + ec.message());
@@ -242,7 +224,6 @@ int run_report(std::span<const std::string_view> args) {
     return static_cast<int>(Exit::Findings);
   }
   const bool tty = isatty(STDERR_FILENO) == 1;
-  const std::optional<std::string> domain = domain_set ? std::optional<std::string>(domain_text) : std::nullopt;
 
   std::vector<proto::RunSummary> run, sim;
   const auto start = std::chrono::steady_clock::now();
@@ -256,15 +237,14 @@ int run_report(std::span<const std::string_view> args) {
     if (!model) return bad_input("rejuv report: " + model.error().to_string());
     sim.push_back(*model);
     if (row.sr && row.attack && reused) {
-      std::fprintf(stderr, "rejuv report: [%zu/4] %s: runtime row from %s\n", i + 1, row.label, reuse_text.c_str());
+      std::fprintf(stderr, "rejuv report: [%zu/4] %s: runtime row from %s\n", i + 1, row.label, reuse_path->c_str());
       run.push_back(*reused);
       continue;
     }
     std::fprintf(stderr, "rejuv report: [%zu/4] %s: rejuv run (log: %s)\n", i + 1, row.label,
                  (out / ("run_" + std::string(row.key) + ".log")).c_str());
     const auto mission_start = std::chrono::steady_clock::now();
-    Mission m = fly(row, graph_path, seed, domain, attack_set ? std::optional(attack_text) : std::nullopt, out,
-                    *signals, tty);
+    Mission m = fly(row, graph_path, seed, domain, attack_law, out, *signals, tty);
     if (!m.summary) {
       std::fprintf(stderr, "rejuv report: %s: %s\n", row.label, m.problem.c_str());
       return static_cast<int>(Exit::Findings);

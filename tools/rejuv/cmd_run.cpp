@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "args.hpp"
-#include "charge.hpp"
+#include "common_options.hpp"
 #include "figures.hpp"
 #include "attack_option.hpp"
 #include "report.hpp"
@@ -33,17 +33,8 @@
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
 
-#ifndef REJUV_SERVICE_DIR
-#define REJUV_SERVICE_DIR ""
-#endif
-
 namespace rejuv::cli {
 namespace {
-
-struct FileCloser {
-  void operator()(std::FILE* f) const { std::fclose(f); }
-};
-using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
 
 std::string describe_sandbox(const proto::SandboxViolations& v) {
   std::string out = v.isolation() + ", " + std::to_string(v.total()) + " violation" + (v.total() == 1 ? "" : "s");
@@ -150,142 +141,99 @@ std::vector<std::string> service_names(const kernel::Kernel& k) {
   return names;
 }
 
-std::filesystem::path service_dir() {
-  if (const char* env = std::getenv("REJUV_SERVICE_DIR"); env != nullptr && *env != '\0') return env;
-  return REJUV_SERVICE_DIR;
+// --cpu N|all (KernelOptions::placement).
+struct CpuPlacement {
+  kernel::KernelOptions::Placement placement;
+  int cpu = 0;
+};
+
+Result<CpuPlacement, std::string> cpu_placement(std::string_view text) {
+  if (text == "all") return CpuPlacement{.placement = kernel::KernelOptions::Placement::Spread};
+  const auto c = to_u64(text, "--cpu");
+  if (!c || *c >= 1024) return fail("--cpu: expected a CPU number or 'all', got '" + std::string(text) + "'");
+  return CpuPlacement{.placement = kernel::KernelOptions::Placement::Cpu, .cpu = static_cast<int>(*c)};
+}
+
+// --skip a,b,c.
+Result<std::vector<std::string>, std::string> service_names_of(std::string_view text) {
+  std::vector<std::string> names;
+  while (!text.empty()) {
+    const auto comma = text.find(',');
+    const std::string_view name = text.substr(0, comma);
+    if (!name.empty()) names.emplace_back(name);
+    text = comma == std::string_view::npos ? std::string_view{} : text.substr(comma + 1);
+  }
+  return names;
 }
 
 }  // namespace
 
 int run_run(std::span<const std::string_view> args) {
-  std::string attack_text;
-  bool attack_set = false;
-  std::string graph_path, seed_text, duration_text, json_path, csv_path, domain_text, skip_text, net_port_text, cpu_text;
-  std::string charge_text, out_text, trace_text = "compact", ulog_path;
-  bool net_port_set = false, cpu_set = false, charge_set = false, out_set = false, trace_set = false, no_figures = false;
-  bool ulog_set = false;
-  bool realtime = false, no_sr = false, no_attack = false, verbose = false, insecure_sandbox = false;
-  bool seed_set = false, duration_set = false, json_set = false, csv_set = false, domain_set = false, skip_set = false;
-  ArgParser parser("run",
-                   "Run a launch graph on the multi-process runtime: the kernel spawns every service and the plant,\n"
-                   "routes every message through the capability check and the broker, and keeps time (lockstep with\n"
-                   "the plant as time master unless --realtime). Without --duration the run ends at mission end or\n"
-                   "the mission timeout; with it, the run lasts exactly that long (e.g. a hover).\n"
-                   "With the graph's sr.enabled (and without --no-sr) the services are checkpointed and rolled back\n"
-                   "by the image store (DESIGN §7) on the rejuvenation timer; checkpoint_p drives the SR cycle.\n"
-                   "The run stops when the vehicle is lost (V = ||x - x_sp||^2_P > 100, as `rejuv sim`).\n"
-                   "Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when\n"
-                   "it fails, a service fails at boot or the graph's policy fails its audit (as `rejuv audit`), 2 on\n"
-                   "bad flags or a file the loaders refuse (README \"Exit codes\").");
-  parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
-      .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
-      .flag("--no-sr", no_sr, "no rejuvenation: mission control only, checkpoint_p not started")
-      .flag("--no-attack", no_attack, "disable the attack plan")
-      .option("--attack", "KIND", attack_text, kAttackOptionHelp, &attack_set)
-      .option("--seed", "N", seed_text, "seed of the plant and the services (default: the graph's)", &seed_set)
-      .option("--duration", "S", duration_text,
-              "stop after S seconds of flight (kernel time after the plant's pre-flight alignment)", &duration_set)
-      .option("--summary-json", "FILE", json_path, "write the RunSummary as JSON", &json_set)
-      .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step", &csv_set)
-      .option("--charge", "model|measured", charge_text, std::string(kChargeHelp) + " (default: model)", &charge_set)
-      .option("--out", "DIR", out_text, kOutHelp, &out_set)
-      .option("--trace", "compact|full", trace_text, kTraceHelp, &trace_set)
-      .flag("--no-figures", no_figures, kNoFiguresHelp)
-      .option("--ulog", "FILE", ulog_path,
-              "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
-              "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)", &ulog_set)
-      .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
-      .option("--skip", "NAMES", skip_text, "comma-separated services not to start (e.g. not built yet)", &skip_set)
-      .option("--net-port", "P", net_port_text,
-              "UDP port of the network gate (default: the graph's network.bind_port or 14555; 0 = any free port)",
-              &net_port_set)
-      .option("--cpu", "N|all", cpu_text,
-              "kernel, services and plant on CPU N or on all (default: lockstep stays on the CPU it starts on)",
-              &cpu_set)
-      .flag("--insecure-sandbox", insecure_sandbox,
+  std::string graph_path;
+  KernelFlags flags;
+  FlightSwitches switches;
+  std::optional<double> duration;
+  std::optional<std::filesystem::path> json_path, csv_path, ulog_path;
+  std::optional<CpuPlacement> cpu;
+  std::optional<std::vector<std::string>> skip;
+  OutFlags out;
+  bool realtime = false, verbose = false;
+  Options opts("run", R"(Run a launch graph on the multi-process runtime: the kernel spawns every service and the plant,
+routes every message through the capability check and the broker, and keeps time (lockstep with
+the plant as time master unless --realtime). Without --duration the run ends at mission end or
+the mission timeout; with it, the run lasts exactly that long (e.g. a hover).
+With the graph's sr.enabled (and without --no-sr) the services are checkpointed and rolled back
+by the image store (DESIGN §7) on the rejuvenation timer; checkpoint_p drives the SR cycle.
+The run stops when the vehicle is lost (V = ||x - x_sp||^2_P > 100, as `rejuv sim`).
+Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when
+it fails, a service fails at boot or the graph's policy fails its audit (as `rejuv audit`), 2 on
+bad flags or a file the loaders refuse (README "Exit codes").)");
+  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
+      .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant");
+  flight_options(opts, switches, "no rejuvenation: mission control only, checkpoint_p not started");
+  seed_option(opts, flags.seed, "seed of the plant and the services")
+      .real("--duration", "S", duration, {.min = 0, .max = launch::defaults::kMaxDurationS, .open_min = true, .open_max = true},
+            "stop after S seconds of flight (kernel time after the plant's pre-flight alignment)",
+            "the mission's end or timeout")
+      .path("--summary-json", "FILE", json_path, "write the RunSummary as JSON")
+      .path("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step");
+  charge_option(opts, flags.charge);
+  out_options(opts, out)
+      .path("--ulog", "FILE", ulog_path,
+            "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
+            "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)",
+            "DIR/run.ulg with --out");
+  domain_option(opts, flags.domain, "DDS domain id", "the graph's")
+      .custom<std::vector<std::string>>("--skip", "NAMES", skip, service_names_of,
+                                        "comma-separated services not to start (e.g. not built yet)");
+  net_port_option(opts, flags.net_port, "UDP port of the network gate; 0: any free port",
+                  "the graph's network.bind_port or 14555")
+      .custom<CpuPlacement>("--cpu", "N|all", cpu, cpu_placement, "kernel, services and plant on CPU N or on all",
+                            "lockstep stays on the CPU it starts on")
+      .flag("--insecure-sandbox", flags.insecure_sandbox,
             "run the services without their network and mount namespaces (where neither root nor unprivileged\n"
             "user namespaces are available); the allow-list, limits and sweeps still hold; the summary says so")
       .flag("--verbose", verbose, "also print the services' debug log lines");
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv run: " + parsed.error());
-  switch (*parsed) {
-    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
-    case ParseOutcome::Run: break;
-  }
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (auto ok = check_out_options(opts, out); !ok) return bad_input("rejuv run: " + ok.error());
 
-  const auto trace_detail = parse_trace_detail(trace_text);
-  if (!trace_detail) return bad_input("rejuv run: " + trace_detail.error());
-  if (trace_set && !out_set) return bad_input("rejuv run: --trace is the detail of --out's trace: give --out DIR");
-  if (no_figures && !out_set) return bad_input("rejuv run: --no-figures goes with --out DIR");
-
-  kernel::KernelOptions options;
-  options.no_sr = no_sr;
-  options.no_attack = no_attack;
+  kernel::KernelOptions options = kernel_options(flags);
+  options.no_sr = switches.no_sr;
+  options.no_attack = switches.no_attack;
   options.verbose = verbose;
-  options.sandbox = insecure_sandbox ? kernel::KernelOptions::Sandbox::Insecure : kernel::KernelOptions::Sandbox::Strict;
-  options.service_dir = service_dir();
-  options.repo_root = REJUV_SOURCE_DIR;
   if (realtime) options.clock = kernel::ClockMode::Realtime;
-  if (charge_set) {
-    const auto charge = to_charge(charge_text, "--charge");
-    if (!charge) return bad_input("rejuv run: " + charge.error());
-    options.charge = *charge;
-  }
-  if (seed_set) {
-    const auto seed = to_u64(seed_text, "--seed");
-    if (!seed) return bad_input("rejuv run: " + seed.error());
-    options.seed = *seed;
-  }
-  if (duration_set) {
-    const auto d = to_double(duration_text, "--duration");
-    if (!d) return bad_input("rejuv run: " + d.error());
-    if (!(std::isfinite(*d) && *d > 0 && *d < 1e6)) {
-      return bad_input("rejuv run: --duration: expected seconds in (0, 1e6), got '" + duration_text + "'");
-    }
-    options.duration = to_nanos(Seconds{*d});
+  if (duration) {
+    options.duration = to_nanos(Seconds{*duration});
     options.stop_on_mission_done = false;
   }
-  if (domain_set) {
-    const auto d = to_u64(domain_text, "--domain");
-    if (!d) return bad_input("rejuv run: " + d.error());
-    if (*d > launch::defaults::kMaxDdsDomainId) {
-      return bad_input("rejuv run: --domain: expected 0.." + std::to_string(launch::defaults::kMaxDdsDomainId) +
-                       ", got " + domain_text);
-    }
-    options.dds_domain = static_cast<std::uint32_t>(*d);
+  if (cpu) {
+    options.placement = cpu->placement;
+    options.cpu = cpu->cpu;
   }
-  if (net_port_set) {
-    const auto p = to_u64(net_port_text, "--net-port");
-    if (!p) return bad_input("rejuv run: " + p.error());
-    if (*p > 0xFFFF) return bad_input("rejuv run: --net-port: expected 0..65535, got " + net_port_text);
-    options.network_port = static_cast<std::uint16_t>(*p);
-  }
-  if (cpu_set) {
-    if (cpu_text == "all") {
-      options.placement = kernel::KernelOptions::Placement::Spread;
-    } else {
-      const auto c = to_u64(cpu_text, "--cpu");
-      if (!c || *c >= 1024) return bad_input("rejuv run: --cpu: expected a CPU number or 'all', got '" + cpu_text + "'");
-      options.placement = kernel::KernelOptions::Placement::Cpu;
-      options.cpu = static_cast<int>(*c);
-    }
-  }
-  if (skip_set) {
-    std::string_view rest = skip_text;
-    while (!rest.empty()) {
-      const auto comma = rest.find(',');
-      const std::string_view name = rest.substr(0, comma);
-      if (!name.empty()) options.skip_services.emplace_back(name);
-      rest = comma == std::string_view::npos ? std::string_view{} : rest.substr(comma + 1);
-    }
-  }
+  if (skip) options.skip_services = *skip;
 
-  auto loaded = launch::load_launch(graph_path);
-  if (!loaded) return bad_input(loaded.error().to_string());
-  if (attack_set) {
-    auto ok = apply_attack_option(*loaded, attack_text);
-    if (!ok) return bad_input("rejuv run: " + ok.error());
-  }
+  auto loaded = load_with_attack(graph_path, switches.attack, "rejuv run");
+  if (!loaded) return bad_input(loaded.error());
   for (const std::string& name : options.skip_services) {
     if (launch::find_service(loaded->graph, name) == nullptr) {
       return bad_input("rejuv run: --skip: the graph has no service '" + name + "'");
@@ -294,7 +242,7 @@ int run_run(std::span<const std::string_view> args) {
   // The reference for the metrics: the same path, control design and P as `rejuv sim` (services/flight/sim).
   auto reference = run_reference(*loaded, options.seed);
   if (!reference) return bad_input(reference.error());
-  if (no_attack) reference->library_attack.reset();
+  if (switches.no_attack) reference->library_attack.reset();
   // The plant aligns as long as `rejuv sim` does (launch lockstep.alignment_s, passed by the kernel), so that both
   // fly from a converged estimate; --duration counts from the end of it.
   if (options.duration) *options.duration += reference->alignment;
@@ -303,26 +251,21 @@ int run_run(std::span<const std::string_view> args) {
   start_attack_library_after(loaded->graph, reference->alignment);
 
   UniqueFile json_file, csv_file;
-  if (json_set) {
-    json_file.reset(std::fopen(json_path.c_str(), "w"));
-    if (!json_file) return bad_input("rejuv run: cannot write --summary-json file '" + json_path + "'");
-  }
-  if (csv_set) {
-    csv_file.reset(std::fopen(csv_path.c_str(), "w"));
-    if (!csv_file) return bad_input("rejuv run: cannot write --csv file '" + csv_path + "'");
+  if (auto opened = open_outputs("rejuv run", json_path, csv_path, json_file, csv_file); !opened) {
+    return bad_input(opened.error());
   }
   RunRecorder recorder(std::move(*reference), csv_file.get(),
                        isatty(STDERR_FILENO) == 1 ? RunRecorder::Progress::Every1s : RunRecorder::Progress::Every10s);
   std::optional<RunFiles> files;
-  if (out_set) {
-    auto opened = RunFiles::open(out_text, *trace_detail);
+  if (out.dir) {
+    auto opened = RunFiles::open(*out.dir, out.trace);
     if (!opened) return bad_input("rejuv run: " + opened.error());
     files.emplace(std::move(*opened));
     recorder.record_to(&*files);
   }
 
   const std::string graph_name = loaded->graph.name();
-  const bool attack = loaded->graph.attack().enabled() && !no_attack;
+  const bool attack = loaded->graph.attack().enabled() && !switches.no_attack;
   const std::uint32_t stop_after_attacks = loaded->graph.stop_after_attacks();
   const std::string attack_kind = attack ? vehicle_attack_kind(loaded->graph) : std::string();
   kernel::ObserverFanout observers;
@@ -333,8 +276,8 @@ int run_run(std::span<const std::string_view> args) {
     return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
   }
   std::unique_ptr<UlogRecorder> ulog;
-  if (ulog_set || out_set) {  // --out DIR writes DIR/run.ulg too, unless --ulog names another file
-    auto opened = write_ulog_to(ulog_set ? std::filesystem::path(ulog_path) : std::filesystem::path(out_text) / "run.ulg", **k,
+  if (ulog_path || out.dir) {  // --out DIR writes DIR/run.ulg too, unless --ulog names another file
+    auto opened = write_ulog_to(ulog_path ? *ulog_path : *out.dir / "run.ulg", **k,
                                 {.seed = options.seed.value_or((*k)->graph().graph.seed()),
                                  .sr = (*k)->sr_enabled(),
                                  .attack = attack},
@@ -386,7 +329,7 @@ int run_run(std::span<const std::string_view> args) {
     wrong_size += st.wrong_size;
     overrun += st.lost;
   }
-  fill_sandbox(*s.mutable_sandbox_violations(), **k, insecure_sandbox);
+  fill_sandbox(*s.mutable_sandbox_violations(), **k, flags.insecure_sandbox);
   for (const auto& [kind, n] : {std::pair{"SandboxViolation", s.sandbox_violations().total()}, std::pair{"FloodDropped", flood},
                                 std::pair{"WrongSize", wrong_size}, std::pair{"RingOverrun", overrun}}) {
     if (n > 0) (*s.mutable_denials())[kind] = n;
@@ -413,7 +356,7 @@ int run_run(std::span<const std::string_view> args) {
     }
   }
 
-  const bool out_ok = !files || finish_out_dir(*files, s, "rejuv run", no_figures ? Figures::Skip : Figures::Draw);
+  const bool out_ok = !files || finish_out_dir(*files, s, "rejuv run", out.no_figures ? Figures::Skip : Figures::Draw);
   std::fputs(describe(s, *outcome).c_str(), stdout);
   if (json_file) std::fputs((to_json(s) + "\n").c_str(), json_file.get());
   const bool completed_run = s.mission_completed() || outcome->reason == kernel::StopReason::Duration ||

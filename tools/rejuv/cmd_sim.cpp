@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "common_options.hpp"
 #include "figures.hpp"
 #include "attack_option.hpp"
 #include "report.hpp"
@@ -21,11 +22,6 @@
 
 namespace rejuv::cli {
 namespace {
-
-struct FileCloser {
-  void operator()(std::FILE* f) const { std::fclose(f); }
-};
-using UniqueFile = std::unique_ptr<std::FILE, FileCloser>;
 
 void print(std::FILE* to, const std::string& text) { std::fputs(text.c_str(), to); }
 
@@ -68,73 +64,47 @@ bool run_is_good(const proto::RunSummary& s) {
 }  // namespace
 
 int run_sim(std::span<const std::string_view> args) {
-  std::string graph_path, seed_text, json_path, csv_path, out_text, trace_text = "compact", attack_text;
-  bool attack_set = false;
-  bool no_sr = false, no_attack = false, table = false, seed_set = false, json_set = false, csv_set = false;
-  bool out_set = false, trace_set = false, no_figures = false;
-  ArgParser parser("sim",
-                   "Model-level simulation of the CPS SR scheme (paper §II, §IV–§VI) in one process: plant at 1 kHz,\n"
-                   "sensors, EKF, LQR controllers, the modes MC/RB/SC/update/CP and the worst-case attack of §VI-D.\n"
-                   "Exit 0 when the mission completes inside the safety set, 1 when it fails or leaves it\n"
-                   "(--table: 0 once all four configurations ran), 2 on bad flags or a bad launch file.");
-  parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt): sr, mission, plant, attack")
-      .flag("--no-sr", no_sr, "no rejuvenation: the same tracking algorithm in MC for the whole mission")
-      .flag("--no-attack", no_attack, "disable the attack plan")
-      .option("--attack", "KIND", attack_text, kAttackOptionHelp, &attack_set)
-      .option("--seed", "N", seed_text, "seed of sensor noise and wind (default: the graph's seed)", &seed_set)
-      .option("--summary-json", "FILE", json_path, "write the RunSummary as JSON (--table: an array of four)",
-              &json_set)
-      .option("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V every control period",
-              &csv_set)
-      .option("--out", "DIR", out_text, kOutHelp, &out_set)
-      .option("--trace", "compact|full", trace_text, kTraceHelp, &trace_set)
-      .flag("--no-figures", no_figures, kNoFiguresHelp)
-      .flag("--table", table, "run Table I: SR on/off x attack on/off, and print the comparison");
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv sim: " + parsed.error());
-  switch (*parsed) {
-    case ParseOutcome::HelpShown: print(stdout, parser.help()); return static_cast<int>(Exit::Ok);
-    case ParseOutcome::Run: break;
-  }
-  flight::SimOverrides overrides;
-  if (seed_set) {
-    const auto seed = to_u64(seed_text, "--seed");
-    if (!seed) return bad_input("rejuv sim: " + seed.error());
-    overrides.seed = *seed;
-  }
-  if (table && (no_sr || no_attack || csv_set || out_set)) {
+  std::string graph_path;
+  std::optional<std::uint64_t> seed;
+  FlightSwitches switches;
+  std::optional<std::filesystem::path> json_path, csv_path;
+  OutFlags files_out;
+  bool table = false;
+  Options opts("sim",
+               "Model-level simulation of the CPS SR scheme (paper §II, §IV–§VI) in one process: plant at 1 kHz,\n"
+               "sensors, EKF, LQR controllers, the modes MC/RB/SC/update/CP and the worst-case attack of §VI-D.\n"
+               "Exit 0 when the mission completes inside the safety set, 1 when it fails or leaves it\n"
+               "(--table: 0 once all four configurations ran), 2 on bad flags or a bad launch file.");
+  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt): sr, mission, plant, attack");
+  flight_options(opts, switches, "no rejuvenation: the same tracking algorithm in MC for the whole mission");
+  seed_option(opts, seed, "seed of sensor noise and wind")
+      .path("--summary-json", "FILE", json_path, "write the RunSummary as JSON (--table: an array of four)")
+      .path("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V every control period");
+  out_options(opts, files_out).flag("--table", table, "run Table I: SR on/off x attack on/off, and print the comparison");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (table && (switches.no_sr || switches.no_attack || csv_path || files_out.dir)) {
     return bad_input("rejuv sim: --table runs all four configurations; it cannot be combined with --no-sr, "
                      "--no-attack, --csv or --out");
   }
-  const auto trace_detail = parse_trace_detail(trace_text);
-  if (!trace_detail) return bad_input("rejuv sim: " + trace_detail.error());
-  if (trace_set && !out_set) return bad_input("rejuv sim: --trace is the detail of --out's trace: give --out DIR");
-  if (no_figures && !out_set) return bad_input("rejuv sim: --no-figures goes with --out DIR");
-  if (no_sr) overrides.sr = flight::SrSwitch::Off;
-  if (no_attack) overrides.attack = flight::AttackSwitch::Off;
+  if (auto ok = check_out_options(opts, files_out); !ok) return bad_input("rejuv sim: " + ok.error());
+  flight::SimOverrides overrides;
+  overrides.seed = seed;
+  if (switches.no_sr) overrides.sr = flight::SrSwitch::Off;
+  if (switches.no_attack) overrides.attack = flight::AttackSwitch::Off;
 
-  auto loaded = launch::load_launch(graph_path);
-  if (!loaded) return bad_input(loaded.error().to_string());
-  if (attack_set) {
-    auto ok = apply_attack_option(*loaded, attack_text);
-    if (!ok) return bad_input("rejuv sim: " + ok.error());
-  }
+  auto loaded = load_with_attack(graph_path, switches.attack, "rejuv sim");
+  if (!loaded) return bad_input(loaded.error());
   auto config = flight::config_from_launch(*loaded, overrides);
   if (!config) return bad_input(config.error().to_string());
 
   // Open every output before the (long) run, so a bad path fails fast.
   UniqueFile json_file, csv_file;
-  if (json_set) {
-    json_file.reset(std::fopen(json_path.c_str(), "w"));
-    if (!json_file) return bad_input("rejuv sim: cannot write --summary-json file '" + json_path + "'");
-  }
-  if (csv_set) {
-    csv_file.reset(std::fopen(csv_path.c_str(), "w"));
-    if (!csv_file) return bad_input("rejuv sim: cannot write --csv file '" + csv_path + "'");
+  if (auto opened = open_outputs("rejuv sim", json_path, csv_path, json_file, csv_file); !opened) {
+    return bad_input(opened.error());
   }
   std::optional<RunFiles> files;
-  if (out_set) {
-    auto opened = RunFiles::open(out_text, *trace_detail);
+  if (files_out.dir) {
+    auto opened = RunFiles::open(*files_out.dir, files_out.trace);
     if (!opened) return bad_input("rejuv sim: " + opened.error());
     files.emplace(std::move(*opened));
   }
@@ -155,7 +125,7 @@ int run_sim(std::span<const std::string_view> args) {
     }
     auto summary = flight::run_simulation(*config, obs);
     if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
-    const bool out_ok = !files || finish_out_dir(*files, *summary, "rejuv sim", no_figures ? Figures::Skip : Figures::Draw);
+    const bool out_ok = !files || finish_out_dir(*files, *summary, "rejuv sim", files_out.no_figures ? Figures::Skip : Figures::Draw);
     print(stdout, describe(*summary));
     if (json_file) print(json_file.get(), to_json(*summary) + "\n");
     return static_cast<int>(run_is_good(*summary) && out_ok ? Exit::Ok : Exit::Findings);

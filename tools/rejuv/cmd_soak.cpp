@@ -37,17 +37,13 @@
 #include <vector>
 
 #include "args.hpp"
-#include "charge.hpp"
+#include "common_options.hpp"
 #include "commands.hpp"
 #include "report.hpp"
 #include "run_recorder.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/sys/process.hpp"
-
-#ifndef REJUV_SERVICE_DIR
-#define REJUV_SERVICE_DIR ""
-#endif
 
 namespace rejuv::cli {
 namespace {
@@ -329,11 +325,6 @@ Verdict judge(const Series& s, double kernel_rss_kb, double service_rss_kb, doub
   return v;
 }
 
-std::filesystem::path service_dir() {
-  if (const char* env = std::getenv("REJUV_SERVICE_DIR"); env != nullptr && *env != '\0') return env;
-  return REJUV_SERVICE_DIR;
-}
-
 // The graph's closed waypoint loop (first == last) repeated while the mission holds it.
 void repeat_the_loop(proto::Mission& m) {
   const int n = m.waypoints_size();
@@ -362,88 +353,48 @@ Result<launch::LoadedLaunch, std::string> soak_graph(const std::string& path) {
 }  // namespace
 
 int run_soak(std::span<const std::string_view> args) {
-  std::string graph_path, cycles_text = "1000", every_text = "10", seed_text, out_text = "out/soak", domain_text;
-  std::string charge_text = "model";
-  std::string kernel_rss_text = "512", service_rss_text = "256", net_port_text = "0", maps_slack_text = "2";
-  bool seed_set = false, domain_set = false, insecure_sandbox = false, one_kernel = false;
-  ArgParser parser("soak",
-                   "Soak a launch graph (DESIGN §11): kernels in this process fly the mission with SR and its attacks\n"
-                   "(the closed waypoint loop repeated as often as a mission holds), one mission after the other, until\n"
-                   "--cycles rollbacks in all, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
-                   "the plant and every service, the kernel's threads and children, the processes under it and in\n"
-                   "each service's session. Writes DIR/soak.csv (and DIR/soak.png with gnuplot). Compares the median\n"
-                   "of the last 20 % of the samples with that of the 20 % after a 10 % warm-up: RSS may grow by the\n"
-                   "bounds below, counts not beyond the baseline's jitter. Exit 0 when flat, 1 when a series grew or\n"
-                   "the run failed (the series are named), 2 on bad input.");
-  parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
-      .option("--cycles", "N", cycles_text, "SR cycles (rollbacks) to fly (default 1000)")
-      .option("--sample-every", "C", every_text, "cycles between samples (default 10)")
-      .option("--seed", "N", seed_text, "seed of the plant and the services (default: the graph's)", &seed_set)
-      .option("--out", "DIR", out_text, "where soak.csv and soak.png go (default out/soak)")
-      .option("--kernel-rss-kb", "K", kernel_rss_text, "allowed growth of the kernel's RSS (default 512 kB)")
-      .option("--service-rss-kb", "K", service_rss_text, "allowed growth of a service's or the plant's RSS (256 kB)")
-      .option("--maps-slack", "M", maps_slack_text,
-              "mappings a process may gain beyond the baseline's jitter (default 2: a new process of each\n"
-              "mission may get one more malloc arena or thread stack than the first; a leak keeps growing)")
-      .option("--domain", "N", domain_text, "DDS domain id (default: the graph's)", &domain_set)
-      .option("--charge", "model|measured", charge_text, std::string(kChargeHelp) + " (default: model)")
-      .option("--net-port", "P", net_port_text, "UDP port of the network gate (default 0: any free port)")
+  std::string graph_path;
+  std::uint64_t cycles = 1000, every = 10, maps_slack = 2;
+  double kernel_rss = 512, service_rss = 256;
+  std::filesystem::path out = "out/soak";
+  bool one_kernel = false;
+  KernelFlags flags{.net_port = 0};
+  Options opts("soak",
+               "Soak a launch graph (DESIGN §11): kernels in this process fly the mission with SR and its attacks\n"
+               "(the closed waypoint loop repeated as often as a mission holds), one mission after the other, until\n"
+               "--cycles rollbacks in all, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
+               "the plant and every service, the kernel's threads and children, the processes under it and in\n"
+               "each service's session. Writes DIR/soak.csv (and DIR/soak.png with gnuplot). Compares the median\n"
+               "of the last 20 % of the samples with that of the 20 % after a 10 % warm-up: RSS may grow by the\n"
+               "bounds below, counts not beyond the baseline's jitter. Exit 0 when flat, 1 when a series grew or\n"
+               "the run failed (the series are named), 2 on bad input.");
+  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
+      .integer("--cycles", "N", cycles, {1, 10'000'000}, "SR cycles (rollbacks) to fly")
+      .integer("--sample-every", "C", every, {1, 10'000'000}, "cycles between samples, at most --cycles");
+  seed_option(opts, flags.seed, "seed of the plant and the services")
+      .path("--out", "DIR", out, "where soak.csv and soak.png go")
+      .real("--kernel-rss-kb", "K", kernel_rss, {.min = 0}, "allowed growth of the kernel's RSS [kB]")
+      .real("--service-rss-kb", "K", service_rss, {.min = 0}, "allowed growth of a service's or the plant's RSS [kB]")
+      .integer("--maps-slack", "M", maps_slack, {},
+               "mappings a process may gain beyond the baseline's jitter (2: a new process of each\n"
+               "mission may get one more malloc arena or thread stack than the first; a leak keeps growing)");
+  domain_option(opts, flags.domain, "DDS domain id", "the graph's");
+  charge_option(opts, flags.charge);
+  net_port_option(opts, flags.net_port, "UDP port of the network gate", "0, any free port")
       .flag("--one-kernel", one_kernel,
             "one kernel for the whole soak (the mission, then a hover at its last waypoint) instead of a new\n"
             "kernel in this process for each mission")
-      .flag("--insecure-sandbox", insecure_sandbox, "as `rejuv run --insecure-sandbox`");
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv soak: " + parsed.error());
-  switch (*parsed) {
-    case ParseOutcome::HelpShown: std::fputs(parser.help().c_str(), stdout); return static_cast<int>(Exit::Ok);
-    case ParseOutcome::Run: break;
+      .flag("--insecure-sandbox", flags.insecure_sandbox, "as `rejuv run --insecure-sandbox`");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (every > cycles) {
+    return bad_input("rejuv soak: --sample-every: expected 1..--cycles (" + std::to_string(cycles) + "), got " +
+                     std::to_string(every));
   }
-  const auto cycles = to_u64(cycles_text, "--cycles");
-  const auto every = to_u64(every_text, "--sample-every");
-  const auto kernel_rss = to_double(kernel_rss_text, "--kernel-rss-kb");
-  const auto service_rss = to_double(service_rss_text, "--service-rss-kb");
-  const auto net_port = to_u64(net_port_text, "--net-port");
-  const auto maps_slack = to_u64(maps_slack_text, "--maps-slack");
-  if (!maps_slack) return bad_input("rejuv soak: " + maps_slack.error());
-  if (!cycles) return bad_input("rejuv soak: " + cycles.error());
-  if (!every) return bad_input("rejuv soak: " + every.error());
-  if (!kernel_rss) return bad_input("rejuv soak: " + kernel_rss.error());
-  if (!service_rss) return bad_input("rejuv soak: " + service_rss.error());
-  if (!net_port) return bad_input("rejuv soak: " + net_port.error());
-  if (*cycles < 1 || *cycles > 10'000'000) return bad_input("rejuv soak: --cycles: expected 1..10000000, got " + cycles_text);
-  if (*every < 1 || *every > *cycles) {
-    return bad_input("rejuv soak: --sample-every: expected 1..--cycles, got " + every_text);
-  }
-  if (*net_port > 0xFFFF) return bad_input("rejuv soak: --net-port: expected 0..65535, got " + net_port_text);
-  if (!(*kernel_rss >= 0) || !(*service_rss >= 0)) return bad_input("rejuv soak: the RSS bounds must be >= 0 kB");
-
-  const auto charge = to_charge(charge_text, "--charge");
-  if (!charge) return bad_input("rejuv soak: " + charge.error());
-  kernel::KernelOptions options;
-  options.charge = *charge;
-  options.sandbox = insecure_sandbox ? kernel::KernelOptions::Sandbox::Insecure : kernel::KernelOptions::Sandbox::Strict;
-  options.service_dir = service_dir();
-  options.repo_root = REJUV_SOURCE_DIR;
-  options.network_port = static_cast<std::uint16_t>(*net_port);
-  if (seed_set) {
-    const auto seed = to_u64(seed_text, "--seed");
-    if (!seed) return bad_input("rejuv soak: " + seed.error());
-    options.seed = *seed;
-  }
-  if (domain_set) {
-    const auto d = to_u64(domain_text, "--domain");
-    if (!d) return bad_input("rejuv soak: " + d.error());
-    if (*d > launch::defaults::kMaxDdsDomainId) {
-      return bad_input("rejuv soak: --domain: expected 0.." + std::to_string(launch::defaults::kMaxDdsDomainId) +
-                       ", got " + domain_text);
-    }
-    options.dds_domain = static_cast<std::uint32_t>(*d);
-  }
+  kernel::KernelOptions options = kernel_options(flags);
 
   auto loaded = soak_graph(graph_path);
   if (!loaded) return bad_input(loaded.error());
   std::error_code ec;
-  const fs::path out(out_text);
   fs::create_directories(out, ec);
   const fs::path csv_path = out / "soak.csv";
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> csv(std::fopen(csv_path.c_str(), "w"), &std::fclose);
@@ -453,10 +404,10 @@ int run_soak(std::span<const std::string_view> args) {
   if (one_kernel) {
     options.stop_on_mission_done = false;
   }
-  Soak soak(*cycles, *every);
+  Soak soak(cycles, every);
   const std::string graph_name = loaded->graph.name();
   std::fprintf(stderr, "rejuv soak: %s, %llu SR cycles, a sample every %llu, seed %llu, %s\n", graph_name.c_str(),
-               static_cast<unsigned long long>(*cycles), static_cast<unsigned long long>(*every),
+               static_cast<unsigned long long>(cycles), static_cast<unsigned long long>(every),
                static_cast<unsigned long long>(options.seed.value_or(loaded->graph.seed())),
                one_kernel ? "one kernel" : "a new kernel for each mission");
   std::uint64_t cycles_done = 0, missions = 0, checkpoints = 0, fallbacks = 0, cold = 0, attacked = 0;
@@ -548,7 +499,7 @@ int run_soak(std::span<const std::string_view> args) {
   bool flat = true;
   std::printf("  %-26s %12s %12s %10s %10s\n", "series", "baseline", "last 20 %", "growth", "bound");
   for (const Series& x : soak.series()) {
-    const Verdict v = judge(x, *kernel_rss, *service_rss, static_cast<double>(*maps_slack));
+    const Verdict v = judge(x, kernel_rss, service_rss, static_cast<double>(maps_slack));
     if (!v.readable) {
       std::printf("  %-26s %12s\n", v.name.c_str(), "unreadable");
       continue;
@@ -559,10 +510,10 @@ int run_soak(std::span<const std::string_view> args) {
   }
   const bool reached = soak.done() && !failed;
   const bool safe = !left;
-  if (!reached) std::printf("rejuv soak: FAILED: the run stopped before %llu cycles\n", static_cast<unsigned long long>(*cycles));
+  if (!reached) std::printf("rejuv soak: FAILED: the run stopped before %llu cycles\n", static_cast<unsigned long long>(cycles));
   if (!safe) std::printf("rejuv soak: FAILED: the vehicle left the safety set\n");
   if (!flat) std::printf("rejuv soak: FAILED: a series grew beyond its bound (GREW above)\n");
-  if (reached && safe && flat) std::printf("rejuv soak: flat over %llu cycles\n", static_cast<unsigned long long>(*cycles));
+  if (reached && safe && flat) std::printf("rejuv soak: flat over %llu cycles\n", static_cast<unsigned long long>(cycles));
   return static_cast<int>(reached && safe && flat ? Exit::Ok : Exit::Findings);
 }
 

@@ -90,21 +90,15 @@ Result<std::size_t, std::string> write_outputs(const fs::path& dir, const proto:
 
 int run_merge(std::span<const std::string_view> args) {
   std::vector<std::string> dirs;
-  std::string out_text;
-  bool out_set = false;
-  ArgParser parser("sweep merge",
-                   "Combine the folders of a sharded sweep (`rejuv sweep … --shard i/n --out DIR_i`, docs/sweep.md):\n"
-                   "their plans must be the same sweep; the records of all go to --out (default: the first DIR),\n"
-                   "which then gets sweep.csv, sweep.json and the figures. Exit 0 when the merged sweep is complete,\n"
-                   "1 when records are missing or a cell was refused or failed, 2 on bad input.");
-  parser.positionals("DIR", dirs, "sweep folders (one per shard)")
-      .option("--out", "DIR", out_text, "where the merged sweep goes (default: the first DIR)", &out_set);
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv sweep merge: " + parsed.error());
-  if (*parsed == ParseOutcome::HelpShown) {
-    std::fputs(parser.help().c_str(), stdout);
-    return static_cast<int>(Exit::Ok);
-  }
+  std::optional<fs::path> out_dir;
+  Options opts("sweep merge",
+               "Combine the folders of a sharded sweep (`rejuv sweep … --shard i/n --out DIR_i`, docs/sweep.md):\n"
+               "their plans must be the same sweep; the records of all go to --out (default: the first DIR),\n"
+               "which then gets sweep.csv, sweep.json and the figures. Exit 0 when the merged sweep is complete,\n"
+               "1 when records are missing or a cell was refused or failed, 2 on bad input.");
+  opts.positionals("DIR", dirs, "sweep folders (one per shard)")
+      .path("--out", "DIR", out_dir, "where the merged sweep goes", "the first DIR");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
   auto plan = sweep::read_plan(dirs.front());
   if (!plan) return bad_input("rejuv sweep merge: " + plan.error());
   for (const std::string& d : dirs) {
@@ -115,7 +109,7 @@ int run_merge(std::span<const std::string_view> args) {
                        " (graph, parameters, seeds, attacks or runners differ: compare their plan.json)");
     }
   }
-  const fs::path out = out_set ? fs::path(out_text) : fs::path(dirs.front());
+  const fs::path out = out_dir.value_or(fs::path(dirs.front()));
   std::error_code ec;
   fs::create_directories(out / "cells", ec);
   if (ec) return bad_input("rejuv sweep merge: --out: cannot create '" + out.string() + "': " + ec.message());
@@ -139,12 +133,15 @@ int run_merge(std::span<const std::string_view> args) {
 
 int run_sweep(std::span<const std::string_view> args) {
   if (!args.empty() && args.front() == "merge") return run_merge(args.subspan(1));
-  std::string graph_path, seeds_text, attacks_text = "45", runner_text = "sim", jobs_text = "1", out_text = "out/sweep",
-                          shard_text;
+  std::string graph_path;
   std::vector<std::string> params;
-  bool seeds_set = false, shard_set = false, resume = false;
-  ArgParser parser(
-      "sweep",
+  std::optional<std::vector<std::uint64_t>> seeds;
+  std::optional<sweep::Shard> shard;
+  std::uint64_t attacks = 45, jobs = 1;
+  enum class Runners : std::uint8_t { Sim, Run, Both } runner = Runners::Sim;
+  fs::path dir = "out/sweep";
+  bool resume = false;
+  Options opts("sweep",
       "Fly a grid of launch parameters (§VI-D, Fig. 11: T_MC x T_est with 45 consecutive worst-case attacks per\n"
       "cell) on the model (`sim`: in this process, --jobs threads), the runtime (`run`: one `rejuv run` per cell\n"
       "and seed, --jobs at a time, each on its own CPU, DDS domain and port) or both. Each cell flies until\n"
@@ -155,40 +152,24 @@ int run_sweep(std::span<const std::string_view> args) {
       "Every finished mission is kept in DIR/cells: --resume continues an interrupted sweep. `rejuv sweep merge\n"
       "DIR...` combines the folders of --shard i/n runs (docs/sweep.md). Exit 0 once every task flew, 1 when a\n"
       "cell was refused, a mission failed to run or the sweep was interrupted, 2 on bad input.");
-  parser.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt) the sweep varies")
+  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt) the sweep varies")
       .repeated("--param", "PATH=VALUES", params,
                 "a launch field by path and its values: a:b:step (inclusive), v1,v2,... or one value;\n"
-                "      e.g. sr.t_mc_s=0.2:0.3:0.025, sr.restricted_limit_fraction=0.1,0.2,\n"
-                "      attack.attacks[0].kind=WORST_CASE_CONTROL (one or two --param)")
-      .option("--seeds", "LIST", seeds_text, "seeds of each cell: a-b, a,b,c or one (default: the graph's seed)",
-              &seeds_set)
-      .option("--attacks", "N", attacks_text, "end each mission after N attacked MC windows (default 45; 0 = fly it)")
-      .option("--runner", "sim|run|both", runner_text, "the model, the runtime or both (default sim)")
-      .option("--jobs", "N", jobs_text, "cells flown in parallel (default 1)")
-      .option("--out", "DIR", out_text, "output folder (default out/sweep)")
+                "e.g. sr.t_mc_s=0.2:0.3:0.025, sr.restricted_limit_fraction=0.1,0.2,\n"
+                "attack.attacks[0].kind=WORST_CASE_CONTROL (one or two --param)")
+      .custom<std::vector<std::uint64_t>>("--seeds", "LIST", seeds, sweep::parse_seeds,
+                                          "seeds of each cell: a-b, a,b,c or one", "the graph's seed")
+      .integer("--attacks", "N", attacks, {0, 100000}, "end each mission after N attacked MC windows (0 = fly it)")
+      .choice<Runners>("--runner", {{"sim", Runners::Sim}, {"run", Runners::Run}, {"both", Runners::Both}}, runner,
+                       "the model, the runtime or both")
+      .integer("--jobs", "N", jobs, {1, 256}, "cells flown in parallel")
+      .path("--out", "DIR", dir, "output folder")
       .flag("--resume", resume, "continue the sweep kept in DIR: fly only the tasks without a record")
-      .option("--shard", "i/n", shard_text, "fly only every n-th cell, from the i-th (1-based); see `merge`",
-              &shard_set);
-  const auto parsed = parser.parse(args);
-  if (!parsed) return bad_input("rejuv sweep: " + parsed.error());
-  if (*parsed == ParseOutcome::HelpShown) {
-    std::fputs(parser.help().c_str(), stdout);
-    return static_cast<int>(Exit::Ok);
-  }
+      .custom<sweep::Shard>("--shard", "i/n", shard, sweep::parse_shard,
+                            "fly only every n-th cell, from the i-th (1-based); see `merge`");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (params.empty() || params.size() > 2) {
     return bad_input("rejuv sweep: expected one or two --param PATH=VALUES, got " + std::to_string(params.size()));
-  }
-  const auto attacks = to_u64(attacks_text, "--attacks");
-  if (!attacks || *attacks > 100000) return bad_input("rejuv sweep: --attacks: expected 0..100000, got '" + attacks_text + "'");
-  const auto jobs = to_u64(jobs_text, "--jobs");
-  if (!jobs || *jobs == 0 || *jobs > 256) return bad_input("rejuv sweep: --jobs: expected 1..256, got '" + jobs_text + "'");
-  const auto runner = to_choice(runner_text, "--runner", {"sim", "run", "both"});
-  if (!runner) return bad_input("rejuv sweep: " + runner.error());
-  sweep::Shard shard;
-  if (shard_set) {
-    const auto s = sweep::parse_shard(shard_text);
-    if (!s) return bad_input("rejuv sweep: " + s.error());
-    shard = *s;
   }
 
   auto loaded = launch::load_launch(graph_path);
@@ -203,20 +184,17 @@ int run_sweep(std::span<const std::string_view> args) {
     if (!paths.insert(axis->path()).second) return bad_input("rejuv sweep: --param " + axis->path() + " given twice");
     *plan.add_axes() = *axis;
   }
-  if (seeds_set) {
-    const auto seeds = sweep::parse_seeds(seeds_text);
-    if (!seeds) return bad_input("rejuv sweep: " + seeds.error());
+  if (seeds) {
     for (const std::uint64_t s : *seeds) plan.add_seeds(s);
   } else {
     plan.add_seeds(loaded->graph.seed());
   }
-  plan.set_attacks(static_cast<std::uint32_t>(*attacks));
-  if (*runner != "run") plan.add_runners("sim");
-  if (*runner != "sim") plan.add_runners("run");
+  plan.set_attacks(static_cast<std::uint32_t>(attacks));
+  if (runner != Runners::Run) plan.add_runners("sim");
+  if (runner != Runners::Sim) plan.add_runners("run");
   if (sweep::cell_count(plan) > 100000) return bad_input("rejuv sweep: more than 100000 cells");
 
   // The folder: a new sweep, or (--resume) the same sweep continued.
-  const fs::path dir = out_text;
   if (fs::exists(dir / "plan.json", ec)) {
     if (!resume) {
       return bad_input("rejuv sweep: " + dir.string() + " holds a sweep already: --resume to continue it, or another --out");
@@ -258,7 +236,7 @@ int run_sweep(std::span<const std::string_view> args) {
 
   std::vector<Task> todo;
   std::size_t kept = 0;
-  for (const Task& t : sweep::tasks_of(plan, shard)) {
+  for (const Task& t : sweep::tasks_of(plan, shard.value_or(sweep::Shard{}))) {
     if (resume && sweep::kept_record(dir, plan, t)) {
       ++kept;
     } else {
@@ -268,14 +246,14 @@ int run_sweep(std::span<const std::string_view> args) {
   const bool tty = isatty(STDERR_FILENO) == 1;
   std::fprintf(stderr, "rejuv sweep: %u cells x %d seeds x %d runners%s: %zu tasks to fly, %zu kept, %llu jobs%s\n",
                sweep::cell_count(plan), plan.seeds_size(), plan.runners_size(),
-               shard_set ? (" (shard " + shard_text + ")").c_str() : "", todo.size(), kept,
-               static_cast<unsigned long long>(*jobs),
+               shard ? (" (shard " + std::to_string(shard->index + 1) + "/" + std::to_string(shard->count) + ")").c_str() : "",
+               todo.size(), kept, static_cast<unsigned long long>(jobs),
                refused > 0 ? (", " + std::to_string(refused) + " cells refused by the launch loader").c_str() : "");
   auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
   if (!signals) return bad_input("rejuv sweep: signalfd: " + signals.error().to_string());
   const auto outcome = sweep::execute(plan, cells, todo, kept,
                                       sweep::ExecConfig{.dir = dir,
-                                                        .jobs = static_cast<unsigned>(*jobs),
+                                                        .jobs = static_cast<unsigned>(jobs),
                                                         .tty = tty,
                                                         .signals = &*signals});
   if (!outcome) {

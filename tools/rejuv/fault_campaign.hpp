@@ -2,7 +2,7 @@
 // fly one after another (or in --jobs parallel processes, each with its own DDS domain), each with a few
 // faults injected at moments and phases drawn from the seed; after each one the campaign records the path by
 // which the kernel recovered, whether the vehicle stayed inside the safety set, whether anything leaked and
-// whether the mission hung. This header is the plan and the per-injection record; fault_campaign.cpp flies
+// whether the mission hung. This header is the plan and the per-injection record (fault_plan.cpp); fault_campaign.cpp flies
 // the missions, cmd_faults.cpp is the command (table, JSON).
 #pragma once
 

@@ -24,7 +24,7 @@ inline constexpr const char* kOutHelp =
     "events.csv (the SR events) and, with gnuplot, Figs. 7-10 and V/estimation error as PNG and SVG";
 inline constexpr const char* kNoFiguresHelp = "with --out: the CSVs and the summary only, no pictures (sweeps)";
 inline constexpr const char* kTraceHelp =
-    "the trace in --out: compact (default: a row every 20 ms and at every mode change or SR event) or full\n"
+    "the trace in --out: compact (a row every 20 ms and at every mode change or SR event) or full\n"
     "(every 4 ms control period)";
 
 // The figures, in the order they are drawn: the base names of the scripts and of the pictures.

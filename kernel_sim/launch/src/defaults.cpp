@@ -1,0 +1,115 @@
+// The launch graph's defaults and accessors (launch.hpp "defaults"): the fields whose default is not the
+// proto's zero read in one place, the attack hooks of the in-tree services, service lookup and sandbox limits.
+#include <filesystem>
+
+#include "rejuv/launch/launch.hpp"
+
+namespace rejuv::launch {
+
+std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view executable) {
+  // services/*/main.cpp: lqr_control carries the worst-case control law (worst_case_attack.cpp) and the gain
+  // overwrite of the attack library; checkpoint_p, commander, ext_link and ekf2 install the runtime hooks of
+  // services/attacks (attacks::install), which carry out every runtime kind (ESCAPE_HELPER included); ekf2,
+  // sensors and gen_set_point carry the attack library's laws on the estimate, the IMU data and x_sp
+  // (docs/control.md "Attack library"); the others have none.
+  const std::vector<proto::AttackKind> runtime{
+      proto::INVOKE_CHECKPOINT, proto::ARM_TIMER,  proto::WRITE_LIMITS, proto::PUBLISH_ACTUATOR_OUTPUTS,
+      proto::WRITE_PERSISTENT,  proto::FORGED_SLOT, proto::NETWORK_IN_SEI, proto::KILL_IMAGE,
+      proto::OPEN_SOCKET,       proto::FLOOD_BROKER, proto::ESCAPE_HELPER};
+  const std::string name = std::filesystem::path(executable).filename().string();
+  if (name == "rejuv_lqr_control") {
+    return std::vector<proto::AttackKind>{proto::WORST_CASE_CONTROL, proto::GAIN_OVERWRITE};
+  }
+  if (name == "rejuv_ekf2") {
+    std::vector<proto::AttackKind> kinds = runtime;
+    kinds.insert(kinds.end(), {proto::ESTIMATE_SHIFT, proto::ESTIMATE_DRIFT});
+    return kinds;
+  }
+  if (name == "rejuv_sensors") return std::vector<proto::AttackKind>{proto::SENSOR_BIAS};
+  if (name == "rejuv_gen_set_point") return std::vector<proto::AttackKind>{proto::SETPOINT_SHIFT};
+  if (name == "rejuv_checkpoint_p" || name == "rejuv_commander" || name == "rejuv_ext_link") {
+    return runtime;
+  }
+  for (const char* none : {"rejuv_safety_control", "rejuv_output_driver"}) {
+    if (name == none) {
+      return std::vector<proto::AttackKind>{};
+    }
+  }
+  return std::nullopt;
+}
+
+std::uint32_t keep_generations(const proto::SrParams& sr) {
+  return sr.has_keep_generations() ? sr.keep_generations() : defaults::kKeepGenerations;
+}
+Seconds check_period(const proto::SrParams& sr) {
+  return sr.has_check_period_s() ? Seconds(sr.check_period_s()) : defaults::kCheckPeriod;
+}
+Seconds t_mc(const proto::SrParams& sr) {
+  return Seconds(sr.t_mc_s());
+}
+Seconds t_est(const proto::SrParams& sr) {
+  return Seconds(sr.t_est_s());
+}
+Seconds t_min(const proto::SrParams& sr) {
+  return Seconds(sr.t_min_s());
+}
+Seconds mission_timeout(const proto::Mission& mission) {
+  return Seconds(mission.timeout_s());
+}
+Seconds checkpoint_charge(const proto::LockstepTiming& lockstep) {
+  return lockstep.has_checkpoint_charge_ms() ? Seconds(lockstep.checkpoint_charge_ms() / 1000.0)
+                                             : defaults::kCheckpointCharge;
+}
+Seconds rollback_charge(const proto::LockstepTiming& lockstep) {
+  return lockstep.has_rollback_charge_ms() ? Seconds(lockstep.rollback_charge_ms() / 1000.0)
+                                           : defaults::kRollbackCharge;
+}
+Seconds alignment(const proto::LockstepTiming& lockstep) {
+  return lockstep.has_alignment_s() ? Seconds(lockstep.alignment_s()) : defaults::kAlignment;
+}
+
+double physics_rate_hz(const proto::PlantSpec& plant) {
+  return plant.physics_rate_hz() > 0.0 ? plant.physics_rate_hz() : defaults::kPhysicsRateHz;
+}
+Seconds physics_step(const proto::PlantSpec& plant) {
+  return Seconds(1.0 / physics_rate_hz(plant));
+}
+
+bool rejuvenate(const proto::ServiceSpec& service) {
+  return service.has_rejuvenate() ? service.rejuvenate() : true;
+}
+
+std::string dds_name(const proto::Bridge& bridge) {
+  return bridge.dds_name().empty() ? std::string(defaults::kDdsNamePrefix) + bridge.topic()
+                                   : bridge.dds_name();
+}
+
+std::filesystem::path dds_config(const LoadedLaunch& launch, const std::filesystem::path& repo_root) {
+  const std::string& cfg = launch.graph.dds().config();
+  if (cfg.empty()) {
+    return repo_root / defaults::kDdsConfig;
+  }
+  const std::filesystem::path p(cfg);
+  return (p.is_relative() ? launch.path.parent_path() / p : p).lexically_normal();
+}
+
+const proto::ServiceSpec* find_service(const proto::Launch& graph, std::string_view name) {
+  for (const proto::ServiceSpec& s : graph.services()) {
+    if (s.name() == name) {
+      return &s;
+    }
+  }
+  return nullptr;
+}
+
+SandboxLimitValues sandbox_limits(const proto::Launch& graph, const proto::ServiceSpec& service) {
+  SandboxLimitValues v;
+  for (const proto::SandboxLimits* l : {&graph.sandbox_limits(), &service.limits()}) {  // the service's last
+    if (l->has_max_processes()) v.max_processes = l->max_processes();
+    if (l->has_max_memory_mb()) v.max_memory_mb = l->max_memory_mb();
+    if (l->has_max_open_files()) v.max_open_files = l->max_open_files();
+  }
+  return v;
+}
+
+}  // namespace rejuv::launch

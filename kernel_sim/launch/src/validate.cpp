@@ -1,0 +1,526 @@
+// The checks of a parsed launch graph (DESIGN §1, §10; every rule idl/launch.proto states): texts, header,
+// services, plant, DDS, SR parameters, sandbox limits, lockstep timing, mission and attack plan, and the policy
+// file it names. Each refusal is a semantic LoadError at the field's file:line:column with what was expected.
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <system_error>
+
+#include "rejuv/core/vocabulary.hpp"
+#include "validate.hpp"
+
+namespace rejuv::launch::detail {
+
+namespace {
+
+using Check = Result<void, LoadError>;
+using Step = TextLocations::Step;
+
+// Validates one parsed graph; the first problem found is returned (the user fixes and reruns).
+class Validator {
+ public:
+  Validator(const proto::Launch& g, const TextLocations& locs, const std::filesystem::path& path)
+      : g_(g), locs_(locs), path_(path) {}
+
+  Result<std::filesystem::path, LoadError> run() {
+    for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(),
+                    check_limits(), check_lockstep(), check_mission(), check_attack()}) {
+      if (!c) {
+        return fail(std::move(c.error()));
+      }
+    }
+    return resolve_policy();
+  }
+
+ private:
+  // A semantic error at `where` (TextLocations::locate already falls back to the enclosing message).
+  [[nodiscard]] static LoadError error(SourceLocation where, std::string message) {
+    return semantic_error(std::move(where), std::move(message));
+  }
+  [[nodiscard]] SourceLocation at(std::initializer_list<Step> path, std::string_view field,
+                                  int index = -1) const {
+    return locs_.locate(path, field, index);
+  }
+
+  // Every text of the graph is valid UTF-8 (protobuf's text parser does not check proto3 strings).
+  Check check_text() const {
+    const auto utf8 = [&](const std::string& v, SourceLocation where, std::string_view what) -> Check {
+      if (!is_utf8(v)) {
+        return fail(error(std::move(where), std::string(what) + " is not valid UTF-8"));
+      }
+      return {};
+    };
+    const auto params = [&](const auto& list, std::string_view owner, const auto& locate) -> Check {
+      for (int p = 0; p < list.size(); ++p) {
+        if (Check c = utf8(list[p].name(), locate(p, "name"), std::string(owner) + " parameter name"); !c) return c;
+        if (Check c = utf8(list[p].text(), locate(p, "text"), std::string(owner) + " parameter text"); !c) return c;
+      }
+      return {};
+    };
+    if (Check c = utf8(g_.name(), at({}, "name"), "the graph's `name`"); !c) return c;
+    if (Check c = utf8(g_.policy(), at({}, "policy"), "`policy`"); !c) return c;
+    for (int i = 0; i < g_.services_size(); ++i) {
+      const proto::ServiceSpec& s = g_.services(i);
+      if (Check c = utf8(s.name(), at({{"services", i}}, "name"), "a service `name`"); !c) return c;
+      if (Check c = utf8(s.executable(), at({{"services", i}}, "executable"), "an `executable`"); !c) return c;
+      for (int u = 0; u < s.uses_size(); ++u) {
+        if (Check c = utf8(s.uses(u).object(), at({{"services", i}, {"uses", u}}, "object"), "a used `object`"); !c) {
+          return c;
+        }
+        if (Check c = utf8(s.uses(u).rights(), at({{"services", i}, {"uses", u}}, "rights"), "`rights`"); !c) return c;
+      }
+      if (Check c = params(s.params(), "a service",
+                           [&](int p, std::string_view f) { return at({{"services", i}, {"params", p}}, f); });
+          !c) {
+        return c;
+      }
+    }
+    if (Check c = utf8(g_.plant().executable(), at({{"plant", -1}}, "executable"), "the plant's `executable`"); !c) {
+      return c;
+    }
+    if (Check c = params(g_.plant().params(), "a plant",
+                         [&](int p, std::string_view f) { return at({{"plant", -1}, {"params", p}}, f); });
+        !c) {
+      return c;
+    }
+    if (Check c = utf8(g_.dds().config(), at({{"dds", -1}}, "config"), "`dds.config`"); !c) return c;
+    for (int b = 0; b < g_.dds().bridges_size(); ++b) {
+      const proto::Bridge& br = g_.dds().bridges(b);
+      if (Check c = utf8(br.topic(), at({{"dds", -1}, {"bridges", b}}, "topic"), "a bridge `topic`"); !c) return c;
+      if (Check c = utf8(br.dds_name(), at({{"dds", -1}, {"bridges", b}}, "dds_name"), "a `dds_name`"); !c) return c;
+    }
+    for (int a = 0; a < g_.attack().attacks_size(); ++a) {
+      if (Check c = utf8(g_.attack().attacks(a).service(), at({{"attack", -1}, {"attacks", a}}, "service"),
+                         "an attack's `service`");
+          !c) {
+        return c;
+      }
+    }
+    if (Check c = utf8(g_.network().bind_address(), at({{"network", -1}}, "bind_address"), "`network.bind_address`");
+        !c) {
+      return c;
+    }
+    return utf8(g_.network().object(), at({{"network", -1}}, "object"), "`network.object`");
+  }
+
+  Check check_header() const {
+    // proto3 enums are open: a number the schema does not name parses; refuse it where it was written.
+    if (!proto::ClockMode_IsValid(g_.clock())) {
+      return fail(error(at({}, "clock"), "unknown `clock` " + std::to_string(g_.clock()) +
+                                             ": expected LOCKSTEP or REALTIME"));
+    }
+    if (g_.name().empty()) {
+      return fail(error(at({}, "name"), "missing `name`: expected name: \"<graph name>\""));
+    }
+    if (g_.policy().empty()) {
+      return fail(error(at({}, "policy"),
+                        "missing `policy`: expected the policy file, relative to this file, e.g. "
+                        "policy: \"../policies/quad_sr.policy.pbtxt\""));
+    }
+    if (g_.services_size() == 0) {
+      return fail(error(at({}, "name"), "the graph has no `services`: expected at least one"));
+    }
+    return {};
+  }
+
+  Check check_services() const {
+    std::set<std::string_view> names;
+    for (int i = 0; i < g_.services_size(); ++i) {
+      const proto::ServiceSpec& s = g_.services(i);
+      if (!is_plain_name(s.name())) {
+        return fail(error(at({{"services", i}}, "name"),
+                          s.name().empty() ? std::string("service without a `name`")
+                                           : "service name \"" + s.name() +
+                                                 "\" must use only letters, digits, '_', '-', '.'"));
+      }
+      if (!names.insert(s.name()).second) {
+        return fail(error(at({{"services", i}}, "name"),
+                          "duplicate service name \"" + s.name() + "\": service names are unique"));
+      }
+      if (s.executable().empty()) {
+        return fail(
+            error(at({{"services", i}}, "executable"), "service \"" + s.name() + "\" has no `executable`"));
+      }
+      std::set<std::string_view> used;
+      for (int u = 0; u < s.uses_size(); ++u) {
+        const proto::Use& use = s.uses(u);
+        if (use.object().empty()) {
+          return fail(error(at({{"services", i}, {"uses", u}}, "object"),
+                            "`uses` entry without an `object` in service \"" + s.name() + "\""));
+        }
+        if (!used.insert(use.object()).second) {
+          return fail(error(at({{"services", i}, {"uses", u}}, "object"),
+                            "service \"" + s.name() + "\" lists \"" + use.object() +
+                                "\" twice in `uses`: merge the rights into one entry"));
+        }
+        if (!Rights::parse(use.rights())) {
+          return fail(error(at({{"services", i}, {"uses", u}}, "rights"),
+                            "bad rights \"" + use.rights() + "\" for \"" + use.object() +
+                                "\": expected one or more distinct letters of R, W, G"));
+        }
+      }
+      std::set<std::string_view> params;
+      for (int p = 0; p < s.params_size(); ++p) {
+        const proto::Param& param = s.params(p);
+        if (param.name().empty() || !params.insert(param.name()).second) {
+          return fail(error(at({{"services", i}, {"params", p}}, "name"),
+                            param.name().empty() ? "parameter without a `name`"
+                                                 : "duplicate parameter \"" + param.name() + "\""));
+        }
+        if (param.value_case() == proto::Param::VALUE_NOT_SET) {
+          return fail(error(at({{"services", i}, {"params", p}}, "name"),
+                            "parameter \"" + param.name() + "\" has no value: expected `number` or `text`"));
+        }
+        if (param.value_case() == proto::Param::kNumber && !std::isfinite(param.number())) {
+          return fail(error(at({{"services", i}, {"params", p}}, "number"),
+                            "parameter \"" + param.name() + "\" must be a finite number"));
+        }
+      }
+    }
+    return {};
+  }
+
+  Check check_plant() const {
+    if (!g_.has_plant()) {
+      return {};
+    }
+    const proto::PlantSpec& p = g_.plant();
+    if (p.executable().empty()) {
+      return fail(error(at({}, "plant"), "`plant` has no `executable`"));
+    }
+    const double rate = p.physics_rate_hz();
+    if (!std::isfinite(rate) || rate < 0.0 ||
+        (rate != 0.0 && (rate < defaults::kMinPhysicsRateHz || rate > defaults::kMaxPhysicsRateHz))) {
+      return fail(error(at({{"plant", -1}}, "physics_rate_hz"),
+                        "plant.physics_rate_hz must be " + num(defaults::kMinPhysicsRateHz) + " to " +
+                            num(defaults::kMaxPhysicsRateHz) + " Hz (0 = default " +
+                            num(defaults::kPhysicsRateHz) + "), got " + num(rate)));
+    }
+    if (!std::isfinite(p.wind_mean_m_s()) || p.wind_mean_m_s() < 0.0) {
+      return fail(
+          error(at({{"plant", -1}}, "wind_mean_m_s"),
+                "plant.wind_mean_m_s must be a finite speed >= 0 m/s, got " + num(p.wind_mean_m_s())));
+    }
+    if (!std::isfinite(p.wind_gust_m_s()) || p.wind_gust_m_s() < 0.0) {
+      return fail(
+          error(at({{"plant", -1}}, "wind_gust_m_s"),
+                "plant.wind_gust_m_s must be a finite intensity >= 0 m/s, got " + num(p.wind_gust_m_s())));
+    }
+    return {};
+  }
+
+  Check check_lockstep() const {
+    if (!g_.has_lockstep()) {
+      return {};
+    }
+    const proto::LockstepTiming& l = g_.lockstep();
+    const auto loc = [&](std::string_view field) { return at({{"lockstep", -1}}, field); };
+    for (const auto& [v, f] : {std::pair{l.checkpoint_charge_ms(), "checkpoint_charge_ms"},
+                               {l.rollback_charge_ms(), "rollback_charge_ms"}}) {
+      if (!std::isfinite(v) || v < 0.0 || v > defaults::kMaxChargeMs) {
+        return fail(error(loc(f), "lockstep." + std::string(f) + " must be 0 to " + num(defaults::kMaxChargeMs) +
+                                      " ms, got " + num(v)));
+      }
+    }
+    if (!std::isfinite(l.alignment_s()) || l.alignment_s() < 0.0 || l.alignment_s() > defaults::kMaxAlignmentS) {
+      return fail(error(loc("alignment_s"), "lockstep.alignment_s must be 0 to " + num(defaults::kMaxAlignmentS) +
+                                                " s, got " + num(l.alignment_s())));
+    }
+    return {};
+  }
+
+  Check check_dds() const {
+    if (!g_.has_dds()) {
+      return {};
+    }
+    const proto::DdsSpec& d = g_.dds();
+    if (d.domain_id() > defaults::kMaxDdsDomainId) {
+      return fail(error(at({{"dds", -1}}, "domain_id"), "dds.domain_id must be 0.." +
+                                                            std::to_string(defaults::kMaxDdsDomainId) +
+                                                            ", got " + std::to_string(d.domain_id())));
+    }
+    std::set<std::string_view> topics;
+    std::set<std::string> dds_names;
+    for (int i = 0; i < d.bridges_size(); ++i) {
+      const proto::Bridge& b = d.bridges(i);
+      if (b.topic().empty()) {
+        return fail(error(at({{"dds", -1}, {"bridges", i}}, "topic"), "bridge without a `topic`"));
+      }
+      if (!proto::BridgeDirection_IsValid(b.direction())) {
+        return fail(error(at({{"dds", -1}, {"bridges", i}}, "direction"),
+                          "unknown bridge `direction` " + std::to_string(b.direction()) +
+                              ": expected BRIDGE_OUT or BRIDGE_IN"));
+      }
+      // One bridge per topic: IN and OUT on the same topic would echo the kernel's own publications.
+      if (!topics.insert(b.topic()).second) {
+        return fail(error(at({{"dds", -1}, {"bridges", i}}, "topic"),
+                          "topic \"" + b.topic() + "\" is bridged twice: one bridge per topic"));
+      }
+      if (!dds_names.insert(dds_name(b)).second) {
+        return fail(error(at({{"dds", -1}, {"bridges", i}}, "dds_name"),
+                          "DDS name \"" + dds_name(b) + "\" is used by two bridges"));
+      }
+    }
+    return {};
+  }
+
+  // Sandbox limits (DESIGN §7 "Protection") that SR can live with: every process of a rejuvenated service —
+  // the live one, an image and a spare per kept generation, and the generation being taken — counts against
+  // its max_processes (RLIMIT_NPROC); below that its image fork fails at a checkpoint (issue 19 item 4).
+  Check check_limits() const {
+    const auto where = [&](int i, std::string_view field) {
+      return i < 0 ? at({{"sandbox_limits", -1}}, field) : at({{"services", i}, {"limits", -1}}, field);
+    };
+    for (int i = -1; i < g_.services_size(); ++i) {
+      const proto::SandboxLimits& l = i < 0 ? g_.sandbox_limits() : g_.services(i).limits();
+      if (l.has_max_open_files() && l.max_open_files() < defaults::kMinSandboxOpenFiles) {
+        return fail(error(where(i, "max_open_files"), "max_open_files must be at least " +
+                                                          std::to_string(defaults::kMinSandboxOpenFiles) +
+                                                          " (a service's channel, pagemap and image files), got " +
+                                                          std::to_string(l.max_open_files())));
+      }
+    }
+    if (!g_.sr().enabled()) return {};
+    const std::uint32_t k = keep_generations(g_.sr());
+    const std::uint32_t needed = 1 + 2 * (k + 1);
+    for (int i = 0; i < g_.services_size(); ++i) {
+      const proto::ServiceSpec& s = g_.services(i);
+      if (!rejuvenate(s)) continue;
+      const SandboxLimitValues v = sandbox_limits(g_, s);
+      if (v.max_processes >= needed) continue;
+      const int from = s.limits().has_max_processes() ? i : -1;
+      return fail(error(where(from, "max_processes"),
+                        "max_processes " + std::to_string(v.max_processes) + " of '" + s.name() + "' is too low for keep_generations " +
+                            std::to_string(k) + ": a rejuvenated service needs " + std::to_string(needed) +
+                            " processes (the live one, an image and a spare for each of the " + std::to_string(k + 1) +
+                            " generations of a checkpoint)"));
+    }
+    return {};
+  }
+
+  Check check_sr() const {
+    if (!g_.sr().enabled()) {
+      return {};  // parameters of a disabled scheme are not used (rejuv run --no-sr)
+    }
+    const proto::SrParams& sr = g_.sr();
+    const auto loc = [&](std::string_view field) { return at({{"sr", -1}}, field); };
+    const auto finite = [&](double v, std::string_view field) -> Check {
+      if (!std::isfinite(v)) {
+        return fail(error(loc(field), "sr." + std::string(field) + " must be a finite number"));
+      }
+      return {};
+    };
+    for (const auto& [v, f] : {std::pair{sr.t_mc_s(), "t_mc_s"},
+                               {sr.t_est_s(), "t_est_s"},
+                               {sr.rho_m(), "rho_m"},
+                               {sr.rho_s(), "rho_s"},
+                               {sr.t_min_s(), "t_min_s"},
+                               {sr.check_period_s(), "check_period_s"},
+                               {sr.restricted_limit_fraction(), "restricted_limit_fraction"}}) {
+      if (Check c = finite(v, f); !c) {
+        return c;
+      }
+    }
+    // §II: MC must last a positive T_MC before RB, or the vehicle never flies its mission.
+    if (sr.t_mc_s() <= 0.0) {
+      return fail(error(loc("t_mc_s"), "sr.t_mc_s (T_MC) must be > 0 s, got " + num(sr.t_mc_s())));
+    }
+    // §II: the safety controller needs a positive T_est to bring x̂ back into E(ρ_s) before (1) is checked.
+    if (sr.t_est_s() <= 0.0) {
+      return fail(error(loc("t_est_s"), "sr.t_est_s (T_est) must be > 0 s, got " + num(sr.t_est_s())));
+    }
+    if (sr.t_min_s() < 0.0) {
+      return fail(error(loc("t_min_s"), "sr.t_min_s (t_min) must be >= 0 s, got " + num(sr.t_min_s())));
+    }
+    // §IV-A: E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set ‖e‖_P ≤ 1 (P scaled to the state box, DESIGN §9).
+    if (!(sr.rho_s() > 0.0 && sr.rho_s() < sr.rho_m())) {
+      return fail(
+          error(loc("rho_s"), "sr.rho_s and sr.rho_m must satisfy 0 < rho_s < rho_m (§IV-A), got rho_s = " +
+                                  num(sr.rho_s()) + ", rho_m = " + num(sr.rho_m())));
+    }
+    if (sr.rho_m() > 1.0) {
+      return fail(error(
+          loc("rho_m"),
+          "sr.rho_m must be <= 1: E(rho_M) lies inside the safety set ||e||_P <= 1, got " + num(sr.rho_m())));
+    }
+    if (sr.has_check_period_s() && sr.check_period_s() <= 0.0) {
+      return fail(error(loc("check_period_s"),
+                        "sr.check_period_s must be > 0 s (omit it for the default 0.002 s), got " +
+                            num(sr.check_period_s())));
+    }
+    if (sr.has_check_period_s() && sr.check_period_s() < defaults::kMinPeriodS) {
+      return fail(error(loc("check_period_s"), "sr.check_period_s must be at least " + num(defaults::kMinPeriodS) +
+                                                   " s (the kernel's timers count ns), got " +
+                                                   num(sr.check_period_s())));
+    }
+    // Durations beyond the bound overflow the kernel's ns clock or never elapse.
+    for (const auto& [v, f] : {std::pair{sr.t_mc_s(), "t_mc_s"},
+                               {sr.t_est_s(), "t_est_s"},
+                               {sr.t_min_s(), "t_min_s"},
+                               {sr.check_period_s(), "check_period_s"}}) {
+      if (v > defaults::kMaxDurationS) {
+        return fail(error(loc(f), "sr." + std::string(f) + " must be at most " + num(defaults::kMaxDurationS) +
+                                      " s, got " + num(v)));
+      }
+    }
+    if (sr.has_keep_generations() &&
+        (sr.keep_generations() < 1 || sr.keep_generations() > defaults::kMaxKeepGenerations)) {
+      return fail(error(loc("keep_generations"),
+                        "sr.keep_generations must be 1 to " + std::to_string(defaults::kMaxKeepGenerations) +
+                            " (each generation keeps a frozen process of every rejuvenated service; omit it "
+                            "for the default " +
+                            std::to_string(defaults::kKeepGenerations) + "), got " +
+                            std::to_string(sr.keep_generations())));
+    }
+    const proto::StateBox& box = sr.box();
+    for (const auto& [v, f] : {std::pair{box.position_m(), "position_m"},
+                               {box.velocity_m_s(), "velocity_m_s"},
+                               {box.angle_rad(), "angle_rad"},
+                               {box.rate_rad_s(), "rate_rad_s"}}) {
+      if (!std::isfinite(v) || v <= 0.0) {
+        return fail(error(at({{"sr", -1}, {"box", -1}}, f),
+                          "sr.box." + std::string(f) +
+                              " must be a finite half-width > 0 (it scales P, DESIGN §9), got " + num(v)));
+      }
+    }
+    const double frac = sr.restricted_limit_fraction();
+    if (!(frac > 0.0 && frac <= 1.0)) {
+      return fail(error(
+          loc("restricted_limit_fraction"),
+          "sr.restricted_limit_fraction (Ū as a fraction of U, §III) must be in (0, 1], got " + num(frac)));
+    }
+    return {};
+  }
+
+  Check check_mission() const {
+    const proto::Mission& m = g_.mission();
+    const int n = m.waypoints_size();
+    if (n < 1 || static_cast<std::size_t>(n) > defaults::kMaxWaypoints) {
+      return fail(error(n == 0
+                            ? at({}, "mission")
+                            : at({{"mission", -1}}, "waypoints", static_cast<int>(defaults::kMaxWaypoints)),
+                        "mission must have 1.." + std::to_string(defaults::kMaxWaypoints) +
+                            " waypoints, got " + std::to_string(n)));
+    }
+    for (int i = 0; i < n; ++i) {
+      const proto::Waypoint& w = m.waypoints(i);
+      for (const auto& [v, f] : {std::pair{w.north_m(), "north_m"},
+                                 {w.east_m(), "east_m"},
+                                 {w.down_m(), "down_m"},
+                                 {w.yaw_rad(), "yaw_rad"}}) {
+        if (!std::isfinite(v)) {
+          return fail(error(at({{"mission", -1}, {"waypoints", i}}, f),
+                            "waypoint " + std::to_string(i) + ": " + f + " must be a finite number"));
+        }
+      }
+      for (const auto& [v, f] : {std::pair{w.north_m(), "north_m"}, {w.east_m(), "east_m"}, {w.down_m(), "down_m"}}) {
+        if (std::abs(v) > defaults::kMaxWaypointOffsetM) {
+          return fail(error(at({{"mission", -1}, {"waypoints", i}}, f),
+                            "waypoint " + std::to_string(i) + ": " + f + " must be within ±" +
+                                num(defaults::kMaxWaypointOffsetM) + " m of the origin, got " + num(v)));
+        }
+      }
+      // NED: down_m > 0 is under the ground plane the plant stands on (an altitude of 3 m is down_m: -3).
+      if (w.down_m() > 0.0) {
+        return fail(error(at({{"mission", -1}, {"waypoints", i}}, "down_m"),
+                          "waypoint " + std::to_string(i) + " is below the ground: down_m must be <= 0 (NED; "
+                          "an altitude of 3 m is down_m: -3), got " + num(w.down_m())));
+      }
+    }
+    if (!std::isfinite(m.acceptance_radius_m()) || m.acceptance_radius_m() <= 0.0) {
+      return fail(error(at({{"mission", -1}}, "acceptance_radius_m"),
+                        "mission.acceptance_radius_m must be > 0 m, got " + num(m.acceptance_radius_m())));
+    }
+    if (!std::isfinite(m.timeout_s()) || m.timeout_s() <= 0.0 || m.timeout_s() > defaults::kMaxDurationS) {
+      return fail(error(at({{"mission", -1}}, "timeout_s"),
+                        "mission.timeout_s must be > 0 s and at most " + num(defaults::kMaxDurationS) + " s, got " +
+                            num(m.timeout_s())));
+    }
+    return {};
+  }
+
+  Check check_attack() const {
+    const proto::AttackPlan& plan = g_.attack();
+    for (int i = 0; i < plan.attacks_size(); ++i) {
+      const proto::Attack& a = plan.attacks(i);
+      if (a.kind() == proto::ATTACK_UNSPECIFIED) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "kind"),
+                          "attack without a `kind`: expected e.g. kind: WORST_CASE_CONTROL"));
+      }
+      if (!proto::AttackKind_IsValid(a.kind())) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "kind"),
+                          "unknown attack `kind` " + std::to_string(a.kind()) +
+                              ": expected a name of idl/launch.proto AttackKind, e.g. WORST_CASE_CONTROL"));
+      }
+      const proto::ServiceSpec* target = find_service(g_, a.service());
+      if (target == nullptr) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "service"),
+                          a.service().empty()
+                              ? std::string("attack without a `service` to compromise")
+                              : "attack names service \"" + a.service() + "\", which is not in the graph"));
+      }
+      // DESIGN §9: a kind the service has no hook for would do nothing at run time, while `rejuv sim`
+      // models it anyway: refused, so that model and runtime never disagree without a word.
+      if (const auto hooks = attack_hooks_of(target->executable()); hooks) {
+        if (std::find(hooks->begin(), hooks->end(), a.kind()) == hooks->end()) {
+          return fail(error(at({{"attack", -1}, {"attacks", i}}, "kind"),
+                            "service \"" + a.service() + "\" (" + target->executable() + ") has no hook for " +
+                                proto::AttackKind_Name(a.kind()) + "; the kinds it supports: " +
+                                kind_list(*hooks)));
+        }
+      }
+      if (!std::isfinite(a.start_s()) || a.start_s() < 0.0) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "start_s"),
+                          "attack start_s must be >= 0 s, got " + num(a.start_s())));
+      }
+      if (!std::isfinite(a.magnitude()) || a.magnitude() < 0.0 || a.magnitude() > 1e6) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "magnitude"),
+                          "attack magnitude must be in [0, 1e6] (0 = the kind's default), got " + num(a.magnitude())));
+      }
+    }
+    return {};
+  }
+
+  // The policy path is relative to the launch file (idl/launch.proto).
+  Result<std::filesystem::path, LoadError> resolve_policy() const {
+    std::filesystem::path p(g_.policy());
+    if (p.is_relative()) {
+      p = path_.parent_path() / p;
+    }
+    p = p.lexically_normal();
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(p, ec)) {
+      return fail(error(at({}, "policy"), "policy file \"" + g_.policy() + "\" (resolved to " + p.string() +
+                                              ") does not exist or is not a regular file"));
+    }
+    if (g_.has_dds() && !g_.dds().config().empty()) {
+      std::filesystem::path cfg(g_.dds().config());
+      if (cfg.is_relative()) {
+        cfg = path_.parent_path() / cfg;
+      }
+      if (!std::filesystem::is_regular_file(cfg, ec)) {
+        return fail(
+            error(at({{"dds", -1}}, "config"), "DDS config \"" + g_.dds().config() + "\" (resolved to " +
+                                                   cfg.lexically_normal().string() + ") does not exist"));
+      }
+    }
+    return p;
+  }
+
+  const proto::Launch& g_;
+  const TextLocations& locs_;
+  const std::filesystem::path& path_;
+};
+
+}  // namespace
+
+Result<LoadedLaunch, LoadError> validate(proto::Launch graph, TextLocations locs,
+                                         const std::filesystem::path& path) {
+  auto policy = Validator(graph, locs, path).run();
+  if (!policy) {
+    return fail(std::move(policy.error()));
+  }
+  return LoadedLaunch{std::move(graph), std::move(locs), path, std::move(*policy)};
+}
+
+}  // namespace rejuv::launch::detail

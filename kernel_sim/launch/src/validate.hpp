@@ -1,0 +1,29 @@
+// The launch loader's parts (not installed): the checks of a parsed graph (validate.cpp) and the lexical
+// rules they use (launch.cpp), between the files of kernel_sim/launch/src.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rejuv/launch/launch.hpp"
+
+namespace rejuv::launch::detail {
+
+// "0.1" rather than "0.100000": numbers in messages are echoed the way users write them.
+[[nodiscard]] std::string num(double v);
+// Names are shared with the policy and appear in boot info and audit output: keep them plain.
+[[nodiscard]] bool is_plain_name(std::string_view s);
+// UTF-8 as RFC 3629 defines it (no overlongs, no surrogates, at most U+10FFFF): names and texts of a graph
+// reach logs, JSON summaries and the services' boot info.
+[[nodiscard]] bool is_utf8(std::string_view s);
+// "INVOKE_CHECKPOINT, ARM_TIMER" or "none".
+[[nodiscard]] std::string kind_list(const std::vector<proto::AttackKind>& kinds);
+
+// Checks a parsed graph (every rule of idl/launch.proto); the first problem found is returned, at its
+// file:line:column. On success the graph with its policy file resolved against the launch file's folder.
+[[nodiscard]] Result<LoadedLaunch, LoadError> validate(proto::Launch graph, TextLocations locs,
+                                                       const std::filesystem::path& path);
+
+}  // namespace rejuv::launch::detail
