@@ -17,7 +17,7 @@ Image* GenerationRecord::image_of(ServiceId service) {
   return nullptr;
 }
 
-const SavedService* GenerationRecord::saved(ServiceId service) const {
+const SavedService* CheckpointedState::saved(ServiceId service) const {
   for (const SavedService& s : services) {
     if (s.service == service) return &s;
   }

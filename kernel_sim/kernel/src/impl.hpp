@@ -13,6 +13,8 @@
 
 #include "bridge.hpp"
 #include "fixed_ring.hpp"
+#include "invocation.hpp"
+#include "mission_watch.hpp"
 #include "netgate.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
@@ -176,6 +178,7 @@ struct PendingStep {
 struct CheckpointRun {
   std::optional<ServiceId> caller{};
   std::uint32_t seq = 0;  // the caller's Invoke, answered when the generation is committed
+  Nanos t_cp{0};          // the cut (kernel clock): saved with the generation's state at the commit
   image::GenerationRecord record{};
   std::vector<ServiceId> waiting{};  // Snapshot sent, no Taken yet
   std::string failure{};             // the first reason the generation cannot be committed
@@ -324,7 +327,7 @@ struct Kernel::Impl {
   std::optional<StopReason> stop;
   std::string stop_detail;
   bool sr_mode_announced = false;
-  bool mission_done_seen = false;
+  MissionWatch mission;  // watch.cpp
   Nanos run_start_mono{0};
   bool clock_synced = true;  // realtime with a plant: the kernel clock follows the plant's from its first sample
   Nanos wall_start{0};
@@ -387,7 +390,7 @@ struct Kernel::Impl {
   std::optional<std::string_view> sweep_due;  // why a sweep is wanted (a commit, a rollback, a violation)
   Nanos last_sweep{0};                        // kernel clock
 
-  // ---- images (images.cpp) ----
+  // ---- images (the image coordinator: images.cpp, checkpoint.cpp, rollback.cpp; overview in images.cpp) ----
   // Runs what is pending at a safe point (between routing rounds): a requested rollback, else a requested
   // checkpoint once the graph is quiescent. True when it did something.
   bool service_images();
@@ -434,10 +437,22 @@ struct Kernel::Impl {
   void receive_datagram(ServiceRuntime& s, std::span<const std::byte> datagram);
   void handle_frame(ServiceRuntime& s, const wire::FrameView& frame);
   void handle_subscribe(ServiceRuntime& s, const wire::FrameView& frame);
+  // Invoke (invocation.hpp): decoded per object kind, the authority checked, then invoked on its owner.
   void handle_invoke(ServiceRuntime& s, const wire::FrameView& frame);
+  [[nodiscard]] bool provides(ObjectKind kind) const;  // the Checkpoint kind only with SR
+  // Answers an Invoke with an error; a refused NetSend is counted by the gate (NetStats::send_refused).
+  void refuse_invoke(ServiceRuntime& s, std::uint32_t seq, cap::Operation op, std::int32_t code);
+  void invoke_checkpoint(ServiceRuntime& s, std::uint32_t seq, const CheckpointInvocation& c);
+  void invoke_limits(ServiceRuntime& s, std::uint32_t seq, ObjectInfo& o, const LimitsInvocation& l);
+  void invoke_persistent(ServiceRuntime& s, std::uint32_t seq, ObjectInfo& o, const PersistentInvocation& p);
   void reply(ServiceRuntime& s, std::uint32_t seq, std::int32_t error, std::uint64_t value = 0,
              std::span<const std::byte> data = {});
-  void drain_denials();
+
+  // ---- observers of the routed traffic (watch.cpp, mission_watch.hpp) ----
+  // The one hook of the routing core: every publication routed, the service's or the kernel's own.
+  void watch_publication(const ObjectInfo& o, std::span<const std::byte> payload, broker::TopicGeneration g,
+                         std::optional<ServiceId> publisher);
+  void drain_denials();  // the capability system's new denials: counted, logged, published as SecurityEvents
 
   // ---- routing (router.cpp) ----
   void ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload);
@@ -473,10 +488,9 @@ struct Kernel::Impl {
   // Reads up to kDatagramsPerPoll queued datagrams and relays or drops each (realtime: on wakeup;
   // lockstep: at the start of each step, so that what a service sees does not depend on scheduling).
   void net_poll();
-  // NetSend / NetReceive invocations (decode through the cap system, then act).
-  // NetReceive: arg0 = the id of a relayed datagram (NetDatagram aux), arg1 = the receiver's verdict on it.
-  void net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, cap::Operation op, std::uint64_t arg0,
-                  std::uint64_t arg1, std::span<const std::byte> data);
+  // NetSend / NetReceive invocations, decoded and their authority checked (handle_invoke): sends a datagram,
+  // or records the receiver's verdict on a relayed one (NetDatagram aux).
+  void net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::Invocation& authority, const NetInvocation& what);
 
   // ---- loop (kernel.cpp) ----
   [[nodiscard]] Result<void, KernelError> pump(std::optional<Nanos> max_wait);

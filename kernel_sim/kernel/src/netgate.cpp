@@ -161,45 +161,32 @@ void Kernel::Impl::net_poll() {
   }
 }
 
-void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, cap::Operation op, std::uint64_t arg0,
-                              std::uint64_t arg1, std::span<const std::byte> data) {
-  auto inv = caps.decode(s.id, slot, op);
-  if (!inv) {
-    if (op == cap::Operation::NetSend) ++net.stats.send_refused;
-    reply(s, seq, 1 + static_cast<std::int32_t>(inv.error()));  // counted and logged by drain_denials
-    return;
-  }
-  const auto refuse_send = [&](wire::OpError e) {
-    ++net.stats.send_refused;
-    reply(s, seq, static_cast<std::int32_t>(e));
-  };
-  if (op != cap::Operation::NetSend) {
+void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::Invocation& authority,
+                              const NetInvocation& what) {
+  if (const auto* verdict = std::get_if<NetInvocation::Verdict>(&what.what)) {
     // NetReceive: delivery is pushed (NetDatagram frames); what the receiver sends back is its verdict on
-    // one of them: arg0 = its id, arg1 = 0 valid, else its refusal reason. Checked before anything changes:
-    // a datagram relayed to this gate lately, not judged yet, and a known code.
-    NetGate::Relayed& d = net.recent[arg0 % kRecentDatagrams];
-    if (arg0 == 0 || d.id != arg0 || d.judged || arg1 >= kNetVerdictCodes) {
+    // one of them: its id and 0 valid, else its refusal reason (a known code: decode_invocation). Checked
+    // before anything changes: a datagram relayed to this gate lately, not judged yet.
+    NetGate::Relayed& d = net.recent[verdict->datagram % kRecentDatagrams];
+    if (d.id != verdict->datagram || d.judged) {
       reply(s, seq, static_cast<std::int32_t>(wire::OpError::BadArgument));
       return;
     }
     d.judged = true;
-    if (arg1 == 0) {
+    if (verdict->reason == 0) {
       ++net.stats.judged_valid;
       net.peer = d.from;
     } else {
       ++net.stats.judged_refused;
-      ++net.stats.refused_by_reason[arg1];
+      ++net.stats.refused_by_reason[verdict->reason];
     }
     reply(s, seq, 0);
     return;
   }
-  if (data.empty() || data.size() > wire::kMaxDatagramBytes) {
-    refuse_send(wire::OpError::BadArgument);
-    return;
-  }
+  const std::span<const std::byte> data = std::get<NetInvocation::Send>(what.what).datagram;  // 1 … kMaxDatagramBytes
   // The gate is off (disabled, bind failed, another NETWORK object).
-  if (!net.socket.valid() || !net.object || inv->object() != *net.object) {
-    refuse_send(wire::OpError::Refused);
+  if (!net.socket.valid() || !net.object || authority.object() != *net.object) {
+    refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
   // No ground station has spoken yet: nowhere to send. Not a fault of the sender (its telemetry may start
@@ -212,7 +199,7 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, c
   }
   if (auto ok = net.socket.send_to(data, *net.peer); !ok) {
     if (allow_log(net, wall())) log("network gate: send to %s: %s", net.peer->to_string().c_str(), ok.error().to_string().c_str());
-    refuse_send(wire::OpError::Refused);
+    refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
   ++net.stats.sent;

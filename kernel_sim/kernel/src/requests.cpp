@@ -5,8 +5,11 @@
 #include <csignal>
 #include <cstring>
 #include <limits>
+#include <variant>
 
 #include "impl.hpp"
+#include "invocation.hpp"
+#include "rejuv/core/overloaded.hpp"
 
 namespace rejuv::kernel {
 
@@ -62,7 +65,7 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
           refuse(s, "frame carried file descriptors (closed)");
           continue;
         }
-        on_taken_pages(s, *frame, std::move(r.fds.front()));  // images.cpp
+        on_taken_pages(s, *frame, std::move(r.fds.front()));  // checkpoint.cpp
         continue;
       }
       receive_datagram(s, datagram);
@@ -84,8 +87,20 @@ void Kernel::Impl::receive_datagram(ServiceRuntime& s, std::span<const std::byte
   } while (offset < datagram.size() && s.live() && s.channel.valid());  // a frame may lose the service
 }
 
+namespace {
+// The frames a service may send only once booted (docs/protocol.md "Boot"): refused before.
+constexpr bool needs_boot(wire::FrameKind kind) {
+  using K = wire::FrameKind;
+  return kind == K::Publish || kind == K::Subscribe || kind == K::Invoke || kind == K::TimerArm ||
+         kind == K::TimerCancel;
+}
+}  // namespace
+
 void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
-  const bool running = s.phase == Phase::Booted || s.phase == Phase::Ready;
+  if (needs_boot(f.kind) && s.phase != Phase::Booted && s.phase != Phase::Ready) {
+    refuse(s, std::string(wire::to_string(f.kind)) + " before boot");
+    return;
+  }
   switch (f.kind) {
     case wire::FrameKind::Hello:
       if (s.phase != Phase::Spawned) {
@@ -107,31 +122,15 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       s.phase = Phase::Ready;
       return;
     case wire::FrameKind::Publish:
-      if (!running) {
-        refuse(s, "Publish before boot");
-        return;
-      }
       ingest_publish(s, f.header.slot, f.payload);
       return;
     case wire::FrameKind::Subscribe:
-      if (!running) {
-        refuse(s, "Subscribe before boot");
-        return;
-      }
       handle_subscribe(s, f);
       return;
     case wire::FrameKind::Invoke:
-      if (!running) {
-        refuse(s, "Invoke before boot");
-        return;
-      }
       handle_invoke(s, f);
       return;
     case wire::FrameKind::TimerArm: {
-      if (!running) {
-        refuse(s, "TimerArm before boot");
-        return;
-      }
       const auto spec = wire::payload_as<wire::TimerSpec>(f);
       constexpr std::uint64_t kMaxNs = std::uint64_t{1} << 62U;
       if (spec.first_ns >= kMaxNs || spec.period_ns >= kMaxNs) {
@@ -148,10 +147,6 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       return;
     }
     case wire::FrameKind::TimerCancel:
-      if (!running) {
-        refuse(s, "TimerCancel before boot");
-        return;
-      }
       // A one-shot timer that fired while the cancel was in flight is gone already: not an error.
       (void)timers.cancel(s.id, f.header.aux);
       return;
@@ -168,14 +163,15 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       s.idle_count = f.header.aux;
       return;
     case wire::FrameKind::Taken:
-      on_taken(s, f);  // images.cpp
+      on_taken(s, f);  // checkpoint.cpp
       return;
     case wire::FrameKind::TakenPages:
       refuse(s, "TakenPages without its pages (an fd)");  // with them it is read in read_channel
       return;
     case wire::FrameKind::Resumed:
     case wire::FrameKind::Copied:
-      // Read by the image store itself (Resumed on a new channel, Copied on a resume socket; images.cpp);
+      // Read by the image store itself (Resumed on a new channel, rollback.cpp; Copied on a resume socket,
+      // kernel_sim/image);
       // on a service's channel it is a lie.
       refuse(s, std::string(wire::to_string(f.kind)) + " on a service channel");
       return;
@@ -249,194 +245,187 @@ void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f)
   }
 }
 
+// ---- Invoke: decoded per object kind (invocation.hpp), then invoked on the part that owns the kind ----
+
+Result<ObjectInvocation, BadInvoke> decode_invocation(cap::Operation op, const wire::InvokeHeader& head,
+                                                      std::span<const std::byte> data) {
+  using C = CheckpointInvocation;
+  using N = NetInvocation;
+  using L = LimitsInvocation;
+  using P = PersistentInvocation;
+  const auto bad = [](bool before_authority) {
+    return std::unexpected(BadInvoke{.error = wire::OpError::BadArgument, .before_authority = before_authority});
+  };
+  const cap::Requirement need = cap::requirement(op);
+  if (need.any_kind) {  // capability management (seL4 CNode)
+    if (op == cap::Operation::Revoke || op == cap::Operation::Delete) {
+      return CapInvocation{.op = op, .args = cap::NoArgs{}};
+    }
+    // arg0: destination — bit 63 set: transfer to service (low 32 bits), else own slot arg0.
+    // arg1: rights mask (low 8 bits), Mint: badge (bits 8..63).
+    const bool transfer = (head.arg0 >> 63U) != 0;
+    if (!transfer && head.arg0 > 0xFFFF'FFFFU) return bad(true);
+    const auto low = static_cast<std::uint32_t>(head.arg0);
+    const cap::Destination to = transfer ? cap::Destination{cap::Transfer{.to = ServiceId(low)}}
+                                         : cap::Destination{cap::OwnSlot{.slot = Slot(low)}};
+    const Rights mask = rights_from_bits(head.arg1 & 0xFFU);
+    if (op == cap::Operation::Copy) return CapInvocation{.op = op, .args = cap::CopyArgs{.to = to, .mask = mask}};
+    return CapInvocation{.op = op, .args = cap::MintArgs{.to = to, .mask = mask, .badge = cap::Badge(head.arg1 >> 8U)}};
+  }
+  switch (need.kind) {
+    case ObjectKind::Topic:
+      return bad(true);  // Publish and Subscribe have their own frames
+    case ObjectKind::Checkpoint:
+      if (op == cap::Operation::CheckpointCreate) return CheckpointInvocation{.what = C::Create{}};
+      if (op == cap::Operation::CheckpointRollback) return CheckpointInvocation{.what = C::Rollback{}};
+      if (head.arg0 > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) return bad(false);
+      return CheckpointInvocation{
+          .what = C::ArmTimer{.delay = Nanos(static_cast<std::int64_t>(head.arg0)), .periodic = head.arg1 != 0}};
+    case ObjectKind::Network:
+      if (op == cap::Operation::NetSend) {
+        if (data.empty() || data.size() > wire::kMaxDatagramBytes) return bad(false);
+        return NetInvocation{.what = N::Send{.datagram = data}};
+      }
+      if (head.arg0 == 0 || head.arg1 >= kNetVerdictCodes) return bad(false);
+      return NetInvocation{.what = N::Verdict{.datagram = head.arg0, .reason = head.arg1}};
+    case ObjectKind::Limits:
+      if (op == cap::Operation::LimitsRead) return LimitsInvocation{.what = L::Read{}};
+      if (data.size() > kMaxLimitsBytes) return bad(false);
+      return LimitsInvocation{.what = L::Write{.data = data}};
+    case ObjectKind::Persistent:
+      if (op == cap::Operation::PersistentRead) {
+        return PersistentInvocation{.what = P::Read{.offset = head.arg0, .length = head.arg1}};
+      }
+      return PersistentInvocation{.what = P::Write{.offset = head.arg0, .data = data}};
+    case ObjectKind::Mode:
+      if (head.arg0 >= kModeCount) return bad(false);
+      return ModeInvocation{.mode = static_cast<SrMode>(head.arg0)};
+  }
+  return bad(true);  // unreachable: every kind is handled above
+}
+
+bool Kernel::Impl::provides(ObjectKind kind) const { return kind != ObjectKind::Checkpoint || sr; }
+
+void Kernel::Impl::refuse_invoke(ServiceRuntime& s, std::uint32_t seq, cap::Operation op, std::int32_t code) {
+  if (op == cap::Operation::NetSend) ++net.stats.send_refused;  // the gate counts every NetSend it refuses
+  reply(s, seq, code);
+}
+
 void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
   const auto head = wire::payload_as<wire::InvokeHeader>(f);
   const auto data = f.payload.subspan(sizeof(wire::InvokeHeader));
   const std::uint32_t seq = f.header.seq;
   const Slot slot(f.header.slot);
-  // Out-of-range operation values go to decode too: it refuses and counts them (invalid_operation).
-  const auto op = static_cast<cap::Operation>(head.operation);
-  if (!cap::operation_from_wire(head.operation)) {
-    auto inv = caps.decode(s.id, slot, op);
+  const auto op = cap::operation_from_wire(head.operation);
+  if (!op) {
+    // Out-of-range operation values go to the cap system too: it refuses and counts them (invalid_operation).
+    auto inv = caps.decode(s.id, slot, static_cast<cap::Operation>(head.operation));
     reply(s, seq, inv ? op_code(wire::OpError::BadArgument) : denial_code(inv.error()));
     return;
   }
-  switch (op) {
-    case cap::Operation::Publish:
-    case cap::Operation::Subscribe:
-      reply(s, seq, op_code(wire::OpError::BadArgument));  // they have their own frames
-      return;
-    case cap::Operation::Copy:
-    case cap::Operation::Mint: {
-      // arg0: destination — bit 63 set: transfer to service (low 32 bits), else own slot arg0.
-      // arg1: rights mask (low 8 bits), Mint: badge (bits 8..63).
-      cap::Destination to = (head.arg0 >> 63U) != 0
-                                ? cap::Destination{cap::Transfer{.to = ServiceId(static_cast<std::uint32_t>(head.arg0))}}
-                                : cap::Destination{cap::OwnSlot{.slot = Slot(static_cast<std::uint32_t>(head.arg0))}};
-      if ((head.arg0 >> 63U) == 0 && head.arg0 > 0xFFFF'FFFFU) {
-        reply(s, seq, op_code(wire::OpError::BadArgument));
-        return;
-      }
-      const Rights mask = rights_from_bits(head.arg1 & 0xFFU);
-      const cap::Args args = op == cap::Operation::Copy
-                                 ? cap::Args{cap::CopyArgs{.to = to, .mask = mask}}
-                                 : cap::Args{cap::MintArgs{.to = to, .mask = mask, .badge = cap::Badge(head.arg1 >> 8U)}};
-      auto done = caps.decode_and_invoke(s.id, slot, op, args);
-      if (!done) {
-        reply(s, seq, denial_code(done.error()));
-        return;
-      }
-      reply(s, seq, 0, done->placed ? done->placed->slot.value() : 0);
-      return;
-    }
-    case cap::Operation::Revoke:
-    case cap::Operation::Delete: {
-      auto done = caps.decode_and_invoke(s.id, slot, op);
-      if (!done) {
-        reply(s, seq, denial_code(done.error()));
-        return;
-      }
-      reply(s, seq, 0, done->deleted);
-      return;
-    }
-    case cap::Operation::NetSend:
-    case cap::Operation::NetReceive:
-      net_invoke(s, seq, slot, op, head.arg0, head.arg1, data);  // the network gate (netgate.cpp)
-      return;
-    case cap::Operation::CheckpointCreate:
-    case cap::Operation::CheckpointRollback:
-    case cap::Operation::TimerArm:
-    case cap::Operation::LimitsWrite:
-    case cap::Operation::LimitsRead:
-    case cap::Operation::PersistentRead:
-    case cap::Operation::PersistentWrite:
-    case cap::Operation::ModeRequest:
-      break;
-  }
-  // Data-plane operations on non-topic objects: decode first (a denial leaves no trace), then invoke.
-  auto inv = caps.decode(s.id, slot, op);
-  if (!inv) {
-    reply(s, seq, denial_code(inv.error()));
+  auto decoded = decode_invocation(*op, head, data);
+  if (!decoded && decoded.error().before_authority) {
+    reply(s, seq, op_code(decoded.error().error));
     return;
   }
-  ObjectInfo& o = objects[inv->object().value()];
-  switch (op) {
-    case cap::Operation::CheckpointCreate:
-      // DESIGN §7: answered when generation g is committed (images.cpp); in a restored image never.
-      if (!sr) {
-        reply(s, seq, op_code(wire::OpError::NotSupported));
-      } else if (checkpoint_request || checkpoint) {
-        reply(s, seq, op_code(wire::OpError::Refused));
-      } else {
-        checkpoint_request = std::pair(std::optional<ServiceId>(s.id), seq);
-      }
-      return;
-    case cap::Operation::CheckpointRollback:
-      if (!sr || images.size() == 0) {
-        reply(s, seq, op_code(sr ? wire::OpError::Refused : wire::OpError::NotSupported));
-        return;
-      }
-      reply(s, seq, 0);
-      request_rollback("'" + s.name + "' requested a rollback");
-      return;
-    case cap::Operation::TimerArm:
-      // The rejuvenation timer (§V-A do_timer): arg0 = delay [ns], arg1 = 1 for periodic.
-      if (!sr || head.arg0 > static_cast<std::uint64_t>(std::numeric_limits<std::int64_t>::max())) {
-        reply(s, seq, op_code(sr ? wire::OpError::BadArgument : wire::OpError::NotSupported));
-        return;
-      }
-      arm_rejuvenation(s, seq, Nanos(static_cast<std::int64_t>(head.arg0)),
-                       head.arg1 != 0 ? Nanos(static_cast<std::int64_t>(head.arg0)) : Nanos{0});
-      return;
-    case cap::Operation::LimitsWrite:
-      if (data.size() > 4096) {
-        reply(s, seq, op_code(wire::OpError::BadArgument));
-        return;
-      }
-      o.limits.assign(data.begin(), data.end());
-      sr_event(SrEventKind::LimitsWritten, {}, {}, s.id);
-      reply(s, seq, 0, o.limits.size());
-      return;
-    case cap::Operation::LimitsRead:
-      reply(s, seq, 0, o.limits.size(), o.limits);
-      return;
-    case cap::Operation::PersistentRead: {
-      const std::uint64_t offset = head.arg0;
-      const std::uint64_t length = head.arg1 == 0 ? o.persistent.size() : head.arg1;
-      if (offset > o.persistent.size() || length > o.persistent.size() - offset) {
-        reply(s, seq, op_code(wire::OpError::OutOfRange));
-        return;
-      }
-      reply(s, seq, 0, length, std::span<const std::byte>(o.persistent).subspan(offset, length));
+  if (decoded && std::holds_alternative<CapInvocation>(*decoded)) {
+    // The cap system checks the authority with the arguments and carries the operation out (a denial leaves
+    // no trace but the audit).
+    auto done = caps.decode_and_invoke(s.id, slot, *op, std::get<CapInvocation>(*decoded).args);
+    if (!done) {
+      reply(s, seq, denial_code(done.error()));
       return;
     }
-    case cap::Operation::PersistentWrite: {
-      const std::uint64_t offset = head.arg0;
-      if (offset > o.persistent.size() || data.size() > o.persistent.size() - offset) {
-        reply(s, seq, op_code(wire::OpError::OutOfRange));
-        return;
-      }
-      std::memcpy(o.persistent.data() + offset, data.data(), data.size());
-      reply(s, seq, 0, data.size());
-      return;
-    }
-    case cap::Operation::ModeRequest: {
-      if (head.arg0 >= kModeCount) {
-        reply(s, seq, op_code(wire::OpError::BadArgument));
-        return;
-      }
-      reply(s, seq, 0, head.arg0);
-      set_mode(static_cast<SrMode>(head.arg0), s.id);  // images.cpp: caps, time page, sr_mode
-      return;
-    }
-    case cap::Operation::Publish:
-    case cap::Operation::Subscribe:
-    case cap::Operation::Copy:
-    case cap::Operation::Mint:
-    case cap::Operation::Revoke:
-    case cap::Operation::Delete:
-    case cap::Operation::NetSend:
-    case cap::Operation::NetReceive:
-      break;  // handled above
+    reply(s, seq, 0, done->placed ? done->placed->slot.value() : done->deleted);
+    return;
   }
+  // The authority first (a denial answers before the arguments and leaves no trace but the audit), then
+  // whether this kernel provides the kind, then the arguments.
+  auto authority = caps.decode(s.id, slot, *op);
+  if (!authority) {
+    refuse_invoke(s, seq, *op, denial_code(authority.error()));
+    return;
+  }
+  if (!provides(authority->kind())) {
+    refuse_invoke(s, seq, *op, op_code(wire::OpError::NotSupported));
+    return;
+  }
+  if (!decoded) {
+    refuse_invoke(s, seq, *op, op_code(decoded.error().error));
+    return;
+  }
+  ObjectInfo& o = objects[authority->object().value()];
+  std::visit(Overloaded{
+                 [&](const CapInvocation&) {},  // carried out above
+                 [&](const CheckpointInvocation& c) { invoke_checkpoint(s, seq, c); },
+                 [&](const NetInvocation& n) { net_invoke(s, seq, *authority, n); },  // netgate.cpp
+                 [&](const LimitsInvocation& l) { invoke_limits(s, seq, o, l); },
+                 [&](const PersistentInvocation& p) { invoke_persistent(s, seq, o, p); },
+                 [&](const ModeInvocation& m) {
+                   reply(s, seq, 0, index_of(m.mode));
+                   set_mode(m.mode, s.id);  // images.cpp: caps, time page, sr_mode
+                 },
+             },
+             *decoded);
 }
 
-void Kernel::Impl::drain_denials() {
-  const cap::AuditLog& audit = caps.audit_log();
-  if (audit.pushed() == denials_drained) return;
-  std::optional<ObjectId> events;
-  for (const ObjectInfo& o : objects) {
-    if (o.type != nullptr && o.type->name == msgs::TopicTraits<rejuv_msg_SecurityEvent>::name &&
-        o.kernel == policy::KernelEndpoint::Publishes) {
-      events = o.id;
-    }
+void Kernel::Impl::invoke_checkpoint(ServiceRuntime& s, std::uint32_t seq, const CheckpointInvocation& c) {
+  std::visit(Overloaded{
+                 [&](const CheckpointInvocation::Create&) {
+                   // DESIGN §7: answered when generation g is committed (checkpoint.cpp); in a restored image never.
+                   if (checkpoint_request || checkpoint) {
+                     reply(s, seq, op_code(wire::OpError::Refused));
+                   } else {
+                     checkpoint_request = std::pair(std::optional<ServiceId>(s.id), seq);
+                   }
+                 },
+                 [&](const CheckpointInvocation::Rollback&) {
+                   if (images.size() == 0) {
+                     reply(s, seq, op_code(wire::OpError::Refused));
+                     return;
+                   }
+                   reply(s, seq, 0);
+                   request_rollback("'" + s.name + "' requested a rollback");
+                 },
+                 [&](const CheckpointInvocation::ArmTimer& t) {  // §V-A do_timer
+                   arm_rejuvenation(s, seq, t.delay, t.periodic ? t.delay : Nanos{0});
+                 },
+             },
+             c.what);
+}
+
+void Kernel::Impl::invoke_limits(ServiceRuntime& s, std::uint32_t seq, ObjectInfo& o, const LimitsInvocation& l) {
+  if (const auto* w = std::get_if<LimitsInvocation::Write>(&l.what)) {
+    o.limits.assign(w->data.begin(), w->data.end());
+    sr_event(SrEventKind::LimitsWritten, {}, {}, s.id);
   }
-  for (std::size_t i = audit.first_index_from(denials_drained); i < audit.size(); ++i) {
-    const cap::Denial& d = audit[i];
-    const bool known = d.service.value() < services.size();
-    if (known) {
-      ServiceRuntime& s = services[d.service.value()];
-      ++s.stats.denials;
-      if (s.limiter.allow(wall())) {
-        log("denied: '%s' %s on slot %u: %s (mode %s)", s.name.c_str(), std::string(cap::to_string(d.operation)).c_str(),
-            d.slot.value(), std::string(cap::to_string(d.error)).c_str(), std::string(to_string(d.mode)).c_str());
-      } else {
-        ++s.stats.log_suppressed;
-      }
-    }
-    // DESIGN §3: every denial is also published as a SecurityEvent.
-    if (events) {
-      const rejuv_msg_SecurityEvent ev{.timestamp_ns = static_cast<std::uint64_t>(d.at.count()),
-                                       .service_id = d.service.value(),
-                                       .slot = d.slot.value(),
-                                       .operation = static_cast<std::uint8_t>(d.operation),
-                                       .error = static_cast<std::uint8_t>(d.error),
-                                       .mode = static_cast<rejuv_msg_SrModeKind>(index_of(d.mode)),
-                                       .kind = rejuv_msg_SECURITY_CAPABILITY_DENIAL};
-      publish_as_kernel(*events, std::as_bytes(std::span(&ev, 1)));
-    }
-  }
-  denials_drained = audit.pushed();
+  reply(s, seq, 0, o.limits.size(), std::holds_alternative<LimitsInvocation::Read>(l.what)
+                                        ? std::span<const std::byte>(o.limits)
+                                        : std::span<const std::byte>{});
+}
+
+void Kernel::Impl::invoke_persistent(ServiceRuntime& s, std::uint32_t seq, ObjectInfo& o,
+                                     const PersistentInvocation& p) {
+  const std::span<std::byte> cell(o.persistent);
+  std::visit(Overloaded{
+                 [&](const PersistentInvocation::Read& r) {
+                   const std::uint64_t length = r.length == 0 ? cell.size() : r.length;
+                   if (r.offset > cell.size() || length > cell.size() - r.offset) {
+                     reply(s, seq, op_code(wire::OpError::OutOfRange));
+                     return;
+                   }
+                   reply(s, seq, 0, length, cell.subspan(r.offset, length));
+                 },
+                 [&](const PersistentInvocation::Write& w) {
+                   if (w.offset > cell.size() || w.data.size() > cell.size() - w.offset) {
+                     reply(s, seq, op_code(wire::OpError::OutOfRange));
+                     return;
+                   }
+                   std::memcpy(cell.data() + w.offset, w.data.data(), w.data.size());
+                   reply(s, seq, 0, w.data.size());
+                 },
+             },
+             p.what);
 }
 
 }  // namespace rejuv::kernel

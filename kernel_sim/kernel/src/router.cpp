@@ -70,7 +70,7 @@ void Kernel::Impl::route_samples() {
 void Kernel::Impl::route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload) {
   auto inv = caps.decode(s.id, Slot(slot), cap::Operation::Publish);
   if (!inv) {
-    drain_denials();  // counted, logged, published as a SecurityEvent
+    drain_denials();  // counted, logged, published as a SecurityEvent (watch.cpp)
     return;
   }
   const ObjectInfo& o = objects[inv->object().value()];
@@ -137,31 +137,12 @@ void Kernel::Impl::release_bridge_out() {
 
 void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
                                  std::optional<ServiceId> publisher, From from) {
-  const ObjectInfo& o = objects[topic.value()];
-  if (observer != nullptr) {
-    observer->on_publication(Publication{.topic = topic, .name = o.name, .type = o.type->name, .payload = payload,
-                                         .generation = g, .t = now(), .publisher = publisher});
-    if (o.is_actuator_outputs && publisher) observer->on_control_update(now(), wall());
-  }
+  watch_publication(objects[topic.value()], payload, g, publisher);  // observers (watch.cpp)
   if (bridge && from != From::Bridge) {  // what came in through the bridge does not go back out
     if (routing_frozen) {  // a checkpoint or rollback is timed: written by resume_routing
       held_bridge_out.emplace_back(topic, std::vector<std::byte>(payload.begin(), payload.end()));
     } else {
       (void)write_to_bridge(topic, payload);
-    }
-  }
-  if (o.is_setpoint && publisher && !mission_done_seen) {
-    rejuv_msg_Setpoint sp{};
-    std::memcpy(&sp, payload.data(), sizeof(sp));
-    if (sp.mission_done == 1) {
-      mission_done_seen = true;
-      const std::string who = services[publisher->value()].name;
-      if (options.stop_on_mission_done) {
-        stop_run(StopReason::MissionDone,
-                 "'" + who + "' reported mission_done at t = " + std::to_string(to_seconds(now()).count()) + " s");
-      } else {
-        log("'%s' reported mission_done; running on to the duration limit", who.c_str());
-      }
     }
   }
   finish_routes(topic);

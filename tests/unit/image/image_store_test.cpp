@@ -31,11 +31,12 @@ Image make_image(ServiceId service) {
 }
 
 GenerationRecord make_generation(Generation g, std::size_t services) {
-  GenerationRecord r{.g = g, .t_cp = Nanos{static_cast<std::int64_t>(g.value()) * 1000}, .images = {},
-                     .services = {}, .queues = {}};
+  GenerationRecord r{.g = g, .images = {},
+                     .state = {.t_cp = Nanos{static_cast<std::int64_t>(g.value()) * 1000}, .queues = {}, .services = {}}};
   for (std::size_t i = 0; i < services; ++i) {
     r.images.push_back(make_image(ServiceId(static_cast<std::uint32_t>(i))));
-    r.services.push_back(SavedService{.service = ServiceId(static_cast<std::uint32_t>(i)), .subscriptions = {}, .timers = {}});
+    r.state.services.push_back(
+        SavedService{.service = ServiceId(static_cast<std::uint32_t>(i)), .subscriptions = {}, .timers = {}});
   }
   return r;
 }

@@ -85,51 +85,50 @@ struct Requirement {
   ObjectKind kind = ObjectKind::Topic;
   Rights rights;
 };
-[[nodiscard]] constexpr Requirement requirement(Operation op) {
-  switch (op) {
-    case Operation::Publish: return {.kind = ObjectKind::Topic, .rights = Right::Write};
-    case Operation::Subscribe: return {.kind = ObjectKind::Topic, .rights = Right::Read};
-    case Operation::CheckpointCreate:
-    case Operation::CheckpointRollback:
-    case Operation::TimerArm: return {.kind = ObjectKind::Checkpoint, .rights = Right::Write};
-    case Operation::NetSend: return {.kind = ObjectKind::Network, .rights = Right::Write};
-    case Operation::NetReceive: return {.kind = ObjectKind::Network, .rights = Right::Read};
-    case Operation::LimitsWrite: return {.kind = ObjectKind::Limits, .rights = Right::Write};
-    case Operation::LimitsRead: return {.kind = ObjectKind::Limits, .rights = Right::Read};
-    case Operation::PersistentRead: return {.kind = ObjectKind::Persistent, .rights = Right::Read};
-    case Operation::PersistentWrite: return {.kind = ObjectKind::Persistent, .rights = Right::Write};
-    case Operation::ModeRequest: return {.kind = ObjectKind::Mode, .rights = Right::Write};
-    case Operation::Copy:
-    case Operation::Mint: return {.any_kind = true, .rights = Right::Grant};
-    case Operation::Revoke:
-    case Operation::Delete: return {.any_kind = true, .rights = Rights::none()};
+
+// The one table of operations (DESIGN §3), in wire order: which object kind each acts on (any kind: the
+// capability management of seL4's CNode, carried out by CapSystem::invoke) and the rights it needs.
+// CapSystem::decode checks the requirement; the kernel decodes an Invoke's arguments per the row's kind
+// and invokes it on the part of the kernel that owns that kind (kernel_sim/kernel/src/invocation.hpp).
+struct OperationSpec {
+  Operation op;
+  Requirement need;
+};
+inline constexpr std::array<OperationSpec, 16> kOperations{{
+    {Operation::Publish, {.kind = ObjectKind::Topic, .rights = Right::Write}},
+    {Operation::Subscribe, {.kind = ObjectKind::Topic, .rights = Right::Read}},
+    {Operation::CheckpointCreate, {.kind = ObjectKind::Checkpoint, .rights = Right::Write}},
+    {Operation::CheckpointRollback, {.kind = ObjectKind::Checkpoint, .rights = Right::Write}},
+    {Operation::TimerArm, {.kind = ObjectKind::Checkpoint, .rights = Right::Write}},
+    {Operation::NetSend, {.kind = ObjectKind::Network, .rights = Right::Write}},
+    {Operation::NetReceive, {.kind = ObjectKind::Network, .rights = Right::Read}},
+    {Operation::LimitsWrite, {.kind = ObjectKind::Limits, .rights = Right::Write}},
+    {Operation::LimitsRead, {.kind = ObjectKind::Limits, .rights = Right::Read}},
+    {Operation::PersistentRead, {.kind = ObjectKind::Persistent, .rights = Right::Read}},
+    {Operation::PersistentWrite, {.kind = ObjectKind::Persistent, .rights = Right::Write}},
+    {Operation::ModeRequest, {.kind = ObjectKind::Mode, .rights = Right::Write}},
+    {Operation::Copy, {.any_kind = true, .rights = Right::Grant}},
+    {Operation::Mint, {.any_kind = true, .rights = Right::Grant}},
+    {Operation::Revoke, {.any_kind = true, .rights = Rights::none()}},
+    {Operation::Delete, {.any_kind = true, .rights = Rights::none()}},
+}};
+static_assert(kOperations.size() == kOperationCount);
+static_assert([] {
+  for (std::size_t i = 0; i < kOperations.size(); ++i) {
+    if (kOperations[i].op != kAllOperations[i]) return false;
   }
+  return true;
+}(), "kOperations is in wire order, one row per operation");
+
+[[nodiscard]] constexpr Requirement requirement(Operation op) {
+  const auto i = static_cast<std::size_t>(op);
   // Unreachable for a valid Operation; CapSystem::decode refuses out-of-range values before asking.
-  return {.any_kind = false, .kind = ObjectKind::Topic, .rights = Rights::all()};
+  if (i >= kOperations.size()) return {.any_kind = false, .kind = ObjectKind::Topic, .rights = Rights::all()};
+  return kOperations[i].need;
 }
 
-// True for the operations CapSystem::invoke carries out itself (they change CSpaces).
-[[nodiscard]] constexpr bool is_cap_management(Operation op) {
-  switch (op) {
-    case Operation::Copy:
-    case Operation::Mint:
-    case Operation::Revoke:
-    case Operation::Delete: return true;
-    case Operation::Publish:
-    case Operation::Subscribe:
-    case Operation::CheckpointCreate:
-    case Operation::CheckpointRollback:
-    case Operation::TimerArm:
-    case Operation::NetSend:
-    case Operation::NetReceive:
-    case Operation::LimitsWrite:
-    case Operation::LimitsRead:
-    case Operation::PersistentRead:
-    case Operation::PersistentWrite:
-    case Operation::ModeRequest: return false;
-  }
-  return false;
-}
+// True for the operations CapSystem::invoke carries out itself (they change CSpaces): those of any kind.
+[[nodiscard]] constexpr bool is_cap_management(Operation op) { return requirement(op).any_kind; }
 
 // Why a capability invocation (or a kernel-side lookup) was refused. One enum for the whole family
 // (CONVENTIONS "Errors are values"); the numeric values travel in SecurityEvent.error.

@@ -9,8 +9,8 @@
 // and their resume sockets closed. A generation whose image died (killed, crashed) is broken: a rollback
 // falls back to the previous one (DESIGN §7 "Faults").
 //
-// The store owns processes and fds but runs no protocol: the kernel's images.cpp sends Snapshot/Resume and
-// decides when to commit, roll back and fall back.
+// The store owns processes and fds but runs no protocol: the kernel's image coordinator (images.cpp) sends
+// Snapshot/Resume and decides when to commit, roll back and fall back.
 #pragma once
 
 #include <algorithm>
@@ -73,15 +73,23 @@ struct Image {
   bool request_spare(Generation g);
 };
 
+// The kernel state a generation saves beside its images, as one value (DESIGN §7 step 3; like Drake's
+// Context): saved whole at the commit and restored whole by a rollback (the kernel's images.hpp,
+// save_state / restore_state), so that nothing of it is assembled or restored field by field elsewhere.
+struct CheckpointedState {
+  Nanos t_cp{0};                         // kernel clock at the cut
+  broker::BrokerSnapshot queues{};       // rings, generations, cursors
+  std::vector<SavedService> services{};  // the kernel objects of every imaged service
+  [[nodiscard]] const SavedService* saved(ServiceId service) const;
+};
+
 struct GenerationRecord {
   Generation g{};
-  Nanos t_cp{0};                       // kernel clock at the cut
   std::vector<Image> images{};
-  std::vector<SavedService> services{};
-  broker::BrokerSnapshot queues{};
+  CheckpointedState state{};
 
   [[nodiscard]] Image* image_of(ServiceId service);
-  [[nodiscard]] const SavedService* saved(ServiceId service) const;
+  [[nodiscard]] const SavedService* saved(ServiceId service) const { return state.saved(service); }
   // The first service none of whose copies still runs and none is on its way, if any: the generation is broken.
   [[nodiscard]] std::optional<ServiceId> dead_image();
 };

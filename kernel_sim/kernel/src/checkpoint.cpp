@@ -1,0 +1,296 @@
+// Checkpoint g (DESIGN §7 "Checkpoint g"; the overview is at the top of images.cpp): at a quiescent point
+// routing freezes, every live rejuvenated service gets a Snapshot and answers Taken (an image by fork) or
+// TakenPages (its written pages, made into an image off the critical path by a copy of the base image:
+// send_patches); publications that arrive before their sender's Taken are applied to the rings; then the
+// kernel state is saved whole beside the images (save_state), the generation committed and the caller
+// answered. A refused or late Taken abandons the generation (a late service is killed).
+#include <fcntl.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <utility>
+
+#include "images.hpp"
+
+namespace rejuv::kernel {
+
+bool Kernel::Impl::quiescent_for_checkpoint() const {
+  const std::optional<ServiceId> caller = checkpoint_request->first;
+  return std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
+    if (!s.live()) return true;
+    if (s.phase != Phase::Ready || !s.drained()) return false;
+    return clock_mode == ClockMode::Realtime || s.id == caller || s.idle();
+  });
+}
+
+// ---- checkpoint ----
+
+bool Kernel::Impl::lost_during(CheckpointRun& run) const {
+  // A service of the checkpoint that died before the commit — before its Taken (it will never answer) or after
+  // it — has left the broker and the timer table (on_child_exit): the generation would lack its kernel objects
+  // and an image restored from it would receive nothing (the fault campaign: ekf2 killed right after its Taken,
+  // restored deaf, the vehicle lost). Not a generation.
+  if (!run.failure.empty()) return true;
+  for (const image::Image& im : run.record.images) {
+    const ServiceRuntime& s = services[im.service.value()];
+    if (!s.live()) {
+      run.failure = "'" + s.name + "' was lost during the checkpoint";
+      return true;
+    }
+  }
+  return false;
+}
+
+void Kernel::Impl::run_checkpoint() {
+  const auto [caller, seq] = *checkpoint_request;
+  checkpoint_request.reset();
+  const bool priming = std::exchange(priming_request, false);
+  const Nanos t0 = wall();
+  const Generation g = images.next_generation();
+  CheckpointRun run{.caller = caller, .seq = seq, .t_cp = now(), .record = {}, .waiting = {}, .failure = {}};
+  run.record.g = g;
+  routing_frozen = true;
+  flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
+  for (ServiceRuntime& s : services) {
+    if (!s.rejuvenate || s.phase != Phase::Ready) continue;
+    auto pair = take_pair();
+    if (!pair) {
+      run.failure = "resume socket: out of fds?";
+      break;
+    }
+    const Generation base = pages_base_for(s);
+    // The pagemap goes with the first Snapshot that offers a base to this incarnation; the service keeps it.
+    const bool with_pagemap = base.value() != 0 && !s.pagemap_sent;
+    const std::array<int, 2> fds{pair->second.fd(), s.pagemap.get()};
+    const wire::SnapshotBody body{.base = base.value()};
+    if (!tx.build_with(wire::FrameKind::Snapshot, 0, 0, g.value(), body)) break;
+    if (auto sent = s.channel.send(tx.bytes(), std::span(fds).first(with_pagemap ? 2 : 1)); !sent) {
+      run.failure = "Snapshot to '" + s.name + "': " + sent.error().to_string();
+      break;
+    }
+    ++s.stats.frames_out;
+    if (with_pagemap) s.pagemap_sent = true;
+    // The image end stays with the kernel until the commit: by fork it is closed, by written pages it goes
+    // to the copy of the base that becomes the image (send_patches).
+    run.record.images.push_back(image::Image{.service = s.id, .copies = {}, .resume = std::move(pair->first),
+                                             .base = base, .image_end = pair->second.take_fd()});
+    run.waiting.push_back(s.id);
+  }
+  checkpoint = std::move(run);
+  const Nanos t_sent = wall();
+  if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointSnapshotsSent, g);
+  // Every other event is handled meanwhile (pump); Taken frames come through handle_frame → on_taken,
+  // TakenPages (with its fd) through read_channel → on_taken_pages.
+  const Nanos deadline = wall() + options.snapshot_deadline;
+  bool late = false;
+  while (checkpoint->failure.empty() && !checkpoint->waiting.empty() && !stopping) {
+    if (lost_during(*checkpoint)) break;  // abandoned now rather than at the deadline
+    const Nanos left = deadline - wall();
+    if (left <= Nanos{0}) {
+      late = true;
+      checkpoint->failure = "no Taken from '" + services[checkpoint->waiting.front().value()].name +
+                            "' within the snapshot deadline";
+      break;
+    }
+    if (!pump(left)) break;
+  }
+  CheckpointRun done = std::move(*checkpoint);
+  checkpoint.reset();
+  if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
+  (void)lost_during(done);  // a death read in the last pump
+  const auto answer = [&](std::int32_t error, std::uint64_t value) {
+    if (caller) reply(services[caller->value()], seq, error, value);
+  };
+  if (!done.failure.empty()) {
+    if (!priming) ++sr_stats.checkpoint_failures;
+    if (!priming) sr_event(SrEventKind::CheckpointFailed, g, wall() - t0, caller);
+    log("%s %llu abandoned: %s", priming ? "the alignment's checkpoint" : "checkpoint", num(g), done.failure.c_str());
+    abandoned = Abandoned{.g = g, .waiting = done.waiting};
+    images.abandon(g);
+    image::destroy(done.record);
+    if (late) {
+      for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
+    }
+    resume_routing();
+    answer(op_code(wire::OpError::Refused), 0);
+    return;
+  }
+  const Nanos t_taken = wall();
+  if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointTaken, g);
+  flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
+  done.record.state = save_state(done.t_cp, done.record.images, services, broker, timers);
+  if (observer != nullptr) observer->on_checkpoint(g, broker);
+  for (const image::Image& im : done.record.images) services[im.service.value()].image_base = g;
+  std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
+  const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
+  resume_routing();
+  answer(0, g.value());
+  const std::uint64_t forks_before = sr_stats.images_by_fork;
+  send_patches(*images.newest());  // before old generations go: a base may be among them
+  for (image::GenerationRecord& old : evicted) retire(std::move(old));
+  const Nanos took = t_saved - t0;
+  // Strays (sandbox.cpp): after the timed part, before the new spares are on their way, so that only the
+  // copies still on their way from earlier requests can defer it.
+  abandoned.reset();  // an image still owed to an abandoned checkpoint is a stray from now on
+  sweep_strays("a checkpoint's commit");
+  for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
+  if (priming) {
+    // DESIGN §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
+    sr_stats.priming_images += sr_stats.images_by_fork - forks_before;
+    sr_stats.images_by_fork = forks_before;
+    log("the alignment's checkpoint: %zu images by fork in %.3f ms (untimed, not charged)",
+        images.newest()->images.size(), to_ms(took));
+    return;
+  }
+  sr_stats.checkpoint_phases.a.add(to_ms(t_sent - t0));
+  sr_stats.checkpoint_phases.b.add(to_ms(t_taken - t_sent));
+  sr_stats.checkpoint_phases.c.add(to_ms(t_saved - t_taken));
+  ++sr_stats.checkpoints;
+  sr_event(SrEventKind::Checkpoint, g, took, caller);
+  sr_stats.checkpoint_ms.add(to_ms(took));
+  if (!sr_stats.first_checkpoint_ms) sr_stats.first_checkpoint_ms = to_ms(took);
+  charge_image_work(took, checkpoint_charge);
+  if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
+}
+
+bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
+  if (!abandoned || frame.header.aux != abandoned->g.value()) return false;
+  const auto waiting = std::find(abandoned->waiting.begin(), abandoned->waiting.end(), s.id);
+  if (waiting == abandoned->waiting.end()) return false;
+  abandoned->waiting.erase(waiting);
+  // TakenPages: its pages fd closes with the frame. Taken: the image is a process of the service's session
+  // that the kernel made it fork and no longer wants. Anything else the pid could name is left alone.
+  if (frame.kind != wire::FrameKind::Taken) return true;
+  const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
+  if (pid <= 0 || knows_process(pid, nullptr)) return true;
+  const auto sid = sys::session_of(pid);
+  if (sid && std::find(s.sessions.begin(), s.sessions.end(), *sid) != s.sessions.end()) {
+    (void)sys::kill_and_reap_own_child(pid);
+  }
+  return true;
+}
+
+bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& frame) {
+  if (late_image(s, frame)) return false;  // the answer of an abandoned checkpoint: not a protocol error
+  if (!checkpoint) {
+    refuse(s, std::string(wire::to_string(frame.kind)) + " without a checkpoint in progress");
+    return false;
+  }
+  CheckpointRun& run = *checkpoint;
+  const auto waiting = std::find(run.waiting.begin(), run.waiting.end(), s.id);
+  if (waiting == run.waiting.end()) {
+    refuse(s, std::string(wire::to_string(frame.kind)) + " it was not asked for");
+    return false;
+  }
+  run.waiting.erase(waiting);
+  if (frame.header.aux != run.record.g.value()) {
+    run.failure = "'" + s.name + "' answered " + std::string(wire::to_string(frame.kind)) + " for generation " +
+                  std::to_string(frame.header.aux);
+    return false;
+  }
+  return true;
+}
+
+Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
+  const Generation base = s.image_base;
+  if (!options.images_by_pages || base.value() == 0 || images.keep() < 2) return Generation{};
+  if (!s.pagemap.valid()) return Generation{};
+  // The base must outlive this checkpoint's commit, which keeps the newest keep − 1 generations and the new one.
+  const std::vector<Generation> kept = images.generations();
+  const std::size_t survivors = std::min(kept.size(), images.keep() - 1);
+  if (std::find(kept.end() - static_cast<std::ptrdiff_t>(survivors), kept.end(), base) == kept.end()) return Generation{};
+  image::GenerationRecord* record = images.find(base);
+  image::Image* im = record != nullptr ? record->image_of(s.id) : nullptr;
+  // No refresh() here (a receive and a wait per copy, on the critical path): a copy that died since is found
+  // when the Patch goes unanswered, and a rollback to this generation falls back (dead_image).
+  if (im == nullptr || !im->has_copy_or_patch()) return Generation{};
+  return base;
+}
+
+void Kernel::Impl::on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages) {
+  if (!expecting_image(s, frame)) return;
+  CheckpointRun& run = *checkpoint;
+  image::Image* im = run.record.image_of(s.id);
+  const auto body = wire::payload_as<wire::TakenPagesBody>(frame);
+  // What the service may not choose: the base (the one offered), and pages that change after this answer
+  // (every seal that freezes the memfd's contents).
+  const int seals = ::fcntl(pages.get(), F_GET_SEALS);
+  if (im == nullptr || im->base.value() == 0 || body.base != im->base.value()) {
+    run.failure = "'" + s.name + "' took its image against generation " + std::to_string(body.base) +
+                  ", which was not offered";
+  } else if (seals < 0 || (seals & wire::kPagesSeals) != wire::kPagesSeals) {
+    run.failure = "'" + s.name + "' sent written pages that are not sealed";
+  } else if (body.pages > wire::kMaxImagePages) {
+    run.failure = "'" + s.name + "' sent " + std::to_string(body.pages) + " written pages (at most " +
+                  std::to_string(wire::kMaxImagePages) + ")";
+  } else {
+    im->pages = std::move(pages);
+    im->page_count = body.pages;
+  }
+}
+
+void Kernel::Impl::send_patches(image::GenerationRecord& record) {
+  for (image::Image& im : record.images) {
+    if (!im.pages.valid()) {  // by fork: the image is its own process
+      ++sr_stats.images_by_fork;
+      closing.push_back(std::move(im.image_end));
+      continue;
+    }
+    ++sr_stats.images_by_pages;
+    image::GenerationRecord* base = images.find(im.base);
+    image::Image* from = base != nullptr ? base->image_of(im.service) : nullptr;
+    const wire::PatchBody body{.generation = record.g.value(), .pages = im.page_count};
+    const std::array<int, 2> fds{im.pages.get(), im.image_end.get()};
+    if (from != nullptr && tx.build_with(wire::FrameKind::Patch, 0, 0, im.base.value(), body) &&
+        from->resume.send(tx.bytes(), fds)) {
+      im.patch_pending = true;
+    } else {  // no image: a rollback to this generation falls back (image::GenerationRecord::dead_image)
+      log("generation %llu: no copy of generation %llu's image of '%s' to make its image from",
+          num(record.g), num(im.base), services[im.service.value()].name.c_str());
+    }
+    closing.push_back(std::move(im.pages));
+    closing.push_back(std::move(im.image_end));
+  }
+}
+
+bool Kernel::Impl::knows_process(pid_t pid, const image::GenerationRecord* taking) const {
+  const auto in = [&](const image::GenerationRecord& r) {
+    return std::any_of(r.images.begin(), r.images.end(), [&](const image::Image& i) {
+      return std::any_of(i.copies.begin(), i.copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
+    });
+  };
+  return images.owns(pid) || (plant_started && plant.pid() == pid) ||
+         std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& o) { return o.process.pid() == pid; }) ||
+         (taking != nullptr && in(*taking));
+}
+
+void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
+  if (!expecting_image(s, frame)) return;
+  CheckpointRun& run = *checkpoint;
+  const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
+  if (pid <= 0) {
+    run.failure = "'" + s.name + "' could not take its image";
+    return;
+  }
+  // The pid must be the kernel's child and no process the kernel already knows: a service cannot make the
+  // kernel take charge of (and later kill) anything but its own image.
+  const bool known = knows_process(pid, &run.record);
+  auto child = known ? sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"known pid", EEXIST}))
+                     : sys::ChildProcess::adopt_child(pid);
+  if (!child && sys::out_of_fds(child.error().error)) {
+    // The kernel is out of fds (keep_generations against ulimit -n): the image cannot be kept. It is the
+    // kernel's own copy, not the service's stray: killed now, so that no sweep counts it as a violation.
+    (void)sys::kill_and_reap_own_child(pid);
+    run.failure = "no fd left to keep the image of '" + s.name + "' (" + child.error().to_string() +
+                  "): raise ulimit -n or lower keep_generations";
+    return;
+  }
+  if (!child) {
+    run.failure = "'" + s.name + "' reported pid " + std::to_string(pid) + ", which is not its image (" +
+                  child.error().to_string() + ")";
+    return;
+  }
+  run.record.image_of(s.id)->copies.push_back(std::move(*child));
+}
+
+}  // namespace rejuv::kernel

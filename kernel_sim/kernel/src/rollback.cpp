@@ -1,0 +1,281 @@
+// Rollback (DESIGN §7 "Rollback"; the overview is at the top of images.cpp), on the rejuvenation timer, a
+// CheckpointRollback or a rejuvenated service lost: mode RB, every live rejuvenated incarnation retired (cut
+// off, SCHED_IDLE, killed after the timed part), the images of the newest intact generation resumed on new
+// channels and the kernel state restored whole (restore_state); a dead image or a failed resume falls back
+// to the previous generation, then to a cold restart of the rejuvenated services from their binaries in SC.
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <string>
+
+#include "images.hpp"
+
+namespace rejuv::kernel {
+
+// ---- rollback ----
+
+void Kernel::Impl::request_rollback(std::string reason) {
+  if (!rollback_request) rollback_request = std::move(reason);
+}
+
+void Kernel::Impl::kill_retired() {
+  for (sys::ChildProcess& p : retired) {
+    (void)p.signal(SIGKILL);
+    reaping.push_back(std::move(p));
+  }
+  retired.clear();
+}
+
+void Kernel::Impl::retire_live_rejuvenated() {
+  std::erase_if(staged, [&](const Staged& e) { return services[e.origin].rejuvenate; });
+  for (ServiceRuntime& s : services) {
+    if (!s.rejuvenate || s.skip || s.phase == Phase::NotStarted) continue;
+    if (s.live()) {
+      // Not signalled here: a signal wakes its victim, which then takes the CPU at once (8 SIGKILLs 0.68 ms:
+      // its exit runs inline; 8 SIGSTOPs 0.09 ms; 8 switches to SCHED_IDLE 0.013 ms; /tmp micro-benchmark,
+      // one CPU). Under SCHED_IDLE it runs only when nothing else on its CPU can, with its channel out of
+      // the loop, no signal to another process and no socket (seccomp): it cannot slow the rollback down or
+      // reach anything. Where the switch is refused, it is stopped. Killed after the rollback (kill_retired).
+      if (!sys::idle_priority(s.process.pid())) (void)s.process.signal(SIGSTOP);
+      (void)epoll.remove(s.process.pidfd());
+      retired.push_back(std::move(s.process));
+      s.process = sys::ChildProcess{};
+    }
+    if (s.channel.valid()) {
+      (void)epoll.remove(s.channel.fd());
+      closing.push_back(s.channel.take_fd());  // closed off the critical path (refill_pairs)
+    }
+    s.phase = Phase::Dead;
+    broker.remove_service(s.id);
+    timers.remove_service(s.id);
+    s.outq.clear();
+    s.has_held = false;
+    s.want_writable = false;
+    s.sweep = false;
+    s.polled_pending = false;
+    s.control_pool.clear();
+    s.control_free.clear();
+    s.channel_closed_at.reset();
+    s.loss_reason.clear();
+  }
+}
+
+namespace {
+// The first frame on a restored image's new channel: Resumed{g, its pid}; otherwise why not (a hang-up, no
+// frame before `deadline`, another frame), with the wall time waited.
+std::expected<pid_t, std::string> read_resumed(const sys::SeqPacket& channel, Generation g, Nanos deadline) {
+  const Nanos start = sys::monotonic_now();
+  const auto waited = [&] { return std::to_string(to_ms(sys::monotonic_now() - start)) + " ms"; };
+  auto ready = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::max(Nanos{0}, deadline - start));
+  if (!ready) return std::unexpected("waiting: " + ready.error().to_string());
+  if (!*ready) return std::unexpected("no answer in " + waited());
+  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
+  auto got = channel.receive(buf);
+  if (!got) return std::unexpected("reading: " + got.error().to_string());
+  if (got->closed) return std::unexpected("its channel hung up after " + waited());
+  auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel);
+  if (!frame) return std::unexpected("an undecodable answer");
+  if (frame->kind != wire::FrameKind::Resumed || frame->header.aux != g.value()) {
+    return std::unexpected(std::string(wire::to_string(frame->kind)) + " for generation " +
+                           std::to_string(frame->header.aux) + " instead of Resumed");
+  }
+  return wire::payload_as<wire::TakenBody>(*frame).image_pid;
+}
+}  // namespace
+
+bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
+                                     Nanos& resumed_at) {
+  const Epoch next{time_page.current().epoch.value() + 1};
+  struct Pending {
+    ServiceRuntime* service = nullptr;
+    image::Image* image = nullptr;
+    sys::SeqPacket channel{};  // the kernel's end of the new channel
+  };
+  std::vector<Pending> pending;
+  pending.reserve(record.images.size());
+  // All Resumes first: the images wake in parallel. No fork here: a spare copy takes the Resume.
+  for (image::Image& im : record.images) {
+    ServiceRuntime& s = services[im.service.value()];
+    auto channel = take_pair();
+    if (!channel) {
+      failure = "channel for a restored image: out of fds?";
+      break;
+    }
+    const wire::ResumeBody body{.epoch = next.value(), .reserved = 0};
+    if (!tx.build_with(wire::FrameKind::Resume, 0, 0, record.g.value(), body)) break;
+    const int service_end = channel->second.fd();
+    if (auto sent = im.resume.send(tx.bytes(), std::span(&service_end, 1)); !sent) {
+      failure = "Resume to the image of '" + s.name + "': " + sent.error().to_string();
+      break;
+    }
+    // Closed now, not after the timed part: then the image's end is the channel's only other end, and a copy
+    // that dies after taking its Resume hangs the channel up at once instead of costing the resume deadline.
+    (void)channel->second.take_fd();
+    pending.push_back(Pending{.service = &s, .image = &im, .channel = std::move(channel->first)});
+  }
+  if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
+  // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
+  // (on a failure the caller retires it again).
+  for (Pending& p : pending) {
+    ServiceRuntime& s = *p.service;
+    const auto answer = read_resumed(p.channel, record.g, deadline);
+    const pid_t pid = answer.value_or(0);
+    auto copy = std::find_if(p.image->copies.begin(), p.image->copies.end(),
+                             [&](const sys::ChildProcess& c) { return pid > 0 && c.pid() == pid; });
+    if (copy != p.image->copies.end()) {
+      s.process = std::move(*copy);  // the copy is now the live service
+      p.image->copies.erase(copy);
+    } else if (auto spare = pid > 0 ? sys::ChildProcess::adopt_child(pid)
+                                    : sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"Resumed", EPROTO}))) {
+      s.process = std::move(*spare);  // a spare whose Copied is still on its way took the Resume
+    } else {
+      if (failure.empty()) {
+        const image::Image& im = *p.image;
+        failure = "no Resumed from the image of '" + s.name + "': " +
+                  (answer ? "pid " + std::to_string(pid) + " is no copy" : answer.error()) + " (" +
+                  std::to_string(im.copies.size()) + " copies, " + std::to_string(im.spares_pending) + " spares and " +
+                  (im.patch_pending ? "its patch" : "no patch") + " on their way" +
+                  (im.last_death.empty() ? "" : "; " + im.last_death) + ")";
+      }
+      continue;  // its copies are killed with the generation
+    }
+    p.image->resumed.push_back(pid);
+    s.start_incarnation(record.g);
+    s.channel = std::move(p.channel);
+    s.phase = Phase::Ready;
+    s.frames_base = s.stats.frames_out;
+    s.idle_count = 0;
+    s.stats.pid = s.process.pid();
+    // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
+    // generation is unusable rather than half-installed.
+    for (const auto& [fd, source] : {std::pair{s.channel.fd(), Source::Channel}, std::pair{s.process.pidfd(), Source::Pidfd}}) {
+      if (auto added = epoll.add(fd, token(source, s.id.value())); !added && failure.empty()) {
+        failure = "watching the restored '" + s.name + "': " + added.error().to_string();
+      }
+    }
+  }
+  if (pending.size() != record.images.size() && failure.empty()) failure = "not every image could be resumed";
+  if (!failure.empty()) return false;
+  resumed_at = wall();
+  if (auto restored = restore_state(record.state, now(), services, broker, timers); !restored) {
+    failure = "queue state: " + std::string(broker::to_string(restored.error()));
+    return false;
+  }
+  if (observer != nullptr) observer->on_restore(record.g, broker);
+  time_page.write(clock::TimeSample{.now = now(), .mode = caps.mode(), .epoch = next});
+  return true;
+}
+
+void Kernel::Impl::run_rollback(const std::string& reason) {
+  const Nanos t0 = wall();
+  // A checkpoint asked for by an incarnation that is about to die is void: nobody waits for its answer.
+  if (checkpoint_request && checkpoint_request->first && services[checkpoint_request->first->value()].rejuvenate) {
+    checkpoint_request.reset();
+  }
+  // The network is revoked before anything else happens; sr_mode is published once the services are back
+  // (the ones about to die need not be woken for it).
+  if (auto changed = caps.apply_mode(SrMode::RB); !changed) {
+    log("mode RB: %s", std::string(cap::to_string(changed.error())).c_str());
+  }
+  time_page.write(clock::TimeSample{.now = now(), .mode = SrMode::RB, .epoch = time_page.current().epoch});
+  sr_event(SrEventKind::Mode);
+  retire_live_rejuvenated();
+  const Nanos t_killed = wall();
+  Nanos t_resumed = t_killed;
+  // Real time, or lockstep charging the measured duration: the vehicle waits with us, and each generation
+  // has resume_deadline. Otherwise the whole rollback has unseen_resume_deadline, and a fallback at least
+  // resume_deadline (KernelOptions): below the plant's ack timeout however many generations are kept.
+  const Nanos bound = image_wait_bound();
+  const Nanos unseen_by = t_killed + bound;
+  image::GenerationRecord* restored = nullptr;
+  while (image::GenerationRecord* record = images.newest()) {
+    std::string failure;
+    if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
+    if (const auto dead = record->dead_image()) {
+      const image::Image* im = record->image_of(*dead);
+      failure = "the image of '" + services[dead->value()].name + "' is gone" +
+                (im != nullptr && !im->last_death.empty() ? " (" + im->last_death + ")" : "");
+    } else if (resume_generation(*record, std::max(unseen_by, wall() + options.resume_deadline), failure, t_resumed)) {
+      restored = record;
+      break;
+    }
+    log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
+    ++sr_stats.fallbacks;
+    retire_live_rejuvenated();  // whatever of it was resumed
+    if (auto taken = images.take(record->g)) retire(std::move(*taken));
+  }
+  if (restored == nullptr) {
+    cold_restart(reason + "; no usable generation");
+    return;
+  }
+  // The rollback is the rejuvenation: a pending once-timer is spent; a periodic one runs on.
+  rejuvenation.due = rejuvenation.period > Nanos{0} ? std::optional<Nanos>(now() + rejuvenation.period) : std::nullopt;
+  arm_timerfd();
+  const Epoch epoch = time_page.current().epoch;
+  // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
+  // woken by a delivery, or the plant's thread woken by a DDS write, may take the CPU at once.
+  routing_frozen = true;
+  if (const auto topic = kernel_topic(msgs::TopicTraits<rejuv_msg_RollbackSignal>::name)) {
+    const rejuv_msg_RollbackSignal signal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
+                                          .generation = restored->g.value(),
+                                          .epoch = epoch.value()};
+    publish_as_kernel(*topic, std::as_bytes(std::span(&signal, 1)));
+  }
+  publish_sr_mode();
+  const Nanos took = wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
+  resume_routing();
+  sr_stats.rollback_phases.a.add(to_ms(t_killed - t0));
+  sr_stats.rollback_phases.b.add(to_ms(t_resumed - t_killed));
+  sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
+  sweep_strays("a rollback", false, SweepWait::ForCopies);  // as after a commit: before the new spares go out
+  for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
+  sr_event(SrEventKind::Rollback, restored->g, took);
+  ++sr_stats.rollbacks;
+  sr_stats.rollback_ms.add(to_ms(took));
+  charge_image_work(took, rollback_charge);
+  if (options.verbose) {
+    log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(), to_ms(took),
+        reason.c_str());
+  }
+}
+
+void Kernel::Impl::cold_restart(const std::string& reason) {
+  log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
+  ++sr_stats.cold_restarts;
+  sr_event(SrEventKind::ColdRestart);
+  for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
+  retire_live_rejuvenated();
+  kill_retired();
+  rejuvenation = RejuvenationTimer{};
+  arm_timerfd();
+  const Epoch next{time_page.current().epoch.value() + 1};
+  time_page.write(clock::TimeSample{.now = now(), .mode = caps.mode(), .epoch = next});
+  set_mode(SrMode::SC);  // safe, network off
+  for (ServiceRuntime& s : services) {
+    if (!s.rejuvenate || s.skip) continue;
+    s.subscriptions.clear();
+    s.params = build_params(*this, s);  // boot.cold_restarts: the estimator starts from the sensors
+    s.idle_count = 0;
+    s.frames_base = s.stats.frames_out;
+    if (auto ok = spawn_one(s); !ok) {
+      stop_run(StopReason::ServiceFailed, "cold restart: " + ok.error().message);
+      return;
+    }
+  }
+  // Booted here, like at start (Kernel::boot), so that no step runs with half a graph. A service that does
+  // not come up ends the run: there is nothing left to fall back to.
+  const auto restarted = [&](const auto& pred) {
+    return std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
+      return s.rejuvenate && !s.skip && pred(s);
+    });
+  };
+  while (!stopping && restarted([](const ServiceRuntime& s) { return s.phase == Phase::Spawned || s.phase == Phase::Booted; })) {
+    if (!pump(options.boot_deadline)) break;
+  }
+  rollback_request.reset();
+  if (restarted([](const ServiceRuntime& s) { return s.phase != Phase::Ready; })) {
+    stop_run(StopReason::ServiceFailed, "cold restart: a rejuvenated service did not boot");
+  }
+}
+
+}  // namespace rejuv::kernel
