@@ -166,7 +166,7 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, Slot slot, c
   auto inv = caps.decode(s.id, slot, op);
   if (!inv) {
     if (op == cap::Operation::NetSend) ++net.stats.send_refused;
-    reply(s, seq, 1 + static_cast<std::int32_t>(inv.error()));  // counted and logged by drain_denials
+    reply(s, seq, channel::denial_code(inv.error()));  // counted and logged by drain_denials
     return;
   }
   const auto refuse_send = [&](wire::OpError e) {
