@@ -1,4 +1,4 @@
-// Fuzz target: the SDK's handling of frames from the kernel (services/sdk/src/service.cpp): the boot script
+// Fuzz target: the SDK's handling of frames from the kernel (services/sdk/src: boot.cpp, transport.cpp, service.cpp): the boot script
 // (Boot, BootCap × n, BootParam × m, BootEnd), Replies to its requests, and the run loop's Deliver,
 // TimerFired, NetDatagram, Snapshot (without its fd: no image is taken) and Shutdown. The kernel is trusted,
 // but a service must still never crash on what its channel holds.

@@ -18,6 +18,8 @@
 #include "netgate.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
+#include "rejuv/channel/codes.hpp"
+#include "rejuv/channel/transport.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/clock/time_page.hpp"
 #include "rejuv/clock/timers.hpp"
@@ -512,8 +514,8 @@ struct Kernel::Impl {
   [[nodiscard]] std::optional<Nanos> next_wall_deadline() const;
 };
 
-// ReplyHeader::error of an operation error (docs/protocol.md: ≥ 100).
-[[nodiscard]] constexpr std::int32_t op_code(wire::OpError e) { return static_cast<std::int32_t>(e); }
+// ReplyHeader::error of an operation error (docs/protocol.md: ≥ 100): the wire's one definition.
+using channel::op_code;
 
 // The boot params of a service: its own launch params, then the graph-wide ones (services/sdk service.hpp).
 [[nodiscard]] std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRuntime& s);

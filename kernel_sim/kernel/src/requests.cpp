@@ -14,63 +14,63 @@
 namespace rejuv::kernel {
 
 void Kernel::Impl::read_channel(ServiceRuntime& s) {
-  // A burst of datagrams per recvmmsg (sys::SeqPacket::receive_batch); no new burst once kFramesPerWakeup
-  // frames were read in this wakeup (a packed datagram holds many).
-  std::array<sys::Received, sys::kMaxReceiveBatch> got{};
+  // A burst of datagrams per recvmmsg (channel::BatchReader); no new burst once kFramesPerWakeup frames were
+  // read in this wakeup (a packed datagram holds many).
+  std::array<sys::Received, sys::kMaxReceiveBatch> receipts{};
+  channel::BatchReader reader(rx_batch, receipts);
   const std::uint64_t frames_before = s.stats.frames_in;
-  while (s.stats.frames_in - frames_before < kFramesPerWakeup) {
-    if (!s.live() || !s.channel.valid()) return;
+  const auto lose_channel = [&] {
+    // The service closed fd 3, or is exiting (its pidfd tells which, soon). A live service without a
+    // channel cannot be driven: check_deadlines loses it if it is still running after a grace period.
+    (void)epoll.remove(s.channel.fd());
+    s.channel.close();
+    s.channel_closed_at = wall();
+  };
+  for (;;) {
+    if (!s.live() || !s.channel.valid()) return;  // a frame before this one lost the service
+    if (!reader.buffered() && s.stats.frames_in - frames_before >= kFramesPerWakeup) return;
     // One fd at most per datagram: TakenPages carries its pages; on any other frame an fd is refused.
-    auto n = s.channel.receive_batch(rx_batch, wire::kMaxFrameBytes, got, 1);
-    if (!n) {
-      if (n.error().error == EAGAIN) return;
-      if (n.error().error != ECONNRESET) log("channel of '%s': %s", s.name.c_str(), n.error().to_string().c_str());
-      got[0] = sys::Received{.size = 0, .truncated = false, .closed = true, .fds_truncated = false, .fds = {}};
-      n = 1;
+    auto got = reader.next_datagram(s.channel, 1, sys::Wait::No);
+    if (!got) {
+      if (got.error().error != ECONNRESET) log("channel of '%s': %s", s.name.c_str(), got.error().to_string().c_str());
+      lose_channel();
+      return;
     }
-    for (std::size_t i = 0; i < *n; ++i) {
-      if (!s.live() || !s.channel.valid()) return;  // a frame before this one lost the service
-      sys::Received& r = got[i];
-      if (r.closed) {
-        // The service closed fd 3, or is exiting (its pidfd tells which, soon). A live service without a
-        // channel cannot be driven: check_deadlines loses it if it is still running after a grace period.
-        (void)epoll.remove(s.channel.fd());
-        s.channel.close();
-        s.channel_closed_at = wall();
-        return;
-      }
-      if (!r.truncated && r.fds_truncated && checkpoint) {
-        // A TakenPages whose pages fd the kernel could not install (out of fds: MSG_CTRUNC) is its answer all
-        // the same: the checkpoint is abandoned now, instead of killing every service at the snapshot deadline.
-        const std::span<const std::byte> datagram = std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, r.size);
-        auto frame = wire::decode(datagram, wire::Direction::ToKernel);
-        if (frame && frame->kind == wire::FrameKind::TakenPages && expecting_image(s, *frame)) {
-          ++s.stats.frames_in;
-          checkpoint->failure = "the written pages of '" + s.name + "' could not be received (is the kernel out of fds?)";
-          continue;
-        }
-      }
-      if (r.truncated || r.fds_truncated) {
+    if (!*got) return;  // drained: no second system call to find the channel empty
+    const std::span<const std::byte> datagram = (*got)->bytes;
+    sys::Received& r = *(*got)->receipt;
+    if (r.closed) {
+      lose_channel();
+      return;
+    }
+    if (!r.truncated && r.fds_truncated && checkpoint) {
+      // A TakenPages whose pages fd the kernel could not install (out of fds: MSG_CTRUNC) is its answer all
+      // the same: the checkpoint is abandoned now, instead of killing every service at the snapshot deadline.
+      auto frame = wire::decode(datagram, wire::Direction::ToKernel);
+      if (frame && frame->kind == wire::FrameKind::TakenPages && expecting_image(s, *frame)) {
         ++s.stats.frames_in;
-        refuse(s, r.truncated ? "datagram longer than the maximum frame size" : "frame carried file descriptors (closed)");
+        checkpoint->failure = "the written pages of '" + s.name + "' could not be received (is the kernel out of fds?)";
         continue;
       }
-      // One frame or several back to back (wire::next_frame). A frame that does not decode ends its
-      // datagram: past it the framing cannot be trusted.
-      const std::span<const std::byte> datagram = std::span(rx_batch).subspan(i * wire::kMaxFrameBytes, r.size);
-      if (!r.fds.empty()) {  // a datagram with an fd is one TakenPages frame (docs/protocol.md "Framing")
-        ++s.stats.frames_in;
-        auto frame = wire::decode(datagram, wire::Direction::ToKernel);
-        if (!frame || frame->kind != wire::FrameKind::TakenPages) {
-          refuse(s, "frame carried file descriptors (closed)");
-          continue;
-        }
-        on_taken_pages(s, *frame, std::move(r.fds.front()));  // checkpoint.cpp
+    }
+    if (r.truncated || r.fds_truncated) {
+      ++s.stats.frames_in;
+      refuse(s, r.truncated ? "datagram longer than the maximum frame size" : "frame carried file descriptors (closed)");
+      continue;
+    }
+    if (!r.fds.empty()) {  // a datagram with an fd is one TakenPages frame (docs/protocol.md "Framing")
+      ++s.stats.frames_in;
+      auto frame = wire::decode(datagram, wire::Direction::ToKernel);
+      if (!frame || frame->kind != wire::FrameKind::TakenPages) {
+        refuse(s, "frame carried file descriptors (closed)");
         continue;
       }
-      receive_datagram(s, datagram);
+      on_taken_pages(s, *frame, std::move(r.fds.front()));  // checkpoint.cpp
+      continue;
     }
-    if (*n < got.size()) return;  // drained: no second system call to find the channel empty
+    // One frame or several back to back (wire::next_frame). A frame that does not decode ends its
+    // datagram: past it the framing cannot be trusted.
+    receive_datagram(s, datagram);
   }
 }
 
@@ -199,18 +199,9 @@ void Kernel::Impl::reply(ServiceRuntime& s, std::uint32_t seq, std::int32_t erro
   if (tx.build_with(wire::FrameKind::Reply, 0, seq, 0, head, data)) send_control(s, tx.bytes());
 }
 
-namespace {
-std::int32_t denial_code(cap::CapError e) { return 1 + static_cast<std::int32_t>(e); }
-
-// Rights from their bit pattern (wire: InvokeHeader::arg1 low bits for Copy/Mint).
-Rights rights_from_bits(std::uint64_t bits) {
-  Rights r = Rights::none();
-  for (const Right x : {Right::Read, Right::Write, Right::Grant}) {
-    if ((bits & static_cast<std::uint8_t>(x)) != 0) r = r | x;
-  }
-  return r;
-}
-}  // namespace
+// The reply codes and rights bits of the wire (rejuv/channel/codes.hpp), one definition for kernel and SDK.
+using channel::denial_code;
+using channel::rights_from_bits;
 
 void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f) {
   if ((f.header.aux & ~wire::kSubscribePolled) != 0) {

@@ -187,8 +187,7 @@ Kernel::Impl::SendResult Kernel::Impl::send_now(ServiceRuntime& s, std::span<con
   if (corked) {
     // Counted now: the service is not idle until it has reported these frames too.
     Cork& c = corks[s.id.value()];
-    c.frames.resize(wire::aligned_frame_size(c.frames.size()), std::byte{0});
-    c.frames.insert(c.frames.end(), frame.begin(), frame.end());
+    channel::append_frame(c.frames, frame);
     ++s.stats.frames_out;
     if (++c.count == kMaxCorkedFrames) uncork_service(s);
     return SendResult::Sent;
@@ -289,17 +288,11 @@ void Kernel::Impl::uncork() {
 
 void Kernel::Impl::uncork_service(ServiceRuntime& s) {
   Cork& c = corks[s.id.value()];
-  const std::span<const std::byte> frames(c.frames);
-  for (std::size_t start = 0; start < frames.size() && s.channel.valid();) {
-    const std::span<const std::byte> rest = frames.subspan(start);
-    const std::size_t size = wire::datagram_prefix(rest);
-    auto sent = s.channel.send(rest.first(size));
-    if (sent) {
-      start += wire::aligned_frame_size(size);
-      continue;
-    }
-    if (sent.error().error != EAGAIN) break;  // EPIPE: the service is gone; its pidfd will say so
-    // The channel is full: keep the rest, in order, and count each frame again when it really leaves.
+  auto sent = s.channel.valid() ? channel::send_packed(s.channel, c.frames) : Result<void, channel::Unsent>{};
+  // EPIPE: the service is gone; its pidfd will say so. EAGAIN: the channel is full: keep the rest, in
+  // order, and count each frame again when it really leaves.
+  if (!sent && sent.error().error.error == EAGAIN) {
+    const std::span<const std::byte> rest = std::span<const std::byte>(c.frames).subspan(sent.error().sent);
     std::size_t offset = 0;
     const std::span<const std::byte> first = wire::next_frame(rest, offset);
     s.held.assign(first.begin(), first.end());
@@ -310,7 +303,6 @@ void Kernel::Impl::uncork_service(ServiceRuntime& s) {
       --s.stats.frames_out;
       send_control(s, wire::next_frame(rest, offset));
     }
-    break;
   }
   c.frames.clear();
   c.count = 0;

@@ -11,6 +11,7 @@
 #include <cstring>
 
 #include "impl.hpp"
+#include "rejuv/channel/boot.hpp"
 
 extern char** environ;  // NOLINT: the plant inherits the kernel's environment (CYCLONEDDS_URI, ...)
 
@@ -31,17 +32,10 @@ std::string_view attack_kind_name(proto::AttackKind kind) { return proto::Attack
 std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRuntime& s) {
   std::vector<wire::BootParam> out;
   const auto number = [&](std::string_view name, double v) {
-    wire::BootParam p{};
-    (void)wire::copy_name(p.name, name);
-    p.number = v;
-    out.push_back(p);
+    out.push_back(channel::encode_boot_param(channel::BootParamEntry{.name = name, .number = v, .text = {}, .is_text = false}));
   };
   const auto text = [&](std::string_view name, std::string_view v) {
-    wire::BootParam p{};
-    (void)wire::copy_name(p.name, name);
-    (void)wire::copy_name(p.text, v);
-    p.is_text = 1;
-    out.push_back(p);
+    out.push_back(channel::encode_boot_param(channel::BootParamEntry{.name = name, .number = 0, .text = v, .is_text = true}));
   };
   for (const proto::Param& p : s.spec->params()) {
     if (p.has_text()) {
@@ -207,34 +201,24 @@ Result<void, KernelError> Kernel::Impl::spawn_plant() {
   return {};
 }
 
+// The boot script (docs/protocol.md "Boot"), by the channel's one encoder (rejuv/channel/boot.hpp).
 void Kernel::Impl::send_boot(ServiceRuntime& s) {
-  wire::BootHeader head{};
-  head.service_id = s.id.value();
-  head.epoch = time_page.current().epoch.value();
-  head.cap_count = static_cast<std::uint32_t>(s.boot.caps.size());
-  head.param_count = static_cast<std::uint32_t>(s.params.size());
-  head.generation = 0;
-  (void)wire::copy_name(head.name, s.name);
-  if (tx.build_with(wire::FrameKind::Boot, 0, 0, wire::kProtocolVersion, head)) send_control(s, tx.bytes());
+  std::vector<wire::BootCap> boot_caps;
+  boot_caps.reserve(s.boot.caps.size());
   for (const cap::BootCap& c : s.boot.caps) {
-    wire::BootCap bc{};
-    bc.slot = c.slot.value();
-    bc.kind = static_cast<std::uint8_t>(c.kind);
-    for (std::size_t m = 0; m < kModeCount; ++m) bc.rights_by_mode[m] = c.rights[m].bits();
     const ObjectInfo& o = objects[c.object.value()];
+    channel::BootCapEntry entry{.slot = c.slot, .kind = c.kind, .rights = c.rights, .payload_size = 0,
+                                .object = c.name, .type = {}};
     if (o.type != nullptr) {
-      bc.payload_size = static_cast<std::uint32_t>(o.type->size);
-      (void)wire::copy_name(bc.type, o.type->name);
+      entry.payload_size = static_cast<std::uint32_t>(o.type->size);
+      entry.type = o.type->name;
     } else if (o.kind == ObjectKind::Persistent) {
-      bc.payload_size = static_cast<std::uint32_t>(o.persistent.size());
+      entry.payload_size = static_cast<std::uint32_t>(o.persistent.size());
     }
-    (void)wire::copy_name(bc.object, c.name);
-    if (tx.build_with(wire::FrameKind::BootCap, 0, 0, 0, bc)) send_control(s, tx.bytes());
+    boot_caps.push_back(channel::encode_boot_cap(entry));
   }
-  for (const wire::BootParam& p : s.params) {
-    if (tx.build_with(wire::FrameKind::BootParam, 0, 0, 0, p)) send_control(s, tx.bytes());
-  }
-  if (tx.build(wire::FrameKind::BootEnd, 0, 0, 0)) send_control(s, tx.bytes());
+  const channel::BootIdentity who{.service = s.id, .epoch = time_page.current().epoch, .name = s.name};
+  channel::write_boot_script(tx, who, boot_caps, s.params, [&](std::span<const std::byte> frame) { send_control(s, frame); });
 }
 
 void Kernel::Impl::on_child_exit(ServiceRuntime& s) {

@@ -13,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "rejuv/channel/transport.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/sys/channel.hpp"
@@ -211,10 +212,7 @@ int run_intruder(Service& svc) {
     } else if (attack == "packed") {
       const Record r{};
       std::vector<std::byte> datagram;
-      const auto append = [&](std::span<const std::byte> frame) {
-        datagram.resize(rejuv::wire::aligned_frame_size(datagram.size()), std::byte{0});
-        datagram.insert(datagram.end(), frame.begin(), frame.end());
-      };
+      const auto append = [&](std::span<const std::byte> frame) { rejuv::channel::append_frame(datagram, frame); };
       if (!fb.build(rejuv::wire::FrameKind::Publish, read_only_slot.value(), 0, 0, std::as_bytes(std::span(&r, 1)))) return;
       append(fb.bytes());
       rejuv::wire::FrameHeader junk{};

@@ -5,7 +5,7 @@
 // brk heap and its stack (prepare_self ties malloc to the brk heap and grows the stack once, so that neither
 // moves). Two uses:
 //
-// - The runtime's images by written pages (services/sdk/src/service.cpp, docs/protocol.md "Checkpoint and
+// - The runtime's images by written pages (services/sdk/src/image.cpp, docs/protocol.md "Checkpoint and
 //   rollback"). The service tracks its writes (track_writes_self: userfaultfd write-protection in its
 //   asynchronous mode, read and re-armed with PAGEMAP_SCAN). A checkpoint whose base image the kernel still
 //   holds takes no fork: the service saves its context (REJUV_IMAGE_SAVE), copies the pages written since

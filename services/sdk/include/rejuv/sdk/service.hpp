@@ -41,6 +41,7 @@
 
 #include "rejuv/cap/capability.hpp"
 #include "rejuv/channel/wire.hpp"
+#include "rejuv/clock/timers.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
@@ -288,7 +289,7 @@ struct ConnectOptions {
 //   attack.<j>.max_windows, attack.<j>.magnitude (the attack library's size; 0 = the kind's default).
 class Service {
  public:
-  static constexpr std::size_t kMaxTimers = 32;  // per service (docs/protocol.md)
+  static constexpr std::size_t kMaxTimers = clock::kMaxTimersPerService;  // the kernel's limit (docs/protocol.md)
 
   // Connects on fd 3 / fd 4: maps the time page read-only (the sandbox is the kernel's, installed before exec), sends
   // Hello, reads Boot…BootEnd. Does not send Ready: run() does that, after the service has made its
