@@ -221,7 +221,7 @@ struct Kernel::Impl {
   std::optional<sys::SignalFd> signals;
   sys::Epoll epoll;
   std::optional<sys::TimerFd> timerfd;
-  std::optional<DdsBridge> bridge;
+  std::optional<DdsBridge> bridge;                 // DDS, and the plant's lockstep adapter (bridge.hpp)
   NetGate net;                                     // the external link's UDP socket (netgate.cpp)
 
   std::vector<msgs::TopicType> declared_types;     // the policy's own (`types`), pointed to by objects
@@ -346,12 +346,12 @@ struct Kernel::Impl {
       : graph(std::move(g)), options(std::move(o)), observer(obs), policy(std::move(p)), caps(std::move(c)),
         broker(std::move(b)), time_page(std::move(tp)), timers(service_count), epoll(std::move(e)) {}
 
-  // ---- logging (kernel.cpp) ----
+  // ---- logging (loop.cpp) ----
   void log(const char* format, ...) __attribute__((format(printf, 2, 3)));
   void service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view text);
   void refuse(ServiceRuntime& s, std::string_view what);  // counts and logs (rate-limited) a bad frame
 
-  // ---- time (kernel.cpp) ----
+  // ---- time (loop.cpp) ----
   [[nodiscard]] Nanos now() const { return time_page.current().now; }
   void set_now(Nanos t);
   [[nodiscard]] Nanos wall() const;
@@ -494,25 +494,34 @@ struct Kernel::Impl {
   // or records the receiver's verdict on a relayed one (NetDatagram aux).
   void net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::Invocation& authority, const NetInvocation& what);
 
-  // ---- loop (kernel.cpp) ----
+  // ---- loop (loop.cpp) ----
   [[nodiscard]] Result<void, KernelError> pump(std::optional<Nanos> max_wait);
   void on_dds_ready(std::size_t reader);
-  void collect_samples();  // takes every sample reader (lockstep with the plant: on each SimStep)
   void sync_realtime_clock(std::span<const std::byte> first_sample);
-  void stage_sample(std::size_t reader, std::span<const std::byte> bytes);
-  void stage_step_samples(const rejuv_msg_SimStep& step);
-  void watch_sample_readers(bool watch);  // lockstep: also wake on samples while a step waits for them
   void fire_timers();
   void arm_timerfd();
   [[nodiscard]] bool all_idle() const;
   [[nodiscard]] bool all_ready() const;
+  [[nodiscard]] std::optional<Nanos> next_wall_deadline() const;
+  [[nodiscard]] Result<void, KernelError> run_realtime();  // Kernel::run with the realtime clock
+
+  // ---- lockstep (lockstep.cpp) ----
+  void take_steps();       // the SimSteps that arrived, through the bridge's lockstep adapter
+  void collect_samples();  // takes every sample reader (lockstep with the plant: on each SimStep)
+  void stage_sample(std::size_t reader, std::span<const std::byte> bytes);
+  void watch_sample_readers(bool watch);  // lockstep: also wake on samples while a step waits for them
   void begin_step(const PendingStep& step);
   // Advances the active lockstep step by one round when every service is idle; true when it is complete.
   bool advance_step();
   void finish_step();
   void check_stop_conditions();
-  [[nodiscard]] std::optional<Nanos> next_wall_deadline() const;
+  [[nodiscard]] Result<void, KernelError> run_lockstep();  // Kernel::run in lockstep with the plant
 };
+
+// vocabulary.cpp: a KernelError without findings; whether a stop waits for the step in progress to be
+// acknowledged (the others end the loop at once).
+[[nodiscard]] KernelError kernel_error(KernelError::Kind kind, std::string message);
+[[nodiscard]] bool graceful(StopReason reason);
 
 // ReplyHeader::error of an operation error (docs/protocol.md: ≥ 100): the wire's one definition.
 using channel::op_code;

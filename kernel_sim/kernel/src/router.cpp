@@ -121,8 +121,8 @@ void Kernel::Impl::publish_sr_mode() {
 
 bool Kernel::Impl::write_to_bridge(ObjectId topic, std::span<const std::byte> payload) {
   if (auto ok = bridge->write_out(topic, payload); !ok) {
-    log("%s", ok.error().c_str());
-    stop_run(StopReason::PlantExited, ok.error());
+    log("%s", ok.error().to_string().c_str());
+    stop_run(StopReason::PlantExited, ok.error().to_string());
     return false;
   }
   return true;

@@ -15,7 +15,6 @@
 #include <vector>
 
 #include "os.hpp"
-#include "rejuv/core/overloaded.hpp"
 #include "rejuv/dds/dds.hpp"
 #include "rejuv/dds/plant_topics.hpp"
 #include "rejuv/plant_app/options.hpp"
@@ -47,7 +46,7 @@ struct Endpoints {
   dds::Participant participant;
   dds::Reader actuator_outputs;
   std::optional<dds::Reader> ack;  // lockstep only
-  dds::Writer gyro, accel, mag, baro, gps, ground_truth;
+  std::vector<dds::Writer> samples;  // by row of the step table (plant_topics.hpp, kStepSamples)
   std::optional<dds::Writer> sim_step;  // lockstep only
 
   static dds::DdsResult<Endpoints> open(dds::DomainId domain, ClockMode clock);
@@ -79,18 +78,16 @@ dds::DdsResult<Endpoints> Endpoints::open(dds::DomainId domain, ClockMode clock)
     if (!r) return fail(r.error());
     ack = std::move(*r);
   }
-  auto gyro = make_writer(*participant, topics::kSensorGyro);
-  if (!gyro) return fail(gyro.error());
-  auto accel = make_writer(*participant, topics::kSensorAccel);
-  if (!accel) return fail(accel.error());
-  auto mag = make_writer(*participant, topics::kSensorMag);
-  if (!mag) return fail(mag.error());
-  auto baro = make_writer(*participant, topics::kSensorBaro);
-  if (!baro) return fail(baro.error());
-  auto gps = make_writer(*participant, topics::kSensorGps);
-  if (!gps) return fail(gps.error());
-  auto truth = make_writer(*participant, topics::kGroundTruth);
-  if (!truth) return fail(truth.error());
+  // A writer per kind of sample a step carries: where what does not fit (lockstep) or everything (realtime) goes.
+  std::vector<dds::Writer> samples;
+  dds::DdsResult<void> made;
+  topics::for_each_step_kind([&](std::size_t /*row*/, const auto& kind) {
+    if (!made) return;
+    auto w = make_writer(*participant, kind.topic);
+    if (!w) made = fail(w.error());
+    else samples.push_back(std::move(*w));
+  });
+  if (!made) return fail(made.error());
   std::optional<dds::Writer> sim_step;
   if (lockstep) {
     auto w = make_writer(*participant, topics::kSimStep);
@@ -100,12 +97,7 @@ dds::DdsResult<Endpoints> Endpoints::open(dds::DomainId domain, ClockMode clock)
   return Endpoints{.participant = std::move(*participant),
                    .actuator_outputs = std::move(*actuators),
                    .ack = std::move(ack),
-                   .gyro = std::move(*gyro),
-                   .accel = std::move(*accel),
-                   .mag = std::move(*mag),
-                   .baro = std::move(*baro),
-                   .gps = std::move(*gps),
-                   .ground_truth = std::move(*truth),
+                   .samples = std::move(samples),
                    .sim_step = std::move(sim_step)};
 }
 
@@ -178,22 +170,21 @@ class PlantProcess {
 
   [[nodiscard]] dds::DdsResult<void> publish_sensors(const std::vector<SensorMessage>& messages) {
     for (const SensorMessage& m : messages) {
-      auto ok = std::visit(Overloaded{
-                               [&](const rejuv_msg_SensorGyro& s) { return io_.gyro.write_value(s); },
-                               [&](const rejuv_msg_SensorAccel& s) { return io_.accel.write_value(s); },
-                               [&](const rejuv_msg_SensorMag& s) { return io_.mag.write_value(s); },
-                               [&](const rejuv_msg_SensorBaro& s) { return io_.baro.write_value(s); },
-                               [&](const rejuv_msg_SensorGps& s) { return io_.gps.write_value(s); },
-                           },
-                           m);
+      auto ok = std::visit([&](const auto& s) { return publish_sample(s); }, m);
       if (!ok) return ok;
       ++samples_published_;
     }
     return {};
   }
 
+  // On the sample's own topic (the writer of its row of the step table).
+  template <class T>
+  [[nodiscard]] dds::DdsResult<void> publish_sample(const T& sample) {
+    return io_.samples[topics::step_row_of<T>()].write_value(sample);
+  }
+
   [[nodiscard]] dds::DdsResult<void> publish_ground_truth() {
-    if (auto ok = io_.ground_truth.write_value(sim_.ground_truth()); !ok) return ok;
+    if (auto ok = publish_sample(sim_.ground_truth()); !ok) return ok;
     ++samples_published_;
     return {};
   }

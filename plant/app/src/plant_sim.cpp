@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "rejuv/core/result.hpp"
-#include "rejuv/core/overloaded.hpp"
+#include "rejuv/dds/plant_topics.hpp"
 
 namespace rejuv::plant_app {
 
@@ -31,31 +31,21 @@ plant::QuadState initial_state(const PlantSimConfig& c) {
   return plant::Quadrotor::hover_at(plant::QuadParams::jmavsim_default(), c.start_N_m);
 }
 
-// Appends `m` to a fixed array of a SimStep; false when it is full.
-template <class T, std::size_t N>
-bool put(T (&array)[N], std::uint8_t& count, const T& m) {
-  if (count >= N) return false;
-  array[count++] = m;
-  return true;
-}
-
 }  // namespace
 
 void pack_step(const std::vector<SensorMessage>& batch, const rejuv_msg_GroundTruth& truth, rejuv_msg_SimStep& step,
                std::vector<SensorMessage>& overflow) {
-  step.gyro_count = step.accel_count = step.mag_count = step.baro_count = step.gps_count = 0;
+  namespace topics = dds::plant_topics;  // the table the kernel unpacks the step with (plant_lockstep.hpp)
+  topics::for_each_step_kind([&](std::size_t /*row*/, const auto& kind) { kind.clear(step); });
   for (const SensorMessage& m : batch) {
-    const bool packed = std::visit(Overloaded{
-                                       [&](const rejuv_msg_SensorGyro& s) { return put(step.gyro, step.gyro_count, s); },
-                                       [&](const rejuv_msg_SensorAccel& s) { return put(step.accel, step.accel_count, s); },
-                                       [&](const rejuv_msg_SensorMag& s) { return put(step.mag, step.mag_count, s); },
-                                       [&](const rejuv_msg_SensorBaro& s) { return put(step.baro, step.baro_count, s); },
-                                       [&](const rejuv_msg_SensorGps& s) { return put(step.gps, step.gps_count, s); },
-                                   },
-                                   m);
+    const bool packed = std::visit(
+        [&](const auto& sample) {
+          return topics::step_kind_of<std::remove_cvref_t<decltype(sample)>>().put(step, sample);
+        },
+        m);
     if (!packed) overflow.push_back(m);
   }
-  step.ground_truth = truth;
+  (void)topics::step_kind_of<rejuv_msg_GroundTruth>().put(step, truth);
 }
 
 PlantSim::PlantSim(const PlantSimConfig& config)

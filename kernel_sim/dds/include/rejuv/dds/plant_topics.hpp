@@ -24,9 +24,19 @@
 //   4. The plant applies the step once it has the ack and outputs_published outputs on their topic, then the
 //      ack's own outputs. Nothing within its
 //      --ack-timeout-ms means the kernel died: it exits with status 3, never hangs.
+//
+// Both ends pack and unpack a step's samples through one table, kStepSamples below (CONVENTIONS: one protocol,
+// one codec): the plant (plant_app pack_step) and the kernel (plant_lockstep.hpp) name no sensor themselves.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <span>
 #include <string_view>
+#include <tuple>
+#include <type_traits>
+#include <utility>
 
 #include "rejuv/core/result.hpp"
 #include "rejuv/msgs/topic_types.hpp"
@@ -49,6 +59,79 @@ inline constexpr Topic<rejuv_msg_GroundTruth> kGroundTruth{"rejuv/ground_truth"}
 inline constexpr Topic<rejuv_msg_ActuatorOutputs> kActuatorOutputs{"rejuv/actuator_outputs"};
 inline constexpr Topic<rejuv_msg_SimStep> kSimStep{"rejuv/sim_step"};
 inline constexpr Topic<rejuv_msg_SimStepAck> kSimStepAck{"rejuv/sim_step_ack"};
+
+// Samples of type T that a SimStep carries in an array with a count of valid entries (oldest first).
+template <class T, std::size_t N>
+struct StepArray {
+  Topic<T> topic;  // where the samples go when the step cannot hold them (and what the kernel bridges in)
+  T (rejuv_msg_SimStep::*array)[N];
+  std::uint8_t rejuv_msg_SimStep::*count;
+
+  [[nodiscard]] std::span<const T> samples(const rejuv_msg_SimStep& step) const {
+    return std::span<const T>(step.*array, std::min<std::size_t>(step.*count, N));
+  }
+  void clear(rejuv_msg_SimStep& step) const { step.*count = 0; }
+  // Appends `sample`; false when the array is full (the sample goes out on its own topic).
+  bool put(rejuv_msg_SimStep& step, const T& sample) const {
+    if (step.*count >= N) return false;
+    (step.*array)[step.*count] = sample;
+    ++(step.*count);
+    return true;
+  }
+};
+
+// One sample of type T that every SimStep carries (the ground truth at the step's end).
+template <class T>
+struct StepValue {
+  Topic<T> topic;
+  T rejuv_msg_SimStep::*value;
+
+  [[nodiscard]] std::span<const T> samples(const rejuv_msg_SimStep& step) const { return {&(step.*value), 1}; }
+  void clear(rejuv_msg_SimStep& /*step*/) const {}
+  bool put(rejuv_msg_SimStep& step, const T& sample) const {
+    step.*value = sample;
+    return true;
+  }
+};
+
+// Every kind of sample a SimStep carries, in the order the kernel stages them (idl/sim.idl). A new sensor that
+// rides on the step is its IDL (a struct in idl/sensors.idl, listed in REJUV_TOPIC_TYPES; its array and count
+// in SimStep) and one row here: neither the plant's packing nor the kernel's adapter names a sensor.
+inline constexpr auto kStepSamples = std::tuple{
+    StepArray{kSensorGyro, &rejuv_msg_SimStep::gyro, &rejuv_msg_SimStep::gyro_count},
+    StepArray{kSensorAccel, &rejuv_msg_SimStep::accel, &rejuv_msg_SimStep::accel_count},
+    StepArray{kSensorMag, &rejuv_msg_SimStep::mag, &rejuv_msg_SimStep::mag_count},
+    StepArray{kSensorBaro, &rejuv_msg_SimStep::baro, &rejuv_msg_SimStep::baro_count},
+    StepArray{kSensorGps, &rejuv_msg_SimStep::gps, &rejuv_msg_SimStep::gps_count},
+    StepValue{kGroundTruth, &rejuv_msg_SimStep::ground_truth},
+};
+inline constexpr std::size_t kStepSampleKinds = std::tuple_size_v<decltype(kStepSamples)>;
+
+// Calls f(row, entry) for each row of kStepSamples, in order (row: its index).
+template <class F>
+constexpr void for_each_step_kind(F&& f) {
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    (f(I, std::get<I>(kStepSamples)), ...);
+  }(std::make_index_sequence<kStepSampleKinds>{});
+}
+
+// The row of kStepSamples whose samples are of type T (one row per type), and the row itself.
+template <class T>
+[[nodiscard]] consteval std::size_t step_row_of() {
+  constexpr std::size_t row = [] {
+    std::size_t found = kStepSampleKinds;
+    for_each_step_kind([&](std::size_t i, const auto& kind) {
+      if (std::is_same_v<typename std::remove_cvref_t<decltype(kind.topic)>::type, T>) found = i;
+    });
+    return found;
+  }();
+  static_assert(row < kStepSampleKinds, "T is not a sample a SimStep carries (kStepSamples)");
+  return row;
+}
+template <class T>
+[[nodiscard]] constexpr const auto& step_kind_of() {
+  return std::get<step_row_of<T>()>(kStepSamples);
+}
 
 // The msgs::TopicType of a plant topic (for Writer::create / Reader::create).
 template <class T>

@@ -12,6 +12,13 @@
 // (supervisor.cpp). Containment: sandbox.cpp and docs/sandbox.md.
 //
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
+//
+// The implementation (kernel_sim/kernel/src, state in impl.hpp): kernel.cpp this API; create.cpp Kernel::create
+// in named steps; loop.cpp the event loop, timers, deadlines and the realtime clock; lockstep.cpp the lockstep
+// steps and the samples that ride on them; vocabulary.cpp the enums' names and KernelError; bridge.cpp the DDS
+// bridge with the plant's lockstep adapter (kernel_sim/dds: bridge.hpp, plant_lockstep.hpp); router.cpp
+// routing and flow control; requests.cpp channel requests; supervisor.cpp processes; images.cpp checkpoint and
+// rollback; sandbox.cpp containment; netgate.cpp the network gate; scripted.cpp the fuzzer's seam.
 #pragma once
 
 #include <algorithm>

@@ -1,0 +1,353 @@
+// Kernel::create (DESIGN §2, §4–§6): a launch graph becomes a kernel ready to boot, in named steps — the
+// audited policy, the clock, the capability system, the objects and the broker, the kernel's own descriptors,
+// the descriptor limit, the service uid block, then on the kernel: its configuration, the services, the plant's
+// executable, the CPU placement, the DDS bridge, the event sources and the network gate. Each step checks
+// before it changes anything; the first that fails ends creation with its KernelError.
+#include <algorithm>
+#include <cerrno>
+#include <csignal>
+#include <cstdlib>
+#include <filesystem>
+
+#include "impl.hpp"
+#include "rejuv/policy/audit.hpp"
+
+namespace rejuv::kernel {
+
+namespace {
+
+using K = KernelError::Kind;
+
+// ---- before the kernel exists ----
+
+// DESIGN §4: the kernel refuses to start a graph whose policy fails the audit.
+Result<policy::Policy, KernelError> load_audited_policy(const launch::LoadedLaunch& graph) {
+  auto policy = policy::load_policy(graph.policy_path);
+  if (!policy) return fail(kernel_error(K::Policy, policy.error().to_string()));
+  if (const auto findings = policy::audit(*policy, graph); !findings.empty()) {
+    KernelError e = kernel_error(K::Audit, std::to_string(findings.size()) + " finding(s) in " +
+                                               graph.policy_path.string() + "; the kernel refuses to start");
+    for (const policy::Finding& f : findings) e.findings.push_back(f.to_string());
+    return fail(std::move(e));
+  }
+  return std::move(*policy);
+}
+
+// The options' clock, else the graph's; refused when nothing could keep its time.
+Result<ClockMode, KernelError> choose_clock(const launch::LoadedLaunch& graph, const KernelOptions& options) {
+  const ClockMode clock_mode =
+      options.clock.value_or(graph.graph.clock() == proto::REALTIME ? ClockMode::Realtime : ClockMode::Lockstep);
+  if (options.time_master == TimeMaster::Plant && clock_mode == ClockMode::Lockstep && !graph.graph.has_plant()) {
+    return fail(kernel_error(K::Config, graph.path.string() + ": the graph has no plant; in lockstep nothing would keep time"));
+  }
+  if (options.time_master == TimeMaster::Manual && clock_mode == ClockMode::Realtime) {
+    return fail(kernel_error(K::Config, "manual stepping needs the lockstep clock"));
+  }
+  return clock_mode;
+}
+
+// Capabilities: start in MC without SR (the mode never changes), in SC (safe) with it (DESIGN §7 Faults).
+Result<cap::CapSystem, KernelError> make_caps(const policy::Policy& policy, bool sr) {
+  const cap::ModeTable table = policy::compile(policy);
+  auto caps = cap::CapSystem::create(table, cap::CapSystemConfig{.cspace_slots = wire::kCSpaceSlots,
+                                                                 .audit_capacity = 4096,
+                                                                 .initial_mode = sr ? SrMode::SC : SrMode::MC});
+  if (!caps) return fail(kernel_error(K::Config, "capability table: " + caps.error().to_string()));
+  return std::move(*caps);
+}
+
+// Objects and topics: one broker topic per policy Topic object (DESIGN §5), of an IDL type compiled in or
+// one the policy declares (`types`, SDK rejuv_add_topics: no DDS descriptor).
+struct Objects {
+  std::vector<ObjectInfo> objects;  // by ObjectId
+  broker::Broker broker;
+  // The declared types the objects point to: reserved whole, and moved into the kernel with their buffer, so
+  // that those pointers stay valid (their names view the policy's, which the kernel keeps too).
+  std::vector<msgs::TopicType> declared_types;
+};
+Result<Objects, KernelError> make_objects(const policy::Policy& policy) {
+  std::vector<ObjectInfo> objects;
+  std::vector<broker::TopicConfig> topics;
+  std::vector<msgs::TopicType> declared;
+  declared.reserve(policy.types().size());
+  for (const policy::DeclaredType& t : policy.types()) {
+    declared.push_back(msgs::TopicType{.name = t.name, .size = t.size_bytes, .align = t.align_bytes, .descriptor = nullptr});
+  }
+  const auto topic_type = [&](std::string_view name) -> const msgs::TopicType* {
+    if (const msgs::TopicType* t = msgs::find_topic_type(name)) return t;
+    const auto it = std::find_if(declared.begin(), declared.end(), [&](const msgs::TopicType& t) { return t.name == name; });
+    return it == declared.end() ? nullptr : &*it;
+  };
+  for (const policy::Object& o : policy.objects()) {
+    ObjectInfo info{.id = o.id, .name = o.name, .kind = o.kind, .type = nullptr, .kernel = o.kernel,
+                    .is_setpoint = false, .is_actuator_outputs = false, .persistent = {}, .limits = {}};
+    if (o.kind == ObjectKind::Topic) {
+      info.type = topic_type(o.type);
+      if (info.type == nullptr) {
+        return fail(kernel_error(K::Config, o.where.to_string() + ": topic '" + o.name + "' has type '" + o.type +
+                                                "', which is neither a topic type of idl/ nor declared in the policy's `types`"));
+      }
+      info.is_setpoint = info.type->name == msgs::TopicTraits<rejuv_msg_Setpoint>::name;
+      info.is_actuator_outputs = info.type->name == msgs::TopicTraits<rejuv_msg_ActuatorOutputs>::name;
+      topics.push_back(broker::TopicConfig{.object = o.id, .name = o.name, .payload_size = info.type->size,
+                                           .depth = o.queue_depth == 0 ? policy::kDefaultQueueDepth : o.queue_depth});
+    }
+    if (o.kind == ObjectKind::Persistent) info.persistent.assign(o.size_bytes, std::byte{0});
+    objects.push_back(std::move(info));
+  }
+  auto broker = broker::Broker::create(topics);
+  if (!broker) return fail(kernel_error(K::Config, "broker: " + broker.error().to_string()));
+  return Objects{.objects = std::move(objects), .broker = std::move(*broker), .declared_types = std::move(declared)};
+}
+
+// The kernel's own descriptors. Signals first: Cyclone's threads (started by the bridge) must inherit the
+// blocked mask. The seccomp program is built before any fork (libseccomp allocates) and loaded in each child
+// between fork and exec.
+struct KernelFds {
+  sys::SignalFd signals;
+  clock::TimePageWriter page;
+  sys::Epoll epoll;
+  sys::SeccompProgram seccomp;
+};
+Result<KernelFds, KernelError> open_kernel_fds() {
+  auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
+  if (!signals) return fail(kernel_error(K::System, signals.error().to_string()));
+  auto page = clock::TimePageWriter::create();
+  if (!page) return fail(kernel_error(K::System, "time page: " + page.error().to_string()));
+  auto epoll = sys::Epoll::create();
+  if (!epoll) return fail(kernel_error(K::System, epoll.error().to_string()));
+  auto seccomp = sys::SeccompProgram::service_policy(sys::Enforcement::Supervised);
+  if (!seccomp) return fail(kernel_error(K::System, "seccomp: " + seccomp.error().to_string()));
+  return KernelFds{.signals = std::move(*signals), .page = std::move(*page), .epoll = std::move(*epoll),
+                   .seccomp = std::move(*seccomp)};
+}
+
+// File descriptors (issue 19: exhaustion reported, not met in flight): each process the kernel watches holds
+// a few (channel, pidfd, output pipe, seccomp listener), and each generation of images a resume socket and the
+// pidfds of an image and its spare per service. Measured: 131 at K = 2 and 456 at K = 16 for the square's 9
+// services and the plant; this bound is above both.
+Result<void, KernelError> ensure_fd_limit(const launch::LoadedLaunch& graph, std::size_t service_count) {
+  const std::uint64_t generations = launch::keep_generations(graph.graph.sr()) + 1;  // + the one being taken
+  const std::uint64_t wanted = 40 + 8 * (service_count + 1) + 3 * service_count * generations;
+  auto limit = sys::ensure_open_files(wanted);
+  if (!limit) return fail(kernel_error(K::System, limit.error().to_string()));
+  if (*limit < wanted) {
+    return fail(kernel_error(K::System, "keep_generations " + std::to_string(generations - 1) + " with " +
+                                            std::to_string(service_count) + " services needs about " +
+                                            std::to_string(wanted) + " file descriptors; this process may open " +
+                                            std::to_string(*limit) + " (ulimit -n): raise the limit or lower keep_generations"));
+  }
+  return {};
+}
+
+// Service uids of their own (docs/sandbox.md), not shared with another kernel of this machine: as root, a
+// block leased for this kernel's lifetime; otherwise none (the services run as the kernel's user).
+Result<std::optional<sys::Lease>, KernelError> lease_service_uids(std::size_t service_count) {
+  if (!sys::running_as_root()) return std::optional<sys::Lease>{};
+  if (service_count > sys::kUidsPerBlock) {
+    return fail(kernel_error(K::Config, std::to_string(service_count) + " services: a kernel runs at most " +
+                                            std::to_string(sys::kUidsPerBlock) + " (one uid each)"));
+  }
+  auto block = sys::lease_uid_block(static_cast<std::uint32_t>(::getpid()));
+  if (!block) return fail(kernel_error(K::System, "a block of service uids: " + block.error().to_string()));
+  return std::optional<sys::Lease>(std::move(*block));
+}
+
+// ---- on the kernel ----
+
+// The run's configuration from the graph and the options: clock, SR, images, seed, charges, alignment, domain;
+// the time page at t = 0.
+void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys::Lease> uid_block) {
+  if (uid_block) k.service_uid_base = sys::kServiceUidBase + uid_block->slot() * sys::kUidsPerBlock;
+  k.uid_block = std::move(uid_block);
+  k.clock_mode = clock_mode;
+  k.sr = sr;
+  k.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
+  k.seed = k.options.seed.value_or(k.graph.graph.seed());
+  const proto::LockstepTiming& timing = k.graph.graph.lockstep();
+  k.checkpoint_charge = std::chrono::round<Nanos>(launch::checkpoint_charge(timing));
+  k.rollback_charge = std::chrono::round<Nanos>(launch::rollback_charge(timing));
+  // The plant aligns (held at rest) before the mission's t = 0; without a plant there is no alignment.
+  if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
+    k.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));
+  }
+  k.domain = k.options.dds_domain.value_or(k.graph.graph.dds().domain_id());
+  k.time_page.write(clock::TimeSample{.now = Nanos{0}, .mode = k.caps.mode(), .epoch = Epoch{0}});
+  k.caps.set_time(Nanos{0});
+}
+
+// Where an executable named in the graph is: absolute, or under KernelOptions::service_dir.
+std::filesystem::path executable_path(const Kernel::Impl& k, const std::string& executable) {
+  const std::filesystem::path exe(executable);
+  return exe.is_absolute() ? exe : std::filesystem::path(k.options.service_dir) / exe;
+}
+
+// Services, by policy order (ServiceId = policy declaration order = CSpace index), each with its executable
+// found (unless skipped), its boot info and its boot params.
+Result<void, KernelError> add_services(Kernel::Impl& k) {
+  for (const policy::Service& ps : k.policy.services()) {
+    ServiceRuntime s;
+    s.id = ps.id;
+    s.name = ps.name;
+    s.stats.name = ps.name;
+    s.spec = launch::find_service(k.graph.graph, ps.name);
+    REJUV_ASSERT(s.spec != nullptr, "the audit checked that every policy service is in the graph");
+    s.rejuvenate = launch::rejuvenate(*s.spec);
+    if (std::find(k.options.skip_services.begin(), k.options.skip_services.end(), ps.name) != k.options.skip_services.end()) {
+      s.skip = true;
+      s.skip_reason = "skipped on request";
+    } else if (ps.rejuvenation && !k.sr) {
+      s.skip = true;
+      s.skip_reason = "the rejuvenation service has nothing to do without SR";
+    }
+    s.executable = executable_path(k, s.spec->executable()).string();
+    if (!s.skip) {
+      std::error_code ec;
+      if (!std::filesystem::is_regular_file(s.executable, ec)) {
+        int index = 0;
+        const proto::Launch& g = k.graph.graph;
+        while (index < g.services_size() && g.services(index).name() != s.name) ++index;
+        return fail(kernel_error(K::Config, k.graph.locations.locate({{"services", index}}, "executable").to_string() +
+                                                ": error: service '" + s.name + "': executable " + s.executable +
+                                                " not found (not built yet? skip it with --skip " + s.name + ")"));
+      }
+    }
+    auto boot = k.caps.boot_info(s.id);
+    REJUV_ASSERT(boot.has_value(), "every policy service has boot info");
+    s.boot = std::move(*boot);
+    s.control_pool.reserve(kControlPoolCapacity);
+    s.held.reserve(wire::kMaxFrameBytes);
+    k.services.push_back(std::move(s));
+  }
+  for (ServiceRuntime& s : k.services) s.params = build_params(k, s);
+  return {};
+}
+
+// The plant's executable, when the plant keeps time: found before anything is spawned.
+Result<void, KernelError> check_plant_executable(Kernel::Impl& k) {
+  if (k.options.time_master != TimeMaster::Plant || !k.graph.graph.has_plant()) return {};
+  const std::filesystem::path path = executable_path(k, k.graph.graph.plant().executable());
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return fail(kernel_error(K::Config, k.graph.locations.locate({{"plant", -1}}, "executable").to_string() +
+                                            ": error: plant executable " + path.string() + " not found (not built yet?)"));
+  }
+  return {};
+}
+
+// KernelOptions::placement, before the bridge: Cyclone's threads, the services and the plant inherit the CPU
+// mask.
+Result<void, KernelError> place(Kernel::Impl& k) {
+  using Placement = KernelOptions::Placement;
+  const Placement placement = k.options.placement;
+  if (!(placement == Placement::Cpu || (placement == Placement::Auto && k.clock_mode == ClockMode::Lockstep))) {
+    return {};
+  }
+  auto cpu = sys::pin_to_one_cpu(placement == Placement::Cpu ? std::optional<int>(k.options.cpu) : std::nullopt);
+  if (!cpu && placement == Placement::Cpu && cpu.error().error == EINVAL) {
+    return fail(kernel_error(K::Config, "CPU " + std::to_string(k.options.cpu) + " is not available to this process"));
+  }
+  if (!cpu) return fail(kernel_error(K::System, "pinning to one CPU: " + cpu.error().to_string()));
+  k.pinned_cpu = *cpu;
+  return {};
+}
+
+bool plant_lockstep(const Kernel::Impl& k) {
+  return k.options.time_master == TimeMaster::Plant && k.clock_mode == ClockMode::Lockstep;
+}
+
+// The DDS bridge (DESIGN §5) of the graph's `dds.bridges` table, with the lockstep adapter when the plant keeps
+// time. Cyclone reads CYCLONEDDS_URI; it defaults to the graph's config file.
+Result<void, KernelError> open_bridge(Kernel::Impl& k) {
+  std::vector<dds::BridgeEntry> table;
+  for (int i = 0; i < k.graph.graph.dds().bridges_size(); ++i) {
+    const proto::Bridge& b = k.graph.graph.dds().bridges(i);
+    const auto object = k.policy.find_object(b.topic());
+    REJUV_ASSERT(object.has_value(), "the audit checked that every bridge names a topic");
+    if (k.objects[object->value()].type->descriptor == nullptr) {
+      return fail(kernel_error(K::Config, k.graph.locations.locate({{"dds", -1}, {"bridges", i}}, "topic").to_string() +
+                                              ": error: topic '" + b.topic() + "' is of the policy's own type '" +
+                                              std::string(k.objects[object->value()].type->name) +
+                                              "', which has no DDS type descriptor: such a topic is routed between services, not bridged"));
+    }
+    table.push_back(dds::BridgeEntry{.topic = *object, .dds_name = launch::dds_name(b),
+                                     .type = k.objects[object->value()].type,
+                                     .direction = b.direction() == proto::BRIDGE_IN ? dds::Direction::In
+                                                                                     : dds::Direction::Out});
+  }
+  if (table.empty() && !plant_lockstep(k)) return {};
+  if (std::getenv("CYCLONEDDS_URI") == nullptr) {
+    const std::string uri = "file://" + launch::dds_config(k.graph, k.options.repo_root).string();
+    ::setenv("CYCLONEDDS_URI", uri.c_str(), 0);  // also what the plant inherits
+  }
+  auto bridge = DdsBridge::open(k.domain, table, plant_lockstep(k), k.objects.size());
+  if (!bridge) return fail(kernel_error(K::Dds, bridge.error().to_string()));
+  k.bridge = std::move(*bridge);
+  return {};
+}
+
+// The event sources known at creation: signals, the realtime timerfd, the bridge's readers.
+Result<void, KernelError> watch_event_sources(Kernel::Impl& k) {
+  const auto add = [&](int fd, std::uint64_t tok) -> Result<void, KernelError> {
+    if (auto ok = k.epoll.add(fd, tok); !ok) return fail(kernel_error(K::System, ok.error().to_string()));
+    return {};
+  };
+  if (auto ok = add(k.signals->fd(), token(Source::Signal, 0)); !ok) return fail(ok.error());
+  if (k.clock_mode == ClockMode::Realtime) {
+    auto tfd = sys::TimerFd::create();
+    if (!tfd) return fail(kernel_error(K::System, tfd.error().to_string()));
+    k.timerfd = std::move(*tfd);
+    if (auto ok = add(k.timerfd->fd(), token(Source::Timer, 0)); !ok) return fail(ok.error());
+  }
+  k.samples_on_step = plant_lockstep(k);
+  if (!k.bridge) return {};
+  for (std::size_t i = 0; i < k.bridge->readers().size(); ++i) {
+    // Lockstep with the plant: the samples of a step are taken when its SimStep arrives (they were published
+    // before it), so only the step input wakes the kernel — one wakeup per step, not per sample.
+    if (k.samples_on_step && !k.bridge->is_step_input(i)) {
+      k.bridge->readers()[i].reader.set_signalling(false);  // until a step is short of samples
+      continue;
+    }
+    if (auto ok = add(k.bridge->readers()[i].reader.ready_fd(), token(Source::Dds, i)); !ok) return fail(ok.error());
+  }
+  return {};
+}
+
+}  // namespace
+
+Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch graph, KernelOptions options,
+                                                            Observer* observer) {
+  auto policy = load_audited_policy(graph);
+  if (!policy) return fail(policy.error());
+  auto clock_mode = choose_clock(graph, options);
+  if (!clock_mode) return fail(clock_mode.error());
+  const bool sr = graph.graph.sr().enabled() && !options.no_sr;
+  auto caps = make_caps(*policy, sr);
+  if (!caps) return fail(caps.error());
+  auto objects = make_objects(*policy);
+  if (!objects) return fail(objects.error());
+  auto fds = open_kernel_fds();
+  if (!fds) return fail(fds.error());
+  const std::size_t service_count = policy->services().size();
+  if (auto ok = ensure_fd_limit(graph, service_count); !ok) return fail(ok.error());
+  auto uid_block = lease_service_uids(service_count);
+  if (!uid_block) return fail(uid_block.error());
+
+  auto impl = std::make_unique<Impl>(std::move(graph), std::move(options), observer, std::move(*policy),
+                                     std::move(*caps), std::move(objects->broker), std::move(fds->page), service_count,
+                                     std::move(fds->epoll));
+  Impl& k = *impl;
+  k.declared_types = std::move(objects->declared_types);
+  k.objects = std::move(objects->objects);
+  k.signals.emplace(std::move(fds->signals));
+  k.seccomp = std::move(fds->seccomp);
+  configure(k, *clock_mode, sr, std::move(*uid_block));
+  using Step = Result<void, KernelError> (*)(Impl&);
+  for (const Step step : {&add_services, &check_plant_executable, &place, &open_bridge, &watch_event_sources}) {
+    if (auto ok = step(k); !ok) return fail(ok.error());
+  }
+  if (auto ok = k.net_open(); !ok) return fail(ok.error());  // the network gate (netgate.cpp)
+  return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));
+}
+
+}  // namespace rejuv::kernel

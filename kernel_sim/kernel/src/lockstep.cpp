@@ -1,0 +1,196 @@
+// Lockstep (DESIGN §6; docs/protocol.md "Lockstep with the plant"): the steps of the simulated clock — from
+// the plant through the DDS bridge's lockstep adapter (rejuv/dds/plant_lockstep.hpp), or manual
+// (Kernel::step) — and what rides on them: the samples a step carries or that came on their own topics, held
+// for the step that covers them and routed in canonical order (router.cpp, route_samples); a step's rounds
+// until every service is idle; its ack; the untimed priming checkpoint; the run's stop conditions.
+#include <algorithm>
+#include <cstring>
+#include <string>
+
+#include "impl.hpp"
+
+namespace rejuv::kernel {
+
+// ---- samples ----
+
+// Lockstep: a sample is held for the step that covers it, then routed in canonical order (route_samples).
+void Kernel::Impl::stage_sample(std::size_t reader, std::span<const std::byte> bytes) {
+  std::uint64_t stamp = 0;
+  if (bytes.size() >= sizeof(stamp)) std::memcpy(&stamp, bytes.data(), sizeof(stamp));
+  samples.push_back(StagedSample{.reader = static_cast<std::uint32_t>(reader), .timestamp = stamp,
+                                 .offset = static_cast<std::uint32_t>(sample_bytes.size()),
+                                 .size = static_cast<std::uint32_t>(bytes.size())});
+  sample_bytes.insert(sample_bytes.end(), bytes.begin(), bytes.end());
+}
+
+// SimSteps from the plant (the step input woke the loop): each becomes a pending step, and the samples it
+// carries are staged as if the input that bridges their topic had taken them (the same canonical order as
+// samples that came on their own topics, and the same routes).
+void Kernel::Impl::take_steps() {
+  dds::PlantLockstep* adapter = bridge->lockstep();
+  REJUV_ASSERT(adapter != nullptr, "only the lockstep adapter has a step input");
+  auto n = adapter->take_steps(
+      bridge->bridge(),
+      [&](const dds::PlantLockstep::Step& step) {
+        pending_steps.push_back(PendingStep{.step = step.step, .t = step.t, .samples_needed = step.samples_needed});
+      },
+      [&](std::size_t input, std::span<const std::byte> bytes) {
+        if (!stopping) stage_sample(input, bytes);
+      });
+  if (!n) log("DDS take sim_step: %s", n.error().to_string().c_str());
+  if (samples_on_step && n && *n > 0) collect_samples();
+}
+
+void Kernel::Impl::collect_samples() {
+  if (!bridge) return;
+  for (std::size_t i = 0; i < bridge->readers().size(); ++i) {
+    if (!bridge->is_step_input(i)) on_dds_ready(i);
+  }
+}
+
+void Kernel::Impl::watch_sample_readers(bool watch) {
+  if (!bridge || !samples_on_step || watch == watching_samples) return;
+  watching_samples = watch;
+  for (std::size_t i = 0; i < bridge->readers().size(); ++i) {
+    if (bridge->is_step_input(i)) continue;
+    dds::Reader& reader = bridge->readers()[i].reader;
+    reader.set_signalling(watch);  // on before the fd is watched; the collect_samples below takes the rest
+    if (watch) {
+      (void)epoll.add(reader.ready_fd(), token(Source::Dds, i));
+    } else {
+      (void)epoll.remove(reader.ready_fd());
+    }
+  }
+  if (watch) collect_samples();
+}
+
+// ---- steps ----
+
+void Kernel::Impl::begin_step(const PendingStep& step) {
+  active_step = step;
+  rounds = 0;
+  step_started_wall = wall();
+  hung_this_step.clear();
+  for (ServiceRuntime& s : services) s.staged_this_step = 0;
+  set_now(step.t);
+  if (!sr_mode_announced) publish_sr_mode();
+  request_priming();
+  fire_rejuvenation();  // DESIGN §7: a due rejuvenation timer rolls back before anything else of the step
+  (void)service_images();
+  // DESIGN §6: set the clock, fire due timers, route the step's samples; then rounds until idle. Each
+  // service gets the round's frames in one batch (router.cpp, cork).
+  cork();
+  fire_timers();
+  route_samples();
+  uncork();
+  net_poll();  // datagrams that arrived before the step: handed over at its start (netgate.cpp)
+}
+
+bool Kernel::Impl::advance_step() {
+  for (;;) {
+    if (service_images()) continue;  // a pending rollback, or a checkpoint once quiescent (images.cpp)
+    if (!all_idle()) return false;
+    if (rounds >= kMaxRoundsPerStep) {
+      log("step %llu did not settle after %u routing rounds; ending it", static_cast<unsigned long long>(active_step->step),
+          rounds);
+      return true;
+    }
+    if (!staged.empty()) {
+      ++rounds;
+      cork();
+      flush_staged();
+      uncork();
+      continue;
+    }
+    // Timers armed during this step that are already due (e.g. after(0)).
+    if (timers.next_due() && *timers.next_due() <= now()) {
+      ++rounds;
+      cork();
+      fire_timers();
+      uncork();
+      continue;
+    }
+    return true;
+  }
+}
+
+void Kernel::Impl::finish_step() {
+  const PendingStep step = *active_step;
+  active_step.reset();
+  ++steps_done;
+  if (dds::PlantLockstep* adapter = bridge ? bridge->lockstep() : nullptr; adapter != nullptr) {
+    if (auto ok = adapter->write_ack(step.step, step.t, charge); !ok) {  // DESIGN §6: charge, in simulated time
+      const std::string error = ok.error().to_string();
+      log("%s", error.c_str());
+      stop_run(StopReason::PlantExited, error);
+    }
+  }
+  charge = Nanos{0};
+  last_step_done_wall = wall();
+  stall_reported = false;
+  if (observer != nullptr) observer->on_step(step.step, step.t, caps.mode());
+  check_stop_conditions();
+}
+
+// DESIGN §6: the first images of every service are forked during the alignment, untimed, so that the
+// checkpoints of the flight all take theirs by written pages. Once, at the first step of a run with a plant
+// (lockstep or realtime); never in manual stepping, whose tests count their generations.
+void Kernel::Impl::request_priming() {
+  if (primed || !sr || options.time_master != TimeMaster::Plant || !graph.graph.has_plant() || checkpoint_request ||
+      rollback_request) {
+    return;
+  }
+  primed = true;
+  priming_request = true;
+  checkpoint_request = std::pair(std::optional<ServiceId>{}, std::uint32_t{0});
+}
+
+void Kernel::Impl::check_stop_conditions() {
+  if (options.duration && now() >= *options.duration) {
+    stop_run(StopReason::Duration, "t = " + std::to_string(to_seconds(now()).count()) + " s");
+  }
+  const Seconds timeout = launch::mission_timeout(graph.graph.mission());  // of the flight, after the alignment
+  if (timeout.count() > 0 && now() >= flight_start + to_nanos(timeout)) {
+    stop_run(StopReason::MissionTimeout, "mission not completed within " + std::to_string(timeout.count()) + " s");
+  }
+}
+
+// Kernel::run in lockstep with the plant: a step begins once every sample it counts has arrived, runs its
+// rounds until the graph is idle, and is acknowledged; the loop sleeps in between.
+Result<void, KernelError> Kernel::Impl::run_lockstep() {
+  for (;;) {
+    if (stop && (!graceful(*stop) || !active_step)) break;
+    // A sample DDS never delivers must not stall the run: after a second the step goes on without it
+    // (logged; the counts are re-synchronised so that the next steps do not wait for it either).
+    if (!active_step && !pending_steps.empty() && samples_received < pending_steps.front().samples_needed) {
+      if (!short_of_samples_since) short_of_samples_since = wall();
+      if (wall() - *short_of_samples_since > std::chrono::seconds{1}) {
+        log("step %llu: %llu sensor sample(s) never arrived; the step goes on without them",
+            static_cast<unsigned long long>(pending_steps.front().step),
+            static_cast<unsigned long long>(pending_steps.front().samples_needed - samples_received));
+        samples_received = pending_steps.front().samples_needed;
+      }
+    }
+    if (!active_step && !pending_steps.empty() && !stop && samples_received >= pending_steps.front().samples_needed) {
+      short_of_samples_since.reset();
+      const PendingStep next = pending_steps.front();
+      pending_steps.erase(pending_steps.begin());
+      begin_step(next);
+    }
+    if (active_step && advance_step()) {
+      finish_step();
+      continue;  // the next step may already be waiting
+    }
+    // A step whose samples are not all in yet (DDS orders per writer only): wake on the sample readers too
+    // until they are.
+    const bool short_of_samples =
+        !active_step && !pending_steps.empty() && samples_received < pending_steps.front().samples_needed;
+    watch_sample_readers(short_of_samples);
+    if (auto ok = pump(short_of_samples ? std::optional<Nanos>(std::chrono::milliseconds{100}) : std::nullopt); !ok) {
+      return ok;
+    }
+  }
+  return {};
+}
+
+}  // namespace rejuv::kernel

@@ -1,0 +1,265 @@
+// The kernel's event loop (DESIGN §5, §6): one epoll set for every source — service channels, pidfds, the
+// signal fd, the realtime timerfd, the DDS bridge's readers, the network gate, seccomp listeners and service
+// output — dispatched by pump(); the wall-clock deadlines it sleeps until; kernel timers; the realtime clock;
+// and the kernel's logging. The lockstep steps that run on top of it are in lockstep.cpp.
+#include <algorithm>
+#include <csignal>
+#include <cstdarg>
+#include <cstring>
+
+#include "impl.hpp"
+
+namespace rejuv::kernel {
+
+// ---- logging and time ----
+
+void Kernel::Impl::log(const char* format, ...) {
+  if (options.log == nullptr && observer == nullptr) return;
+  std::array<char, 2048> buf{};
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf.data(), buf.size(), format, args);
+  va_end(args);
+  if (observer != nullptr) {
+    observer->on_log(LogLine{.t = now(), .source = "kernel", .level = LogLine::Level::Info, .text = buf.data()});
+  }
+  if (options.log == nullptr) return;
+  std::fprintf(options.log, "[kernel %8.3f] %s\n", to_seconds(now()).count(), buf.data());
+}
+
+bool LogLimiter::allow(Nanos wall_now) {
+  // 50 lines of burst, 20 lines per second sustained.
+  constexpr double kBurst = 50;
+  constexpr double kPerSecond = 20;
+  tokens = std::min(kBurst, tokens + to_seconds(wall_now - last).count() * kPerSecond);
+  last = wall_now;
+  if (tokens >= 1) {
+    tokens -= 1;
+    return true;
+  }
+  return false;
+}
+
+void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view text) {
+  if (level == wire::LogLevel::Error) s.last_error.assign(text);  // kept even when the line is rate-limited
+  if (level == wire::LogLevel::Debug && !options.verbose) return;
+  if (!s.limiter.allow(wall())) {
+    ++s.stats.log_suppressed;
+    ++s.limiter.suppressed_since_print;
+    return;
+  }
+  if (observer != nullptr) {
+    LogLine::Level l = LogLine::Level::Info;
+    switch (level) {
+      case wire::LogLevel::Debug: l = LogLine::Level::Debug; break;
+      case wire::LogLevel::Info: l = LogLine::Level::Info; break;
+      case wire::LogLevel::Warn: l = LogLine::Level::Warning; break;
+      case wire::LogLevel::Error: l = LogLine::Level::Error; break;
+    }
+    observer->on_log(LogLine{.t = now(), .source = s.name, .level = l, .text = text});
+  }
+  if (options.log == nullptr) return;
+  if (s.limiter.suppressed_since_print > 0) {
+    std::fprintf(options.log, "[%s] (%llu lines suppressed by the rate limit)\n", s.name.c_str(),
+                 static_cast<unsigned long long>(s.limiter.suppressed_since_print));
+    s.limiter.suppressed_since_print = 0;
+  }
+  const char* tag = "";
+  switch (level) {
+    case wire::LogLevel::Debug: tag = "debug: "; break;
+    case wire::LogLevel::Info: break;
+    case wire::LogLevel::Warn: tag = "warning: "; break;
+    case wire::LogLevel::Error: tag = "error: "; break;
+  }
+  std::fprintf(options.log, "[%s] %s%.*s\n", s.name.c_str(), tag, static_cast<int>(text.size()), text.data());
+}
+
+void Kernel::Impl::refuse(ServiceRuntime& s, std::string_view what) {
+  ++s.stats.bad_frames;
+  ++kernel_bad_frames;
+  if (s.limiter.allow(wall())) {
+    log("refused a frame from '%s': %.*s", s.name.c_str(), static_cast<int>(what.size()), what.data());
+  } else {
+    ++s.stats.log_suppressed;
+  }
+}
+
+void Kernel::Impl::set_now(Nanos t) {
+  time_page.set_now(t);
+  caps.set_time(t);
+}
+
+Nanos Kernel::Impl::wall() const { return sys::monotonic_now(); }
+
+void Kernel::Impl::stop_run(StopReason reason, std::string detail) {
+  if (stop) return;
+  stop = reason;
+  stop_detail = std::move(detail);
+  log("stopping: %s%s%s", std::string(to_string(reason)).c_str(), stop_detail.empty() ? "" : ": ",
+      stop_detail.c_str());
+}
+
+// ---- the event loop ----
+
+Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
+  std::optional<Nanos> timeout = max_wait;
+  if (const auto deadline = next_wall_deadline()) {
+    const Nanos left = std::max(Nanos{0}, *deadline - wall());
+    timeout = timeout ? std::min(*timeout, left) : left;
+  }
+  std::array<sys::Event, 64> events{};
+  auto n = epoll.wait(events, timeout);
+  if (!n) return fail(kernel_error(KernelError::Kind::System, n.error().to_string()));
+  if (clock_mode == ClockMode::Realtime && booted && clock_synced) set_now(sys::monotonic_now() - run_start_mono);
+  for (std::size_t i = 0; i < *n; ++i) {
+    const sys::Event& e = events[i];
+    const auto source = static_cast<Source>(e.token >> 56U);
+    const std::size_t index = e.token & ((std::uint64_t{1} << 56U) - 1U);
+    switch (source) {
+      case Source::Channel: {
+        ServiceRuntime& s = services[index];
+        if (!s.live() || !s.channel.valid()) break;
+        if (e.writable) drain(s);
+        if (e.readable || e.hangup || e.error) read_channel(s);
+        break;
+      }
+      case Source::Pidfd: on_child_exit(services[index]); break;
+      case Source::Plant: on_plant_exit(); break;
+      case Source::Signal: {
+        auto sig = signals->read();
+        if (sig && *sig) stop_run(StopReason::Signal, *sig == SIGINT ? "SIGINT" : "SIGTERM");
+        break;
+      }
+      case Source::Timer:
+        (void)timerfd->consume();
+        fire_rejuvenation();
+        fire_timers();
+        arm_timerfd();
+        break;
+      case Source::Dds: on_dds_ready(index); break;
+      case Source::Net: net_poll(); break;  // realtime only; lockstep polls at the start of a step
+      case Source::Seccomp: {
+        ServiceRuntime& s = services[index];
+        on_seccomp_notice(s);
+        // No process uses the filter any more (the service and its images are gone): nothing more can come.
+        if (e.hangup && !e.readable && s.seccomp.valid()) {
+          (void)epoll.remove(s.seccomp.fd());
+          s.seccomp.close();
+        }
+        break;
+      }
+      case Source::Output: on_service_output(services[index]); break;
+    }
+  }
+  drain_denials();
+  check_deadlines();
+  return {};
+}
+
+void Kernel::Impl::on_dds_ready(std::size_t index) {
+  if (!bridge) return;
+  if (bridge->is_step_input(index)) {
+    take_steps();  // lockstep.cpp
+    return;
+  }
+  dds::Bridge::Input& in = bridge->readers()[index];
+  if (!in.topic) {
+    // The lockstep adapter's count-only reader: samples that did not fit their SimStep on a topic the graph
+    // does not bridge in, dropped but counted toward SimStep.samples_published.
+    auto n = in.reader.take([](std::span<const std::byte>) {});
+    if (n) samples_received += *n;
+    return;
+  }
+  const ObjectId topic = *in.topic;
+  auto n = in.reader.take([&](std::span<const std::byte> bytes) {
+    ++samples_received;
+    if (stopping) return;
+    if (clock_mode == ClockMode::Realtime) {
+      if (!booted) return;
+      if (!clock_synced) sync_realtime_clock(bytes);
+      publish_as_kernel(topic, bytes, From::Bridge);
+      return;
+    }
+    stage_sample(index, bytes);
+  });
+  if (!n) log("DDS take %s: %s", in.reader.topic_name().c_str(), n.error().to_string().c_str());
+}
+
+void Kernel::Impl::sync_realtime_clock(std::span<const std::byte> first_sample) {
+  // The plant stamps its samples with its own monotonic time since it started (idl/sensors.idl), which began
+  // after the kernel's: move the kernel's origin so that both clocks agree from the first sample on (the
+  // transport delay, microseconds, is not corrected). Timers keep their kernel-clock expiries.
+  clock_synced = true;
+  std::uint64_t stamp = 0;
+  if (first_sample.size() < sizeof(stamp)) return;
+  std::memcpy(&stamp, first_sample.data(), sizeof(stamp));
+  // Until now the kernel clock stood at 0 (no sensor data, no timer fired), so this only moves it forward.
+  const Nanos plant_now = std::max(Nanos{static_cast<std::int64_t>(stamp)}, now());
+  run_start_mono = sys::monotonic_now() - plant_now;
+  set_now(plant_now);
+  arm_timerfd();
+  log("realtime clock follows the plant's from t = %.3f s", to_seconds(plant_now).count());
+}
+
+void Kernel::Impl::fire_timers() {
+  timers.fire_due(now(), [&](const clock::KernelTimer& t) {
+    ServiceRuntime& s = services[t.service.value()];
+    if (!s.live()) return;
+    if (tx.build(wire::FrameKind::TimerFired, 0, 0, t.id)) send_control(s, tx.bytes());
+  });
+}
+
+void Kernel::Impl::arm_timerfd() {
+  if (!timerfd || !clock_synced) return;
+  auto due = timers.next_due();
+  if (rejuvenation.due) due = due ? std::min(*due, *rejuvenation.due) : *rejuvenation.due;
+  (void)timerfd->arm_at(due ? std::optional<Nanos>(*due + run_start_mono) : std::nullopt);
+}
+
+bool Kernel::Impl::all_idle() const {
+  return std::all_of(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.idle(); });
+}
+
+bool Kernel::Impl::all_ready() const {
+  return std::all_of(services.begin(), services.end(),
+                     [](const ServiceRuntime& s) { return s.skip || s.phase == Phase::Ready; });
+}
+
+std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
+  std::optional<Nanos> best;
+  const auto consider = [&](Nanos t) { best = best ? std::min(*best, t) : t; };
+  for (const ServiceRuntime& s : services) {
+    if (s.phase == Phase::Spawned || s.phase == Phase::Booted) consider(s.spawned_at + options.boot_deadline);
+    if (s.live() && s.channel_closed_at) consider(*s.channel_closed_at + kChannelCloseGrace);
+  }
+  if (active_step) consider(step_started_wall + options.idle_deadline);
+  if (plant_started && !stall_reported && last_step_done_wall > Nanos{0}) consider(last_step_done_wall + std::chrono::seconds{3});
+  return best;
+}
+
+// The realtime clock (DESIGN §6): the kernel clock is CLOCK_MONOTONIC since the run started (or the plant's,
+// from its first sample); timers fire from the timerfd; progress is reported every 100 ms of it.
+Result<void, KernelError> Kernel::Impl::run_realtime() {
+  run_start_mono = sys::monotonic_now();
+  clock_synced = !graph.graph.has_plant() || options.time_master != TimeMaster::Plant;
+  set_now(Nanos{0});
+  publish_sr_mode();
+  flush_staged();  // anything published during boot
+  request_priming();
+  arm_timerfd();
+  std::uint64_t ticks = 0;
+  while (!stop) {
+    if (auto ok = pump(std::chrono::milliseconds{100}); !ok) return ok;
+    while (service_images()) {
+    }
+    if (now() - last_progress >= std::chrono::milliseconds{100}) {
+      last_progress = now();
+      if (observer != nullptr) observer->on_step(ticks++, now(), caps.mode());
+    }
+    check_stop_conditions();
+  }
+  steps_done = ticks;
+  return {};
+}
+
+}  // namespace rejuv::kernel
