@@ -16,6 +16,11 @@ namespace {
 using Check = Result<void, LoadError>;
 using Step = TextLocations::Step;
 
+// A semantic error at `where`.
+LoadError error(SourceLocation where, std::string message) {
+  return semantic_error(std::move(where), std::move(message));
+}
+
 // Validates one parsed graph; the first problem found is returned (the user fixes and reruns).
 class Validator {
  public:
@@ -33,10 +38,7 @@ class Validator {
   }
 
  private:
-  // A semantic error at `where` (TextLocations::locate already falls back to the enclosing message).
-  [[nodiscard]] static LoadError error(SourceLocation where, std::string message) {
-    return semantic_error(std::move(where), std::move(message));
-  }
+  // Where a field was written (TextLocations::locate already falls back to the enclosing message).
   [[nodiscard]] SourceLocation at(std::initializer_list<Step> path, std::string_view field,
                                   int index = -1) const {
     return locs_.locate(path, field, index);
