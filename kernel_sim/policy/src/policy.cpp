@@ -1,3 +1,7 @@
+// The policy loader (DESIGN §3–§4): text → proto::Policy → a validated Policy, and its compilation to the
+// kernel's per-mode table. Above 600 lines on purpose: the checks are one builder (PolicyBuilder) whose
+// order is part of the contract (the first problem in file order is the one reported, with its location);
+// the audit (audit.cpp) is the other half of the policy's verdicts.
 #include "rejuv/policy/policy.hpp"
 
 #include <algorithm>
