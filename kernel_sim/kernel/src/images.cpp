@@ -161,11 +161,12 @@ void Kernel::Impl::resume_routing() {
 // ---- safe points ----
 
 bool Kernel::Impl::service_images() {
-  // Killed ones reaped (reap_dying); then incarnations retired by a rollback are killed, all off the
-  // rollback's critical path.
-  reap_dying();
+  // Incarnations retired by a rollback killed, then the killed ones reaped (reap_dying), all off the
+  // rollback's critical path. In this order: a SIGKILL's victim runs its exit at once, so most are reaped
+  // here, not one safe point later (where `rejuv soak` found them as one more process and fd at a sample).
   kill_retired();
   if (!retiring.empty()) finish_retiring(false);
+  reap_dying();
   if (!stopping && !checkpoint && !rollback_request && !checkpoint_request) sweep_if_due();  // sandbox.cpp
   if (!sr || stopping || checkpoint) return false;
   if (!rollback_request && !checkpoint_request) {  // off the critical paths
