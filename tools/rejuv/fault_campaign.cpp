@@ -369,7 +369,7 @@ class Injector final : public kernel::Observer {
   }
 
   RunRecorder& rec_;
-  const Mission& mission_;
+  [[maybe_unused]] const Mission& mission_;  // clang: otherwise an unused private field
   Nanos alignment_;
   Helper& helper_;
   kernel::Kernel* k_ = nullptr;

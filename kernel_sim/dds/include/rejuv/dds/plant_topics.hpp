@@ -94,6 +94,12 @@ struct StepValue {
   }
 };
 
+// Deduction guides, spelled out: clang 16 (the fuzz build) does not deduce an aggregate's template arguments.
+template <class T, std::size_t N>
+StepArray(Topic<T>, T (rejuv_msg_SimStep::*)[N], std::uint8_t rejuv_msg_SimStep::*) -> StepArray<T, N>;
+template <class T>
+StepValue(Topic<T>, T rejuv_msg_SimStep::*) -> StepValue<T>;
+
 // Every kind of sample a SimStep carries, in the order the kernel stages them (idl/sim.idl). A new sensor that
 // rides on the step is its IDL (a struct in idl/sensors.idl, listed in REJUV_TOPIC_TYPES; its array and count
 // in SimStep) and one row here: neither the plant's packing nor the kernel's adapter names a sensor.
