@@ -236,8 +236,7 @@ class ImageDriver {
       (u.*socket).close();
     }
   }
-  void retire(ChildProcess& p) {
-    (void)sys::lower_priority(p.pid());
+  void retire(ChildProcess& p) {  // as the kernel kills: at the victim's own priority (finish_retiring)
     (void)p.signal(SIGKILL);
     dying_.push_back(std::move(p));
   }

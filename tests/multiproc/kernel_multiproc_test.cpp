@@ -4,9 +4,13 @@
 
 #include <algorithm>
 #include <csignal>
+#include <cstdlib>
+#include <fstream>
+#include <set>
 
 #include <seccomp.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include "graph_fixture.hpp"
 #include "rejuv/cap/capability.hpp"
@@ -58,6 +62,43 @@ TEST(KernelMultiproc, BootStepShutdown_LeavesNoProcessAndNoFd) {
   const Resources after = Resources::now();
   EXPECT_EQ(after.children, before.children);
   EXPECT_EQ(after.fds, before.fds);
+}
+
+// The real uid of a live process (/proc/PID/status, "Uid:" real effective saved fs), or -1.
+long real_uid_of(int pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.starts_with("Uid:")) return std::strtol(line.c_str() + 4, nullptr, 10);
+  }
+  return -1;
+}
+
+// Service uids (docs/sandbox.md): as root, two kernels of one machine run their services under disjoint uids,
+// so that RLIMIT_NPROC (a uid's processes, machine-wide) is never shared between runs. Asserted of the
+// service processes themselves, both graphs booted at once.
+TEST(KernelMultiproc, TwoKernelsAtOnce_ServicesRunUnderDisjointUids) {
+  if (::geteuid() != 0) GTEST_SKIP() << "service uids are given only when the kernel runs as root";
+  auto a = make_kernel(GraphSpec{});
+  auto b = make_kernel(GraphSpec{});
+  ASSERT_NE(a, nullptr);
+  ASSERT_NE(b, nullptr);
+  ASSERT_TRUE(a->boot().has_value());
+  ASSERT_TRUE(b->boot().has_value());
+  std::set<long> uids_a;
+  std::set<long> uids_b;
+  for (std::uint32_t i = 0; i < a->service_count(); ++i) {
+    uids_a.insert(real_uid_of(a->stats(ServiceId{i}).pid));
+    uids_b.insert(real_uid_of(b->stats(ServiceId{i}).pid));
+  }
+  EXPECT_EQ(uids_a.size(), a->service_count());  // one uid per service
+  EXPECT_EQ(uids_b.size(), b->service_count());
+  for (const long uid : uids_a) {
+    EXPECT_GT(uid, 65534) << "a service runs as root, nobody or a system uid";
+    EXPECT_EQ(uids_b.count(uid), 0U) << "uid " << uid << " runs a service of both kernels";
+  }
+  a->shutdown();
+  b->shutdown();
 }
 
 TEST(KernelMultiproc, ServiceNeverReady_FailsBootAndLeavesNothing) {

@@ -158,7 +158,6 @@ Result<std::optional<sys::Lease>, KernelError> lease_service_uids(std::size_t se
 // The run's configuration from the graph and the options: clock, SR, images, seed, charges, alignment, domain;
 // the time page at t = 0.
 void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys::Lease> uid_block) {
-  if (uid_block) k.service_uid_base = sys::kServiceUidBase + uid_block->slot() * sys::kUidsPerBlock;
   k.uid_block = std::move(uid_block);
   k.clock_mode = clock_mode;
   k.sr = sr;
@@ -346,6 +345,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   for (const Step step : {&add_services, &check_plant_executable, &place, &open_bridge, &watch_event_sources}) {
     if (auto ok = step(k); !ok) return fail(ok.error());
   }
+  k.dying_slack = k.processes_to_spare();  // the services' limits are known now (add_services)
   if (auto ok = k.net_open(); !ok) return fail(ok.error());  // the network gate (netgate.cpp)
   return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));
 }

@@ -128,10 +128,13 @@ void Kernel::Impl::finish_retiring(bool final) {
         if (im.refresh() > 0 && im.spares_pending > 0) settled = false;
       }
       if (!settled) return false;
-      for (image::Image& im : r.images) {  // killed now, reaped off the critical path (service_images)
+      // Killed now, at their own priority, and reaped off the critical path (service_images). A victim's
+      // exit runs at once whatever its priority (sys/process.hpp: 8 kills 0.68 ms, 0.69 ms at nice 19), but
+      // lowered first, on a loaded machine the ones that did not run at once took seconds to die, holding
+      // their uid's process slots (max_processes) all along.
+      for (image::Image& im : r.images) {
         im.resume.close();
         for (sys::ChildProcess& c : im.copies) {
-          (void)sys::lower_priority(c.pid());
           (void)c.signal(SIGKILL);
           reaping.push_back(std::move(c));
         }
@@ -188,44 +191,46 @@ bool Kernel::Impl::service_images() {
   return false;
 }
 
+// Whether the vehicle lives through the real duration of the kernel's image work: in real time it flies on,
+// in lockstep it is charged the measured duration (--charge measured); with the model's charge it is not.
+bool Kernel::Impl::vehicle_sees_image_work() const {
+  return clock_mode != ClockMode::Lockstep || options.charge == KernelOptions::Charge::Measured;
+}
+
 Nanos Kernel::Impl::image_wait_bound() const {
-  const bool seen = clock_mode != ClockMode::Lockstep || options.charge == KernelOptions::Charge::Measured;
-  return seen ? options.resume_deadline : options.unseen_resume_deadline;
+  return vehicle_sees_image_work() ? options.resume_deadline : options.unseen_resume_deadline;
 }
 
 // Backpressure before a checkpoint or a rollback, which both need new processes (images, spares): the killed
 // ones hold their uid's process slots (max_processes, RLIMIT_NPROC) until reaped, and on a loaded machine
 // they die slowly — every process of a service shares its session's CPU share. Without this, 1000 SR cycles
 // in 2 s of wall time on 2 cores shared with six other multiproc tests left a copy unable to fork (the
-// generation then unusable). Waits, within image_wait_bound(), until at most as many are dying as every
-// rejuvenated service can spare: half of what its max_processes leaves beside 1 + 2(K + 1).
+// generation then unusable). Waits, within image_wait_bound(), until at most dying_slack are dying.
 void Kernel::Impl::settle_dying() {
-  const auto slack = [&] {
-    std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
-    const std::uint64_t needed = 1 + 2 * (std::uint64_t{launch::keep_generations(graph.graph.sr())} + 1);
-    for (const ServiceRuntime& s : services) {
-      if (!s.rejuvenate || s.skip) continue;
-      if (const auto limit = limits_for(s).processes) least = std::min(least, *limit > needed ? *limit - needed : 0);
-    }
-    return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;
-  }();
   reap_dying();
   const Nanos until = wall() + image_wait_bound();
-  while (reaping.size() > slack && wall() < until) {
+  while (reaping.size() > dying_slack && wall() < until) {
     (void)sys::wait_fd(reaping.front().pidfd(), sys::WaitFor::Readable, until - wall());
     reap_dying();
   }
 }
 
-// Killed processes reaped; one still dying gets back its normal priority. It was lowered so that its exit
-// would not take the CPU from a checkpoint or rollback; this runs at a safe point after it. Left low, on a
-// loaded machine a process killed at idle priority took seconds to die, and the dying held their uid's
-// process slots: 60 of the worker's 64 in Images.HundredRollbacks on 2 cores shared with six multiproc
-// tests, where its next resumed image could not start its thread.
+// What every rejuvenated service can spare: half of what its max_processes leaves beside 1 + 2(K + 1), the
+// live one and an image and a spare per generation (no limit: any number).
+std::uint64_t Kernel::Impl::processes_to_spare() const {
+  std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
+  const std::uint64_t needed = 1 + 2 * (std::uint64_t{launch::keep_generations(graph.graph.sr())} + 1);
+  for (const ServiceRuntime& s : services) {
+    if (!s.rejuvenate || s.skip) continue;
+    if (const auto limit = limits_for(s).processes) least = std::min(least, *limit > needed ? *limit - needed : 0);
+  }
+  return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;
+}
+
+// Killed processes reaped (each was killed at normal priority: finish_retiring, kill_retired).
 void Kernel::Impl::reap_dying() {
   std::erase_if(reaping, [](sys::ChildProcess& p) {
     auto status = p.try_wait();
-    if (status && !*status) (void)sys::normal_priority(p.pid());
     return !status || *status;
   });
 }
@@ -236,7 +241,7 @@ void Kernel::Impl::reap_dying() {
 void Kernel::Impl::charge_image_work(Nanos measured, Nanos modelled) {
   sr_stats.measured += measured;
   if (clock_mode != ClockMode::Lockstep) return;
-  const Nanos charged = options.charge == KernelOptions::Charge::Model ? modelled : measured;
+  const Nanos charged = vehicle_sees_image_work() ? measured : modelled;
   charge += charged;
   sr_stats.charged += charged;
 }

@@ -300,9 +300,10 @@ struct Kernel::Impl {
   void charge_image_work(Nanos measured, Nanos modelled);
   void request_priming();
   std::vector<sys::ChildProcess> reaping;   // incarnations killed by a rollback, reaped at the next safe point
-  // As root, service i runs as uid service_uid_base + i, from a block this kernel alone holds (sys/lease.hpp).
+  // As root, service i runs as sys::service_uid(*uid_block, i), from a block this kernel alone holds.
   std::optional<sys::Lease> uid_block;
-  std::uint32_t service_uid_base = 0;
+  // settle_dying: how many killed processes may be dying at once (computed once, at create).
+  std::uint64_t dying_slack = 0;
   std::vector<std::pair<ObjectId, std::vector<std::byte>>> held_bridge_out;  // while routing is frozen
   // Incarnations a rollback retired, killed at the next safe point (retire_live_rejuvenated, kill_retired).
   std::vector<sys::ChildProcess> retired;
@@ -417,7 +418,9 @@ struct Kernel::Impl {
   // How long the kernel waits for images: resume_deadline where the vehicle waits with it (real time,
   // measured charge), unseen_resume_deadline otherwise (KernelOptions).
   [[nodiscard]] Nanos image_wait_bound() const;
+  [[nodiscard]] bool vehicle_sees_image_work() const;  // real time, or lockstep charging the measured duration
   void settle_dying();  // images.cpp: backpressure on killed processes before a checkpoint or rollback
+  [[nodiscard]] std::uint64_t processes_to_spare() const;  // images.cpp: the value of dying_slack
   void reap_dying();
   void cold_restart(const std::string& reason);
   void resume_routing();

@@ -18,8 +18,13 @@ void Kernel::Impl::request_rollback(std::string reason) {
   if (!rollback_request) rollback_request = std::move(reason);
 }
 
+// At a safe point after the rollback. SCHED_IDLE kept them out of the rollback's way; it is undone before the
+// kill: left idle, on a loaded machine they took seconds to die while holding their uid's process slots (60
+// of the worker's 64 in Images.HundredRollbacks on 2 cores beside six multiproc tests, where its next
+// resumed image could not start its thread).
 void Kernel::Impl::kill_retired() {
   for (sys::ChildProcess& p : retired) {
+    (void)sys::normal_priority(p.pid());
     (void)p.signal(SIGKILL);
     reaping.push_back(std::move(p));
   }
@@ -182,11 +187,10 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   retire_live_rejuvenated();
   const Nanos t_killed = wall();
   Nanos t_resumed = t_killed;
-  // Real time, or lockstep charging the measured duration: the vehicle waits with us, and each generation
-  // has resume_deadline. Otherwise the whole rollback has unseen_resume_deadline, and a fallback at least
-  // resume_deadline (KernelOptions): below the plant's ack timeout however many generations are kept.
-  const Nanos bound = image_wait_bound();
-  const Nanos unseen_by = t_killed + bound;
+  // The whole rollback has image_wait_bound() (resume_deadline where the vehicle waits with us,
+  // unseen_resume_deadline otherwise), and a fallback at least resume_deadline: below the plant's ack timeout
+  // however many generations are kept (KernelOptions).
+  const Nanos rollback_by = t_killed + image_wait_bound();
   image::GenerationRecord* restored = nullptr;
   while (image::GenerationRecord* record = images.newest()) {
     std::string failure;
@@ -195,7 +199,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
       const image::Image* im = record->image_of(*dead);
       failure = "the image of '" + services[dead->value()].name + "' is gone" +
                 (im != nullptr && !im->last_death.empty() ? " (" + im->last_death + ")" : "");
-    } else if (resume_generation(*record, std::max(unseen_by, wall() + options.resume_deadline), failure, t_resumed)) {
+    } else if (resume_generation(*record, std::max(rollback_by, wall() + options.resume_deadline), failure, t_resumed)) {
       restored = record;
       break;
     }

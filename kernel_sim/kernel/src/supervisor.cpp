@@ -129,7 +129,7 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   spec.session = sys::Session::NewSession;
   spec.isolation = options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
   spec.limits = limits_for(s);
-  if (uid_block) spec.uid = service_uid_base + s.id.value();
+  if (uid_block) spec.uid = sys::service_uid(*uid_block, s.id.value());
   auto spawned = sys::spawn_supervised(spec);
   if (!spawned) {
     std::string message = "spawn '" + s.name + "' (" + s.executable + "): " + spawned.error().to_string();

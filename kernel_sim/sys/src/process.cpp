@@ -430,11 +430,6 @@ SysResult<int> pin_to_one_cpu(std::optional<int> cpu) {
   return chosen;
 }
 
-SysResult<void> lower_priority(pid_t pid) {
-  if (::setpriority(PRIO_PROCESS, static_cast<id_t>(pid), 19) != 0) return last_error("setpriority");
-  return {};
-}
-
 SysResult<void> normal_priority(pid_t pid) {
   const sched_param param{};
   if (::sched_setscheduler(pid, SCHED_OTHER, &param) != 0) return last_error("sched_setscheduler(SCHED_OTHER)");

@@ -623,17 +623,23 @@ TEST(CpuPlacement, PinToOneCpu_OutOfRange_EinvalAsValueMaskUnchanged) {
   });
 }
 
-TEST(CpuPlacement, LowerPriority_Nice19) {
+// lower_priority (nice 19 before a kill) is gone: the kernel kills at the victim's own priority. What it
+// asserted, a priority read back from the process, is asserted of the pair the kernel uses instead.
+TEST(CpuPlacement, IdleThenNormalPriority_ReadBackFromTheProcess) {
   auto child = spawn(probe("sleep"));
   ASSERT_TRUE(child.has_value()) << child.error().to_string();
-  ASSERT_TRUE(lower_priority(child->pid()).has_value());
+  ASSERT_TRUE(idle_priority(child->pid()).has_value());
+  EXPECT_EQ(::sched_getscheduler(child->pid()), SCHED_IDLE);
+  ASSERT_TRUE(::setpriority(PRIO_PROCESS, static_cast<id_t>(child->pid()), 19) == 0);
+  ASSERT_TRUE(normal_priority(child->pid()).has_value());
+  EXPECT_EQ(::sched_getscheduler(child->pid()), SCHED_OTHER);
   errno = 0;
-  EXPECT_EQ(::getpriority(PRIO_PROCESS, static_cast<id_t>(child->pid())), 19);
+  EXPECT_EQ(::getpriority(PRIO_PROCESS, static_cast<id_t>(child->pid())), 0);
   EXPECT_EQ(errno, 0);
 }
 
-TEST(CpuPlacement, LowerPriority_NoSuchProcess_ErrorValue) {
-  auto r = lower_priority(0x3FFFFFFF);
+TEST(CpuPlacement, NormalPriority_NoSuchProcess_ErrorValue) {
+  auto r = normal_priority(0x3FFFFFFF);
   ASSERT_FALSE(r.has_value());
   EXPECT_EQ(r.error().error, ESRCH);
 }

@@ -57,8 +57,13 @@ inline constexpr std::uint32_t kServiceUidBase = 100000;
 inline constexpr std::uint32_t kUidsPerBlock = 256;  // services per graph a kernel as root can run
 inline constexpr std::uint32_t kUidBlocks = 1024;
 inline constexpr const char* kUidBlockLockFile = "/tmp/rejuv-service-uids.lock";
+static_assert(kServiceUidBase > 65534, "no block may reach nobody (65534)");
 [[nodiscard]] inline SysResult<Lease> lease_uid_block(std::uint32_t hint) {
   return lease_slot(kUidBlockLockFile, 0, kUidBlocks, hint);
+}
+// The uid of service `index` (< kUidsPerBlock) in a leased block.
+[[nodiscard]] inline std::uint32_t service_uid(const Lease& block, std::uint32_t index) {
+  return kServiceUidBase + block.slot() * kUidsPerBlock + index;
 }
 
 }  // namespace rejuv::sys

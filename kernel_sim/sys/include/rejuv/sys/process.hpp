@@ -131,14 +131,12 @@ struct Spawned {
 // afterwards inherit the mask. Returns the CPU. EINVAL: `cpu` is not one this process may use (out of
 // range, offline, or outside its cpuset).
 [[nodiscard]] SysResult<int> pin_to_one_cpu(std::optional<int> cpu);
-// Gives `pid` the lowest CFS priority (nice 19), e.g. before killing it. A SIGKILL still makes its victim run
-// its exit — tearing down its address space, ≈ 0.09 ms here — at once, whatever its priority (measured:
-// 8 kills 0.68 ms, 0.69 ms at nice 19), so a rollback kills its victims only after (idle_priority).
-[[nodiscard]] SysResult<void> lower_priority(pid_t pid);
 // Puts `pid` under SCHED_IDLE: it then runs only when no other task on its CPU can. Unlike a signal, this
-// does not wake it (a rollback's retired incarnations, DESIGN §7).
+// does not wake it (a rollback's retired incarnations, DESIGN §7). A SIGKILL makes its victim run its exit —
+// tearing down its address space, ≈ 0.09 ms here — at once, whatever its priority (measured: 8 kills
+// 0.68 ms, 0.69 ms at nice 19), so a rollback kills its victims only after, at a safe point.
 [[nodiscard]] SysResult<void> idle_priority(pid_t pid);
-// Undoes both: SCHED_OTHER at nice 0 (a killed process still dying at the next safe point, images.cpp).
+// SCHED_OTHER at nice 0: undoes idle_priority before the kill (rollback.cpp kill_retired).
 [[nodiscard]] SysResult<void> normal_priority(pid_t pid);
 
 // Sends `sig` to `pid` through a pidfd, only if `still_same()` holds once the pidfd is open (so that a pid
