@@ -156,7 +156,7 @@ Result<std::optional<sys::Lease>, KernelError> lease_service_uids(std::size_t se
 // ---- on the kernel ----
 
 // The run's configuration from the graph and the options: clock, SR, images, seed, charges, alignment, domain;
-// the time page at t = 0.
+// the capability system's time at 0 (the time page is at 0 since the kernel clock was made).
 void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys::Lease> uid_block) {
   k.uid_block = std::move(uid_block);
   k.clock_mode = clock_mode;
@@ -171,7 +171,6 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys
     k.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));
   }
   k.domain = k.options.dds_domain.value_or(k.graph.graph.dds().domain_id());
-  k.time_page.write(clock::TimeSample{.now = Nanos{0}, .mode = k.caps.mode(), .epoch = Epoch{0}});
   k.caps.set_time(Nanos{0});
 }
 

@@ -48,19 +48,24 @@ std::optional<ObjectId> Kernel::Impl::kernel_topic(std::string_view type) const 
   return std::nullopt;
 }
 
-void Kernel::Impl::set_mode(SrMode mode, std::optional<ServiceId> by) {
+bool Kernel::Impl::enter_mode(SrMode mode) {
   if (auto changed = caps.apply_mode(mode); !changed) {
     log("mode %s: %s", std::string(to_string(mode)).c_str(), std::string(cap::to_string(changed.error())).c_str());
-    return;
+    return false;
   }
-  time_page.write(clock::TimeSample{.now = now(), .mode = mode, .epoch = time_page.current().epoch});
+  kernel_clock.show_mode(caps.mode());
+  return true;
+}
+
+void Kernel::Impl::set_mode(SrMode mode, std::optional<ServiceId> by) {
+  if (!enter_mode(mode)) return;
   publish_sr_mode();
   sr_event(SrEventKind::Mode, {}, {}, by);
 }
 
 void Kernel::Impl::sr_event(SrEventKind kind, Generation g, Nanos span, std::optional<ServiceId> by) {
   if (observer == nullptr) return;
-  observer->on_sr_event(SrEvent{.kind = kind, .t = now(), .wall = wall(), .epoch = time_page.current().epoch,
+  observer->on_sr_event(SrEvent{.kind = kind, .t = now(), .wall = wall(), .epoch = kernel_clock.epoch(),
                                 .g = g, .mode = caps.mode(), .span = span, .by = by});
 }
 
@@ -257,7 +262,7 @@ Result<void, KernelError> Kernel::Impl::settle_images() {
 // ---- the rejuvenation timer ----
 
 void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period) {
-  const Epoch epoch = time_page.current().epoch;
+  const Epoch epoch = kernel_clock.epoch();
   if (rejuvenation.armed_in == epoch) {
     // DESIGN §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
     ++sr_stats.timer_arm_refused;

@@ -14,6 +14,8 @@
 #include "bridge.hpp"
 #include "fixed_ring.hpp"
 #include "invocation.hpp"
+#include "kernel_clock.hpp"
+#include "step_clock.hpp"
 #include "mission_watch.hpp"
 #include "netgate.hpp"
 #include "rejuv/broker/broker.hpp"
@@ -41,7 +43,6 @@ inline constexpr std::size_t kControlPoolCapacity = 256;     // queued non-ring 
 inline constexpr std::size_t kMaxCorkedFrames = 64;          // frames per service per cork (router.cpp)
 inline constexpr std::size_t kFramesPerWakeup = 64;          // fairness: frames read per channel per wakeup
 inline constexpr std::size_t kMaxStagedPerStep = 4096;       // publications per service per lockstep step
-inline constexpr std::uint32_t kMaxRoundsPerStep = 256;      // a step that never settles is cut here
 inline constexpr std::uint32_t kNoOrigin = 0xFFFF'FFFFU;     // the kernel / the DDS bridge
 
 // Where a service is in its life.
@@ -168,13 +169,6 @@ struct StagedSample {
   std::uint32_t size = 0;
 };
 
-// A SimStep from the plant (or a manual step).
-struct PendingStep {
-  std::uint64_t step = 0;
-  Nanos t{0};
-  std::uint64_t samples_needed = 0;
-};
-
 // A checkpoint in progress (DESIGN §7 "Checkpoint g"): the caller waits for its Reply; every rejuvenated
 // service is asked for an image and answers Taken.
 struct CheckpointRun {
@@ -215,7 +209,7 @@ struct Kernel::Impl {
   // ---- components ----
   cap::CapSystem caps;
   broker::Broker broker;
-  clock::TimePageWriter time_page;
+  KernelClock kernel_clock;                              // the time page's one writer (kernel_clock.hpp)
   clock::TimerTable timers;
   std::optional<sys::SeccompProgram> seccomp;
   std::optional<sys::SignalFd> signals;
@@ -242,20 +236,10 @@ struct Kernel::Impl {
   bool plant_started = false;
 
   // ---- lockstep ----
-  std::vector<PendingStep> pending_steps;
-  std::optional<PendingStep> active_step;
-  std::uint64_t samples_received = 0;
+  StepClock steps;               // the queue, the active step, its rounds and deadlines (step_clock.hpp)
   bool samples_on_step = false;  // sample readers are not in epoll: taken when a SimStep arrives
   bool watching_samples = false;
-  std::uint32_t rounds = 0;
-  Nanos step_started_wall{0};
-  Nanos last_step_done_wall{0};      // lockstep with the plant: for the stall report (supervisor.cpp)
-  std::optional<Nanos> short_of_samples_since{};  // wall time a step began to wait for missing samples
-  bool stall_reported = false;
-  void report_stall();
-  std::vector<ServiceId> hung_this_step;
-  std::uint64_t steps_done = 0;
-  std::uint64_t next_manual_step = 0;
+  void report_stall();           // supervisor.cpp: no step completed for kStallReportAfter
   std::vector<Staged> staged;
   std::vector<std::byte> stage_bytes;
   std::vector<StagedSample> samples;
@@ -345,7 +329,7 @@ struct Kernel::Impl {
   Impl(launch::LoadedLaunch g, KernelOptions o, Observer* obs, policy::Policy p, cap::CapSystem c, broker::Broker b,
        clock::TimePageWriter tp, std::size_t service_count, sys::Epoll e)
       : graph(std::move(g)), options(std::move(o)), observer(obs), policy(std::move(p)), caps(std::move(c)),
-        broker(std::move(b)), time_page(std::move(tp)), timers(service_count), epoll(std::move(e)) {}
+        broker(std::move(b)), kernel_clock(std::move(tp), caps.mode()), timers(service_count), epoll(std::move(e)) {}
 
   // ---- logging (loop.cpp) ----
   void log(const char* format, ...) __attribute__((format(printf, 2, 3)));
@@ -353,8 +337,8 @@ struct Kernel::Impl {
   void refuse(ServiceRuntime& s, std::string_view what);  // counts and logs (rate-limited) a bad frame
 
   // ---- time (loop.cpp) ----
-  [[nodiscard]] Nanos now() const { return time_page.current().now; }
-  void set_now(Nanos t);
+  [[nodiscard]] Nanos now() const { return kernel_clock.now(); }
+  void set_now(Nanos t);  // the kernel clock and the capability system's time
   [[nodiscard]] Nanos wall() const;
   void stop_run(StopReason reason, std::string detail);
 
@@ -430,7 +414,9 @@ struct Kernel::Impl {
   void kill_retired();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
-  void set_mode(SrMode mode, std::optional<ServiceId> by = std::nullopt);
+  void set_mode(SrMode mode, std::optional<ServiceId> by = std::nullopt);  // enter_mode, sr_mode published
+  // The capability system's mode, shown on the time page; false (logged) if the policy refuses it.
+  bool enter_mode(SrMode mode);
   // Observer::on_sr_event, stamped with now, the wall clock, the epoch and the mode (Figs. 7 and 8).
   void sr_event(SrEventKind kind, Generation g = {}, Nanos span = {}, std::optional<ServiceId> by = std::nullopt);
   [[nodiscard]] std::optional<ObjectId> kernel_topic(std::string_view type) const;

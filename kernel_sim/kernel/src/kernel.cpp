@@ -73,22 +73,20 @@ Result<StepReport, KernelError> Kernel::step(Nanos t) {
     return fail(kernel_error(KernelError::Kind::Config, "step() is for TimeMaster::Manual"));
   }
   if (!k.booted || k.shut_down) return fail(kernel_error(KernelError::Kind::Boot, "not booted"));
-  const std::uint64_t target = k.steps_done + 1;
-  k.pending_steps.push_back(PendingStep{.step = k.next_manual_step++, .t = t, .samples_needed = 0});
+  const std::uint64_t target = k.steps.steps_done() + 1;
+  k.steps.offer_manual(t);
   StepReport report;
   std::uint32_t rounds = 0;
-  while (k.steps_done < target) {
-    if (k.stop && !graceful(*k.stop) && !k.active_step) break;
-    if (!k.active_step && !k.pending_steps.empty()) {
-      const PendingStep next = k.pending_steps.front();
-      k.pending_steps.erase(k.pending_steps.begin());
-      k.begin_step(next);
-      report.step = next.step;
-      report.t = next.t;
+  while (k.steps.steps_done() < target) {
+    if (k.stop && !graceful(*k.stop) && !k.steps.active()) break;
+    if (const auto next = k.steps.begin_next(k.wall())) {
+      k.begin_step(*next);
+      report.step = next->step;
+      report.t = next->t;
     }
-    if (k.active_step && k.advance_step()) {
-      rounds = k.rounds;
-      report.hung = k.hung_this_step;
+    if (k.steps.active() && k.advance_step()) {
+      rounds = k.steps.rounds();
+      report.hung = k.steps.hung();
       k.finish_step();
       break;
     }
@@ -118,7 +116,7 @@ Result<RunOutcome, KernelError> Kernel::run() {
   }
   RunOutcome outcome{.reason = k.stop.value_or(StopReason::Requested),
                      .detail = k.stop_detail,
-                     .steps = k.steps_done,
+                     .steps = k.steps.steps_done(),
                      .sim_time = k.now(),
                      .wall_time = k.wall() - k.wall_start};
   shutdown();
@@ -164,7 +162,7 @@ const SrStats& Kernel::sr_stats() const { return impl_->sr_stats; }
 
 Result<Generation, KernelError> Kernel::checkpoint_now() {
   Impl& k = *impl_;
-  if (!k.sr || !k.booted || k.active_step || k.checkpoint_request) {
+  if (!k.sr || !k.booted || k.steps.active() || k.checkpoint_request) {
     return fail(kernel_error(KernelError::Kind::Config, "checkpoint_now: needs SR on, a booted kernel and no step in progress"));
   }
   const std::uint64_t before = k.sr_stats.checkpoints;
@@ -176,7 +174,7 @@ Result<Generation, KernelError> Kernel::checkpoint_now() {
 
 Result<void, KernelError> Kernel::rollback_now(bool cold) {
   Impl& k = *impl_;
-  if (!k.sr || !k.booted || k.active_step) {
+  if (!k.sr || !k.booted || k.steps.active()) {
     return fail(kernel_error(KernelError::Kind::Config, "rollback_now: needs SR on, a booted kernel and no step in progress"));
   }
   if (cold) {
@@ -186,7 +184,7 @@ Result<void, KernelError> Kernel::rollback_now(bool cold) {
   k.request_rollback("requested");
   return k.settle_images();
 }
-Epoch Kernel::epoch() const { return impl_->time_page.current().epoch; }
+Epoch Kernel::epoch() const { return impl_->kernel_clock.epoch(); }
 Nanos Kernel::flight_start() const { return impl_->flight_start; }
 void Kernel::settle_images() {
   Impl& k = *impl_;

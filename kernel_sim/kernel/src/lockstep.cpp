@@ -32,7 +32,7 @@ void Kernel::Impl::take_steps() {
   auto n = adapter->take_steps(
       bridge->bridge(),
       [&](const dds::PlantLockstep::Step& step) {
-        pending_steps.push_back(PendingStep{.step = step.step, .t = step.t, .samples_needed = step.samples_needed});
+        steps.offer(PendingStep{.step = step.step, .t = step.t, .samples_needed = step.samples_needed});
       },
       [&](std::size_t input, std::span<const std::byte> bytes) {
         if (!stopping) stage_sample(input, bytes);
@@ -66,11 +66,8 @@ void Kernel::Impl::watch_sample_readers(bool watch) {
 
 // ---- steps ----
 
+// The step StepClock::begin_next made active.
 void Kernel::Impl::begin_step(const PendingStep& step) {
-  active_step = step;
-  rounds = 0;
-  step_started_wall = wall();
-  hung_this_step.clear();
   for (ServiceRuntime& s : services) s.staged_this_step = 0;
   set_now(step.t);
   if (!sr_mode_announced) publish_sr_mode();
@@ -90,13 +87,13 @@ bool Kernel::Impl::advance_step() {
   for (;;) {
     if (service_images()) continue;  // a pending rollback, or a checkpoint once quiescent (images.cpp)
     if (!all_idle()) return false;
-    if (rounds >= kMaxRoundsPerStep) {
-      log("step %llu did not settle after %u routing rounds; ending it", static_cast<unsigned long long>(active_step->step),
-          rounds);
+    if (steps.rounds_exhausted()) {
+      log("step %llu did not settle after %u routing rounds; ending it",
+          static_cast<unsigned long long>(steps.active()->step), steps.rounds());
       return true;
     }
     if (!staged.empty()) {
-      ++rounds;
+      steps.next_round();
       cork();
       flush_staged();
       uncork();
@@ -104,7 +101,7 @@ bool Kernel::Impl::advance_step() {
     }
     // Timers armed during this step that are already due (e.g. after(0)).
     if (timers.next_due() && *timers.next_due() <= now()) {
-      ++rounds;
+      steps.next_round();
       cork();
       fire_timers();
       uncork();
@@ -115,9 +112,7 @@ bool Kernel::Impl::advance_step() {
 }
 
 void Kernel::Impl::finish_step() {
-  const PendingStep step = *active_step;
-  active_step.reset();
-  ++steps_done;
+  const PendingStep step = steps.finish(wall());
   if (dds::PlantLockstep* adapter = bridge ? bridge->lockstep() : nullptr; adapter != nullptr) {
     if (auto ok = adapter->write_ack(step.step, step.t, charge); !ok) {  // DESIGN §6: charge, in simulated time
       const std::string error = ok.error().to_string();
@@ -126,8 +121,6 @@ void Kernel::Impl::finish_step() {
     }
   }
   charge = Nanos{0};
-  last_step_done_wall = wall();
-  stall_reported = false;
   if (observer != nullptr) observer->on_step(step.step, step.t, caps.mode());
   check_stop_conditions();
 }
@@ -159,32 +152,22 @@ void Kernel::Impl::check_stop_conditions() {
 // rounds until the graph is idle, and is acknowledged; the loop sleeps in between.
 Result<void, KernelError> Kernel::Impl::run_lockstep() {
   for (;;) {
-    if (stop && (!graceful(*stop) || !active_step)) break;
-    // A sample DDS never delivers must not stall the run: after a second the step goes on without it
-    // (logged; the counts are re-synchronised so that the next steps do not wait for it either).
-    if (!active_step && !pending_steps.empty() && samples_received < pending_steps.front().samples_needed) {
-      if (!short_of_samples_since) short_of_samples_since = wall();
-      if (wall() - *short_of_samples_since > std::chrono::seconds{1}) {
-        log("step %llu: %llu sensor sample(s) never arrived; the step goes on without them",
-            static_cast<unsigned long long>(pending_steps.front().step),
-            static_cast<unsigned long long>(pending_steps.front().samples_needed - samples_received));
-        samples_received = pending_steps.front().samples_needed;
-      }
+    if (stop && (!graceful(*stop) || !steps.active())) break;
+    // A sample DDS never delivers must not stall the run: after a second the step goes on without it.
+    if (const auto gave_up = steps.give_up_on_samples(wall(), std::chrono::seconds{1})) {
+      log("step %llu: %llu sensor sample(s) never arrived; the step goes on without them",
+          static_cast<unsigned long long>(gave_up->step), static_cast<unsigned long long>(gave_up->missing));
     }
-    if (!active_step && !pending_steps.empty() && !stop && samples_received >= pending_steps.front().samples_needed) {
-      short_of_samples_since.reset();
-      const PendingStep next = pending_steps.front();
-      pending_steps.erase(pending_steps.begin());
-      begin_step(next);
+    if (!stop) {
+      if (const auto next = steps.begin_next(wall())) begin_step(*next);
     }
-    if (active_step && advance_step()) {
+    if (steps.active() && advance_step()) {
       finish_step();
       continue;  // the next step may already be waiting
     }
     // A step whose samples are not all in yet (DDS orders per writer only): wake on the sample readers too
     // until they are.
-    const bool short_of_samples =
-        !active_step && !pending_steps.empty() && samples_received < pending_steps.front().samples_needed;
+    const bool short_of_samples = steps.short_of_samples();
     watch_sample_readers(short_of_samples);
     if (auto ok = pump(short_of_samples ? std::optional<Nanos>(std::chrono::milliseconds{100}) : std::nullopt); !ok) {
       return ok;

@@ -85,7 +85,7 @@ void Kernel::Impl::refuse(ServiceRuntime& s, std::string_view what) {
 }
 
 void Kernel::Impl::set_now(Nanos t) {
-  time_page.set_now(t);
+  kernel_clock.advance(t);
   caps.set_time(t);
 }
 
@@ -167,12 +167,12 @@ void Kernel::Impl::on_dds_ready(std::size_t index) {
     // The lockstep adapter's count-only reader: samples that did not fit their SimStep on a topic the graph
     // does not bridge in, dropped but counted toward SimStep.samples_published.
     auto n = in.reader.take([](std::span<const std::byte>) {});
-    if (n) samples_received += *n;
+    if (n) steps.count_samples(*n);
     return;
   }
   const ObjectId topic = *in.topic;
   auto n = in.reader.take([&](std::span<const std::byte> bytes) {
-    ++samples_received;
+    steps.count_samples(1);
     if (stopping) return;
     if (clock_mode == ClockMode::Realtime) {
       if (!booted) return;
@@ -232,8 +232,8 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
     if (s.phase == Phase::Spawned || s.phase == Phase::Booted) consider(s.spawned_at + options.boot_deadline);
     if (s.live() && s.channel_closed_at) consider(*s.channel_closed_at + kChannelCloseGrace);
   }
-  if (active_step) consider(step_started_wall + options.idle_deadline);
-  if (plant_started && !stall_reported && last_step_done_wall > Nanos{0}) consider(last_step_done_wall + std::chrono::seconds{3});
+  if (const auto at = steps.idle_deadline(options.idle_deadline)) consider(*at);
+  if (const auto at = steps.stall_deadline(); plant_started && at) consider(*at);
   return best;
 }
 
@@ -247,18 +247,17 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
   flush_staged();  // anything published during boot
   request_priming();
   arm_timerfd();
-  std::uint64_t ticks = 0;
   while (!stop) {
     if (auto ok = pump(std::chrono::milliseconds{100}); !ok) return ok;
     while (service_images()) {
     }
     if (now() - last_progress >= std::chrono::milliseconds{100}) {
       last_progress = now();
-      if (observer != nullptr) observer->on_step(ticks++, now(), caps.mode());
+      if (observer != nullptr) observer->on_step(steps.steps_done(), now(), caps.mode());
+      steps.tick();
     }
     check_stop_conditions();
   }
-  steps_done = ticks;
   return {};
 }
 

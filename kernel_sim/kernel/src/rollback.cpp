@@ -90,7 +90,7 @@ std::expected<pid_t, std::string> read_resumed(const sys::SeqPacket& channel, Ge
 
 bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
                                      Nanos& resumed_at) {
-  const Epoch next{time_page.current().epoch.value() + 1};
+  const Epoch next = kernel_clock.next_epoch();
   struct Pending {
     ServiceRuntime* service = nullptr;
     image::Image* image = nullptr;
@@ -167,7 +167,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     return false;
   }
   if (observer != nullptr) observer->on_restore(record.g, broker);
-  time_page.write(clock::TimeSample{.now = now(), .mode = caps.mode(), .epoch = next});
+  kernel_clock.begin_epoch(next);
   return true;
 }
 
@@ -179,10 +179,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   }
   // The network is revoked before anything else happens; sr_mode is published once the services are back
   // (the ones about to die need not be woken for it).
-  if (auto changed = caps.apply_mode(SrMode::RB); !changed) {
-    log("mode RB: %s", std::string(cap::to_string(changed.error())).c_str());
-  }
-  time_page.write(clock::TimeSample{.now = now(), .mode = SrMode::RB, .epoch = time_page.current().epoch});
+  (void)enter_mode(SrMode::RB);
   sr_event(SrEventKind::Mode);
   retire_live_rejuvenated();
   const Nanos t_killed = wall();
@@ -215,7 +212,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   // The rollback is the rejuvenation: a pending once-timer is spent; a periodic one runs on.
   rejuvenation.due = rejuvenation.period > Nanos{0} ? std::optional<Nanos>(now() + rejuvenation.period) : std::nullopt;
   arm_timerfd();
-  const Epoch epoch = time_page.current().epoch;
+  const Epoch epoch = kernel_clock.epoch();
   // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
   // woken by a delivery, or the plant's thread woken by a DDS write, may take the CPU at once.
   routing_frozen = true;
@@ -252,8 +249,7 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   kill_retired();
   rejuvenation = RejuvenationTimer{};
   arm_timerfd();
-  const Epoch next{time_page.current().epoch.value() + 1};
-  time_page.write(clock::TimeSample{.now = now(), .mode = caps.mode(), .epoch = next});
+  kernel_clock.begin_epoch(kernel_clock.next_epoch());
   set_mode(SrMode::SC);  // safe, network off
   for (ServiceRuntime& s : services) {
     if (!s.rejuvenate || s.skip) continue;

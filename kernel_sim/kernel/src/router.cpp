@@ -113,7 +113,7 @@ void Kernel::Impl::publish_sr_mode() {
     }
     const rejuv_msg_SrMode m{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
                              .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
-                             .epoch = time_page.current().epoch.value(),
+                             .epoch = kernel_clock.epoch().value(),
                              .generation = 0};
     publish_as_kernel(o.id, std::as_bytes(std::span(&m, 1)));
   }

@@ -124,7 +124,7 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
     if (const char* v = std::getenv(keep); v != nullptr) spec.env.push_back(std::string(keep) + "=" + v);
   }
   spec.fds = {{0, null->get()}, {1, out->write.get()}, {2, out->write.get()},
-              {wire::kChannelFd, service_end.fd()}, {wire::kTimePageFd, time_page.read_only_fd().get()}};
+              {wire::kChannelFd, service_end.fd()}, {wire::kTimePageFd, kernel_clock.read_only_fd().get()}};
   spec.seccomp = &*seccomp;
   spec.session = sys::Session::NewSession;
   spec.isolation = options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
@@ -217,7 +217,7 @@ void Kernel::Impl::send_boot(ServiceRuntime& s) {
     }
     boot_caps.push_back(channel::encode_boot_cap(entry));
   }
-  const channel::BootIdentity who{.service = s.id, .epoch = time_page.current().epoch, .name = s.name};
+  const channel::BootIdentity who{.service = s.id, .epoch = kernel_clock.epoch(), .name = s.name};
   channel::write_boot_script(tx, who, boot_caps, s.params, [&](std::span<const std::byte> frame) { send_control(s, frame); });
 }
 
@@ -291,7 +291,7 @@ void Kernel::Impl::kill_hung(ServiceRuntime& s, std::string reason) {
   if (!s.live() || !s.loss_reason.empty()) return;
   s.loss_reason = std::move(reason);
   s.stats.hung = true;
-  if (active_step) hung_this_step.push_back(s.id);
+  steps.note_hung(s.id);
   log("killing '%s': %s", s.name.c_str(), s.loss_reason.c_str());
   (void)s.process.signal(SIGKILL);  // the pidfd reports the death; on_child_exit does the rest
 }
@@ -308,15 +308,12 @@ void Kernel::Impl::on_plant_exit() {
 // Lockstep with the plant: no step has completed for a while. Says what the kernel is waiting for (a step's
 // samples, an idle service, a checkpoint's quiescence) once per stall, so that a hang is never silent.
 void Kernel::Impl::report_stall() {
-  stall_reported = true;
+  steps.stall_reported();
   std::string what;
-  if (!active_step) {
-    what = pending_steps.empty() ? "no SimStep from the plant"
-                                 : "step " + std::to_string(pending_steps.front().step) + " waits for samples: " +
-                                       std::to_string(samples_received) + " of " +
-                                       std::to_string(pending_steps.front().samples_needed);
+  if (!steps.active()) {
+    what = steps.waiting_for();
   } else {
-    what = "step " + std::to_string(active_step->step) + " in round " + std::to_string(rounds);
+    what = "step " + std::to_string(steps.active()->step) + " in round " + std::to_string(steps.rounds());
     for (const ServiceRuntime& s : services) {
       if (!s.live() || s.idle()) continue;
       what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.phase)) + ", idle " +
@@ -328,13 +325,12 @@ void Kernel::Impl::report_stall() {
     if (rollback_request) what += "; a rollback is pending";
     if (!staged.empty()) what += "; " + std::to_string(staged.size()) + " staged";
   }
-  log("no lockstep step completed for %.1f s: %s", to_seconds(wall() - last_step_done_wall).count(), what.c_str());
+  log("no lockstep step completed for %.1f s: %s", to_seconds(wall() - steps.last_done()).count(), what.c_str());
 }
 
 void Kernel::Impl::check_deadlines() {
   const Nanos t = wall();
-  if (plant_started && clock_mode == ClockMode::Lockstep && !stall_reported && last_step_done_wall > Nanos{0} &&
-      t - last_step_done_wall > std::chrono::seconds{3}) {
+  if (const auto at = steps.stall_deadline(); plant_started && clock_mode == ClockMode::Lockstep && at && t > *at) {
     report_stall();
   }
   for (ServiceRuntime& s : services) {
@@ -349,7 +345,7 @@ void Kernel::Impl::check_deadlines() {
       kill_hung(s, "closed its channel");
     }
   }
-  if (active_step && t - step_started_wall > options.idle_deadline) {
+  if (const auto at = steps.idle_deadline(options.idle_deadline); at && t > *at) {
     bool killed = false;
     for (ServiceRuntime& s : services) {
       if (!s.live() || s.idle()) continue;
@@ -357,12 +353,12 @@ void Kernel::Impl::check_deadlines() {
       if (s.channel.valid()) read_channel(s);
       if (s.live() && !s.idle()) {
         kill_hung(s, "not idle within the idle deadline (" + std::to_string(to_seconds(options.idle_deadline).count()) +
-                         " s) of step " + std::to_string(active_step->step));
+                         " s) of step " + std::to_string(steps.active()->step));
         killed = true;
       }
     }
     // The others get a full deadline again for what the step still has to do.
-    if (killed) step_started_wall = t;
+    if (killed) steps.restart_idle_deadline(t);
   }
 }
 
@@ -377,7 +373,7 @@ void Kernel::Impl::shutdown_all() {
     }
     // Grace: keep the loop running (reading channels, draining queued Shutdowns, reaping).
     const Nanos deadline = wall() + options.shutdown_grace;
-    active_step.reset();
+    steps.abandon();
     while (wall() < deadline &&
            std::any_of(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.live(); })) {
       if (!pump(std::min<Nanos>(deadline - wall(), std::chrono::milliseconds{50}))) break;
