@@ -53,9 +53,9 @@ void Kernel::Impl::run_checkpoint() {
   flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   for (ServiceRuntime& s : services) {
     if (!s.rejuvenate || s.phase != Phase::Ready) continue;
-    auto pair = take_pair();
+    auto pair = channel_pool.take();
     if (!pair) {
-      run.failure = "resume socket: out of fds?";
+      run.failure = "resume socket: " + pair.error().to_string();
       break;
     }
     const Generation base = pages_base_for(s);
@@ -233,7 +233,7 @@ void Kernel::Impl::send_patches(image::GenerationRecord& record) {
   for (image::Image& im : record.images) {
     if (!im.pages.valid()) {  // by fork: the image is its own process
       ++sr_stats.images_by_fork;
-      closing.push_back(std::move(im.image_end));
+      channel_pool.close_later(std::move(im.image_end));
       continue;
     }
     ++sr_stats.images_by_pages;
@@ -248,8 +248,8 @@ void Kernel::Impl::send_patches(image::GenerationRecord& record) {
       log("generation %llu: no copy of generation %llu's image of '%s' to make its image from",
           num(record.g), num(im.base), services[im.service.value()].name.c_str());
     }
-    closing.push_back(std::move(im.pages));
-    closing.push_back(std::move(im.image_end));
+    channel_pool.close_later(std::move(im.pages));
+    channel_pool.close_later(std::move(im.image_end));
   }
 }
 

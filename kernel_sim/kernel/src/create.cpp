@@ -344,7 +344,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   for (const Step step : {&add_services, &check_plant_executable, &place, &open_bridge, &watch_event_sources}) {
     if (auto ok = step(k); !ok) return fail(ok.error());
   }
-  k.dying_slack = k.processes_to_spare();  // the services' limits are known now (add_services)
+  k.reaper.set_slack(k.processes_to_spare());  // the services' limits are known now (add_services)
   if (auto ok = k.net_open(); !ok) return fail(ok.error());  // the network gate (netgate.cpp)
   return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));
 }

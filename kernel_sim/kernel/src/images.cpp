@@ -71,41 +71,10 @@ void Kernel::Impl::sr_event(SrEventKind kind, Generation g, Nanos span, std::opt
 
 // ---- socket pairs made ahead ----
 
-std::optional<std::pair<sys::SeqPacket, sys::SeqPacket>> Kernel::Impl::take_pair() {
-  if (!pair_pool.empty()) {
-    auto pair = std::move(pair_pool.back());
-    pair_pool.pop_back();
-    return pair;
-  }
-  auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
-  if (!pair) {
-    // Out of fds or memory (EMFILE, ENFILE, ENOMEM): said, never silent; the caller abandons or falls back.
-    log("a channel for a checkpoint or rollback: %s", pair.error().to_string().c_str());
-    return std::nullopt;
-  }
-  if (auto ok = sys::set_nonblocking(pair->first.fd(), true); !ok) {
-    log("a channel for a checkpoint or rollback: %s", ok.error().to_string().c_str());
-    return std::nullopt;
-  }
-  return std::move(*pair);
-}
-
 void Kernel::Impl::refill_pairs() {
-  closing.clear();
-  // One checkpoint or one rollback of every rejuvenated service.
   const std::size_t want = static_cast<std::size_t>(
       std::count_if(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.rejuvenate && !s.skip; }));
-  while (pair_pool.size() < want) {
-    auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
-    if (!pair) {
-      if (!pair_shortage_logged) log("socket pairs made ahead: %s", pair.error().to_string().c_str());
-      pair_shortage_logged = true;
-      return;
-    }
-    if (!sys::set_nonblocking(pair->first.fd(), true)) return;
-    pair_shortage_logged = false;
-    pair_pool.push_back(std::move(*pair));
-  }
+  if (const auto shortage = channel_pool.refill(want)) log("socket pairs made ahead: %s", shortage->to_string().c_str());
 }
 
 void Kernel::Impl::open_pagemaps() {
@@ -133,16 +102,10 @@ void Kernel::Impl::finish_retiring(bool final) {
         if (im.refresh() > 0 && im.spares_pending > 0) settled = false;
       }
       if (!settled) return false;
-      // Killed now, at their own priority, and reaped off the critical path (service_images). A victim's
-      // exit runs at once whatever its priority (sys/process.hpp: 8 kills 0.68 ms, 0.69 ms at nice 19), but
-      // lowered first, on a loaded machine the ones that did not run at once took seconds to die, holding
-      // their uid's process slots (max_processes) all along.
+      // Killed now (Reaper::kill) and reaped off the critical path (service_images).
       for (image::Image& im : r.images) {
         im.resume.close();
-        for (sys::ChildProcess& c : im.copies) {
-          (void)c.signal(SIGKILL);
-          reaping.push_back(std::move(c));
-        }
+        for (sys::ChildProcess& c : im.copies) reaper.kill(std::move(c));
       }
       return true;
     });
@@ -169,12 +132,12 @@ void Kernel::Impl::resume_routing() {
 // ---- safe points ----
 
 bool Kernel::Impl::service_images() {
-  // Incarnations retired by a rollback killed, then the killed ones reaped (reap_dying), all off the
+  // Incarnations retired by a rollback killed, then the killed ones reaped (Reaper::reap), all off the
   // rollback's critical path. In this order: a SIGKILL's victim runs its exit at once, so most are reaped
   // here, not one safe point later (where `rejuv soak` found them as one more process and fd at a sample).
-  kill_retired();
+  reaper.kill_retired();
   if (!retiring.empty()) finish_retiring(false);
-  reap_dying();
+  reaper.reap();
   if (!stopping && !checkpoint && !rollback_request && !checkpoint_request) sweep_if_due();  // sandbox.cpp
   if (!sr || stopping || checkpoint) return false;
   if (!rollback_request && !checkpoint_request) {  // off the critical paths
@@ -210,15 +173,8 @@ Nanos Kernel::Impl::image_wait_bound() const {
 // ones hold their uid's process slots (max_processes, RLIMIT_NPROC) until reaped, and on a loaded machine
 // they die slowly — every process of a service shares its session's CPU share. Without this, 1000 SR cycles
 // in 2 s of wall time on 2 cores shared with six other multiproc tests left a copy unable to fork (the
-// generation then unusable). Waits, within image_wait_bound(), until at most dying_slack are dying.
-void Kernel::Impl::settle_dying() {
-  reap_dying();
-  const Nanos until = wall() + image_wait_bound();
-  while (reaping.size() > dying_slack && wall() < until) {
-    (void)sys::wait_fd(reaping.front().pidfd(), sys::WaitFor::Readable, until - wall());
-    reap_dying();
-  }
-}
+// generation then unusable). Waits, within image_wait_bound(), until few enough are dying (processes_to_spare).
+void Kernel::Impl::settle_dying() { reaper.settle(wall() + image_wait_bound()); }
 
 // What every rejuvenated service can spare: half of what its max_processes leaves beside 1 + 2(K + 1), the
 // live one and an image and a spare per generation (no limit: any number).
@@ -230,14 +186,6 @@ std::uint64_t Kernel::Impl::processes_to_spare() const {
     if (const auto limit = limits_for(s).processes) least = std::min(least, *limit > needed ? *limit - needed : 0);
   }
   return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;
-}
-
-// Killed processes reaped (each was killed at normal priority: finish_retiring, kill_retired).
-void Kernel::Impl::reap_dying() {
-  std::erase_if(reaping, [](sys::ChildProcess& p) {
-    auto status = p.try_wait();
-    return !status || *status;
-  });
 }
 
 // DESIGN §6: the simulated time a checkpoint or rollback costs the plant's world (controls held) is the launch

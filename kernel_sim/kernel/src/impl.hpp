@@ -12,12 +12,14 @@
 #include <vector>
 
 #include "bridge.hpp"
+#include "channel_pool.hpp"
 #include "fixed_ring.hpp"
 #include "invocation.hpp"
 #include "kernel_clock.hpp"
 #include "step_clock.hpp"
 #include "mission_watch.hpp"
 #include "netgate.hpp"
+#include "reaper.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/channel/codes.hpp"
@@ -283,26 +285,17 @@ struct Kernel::Impl {
   bool priming_request = false;
   void charge_image_work(Nanos measured, Nanos modelled);
   void request_priming();
-  std::vector<sys::ChildProcess> reaping;   // incarnations killed by a rollback, reaped at the next safe point
+  Reaper reaper;  // retired incarnations, killed processes not reaped yet (reaper.hpp)
   // As root, service i runs as sys::service_uid(*uid_block, i), from a block this kernel alone holds.
   std::optional<sys::Lease> uid_block;
-  // settle_dying: how many killed processes may be dying at once (computed once, at create).
-  std::uint64_t dying_slack = 0;
   std::vector<std::pair<ObjectId, std::vector<std::byte>>> held_bridge_out;  // while routing is frozen
-  // Incarnations a rollback retired, killed at the next safe point (retire_live_rejuvenated, kill_retired).
-  std::vector<sys::ChildProcess> retired;
-  // Socket pairs made ahead (kernel end non-blocking), so that no socketpair() is on the critical path of
-  // a checkpoint (resume sockets) or a rollback (channels); refilled at safe points.
-  std::vector<std::pair<sys::SeqPacket, sys::SeqPacket>> pair_pool;
-  bool pair_shortage_logged = false;  // refill_pairs: an fd shortage is logged once per shortage
-  std::vector<sys::UniqueFd> closing;       // service ends already passed on: closed after the timed part
+  ChannelPool channel_pool;  // socket pairs made ahead, fds closed after the timed part (channel_pool.hpp)
   // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
   // be unknown children): destroyed once they have (images.cpp, service_images).
   std::vector<image::GenerationRecord> retiring;
   void retire(image::GenerationRecord record);
   void finish_retiring(bool final);
-  [[nodiscard]] std::optional<std::pair<sys::SeqPacket, sys::SeqPacket>> take_pair();
-  void refill_pairs();
+  void refill_pairs();  // channel_pool, for one checkpoint or rollback of every rejuvenated service
   // Opens the pagemap of every live incarnation that may take its next image by written pages (a service is
   // not dumpable and cannot open its own; the Snapshot hands it over). Off the critical paths, like refill_pairs.
   void open_pagemaps();
@@ -404,14 +397,12 @@ struct Kernel::Impl {
   [[nodiscard]] Nanos image_wait_bound() const;
   [[nodiscard]] bool vehicle_sees_image_work() const;  // real time, or lockstep charging the measured duration
   void settle_dying();  // images.cpp: backpressure on killed processes before a checkpoint or rollback
-  [[nodiscard]] std::uint64_t processes_to_spare() const;  // images.cpp: the value of dying_slack
-  void reap_dying();
+  [[nodiscard]] std::uint64_t processes_to_spare() const;  // images.cpp: the reaper's slack
   void cold_restart(const std::string& reason);
   void resume_routing();
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
   [[nodiscard]] Result<void, KernelError> settle_images();
   void retire_live_rejuvenated();
-  void kill_retired();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
   void set_mode(SrMode mode, std::optional<ServiceId> by = std::nullopt);  // enter_mode, sr_mode published

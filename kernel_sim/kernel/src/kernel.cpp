@@ -197,9 +197,7 @@ void Kernel::settle_images() {
     if (!pending || k.wall() > deadline) break;
     (void)sys::wait_fd(k.epoll.fd(), sys::WaitFor::Readable, std::chrono::milliseconds{1});
   }
-  k.kill_retired();
-  for (sys::ChildProcess& p : k.reaping) p.kill_and_reap();
-  k.reaping.clear();
+  k.reaper.kill_all_and_reap();
 }
 
 std::vector<int> Kernel::image_pids(ServiceId service) {

@@ -18,37 +18,21 @@ void Kernel::Impl::request_rollback(std::string reason) {
   if (!rollback_request) rollback_request = std::move(reason);
 }
 
-// At a safe point after the rollback. SCHED_IDLE kept them out of the rollback's way; it is undone before the
-// kill: left idle, on a loaded machine they took seconds to die while holding their uid's process slots (60
-// of the worker's 64 in Images.HundredRollbacks on 2 cores beside six multiproc tests, where its next
-// resumed image could not start its thread).
-void Kernel::Impl::kill_retired() {
-  for (sys::ChildProcess& p : retired) {
-    (void)sys::normal_priority(p.pid());
-    (void)p.signal(SIGKILL);
-    reaping.push_back(std::move(p));
-  }
-  retired.clear();
-}
-
 void Kernel::Impl::retire_live_rejuvenated() {
   std::erase_if(staged, [&](const Staged& e) { return services[e.origin].rejuvenate; });
   for (ServiceRuntime& s : services) {
     if (!s.rejuvenate || s.skip || s.phase == Phase::NotStarted) continue;
     if (s.live()) {
-      // Not signalled here: a signal wakes its victim, which then takes the CPU at once (8 SIGKILLs 0.68 ms:
-      // its exit runs inline; 8 SIGSTOPs 0.09 ms; 8 switches to SCHED_IDLE 0.013 ms; /tmp micro-benchmark,
-      // one CPU). Under SCHED_IDLE it runs only when nothing else on its CPU can, with its channel out of
-      // the loop, no signal to another process and no socket (seccomp): it cannot slow the rollback down or
-      // reach anything. Where the switch is refused, it is stopped. Killed after the rollback (kill_retired).
-      if (!sys::idle_priority(s.process.pid())) (void)s.process.signal(SIGSTOP);
+      // Out of the rollback's way (Reaper::retire: SCHED_IDLE, not signalled), with its channel out of the
+      // loop, no signal to another process and no socket (seccomp): it cannot slow the rollback down or reach
+      // anything. Killed after the rollback, at a safe point (Reaper::kill_retired).
       (void)epoll.remove(s.process.pidfd());
-      retired.push_back(std::move(s.process));
+      reaper.retire(std::move(s.process));
       s.process = sys::ChildProcess{};
     }
     if (s.channel.valid()) {
       (void)epoll.remove(s.channel.fd());
-      closing.push_back(s.channel.take_fd());  // closed off the critical path (refill_pairs)
+      channel_pool.close_later(s.channel.take_fd());  // closed off the critical path (refill_pairs)
     }
     s.phase = Phase::Dead;
     broker.remove_service(s.id);
@@ -101,9 +85,9 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
   // All Resumes first: the images wake in parallel. No fork here: a spare copy takes the Resume.
   for (image::Image& im : record.images) {
     ServiceRuntime& s = services[im.service.value()];
-    auto channel = take_pair();
+    auto channel = channel_pool.take();
     if (!channel) {
-      failure = "channel for a restored image: out of fds?";
+      failure = "channel for a restored image: " + channel.error().to_string();
       break;
     }
     const wire::ResumeBody body{.epoch = next.value(), .reserved = 0};
@@ -246,7 +230,7 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   sr_event(SrEventKind::ColdRestart);
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
-  kill_retired();
+  reaper.kill_retired();
   rejuvenation = RejuvenationTimer{};
   arm_timerfd();
   kernel_clock.begin_epoch(kernel_clock.next_epoch());

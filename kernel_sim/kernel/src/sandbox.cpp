@@ -229,10 +229,7 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
         }
       }
     }
-    const auto in = [&](const std::vector<sys::ChildProcess>& v) {
-      return std::any_of(v.begin(), v.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
-    };
-    return in(reaping) || in(retired);
+    return reaper.knows(pid);
   };
   for (const pid_t pid : *children) {
     if (!final && known(pid)) continue;

@@ -400,9 +400,7 @@ void Kernel::Impl::shutdown_all() {
   // Every image and every killed incarnation (DESIGN §7): killed and reaped.
   for (image::GenerationRecord& r : images.take_all()) retiring.push_back(std::move(r));
   finish_retiring(true);
-  kill_retired();
-  for (sys::ChildProcess& p : reaping) p.kill_and_reap();
-  reaping.clear();
+  reaper.kill_all_and_reap();
   // And whatever else a service left (DESIGN §7 "Protection"): nothing outlives the run.
   sweep_strays("shutdown", true);
   for (ServiceRuntime& s : services) close_sandbox(s);
