@@ -136,7 +136,7 @@ struct Spawned {
 // tearing down its address space, ≈ 0.09 ms here — at once, whatever its priority (measured: 8 kills
 // 0.68 ms, 0.69 ms at nice 19), so a rollback kills its victims only after, at a safe point.
 [[nodiscard]] SysResult<void> idle_priority(pid_t pid);
-// SCHED_OTHER at nice 0: undoes idle_priority before the kill (rollback.cpp kill_retired).
+// SCHED_OTHER at nice 0: undoes idle_priority before the kill (the kernel's Reaper::kill_retired).
 [[nodiscard]] SysResult<void> normal_priority(pid_t pid);
 
 // Sends `sig` to `pid` through a pidfd, only if `still_same()` holds once the pidfd is open (so that a pid
