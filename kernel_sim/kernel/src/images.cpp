@@ -89,7 +89,7 @@ void Kernel::Impl::refill_pairs() {
   closing.clear();
   // One checkpoint or one rollback of every rejuvenated service.
   const std::size_t want = static_cast<std::size_t>(
-      std::count_if(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.rejuvenate && !s.skip; }));
+      std::count_if(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.config.rejuvenate && !s.config.skip; }));
   while (pair_pool.size() < want) {
     auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
     if (!pair) {
@@ -106,9 +106,9 @@ void Kernel::Impl::refill_pairs() {
 void Kernel::Impl::open_pagemaps() {
   if (!options.images_by_pages) return;
   for (ServiceRuntime& s : services) {
-    if (!s.rejuvenate || !s.live() || s.image_base.value() == 0 || s.pagemap.valid()) continue;
-    const std::string path = "/proc/" + std::to_string(s.process.pid()) + "/pagemap";
-    s.pagemap = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (!s.config.rejuvenate || !s.live() || s.pages.base.value() == 0 || s.pages.pagemap.valid()) continue;
+    const std::string path = "/proc/" + std::to_string(s.proc.process.pid()) + "/pagemap";
+    s.pages.pagemap = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
   }
 }
 
@@ -156,7 +156,7 @@ void Kernel::Impl::resume_routing() {
   release_bridge_out();
   for (ServiceRuntime& s : services) {
     if (!s.live()) continue;
-    s.sweep = true;
+    s.flow.request_sweep();
     drain(s);
   }
 }
@@ -221,7 +221,7 @@ std::uint64_t Kernel::Impl::processes_to_spare() const {
   std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
   const std::uint64_t needed = 1 + 2 * (std::uint64_t{launch::keep_generations(graph.graph.sr())} + 1);
   for (const ServiceRuntime& s : services) {
-    if (!s.rejuvenate || s.skip) continue;
+    if (!s.config.rejuvenate || s.config.skip) continue;
     if (const auto limit = limits_for(s).processes) least = std::min(least, *limit > needed ? *limit - needed : 0);
   }
   return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;

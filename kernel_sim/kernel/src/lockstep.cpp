@@ -71,7 +71,7 @@ void Kernel::Impl::begin_step(const PendingStep& step) {
   rounds = 0;
   step_started_wall = wall();
   hung_this_step.clear();
-  for (ServiceRuntime& s : services) s.staged_this_step = 0;
+  for (ServiceRuntime& s : services) s.flow.new_step();
   set_now(step.t);
   if (!sr_mode_announced) publish_sr_mode();
   request_priming();
