@@ -16,6 +16,7 @@
 #include "invocation.hpp"
 #include "mission_watch.hpp"
 #include "netgate.hpp"
+#include "output_batch.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/channel/codes.hpp"
@@ -37,7 +38,6 @@
 namespace rejuv::kernel {
 
 inline constexpr Nanos kChannelCloseGrace{std::chrono::seconds{1}};  // closed fd 3 but still running: lost
-inline constexpr std::size_t kMaxCorkedFrames = 64;          // frames per service per cork (router.cpp)
 inline constexpr std::size_t kFramesPerWakeup = 64;          // fairness: frames read per channel per wakeup
 inline constexpr std::uint32_t kMaxRoundsPerStep = 256;      // a step that never settles is cut here
 inline constexpr std::uint32_t kNoOrigin = 0xFFFF'FFFFU;     // the kernel / the DDS bridge
@@ -127,6 +127,7 @@ struct Kernel::Impl {
   std::optional<sys::TimerFd> timerfd;
   std::optional<DdsBridge> bridge;                 // DDS, and the plant's lockstep adapter (bridge.hpp)
   NetGate net;                                     // the external link's UDP socket (netgate.cpp)
+  OutputBatch batch;                               // a lockstep round's output (router.cpp, cork/uncork)
 
   std::vector<msgs::TopicType> declared_types;     // the policy's own (`types`), pointed to by objects
   std::vector<ObjectInfo> objects;                 // by ObjectId
@@ -165,15 +166,6 @@ struct Kernel::Impl {
   std::vector<StagedSample> samples;
   std::vector<std::byte> sample_bytes;
   std::vector<std::uint32_t> order;                // sort scratch
-  // Output batching within a lockstep routing round (router.cpp, cork/uncork): a service's frames are laid
-  // out as in a datagram as they are sent, and leave together when the round is routed, so a service that
-  // gets several frames wakes once.
-  struct Cork {
-    std::vector<std::byte> frames;  // back to back, aligned (wire::next_frame)
-    std::size_t count = 0;
-  };
-  bool corked = false;
-  std::vector<Cork> corks;  // by service
 
   // ---- images (images.cpp, DESIGN §7) ----
   image::ImageStore images{2};
@@ -377,14 +369,14 @@ struct Kernel::Impl {
   void publish_sr_mode();
   bool write_to_bridge(ObjectId topic, std::span<const std::byte> payload);  // false: the run stops
   void release_bridge_out();
-  // Output to a service (flow control).
+  // Output to a service (flow control: FlowControl, service_runtime.hpp, keeps the order, the pool, the count).
   void push_ring(ServiceRuntime& s, broker::SubscriberId subscriber);
   // What the polled subscriptions of `s` have pending, pushed ahead of a frame that wakes `s` anyway.
   void hand_over_polled(ServiceRuntime& s);
   void send_control(ServiceRuntime& s, std::span<const std::byte> frame);
   void drain(ServiceRuntime& s);
-  void cork();
-  void uncork();
+  void cork();    // opens the output batch (output_batch.hpp) for a routing round
+  void uncork();  // closes it and flushes every service's frames
   void uncork_service(ServiceRuntime& s);
   enum class SendResult : std::uint8_t { Sent, Blocked, Failed };
   SendResult send_now(ServiceRuntime& s, std::span<const std::byte> frame);

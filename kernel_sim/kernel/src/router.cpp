@@ -176,17 +176,14 @@ void Kernel::Impl::hand_over_polled(ServiceRuntime& s) {
 
 void Kernel::Impl::set_writable_interest(ServiceRuntime& s, bool want) {
   if (!s.proc.channel.valid() || !s.flow.set_want_writable(want)) return;
-  (void)epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()), sys::Interest{.readable = true, .writable = want});
+  (void)epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
+                     sys::Interest{.readable = true, .writable = want});
 }
 
 Kernel::Impl::SendResult Kernel::Impl::send_now(ServiceRuntime& s, std::span<const std::byte> frame) {
   if (!s.proc.channel.valid()) return SendResult::Failed;
-  if (corked) {
-    // Counted now: the service is not idle until it has reported these frames too.
-    Cork& c = corks[s.id.value()];
-    channel::append_frame(c.frames, frame);
-    s.flow.count_sent();
-    if (++c.count == kMaxCorkedFrames) uncork_service(s);
+  if (batch.is_open()) {
+    if (batch.add(s.id, s.flow, frame)) uncork_service(s);  // full
     return SendResult::Sent;
   }
   auto sent = s.proc.channel.send(frame);
@@ -241,49 +238,25 @@ void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> fr
   }
 }
 
-// ---- output batching (lockstep rounds) ----
-//
-// Between cork() and uncork() a frame that would go out at once (the service has nothing waiting) is
-// appended to the service's cork instead, laid out as in a datagram, and uncork() sends it in as few
-// datagrams as hold it (wire::datagram_prefix): the deliveries of a routing round wake a service once, not
-// once per frame (the service would otherwise wake on the first, report Idle, and wake again; sendmmsg of
-// one datagram per frame did that, docs/performance.md). Only the step code corks (begin_step,
-// advance_step), around routing that sends nothing else on the channels. A cork is capped at
-// kMaxCorkedFrames, so what a full channel refuses (EAGAIN) fits in the service's control queue: the first
-// frame becomes the held frame, the rest wait in the out-queue as control frames, in order (its out-queue
-// was empty, or the frames would not be in the cork).
+// ---- output batching (lockstep rounds: output_batch.hpp) ----
 
-void Kernel::Impl::cork() {
-  if (corks.size() != services.size()) corks.resize(services.size());
-  corked = true;
-}
+void Kernel::Impl::cork() { batch.open(services.size()); }
 
 void Kernel::Impl::uncork() {
-  corked = false;
+  batch.close();
   for (ServiceRuntime& s : services) {
-    if (corks[s.id.value()].count > 0) uncork_service(s);
+    if (batch.has_frames(s.id)) uncork_service(s);
   }
 }
 
 void Kernel::Impl::uncork_service(ServiceRuntime& s) {
-  Cork& c = corks[s.id.value()];
-  auto sent = s.proc.channel.valid() ? channel::send_packed(s.proc.channel, c.frames) : Result<void, channel::Unsent>{};
-  // EPIPE: the service is gone; its pidfd will say so. EAGAIN: the channel is full: keep the rest, in
-  // order, and count each frame again when it really leaves.
-  if (!sent && sent.error().error.error == EAGAIN) {
-    const std::span<const std::byte> rest = std::span<const std::byte>(c.frames).subspan(sent.error().sent);
+  batch.flush(s.id, s.proc.channel, s.flow, [&](std::span<const std::byte> refused) {
+    // In order: the first is held, the rest wait behind it as control frames (each counted when it leaves).
     std::size_t offset = 0;
-    const std::span<const std::byte> first = wire::next_frame(rest, offset);
-    s.flow.hold(first);
-    s.flow.uncount(1);
+    s.flow.hold(wire::next_frame(refused, offset));
     set_writable_interest(s, true);
-    while (offset < rest.size()) {
-      s.flow.uncount(1);
-      send_control(s, wire::next_frame(rest, offset));
-    }
-  }
-  c.frames.clear();
-  c.count = 0;
+    while (offset < refused.size()) send_control(s, wire::next_frame(refused, offset));
+  });
 }
 
 void Kernel::Impl::drain(ServiceRuntime& s) {
