@@ -89,7 +89,8 @@ void Kernel::Impl::refill_pairs() {
   closing.clear();
   // One checkpoint or one rollback of every rejuvenated service.
   const std::size_t want = static_cast<std::size_t>(
-      std::count_if(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.config.rejuvenate && !s.config.skip; }));
+      std::count_if(services.begin(), services.end(),
+                    [](const ServiceRuntime& s) { return s.config.rejuvenate && !s.config.skip; }));
   while (pair_pool.size() < want) {
     auto pair = sys::SeqPacket::pair(sys::Blocking::Yes);
     if (!pair) {

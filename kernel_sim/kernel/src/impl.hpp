@@ -167,7 +167,7 @@ struct Kernel::Impl {
   std::vector<std::byte> sample_bytes;
   std::vector<std::uint32_t> order;                // sort scratch
 
-  // ---- images (images.cpp, DESIGN §7) ----
+  // ---- the image coordinator's state (images.cpp, checkpoint.cpp, rollback.cpp; DESIGN §7) ----
   image::ImageStore images{2};
   // The caller and its Invoke seq; no caller: the kernel's own (Kernel::checkpoint_now, benchmarks).
   std::optional<std::pair<std::optional<ServiceId>, std::uint32_t>> checkpoint_request;
@@ -261,8 +261,8 @@ struct Kernel::Impl {
   void send_boot(ServiceRuntime& s);
   void on_child_exit(ServiceRuntime& s);
   void on_plant_exit();
-  // The one place a service is lost (death, hang, protocol fault). SR off: the run ends. With the image
-  // store (DESIGN §7) a rejuvenated service is restored here instead.
+  // The one place a service is lost (death, hang, protocol fault). With SR a rejuvenated service's loss asks
+  // for a rollback (DESIGN §7); before the graph has booted, without SR, or for a driver-level service the run ends.
   void lose_service(ServiceRuntime& s, std::string reason);
   void kill_hung(ServiceRuntime& s, std::string reason);
   void check_deadlines();

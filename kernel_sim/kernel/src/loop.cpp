@@ -229,7 +229,7 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
   std::optional<Nanos> best;
   const auto consider = [&](Nanos t) { best = best ? std::min(*best, t) : t; };
   for (const ServiceRuntime& s : services) {
-    if (s.proc.phase == Phase::Spawned || s.proc.phase == Phase::Booted) consider(s.proc.spawned_at + options.boot_deadline);
+    if (s.proc.booting()) consider(s.proc.spawned_at + options.boot_deadline);
     if (s.live() && s.proc.channel_closed_at) consider(*s.proc.channel_closed_at + kChannelCloseGrace);
   }
   if (active_step) consider(step_started_wall + options.idle_deadline);

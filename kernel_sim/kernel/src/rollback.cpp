@@ -146,7 +146,8 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     s.stats.pid = s.proc.process.pid();
     // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
     // generation is unusable rather than half-installed.
-    for (const auto& [fd, source] : {std::pair{s.proc.channel.fd(), Source::Channel}, std::pair{s.proc.process.pidfd(), Source::Pidfd}}) {
+    for (const auto& [fd, source] :
+         {std::pair{s.proc.channel.fd(), Source::Channel}, std::pair{s.proc.process.pidfd(), Source::Pidfd}}) {
       if (auto added = epoll.add(fd, token(source, s.id.value())); !added && failure.empty()) {
         failure = "watching the restored '" + s.name + "': " + added.error().to_string();
       }
@@ -167,7 +168,8 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
 void Kernel::Impl::run_rollback(const std::string& reason) {
   const Nanos t0 = wall();
   // A checkpoint asked for by an incarnation that is about to die is void: nobody waits for its answer.
-  if (checkpoint_request && checkpoint_request->first && services[checkpoint_request->first->value()].config.rejuvenate) {
+  if (checkpoint_request && checkpoint_request->first &&
+      services[checkpoint_request->first->value()].config.rejuvenate) {
     checkpoint_request.reset();
   }
   // The network is revoked before anything else happens; sr_mode is published once the services are back
@@ -265,7 +267,7 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
       return s.config.rejuvenate && !s.config.skip && pred(s);
     });
   };
-  while (!stopping && restarted([](const ServiceRuntime& s) { return s.proc.phase == Phase::Spawned || s.proc.phase == Phase::Booted; })) {
+  while (!stopping && restarted([](const ServiceRuntime& s) { return s.proc.booting(); })) {
     if (!pump(options.boot_deadline)) break;
   }
   rollback_request.reset();

@@ -110,7 +110,7 @@ void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
     const sys::SeccompNotice& notice = **got;
     // Only the live incarnation boots; images and anything else it made never run the loader or the SDK's
     // start-up, so their boot calls are violations too.
-    const bool booting = (s.proc.phase == Phase::Spawned || s.proc.phase == Phase::Booted) && s.proc.process.pid() == notice.pid;
+    const bool booting = s.proc.booting() && s.proc.process.pid() == notice.pid;
     const sys::NoticeKind kind = sys::classify(notice);
     if ((booting && kind == sys::NoticeKind::BootCall) || kind == sys::NoticeKind::SignalToSelf) {
       (void)s.sandbox.seccomp.allow(notice.id);  // decided on register values and the kernel's own state: no TOCTOU
@@ -118,7 +118,9 @@ void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
     }
     const std::string call = sys::syscall_name(notice.nr);
     const bool live = s.live() && s.proc.process.pid() == notice.pid;
-    if (live && s.proc.loss_reason.empty()) s.proc.loss_reason = "sandbox violation (forbidden system call " + call + ")";
+    if (live && s.proc.loss_reason.empty()) {
+      s.proc.loss_reason = "sandbox violation (forbidden system call " + call + ")";
+    }
     // Killed while it waits in the call: the call never runs. The pidfd is opened before the notice is checked
     // again, so a pid reused meanwhile is never hit.
     (void)sys::signal_if(notice.pid, SIGKILL, [&] { return s.sandbox.seccomp.still_waiting(notice.id); });

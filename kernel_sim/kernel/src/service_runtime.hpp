@@ -78,7 +78,8 @@ struct Incarnation {
   std::string loss_reason{};
   std::string last_error{};        // its last Error-level log line: named when it fails at boot (loop.cpp)
 
-  [[nodiscard]] bool live() const { return phase == Phase::Spawned || phase == Phase::Booted || phase == Phase::Ready; }
+  [[nodiscard]] bool booting() const { return phase == Phase::Spawned || phase == Phase::Booted; }
+  [[nodiscard]] bool live() const { return booting() || phase == Phase::Ready; }
 };
 
 // Images by written pages (DESIGN §7; checkpoint.cpp): the generation the live incarnation's memory derives

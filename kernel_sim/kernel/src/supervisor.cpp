@@ -146,18 +146,19 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   s.sandbox.seccomp = std::move(spawned->listener);
   s.sandbox.output = std::move(out->read);
   s.sandbox.sessions.push_back(child->pid());
+  const auto watch = [&](int fd, Source source) { return epoll.add(fd, token(source, s.id.value())); };
   if (s.sandbox.seccomp.valid()) {
-    if (auto ok = epoll.add(s.sandbox.seccomp.fd(), token(Source::Seccomp, s.id.value())); !ok) return system_error(ok.error());
+    if (auto ok = watch(s.sandbox.seccomp.fd(), Source::Seccomp); !ok) return system_error(ok.error());
   }
-  if (auto ok = epoll.add(s.sandbox.output.get(), token(Source::Output, s.id.value())); !ok) return system_error(ok.error());
+  if (auto ok = watch(s.sandbox.output.get(), Source::Output); !ok) return system_error(ok.error());
   s.proc.process = std::move(*child);
   s.proc.channel = std::move(kernel_end);
   s.proc.phase = Phase::Spawned;
   s.pages.start_incarnation(Generation{});  // a fresh process: its first image is by fork
   s.proc.spawned_at = wall();
   s.sandbox.limiter.last = s.proc.spawned_at;
-  if (auto ok = epoll.add(s.proc.channel.fd(), token(Source::Channel, s.id.value())); !ok) return system_error(ok.error());
-  if (auto ok = epoll.add(s.proc.process.pidfd(), token(Source::Pidfd, s.id.value())); !ok) return system_error(ok.error());
+  if (auto ok = watch(s.proc.channel.fd(), Source::Channel); !ok) return system_error(ok.error());
+  if (auto ok = watch(s.proc.process.pidfd(), Source::Pidfd); !ok) return system_error(ok.error());
   return {};
 }
 
@@ -218,7 +219,8 @@ void Kernel::Impl::send_boot(ServiceRuntime& s) {
     boot_caps.push_back(channel::encode_boot_cap(entry));
   }
   const channel::BootIdentity who{.service = s.id, .epoch = time_page.current().epoch, .name = s.name};
-  channel::write_boot_script(tx, who, boot_caps, s.config.params, [&](std::span<const std::byte> frame) { send_control(s, frame); });
+  channel::write_boot_script(tx, who, boot_caps, s.config.params,
+                             [&](std::span<const std::byte> frame) { send_control(s, frame); });
 }
 
 void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
@@ -261,7 +263,8 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
     record_violation(s, Violation::ForbiddenCall, "unknown (SIGSYS)");
   }
   if (stopping) return;
-  std::string reason = s.proc.loss_reason.empty() ? (**status).to_string() : s.proc.loss_reason + " (" + (**status).to_string() + ")";
+  std::string reason = s.proc.loss_reason.empty() ? (**status).to_string()
+                                                  : s.proc.loss_reason + " (" + (**status).to_string() + ")";
   lose_service(s, std::move(reason));
 }
 
@@ -319,7 +322,8 @@ void Kernel::Impl::report_stall() {
       if (!s.live() || s.idle()) continue;
       what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.proc.phase)) + ", idle " +
               std::to_string(s.flow.reported()) + "/" + std::to_string(s.flow.frames_out()) +
-              (s.flow.has_held() ? ", held" : "") + (s.flow.queued() == 0 ? "" : ", queued " + std::to_string(s.flow.queued())) +
+              (s.flow.has_held() ? ", held" : "") +
+              (s.flow.queued() == 0 ? "" : ", queued " + std::to_string(s.flow.queued())) +
               (s.flow.sweeping() ? ", sweep" : "") + ")";
     }
     if (checkpoint_request) what += "; a checkpoint waits for quiescence";
@@ -336,7 +340,7 @@ void Kernel::Impl::check_deadlines() {
     report_stall();
   }
   for (ServiceRuntime& s : services) {
-    if ((s.proc.phase == Phase::Spawned || s.proc.phase == Phase::Booted) && t - s.proc.spawned_at > options.boot_deadline) {
+    if (s.proc.booting() && t - s.proc.spawned_at > options.boot_deadline) {
       kill_hung(s, "not Ready within the boot deadline (" + std::to_string(to_seconds(options.boot_deadline).count()) + " s)");
     }
   }

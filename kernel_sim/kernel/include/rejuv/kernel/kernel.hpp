@@ -13,12 +13,14 @@
 //
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 //
-// The implementation (kernel_sim/kernel/src, state in impl.hpp): kernel.cpp this API; create.cpp Kernel::create
-// in named steps; loop.cpp the event loop, timers, deadlines and the realtime clock; lockstep.cpp the lockstep
-// steps and the samples that ride on them; vocabulary.cpp the enums' names and KernelError; bridge.cpp the DDS
-// bridge with the plant's lockstep adapter (kernel_sim/dds: bridge.hpp, plant_lockstep.hpp); router.cpp
-// routing and flow control; requests.cpp channel requests; supervisor.cpp processes; images.cpp checkpoint and
-// rollback; sandbox.cpp containment; netgate.cpp the network gate; scripted.cpp the fuzzer's seam.
+// The implementation (kernel_sim/kernel/src, state in impl.hpp; a service's, by concern, in service_runtime.hpp):
+// kernel.cpp this API; create.cpp Kernel::create in named steps; loop.cpp the event loop, timers, deadlines and
+// the realtime clock; lockstep.cpp the lockstep steps and the samples that ride on them; vocabulary.cpp the
+// enums' names and KernelError; bridge.cpp the DDS bridge with the plant's lockstep adapter (kernel_sim/dds:
+// bridge.hpp, plant_lockstep.hpp); router.cpp routing and flow control (output_batch.hpp a round's batched
+// output); requests.cpp channel requests; watch.cpp the observers of the routed traffic; supervisor.cpp
+// processes; the image coordinator images.cpp (overview, safe points), checkpoint.cpp, rollback.cpp and
+// checkpointed_state.cpp; sandbox.cpp containment; netgate.cpp the network gate; scripted.cpp the fuzzer's seam.
 #pragma once
 
 #include <algorithm>
