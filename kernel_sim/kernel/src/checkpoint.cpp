@@ -18,7 +18,7 @@ bool Kernel::Impl::quiescent_for_checkpoint() const {
   const std::optional<ServiceId> caller = checkpoint_request->first;
   return std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
     if (!s.live()) return true;
-    if (s.phase != Phase::Ready || !s.drained()) return false;
+    if (s.proc.phase != Phase::Ready || !s.flow.drained()) return false;
     return clock_mode == ClockMode::Realtime || s.id == caller || s.idle();
   });
 }
@@ -52,7 +52,7 @@ void Kernel::Impl::run_checkpoint() {
   routing_frozen = true;
   flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   for (ServiceRuntime& s : services) {
-    if (!s.rejuvenate || s.phase != Phase::Ready) continue;
+    if (!s.config.rejuvenate || s.proc.phase != Phase::Ready) continue;
     auto pair = channel_pool.take();
     if (!pair) {
       run.failure = "resume socket: " + pair.error().to_string();
@@ -60,16 +60,16 @@ void Kernel::Impl::run_checkpoint() {
     }
     const Generation base = pages_base_for(s);
     // The pagemap goes with the first Snapshot that offers a base to this incarnation; the service keeps it.
-    const bool with_pagemap = base.value() != 0 && !s.pagemap_sent;
-    const std::array<int, 2> fds{pair->second.fd(), s.pagemap.get()};
+    const bool with_pagemap = base.value() != 0 && !s.pages.pagemap_sent;
+    const std::array<int, 2> fds{pair->second.fd(), s.pages.pagemap.get()};
     const wire::SnapshotBody body{.base = base.value()};
     if (!tx.build_with(wire::FrameKind::Snapshot, 0, 0, g.value(), body)) break;
-    if (auto sent = s.channel.send(tx.bytes(), std::span(fds).first(with_pagemap ? 2 : 1)); !sent) {
+    if (auto sent = s.proc.channel.send(tx.bytes(), std::span(fds).first(with_pagemap ? 2 : 1)); !sent) {
       run.failure = "Snapshot to '" + s.name + "': " + sent.error().to_string();
       break;
     }
-    ++s.stats.frames_out;
-    if (with_pagemap) s.pagemap_sent = true;
+    s.flow.count_sent();
+    if (with_pagemap) s.pages.pagemap_sent = true;
     // The image end stays with the kernel until the commit: by fork it is closed, by written pages it goes
     // to the copy of the base that becomes the image (send_patches).
     run.record.images.push_back(image::Image{.service = s.id, .copies = {}, .resume = std::move(pair->first),
@@ -120,7 +120,7 @@ void Kernel::Impl::run_checkpoint() {
   flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
   done.record.state = save_state(done.t_cp, done.record.images, services, broker, timers);
   if (observer != nullptr) observer->on_checkpoint(g, broker);
-  for (const image::Image& im : done.record.images) services[im.service.value()].image_base = g;
+  for (const image::Image& im : done.record.images) services[im.service.value()].pages.base = g;
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();
@@ -164,7 +164,7 @@ bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
   const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
   if (pid <= 0 || knows_process(pid, nullptr)) return true;
   const auto sid = sys::session_of(pid);
-  if (sid && std::find(s.sessions.begin(), s.sessions.end(), *sid) != s.sessions.end()) {
+  if (sid && std::find(s.sandbox.sessions.begin(), s.sandbox.sessions.end(), *sid) != s.sandbox.sessions.end()) {
     (void)sys::kill_and_reap_own_child(pid);
   }
   return true;
@@ -192,9 +192,9 @@ bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& fra
 }
 
 Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
-  const Generation base = s.image_base;
+  const Generation base = s.pages.base;
   if (!options.images_by_pages || base.value() == 0 || images.keep() < 2) return Generation{};
-  if (!s.pagemap.valid()) return Generation{};
+  if (!s.pages.pagemap.valid()) return Generation{};
   // The base must outlive this checkpoint's commit, which keeps the newest keep − 1 generations and the new one.
   const std::vector<Generation> kept = images.generations();
   const std::size_t survivors = std::min(kept.size(), images.keep() - 1);
@@ -260,7 +260,7 @@ bool Kernel::Impl::knows_process(pid_t pid, const image::GenerationRecord* takin
     });
   };
   return images.owns(pid) || (plant_started && plant.pid() == pid) ||
-         std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& o) { return o.process.pid() == pid; }) ||
+         std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& o) { return o.proc.process.pid() == pid; }) ||
          (taking != nullptr && in(*taking));
 }
 

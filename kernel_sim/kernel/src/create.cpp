@@ -188,36 +188,34 @@ Result<void, KernelError> add_services(Kernel::Impl& k) {
     s.id = ps.id;
     s.name = ps.name;
     s.stats.name = ps.name;
-    s.spec = launch::find_service(k.graph.graph, ps.name);
-    REJUV_ASSERT(s.spec != nullptr, "the audit checked that every policy service is in the graph");
-    s.rejuvenate = launch::rejuvenate(*s.spec);
+    s.config.spec = launch::find_service(k.graph.graph, ps.name);
+    REJUV_ASSERT(s.config.spec != nullptr, "the audit checked that every policy service is in the graph");
+    s.config.rejuvenate = launch::rejuvenate(*s.config.spec);
     if (std::find(k.options.skip_services.begin(), k.options.skip_services.end(), ps.name) != k.options.skip_services.end()) {
-      s.skip = true;
-      s.skip_reason = "skipped on request";
+      s.config.skip = true;
+      s.config.skip_reason = "skipped on request";
     } else if (ps.rejuvenation && !k.sr) {
-      s.skip = true;
-      s.skip_reason = "the rejuvenation service has nothing to do without SR";
+      s.config.skip = true;
+      s.config.skip_reason = "the rejuvenation service has nothing to do without SR";
     }
-    s.executable = executable_path(k, s.spec->executable()).string();
-    if (!s.skip) {
+    s.config.executable = executable_path(k, s.config.spec->executable()).string();
+    if (!s.config.skip) {
       std::error_code ec;
-      if (!std::filesystem::is_regular_file(s.executable, ec)) {
+      if (!std::filesystem::is_regular_file(s.config.executable, ec)) {
         int index = 0;
         const proto::Launch& g = k.graph.graph;
         while (index < g.services_size() && g.services(index).name() != s.name) ++index;
         return fail(kernel_error(K::Config, k.graph.locations.locate({{"services", index}}, "executable").to_string() +
-                                                ": error: service '" + s.name + "': executable " + s.executable +
+                                                ": error: service '" + s.name + "': executable " + s.config.executable +
                                                 " not found (not built yet? skip it with --skip " + s.name + ")"));
       }
     }
     auto boot = k.caps.boot_info(s.id);
     REJUV_ASSERT(boot.has_value(), "every policy service has boot info");
-    s.boot = std::move(*boot);
-    s.control_pool.reserve(kControlPoolCapacity);
-    s.held.reserve(wire::kMaxFrameBytes);
+    s.config.boot = std::move(*boot);
     k.services.push_back(std::move(s));
   }
-  for (ServiceRuntime& s : k.services) s.params = build_params(k, s);
+  for (ServiceRuntime& s : k.services) s.config.params = build_params(k, s);
   return {};
 }
 

@@ -73,16 +73,17 @@ void Kernel::Impl::sr_event(SrEventKind kind, Generation g, Nanos span, std::opt
 
 void Kernel::Impl::refill_pairs() {
   const std::size_t want = static_cast<std::size_t>(
-      std::count_if(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.rejuvenate && !s.skip; }));
+      std::count_if(services.begin(), services.end(),
+                    [](const ServiceRuntime& s) { return s.config.rejuvenate && !s.config.skip; }));
   if (const auto shortage = channel_pool.refill(want)) log("socket pairs made ahead: %s", shortage->to_string().c_str());
 }
 
 void Kernel::Impl::open_pagemaps() {
   if (!options.images_by_pages) return;
   for (ServiceRuntime& s : services) {
-    if (!s.rejuvenate || !s.live() || s.image_base.value() == 0 || s.pagemap.valid()) continue;
-    const std::string path = "/proc/" + std::to_string(s.process.pid()) + "/pagemap";
-    s.pagemap = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (!s.config.rejuvenate || !s.live() || s.pages.base.value() == 0 || s.pages.pagemap.valid()) continue;
+    const std::string path = "/proc/" + std::to_string(s.proc.process.pid()) + "/pagemap";
+    s.pages.pagemap = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
   }
 }
 
@@ -124,7 +125,7 @@ void Kernel::Impl::resume_routing() {
   release_bridge_out();
   for (ServiceRuntime& s : services) {
     if (!s.live()) continue;
-    s.sweep = true;
+    s.flow.request_sweep();
     drain(s);
   }
 }
@@ -182,7 +183,7 @@ std::uint64_t Kernel::Impl::processes_to_spare() const {
   std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
   const std::uint64_t needed = 1 + 2 * (std::uint64_t{launch::keep_generations(graph.graph.sr())} + 1);
   for (const ServiceRuntime& s : services) {
-    if (!s.rejuvenate || s.skip) continue;
+    if (!s.config.rejuvenate || s.config.skip) continue;
     if (const auto limit = limits_for(s).processes) least = std::min(least, *limit > needed ? *limit - needed : 0);
   }
   return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;

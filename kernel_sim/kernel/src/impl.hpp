@@ -1,5 +1,6 @@
-// The kernel's private state: one record per service (what the image store of DESIGN §7 will save and
-// restore beside the images), the routing and staging state, the clock, the DDS bridge and the loop.
+// The kernel's private state, shared by the files of kernel_sim/kernel/src (kernel.hpp lists them): the
+// services (one ServiceRuntime each, by concern: service_runtime.hpp), the objects and subscribers, the lockstep
+// staging state, the clock, the image coordinator's state (DESIGN §7), the DDS bridge and the loop.
 #pragma once
 
 #include <array>
@@ -13,12 +14,12 @@
 
 #include "bridge.hpp"
 #include "channel_pool.hpp"
-#include "fixed_ring.hpp"
 #include "invocation.hpp"
 #include "kernel_clock.hpp"
 #include "step_clock.hpp"
 #include "mission_watch.hpp"
 #include "netgate.hpp"
+#include "output_batch.hpp"
 #include "reaper.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
@@ -36,110 +37,13 @@
 #include "rejuv/sys/process.hpp"
 #include "rejuv/sys/lease.hpp"
 #include "rejuv/sys/seccomp.hpp"
+#include "service_runtime.hpp"
 
 namespace rejuv::kernel {
 
-inline constexpr std::size_t kOutQueueCapacity = 4096;       // pending deliveries per service
 inline constexpr Nanos kChannelCloseGrace{std::chrono::seconds{1}};  // closed fd 3 but still running: lost
-inline constexpr std::size_t kControlPoolCapacity = 256;     // queued non-ring frames per service
-inline constexpr std::size_t kMaxCorkedFrames = 64;          // frames per service per cork (router.cpp)
 inline constexpr std::size_t kFramesPerWakeup = 64;          // fairness: frames read per channel per wakeup
-inline constexpr std::size_t kMaxStagedPerStep = 4096;       // publications per service per lockstep step
 inline constexpr std::uint32_t kNoOrigin = 0xFFFF'FFFFU;     // the kernel / the DDS bridge
-
-// Where a service is in its life.
-enum class Phase : std::uint8_t {
-  NotStarted,  // skipped, or not spawned yet
-  Spawned,     // exec'd; waiting for Hello
-  Booted,      // Boot…BootEnd sent; waiting for Ready
-  Ready,       // running
-  Dead,        // exited, killed or lost: reaped, channel closed
-};
-
-// A frame waiting to go out to a service: the next message of one of its subscriptions (the message itself
-// stays in the broker's ring, docs/protocol.md "flow control"), or a queued non-ring frame.
-struct OutEntry {
-  enum class Kind : std::uint8_t { Ring, Control };
-  Kind kind = Kind::Ring;
-  broker::SubscriberId subscriber{};
-  std::uint32_t control = 0;  // index into ServiceRuntime::control_pool
-};
-
-using SubscriptionRecord = image::SavedSubscription;  // saved with the images (DESIGN §7 step 3)
-
-// Token bucket for a service's log lines (docs/protocol.md: rate-limited per service).
-struct LogLimiter {
-  double tokens = 50;
-  Nanos last{0};
-  std::uint64_t suppressed_since_print = 0;
-  [[nodiscard]] bool allow(Nanos wall_now);
-};
-
-// Everything the kernel knows about one service. One struct, so that the image store (DESIGN §7) can
-// save and restore a service's kernel-side state as a unit.
-struct ServiceRuntime {
-  ServiceId id{};
-  std::string name{};
-  const proto::ServiceSpec* spec = nullptr;
-  bool rejuvenate = true;          // false = driver level (DESIGN §2)
-  // Images by written pages, per incarnation (start_incarnation): the generation its memory derives from
-  // (0: a fresh start), its /proc/<pid>/pagemap (open_pagemaps) and whether a Snapshot has handed it over.
-  Generation image_base{};
-  sys::UniqueFd pagemap{};
-  bool pagemap_sent = false;
-  bool skip = false;               // not started (KernelOptions::skip_services, or SR-only with SR off)
-  std::string skip_reason{};
-  std::string executable{};
-  Phase phase = Phase::NotStarted;
-  sys::ChildProcess process{};
-  sys::SeqPacket channel{};        // the kernel's end, non-blocking
-  cap::BootInfo boot{};
-  std::vector<wire::BootParam> params{};
-  std::vector<SubscriptionRecord> subscriptions{};
-
-  // Delivery and flow control.
-  FixedRing<OutEntry> outq{kOutQueueCapacity};
-  bool sweep = false;              // outq overflowed: drain every subscription once it empties
-  bool polled_pending = false;     // a polled subscription has news, handed over at the next wake-up
-  std::vector<std::vector<std::byte>> control_pool{};
-  std::vector<std::uint32_t> control_free{};
-  std::vector<std::byte> held{};   // a frame the channel refused (EAGAIN): sent first when it drains
-  bool has_held = false;
-  bool want_writable = false;
-
-  // Idle (docs/protocol.md): frames sent vs the count in the service's last Idle. The count restarts on
-  // every new channel (a restored image, DESIGN §7): frames_base is stats.frames_out when it was opened.
-  std::uint64_t idle_count = 0;
-  std::uint64_t frames_base = 0;
-
-  Nanos spawned_at{0};             // wall clock
-  std::optional<Nanos> channel_closed_at{};  // wall clock: the service closed fd 3 (its pidfd should follow)
-  std::string loss_reason{};
-  std::string last_error{};        // its last Error-level log line: named when it fails at boot
-  LogLimiter limiter{};
-  // Containment (sandbox.cpp): the listener of its seccomp filter (shared by every process of the service),
-  // the read end of the pipe on its fds 1-2, and the session ids of its incarnations spawned so far.
-  sys::SeccompListener seccomp{};
-  sys::UniqueFd output{};
-  std::string output_partial{};
-  std::vector<pid_t> sessions{};
-  std::uint64_t staged_this_step = 0;
-  bool scripted = false;           // a test seam's socket pair, no process (Kernel::attach_scripted_services)
-  ServiceStats stats{};
-
-  // A new process is this service: spawned (base 0) or resumed from generation `base`'s image.
-  void start_incarnation(Generation base) {
-    image_base = base;
-    pagemap.reset();
-    pagemap_sent = false;
-  }
-  [[nodiscard]] bool live() const { return phase == Phase::Spawned || phase == Phase::Booted || phase == Phase::Ready; }
-  [[nodiscard]] bool idle() const {
-    return phase != Phase::Ready || scripted || (idle_count + frames_base == stats.frames_out && drained());
-  }
-  [[nodiscard]] bool drained() const { return !has_held && outq.empty() && !sweep;
-  }
-};
 
 // Per kernel object: what routing needs (types, kernel endpoints, bridge, mission watch).
 struct ObjectInfo {
@@ -219,6 +123,7 @@ struct Kernel::Impl {
   std::optional<sys::TimerFd> timerfd;
   std::optional<DdsBridge> bridge;                 // DDS, and the plant's lockstep adapter (bridge.hpp)
   NetGate net;                                     // the external link's UDP socket (netgate.cpp)
+  OutputBatch batch;                               // a lockstep round's output (router.cpp, cork/uncork)
 
   std::vector<msgs::TopicType> declared_types;     // the policy's own (`types`), pointed to by objects
   std::vector<ObjectInfo> objects;                 // by ObjectId
@@ -247,17 +152,8 @@ struct Kernel::Impl {
   std::vector<StagedSample> samples;
   std::vector<std::byte> sample_bytes;
   std::vector<std::uint32_t> order;                // sort scratch
-  // Output batching within a lockstep routing round (router.cpp, cork/uncork): a service's frames are laid
-  // out as in a datagram as they are sent, and leave together when the round is routed, so a service that
-  // gets several frames wakes once.
-  struct Cork {
-    std::vector<std::byte> frames;  // back to back, aligned (wire::next_frame)
-    std::size_t count = 0;
-  };
-  bool corked = false;
-  std::vector<Cork> corks;  // by service
 
-  // ---- images (images.cpp, DESIGN §7) ----
+  // ---- the image coordinator's state (images.cpp, checkpoint.cpp, rollback.cpp; DESIGN §7) ----
   image::ImageStore images{2};
   // The caller and its Invoke seq; no caller: the kernel's own (Kernel::checkpoint_now, benchmarks).
   std::optional<std::pair<std::optional<ServiceId>, std::uint32_t>> checkpoint_request;
@@ -342,8 +238,8 @@ struct Kernel::Impl {
   void send_boot(ServiceRuntime& s);
   void on_child_exit(ServiceRuntime& s);
   void on_plant_exit();
-  // The one place a service is lost (death, hang, protocol fault). SR off: the run ends. With the image
-  // store (DESIGN §7) a rejuvenated service is restored here instead.
+  // The one place a service is lost (death, hang, protocol fault). With SR a rejuvenated service's loss asks
+  // for a rollback (DESIGN §7); before the graph has booted, without SR, or for a driver-level service the run ends.
   void lose_service(ServiceRuntime& s, std::string reason);
   void kill_hung(ServiceRuntime& s, std::string reason);
   void check_deadlines();
@@ -450,14 +346,14 @@ struct Kernel::Impl {
   void publish_sr_mode();
   bool write_to_bridge(ObjectId topic, std::span<const std::byte> payload);  // false: the run stops
   void release_bridge_out();
-  // Output to a service (flow control).
+  // Output to a service (flow control: FlowControl, service_runtime.hpp, keeps the order, the pool, the count).
   void push_ring(ServiceRuntime& s, broker::SubscriberId subscriber);
   // What the polled subscriptions of `s` have pending, pushed ahead of a frame that wakes `s` anyway.
   void hand_over_polled(ServiceRuntime& s);
   void send_control(ServiceRuntime& s, std::span<const std::byte> frame);
   void drain(ServiceRuntime& s);
-  void cork();
-  void uncork();
+  void cork();    // opens the output batch (output_batch.hpp) for a routing round
+  void uncork();  // closes it and flushes every service's frames
   void uncork_service(ServiceRuntime& s);
   enum class SendResult : std::uint8_t { Sent, Blocked, Failed };
   SendResult send_now(ServiceRuntime& s, std::span<const std::byte> frame);

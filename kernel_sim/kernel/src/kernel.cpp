@@ -21,7 +21,7 @@ Result<void, KernelError> Kernel::boot() {
   if (k.shut_down) return fail(kernel_error(KernelError::Kind::Boot, "the kernel has been shut down"));
   k.wall_start = k.wall();
   for (const ServiceRuntime& s : k.services) {
-    if (s.skip) k.log("not starting '%s': %s", s.name.c_str(), s.skip_reason.c_str());
+    if (s.config.skip) k.log("not starting '%s': %s", s.name.c_str(), s.config.skip_reason.c_str());
   }
   if (auto ok = k.spawn_all(); !ok) {
     k.shutdown_all();
@@ -35,7 +35,7 @@ Result<void, KernelError> Kernel::boot() {
     if (k.wall() >= boot_limit) {
       std::string waiting;
       for (const ServiceRuntime& s : k.services) {
-        if (!s.skip && s.phase != Phase::Ready) waiting += (waiting.empty() ? "'" : ", '") + s.name + "'";
+        if (!s.config.skip && s.proc.phase != Phase::Ready) waiting += (waiting.empty() ? "'" : ", '") + s.name + "'";
       }
       k.stop_run(StopReason::ServiceFailed, "the graph did not boot within " +
                                                 std::to_string(to_seconds(k.options.boot_deadline).count()) +
@@ -56,7 +56,7 @@ Result<void, KernelError> Kernel::boot() {
   const std::string where = k.pinned_cpu ? ", on CPU " + std::to_string(*k.pinned_cpu) : std::string();
   k.log("%zu services ready (%s clock%s%s)", static_cast<std::size_t>(std::count_if(
                                                  k.services.begin(), k.services.end(),
-                                                 [](const ServiceRuntime& s) { return !s.skip; })),
+                                                 [](const ServiceRuntime& s) { return !s.config.skip; })),
         std::string(to_string(k.clock_mode)).c_str(), k.sr ? ", SR on" : ", SR off", where.c_str());
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
     if (auto ok = k.spawn_plant(); !ok) {
@@ -224,11 +224,12 @@ std::optional<ServiceId> Kernel::find_service(std::string_view name) const {
 ServiceStats Kernel::stats(ServiceId service) const {
   const ServiceRuntime& s = impl_->services.at(service.value());
   ServiceStats out = s.stats;
-  out.started = !s.skip && s.phase != Phase::NotStarted;
+  out.frames_out = s.flow.frames_out();
+  out.started = !s.config.skip && s.proc.phase != Phase::NotStarted;
   out.alive = s.live();
-  out.ready = s.phase == Phase::Ready;
-  out.pid = s.process.pid();
-  out.exit = s.process.status();
+  out.ready = s.proc.phase == Phase::Ready;
+  out.pid = s.proc.process.pid();
+  out.exit = s.proc.process.status();
   // Messages routed to it that it will never get: skipped by the broker, or overrun while it stays blocked.
   // s.stats.lost has what next() already skipped; add what is overrun but not yet skipped.
   for (const SubscriptionRecord& r : s.subscriptions) {

@@ -68,7 +68,7 @@ void Kernel::Impl::watch_sample_readers(bool watch) {
 
 // The step StepClock::begin_next made active.
 void Kernel::Impl::begin_step(const PendingStep& step) {
-  for (ServiceRuntime& s : services) s.staged_this_step = 0;
+  for (ServiceRuntime& s : services) s.flow.new_step();
   set_now(step.t);
   if (!sr_mode_announced) publish_sr_mode();
   request_priming();

@@ -41,11 +41,11 @@ bool LogLimiter::allow(Nanos wall_now) {
 }
 
 void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view text) {
-  if (level == wire::LogLevel::Error) s.last_error.assign(text);  // kept even when the line is rate-limited
+  if (level == wire::LogLevel::Error) s.proc.last_error.assign(text);  // kept even when the line is rate-limited
   if (level == wire::LogLevel::Debug && !options.verbose) return;
-  if (!s.limiter.allow(wall())) {
+  if (!s.sandbox.limiter.allow(wall())) {
     ++s.stats.log_suppressed;
-    ++s.limiter.suppressed_since_print;
+    ++s.sandbox.limiter.suppressed_since_print;
     return;
   }
   if (observer != nullptr) {
@@ -59,10 +59,10 @@ void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::str
     observer->on_log(LogLine{.t = now(), .source = s.name, .level = l, .text = text});
   }
   if (options.log == nullptr) return;
-  if (s.limiter.suppressed_since_print > 0) {
+  if (s.sandbox.limiter.suppressed_since_print > 0) {
     std::fprintf(options.log, "[%s] (%llu lines suppressed by the rate limit)\n", s.name.c_str(),
-                 static_cast<unsigned long long>(s.limiter.suppressed_since_print));
-    s.limiter.suppressed_since_print = 0;
+                 static_cast<unsigned long long>(s.sandbox.limiter.suppressed_since_print));
+    s.sandbox.limiter.suppressed_since_print = 0;
   }
   const char* tag = "";
   switch (level) {
@@ -77,7 +77,7 @@ void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::str
 void Kernel::Impl::refuse(ServiceRuntime& s, std::string_view what) {
   ++s.stats.bad_frames;
   ++kernel_bad_frames;
-  if (s.limiter.allow(wall())) {
+  if (s.sandbox.limiter.allow(wall())) {
     log("refused a frame from '%s': %.*s", s.name.c_str(), static_cast<int>(what.size()), what.data());
   } else {
     ++s.stats.log_suppressed;
@@ -118,7 +118,7 @@ Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
     switch (source) {
       case Source::Channel: {
         ServiceRuntime& s = services[index];
-        if (!s.live() || !s.channel.valid()) break;
+        if (!s.live() || !s.proc.channel.valid()) break;
         if (e.writable) drain(s);
         if (e.readable || e.hangup || e.error) read_channel(s);
         break;
@@ -142,9 +142,9 @@ Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
         ServiceRuntime& s = services[index];
         on_seccomp_notice(s);
         // No process uses the filter any more (the service and its images are gone): nothing more can come.
-        if (e.hangup && !e.readable && s.seccomp.valid()) {
-          (void)epoll.remove(s.seccomp.fd());
-          s.seccomp.close();
+        if (e.hangup && !e.readable && s.sandbox.seccomp.valid()) {
+          (void)epoll.remove(s.sandbox.seccomp.fd());
+          s.sandbox.seccomp.close();
         }
         break;
       }
@@ -222,15 +222,15 @@ bool Kernel::Impl::all_idle() const {
 
 bool Kernel::Impl::all_ready() const {
   return std::all_of(services.begin(), services.end(),
-                     [](const ServiceRuntime& s) { return s.skip || s.phase == Phase::Ready; });
+                     [](const ServiceRuntime& s) { return s.config.skip || s.proc.phase == Phase::Ready; });
 }
 
 std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
   std::optional<Nanos> best;
   const auto consider = [&](Nanos t) { best = best ? std::min(*best, t) : t; };
   for (const ServiceRuntime& s : services) {
-    if (s.phase == Phase::Spawned || s.phase == Phase::Booted) consider(s.spawned_at + options.boot_deadline);
-    if (s.live() && s.channel_closed_at) consider(*s.channel_closed_at + kChannelCloseGrace);
+    if (s.proc.booting()) consider(s.proc.spawned_at + options.boot_deadline);
+    if (s.live() && s.proc.channel_closed_at) consider(*s.proc.channel_closed_at + kChannelCloseGrace);
   }
   if (const auto at = steps.idle_deadline(options.idle_deadline)) consider(*at);
   if (const auto at = steps.stall_deadline(); plant_started && at) consider(*at);

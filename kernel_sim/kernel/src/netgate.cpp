@@ -68,7 +68,7 @@ Result<void, KernelError> Kernel::Impl::net_open() {
   // Who may ever receive: the policy slots of the object with Read in some mode.
   std::string names;
   for (const ServiceRuntime& s : services) {
-    for (const cap::BootCap& c : s.boot.caps) {
+    for (const cap::BootCap& c : s.config.boot.caps) {
       if (c.object != *object) continue;
       if (std::none_of(c.rights.begin(), c.rights.end(), [](Rights r) { return r.has(Right::Read); })) continue;
       net.readers.push_back(NetGate::Reader{.service = s.id, .slot = c.slot});
@@ -133,11 +133,11 @@ void Kernel::Impl::net_poll() {
       if (!c || c->kind != ObjectKind::Network || c->object != *net.object || !c->rights.has(Right::Read)) continue;
       held = true;
       ServiceRuntime& s = services[reader.service.value()];
-      if (s.phase != Phase::Ready || !s.channel.valid() || stopping) continue;
+      if (s.proc.phase != Phase::Ready || !s.proc.channel.valid() || stopping) continue;
       running = true;
       // A service that does not read its channel gets no more: queued frames are bounded, and overflowing
       // them would be its fault (docs/protocol.md "flow control") — a flood must not make it one.
-      if (s.has_held || !s.outq.empty() || s.sweep) continue;
+      if (!s.flow.drained()) continue;
       if (!tx.build(wire::FrameKind::NetDatagram, reader.slot.value(), 0, id, bytes)) continue;
       send_control(s, tx.bytes());
       sent = true;

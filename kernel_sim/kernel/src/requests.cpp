@@ -22,15 +22,15 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
   const auto lose_channel = [&] {
     // The service closed fd 3, or is exiting (its pidfd tells which, soon). A live service without a
     // channel cannot be driven: check_deadlines loses it if it is still running after a grace period.
-    (void)epoll.remove(s.channel.fd());
-    s.channel.close();
-    s.channel_closed_at = wall();
+    (void)epoll.remove(s.proc.channel.fd());
+    s.proc.channel.close();
+    s.proc.channel_closed_at = wall();
   };
   for (;;) {
-    if (!s.live() || !s.channel.valid()) return;  // a frame before this one lost the service
+    if (!s.live() || !s.proc.channel.valid()) return;  // a frame before this one lost the service
     if (!reader.buffered() && s.stats.frames_in - frames_before >= kFramesPerWakeup) return;
     // One fd at most per datagram: TakenPages carries its pages; on any other frame an fd is refused.
-    auto got = reader.next_datagram(s.channel, 1, sys::Wait::No);
+    auto got = reader.next_datagram(s.proc.channel, 1, sys::Wait::No);
     if (!got) {
       if (got.error().error != ECONNRESET) log("channel of '%s': %s", s.name.c_str(), got.error().to_string().c_str());
       lose_channel();
@@ -84,7 +84,7 @@ void Kernel::Impl::receive_datagram(ServiceRuntime& s, std::span<const std::byte
       break;
     }
     handle_frame(s, *frame);
-  } while (offset < datagram.size() && s.live() && s.channel.valid());  // a frame may lose the service
+  } while (offset < datagram.size() && s.live() && s.proc.channel.valid());  // a frame may lose the service
 }
 
 namespace {
@@ -97,13 +97,13 @@ constexpr bool needs_boot(wire::FrameKind kind) {
 }  // namespace
 
 void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
-  if (needs_boot(f.kind) && s.phase != Phase::Booted && s.phase != Phase::Ready) {
+  if (needs_boot(f.kind) && s.proc.phase != Phase::Booted && s.proc.phase != Phase::Ready) {
     refuse(s, std::string(wire::to_string(f.kind)) + " before boot");
     return;
   }
   switch (f.kind) {
     case wire::FrameKind::Hello:
-      if (s.phase != Phase::Spawned) {
+      if (s.proc.phase != Phase::Spawned) {
         refuse(s, "Hello after boot");
         return;
       }
@@ -112,14 +112,14 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
             static_cast<unsigned long long>(f.header.aux), static_cast<unsigned>(wire::kProtocolVersion));
       }
       send_boot(s);
-      s.phase = Phase::Booted;
+      s.proc.phase = Phase::Booted;
       return;
     case wire::FrameKind::Ready:
-      if (s.phase != Phase::Booted) {
+      if (s.proc.phase != Phase::Booted) {
         refuse(s, "Ready outside boot");
         return;
       }
-      s.phase = Phase::Ready;
+      s.proc.phase = Phase::Ready;
       return;
     case wire::FrameKind::Publish:
       ingest_publish(s, f.header.slot, f.payload);
@@ -160,7 +160,7 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       return;
     }
     case wire::FrameKind::Idle:
-      s.idle_count = f.header.aux;
+      s.flow.on_idle(f.header.aux);
       return;
     case wire::FrameKind::Taken:
       on_taken(s, f);  // checkpoint.cpp
@@ -214,7 +214,7 @@ void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f)
     reply(s, f.header.seq, denial_code(inv.error()));
     return;
   }
-  const auto kind = s.rejuvenate ? broker::SubscriberKind::Rejuvenated : broker::SubscriberKind::Driver;
+  const auto kind = s.config.rejuvenate ? broker::SubscriberKind::Rejuvenated : broker::SubscriberKind::Driver;
   auto sub = broker.subscribe(s.id, inv->object(), kind);
   if (!sub) {
     reply(s, f.header.seq,
@@ -230,7 +230,7 @@ void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f)
   // uORB: a new subscriber first gets the latest message already published, if any (a polled one with its
   // next wake-up; hand_over_polled finds nothing if there is none).
   if (polled) {
-    s.polled_pending = true;
+    s.flow.note_polled();
   } else {
     push_ring(s, *sub);
   }

@@ -19,33 +19,27 @@ void Kernel::Impl::request_rollback(std::string reason) {
 }
 
 void Kernel::Impl::retire_live_rejuvenated() {
-  std::erase_if(staged, [&](const Staged& e) { return services[e.origin].rejuvenate; });
+  std::erase_if(staged, [&](const Staged& e) { return services[e.origin].config.rejuvenate; });
   for (ServiceRuntime& s : services) {
-    if (!s.rejuvenate || s.skip || s.phase == Phase::NotStarted) continue;
+    if (!s.config.rejuvenate || s.config.skip || s.proc.phase == Phase::NotStarted) continue;
     if (s.live()) {
       // Out of the rollback's way (Reaper::retire: SCHED_IDLE, not signalled), with its channel out of the
       // loop, no signal to another process and no socket (seccomp): it cannot slow the rollback down or reach
       // anything. Killed after the rollback, at a safe point (Reaper::kill_retired).
-      (void)epoll.remove(s.process.pidfd());
-      reaper.retire(std::move(s.process));
-      s.process = sys::ChildProcess{};
+      (void)epoll.remove(s.proc.process.pidfd());
+      reaper.retire(std::move(s.proc.process));
+      s.proc.process = sys::ChildProcess{};
     }
-    if (s.channel.valid()) {
-      (void)epoll.remove(s.channel.fd());
-      channel_pool.close_later(s.channel.take_fd());  // closed off the critical path (refill_pairs)
+    if (s.proc.channel.valid()) {
+      (void)epoll.remove(s.proc.channel.fd());
+      channel_pool.close_later(s.proc.channel.take_fd());  // closed off the critical path (refill_pairs)
     }
-    s.phase = Phase::Dead;
+    s.proc.phase = Phase::Dead;
     broker.remove_service(s.id);
     timers.remove_service(s.id);
-    s.outq.clear();
-    s.has_held = false;
-    s.want_writable = false;
-    s.sweep = false;
-    s.polled_pending = false;
-    s.control_pool.clear();
-    s.control_free.clear();
-    s.channel_closed_at.reset();
-    s.loss_reason.clear();
+    s.flow.reset();
+    s.proc.channel_closed_at.reset();
+    s.proc.loss_reason.clear();
   }
 }
 
@@ -112,11 +106,11 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     auto copy = std::find_if(p.image->copies.begin(), p.image->copies.end(),
                              [&](const sys::ChildProcess& c) { return pid > 0 && c.pid() == pid; });
     if (copy != p.image->copies.end()) {
-      s.process = std::move(*copy);  // the copy is now the live service
+      s.proc.process = std::move(*copy);  // the copy is now the live service
       p.image->copies.erase(copy);
     } else if (auto spare = pid > 0 ? sys::ChildProcess::adopt_child(pid)
                                     : sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"Resumed", EPROTO}))) {
-      s.process = std::move(*spare);  // a spare whose Copied is still on its way took the Resume
+      s.proc.process = std::move(*spare);  // a spare whose Copied is still on its way took the Resume
     } else {
       if (failure.empty()) {
         const image::Image& im = *p.image;
@@ -129,15 +123,15 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
       continue;  // its copies are killed with the generation
     }
     p.image->resumed.push_back(pid);
-    s.start_incarnation(record.g);
-    s.channel = std::move(p.channel);
-    s.phase = Phase::Ready;
-    s.frames_base = s.stats.frames_out;
-    s.idle_count = 0;
-    s.stats.pid = s.process.pid();
+    s.pages.start_incarnation(record.g);
+    s.proc.channel = std::move(p.channel);
+    s.proc.phase = Phase::Ready;
+    s.flow.new_channel();
+    s.stats.pid = s.proc.process.pid();
     // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
     // generation is unusable rather than half-installed.
-    for (const auto& [fd, source] : {std::pair{s.channel.fd(), Source::Channel}, std::pair{s.process.pidfd(), Source::Pidfd}}) {
+    for (const auto& [fd, source] :
+         {std::pair{s.proc.channel.fd(), Source::Channel}, std::pair{s.proc.process.pidfd(), Source::Pidfd}}) {
       if (auto added = epoll.add(fd, token(source, s.id.value())); !added && failure.empty()) {
         failure = "watching the restored '" + s.name + "': " + added.error().to_string();
       }
@@ -158,7 +152,8 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
 void Kernel::Impl::run_rollback(const std::string& reason) {
   const Nanos t0 = wall();
   // A checkpoint asked for by an incarnation that is about to die is void: nobody waits for its answer.
-  if (checkpoint_request && checkpoint_request->first && services[checkpoint_request->first->value()].rejuvenate) {
+  if (checkpoint_request && checkpoint_request->first &&
+      services[checkpoint_request->first->value()].config.rejuvenate) {
     checkpoint_request.reset();
   }
   // The network is revoked before anything else happens; sr_mode is published once the services are back
@@ -236,11 +231,10 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   kernel_clock.begin_epoch(kernel_clock.next_epoch());
   set_mode(SrMode::SC);  // safe, network off
   for (ServiceRuntime& s : services) {
-    if (!s.rejuvenate || s.skip) continue;
+    if (!s.config.rejuvenate || s.config.skip) continue;
     s.subscriptions.clear();
-    s.params = build_params(*this, s);  // boot.cold_restarts: the estimator starts from the sensors
-    s.idle_count = 0;
-    s.frames_base = s.stats.frames_out;
+    s.config.params = build_params(*this, s);  // boot.cold_restarts: the estimator starts from the sensors
+    s.flow.new_channel();
     if (auto ok = spawn_one(s); !ok) {
       stop_run(StopReason::ServiceFailed, "cold restart: " + ok.error().message);
       return;
@@ -250,14 +244,14 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   // not come up ends the run: there is nothing left to fall back to.
   const auto restarted = [&](const auto& pred) {
     return std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
-      return s.rejuvenate && !s.skip && pred(s);
+      return s.config.rejuvenate && !s.config.skip && pred(s);
     });
   };
-  while (!stopping && restarted([](const ServiceRuntime& s) { return s.phase == Phase::Spawned || s.phase == Phase::Booted; })) {
+  while (!stopping && restarted([](const ServiceRuntime& s) { return s.proc.booting(); })) {
     if (!pump(options.boot_deadline)) break;
   }
   rollback_request.reset();
-  if (restarted([](const ServiceRuntime& s) { return s.phase != Phase::Ready; })) {
+  if (restarted([](const ServiceRuntime& s) { return s.proc.phase != Phase::Ready; })) {
     stop_run(StopReason::ServiceFailed, "cold restart: a rejuvenated service did not boot");
   }
 }

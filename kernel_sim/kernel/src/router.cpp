@@ -23,12 +23,11 @@ void Kernel::Impl::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::sp
     route_publish(s, slot, payload);
     return;
   }
-  if (s.staged_this_step >= kMaxStagedPerStep) {
+  if (!s.flow.admit_publication()) {
     if (s.stats.flood_dropped++ == 0) log("'%s' publishes more than %zu messages in one step; dropping the excess",
                                           s.name.c_str(), kMaxStagedPerStep);
     return;
   }
-  ++s.staged_this_step;
   staged.push_back(Staged{.origin = s.id.value(), .slot = slot,
                           .offset = static_cast<std::uint32_t>(stage_bytes.size()),
                           .size = static_cast<std::uint32_t>(payload.size())});
@@ -44,7 +43,7 @@ void Kernel::Impl::flush_staged() {
   for (const std::uint32_t i : order) {
     const Staged& e = staged[i];
     ServiceRuntime& s = services[e.origin];
-    if (s.phase == Phase::Dead) continue;  // output of a service that died since: discarded
+    if (s.proc.phase == Phase::Dead) continue;  // output of a service that died since: discarded
     route_publish(s, e.slot, std::span<const std::byte>(stage_bytes).subspan(e.offset, e.size));
   }
   staged.clear();
@@ -157,7 +156,7 @@ void Kernel::Impl::finish_routes(ObjectId topic) {
       SubscriberInfo& info = subscribers[r.subscriber.value()];
       ++info.routed;
       if (info.polled) {  // stays in the ring until something else wakes the service (hand_over_polled)
-        s.polled_pending = true;
+        s.flow.note_polled();
         continue;
       }
     }
@@ -166,8 +165,7 @@ void Kernel::Impl::finish_routes(ObjectId topic) {
 }
 
 void Kernel::Impl::hand_over_polled(ServiceRuntime& s) {
-  if (!s.polled_pending || routing_frozen) return;
-  s.polled_pending = false;  // first: push_ring below comes back here
+  if (routing_frozen || !s.flow.take_polled()) return;  // taken first: push_ring below comes back here
   for (const SubscriptionRecord& r : s.subscriptions) {
     if (!subscribers[r.id.value()].polled) continue;
     for (std::size_t n = broker.pending(r.id).value_or(0); n > 0; --n) push_ring(s, r.id);
@@ -177,29 +175,24 @@ void Kernel::Impl::hand_over_polled(ServiceRuntime& s) {
 // ---- output to a service ----
 
 void Kernel::Impl::set_writable_interest(ServiceRuntime& s, bool want) {
-  if (s.want_writable == want || !s.channel.valid()) return;
-  s.want_writable = want;
-  (void)epoll.modify(s.channel.fd(), token(Source::Channel, s.id.value()), sys::Interest{.readable = true, .writable = want});
+  if (!s.proc.channel.valid() || !s.flow.set_want_writable(want)) return;
+  (void)epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
+                     sys::Interest{.readable = true, .writable = want});
 }
 
 Kernel::Impl::SendResult Kernel::Impl::send_now(ServiceRuntime& s, std::span<const std::byte> frame) {
-  if (!s.channel.valid()) return SendResult::Failed;
-  if (corked) {
-    // Counted now: the service is not idle until it has reported these frames too.
-    Cork& c = corks[s.id.value()];
-    channel::append_frame(c.frames, frame);
-    ++s.stats.frames_out;
-    if (++c.count == kMaxCorkedFrames) uncork_service(s);
+  if (!s.proc.channel.valid()) return SendResult::Failed;
+  if (batch.is_open()) {
+    if (batch.add(s.id, s.flow, frame)) uncork_service(s);  // full
     return SendResult::Sent;
   }
-  auto sent = s.channel.send(frame);
+  auto sent = s.proc.channel.send(frame);
   if (sent) {
-    ++s.stats.frames_out;
+    s.flow.count_sent();
     return SendResult::Sent;
   }
   if (sent.error().error == EAGAIN) {
-    s.held.assign(frame.begin(), frame.end());
-    s.has_held = true;
+    s.flow.hold(frame);
     set_writable_interest(s, true);
     return SendResult::Blocked;
   }
@@ -221,120 +214,69 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
 }
 
 void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
-  if (s.phase != Phase::Booted && s.phase != Phase::Ready) return;
+  if (s.proc.phase != Phase::Booted && s.proc.phase != Phase::Ready) return;
   if (routing_frozen) return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
   hand_over_polled(s);         // the service is about to wake: its polled news goes first
-  if (s.has_held || !s.outq.empty() || s.sweep) {
-    // Keep publish order: behind what is already waiting. A full out-queue only loses the order, never
-    // messages: the sweep drains every subscription once the queue is empty.
-    // Ring entries leave room for every control frame the pool can hold, so a Reply or a Shutdown always fits.
-    if (s.outq.size() + kControlPoolCapacity >= kOutQueueCapacity ||
-        !s.outq.push(OutEntry{.kind = OutEntry::Kind::Ring, .subscriber = subscriber, .control = 0})) {
-      s.sweep = true;
-    }
+  if (!s.flow.drained()) {
+    s.flow.queue_ring(subscriber);  // keep publish order: behind what is already waiting
     return;
   }
   (void)deliver_one(s, subscriber);
 }
 
 void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> frame) {
-  if (!s.live() || !s.channel.valid()) return;
+  if (!s.live() || !s.proc.channel.valid()) return;
   hand_over_polled(s);  // the service is about to wake: its polled news goes first
-  if (!s.has_held && s.outq.empty() && !s.sweep) {
+  if (s.flow.drained()) {
     (void)send_now(s, frame);
     return;
   }
-  std::uint32_t index = 0;
-  if (!s.control_free.empty()) {
-    index = s.control_free.back();
-    s.control_free.pop_back();
-  } else if (s.control_pool.size() < kControlPoolCapacity) {
-    index = static_cast<std::uint32_t>(s.control_pool.size());
-    s.control_pool.emplace_back();
-  } else {
-    kill_hung(s, "does not read its channel (control queue full)");
-    return;
-  }
-  s.control_pool[index].assign(frame.begin(), frame.end());
-  if (!s.outq.push(OutEntry{.kind = OutEntry::Kind::Control, .subscriber = {}, .control = index})) {
-    s.control_free.push_back(index);
-    kill_hung(s, "does not read its channel (out-queue full)");
+  switch (s.flow.queue_control(frame)) {
+    case FlowControl::Queued::Yes: return;
+    case FlowControl::Queued::PoolFull: kill_hung(s, "does not read its channel (control queue full)"); return;
+    case FlowControl::Queued::QueueFull: kill_hung(s, "does not read its channel (out-queue full)"); return;
   }
 }
 
-// ---- output batching (lockstep rounds) ----
-//
-// Between cork() and uncork() a frame that would go out at once (the service has nothing waiting) is
-// appended to the service's cork instead, laid out as in a datagram, and uncork() sends it in as few
-// datagrams as hold it (wire::datagram_prefix): the deliveries of a routing round wake a service once, not
-// once per frame (the service would otherwise wake on the first, report Idle, and wake again; sendmmsg of
-// one datagram per frame did that, docs/performance.md). Only the step code corks (begin_step,
-// advance_step), around routing that sends nothing else on the channels. A cork is capped at
-// kMaxCorkedFrames, so what a full channel refuses (EAGAIN) fits in the service's control queue: the first
-// frame becomes the held frame, the rest wait in the out-queue as control frames, in order (its out-queue
-// was empty, or the frames would not be in the cork).
+// ---- output batching (lockstep rounds: output_batch.hpp) ----
 
-void Kernel::Impl::cork() {
-  if (corks.size() != services.size()) corks.resize(services.size());
-  corked = true;
-}
+void Kernel::Impl::cork() { batch.open(services.size()); }
 
 void Kernel::Impl::uncork() {
-  corked = false;
+  batch.close();
   for (ServiceRuntime& s : services) {
-    if (corks[s.id.value()].count > 0) uncork_service(s);
+    if (batch.has_frames(s.id)) uncork_service(s);
   }
 }
 
 void Kernel::Impl::uncork_service(ServiceRuntime& s) {
-  Cork& c = corks[s.id.value()];
-  auto sent = s.channel.valid() ? channel::send_packed(s.channel, c.frames) : Result<void, channel::Unsent>{};
-  // EPIPE: the service is gone; its pidfd will say so. EAGAIN: the channel is full: keep the rest, in
-  // order, and count each frame again when it really leaves.
-  if (!sent && sent.error().error.error == EAGAIN) {
-    const std::span<const std::byte> rest = std::span<const std::byte>(c.frames).subspan(sent.error().sent);
+  batch.flush(s.id, s.proc.channel, s.flow, [&](std::span<const std::byte> refused) {
+    // In order: the first is held, the rest wait behind it as control frames (each counted when it leaves).
     std::size_t offset = 0;
-    const std::span<const std::byte> first = wire::next_frame(rest, offset);
-    s.held.assign(first.begin(), first.end());
-    s.has_held = true;
-    --s.stats.frames_out;
+    s.flow.hold(wire::next_frame(refused, offset));
     set_writable_interest(s, true);
-    while (offset < rest.size()) {
-      --s.stats.frames_out;
-      send_control(s, wire::next_frame(rest, offset));
-    }
-  }
-  c.frames.clear();
-  c.count = 0;
+    while (offset < refused.size()) send_control(s, wire::next_frame(refused, offset));
+  });
 }
 
 void Kernel::Impl::drain(ServiceRuntime& s) {
   for (;;) {
-    if (!s.channel.valid()) return;
-    if (s.has_held) {
-      auto sent = s.channel.send(s.held);
+    if (!s.proc.channel.valid()) return;
+    if (s.flow.has_held()) {
+      auto sent = s.proc.channel.send(s.flow.held());
       if (!sent) return;  // EAGAIN: still full (or gone)
-      ++s.stats.frames_out;
-      s.has_held = false;
+      s.flow.held_sent();
     }
-    if (!s.outq.empty()) {
-      const OutEntry e = s.outq.pop();
-      switch (e.kind) {
-        case OutEntry::Kind::Ring: (void)deliver_one(s, e.subscriber); break;
-        case OutEntry::Kind::Control:
-          (void)send_now(s, s.control_pool[e.control]);
-          s.control_free.push_back(e.control);
-          break;
-      }
+    if (s.flow.pop([&](broker::SubscriberId subscriber) { (void)deliver_one(s, subscriber); },
+                   [&](std::span<const std::byte> frame) { (void)send_now(s, frame); })) {
       continue;
     }
-    if (s.sweep) {
-      s.sweep = false;
+    if (s.flow.take_sweep()) {
       for (const SubscriptionRecord& r : s.subscriptions) {
-        while (!s.has_held && deliver_one(s, r.id)) {
+        while (!s.flow.has_held() && deliver_one(s, r.id)) {
         }
-        if (s.has_held) {
-          s.sweep = true;  // blocked again: continue when it drains
+        if (s.flow.has_held()) {
+          s.flow.request_sweep();  // blocked again: continue when it drains
           return;
         }
       }

@@ -40,7 +40,7 @@ std::string printable(std::string_view line) {
 }  // namespace
 
 sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
-  const launch::SandboxLimitValues v = launch::sandbox_limits(graph.graph, *s.spec);
+  const launch::SandboxLimitValues v = launch::sandbox_limits(graph.graph, *s.config.spec);
   sys::ResourceLimits limits;
   // RLIMIT_NPROC counts the processes of a uid in a user namespace: meaningful when each service has its
   // own uid (root) or its own user namespace (the strict sandbox without root, process.cpp isolate_in_child).
@@ -99,8 +99,8 @@ void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::stri
 }
 
 void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
-  for (std::size_t i = 0; i < kNoticesPerWakeup && s.seccomp.valid(); ++i) {
-    auto got = s.seccomp.receive();
+  for (std::size_t i = 0; i < kNoticesPerWakeup && s.sandbox.seccomp.valid(); ++i) {
+    auto got = s.sandbox.seccomp.receive();
     if (!got) {
       log("'%s': seccomp listener: %s", s.name.c_str(), got.error().to_string().c_str());
       close_sandbox(s);
@@ -110,70 +110,72 @@ void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
     const sys::SeccompNotice& notice = **got;
     // Only the live incarnation boots; images and anything else it made never run the loader or the SDK's
     // start-up, so their boot calls are violations too.
-    const bool booting = (s.phase == Phase::Spawned || s.phase == Phase::Booted) && s.process.pid() == notice.pid;
+    const bool booting = s.proc.booting() && s.proc.process.pid() == notice.pid;
     const sys::NoticeKind kind = sys::classify(notice);
     if ((booting && kind == sys::NoticeKind::BootCall) || kind == sys::NoticeKind::SignalToSelf) {
-      (void)s.seccomp.allow(notice.id);  // decided on register values and the kernel's own state: no TOCTOU
+      (void)s.sandbox.seccomp.allow(notice.id);  // decided on register values and the kernel's own state: no TOCTOU
       continue;
     }
     const std::string call = sys::syscall_name(notice.nr);
-    const bool live = s.live() && s.process.pid() == notice.pid;
-    if (live && s.loss_reason.empty()) s.loss_reason = "sandbox violation (forbidden system call " + call + ")";
+    const bool live = s.live() && s.proc.process.pid() == notice.pid;
+    if (live && s.proc.loss_reason.empty()) {
+      s.proc.loss_reason = "sandbox violation (forbidden system call " + call + ")";
+    }
     // Killed while it waits in the call: the call never runs. The pidfd is opened before the notice is checked
     // again, so a pid reused meanwhile is never hit.
-    (void)sys::signal_if(notice.pid, SIGKILL, [&] { return s.seccomp.still_waiting(notice.id); });
+    (void)sys::signal_if(notice.pid, SIGKILL, [&] { return s.sandbox.seccomp.still_waiting(notice.id); });
     record_violation(s, Violation::ForbiddenCall, call);
     if (!live) sweep_due = "a forbidden call";  // a stray (its zombie is reaped by the sweep) or an image (the store sees it)
   }
 }
 
 void Kernel::Impl::on_service_output(ServiceRuntime& s, bool final) {
-  if (!s.output.valid()) return;
+  if (!s.sandbox.output.valid()) return;
   std::array<char, 4096> buf{};
   bool closed = false;
   for (std::size_t i = 0; i < kOutputReadsPerWakeup || final; ++i) {
-    auto n = sys::read_some(s.output.get(), buf);
+    auto n = sys::read_some(s.sandbox.output.get(), buf);
     if (!n || !*n) break;       // error, or nothing waits
     if (**n == 0) {             // every writer is gone
       closed = true;
       break;
     }
-    s.output_partial.append(buf.data(), **n);
+    s.sandbox.output_partial.append(buf.data(), **n);
     std::size_t start = 0;
     for (;;) {
-      const std::size_t nl = s.output_partial.find('\n', start);
-      const bool cut = nl == std::string::npos && s.output_partial.size() - start >= kMaxOutputLine;
+      const std::size_t nl = s.sandbox.output_partial.find('\n', start);
+      const bool cut = nl == std::string::npos && s.sandbox.output_partial.size() - start >= kMaxOutputLine;
       if (nl == std::string::npos && !cut) break;
       const std::size_t end = cut ? start + kMaxOutputLine : nl;
       ++s.stats.output_lines;
       service_log(s, wire::LogLevel::Info,
-                  printable(std::string_view(s.output_partial).substr(start, end - start)));
+                  printable(std::string_view(s.sandbox.output_partial).substr(start, end - start)));
       start = cut ? end : nl + 1;
     }
-    s.output_partial.erase(0, start);
+    s.sandbox.output_partial.erase(0, start);
   }
   if (closed || final) {
-    if (!s.output_partial.empty()) {
+    if (!s.sandbox.output_partial.empty()) {
       ++s.stats.output_lines;
-      service_log(s, wire::LogLevel::Info, printable(s.output_partial));
-      s.output_partial.clear();
+      service_log(s, wire::LogLevel::Info, printable(s.sandbox.output_partial));
+      s.sandbox.output_partial.clear();
     }
   }
   if (closed) {
-    (void)epoll.remove(s.output.get());
-    s.output.reset();
+    (void)epoll.remove(s.sandbox.output.get());
+    s.sandbox.output.reset();
   }
 }
 
 void Kernel::Impl::close_sandbox(ServiceRuntime& s) {
-  if (s.seccomp.valid()) {
-    (void)epoll.remove(s.seccomp.fd());
-    s.seccomp.close();
+  if (s.sandbox.seccomp.valid()) {
+    (void)epoll.remove(s.sandbox.seccomp.fd());
+    s.sandbox.seccomp.close();
   }
-  if (s.output.valid()) {
+  if (s.sandbox.output.valid()) {
     on_service_output(s, true);
-    if (s.output.valid()) (void)epoll.remove(s.output.get());
-    s.output.reset();
+    if (s.sandbox.output.valid()) (void)epoll.remove(s.sandbox.output.get());
+    s.sandbox.output.reset();
   }
 }
 
@@ -236,7 +238,7 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
     const auto sid = sys::session_of(pid);
     if (!sid) continue;
     for (ServiceRuntime& s : services) {
-      if (std::find(s.sessions.begin(), s.sessions.end(), *sid) == s.sessions.end()) continue;
+      if (std::find(s.sandbox.sessions.begin(), s.sandbox.sessions.end(), *sid) == s.sandbox.sessions.end()) continue;
       if (pending[s.id.value()]) break;  // one of its copies is on its way: next time
       if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
       // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,

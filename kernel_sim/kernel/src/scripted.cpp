@@ -16,16 +16,16 @@ Result<std::vector<sys::SeqPacket>, KernelError> Kernel::attach_scripted_service
   if (k.booted || k.shut_down) return fail(seam_error(KernelError::Kind::Boot, "already booted or shut down"));
   std::vector<sys::SeqPacket> ends(k.services.size());
   for (ServiceRuntime& s : k.services) {
-    if (s.skip) continue;
+    if (s.config.skip) continue;
     auto pair = sys::SeqPacket::pair(sys::Blocking::No);
     if (!pair) return fail(seam_error(KernelError::Kind::System, pair.error().to_string()));
-    s.channel = std::move(pair->first);
+    s.proc.channel = std::move(pair->first);
     ends[s.id.value()] = std::move(pair->second);
-    s.scripted = true;
-    s.phase = Phase::Spawned;
-    s.spawned_at = k.wall();
-    s.limiter.last = s.spawned_at;
-    if (auto ok = k.epoll.add(s.channel.fd(), token(Source::Channel, s.id.value())); !ok) {
+    s.proc.scripted = true;
+    s.proc.phase = Phase::Spawned;
+    s.proc.spawned_at = k.wall();
+    s.sandbox.limiter.last = s.proc.spawned_at;
+    if (auto ok = k.epoll.add(s.proc.channel.fd(), token(Source::Channel, s.id.value())); !ok) {
       return fail(seam_error(KernelError::Kind::System, ok.error().to_string()));
     }
   }
@@ -38,7 +38,7 @@ void Kernel::inject_datagram(ServiceId service, std::span<const std::byte> datag
   Impl& k = *impl_;
   if (service.value() >= k.services.size()) return;
   ServiceRuntime& s = k.services[service.value()];
-  if (!s.scripted || !s.live() || !s.channel.valid() || k.shut_down) return;
+  if (!s.proc.scripted || !s.live() || !s.proc.channel.valid() || k.shut_down) return;
   k.receive_datagram(s, datagram.size() > wire::kMaxFrameBytes ? datagram.first(wire::kMaxFrameBytes) : datagram);
   k.drain_denials();
 }

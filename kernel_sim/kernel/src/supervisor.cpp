@@ -37,7 +37,7 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   const auto text = [&](std::string_view name, std::string_view v) {
     out.push_back(channel::encode_boot_param(channel::BootParamEntry{.name = name, .number = 0, .text = v, .is_text = true}));
   };
-  for (const proto::Param& p : s.spec->params()) {
+  for (const proto::Param& p : s.config.spec->params()) {
     if (p.has_text()) {
       text(p.name(), p.text());
     } else {
@@ -97,7 +97,7 @@ Result<void, KernelError> Kernel::Impl::spawn_all() {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
   }
   for (ServiceRuntime& s : services) {
-    if (s.skip) continue;
+    if (s.config.skip) continue;
     if (auto ok = spawn_one(s); !ok) return ok;
   }
   return {};
@@ -118,7 +118,7 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   auto out = sys::make_pipe();
   if (!out) return system_error(out.error());
   sys::SpawnSpec spec;
-  spec.executable = s.executable;
+  spec.executable = s.config.executable;
   spec.env = {"REJUV_SERVICE=" + s.name};
   for (const char* keep : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "TSAN_OPTIONS", "LSAN_OPTIONS"}) {
     if (const char* v = std::getenv(keep); v != nullptr) spec.env.push_back(std::string(keep) + "=" + v);
@@ -132,7 +132,7 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   if (uid_block) spec.uid = sys::service_uid(*uid_block, s.id.value());
   auto spawned = sys::spawn_supervised(spec);
   if (!spawned) {
-    std::string message = "spawn '" + s.name + "' (" + s.executable + "): " + spawned.error().to_string();
+    std::string message = "spawn '" + s.name + "' (" + s.config.executable + "): " + spawned.error().to_string();
     const std::string_view call = spawned.error().call;
     if (call.starts_with("unshare") || call.starts_with("read-only mounts")) {
       message += " — the sandbox runs each service in an empty network namespace and a read-only mount namespace,"
@@ -143,21 +143,22 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   }
   close_sandbox(s);  // a cold restart: the previous incarnations' listener and pipe
   auto* child = &spawned->process;
-  s.seccomp = std::move(spawned->listener);
-  s.output = std::move(out->read);
-  s.sessions.push_back(child->pid());
-  if (s.seccomp.valid()) {
-    if (auto ok = epoll.add(s.seccomp.fd(), token(Source::Seccomp, s.id.value())); !ok) return system_error(ok.error());
+  s.sandbox.seccomp = std::move(spawned->listener);
+  s.sandbox.output = std::move(out->read);
+  s.sandbox.sessions.push_back(child->pid());
+  const auto watch = [&](int fd, Source source) { return epoll.add(fd, token(source, s.id.value())); };
+  if (s.sandbox.seccomp.valid()) {
+    if (auto ok = watch(s.sandbox.seccomp.fd(), Source::Seccomp); !ok) return system_error(ok.error());
   }
-  if (auto ok = epoll.add(s.output.get(), token(Source::Output, s.id.value())); !ok) return system_error(ok.error());
-  s.process = std::move(*child);
-  s.channel = std::move(kernel_end);
-  s.phase = Phase::Spawned;
-  s.start_incarnation(Generation{});  // a fresh process: its first image is by fork
-  s.spawned_at = wall();
-  s.limiter.last = s.spawned_at;
-  if (auto ok = epoll.add(s.channel.fd(), token(Source::Channel, s.id.value())); !ok) return system_error(ok.error());
-  if (auto ok = epoll.add(s.process.pidfd(), token(Source::Pidfd, s.id.value())); !ok) return system_error(ok.error());
+  if (auto ok = watch(s.sandbox.output.get(), Source::Output); !ok) return system_error(ok.error());
+  s.proc.process = std::move(*child);
+  s.proc.channel = std::move(kernel_end);
+  s.proc.phase = Phase::Spawned;
+  s.pages.start_incarnation(Generation{});  // a fresh process: its first image is by fork
+  s.proc.spawned_at = wall();
+  s.sandbox.limiter.last = s.proc.spawned_at;
+  if (auto ok = watch(s.proc.channel.fd(), Source::Channel); !ok) return system_error(ok.error());
+  if (auto ok = watch(s.proc.process.pidfd(), Source::Pidfd); !ok) return system_error(ok.error());
   return {};
 }
 
@@ -204,8 +205,8 @@ Result<void, KernelError> Kernel::Impl::spawn_plant() {
 // The boot script (docs/protocol.md "Boot"), by the channel's one encoder (rejuv/channel/boot.hpp).
 void Kernel::Impl::send_boot(ServiceRuntime& s) {
   std::vector<wire::BootCap> boot_caps;
-  boot_caps.reserve(s.boot.caps.size());
-  for (const cap::BootCap& c : s.boot.caps) {
+  boot_caps.reserve(s.config.boot.caps.size());
+  for (const cap::BootCap& c : s.config.boot.caps) {
     const ObjectInfo& o = objects[c.object.value()];
     channel::BootCapEntry entry{.slot = c.slot, .kind = c.kind, .rights = c.rights, .payload_size = 0,
                                 .object = c.name, .type = {}};
@@ -218,12 +219,13 @@ void Kernel::Impl::send_boot(ServiceRuntime& s) {
     boot_caps.push_back(channel::encode_boot_cap(entry));
   }
   const channel::BootIdentity who{.service = s.id, .epoch = kernel_clock.epoch(), .name = s.name};
-  channel::write_boot_script(tx, who, boot_caps, s.params, [&](std::span<const std::byte> frame) { send_control(s, frame); });
+  channel::write_boot_script(tx, who, boot_caps, s.config.params,
+                             [&](std::span<const std::byte> frame) { send_control(s, frame); });
 }
 
 void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
-  if (s.phase == Phase::Dead || s.phase == Phase::NotStarted) return;
-  auto status = s.process.try_wait();
+  if (s.proc.phase == Phase::Dead || s.proc.phase == Phase::NotStarted) return;
+  auto status = s.proc.process.try_wait();
   if (status && !*status) return;  // not yet (spurious wakeup)
   if (!status) {
     // Its pidfd said it ended but it cannot be waited for (reaped elsewhere?): it is gone all the same. Lost
@@ -235,35 +237,34 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
   if (!booted) {
     // Its last words may still be in the channel (the pidfd can be handled first): read them, so that a
     // boot failure is reported with the service's own error (lose_service).
-    for (std::uint64_t before = ~std::uint64_t{0}; s.live() && s.channel.valid() && before != s.stats.frames_in;) {
+    for (std::uint64_t before = ~std::uint64_t{0}; s.live() && s.proc.channel.valid() && before != s.stats.frames_in;) {
       before = s.stats.frames_in;
       read_channel(s);
     }
   }
-  (void)epoll.remove(s.process.pidfd());
-  if (s.channel.valid()) {
-    (void)epoll.remove(s.channel.fd());
-    s.channel.close();
+  (void)epoll.remove(s.proc.process.pidfd());
+  if (s.proc.channel.valid()) {
+    (void)epoll.remove(s.proc.channel.fd());
+    s.proc.channel.close();
   }
-  s.phase = Phase::Dead;
+  s.proc.phase = Phase::Dead;
   s.stats.exit = **status;
   broker.remove_service(s.id);
   timers.remove_service(s.id);
-  s.outq.clear();
-  s.has_held = false;
-  s.sweep = false;
+  s.flow.reset();
   // What it wrote last (often why it ended) before the kernel's own line about it.
   on_service_output(s);
   // A forbidden call is killed by the kernel itself (sandbox.cpp, loss_reason set). A death by SIGSYS is a
   // filter of the service's own that refused a call: the kernel never sends SIGSYS, so it counts the same.
-  const bool sigsys = s.loss_reason.empty() && (**status).how == sys::ExitStatus::How::Signaled &&
+  const bool sigsys = s.proc.loss_reason.empty() && (**status).how == sys::ExitStatus::How::Signaled &&
                       (**status).value == SIGSYS;
   if (sigsys) {
-    s.loss_reason = "sandbox violation (killed by SIGSYS)";
+    s.proc.loss_reason = "sandbox violation (killed by SIGSYS)";
     record_violation(s, Violation::ForbiddenCall, "unknown (SIGSYS)");
   }
   if (stopping) return;
-  std::string reason = s.loss_reason.empty() ? (**status).to_string() : s.loss_reason + " (" + (**status).to_string() + ")";
+  std::string reason = s.proc.loss_reason.empty() ? (**status).to_string()
+                                                  : s.proc.loss_reason + " (" + (**status).to_string() + ")";
   lose_service(s, std::move(reason));
 }
 
@@ -273,14 +274,14 @@ void Kernel::Impl::lose_service(ServiceRuntime& s, std::string reason) {
   // back to, and a restart from the binary would fail the same way (a refused parameter, a wrong
   // executable). The run stops with the service's own error, SR on or off.
   if (!booted) {
-    std::string detail = "service '" + s.name + "' (" + s.executable + ") failed at boot: " + reason;
-    if (!s.last_error.empty()) detail += "; its last error: " + s.last_error;
+    std::string detail = "service '" + s.name + "' (" + s.config.executable + ") failed at boot: " + reason;
+    if (!s.proc.last_error.empty()) detail += "; its last error: " + s.proc.last_error;
     stop_run(StopReason::ServiceFailed, std::move(detail));
     return;
   }
   // DESIGN §7: a rejuvenated service dying is one of the three rollback triggers (images.cpp). Without SR,
   // or for a driver-level service (never rolled back), the run cannot continue safely.
-  if (sr && s.rejuvenate) {
+  if (sr && s.config.rejuvenate) {
     request_rollback("service '" + s.name + "' lost: " + reason);
     return;
   }
@@ -288,12 +289,12 @@ void Kernel::Impl::lose_service(ServiceRuntime& s, std::string reason) {
 }
 
 void Kernel::Impl::kill_hung(ServiceRuntime& s, std::string reason) {
-  if (!s.live() || !s.loss_reason.empty()) return;
-  s.loss_reason = std::move(reason);
+  if (!s.live() || !s.proc.loss_reason.empty()) return;
+  s.proc.loss_reason = std::move(reason);
   s.stats.hung = true;
   steps.note_hung(s.id);
-  log("killing '%s': %s", s.name.c_str(), s.loss_reason.c_str());
-  (void)s.process.signal(SIGKILL);  // the pidfd reports the death; on_child_exit does the rest
+  log("killing '%s': %s", s.name.c_str(), s.proc.loss_reason.c_str());
+  (void)s.proc.process.signal(SIGKILL);  // the pidfd reports the death; on_child_exit does the rest
 }
 
 void Kernel::Impl::on_plant_exit() {
@@ -316,10 +317,11 @@ void Kernel::Impl::report_stall() {
     what = "step " + std::to_string(steps.active()->step) + " in round " + std::to_string(steps.rounds());
     for (const ServiceRuntime& s : services) {
       if (!s.live() || s.idle()) continue;
-      what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.phase)) + ", idle " +
-              std::to_string(s.idle_count + s.frames_base) + "/" + std::to_string(s.stats.frames_out) +
-              (s.has_held ? ", held" : "") + (s.outq.empty() ? "" : ", queued " + std::to_string(s.outq.size())) +
-              (s.sweep ? ", sweep" : "") + ")";
+      what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.proc.phase)) + ", idle " +
+              std::to_string(s.flow.reported()) + "/" + std::to_string(s.flow.frames_out()) +
+              (s.flow.has_held() ? ", held" : "") +
+              (s.flow.queued() == 0 ? "" : ", queued " + std::to_string(s.flow.queued())) +
+              (s.flow.sweeping() ? ", sweep" : "") + ")";
     }
     if (checkpoint_request) what += "; a checkpoint waits for quiescence";
     if (rollback_request) what += "; a rollback is pending";
@@ -334,14 +336,14 @@ void Kernel::Impl::check_deadlines() {
     report_stall();
   }
   for (ServiceRuntime& s : services) {
-    if ((s.phase == Phase::Spawned || s.phase == Phase::Booted) && t - s.spawned_at > options.boot_deadline) {
+    if (s.proc.booting() && t - s.proc.spawned_at > options.boot_deadline) {
       kill_hung(s, "not Ready within the boot deadline (" + std::to_string(to_seconds(options.boot_deadline).count()) + " s)");
     }
   }
   for (ServiceRuntime& s : services) {
     // After a Shutdown a closed channel is the service on its way out (under LeakSanitizer its exit check
     // can take longer than kChannelCloseGrace): the shutdown's own grace period bounds it.
-    if (!shut_down && s.live() && s.channel_closed_at && t - *s.channel_closed_at > kChannelCloseGrace) {
+    if (!shut_down && s.live() && s.proc.channel_closed_at && t - *s.proc.channel_closed_at > kChannelCloseGrace) {
       kill_hung(s, "closed its channel");
     }
   }
@@ -350,7 +352,7 @@ void Kernel::Impl::check_deadlines() {
     for (ServiceRuntime& s : services) {
       if (!s.live() || s.idle()) continue;
       // Its Idle may be waiting in the channel: read what is there before judging.
-      if (s.channel.valid()) read_channel(s);
+      if (s.proc.channel.valid()) read_channel(s);
       if (s.live() && !s.idle()) {
         kill_hung(s, "not idle within the idle deadline (" + std::to_string(to_seconds(options.idle_deadline).count()) +
                          " s) of step " + std::to_string(steps.active()->step));
@@ -382,12 +384,12 @@ void Kernel::Impl::shutdown_all() {
   for (ServiceRuntime& s : services) {
     if (!s.live()) continue;
     log("'%s' did not exit within the grace period: killed", s.name.c_str());
-    s.process.kill_and_reap();
-    if (s.channel.valid()) (void)epoll.remove(s.channel.fd());
-    (void)epoll.remove(s.process.pidfd());
-    s.channel.close();
-    s.stats.exit = s.process.status();
-    s.phase = Phase::Dead;
+    s.proc.process.kill_and_reap();
+    if (s.proc.channel.valid()) (void)epoll.remove(s.proc.channel.fd());
+    (void)epoll.remove(s.proc.process.pidfd());
+    s.proc.channel.close();
+    s.stats.exit = s.proc.process.status();
+    s.proc.phase = Phase::Dead;
   }
   if (plant_started && plant.running()) {
     (void)plant.signal(SIGTERM);

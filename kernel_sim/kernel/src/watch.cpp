@@ -49,7 +49,7 @@ void Kernel::Impl::drain_denials() {
     if (known) {
       ServiceRuntime& s = services[d.service.value()];
       ++s.stats.denials;
-      if (s.limiter.allow(wall())) {
+      if (s.sandbox.limiter.allow(wall())) {
         log("denied: '%s' %s on slot %u: %s (mode %s)", s.name.c_str(), std::string(cap::to_string(d.operation)).c_str(),
             d.slot.value(), std::string(cap::to_string(d.error)).c_str(), std::string(to_string(d.mode)).c_str());
       } else {

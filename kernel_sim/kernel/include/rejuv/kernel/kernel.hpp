@@ -13,17 +13,18 @@
 //
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 //
-// The implementation (kernel_sim/kernel/src; Kernel::Impl in impl.hpp composes the parts): kernel.cpp this API;
-// create.cpp Kernel::create in named steps; loop.cpp the event loop, timers, deadlines and the realtime clock;
-// lockstep.cpp the lockstep steps and the samples that ride on them; vocabulary.cpp the enums' names and
-// KernelError; bridge.cpp the DDS bridge with the plant's lockstep adapter (kernel_sim/dds: bridge.hpp,
-// plant_lockstep.hpp); router.cpp routing and flow control; requests.cpp channel requests, invoked per object
-// kind (invocation.hpp); watch.cpp the observers of the routed traffic (mission_watch.hpp); supervisor.cpp
-// processes; images.cpp safe points and retired generations, checkpoint.cpp, rollback.cpp and
-// checkpointed_state.cpp the image coordinator; sandbox.cpp containment; netgate.cpp the network gate;
-// scripted.cpp the fuzzer's seam. Parts that own their state behind a small interface: kernel_clock.hpp (the
-// time page's one writer), step_clock.hpp (the lockstep step queue and its deadlines), reaper.hpp (retired and
-// dying processes), channel_pool.hpp (socket pairs made ahead), netgate.hpp, mission_watch.hpp.
+// The implementation (kernel_sim/kernel/src; Kernel::Impl in impl.hpp composes the parts; a service's record,
+// by concern, in service_runtime.hpp): kernel.cpp this API; create.cpp Kernel::create in named steps; loop.cpp
+// the event loop, timers, deadlines and the realtime clock; lockstep.cpp the lockstep steps and the samples that
+// ride on them; vocabulary.cpp the enums' names and KernelError; bridge.cpp the DDS bridge with the plant's
+// lockstep adapter (kernel_sim/dds: bridge.hpp, plant_lockstep.hpp); router.cpp routing and flow control
+// (output_batch.hpp a round's batched output); requests.cpp channel requests, invoked per object kind
+// (invocation.hpp); watch.cpp the observers of the routed traffic (mission_watch.hpp); supervisor.cpp
+// processes; the image coordinator images.cpp (overview, safe points), checkpoint.cpp, rollback.cpp and
+// checkpointed_state.cpp; sandbox.cpp containment; netgate.cpp the network gate; scripted.cpp the fuzzer's
+// seam. Parts that own their state behind a small interface: kernel_clock.hpp (the time page's one writer),
+// step_clock.hpp (the lockstep step queue and its deadlines), reaper.hpp (retired and dying processes),
+// channel_pool.hpp (socket pairs made ahead), output_batch.hpp, netgate.hpp, mission_watch.hpp.
 #pragma once
 
 #include <algorithm>
