@@ -41,13 +41,6 @@
 
 namespace rejuv::kernel {
 
-std::optional<ObjectId> Kernel::Impl::kernel_topic(std::string_view type) const {
-  for (const ObjectInfo& o : objects) {
-    if (o.type != nullptr && o.type->name == type && o.kernel == policy::KernelEndpoint::Publishes) return o.id;
-  }
-  return std::nullopt;
-}
-
 bool Kernel::Impl::enter_mode(SrMode mode) {
   if (auto changed = caps.apply_mode(mode); !changed) {
     log("mode %s: %s", std::string(to_string(mode)).c_str(), std::string(cap::to_string(changed.error())).c_str());

@@ -306,7 +306,6 @@ struct Kernel::Impl {
   bool enter_mode(SrMode mode);
   // Observer::on_sr_event, stamped with now, the wall clock, the epoch and the mode (Figs. 7 and 8).
   void sr_event(SrEventKind kind, Generation g = {}, Nanos span = {}, std::optional<ServiceId> by = std::nullopt);
-  [[nodiscard]] std::optional<ObjectId> kernel_topic(std::string_view type) const;
 
   // ---- channel input (requests.cpp) ----
   void read_channel(ServiceRuntime& s);
@@ -338,6 +337,17 @@ struct Kernel::Impl {
   // Who published: the kernel's own topics go out through the bridge, samples that came in do not.
   enum class From : std::uint8_t { Service, Kernel, Bridge };
   void publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from = From::Kernel);
+  // A message of the kernel's own (SrMode, RollbackSignal, SecurityEvent) on every topic of its type that the
+  // policy says the kernel publishes (KERNEL_PUBLISHES; none: not published). The one place that finds them.
+  template <typename T>
+  void publish_kernel_message(const T& message) {
+    for (const ObjectInfo& o : objects) {
+      if (o.type != nullptr && o.type->name == msgs::TopicTraits<T>::name &&
+          o.kernel == policy::KernelEndpoint::Publishes) {
+        publish_as_kernel(o.id, std::as_bytes(std::span(&message, 1)));
+      }
+    }
+  }
   void after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
                      std::optional<ServiceId> publisher, From from);
   void finish_routes(ObjectId topic);  // pushes the topic's newest message to every subscriber

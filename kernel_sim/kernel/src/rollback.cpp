@@ -195,12 +195,9 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
   // woken by a delivery, or the plant's thread woken by a DDS write, may take the CPU at once.
   routing_frozen = true;
-  if (const auto topic = kernel_topic(msgs::TopicTraits<rejuv_msg_RollbackSignal>::name)) {
-    const rejuv_msg_RollbackSignal signal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
-                                          .generation = restored->g.value(),
-                                          .epoch = epoch.value()};
-    publish_as_kernel(*topic, std::as_bytes(std::span(&signal, 1)));
-  }
+  publish_kernel_message(rejuv_msg_RollbackSignal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
+                                                   .generation = restored->g.value(),
+                                                   .epoch = epoch.value()});
   publish_sr_mode();
   const Nanos took = wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
   resume_routing();

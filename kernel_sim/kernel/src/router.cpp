@@ -105,17 +105,10 @@ void Kernel::Impl::publish_as_kernel(ObjectId topic, std::span<const std::byte> 
 
 void Kernel::Impl::publish_sr_mode() {
   sr_mode_announced = true;
-  for (const ObjectInfo& o : objects) {
-    if (o.type == nullptr || o.type->name != msgs::TopicTraits<rejuv_msg_SrMode>::name ||
-        o.kernel != policy::KernelEndpoint::Publishes) {
-      continue;
-    }
-    const rejuv_msg_SrMode m{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
-                             .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
-                             .epoch = kernel_clock.epoch().value(),
-                             .generation = 0};
-    publish_as_kernel(o.id, std::as_bytes(std::span(&m, 1)));
-  }
+  publish_kernel_message(rejuv_msg_SrMode{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
+                                           .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
+                                           .epoch = kernel_clock.epoch().value(),
+                                           .generation = 0});
 }
 
 bool Kernel::Impl::write_to_bridge(ObjectId topic, std::span<const std::byte> payload) {

@@ -81,17 +81,14 @@ void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::stri
           static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
       break;
   }
-  if (const auto events = kernel_topic(msgs::TopicTraits<rejuv_msg_SecurityEvent>::name)) {
-    const rejuv_msg_SecurityEvent ev{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
-                                     .service_id = s.id.value(),
-                                     .slot = detail,
-                                     .operation = 0,
-                                     .error = 0,
-                                     .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
-                                     .kind = kind == Violation::ForbiddenCall ? rejuv_msg_SECURITY_FORBIDDEN_CALL
-                                                                              : rejuv_msg_SECURITY_STRAY_PROCESS};
-    publish_as_kernel(*events, std::as_bytes(std::span(&ev, 1)));
-  }
+  publish_kernel_message(rejuv_msg_SecurityEvent{
+      .timestamp_ns = static_cast<std::uint64_t>(now().count()),
+      .service_id = s.id.value(),
+      .slot = detail,
+      .operation = 0,
+      .error = 0,
+      .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
+      .kind = kind == Violation::ForbiddenCall ? rejuv_msg_SECURITY_FORBIDDEN_CALL : rejuv_msg_SECURITY_STRAY_PROCESS});
   // In MC the attacker has the service now: roll back at once rather than at the end of T_MC.
   if (sr && caps.mode() == SrMode::MC && !stopping) {
     request_rollback("sandbox violation by '" + s.name + "': " + std::string(what));

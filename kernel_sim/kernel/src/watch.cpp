@@ -36,13 +36,6 @@ void Kernel::Impl::watch_publication(const ObjectInfo& o, std::span<const std::b
 void Kernel::Impl::drain_denials() {
   const cap::AuditLog& audit = caps.audit_log();
   if (audit.pushed() == denials_drained) return;
-  std::optional<ObjectId> events;
-  for (const ObjectInfo& o : objects) {
-    if (o.type != nullptr && o.type->name == msgs::TopicTraits<rejuv_msg_SecurityEvent>::name &&
-        o.kernel == policy::KernelEndpoint::Publishes) {
-      events = o.id;
-    }
-  }
   for (std::size_t i = audit.first_index_from(denials_drained); i < audit.size(); ++i) {
     const cap::Denial& d = audit[i];
     const bool known = d.service.value() < services.size();
@@ -57,16 +50,13 @@ void Kernel::Impl::drain_denials() {
       }
     }
     // DESIGN §3: every denial is also published as a SecurityEvent.
-    if (events) {
-      const rejuv_msg_SecurityEvent ev{.timestamp_ns = static_cast<std::uint64_t>(d.at.count()),
-                                       .service_id = d.service.value(),
-                                       .slot = d.slot.value(),
-                                       .operation = static_cast<std::uint8_t>(d.operation),
-                                       .error = static_cast<std::uint8_t>(d.error),
-                                       .mode = static_cast<rejuv_msg_SrModeKind>(index_of(d.mode)),
-                                       .kind = rejuv_msg_SECURITY_CAPABILITY_DENIAL};
-      publish_as_kernel(*events, std::as_bytes(std::span(&ev, 1)));
-    }
+    publish_kernel_message(rejuv_msg_SecurityEvent{.timestamp_ns = static_cast<std::uint64_t>(d.at.count()),
+                                                   .service_id = d.service.value(),
+                                                   .slot = d.slot.value(),
+                                                   .operation = static_cast<std::uint8_t>(d.operation),
+                                                   .error = static_cast<std::uint8_t>(d.error),
+                                                   .mode = static_cast<rejuv_msg_SrModeKind>(index_of(d.mode)),
+                                                   .kind = rejuv_msg_SECURITY_CAPABILITY_DENIAL});
   }
   denials_drained = audit.pushed();
 }
