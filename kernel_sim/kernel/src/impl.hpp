@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "bridge.hpp"
+#include "canonical_stage.hpp"
 #include "channel_pool.hpp"
 #include "invocation.hpp"
 #include "kernel_clock.hpp"
@@ -58,22 +59,14 @@ struct ObjectInfo {
   std::vector<std::byte> limits{};        // Limits: the last LimitsWrite data
 };
 
-// A publication read from a service during a lockstep step, routed at the end of the round in canonical
-// order (service id, then arrival) so that the run is deterministic whatever the scheduling.
-struct Staged {
-  std::uint32_t origin = 0;
+// Lockstep: a publication read from a service during a routing round, routed at the end of the round in
+// canonical order (publisher id, then arrival); a DDS sample held for its step, routed by (timestamp, reader).
+struct StagedPublication {
+  std::uint32_t origin = 0;  // ServiceId
   std::uint32_t slot = 0;
-  std::uint32_t offset = 0;
-  std::uint32_t size = 0;
 };
-
-// A DDS sample waiting for its step.
-struct StagedSample {
-  std::uint32_t reader = 0;
-  std::uint64_t timestamp = 0;
-  std::uint32_t offset = 0;
-  std::uint32_t size = 0;
-};
+using PublicationStage = CanonicalStage<std::uint32_t, StagedPublication>;
+using SampleStage = CanonicalStage<std::pair<std::uint64_t, std::uint32_t>, std::uint32_t>;  // tag: the reader
 
 // A checkpoint in progress (DESIGN §7 "Checkpoint g"): the caller waits for its Reply; every rejuvenated
 // service is asked for an image and answers Taken.
@@ -147,11 +140,8 @@ struct Kernel::Impl {
   bool samples_on_step = false;  // sample readers are not in epoll: taken when a SimStep arrives
   bool watching_samples = false;
   void report_stall();           // supervisor.cpp: no step completed for kStallReportAfter
-  std::vector<Staged> staged;
-  std::vector<std::byte> stage_bytes;
-  std::vector<StagedSample> samples;
-  std::vector<std::byte> sample_bytes;
-  std::vector<std::uint32_t> order;                // sort scratch
+  PublicationStage staged;       // a round's publications (router.cpp, canonical_stage.hpp)
+  SampleStage samples;           // the samples of the step (lockstep.cpp stages, router.cpp routes)
 
   // ---- the image coordinator's state (images.cpp, checkpoint.cpp, rollback.cpp; DESIGN §7) ----
   image::ImageStore images{2};

@@ -17,10 +17,8 @@ namespace rejuv::kernel {
 void Kernel::Impl::stage_sample(std::size_t reader, std::span<const std::byte> bytes) {
   std::uint64_t stamp = 0;
   if (bytes.size() >= sizeof(stamp)) std::memcpy(&stamp, bytes.data(), sizeof(stamp));
-  samples.push_back(StagedSample{.reader = static_cast<std::uint32_t>(reader), .timestamp = stamp,
-                                 .offset = static_cast<std::uint32_t>(sample_bytes.size()),
-                                 .size = static_cast<std::uint32_t>(bytes.size())});
-  sample_bytes.insert(sample_bytes.end(), bytes.begin(), bytes.end());
+  const auto r = static_cast<std::uint32_t>(reader);
+  samples.add(std::pair(stamp, r), r, bytes);
 }
 
 // SimSteps from the plant (the step input woke the loop): each becomes a pending step, and the samples it

@@ -19,7 +19,7 @@ void Kernel::Impl::request_rollback(std::string reason) {
 }
 
 void Kernel::Impl::retire_live_rejuvenated() {
-  std::erase_if(staged, [&](const Staged& e) { return services[e.origin].config.rejuvenate; });
+  staged.erase_if([&](const StagedPublication& e) { return services[e.origin].config.rejuvenate; });
   for (ServiceRuntime& s : services) {
     if (!s.config.rejuvenate || s.config.skip || s.proc.phase == Phase::NotStarted) continue;
     if (s.live()) {

@@ -28,42 +28,21 @@ void Kernel::Impl::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::sp
                                           s.name.c_str(), kMaxStagedPerStep);
     return;
   }
-  staged.push_back(Staged{.origin = s.id.value(), .slot = slot,
-                          .offset = static_cast<std::uint32_t>(stage_bytes.size()),
-                          .size = static_cast<std::uint32_t>(payload.size())});
-  stage_bytes.insert(stage_bytes.end(), payload.begin(), payload.end());
+  staged.add(s.id.value(), StagedPublication{.origin = s.id.value(), .slot = slot}, payload);
 }
 
 void Kernel::Impl::flush_staged() {
-  if (staged.empty()) return;
-  order.resize(staged.size());
-  std::iota(order.begin(), order.end(), 0U);
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::uint32_t a, std::uint32_t b) { return staged[a].origin < staged[b].origin; });
-  for (const std::uint32_t i : order) {
-    const Staged& e = staged[i];
+  staged.drain([&](const StagedPublication& e, std::span<const std::byte> payload) {
     ServiceRuntime& s = services[e.origin];
-    if (s.proc.phase == Phase::Dead) continue;  // output of a service that died since: discarded
-    route_publish(s, e.slot, std::span<const std::byte>(stage_bytes).subspan(e.offset, e.size));
-  }
-  staged.clear();
-  stage_bytes.clear();
+    if (s.proc.phase == Phase::Dead) return;  // output of a service that died since: discarded
+    route_publish(s, e.slot, payload);
+  });
 }
 
 void Kernel::Impl::route_samples() {
-  if (samples.empty()) return;
-  order.resize(samples.size());
-  std::iota(order.begin(), order.end(), 0U);
-  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return std::pair(samples[a].timestamp, samples[a].reader) < std::pair(samples[b].timestamp, samples[b].reader);
+  samples.drain([&](std::uint32_t reader, std::span<const std::byte> bytes) {
+    if (const auto topic = bridge->readers()[reader].topic) publish_as_kernel(*topic, bytes, From::Bridge);
   });
-  for (const std::uint32_t i : order) {
-    const StagedSample& e = samples[i];
-    const auto topic = bridge->readers()[e.reader].topic;
-    if (topic) publish_as_kernel(*topic, std::span<const std::byte>(sample_bytes).subspan(e.offset, e.size), From::Bridge);
-  }
-  samples.clear();
-  sample_bytes.clear();
 }
 
 void Kernel::Impl::route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload) {
