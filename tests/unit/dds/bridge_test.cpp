@@ -3,8 +3,12 @@
 // step table both ends pack and unpack through (plant_topics.hpp, kStepSamples).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <string_view>
+#include <type_traits>
+#include <variant>
 #include <vector>
 
 #include "dds_test_support.hpp"
@@ -264,13 +268,63 @@ TEST(StepTable, PutThenSamples_EachKindRoundTripsAndAFullArrayRefuses) {
   EXPECT_EQ(g.samples(step).size(), 2U);
 }
 
-TEST(StepTable, Rows_TopicNamesAreThePlantTopicsInStagingOrder) {
+// The table's properties rather than a copy of it (a copy would be one more file for every new sensor): each
+// row a plant topic of its own type, the sensors of the plant in their staging order, the ground truth (the
+// one StepValue) last.
+TEST(StepTable, Rows_OnePlantTopicPerTypeSensorsInStagingOrderGroundTruthLast) {
   std::vector<std::string_view> names;
-  pt::for_each_step_kind([&](std::size_t, const auto& kind) { names.push_back(kind.topic.name); });
-  const std::vector<std::string_view> want = {pt::kSensorGyro.name, pt::kSensorAccel.name, pt::kSensorMag.name,
-                                              pt::kSensorBaro.name, pt::kSensorGps.name, pt::kGroundTruth.name};
-  EXPECT_EQ(names, want);
+  std::vector<std::string_view> types;
+  pt::for_each_step_kind([&](std::size_t, const auto& kind) {
+    names.push_back(kind.topic.name);
+    types.push_back(pt::type_of(kind.topic).name);
+    EXPECT_TRUE(kind.topic.name.starts_with("rejuv/")) << kind.topic.name;
+  });
+  ASSERT_EQ(names.size(), pt::kStepSampleKinds);
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    for (std::size_t j = i + 1; j < names.size(); ++j) {
+      EXPECT_NE(names[i], names[j]);
+      EXPECT_NE(types[i], types[j]);  // step_row_of<T> finds one row per type
+    }
+  }
+  const std::vector<std::string_view> sensors = {pt::kSensorGyro.name, pt::kSensorAccel.name, pt::kSensorMag.name,
+                                                 pt::kSensorBaro.name, pt::kSensorGps.name};
+  auto at = names.begin();
+  for (std::string_view sensor : sensors) {
+    at = std::find(at, names.end(), sensor);
+    ASSERT_NE(at, names.end()) << sensor << " missing or out of order";
+  }
+  EXPECT_EQ(names.back(), pt::kGroundTruth.name);
+  EXPECT_EQ(pt::step_row_of<rejuv_msg_GroundTruth>(), pt::kStepSampleKinds - 1);
 }
+
+// The plant's message type and a step's sample count come from the table, not from a list of sensors.
+TEST(StepTable, SensorSampleAndSamplesIn_FollowTheTable) {
+  EXPECT_EQ(std::variant_size_v<pt::SensorSample>, pt::kStepSampleKinds - 1);  // every row but the ground truth
+  EXPECT_TRUE((std::is_same_v<std::variant_alternative_t<0, pt::SensorSample>, rejuv_msg_SensorGyro>));
+  rejuv_msg_SimStep step{};
+  EXPECT_EQ(pt::samples_in(step), 1U);  // the ground truth only
+  EXPECT_TRUE(pt::step_kind_of<rejuv_msg_SensorGyro>().put(step, gyro(1)));
+  EXPECT_TRUE(pt::step_kind_of<rejuv_msg_SensorGyro>().put(step, gyro(2)));
+  EXPECT_TRUE(pt::step_kind_of<rejuv_msg_SensorMag>().put(step, rejuv_msg_SensorMag{}));
+  EXPECT_EQ(pt::samples_in(step), 4U);
+  step.gyro_count = 200;  // clamped to the array, as the kernel's adapter reads it
+  EXPECT_EQ(pt::samples_in(step), 4U);
+}
+
+// A step's samples start with their uint64 timestamp_ns (the kernel orders staged samples by it); a struct
+// that does not is refused at compile time.
+static_assert(pt::StampedSample<rejuv_msg_SensorGyro>);
+static_assert(pt::StampedSample<rejuv_msg_GroundTruth>);
+static_assert(!pt::StampedSample<rejuv_msg_SimStep>);  // first member: step
+struct TimestampSecond {
+  double value;
+  std::uint64_t timestamp_ns;
+};
+static_assert(!pt::StampedSample<TimestampSecond>);
+struct StampOfAnotherType {
+  double timestamp_ns;
+};
+static_assert(!pt::StampedSample<StampOfAnotherType>);
 
 }  // namespace
 }  // namespace rejuv::dds

@@ -12,6 +12,7 @@
 #include <deque>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "dds_test_support.hpp"
@@ -68,15 +69,11 @@ double hover_level() {
 class MinimalKernel {
  public:
   // Readers first with sim_step last, writers with sim_step_ack last (the protocol's creation order; the
-  // members are initialised in declaration order).
+  // members are initialised in declaration order). A reader per row of the step table, as the kernel's
+  // adapter has: whatever sensors the plant has, every sample it publishes on its own topic is counted.
   explicit MinimalKernel(DomainId domain)
       : participant_(make_participant(domain)),
-        gyro_(reader(participant_, pt::kSensorGyro)),
-        accel_(reader(participant_, pt::kSensorAccel)),
-        mag_(reader(participant_, pt::kSensorMag)),
-        baro_(reader(participant_, pt::kSensorBaro)),
-        gps_(reader(participant_, pt::kSensorGps)),
-        truth_(reader(participant_, pt::kGroundTruth)),
+        samples_(sample_readers(participant_)),
         sim_step_(reader(participant_, pt::kSimStep)),
         actuators_(writer(participant_, pt::kActuatorOutputs)),
         ack_(writer(participant_, pt::kSimStepAck)) {}
@@ -96,10 +93,10 @@ class MinimalKernel {
       collect();
       auto n = sim_step_.take_as<rejuv_msg_SimStep>([&](const rejuv_msg_SimStep& s) {
         steps_.push_back(s);
-        gyro.insert(gyro.end(), s.gyro, s.gyro + s.gyro_count);
-        accel.insert(accel.end(), s.accel, s.accel + s.accel_count);
+        for (const auto& g : pt::step_kind_of<rejuv_msg_SensorGyro>().samples(s)) gyro.push_back(g);
+        for (const auto& a : pt::step_kind_of<rejuv_msg_SensorAccel>().samples(s)) accel.push_back(a);
         truth.push_back(s.ground_truth);
-        in_steps_ += s.gyro_count + s.accel_count + s.mag_count + s.baro_count + s.gps_count + 1U;
+        in_steps_ += pt::samples_in(s);
       });
       REJUV_ASSERT(n.has_value(), "take sim_step");
       if (!steps_.empty() && samples_on_topics() >= steps_.front().samples_published) {
@@ -108,12 +105,11 @@ class MinimalKernel {
         return s;
       }
       // Any sample may complete the step: wake on all of them (level-triggered poll, bounded slices).
-      std::array<pollfd, 8> fds{};
-      std::size_t i = 0;
-      for (const Reader* r : {&gyro_, &accel_, &mag_, &baro_, &gps_, &truth_, &sim_step_}) {
-        fds[i++] = pollfd{.fd = r->ready_fd(), .events = POLLIN, .revents = 0};
-      }
-      fds[i] = pollfd{.fd = plant.pidfd(), .events = POLLIN, .revents = 0};
+      std::vector<pollfd> fds;
+      for (const Reader& r : samples_) fds.push_back(pollfd{.fd = r.ready_fd(), .events = POLLIN, .revents = 0});
+      fds.push_back(pollfd{.fd = sim_step_.ready_fd(), .events = POLLIN, .revents = 0});
+      const std::size_t i = fds.size();
+      fds.push_back(pollfd{.fd = plant.pidfd(), .events = POLLIN, .revents = 0});
       (void)::poll(fds.data(), fds.size(), 100);
       if ((fds[i].revents & POLLIN) != 0) {  // the plant exited: whatever it sent has arrived or never will
         collect();
@@ -167,12 +163,14 @@ class MinimalKernel {
       REJUV_ASSERT(n.has_value(), "take");
       on_topics_ += *n;
     };
-    counted(gyro_.take_as<rejuv_msg_SensorGyro>([&](const auto& s) { gyro.push_back(s); }));
-    counted(accel_.take_as<rejuv_msg_SensorAccel>([&](const auto& s) { accel.push_back(s); }));
-    counted(truth_.take_as<rejuv_msg_GroundTruth>([&](const auto& s) { truth.push_back(s); }));
-    counted(mag_.take([](auto) {}));
-    counted(baro_.take([](auto) {}));
-    counted(gps_.take([](auto) {}));
+    pt::for_each_step_kind([&](std::size_t row, const auto& kind) {
+      using T = typename std::remove_cvref_t<decltype(kind.topic)>::type;
+      counted(samples_[row].take_as<T>([&](const T& sample) {
+        if constexpr (std::is_same_v<T, rejuv_msg_SensorGyro>) gyro.push_back(sample);
+        if constexpr (std::is_same_v<T, rejuv_msg_SensorAccel>) accel.push_back(sample);
+        if constexpr (std::is_same_v<T, rejuv_msg_GroundTruth>) truth.push_back(sample);
+      }));
+    });
   }
 
   std::vector<rejuv_msg_SensorGyro> gyro;
@@ -193,6 +191,12 @@ class MinimalKernel {
     REJUV_ASSERT(r.has_value(), "reader");
     return std::move(*r);
   }
+  static std::vector<Reader> sample_readers(const Participant& participant) {
+    std::vector<Reader> readers;
+    pt::for_each_step_kind(
+        [&](std::size_t /*row*/, const auto& kind) { readers.push_back(reader(participant, kind.topic)); });
+    return readers;
+  }
   template <class T>
   static Writer writer(const Participant& participant, pt::Topic<T> topic) {
     auto w = Writer::create(participant, topic.name, pt::type_of(topic));
@@ -201,7 +205,8 @@ class MinimalKernel {
   }
 
   Participant participant_;
-  Reader gyro_, accel_, mag_, baro_, gps_, truth_, sim_step_;
+  std::vector<Reader> samples_;  // by row of the step table (pt::kStepSamples)
+  Reader sim_step_;
   Writer actuators_, ack_;
   std::deque<rejuv_msg_SimStep> steps_;
   std::uint64_t on_topics_ = 0, in_steps_ = 0;

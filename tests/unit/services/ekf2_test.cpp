@@ -63,6 +63,7 @@ class HoverChain {
                        samples.gps = *flight_io::gps_sample(m);
                        ASSERT_TRUE(ekf2_.on_gps(m));
                      },
+                     [](const auto&) {},  // a sensor the EKF does not fuse (the plant may have more)
                  },
                  message);
     }

@@ -37,6 +37,7 @@
 #include <tuple>
 #include <type_traits>
 #include <utility>
+#include <variant>
 
 #include "rejuv/core/result.hpp"
 #include "rejuv/msgs/topic_types.hpp"
@@ -60,8 +61,15 @@ inline constexpr Topic<rejuv_msg_ActuatorOutputs> kActuatorOutputs{"rejuv/actuat
 inline constexpr Topic<rejuv_msg_SimStep> kSimStep{"rejuv/sim_step"};
 inline constexpr Topic<rejuv_msg_SimStepAck> kSimStepAck{"rejuv/sim_step_ack"};
 
+// A sample a step may carry: a fixed-size struct whose first member is `uint64 timestamp_ns` (the kernel stages
+// bridged samples by their first 8 bytes: kernel_sim/kernel/src/lockstep.cpp, stage_sample), checked here so
+// that a new sensor's IDL cannot get it wrong silently.
+template <class T>
+concept StampedSample = std::is_standard_layout_v<T> && std::is_trivially_copyable_v<T> &&
+                        std::is_same_v<decltype(T::timestamp_ns), std::uint64_t> && offsetof(T, timestamp_ns) == 0;
+
 // Samples of type T that a SimStep carries in an array with a count of valid entries (oldest first).
-template <class T, std::size_t N>
+template <StampedSample T, std::size_t N>
 struct StepArray {
   Topic<T> topic;  // where the samples go when the step cannot hold them (and what the kernel bridges in)
   T (rejuv_msg_SimStep::*array)[N];
@@ -81,7 +89,7 @@ struct StepArray {
 };
 
 // One sample of type T that every SimStep carries (the ground truth at the step's end).
-template <class T>
+template <StampedSample T>
 struct StepValue {
   Topic<T> topic;
   T rejuv_msg_SimStep::*value;
@@ -95,14 +103,16 @@ struct StepValue {
 };
 
 // Deduction guides, spelled out: clang 16 (the fuzz build) does not deduce an aggregate's template arguments.
-template <class T, std::size_t N>
+template <StampedSample T, std::size_t N>
 StepArray(Topic<T>, T (rejuv_msg_SimStep::*)[N], std::uint8_t rejuv_msg_SimStep::*) -> StepArray<T, N>;
-template <class T>
+template <StampedSample T>
 StepValue(Topic<T>, T rejuv_msg_SimStep::*) -> StepValue<T>;
 
-// Every kind of sample a SimStep carries, in the order the kernel stages them (idl/sim.idl). A new sensor that
-// rides on the step is its IDL (a struct in idl/sensors.idl, listed in REJUV_TOPIC_TYPES; its array and count
-// in SimStep) and one row here: neither the plant's packing nor the kernel's adapter names a sensor.
+// Every kind of sample a SimStep carries, in the order the kernel stages them (idl/sim.idl). For the protocol, a
+// new sensor that rides on the step is its IDL (a struct in idl/sensors.idl, listed in REJUV_TOPIC_TYPES; its
+// array and count in SimStep) and one row here: neither the plant's packing and publishing, nor its message
+// type (SensorSample below), nor the kernel's adapter names a sensor. The plant still has to measure it
+// (plant/, plant_app::PlantSim::advance); the whole recipe: docs/protocol.md "A new plant sensor".
 inline constexpr auto kStepSamples = std::tuple{
     StepArray{kSensorGyro, &rejuv_msg_SimStep::gyro, &rejuv_msg_SimStep::gyro_count},
     StepArray{kSensorAccel, &rejuv_msg_SimStep::accel, &rejuv_msg_SimStep::accel_count},
@@ -112,6 +122,26 @@ inline constexpr auto kStepSamples = std::tuple{
     StepValue{kGroundTruth, &rejuv_msg_SimStep::ground_truth},
 };
 inline constexpr std::size_t kStepSampleKinds = std::tuple_size_v<decltype(kStepSamples)>;
+
+namespace detail {
+// std::variant of the sample types of the StepArray rows of Rows..., in order (StepValue rows left out).
+template <class Variant, class... Rows>
+struct SensorVariant {
+  using type = Variant;
+};
+template <class... Ts, class T, std::size_t N, class... Rows>
+struct SensorVariant<std::variant<Ts...>, StepArray<T, N>, Rows...> : SensorVariant<std::variant<Ts..., T>, Rows...> {};
+template <class... Ts, class T, class... Rows>
+struct SensorVariant<std::variant<Ts...>, StepValue<T>, Rows...> : SensorVariant<std::variant<Ts...>, Rows...> {};
+template <class Table>
+struct SensorVariantOf;
+template <class... Rows>
+struct SensorVariantOf<std::tuple<Rows...>> : SensorVariant<std::variant<>, Rows...> {};
+}  // namespace detail
+
+// One sensor sample as the plant produces and publishes it: an alternative per StepArray row of kStepSamples
+// (the ground truth, a StepValue, is not a sensor's). The plant's SensorMessage.
+using SensorSample = typename detail::SensorVariantOf<std::remove_cvref_t<decltype(kStepSamples)>>::type;
 
 // Calls f(row, entry) for each row of kStepSamples, in order (row: its index).
 template <class F>
@@ -137,6 +167,14 @@ template <class T>
 template <class T>
 [[nodiscard]] constexpr const auto& step_kind_of() {
   return std::get<step_row_of<T>()>(kStepSamples);
+}
+
+// How many samples `step` carries in all, by the table (its arrays' valid entries, clamped, and the ground
+// truth): what a reader of SimSteps counts without naming a sensor.
+[[nodiscard]] inline std::size_t samples_in(const rejuv_msg_SimStep& step) {
+  std::size_t n = 0;
+  for_each_step_kind([&](std::size_t /*row*/, const auto& kind) { n += kind.samples(step).size(); });
+  return n;
 }
 
 // The msgs::TopicType of a plant topic (for Writer::create / Reader::create).

@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "rejuv/core/time.hpp"
+#include "rejuv/dds/plant_topics.hpp"
 #include "rejuv/msgs/topic_types.hpp"
 #include "rejuv/plant/plant.hpp"
 
@@ -26,9 +27,9 @@ struct PlantSimConfig {
   Nanos alignment{0};
 };
 
-// One sensor message as published on DDS.
-using SensorMessage = std::variant<rejuv_msg_SensorGyro, rejuv_msg_SensorAccel, rejuv_msg_SensorMag,
-                                   rejuv_msg_SensorBaro, rejuv_msg_SensorGps>;
+// One sensor message as published on DDS: an alternative per sensor of the step table (plant_topics.hpp,
+// kStepSamples), so that a new sensor is not listed here too.
+using SensorMessage = dds::plant_topics::SensorSample;
 
 // Packs the sensor messages of one lockstep step (in `batch`, in order) and the ground truth into a SimStep
 // (idl/sim.idl): each kind fills its array oldest first; what does not fit is appended to `overflow`, in
