@@ -49,7 +49,7 @@ void Kernel::Impl::run_checkpoint() {
   const Generation g = images.next_generation();
   CheckpointRun run{.caller = caller, .seq = seq, .t_cp = now(), .record = {}, .waiting = {}, .failure = {}};
   run.record.g = g;
-  routing_frozen = true;
+  routing.freeze();
   flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   for (ServiceRuntime& s : services) {
     if (!s.config.rejuvenate || s.proc.phase != Phase::Ready) continue;
@@ -149,7 +149,7 @@ void Kernel::Impl::run_checkpoint() {
   sr_event(SrEventKind::Checkpoint, g, took, caller);
   sr_stats.checkpoint_ms.add(to_ms(took));
   if (!sr_stats.first_checkpoint_ms) sr_stats.first_checkpoint_ms = to_ms(took);
-  charge_image_work(took, checkpoint_charge);
+  image_charge.checkpoint(took, sr_stats);  // DESIGN §6: in simulated time
   if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }
 

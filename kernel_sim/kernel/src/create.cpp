@@ -164,8 +164,8 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys
   k.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
   k.seed = k.options.seed.value_or(k.graph.graph.seed());
   const proto::LockstepTiming& timing = k.graph.graph.lockstep();
-  k.checkpoint_charge = std::chrono::round<Nanos>(launch::checkpoint_charge(timing));
-  k.rollback_charge = std::chrono::round<Nanos>(launch::rollback_charge(timing));
+  k.image_charge = ImageCharge(clock_mode, k.options.charge, std::chrono::round<Nanos>(launch::checkpoint_charge(timing)),
+                               std::chrono::round<Nanos>(launch::rollback_charge(timing)));
   // The plant aligns (held at rest) before the mission's t = 0; without a plant there is no alignment.
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
     k.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));

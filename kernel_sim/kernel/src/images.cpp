@@ -114,8 +114,7 @@ void Kernel::Impl::finish_retiring(bool final) {
 // pushed (DESIGN §7). The kernel's held DDS bridge writes go out, then every live service's pending ring
 // messages, in ring order.
 void Kernel::Impl::resume_routing() {
-  routing_frozen = false;
-  release_bridge_out();
+  routing.thaw([&](ObjectId topic, std::span<const std::byte> payload) { return bridge && write_to_bridge(topic, payload); });
   for (ServiceRuntime& s : services) {
     if (!s.live()) continue;
     s.flow.request_sweep();
@@ -153,14 +152,8 @@ bool Kernel::Impl::service_images() {
   return false;
 }
 
-// Whether the vehicle lives through the real duration of the kernel's image work: in real time it flies on,
-// in lockstep it is charged the measured duration (--charge measured); with the model's charge it is not.
-bool Kernel::Impl::vehicle_sees_image_work() const {
-  return clock_mode != ClockMode::Lockstep || options.charge == KernelOptions::Charge::Measured;
-}
-
 Nanos Kernel::Impl::image_wait_bound() const {
-  return vehicle_sees_image_work() ? options.resume_deadline : options.unseen_resume_deadline;
+  return image_charge.vehicle_sees_work() ? options.resume_deadline : options.unseen_resume_deadline;
 }
 
 // Backpressure before a checkpoint or a rollback, which both need new processes (images, spares): the killed
@@ -180,17 +173,6 @@ std::uint64_t Kernel::Impl::processes_to_spare() const {
     if (const auto limit = limits_for(s).processes) least = std::min(least, *limit > needed ? *limit - needed : 0);
   }
   return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;
-}
-
-// DESIGN §6: the simulated time a checkpoint or rollback costs the plant's world (controls held) is the launch
-// file's model by default, so that a lockstep run is deterministic; its real duration only with --charge
-// measured. Realtime: the world went on by itself; nothing to charge.
-void Kernel::Impl::charge_image_work(Nanos measured, Nanos modelled) {
-  sr_stats.measured += measured;
-  if (clock_mode != ClockMode::Lockstep) return;
-  const Nanos charged = vehicle_sees_image_work() ? measured : modelled;
-  charge += charged;
-  sr_stats.charged += charged;
 }
 
 Result<void, KernelError> Kernel::Impl::settle_images() {

@@ -15,6 +15,7 @@
 #include "bridge.hpp"
 #include "canonical_stage.hpp"
 #include "channel_pool.hpp"
+#include "image_charge.hpp"
 #include "invocation.hpp"
 #include "kernel_clock.hpp"
 #include "step_clock.hpp"
@@ -22,6 +23,7 @@
 #include "netgate.hpp"
 #include "output_batch.hpp"
 #include "reaper.hpp"
+#include "routing_freeze.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/channel/codes.hpp"
@@ -155,26 +157,20 @@ struct Kernel::Impl {
     std::vector<ServiceId> waiting{};
   };
   std::optional<Abandoned> abandoned;
-  // While a checkpoint or rollback is timed: publications land in the rings undelivered and the kernel's
-  // DDS bridge writes are held (a woken service or plant thread would take the CPU at once); resume_routing.
-  bool routing_frozen = false;
+  RoutingFreeze routing;  // frozen while a checkpoint or rollback is timed (routing_freeze.hpp)
   std::optional<std::string> rollback_request;  // the reason; carried out at the next safe point
   RejuvenationTimer rejuvenation{};
   SrStats sr_stats{};
-  Nanos charge{0};                          // simulated time charged to this lockstep step (charge_image_work)
-  Nanos checkpoint_charge{0};               // the launch file's model of a checkpoint (KernelOptions::charge)
-  Nanos rollback_charge{0};                 // and of a rollback
+  ImageCharge image_charge;                 // simulated time charged for image work (image_charge.hpp)
   Nanos flight_start{0};                    // the end of the plant's alignment: the mission's t = 0
   // The untimed checkpoint of the alignment that forks every service's first image (DESIGN §6): asked for at
   // the first step (priming_request), carried out as any checkpoint but neither timed, counted nor charged.
   bool primed = false;
   bool priming_request = false;
-  void charge_image_work(Nanos measured, Nanos modelled);
   void request_priming();
   Reaper reaper;  // retired incarnations, killed processes not reaped yet (reaper.hpp)
   // As root, service i runs as sys::service_uid(*uid_block, i), from a block this kernel alone holds.
   std::optional<sys::Lease> uid_block;
-  std::vector<std::pair<ObjectId, std::vector<std::byte>>> held_bridge_out;  // while routing is frozen
   ChannelPool channel_pool;  // socket pairs made ahead, fds closed after the timed part (channel_pool.hpp)
   // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
   // be unknown children): destroyed once they have (images.cpp, service_images).
@@ -281,7 +277,6 @@ struct Kernel::Impl {
   // How long the kernel waits for images: resume_deadline where the vehicle waits with it (real time,
   // measured charge), unseen_resume_deadline otherwise (KernelOptions).
   [[nodiscard]] Nanos image_wait_bound() const;
-  [[nodiscard]] bool vehicle_sees_image_work() const;  // real time, or lockstep charging the measured duration
   void settle_dying();  // images.cpp: backpressure on killed processes before a checkpoint or rollback
   [[nodiscard]] std::uint64_t processes_to_spare() const;  // images.cpp: the reaper's slack
   void cold_restart(const std::string& reason);
@@ -345,7 +340,6 @@ struct Kernel::Impl {
   void route_samples();
   void publish_sr_mode();
   bool write_to_bridge(ObjectId topic, std::span<const std::byte> payload);  // false: the run stops
-  void release_bridge_out();
   // Output to a service (flow control: FlowControl, service_runtime.hpp, keeps the order, the pool, the count).
   void push_ring(ServiceRuntime& s, broker::SubscriberId subscriber);
   // What the polled subscriptions of `s` have pending, pushed ahead of a frame that wakes `s` anyway.

@@ -111,14 +111,14 @@ bool Kernel::Impl::advance_step() {
 
 void Kernel::Impl::finish_step() {
   const PendingStep step = steps.finish(wall());
+  const Nanos charged = image_charge.take_step_charge();
   if (dds::PlantLockstep* adapter = bridge ? bridge->lockstep() : nullptr; adapter != nullptr) {
-    if (auto ok = adapter->write_ack(step.step, step.t, charge); !ok) {  // DESIGN §6: charge, in simulated time
+    if (auto ok = adapter->write_ack(step.step, step.t, charged); !ok) {  // DESIGN §6: charge, in simulated time
       const std::string error = ok.error().to_string();
       log("%s", error.c_str());
       stop_run(StopReason::PlantExited, error);
     }
   }
-  charge = Nanos{0};
   if (observer != nullptr) observer->on_step(step.step, step.t, caps.mode());
   check_stop_conditions();
 }

@@ -194,7 +194,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   const Epoch epoch = kernel_clock.epoch();
   // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
   // woken by a delivery, or the plant's thread woken by a DDS write, may take the CPU at once.
-  routing_frozen = true;
+  routing.freeze();
   publish_kernel_message(rejuv_msg_RollbackSignal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
                                                    .generation = restored->g.value(),
                                                    .epoch = epoch.value()});
@@ -209,7 +209,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   sr_event(SrEventKind::Rollback, restored->g, took);
   ++sr_stats.rollbacks;
   sr_stats.rollback_ms.add(to_ms(took));
-  charge_image_work(took, rollback_charge);
+  image_charge.rollback(took, sr_stats);
   if (options.verbose) {
     log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(), to_ms(took),
         reason.c_str());

@@ -99,19 +99,12 @@ bool Kernel::Impl::write_to_bridge(ObjectId topic, std::span<const std::byte> pa
   return true;
 }
 
-void Kernel::Impl::release_bridge_out() {
-  for (const auto& [topic, payload] : held_bridge_out) {
-    if (!bridge || !write_to_bridge(topic, payload)) break;
-  }
-  held_bridge_out.clear();
-}
-
 void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
                                  std::optional<ServiceId> publisher, From from) {
   watch_publication(objects[topic.value()], payload, g, publisher);  // observers (watch.cpp)
   if (bridge && from != From::Bridge) {  // what came in through the bridge does not go back out
-    if (routing_frozen) {  // a checkpoint or rollback is timed: written by resume_routing
-      held_bridge_out.emplace_back(topic, std::vector<std::byte>(payload.begin(), payload.end()));
+    if (routing.frozen()) {  // a checkpoint or rollback is timed: written by resume_routing
+      routing.hold(topic, payload);
     } else {
       (void)write_to_bridge(topic, payload);
     }
@@ -137,7 +130,7 @@ void Kernel::Impl::finish_routes(ObjectId topic) {
 }
 
 void Kernel::Impl::hand_over_polled(ServiceRuntime& s) {
-  if (routing_frozen || !s.flow.take_polled()) return;  // taken first: push_ring below comes back here
+  if (routing.frozen() || !s.flow.take_polled()) return;  // taken first: push_ring below comes back here
   for (const SubscriptionRecord& r : s.subscriptions) {
     if (!subscribers[r.id.value()].polled) continue;
     for (std::size_t n = broker.pending(r.id).value_or(0); n > 0; --n) push_ring(s, r.id);
@@ -187,7 +180,7 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
 
 void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
   if (s.proc.phase != Phase::Booted && s.proc.phase != Phase::Ready) return;
-  if (routing_frozen) return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
+  if (routing.frozen()) return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
   hand_over_polled(s);         // the service is about to wake: its polled news goes first
   if (!s.flow.drained()) {
     s.flow.queue_ring(subscriber);  // keep publish order: behind what is already waiting

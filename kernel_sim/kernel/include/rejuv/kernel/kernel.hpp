@@ -24,7 +24,9 @@
 // checkpointed_state.cpp; sandbox.cpp containment; netgate.cpp the network gate; scripted.cpp the fuzzer's
 // seam. Parts that own their state behind a small interface: kernel_clock.hpp (the time page's one writer),
 // step_clock.hpp (the lockstep step queue and its deadlines), reaper.hpp (retired and dying processes),
-// channel_pool.hpp (socket pairs made ahead), output_batch.hpp, netgate.hpp, mission_watch.hpp.
+// channel_pool.hpp (socket pairs made ahead), routing_freeze.hpp (routing held while image work is timed),
+// image_charge.hpp (its simulated-time charge), canonical_stage.hpp (lockstep staging), output_batch.hpp,
+// netgate.hpp, mission_watch.hpp.
 #pragma once
 
 #include <algorithm>
