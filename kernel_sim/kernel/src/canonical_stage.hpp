@@ -23,7 +23,7 @@ class CanonicalStage {
     entries_.push_back(Entry{.key = key, .tag = tag, .offset = bytes_.size(), .size = bytes.size()});
     bytes_.insert(bytes_.end(), bytes.begin(), bytes.end());
   }
-  // Calls f(tag, bytes) for every entry in canonical order, then empties the stage.
+  // Calls f(key, tag, bytes) for every entry in canonical order, then empties the stage.
   template <typename F>
   void drain(F&& f) {
     if (entries_.empty()) return;
@@ -34,16 +34,16 @@ class CanonicalStage {
     draining_ = true;
     for (const std::size_t i : order_) {
       const Entry& e = entries_[i];
-      f(e.tag, std::span<const std::byte>(bytes_).subspan(e.offset, e.size));
+      f(e.key, e.tag, std::span<const std::byte>(bytes_).subspan(e.offset, e.size));
     }
     draining_ = false;
     entries_.clear();
     bytes_.clear();
   }
-  // Drops the entries whose tag matches (their bytes stay until the next drain).
+  // Drops the entries for which p(key, tag) holds (their bytes stay until the next drain).
   template <typename P>
   void erase_if(P&& p) {
-    std::erase_if(entries_, [&](const Entry& e) { return p(e.tag); });
+    std::erase_if(entries_, [&](const Entry& e) { return p(e.key, e.tag); });
   }
   [[nodiscard]] bool empty() const { return entries_.empty(); }
   [[nodiscard]] std::size_t size() const { return entries_.size(); }

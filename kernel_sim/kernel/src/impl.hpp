@@ -10,6 +10,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "bridge.hpp"
@@ -63,12 +64,9 @@ struct ObjectInfo {
 
 // Lockstep: a publication read from a service during a routing round, routed at the end of the round in
 // canonical order (publisher id, then arrival); a DDS sample held for its step, routed by (timestamp, reader).
-struct StagedPublication {
-  std::uint32_t origin = 0;  // ServiceId
-  std::uint32_t slot = 0;
-};
-using PublicationStage = CanonicalStage<std::uint32_t, StagedPublication>;
-using SampleStage = CanonicalStage<std::pair<std::uint64_t, std::uint32_t>, std::uint32_t>;  // tag: the reader
+// Publications: key the publisher's ServiceId value, tag the slot. Samples: key (timestamp, reader), no tag.
+using PublicationStage = CanonicalStage<std::uint32_t, std::uint32_t>;
+using SampleStage = CanonicalStage<std::pair<std::uint64_t, std::uint32_t>, std::monostate>;
 
 // A checkpoint in progress (DESIGN §7 "Checkpoint g"): the caller waits for its Reply; every rejuvenated
 // service is asked for an image and answers Taken.

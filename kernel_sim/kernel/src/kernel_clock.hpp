@@ -8,7 +8,6 @@
 #pragma once
 
 #include "rejuv/clock/time_page.hpp"
-#include "rejuv/core/result.hpp"
 
 namespace rejuv::kernel {
 
@@ -22,16 +21,13 @@ class KernelClock {
   [[nodiscard]] Nanos now() const { return page_.current().now; }
   [[nodiscard]] SrMode mode() const { return page_.current().mode; }
   [[nodiscard]] Epoch epoch() const { return page_.current().epoch; }
-  // The epoch the incarnations a rollback resumes are told (their BootIdentity) before it begins.
+  // The epoch the incarnations a rollback resumes are told (their Resume) before it begins.
   [[nodiscard]] Epoch next_epoch() const { return Epoch{epoch().value() + 1}; }
 
   void advance(Nanos t) { page_.set_now(t); }
   void show_mode(SrMode mode) { page_.write(clock::TimeSample{.now = now(), .mode = mode, .epoch = epoch()}); }
-  // `next` must be next_epoch(): epochs are counted one by one (a service compares them for equality).
-  void begin_epoch(Epoch next) {
-    REJUV_ASSERT(next == next_epoch(), "epochs are counted one by one");
-    page_.write(clock::TimeSample{.now = now(), .mode = mode(), .epoch = next});
-  }
+  // Epochs are counted one by one (a service compares them for equality): the new one is next_epoch().
+  void begin_epoch() { page_.write(clock::TimeSample{.now = now(), .mode = mode(), .epoch = next_epoch()}); }
 
   // The read-only fd every service gets at wire::kTimePageFd.
   [[nodiscard]] const sys::UniqueFd& read_only_fd() const { return page_.read_only_fd(); }

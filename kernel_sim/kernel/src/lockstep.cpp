@@ -4,7 +4,6 @@
 // for the step that covers them and routed in canonical order (router.cpp, route_samples); a step's rounds
 // until every service is idle; its ack; the untimed priming checkpoint; the run's stop conditions.
 #include <algorithm>
-#include <cstring>
 #include <string>
 
 #include "impl.hpp"
@@ -15,10 +14,8 @@ namespace rejuv::kernel {
 
 // Lockstep: a sample is held for the step that covers it, then routed in canonical order (route_samples).
 void Kernel::Impl::stage_sample(std::size_t reader, std::span<const std::byte> bytes) {
-  std::uint64_t stamp = 0;
-  if (bytes.size() >= sizeof(stamp)) std::memcpy(&stamp, bytes.data(), sizeof(stamp));
-  const auto r = static_cast<std::uint32_t>(reader);
-  samples.add(std::pair(stamp, r), r, bytes);
+  const std::uint64_t stamp = dds::plant_topics::stamp_of(bytes).value_or(0);
+  samples.add(std::pair(stamp, static_cast<std::uint32_t>(reader)), std::monostate{}, bytes);
 }
 
 // SimSteps from the plant (the step input woke the loop): each becomes a pending step, and the samples it

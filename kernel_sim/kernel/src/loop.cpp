@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <csignal>
 #include <cstdarg>
-#include <cstring>
 
 #include "impl.hpp"
 
@@ -190,11 +189,10 @@ void Kernel::Impl::sync_realtime_clock(std::span<const std::byte> first_sample) 
   // after the kernel's: move the kernel's origin so that both clocks agree from the first sample on (the
   // transport delay, microseconds, is not corrected). Timers keep their kernel-clock expiries.
   clock_synced = true;
-  std::uint64_t stamp = 0;
-  if (first_sample.size() < sizeof(stamp)) return;
-  std::memcpy(&stamp, first_sample.data(), sizeof(stamp));
+  const auto stamp = dds::plant_topics::stamp_of(first_sample);
+  if (!stamp) return;
   // Until now the kernel clock stood at 0 (no sensor data, no timer fired), so this only moves it forward.
-  const Nanos plant_now = std::max(Nanos{static_cast<std::int64_t>(stamp)}, now());
+  const Nanos plant_now = std::max(Nanos{static_cast<std::int64_t>(*stamp)}, now());
   run_start_mono = sys::monotonic_now() - plant_now;
   set_now(plant_now);
   arm_timerfd();

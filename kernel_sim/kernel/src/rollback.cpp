@@ -19,7 +19,7 @@ void Kernel::Impl::request_rollback(std::string reason) {
 }
 
 void Kernel::Impl::retire_live_rejuvenated() {
-  staged.erase_if([&](const StagedPublication& e) { return services[e.origin].config.rejuvenate; });
+  staged.erase_if([&](std::uint32_t origin, std::uint32_t /*slot*/) { return services[origin].config.rejuvenate; });
   for (ServiceRuntime& s : services) {
     if (!s.config.rejuvenate || s.config.skip || s.proc.phase == Phase::NotStarted) continue;
     if (s.live()) {
@@ -145,7 +145,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     return false;
   }
   if (observer != nullptr) observer->on_restore(record.g, broker);
-  kernel_clock.begin_epoch(next);
+  kernel_clock.begin_epoch();  // = next, told to the images in their Resume
   return true;
 }
 
@@ -225,7 +225,7 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   reaper.kill_retired();
   rejuvenation = RejuvenationTimer{};
   arm_timerfd();
-  kernel_clock.begin_epoch(kernel_clock.next_epoch());
+  kernel_clock.begin_epoch();
   set_mode(SrMode::SC);  // safe, network off
   for (ServiceRuntime& s : services) {
     if (!s.config.rejuvenate || s.config.skip) continue;

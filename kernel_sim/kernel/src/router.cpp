@@ -28,19 +28,20 @@ void Kernel::Impl::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::sp
                                           s.name.c_str(), kMaxStagedPerStep);
     return;
   }
-  staged.add(s.id.value(), StagedPublication{.origin = s.id.value(), .slot = slot}, payload);
+  staged.add(s.id.value(), slot, payload);
 }
 
 void Kernel::Impl::flush_staged() {
-  staged.drain([&](const StagedPublication& e, std::span<const std::byte> payload) {
-    ServiceRuntime& s = services[e.origin];
+  staged.drain([&](std::uint32_t origin, std::uint32_t slot, std::span<const std::byte> payload) {
+    ServiceRuntime& s = services[origin];
     if (s.proc.phase == Phase::Dead) return;  // output of a service that died since: discarded
-    route_publish(s, e.slot, payload);
+    route_publish(s, slot, payload);
   });
 }
 
 void Kernel::Impl::route_samples() {
-  samples.drain([&](std::uint32_t reader, std::span<const std::byte> bytes) {
+  samples.drain([&](const std::pair<std::uint64_t, std::uint32_t>& key, std::monostate, std::span<const std::byte> bytes) {
+    const std::uint32_t reader = key.second;
     if (const auto topic = bridge->readers()[reader].topic) publish_as_kernel(*topic, bytes, From::Bridge);
   });
 }

@@ -23,7 +23,7 @@ TEST(KernelClock, EveryChange_IsSeenByAServiceReader) {
   EXPECT_EQ(reader->read().epoch, Epoch{0});
   k.advance(milliseconds{40});
   k.show_mode(SrMode::RB);
-  k.begin_epoch(k.next_epoch());
+  k.begin_epoch();
   const clock::TimeSample s = reader->read();
   EXPECT_EQ(s.now, milliseconds{40});
   EXPECT_EQ(s.mode, SrMode::RB);  // begin_epoch keeps the mode; show_mode keeps the epoch

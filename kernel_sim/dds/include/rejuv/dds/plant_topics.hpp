@@ -32,6 +32,8 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <optional>
 #include <span>
 #include <string_view>
 #include <tuple>
@@ -67,6 +69,14 @@ inline constexpr Topic<rejuv_msg_SimStepAck> kSimStepAck{"rejuv/sim_step_ack"};
 template <class T>
 concept StampedSample = std::is_standard_layout_v<T> && std::is_trivially_copyable_v<T> &&
                         std::is_same_v<decltype(T::timestamp_ns), std::uint64_t> && offsetof(T, timestamp_ns) == 0;
+
+// The timestamp of a bridged sample from its bytes, its first 8 (StampedSample); none if it is shorter.
+[[nodiscard]] inline std::optional<std::uint64_t> stamp_of(std::span<const std::byte> sample) {
+  std::uint64_t stamp = 0;
+  if (sample.size() < sizeof(stamp)) return std::nullopt;
+  std::memcpy(&stamp, sample.data(), sizeof(stamp));
+  return stamp;
+}
 
 // Samples of type T that a SimStep carries in an array with a count of valid entries (oldest first).
 template <StampedSample T, std::size_t N>
