@@ -38,6 +38,7 @@ namespace {
 
 std::string describe_sandbox(const proto::SandboxViolations& v) {
   std::string out = v.isolation() + ", " + std::to_string(v.total()) + " violation" + (v.total() == 1 ? "" : "s");
+  if (v.images_lost() > 0) out += ", " + std::to_string(v.images_lost()) + " image(s) lost in the store";
   if (v.total() == 0) return out;
   out += " (" + std::to_string(v.forbidden_calls()) + " forbidden calls, " + std::to_string(v.stray_processes()) +
          " stray processes";
@@ -111,6 +112,8 @@ void fill_sandbox(proto::SandboxViolations& out, const kernel::Kernel& k, bool i
     out.set_total(out.total() + st.sandbox_violations);
     out.set_forbidden_calls(out.forbidden_calls() + st.forbidden_calls);
     out.set_stray_processes(out.stray_processes() + st.stray_processes);
+    out.set_images_lost(out.images_lost() + st.images_lost);
+    if (out.cgroup().empty() && !st.cgroup.empty()) out.set_cgroup(st.cgroup);
     if (st.sandbox_violations > 0) (*out.mutable_by_service())[st.name] = st.sandbox_violations;
     for (const auto& [name, n] : st.calls_refused) (*out.mutable_calls())[name] += n;
   }

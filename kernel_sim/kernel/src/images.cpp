@@ -75,8 +75,7 @@ void Kernel::Impl::open_pagemaps() {
   if (!options.images_by_pages) return;
   for (ServiceRuntime& s : services) {
     if (!s.config.rejuvenate || !s.live() || s.pages.base.value() == 0 || s.pages.pagemap.valid()) continue;
-    const std::string path = "/proc/" + std::to_string(s.proc.process.pid()) + "/pagemap";
-    s.pages.pagemap = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (auto opened = sys::open_pagemap_without_frames(s.proc.process.pid())) s.pages.pagemap = std::move(*opened);
   }
 }
 

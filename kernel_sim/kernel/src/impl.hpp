@@ -230,7 +230,7 @@ struct Kernel::Impl {
   void shutdown_all();
 
   // ---- containment (sandbox.cpp, DESIGN §7 "Protection") ----
-  enum class Violation : std::uint8_t { ForbiddenCall, StrayProcess };
+  enum class Violation : std::uint8_t { ForbiddenCall, StrayProcess, ImageLost };
   // Calls the filter referred to the kernel: boot calls continue while the service boots; anything else
   // kills the caller and counts a violation.
   void on_seccomp_notice(ServiceRuntime& s);
@@ -246,6 +246,10 @@ struct Kernel::Impl {
   void sweep_if_due();  // at a safe point off the critical paths: sweep_due, or a simulated second since the last
   void record_violation(ServiceRuntime& s, Violation kind, std::string_view what);
   void close_sandbox(ServiceRuntime& s);  // listener and output pipe, out of epoll
+  void join_cgroup(ServiceRuntime& s);    // makes the service's cgroup at its first spawn (or notes why not)
+  // A restored incarnation's new stdout/stderr pipe: what the old one still holds is logged, then it is
+  // closed and the new one watched.
+  [[nodiscard]] sys::SysResult<void> replace_output(ServiceRuntime& s, sys::UniqueFd read_end);
   [[nodiscard]] sys::ResourceLimits limits_for(const ServiceRuntime& s) const;
   std::optional<std::string_view> sweep_due;  // why a sweep is wanted (a commit, a rollback, a violation)
   Nanos last_sweep{0};                        // kernel clock

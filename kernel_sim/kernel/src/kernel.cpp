@@ -230,6 +230,7 @@ ServiceStats Kernel::stats(ServiceId service) const {
   out.ready = s.proc.phase == Phase::Ready;
   out.pid = s.proc.process.pid();
   out.exit = s.proc.process.status();
+  out.cgroup = s.sandbox.cgroup_note;
   // Messages routed to it that it will never get: skipped by the broker, or overrun while it stays blocked.
   // s.stats.lost has what next() already skipped; add what is overrun but not yet skipped.
   for (const SubscriptionRecord& r : s.subscriptions) {

@@ -39,7 +39,22 @@ bool LogLimiter::allow(Nanos wall_now) {
   return false;
 }
 
-void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view text) {
+namespace {
+// What may reach the user's terminal, the ULog and the summary of a line a service wrote (stdout, stderr or a
+// Log frame alike): printable ASCII, tabs and UTF-8 bytes; control characters — a newline that would start a
+// forged '[kernel …]' line, a carriage return that would overwrite one, escape sequences — as '?'.
+std::string printable(std::string_view line) {
+  std::string out(line);
+  for (char& c : out) {
+    const auto u = static_cast<unsigned char>(c);
+    if ((u < 0x20 && c != '\t') || u == 0x7F) c = '?';
+  }
+  return out;
+}
+}  // namespace
+
+void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view raw) {
+  const std::string text = printable(raw);
   if (level == wire::LogLevel::Error) s.proc.last_error.assign(text);  // kept even when the line is rate-limited
   if (level == wire::LogLevel::Debug && !options.verbose) return;
   if (!s.sandbox.limiter.allow(wall())) {
@@ -70,7 +85,7 @@ void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::str
     case wire::LogLevel::Warn: tag = "warning: "; break;
     case wire::LogLevel::Error: tag = "error: "; break;
   }
-  std::fprintf(options.log, "[%s] %s%.*s\n", s.name.c_str(), tag, static_cast<int>(text.size()), text.data());
+  std::fprintf(options.log, "[%s] %s%s\n", s.name.c_str(), tag, text.c_str());
 }
 
 void Kernel::Impl::refuse(ServiceRuntime& s, std::string_view what) {

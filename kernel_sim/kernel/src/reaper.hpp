@@ -1,7 +1,8 @@
-// The processes the kernel is done with (DESIGN §7): the incarnations a rollback retired — put out of its way
-// under SCHED_IDLE and killed at the next safe point — and the processes killed and not reaped yet, which hold
-// their uid's process slots (max_processes, RLIMIT_NPROC) until they are. One owner: the image coordinator
-// (images.cpp, rollback.cpp) and the shutdown (supervisor.cpp); the sandbox's stray sweep asks it whose a pid is.
+// The processes the kernel is done with (DESIGN §7): the incarnations a rollback retired — stopped at once and
+// killed at the next safe point — and the processes killed and not reaped yet, which hold their uid's
+// process slots (max_processes, RLIMIT_NPROC) until they are. One owner: the image coordinator (images.cpp,
+// rollback.cpp) and the shutdown (supervisor.cpp); the sandbox's stray sweep asks it whose a pid is and hands
+// it the strays it kills.
 #pragma once
 
 #include <algorithm>
@@ -18,28 +19,22 @@ namespace rejuv::kernel {
 
 class Reaper {
  public:
-  // A live incarnation a rollback retires. Not signalled: a signal wakes its victim, which then takes the CPU
-  // at once (8 SIGKILLs 0.68 ms: its exit runs inline; 8 SIGSTOPs 0.09 ms; 8 switches to SCHED_IDLE 0.013 ms;
-  // /tmp micro-benchmark, one CPU). Under SCHED_IDLE it runs only when nothing else on its CPU can; where the
-  // switch is refused, it is stopped. Killed by kill_retired.
+  // A live incarnation a rollback retires: stopped (SIGSTOP) before any image is resumed, so that no thread of
+  // a compromised incarnation runs beside the restored one — a group stop reaches every thread, one running on
+  // another CPU is interrupted at once, and a stopped process cannot be woken by anything a service can reach
+  // (no signal to another process). A stop costs the rollback a few µs per service; a kill would run the
+  // victim's exit (its whole address space) on the rollback's critical path. Killed by kill_retired.
   void retire(sys::ChildProcess p) {
-    if (!sys::idle_priority(p.pid())) (void)p.signal(SIGSTOP);
+    (void)p.signal(SIGSTOP);
     retired_.push_back(std::move(p));
   }
-  // At a safe point after the rollback. SCHED_IDLE is undone before the kill: left idle, on a loaded machine
-  // they took seconds to die while holding their uid's process slots (60 of the worker's 64 in
-  // Images.HundredRollbacks on 2 cores beside six multiproc tests, where its next resumed image could not
-  // start its thread).
+  // At a safe point after the rollback: the stopped incarnations killed (SIGKILL ends a stopped process).
   void kill_retired() {
-    for (sys::ChildProcess& p : retired_) {
-      (void)sys::normal_priority(p.pid());
-      kill(std::move(p));
-    }
+    for (sys::ChildProcess& p : retired_) kill(std::move(p));
     retired_.clear();
   }
-  // Killed now, at its own priority, reaped later (reap, at a safe point). A victim's exit runs at once
-  // whatever its priority (8 kills 0.68 ms, 0.69 ms at nice 19), but lowered first, on a loaded machine the
-  // ones that did not run at once took seconds to die, holding their uid's process slots all along.
+  // Killed now, reaped later (reap, at a safe point): the kill is one system call, the victim's exit runs in
+  // its own context and the wait for it is off the vehicle's critical path, however many there are.
   void kill(sys::ChildProcess p) {
     (void)p.signal(SIGKILL);
     dying_.push_back(std::move(p));

@@ -73,6 +73,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     ServiceRuntime* service = nullptr;
     image::Image* image = nullptr;
     sys::SeqPacket channel{};  // the kernel's end of the new channel
+    sys::UniqueFd output{};    // the read end of the restored incarnation's new stdout/stderr pipe
   };
   std::vector<Pending> pending;
   pending.reserve(record.images.size());
@@ -84,17 +85,26 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
       failure = "channel for a restored image: " + channel.error().to_string();
       break;
     }
+    // A new pipe for fds 1-2 as well (DESIGN §7 "Nothing outlives an incarnation"): the image's were opened
+    // before it and shared with the incarnation it was taken from, which may have armed them.
+    auto output = sys::make_pipe();
+    if (!output) {
+      failure = "output pipe for a restored image: " + output.error().to_string();
+      break;
+    }
     const wire::ResumeBody body{.epoch = next.value(), .reserved = 0};
     if (!tx.build_with(wire::FrameKind::Resume, 0, 0, record.g.value(), body)) break;
-    const int service_end = channel->second.fd();
-    if (auto sent = im.resume.send(tx.bytes(), std::span(&service_end, 1)); !sent) {
+    const std::array<int, 2> service_ends{channel->second.fd(), output->write.get()};
+    if (auto sent = im.resume.send(tx.bytes(), service_ends); !sent) {
       failure = "Resume to the image of '" + s.name + "': " + sent.error().to_string();
       break;
     }
     // Closed now, not after the timed part: then the image's end is the channel's only other end, and a copy
     // that dies after taking its Resume hangs the channel up at once instead of costing the resume deadline.
     (void)channel->second.take_fd();
-    pending.push_back(Pending{.service = &s, .image = &im, .channel = std::move(channel->first)});
+    output->write.reset();
+    pending.push_back(Pending{.service = &s, .image = &im, .channel = std::move(channel->first),
+                              .output = std::move(output->read)});
   }
   if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
   // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
@@ -120,11 +130,17 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
                   (im.patch_pending ? "its patch" : "no patch") + " on their way" +
                   (im.last_death.empty() ? "" : "; " + im.last_death) + ")";
       }
+      record_violation(s, Violation::ImageLost,
+                       "generation " + std::to_string(record.g.value()) + ": no Resumed (" +
+                           (answer ? "pid " + std::to_string(pid) + " is no copy" : answer.error()) + ")");
       continue;  // its copies are killed with the generation
     }
     p.image->resumed.push_back(pid);
     s.pages.start_incarnation(record.g);
     s.proc.channel = std::move(p.channel);
+    if (auto watched = replace_output(s, std::move(p.output)); !watched && failure.empty()) {
+      failure = "watching the restored '" + s.name + "' output: " + watched.error().to_string();
+    }
     s.proc.phase = Phase::Ready;
     s.flow.new_channel();
     s.stats.pid = s.proc.process.pid();
@@ -175,6 +191,8 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
       const image::Image* im = record->image_of(*dead);
       failure = "the image of '" + services[dead->value()].name + "' is gone" +
                 (im != nullptr && !im->last_death.empty() ? " (" + im->last_death + ")" : "");
+      record_violation(services[dead->value()], Violation::ImageLost,
+                       "generation " + std::to_string(record->g.value()) + ": " + failure);
     } else if (resume_generation(*record, std::max(rollback_by, wall() + options.resume_deadline), failure, t_resumed)) {
       restored = record;
       break;

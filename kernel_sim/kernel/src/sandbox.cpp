@@ -26,17 +26,6 @@ constexpr Nanos kSweepPeriod{std::chrono::seconds{1}};  // kernel clock
 // How long a rollback's sweep waits for copies requested earlier to report (a fork: tens of µs), wall clock.
 constexpr Nanos kCopiesWait{std::chrono::milliseconds{50}};
 
-// What may reach the user's terminal of a line a service wrote: printable ASCII, tabs and UTF-8 bytes; control
-// characters (escape sequences, carriage returns that would overwrite the kernel's own lines) as '?'.
-std::string printable(std::string_view line) {
-  std::string out(line);
-  for (char& c : out) {
-    const auto u = static_cast<unsigned char>(c);
-    if ((u < 0x20 && c != '\t') || u == 0x7F) c = '?';
-  }
-  return out;
-}
-
 }  // namespace
 
 sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
@@ -56,8 +45,27 @@ sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
   return limits;
 }
 
+void Kernel::Impl::join_cgroup(ServiceRuntime& s) {
+  if (s.sandbox.cgroup.valid() || !s.sandbox.cgroup_note.empty()) return;  // made once, at the first spawn
+  const launch::SandboxLimitValues v = launch::sandbox_limits(graph.graph, *s.config.spec);
+  sys::CgroupLimits limits;
+  limits.pids = v.max_processes;
+  if (v.max_group_memory_mb > 0) limits.memory_bytes = std::uint64_t{v.max_group_memory_mb} << 20U;
+  if (v.max_cpu_percent > 0) limits.cpu_percent = v.max_cpu_percent;
+  // This kernel's scope: its address, unique among the kernels alive in this process.
+  const std::string scope = std::to_string(reinterpret_cast<std::uintptr_t>(this));  // NOLINT: an identity
+  if (auto made = sys::ServiceCgroup::create(scope, s.name, limits)) {
+    s.sandbox.cgroup = std::move(*made);
+    s.sandbox.cgroup_note = s.sandbox.cgroup.description();
+  } else {
+    // Common without root: the rlimits, the filter and the sweeps hold without it (docs/sandbox.md).
+    s.sandbox.cgroup_note = "no cgroup (" + made.error().to_string() + ")";
+  }
+  if (options.verbose) log("sandbox of '%s': %s", s.name.c_str(), s.sandbox.cgroup_note.c_str());
+}
+
 void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::string_view what) {
-  ++s.stats.sandbox_violations;
+  if (kind != Violation::ImageLost) ++s.stats.sandbox_violations;  // a loss may be a fault as well: counted apart
   std::uint32_t detail = 0;
   switch (kind) {
     case Violation::ForbiddenCall: {
@@ -80,6 +88,19 @@ void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::stri
       log("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
           static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
       break;
+    case Violation::ImageLost:
+      // Nothing a service can reach signals an image (no signal to another process, no SIGIO owner): an image
+      // gone from the store is a fault of the machine or an escape, reported as such, never silent.
+      ++s.stats.images_lost;
+      log("security: an image of '%s' was lost in the store: %.*s (mode %s)", s.name.c_str(),
+          static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
+      break;
+  }
+  rejuv_msg_SecurityEventKind event = rejuv_msg_SECURITY_FORBIDDEN_CALL;
+  switch (kind) {
+    case Violation::ForbiddenCall: event = rejuv_msg_SECURITY_FORBIDDEN_CALL; break;
+    case Violation::StrayProcess: event = rejuv_msg_SECURITY_STRAY_PROCESS; break;
+    case Violation::ImageLost: event = rejuv_msg_SECURITY_IMAGE_LOST; break;
   }
   publish_kernel_message(rejuv_msg_SecurityEvent{
       .timestamp_ns = static_cast<std::uint64_t>(now().count()),
@@ -88,7 +109,7 @@ void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::stri
       .operation = 0,
       .error = 0,
       .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
-      .kind = kind == Violation::ForbiddenCall ? rejuv_msg_SECURITY_FORBIDDEN_CALL : rejuv_msg_SECURITY_STRAY_PROCESS});
+      .kind = event});
   // In MC the attacker has the service now: roll back at once rather than at the end of T_MC.
   if (sr && caps.mode() == SrMode::MC && !stopping) {
     request_rollback("sandbox violation by '" + s.name + "': " + std::string(what));
@@ -107,20 +128,22 @@ void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
     const sys::SeccompNotice& notice = **got;
     // Only the live incarnation boots; images and anything else it made never run the loader or the SDK's
     // start-up, so their boot calls are violations too.
-    const bool booting = s.proc.booting() && s.proc.process.pid() == notice.pid;
+    const bool booting = s.proc.booting() && s.proc.process.pid() == notice.tgid;
     const sys::NoticeKind kind = sys::classify(notice);
     if ((booting && kind == sys::NoticeKind::BootCall) || kind == sys::NoticeKind::SignalToSelf) {
       (void)s.sandbox.seccomp.allow(notice.id);  // decided on register values and the kernel's own state: no TOCTOU
       continue;
     }
     const std::string call = sys::syscall_name(notice.nr);
-    const bool live = s.live() && s.proc.process.pid() == notice.pid;
+    const bool live = s.live() && s.proc.process.pid() == notice.tgid;
     if (live && s.proc.loss_reason.empty()) {
       s.proc.loss_reason = "sandbox violation (forbidden system call " + call + ")";
     }
-    // Killed while it waits in the call: the call never runs. The pidfd is opened before the notice is checked
-    // again, so a pid reused meanwhile is never hit.
-    (void)sys::signal_if(notice.pid, SIGKILL, [&] { return s.sandbox.seccomp.still_waiting(notice.id); });
+    // Killed while it waits in the call: the call never runs. The whole process, whichever of its threads
+    // called (a pidfd names a process). The pidfd is opened before the notice is checked again, so a pid
+    // reused meanwhile is never hit.
+    const pid_t caller = notice.tgid > 0 ? notice.tgid : notice.pid;
+    (void)sys::signal_if(caller, SIGKILL, [&] { return s.sandbox.seccomp.still_waiting(notice.id); });
     record_violation(s, Violation::ForbiddenCall, call);
     if (!live) sweep_due = "a forbidden call";  // a stray (its zombie is reaped by the sweep) or an image (the store sees it)
   }
@@ -145,8 +168,7 @@ void Kernel::Impl::on_service_output(ServiceRuntime& s, bool final) {
       if (nl == std::string::npos && !cut) break;
       const std::size_t end = cut ? start + kMaxOutputLine : nl;
       ++s.stats.output_lines;
-      service_log(s, wire::LogLevel::Info,
-                  printable(std::string_view(s.sandbox.output_partial).substr(start, end - start)));
+      service_log(s, wire::LogLevel::Info, std::string_view(s.sandbox.output_partial).substr(start, end - start));
       start = cut ? end : nl + 1;
     }
     s.sandbox.output_partial.erase(0, start);
@@ -154,7 +176,7 @@ void Kernel::Impl::on_service_output(ServiceRuntime& s, bool final) {
   if (closed || final) {
     if (!s.sandbox.output_partial.empty()) {
       ++s.stats.output_lines;
-      service_log(s, wire::LogLevel::Info, printable(s.sandbox.output_partial));
+      service_log(s, wire::LogLevel::Info, s.sandbox.output_partial);
       s.sandbox.output_partial.clear();
     }
   }
@@ -162,6 +184,15 @@ void Kernel::Impl::on_service_output(ServiceRuntime& s, bool final) {
     (void)epoll.remove(s.sandbox.output.get());
     s.sandbox.output.reset();
   }
+}
+
+sys::SysResult<void> Kernel::Impl::replace_output(ServiceRuntime& s, sys::UniqueFd read_end) {
+  if (s.sandbox.output.valid()) {
+    on_service_output(s, true);  // what the previous incarnation wrote, to its last partial line
+    if (s.sandbox.output.valid()) (void)epoll.remove(s.sandbox.output.get());
+  }
+  s.sandbox.output = std::move(read_end);
+  return epoll.add(s.sandbox.output.get(), token(Source::Output, s.id.value()));
 }
 
 void Kernel::Impl::close_sandbox(ServiceRuntime& s) {
@@ -242,9 +273,11 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
       // not counted. Until the next commit (images.cpp), then a stray like any other.
       const bool owed = abandoned && std::find(abandoned->waiting.begin(), abandoned->waiting.end(), s.id) !=
                                          abandoned->waiting.end();
-      // Without a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
+      // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
+      // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
+      // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
       if (auto stray = sys::ChildProcess::adopt_child(pid)) {
-        stray->kill_and_reap();
+        reaper.kill(std::move(*stray));
       } else {
         (void)sys::kill_and_reap_own_child(pid);
       }

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "fixed_ring.hpp"
+#include "rejuv/sys/cgroup.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/channel/wire.hpp"
@@ -259,8 +260,11 @@ class FlowControl {
 
 // Containment (sandbox.cpp, DESIGN §7 "Protection"; docs/sandbox.md): the listener of its seccomp filter (shared
 // by every process of the service), the read end of the pipe on its fds 1-2 and its unfinished last line, the
-// session ids of its incarnations spawned so far, and the rate limit of what it may log (loop.cpp).
+// session ids of its incarnations spawned so far, the rate limit of what it may log (loop.cpp), and its
+// cgroup (made at its first spawn; empty where the machine refuses one — cgroup_note says why).
 struct Containment {
+  sys::ServiceCgroup cgroup{};
+  std::string cgroup_note{};
   sys::SeccompListener seccomp{};
   sys::UniqueFd output{};
   std::string output_partial{};

@@ -130,6 +130,8 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   spec.isolation = options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
   spec.limits = limits_for(s);
   if (uid_block) spec.uid = sys::service_uid(*uid_block, s.id.value());
+  join_cgroup(s);
+  spec.cgroup_procs = s.sandbox.cgroup.join_fds();
   auto spawned = sys::spawn_supervised(spec);
   if (!spawned) {
     std::string message = "spawn '" + s.name + "' (" + s.config.executable + "): " + spawned.error().to_string();
@@ -403,8 +405,12 @@ void Kernel::Impl::shutdown_all() {
   for (image::GenerationRecord& r : images.take_all()) retiring.push_back(std::move(r));
   finish_retiring(true);
   reaper.kill_all_and_reap();
-  // And whatever else a service left (DESIGN §7 "Protection"): nothing outlives the run.
+  // And whatever else a service left (DESIGN §7 "Protection"): nothing outlives the run. The cgroup, where
+  // there is one, ends all of a service in one call; the sweep then names, counts and reaps what was left in
+  // a service's session (a zombie is still its session's).
+  for (ServiceRuntime& s : services) s.sandbox.cgroup.kill_all();
   sweep_strays("shutdown", true);
+  reaper.kill_all_and_reap();
   for (ServiceRuntime& s : services) close_sandbox(s);
   // Close every fd the run opened: DDS (participant, sockets, threads), the timerfd.
   bridge.reset();

@@ -275,6 +275,11 @@ class Validator {
     };
     for (int i = -1; i < g_.services_size(); ++i) {
       const proto::SandboxLimits& l = i < 0 ? g_.sandbox_limits() : g_.services(i).limits();
+      if (l.has_max_cpu_percent() && l.max_cpu_percent() != 0 && (l.max_cpu_percent() < 10 || l.max_cpu_percent() > 6400)) {
+        return fail(error(where(i, "max_cpu_percent"),
+                          "max_cpu_percent must be 0 (no limit) or 10..6400 (% of one CPU; the kernel's smallest quota is "
+                          "1 ms per 10 ms), got " + std::to_string(l.max_cpu_percent())));
+      }
       if (l.has_max_open_files() && l.max_open_files() < defaults::kMinSandboxOpenFiles) {
         return fail(error(where(i, "max_open_files"), "max_open_files must be at least " +
                                                           std::to_string(defaults::kMinSandboxOpenFiles) +

@@ -3,6 +3,7 @@
 #include <dirent.h>
 #include <fcntl.h>
 #include <grp.h>
+#include <linux/capability.h>
 #include <linux/close_range.h>
 #include <poll.h>
 #include <sys/mount.h>
@@ -154,12 +155,12 @@ struct Prepared {
 // The stages a child reports a failure at (its index into kStage) and the listener hand-over.
 enum ChildStage : int {
   kStageSpawn, kStagePdeathsig, kStageSession, kStageDupfd, kStageDup2, kStageCloseRange, kStageSetuid,
-  kStageSeccomp, kStageExec, kStageUserns, kStageUnshare, kStageMount, kStageRlimit, kStageListener,
+  kStageSeccomp, kStageExec, kStageUserns, kStageUnshare, kStageMount, kStageRlimit, kStageListener, kStageCgroup,
 };
-constexpr std::array<std::string_view, 14> kStage{
+constexpr std::array<std::string_view, 15> kStage{
     "spawn", "prctl(PR_SET_PDEATHSIG)", "setsid/setpgid", "fcntl(F_DUPFD)", "dup2", "close_range", "setuid",
     "seccomp", "execve", "unshare(CLONE_NEWUSER)", "unshare(CLONE_NEWNET|CLONE_NEWNS|CLONE_NEWIPC)",
-    "read-only mounts (mount_setattr)", "setrlimit", "seccomp listener"};
+    "read-only mounts (mount_setattr)", "setrlimit", "seccomp listener", "joining its cgroup (cgroup.procs)"};
 
 void child_report(int socket_fd, int stage, int err, int fd_to_pass) {
   const std::array<int, 2> report{stage, err};
@@ -314,6 +315,11 @@ SysResult<Spawned> spawn_supervised(const SpawnSpec& spec) {
     if (wfd < 0) wfd = report_write.get();
     if (::prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0) child_fail(wfd, kStagePdeathsig, errno);
     if (::getppid() != parent) ::_exit(127);  // the kernel died before the prctl took effect
+    // Into the service's cgroups first ("0": the writer itself), while still privileged and before anything
+    // it runs can fork: every process it ever makes is born in them.
+    for (const int procs : spec.cgroup_procs) {
+      if (::write(procs, "0", 1) != 1) child_fail(wfd, kStageCgroup, errno);
+    }
     switch (spec.session) {
       case Session::OwnProcessGroup:
         if (::setpgid(0, 0) != 0) child_fail(wfd, kStageSession, errno);
@@ -504,6 +510,40 @@ SysResult<pid_t> session_of(pid_t pid) {
   const pid_t sid = ::getsid(pid);
   if (sid < 0) return last_error("getsid");
   return sid;
+}
+
+SysResult<UniqueFd> open_pagemap_without_frames(pid_t pid) {
+  // capget/capset of the calling thread only (the raw calls: the C library has no wrapper, libcap would
+  // change every thread).
+  __user_cap_header_struct header{.version = _LINUX_CAPABILITY_VERSION_3, .pid = 0};
+  std::array<__user_cap_data_struct, _LINUX_CAPABILITY_U32S_3> saved{};
+  if (::syscall(SYS_capget, &header, saved.data()) != 0) return last_error("capget");
+  constexpr unsigned kWord = CAP_SYS_ADMIN / 32;
+  constexpr std::uint32_t kBit = 1U << (CAP_SYS_ADMIN % 32);
+  const bool had = (saved[kWord].effective & kBit) != 0;
+  if (had) {
+    auto lowered = saved;
+    lowered[kWord].effective &= ~kBit;
+    if (::syscall(SYS_capset, &header, lowered.data()) != 0) return last_error("capset");
+  }
+  const std::string path = "/proc/" + std::to_string(pid) + "/pagemap";
+  UniqueFd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  const int open_errno = errno;
+  if (had && ::syscall(SYS_capset, &header, saved.data()) != 0) return last_error("capset(restore)");
+  if (!fd) return std::unexpected(SysError{"open(/proc/PID/pagemap)", open_errno});
+  return fd;
+}
+
+std::optional<pid_t> thread_group_of(pid_t tid) {
+  std::ifstream status("/proc/" + std::to_string(tid) + "/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("Tgid:", 0) == 0) {
+      const long tgid = std::strtol(line.c_str() + 5, nullptr, 10);
+      if (tgid > 0) return static_cast<pid_t>(tgid);
+      return std::nullopt;
+    }
+  }
+  return std::nullopt;
 }
 
 }  // namespace rejuv::sys

@@ -1,5 +1,7 @@
 #include "rejuv/sys/seccomp.hpp"
 
+#include "rejuv/sys/process.hpp"
+
 #include <fcntl.h>
 #include <linux/fs.h>
 #include <linux/seccomp.h>
@@ -52,6 +54,14 @@ constexpr std::array<unsigned long, 5> kIoctlCodes{UFFDIO_API, UFFDIO_REGISTER, 
 // The prctl options a running service may use (any other only while booting): read its own dumpable flag and
 // name, and set the name of a worker thread.
 constexpr std::array<int, 3> kPrctlOptions{PR_GET_DUMPABLE, PR_SET_NAME, PR_GET_NAME};
+// The fcntl commands a running service may use: duplicating fds, their flags, memfd seals. F_SETFL is allowed
+// only without O_ASYNC (checked apart). Every command that aims a signal is outside the list: F_SETOWN,
+// F_SETOWN_EX and F_SETSIG choose who gets SIGIO/SIGURG (a negative owner is a whole process group, and with
+// F_SETSIG any signal: SIGKILL or SIGSTOP to the service's own images, or to the kernel where it shares its
+// uid), F_SETLEASE and F_NOTIFY make the kernel signal the caller later; the owner is a property of the open
+// file, which a frozen image shares with the live incarnation, so it would outlive a rollback.
+constexpr std::array<int, 7> kFcntlCommands{F_DUPFD, F_DUPFD_CLOEXEC, F_GETFD, F_SETFD, F_GETFL, F_ADD_SEALS,
+                                            F_GET_SEALS};
 
 // The allow-list (DESIGN §7 "Protection"; docs/sandbox.md prints it). x86-64 names, as libseccomp spells
 // them; a name this architecture lacks is skipped.
@@ -74,7 +84,8 @@ constexpr std::array kRules{
     SyscallRule{"dup", Allowance::Always, ArgCheck::None, "moving a new channel to fd 3 (a restored image)"},
     SyscallRule{"dup2", Allowance::Always, ArgCheck::None, "moving a new channel to fd 3 (a restored image)"},
     SyscallRule{"dup3", Allowance::Always, ArgCheck::None, "moving a new channel to fd 3 (a restored image)"},
-    SyscallRule{"fcntl", Allowance::Always, ArgCheck::None, "blocking mode, close-on-exec, memfd seals"},
+    SyscallRule{"fcntl", Allowance::Always, ArgCheck::FcntlCommands,
+                "blocking mode, close-on-exec, memfd seals; nothing that aims a signal (owner, SIGIO, leases)"},
     SyscallRule{"lseek", Allowance::Always, ArgCheck::None, "sizes of memfds the service made"},
     SyscallRule{"fstat", Allowance::Always, ArgCheck::None, "stdio asks what fds 1-2 are"},
     SyscallRule{"newfstatat", Allowance::Always, ArgCheck::EmptyPathStat,
@@ -201,6 +212,14 @@ int add_rule(scmp_filter_ctx ctx, const SyscallRule& rule, int nr, Enforcement e
     case ArgCheck::EmptyPathStat:
       if (enforcement == Enforcement::Standalone) return seccomp_rule_add(ctx, allow, nr, 0);
       return seccomp_rule_add(ctx, allow, nr, 1, SCMP_A3(SCMP_CMP_MASKED_EQ, AT_EMPTY_PATH, AT_EMPTY_PATH));
+    case ArgCheck::FcntlCommands:
+      for (const int command : kFcntlCommands) {
+        rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A1(SCMP_CMP_EQ, static_cast<scmp_datum_t>(command)));
+      }
+      // The flags are a register value: O_ASYNC can be checked here, unlike a path or a struct.
+      rc |= seccomp_rule_add(ctx, allow, nr, 2, SCMP_A1(SCMP_CMP_EQ, static_cast<scmp_datum_t>(F_SETFL)),
+                             SCMP_A2(SCMP_CMP_MASKED_EQ, static_cast<scmp_datum_t>(O_ASYNC), 0));
+      return rc;
   }
   return -EINVAL;
 }
@@ -244,14 +263,18 @@ NoticeKind classify(const SeccompNotice& notice) {
     case ArgCheck::ExecOnlyBooting:
     case ArgCheck::PrctlOptions:
     case ArgCheck::EmptyPathStat: return NoticeKind::BootCall;
-    case ArgCheck::SelfPid:  // kill(pid, …), tgkill(tgid, …): the caller's own
-      // pid_t is 32 bits: the upper half of the register is not the caller's to rely on.
-      return static_cast<std::uint32_t>(notice.args[0]) == static_cast<std::uint32_t>(notice.pid)
+    case ArgCheck::SelfPid:  // kill(pid, …), tgkill(tgid, tid, …): the caller's own process
+      // The notice names the calling thread; the target is a process (kill) or a thread group (tgkill, which
+      // the kernel delivers only to a thread of that group). So the caller's thread group is compared, and a
+      // worker thread's raise() is the service signalling itself. pid_t is 32 bits: the upper half of the
+      // register is not the caller's to rely on.
+      return notice.tgid > 0 && static_cast<std::uint32_t>(notice.args[0]) == static_cast<std::uint32_t>(notice.tgid)
                  ? NoticeKind::SignalToSelf
                  : NoticeKind::Forbidden;
     case ArgCheck::None:
     case ArgCheck::CloneFlags:
-    case ArgCheck::IoctlCodes: return NoticeKind::Forbidden;
+    case ArgCheck::IoctlCodes:
+    case ArgCheck::FcntlCommands: return NoticeKind::Forbidden;
   }
   return NoticeKind::Forbidden;
 }
@@ -329,8 +352,11 @@ SysResult<std::optional<SeccompNotice>> SeccompListener::receive() const {
     if (errno == ENOENT || errno == EINTR) return std::optional<SeccompNotice>{};  // its process died meanwhile
     return last_error("ioctl(SECCOMP_IOCTL_NOTIF_RECV)");
   }
-  SeccompNotice out{.id = n.id, .pid = static_cast<pid_t>(n.pid), .nr = n.data.nr, .args = {}};
+  SeccompNotice out{.id = n.id, .pid = static_cast<pid_t>(n.pid), .tgid = 0, .nr = n.data.nr, .args = {}};
   for (std::size_t i = 0; i < out.args.size(); ++i) out.args[i] = n.data.args[i];
+  // The thread's process, read while it waits in the call; valid only if it still waits afterwards (a tid
+  // reused meanwhile would belong to another process).
+  if (const auto tgid = thread_group_of(out.pid); tgid && still_waiting(out.id)) out.tgid = *tgid;
   return std::optional<SeccompNotice>{out};
 }
 

@@ -62,8 +62,9 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, const sys::SysResu
 //   Fork: one copy forks a spare (g stays restorable after it is resumed) and answers Copied{pid}.
 //   Patch{g', pages} with the sealed pages and g''s resume socket: one copy forks a copy that applies the
 //     pages (memory_image::apply_written) and serves g''s socket as g''s image, answering Copied there.
-//   Resume{g, epoch} with a new channel: the copy that reads it takes the channel at fd 3 and jumps into the
-//     context the image was taken in (take_image), where it continues as the live service.
+//   Resume{g, epoch} with a new channel and a new output pipe: the copy that reads it takes the channel at fd 3
+//     and the pipe at fds 1-2, and jumps into the context the image was taken in (take_image), where it
+//     continues as the live service.
 // The kernel closing the socket (generation discarded) or killing the copy ends it. Until the jump it
 // writes nothing but its standby stack and memory_image's scratch (the rule memory_image.hpp states): no
 // allocation, so the socket is read with SeqPacket::receive_into.
@@ -109,11 +110,17 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, const sys::SysResu
       }
       continue;  // pages and next closed here
     }
-    if (frame->kind != wire::FrameKind::Resume || nfds != 1) std::_Exit(3);
+    if (frame->kind != wire::FrameKind::Resume || nfds != 2) std::_Exit(3);
     resume.close();
-    if (!sys::install_fd(sys::UniqueFd(fds[0]), wire::kChannelFd) || !sys::set_nonblocking(wire::kChannelFd, false)) {
+    // A new channel and a new output pipe: nothing of the open files the image shares with the incarnation
+    // it was taken from (whose owner, flags or queued bytes a compromised incarnation may have changed) is
+    // used by the restored one. Only the time page (read-only) stays shared.
+    sys::UniqueFd output(fds[1]);
+    if (!sys::install_fd(sys::UniqueFd(fds[0]), wire::kChannelFd) || !sys::set_nonblocking(wire::kChannelFd, false) ||
+        ::dup2(output.get(), STDOUT_FILENO) < 0 || ::dup2(output.get(), STDERR_FILENO) < 0) {
       std::_Exit(3);
     }
+    output.reset();
     handoff.generation = g;
     handoff.epoch = wire::payload_as<wire::ResumeBody>(*frame).epoch;
     handoff.tracking = memory_image::tracking_writes();

@@ -84,6 +84,10 @@ int main(int argc, char** argv) {
     return verdict(m == MAP_FAILED ? -1 : 0);
   }
   if (what == "setsid") return verdict(::setsid());
+  if (what == "fcntl-setown") return verdict(::fcntl(1, F_SETOWN, -::getpgrp()));
+  if (what == "fcntl-setsig") return verdict(::fcntl(1, F_SETSIG, SIGKILL));
+  if (what == "fcntl-async") return verdict(::fcntl(1, F_SETFL, ::fcntl(1, F_GETFL) | O_ASYNC));
+  if (what == "fcntl-nonblock") return verdict(::fcntl(1, F_SETFL, ::fcntl(1, F_GETFL) | O_NONBLOCK));
   if (what == "unshare-net") return verdict(::unshare(CLONE_NEWNET));
   if (what == "affinity") {
     cpu_set_t set;

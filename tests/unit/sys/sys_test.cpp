@@ -372,6 +372,11 @@ TEST_F(Seccomp, Tiocsti_KillsTheProcess) { expect_killed_by_sigsys(status_of("ti
 TEST_F(Seccomp, Setsid_KillsTheProcess) { expect_killed_by_sigsys(status_of("setsid")); }
 TEST_F(Seccomp, UnshareNet_KillsTheProcess) { expect_killed_by_sigsys(status_of("unshare-net")); }
 TEST_F(Seccomp, SetAffinity_KillsTheProcess) { expect_killed_by_sigsys(status_of("affinity")); }
+// SIGIO aims a signal at a process group or a uid (its images, the kernel): no owner, no signal, no O_ASYNC.
+TEST_F(Seccomp, FcntlSetown_KillsTheProcess) { expect_killed_by_sigsys(status_of("fcntl-setown")); }
+TEST_F(Seccomp, FcntlSetsig_KillsTheProcess) { expect_killed_by_sigsys(status_of("fcntl-setsig")); }
+TEST_F(Seccomp, FcntlAsync_KillsTheProcess) { expect_killed_by_sigsys(status_of("fcntl-async")); }
+TEST_F(Seccomp, FcntlNonblocking_Allowed) { EXPECT_EQ(run("fcntl-nonblock"), 1); }
 
 // Firecracker's check: every system call outside the allow-list is refused (each in a fresh child, with
 // all-zero arguments; the filter decides on the number before anything runs).
@@ -433,11 +438,26 @@ TEST(SeccompTable, Classify_BootCallsAndForbiddenCalls) {
   EXPECT_EQ(classify(notice("clone")), NoticeKind::Forbidden);  // flags other than the image fork's
   EXPECT_EQ(classify(notice("ioctl")), NoticeKind::Forbidden);  // a code outside the list (TIOCSTI …)
   EXPECT_EQ(syscall_name(*syscall_number("io_uring_enter")), "io_uring_enter");
-  // Signals: to the caller itself only, whatever pid it has (a restored image has a new one).
+  // fcntl: nothing that aims a signal (the owner of SIGIO, its signal, leases, O_ASYNC).
+  const auto fcntl_notice = [&](std::uint64_t cmd, std::uint64_t arg) {
+    return SeccompNotice{.id = 1, .pid = 1, .tgid = 1, .nr = *syscall_number("fcntl"), .args = {3, cmd, arg, 0, 0, 0}};
+  };
+  EXPECT_EQ(classify(fcntl_notice(F_SETOWN, 0)), NoticeKind::Forbidden);
+  EXPECT_EQ(classify(fcntl_notice(F_SETSIG, SIGKILL)), NoticeKind::Forbidden);
+  EXPECT_EQ(classify(fcntl_notice(F_SETFL, O_ASYNC)), NoticeKind::Forbidden);
+  // Signals: to the caller's own process only, whatever pid it has (a restored image has a new one), from
+  // any of its threads (the notice names the thread; raise() from a worker targets the process).
   SeccompNotice self = notice("kill");
   self.pid = 4242;
+  self.tgid = 4242;
   self.args[0] = 4242;
   EXPECT_EQ(classify(self), NoticeKind::SignalToSelf);
+  SeccompNotice from_worker = notice("tgkill");
+  from_worker.pid = 4250;  // a worker thread of process 4242
+  from_worker.tgid = 4242;
+  from_worker.args[0] = 4242;
+  from_worker.args[1] = 4250;
+  EXPECT_EQ(classify(from_worker), NoticeKind::SignalToSelf);
   self.args[0] = 4243;
   EXPECT_EQ(classify(self), NoticeKind::Forbidden);
   self.args[0] = static_cast<std::uint64_t>(-1);  // every process it may signal

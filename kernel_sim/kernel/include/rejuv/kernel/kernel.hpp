@@ -274,8 +274,11 @@ struct ServiceStats {
   std::uint64_t sandbox_violations = 0;  // all kinds below
   std::uint64_t forbidden_calls = 0;     // a call outside the allow-list (or a boot call after boot): killed
   std::uint64_t stray_processes = 0;     // a process of its session that is neither live nor an image: killed
+  std::uint64_t images_lost = 0;         // an image that died, stopped or did not answer in the store (a rollback
+                                         // found its generation unusable and fell back)
   std::vector<std::pair<std::string, std::uint64_t>> calls_refused{};  // forbidden calls by name
   std::uint64_t output_lines = 0;        // lines it wrote on fds 1-2 (logged under its name)
+  std::string cgroup{};                  // what its cgroup bounds ("cgroup v2 (cgroup.kill), pids.max 64 …"), or why none
 };
 
 // NetReceive verdict codes: 0 = valid, 1 … kNetVerdictCodes − 1 = the receiver's refusal reasons.

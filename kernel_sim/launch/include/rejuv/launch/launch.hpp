@@ -57,6 +57,10 @@ inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // rela
 inline constexpr std::uint32_t kSandboxProcesses = 64;
 inline constexpr std::uint32_t kSandboxMemoryMb = 4096;
 inline constexpr std::uint32_t kSandboxOpenFiles = 256;
+// One CPU: a single-threaded service never reaches it; a compromised one that forks spinners leaves the other
+// CPUs to the rest of the graph.
+inline constexpr std::uint32_t kSandboxCpuPercent = 100;
+inline constexpr std::uint32_t kSandboxGroupMemoryMb = 1024;
 inline constexpr std::uint32_t kMinSandboxOpenFiles = 16;  // below it the SDK cannot boot
 // Bounds of what a graph may ask for (refused at load, file:line:column):
 inline constexpr double kMaxDurationS = 1e6;           // any duration [s]: ~11 days, far inside int64 ns
@@ -100,6 +104,8 @@ struct SandboxLimitValues {
   std::uint32_t max_processes = defaults::kSandboxProcesses;
   std::uint32_t max_memory_mb = defaults::kSandboxMemoryMb;  // 0 = no limit
   std::uint32_t max_open_files = defaults::kSandboxOpenFiles;
+  std::uint32_t max_cpu_percent = defaults::kSandboxCpuPercent;            // 0 = no limit
+  std::uint32_t max_group_memory_mb = defaults::kSandboxGroupMemoryMb;    // 0 = no limit
 };
 [[nodiscard]] SandboxLimitValues sandbox_limits(const proto::Launch& graph, const proto::ServiceSpec& service);
 

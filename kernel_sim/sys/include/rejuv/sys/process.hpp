@@ -9,6 +9,7 @@
 
 #include <functional>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -95,6 +96,7 @@ struct SpawnSpec {
   Session session = Session::OwnProcessGroup;
   Isolation isolation = Isolation::None;
   ResourceLimits limits{};
+  std::span<const int> cgroup_procs{};           // cgroup.procs files (ServiceCgroup::join_fds): joined before exec
 };
 
 // A spawned process and, when its filter is supervised, the listener for the calls it refers to the spawner.
@@ -136,7 +138,7 @@ struct Spawned {
 // tearing down its address space, ≈ 0.09 ms here — at once, whatever its priority (measured: 8 kills
 // 0.68 ms, 0.69 ms at nice 19), so a rollback kills its victims only after, at a safe point.
 [[nodiscard]] SysResult<void> idle_priority(pid_t pid);
-// SCHED_OTHER at nice 0: undoes idle_priority before the kill (the kernel's Reaper::kill_retired).
+// SCHED_OTHER at nice 0 (undoes idle_priority).
 [[nodiscard]] SysResult<void> normal_priority(pid_t pid);
 
 // Sends `sig` to `pid` through a pidfd, only if `still_same()` holds once the pidfd is open (so that a pid
@@ -155,6 +157,16 @@ struct Spawned {
 // The session id of `pid` (a service is a session of its own; setsid is not on its allow-list, so every
 // process it makes stays in it).
 [[nodiscard]] SysResult<pid_t> session_of(pid_t pid);
+
+// /proc/PID/pagemap of another process, opened so that its readers see no physical frame numbers: the kernel
+// shows them only to an opener with CAP_SYS_ADMIN (checked against the credentials the file was opened with),
+// so that capability is left out of this thread's effective set for the open (CAP_SYS_PTRACE stays: the
+// target is not dumpable). The service that receives the fd learns where its pages are written, not where
+// they are in physical memory (a Rowhammer aid).
+[[nodiscard]] SysResult<UniqueFd> open_pagemap_without_frames(pid_t pid);
+
+// The process (thread group id) a thread belongs to, from /proc/TID/status; nullopt when it is gone.
+[[nodiscard]] std::optional<pid_t> thread_group_of(pid_t tid);
 
 // Counts the live processes whose parent is `parent` (from /proc), for leak checks in tests.
 [[nodiscard]] SysResult<int> count_children(pid_t parent);

@@ -51,6 +51,8 @@ enum class ArgCheck : std::uint8_t {
   IoctlCodes,      // arg 1 is one of the request codes the image code uses (userfaultfd, PAGEMAP_SCAN, TCGETS)
   PrctlOptions,    // arg 0 is one of the options a running service uses; any other only while booting
   EmptyPathStat,   // newfstatat on an fd (AT_EMPTY_PATH); a path only while booting
+  FcntlCommands,   // arg 1 is a command that aims no signal: no F_SETOWN(_EX), F_SETSIG, F_SETLEASE, F_NOTIFY, and
+                   // F_SETFL only without O_ASYNC (SIGIO reaches every process of a uid or a process group)
 };
 
 struct SyscallRule {
@@ -97,7 +99,8 @@ class SeccompProgram {
 // One call a supervised process made that the filter sent to its supervisor; the process waits in the call.
 struct SeccompNotice {
   std::uint64_t id = 0;
-  pid_t pid = 0;  // in the supervisor's pid namespace
+  pid_t pid = 0;  // the calling thread, in the supervisor's pid namespace
+  pid_t tgid = 0; // its process (thread group id); 0 when it was gone before it could be read
   int nr = -1;
   std::array<std::uint64_t, 6> args{};
 };
@@ -105,7 +108,7 @@ struct SeccompNotice {
 // What the table says of a notice.
 enum class NoticeKind : std::uint8_t {
   BootCall,      // a WhileBooting call (or the boot-only form of an Always call): fine until the service is ready
-  SignalToSelf,  // kill/tgkill whose target is the caller itself: fine at any time
+  SignalToSelf,  // kill/tgkill whose target is the caller's own process (any of its threads): fine at any time
   Forbidden,     // outside the allow-list: a sandbox violation
 };
 [[nodiscard]] NoticeKind classify(const SeccompNotice& notice);

@@ -1,0 +1,278 @@
+#include "rejuv/sys/cgroup.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+namespace rejuv::sys {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::array<std::string_view, 3> kControllers{"pids", "memory", "cpu"};
+// cpu.max's period: short, so that a group over its quota waits at most this long (a throttled live
+// incarnation misses less than a control period's worth), at the kernel's minimum quota of 1 ms per period.
+constexpr std::uint64_t kCpuPeriodUs = 10'000;
+constexpr std::uint64_t kCpuMinQuotaUs = 1'000;
+
+// A mounted cgroup hierarchy and this process's cgroup in it.
+struct Hierarchy {
+  fs::path mount;                        // where it is mounted
+  bool unified = false;                  // cgroup2
+  std::vector<std::string> controllers;  // v1: the controllers it carries; v2: those its root offers
+  fs::path own;                          // this process's cgroup, as a directory
+};
+
+std::vector<std::string> split(const std::string& text, char by) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string part; std::getline(in, part, by);) out.push_back(part);
+  return out;
+}
+
+bool write_file(const fs::path& path, std::string_view value) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool ok = ::write(fd, value.data(), value.size()) == static_cast<ssize_t>(value.size());
+  ::close(fd);
+  return ok;
+}
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool has(const std::vector<std::string>& list, std::string_view item) {
+  return std::find(list.begin(), list.end(), item) != list.end();
+}
+
+// The hierarchies from /proc/self/mountinfo (a mount's root within its file system matters in a container)
+// and this process's cgroup in each from /proc/self/cgroup.
+std::vector<Hierarchy> hierarchies() {
+  std::vector<std::pair<std::vector<std::string>, std::string>> own;  // (controllers, path); v2: ({}, path)
+  {
+    std::ifstream in("/proc/self/cgroup");
+    for (std::string line; std::getline(in, line);) {
+      const auto first = line.find(':');
+      const auto second = line.find(':', first + 1);
+      if (first == std::string::npos || second == std::string::npos) continue;
+      own.emplace_back(split(line.substr(first + 1, second - first - 1), ','), line.substr(second + 1));
+    }
+  }
+  std::vector<Hierarchy> out;
+  std::ifstream in("/proc/self/mountinfo");
+  for (std::string line; std::getline(in, line);) {
+    const auto fields = split(line, ' ');
+    const auto dash = std::find(fields.begin(), fields.end(), "-");
+    if (fields.size() < 5 || dash == fields.end() || dash + 1 == fields.end()) continue;
+    const std::string& type = *(dash + 1);
+    if (type != "cgroup" && type != "cgroup2") continue;
+    const std::string& root = fields[3];
+    Hierarchy h{.mount = fields[4], .unified = type == "cgroup2", .controllers = {}, .own = {}};
+    std::optional<std::string> path;
+    if (h.unified) {
+      for (const auto& [controllers, p] : own) {
+        if (controllers.empty() || (controllers.size() == 1 && controllers[0].empty())) path = p;
+      }
+    } else {
+      const std::string options = dash + 2 != fields.end() && dash + 3 != fields.end() ? *(dash + 3) : "";
+      for (const std::string& o : split(options, ',')) {
+        if (std::find(kControllers.begin(), kControllers.end(), o) != kControllers.end()) h.controllers.push_back(o);
+      }
+      if (h.controllers.empty()) continue;
+      for (const auto& [controllers, p] : own) {
+        if (has(controllers, h.controllers.front())) path = p;
+      }
+    }
+    if (!path) continue;
+    // This process's cgroup relative to what is mounted here (a bind mount of a subtree shows its root).
+    std::string relative = *path;
+    if (root != "/" && relative.rfind(root, 0) == 0) relative = relative.substr(root.size());
+    if (root != "/" && path->rfind(root, 0) != 0) continue;  // our cgroup is outside this mount
+    h.own = h.mount / fs::path(relative).relative_path();
+    if (h.unified) h.controllers = split(read_file(h.own / "cgroup.controllers"), ' ');
+    for (std::string& c : h.controllers) std::erase(c, '\n');
+    out.push_back(std::move(h));
+  }
+  return out;
+}
+
+// Directories of kernels that are gone (their pid is free): left by a kernel that was killed. Empty by then
+// (their processes died with it: PR_SET_PDEATHSIG), so rmdir takes them.
+void remove_stale(const fs::path& own) {
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(own, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (!name.starts_with("rejuv-") || !entry.is_directory(ec)) continue;
+    const long pid = std::strtol(name.c_str() + 6, nullptr, 10);
+    if (pid <= 0 || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    for (const auto& child : fs::directory_iterator(entry.path(), ec)) {
+      if (child.is_directory(ec)) (void)::rmdir(child.path().c_str());
+    }
+    (void)::rmdir(entry.path().c_str());
+  }
+}
+
+std::string limit_value(std::string_view controller, bool unified, const CgroupLimits& l) {
+  if (controller == "pids" && l.pids) return std::to_string(*l.pids);
+  if (controller == "memory" && l.memory_bytes) return std::to_string(*l.memory_bytes);
+  if (controller == "cpu" && l.cpu_percent) {
+    const std::uint64_t quota = std::max(kCpuMinQuotaUs, std::uint64_t{*l.cpu_percent} * kCpuPeriodUs / 100);
+    return unified ? std::to_string(quota) + " " + std::to_string(kCpuPeriodUs) : std::to_string(quota);
+  }
+  return "";
+}
+
+// Writes one controller's limit into `dir`; false if the file refused it.
+bool apply(const fs::path& dir, std::string_view controller, bool unified, const CgroupLimits& l) {
+  const std::string value = limit_value(controller, unified, l);
+  if (controller == "pids") return write_file(dir / "pids.max", value);
+  if (controller == "memory") return write_file(dir / (unified ? "memory.max" : "memory.limit_in_bytes"), value);
+  if (unified) return write_file(dir / "cpu.max", value);
+  return write_file(dir / "cpu.cfs_period_us", std::to_string(kCpuPeriodUs)) &&
+         write_file(dir / "cpu.cfs_quota_us", value);
+}
+
+std::string describe(std::string_view controller, const CgroupLimits& l) {
+  if (controller == "pids") return "pids.max " + std::to_string(*l.pids);
+  if (controller == "memory") return "memory " + std::to_string(*l.memory_bytes >> 20U) + " MiB";
+  return "cpu " + std::to_string(*l.cpu_percent) + " % of one CPU";
+}
+
+bool wanted(std::string_view controller, const CgroupLimits& l) {
+  return (controller == "pids" && l.pids) || (controller == "memory" && l.memory_bytes) ||
+         (controller == "cpu" && l.cpu_percent);
+}
+
+}  // namespace
+
+ServiceCgroup& ServiceCgroup::operator=(ServiceCgroup&& other) noexcept {
+  if (this != &other) {
+    remove();
+    dirs_ = std::move(other.dirs_);
+    unified_ = std::move(other.unified_);
+    join_ = std::move(other.join_);
+    join_fds_ = std::move(other.join_fds_);
+    description_ = std::move(other.description_);
+    other.dirs_.clear();
+    other.unified_.reset();
+  }
+  return *this;
+}
+
+SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std::string& name,
+                                               const CgroupLimits& limits) {
+  ServiceCgroup group;
+  std::vector<std::string> served;
+  std::vector<std::string> notes;
+  const std::string kernel_dir = "rejuv-" + std::to_string(::getpid()) + "-" + std::string(scope);
+  const auto make = [&](const Hierarchy& h) -> std::optional<fs::path> {
+    remove_stale(h.own);
+    const fs::path parent = h.own / kernel_dir;
+    if (::mkdir(parent.c_str(), 0755) != 0 && errno != EEXIST) return std::nullopt;
+    const fs::path dir = parent / name;
+    if (::mkdir(dir.c_str(), 0755) != 0 && errno != EEXIST) return std::nullopt;
+    return dir;
+  };
+  int last_errno = 0;
+  auto found = hierarchies();
+  // The unified hierarchy first: membership and cgroup.kill, and whichever controllers it offers.
+  std::stable_partition(found.begin(), found.end(), [](const Hierarchy& h) { return h.unified; });
+  for (const Hierarchy& h : found) {
+    const bool useful = h.unified || std::any_of(h.controllers.begin(), h.controllers.end(), [&](const std::string& c) {
+                          return wanted(c, limits) && !has(served, c);
+                        });
+    if (!useful) continue;
+    if (h.unified) {
+      // Controllers reach a child only through each parent's subtree_control (refused where the parent has
+      // processes of its own and is not the root: then the v1 hierarchies or nothing).
+      for (const auto c : kControllers) {
+        if (!wanted(c, limits) || !has(h.controllers, c)) continue;
+        (void)write_file(h.own / "cgroup.subtree_control", "+" + std::string(c));
+      }
+    }
+    const auto dir = make(h);
+    if (!dir) {
+      last_errno = errno;
+      notes.push_back("no cgroup in " + h.mount.string() + " (" + SysError{"mkdir", last_errno}.to_string() + ")");
+      continue;
+    }
+    UniqueFd procs(::open((*dir / "cgroup.procs").c_str(), O_WRONLY | O_CLOEXEC));
+    if (!procs) {
+      last_errno = errno;
+      (void)::rmdir(dir->c_str());
+      continue;
+    }
+    if (h.unified) {
+      group.unified_ = *dir;
+      const fs::path parent = dir->parent_path();
+      for (const auto c : kControllers) {
+        if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
+        (void)write_file(parent / "cgroup.subtree_control", "+" + std::string(c));
+      }
+    }
+    for (const auto c : kControllers) {
+      if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
+      if (apply(*dir, c, h.unified, limits)) {
+        served.emplace_back(c);
+        notes.push_back(describe(c, limits) + (h.unified ? " (v2)" : " (v1 " + std::string(c) + ")"));
+      }
+    }
+    group.dirs_.push_back(*dir);
+    group.join_fds_.push_back(procs.get());
+    group.join_.push_back(std::move(procs));
+  }
+  if (group.dirs_.empty()) {
+    return std::unexpected(SysError{"cgroup", last_errno != 0 ? last_errno : ENOENT});
+  }
+  for (const auto c : kControllers) {
+    if (wanted(c, limits) && !has(served, c)) notes.push_back("no " + std::string(c) + " controller");
+  }
+  group.description_ = std::string(group.unified_ ? "cgroup v2 (cgroup.kill)" : "cgroup v1 (no cgroup.kill)");
+  for (const std::string& n : notes) group.description_ += ", " + n;
+  return group;
+}
+
+std::vector<pid_t> ServiceCgroup::members() const {
+  std::vector<pid_t> out;
+  if (dirs_.empty()) return out;
+  std::ifstream in(dirs_.front() / "cgroup.procs");
+  for (long pid = 0; in >> pid;) out.push_back(static_cast<pid_t>(pid));
+  return out;
+}
+
+void ServiceCgroup::kill_all() const {
+  if (unified_ && write_file(*unified_ / "cgroup.kill", "1")) return;
+  for (const pid_t pid : members()) ::kill(pid, SIGKILL);
+}
+
+void ServiceCgroup::remove() noexcept {
+  if (dirs_.empty()) return;
+  kill_all();
+  join_.clear();
+  join_fds_.clear();
+  // A killed process leaves its cgroup when it exits, before it is reaped: wait for that briefly (its exit
+  // tears down its memory), then remove the directories, then the kernel's own if this was its last.
+  for (int i = 0; i < 1000 && !members().empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  for (const fs::path& dir : dirs_) {
+    (void)::rmdir(dir.c_str());
+    (void)::rmdir(dir.parent_path().c_str());  // fails while another service's group is there
+  }
+  dirs_.clear();
+  unified_.reset();
+}
+
+}  // namespace rejuv::sys
