@@ -91,7 +91,7 @@ std::uint32_t Ekf2Node::flags(const flight::EkfCounters& before) const {
   // Position: the filter starts from the known take-off point; it is valid once GPS has confirmed it.
   if (now.gps_fused + now.gps_resets > 0) f |= flight_io::kStatePositionValid;
   if (now.gps_rejected != before.gps_rejected || now.baro_rejected != before.baro_rejected ||
-      now.mag_rejected != before.mag_rejected) {
+      now.mag_rejected != before.mag_rejected || now.drag_rejected != before.drag_rejected) {
     f |= flight_io::kStateInnovationRejected;
   }
   return f;

@@ -264,6 +264,7 @@ flight::EkfParams ekf_params() {
   flight::EkfParams p = sim.ekf;
   p.gps_delay = to_seconds(sim.sensors.gps_delay);
   p.gravity_m_s2 = sim.quad.gravity_m_s2;
+  p.drag_over_mass_per_s = sim.quad.drag_coefficient_N_s_m / sim.quad.mass_kg;
   return p;
 }
 

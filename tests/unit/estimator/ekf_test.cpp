@@ -72,8 +72,9 @@ struct Flight {
     t += kPhysicsStep;
     const plant::SensorSamples s = sensors.step(t, quad.state(), quad.acceleration_N());
     if (s.gyro && s.accel) {
-      const Seconds dt = last_imu_t ? to_seconds(s.gyro->t - *last_imu_t) : Seconds{0.004};
-      ekf.predict(s.gyro->omega_B_rad_s, s.accel->f_B_m_s2, dt);
+      const Nanos dt = last_imu_t ? s.gyro->t - *last_imu_t : Nanos{4ms};
+      ekf.predict(s.gyro->omega_B_rad_s, s.accel->f_B_m_s2, to_seconds(dt));
+      (void)ekf.fuse_drag(s.accel->f_B_m_s2, dt);
       last_imu_t = s.gyro->t;
     }
     if (s.gps) (void)ekf.fuse_gps(*s.gps);
@@ -99,9 +100,9 @@ struct Flight {
 
 // Sensors with a large gyro turn-on bias (0.01 rad/s ≈ 0.6°/s per axis), so a filter that starts at zero bias
 // is wrong. The accelerometer's horizontal bias is kept small (0.03 m/s²): in a level hover without yaw
-// motion it cannot be told apart from tilt, so whatever is left of it shows up as a tilt error of b/g and,
-// through the heading of the steeply inclined field (I = 63°), a yaw error of tan I · b/g; 0.03 m/s² keeps
-// that below 0.5°.
+// motion only the drag constraint tells it from tilt, and until it has, what is left of it shows up as a tilt
+// error of b/g and, through the heading of the steeply inclined field (I = 63°), a yaw error of tan I · b/g;
+// 0.03 m/s² keeps that below 0.5°.
 SensorParams biased_sensors() {
   SensorParams p = SensorParams::defaults();
   p.gyro_bias_initial_std_rad_s = 0.01;
@@ -154,6 +155,31 @@ TEST(Ekf, WrongBiasesWhileHovering_LearnsGyroBiasAndVerticalAccelBias) {
   // accelerometer bias only z is separable from tilt while hovering level.
   EXPECT_LT((f.ekf.state().gyro_bias_rad_s - f.sensors.gyro_bias_B_rad_s()).norm(), 0.002);
   EXPECT_NEAR(f.ekf.state().accel_bias_m_s2.z(), f.sensors.accel_bias_B_m_s2().z(), 0.03);
+}
+
+// Tilt error: the angle between the estimated and the true body z axis (yaw left out), rad.
+double tilt_error_rad(const Eigen::Quaterniond& q_est, const Eigen::Quaterniond& q_true) {
+  const Eigen::Vector3d z_est = q_est * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d z_true = q_true * Eigen::Vector3d::UnitZ();
+  return std::atan2(z_est.cross(z_true).norm(), z_est.dot(z_true));
+}
+
+TEST(Ekf, HorizontalAccelBiasWhileHovering_LearntFromDragNotTakenAsTilt) {
+  // Given an accelerometer with a large horizontal turn-on bias, which GPS alone would take for a tilt of
+  // b/g.
+  const QuadParams qp = QuadParams::jmavsim_default();
+  SensorParams sensors = SensorParams::defaults();
+  sensors.accel_bias_initial_std_m_s2 = 0.2;
+  Flight f(Quadrotor::hover_at(qp, kHover_N), sensors, 5, perfect_hover_state());
+  const Eigen::Vector2d true_bias_xy = f.sensors.accel_bias_B_m_s2().head<2>();
+  ASSERT_GT(true_bias_xy.norm(), 0.15);  // a 0.9° tilt if it were taken for one
+  // When the vehicle hovers for a minute.
+  f.hover_for(60s);
+  // Then the drag constraint has told the bias from tilt.
+  EXPECT_LT((f.ekf.state().accel_bias_m_s2.head<2>() - f.sensors.accel_bias_B_m_s2().head<2>()).norm(), 0.02);
+  EXPECT_LT(tilt_error_rad(f.ekf.state().q_NB, f.quad.state().q_NB), 0.25 * kDeg);
+  EXPECT_GT(f.ekf.counters().drag_fused, 550U);
+  EXPECT_EQ(f.ekf.counters().drag_rejected, 0U);
 }
 
 TEST(Ekf, YawOff30Degrees_MagnetometerCorrectsHeading) {
@@ -223,13 +249,14 @@ TEST(Ekf, GpsJumpPersists_ResetsToGpsAfterConfiguredRejections) {
 }
 
 TEST(Ekf, HeadingJumpPersists_ResetsYawToMagnetometer) {
-  // Given a filter converged on a vehicle facing north, put it on one facing east (a 90° heading error),
+  // Given a filter converged on a vehicle facing north, put it on one facing east (a 90° heading error) with
+  // the same IMU (the filter has learnt its biases),
   const QuadParams qp = QuadParams::jmavsim_default();
   Flight f(Quadrotor::hover_at(qp, kHover_N), SensorParams::defaults(), 12, perfect_hover_state());
   f.hover_for(10s);
   QuadState east = Quadrotor::hover_at(qp, kHover_N);
   east.q_NB = Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitZ());
-  Flight g(east, SensorParams::defaults(), 13, perfect_hover_state());
+  Flight g(east, SensorParams::defaults(), 12, perfect_hover_state());
   g.ekf = f.ekf;
   ASSERT_GT(g.attitude_error_rad(), 80 * kDeg);
   // when it flies for 5 s, the magnetometer is gated until the reset, which turns the heading to the

@@ -310,4 +310,56 @@ FuseResult Ekf::fuse_mag(const plant::MagSample& sample) {
   return FuseResult::Fused;
 }
 
+std::optional<FuseResult> Ekf::fuse_drag(const Eigen::Vector3d& f_B_m_s2, Nanos dt) {
+  if (dt <= Nanos{0}) {
+    return std::nullopt;
+  }
+  drag_f_dt_ += f_B_m_s2.head<2>() * to_seconds(dt).count();
+  drag_span_ += dt;
+  if (drag_span_ < params_.drag_window) {
+    return std::nullopt;
+  }
+  const double T = to_seconds(drag_span_).count();
+  const Eigen::Vector2d f_mean = drag_f_dt_ / T;
+  drag_f_dt_.setZero();
+  drag_span_ = Nanos{0};
+
+  // f_B,xy = b_a,xy − (c/m) (Rᵀ v)_xy. With R = R̂ Exp(δθ): Rᵀ v ≈ R̂ᵀ v + [R̂ᵀ v]× δθ, so the rows of H see
+  // δb_a (identity), δv (−(c/m) R̂ᵀ) and δθ (−(c/m) [v_B]×); the last two are small in a hover but keep the
+  // model exact.
+  const double c_m = params_.drag_over_mass_per_s;
+  const Eigen::Matrix3d R = state_.q_NB.toRotationMatrix();
+  const Eigen::Vector3d v_B = R.transpose() * state_.v_N_m_s;
+  const Eigen::Vector3d f_pred = state_.accel_bias_m_s2 - c_m * v_B;
+  const Eigen::Matrix3d df_dv = -c_m * R.transpose();
+  const Eigen::Matrix3d df_dtheta = -c_m * skew(v_B);
+  Eigen::Matrix<double, 2, 15> H = Eigen::Matrix<double, 2, 15>::Zero();
+  for (int i = 0; i < 2; ++i) {
+    H.block<1, 3>(i, kV) = df_dv.row(i);
+    H.block<1, 3>(i, kTheta) = df_dtheta.row(i);
+    H(i, kBa + i) = 1.0;
+  }
+  const Eigen::Vector2d y = f_mean - f_pred.head<2>();
+  // The mean of white accelerometer noise of density σ over T has variance σ²/T; the law's own error adds.
+  const double r = params_.accel_noise_m_s2_sqrt_hz * params_.accel_noise_m_s2_sqrt_hz / T +
+                   params_.drag_noise_m_s2 * params_.drag_noise_m_s2;
+
+  Eigen::Matrix2d S = H * P_ * H.transpose();
+  S.diagonal().array() += r;
+  const Eigen::LLT<Eigen::Matrix2d> llt(S);
+  const double nis =
+      llt.info() == Eigen::Success ? y.dot(llt.solve(y)) : std::numeric_limits<double>::infinity();
+  if (!(nis <= params_.drag_gate_chi2)) {
+    ++counters_.drag_rejected;
+    return FuseResult::Rejected;
+  }
+  Vec15 dx = Vec15::Zero();
+  for (int i = 0; i < 2; ++i) {
+    scalar_update(y(i), H.row(i).transpose(), r, dx);
+  }
+  inject(dx);
+  ++counters_.drag_fused;
+  return FuseResult::Fused;
+}
+
 }  // namespace rejuv::flight

@@ -22,6 +22,7 @@ bool EstimatorNode::on_samples(const plant::SensorSamples& samples) {
     last_gyro_t_ = samples.gyro->t;
     last_omega_raw_B_rad_s_ = samples.gyro->omega_B_rad_s;
     ekf_.predict(samples.gyro->omega_B_rad_s, last_f_B_m_s2_, to_seconds(dt));
+    (void)ekf_.fuse_drag(last_f_B_m_s2_, dt);
     integrated = true;
   }
   if (samples.gps) (void)ekf_.fuse_gps(*samples.gps);

@@ -490,6 +490,7 @@ Result<SrSimulation, SimFailure> SrSimulation::create(const SimConfig& config) {
   cfg.control = control_spec_for(cfg);
   cfg.ekf.gps_delay = to_seconds(cfg.sensors.gps_delay);
   cfg.ekf.gravity_m_s2 = cfg.quad.gravity_m_s2;
+  cfg.ekf.drag_over_mass_per_s = cfg.quad.drag_coefficient_N_s_m / cfg.quad.mass_kg;
   auto design = design_control(cfg.control);
   if (!design) return fail(SimFailure{SimError::Design, design.error().to_string()});
   auto path = WaypointPath::make(cfg.waypoints);

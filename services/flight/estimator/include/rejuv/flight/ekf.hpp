@@ -1,9 +1,11 @@
 // The state estimator of the flight stack (DESIGN §9, the `ekf2` of §III-A): an error-state extended Kalman
-// filter that integrates the IMU and fuses GPS position + velocity, barometric altitude and magnetic heading.
+// filter that integrates the IMU and fuses GPS position + velocity, barometric altitude, magnetic heading and
+// the multirotor drag constraint on the horizontal specific force.
 // Frames: N = local NED, B = body FRD; q_NB rotates B-frame vectors into N.
 #pragma once
 
 #include <cstdint>
+#include <optional>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -53,6 +55,20 @@ struct EkfParams {
   std::uint32_t gps_reset_after_rejections = 5;
   std::uint32_t baro_reset_after_rejections = 25;
   std::uint32_t mag_reset_after_rejections = 25;
+  // Multirotor drag: the rotors push along −z_B only, so the horizontal specific force in B is the drag of
+  // the air, f_B,xy = −(c/m) (R_NBᵀ v_N)_xy in calm air, plus the accelerometer's bias (PX4's EKF2 drag
+  // fusion rests on the same fact). In a hover without yaw motion it is the only measurement that tells the
+  // horizontal accelerometer bias from tilt: GPS sees g·δθ + R δb_a as one. Without it the estimate walks
+  // along that unobservable direction as fast as the bias process noise lets it (its variance grows ∝ t), and
+  // the tilt error moves the safety controller's hover away from x_sp until condition (1) cannot hold.
+  //
+  // c/m of the linear drag F = −c v_air [1/s] (jMAVSim's quad: 0.01 N·s/m over 0.8 kg).
+  double drag_over_mass_per_s = 0.0125;
+  // 1σ of what the linear law leaves out of one window's mean (wind, gusts) [m/s²].
+  double drag_noise_m_s2 = 0.05;
+  // The specific force is averaged over this window and the mean fused.
+  Nanos drag_window{std::chrono::milliseconds{100}};
+  double drag_gate_chi2 = 18.42;  // 2 degrees of freedom (x_B, y_B), p = 1e-4
   // Initial uncertainty (1σ).
   double initial_position_std_m = 1.0;
   double initial_velocity_std_m_s = 0.5;
@@ -74,14 +90,16 @@ struct EkfCounters {
   std::uint32_t gps_fused = 0, gps_rejected = 0, gps_resets = 0;
   std::uint32_t baro_fused = 0, baro_rejected = 0, baro_resets = 0;
   std::uint32_t mag_fused = 0, mag_rejected = 0, mag_resets = 0;
+  std::uint32_t drag_fused = 0, drag_rejected = 0;
 };
 
 // Error-state EKF with 15 error states (δp, δv, δθ, δb_g, δb_a); δθ is the attitude error as a rotation
 // vector in B (q_true = q̂ ⊗ Exp(δθ)). predict() integrates the nominal state with the bias-corrected IMU and
 // propagates the covariance blockwise (no dense 15×15 product). Each update is a χ² gate on the whole
 // measurement, then a sequence of scalar updates (no matrix inverse). GPS is predicted back by gps_delay; the
-// magnetometer corrects yaw only (tilt comes from the accelerometer and GPS). A copyable VALUE type with no
-// heap memory: the SR simulation checkpoints it by copy and restores it on rollback.
+// magnetometer corrects yaw only (tilt comes from the accelerometer and GPS; the drag constraint keeps the
+// accelerometer's horizontal bias apart from tilt). A copyable VALUE type with no heap memory: the SR
+// simulation checkpoints it by copy and restores it on rollback.
 class Ekf {
  public:
   Ekf(const EkfParams& params, const EkfState& initial);
@@ -92,6 +110,9 @@ class Ekf {
   FuseResult fuse_gps(const plant::GpsSample& sample);
   FuseResult fuse_baro(const plant::BaroSample& sample);
   FuseResult fuse_mag(const plant::MagSample& sample);
+  // Multirotor drag: adds the IMU's specific force (m/s², B, as given to predict) over dt to the current
+  // window; once the window spans drag_window, fuses its mean and returns the outcome (nullopt until then).
+  std::optional<FuseResult> fuse_drag(const Eigen::Vector3d& f_B_m_s2, Nanos dt);
 
   [[nodiscard]] const EkfState& state() const { return state_; }
   [[nodiscard]] const EkfParams& params() const { return params_; }
@@ -125,6 +146,8 @@ class Ekf {
   std::uint32_t baro_rejected_in_row_ = 0;
   std::uint32_t mag_rejected_in_row_ = 0;
   double last_gps_nis_ = 0;
+  Eigen::Vector2d drag_f_dt_ = Eigen::Vector2d::Zero();  // ∫ f_B,xy dt over the current drag window [m/s]
+  Nanos drag_span_{0};  // how long the current drag window is (integer ns: no rounding drift)
 };
 
 }  // namespace rejuv::flight
