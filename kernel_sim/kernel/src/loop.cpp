@@ -54,9 +54,9 @@ std::string printable(std::string_view line) {
 }  // namespace
 
 void Kernel::Impl::service_log(ServiceRuntime& s, wire::LogLevel level, std::string_view raw) {
+  if (level == wire::LogLevel::Debug && !options.verbose) return;  // before the copy: most lines end here
   const std::string text = printable(raw);
   if (level == wire::LogLevel::Error) s.proc.last_error.assign(text);  // kept even when the line is rate-limited
-  if (level == wire::LogLevel::Debug && !options.verbose) return;
   if (!s.sandbox.limiter.allow(wall())) {
     ++s.stats.log_suppressed;
     ++s.sandbox.limiter.suppressed_since_print;
