@@ -57,9 +57,10 @@ inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // rela
 inline constexpr std::uint32_t kSandboxProcesses = 64;
 inline constexpr std::uint32_t kSandboxMemoryMb = 4096;
 inline constexpr std::uint32_t kSandboxOpenFiles = 256;
-// One CPU: a single-threaded service never reaches it; a compromised one that forks spinners leaves the other
-// CPUs to the rest of the graph.
-inline constexpr std::uint32_t kSandboxCpuPercent = 100;
+// No CPU quota by default: a CFS quota on a service's group made every rollback's resume ≈ 1.3 ms slower
+// (docs/performance.md, `rejuv bench images`), the wake-up of a throttled group's restored image being slow;
+// a graph that fears spinning strays more than that sets max_cpu_percent (100 = one CPU).
+inline constexpr std::uint32_t kSandboxCpuPercent = 0;
 inline constexpr std::uint32_t kSandboxGroupMemoryMb = 1024;
 inline constexpr std::uint32_t kMinSandboxOpenFiles = 16;  // below it the SDK cannot boot
 // Bounds of what a graph may ask for (refused at load, file:line:column):
