@@ -23,9 +23,10 @@ void Kernel::Impl::retire_live_rejuvenated() {
   for (ServiceRuntime& s : services) {
     if (!s.config.rejuvenate || s.config.skip || s.proc.phase == Phase::NotStarted) continue;
     if (s.live()) {
-      // Out of the rollback's way (Reaper::retire: SCHED_IDLE, not signalled), with its channel out of the
-      // loop, no signal to another process and no socket (seccomp): it cannot slow the rollback down or reach
-      // anything. Killed after the rollback, at a safe point (Reaper::kill_retired).
+      // Out of the rollback's way (Reaper::retire: SIGSTOP, every thread stopped before any image is resumed
+      // and before the epoch changes), with its channel out of the loop, no signal to another process and no
+      // socket (seccomp): it cannot slow the rollback down or reach anything. Killed after the rollback, at a
+      // safe point (Reaper::kill_retired).
       (void)epoll.remove(s.proc.process.pidfd());
       reaper.retire(std::move(s.proc.process));
       s.proc.process = sys::ChildProcess{};

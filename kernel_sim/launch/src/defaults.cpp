@@ -15,7 +15,11 @@ std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view e
   const std::vector<proto::AttackKind> runtime{
       proto::INVOKE_CHECKPOINT, proto::ARM_TIMER,  proto::WRITE_LIMITS, proto::PUBLISH_ACTUATOR_OUTPUTS,
       proto::WRITE_PERSISTENT,  proto::FORGED_SLOT, proto::NETWORK_IN_SEI, proto::KILL_IMAGE,
-      proto::OPEN_SOCKET,       proto::FLOOD_BROKER, proto::ESCAPE_HELPER};
+      proto::OPEN_SOCKET,       proto::FLOOD_BROKER, proto::ESCAPE_HELPER,
+      // issue 26: the attacks on rollback itself
+      proto::SIGIO_IMAGES,      proto::SIGIO_KERNEL, proto::SIGIO_LOG_TRAP, proto::STRAY_SPINNERS,
+      proto::STRAY_MEMORY,      proto::SPINNING_THREADS, proto::RETIRED_WORKER, proto::WORKER_RAISE,
+      proto::FORGED_LOG,        proto::PAGEMAP_FRAMES};
   const std::string name = std::filesystem::path(executable).filename().string();
   if (name == "rejuv_lqr_control") {
     return std::vector<proto::AttackKind>{proto::WORST_CASE_CONTROL, proto::GAIN_OVERWRITE};

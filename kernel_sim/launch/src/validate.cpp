@@ -484,6 +484,14 @@ class Validator {
         return fail(error(at({{"attack", -1}, {"attacks", i}}, "magnitude"),
                           "attack magnitude must be in [0, 1e6] (0 = the kind's default), got " + num(a.magnitude())));
       }
+      // The attacks on rollback itself (18…27) take a count of processes or threads.
+      const bool counted = a.kind() >= proto::SIGIO_IMAGES && a.kind() <= proto::PAGEMAP_FRAMES;
+      if (counted && (a.magnitude() != std::floor(a.magnitude()) || a.magnitude() > 1000.0)) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "magnitude"),
+                          proto::AttackKind_Name(a.kind()) +
+                              " takes a whole count in [0, 1000] as its magnitude (0 = its default), got " +
+                              num(a.magnitude())));
+      }
     }
     return {};
   }

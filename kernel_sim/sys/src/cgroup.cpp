@@ -141,6 +141,10 @@ bool apply(const fs::path& dir, std::string_view controller, bool unified, const
   const std::string value = limit_value(controller, unified, l);
   if (controller == "pids") return write_file(dir / "pids.max", value);
   if (controller == "memory") return write_file(dir / (unified ? "memory.max" : "memory.limit_in_bytes"), value);
+  // No quota: the group alone is the point. Its threads together get one group's share of a busy CPU (CFS
+  // group scheduling), so that spinning threads or strays cost the other services no more than one service
+  // does; a quota (CFS bandwidth control) slowed each resume by ≈ 1.3 ms (docs/sandbox.md).
+  if (value.empty()) return true;
   if (unified) return write_file(dir / "cpu.max", value);
   return write_file(dir / "cpu.cfs_period_us", std::to_string(kCpuPeriodUs)) &&
          write_file(dir / "cpu.cfs_quota_us", value);
@@ -149,12 +153,13 @@ bool apply(const fs::path& dir, std::string_view controller, bool unified, const
 std::string describe(std::string_view controller, const CgroupLimits& l) {
   if (controller == "pids") return "pids.max " + std::to_string(*l.pids);
   if (controller == "memory") return "memory " + std::to_string(*l.memory_bytes >> 20U) + " MiB";
+  if (!l.cpu_percent) return "cpu share";
   return "cpu " + std::to_string(*l.cpu_percent) + " % of one CPU";
 }
 
+// pids and memory when limited; cpu always (its share, and a quota when one is set).
 bool wanted(std::string_view controller, const CgroupLimits& l) {
-  return (controller == "pids" && l.pids) || (controller == "memory" && l.memory_bytes) ||
-         (controller == "cpu" && l.cpu_percent);
+  return (controller == "pids" && l.pids) || (controller == "memory" && l.memory_bytes) || controller == "cpu";
 }
 
 }  // namespace

@@ -75,7 +75,7 @@ bool sandboxed() {
 }
 
 AttackHooks::AttackHooks(sdk::Service& svc, RuntimeAttackPlan plan)
-    : svc_(svc), plan_(std::move(plan)), under_filter_(sandboxed()) {
+    : svc_(svc), plan_(std::move(plan)), under_filter_(sandboxed()), pgrp_(::getpid()) {
   clocks_.reserve(plan_.attacks.size());
   for (const RuntimeAttack& a : plan_.attacks) {
     if (occasion_of(a.kind) == Occasion::EveryWindow) clocks_.emplace_back(a, plan_.sr);
@@ -204,6 +204,23 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
     case AttackKind::OpenSocket: open_socket(variant); break;
     case AttackKind::FloodBroker: flood(); break;
     case AttackKind::EscapeHelper: escape_helper(); break;
+    case AttackKind::SigioImages:
+    case AttackKind::SigioKernel:
+    case AttackKind::SigioLogTrap:
+    case AttackKind::StraySpinners:
+    case AttackKind::StrayMemory:
+    case AttackKind::SpinningThreads:
+    case AttackKind::RetiredWorker:
+    case AttackKind::WorkerRaise:
+    case AttackKind::ForgedLog:
+    case AttackKind::PagemapFrames: {
+      std::uint32_t count = 0;
+      for (const RuntimeAttack& a : plan_.attacks) {
+        if (a.kind == kind) count = a.count;
+      }
+      against_rollback(kind, variant, count);
+      break;
+    }
   }
   if (!reporter_) {
     svc_.logf(sdk::LogLevel::Warn, "attack %.*s (epoch %u, %s): %u attempts, %u accepted",

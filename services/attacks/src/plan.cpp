@@ -2,6 +2,7 @@
 
 #include "rejuv/flight/attack_library.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <utility>
 
@@ -20,6 +21,16 @@ std::string_view to_string(AttackKind kind) {
     case AttackKind::OpenSocket: return "OPEN_SOCKET";
     case AttackKind::FloodBroker: return "FLOOD_BROKER";
     case AttackKind::EscapeHelper: return "ESCAPE_HELPER";
+    case AttackKind::SigioImages: return "SIGIO_IMAGES";
+    case AttackKind::SigioKernel: return "SIGIO_KERNEL";
+    case AttackKind::SigioLogTrap: return "SIGIO_LOG_TRAP";
+    case AttackKind::StraySpinners: return "STRAY_SPINNERS";
+    case AttackKind::StrayMemory: return "STRAY_MEMORY";
+    case AttackKind::SpinningThreads: return "SPINNING_THREADS";
+    case AttackKind::RetiredWorker: return "RETIRED_WORKER";
+    case AttackKind::WorkerRaise: return "WORKER_RAISE";
+    case AttackKind::ForgedLog: return "FORGED_LOG";
+    case AttackKind::PagemapFrames: return "PAGEMAP_FRAMES";
   }
   return "?";
 }
@@ -76,7 +87,12 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
     if (!std::isfinite(start) || start < 0.0) return fail(bad(prefix + "start_s", "expected a finite time >= 0 s"));
     auto windows = whole(number, prefix + "max_windows", 4294967295.0);
     if (!windows) return fail(std::move(windows.error()));
-    plan.attacks.push_back(RuntimeAttack{.kind = *kind, .start = Seconds{start}, .max_windows = *windows});
+    // A count only for the attacks on rollback (18…27); the others ignore their magnitude.
+    const bool counted = std::ranges::find(kRollbackAttackKinds, *kind) != kRollbackAttackKinds.end();
+    auto processes = counted ? whole(number, prefix + "magnitude", kMaxAttackCount) : Result<std::uint32_t, PlanError>{0U};
+    if (!processes) return fail(std::move(processes.error()));
+    plan.attacks.push_back(
+        RuntimeAttack{.kind = *kind, .start = Seconds{start}, .max_windows = *windows, .count = *processes});
   }
   if (const auto port = number("escape_port")) {
     if (!std::isfinite(*port) || *port < 1.0 || *port > 65535.0 || *port != std::floor(*port)) {

@@ -22,6 +22,18 @@
 //   KILL_IMAGE         kill(parent, SIGKILL), kill(pid guesses, 0), ptrace(ATTACH), process_vm_readv, pidfd_open
 //   OPEN_SOCKET        socket(AF_INET), socketpair(AF_UNIX), socket(AF_UNIX, SEQPACKET)
 //   FLOOD_BROKER       kFloodMessages publishes in one callback on a topic it may write (else on every topic)
+// the attacks on rollback itself (issue 26; rollback_attacks.cpp, docs/sandbox.md "Threats to rollback"):
+//   SIGIO_IMAGES       fcntl(fd 3, F_SETOWN, −pgrp), F_SETSIG(SIGSTOP; SIGUSR1 in odd windows), F_SETFL O_ASYNC
+//   SIGIO_KERNEL       the same aimed at the kernel (F_SETOWN, getppid()) with SIGKILL
+//   SIGIO_LOG_TRAP     the same armed on fd 1, the log pipe, with SIGUSR1 to its group
+//   STRAY_SPINNERS     count (default 40) processes made like an image (clone CLONE_PARENT|SIGCHLD), busy
+//   STRAY_MEMORY       count (default 6) such processes that each touch 512 MiB, then spin
+//   SPINNING_THREADS   count (default 40) busy threads
+//   RETIRED_WORKER     a thread that waits until the epoch changes (its incarnation was retired by a
+//                      rollback) and then writes garbage frames to fd 3 and lines to fd 1, without end
+//   WORKER_RAISE       a worker thread raise()s SIGURG (ignored): a signal to its own process
+//   FORGED_LOG         a Log line that forges a kernel line, with \r, \n, ANSI and OSC escapes
+//   PAGEMAP_FRAMES     finds the pagemap fd the kernel handed it and counts the frame numbers it shows
 // and, once, at install (boot):
 //   ESCAPE_HELPER      makes a helper process the only way the sandbox lets it (clone(CLONE_PARENT|SIGCHLD):
 //                      the kernel's child, in the service's session) that, for as long as it lives, every
@@ -98,6 +110,10 @@ class AttackHooks {
   void open_socket(std::uint32_t variant);
   void flood();
   void escape_helper();
+  // The attacks on rollback itself (18…27; rollback_attacks.cpp). `count`: the plan's, 0 = the kind's default.
+  void against_rollback(AttackKind kind, std::uint32_t variant, std::uint32_t count);
+  void sigio(AttackKind kind, int fd, long owner, int signal);
+  void pagemap_frames();
 
   sdk::Service& svc_;
   RuntimeAttackPlan plan_;
@@ -108,6 +124,10 @@ class AttackHooks {
   // after boot the open of /proc/self/status is itself a forbidden call, which would end the attacker before
   // the call it meant to try.
   bool under_filter_ = false;
+  // Its process group: the pid of the incarnation that installed the hooks at boot (the kernel makes each
+  // service the leader of its own session). A restored incarnation is in that group, with its images and
+  // spares.
+  long pgrp_ = 0;
   std::uint32_t attempts_ = 0;  // in the current attack: for the default log line
   std::uint32_t accepted_ = 0;
 };

@@ -1,4 +1,4 @@
-// The runtime part of the launch graph's attack plan (idl/launch.proto AttackKind 2…12; DESIGN §9, §11):
+// The runtime part of the launch graph's attack plan (idl/launch.proto AttackKind 2…12, 18…27; DESIGN §9, §11):
 // which attacks a compromised service carries out against the runtime, from when, in how many windows, and
 // when a window starts. Built from the service's boot params (attack.enabled, attack.count,
 // attack.<j>.kind (text), attack.<j>.start_s, attack.<j>.max_windows; docs/protocol.md "Boot params"), and
@@ -38,12 +38,31 @@ enum class AttackKind : std::uint8_t {
   OpenSocket = 10,             // socket(), socketpair()
   FloodBroker = 11,            // thousands of publishes in one callback
   EscapeHelper = 12,           // once at boot: a helper process that keeps trying the network (UDP, io_uring)
+  // Attacks on rollback itself (issue 26; rollback_attacks.cpp): 18…27.
+  SigioImages = 18,            // SIGIO aimed at its process group (its images): SIGSTOP, SIGUSR1
+  SigioKernel = 19,            // SIGIO aimed at the kernel with SIGKILL
+  SigioLogTrap = 20,           // SIGIO armed on the log pipe, to fire in a restored incarnation
+  StraySpinners = 21,          // busy processes made like an image (default 40 per window)
+  StrayMemory = 22,            // processes that each touch 512 MiB (default 6 per window)
+  SpinningThreads = 23,        // busy threads (default 40 per window)
+  RetiredWorker = 24,          // a thread that acts once its incarnation is retired (garbage frames and lines)
+  WorkerRaise = 25,            // raise() from a worker thread (not a violation: the kernel must not kill it)
+  ForgedLog = 26,              // a Log frame forging a kernel line, with control characters and escapes
+  PagemapFrames = 27,          // reads the pagemap it was handed: the physical frame numbers it can see
 };
 inline constexpr std::array kAllAttackKinds{
     AttackKind::InvokeCheckpoint, AttackKind::ArmTimer,     AttackKind::WriteLimits,
     AttackKind::PublishActuatorOutputs, AttackKind::WritePersistent, AttackKind::ForgedSlot,
     AttackKind::NetworkInSei,     AttackKind::KillImage,    AttackKind::OpenSocket,
-    AttackKind::FloodBroker,      AttackKind::EscapeHelper};
+    AttackKind::FloodBroker,      AttackKind::EscapeHelper, AttackKind::SigioImages,
+    AttackKind::SigioKernel,      AttackKind::SigioLogTrap, AttackKind::StraySpinners,
+    AttackKind::StrayMemory,      AttackKind::SpinningThreads, AttackKind::RetiredWorker,
+    AttackKind::WorkerRaise,      AttackKind::ForgedLog,    AttackKind::PagemapFrames};
+// The kinds that attack rollback itself (18…27), in the order of docs/sandbox.md's threat table.
+inline constexpr std::array kRollbackAttackKinds{
+    AttackKind::SigioImages,   AttackKind::SigioKernel,     AttackKind::SigioLogTrap, AttackKind::StraySpinners,
+    AttackKind::StrayMemory,   AttackKind::SpinningThreads, AttackKind::RetiredWorker, AttackKind::WorkerRaise,
+    AttackKind::ForgedLog,     AttackKind::PagemapFrames};
 // The AttackKind enum name of idl/launch.proto, e.g. "INVOKE_CHECKPOINT".
 [[nodiscard]] std::string_view to_string(AttackKind kind);
 // The kind named `name` (the proto enum name); nullopt for anything that is not a runtime attack.
@@ -58,6 +77,9 @@ enum class WindowKind : std::uint8_t { MissionControl, SecureInterval };
 enum class Occasion : std::uint8_t { EveryWindow, OnceAtBoot };
 [[nodiscard]] Occasion occasion_of(AttackKind kind);
 
+// The largest count an attack on rollback takes (attack.<j>.magnitude; the launch loader checks it too).
+inline constexpr double kMaxAttackCount = 1000.0;
+
 // ESCAPE_HELPER's UDP target port on 127.0.0.1 when the service has no escape_port param (discard).
 inline constexpr std::uint16_t kDefaultEscapePort = 9;
 
@@ -67,6 +89,7 @@ struct RuntimeAttack {
   AttackKind kind = AttackKind::ForgedSlot;
   Seconds start{0.0};             // first window that starts at or after this time
   std::uint32_t max_windows = 0;  // 0 = every window
+  std::uint32_t count = 0;        // attack.<j>.magnitude: how many processes or threads (18…27); 0 = the default
 };
 
 struct RuntimeAttackPlan {

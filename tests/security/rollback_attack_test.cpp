@@ -1,0 +1,422 @@
+// Issue 26: the attacks on rollback itself (idl/launch.proto AttackKind 18…27; services/attacks
+// rollback_attacks.cpp; docs/sandbox.md "Threats to rollback"), each carried out by a compromised ext_link in
+// every MC window of the square (launch/quad_square.launch.pbtxt, with its worst-case control attack), flown
+// through the real kernel, the real flight services and the plant — in REAL TIME and in LOCKSTEP. Lockstep
+// stops the world while the kernel cleans up; a vehicle does not, so both are flown.
+//
+// Each is judged by its effect: the vehicle stayed in the safety set (max V < 1); every rollback restored a
+// checkpoint (no cold restart, no image lost); the kernel — this process — is alive (a SIGKILL to it would
+// end the test); the attack was counted by kind where it is a violation (the fcntl refused by name, the
+// strays counted) and not counted where it is none (raise() from a thread); no restored incarnation of
+// ext_link ever had O_ASYNC on its channel or log fds; no forged kernel line or escape reached the log; the
+// pagemap shows no frame numbers; after the run no process of ext_link's session is left and the kernel has
+// no child. The default (root) run is one test per kind and clock; SigioKernelWithoutRoot runs the kernel as
+// an unprivileged user, where SIGIO with SIGKILL killed it. No timing is asserted.
+#include <grp.h>
+#include <gtest/gtest.h>
+#include <pwd.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "graph_fixture.hpp"
+#include "rejuv/attacks/plan.hpp"
+#include "run_recorder.hpp"
+
+namespace rejuv::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using attacks::AttackKind;
+using kernel::Kernel;
+using kernel::StopReason;
+
+// Kernel time flown: the alignment, the take-off and about three SR cycles (T_est 3 s + T_MC 0.3 s).
+constexpr std::chrono::seconds kFlight{14};
+constexpr int kAsyncFlag = 020000;  // O_ASYNC (FASYNC) in /proc/<pid>/fdinfo "flags:" (octal)
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// quad_square with ext_link compromised by `kind` (every MC window) next to the worst-case control attack,
+// flown in `clock`. Empty when the graph no longer reads as expected (the caller fails).
+std::string attacked_square(AttackKind kind, bool realtime) {
+  std::string t = read_text(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
+  const std::string control_attack = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
+  const std::size_t at = t.find(control_attack);
+  const std::size_t clock = t.find("clock: LOCKSTEP");
+  if (at == std::string::npos || clock == std::string::npos) return {};
+  t.insert(at + control_attack.size(),
+           "\n  attacks { kind: " + std::string(attacks::to_string(kind)) + " service: \"ext_link\" }");
+  if (realtime) t.replace(clock, std::string_view("clock: LOCKSTEP").size(), "clock: REALTIME");
+  // A shorter alignment than the mission's 20 s (the estimate converges in less; real time pays it in full).
+  const std::size_t align = t.find("alignment_s: 20");
+  if (align == std::string::npos) return {};
+  t.replace(align, std::string_view("alignment_s: 20").size(), "alignment_s: 8");
+  return t;
+}
+
+bool all_built(const launch::LoadedLaunch& g) {
+  for (const proto::ServiceSpec& s : g.graph.services()) {
+    if (!fs::exists(kServiceDir / s.executable())) return false;
+  }
+  return fs::exists(kServiceDir / g.graph.plant().executable());
+}
+
+std::vector<pid_t> session_members(pid_t sid) {
+  std::vector<pid_t> out;
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator("/proc", ec)) {
+    const std::string name = e.path().filename().string();
+    pid_t pid = 0;
+    const auto [end, err] = std::from_chars(name.data(), name.data() + name.size(), pid);
+    if (err != std::errc{} || end != name.data() + name.size()) continue;
+    if (::getsid(pid) != sid) continue;
+    const std::string stat = read_text("/proc/" + name + "/stat");
+    const std::size_t close = stat.rfind(')');
+    if (close != std::string::npos && close + 2 < stat.size() && stat[close + 2] == 'Z') continue;  // dying
+    out.push_back(pid);
+  }
+  return out;
+}
+
+// The "flags:" of /proc/<pid>/fdinfo/<fd> (octal), or nullopt when unreadable (the process is gone).
+std::optional<int> fd_flags(pid_t pid, int fd) {
+  std::istringstream in(read_text("/proc/" + std::to_string(pid) + "/fdinfo/" + std::to_string(fd)));
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("flags:", 0) == 0) return static_cast<int>(std::strtol(line.c_str() + 6, nullptr, 8));
+  }
+  return std::nullopt;
+}
+
+// The kernel and service log of the run, in a temporary file the test reads back.
+class RunLog {
+ public:
+  RunLog() : file_(std::tmpfile()) {}
+  [[nodiscard]] std::FILE* get() const { return file_.get(); }
+  [[nodiscard]] std::string text() const {
+    if (!file_) return {};
+    std::fflush(file_.get());
+    return read_text("/proc/self/fd/" + std::to_string(::fileno(file_.get())));
+  }
+  // The lines that begin with `start` (a line a service wrote begins with its name: "[ext_link] …").
+  [[nodiscard]] std::vector<std::string> lines_starting(std::string_view start) const {
+    std::istringstream in(text());
+    std::vector<std::string> out;
+    for (std::string line; std::getline(in, line);) {
+      if (line.starts_with(start)) out.push_back(line);
+    }
+    return out;
+  }
+
+ private:
+  struct Close {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+  };
+  std::unique_ptr<std::FILE, Close> file_;
+};
+
+// Kills and reaps whatever of ext_link's session is left when the test ends, also on failure.
+class SessionGuard {
+ public:
+  SessionGuard() = default;
+  SessionGuard(const SessionGuard&) = delete;
+  SessionGuard& operator=(const SessionGuard&) = delete;
+  ~SessionGuard() {
+    if (!sid_) return;
+    for (const pid_t pid : session_members(*sid_)) {
+      (void)::kill(pid, SIGKILL);
+      (void)::waitpid(pid, nullptr, 0);
+    }
+  }
+  void watch(pid_t sid) { sid_ = sid; }
+
+ private:
+  std::optional<pid_t> sid_{};
+};
+
+// Watches ext_link through the run: its session, and the flags of each live incarnation's fds 1–3 (about
+// every 100 ms of kernel time). Beside `rejuv run`'s recorder, in an ObserverFanout.
+class Watch final : public kernel::Observer {
+ public:
+  explicit Watch(SessionGuard& guard) : guard_(guard) {}
+  void attach(Kernel* k) { kernel_ = k; }
+
+  void on_step(std::uint64_t /*step*/, Nanos t, SrMode /*mode*/) override {
+    if (kernel_ == nullptr || t - last_look_ < std::chrono::milliseconds{100}) return;
+    last_look_ = t;
+    const auto id = kernel_->find_service("ext_link");
+    if (!id) return;
+    const int pid = kernel_->stats(*id).pid;
+    if (pid <= 0) return;
+    if (!sid) {
+      if (const pid_t s = ::getsid(pid); s > 0) {
+        sid = s;
+        guard_.watch(s);
+      }
+    }
+    if (std::find(incarnations.begin(), incarnations.end(), pid) == incarnations.end()) incarnations.push_back(pid);
+    for (const int fd : {1, 2, 3}) {
+      const auto flags = fd_flags(pid, fd);
+      if (flags && (*flags & kAsyncFlag) != 0) async_fds.push_back("pid " + std::to_string(pid) + " fd " + std::to_string(fd));
+    }
+  }
+
+  std::optional<pid_t> sid{};
+  std::vector<pid_t> incarnations{};     // ext_link's live pids seen
+  std::vector<std::string> async_fds{};  // fds seen with O_ASYNC
+
+ private:
+  SessionGuard& guard_;
+  Kernel* kernel_ = nullptr;
+  Nanos last_look_{0};
+};
+
+std::uint64_t refused(const kernel::ServiceStats& s, std::string_view call) {
+  for (const auto& [name, n] : s.calls_refused) {
+    if (name == call) return n;
+  }
+  return 0;
+}
+
+struct Flight {
+  proto::RunSummary summary;
+  kernel::RunOutcome outcome;
+  kernel::ServiceStats ext_link;
+  kernel::SrStats sr;
+  std::string log;
+  std::vector<std::string> forged_lines;   // lines that begin as the forged kernel line
+  std::vector<std::string> async_fds;
+  std::size_t incarnations = 0;
+  std::vector<pid_t> left_in_session;
+  int children_left = 0;
+};
+
+// Flies the attacked square for kFlight and gathers what the assertions need. Fatal failures are reported
+// through gtest (the caller checks HasFatalFailure).
+void fly(AttackKind kind, bool realtime, Flight& f) {
+  const std::string text = attacked_square(kind, realtime);
+  ASSERT_FALSE(text.empty()) << "launch/quad_square.launch.pbtxt no longer has the control attack, clock or alignment";
+  auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
+  ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
+  if (!all_built(*graph)) GTEST_SKIP() << "flight services or the plant are not built";
+  auto reference = cli::run_reference(*graph, std::nullopt);
+  ASSERT_TRUE(reference.has_value()) << reference.error();
+
+  kernel::KernelOptions options = test_options();
+  options.time_master = kernel::TimeMaster::Plant;
+  options.idle_deadline = std::chrono::seconds{10};
+  options.network_port = 0;
+  options.duration = reference->alignment + Nanos{kFlight};  // counted from the end of the alignment, as `rejuv run`
+  RunLog log;
+  ASSERT_NE(log.get(), nullptr);
+  options.log = log.get();
+  const int children_before = Resources::now().children;
+
+  SessionGuard guard;  // declared before the kernel: runs after its destructor
+  cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);
+  Watch watch(guard);
+  kernel::ObserverFanout both({&recorder, &watch});
+  auto k = Kernel::create(std::move(*graph), options, &both);
+  ASSERT_TRUE(k.has_value()) << k.error().to_string();
+  watch.attach(k->get());
+  recorder.on_vehicle_lost([kernel = k->get()] { (*kernel).request_stop(); });
+
+  auto outcome = (*k)->run();
+  ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string() << "\n" << log.text();
+  f.outcome = *outcome;
+  recorder.fill(f.summary, outcome->sim_time);
+  const auto id = (*k)->find_service("ext_link");
+  ASSERT_TRUE(id.has_value());
+  f.ext_link = (*k)->stats(*id);
+  f.sr = (*k)->sr_stats();
+  k->reset();
+  f.log = log.text();
+  f.forged_lines = log.lines_starting("[kernel 99.999]");
+  f.async_fds = watch.async_fds;
+  f.incarnations = watch.incarnations.size();
+  if (watch.sid) f.left_in_session = session_members(*watch.sid);
+  f.children_left = Resources::now().children - children_before;
+  ::testing::Test::RecordProperty("max_V", std::to_string(f.summary.max_v()));
+  ::testing::Test::RecordProperty("max_control_gap_ms", std::to_string(f.summary.max_control_gap_ms()));
+  ::testing::Test::RecordProperty("rollbacks", std::to_string(f.sr.rollbacks));
+  ::testing::Test::RecordProperty("sandbox_violations", std::to_string(f.ext_link.sandbox_violations));
+  std::printf("[ %s %s ] max V %.3f, max control gap %.1f ms, %llu rollbacks, %llu cold restarts, ext_link: "
+              "%llu violations (%llu calls, %llu strays, %llu images lost), %zu incarnations seen\n",
+              std::string(attacks::to_string(kind)).c_str(), realtime ? "real time" : "lockstep", f.summary.max_v(),
+              f.summary.max_control_gap_ms(), static_cast<unsigned long long>(f.sr.rollbacks),
+              static_cast<unsigned long long>(f.sr.cold_restarts),
+              static_cast<unsigned long long>(f.ext_link.sandbox_violations),
+              static_cast<unsigned long long>(f.ext_link.forbidden_calls),
+              static_cast<unsigned long long>(f.ext_link.stray_processes),
+              static_cast<unsigned long long>(f.ext_link.images_lost), f.incarnations);
+}
+
+// What no attack on rollback may do, whatever it was.
+void expect_rollback_held(const Flight& f) {
+  EXPECT_EQ(f.outcome.reason, StopReason::Duration) << f.outcome.detail;
+  EXPECT_LT(f.summary.max_v(), 1.0) << "the vehicle left the safety set";
+  EXPECT_FALSE(f.summary.left_safety_set());
+  EXPECT_GE(f.sr.rollbacks, 2U) << "too few rollbacks for the attack to matter";
+  EXPECT_EQ(f.sr.cold_restarts, 0U) << "a rollback found no usable image";
+  EXPECT_EQ(f.ext_link.images_lost, 0U) << "an image of ext_link died or stopped in the store";
+  EXPECT_TRUE(f.async_fds.empty()) << "O_ASYNC on " << ::testing::PrintToString(f.async_fds);
+  EXPECT_TRUE(f.forged_lines.empty()) << "a forged kernel line reached the log: " << f.forged_lines.front();
+  EXPECT_EQ(f.log.find('\x1b'), std::string::npos) << "an escape reached the log";
+  EXPECT_EQ(f.log.find('\r'), std::string::npos) << "a carriage return reached the log";
+  EXPECT_EQ(f.left_in_session, std::vector<pid_t>{}) << "left in ext_link's session after the run";
+  EXPECT_EQ(f.children_left, 0) << "the kernel has children left";
+}
+
+// What each kind must leave in the counters (the kernel saw it, by kind; or saw nothing where nothing was wrong).
+void expect_counted(AttackKind kind, const Flight& f) {
+  const auto& s = f.ext_link;
+  if (kind == AttackKind::SigioImages || kind == AttackKind::SigioKernel || kind == AttackKind::SigioLogTrap) {
+    EXPECT_GE(refused(s, "fcntl"), 1U) << "calls refused: " << ::testing::PrintToString(s.calls_refused);
+  } else if (kind == AttackKind::StraySpinners || kind == AttackKind::StrayMemory) {
+    EXPECT_GE(s.stray_processes, 1U);
+  } else {
+    // Not violations (threads, a signal to itself, a log line, a read of what it was handed): nothing may be
+    // counted, nothing killed.
+    EXPECT_EQ(s.sandbox_violations, 0U) << "calls refused: " << ::testing::PrintToString(s.calls_refused);
+  }
+  if (kind == AttackKind::RetiredWorker) {
+    EXPECT_EQ(f.log.find("RETIRED-WORKER"), std::string::npos) << "a retired incarnation ran after the rollback";
+    EXPECT_EQ(s.bad_frames, 0U) << "garbage frames reached the kernel";
+  }
+  if (kind == AttackKind::ForgedLog) {
+    // Logged, under its name, on one line.
+    bool signed_line = false;
+    std::istringstream in(f.log);
+    for (std::string line; std::getline(in, line);) {
+      if (line.find("FORGED-BY-SERVICE") != std::string::npos) signed_line = line.starts_with("[ext_link] ");
+    }
+    EXPECT_TRUE(signed_line) << "the forged line was not logged under ext_link's name";
+  }
+  if (kind == AttackKind::PagemapFrames) {
+    std::istringstream in(f.log);
+    int looked = 0;
+    for (std::string line; std::getline(in, line);) {
+      if (line.find("attack PAGEMAP_FRAMES: pagemap fd ") == std::string::npos) continue;
+      if (line.find("pagemap fd -1") != std::string::npos) continue;  // not handed yet (no checkpoint since)
+      ++looked;
+      EXPECT_NE(line.find(", 0 frame numbers seen"), std::string::npos) << line;
+    }
+    EXPECT_GE(looked, 1) << "ext_link never found its pagemap";
+  }
+}
+
+struct Case {
+  AttackKind kind;
+  bool realtime;
+};
+
+class RollbackAttack : public ::testing::TestWithParam<Case> {};
+
+TEST_P(RollbackAttack, VehicleSafe_CheckpointRestored_CountedByKind_NothingLeft) {
+  Flight f;
+  fly(GetParam().kind, GetParam().realtime, f);
+  if (HasFatalFailure() || IsSkipped()) return;
+  expect_rollback_held(f);
+  expect_counted(GetParam().kind, f);
+}
+
+std::vector<Case> all_cases() {
+  std::vector<Case> out;
+  for (const bool realtime : {true, false}) {
+    for (const AttackKind k : attacks::kRollbackAttackKinds) out.push_back(Case{k, realtime});
+  }
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Issue26, RollbackAttack, ::testing::ValuesIn(all_cases()),
+                         [](const ::testing::TestParamInfo<Case>& i) {
+                           std::string name(attacks::to_string(i.param.kind));
+                           std::erase(name, '_');
+                           return name + (i.param.realtime ? "_RealTime" : "_Lockstep");
+                         });
+
+// ---- without root: the kernel runs as an unprivileged user (each service in a user namespace of its own,
+// with the kernel's real uid), where SIGIO with SIGKILL aimed at the kernel's pid killed the whole runtime ----
+
+constexpr const char* kInnerEnv = "REJUV_TEST_UNPRIVILEGED_KERNEL";
+
+// The inner run (this binary re-executed as the unprivileged user): the flight and its assertions.
+TEST(RollbackAttackWithoutRoot, Inner) {
+  const char* clock = std::getenv(kInnerEnv);
+  if (clock == nullptr) GTEST_SKIP() << "run by SigioKernel_KernelAlive (re-executed without root)";
+  ASSERT_NE(::geteuid(), 0U);
+  Flight f;
+  fly(AttackKind::SigioKernel, std::string_view(clock) == "realtime", f);
+  if (HasFatalFailure() || IsSkipped()) return;
+  expect_rollback_held(f);
+  expect_counted(AttackKind::SigioKernel, f);
+}
+
+class RollbackAttackWithoutRoot : public ::testing::TestWithParam<bool> {};
+
+TEST_P(RollbackAttackWithoutRoot, SigioKernel_KernelAlive) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root to become the unprivileged user";
+  const passwd* nobody = ::getpwnam("nobody");
+  ASSERT_NE(nobody, nullptr);
+  // The user must reach the build: every directory on the way to it searchable by others.
+  for (fs::path p = fs::path(REJUV_BINARY_DIR); !p.empty() && p != p.root_path(); p = p.parent_path()) {
+    if ((fs::status(p).permissions() & fs::perms::others_exec) == fs::perms::none) {
+      GTEST_SKIP() << p << " is not searchable by other users";
+    }
+  }
+  // Everything the child needs is made before the fork (this process has threads: the child only calls
+  // async-signal-safe functions, then execs).
+  const std::string self = fs::read_symlink("/proc/self/exe");
+  const std::string filter = "--gtest_filter=RollbackAttackWithoutRoot.Inner";
+  std::vector<std::string> env_text;
+  for (char** e = environ; *e != nullptr; ++e) {
+    if (std::string_view(*e).starts_with("HOME=")) continue;
+    env_text.emplace_back(*e);
+  }
+  env_text.push_back(std::string(kInnerEnv) + "=" + (GetParam() ? "realtime" : "lockstep"));
+  env_text.emplace_back("HOME=/tmp");
+  std::vector<char*> env;
+  for (std::string& e : env_text) env.push_back(e.data());
+  env.push_back(nullptr);
+  std::array<char*, 3> argv{const_cast<char*>(self.c_str()), const_cast<char*>(filter.c_str()), nullptr};  // NOLINT
+  const gid_t gid = nobody->pw_gid;
+  const uid_t uid = nobody->pw_uid;
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    if (::setgroups(0, nullptr) != 0 || ::setresgid(gid, gid, gid) != 0 || ::setresuid(uid, uid, uid) != 0) {
+      ::_exit(90);
+    }
+    ::execve(self.c_str(), argv.data(), env.data());
+    ::_exit(91);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_FALSE(WIFSIGNALED(status)) << "the unprivileged kernel was killed by signal " << WTERMSIG(status);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_NE(WEXITSTATUS(status), 90) << "could not become the unprivileged user";
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "the flight without root failed (its output is above)";
+}
+
+INSTANTIATE_TEST_SUITE_P(Issue26, RollbackAttackWithoutRoot, ::testing::Values(true, false),
+                         [](const ::testing::TestParamInfo<bool>& i) { return i.param ? "RealTime" : "Lockstep"; });
+
+}  // namespace
+}  // namespace rejuv::testing
