@@ -157,6 +157,22 @@ std::string describe(std::string_view controller, const CgroupLimits& l) {
   return "cpu " + std::to_string(*l.cpu_percent) + " % of one CPU";
 }
 
+// The kernel's directory weighs as much as its services would without cgroups: one default weight per service
+// group (cpu.shares 1024 in v1, cpu.weight 100 in v2). With the default weight the services together weighed
+// one process against the kernel and the rest of the machine, and on a busy CPU every rollback's resume waited
+// ≈ 1 ms longer (rejuv bench images: rollback p50 1.65 ms against 0.40 ms with this weight, same build).
+void weigh_kernel_group(const fs::path& parent, bool unified) {
+  std::error_code ec;
+  std::uint64_t groups = 0;
+  for (const auto& entry : fs::directory_iterator(parent, ec)) groups += entry.is_directory(ec) ? 1 : 0;
+  if (groups == 0) return;
+  if (unified) {
+    (void)write_file(parent / "cpu.weight", std::to_string(std::min<std::uint64_t>(10000, 100 * groups)));
+  } else {
+    (void)write_file(parent / "cpu.shares", std::to_string(std::min<std::uint64_t>(262144, 1024 * groups)));
+  }
+}
+
 // pids and memory when limited; cpu always (its share, and a quota when one is set).
 bool wanted(std::string_view controller, const CgroupLimits& l) {
   return (controller == "pids" && l.pids) || (controller == "memory" && l.memory_bytes) || controller == "cpu";
@@ -229,6 +245,7 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
         (void)write_file(parent / "cgroup.subtree_control", "+" + std::string(c));
       }
     }
+    if (has(h.controllers, "cpu") && !has(served, "cpu")) weigh_kernel_group(dir->parent_path(), h.unified);
     for (const auto c : kControllers) {
       if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
       if (apply(*dir, c, h.unified, limits)) {
