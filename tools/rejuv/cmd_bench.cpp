@@ -40,21 +40,30 @@ double ms_since(Nanos start) { return static_cast<double>((sys::monotonic_now() 
 
 int run_bench(std::span<const std::string_view> args) {
   std::string what, graph_path;
-  std::uint64_t cycles = 200, restarts = 20, between = 1;
+  std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20;
+  std::optional<std::filesystem::path> out;
   Options opts("bench",
                "Benchmarks, side by side in one run.\n"
-               "  images [GRAPH]  checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
-               "                  launch/quad_square.launch.pbtxt) with the queue state, against a cold restart\n"
-               "                  of the same services from their binaries.");
-  opts.positional("WHAT", what, "what to measure: images")
+               "  images [GRAPH]    checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
+               "                    launch/quad_square.launch.pbtxt) with the queue state, against a cold restart\n"
+               "                    of the same services from their binaries.\n"
+               "  realtime [GRAPH]  this machine's floor (rt-tests cyclictest at the control period) and GRAPH flown\n"
+               "                    in real time without SR, with SR, and with SR under its attacks: the intervals\n"
+               "                    between actuator outputs and those holding a checkpoint or a rollback, as ratios\n"
+               "                    to the floor (docs/realtime.md).");
+  opts.positional("WHAT", what, "what to measure: images or realtime")
       .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square.launch.pbtxt)", false)
       .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")
       .integer("--restarts", "N", restarts, {1, 1000}, "cold restarts")
       .integer("--between", "MS", between, {1, 10000},
                "simulated ms between a checkpoint and its rollback and between a rollback and the next checkpoint\n"
                "(1: the next one comes while the images are still being made; a mission has seconds)");
+  opts.integer("--seconds", "N", seconds, {2, 3600}, "realtime: seconds of each flight and of the floor")
+      .path("--out", "DIR", out, "realtime: where the flights' files and cyclictest's histograms go",
+            "a new temporary folder");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (what != "images") return bad_input("rejuv bench: unknown benchmark '" + what + "' (known: images)");
+  if (what == "realtime") return run_bench_realtime(graph_path, seconds, out);
+  if (what != "images") return bad_input("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime)");
   if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square.launch.pbtxt";
   auto loaded = launch::load_launch(graph_path);
   if (!loaded) return bad_input(loaded.error().to_string());

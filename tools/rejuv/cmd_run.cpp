@@ -80,7 +80,8 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 "  mission     %s in %.1f s (simulated %.1f s in %.1f s wall, %.1fx real time)\n"
                 "  tracking    d_mean %.2f cm, d_max %.2f cm\n"
                 "  safety      max V = %.4f (%s), max estimation error ||x - x_hat||^2_P = %.4f\n"
-                "  control     max gap between actuator outputs %.1f ms\n"
+                "  control     max gap between actuator outputs %.1f ms; the interval holding a checkpoint p50 %.2f / "
+                "p99 %.2f / max %.2f ms, a rollback %.2f / %.2f / %.2f ms\n"
                 "  images      %llu checkpoints (p50 %.3f ms, max %.3f ms), %llu rollbacks (p50 %.3f ms, max %.3f ms)\n"
                 "%s"
                 "%s"
@@ -97,6 +98,9 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 s.mission_time_s(), s.sim_time_s(),
                 s.wall_time_s(), s.realtime_factor(), 100.0 * s.d_mean_m(), 100.0 * s.d_max_m(), s.max_v(),
                 s.left_safety_set() ? "LEFT THE SAFETY SET" : "safe", s.max_est_err_p(), s.max_control_gap_ms(),
+                s.control_interval_at_cp_ms().p50(), s.control_interval_at_cp_ms().p99(),
+                s.control_interval_at_cp_ms().max(), s.control_interval_at_rb_ms().p50(),
+                s.control_interval_at_rb_ms().p99(), s.control_interval_at_rb_ms().max(),
                 static_cast<unsigned long long>(s.checkpoints()), s.checkpoint_ms().p50(), s.checkpoint_ms().max(),
                 static_cast<unsigned long long>(s.rollbacks()), s.rollback_ms().p50(), s.rollback_ms().max(), phases, charged,
                 static_cast<unsigned long long>(s.attacks()),

@@ -31,6 +31,7 @@ void fill_percentiles(proto::Percentiles& out, std::vector<double> values) {
   if (values.empty()) return;
   std::sort(values.begin(), values.end());
   out.set_p50(values[values.size() / 2]);
+  out.set_p99(values[std::min(values.size() - 1, values.size() * 99 / 100)]);
   out.set_max(values.back());
 }
 

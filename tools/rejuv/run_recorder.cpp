@@ -103,14 +103,21 @@ void RunRecorder::on_publication(const kernel::Publication& p) {
 }
 
 void RunRecorder::on_control_update(Nanos t, Nanos wall) {
-  if (files_ != nullptr && t >= ref_.alignment) files_->control_update(t - ref_.alignment, wall);
+  if (t < ref_.alignment) return;
+  if (files_ != nullptr) files_->control_update(t - ref_.alignment, wall);
+  if (const auto i = intervals_.add(t - ref_.alignment, wall)) {
+    // Kernel time: simulated in lockstep, the monotonic clock in real time.
+    const double ms = std::chrono::duration<double, std::milli>(i->dt).count();
+    if (i->mark == IntervalMark::Checkpoint) at_cp_ms_.add(ms);
+    if (i->mark == IntervalMark::Rollback) at_rb_ms_.add(ms);
+  }
 }
 
 void RunRecorder::on_sr_event(const SrEvent& event) {
-  if (files_ == nullptr) return;
   SrEvent e = event;
   e.t -= ref_.alignment;
-  files_->sr_event(e);
+  intervals_.on_event(e);
+  if (files_ != nullptr) files_->sr_event(e);
 }
 
 void RunRecorder::on_step(std::uint64_t /*step*/, Nanos t, SrMode mode) {
@@ -133,6 +140,8 @@ void RunRecorder::fill(proto::RunSummary& s, Nanos end) const {
   s.set_max_est_err_p(max_est_err_);
   s.set_left_safety_set(max_V_ >= 1.0 || lost_.has_value());
   s.set_max_control_gap_ms(std::chrono::duration<double, std::milli>(max_gap_).count());
+  fill_percentiles(*s.mutable_control_interval_at_cp_ms(), at_cp_ms_);
+  fill_percentiles(*s.mutable_control_interval_at_rb_ms(), at_rb_ms_);
   s.set_attacks(stopped_after_attacks_ ? attacked_closed_ : attacked_windows());
   s.set_stopped_after_attacks(stopped_after_attacks_);
 }

@@ -98,6 +98,8 @@ class RunRecorder final : public kernel::Observer {
   RunReference ref_;
   std::FILE* csv_;
   RunFiles* files_ = nullptr;
+  ControlIntervals intervals_;              // every run: the intervals holding a checkpoint or a rollback
+  kernel::DurationSamples at_cp_ms_, at_rb_ms_;
   Progress progress_;
   std::function<void()> stop_;
   std::uint64_t stop_after_ = 0;

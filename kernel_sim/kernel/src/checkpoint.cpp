@@ -42,6 +42,7 @@ bool Kernel::Impl::lost_during(CheckpointRun& run) const {
 }
 
 void Kernel::Impl::run_checkpoint() {
+  if (image_work) run_image_work();  // the last checkpoint's or rollback's, if the vehicle has not had its update yet
   const auto [caller, seq] = *checkpoint_request;
   checkpoint_request.reset();
   const bool priming = std::exchange(priming_request, false);
@@ -126,15 +127,16 @@ void Kernel::Impl::run_checkpoint() {
   resume_routing();
   answer(0, g.value());
   const std::uint64_t forks_before = sr_stats.images_by_fork;
-  send_patches(*images.newest());  // before old generations go: a base may be among them
-  for (image::GenerationRecord& old : evicted) retire(std::move(old));
   const Nanos took = t_saved - t0;
-  // Strays (sandbox.cpp): after the timed part, before the new spares are on their way, so that only the
-  // copies still on their way from earlier requests can defer it.
   abandoned.reset();  // an image still owed to an abandoned checkpoint is a stray from now on
-  sweep_strays("a checkpoint's commit");
-  for (image::Image& im : images.newest()->images) (void)im.request_spare(g);  // the spare copies, async
+  // The patches (before old generations go: a base may be among them), the evicted generations, the stray
+  // sweep (before the new spares are on their way, so that only copies asked for earlier can defer it) and the
+  // spare copies: after the vehicle's next control update (leave_image_work).
+  leave_image_work(
+      ImageWork{.patches = g, .evicted = std::move(evicted), .sweep = "a checkpoint's commit",
+                .sweep_wait = SweepWait::No, .spares = g, .not_after = {}});
   if (priming) {
+    run_image_work();  // before the flight: nothing to wait for, and the count below needs it
     // DESIGN §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
     sr_stats.priming_images += sr_stats.images_by_fork - forks_before;
     sr_stats.images_by_fork = forks_before;

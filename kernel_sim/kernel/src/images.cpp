@@ -123,11 +123,49 @@ void Kernel::Impl::resume_routing() {
 
 // ---- safe points ----
 
-bool Kernel::Impl::service_images() {
-  // Incarnations retired by a rollback killed, then the killed ones reaped (Reaper::reap), all off the
-  // rollback's critical path. In this order: a SIGKILL's victim runs its exit at once, so most are reaped
-  // here, not one safe point later (where `rejuv soak` found them as one more process and fd at a sample).
+void Kernel::Impl::leave_image_work(ImageWork work) {
+  REJUV_ASSERT(!image_work, "image work is run before the next checkpoint or rollback leaves more");
+  work.not_after = wall() + kImageWorkWait;
+  image_work = std::move(work);
+  control_update_routed = false;
+  // Without a vehicle no control update comes: at once, as before (benchmarks, tests of the image store).
+  if (!graph.graph.has_plant()) run_image_work();
+}
+
+void Kernel::Impl::image_work_if_due() {
+  if (image_work && (control_update_routed || wall() >= image_work->not_after)) run_image_work();
+}
+
+void Kernel::Impl::run_image_work() {
+  if (!image_work) return;
+  ImageWork work = std::move(*image_work);
+  image_work.reset();
+  if (work.patches) {
+    if (image::GenerationRecord* record = images.find(*work.patches)) send_patches(*record);
+  }
+  for (image::GenerationRecord& old : work.evicted) retire(std::move(old));
+  // In real time with a vehicle the sweep never waits for copies on their way (a service with one is swept
+  // at the next safe point after it has reported, sweep_due); elsewhere, briefly, so that no stray outlives a
+  // rollback.
+  const bool vehicle_waits = clock_mode == ClockMode::Realtime && graph.graph.has_plant();
+  if (!work.sweep.empty()) {
+    sweep_strays(work.sweep, false, vehicle_waits ? SweepWait::No : work.sweep_wait);
+  }
+  if (work.spares) {
+    if (image::GenerationRecord* record = images.find(*work.spares)) {
+      for (image::Image& im : record->images) (void)im.request_spare(*work.spares);
+    }
+  }
   reaper.kill_retired();
+}
+
+bool Kernel::Impl::service_images() {
+  image_work_if_due();
+  // Incarnations retired by a rollback killed (with the image work: after the vehicle's next update), then the
+  // killed ones reaped (Reaper::reap), all off the rollback's critical path. In this order: a SIGKILL's victim
+  // runs its exit at once, so most are reaped here, not one safe point later (where `rejuv soak` found them as
+  // one more process and fd at a sample).
+  if (!image_work) reaper.kill_retired();
   if (!retiring.empty()) finish_retiring(false);
   reaper.reap();
   if (!stopping && !checkpoint && !rollback_request && !checkpoint_request) sweep_if_due();  // sandbox.cpp

@@ -272,6 +272,26 @@ struct Kernel::Impl {
   [[nodiscard]] Generation pages_base_for(const ServiceRuntime& s);
   // After a commit: has a copy of each base image make the new generation's images by written pages.
   void send_patches(image::GenerationRecord& record);
+  // The image work a checkpoint or a rollback leaves behind (issue 27): the new generation's patches, the
+  // evicted generations, the stray sweep, the spare copies and the kill of retired incarnations. None of it is
+  // needed before the next checkpoint or rollback, and all of it takes CPU (forks, page copies, exits) that
+  // the vehicle's control chain needs right then: with a vehicle it waits until the first control update
+  // after the event has been routed (or kImageWorkWait of wall time), so that the chain's period holding the
+  // checkpoint or rollback is not also the one the image work runs in. Without a plant it runs at once.
+  struct ImageWork {
+    std::optional<Generation> patches{};               // send_patches of this generation, then
+    std::vector<image::GenerationRecord> evicted{};    // retire these (a base of the patches may be among them)
+    std::string_view sweep{};                          // why the stray sweep is due
+    SweepWait sweep_wait = SweepWait::No;              // ForCopies after a rollback (never in real time)
+    std::optional<Generation> spares{};                // a spare copy of each image of this generation
+    Nanos not_after{0};                                // wall clock
+  };
+  static constexpr Nanos kImageWorkWait{std::chrono::milliseconds{20}};
+  std::optional<ImageWork> image_work;
+  bool control_update_routed = false;  // an ActuatorOutputs routed since the image work was left
+  void leave_image_work(ImageWork work);
+  void run_image_work();               // now, whatever the trigger (also before a checkpoint or rollback)
+  void image_work_if_due();
   void request_rollback(std::string reason);
   void run_rollback(const std::string& reason);
   // Resumes every image of `record`; false (and everything resumed killed again) if one fails.

@@ -167,6 +167,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
 }
 
 void Kernel::Impl::run_rollback(const std::string& reason) {
+  if (image_work) run_image_work();  // the newest generation's patches first: the rollback resumes them
   const Nanos t0 = wall();
   // A checkpoint asked for by an incarnation that is about to die is void: nobody waits for its answer.
   if (checkpoint_request && checkpoint_request->first &&
@@ -223,8 +224,10 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   sr_stats.rollback_phases.a.add(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.add(to_ms(t_resumed - t_killed));
   sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
-  sweep_strays("a rollback", false, SweepWait::ForCopies);  // as after a commit: before the new spares go out
-  for (image::Image& im : restored->images) (void)im.request_spare(restored->g);  // g restorable again, async
+  // As after a commit: the sweep before the new spares go out, and the spares (g restorable again) after the
+  // vehicle's next control update; the retired incarnations stay stopped until then (leave_image_work).
+  leave_image_work(ImageWork{.patches = {}, .evicted = {}, .sweep = "a rollback", .sweep_wait = SweepWait::ForCopies,
+                             .spares = restored->g, .not_after = {}});
   sr_event(SrEventKind::Rollback, restored->g, took);
   ++sr_stats.rollbacks;
   sr_stats.rollback_ms.add(to_ms(took));
@@ -239,6 +242,10 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats.cold_restarts;
   sr_event(SrEventKind::ColdRestart);
+  if (image_work) {  // what was left for generations that go now: only the evicted ones still matter
+    for (image::GenerationRecord& r : image_work->evicted) retire(std::move(r));
+    image_work.reset();
+  }
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
   reaper.kill_retired();

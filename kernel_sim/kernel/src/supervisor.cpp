@@ -402,6 +402,10 @@ void Kernel::Impl::shutdown_all() {
     plant.kill_and_reap();
   }
   // Every image and every killed incarnation (DESIGN §7): killed and reaped.
+  if (image_work) {
+    for (image::GenerationRecord& r : image_work->evicted) retiring.push_back(std::move(r));
+    image_work.reset();
+  }
   for (image::GenerationRecord& r : images.take_all()) retiring.push_back(std::move(r));
   finish_retiring(true);
   reaper.kill_all_and_reap();

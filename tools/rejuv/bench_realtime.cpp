@@ -1,0 +1,219 @@
+// `rejuv bench realtime [GRAPH] [--seconds N] [--out DIR]` (issue 27 item 3; docs/realtime.md): what a
+// vehicle sees of Rejuv in real time, beside this machine's floor, measured in one go.
+//
+// 1. The floor: Debian's rt-tests `cyclictest` at the control period (one thread, mlockall), as SCHED_OTHER —
+//    the policy of every process of a run today — and, where the user may, SCHED_FIFO 80: its wake-up latency
+//    histogram gives what a periodic task on this machine gets at best.
+// 2. The graph flown in real time (`rejuv run GRAPH --realtime --duration N --out …`, each a child process, as
+//    a user would run it): without SR, with SR and no attack, with SR and the graph's attacks. From each run's
+//    control.csv: every interval between two actuator outputs (wall clock), and those holding a checkpoint or a
+//    rollback.
+// One table, each run's intervals as a ratio to the floor's interval (the period plus the floor's latency).
+// Nothing here is asserted: a shared VM is noisy, the table says what it saw.
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "args.hpp"
+#include "commands.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/process.hpp"
+#include "report.hpp"
+#include "run_child.hpp"
+
+namespace rejuv::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kPeriodUs = 4000;  // the control period of the in-tree graphs (250 Hz)
+
+// Percentiles of a sample [ms]; NaN when empty.
+struct Spread {
+  std::size_t n = 0;
+  double p50 = 0, p99 = 0, p999 = 0, max = 0;
+};
+
+Spread spread_of(std::vector<double> v) {
+  Spread s;
+  s.n = v.size();
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  const auto at = [&](double q) { return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))]; };
+  s.p50 = at(0.5);
+  s.p99 = at(0.99);
+  s.p999 = at(0.999);
+  s.max = v.back();
+  return s;
+}
+
+// The floor: cyclictest's latency histogram [µs] → the intervals a periodic task gets [ms].
+struct Floor {
+  std::string policy;
+  Spread interval;  // period + latency
+  std::string error{};
+};
+
+Floor cyclictest(const std::string& policy, int priority, int seconds, const fs::path& dir) {
+  Floor f{.policy = policy, .interval = {}, .error = {}};
+  const fs::path hist = dir / ("cyclictest_" + policy + ".hist");
+  const fs::path log = dir / ("cyclictest_" + policy + ".log");
+  const sys::UniqueFd log_fd(::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
+  const sys::UniqueFd null_fd(::open("/dev/null", O_RDONLY | O_CLOEXEC));
+  if (!log_fd || !null_fd) {
+    f.error = "cannot write " + log.string();
+    return f;
+  }
+  sys::SpawnSpec spec;
+  spec.executable = "/usr/bin/cyclictest";
+  if (!fs::exists(spec.executable)) {
+    f.error = "no /usr/bin/cyclictest (Debian package rt-tests; ./rejuv build installs it)";
+    return f;
+  }
+  spec.args = {"-q", "-m", "-t", "1", "-i", std::to_string(kPeriodUs), "-p", std::to_string(priority),
+               "-D", std::to_string(seconds), "-h", "50000", "--histfile=" + hist.string()};
+  for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
+  spec.fds = {{0, null_fd.get()}, {1, log_fd.get()}, {2, log_fd.get()}};
+  auto child = sys::spawn(spec);
+  if (!child) {
+    f.error = "cannot start cyclictest: " + child.error().to_string();
+    return f;
+  }
+  auto status = child->wait();
+  if (!status || !status->success()) {
+    f.error = "cyclictest " + (status ? status->to_string() : status.error().to_string()) + " (see " + log.string() + ")";
+    return f;
+  }
+  // "latency_us count" lines, '#' comments.
+  std::ifstream in(hist);
+  std::vector<double> ms;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    long us = 0;
+    long count = 0;
+    if (!(fields >> us >> count) || count <= 0) continue;
+    ms.insert(ms.end(), static_cast<std::size_t>(count), (kPeriodUs + static_cast<double>(us)) / 1000.0);
+  }
+  if (ms.empty()) f.error = "cyclictest wrote no histogram (" + hist.string() + ")";
+  f.interval = spread_of(std::move(ms));
+  return f;
+}
+
+struct Flight {
+  std::string label;
+  Spread all, cp, rb;
+  std::string error{};
+};
+
+Flight fly(const std::string& label, const std::string& graph, int seconds, const std::vector<std::string>& extra,
+           const fs::path& dir) {
+  Flight f{.label = label, .all = {}, .cp = {}, .rb = {}, .error = {}};
+  const fs::path out = dir / label;
+  std::vector<std::string> args{graph, "--realtime", "--duration", std::to_string(seconds), "--out", out.string()};
+  args.insert(args.end(), extra.begin(), extra.end());
+  auto child = start_rejuv_run(args, dir / (label + ".log"));
+  if (!child) {
+    f.error = child.error();
+    return f;
+  }
+  auto status = child->wait();
+  // Exit 1 (left the safety set, not completed in the duration) still has a control.csv worth reading.
+  if (!status || (status->how != sys::ExitStatus::How::Exited) || status->value > 1) {
+    f.error = "rejuv run " + (status ? status->to_string() : status.error().to_string()) + ": " +
+              log_tail(dir / (label + ".log"), 3);
+    return f;
+  }
+  std::ifstream in(out / "control.csv");
+  std::string line;
+  std::getline(in, line);  // t_s,wall_s,interval_ms,wall_interval_ms,mark,wall_mark
+  std::vector<double> all, cp, rb;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::istringstream row(line);
+    for (std::string c; std::getline(row, c, ',');) cells.push_back(c);
+    if (cells.size() < 4) continue;
+    const double ms = std::strtod(cells[3].c_str(), nullptr);
+    all.push_back(ms);
+    const std::string mark = cells.size() > 5 ? cells[5] : "";
+    if (mark == "CP") cp.push_back(ms);
+    if (mark == "RB") rb.push_back(ms);
+  }
+  if (all.empty()) f.error = "no control updates in " + (out / "control.csv").string();
+  f.all = spread_of(std::move(all));
+  f.cp = spread_of(std::move(cp));
+  f.rb = spread_of(std::move(rb));
+  return f;
+}
+
+}  // namespace
+
+int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, const std::optional<fs::path>& out_dir) {
+  const std::string graph = graph_arg.empty() ? std::string(REJUV_SOURCE_DIR) + "/launch/quad_square.launch.pbtxt" : graph_arg;
+  auto loaded = launch::load_launch(graph);
+  if (!loaded) return bad_input(loaded.error().to_string());
+  if (!loaded->graph.has_plant()) return bad_input("rejuv bench realtime: " + graph + " has no plant (no vehicle to measure)");
+  std::error_code ec;
+  const fs::path dir = out_dir.value_or(fs::temp_directory_path(ec) / ("rejuv-bench-realtime-" + std::to_string(::getpid())));
+  fs::create_directories(dir, ec);
+  if (ec) return bad_input("rejuv bench realtime: --out: cannot create '" + dir.string() + "': " + ec.message());
+  const int s = static_cast<int>(seconds);
+  std::fprintf(stderr, "rejuv bench realtime: %s, %d s each: the floor (cyclictest), then 3 flights in real time; "
+               "files in %s\n", graph.c_str(), s, dir.c_str());
+  std::vector<Floor> floors;
+  std::fprintf(stderr, "  cyclictest SCHED_OTHER …\n");
+  floors.push_back(cyclictest("SCHED_OTHER", 0, s, dir));
+  if (::geteuid() == 0) {
+    std::fprintf(stderr, "  cyclictest SCHED_FIFO 80 …\n");
+    floors.push_back(cyclictest("SCHED_FIFO_80", 80, s, dir));
+  }
+  std::vector<Flight> flights;
+  const bool sr = loaded->graph.sr().enabled();
+  const bool attack = loaded->graph.attack().enabled() && loaded->graph.attack().attacks_size() > 0;
+  std::vector<std::pair<std::string, std::vector<std::string>>> plan{{"no_sr", {"--no-sr"}}};
+  if (sr) plan.push_back({"sr", {"--no-attack"}});
+  if (sr && attack) plan.push_back({"sr_attack", {}});
+  for (const auto& [label, extra] : plan) {
+    std::fprintf(stderr, "  rejuv run --realtime (%s) …\n", label.c_str());
+    flights.push_back(fly(label, graph, s, extra, dir));
+  }
+
+  // The table.
+  const Floor& floor = floors.front();
+  std::printf("rejuv bench realtime: %s, %d s each, control period %.1f ms\n", graph.c_str(), s, kPeriodUs / 1000.0);
+  std::printf("%-26s %7s %7s %7s %7s %8s | %-20s | %-20s\n", "intervals [ms]", "p50", "p99", "p99.9", "max",
+              "p99.9/fl", "holding a CP p50/max", "holding a RB p50/max");
+  for (const Floor& f : floors) {
+    if (!f.error.empty()) {
+      std::printf("%-26s %s\n", ("floor " + f.policy).c_str(), f.error.c_str());
+      continue;
+    }
+    std::printf("%-26s %7.2f %7.2f %7.2f %7.2f %8s | %-20s | %-20s\n", ("floor (cyclictest " + f.policy + ")").c_str(),
+                f.interval.p50, f.interval.p99, f.interval.p999, f.interval.max, "1.00", "", "");
+  }
+  for (const Flight& f : flights) {
+    if (!f.error.empty()) {
+      std::printf("%-26s %s\n", f.label.c_str(), f.error.c_str());
+      continue;
+    }
+    char ratio[32] = "-";
+    if (floor.error.empty() && floor.interval.p999 > 0) std::snprintf(ratio, sizeof ratio, "%.2f", f.all.p999 / floor.interval.p999);
+    char cp[48] = "-";
+    char rb[48] = "-";
+    if (f.cp.n > 0) std::snprintf(cp, sizeof cp, "%.2f / %.2f (%zu)", f.cp.p50, f.cp.max, f.cp.n);
+    if (f.rb.n > 0) std::snprintf(rb, sizeof rb, "%.2f / %.2f (%zu)", f.rb.p50, f.rb.max, f.rb.n);
+    std::printf("%-26s %7.2f %7.2f %7.2f %7.2f %8s | %-20s | %-20s\n", ("rejuv run " + f.label).c_str(), f.all.p50,
+                f.all.p99, f.all.p999, f.all.max, ratio, cp, rb);
+  }
+  const bool failed = std::any_of(flights.begin(), flights.end(), [](const Flight& f) { return !f.error.empty(); });
+  return static_cast<int>(failed ? Exit::Findings : Exit::Ok);
+}
+
+}  // namespace rejuv::cli
