@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "graph_fixture.hpp"
+#include "mission_support.hpp"
 #include "rejuv/sys/udp.hpp"
 #include "run_recorder.hpp"
 
@@ -35,13 +36,12 @@ namespace {
 namespace fs = std::filesystem;
 using kernel::Kernel;
 using kernel::StopReason;
+using mission::all_built;
+using mission::read_text;
+using mission::RunLog;
+using mission::session_members;
+using mission::SessionGuard;
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 // quad_square's text with ekf2 compromised: its escape_port param and an ESCAPE_HELPER entry in the plan,
 // next to the worst-case control attack the graph already has. Empty when the graph no longer reads as
@@ -59,87 +59,20 @@ std::string compromised_square(std::uint16_t port) {
   return t;
 }
 
-bool all_built(const launch::LoadedLaunch& g) {
-  for (const proto::ServiceSpec& s : g.graph.services()) {
-    if (!fs::exists(kServiceDir / s.executable())) return false;
-  }
-  return fs::exists(kServiceDir / g.graph.plant().executable());
-}
-
-// Every process of session `sid` (from /proc; getsid of each).
-std::vector<pid_t> session_members(pid_t sid) {
-  std::vector<pid_t> out;
-  std::error_code ec;
-  for (const fs::directory_entry& e : fs::directory_iterator("/proc", ec)) {
-    const std::string name = e.path().filename().string();
-    pid_t pid = 0;
-    const auto [end, err] = std::from_chars(name.data(), name.data() + name.size(), pid);
-    if (err != std::errc{} || end != name.data() + name.size()) continue;
-    if (::getsid(pid) == sid) out.push_back(pid);
-  }
-  return out;
-}
-
 // True when `pid` no longer names a process of session `sid` (gone, or the number reused elsewhere).
 bool gone_from_session(pid_t pid, pid_t sid) { return ::getsid(pid) != sid; }
 
-// The kernel and service log of the run, in a temporary file this test reads back.
-class RunLog {
- public:
-  RunLog() : file_(std::tmpfile()) {}
-  [[nodiscard]] std::FILE* get() const { return file_.get(); }
-  [[nodiscard]] std::string text() const {
-    if (!file_) return {};
-    std::fflush(file_.get());
-    return read_text("/proc/self/fd/" + std::to_string(::fileno(file_.get())));
-  }
-  // The helper's pid from ekf2's report of the attempt ("helper pid N"; services/attacks hooks.cpp).
-  [[nodiscard]] std::optional<pid_t> helper_pid() const {
-    const std::string t = text();
-    static constexpr std::string_view kMark = "attack ESCAPE_HELPER: helper pid ";
-    const std::size_t at = t.find(kMark);
-    if (at == std::string::npos) return std::nullopt;
-    pid_t pid = 0;
-    const char* begin = t.data() + at + kMark.size();
-    if (std::from_chars(begin, t.data() + t.size(), pid).ec != std::errc{} || pid <= 0) return std::nullopt;
-    return pid;
-  }
-  // The lines that name ekf2, for failure messages.
-  [[nodiscard]] std::string ekf2_lines() const {
-    std::istringstream in(text());
-    std::string line, out;
-    while (std::getline(in, line)) {
-      if (line.find("ekf2") != std::string::npos) out += line + "\n";
-    }
-    return out;
-  }
-
- private:
-  struct Close {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-  };
-  std::unique_ptr<std::FILE, Close> file_;
-};
-
-// Kills and reaps whatever of ekf2's session is still there when the test ends, also on failure (the
-// kernel, this process, is the parent of every process a service can make).
-class SessionGuard {
- public:
-  SessionGuard() = default;
-  SessionGuard(const SessionGuard&) = delete;
-  SessionGuard& operator=(const SessionGuard&) = delete;
-  ~SessionGuard() {
-    if (!sid_) return;
-    for (const pid_t pid : session_members(*sid_)) {
-      (void)::kill(pid, SIGKILL);
-      (void)::waitpid(pid, nullptr, 0);
-    }
-  }
-  void watch(pid_t sid) { sid_ = sid; }
-
- private:
-  std::optional<pid_t> sid_{};
-};
+// The helper's pid from ekf2's report of the attempt ("helper pid N"; services/attacks hooks.cpp).
+std::optional<pid_t> helper_pid(const RunLog& log) {
+  const std::string t = log.text();
+  static constexpr std::string_view kMark = "attack ESCAPE_HELPER: helper pid ";
+  const std::size_t at = t.find(kMark);
+  if (at == std::string::npos) return std::nullopt;
+  pid_t pid = 0;
+  const char* begin = t.data() + at + kMark.size();
+  if (std::from_chars(begin, t.data() + t.size(), pid).ec != std::errc{} || pid <= 0) return std::nullopt;
+  return pid;
+}
 
 // What the test saw during the run. Forwards everything to `rejuv run`'s recorder.
 class Watch final : public kernel::Observer {
@@ -168,7 +101,7 @@ class Watch final : public kernel::Observer {
     if (at_first_rollback || kernel_ == nullptr) return;
     // The first rollback: the queues are back at g, nothing has run since.
     FirstRollback seen;
-    seen.helper = log_.helper_pid();
+    seen.helper = helper_pid(log_);
     if (seen.helper && sid) seen.helper_gone = gone_from_session(*seen.helper, *sid);
     if (const auto id = kernel_->find_service("ekf2")) seen.ekf2 = kernel_->stats(*id);
     at_first_rollback = std::move(seen);
@@ -240,7 +173,7 @@ TEST(CompromisedMission, Ekf2ForksANetworkHelperAtBoot_NoDatagramHelperGoneByFir
 
   // When the whole square is flown.
   auto outcome = (*k)->run();
-  ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string() << "\n" << log.ekf2_lines();
+  ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string() << "\n" << log.lines_with("ekf2");
   proto::RunSummary summary;
   recorder.fill(summary, outcome->sim_time);
   const auto ekf2 = (*k)->find_service("ekf2");
@@ -255,11 +188,11 @@ TEST(CompromisedMission, Ekf2ForksANetworkHelperAtBoot_NoDatagramHelperGoneByFir
   EXPECT_EQ(watch.drain(), 0U) << "the helper reached the network";
 
   // The kernel saw the helper and refused its network calls by name.
-  const auto helper = log.helper_pid();
-  ASSERT_TRUE(helper.has_value()) << "ekf2 did not report its helper:\n" << log.ekf2_lines();
+  const auto helper = helper_pid(log);
+  ASSERT_TRUE(helper.has_value()) << "ekf2 did not report its helper:\n" << log.lines_with("ekf2");
   EXPECT_GE(stats.forbidden_calls + stats.stray_processes, 1U);
   EXPECT_TRUE(refused(stats, "socket") || refused(stats, "io_uring_setup"))
-      << "calls refused: " << ::testing::PrintToString(stats.calls_refused) << "\n" << log.ekf2_lines();
+      << "calls refused: " << ::testing::PrintToString(stats.calls_refused) << "\n" << log.lines_with("ekf2");
 
   // The helper was gone when the first rollback had happened, and was already counted then.
   ASSERT_TRUE(watch.sid.has_value()) << "ekf2's session was never seen";

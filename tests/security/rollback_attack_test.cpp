@@ -23,6 +23,7 @@
 #include <array>
 #include <charconv>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -32,6 +33,7 @@
 #include <vector>
 
 #include "graph_fixture.hpp"
+#include "mission_support.hpp"
 #include "rejuv/attacks/plan.hpp"
 #include "run_recorder.hpp"
 
@@ -47,12 +49,11 @@ using kernel::StopReason;
 constexpr std::chrono::seconds kFlight{14};
 constexpr int kAsyncFlag = 020000;  // O_ASYNC (FASYNC) in /proc/<pid>/fdinfo "flags:" (octal)
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+using mission::all_built;
+using mission::read_text;
+using mission::RunLog;
+using mission::session_members;
+using mission::SessionGuard;
 
 // quad_square with ext_link compromised by `kind` (every MC window) next to the worst-case control attack,
 // flown in `clock`. Empty when the graph no longer reads as expected (the caller fails).
@@ -72,30 +73,6 @@ std::string attacked_square(AttackKind kind, bool realtime) {
   return t;
 }
 
-bool all_built(const launch::LoadedLaunch& g) {
-  for (const proto::ServiceSpec& s : g.graph.services()) {
-    if (!fs::exists(kServiceDir / s.executable())) return false;
-  }
-  return fs::exists(kServiceDir / g.graph.plant().executable());
-}
-
-std::vector<pid_t> session_members(pid_t sid) {
-  std::vector<pid_t> out;
-  std::error_code ec;
-  for (const fs::directory_entry& e : fs::directory_iterator("/proc", ec)) {
-    const std::string name = e.path().filename().string();
-    pid_t pid = 0;
-    const auto [end, err] = std::from_chars(name.data(), name.data() + name.size(), pid);
-    if (err != std::errc{} || end != name.data() + name.size()) continue;
-    if (::getsid(pid) != sid) continue;
-    const std::string stat = read_text("/proc/" + name + "/stat");
-    const std::size_t close = stat.rfind(')');
-    if (close != std::string::npos && close + 2 < stat.size() && stat[close + 2] == 'Z') continue;  // dying
-    out.push_back(pid);
-  }
-  return out;
-}
-
 // The "flags:" of /proc/<pid>/fdinfo/<fd> (octal), or nullopt when unreadable (the process is gone).
 std::optional<int> fd_flags(pid_t pid, int fd) {
   std::istringstream in(read_text("/proc/" + std::to_string(pid) + "/fdinfo/" + std::to_string(fd)));
@@ -105,51 +82,18 @@ std::optional<int> fd_flags(pid_t pid, int fd) {
   return std::nullopt;
 }
 
-// The kernel and service log of the run, in a temporary file the test reads back.
-class RunLog {
- public:
-  RunLog() : file_(std::tmpfile()) {}
-  [[nodiscard]] std::FILE* get() const { return file_.get(); }
-  [[nodiscard]] std::string text() const {
-    if (!file_) return {};
-    std::fflush(file_.get());
-    return read_text("/proc/self/fd/" + std::to_string(::fileno(file_.get())));
+// The scheduling policy of `pid` (/proc/<pid>/stat field 41: 0 SCHED_OTHER, 1 SCHED_FIFO), or nullopt.
+std::optional<int> policy_of(pid_t pid) {
+  const std::string stat = read_text("/proc/" + std::to_string(pid) + "/stat");
+  const std::size_t close = stat.rfind(')');
+  if (close == std::string::npos) return std::nullopt;
+  std::istringstream fields(stat.substr(close + 2));  // field 3 on
+  std::string f;
+  for (int i = 3; i <= 41 && fields >> f; ++i) {
+    if (i == 41) return std::atoi(f.c_str());
   }
-  // The lines that begin with `start` (a line a service wrote begins with its name: "[ext_link] …").
-  [[nodiscard]] std::vector<std::string> lines_starting(std::string_view start) const {
-    std::istringstream in(text());
-    std::vector<std::string> out;
-    for (std::string line; std::getline(in, line);) {
-      if (line.starts_with(start)) out.push_back(line);
-    }
-    return out;
-  }
-
- private:
-  struct Close {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-  };
-  std::unique_ptr<std::FILE, Close> file_;
-};
-
-// Kills and reaps whatever of ext_link's session is left when the test ends, also on failure.
-class SessionGuard {
- public:
-  SessionGuard() = default;
-  SessionGuard(const SessionGuard&) = delete;
-  SessionGuard& operator=(const SessionGuard&) = delete;
-  ~SessionGuard() {
-    if (!sid_) return;
-    for (const pid_t pid : session_members(*sid_)) {
-      (void)::kill(pid, SIGKILL);
-      (void)::waitpid(pid, nullptr, 0);
-    }
-  }
-  void watch(pid_t sid) { sid_ = sid; }
-
- private:
-  std::optional<pid_t> sid_{};
-};
+  return std::nullopt;
+}
 
 // Watches ext_link through the run: its session, and the flags of each live incarnation's fds 1–3 (about
 // every 100 ms of kernel time). Beside `rejuv run`'s recorder, in an ObserverFanout.
@@ -172,6 +116,11 @@ class Watch final : public kernel::Observer {
       }
     }
     if (std::find(incarnations.begin(), incarnations.end(), pid) == incarnations.end()) incarnations.push_back(pid);
+    // The real-time plan (docs/realtime.md): the live controller at SCHED_FIFO, its images never above it.
+    if (const auto lqr = kernel_->find_service("lqr_control")) {
+      if (policy_of(kernel_->stats(*lqr).pid) == 1) ++chain_fifo;
+      for (const pid_t image : kernel_->image_pids(*lqr)) image_fifo += policy_of(image) == 1 ? 1 : 0;
+    }
     for (const int fd : {1, 2, 3}) {
       const auto flags = fd_flags(pid, fd);
       if (flags && (*flags & kAsyncFlag) != 0) async_fds.push_back("pid " + std::to_string(pid) + " fd " + std::to_string(fd));
@@ -181,6 +130,8 @@ class Watch final : public kernel::Observer {
   std::optional<pid_t> sid{};
   std::vector<pid_t> incarnations{};     // ext_link's live pids seen
   std::vector<std::string> async_fds{};  // fds seen with O_ASYNC
+  int chain_fifo = 0;                    // looks that found the live lqr_control at SCHED_FIFO
+  int image_fifo = 0;                    // images of lqr_control found at SCHED_FIFO
 
  private:
   SessionGuard& guard_;
@@ -204,6 +155,9 @@ struct Flight {
   std::vector<std::string> forged_lines;   // lines that begin as the forged kernel line
   std::vector<std::string> async_fds;
   std::size_t incarnations = 0;
+  int chain_fifo = 0;
+  int image_fifo = 0;
+  bool realtime = false;
   std::vector<pid_t> left_in_session;
   int children_left = 0;
 };
@@ -251,6 +205,9 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   f.forged_lines = log.lines_starting("[kernel 99.999]");
   f.async_fds = watch.async_fds;
   f.incarnations = watch.incarnations.size();
+  f.chain_fifo = watch.chain_fifo;
+  f.image_fifo = watch.image_fifo;
+  f.realtime = realtime;
   if (watch.sid) f.left_in_session = session_members(*watch.sid);
   f.children_left = Resources::now().children - children_before;
   ::testing::Test::RecordProperty("max_V", std::to_string(f.summary.max_v()));
@@ -282,6 +239,11 @@ void expect_rollback_held(const Flight& f) {
   EXPECT_EQ(f.log.find('\r'), std::string::npos) << "a carriage return reached the log";
   EXPECT_EQ(f.left_in_session, std::vector<pid_t>{}) << "left in ext_link's session after the run";
   EXPECT_EQ(f.children_left, 0) << "the kernel has children left";
+  // The square's real-time plan, in real time as root: the chain at SCHED_FIFO, never an image (reset on fork).
+  if (f.realtime && ::geteuid() == 0) {
+    EXPECT_GT(f.chain_fifo, 0) << "lqr_control was never seen at SCHED_FIFO";
+    EXPECT_EQ(f.image_fifo, 0) << "an image of lqr_control ran at SCHED_FIFO";
+  }
 }
 
 // What each kind must leave in the counters (the kernel saw it, by kind; or saw nothing where nothing was wrong).

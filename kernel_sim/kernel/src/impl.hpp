@@ -254,6 +254,18 @@ struct Kernel::Impl {
   std::optional<std::string_view> sweep_due;  // why a sweep is wanted (a commit, a rollback, a violation)
   Nanos last_sweep{0};                        // kernel clock
 
+  // ---- the real-time plan (realtime.cpp; idl/launch.proto RealtimePlan; docs/realtime.md) ----
+  struct RealtimeState {
+    bool active = false;  // the plan is on and the first SCHED_FIFO was granted
+    int kernel = 0;
+    int plant = 0;
+    std::chrono::microseconds rt_time{0};
+  };
+  RealtimeState realtime;
+  static constexpr std::uint32_t kDefaultRtTimeMs = 100;  // RealtimePlan.max_rt_time_ms unset
+  void start_realtime_plan();              // run_realtime: the kernel's threads and memory, the plant, the Ready
+  void apply_realtime(ServiceRuntime& s);  // a service that became Ready (spawned, cold-restarted or restored)
+
   // ---- images (the image coordinator: images.cpp, checkpoint.cpp, rollback.cpp; overview in images.cpp) ----
   // Runs what is pending at a safe point (between routing rounds): a requested rollback, else a requested
   // checkpoint once the graph is quiescent. True when it did something.

@@ -261,6 +261,7 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
   flush_staged();  // anything published during boot
   request_priming();
   arm_timerfd();
+  start_realtime_plan();  // realtime.cpp
   while (!stop) {
     if (auto ok = pump(std::chrono::milliseconds{100}); !ok) return ok;
     while (service_images()) {

@@ -120,6 +120,7 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
         return;
       }
       s.proc.phase = Phase::Ready;
+      apply_realtime(s);  // realtime.cpp: a (re)started service joins the real-time plan
       return;
     case wire::FrameKind::Publish:
       ingest_publish(s, f.header.slot, f.payload);

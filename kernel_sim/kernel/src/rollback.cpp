@@ -143,6 +143,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
       failure = "watching the restored '" + s.name + "' output: " + watched.error().to_string();
     }
     s.proc.phase = Phase::Ready;
+    apply_realtime(s);  // a copy of an image runs SCHED_OTHER (reset on fork) until it is the live service
     s.flow.new_channel();
     s.stats.pid = s.proc.process.pid();
     // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the

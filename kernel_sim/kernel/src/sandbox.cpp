@@ -25,6 +25,10 @@ constexpr std::size_t kMaxNamedCalls = 32;         // distinct call names kept p
 constexpr Nanos kSweepPeriod{std::chrono::seconds{1}};  // kernel clock
 // How long a rollback's sweep waits for copies requested earlier to report (a fork: tens of µs), wall clock.
 constexpr Nanos kCopiesWait{std::chrono::milliseconds{50}};
+// A SCHED_FIFO service's real-time budget per second where the machine groups real-time tasks (v1
+// cpu.rt_runtime_us): a control-chain service uses a few % of a CPU; one that spins is throttled here (and,
+// blocking nothing for RLIMIT_RTTIME, killed).
+constexpr std::uint64_t kRtBudgetUs = 100000;
 
 }  // namespace
 
@@ -42,6 +46,12 @@ sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
   // No file can be opened after boot and every mount is read-only; what is left to write is the memfd of an
   // image by written pages (allocated ahead for twice the largest image, docs/protocol.md).
   limits.file_size = 2 * wire::kMaxImagePages * 4096 + (1U << 20U);
+  // The real-time plan (realtime.cpp): a service the plan may put at SCHED_FIFO gets its RLIMIT_RTTIME from
+  // birth (the kernel cannot set it later: prlimit on a service of another uid is refused).
+  const proto::RealtimePlan& rt = graph.graph.realtime();
+  if (rt.enabled() && s.config.spec->rt_priority() > 0) {
+    limits.rt_time_us = std::uint64_t{rt.has_max_rt_time_ms() ? rt.max_rt_time_ms() : kDefaultRtTimeMs} * 1000U;
+  }
   return limits;
 }
 
@@ -52,6 +62,9 @@ void Kernel::Impl::join_cgroup(ServiceRuntime& s) {
   limits.pids = v.max_processes;
   if (v.max_group_memory_mb > 0) limits.memory_bytes = std::uint64_t{v.max_group_memory_mb} << 20U;
   if (v.max_cpu_percent > 0) limits.cpu_percent = v.max_cpu_percent;
+  // The real-time plan (realtime.cpp): where real-time tasks are grouped, a SCHED_FIFO service needs a budget
+  // in its group, which also bounds what it can take of each second at SCHED_FIFO (kRtBudgetUs).
+  if (graph.graph.realtime().enabled() && s.config.spec->rt_priority() > 0) limits.rt_runtime_us = kRtBudgetUs;
   // This kernel's scope: its address, unique among the kernels alive in this process.
   const std::string scope = std::to_string(reinterpret_cast<std::uintptr_t>(this));  // NOLINT: an identity
   if (auto made = sys::ServiceCgroup::create(scope, s.name, limits)) {

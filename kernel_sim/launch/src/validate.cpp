@@ -29,7 +29,7 @@ class Validator {
 
   Result<std::filesystem::path, LoadError> run() {
     for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(),
-                    check_limits(), check_lockstep(), check_mission(), check_attack()}) {
+                    check_limits(), check_realtime(), check_lockstep(), check_mission(), check_attack()}) {
       if (!c) {
         return fail(std::move(c.error()));
       }
@@ -261,6 +261,34 @@ class Validator {
       if (!dds_names.insert(dds_name(b)).second) {
         return fail(error(at({{"dds", -1}, {"bridges", i}}, "dds_name"),
                           "DDS name \"" + dds_name(b) + "\" is used by two bridges"));
+      }
+    }
+    return {};
+  }
+
+  // The real-time plan (docs/realtime.md): SCHED_FIFO priorities 1…99, every service's below the kernel's (the
+  // kernel routes the chain and fires the rollback that ends an attack: nothing it supervises may preempt it).
+  Check check_realtime() const {
+    const proto::RealtimePlan& p = g_.realtime();
+    const auto where = [&](std::string_view field) { return at({{"realtime", -1}}, field); };
+    const std::uint32_t kernel = p.has_kernel_priority() ? p.kernel_priority() : 60;
+    if (p.has_kernel_priority() && (kernel < 2 || kernel > 99)) {
+      return fail(error(where("kernel_priority"), "kernel_priority must be 2..99 (SCHED_FIFO), got " + std::to_string(kernel)));
+    }
+    if (p.has_plant_priority() && p.plant_priority() > 99) {
+      return fail(error(where("plant_priority"),
+                        "plant_priority must be 0 (SCHED_OTHER) or 1..99 (SCHED_FIFO), got " + std::to_string(p.plant_priority())));
+    }
+    if (p.has_max_rt_time_ms() && (p.max_rt_time_ms() < 1 || p.max_rt_time_ms() > 10000)) {
+      return fail(error(where("max_rt_time_ms"), "max_rt_time_ms must be 1..10000, got " + std::to_string(p.max_rt_time_ms())));
+    }
+    for (int i = 0; i < g_.services_size(); ++i) {
+      const proto::ServiceSpec& s = g_.services(i);
+      if (s.rt_priority() != 0 && s.rt_priority() >= kernel) {
+        return fail(error(at({{"services", i}}, "rt_priority"),
+                          "rt_priority " + std::to_string(s.rt_priority()) + " of '" + s.name() +
+                              "' must be below the kernel's (realtime.kernel_priority " + std::to_string(kernel) +
+                              "): a service must never preempt the kernel that rolls it back"));
       }
     }
     return {};

@@ -245,7 +245,20 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
         (void)write_file(parent / "cgroup.subtree_control", "+" + std::string(c));
       }
     }
-    if (has(h.controllers, "cpu") && !has(served, "cpu")) weigh_kernel_group(dir->parent_path(), h.unified);
+    if (has(h.controllers, "cpu") && !has(served, "cpu")) {
+      weigh_kernel_group(dir->parent_path(), h.unified);
+      if (!h.unified && limits.rt_runtime_us) {
+        // The parent first (a child's budget must fit in it), then the service's own.
+        const fs::path parent = dir->parent_path();
+        const std::uint64_t before = std::strtoull(read_file(parent / "cpu.rt_runtime_us").c_str(), nullptr, 10);
+        (void)write_file(parent / "cpu.rt_runtime_us", std::to_string(std::min<std::uint64_t>(900000, before + *limits.rt_runtime_us)));
+        if (write_file(*dir / "cpu.rt_runtime_us", std::to_string(*limits.rt_runtime_us))) {
+          notes.push_back("SCHED_FIFO " + std::to_string(*limits.rt_runtime_us / 1000) + " ms/s (v1 cpu)");
+        } else {
+          notes.push_back("no real-time budget (cpu.rt_runtime_us refused)");
+        }
+      }
+    }
     for (const auto c : kControllers) {
       if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
       if (apply(*dir, c, h.unified, limits)) {

@@ -226,6 +226,7 @@ void limit_in_child(int wfd, const ResourceLimits& limits) {
   set(RLIMIT_AS, limits.address_space);
   set(RLIMIT_NOFILE, limits.open_files);
   set(RLIMIT_FSIZE, limits.file_size);
+  set(RLIMIT_RTTIME, limits.rt_time_us);
 }
 
 // Reads the child's reports until exec closes the socket. A supervised child's exec is a boot call: it is let

@@ -457,6 +457,26 @@ TEST(LaunchLoader, AttackKindWithoutHook_ListsTheRuntimeKindsOfAHookedService) {
   ASSERT_FALSE(r.has_value());
   EXPECT_NE(r.error().message.find("INVOKE_CHECKPOINT, ARM_TIMER"), std::string::npos) << r.error().to_string();
 }
+// Issue 27 (docs/realtime.md): a service's SCHED_FIFO priority must stay below the kernel's, which rolls it back.
+TEST(LaunchLoader, RtPriorityAtTheKernels_SemanticAtTheField) {
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_a\"\n  rt_priority: 60");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
+  EXPECT_EQ(r.error().where.line, m.line + 1) << r.error().to_string();  // the rt_priority line
+  EXPECT_NE(r.error().message.find("must be below the kernel's (realtime.kernel_priority 60)"), std::string::npos)
+      << r.error().to_string();
+}
+TEST(LaunchLoader, RtPriorityBelowTheKernels_Loads) {
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_a\"\n  rt_priority: 59");
+  const auto r = parse_launch(m.text + "realtime { enabled: true kernel_priority: 60 }\n", kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+}
+TEST(LaunchLoader, RealtimeKernelPriorityOutOfRange_Semantic) {
+  const auto r = parse_launch(std::string(kGood) + "realtime { enabled: true kernel_priority: 100 }\n", kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().message.find("kernel_priority must be 2..99"), std::string::npos) << r.error().to_string();
+}
 // Issue 17: ekf2 installs the runtime hooks, so a plan may compromise it with a helper process at boot.
 TEST(LaunchLoader, EscapeHelperOnEkf2_Loads) {
   Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_ekf2\"");

@@ -25,6 +25,10 @@ struct CgroupLimits {
   std::optional<std::uint64_t> pids{};          // pids.max: processes and threads
   std::optional<std::uint64_t> memory_bytes{};  // memory.max (v2) or memory.limit_in_bytes (v1)
   std::optional<std::uint32_t> cpu_percent{};   // cpu.max (v2) or cfs quota (v1): percent of one CPU
+  // cpu.rt_runtime_us per second (v1, where the kernel groups real-time tasks, CONFIG_RT_GROUP_SCHED): what
+  // its SCHED_FIFO tasks may run each second; without it none of them may be SCHED_FIFO at all. The
+  // kernel's directory gets the sum over its services.
+  std::optional<std::uint64_t> rt_runtime_us{};
 };
 
 class ServiceCgroup {

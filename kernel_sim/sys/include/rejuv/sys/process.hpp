@@ -69,6 +69,7 @@ struct ResourceLimits {
   std::optional<std::uint64_t> address_space{};   // RLIMIT_AS, bytes
   std::optional<std::uint64_t> open_files{};      // RLIMIT_NOFILE
   std::optional<std::uint64_t> file_size{};       // RLIMIT_FSIZE, bytes (memfds count: shmem files)
+  std::optional<std::uint64_t> rt_time_us{};      // RLIMIT_RTTIME, µs at a real-time policy without blocking
 };
 
 // What a spawned process is cut off from (DESIGN §7 "Protection").

@@ -1,0 +1,114 @@
+// What the security tests that fly a whole mission share (compromised_mission_test.cpp, issue 17;
+// rollback_attack_test.cpp, issue 26): the graph's text, whether its services are built, the processes of a
+// service's session, the run's log in a temporary file, and a guard that leaves no process of a session behind.
+#pragma once
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <charconv>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "graph_fixture.hpp"
+
+namespace rejuv::testing::mission {
+
+inline std::string read_text(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Whether every service of the graph and its plant are built (else the test is skipped, not failed).
+inline bool all_built(const launch::LoadedLaunch& g) {
+  for (const proto::ServiceSpec& s : g.graph.services()) {
+    if (!std::filesystem::exists(kServiceDir / s.executable())) return false;
+  }
+  return std::filesystem::exists(kServiceDir / g.graph.plant().executable());
+}
+
+// Every living process of session `sid` (from /proc; a zombie is dead already: its parent reaps it).
+inline std::vector<pid_t> session_members(pid_t sid) {
+  std::vector<pid_t> out;
+  std::error_code ec;
+  for (const std::filesystem::directory_entry& e : std::filesystem::directory_iterator("/proc", ec)) {
+    const std::string name = e.path().filename().string();
+    pid_t pid = 0;
+    const auto [end, err] = std::from_chars(name.data(), name.data() + name.size(), pid);
+    if (err != std::errc{} || end != name.data() + name.size()) continue;
+    if (::getsid(pid) != sid) continue;
+    const std::string stat = read_text("/proc/" + name + "/stat");
+    const std::size_t close = stat.rfind(')');
+    if (close != std::string::npos && close + 2 < stat.size() && stat[close + 2] == 'Z') continue;
+    out.push_back(pid);
+  }
+  return out;
+}
+
+// The kernel and service log of the run, in a temporary file the test reads back.
+class RunLog {
+ public:
+  RunLog() : file_(std::tmpfile()) {}
+  [[nodiscard]] std::FILE* get() const { return file_.get(); }
+  [[nodiscard]] std::string text() const {
+    if (!file_) return {};
+    std::fflush(file_.get());
+    return read_text("/proc/self/fd/" + std::to_string(::fileno(file_.get())));
+  }
+  // The lines that contain `what`.
+  [[nodiscard]] std::string lines_with(std::string_view what) const {
+    std::istringstream in(text());
+    std::string out;
+    for (std::string line; std::getline(in, line);) {
+      if (line.find(what) != std::string::npos) out += line + "\n";
+    }
+    return out;
+  }
+  // The lines that begin with `start` (a line a service wrote begins with its name: "[ext_link] …").
+  [[nodiscard]] std::vector<std::string> lines_starting(std::string_view start) const {
+    std::istringstream in(text());
+    std::vector<std::string> out;
+    for (std::string line; std::getline(in, line);) {
+      if (line.starts_with(start)) out.push_back(line);
+    }
+    return out;
+  }
+
+ private:
+  struct Close {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+  };
+  std::unique_ptr<std::FILE, Close> file_;
+};
+
+// Kills and reaps whatever of a session is left when the test ends, also on failure (the kernel, this
+// process, is the parent of every process a service can make). Declared before the kernel: runs after it.
+class SessionGuard {
+ public:
+  SessionGuard() = default;
+  SessionGuard(const SessionGuard&) = delete;
+  SessionGuard& operator=(const SessionGuard&) = delete;
+  ~SessionGuard() {
+    if (!sid_) return;
+    for (const pid_t pid : session_members(*sid_)) {
+      (void)::kill(pid, SIGKILL);
+      (void)::waitpid(pid, nullptr, 0);
+    }
+  }
+  void watch(pid_t sid) { sid_ = sid; }
+
+ private:
+  std::optional<pid_t> sid_{};
+};
+
+}  // namespace rejuv::testing::mission
