@@ -43,8 +43,8 @@ std::string table(const proto::SweepReport& report) {
     std::snprintf(line, sizeof line, "%-24s ", a.path().c_str());
     out += line;
   }
-  std::snprintf(line, sizeof line, "%-6s %5s %17s %17s %8s %8s %9s %8s %9s\n", "runner", "seeds", "max V max/mean",
-                "est.err max/mean", "d_mean", "d_max", "rollbacks", "attacks", "completed");
+  std::snprintf(line, sizeof line, "%-6s %5s %17s %17s %8s %8s %9s %8s %9s %7s %9s\n", "runner", "seeds", "max V max/mean",
+                "est.err max/mean", "d_mean", "d_max", "rollbacks", "attacks", "completed", "safe", "mission s");
   out += line;
   for (const proto::SweepCellResult& c : report.cells()) {
     for (const proto::SweepParamValue& p : c.params()) {
@@ -54,18 +54,26 @@ std::string table(const proto::SweepReport& report) {
     if (c.ok() == 0) {
       std::snprintf(line, sizeof line, "%-6s %5u  %s\n", c.runner().c_str(), c.seeds(), c.error().c_str());
     } else {
-      std::snprintf(line, sizeof line, "%-6s %2u/%-2u %8.3f/%-8.3f %8.3f/%-8.3f %5.1f cm %5.1f cm %9.1f %8.1f %6u/%-2u%s\n",
+      std::snprintf(line, sizeof line,
+                    "%-6s %2u/%-2u %8.3f/%-8.3f %8.3f/%-8.3f %5.1f cm %5.1f cm %9.1f %8.1f %6u/%-2u %4u/%-2u %9.1f%s\n",
                     c.runner().c_str(), c.ok(), c.seeds(), c.max_v().max(), c.max_v().mean(), c.max_est_err_p().max(),
                     c.max_est_err_p().mean(), 100 * c.d_mean_m().mean(), 100 * c.d_max_m().max(), c.rollbacks().mean(),
-                    c.attacks().mean(), c.completed(), c.ok(), c.safe() < c.ok() ? "  LEFT THE SAFETY SET" : "");
+                    c.attacks().mean(), c.completed(), c.ok(), c.safe(), c.ok(), c.mission_time_s().mean(),
+                    c.safe() < c.ok() ? "  LEFT THE SAFETY SET" : "");
     }
     out += line;
   }
   return out;
 }
 
-// sweep.csv, sweep.json and the figures of what `dir` holds. Returns the number of refused or failed records.
-Result<std::size_t, std::string> write_outputs(const fs::path& dir, const proto::SweepPlan& plan) {
+// What a sweep's outputs say: records refused or failed, cells (of a runner) in which a seed left the safety set.
+struct Outcome {
+  std::size_t bad = 0;
+  std::size_t unsafe = 0;
+};
+
+// sweep.csv, sweep.json and the figures of what `dir` holds.
+Result<Outcome, std::string> write_outputs(const fs::path& dir, const proto::SweepPlan& plan) {
   const std::vector<proto::SweepRecord> records = sweep::kept_records(dir, plan);
   const proto::SweepReport report = sweep::aggregate(plan, records);
   if (auto w = sweep::write_atomically(dir / "sweep.csv", sweep::to_csv(report)); !w) return fail(w.error());
@@ -84,20 +92,36 @@ Result<std::size_t, std::string> write_outputs(const fs::path& dir, const proto:
       std::printf("rejuv sweep: figures %s in %s\n", names.c_str(), dir.c_str());
     }
   }
-  return static_cast<std::size_t>(std::count_if(records.begin(), records.end(),
-                                                [](const proto::SweepRecord& r) { return r.status() != "ok"; }));
+  return Outcome{
+      .bad = static_cast<std::size_t>(std::count_if(records.begin(), records.end(),
+                                                    [](const proto::SweepRecord& r) { return r.status() != "ok"; })),
+      .unsafe = static_cast<std::size_t>(std::count_if(report.cells().begin(), report.cells().end(),
+                                                       [](const proto::SweepCellResult& c) { return c.safe() < c.ok(); }))};
+}
+
+// Exit 1 for a cell that left the safety set, unless that is what the user studies (--allow-unsafe): a sweep
+// that "completed" cells outside the safety set must not look like a success.
+bool unsafe_is_finding(const Outcome& o, bool allow_unsafe, const char* who) {
+  if (o.unsafe == 0) return false;
+  std::fprintf(stderr, "%s: %zu cell%s LEFT THE SAFETY SET (max V >= 1 for a seed: the table's last column)%s\n", who,
+               o.unsafe, o.unsafe == 1 ? "" : "s",
+               allow_unsafe ? "" : "; exit 1 (--allow-unsafe when leaving it is what the sweep studies)");
+  return !allow_unsafe;
 }
 
 int run_merge(std::span<const std::string_view> args) {
   std::vector<std::string> dirs;
   std::optional<fs::path> out_dir;
+  bool allow_unsafe = false;
   Options opts("sweep merge",
                "Combine the folders of a sharded sweep (`rejuv sweep … --shard i/n --out DIR_i`, docs/sweep.md):\n"
                "their plans must be the same sweep; the records of all go to --out (default: the first DIR),\n"
                "which then gets sweep.csv, sweep.json and the figures. Exit 0 when the merged sweep is complete,\n"
-               "1 when records are missing or a cell was refused or failed, 2 on bad input.");
+               "1 when records are missing, a cell was refused or failed or left the safety set (unless --allow-unsafe),\n"
+               "2 on bad input.");
   opts.positionals("DIR", dirs, "sweep folders (one per shard)")
-      .path("--out", "DIR", out_dir, "where the merged sweep goes", "the first DIR");
+      .path("--out", "DIR", out_dir, "where the merged sweep goes", "the first DIR")
+      .flag("--allow-unsafe", allow_unsafe, "exit 0 even when a cell left the safety set");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   auto plan = sweep::read_plan(dirs.front());
   if (!plan) return bad_input("rejuv sweep merge: " + plan.error());
@@ -126,7 +150,8 @@ int run_merge(std::span<const std::string_view> args) {
   const auto bad = write_outputs(out, *plan);
   if (!bad) return bad_input("rejuv sweep merge: " + bad.error());
   const proto::SweepReport report = sweep::aggregate(*plan, sweep::kept_records(out, *plan));
-  return static_cast<int>(*bad == 0 && report.missing() == 0 ? Exit::Ok : Exit::Findings);
+  const bool unsafe = unsafe_is_finding(*bad, allow_unsafe, "rejuv sweep merge");
+  return static_cast<int>(bad->bad == 0 && report.missing() == 0 && !unsafe ? Exit::Ok : Exit::Findings);
 }
 
 }  // namespace
@@ -141,6 +166,7 @@ int run_sweep(std::span<const std::string_view> args) {
   enum class Runners : std::uint8_t { Sim, Run, Both } runner = Runners::Sim;
   fs::path dir = "out/sweep";
   bool resume = false;
+  bool allow_unsafe = false;
   Options opts("sweep",
       "Fly a grid of launch parameters (§VI-D, Fig. 11: T_MC x T_est with 45 consecutive worst-case attacks per\n"
       "cell) on the model (`sim`: in this process, --jobs threads), the runtime (`run`: one `rejuv run` per cell\n"
@@ -150,8 +176,9 @@ int run_sweep(std::span<const std::string_view> args) {
       "estimation error, d_mean, d_max, rollbacks, attacks, completion), DIR/fig11a.{png,svg} (max V, the\n"
       "V = 1 boundary drawn) and DIR/fig11b.{png,svg} (max estimation error), model and runtime side by side.\n"
       "Every finished mission is kept in DIR/cells: --resume continues an interrupted sweep. `rejuv sweep merge\n"
-      "DIR...` combines the folders of --shard i/n runs (docs/sweep.md). Exit 0 once every task flew, 1 when a\n"
-      "cell was refused, a mission failed to run or the sweep was interrupted, 2 on bad input.");
+      "DIR...` combines the folders of --shard i/n runs (docs/sweep.md). Exit 0 once every task flew inside the\n"
+      "safety set, 1 when a cell left it (unless --allow-unsafe), was refused, a mission failed to run or the\n"
+      "sweep was interrupted, 2 on bad input.");
   opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt) the sweep varies")
       .repeated("--param", "PATH=VALUES", params,
                 "a launch field by path and its values: a:b:step (inclusive), v1,v2,... or one value;\n"
@@ -165,6 +192,7 @@ int run_sweep(std::span<const std::string_view> args) {
       .integer("--jobs", "N", jobs, {1, 256}, "cells flown in parallel")
       .path("--out", "DIR", dir, "output folder")
       .flag("--resume", resume, "continue the sweep kept in DIR: fly only the tasks without a record")
+      .flag("--allow-unsafe", allow_unsafe, "exit 0 even when a cell left the safety set (studying the boundary)")
       .custom<sweep::Shard>("--shard", "i/n", shard, sweep::parse_shard,
                             "fly only every n-th cell, from the i-th (1-based); see `merge`");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
@@ -270,10 +298,11 @@ int run_sweep(std::span<const std::string_view> args) {
                  "add --resume to continue\n", dir.c_str());
     return static_cast<int>(Exit::Findings);
   }
-  if (*bad > 0) {
-    std::fprintf(stderr, "rejuv sweep: %zu tasks refused or failed (sweep.csv, column error)\n", *bad);
+  if (bad->bad > 0) {
+    std::fprintf(stderr, "rejuv sweep: %zu tasks refused or failed (sweep.csv, column error)\n", bad->bad);
     return static_cast<int>(Exit::Findings);
   }
+  if (unsafe_is_finding(*bad, allow_unsafe, "rejuv sweep")) return static_cast<int>(Exit::Findings);
   return static_cast<int>(Exit::Ok);
 }
 

@@ -114,8 +114,9 @@ TEST_F(SweepCli, MergeOfDifferentSweeps_Refused) {
 
 TEST_F(SweepCli, OneParameter_LinePlot) {
   const fs::path out = dir_ / "s";
+  // Ū of 10–20 % of the way to each limit loses the vehicle (max V ≈ 100): studied here, so --allow-unsafe.
   const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.restricted_limit_fraction=0.1,0.2", "--attacks",
-                                  "2", "--seeds", "1-2", "--out", out.string()});
+                                  "2", "--seeds", "1-2", "--allow-unsafe", "--out", out.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const proto::SweepReport report = report_of(out);
   ASSERT_EQ(report.cells_size(), 2);
@@ -135,6 +136,30 @@ TEST_F(SweepCli, InvalidCell_ReportedNotCrashedOn) {
   EXPECT_EQ(report.cells(1).ok(), 0U);
   EXPECT_NE(report.cells(1).error().find("rho_s"), std::string::npos) << report.cells(1).error();
   EXPECT_NE(slurp(out / "sweep.csv").find("rho_s"), std::string::npos);
+}
+
+// Issue 30 item 5: a cell that left the safety set is not a success. T_MC = 3 s under the worst-case attack
+// takes the model out of it (max V > 1): exit 1 with the cell named; --allow-unsafe: exit 0, the same report.
+TEST_F(SweepCli, CellLeavesTheSafetySet_Exit1UnlessAllowUnsafe) {
+  const std::vector<std::string> args = {"sweep", kGraph, "--param", "sr.t_mc_s=0.3,3", "--attacks", "2"};
+  std::vector<std::string> strict = args;
+  strict.insert(strict.end(), {"--out", (dir_ / "strict").string()});
+  const auto r = run_rejuv(dir_, strict);
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("1 cell LEFT THE SAFETY SET"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("LEFT THE SAFETY SET"), std::string::npos) << r.out;
+  const proto::SweepReport report = report_of(dir_ / "strict");
+  ASSERT_EQ(report.cells_size(), 2);
+  EXPECT_EQ(report.cells(0).safe(), 1U);
+  EXPECT_EQ(report.cells(1).safe(), 0U);
+  EXPECT_GE(report.cells(1).max_v().max(), 1.0);
+  EXPECT_GT(report.cells(1).mission_time_s().max(), 0.0);
+  EXPECT_NE(slurp(dir_ / "strict" / "sweep.csv").find("mission_time_s_mean"), std::string::npos);
+  std::vector<std::string> allowed = args;
+  allowed.insert(allowed.end(), {"--allow-unsafe", "--out", (dir_ / "allowed").string()});
+  const auto a = run_rejuv(dir_, allowed);
+  EXPECT_EQ(a.exit_code, 0) << a.err;
+  EXPECT_NE(a.err.find("1 cell LEFT THE SAFETY SET"), std::string::npos) << a.err;
 }
 
 TEST_F(SweepCli, BadInput_PreciseErrorExit2) {

@@ -277,7 +277,7 @@ proto::SweepReport aggregate(const proto::SweepPlan& plan, const std::vector<pro
       cell.set_cell(c);
       for (const proto::SweepParamValue& p : cell_params(plan, c)) *cell.add_params() = p;
       cell.set_runner(runner);
-      std::vector<double> v, e, dm, dx, rb, at;
+      std::vector<double> v, e, dm, dx, rb, at, mt;
       for (const proto::SweepRecord* r : it->second) {
         ++found;
         *cell.add_records() = *r;
@@ -296,6 +296,7 @@ proto::SweepReport aggregate(const proto::SweepPlan& plan, const std::vector<pro
         dx.push_back(s.d_max_m());
         rb.push_back(static_cast<double>(s.rollbacks()));
         at.push_back(static_cast<double>(s.attacks()));
+        mt.push_back(s.mission_time_s());
       }
       *cell.mutable_max_v() = stat(v);
       *cell.mutable_max_est_err_p() = stat(e);
@@ -303,6 +304,7 @@ proto::SweepReport aggregate(const proto::SweepPlan& plan, const std::vector<pro
       *cell.mutable_d_max_m() = stat(dx);
       *cell.mutable_rollbacks() = stat(rb);
       *cell.mutable_attacks() = stat(at);
+      *cell.mutable_mission_time_s() = stat(mt);
     }
   }
   const std::size_t planned = static_cast<std::size_t>(cell_count(plan)) * static_cast<std::size_t>(plan.seeds_size()) *
@@ -315,7 +317,7 @@ std::string to_csv(const proto::SweepReport& report) {
   std::string out;
   for (const proto::SweepAxis& a : report.plan().axes()) out += a.path() + ",";
   out += "runner,seeds,ok,completed,safe,max_V_max,max_V_mean,max_est_err_P_max,max_est_err_P_mean,d_mean_m_mean,"
-         "d_max_m_max,rollbacks_mean,attacks_min,attacks_mean,error\n";
+         "d_max_m_max,rollbacks_mean,attacks_min,attacks_mean,mission_time_s_mean,mission_time_s_max,error\n";
   for (const proto::SweepCellResult& c : report.cells()) {
     for (const proto::SweepParamValue& p : c.params()) out += p.value() + ",";
     double attacks_min = 0;
@@ -327,10 +329,11 @@ std::string to_csv(const proto::SweepReport& report) {
       first = false;
     }
     char line[512];
-    std::snprintf(line, sizeof line, "%s,%u,%u,%u,%u,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,", c.runner().c_str(),
-                  c.seeds(), c.ok(), c.completed(), c.safe(), c.max_v().max(), c.max_v().mean(),
+    std::snprintf(line, sizeof line, "%s,%u,%u,%u,%u,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,",
+                  c.runner().c_str(), c.seeds(), c.ok(), c.completed(), c.safe(), c.max_v().max(), c.max_v().mean(),
                   c.max_est_err_p().max(), c.max_est_err_p().mean(), c.d_mean_m().mean(), c.d_max_m().max(),
-                  c.rollbacks().mean(), attacks_min, c.attacks().mean());
+                  c.rollbacks().mean(), attacks_min, c.attacks().mean(), c.mission_time_s().mean(),
+                  c.mission_time_s().max());
     out += line;
     std::string error = c.error();
     std::replace(error.begin(), error.end(), ',', ';');
