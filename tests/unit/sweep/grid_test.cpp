@@ -115,6 +115,34 @@ TEST(CellLaunch, ValuesStopAndAbsolutePaths_Set) {
   EXPECT_EQ(l->dds().config(), "/repo/launch/cfg.xml");
 }
 
+// Issue 30: sweeping the attack kind moves a kind of the attack library to the service that carries it (as
+// `--attack` does); a kind the named service carries stays there.
+TEST(CellLaunch, SweptAttackKind_MovesToItsService) {
+  proto::Launch base;
+  for (const auto& [name, exe] : {std::pair{"lqr_control", "rejuv_lqr_control"}, std::pair{"ekf2", "rejuv_ekf2"},
+                                  std::pair{"sensors", "rejuv_sensors"}}) {
+    proto::ServiceSpec* s = base.add_services();
+    s->set_name(name);
+    s->set_executable(exe);
+  }
+  proto::Attack* a = base.mutable_attack()->add_attacks();
+  a->set_kind(proto::WORST_CASE_CONTROL);
+  a->set_service("lqr_control");
+  proto::SweepPlan plan;
+  plan.set_graph("/x/quad.launch.pbtxt");
+  proto::SweepAxis* axis = plan.add_axes();
+  axis->set_path("attack.attacks[0].kind");
+  for (const char* v : {"ESTIMATE_SHIFT", "SENSOR_BIAS", "GAIN_OVERWRITE"}) axis->add_values(v);
+  plan.add_seeds(1);
+  plan.add_runners("sim");
+  const char* expected[] = {"ekf2", "sensors", "lqr_control"};
+  for (std::uint32_t c = 0; c < 3; ++c) {
+    const auto l = cell_launch(base, "/repo/launch", plan, c);
+    ASSERT_TRUE(l) << l.error();
+    EXPECT_EQ(l->attack().attacks(0).service(), expected[c]) << axis->values(static_cast<int>(c));
+  }
+}
+
 TEST_F(GridTest, RecordWritten_KeptForItsTaskOnly) {
   const proto::SweepPlan p = plan_2x3();
   ASSERT_TRUE(write_record(dir_, ok_record(p, 3, 2, "run", 0.4)));

@@ -10,6 +10,8 @@
 #include <map>
 #include <sstream>
 
+#include "rejuv/flight/attack_library.hpp"
+#include "rejuv/launch/launch.hpp"
 #include "sweep/params.hpp"
 
 namespace rejuv::cli::sweep {
@@ -142,12 +144,34 @@ std::vector<Task> tasks_of(const proto::SweepPlan& plan, Shard shard) {
   return out;
 }
 
+namespace {
+
+// A swept attack kind of the attack library goes to the service that carries it, as `--attack` does (issue 30):
+// sweeping attack.attacks[0].kind over the library's kinds would otherwise leave them on lqr_control, whose
+// hooks refuse four of six. A kind the named service has a hook for stays where the graph put it.
+void move_attack_to_its_service(proto::Launch& launch) {
+  for (proto::Attack& a : *launch.mutable_attack()->mutable_attacks()) {
+    const auto law = flight::attack_law_from_number(static_cast<int>(a.kind()));
+    if (!law) continue;
+    const proto::ServiceSpec* named = launch::find_service(launch, a.service());
+    if (named != nullptr) {
+      const auto hooks = launch::attack_hooks_of(named->executable());
+      if (!hooks || std::find(hooks->begin(), hooks->end(), a.kind()) != hooks->end()) continue;
+    }
+    const std::string service(flight::default_service(*law));
+    if (launch::find_service(launch, service) != nullptr) a.set_service(service);
+  }
+}
+
+}  // namespace
+
 Result<proto::Launch, std::string> cell_launch(const proto::Launch& base, const fs::path& base_dir,
                                                const proto::SweepPlan& plan, std::uint32_t cell) {
   proto::Launch launch = base;
   for (const proto::SweepParamValue& p : cell_params(plan, cell)) {
     if (auto set = set_field(launch, p.path(), p.value()); !set) return fail(set.error());
   }
+  move_attack_to_its_service(launch);
   launch.set_stop_after_attacks(plan.attacks());
   // The cell's launch lives in DIR: paths relative to the original launch file become absolute.
   if (!launch.policy().empty() && fs::path(launch.policy()).is_relative()) {
