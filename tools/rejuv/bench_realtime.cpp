@@ -212,6 +212,18 @@ int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, cons
     std::printf("%-26s %7.2f %7.2f %7.2f %7.2f %8s | %-20s | %-20s\n", ("rejuv run " + f.label).c_str(), f.all.p50,
                 f.all.p99, f.all.p999, f.all.max, ratio, cp, rb);
   }
+  // Issue 27 item 4: what the vehicle loses at a checkpoint or a rollback, beside what lockstep charges for it
+  // (the launch file's lockstep.checkpoint_charge_ms / rollback_charge_ms model the interval's excess).
+  for (const Flight& f : flights) {
+    if (!f.error.empty() || f.cp.n == 0 || f.label == "no_sr") continue;
+    const double period = kPeriodUs / 1000.0;
+    const proto::LockstepTiming& lt = loaded->graph.lockstep();
+    std::printf("%-26s the vehicle lost %.2f ms at a checkpoint, %.2f ms at a rollback (interval p50 minus the %.1f ms "
+                "period); lockstep charges %.2f / %.2f ms\n",
+                ("rejuv run " + f.label).c_str(), std::max(0.0, f.cp.p50 - period),
+                f.rb.n > 0 ? std::max(0.0, f.rb.p50 - period) : 0.0, period,
+                1000.0 * launch::checkpoint_charge(lt).count(), 1000.0 * launch::rollback_charge(lt).count());
+  }
   const bool failed = std::any_of(flights.begin(), flights.end(), [](const Flight& f) { return !f.error.empty(); });
   return static_cast<int>(failed ? Exit::Findings : Exit::Ok);
 }

@@ -190,9 +190,15 @@ class Soak final : public kernel::Observer {
     if (recorder_ != nullptr) recorder_->on_step(step, t, mode);
     if (k_ == nullptr || done_) return;
     const std::uint64_t rollbacks = offset_ + k_->sr_stats().rollbacks;
-    // Sample at one phase of the cycle — the first MC step once the count is due — so that what a cycle
-    // holds for a moment (the spares on their way after a rollback) does not decide a sample.
-    if (rollbacks >= next_ && mode == SrMode::MC) {
+    // Sample at one phase of the cycle — in MC once the count is due, 100 ms after the checkpoint's image work
+    // was done — so that what a cycle holds for a moment (the patches and spares on their way) does not decide
+    // a sample.
+    if (rollbacks >= next_ && mode == SrMode::MC && !k_->image_work_pending() && !settle_until_) {
+      settle_until_ = t + std::chrono::milliseconds{100};
+    }
+    if (mode != SrMode::MC) settle_until_.reset();
+    if (rollbacks >= next_ && settle_until_ && t >= *settle_until_) {
+      settle_until_.reset();
       sample(rollbacks, t);
       next_ = (rollbacks / every_ + 1) * every_;
       if (rollbacks >= cycles_) {
@@ -286,6 +292,7 @@ class Soak final : public kernel::Observer {
   RunRecorder* recorder_ = nullptr;
   kernel::Kernel* k_ = nullptr;
   std::uint64_t cycles_, every_, next_ = 0, offset_ = 0;
+  std::optional<Nanos> settle_until_{};  // the sample waits until then (kernel time)
   bool done_ = false;
   std::chrono::steady_clock::time_point started_;
   std::vector<Service> services_;

@@ -146,6 +146,7 @@ Nanos Kernel::now() const { return impl_->now(); }
 SrMode Kernel::mode() const { return impl_->caps.mode(); }
 ClockMode Kernel::clock_mode() const { return impl_->clock_mode; }
 bool Kernel::sr_enabled() const { return impl_->sr; }
+bool Kernel::image_work_pending() const { return impl_->image_work.has_value(); }
 const cap::CapSystem& Kernel::caps() const { return impl_->caps; }
 const broker::Broker& Kernel::broker() const { return impl_->broker; }
 std::size_t Kernel::service_count() const { return impl_->services.size(); }

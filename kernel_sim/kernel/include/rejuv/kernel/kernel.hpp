@@ -443,6 +443,9 @@ class Kernel {
   [[nodiscard]] SrMode mode() const;
   [[nodiscard]] ClockMode clock_mode() const;
   [[nodiscard]] bool sr_enabled() const;
+  // Whether the image work of the last checkpoint or rollback (patches, spares, the sweep) still waits for the
+  // vehicle's next control update (images.cpp leave_image_work): what a sample of processes and fds would see.
+  [[nodiscard]] bool image_work_pending() const;
   [[nodiscard]] const cap::CapSystem& caps() const;
   [[nodiscard]] const broker::Broker& broker() const;
   [[nodiscard]] std::size_t service_count() const;
