@@ -29,7 +29,7 @@ class Validator {
 
   Result<std::filesystem::path, LoadError> run() {
     for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(),
-                    check_limits(), check_lockstep(), check_mission(), check_attack()}) {
+                    check_limits(), check_lockstep(), check_mission(), check_attack(), check_network()}) {
       if (!c) {
         return fail(std::move(c.error()));
       }
@@ -103,6 +103,13 @@ class Validator {
       return c;
     }
     return utf8(g_.network().object(), at({{"network", -1}}, "object"), "`network.object`");
+  }
+
+  // The gate's signing key, if any (docs/mavlink.md "Signing"): well-formed, and a key file kept secret.
+  Check check_network() const {
+    auto key = signing_key(g_.network(), path_);
+    if (!key) return fail(error(at({{"network", -1}}, key.error().field), key.error().message));
+    return {};
   }
 
   Check check_header() const {
