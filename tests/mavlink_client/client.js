@@ -1,10 +1,10 @@
 // A MAVLink 2 ground station Rejuv did not write (node-mavlink, docs/mavlink.md), driven against `rejuv run`
 // by tests/multiproc/mavlink_client_test.cpp. It talks to the kernel's network gate over UDP and, within
 // --timeout seconds of wall-clock time:
-//   1. sends HEARTBEATs (MAV_TYPE_GCS) until the vehicle's HEARTBEAT (MAV_TYPE_QUADROTOR) comes back;
+//   1. sends HEARTBEATs (MAV_TYPE_GCS) and waits for the vehicle's HEARTBEAT (MAV_TYPE_QUADROTOR);
 //   2. with --wrong-key, sends an unsigned and a wrongly signed MISSION_COUNT every 100 ms (the gate must
 //      refuse both: the test checks its counters in the run summary);
-//   3. uploads a one-waypoint mission (MAV_FRAME_LOCAL_NED) with the mission protocol, retransmitting its
+//   3. from the start, uploads a one-waypoint mission (MAV_FRAME_LOCAL_NED) with the mission protocol, retransmitting its
 //      last message every --retry-ms without an answer (the gate drops everything in the secure execution
 //      interval) and starting again on MAV_MISSION_INVALID_SEQUENCE (a rollback ended the transaction);
 //   4. watches LOCAL_POSITION_NED until the vehicle is near the uploaded waypoint, and STATUSTEXT until one
@@ -24,9 +24,9 @@ const opt = (name, fallback) => {
 const port = Number(opt('--port', '0'));
 const key = opt('--key', null) ? Buffer.from(opt('--key'), 'hex') : null;
 const wrongKey = opt('--wrong-key', null) ? Buffer.from(opt('--wrong-key'), 'hex') : null;
-const timeoutS = Number(opt('--timeout', '120'));
+const timeoutS = Number(opt('--timeout', '60'));
 const retryMs = Number(opt('--retry-ms', '20'));
-const target = opt('--target', '-1.5,-1.5,-3.5').split(',').map(Number);
+const target = opt('--target', '-0.6,-0.4,-3.3').split(',').map(Number);
 if (!port) {
   console.error('client.js: --port P is required');
   process.exit(2);
@@ -37,7 +37,7 @@ const MAV_MISSION_ACCEPTED = 0, MAV_MISSION_INVALID_SEQUENCE = 13, MAV_MISSION_O
 const socket = dgram.createSocket('udp4');
 const report = {
   heartbeat: false, vehicle_type: null, refusal_probes_sent: 0, upload_ack: null, upload_restarts: 0,
-  upload_transmissions: 0, distance_at_ack_m: null, min_distance_after_ack_m: null, reached_target: false,
+  upload_transmissions: 0, upload_unanswered: null, distance_at_ack_m: null, min_distance_after_ack_m: null, reached_target: false,
   rollback_statustext: null, statustexts: 0, local_position_ned: 0,
 };
 
@@ -83,7 +83,7 @@ const input = new PassThrough();
 const packets = input.pipe(new MavLinkPacketSplitter()).pipe(new MavLinkPacketParser());
 socket.on('message', (buf) => input.write(buf));
 
-let phase = 'heartbeat';  // heartbeat → upload → watch (or done: refused)
+let phase = 'start';  // upload → watch (or done: refused)
 let lastUpload = null;    // the last upload message (retransmitted without an answer)
 let lastUploadAt = 0;
 function uploadSend(msg) {
@@ -106,9 +106,10 @@ packets.on('data', (packet) => {
     if (!report.heartbeat) {
       report.heartbeat = true;
       report.vehicle_type = data.type;
-      if (phase === 'heartbeat') startUpload();
+
     }
   } else if (clazz === common.MissionRequestInt && phase === 'upload') {
+    if (report.upload_unanswered === null) report.upload_unanswered = report.upload_transmissions - 1;
     if (data.seq === 0) uploadSend(missionItem(0));
   } else if (clazz === common.MissionAck && phase === 'upload') {
     if (data.type === MAV_MISSION_INVALID_SEQUENCE || data.type === MAV_MISSION_OPERATION_CANCELLED) {
@@ -148,8 +149,13 @@ function maybeFinish() {
   if (phase === 'done') finish(1);
 }
 
+socket.on('error', () => {});  // nobody listening yet (the kernel still booting): the retransmissions cover it
 socket.bind(0, '127.0.0.1', () => {
   const started = Date.now();
+  // The upload starts at once, before the vehicle has been heard: `rejuv run` spends its pre-flight
+  // alignment in the secure execution interval, where the gate drops everything, so the first transmissions
+  // are lost and the retransmissions carry the upload into the first MC window.
+  startUpload();
   setInterval(() => {
     const now = Date.now();
     if (now - started > timeoutS * 1000) finish(1);

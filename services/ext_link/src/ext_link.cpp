@@ -218,7 +218,7 @@ void ExtLink::observe(const Observation& seen) {
   if (seen_epoch_ && seen.epoch != *seen_epoch_) {
     std::erase_if(pending_, [&](const PendingText& p) { return p.epoch.value() < seen.epoch.value(); });
     queue_text(seen.epoch, mav::Severity::Notice,
-               "SR rollback: epoch " + std::to_string(seen.epoch.value()) + ", restored from the last checkpoint");
+               "SR rollback: epoch " + std::to_string(seen.epoch.value()) + " (last checkpoint restored)");
   }
   if (seen_mode_ && seen.mode != *seen_mode_) {
     queue_text(seen.epoch, mav::Severity::Info, "SR mode " + std::string(to_string(seen.mode)));
