@@ -267,6 +267,14 @@ std::vector<mav::Message> ExtLink::telemetry(const TelemetryInputs& in) {
                                            .fence_id = 0, .rally_points_id = 0});
     }
   }
+  // The setpoint moved on to the next waypoint: the one before is reached (mission protocol "Mission
+  // progress"). A rollback may restore an older index; the one reached is then reported again.
+  if (in.setpoint != nullptr) {
+    if (last_waypoint_ && in.setpoint->waypoint_index > *last_waypoint_) {
+      out.emplace_back(mav::MissionItemReached{.seq = static_cast<std::uint16_t>(in.setpoint->waypoint_index - 1)});
+    }
+    last_waypoint_ = in.setpoint->waypoint_index;
+  }
   if (in.state != nullptr) {
     const rejuv_msg_VehicleStateEstimate& s = *in.state;
     out.emplace_back(mav::LocalPositionNed{.time_boot_ms = time_boot_ms,

@@ -216,6 +216,25 @@ TEST(ExtLink, Telemetry_HeartbeatOncePerSecondPositionEveryTime) {
   EXPECT_TRUE(std::holds_alternative<mav::Heartbeat>(later.at(0)));
 }
 
+TEST(ExtLink, SetpointMovesOn_MissionItemReachedForThePreviousWaypoint) {
+  ExtLink link = guarded_link();
+  rejuv_msg_Setpoint sp{};
+  sp.waypoint_index = 1;
+  const auto at = [&](std::chrono::milliseconds t) {
+    std::vector<std::uint16_t> reached;
+    for (const mav::Message& m :
+         link.telemetry({.now = t, .state = nullptr, .setpoint = &sp, .mode = SrMode::MC, .epoch = Epoch{1}})) {
+      if (const auto* r = std::get_if<mav::MissionItemReached>(&m)) reached.push_back(r->seq);
+    }
+    return reached;
+  };
+  EXPECT_TRUE(at(std::chrono::milliseconds{0}).empty());
+  EXPECT_TRUE(at(std::chrono::milliseconds{100}).empty());
+  sp.waypoint_index = 2;
+  EXPECT_EQ(at(std::chrono::milliseconds{200}), std::vector<std::uint16_t>{1});
+  EXPECT_TRUE(at(std::chrono::milliseconds{300}).empty());
+}
+
 TEST(ExtLink, Rollback_QueuesOneStatusTextSentInMc) {
   ExtLink link = guarded_link();
   link.observe({.mode = SrMode::MC, .epoch = Epoch{1}});

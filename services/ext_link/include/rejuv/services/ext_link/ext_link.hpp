@@ -17,7 +17,7 @@
 //   ground → MISSION_REQUEST_LIST       MISSION_COUNT 0 (the mission flown is commander's, not downloadable here)
 //   ground → MISSION_CLEAR_ALL          MISSION_ACK MAV_MISSION_UNSUPPORTED (an uploaded mission is only replaced)
 //   (timer)                 HEARTBEAT, SYS_STATUS, MISSION_CURRENT at 1 Hz; LOCAL_POSITION_NED and ATTITUDE
-//                           every telemetry_period; STATUSTEXT for SR mode changes, rollbacks and security
+//                           every telemetry_period; MISSION_ITEM_REACHED when the setpoint moves on; STATUSTEXT for SR mode changes, rollbacks and security
 //                           events seen (in any mode; sent in the next MC window).
 //   anything else           refused (not MAVLink 2, bad checksum, unknown message), counted by reason, logged
 //                           rate-limited; never a crash, never an effect.
@@ -104,7 +104,7 @@ class ExtLink {
     Epoch epoch{};
   };
   // The messages due at `in.now` (MC only): pending STATUSTEXTs, the 1 Hz set when a second has passed,
-  // LOCAL_POSITION_NED and ATTITUDE.
+  // MISSION_ITEM_REACHED when the setpoint's waypoint index grew, LOCAL_POSITION_NED and ATTITUDE.
   [[nodiscard]] std::vector<mavlink::Message> telemetry(const TelemetryInputs& in);
 
   [[nodiscard]] std::uint64_t refused() const { return refused_total_; }
@@ -145,6 +145,7 @@ class ExtLink {
   std::optional<Nanos> last_log_{};
   std::uint64_t unlogged_ = 0;
   std::optional<Nanos> last_slow_{};  // the last 1 Hz set
+  std::optional<std::uint32_t> last_waypoint_{};  // the setpoint's waypoint index at the last telemetry
   std::optional<SrMode> seen_mode_{};
   std::optional<Epoch> seen_epoch_{};
   std::uint64_t seen_events_ = 0;
