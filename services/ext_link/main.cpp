@@ -24,6 +24,19 @@ int serve(sdk::Service& svc) {
   auto made = services::ExtLink::from_params(flight_io::params_of(svc));
   if (!svc.require(made, "refusing the mission")) return 1;
   services::ExtLink& link = *made;
+  // Home on Earth, for GLOBAL_POSITION_INT (optional: both coordinates or neither).
+  if (svc.has_param("home_lat_deg") || svc.has_param("home_lon_deg")) {
+    const services::ExtLink::GeoHome home{.lat_deg = svc.param("home_lat_deg", 1000),
+                                          .lon_deg = svc.param("home_lon_deg", 1000),
+                                          .alt_m = svc.param("home_alt_m", 0)};
+    if (!(std::abs(home.lat_deg) < 90 && std::abs(home.lon_deg) <= 180 && std::isfinite(home.alt_m))) {
+      svc.logf(sdk::LogLevel::Error, "home_lat_deg, home_lon_deg, home_alt_m: expected both coordinates, latitude in "
+               "(-90, 90) deg, longitude in [-180, 180] deg, a finite altitude; got %g, %g, %g",
+               home.lat_deg, home.lon_deg, home.alt_m);
+      return 1;
+    }
+    link.set_home(home);
+  }
   auto uploads = svc.advertise<rejuv_msg_MissionWaypoints>("mission_upload");
   if (!svc.require(uploads, "mission_upload")) return 1;
   auto state = svc.subscribe_polled<rejuv_msg_VehicleStateEstimate>("vehicle_state");

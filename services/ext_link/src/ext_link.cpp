@@ -70,6 +70,31 @@ const char* name_of(rejuv_msg_SecurityEventKind kind) {
   return "?";
 }
 
+// The estimate on Earth: home plus the local NED offset on a sphere of the WGS-84 equatorial radius (the
+// flat-Earth approximation PX4's map_projection uses near home; the geofence keeps the vehicle within metres).
+mav::GlobalPositionInt global_position(const ExtLink::GeoHome& home, const rejuv_msg_VehicleStateEstimate& s,
+                                       double yaw_rad, std::uint32_t time_boot_ms) {
+  constexpr double kEarthRadius_m = 6'378'137.0;
+  constexpr double kDegPerRad = 180.0 / 3.14159265358979323846;
+  const double lat_deg = home.lat_deg + s.p_N_m[0] / kEarthRadius_m * kDegPerRad;
+  const double lon_deg = home.lon_deg + s.p_N_m[1] / (kEarthRadius_m * std::cos(home.lat_deg / kDegPerRad)) * kDegPerRad;
+  const auto i32 = [](double v) {
+    return static_cast<std::int32_t>(std::clamp(std::round(v), -2147483648.0, 2147483647.0));
+  };
+  const auto i16 = [](double v) { return static_cast<std::int16_t>(std::clamp(std::round(v), -32768.0, 32767.0)); };
+  double heading_deg = std::fmod(yaw_rad * kDegPerRad + 360.0, 360.0);
+  if (!std::isfinite(heading_deg)) heading_deg = 0;
+  return mav::GlobalPositionInt{.time_boot_ms = time_boot_ms,
+                                .lat = i32(lat_deg * 1e7),
+                                .lon = i32(lon_deg * 1e7),
+                                .alt = i32((home.alt_m - s.p_N_m[2]) * 1e3),  // [mm] AMSL; NED down is −up
+                                .relative_alt = i32(-s.p_N_m[2] * 1e3),      // [mm] above home
+                                .vx = i16(s.v_N_m_s[0] * 100),               // [cm/s] north
+                                .vy = i16(s.v_N_m_s[1] * 100),               // [cm/s] east
+                                .vz = i16(s.v_N_m_s[2] * 100),               // [cm/s] down
+                                .hdg = static_cast<std::uint16_t>(std::min(35999.0, std::round(heading_deg * 100)))};
+}
+
 }  // namespace
 
 mav::Message ExtLink::ack(std::uint8_t system, std::uint8_t component, mav::MissionResult result) const {
@@ -289,6 +314,7 @@ std::vector<mav::Message> ExtLink::telemetry(const TelemetryInputs& in) {
     const double roll = std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y));
     const double pitch = std::asin(std::clamp(2 * (w * y - z * x), -1.0, 1.0));
     const double yaw = std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
+    if (home_) out.emplace_back(global_position(*home_, s, yaw, time_boot_ms));
     out.emplace_back(mav::Attitude{.time_boot_ms = time_boot_ms,
                                    .roll = static_cast<float>(roll),
                                    .pitch = static_cast<float>(pitch),

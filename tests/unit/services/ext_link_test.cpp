@@ -4,7 +4,9 @@
 // tests/unit/mavlink.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <string_view>
 #include <vector>
 
@@ -214,6 +216,29 @@ TEST(ExtLink, Telemetry_HeartbeatOncePerSecondPositionEveryTime) {
   EXPECT_EQ(soon.size(), 2U) << "no HEARTBEAT within the second";
   const auto later = at(std::chrono::milliseconds{2500});
   EXPECT_TRUE(std::holds_alternative<mav::Heartbeat>(later.at(0)));
+}
+
+TEST(ExtLink, HomeOnEarth_GlobalPositionIntFromTheLocalEstimate) {
+  ExtLink link = guarded_link();
+  rejuv_msg_VehicleStateEstimate x{};
+  x.p_N_m[0] = 111.32;  // ≈ 0.001° of latitude
+  x.p_N_m[2] = -3;
+  x.v_N_m_s[1] = 0.5;
+  x.q_NB[0] = std::cos(std::numbers::pi / 4);  // yaw 90°: heading east
+  x.q_NB[3] = std::sin(std::numbers::pi / 4);
+  const auto none = link.telemetry({.now = Nanos{0}, .state = &x, .setpoint = nullptr, .mode = SrMode::MC, .epoch = Epoch{1}});
+  EXPECT_TRUE(std::none_of(none.begin(), none.end(), [](const mav::Message& m) { return std::holds_alternative<mav::GlobalPositionInt>(m); }));
+  link.set_home({.lat_deg = 47.397742, .lon_deg = 8.545594, .alt_m = 488});
+  const auto out = link.telemetry({.now = std::chrono::milliseconds{100}, .state = &x, .setpoint = nullptr, .mode = SrMode::MC, .epoch = Epoch{1}});
+  const auto it = std::find_if(out.begin(), out.end(), [](const mav::Message& m) { return std::holds_alternative<mav::GlobalPositionInt>(m); });
+  ASSERT_NE(it, out.end());
+  const auto& g = std::get<mav::GlobalPositionInt>(*it);
+  EXPECT_NEAR(g.lat, 473987420, 20);  // 47.397742° + 0.001°
+  EXPECT_EQ(g.lon, 85455940);
+  EXPECT_EQ(g.alt, 491000);           // 488 m + 3 m [mm]
+  EXPECT_EQ(g.relative_alt, 3000);
+  EXPECT_EQ(g.vy, 50);                // [cm/s]
+  EXPECT_EQ(g.hdg, 9000);             // [cdeg]
 }
 
 TEST(ExtLink, SetpointMovesOn_MissionItemReachedForThePreviousWaypoint) {

@@ -17,7 +17,8 @@
 //   ground → MISSION_REQUEST_LIST       MISSION_COUNT 0 (the mission flown is commander's, not downloadable here)
 //   ground → MISSION_CLEAR_ALL          MISSION_ACK MAV_MISSION_UNSUPPORTED (an uploaded mission is only replaced)
 //   (timer)                 HEARTBEAT, SYS_STATUS, MISSION_CURRENT at 1 Hz; LOCAL_POSITION_NED and ATTITUDE
-//                           every telemetry_period; MISSION_ITEM_REACHED when the setpoint moves on; STATUSTEXT for SR mode changes, rollbacks and security
+//                           every telemetry_period (and GLOBAL_POSITION_INT, given a home on Earth);
+//                           MISSION_ITEM_REACHED when the setpoint moves on; STATUSTEXT for SR mode changes, rollbacks and security
 //                           events seen (in any mode; sent in the next MC window).
 //   anything else           refused (not MAVLink 2, bad checksum, unknown message), counted by reason, logged
 //                           rate-limited; never a crash, never an effect.
@@ -61,6 +62,16 @@ class ExtLink {
     flight_io::UploadBounds bounds{};
   };
   explicit ExtLink(UploadGuard guard) : guard_(std::move(guard)) {}
+
+  // Where home (the local frame's origin) is on Earth, for GLOBAL_POSITION_INT: ext_link's params
+  // `home_lat_deg`, `home_lon_deg` (WGS-84 [deg]) and `home_alt_m` (AMSL [m], default 0). Without them no
+  // GLOBAL_POSITION_INT is sent.
+  struct GeoHome {
+    double lat_deg = 0;
+    double lon_deg = 0;
+    double alt_m = 0;
+  };
+  void set_home(const GeoHome& home) { home_ = home; }
   [[nodiscard]] static Result<ExtLink, flight_io::InputFailure> from_params(const flight_io::Params& params);
 
   // A complete upload that passed validate_upload: publish it, then acknowledge with forwarded().
@@ -146,6 +157,7 @@ class ExtLink {
   std::uint64_t unlogged_ = 0;
   std::optional<Nanos> last_slow_{};  // the last 1 Hz set
   std::optional<std::uint32_t> last_waypoint_{};  // the setpoint's waypoint index at the last telemetry
+  std::optional<GeoHome> home_{};
   std::optional<SrMode> seen_mode_{};
   std::optional<Epoch> seen_epoch_{};
   std::uint64_t seen_events_ = 0;
