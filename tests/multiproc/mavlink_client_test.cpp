@@ -117,7 +117,7 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   ASSERT_GT(client, 0) << "cannot start node";
   const auto summary_json = dir() / "summary.json";
   const test_support::CliOutcome run = test_support::run_rejuv(
-      dir(), {"run", graph.string(), "--duration", "120", "--net-port", std::to_string(port), "--domain",
+      dir(), {"run", graph.string(), "--duration", "240", "--net-port", std::to_string(port), "--domain",
               std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json.string()});
   const int client_exit = wait_client(client, std::chrono::seconds{90});
   EXPECT_EQ(run.exit_code, 0) << run.err;
