@@ -443,6 +443,40 @@ TEST_F(NetGateSigned, ReplayedFrame_Refused) {
   EXPECT_EQ(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Replayed)], 1U);
 }
 
+// network.ground_address (PX4's `-o 14550`): the vehicle's telemetry goes there before any ground station has
+// spoken, so a ground station that only listens (QGroundControl on 14550) sees the vehicle.
+class NetGateGroundAddress : public NetGate {
+ protected:
+  NetGateGroundAddress() {
+    auto s = sys::UdpSocket::bind(sys::UdpAddress::loopback(0), sys::Blocking::No);
+    EXPECT_TRUE(s.has_value());
+    if (s) listener_ = std::move(*s);
+  }
+  [[nodiscard]] std::string launch_text() const override {
+    auto bound = listener_.local_address();
+    EXPECT_TRUE(bound.has_value());
+    return std::string(kNetLaunch) + "network { ground_address: \"127.0.0.1:" + std::to_string(bound ? bound->port : 0) +
+           "\" }\n";
+  }
+  sys::UdpSocket listener_;
+};
+
+TEST_F(NetGateGroundAddress, ListeningGroundStation_GetsTelemetryWithoutSending) {
+  std::optional<mav::Heartbeat> heartbeat;
+  std::array<std::byte, 512> buf{};
+  step_until([&] {
+    while (auto r = listener_.receive(buf)) {
+      auto p = mav::decode(std::span<const std::byte>(buf.data(), r->size));
+      if (p && std::holds_alternative<mav::Heartbeat>(p->message)) heartbeat = std::get<mav::Heartbeat>(p->message);
+    }
+    return heartbeat.has_value();
+  });
+  ASSERT_TRUE(heartbeat.has_value());
+  EXPECT_EQ(heartbeat->type, mav::kMavTypeQuadrotor);
+  EXPECT_EQ(kernel_->net_stats().received, 0U) << "nobody sent anything";
+  EXPECT_EQ(kernel_->net_stats().unsent_no_ground, 0U);
+}
+
 // `rejuv gcs` as a user runs it (the real binary, in real time) against the real gate and ext_link (stepped
 // by the test until it exits): its exit code and what it prints.
 struct GcsOutcome {

@@ -99,13 +99,21 @@ Result<void, KernelError> Kernel::Impl::net_open() {
     net.signing.emplace(**key);
     net.stats.signing = true;
   }
+  // A ground station to send to before any has spoken (validated: launch::ground_address); the source of
+  // the first valid message replaces it.
+  if (const auto ground = launch::ground_address(spec.ground_address())) {
+    auto to = sys::UdpAddress::parse(ground->ip, ground->port);
+    if (!to) return fail(config_error(where + ".ground_address: " + to.error()));
+    net.peer = *to;
+  }
   if (clock_mode == ClockMode::Realtime) {
     if (auto ok = epoll.add(net.socket.fd(), token(Source::Net, 0)); !ok) {
       return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
     }
   }
-  log("network gate: udp %s for '%s' (%s)%s", bound->to_string().c_str(), objects[object->value()].name.c_str(),
-      names.empty() ? "no service may receive" : names.c_str(), net.signing ? ", MAVLink 2 signing required" : "");
+  log("network gate: udp %s for '%s' (%s)%s%s", bound->to_string().c_str(), objects[object->value()].name.c_str(),
+      names.empty() ? "no service may receive" : names.c_str(), net.signing ? ", MAVLink 2 signing required" : "",
+      net.peer ? (", sending to " + net.peer->to_string() + " until a ground station speaks").c_str() : "");
   return {};
 }
 

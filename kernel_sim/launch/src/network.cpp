@@ -43,4 +43,33 @@ Result<std::optional<mavlink::SigningKey>, KeyError> signing_key(const proto::Ne
   return std::optional<mavlink::SigningKey>(*key);
 }
 
+std::optional<HostPort> ground_address(std::string_view text) {
+  const auto colon = text.rfind(':');
+  if (colon == std::string_view::npos) return std::nullopt;
+  const std::string_view ip = text.substr(0, colon);
+  const std::string_view port = text.substr(colon + 1);
+  // Four decimal octets 0 … 255.
+  int octets = 0;
+  std::size_t i = 0;
+  while (i <= ip.size()) {
+    std::size_t j = i;
+    unsigned value = 0;
+    while (j < ip.size() && ip[j] >= '0' && ip[j] <= '9' && j - i < 3) value = value * 10 + static_cast<unsigned>(ip[j++] - '0');
+    if (j == i || value > 255) return std::nullopt;
+    ++octets;
+    if (j == ip.size()) break;
+    if (ip[j] != '.') return std::nullopt;
+    i = j + 1;
+  }
+  if (octets != 4) return std::nullopt;
+  if (port.empty() || port.size() > 5) return std::nullopt;
+  unsigned p = 0;
+  for (const char c : port) {
+    if (c < '0' || c > '9') return std::nullopt;
+    p = p * 10 + static_cast<unsigned>(c - '0');
+  }
+  if (p == 0 || p > 65535) return std::nullopt;
+  return HostPort{.ip = std::string(ip), .port = static_cast<std::uint16_t>(p)};
+}
+
 }  // namespace rejuv::launch

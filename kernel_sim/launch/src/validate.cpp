@@ -109,6 +109,10 @@ class Validator {
   Check check_network() const {
     auto key = signing_key(g_.network(), path_);
     if (!key) return fail(error(at({{"network", -1}}, key.error().field), key.error().message));
+    if (const std::string& a = g_.network().ground_address(); !a.empty() && !ground_address(a)) {
+      return fail(error(at({{"network", -1}}, "ground_address"),
+                        "`network.ground_address`: expected an IPv4 address and a port, e.g. \"127.0.0.1:14550\", got \"" + a + "\""));
+    }
     return {};
   }
 

@@ -553,5 +553,13 @@ TEST(LaunchLoader, SigningKeyFileReadableByOthers_Semantic) {
   std::filesystem::remove(file);
 }
 
+TEST(LaunchLoader, GroundAddressWithoutPort_SemanticAtTheAddress) {
+  expect_semantic_at("attack {", "network { ground_address: \"127.0.0.1\" }\nattack {", "IPv4 address and a port", false);
+  expect_semantic_at("attack {", "network { ground_address: \"localhost:14550\" }\nattack {", "IPv4 address", false);
+  expect_semantic_at("attack {", "network { ground_address: \"10.0.0.256:14550\" }\nattack {", "IPv4 address", false);
+  const Mutated m = mutate("attack {", "network { ground_address: \"127.0.0.1:14550\" }\nattack {");
+  EXPECT_TRUE(parse_launch(m.text, kAsPath).has_value());
+}
+
 }  // namespace
 }  // namespace rejuv::launch

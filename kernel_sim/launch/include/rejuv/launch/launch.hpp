@@ -48,6 +48,13 @@ struct KeyError {
 [[nodiscard]] Result<std::optional<mavlink::SigningKey>, KeyError> signing_key(const proto::NetworkSpec& network,
                                                                               const std::filesystem::path& launch_path);
 
+// `network.ground_address` split into its IPv4 address and port ("a.b.c.d:port", port 1 … 65535).
+struct HostPort {
+  std::string ip;
+  std::uint16_t port = 0;
+};
+[[nodiscard]] std::optional<HostPort> ground_address(std::string_view text);
+
 // ---- defaults (one place; the proto keeps what the user wrote) ----
 namespace defaults {
 inline constexpr std::uint32_t kKeepGenerations = 2;   // DESIGN §7: the last K generations are kept
