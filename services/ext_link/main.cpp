@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "rejuv/flight_io/messages.hpp"
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/ext_link/ext_link.hpp"
@@ -43,7 +44,7 @@ int serve(sdk::Service& svc) {
   if (!svc.require(state, "vehicle_state")) return 1;
   auto setpoint = svc.subscribe_polled<rejuv_msg_Setpoint>("setpoint");
   if (!svc.require(setpoint, "setpoint")) return 1;
-  // sr_mode is granted (telemetry topics in every mode); the mode and epoch are read from the time page.
+  // sr_mode: the SR cycle's modes and epochs, turned into STATUSTEXT (ExtLink::observe).
   auto modes = svc.subscribe_polled<rejuv_msg_SrMode>("sr_mode");
   if (!svc.require(modes, "sr_mode")) return 1;
   auto events = svc.subscribe_polled<rejuv_msg_SecurityEvent>("security_event");
@@ -98,8 +99,18 @@ int serve(sdk::Service& svc) {
   // telemetry. Not gated on a ground station seen here: a rollback wipes what ext_link learned in MC, while
   // the kernel keeps the ground station's address (until one has spoken, a send is Refused and costs nothing).
   auto telemetry = svc.every(to_nanos(Seconds{period_s}), [&] {
-    link.observe(services::ExtLink::Observation{.mode = svc.mode(),
-                                                .epoch = svc.epoch(),
+    // The SR cycle as the kernel published it on sr_mode (handed over in order before this timer's frame, so
+    // a lockstep run sees the same modes whatever the scheduling), not the time page, which may be ahead.
+    SrMode mode = svc.mode();
+    Epoch epoch = svc.epoch();
+    if (modes->valid()) {
+      if (auto m = flight_io::mode_from_message(modes->latest())) {
+        mode = *m;
+        epoch = Epoch{modes->latest().epoch};
+      }
+    }
+    link.observe(services::ExtLink::Observation{.mode = mode,
+                                                .epoch = epoch,
                                                 .security_events = events->received() + events->lost(),
                                                 .latest_event = events->valid() ? &events->latest() : nullptr});
     if (!svc.may_send(kNet)) return;
