@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "rejuv/flight_io/messages.hpp"
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/ext_link/ext_link.hpp"
@@ -24,25 +25,40 @@ int serve(sdk::Service& svc) {
   auto made = services::ExtLink::from_params(flight_io::params_of(svc));
   if (!svc.require(made, "refusing the mission")) return 1;
   services::ExtLink& link = *made;
+  // Home on Earth, for GLOBAL_POSITION_INT (optional: both coordinates or neither).
+  if (svc.has_param("home_lat_deg") || svc.has_param("home_lon_deg")) {
+    const services::ExtLink::GeoHome home{.lat_deg = svc.param("home_lat_deg", 1000),
+                                          .lon_deg = svc.param("home_lon_deg", 1000),
+                                          .alt_m = svc.param("home_alt_m", 0)};
+    if (!(std::abs(home.lat_deg) < 90 && std::abs(home.lon_deg) <= 180 && std::isfinite(home.alt_m))) {
+      svc.logf(sdk::LogLevel::Error, "home_lat_deg, home_lon_deg, home_alt_m: expected both coordinates, latitude in "
+               "(-90, 90) deg, longitude in [-180, 180] deg, a finite altitude; got %g, %g, %g",
+               home.lat_deg, home.lon_deg, home.alt_m);
+      return 1;
+    }
+    link.set_home(home);
+  }
   auto uploads = svc.advertise<rejuv_msg_MissionWaypoints>("mission_upload");
   if (!svc.require(uploads, "mission_upload")) return 1;
   auto state = svc.subscribe_polled<rejuv_msg_VehicleStateEstimate>("vehicle_state");
   if (!svc.require(state, "vehicle_state")) return 1;
   auto setpoint = svc.subscribe_polled<rejuv_msg_Setpoint>("setpoint");
   if (!svc.require(setpoint, "setpoint")) return 1;
+  // sr_mode: the SR cycle's modes and epochs, turned into STATUSTEXT (ExtLink::observe).
   auto modes = svc.subscribe_polled<rejuv_msg_SrMode>("sr_mode");
   if (!svc.require(modes, "sr_mode")) return 1;
   auto events = svc.subscribe_polled<rejuv_msg_SecurityEvent>("security_event");
   if (!svc.require(events, "security_event")) return 1;
 
-  const auto send = [&](const link::Datagram& d, const char* what) {
-    auto ok = svc.send_datagram(kNet, d.view());
+  const auto send = [&](const mavlink::Message& m) {
+    const mavlink::Frame f = link.frame(m);
+    auto ok = svc.send_datagram(kNet, f.view());
     // Refused: no ground station has spoken yet (the kernel keeps its address, across rollbacks).
     const bool quiet = ok || ok.error().code == sdk::SdkError::NotHeldInMode ||
                        (ok.error().code == sdk::SdkError::OperationFailed &&
                         ok.error().wire_error == static_cast<std::int32_t>(wire::OpError::Refused));
     if (!quiet) {
-      svc.logf(sdk::LogLevel::Warn, "sending %s: %s", what, ok.error().to_string().c_str());
+      svc.logf(sdk::LogLevel::Warn, "sending %s: %s", std::string(mavlink::name_of(m)).c_str(), ok.error().to_string().c_str());
     }
   };
   auto gate = svc.on_datagram(kNet, [&](std::span<const std::byte> datagram) {
@@ -57,47 +73,53 @@ int serve(sdk::Service& svc) {
       std::uint64_t suppressed = 0;
       if (link.should_log_refusal(svc.now(), suppressed)) {
         svc.logf(sdk::LogLevel::Warn, "refused a %zu-byte datagram: %s (%llu refused in all, %llu not logged)",
-                 datagram.size(), std::string(link::to_string(inbound.error())).c_str(),
+                 datagram.size(), std::string(mavlink::to_string(inbound.error())).c_str(),
                  static_cast<unsigned long long>(link.refused()), static_cast<unsigned long long>(suppressed));
       }
       return;
     }
-    if (const auto* forward = std::get_if<services::ExtLink::Forward>(&*inbound)) {
+    if (inbound->note) svc.log(sdk::LogLevel::Warn, *inbound->note);
+    for (const mavlink::Message& m : inbound->replies) send(m);
+    if (inbound->forward) {
       // Only in MC (the gate relays nothing else); a mode change in flight leaves the upload unanswered
-      // and the ground station retransmits it.
-      if (auto ok = uploads->publish(forward->upload); !ok) {
+      // and the ground station starts it again.
+      if (auto ok = uploads->publish(inbound->forward->upload); !ok) {
         svc.log(sdk::LogLevel::Warn, "mission upload not forwarded: " + ok.error().to_string());
+        link.abandon();
         return;
       }
-      svc.logf(sdk::LogLevel::Info, "mission upload #%u of %u waypoints forwarded to commander", forward->sequence,
-               forward->upload.count);
-      send(link.forwarded(*forward), "mission ack");
-    } else if (const auto* again = std::get_if<services::ExtLink::Reacknowledge>(&*inbound)) {
-      send(link.acknowledge(again->sequence), "mission ack");
-    } else if (const auto* refuse = std::get_if<services::ExtLink::Refuse>(&*inbound)) {
-      // Well-formed but not a mission commander would keep: the ground station is told why; nothing is
-      // published (a retransmission is refused again: the verdict depends on the upload only).
-      if (link.uploads_refused() == 0) {
-        svc.logf(sdk::LogLevel::Warn, "mission upload #%u refused: %s", refuse->sequence, refuse->message.c_str());
-      }
-      send(link.refused_upload(*refuse), "mission ack");
+      svc.logf(sdk::LogLevel::Info, "mission upload of %u waypoints forwarded to commander", inbound->forward->upload.count);
+      send(link.forwarded(*inbound->forward));
     }
   });
   if (!svc.require(gate, "ext_net")) return 1;
 
-  // Telemetry (≈10 Hz) only in MC: the kernel refuses sends in the SEI, and an honest service asks only when
-  // it may. Not gated on a Hello seen here: a rollback wipes what ext_link learned in MC, while the kernel
-  // keeps the ground station's address (until one has spoken, a send is Refused and costs nothing).
+  // Every tick, in every mode: what the SR cycle and the kernel show becomes STATUSTEXT (sent in MC). Then,
+  // only in MC (the kernel refuses sends in the SEI, and an honest service asks only when it may), the
+  // telemetry. Not gated on a ground station seen here: a rollback wipes what ext_link learned in MC, while
+  // the kernel keeps the ground station's address (until one has spoken, a send is Refused and costs nothing).
   auto telemetry = svc.every(to_nanos(Seconds{period_s}), [&] {
+    // The SR cycle as the kernel published it on sr_mode (handed over in order before this timer's frame, so
+    // a lockstep run sees the same modes whatever the scheduling), not the time page, which may be ahead.
+    SrMode mode = svc.mode();
+    Epoch epoch = svc.epoch();
+    if (modes->valid()) {
+      if (auto m = flight_io::mode_from_message(modes->latest())) {
+        mode = *m;
+        epoch = Epoch{modes->latest().epoch};
+      }
+    }
+    link.observe(services::ExtLink::Observation{.mode = mode,
+                                                .epoch = epoch,
+                                                .security_events = events->received() + events->lost(),
+                                                .latest_event = events->valid() ? &events->latest() : nullptr});
     if (!svc.may_send(kNet)) return;
-    const services::ExtLink::TelemetryInputs in{
-        .now = svc.now(),
-        .state = state->valid() ? &state->latest() : nullptr,
-        .setpoint = setpoint->valid() ? &setpoint->latest() : nullptr,
-        .mode = svc.mode(),
-        .epoch = svc.epoch(),
-        .security_events = events->received() + events->lost()};
-    send(link.telemetry(in), "telemetry");
+    const services::ExtLink::TelemetryInputs in{.now = svc.now(),
+                                                .state = state->valid() ? &state->latest() : nullptr,
+                                                .setpoint = setpoint->valid() ? &setpoint->latest() : nullptr,
+                                                .mode = svc.mode(),
+                                                .epoch = svc.epoch()};
+    for (const mavlink::Message& m : link.telemetry(in)) send(m);
   });
   if (!svc.require(telemetry, "timer")) return 1;
   return svc.run();

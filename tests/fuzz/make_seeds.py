@@ -1,12 +1,11 @@
 #!/usr/bin/env python3
-"""Writes the generated seed corpora of tests/fuzz (channel_frames, sdk_frames, link_protocol, plant_samples)
-from real frames: the layouts of kernel_sim/channel wire.hpp, services/ext_link link_protocol.hpp and idl/.
+"""Writes the generated seed corpora of tests/fuzz (channel_frames, sdk_frames, plant_samples)
+from real frames: the layouts of kernel_sim/channel wire.hpp and idl/.
 The policy_loader and launch_loader seeds are the repository's policies/ and launch/ files, copied.
 Run from anywhere: python3 tests/fuzz/make_seeds.py (rewrites corpus/<target>/seed_*)."""
 import pathlib
 import shutil
 import struct
-import zlib
 
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
@@ -121,19 +120,8 @@ write("sdk_frames", "bad_frames", sdk(*boot, frame(DELIVER, 1, 0, 1, baro()), re
                                       frame(DELIVER, 9, 0, 1, baro()), frame(SNAPSHOT, 0, 0, 1, struct.pack("<Q", 0)),
                                       frame(NET_DATAGRAM, 5, 0, 1, b"RJLK"), frame(BOOT_END)))
 
-# ---- link_protocol: one datagram ----
-def link(mtype, seq, body):
-    head = bytes([0x52, 0x4A, 0x4C, 0x4B, 1, mtype]) + struct.pack("<HI", len(body), seq)
-    crc = zlib.crc32(head + b"\0\0\0\0" + body)
-    return head + struct.pack("<I", crc) + body
-
-
-upload = struct.pack("<IId", 2, 0, 0.1) + struct.pack("<dddd", 1, 2, -3, 0) + struct.pack("<dddd", 0, 0, -3, 1.5)
-write("link_protocol", "hello", link(1, 1, b""))
-write("link_protocol", "upload", link(2, 7, upload))
-write("link_protocol", "ack", link(3, 2, struct.pack("<IB3x", 7, 0)))
-write("link_protocol", "telemetry", link(4, 3, struct.pack("<Q3d3d3ddIBBHIIQQQ", 1, 0, 0, -3, 0, 0, 0, 0, 0, -3, 0,
-                                                           0, 0, 0, 0, 0, 0, 0, 0, 0)))
+# ---- mavlink_frames: one MAVLink 2 frame per seed, made by node-mavlink (tests/mavlink_client/make_vectors.js,
+# the known-answer frames of tests/unit/mavlink), not here: an independent encoder is the better seed ----
 
 # ---- plant_samples: u64 seed, then records: u8 kind (even: ActuatorOutputs, odd: SimStepAck) + struct ----
 def outputs(m, restricted=0):  # idl/control.idl ActuatorOutputs: u64, double[4], u8 (+7 padding)

@@ -1,8 +1,8 @@
 // The network gate (DESIGN §2, §3; docs/protocol.md "Network gate") with the real ext_link, in lockstep
 // driven by the test: the test is the ground station on a UDP socket; a test service (`vehicle`,
 // tests/multiproc/services/net_test_service.cpp) switches modes when the test injects a mode_command.
-// Network traffic sent during the secure interval never reaches ext_link; in MC it does; oversize and
-// garbage datagrams are refused without harm.
+// Network traffic sent during the secure interval never reaches ext_link; in MC it does (MAVLink 2, the mission
+// upload protocol); oversize and garbage datagrams are refused without harm.
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
@@ -21,7 +21,8 @@
 
 #include "graph_fixture.hpp"
 #include "rejuv/channel/wire.hpp"
-#include "rejuv/services/ext_link/link_protocol.hpp"
+#include "rejuv/mavlink/messages.hpp"
+#include "rejuv/mavlink/mission.hpp"
 #include "rejuv/sys/udp.hpp"
 
 namespace rejuv::testing {
@@ -58,17 +59,20 @@ services {
 mission { waypoints { north_m: 0 east_m: 0 down_m: -3 } acceptance_radius_m: 0.1 timeout_s: 600 }
 )";
 
-link::MissionUpload upload_of(std::uint32_t count) {
-  link::MissionUpload up;
-  up.count = count;
-  up.acceptance_radius_m = 0.2;
-  for (std::uint32_t i = 0; i < count; ++i) {
-    up.waypoints[i] = link::UploadWaypoint{.north_m = 1.0 * i, .east_m = 0.5, .down_m = -3, .yaw_rad = 0};
-  }
-  return up;
+namespace mav = rejuv::mavlink;
+
+std::vector<mav::LocalWaypoint> waypoints_of(std::uint32_t count) {
+  std::vector<mav::LocalWaypoint> out;
+  for (std::uint32_t i = 0; i < count; ++i) out.push_back({.north_m = 1.0 * i, .east_m = 0.5, .down_m = -3, .yaw_rad = 0});
+  return out;
 }
 
-// The ground station: a UDP socket that talks to the kernel's gate.
+mav::Message ground_heartbeat() {
+  return mav::Heartbeat{.custom_mode = 0, .type = mav::kMavTypeGcs, .autopilot = mav::kMavAutopilotInvalid,
+                        .base_mode = 0, .system_status = mav::kMavStateActive, .mavlink_version = 3};
+}
+
+// The ground station: a UDP socket that talks MAVLink 2 to the kernel's gate (optionally signing).
 class Ground {
  public:
   explicit Ground(std::uint16_t kernel_port) : kernel_(sys::UdpAddress::loopback(kernel_port)) {
@@ -77,8 +81,13 @@ class Ground {
     if (s) socket_ = std::move(*s);
   }
   void send(std::span<const std::byte> bytes) { ASSERT_TRUE(socket_.send_to(bytes, kernel_).has_value()); }
-  void send(const link::Message& m) { send(link::encode(m).view()); }
-  // Everything the vehicle sent so far (non-blocking), decoded; undecodable ones counted in `raw`.
+  void send(const mav::Message& m) { send(frame(m).view()); }
+  [[nodiscard]] mav::Frame frame(const mav::Message& m) {
+    std::optional<mav::Signer> signer;
+    if (key) signer = mav::Signer{.key = *key, .link_id = 1, .timestamp = ++timestamp};
+    return mav::encode(m, mav::Envelope{.seq = seq_++, .sysid = 255, .compid = 190}, signer);
+  }
+  // Everything the vehicle sent so far (non-blocking), decoded; undecodable ones kept in `raw`.
   void collect() {
     std::array<std::byte, 2048> buf{};
     for (;;) {
@@ -87,39 +96,52 @@ class Ground {
         EXPECT_EQ(r.error().error, EAGAIN);
         return;
       }
-      auto m = link::decode(std::span<const std::byte>(buf.data(), r->size), link::Direction::ToGround);
-      if (m) {
-        received.push_back(*m);
+      auto p = mav::decode(std::span<const std::byte>(buf.data(), r->size));
+      if (p) {
+        received.push_back(p->message);
       } else {
         raw.emplace_back(buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(r->size));
       }
     }
   }
+  // What arrived since the last call.
+  [[nodiscard]] std::vector<mav::Message> take_new() {
+    collect();
+    std::vector<mav::Message> out(received.begin() + static_cast<std::ptrdiff_t>(taken_), received.end());
+    taken_ = received.size();
+    return out;
+  }
   template <class T>
   [[nodiscard]] std::vector<T> all() const {
     std::vector<T> out;
-    for (const link::Message& m : received) {
-      if (const auto* x = std::get_if<T>(&m.body)) out.push_back(*x);
+    for (const mav::Message& m : received) {
+      if (const auto* x = std::get_if<T>(&m)) out.push_back(*x);
     }
     return out;
   }
   void clear() {
     received.clear();
     raw.clear();
+    taken_ = 0;
   }
-  std::vector<link::Message> received;
+  std::vector<mav::Message> received;
   std::vector<std::vector<std::byte>> raw;
+  std::optional<mav::SigningKey> key;
+  std::uint64_t timestamp = 400'000'000'000ULL;  // [10 µs since 2015]: any start, strictly increasing
 
  private:
   sys::UdpAddress kernel_;
   sys::UdpSocket socket_;
+  std::uint8_t seq_ = 0;
+  std::size_t taken_ = 0;
 };
 
 class NetGate : public ::testing::Test {
  protected:
+  [[nodiscard]] virtual std::string launch_text() const { return std::string(kNetLaunch); }
   void SetUp() override {
     before_ = Resources::now();
-    auto graph = launch::parse_launch(kNetLaunch, kGraphs / "net.launch.pbtxt");
+    auto graph = launch::parse_launch(launch_text(), kGraphs / "net.launch.pbtxt");
     ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
     auto options = test_options();
     options.network_port = 0;  // ephemeral: no clash with a `rejuv run` on this host
@@ -167,6 +189,26 @@ class NetGate : public ::testing::Test {
     step_until([&] { return kernel_->mode() == mode; }, 50);
   }
   [[nodiscard]] std::size_t uploads_seen() const { return recorder_.on("mission_upload").size(); }
+  // Runs an upload as a ground station does: sends, steps the kernel until the vehicle answers and answers
+  // it, retransmitting the last message every 50 steps (200 ms) without an answer; at most `max_steps`.
+  mav::MissionUploader::Status run_upload(mav::MissionUploader& up, int max_steps = 3000) {
+    ground_->send(up.start());
+    int quiet = 0;
+    for (int i = 0; i < max_steps && up.status() == mav::MissionUploader::Status::InProgress; ++i) {
+      step_n(*kernel_, 1);
+      bool answered = false;
+      for (const mav::Message& m : ground_->take_new()) {
+        if (auto reply = up.on_message(m)) ground_->send(*reply);
+        answered = answered || std::holds_alternative<mav::MissionRequestInt>(m) || std::holds_alternative<mav::MissionAck>(m);
+      }
+      quiet = answered ? 0 : quiet + 1;
+      if (quiet == 50 && up.status() == mav::MissionUploader::Status::InProgress) {
+        ground_->send(up.last_sent());
+        quiet = 0;
+      }
+    }
+    return up.status();
+  }
   [[nodiscard]] kernel::ServiceStats stats(std::string_view name) const {
     return kernel_->stats(*kernel_->find_service(name));
   }
@@ -179,70 +221,70 @@ class NetGate : public ::testing::Test {
 
 TEST_F(NetGate, DatagramsDuringSecureInterval_NeverReachExtLink) {
   set_mode(SrMode::SC);
-  // Given the secure interval, when the ground says Hello and uploads (three times) ...
-  ground_->send({.sequence = 1, .body = link::Hello{}});
-  for (int i = 0; i < 3; ++i) ground_->send({.sequence = 2, .body = upload_of(4)});
+  // Given the secure interval, when the ground sends a HEARTBEAT and starts an upload (three times) ...
+  ground_->send(ground_heartbeat());
+  for (int i = 0; i < 3; ++i) ground_->send(mav::MissionCount{.count = 4, .target_system = 1, .target_component = 1, .mission_type = 0, .opaque_id = 0});
   step_until([&] { return kernel_->net_stats().received == 4; });
   // ... then every datagram is dropped and counted, and nothing reaches ext_link.
   EXPECT_EQ(kernel_->net_stats().dropped_secure_interval, 4U);
   EXPECT_EQ(kernel_->net_stats().relayed, 0U);
   step(50);
   EXPECT_EQ(uploads_seen(), 0U);
-  // Back in MC: dropped means dropped, not delayed. ext_link never heard the Hello, so it sends nothing.
+  // Back in MC: dropped means dropped, not delayed. The ground station is unknown, so nothing is sent.
   set_mode(SrMode::MC);
   step(50);
   ground_->collect();
   EXPECT_EQ(uploads_seen(), 0U);
-  EXPECT_TRUE(ground_->all<link::Telemetry>().empty());
-  EXPECT_TRUE(ground_->all<link::MissionAck>().empty());
+  EXPECT_TRUE(ground_->received.empty());
   EXPECT_EQ(kernel_->net_stats().relayed, 0U);
   EXPECT_EQ(stats("ext_link").denials, 0U);  // an honest ext_link tried nothing in the SEI
 }
 
 TEST_F(NetGate, UploadInMissionControl_ReachesCommanderAndIsAcknowledged) {
-  ground_->send({.sequence = 77, .body = upload_of(3)});
-  step_until([&] { return kernel_->net_stats().relayed == 1; });
-  step_until([&] {
-    ground_->collect();
-    return !ground_->all<link::MissionAck>().empty();
-  });
-  EXPECT_EQ(ground_->all<link::MissionAck>().front().upload_sequence, 77U);
+  mav::MissionUploader up(waypoints_of(3), 0.2);
+  ASSERT_EQ(run_upload(up), mav::MissionUploader::Status::Accepted);
   ASSERT_EQ(uploads_seen(), 1U);
   const auto upload = Recorder::as<rejuv_msg_MissionWaypoints>(*recorder_.on("mission_upload").front());
   EXPECT_EQ(upload.count, 3U);
-  EXPECT_DOUBLE_EQ(upload.waypoints[2].p_N_m[0], 2.0);
-  EXPECT_DOUBLE_EQ(upload.acceptance_radius_m, 0.2);
+  EXPECT_NEAR(upload.waypoints[2].p_N_m[0], 2.0, 1e-4);
+  EXPECT_NEAR(upload.acceptance_radius_m, 0.2, 1e-6);
   // The ground is known now: telemetry flows in MC, with the vehicle's state.
   step_until([&] {
     ground_->collect();
-    return !ground_->all<link::Telemetry>().empty();
+    return !ground_->all<mav::LocalPositionNed>().empty() && !ground_->all<mav::Heartbeat>().empty();
   });
-  const link::Telemetry t = ground_->all<link::Telemetry>().back();
-  EXPECT_EQ(t.sr_mode, 0);
-  EXPECT_DOUBLE_EQ(t.p_N_m[2], -3.0);
-  EXPECT_EQ(t.uploads_forwarded, 1U);
-  EXPECT_GE(kernel_->net_stats().sent, 2U);  // the ack and a telemetry message
+  EXPECT_FLOAT_EQ(ground_->all<mav::LocalPositionNed>().back().z, -3.0F);
+  const mav::Heartbeat hb = ground_->all<mav::Heartbeat>().back();
+  EXPECT_EQ(hb.type, mav::kMavTypeQuadrotor);
+  EXPECT_EQ(hb.custom_mode & 0xFFU, 0U) << "MC";
+  EXPECT_GE(kernel_->net_stats().sent, 5U);  // the requests, the ack and telemetry
   EXPECT_EQ(kernel_->net_stats().send_refused, 0U);
 }
 
-TEST_F(NetGate, RetransmittedUpload_AcknowledgedAgainPublishedOnce) {
+TEST_F(NetGate, UploadStartedInTheSecureInterval_CompletesInMc) {
+  // The ground station starts in SC: everything it sends is dropped; it retransmits; in MC the upload goes on.
+  set_mode(SrMode::SC);
+  mav::MissionUploader up(waypoints_of(2), 0.2);
+  ground_->send(up.start());
+  step_until([&] { return kernel_->net_stats().dropped_secure_interval == 1; });
+  set_mode(SrMode::MC);
+  ASSERT_EQ(run_upload(up), mav::MissionUploader::Status::Accepted);
+  EXPECT_EQ(uploads_seen(), 1U);
+}
+
+TEST_F(NetGate, RepeatedUpload_AcknowledgedAgainPublishedOnce) {
   for (int i = 0; i < 3; ++i) {
-    ground_->send({.sequence = 5, .body = upload_of(2)});
-    const std::uint64_t want = static_cast<std::uint64_t>(i) + 1;
-    step_until([&] { return kernel_->net_stats().relayed == want; });
+    mav::MissionUploader up(waypoints_of(2), 0.2);
+    ASSERT_EQ(run_upload(up), mav::MissionUploader::Status::Accepted) << i;
   }
-  step_until([&] {
-    ground_->collect();
-    return ground_->all<link::MissionAck>().size() == 3;
-  });
   EXPECT_EQ(uploads_seen(), 1U);
 }
 
 TEST_F(NetGate, SecureInterval_StopsTelemetryAndRefusesSends) {
-  ground_->send({.sequence = 1, .body = link::Hello{}});
+  ground_->send(ground_heartbeat());
   step_until([&] {
     ground_->collect();
-    return !ground_->all<link::Telemetry>().empty();
+    return !ground_->all<mav::LocalPositionNed>().empty();
   });
   // Entering SC: the vehicle's rogue NetSend (it does not ask the SDK first) is denied by the kernel.
   set_mode(SrMode::SC);
@@ -256,12 +298,15 @@ TEST_F(NetGate, SecureInterval_StopsTelemetryAndRefusesSends) {
   EXPECT_TRUE(ground_->received.empty());
   EXPECT_TRUE(ground_->raw.empty());  // nor the rogue's datagram
   EXPECT_EQ(stats("ext_link").denials, 0U);  // ext_link is honest: it did not try
-  // Back in MC: telemetry resumes (the ground is still known), with no new Hello.
+  // Back in MC: telemetry resumes (the ground is still known), and the modes seen meanwhile are reported.
   set_mode(SrMode::MC);
   step_until([&] {
     ground_->collect();
-    return !ground_->all<link::Telemetry>().empty();
+    return !ground_->all<mav::LocalPositionNed>().empty() && !ground_->all<mav::StatusText>().empty();
   });
+  bool saw_sc = false;
+  for (const mav::StatusText& t : ground_->all<mav::StatusText>()) saw_sc = saw_sc || mav::text_of(t) == "SR mode SC";
+  EXPECT_TRUE(saw_sc);
 }
 
 TEST_F(NetGate, OversizeAndGarbageDatagrams_RefusedWithoutHarm) {
@@ -271,13 +316,14 @@ TEST_F(NetGate, OversizeAndGarbageDatagrams_RefusedWithoutHarm) {
   // Garbage the kernel relays (it does not interpret the bytes) and ext_link refuses.
   std::vector<std::vector<std::byte>> garbage;
   garbage.push_back(std::vector<std::byte>(7, std::byte{0xFF}));
-  const link::Datagram good = link::encode({.sequence = 9, .body = upload_of(4)});
-  link::Datagram bad_crc = good;
-  bad_crc.bytes[40] ^= std::byte{1};
+  const mav::Frame good = ground_->frame(mav::local_item(waypoints_of(2)[1], 1, 0.2, 1, 1));
+  mav::Frame bad_crc = good;
+  bad_crc.bytes[20] ^= std::byte{1};
   garbage.emplace_back(bad_crc.view().begin(), bad_crc.view().end());
-  garbage.emplace_back(good.view().begin(), good.view().begin() + 40);  // truncated
-  const link::Datagram telemetry = link::encode({.sequence = 3, .body = link::Telemetry{}});
-  garbage.emplace_back(telemetry.view().begin(), telemetry.view().end());  // a vehicle → ground type
+  garbage.emplace_back(good.view().begin(), good.view().begin() + 20);  // truncated
+  mav::Frame unknown = good;
+  unknown.bytes[7] = std::byte{0x99};  // a message id this vehicle does not know
+  garbage.emplace_back(unknown.view().begin(), unknown.view().end());
   for (const auto& g : garbage) ground_->send(g);
   step_until([&] { return kernel_->net_stats().received == 2 + garbage.size(); });
   const kernel::NetStats st = kernel_->net_stats();
@@ -287,32 +333,27 @@ TEST_F(NetGate, OversizeAndGarbageDatagrams_RefusedWithoutHarm) {
   step(20);
   EXPECT_EQ(uploads_seen(), 0U);
   ground_->collect();
-  // No answer to garbage (telemetry may come: the gate relayed it, so it knows where the ground is).
-  EXPECT_TRUE(ground_->all<link::MissionAck>().empty());
+  EXPECT_TRUE(ground_->received.empty()) << "no answer to garbage, and no ground station known";
   EXPECT_TRUE(ground_->raw.empty());
-  // ext_link is unharmed: a good upload still goes through, and its telemetry counts the refusals.
-  ground_->send(good.view());
-  step_until([&] {
-    ground_->collect();
-    return !ground_->all<link::MissionAck>().empty() && !ground_->all<link::Telemetry>().empty();
-  });
+  EXPECT_EQ(kernel_->net_stats().judged_refused, garbage.size());
+  // ext_link is unharmed: an upload still goes through.
+  mav::MissionUploader up(waypoints_of(2), 0.2);
+  ASSERT_EQ(run_upload(up), mav::MissionUploader::Status::Accepted);
   EXPECT_EQ(uploads_seen(), 1U);
-  EXPECT_EQ(ground_->all<link::Telemetry>().back().link_refused, garbage.size());
   EXPECT_TRUE(stats("ext_link").alive);
   EXPECT_EQ(stats("ext_link").bad_frames, 0U);
 }
 
-// Item 5 of the fault report: any relayed datagram used to redirect telemetry to its sender. Now only a
-// message ext_link judges valid names the ground station; garbage from elsewhere is refused, counted by
+// Only a message ext_link judges valid names the ground station; garbage from elsewhere is refused, counted by
 // reason in the kernel (for the run summary) and steers nothing.
 TEST_F(NetGate, GarbageFromAnotherSender_DoesNotRedirectTelemetry) {
-  ground_->send({.sequence = 1, .body = link::Hello{}});
+  ground_->send(ground_heartbeat());
   step_until([&] {
     ground_->collect();
-    return !ground_->all<link::Telemetry>().empty();
+    return !ground_->all<mav::LocalPositionNed>().empty();
   });
   Ground stranger(*kernel_->network_port());
-  std::vector<std::byte> garbage(20, std::byte{0x5A});  // no "RJLK": BadMagic
+  std::vector<std::byte> garbage(20, std::byte{0x5A});  // no 0xFD: BadStart
   stranger.send(garbage);
   step_until([&] { return kernel_->net_stats().judged_refused == 1; });
   ground_->clear();
@@ -320,38 +361,120 @@ TEST_F(NetGate, GarbageFromAnotherSender_DoesNotRedirectTelemetry) {
   ground_->collect();
   stranger.collect();
   EXPECT_TRUE(stranger.received.empty() && stranger.raw.empty()) << "telemetry followed the garbage";
-  EXPECT_FALSE(ground_->all<link::Telemetry>().empty()) << "telemetry still goes to the ground station";
+  EXPECT_FALSE(ground_->all<mav::LocalPositionNed>().empty()) << "telemetry still goes to the ground station";
   const kernel::NetStats st = kernel_->net_stats();
   EXPECT_EQ(st.judged_valid, 1U);
-  EXPECT_EQ(st.refused_by_reason[1 + static_cast<std::size_t>(link::DecodeError::BadMagic)], 1U);
+  EXPECT_EQ(st.refused_by_reason[1 + static_cast<std::size_t>(mav::DecodeError::BadStart)], 1U);
 }
 
-// Issue 18 item 5: a well-formed upload that commander would refuse (here 12 m east of home, outside the 10 m
-// geofence) is answered with a negative acknowledgement naming the reason and the waypoint; nothing reaches
-// commander's topic. It used to be acknowledged as forwarded (and then dropped by commander, silently).
-TEST_F(NetGate, UploadOutsideTheGeofence_NegativelyAcknowledgedNotPublished) {
-  link::MissionUpload far = upload_of(3);
-  far.waypoints[1].east_m = 12;
-  for (int i = 0; i < 2; ++i) {  // the second is a retransmission: refused again
-    ground_->send({.sequence = 31, .body = far});
-    const std::uint64_t want = static_cast<std::uint64_t>(i) + 1;
-    step_until([&] { return kernel_->net_stats().relayed == want; });
+// A well-formed upload that commander would refuse (here 12 m east of home, outside the 10 m geofence) ends
+// with the protocol's error code (MAV_MISSION_INVALID_PARAM5_X) after a STATUSTEXT naming the reason and the
+// item; nothing reaches commander's topic.
+TEST_F(NetGate, UploadOutsideTheGeofence_ErrorCodeNotPublished) {
+  auto far = waypoints_of(3);
+  far[1].east_m = 12;
+  for (int i = 0; i < 2; ++i) {  // the second is a new upload of the same: refused again
+    mav::MissionUploader up(far, 0.2);
+    ASSERT_EQ(run_upload(up), mav::MissionUploader::Status::Refused);
+    EXPECT_EQ(up.result(), mav::MissionResult::InvalidParam5X);
   }
-  step_until([&] {
-    ground_->collect();
-    return ground_->all<link::MissionAck>().size() == 2;
-  });
-  for (const link::MissionAck& ack : ground_->all<link::MissionAck>()) {
-    EXPECT_EQ(ack.upload_sequence, 31U);
-    EXPECT_EQ(ack.status, link::AckStatus::Refused);
-    EXPECT_EQ(ack.reason, link::RefusalReason::OutsideGeofence);
-    EXPECT_EQ(ack.waypoint, 1U);
-  }
+  const auto texts = ground_->all<mav::StatusText>();
+  ASSERT_FALSE(texts.empty());
+  EXPECT_EQ(mav::text_of(texts.front()), "mission refused: outside the geofence (item 1)");
   step(20);
   EXPECT_EQ(uploads_seen(), 0U);
-  // A valid message: the sender is the ground station, and the verdict the kernel counts is "valid".
-  EXPECT_EQ(kernel_->net_stats().judged_valid, 2U);
+  // Valid messages: the sender is the ground station, and the verdict the kernel counts is "valid".
+  EXPECT_GE(kernel_->net_stats().judged_valid, 8U);
   EXPECT_EQ(kernel_->net_stats().judged_refused, 0U);
+}
+
+// MAVLink 2 signing checked by the kernel's gate (launch network.signing_key): only frames signed with the
+// key, with a fresh timestamp, reach ext_link; the rest are refused by reason before any service sees them.
+constexpr std::string_view kKeyHex = "000102030405060708090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f";
+
+class NetGateSigned : public NetGate {
+ protected:
+  [[nodiscard]] std::string launch_text() const override {
+    return std::string(kNetLaunch) + "network { signing_key: \"" + std::string(kKeyHex) + "\" }\n";
+  }
+  void SetUp() override {
+    NetGate::SetUp();
+    if (ground_) ground_->key = *mav::SigningKey::from_hex(kKeyHex);
+  }
+};
+
+TEST_F(NetGateSigned, SignedUpload_Accepted) {
+  EXPECT_TRUE(kernel_->net_stats().signing);
+  mav::MissionUploader up(waypoints_of(2), 0.2);
+  ASSERT_EQ(run_upload(up), mav::MissionUploader::Status::Accepted);
+  EXPECT_EQ(uploads_seen(), 1U);
+  EXPECT_EQ(kernel_->net_stats().signing_refused, 0U);
+}
+
+TEST_F(NetGateSigned, UnsignedUpload_RefusedByTheGateNeverRelayed) {
+  ground_->key.reset();
+  mav::MissionUploader up(waypoints_of(2), 0.2);
+  EXPECT_EQ(run_upload(up, 300), mav::MissionUploader::Status::InProgress) << "nothing answers an unsigned upload";
+  const kernel::NetStats st = kernel_->net_stats();
+  EXPECT_GE(st.signing_refused, 1U);
+  EXPECT_EQ(st.signing_refused, st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Unsigned)]);
+  EXPECT_EQ(st.relayed, 0U);
+  EXPECT_EQ(st.judged_valid + st.judged_refused, 0U) << "ext_link saw nothing";
+  EXPECT_EQ(uploads_seen(), 0U);
+}
+
+TEST_F(NetGateSigned, WronglySignedUpload_Refused) {
+  ground_->key = *mav::SigningKey::from_hex(std::string(64, 'f'));
+  mav::MissionUploader up(waypoints_of(2), 0.2);
+  EXPECT_EQ(run_upload(up, 300), mav::MissionUploader::Status::InProgress);
+  const kernel::NetStats st = kernel_->net_stats();
+  EXPECT_GE(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::BadSignature)], 1U);
+  EXPECT_EQ(st.relayed, 0U);
+  EXPECT_EQ(uploads_seen(), 0U);
+}
+
+TEST_F(NetGateSigned, ReplayedFrame_Refused) {
+  const mav::Frame hb = ground_->frame(ground_heartbeat());
+  ground_->send(hb.view());
+  ground_->send(hb.view());  // the same bytes again: the same timestamp
+  step_until([&] { return kernel_->net_stats().received == 2; });
+  const kernel::NetStats st = kernel_->net_stats();
+  EXPECT_EQ(st.relayed, 1U);
+  EXPECT_EQ(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Replayed)], 1U);
+}
+
+// network.ground_address (PX4's `-o 14550`): the vehicle's telemetry goes there before any ground station has
+// spoken, so a ground station that only listens (QGroundControl on 14550) sees the vehicle.
+class NetGateGroundAddress : public NetGate {
+ protected:
+  NetGateGroundAddress() {
+    auto s = sys::UdpSocket::bind(sys::UdpAddress::loopback(0), sys::Blocking::No);
+    EXPECT_TRUE(s.has_value());
+    if (s) listener_ = std::move(*s);
+  }
+  [[nodiscard]] std::string launch_text() const override {
+    auto bound = listener_.local_address();
+    EXPECT_TRUE(bound.has_value());
+    return std::string(kNetLaunch) + "network { ground_address: \"127.0.0.1:" + std::to_string(bound ? bound->port : 0) +
+           "\" }\n";
+  }
+  sys::UdpSocket listener_;
+};
+
+TEST_F(NetGateGroundAddress, ListeningGroundStation_GetsTelemetryWithoutSending) {
+  std::optional<mav::Heartbeat> heartbeat;
+  std::array<std::byte, 512> buf{};
+  step_until([&] {
+    while (auto r = listener_.receive(buf)) {
+      auto p = mav::decode(std::span<const std::byte>(buf.data(), r->size));
+      if (p && std::holds_alternative<mav::Heartbeat>(p->message)) heartbeat = std::get<mav::Heartbeat>(p->message);
+    }
+    return heartbeat.has_value();
+  });
+  ASSERT_TRUE(heartbeat.has_value());
+  EXPECT_EQ(heartbeat->type, mav::kMavTypeQuadrotor);
+  EXPECT_EQ(kernel_->net_stats().received, 0U) << "nobody sent anything";
+  EXPECT_EQ(kernel_->net_stats().unsent_no_ground, 0U);
 }
 
 // `rejuv gcs` as a user runs it (the real binary, in real time) against the real gate and ext_link (stepped
@@ -409,6 +532,7 @@ TEST_F(NetGateGcs, RefusedUpload_Exit1PrintsTheReason) {
   const GcsOutcome r = gcs("1,0.5,-3;0,12,-3");  // the second waypoint 12 m east of home
   EXPECT_EQ(r.exit_code, 1) << r.out;
   EXPECT_NE(r.out.find("refused"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("MAV_MISSION_INVALID_PARAM5_X"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("outside the geofence (waypoint 2"), std::string::npos) << r.out;
   EXPECT_EQ(uploads_seen(), 0U);
 }

@@ -5,6 +5,7 @@
 // Skipped (not failed) while a service or the plant is not built.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cmath>
@@ -16,7 +17,8 @@
 #include <vector>
 
 #include "graph_fixture.hpp"
-#include "rejuv/services/ext_link/link_protocol.hpp"
+#include "rejuv/mavlink/messages.hpp"
+#include "rejuv/mavlink/mission.hpp"
 #include "rejuv/sys/udp.hpp"
 #include "run_recorder.hpp"
 
@@ -32,7 +34,9 @@ constexpr std::uint64_t kMinAttacks = 45;
 
 // What the ground station of a GroundUpload (below) saw.
 struct GroundReport {
-  std::vector<link::MissionAck> acks;  // the answers to the upload
+  std::optional<mavlink::MissionResult> result{};  // how the upload ended (MISSION_ACK)
+  std::uint32_t restarts = 0;                     // uploads started again after the vehicle lost one
+  std::vector<std::string> texts{};               // STATUSTEXTs received
   std::uint64_t transmissions = 0;
   std::uint64_t mission_upload_published = 0;  // publications on commander's mission_upload topic
   std::optional<std::uint64_t> rollbacks_when_off_path{};  // rollbacks before a setpoint first left the launch path
@@ -106,19 +110,25 @@ class FaultInjector final : public kernel::Observer {
   std::size_t killed_ = 0;
 };
 
-// The ground station (docs/link_protocol.md) played from the kernel's loop: from `after` (flight time) on it
-// sends `upload` over UDP to the kernel's network gate every 200 ms of kernel time until ext_link answers it
-// (the gate drops everything in the secure execution interval, so it waits for an MC window, as `rejuv gcs`
-// does). It watches the setpoints the vehicle flies and counts the rollbacks around them.
+// The ground station (MAVLink 2, docs/mavlink.md) played from the kernel's loop: from `after` (flight time) on
+// it runs the mission upload protocol over UDP with the kernel's network gate, retransmitting its last
+// message every 200 ms of kernel time without an answer (the gate drops everything in the secure execution
+// interval, and a rollback may end the transaction in ext_link, which the vehicle then answers with
+// MAV_MISSION_INVALID_SEQUENCE and the upload starts again — as `rejuv gcs` does). It watches the setpoints
+// the vehicle flies and counts the rollbacks around them.
 struct GroundUpload {
-  link::MissionUpload upload{};
+  std::vector<mavlink::LocalWaypoint> waypoints{};
+  double acceptance_radius_m = 0.05;
   Nanos after{0};
 };
 
 class GroundStation final : public kernel::Observer {
  public:
   GroundStation(kernel::Observer& inner, GroundUpload spec, Nanos alignment)
-      : inner_(inner), spec_(std::move(spec)), start_(alignment + spec_.after) {
+      : inner_(inner),
+        spec_(std::move(spec)),
+        start_(alignment + spec_.after),
+        uploader_(spec_.waypoints, spec_.acceptance_radius_m) {
     auto s = sys::UdpSocket::bind(sys::UdpAddress::loopback(0), sys::Blocking::No);
     EXPECT_TRUE(s.has_value());
     if (s) socket_ = std::move(*s);
@@ -139,29 +149,37 @@ class GroundStation final : public kernel::Observer {
                        std::max(0.0, -sp.p_N_m[0]);
     report_.max_off_path_m = std::max(report_.max_off_path_m, off);
     if (off > 1e-6 && !report_.rollbacks_when_off_path) report_.rollbacks_when_off_path = report_.rollbacks;
-    const link::UploadWaypoint& end = spec_.upload.waypoints[spec_.upload.count - 1];
+    const mavlink::LocalWaypoint& end = spec_.waypoints.back();
     const double to_end = std::hypot(sp.p_N_m[0] - end.north_m, sp.p_N_m[1] - end.east_m, sp.p_N_m[2] - end.down_m);
     if (to_end < 1e-6 && !report_.rollbacks_when_at_upload) report_.rollbacks_when_at_upload = report_.rollbacks;
   }
   void on_step(std::uint64_t step, Nanos t, SrMode mode) override {
     inner_.on_step(step, t, mode);
     if (kernel_ == nullptr || t < start_) return;
-    std::array<std::byte, link::kMaxLinkDatagramBytes + 1> buf{};
+    const auto port = kernel_->network_port();
+    if (!port) return;
+    const auto send = [&](const mavlink::Message& m) {
+      const mavlink::Frame f = mavlink::encode(m, mavlink::Envelope{.seq = seq_++, .sysid = 255, .compid = 190});
+      if (socket_.send_to(f.view(), sys::UdpAddress::loopback(*port))) ++report_.transmissions;
+      next_send_ = t + std::chrono::milliseconds{200};
+    };
+    std::array<std::byte, mavlink::kMaxFrameBytes + 1> buf{};
     for (;;) {
       auto r = socket_.receive(buf);
       if (!r) break;
-      auto m = link::decode(std::span<const std::byte>(buf.data(), r->size), link::Direction::ToGround);
-      if (!m) continue;
-      if (const auto* ack = std::get_if<link::MissionAck>(&m->body); ack != nullptr && ack->upload_sequence == kSequence) {
-        report_.acks.push_back(*ack);
-      }
+      auto p = mavlink::decode(std::span<const std::byte>(buf.data(), r->size));
+      if (!p) continue;
+      if (const auto* text = std::get_if<mavlink::StatusText>(&p->message)) report_.texts.push_back(mavlink::text_of(*text));
+      if (auto reply = uploader_.on_message(p->message)) send(*reply);
     }
-    if (!report_.acks.empty() || t < next_send_) return;
-    const auto port = kernel_->network_port();
-    if (!port) return;
-    const link::Datagram d = link::encode({.sequence = kSequence, .body = spec_.upload});
-    if (socket_.send_to(d.view(), sys::UdpAddress::loopback(*port))) ++report_.transmissions;
-    next_send_ = t + std::chrono::milliseconds{200};
+    report_.restarts = uploader_.restarts();
+    if (uploader_.status() != mavlink::MissionUploader::Status::InProgress) {
+      report_.result = uploader_.result();
+      return;
+    }
+    if (t < next_send_) return;
+    send(started_ ? uploader_.last_sent() : uploader_.start());
+    started_ = true;
   }
   void on_checkpoint(Generation g, const broker::Broker& q) override { inner_.on_checkpoint(g, q); }
   void on_restore(Generation g, const broker::Broker& q) override {
@@ -170,10 +188,12 @@ class GroundStation final : public kernel::Observer {
   }
 
  private:
-  static constexpr std::uint32_t kSequence = 4242;
   kernel::Observer& inner_;
   GroundUpload spec_;
   Nanos start_;
+  mavlink::MissionUploader uploader_;
+  bool started_ = false;
+  std::uint8_t seq_ = 0;
   Nanos next_send_{0};
   sys::UdpSocket socket_;
   Kernel* kernel_ = nullptr;
@@ -326,15 +346,15 @@ TEST(SrEndToEnd, ColdRestartMidSquare_StaysInsideTheSafetySetAndCompletesTheMiss
 // application and its end, the mission completes there, and max V < 1.
 TEST(SrEndToEnd, UploadedMission_FlownAcrossRollbacksToItsEnd) {
   GroundUpload ground;
-  ground.upload.count = 1;
-  ground.upload.acceptance_radius_m = 0.05;
-  ground.upload.waypoints[0] = {.north_m = 0, .east_m = -1, .down_m = -3, .yaw_rad = 0};
+  ground.waypoints = {{.north_m = 0, .east_m = -1, .down_m = -3, .yaw_rad = 0}};
   ground.after = std::chrono::seconds{3};
   const auto m = fly(Sr::On, Attack::Off, Path::FirstLeg, std::nullopt, ground);
   if (!m) GTEST_SKIP() << "flight services or the plant are not built";
   const GroundReport& g = m->ground;
-  ASSERT_FALSE(g.acks.empty()) << "no answer after " << g.transmissions << " transmissions";
-  EXPECT_EQ(g.acks.front().status, link::AckStatus::Forwarded);
+  ASSERT_TRUE(g.result.has_value()) << "no answer after " << g.transmissions << " transmissions";
+  EXPECT_EQ(*g.result, mavlink::MissionResult::Accepted);
+  // The vehicle reports its rollbacks in STATUSTEXT (queued in the SEI, sent in the next MC window).
+  EXPECT_TRUE(std::any_of(g.texts.begin(), g.texts.end(), [](const std::string& t) { return t.starts_with("SR rollback"); }));
   EXPECT_GE(g.mission_upload_published, 1U);
   ASSERT_TRUE(g.rollbacks_when_off_path.has_value()) << "the setpoints never left the launch path";
   ASSERT_TRUE(g.rollbacks_when_at_upload.has_value()) << "the setpoints never reached the uploaded waypoint";
@@ -352,22 +372,19 @@ TEST(SrEndToEnd, UploadedMission_FlownAcrossRollbacksToItsEnd) {
                                   std::to_string(*g.rollbacks_when_at_upload - *g.rollbacks_when_off_path));
 }
 
-// A refused upload (a waypoint 12 m east of home: outside the 10 m geofence) is negatively acknowledged with
-// the reason and the waypoint, reaches nobody, and the launch graph's mission is flown unchanged.
+// A refused upload (a waypoint 12 m east of home: outside the 10 m geofence) ends with MAV_MISSION_INVALID_PARAM5_X
+// after a STATUSTEXT with the reason and the item, reaches nobody, and the launch graph's mission is flown unchanged.
 TEST(SrEndToEnd, RefusedUpload_NegativelyAcknowledgedAndTheMissionFlownUnchanged) {
   GroundUpload ground;
-  ground.upload.count = 2;
-  ground.upload.acceptance_radius_m = 0.05;
-  ground.upload.waypoints[0] = {.north_m = 0.5, .east_m = 0.5, .down_m = -3, .yaw_rad = 0};
-  ground.upload.waypoints[1] = {.north_m = 0.5, .east_m = 12, .down_m = -3, .yaw_rad = 0};
+  ground.waypoints = {{.north_m = 0.5, .east_m = 0.5, .down_m = -3, .yaw_rad = 0},
+                      {.north_m = 0.5, .east_m = 12, .down_m = -3, .yaw_rad = 0}};
   ground.after = std::chrono::seconds{3};
   const auto m = fly(Sr::On, Attack::Off, Path::FirstLeg, std::nullopt, ground);
   if (!m) GTEST_SKIP() << "flight services or the plant are not built";
   const GroundReport& g = m->ground;
-  ASSERT_FALSE(g.acks.empty()) << "no answer after " << g.transmissions << " transmissions";
-  EXPECT_EQ(g.acks.front().status, link::AckStatus::Refused);
-  EXPECT_EQ(g.acks.front().reason, link::RefusalReason::OutsideGeofence);
-  EXPECT_EQ(g.acks.front().waypoint, 1U);
+  ASSERT_TRUE(g.result.has_value()) << "no answer after " << g.transmissions << " transmissions";
+  EXPECT_EQ(*g.result, mavlink::MissionResult::InvalidParam5X);
+  EXPECT_TRUE(std::find(g.texts.begin(), g.texts.end(), "mission refused: outside the geofence (item 1)") != g.texts.end());
   EXPECT_EQ(g.mission_upload_published, 0U);
   EXPECT_FALSE(g.rollbacks_when_off_path.has_value()) << "a setpoint left the launch path";
   EXPECT_LT(g.max_off_path_m, 1e-6);

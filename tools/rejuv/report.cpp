@@ -1,6 +1,7 @@
 #include "report.hpp"
 
-#include "rejuv/services/ext_link/link_protocol.hpp"
+#include "rejuv/mavlink/frame.hpp"
+#include "rejuv/mavlink/messages.hpp"
 
 #include <google/protobuf/util/json_util.h>
 
@@ -76,13 +77,22 @@ void fill_network(proto::NetworkSummary& out, const kernel::NetStats& s, std::op
   out.set_unsent_no_ground(s.unsent_no_ground);
   out.set_link_valid(s.judged_valid);
   out.set_link_refused(s.judged_refused);
-  // ext_link's verdict code is 1 + link::DecodeError (services/ext_link/main.cpp).
+  // ext_link's verdict code is 1 + mavlink::DecodeError (services/ext_link/main.cpp).
   for (std::size_t code = 1; code < s.refused_by_reason.size(); ++code) {
     if (s.refused_by_reason[code] == 0) continue;
     proto::LinkRefusals* r = out.add_link_refused_by_reason();
-    r->set_reason(code - 1 < link::kDecodeErrorCount ? std::string(link::to_string(static_cast<link::DecodeError>(code - 1)))
-                                                     : "reason " + std::to_string(code));
+    r->set_reason(code - 1 < mavlink::kDecodeErrorCount
+                      ? std::string(mavlink::to_string(static_cast<mavlink::DecodeError>(code - 1)))
+                      : "reason " + std::to_string(code));
     r->set_count(s.refused_by_reason[code]);
+  }
+  out.set_signing(s.signing);
+  out.set_signing_refused(s.signing_refused);
+  for (std::size_t why = 0; why < s.signing_refused_by_reason.size(); ++why) {
+    if (s.signing_refused_by_reason[why] == 0) continue;
+    proto::LinkRefusals* r = out.add_signing_refused_by_reason();
+    r->set_reason(std::string(mavlink::to_string(static_cast<mavlink::SigningRefusal>(why))));
+    r->set_count(s.signing_refused_by_reason[why]);
   }
 }
 
@@ -105,6 +115,13 @@ std::string describe_network(const proto::NetworkSummary& n) {
     out += (&r == &n.link_refused_by_reason(0) ? " (" : ", ") + r.reason() + " " + std::to_string(r.count());
   }
   if (n.link_refused_by_reason_size() > 0) out += ")";
+  if (n.signing()) {
+    out += "; signing: " + std::to_string(n.signing_refused()) + " refused";
+    for (const proto::LinkRefusals& r : n.signing_refused_by_reason()) {
+      out += (&r == &n.signing_refused_by_reason(0) ? " (" : ", ") + r.reason() + " " + std::to_string(r.count());
+    }
+    if (n.signing_refused_by_reason_size() > 0) out += ")";
+  }
   return out;
 }
 

@@ -6,6 +6,10 @@
 // NetSend goes out to the ground station after the cap check, so a send outside MC is a denial like any
 // other. The ground station is the source of the last datagram the receiver judged valid (NetReceive with
 // its verdict): the kernel does not interpret the bytes, ext_link does, and garbage must not steer telemetry.
+// With a signing key in the launch file the gate checks one thing more, before relaying: that the datagram is
+// a MAVLink 2 frame signed with the key, its timestamp after the last of its stream (kernel_sim/mavlink
+// SignatureChecker: the envelope and the signature only, never the payload). A compromised ext_link then
+// cannot act on an unsigned command: it never receives one.
 #include <algorithm>
 #include <cerrno>
 #include <string>
@@ -75,6 +79,8 @@ Result<void, KernelError> Kernel::Impl::net_open() {
       names += (names.empty() ? "'" : ", '") + s.name + "'";
     }
   }
+  auto key = launch::signing_key(spec, graph.path);
+  if (!key) return fail(config_error(where + "." + key.error().field + ": " + key.error().message));
   auto socket = sys::UdpSocket::bind(*address, sys::Blocking::No);
   if (!socket) {
     // An explicit port (a tool or a test asked for it) must be had; the graph's default port may be taken by
@@ -89,13 +95,25 @@ Result<void, KernelError> Kernel::Impl::net_open() {
   net.socket = std::move(*socket);
   net.object = object;
   net.port = bound->port;
+  if (*key) {
+    net.signing.emplace(**key);
+    net.stats.signing = true;
+  }
+  // A ground station to send to before any has spoken (validated: launch::ground_address); the source of
+  // the first valid message replaces it.
+  if (const auto ground = launch::ground_address(spec.ground_address())) {
+    auto to = sys::UdpAddress::parse(ground->ip, ground->port);
+    if (!to) return fail(config_error(where + ".ground_address: " + to.error()));
+    net.peer = *to;
+  }
   if (clock_mode == ClockMode::Realtime) {
     if (auto ok = epoll.add(net.socket.fd(), token(Source::Net, 0)); !ok) {
       return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
     }
   }
-  log("network gate: udp %s for '%s' (%s)", bound->to_string().c_str(), objects[object->value()].name.c_str(),
-      names.empty() ? "no service may receive" : names.c_str());
+  log("network gate: udp %s for '%s' (%s)%s%s", bound->to_string().c_str(), objects[object->value()].name.c_str(),
+      names.empty() ? "no service may receive" : names.c_str(), net.signing ? ", MAVLink 2 signing required" : "",
+      net.peer ? (", sending to " + net.peer->to_string() + " until a ground station speaks").c_str() : "");
   return {};
 }
 
@@ -124,6 +142,22 @@ void Kernel::Impl::net_poll() {
     // Decode through the cap system: which policy slot holds the object with Read in the current mode. A
     // lookup, not a service's request, so nothing is counted as a denial.
     const std::span<const std::byte> bytes(net.rx.data(), r->size);
+    // Signing: checked only for a datagram that could be relayed now (in the SEI everything is dropped
+    // unread, so a frame retransmitted there costs the stream nothing), before any service sees it.
+    if (net.signing && std::any_of(net.readers.begin(), net.readers.end(), [&](const NetGate::Reader& reader) {
+          const auto c = caps.lookup(cap::CapRef{.space = reader.service, .slot = reader.slot});
+          return c && c->kind == ObjectKind::Network && c->object == *net.object && c->rights.has(Right::Read);
+        })) {
+      if (auto signed_ok = net.signing->check(bytes); !signed_ok) {
+        ++st.signing_refused;
+        ++st.signing_refused_by_reason[static_cast<std::size_t>(signed_ok.error())];
+        if (allow_log(net, wall())) {
+          log("network gate: refused a %zu-byte datagram from %s: %s", r->size, r->from.to_string().c_str(),
+              std::string(mavlink::to_string(signed_ok.error())).c_str());
+        }
+        continue;
+      }
+    }
     bool held = false;
     bool running = false;
     bool sent = false;

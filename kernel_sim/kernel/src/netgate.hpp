@@ -43,6 +43,9 @@ struct NetGate {
   std::array<Relayed, kRecentDatagrams> recent{};
   std::uint64_t next_id = 1;
   NetStats stats{};
+  // Set when the launch file gives a signing key: the MAVLink 2 signature check every datagram must pass
+  // before it is relayed (the key stays here, in the kernel; ext_link never holds it).
+  std::optional<mavlink::SignatureChecker> signing{};
   // Drop and refusal log lines: 10 of burst, 1 per second sustained (a flood must not flood the log).
   double log_tokens = 10;
   Nanos log_last{0};

@@ -29,7 +29,8 @@ class Validator {
 
   Result<std::filesystem::path, LoadError> run() {
     for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(),
-                    check_limits(), check_realtime(), check_lockstep(), check_mission(), check_attack()}) {
+                    check_limits(), check_realtime(), check_lockstep(), check_mission(), check_attack(),
+                    check_network()}) {
       if (!c) {
         return fail(std::move(c.error()));
       }
@@ -103,6 +104,17 @@ class Validator {
       return c;
     }
     return utf8(g_.network().object(), at({{"network", -1}}, "object"), "`network.object`");
+  }
+
+  // The gate's signing key, if any (docs/mavlink.md "Signing"): well-formed, and a key file kept secret.
+  Check check_network() const {
+    auto key = signing_key(g_.network(), path_);
+    if (!key) return fail(error(at({{"network", -1}}, key.error().field), key.error().message));
+    if (const std::string& a = g_.network().ground_address(); !a.empty() && !ground_address(a)) {
+      return fail(error(at({{"network", -1}}, "ground_address"),
+                        "`network.ground_address`: expected an IPv4 address and a port, e.g. \"127.0.0.1:14550\", got \"" + a + "\""));
+    }
+    return {};
   }
 
   Check check_header() const {

@@ -2,9 +2,12 @@
 // refused with the file:line:column of the offending field (CONVENTIONS "Errors are values").
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -536,6 +539,46 @@ TEST(LaunchLoader, AttackKindTheServiceHooks_Loads) {
   const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_lqr_control\"");
   const auto r = parse_launch(m.text, kAsPath);
   EXPECT_TRUE(r.has_value()) << r.error().to_string();
+}
+
+// The network gate's MAVLink 2 signing key (docs/mavlink.md "Signing"): 32 bytes as 64 hex digits, or a
+// file of them that only its owner may read; anything else is refused at the field.
+TEST(LaunchLoader, SigningKeyNotHex_SemanticAtTheKey) {
+  expect_semantic_at("attack {", "network { signing_key: \"00112233\" }\nattack {", "64 hex digits", false);
+}
+
+TEST(LaunchLoader, SigningKeyOf64HexDigits_Loads) {
+  const Mutated m = mutate("attack {", "network { signing_key: \"" + std::string(64, 'a') + "\" }\nattack {");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  const auto key = signing_key(r->graph.network(), r->path);
+  ASSERT_TRUE(key.has_value() && key->has_value());
+  EXPECT_EQ((*key)->bytes[0], 0xAA);
+}
+
+TEST(LaunchLoader, SigningKeyFileReadableByOthers_Semantic) {
+  const std::filesystem::path file =
+      std::filesystem::temp_directory_path() / ("rejuv_launch_key_" + std::to_string(::getpid()));
+  {
+    std::ofstream out(file);
+    out << std::string(64, '1') << "\n";
+  }
+  std::filesystem::permissions(file, std::filesystem::perms::owner_read | std::filesystem::perms::others_read);
+  expect_semantic_at("attack {", "network { signing_key_file: \"" + file.string() + "\" }\nattack {",
+                     "group or others", false);
+  std::filesystem::permissions(file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  const Mutated m = mutate("attack {", "network { signing_key_file: \"" + file.string() + "\" }\nattack {");
+  const auto r = parse_launch(m.text, kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+  std::filesystem::remove(file);
+}
+
+TEST(LaunchLoader, GroundAddressWithoutPort_SemanticAtTheAddress) {
+  expect_semantic_at("attack {", "network { ground_address: \"127.0.0.1\" }\nattack {", "IPv4 address and a port", false);
+  expect_semantic_at("attack {", "network { ground_address: \"localhost:14550\" }\nattack {", "IPv4 address", false);
+  expect_semantic_at("attack {", "network { ground_address: \"10.0.0.256:14550\" }\nattack {", "IPv4 address", false);
+  const Mutated m = mutate("attack {", "network { ground_address: \"127.0.0.1:14550\" }\nattack {");
+  EXPECT_TRUE(parse_launch(m.text, kAsPath).has_value());
 }
 
 }  // namespace

@@ -50,6 +50,7 @@
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/launch/launch.hpp"
+#include "rejuv/mavlink/frame.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/process.hpp"
 
@@ -303,6 +304,11 @@ struct NetStats {
   std::uint64_t judged_valid = 0;
   std::uint64_t judged_refused = 0;
   std::array<std::uint64_t, kNetVerdictCodes> refused_by_reason{};  // index = code; [0] unused
+  // MAVLink 2 signing, checked by the gate before anything is relayed (launch network.signing_key): the
+  // datagrams refused, by mavlink::SigningRefusal. They reach no service and name no ground station.
+  bool signing = false;
+  std::uint64_t signing_refused = 0;
+  std::array<std::uint64_t, mavlink::kSigningRefusalCount> signing_refused_by_reason{};
 };
 
 // Durations of one kind [ms], bounded: the first kCapacity are kept, after that each new one replaces a

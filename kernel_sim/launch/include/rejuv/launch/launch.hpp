@@ -14,6 +14,7 @@
 
 #include "launch.pb.h"
 #include "rejuv/core/result.hpp"
+#include "rejuv/mavlink/frame.hpp"
 #include "rejuv/textproto/textproto.hpp"
 #include "rejuv/core/time.hpp"
 
@@ -35,6 +36,24 @@ struct LoadedLaunch {
 // (tests, fuzzing).
 [[nodiscard]] Result<LoadedLaunch, LoadError> parse_launch(std::string_view text,
                                                            const std::filesystem::path& as_path);
+
+// The network gate's MAVLink 2 signing key: `network.signing_key` (64 hex digits) or the file named by
+// `network.signing_key_file` (relative to the launch file's folder; 64 hex digits, surrounding white space
+// ignored; not readable by group or others). nullopt: neither is set. The error says what is wrong (the
+// validator reports it at the field's file:line; the kernel reads the key again at start).
+struct KeyError {
+  std::string field;    // "signing_key" or "signing_key_file"
+  std::string message;
+};
+[[nodiscard]] Result<std::optional<mavlink::SigningKey>, KeyError> signing_key(const proto::NetworkSpec& network,
+                                                                              const std::filesystem::path& launch_path);
+
+// `network.ground_address` split into its IPv4 address and port ("a.b.c.d:port", port 1 … 65535).
+struct HostPort {
+  std::string ip;
+  std::uint16_t port = 0;
+};
+[[nodiscard]] std::optional<HostPort> ground_address(std::string_view text);
 
 // ---- defaults (one place; the proto keeps what the user wrote) ----
 namespace defaults {

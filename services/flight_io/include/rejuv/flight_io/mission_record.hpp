@@ -4,7 +4,7 @@
 // restarts; gen_set_point writes it after each setpoint update — only in UPDATE, inside the secure execution
 // interval — and the services restarted from their binaries read it at boot. The same layout, with the
 // cursor at the start, carries a validated mission upload from commander to gen_set_point (the cell
-// `mission_upload`, docs/link_protocol.md "Upload").
+// `mission_upload`, docs/mavlink.md "Mission upload").
 //
 // Layout (host byte order: written and read on one machine), kMissionRecordBytes bytes:
 //   u32 magic "RJMS", u32 version 1, u32 segment, u32 done (0/1), f64 tau, MissionWaypoints (idl/control.idl).
@@ -43,7 +43,7 @@ using MissionRecordBytes = std::array<std::byte, kMissionRecordBytes>;
 [[nodiscard]] Result<std::optional<MissionRecord>, InputFailure> decode_mission_record(
     std::span<const std::byte> bytes);
 
-// Where an uploaded mission may take the vehicle (docs/link_protocol.md "Upload"): horizontally within
+// Where an uploaded mission may take the vehicle (docs/mavlink.md "Mission upload"): horizontally within
 // geofence_radius_m of home (the launch graph's first waypoint), at least min_altitude_m above it, and at most
 // kMaxWaypoints − 1 waypoints (the path flown starts at the current setpoint). Service params override the
 // defaults: geofence.radius_m, geofence.min_altitude_m.

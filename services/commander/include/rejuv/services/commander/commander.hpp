@@ -4,7 +4,7 @@
 // Topics: out mission (MissionWaypoints), published once at start from the launch graph's mission; in
 // mission_upload (from ext_link, in MC) — validated here (flight_io::check_upload: count, geofence, altitude
 // floor) and, if valid, kept in the Persistent cell uploaded_mission, which gen_set_point applies at the
-// next setpoint update (docs/link_protocol.md "Upload") — and sr_mode (uploads are expected in MC only:
+// next setpoint update (docs/mavlink.md "Mission upload") — and sr_mode (uploads are expected in MC only:
 // the SEI has no network).
 //
 // Params — the launch graph's mission, as the kernel passes it to every service (sdk/service.hpp):

@@ -1,37 +1,38 @@
 // The `ext_link` service (DESIGN §2, §4 `lateral`; paper §IV-D): the vehicle's end of the ground link, the
 // only network-facing service. It holds the Network cap `ext_net` (RW, in MC only: the kernel's network
-// gate relays nothing to it and refuses its sends in the secure execution interval) and speaks the link
-// protocol of link_protocol.hpp (docs/link_protocol.md).
+// gate relays nothing to it and refuses its sends in the secure execution interval) and speaks MAVLink 2
+// (kernel_sim/mavlink; docs/mavlink.md) as system 1, component 1 (MAV_COMP_ID_AUTOPILOT1).
 //
-//   ground → Hello          the ground station is there. The kernel's gate remembers the source of the last
-//                           relayed datagram and sends there; that address is kernel state and survives
-//                           the rollbacks that wipe what ext_link itself learned in MC.
-//   (timer)                 Telemetry every telemetry_period, in MC only (refused by the kernel, quietly,
-//                           while no ground station has spoken).
-//   ground → MissionUpload  decoded and range-checked, then judged by flight_io::validate_upload — the check
-//                           commander applies (count, geofence around home, altitude floor), with the same
-//                           params — and either published on mission_upload (DATA: commander validates it
-//                           again before keeping it) and acknowledged with a MissionAck Forwarded, or answered
-//                           with a MissionAck Refused that names the reason and the waypoint at fault, and
-//                           not published. A retransmission of the upload just forwarded is acknowledged
-//                           again, not republished; a refused one is refused again.
-//   anything else           refused, counted by reason, logged rate-limited; never a crash, never an effect.
-//
-// Topics: in vehicle_state, setpoint, sr_mode, security_event (telemetry); out mission_upload (MC only).
-// Params: `telemetry_period_s` (default 0.1: 10 Hz; 0.01 … 10); the launch graph's mission (home is its
-// first waypoint) and `geofence.radius_m`, `geofence.min_altitude_m` as commander reads them
-// (flight_io::upload_bounds: set them on both services, or neither).
+//   ground → HEARTBEAT, anything valid   the ground station is there: the kernel's gate sends to the source
+//                           of the last datagram judged valid; that address is kernel state and survives the
+//                           rollbacks that wipe what ext_link itself learned in MC.
+//   ground → MISSION_COUNT … MISSION_ITEM_INT   the mission upload (mission.hpp): each item requested with
+//                           MISSION_REQUEST_INT; when the last one has come, the whole mission is judged by
+//                           flight_io::validate_upload — the check commander applies, with the same params —
+//                           and either published on mission_upload (DATA: commander validates it again) and
+//                           acknowledged MAV_MISSION_ACCEPTED, or refused with the protocol's error code. A
+//                           partly received mission is never published. An item when no upload is in
+//                           progress (a rollback wiped it) is answered MAV_MISSION_INVALID_SEQUENCE, and the
+//                           ground station starts again.
+//   ground → MISSION_REQUEST_LIST       MISSION_COUNT 0 (the mission flown is commander's, not downloadable here)
+//   ground → MISSION_CLEAR_ALL          MISSION_ACK MAV_MISSION_UNSUPPORTED (an uploaded mission is only replaced)
+//   (timer)                 HEARTBEAT, SYS_STATUS, MISSION_CURRENT at 1 Hz; LOCAL_POSITION_NED and ATTITUDE
+//                           every telemetry_period (and GLOBAL_POSITION_INT, given a home on Earth);
+//                           MISSION_ITEM_REACHED when the setpoint moves on; STATUSTEXT for SR mode changes, rollbacks and security
+//                           events seen (in any mode; sent in the next MC window).
+//   anything else           refused (not MAVLink 2, bad checksum, unknown message), counted by reason, logged
+//                           rate-limited; never a crash, never an effect.
 //
 // This class is the logic without the SDK (tests/unit/services/ext_link_test.cpp); main.cpp is the glue.
 #pragma once
 
 #include <array>
 #include <cstdint>
+#include <deque>
 #include <optional>
 #include <span>
 #include <string>
-#include <utility>
-#include <variant>
+#include <vector>
 
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
@@ -39,51 +40,71 @@
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/flight_io/mission_record.hpp"
 #include "rejuv/flight_io/params.hpp"
+#include "rejuv/mavlink/messages.hpp"
+#include "rejuv/mavlink/mission.hpp"
 #include "rejuv/msgs/topic_types.hpp"
-#include "rejuv/services/ext_link/link_protocol.hpp"
 
 namespace rejuv::services {
 
+inline constexpr std::uint8_t kVehicleSystem = 1;
+inline constexpr std::uint8_t kVehicleComponent = 1;  // MAV_COMP_ID_AUTOPILOT1
+inline constexpr std::size_t kMaxUploadWaypoints = 16;  // idl/control.idl MissionWaypoints.waypoints[16]
+inline constexpr double kDefaultAcceptanceRadius_m = 0.05;
+
+// HEARTBEAT.custom_mode: bits 0–7 the SR mode (MC 0, RB 1, SC 2, UPDATE 3, CP 4), bits 8–31 the rollback
+// epoch modulo 2²⁴ (docs/mavlink.md).
+[[nodiscard]] std::uint32_t custom_mode_of(SrMode mode, Epoch epoch);
+
 class ExtLink {
  public:
-  // What an upload must pass to be forwarded (commander's check: flight_io::validate_upload).
   struct UploadGuard {
     flight::PathWaypoint home{};  // the launch graph's first waypoint
     flight_io::UploadBounds bounds{};
   };
   explicit ExtLink(UploadGuard guard) : guard_(std::move(guard)) {}
-  // From the service's params: the launch graph's mission (its first waypoint is home) and geofence.*.
+
+  // Where home (the local frame's origin) is on Earth, for GLOBAL_POSITION_INT: ext_link's params
+  // `home_lat_deg`, `home_lon_deg` (WGS-84 [deg]) and `home_alt_m` (AMSL [m], default 0). Without them no
+  // GLOBAL_POSITION_INT is sent.
+  struct GeoHome {
+    double lat_deg = 0;
+    double lon_deg = 0;
+    double alt_m = 0;
+  };
+  void set_home(const GeoHome& home) { home_ = home; }
   [[nodiscard]] static Result<ExtLink, flight_io::InputFailure> from_params(const flight_io::Params& params);
 
-  // A decoded upload to publish on mission_upload, then acknowledge.
+  // A complete upload that passed validate_upload: publish it, then acknowledge with forwarded().
   struct Forward {
-    rejuv_msg_MissionWaypoints upload{};  // what to publish
-    link::MissionUpload decoded{};        // as it came
-    std::uint32_t sequence = 0;
+    rejuv_msg_MissionWaypoints upload{};
+    std::vector<mavlink::LocalWaypoint> waypoints{};
+    std::uint8_t ground_system = 0;
+    std::uint8_t ground_component = 0;
   };
-  // A retransmission of the upload already forwarded: acknowledge it again, publish nothing.
-  struct Reacknowledge {
-    std::uint32_t sequence = 0;
+  // What one valid datagram asks for: frames to send back, maybe a mission to publish, maybe a log line.
+  struct Inbound {
+    std::vector<mavlink::Message> replies{};
+    std::optional<Forward> forward{};
+    std::optional<std::string> note{};
   };
-  // A well-formed upload that validate_upload refuses: answer with a negative acknowledgement, publish nothing.
-  struct Refuse {
-    std::uint32_t sequence = 0;
-    link::RefusalReason reason = link::RefusalReason::InvalidMission;
-    std::uint16_t waypoint = 0;  // in the upload, when the reason names one
-    std::string message{};       // for the log
-  };
-  // A Hello: the ground station wants telemetry.
-  struct GroundHello {};
-  using Inbound = std::variant<GroundHello, Forward, Reacknowledge, Refuse>;
+  [[nodiscard]] Result<Inbound, mavlink::DecodeError> on_datagram(std::span<const std::byte> datagram, Nanos now);
+  // The upload of `forward` was published: remember it and build its MAV_MISSION_ACCEPTED.
+  [[nodiscard]] mavlink::Message forwarded(const Forward& forward);
+  // It could not be published: the upload is dropped (the ground station times out and starts again).
+  void abandon();
+  // The frame of a message this vehicle sends (its sequence number counts up).
+  [[nodiscard]] mavlink::Frame frame(const mavlink::Message& message);
 
-  // One datagram relayed by the gate (untrusted bytes). A refusal is counted by reason.
-  [[nodiscard]] Result<Inbound, link::DecodeError> on_datagram(std::span<const std::byte> datagram, Nanos now);
-  // The upload of `forward` was published: remember it and build its MissionAck.
-  [[nodiscard]] link::Datagram forwarded(const Forward& forward);
-  // The MissionAck of a retransmission.
-  [[nodiscard]] link::Datagram acknowledge(std::uint32_t upload_sequence);
-  // The negative MissionAck (status Refused, the reason and the waypoint) of `refuse`; counts it.
-  [[nodiscard]] link::Datagram refused_upload(const Refuse& refuse);
+  // What the SR cycle and the kernel show at a timer tick (in any mode): queues STATUSTEXTs for a new mode,
+  // a new epoch (a rollback) and new security events. Pending texts of an older epoch are dropped: they were
+  // for the MC window a rollback has since ended (they were sent there, or nobody was listening).
+  struct Observation {
+    SrMode mode = SrMode::MC;
+    Epoch epoch{};
+    std::uint64_t security_events = 0;
+    const rejuv_msg_SecurityEvent* latest_event = nullptr;
+  };
+  void observe(const Observation& seen);
 
   // What telemetry reports (the latest of each topic; absent ones are sent as zeros).
   struct TelemetryInputs {
@@ -92,35 +113,59 @@ class ExtLink {
     const rejuv_msg_Setpoint* setpoint = nullptr;
     SrMode mode = SrMode::MC;
     Epoch epoch{};
-    std::uint64_t security_events = 0;
   };
-  [[nodiscard]] link::Datagram telemetry(const TelemetryInputs& in);
+  // The messages due at `in.now` (MC only): pending STATUSTEXTs, the 1 Hz set when a second has passed,
+  // MISSION_ITEM_REACHED when the setpoint's waypoint index grew, LOCAL_POSITION_NED and ATTITUDE.
+  [[nodiscard]] std::vector<mavlink::Message> telemetry(const TelemetryInputs& in);
 
-  // Whether a ground station has said Hello or uploaded since this incarnation's checkpoint (informational).
-  [[nodiscard]] bool ground_known() const { return ground_known_; }
   [[nodiscard]] std::uint64_t refused() const { return refused_total_; }
-  [[nodiscard]] std::uint64_t refused(link::DecodeError why) const { return refused_[static_cast<std::size_t>(why)]; }
+  [[nodiscard]] std::uint64_t refused(mavlink::DecodeError why) const { return refused_[static_cast<std::size_t>(why)]; }
   [[nodiscard]] std::uint64_t uploads_forwarded() const { return uploads_forwarded_; }
   [[nodiscard]] std::uint64_t uploads_refused() const { return uploads_refused_; }
-  // Rate limit of refusal log lines on the kernel clock: true at most once per second; `suppressed` is how
-  // many refusals were not logged since the last line.
+  [[nodiscard]] bool upload_in_progress() const { return receiving_.has_value(); }
+  [[nodiscard]] std::size_t pending_texts() const { return pending_.size(); }
   [[nodiscard]] bool should_log_refusal(Nanos now, std::uint64_t& suppressed);
 
+  static constexpr std::size_t kMaxPendingTexts = 8;
+
  private:
+  struct Receiving {
+    std::uint16_t count = 0;
+    std::uint8_t ground_system = 0;
+    std::uint8_t ground_component = 0;
+    double acceptance_radius_m = kDefaultAcceptanceRadius_m;
+    std::vector<mavlink::LocalWaypoint> waypoints{};
+  };
+  struct PendingText {
+    Epoch epoch{};
+    mavlink::StatusText text{};
+  };
+  [[nodiscard]] mavlink::Message ack(std::uint8_t system, std::uint8_t component, mavlink::MissionResult result) const;
+  [[nodiscard]] Inbound on_count(const mavlink::FrameHeader& from, const mavlink::MissionCount& count);
+  [[nodiscard]] Inbound on_item(const mavlink::FrameHeader& from, const mavlink::MissionItemInt& item, Nanos now);
+  void queue_text(Epoch epoch, mavlink::Severity severity, const std::string& text);
+
   UploadGuard guard_;
-  std::uint32_t next_sequence_ = 1;
-  bool ground_known_ = false;
-  std::optional<link::MissionUpload> last_upload_{};
-  std::uint32_t last_upload_sequence_ = 0;
+  std::uint8_t next_seq_ = 0;
+  std::optional<Receiving> receiving_{};
+  std::optional<std::vector<mavlink::LocalWaypoint>> last_forwarded_{};
   std::uint64_t uploads_forwarded_ = 0;
   std::uint64_t uploads_refused_ = 0;
   std::uint64_t refused_total_ = 0;
-  std::array<std::uint64_t, link::kDecodeErrorCount> refused_{};
+  std::array<std::uint64_t, mavlink::kDecodeErrorCount> refused_{};
   std::optional<Nanos> last_log_{};
   std::uint64_t unlogged_ = 0;
+  std::optional<Nanos> last_slow_{};  // the last 1 Hz set
+  std::optional<std::uint32_t> last_waypoint_{};  // the setpoint's waypoint index at the last telemetry
+  std::optional<GeoHome> home_{};
+  std::optional<SrMode> seen_mode_{};
+  std::optional<Epoch> seen_epoch_{};
+  std::uint64_t seen_events_ = 0;
+  std::deque<PendingText> pending_{};
 };
 
 // The upload as commander's topic type, stamped `now`.
-[[nodiscard]] rejuv_msg_MissionWaypoints to_message(const link::MissionUpload& upload, Nanos now);
+[[nodiscard]] rejuv_msg_MissionWaypoints to_message(std::span<const mavlink::LocalWaypoint> waypoints,
+                                                    double acceptance_radius_m, Nanos now);
 
 }  // namespace rejuv::services

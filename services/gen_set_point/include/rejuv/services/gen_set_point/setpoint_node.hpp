@@ -42,7 +42,7 @@ class SetpointNode {
   // A cold restart (DESIGN §7): continue the kept mission where the record says x_sp was, and publish that
   // x_sp (stamped `now`) as soon as the mode allows. Refused (nothing changed) if its mission is no path.
   Result<void, flight_io::InputFailure> restore(const flight_io::MissionRecord& record, Nanos now);
-  // A validated mission upload (docs/link_protocol.md), applied at a setpoint update: the new path runs from
+  // A validated mission upload (docs/mavlink.md), applied at a setpoint update: the new path runs from
   // the current x_sp through the uploaded waypoints, so x_sp does not jump; the update rule then moves it.
   // At most kMaxWaypoints − 1 waypoints (the current x_sp is the first). Nothing changes when it is refused
   // or when it is the upload already being flown (the cell keeps an upload until the next one).

@@ -1,0 +1,153 @@
+// `rejuv run` against a MAVLink 2 ground station Rejuv did not write: node-mavlink (tests/mavlink_client/
+// client.js, installed into build/<preset>/mavlink_client by ./rejuv's set-up; docs/mavlink.md). The square,
+// in lockstep, with SR, and MAVLink signing on (a key in the launch file's network block): the client
+// exchanges heartbeats, uploads a mission through the secure execution interval (acknowledged
+// MAV_MISSION_ACCEPTED), sees the vehicle reach the uploaded waypoint in LOCAL_POSITION_NED and a rollback in
+// STATUSTEXT; its unsigned and wrongly signed uploads are refused by the kernel's gate (the run summary).
+#include <gtest/gtest.h>
+#include <google/protobuf/struct.pb.h>
+#include <google/protobuf/util/json_util.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "../rejuv_cli.hpp"
+#include "../test_domain.hpp"
+#include "rejuv/sys/udp.hpp"
+#include "summary.pb.h"
+
+namespace rejuv {
+namespace {
+
+using google::protobuf::Struct;
+using google::protobuf::Value;
+using test_support::kRepo;
+using test_support::slurp;
+
+const std::filesystem::path kClientDir = std::filesystem::path(REJUV_BINARY_DIR) / "mavlink_client";
+constexpr std::string_view kKey = "6c1a4e2f9b0d7c3e5a8f1b2d4c6e8a0b3d5f7a9c1e2b4d6f8a0c2e4b6d8f0a1c";
+constexpr std::string_view kWrongKey = "ffeeddccbbaa99887766554433221100ffeeddccbbaa99887766554433221100";
+
+// Starts `node client.js args…` with the client's modules; stdout to `out`. The child's pid, or -1.
+pid_t start_client(const std::vector<std::string>& client_args, const std::filesystem::path& out) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  std::vector<std::string> argv_strings{"node", (kRepo / "tests/mavlink_client/client.js").string()};
+  argv_strings.insert(argv_strings.end(), client_args.begin(), client_args.end());
+  std::vector<char*> argv;
+  for (std::string& a : argv_strings) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::vector<std::string> env_strings{"NODE_PATH=" + (kClientDir / "node_modules").string()};
+  for (char** e = environ; *e != nullptr; ++e) {
+    if (std::string_view(*e).starts_with("NODE_PATH=")) continue;
+    env_strings.emplace_back(*e);
+  }
+  std::vector<char*> envp;
+  for (std::string& e : env_strings) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawnp(&pid, "node", &actions, nullptr, argv.data(), envp.data()) != 0) pid = -1;
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
+}
+
+// Waits for the client to exit (it gives up by itself after its --timeout); kills it past `limit`.
+int wait_client(pid_t pid, std::chrono::seconds limit) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  int status = 0;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (::waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::this_thread::sleep_for(std::chrono::milliseconds{50});
+  }
+  ::kill(pid, SIGKILL);
+  ::waitpid(pid, &status, 0);
+  ADD_FAILURE() << "the MAVLink client did not exit within " << limit.count() << " s";
+  return -1;
+}
+
+const Value& at(const Struct& s, const std::string& key) {
+  static const Value kNull;
+  const auto it = s.fields().find(key);
+  return it == s.fields().end() ? kNull : it->second;
+}
+
+// A free UDP port on loopback (bound, read, released: the kernel binds it next).
+std::uint16_t free_port() {
+  auto s = sys::UdpSocket::bind(sys::UdpAddress::loopback(0));
+  EXPECT_TRUE(s.has_value());
+  if (!s) return 0;
+  auto a = s->local_address();
+  return a ? a->port : 0;
+}
+
+class MavlinkClient : public test_support::ScratchDirTest {
+ protected:
+  MavlinkClient() : ScratchDirTest("rejuv_mavlink_") {}
+  [[nodiscard]] bool keep_on_failure() const override { return true; }
+  [[nodiscard]] const std::filesystem::path& dir() const { return dir_; }
+};
+
+TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
+  ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
+      << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
+  // Given the square with the key in its network block (the policy path made absolute for the copy) …
+  std::string graph_text = slurp(kRepo / "launch/quad_square.launch.pbtxt");
+  const std::string relative = "\"../policies/quad_sr.policy.pbtxt\"";
+  const auto policy_at = graph_text.find(relative);
+  ASSERT_NE(policy_at, std::string::npos);
+  graph_text.replace(policy_at, relative.size(), "\"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
+  graph_text += "\nnetwork { signing_key: \"" + std::string(kKey) + "\" }\n";
+  const auto graph = dir() / "signed.launch.pbtxt";
+  std::ofstream(graph) << graph_text;
+  const std::uint16_t port = free_port();
+  ASSERT_NE(port, 0);
+  // … when node-mavlink talks to it while it flies (lockstep; the client in wall-clock time) …
+  const auto client_out = dir() / "client.json";
+  const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--wrong-key",
+                                     std::string(kWrongKey), "--timeout", "60", "--target", "-0.6,-0.4,-3.3"},
+                                    client_out);
+  ASSERT_GT(client, 0) << "cannot start node";
+  const auto summary_json = dir() / "summary.json";
+  const test_support::CliOutcome run = test_support::run_rejuv(
+      dir(), {"run", graph.string(), "--duration", "240", "--net-port", std::to_string(port), "--domain",
+              std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json.string()});
+  const int client_exit = wait_client(client, std::chrono::seconds{90});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  const std::string client_text = slurp(client_out);
+  EXPECT_EQ(client_exit, 0) << client_text;
+  // … then the client saw the vehicle, its upload accepted and flown, and a rollback reported.
+  Struct report;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(client_text, &report).ok()) << client_text;
+  EXPECT_TRUE(at(report, "heartbeat").bool_value());
+  EXPECT_EQ(at(report, "vehicle_type").number_value(), 2) << "MAV_TYPE_QUADROTOR";
+  EXPECT_EQ(at(report, "upload_ack").number_value(), 0) << "MAV_MISSION_ACCEPTED";
+  // The upload began in the pre-flight alignment (the SEI): its first transmissions were dropped by the gate.
+  EXPECT_GE(at(report, "upload_unanswered").number_value(), 1) << client_text;
+  EXPECT_TRUE(at(report, "reached_target").bool_value()) << client_text;
+  EXPECT_GT(at(report, "distance_at_ack_m").number_value(), at(report, "min_distance_after_ack_m").number_value() + 0.3);
+  EXPECT_TRUE(at(report, "rollback_statustext").has_string_value()) << client_text;
+  // The kernel's gate refused the unsigned and the wrongly signed frames before ext_link saw them.
+  proto::RunSummary summary;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json), &summary).ok());
+  EXPECT_TRUE(summary.network().signing());
+  std::uint64_t unsigned_refused = 0, bad_signature = 0;
+  for (const proto::LinkRefusals& r : summary.network().signing_refused_by_reason()) {
+    if (r.reason() == "unsigned") unsigned_refused = r.count();
+    if (r.reason() == "bad_signature") bad_signature = r.count();
+  }
+  EXPECT_GE(unsigned_refused, 1U) << summary.network().DebugString();
+  EXPECT_GE(bad_signature, 1U) << summary.network().DebugString();
+  EXPECT_GT(summary.rollbacks(), 0U);
+  EXPECT_GT(summary.network().dropped_secure_interval(), 0U);
+}
+
+}  // namespace
+}  // namespace rejuv
