@@ -158,6 +158,7 @@ struct Flight {
   int chain_fifo = 0;
   int image_fifo = 0;
   bool realtime = false;
+  bool plan_applied = false;  // the kernel logged its real-time plan as applied (not refused by the machine)
   std::vector<pid_t> left_in_session;
   int children_left = 0;
 };
@@ -208,6 +209,10 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   f.chain_fifo = watch.chain_fifo;
   f.image_fifo = watch.image_fifo;
   f.realtime = realtime;
+  // Applied to lqr_control: another kernel on the machine may hold the real-time budget (cgroup v1
+  // cpu.rt_runtime_us is shared), and then the kernel says which services stay SCHED_OTHER.
+  f.plan_applied = f.log.find("real-time plan: kernel SCHED_FIFO") != std::string::npos &&
+                   f.log.find("'lqr_control' stays SCHED_OTHER") == std::string::npos;
   if (watch.sid) f.left_in_session = session_members(*watch.sid);
   f.children_left = Resources::now().children - children_before;
   ::testing::Test::RecordProperty("max_V", std::to_string(f.summary.max_v()));
@@ -239,11 +244,12 @@ void expect_rollback_held(const Flight& f) {
   EXPECT_EQ(f.log.find('\r'), std::string::npos) << "a carriage return reached the log";
   EXPECT_EQ(f.left_in_session, std::vector<pid_t>{}) << "left in ext_link's session after the run";
   EXPECT_EQ(f.children_left, 0) << "the kernel has children left";
-  // The square's real-time plan, in real time as root: the chain at SCHED_FIFO, never an image (reset on fork).
-  if (f.realtime && ::geteuid() == 0) {
+  // The square's real-time plan where the machine granted it: the chain at SCHED_FIFO, never an image (reset
+  // on fork). Where it was refused (no CAP_SYS_NICE, a container), nothing at all may be SCHED_FIFO.
+  if (f.realtime && f.plan_applied) {
     EXPECT_GT(f.chain_fifo, 0) << "lqr_control was never seen at SCHED_FIFO";
-    EXPECT_EQ(f.image_fifo, 0) << "an image of lqr_control ran at SCHED_FIFO";
   }
+  EXPECT_EQ(f.image_fifo, 0) << "an image of lqr_control ran at SCHED_FIFO";
 }
 
 // What each kind must leave in the counters (the kernel saw it, by kind; or saw nothing where nothing was wrong).
