@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "../node_script.hpp"
 #include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
 #include "rejuv/sys/udp.hpp"
@@ -37,26 +38,8 @@ constexpr std::string_view kWrongKey = "ffeeddccbbaa99887766554433221100ffeeddcc
 
 // Starts `node client.js args…` with the client's modules; stdout to `out`. The child's pid, or -1.
 pid_t start_client(const std::vector<std::string>& client_args, const std::filesystem::path& out) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  std::vector<std::string> argv_strings{"node", (kRepo / "tests/mavlink_client/client.js").string()};
-  argv_strings.insert(argv_strings.end(), client_args.begin(), client_args.end());
-  std::vector<char*> argv;
-  for (std::string& a : argv_strings) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  std::vector<std::string> env_strings{"NODE_PATH=" + (kClientDir / "node_modules").string()};
-  for (char** e = environ; *e != nullptr; ++e) {
-    if (std::string_view(*e).starts_with("NODE_PATH=")) continue;
-    env_strings.emplace_back(*e);
-  }
-  std::vector<char*> envp;
-  for (std::string& e : env_strings) envp.push_back(e.data());
-  envp.push_back(nullptr);
-  pid_t pid = -1;
-  if (posix_spawnp(&pid, "node", &actions, nullptr, argv.data(), envp.data()) != 0) pid = -1;
-  posix_spawn_file_actions_destroy(&actions);
-  return pid;
+  return test_support::start_node_script(kRepo / "tests/mavlink_client/client.js", kClientDir / "node_modules",
+                                         client_args, out);
 }
 
 // Waits for the client to exit (it gives up by itself after its --timeout); kills it past `limit`.
@@ -73,11 +56,7 @@ int wait_client(pid_t pid, std::chrono::seconds limit) {
   return -1;
 }
 
-const Value& at(const Struct& s, const std::string& key) {
-  static const Value kNull;
-  const auto it = s.fields().find(key);
-  return it == s.fields().end() ? kNull : it->second;
-}
+using test_support::json_at;
 
 // A free UDP port on loopback (bound, read, released: the kernel binds it next).
 std::uint16_t free_port() {
@@ -126,14 +105,14 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   // … then the client saw the vehicle, its upload accepted and flown, and a rollback reported.
   Struct report;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(client_text, &report).ok()) << client_text;
-  EXPECT_TRUE(at(report, "heartbeat").bool_value());
-  EXPECT_EQ(at(report, "vehicle_type").number_value(), 2) << "MAV_TYPE_QUADROTOR";
-  EXPECT_EQ(at(report, "upload_ack").number_value(), 0) << "MAV_MISSION_ACCEPTED";
+  EXPECT_TRUE(json_at(report, "heartbeat").bool_value());
+  EXPECT_EQ(json_at(report, "vehicle_type").number_value(), 2) << "MAV_TYPE_QUADROTOR";
+  EXPECT_EQ(json_at(report, "upload_ack").number_value(), 0) << "MAV_MISSION_ACCEPTED";
   // The upload began in the pre-flight alignment (the SEI): its first transmissions were dropped by the gate.
-  EXPECT_GE(at(report, "upload_unanswered").number_value(), 1) << client_text;
-  EXPECT_TRUE(at(report, "reached_target").bool_value()) << client_text;
-  EXPECT_GT(at(report, "distance_at_ack_m").number_value(), at(report, "min_distance_after_ack_m").number_value() + 0.3);
-  EXPECT_TRUE(at(report, "rollback_statustext").has_string_value()) << client_text;
+  EXPECT_GE(json_at(report, "upload_unanswered").number_value(), 1) << client_text;
+  EXPECT_TRUE(json_at(report, "reached_target").bool_value()) << client_text;
+  EXPECT_GT(json_at(report, "distance_at_ack_m").number_value(), json_at(report, "min_distance_after_ack_m").number_value() + 0.3);
+  EXPECT_TRUE(json_at(report, "rollback_statustext").has_string_value()) << client_text;
   // The kernel's gate refused the unsigned and the wrongly signed frames before ext_link saw them.
   proto::RunSummary summary;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json), &summary).ok());

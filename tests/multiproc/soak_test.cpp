@@ -65,7 +65,7 @@ TEST_F(Soak, ThirtyCycles_ReachesThemAndEverySeriesIsFlat) {
   }
 }
 
-// Issue 32: one kernel for the whole soak (the mission, then a hover), the SR cycle's length judged like
+// One kernel for the whole soak (the mission, then a hover), the SR cycle's length judged like
 // memory. 60 cycles (≈ 30 s of wall time here): the mechanism; the 3000-cycle flight is under the label soak.
 TEST_F(Soak, OneKernelSixtyCycles_CycleLengthJudgedAndFlat) {
   const Outcome r = soak({"--one-kernel", "--cycles", "60", "--sample-every", "5"});
@@ -76,7 +76,7 @@ TEST_F(Soak, OneKernelSixtyCycles_CycleLengthJudgedAndFlat) {
   EXPECT_NE(r.csv.find("sr_cycle_s"), std::string::npos);
 }
 
-// Issue 32's done criterion: 3000 SR cycles in one kernel (≈ 3 h of simulated flight, ≈ 25 min of wall time
+// 3000 SR cycles in one kernel (≈ 3 h of simulated flight, ≈ 25 min of wall time
 // here), the SR cycle and memory flat. `./rejuv test -L soak`.
 TEST_F(Soak, DISABLED_OneKernelThreeThousandCycles_CycleLengthAndMemoryFlat) {
   const Outcome r = soak({"--one-kernel", "--cycles", "3000", "--sample-every", "50"});

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "rejuv/launch/launch.hpp"
+#include "../node_script.hpp"
 #include "../rejuv_cli.hpp"
 #include "summary.pb.h"
 #include "../test_domain.hpp"
@@ -32,34 +33,14 @@ const std::filesystem::path kReaderDir = std::filesystem::path(REJUV_BINARY_DIR)
 
 // Runs `node read_ulog.js file` with the reader's modules; its stdout to `out`. The exit code, -1 on a signal.
 int run_reader(const std::filesystem::path& file, const std::filesystem::path& out) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  std::string node = "node", script = (kRepo / "tests/ulog_reader/read_ulog.js").string(), arg = file.string();
-  std::vector<char*> argv{node.data(), script.data(), arg.data(), nullptr};
-  std::vector<std::string> env_strings{"NODE_PATH=" + (kReaderDir / "node_modules").string()};
-  for (char** e = environ; *e != nullptr; ++e) {
-    if (std::string_view(*e).starts_with("NODE_PATH=")) continue;
-    env_strings.emplace_back(*e);
-  }
-  std::vector<char*> envp;
-  for (std::string& e : env_strings) envp.push_back(e.data());
-  envp.push_back(nullptr);
-  pid_t pid = -1;
-  int code = -1;
-  if (posix_spawnp(&pid, "node", &actions, nullptr, argv.data(), envp.data()) == 0) {
-    int status = 0;
-    if (::waitpid(pid, &status, 0) == pid && WIFEXITED(status)) code = WEXITSTATUS(status);
-  }
-  posix_spawn_file_actions_destroy(&actions);
-  return code;
+  const pid_t pid = test_support::start_node_script(kRepo / "tests/ulog_reader/read_ulog.js", kReaderDir / "node_modules",
+                                                    {file.string()}, out);
+  int status = 0;
+  if (pid < 0 || ::waitpid(pid, &status, 0) != pid || !WIFEXITED(status)) return -1;
+  return WEXITSTATUS(status);
 }
 
-const Value& at(const Struct& s, const std::string& key) {
-  static const Value kNull;
-  const auto it = s.fields().find(key);
-  return it == s.fields().end() ? kNull : it->second;
-}
+using test_support::json_at;
 
 class UlogReader : public test_support::ScratchDirTest {
  protected:
@@ -92,30 +73,30 @@ TEST_F(UlogReader, SquareWithSr_ReadBackByFoxgloveAsRouted) {
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(reader_json), &r).ok()) << slurp(reader_json);
 
   // Then every routed message is there, topic by topic, and every topic of the graph is a subscription
-  const Struct& topics = at(r, "topics").struct_value();
+  const Struct& topics = json_at(r, "topics").struct_value();
   ASSERT_FALSE(summary.ulog().routed_by_topic().empty());
   std::uint64_t routed = 0;
   for (const auto& [name, count] : summary.ulog().routed_by_topic()) {
     ASSERT_TRUE(topics.fields().contains(name)) << name;
-    EXPECT_EQ(at(at(topics, name).struct_value(), "count").number_value(), static_cast<double>(count)) << name;
+    EXPECT_EQ(json_at(json_at(topics, name).struct_value(), "count").number_value(), static_cast<double>(count)) << name;
     routed += count;
   }
   EXPECT_EQ(topics.fields_size(), summary.ulog().routed_by_topic_size() + 1) << "the topics and rejuv_sr_event";
   for (const char* busy : {"sensor_gyro", "vehicle_state", "actuator_outputs", "ground_truth", "sr_mode"}) {
     EXPECT_GT(summary.ulog().routed_by_topic().at(busy), 0u) << busy;
   }
-  EXPECT_EQ(at(at(topics, "rejuv_sr_event").struct_value(), "count").number_value(),
+  EXPECT_EQ(json_at(json_at(topics, "rejuv_sr_event").struct_value(), "count").number_value(),
             static_cast<double>(summary.ulog().sr_events()));
   EXPECT_EQ(routed + summary.ulog().sr_events(), summary.ulog().data_messages());
-  EXPECT_EQ(at(r, "data_messages").number_value(), static_cast<double>(summary.ulog().data_messages()));
-  EXPECT_EQ(at(r, "log_count").number_value(), static_cast<double>(summary.ulog().logged_strings()));
+  EXPECT_EQ(json_at(r, "data_messages").number_value(), static_cast<double>(summary.ulog().data_messages()));
+  EXPECT_EQ(json_at(r, "log_count").number_value(), static_cast<double>(summary.ulog().logged_strings()));
 
   // … with timestamps that never decrease, ending at the run's end (simulated time)
-  EXPECT_TRUE(at(r, "ordered").bool_value());
+  EXPECT_TRUE(json_at(r, "ordered").bool_value());
   for (const auto& [name, t] : topics.fields()) {
-    EXPECT_TRUE(at(t.struct_value(), "nondecreasing").bool_value()) << name;
+    EXPECT_TRUE(json_at(t.struct_value(), "nondecreasing").bool_value()) << name;
   }
-  const auto& range = at(r, "time_range_us").list_value();
+  const auto& range = json_at(r, "time_range_us").list_value();
   ASSERT_EQ(range.values_size(), 2);
   EXPECT_LE(range.values(0).number_value(), range.values(1).number_value());
   EXPECT_NEAR(range.values(1).number_value() / 1e6, summary.sim_time_s(), 0.01);
@@ -123,30 +104,30 @@ TEST_F(UlogReader, SquareWithSr_ReadBackByFoxgloveAsRouted) {
   // … the launch file's parameters, the run's information
   auto loaded = launch::load_launch(graph);
   ASSERT_TRUE(loaded);
-  const Struct& params = at(r, "parameters").struct_value();
-  EXPECT_NEAR(at(params, "sr.t_mc_s").number_value(), loaded->graph.sr().t_mc_s(), 1e-6);
-  EXPECT_NEAR(at(params, "sr.t_est_s").number_value(), loaded->graph.sr().t_est_s(), 1e-6);
-  const Struct& info = at(r, "info").struct_value();
-  EXPECT_EQ(at(info, "sys_name").string_value(), "Rejuv");
-  EXPECT_EQ(at(info, "graph").string_value(), loaded->graph.name());
-  EXPECT_EQ(at(info, "seed").number_value(), static_cast<double>(loaded->graph.seed()));
+  const Struct& params = json_at(r, "parameters").struct_value();
+  EXPECT_NEAR(json_at(params, "sr.t_mc_s").number_value(), loaded->graph.sr().t_mc_s(), 1e-6);
+  EXPECT_NEAR(json_at(params, "sr.t_est_s").number_value(), loaded->graph.sr().t_est_s(), 1e-6);
+  const Struct& info = json_at(r, "info").struct_value();
+  EXPECT_EQ(json_at(info, "sys_name").string_value(), "Rejuv");
+  EXPECT_EQ(json_at(info, "graph").string_value(), loaded->graph.name());
+  EXPECT_EQ(json_at(info, "seed").number_value(), static_cast<double>(loaded->graph.seed()));
 
   // … and the checkpoints and rollbacks of the run, as logged strings
   ASSERT_GT(summary.checkpoints(), 0u);
   ASSERT_GT(summary.rollbacks(), 0u);
-  const Struct& matching = at(r, "logs_matching").struct_value();
-  EXPECT_EQ(at(matching, "checkpoint").number_value(), static_cast<double>(summary.checkpoints()));
-  EXPECT_EQ(at(matching, "rollback").number_value(), static_cast<double>(summary.rollbacks()));
-  EXPECT_GT(at(matching, "mode").number_value(), 0);
+  const Struct& matching = json_at(r, "logs_matching").struct_value();
+  EXPECT_EQ(json_at(matching, "checkpoint").number_value(), static_cast<double>(summary.checkpoints()));
+  EXPECT_EQ(json_at(matching, "rollback").number_value(), static_cast<double>(summary.rollbacks()));
+  EXPECT_GT(json_at(matching, "mode").number_value(), 0);
 
   // … and field values decoded through the IDL-derived formats: the vehicle hovers near 3 m (NED z ≈ −3)
-  const Struct& truth = at(at(topics, "ground_truth").struct_value(), "last").struct_value();
-  const auto& p = at(truth, "p_N_m").list_value();
+  const Struct& truth = json_at(json_at(topics, "ground_truth").struct_value(), "last").struct_value();
+  const auto& p = json_at(truth, "p_N_m").list_value();
   ASSERT_EQ(p.values_size(), 3);
   EXPECT_NEAR(p.values(2).number_value(), -3.0, 0.5);
-  EXPECT_NEAR(at(truth, "timestamp_ns").number_value() / 1e3, at(truth, "timestamp").number_value(), 5e3)
+  EXPECT_NEAR(json_at(truth, "timestamp_ns").number_value() / 1e3, json_at(truth, "timestamp").number_value(), 5e3)
       << "the struct's own stamp [ns] and the log's [µs] agree (lockstep: within a step)";
-  const double last_mode = at(at(at(topics, "sr_mode").struct_value(), "last").struct_value(), "mode").number_value();
+  const double last_mode = json_at(json_at(json_at(topics, "sr_mode").struct_value(), "last").struct_value(), "mode").number_value();
   EXPECT_GE(last_mode, 0);
   EXPECT_LE(last_mode, 4);
 }

@@ -154,13 +154,9 @@ TEST(CompromisedMission, Ekf2ForksANetworkHelperAtBoot_NoDatagramHelperGoneByFir
   auto reference = cli::run_reference(*graph, std::nullopt);
   ASSERT_TRUE(reference.has_value()) << reference.error();
 
-  kernel::KernelOptions options = test_options();
-  options.time_master = kernel::TimeMaster::Plant;
-  options.idle_deadline = std::chrono::seconds{10};
-  options.network_port = 0;  // the ground link on any free port: tests may run side by side
   RunLog log;
   ASSERT_NE(log.get(), nullptr);
-  options.log = log.get();
+  const kernel::KernelOptions options = mission::mission_options(log.get());
   const int children_before = Resources::now().children;
 
   SessionGuard guard;  // declared before the kernel: runs after its destructor

@@ -1,5 +1,5 @@
-// What the security tests that fly a whole mission share (compromised_mission_test.cpp, issue 17;
-// rollback_attack_test.cpp, issue 26): the graph's text, whether its services are built, the processes of a
+// What the security tests that fly a whole mission share (compromised_mission_test.cpp,
+// rollback_attack_test.cpp): the graph's text, whether its services are built, the processes of a
 // service's session, the run's log in a temporary file, and a guard that leaves no process of a session behind.
 #pragma once
 
@@ -53,6 +53,17 @@ inline std::vector<pid_t> session_members(pid_t sid) {
     out.push_back(pid);
   }
   return out;
+}
+
+// The kernel's options for a mission: the plant as time master, an idle deadline a loaded machine keeps, the
+// ground link on any free port (tests run side by side), the log into `log`.
+inline kernel::KernelOptions mission_options(std::FILE* log) {
+  kernel::KernelOptions options = test_options();
+  options.time_master = kernel::TimeMaster::Plant;
+  options.idle_deadline = std::chrono::seconds{10};
+  options.network_port = 0;
+  options.log = log;
+  return options;
 }
 
 // The kernel and service log of the run, in a temporary file the test reads back.

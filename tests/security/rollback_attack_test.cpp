@@ -1,4 +1,4 @@
-// Issue 26: the attacks on rollback itself (idl/launch.proto AttackKind 18…27; services/attacks
+// The attacks on rollback itself (idl/launch.proto AttackKind 18…27; services/attacks
 // rollback_attacks.cpp; docs/sandbox.md "Threats to rollback"), each carried out by a compromised ext_link in
 // every MC window of the square (launch/quad_square.launch.pbtxt, with its worst-case control attack), flown
 // through the real kernel, the real flight services and the plant — in REAL TIME and in LOCKSTEP. Lockstep
@@ -174,14 +174,10 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   auto reference = cli::run_reference(*graph, std::nullopt);
   ASSERT_TRUE(reference.has_value()) << reference.error();
 
-  kernel::KernelOptions options = test_options();
-  options.time_master = kernel::TimeMaster::Plant;
-  options.idle_deadline = std::chrono::seconds{10};
-  options.network_port = 0;
-  options.duration = reference->alignment + Nanos{kFlight};  // counted from the end of the alignment, as `rejuv run`
   RunLog log;
   ASSERT_NE(log.get(), nullptr);
-  options.log = log.get();
+  kernel::KernelOptions options = mission::mission_options(log.get());
+  options.duration = reference->alignment + Nanos{kFlight};  // counted from the end of the alignment, as `rejuv run`
   const int children_before = Resources::now().children;
 
   SessionGuard guard;  // declared before the kernel: runs after its destructor
@@ -313,7 +309,7 @@ std::vector<Case> all_cases() {
   return out;
 }
 
-INSTANTIATE_TEST_SUITE_P(Issue26, RollbackAttack, ::testing::ValuesIn(all_cases()),
+INSTANTIATE_TEST_SUITE_P(Containment, RollbackAttack, ::testing::ValuesIn(all_cases()),
                          [](const ::testing::TestParamInfo<Case>& i) {
                            std::string name(attacks::to_string(i.param.kind));
                            std::erase(name, '_');
@@ -383,7 +379,7 @@ TEST_P(RollbackAttackWithoutRoot, SigioKernel_KernelAlive) {
   EXPECT_EQ(WEXITSTATUS(status), 0) << "the flight without root failed (its output is above)";
 }
 
-INSTANTIATE_TEST_SUITE_P(Issue26, RollbackAttackWithoutRoot, ::testing::Values(true, false),
+INSTANTIATE_TEST_SUITE_P(Containment, RollbackAttackWithoutRoot, ::testing::Values(true, false),
                          [](const ::testing::TestParamInfo<bool>& i) { return i.param ? "RealTime" : "Lockstep"; });
 
 }  // namespace

@@ -1,4 +1,4 @@
-// `rejuv bench realtime [GRAPH] [--seconds N] [--out DIR]` (issue 27 item 3; docs/realtime.md): what a
+// `rejuv bench realtime [GRAPH] [--seconds N] [--out DIR]` (docs/realtime.md): what a
 // vehicle sees of Rejuv in real time, beside this machine's floor, measured in one go.
 //
 // 1. The floor: Debian's rt-tests `cyclictest` at the control period (one thread, mlockall), as SCHED_OTHER —
@@ -212,7 +212,7 @@ int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, cons
     std::printf("%-26s %7.2f %7.2f %7.2f %7.2f %8s | %-20s | %-20s\n", ("rejuv run " + f.label).c_str(), f.all.p50,
                 f.all.p99, f.all.p999, f.all.max, ratio, cp, rb);
   }
-  // Issue 27 item 4: what the vehicle loses at a checkpoint or a rollback, beside what lockstep charges for it
+  // What the vehicle loses at a checkpoint or a rollback, beside what lockstep charges for it
   // (the launch file's lockstep.checkpoint_charge_ms / rollback_charge_ms model the interval's excess).
   for (const Flight& f : flights) {
     if (!f.error.empty() || f.cp.n == 0 || f.label == "no_sr") continue;

@@ -255,14 +255,7 @@ struct Kernel::Impl {
   Nanos last_sweep{0};                        // kernel clock
 
   // ---- the real-time plan (realtime.cpp; idl/launch.proto RealtimePlan; docs/realtime.md) ----
-  struct RealtimeState {
-    bool active = false;  // the plan is on and the first SCHED_FIFO was granted
-    int kernel = 0;
-    int plant = 0;
-    std::chrono::microseconds rt_time{0};
-  };
-  RealtimeState realtime;
-  static constexpr std::uint32_t kDefaultRtTimeMs = 100;  // RealtimePlan.max_rt_time_ms unset
+  bool realtime_active = false;  // the plan is on and the kernel was granted SCHED_FIFO
   void start_realtime_plan();              // run_realtime: the kernel's threads and memory, the plant, the Ready
   void apply_realtime(ServiceRuntime& s);  // a service that became Ready (spawned, cold-restarted or restored)
 
@@ -284,7 +277,7 @@ struct Kernel::Impl {
   [[nodiscard]] Generation pages_base_for(const ServiceRuntime& s);
   // After a commit: has a copy of each base image make the new generation's images by written pages.
   void send_patches(image::GenerationRecord& record);
-  // The image work a checkpoint or a rollback leaves behind (issue 27): the new generation's patches, the
+  // The image work a checkpoint or a rollback leaves behind: the new generation's patches, the
   // evicted generations, the stray sweep, the spare copies and the kill of retired incarnations. None of it is
   // needed before the next checkpoint or rollback, and all of it takes CPU (forks, page copies, exits) that
   // the vehicle's control chain needs right then: with a vehicle it waits until the first control update

@@ -142,12 +142,14 @@ void Kernel::Impl::net_poll() {
     // Decode through the cap system: which policy slot holds the object with Read in the current mode. A
     // lookup, not a service's request, so nothing is counted as a denial.
     const std::span<const std::byte> bytes(net.rx.data(), r->size);
+    // Whether a reader holds the network now (Read in the current mode).
+    const auto holds = [&](const NetGate::Reader& reader) {
+      const auto c = caps.lookup(cap::CapRef{.space = reader.service, .slot = reader.slot});
+      return c && c->kind == ObjectKind::Network && c->object == *net.object && c->rights.has(Right::Read);
+    };
     // Signing: checked only for a datagram that could be relayed now (in the SEI everything is dropped
     // unread, so a frame retransmitted there costs the stream nothing), before any service sees it.
-    if (net.signing && std::any_of(net.readers.begin(), net.readers.end(), [&](const NetGate::Reader& reader) {
-          const auto c = caps.lookup(cap::CapRef{.space = reader.service, .slot = reader.slot});
-          return c && c->kind == ObjectKind::Network && c->object == *net.object && c->rights.has(Right::Read);
-        })) {
+    if (net.signing && std::any_of(net.readers.begin(), net.readers.end(), holds)) {
       if (auto signed_ok = net.signing->check(bytes); !signed_ok) {
         ++st.signing_refused;
         ++st.signing_refused_by_reason[static_cast<std::size_t>(signed_ok.error())];
@@ -163,8 +165,7 @@ void Kernel::Impl::net_poll() {
     bool sent = false;
     const std::uint64_t id = net.next_id;
     for (const NetGate::Reader& reader : net.readers) {
-      const auto c = caps.lookup(cap::CapRef{.space = reader.service, .slot = reader.slot});
-      if (!c || c->kind != ObjectKind::Network || c->object != *net.object || !c->rights.has(Right::Read)) continue;
+      if (!holds(reader)) continue;
       held = true;
       ServiceRuntime& s = services[reader.service.value()];
       if (s.proc.phase != Phase::Ready || !s.proc.channel.valid() || stopping) continue;

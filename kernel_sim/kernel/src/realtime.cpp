@@ -1,40 +1,33 @@
-// The real-time plan of a REALTIME run (issue 27; idl/launch.proto RealtimePlan; docs/realtime.md): the
+// The real-time plan of a REALTIME run (idl/launch.proto RealtimePlan; docs/realtime.md): the
 // plant (the world) and the kernel at SCHED_FIFO above the control chain's services, each at its launch
 // rt_priority; every one with SCHED_RESET_ON_FORK, so that what a service makes — an image, a spare, a stray,
 // a thread — runs SCHED_OTHER, never above the live chain; RLIMIT_RTTIME on each service, so that one
 // spinning at SCHED_FIFO is killed by the OS (and, lost, rolled back) instead of holding a CPU. Without the
 // privilege the run says once what it could not apply and goes on at SCHED_OTHER.
-#include <chrono>
-
 #include "impl.hpp"
 #include "rejuv/sys/realtime.hpp"
 
 namespace rejuv::kernel {
 
-namespace {
-constexpr std::uint32_t kDefaultKernelPriority = 60;
-constexpr std::uint32_t kDefaultPlantPriority = 70;
-}  // namespace
-
 void Kernel::Impl::start_realtime_plan() {
   const proto::RealtimePlan& plan = graph.graph.realtime();
   if (!plan.enabled() || clock_mode != ClockMode::Realtime) return;
-  realtime.kernel = static_cast<int>(plan.has_kernel_priority() ? plan.kernel_priority() : kDefaultKernelPriority);
-  realtime.plant = static_cast<int>(plan.has_plant_priority() ? plan.plant_priority() : kDefaultPlantPriority);
-  realtime.rt_time = std::chrono::milliseconds{plan.has_max_rt_time_ms() ? plan.max_rt_time_ms() : kDefaultRtTimeMs};
-  if (auto ok = sys::set_fifo_all_threads(realtime.kernel); !ok) {
+  const launch::RealtimeValues v = launch::realtime_values(plan);
+  const auto kernel = static_cast<int>(v.kernel_priority);
+  const auto plant_priority = static_cast<int>(v.plant_priority);
+  if (auto ok = sys::set_fifo_all_threads(kernel); !ok) {
     log("real-time plan not applied: the kernel cannot have SCHED_FIFO %d (%s; it needs CAP_SYS_NICE or "
         "RLIMIT_RTPRIO): every process runs SCHED_OTHER",
-        realtime.kernel, ok.error().to_string().c_str());
+        kernel, ok.error().to_string().c_str());
     return;
   }
-  realtime.active = true;
+  realtime_active = true;
   std::string notes;
   if (plan.lock_memory()) {
     if (auto ok = sys::lock_all_memory(); !ok) notes += "; memory not locked (" + ok.error().to_string() + ")";
   }
-  if (plant_started && realtime.plant > 0) {
-    if (auto ok = sys::set_fifo(plant.pid(), realtime.plant); !ok) {
+  if (plant_started && plant_priority > 0) {
+    if (auto ok = sys::set_fifo(plant.pid(), plant_priority); !ok) {
       notes += "; the plant stays SCHED_OTHER (" + ok.error().to_string() + ")";
     }
   }
@@ -43,14 +36,12 @@ void Kernel::Impl::start_realtime_plan() {
     if (s.live() && s.proc.phase == Phase::Ready) apply_realtime(s);
     if (s.config.spec != nullptr && s.config.spec->rt_priority() > 0) ++chain;
   }
-  log("real-time plan: kernel SCHED_FIFO %d, plant %d, %d services at their rt_priority (RLIMIT_RTTIME %lld ms)%s",
-      realtime.kernel, realtime.plant, chain,
-      static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(realtime.rt_time).count()),
-      notes.c_str());
+  log("real-time plan: kernel SCHED_FIFO %d, plant %d, %d services at their rt_priority (RLIMIT_RTTIME %u ms)%s",
+      kernel, plant_priority, chain, v.max_rt_time_ms, notes.c_str());
 }
 
 void Kernel::Impl::apply_realtime(ServiceRuntime& s) {
-  if (!realtime.active || s.config.spec == nullptr || s.config.spec->rt_priority() == 0 || !s.live()) return;
+  if (!realtime_active || s.config.spec == nullptr || s.config.spec->rt_priority() == 0 || !s.live()) return;
   // RLIMIT_RTTIME was set at spawn (limits_for) and is inherited by every image; the policy is reset on fork
   // and given back here to whichever process is the live service.
   auto ok = sys::set_fifo(s.proc.process.pid(), static_cast<int>(s.config.spec->rt_priority()));

@@ -143,7 +143,6 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
       failure = "watching the restored '" + s.name + "' output: " + watched.error().to_string();
     }
     s.proc.phase = Phase::Ready;
-    apply_realtime(s);  // a copy of an image runs SCHED_OTHER (reset on fork) until it is the live service
     s.flow.new_channel();
     s.stats.pid = s.proc.process.pid();
     // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
@@ -222,6 +221,9 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   publish_sr_mode();
   const Nanos took = wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
   resume_routing();
+  // The restored copies ran SCHED_OTHER (reset on fork) until now: the real-time plan back, after the timed
+  // part (realtime.cpp; a system call per service).
+  for (const image::Image& im : restored->images) apply_realtime(services[im.service.value()]);
   sr_stats.rollback_phases.a.add(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.add(to_ms(t_resumed - t_killed));
   sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));

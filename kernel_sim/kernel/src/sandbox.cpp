@@ -50,7 +50,7 @@ sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
   // birth (the kernel cannot set it later: prlimit on a service of another uid is refused).
   const proto::RealtimePlan& rt = graph.graph.realtime();
   if (rt.enabled() && s.config.spec->rt_priority() > 0) {
-    limits.rt_time_us = std::uint64_t{rt.has_max_rt_time_ms() ? rt.max_rt_time_ms() : kDefaultRtTimeMs} * 1000U;
+    limits.rt_time_us = std::uint64_t{launch::realtime_values(rt).max_rt_time_ms} * 1000U;
   }
   return limits;
 }

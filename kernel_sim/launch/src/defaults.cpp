@@ -16,7 +16,7 @@ std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view e
       proto::INVOKE_CHECKPOINT, proto::ARM_TIMER,  proto::WRITE_LIMITS, proto::PUBLISH_ACTUATOR_OUTPUTS,
       proto::WRITE_PERSISTENT,  proto::FORGED_SLOT, proto::NETWORK_IN_SEI, proto::KILL_IMAGE,
       proto::OPEN_SOCKET,       proto::FLOOD_BROKER, proto::ESCAPE_HELPER,
-      // issue 26: the attacks on rollback itself
+      // the attacks on rollback itself (docs/sandbox.md)
       proto::SIGIO_IMAGES,      proto::SIGIO_KERNEL, proto::SIGIO_LOG_TRAP, proto::STRAY_SPINNERS,
       proto::STRAY_MEMORY,      proto::SPINNING_THREADS, proto::RETIRED_WORKER, proto::WORKER_RAISE,
       proto::FORGED_LOG,        proto::PAGEMAP_FRAMES};
@@ -59,6 +59,13 @@ Seconds t_min(const proto::SrParams& sr) {
 }
 Seconds mission_timeout(const proto::Mission& mission) {
   return Seconds(mission.timeout_s());
+}
+RealtimeValues realtime_values(const proto::RealtimePlan& plan) {
+  RealtimeValues v;
+  if (plan.has_kernel_priority()) v.kernel_priority = plan.kernel_priority();
+  if (plan.has_plant_priority()) v.plant_priority = plan.plant_priority();
+  if (plan.has_max_rt_time_ms()) v.max_rt_time_ms = plan.max_rt_time_ms();
+  return v;
 }
 Seconds checkpoint_charge(const proto::LockstepTiming& lockstep) {
   return lockstep.has_checkpoint_charge_ms() ? Seconds(lockstep.checkpoint_charge_ms() / 1000.0)

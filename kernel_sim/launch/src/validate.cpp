@@ -283,7 +283,7 @@ class Validator {
   Check check_realtime() const {
     const proto::RealtimePlan& p = g_.realtime();
     const auto where = [&](std::string_view field) { return at({{"realtime", -1}}, field); };
-    const std::uint32_t kernel = p.has_kernel_priority() ? p.kernel_priority() : 60;
+    const std::uint32_t kernel = realtime_values(p).kernel_priority;
     if (p.has_kernel_priority() && (kernel < 2 || kernel > 99)) {
       return fail(error(where("kernel_priority"), "kernel_priority must be 2..99 (SCHED_FIFO), got " + std::to_string(kernel)));
     }

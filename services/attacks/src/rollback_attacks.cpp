@@ -1,11 +1,10 @@
-// The attacks on rollback itself (issue 26; idl/launch.proto AttackKind 18…27; docs/sandbox.md "Threats to
-// rollback"): what a compromised service can try, with calls a service may make or once could, so that the
-// next rollback (§IV-B: the restore of a clean image) fails or stalls — by signalling its own frozen images
+// The attacks on rollback itself (idl/launch.proto AttackKind 18…27; docs/sandbox.md "Threats that used
+// rollback itself"): what a compromised service can try, with calls a service may make or once could, so
+// that the next rollback (§IV-B: the restore of a clean image) fails or stalls — by signalling its own frozen images
 // or the kernel through SIGIO, by leaving a trap on an open file that a restored incarnation shares, by
 // spawning processes and threads for the kernel to clean up, by acting after its incarnation was retired.
-// What each did to the runtime before the defences is in issue 26's table; tests/security/
-// rollback_attack_test.cpp flies each against the square, in real time and in lockstep, and judges it by
-// its effect.
+// docs/sandbox.md gives, for each, the defence that stops it; tests/security/rollback_attack_test.cpp flies
+// each against the square, in real time and in lockstep, and judges it by its effect.
 //
 // Like hooks.cpp, the attacker's calls are made here directly (this is the code of a compromised service);
 // a process or thread made here runs only system calls and plain loops (the C library's locks, the
@@ -120,10 +119,12 @@ void AttackHooks::sigio(AttackKind kind, int fd, long owner, int signal) {
 }
 
 void AttackHooks::against_rollback(AttackKind kind, std::uint32_t variant, std::uint32_t count) {
-  const bool processes = kind == AttackKind::StraySpinners || kind == AttackKind::StrayMemory ||
-                         kind == AttackKind::SigioImages || kind == AttackKind::SigioKernel ||
-                         kind == AttackKind::SigioLogTrap;
-  if (processes && !under_filter_) {
+  // The ones that signal or spawn: never outside a seccomp filter (a hook run outside the kernel must not
+  // signal anyone nor leave a process behind).
+  const bool needs_sandbox = kind == AttackKind::StraySpinners || kind == AttackKind::StrayMemory ||
+                             kind == AttackKind::SigioImages || kind == AttackKind::SigioKernel ||
+                             kind == AttackKind::SigioLogTrap;
+  if (needs_sandbox && !under_filter_) {
     svc_.logf(sdk::LogLevel::Warn, "attack %s skipped: not under a seccomp filter", std::string(to_string(kind)).c_str());
     return;
   }

@@ -460,7 +460,7 @@ TEST(LaunchLoader, AttackKindWithoutHook_ListsTheRuntimeKindsOfAHookedService) {
   ASSERT_FALSE(r.has_value());
   EXPECT_NE(r.error().message.find("INVOKE_CHECKPOINT, ARM_TIMER"), std::string::npos) << r.error().to_string();
 }
-// Issue 27 (docs/realtime.md): a service's SCHED_FIFO priority must stay below the kernel's, which rolls it back.
+// The real-time plan (docs/realtime.md): a service's SCHED_FIFO priority must stay below the kernel's, which rolls it back.
 TEST(LaunchLoader, RtPriorityAtTheKernels_SemanticAtTheField) {
   const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_a\"\n  rt_priority: 60");
   const auto r = parse_launch(m.text, kAsPath);

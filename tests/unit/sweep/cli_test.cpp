@@ -138,7 +138,7 @@ TEST_F(SweepCli, InvalidCell_ReportedNotCrashedOn) {
   EXPECT_NE(slurp(out / "sweep.csv").find("rho_s"), std::string::npos);
 }
 
-// Issue 30 item 5: a cell that left the safety set is not a success. T_MC = 3 s under the worst-case attack
+// A cell that left the safety set is not a success. T_MC = 3 s under the worst-case attack
 // takes the model out of it (max V > 1): exit 1 with the cell named; --allow-unsafe: exit 0, the same report.
 TEST_F(SweepCli, CellLeavesTheSafetySet_Exit1UnlessAllowUnsafe) {
   const std::vector<std::string> args = {"sweep", kGraph, "--param", "sr.t_mc_s=0.3,3", "--attacks", "2"};

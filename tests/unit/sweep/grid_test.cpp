@@ -115,7 +115,7 @@ TEST(CellLaunch, ValuesStopAndAbsolutePaths_Set) {
   EXPECT_EQ(l->dds().config(), "/repo/launch/cfg.xml");
 }
 
-// Issue 30: sweeping the attack kind moves a kind of the attack library to the service that carries it (as
+// Sweeping the attack kind moves a kind of the attack library to the service that carries it (as
 // `--attack` does); a kind the named service carries stays there.
 TEST(CellLaunch, SweptAttackKind_MovesToItsService) {
   proto::Launch base;

@@ -146,7 +146,7 @@ std::vector<Task> tasks_of(const proto::SweepPlan& plan, Shard shard) {
 
 namespace {
 
-// A swept attack kind of the attack library goes to the service that carries it, as `--attack` does (issue 30):
+// A swept attack kind of the attack library goes to the service that carries it, as `--attack` does:
 // sweeping attack.attacks[0].kind over the library's kinds would otherwise leave them on lqr_control, whose
 // hooks refuse four of six. A kind the named service has a hook for stays where the graph put it.
 void move_attack_to_its_service(proto::Launch& launch) {

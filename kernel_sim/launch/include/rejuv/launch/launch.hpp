@@ -105,6 +105,14 @@ inline constexpr double kMaxWaypointOffsetM = 10000.0; // |north|, |east|, |down
 [[nodiscard]] Seconds t_min(const proto::SrParams& sr);
 [[nodiscard]] Seconds mission_timeout(const proto::Mission& mission);
 // LockstepTiming with its defaults: the simulated time a checkpoint / rollback is charged, the alignment.
+// The real-time plan's values with their defaults (docs/realtime.md): the kernel's and the plant's SCHED_FIFO
+// priorities (0: SCHED_OTHER) and each SCHED_FIFO service's RLIMIT_RTTIME.
+struct RealtimeValues {
+  std::uint32_t kernel_priority = 60;
+  std::uint32_t plant_priority = 70;
+  std::uint32_t max_rt_time_ms = 100;
+};
+[[nodiscard]] RealtimeValues realtime_values(const proto::RealtimePlan& plan);
 [[nodiscard]] Seconds checkpoint_charge(const proto::LockstepTiming& lockstep);
 [[nodiscard]] Seconds rollback_charge(const proto::LockstepTiming& lockstep);
 [[nodiscard]] Seconds alignment(const proto::LockstepTiming& lockstep);

@@ -1,4 +1,4 @@
-// Real-time scheduling for the kernel's real-time plan (issue 27; idl/launch.proto RealtimePlan;
+// Real-time scheduling for the kernel's real-time plan (idl/launch.proto RealtimePlan;
 // docs/realtime.md): SCHED_FIFO with SCHED_RESET_ON_FORK (what a process or thread so scheduled makes runs
 // SCHED_OTHER) and mlockall (RLIMIT_RTTIME is set at spawn: ResourceLimits::rt_time_us). Each needs
 // CAP_SYS_NICE / CAP_IPC_LOCK (or the matching rlimits); the caller decides what a refusal means.

@@ -22,7 +22,7 @@
 //   KILL_IMAGE         kill(parent, SIGKILL), kill(pid guesses, 0), ptrace(ATTACH), process_vm_readv, pidfd_open
 //   OPEN_SOCKET        socket(AF_INET), socketpair(AF_UNIX), socket(AF_UNIX, SEQPACKET)
 //   FLOOD_BROKER       kFloodMessages publishes in one callback on a topic it may write (else on every topic)
-// the attacks on rollback itself (issue 26; rollback_attacks.cpp, docs/sandbox.md "Threats to rollback"):
+// the attacks on rollback itself (rollback_attacks.cpp, docs/sandbox.md "Threats that used rollback itself"):
 //   SIGIO_IMAGES       fcntl(fd 3, F_SETOWN, −pgrp), F_SETSIG(SIGSTOP; SIGUSR1 in odd windows), F_SETFL O_ASYNC
 //   SIGIO_KERNEL       the same aimed at the kernel (F_SETOWN, getppid()) with SIGKILL
 //   SIGIO_LOG_TRAP     the same armed on fd 1, the log pipe, with SIGUSR1 to its group

@@ -38,7 +38,7 @@ enum class AttackKind : std::uint8_t {
   OpenSocket = 10,             // socket(), socketpair()
   FloodBroker = 11,            // thousands of publishes in one callback
   EscapeHelper = 12,           // once at boot: a helper process that keeps trying the network (UDP, io_uring)
-  // Attacks on rollback itself (issue 26; rollback_attacks.cpp): 18…27.
+  // Attacks on rollback itself (rollback_attacks.cpp): 18…27.
   SigioImages = 18,            // SIGIO aimed at its process group (its images): SIGSTOP, SIGUSR1
   SigioKernel = 19,            // SIGIO aimed at the kernel with SIGKILL
   SigioLogTrap = 20,           // SIGIO armed on the log pipe, to fire in a restored incarnation

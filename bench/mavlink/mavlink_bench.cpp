@@ -1,0 +1,65 @@
+// What signing adds per datagram at the network gate (docs/mavlink.md "Signing"): SignatureChecker::check on a
+// signed MISSION_ITEM_INT (the largest frame of an upload) against split_frame alone — the envelope check of a
+// gate without a key — and against decode(), what ext_link spends on the same frame. Timings live here, never
+// in tests.
+#include <benchmark/benchmark.h>
+
+#include <vector>
+
+#include "rejuv/mavlink/frame.hpp"
+#include "rejuv/mavlink/messages.hpp"
+
+namespace rejuv::mavlink {
+namespace {
+
+SigningKey bench_key() {
+  return *SigningKey::from_hex("6c1a4e2f9b0d7c3e5a8f1b2d4c6e8a0b3d5f7a9c1e2b4d6f8a0c2e4b6d8f0a1c");
+}
+
+Frame signed_item(std::uint64_t timestamp) {
+  MissionItemInt item{};
+  item.seq = 3;
+  item.frame = 1;  // MAV_FRAME_LOCAL_NED
+  item.x = 12345;
+  item.y = -678;
+  item.z = -3.0F;
+  return encode(item, Envelope{.seq = 1, .sysid = 255, .compid = 190},
+                Signer{.key = bench_key(), .link_id = 1, .timestamp = timestamp});
+}
+
+void BM_SplitFrame_NoKey(benchmark::State& state) {
+  const Frame f = signed_item(1);
+  for (auto _ : state) benchmark::DoNotOptimize(split_frame(f.view()));
+}
+BENCHMARK(BM_SplitFrame_NoKey);
+
+void BM_SignatureCheck(benchmark::State& state) {
+  // A fresh timestamp per frame (the checker refuses a replay): frames made ahead, outside the timing.
+  std::vector<Frame> frames;
+  for (std::uint64_t t = 1; t <= 4096; ++t) frames.push_back(signed_item(t));
+  std::size_t i = 0;
+  SignatureChecker checker(bench_key());
+  for (auto _ : state) {
+    if (i == frames.size()) {
+      state.PauseTiming();
+      checker = SignatureChecker(bench_key());
+      i = 0;
+      state.ResumeTiming();
+    }
+    auto ok = checker.check(frames[i++].view());
+    if (!ok) state.SkipWithError("a signed frame was refused");
+    benchmark::DoNotOptimize(ok);
+  }
+}
+BENCHMARK(BM_SignatureCheck);
+
+void BM_Decode(benchmark::State& state) {
+  const Frame f = signed_item(1);
+  for (auto _ : state) benchmark::DoNotOptimize(decode(f.view()));
+}
+BENCHMARK(BM_Decode);
+
+}  // namespace
+}  // namespace rejuv::mavlink
+
+BENCHMARK_MAIN();
