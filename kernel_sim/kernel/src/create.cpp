@@ -43,6 +43,12 @@ Result<ClockMode, KernelError> choose_clock(const launch::LoadedLaunch& graph, c
   if (options.time_master == TimeMaster::Manual && clock_mode == ClockMode::Realtime) {
     return fail(kernel_error(K::Config, "manual stepping needs the lockstep clock"));
   }
+  if (graph.graph.sr().estimate_catch_up()) {
+    // Refused rather than ignored: a run would fly another scheme than the graph says.
+    return fail(kernel_error(K::Config, graph.path.string() +
+                                            ": sr.estimate_catch_up is modelled by `rejuv sim` only; the runtime's "
+                                            "replay of the plant's samples is not built yet (docs/control.md)"));
+  }
   return clock_mode;
 }
 

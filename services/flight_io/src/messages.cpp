@@ -114,7 +114,7 @@ rejuv_msg_VehicleStateEstimate vehicle_state_message(const flight::EstimatorNode
                                                      std::uint32_t flags) {
   const flight::EkfState& s = node.ekf().state();
   const flight::StateVec& x_hat = node.estimate();
-  const Eigen::Matrix<double, 15, 15> P = node.ekf().covariance();
+  const flight::Ekf::Covariance& P = node.ekf().covariance();
   rejuv_msg_VehicleStateEstimate m{};
   m.timestamp_ns = stamp(t);
   copy3(m.p_N_m, s.p_N_m);

@@ -20,6 +20,7 @@ constexpr int kV = 3;
 constexpr int kTheta = 6;
 constexpr int kBg = 9;
 constexpr int kBa = 12;
+constexpr int kBb = 15;  // the barometer's bias (one state)
 
 Eigen::Matrix3d skew(const Eigen::Vector3d& w) {
   Eigen::Matrix3d S;
@@ -50,12 +51,12 @@ EkfParams EkfParams::defaults() {
 
 Ekf::Ekf(const EkfParams& params, const EkfState& initial) : params_(params), state_(initial) {
   state_.q_NB.normalize();
-  Vec15 sigma;
+  Vec sigma;
   sigma << Eigen::Vector3d::Constant(params_.initial_position_std_m),
       Eigen::Vector3d::Constant(params_.initial_velocity_std_m_s),
       Eigen::Vector3d::Constant(params_.initial_attitude_std_rad),
       Eigen::Vector3d::Constant(params_.initial_gyro_bias_std_rad_s),
-      Eigen::Vector3d::Constant(params_.initial_accel_bias_std_m_s2);
+      Eigen::Vector3d::Constant(params_.initial_accel_bias_std_m_s2), params_.initial_baro_bias_std_m;
   P_ = sigma.cwiseAbs2().asDiagonal();
   // Until the first IMU sample, assume the vehicle is at rest: a = 0, f = −g.
   f_B_ = state_.q_NB.conjugate() * Eigen::Vector3d(0, 0, -params_.gravity_m_s2);
@@ -92,7 +93,7 @@ Eigen::Vector3d Ekf::omega_B_corrected(const Eigen::Vector3d& raw_omega_B) const
   //   δv' = δv + A δθ + B δb_a,       A = −R [f]× h,  B = −R h
   //   δθ' = C δθ − h δb_g,            C = exp(−[ω]× h) = R(ω h)ᵀ
   // P' = F P Fᵀ is formed by rows then columns, touching only the non-identity blocks (~700 multiply-adds
-  // instead of 2·15³ for a dense product: predict runs at 250 Hz inside a simulation that must beat 1000×).
+  // instead of 2·16³ for a dense product: predict runs at 250 Hz inside a simulation that must beat 1000×).
   // A δθ + B δb_a = −h R ([f]× δθ + δb_a): one 3×3 product per side instead of two, since B = −R h.
   const Eigen::Matrix3d f_skew = skew(f);
   const Eigen::Matrix3d minus_hR = -h * R;
@@ -101,7 +102,7 @@ Eigen::Vector3d Ekf::omega_B_corrected(const Eigen::Vector3d& raw_omega_B) const
   // Rows: X = F P (order matters: each block row only reads rows not yet overwritten).
   P_.middleRows<3>(kP) += h * P_.middleRows<3>(kV);
   {
-    Eigen::Matrix<double, 3, 15> T;
+    Eigen::Matrix<double, 3, kStates> T;
     T.noalias() = f_skew * P_.middleRows<3>(kTheta);
     T += P_.middleRows<3>(kBa);
     P_.middleRows<3>(kV).noalias() += minus_hR * T;
@@ -111,7 +112,7 @@ Eigen::Vector3d Ekf::omega_B_corrected(const Eigen::Vector3d& raw_omega_B) const
   // Columns: P' = X Fᵀ.
   P_.middleCols<3>(kP) += h * P_.middleCols<3>(kV);
   {
-    Eigen::Matrix<double, 15, 3> T;
+    Eigen::Matrix<double, kStates, 3> T;
     T.noalias() = P_.middleCols<3>(kTheta) * f_skew.transpose();
     T += P_.middleCols<3>(kBa);
     P_.middleCols<3>(kV).noalias() += T * minus_hR.transpose();
@@ -131,27 +132,29 @@ Eigen::Vector3d Ekf::omega_B_corrected(const Eigen::Vector3d& raw_omega_B) const
     P_(kBg + i, kBg + i) += q_bg;
     P_(kBa + i, kBa + i) += q_ba;
   }
+  P_(kBb, kBb) += params_.baro_bias_rw_m_sqrt_s * params_.baro_bias_rw_m_sqrt_s * h;
 }
 
-void Ekf::scalar_update(double y, const Vec15& h, double r, Vec15& dx) {
+void Ekf::scalar_update(double y, const Vec& h, double r, Vec& dx) {
   // Sequential processing of uncorrelated scalar measurements is the same as the batch update, without
   // inverting S. y is measured against the nominal state; dx holds the corrections of earlier scalars.
-  const Vec15 Ph = P_ * h;
+  const Vec Ph = P_ * h;
   const double S = h.dot(Ph) + r;
   if (!(S > 0.0)) {
     return;  // degenerate (r = 0 and no uncertainty): nothing to learn
   }
-  const Vec15 K = Ph / S;
+  const Vec K = Ph / S;
   dx += K * (y - h.dot(dx));
   P_.noalias() -= K * Ph.transpose();
 }
 
-void Ekf::inject(const Vec15& dx) {
+void Ekf::inject(const Vec& dx) {
   state_.p_N_m += dx.segment<3>(kP);
   state_.v_N_m_s += dx.segment<3>(kV);
   state_.q_NB = (state_.q_NB * quat_from_rotvec(dx.segment<3>(kTheta))).normalized();
   state_.gyro_bias_rad_s += dx.segment<3>(kBg);
   state_.accel_bias_m_s2 += dx.segment<3>(kBa);
+  state_.baro_bias_m += dx(kBb);
   // Rounding makes the rank-1 downdates slightly asymmetric; restore symmetry once per measurement.
   P_ = (0.5 * (P_ + P_.transpose())).eval();
 }
@@ -176,7 +179,7 @@ FuseResult Ekf::fuse_gps(const plant::GpsSample& sample) {
   const Eigen::Matrix3d R = state_.q_NB.toRotationMatrix();
   const Eigen::Matrix3d da_dtheta = -R * skew(f_B_);
   const Eigen::Matrix3d da_dba = -R;
-  Eigen::Matrix<double, 6, 15> H = Eigen::Matrix<double, 6, 15>::Zero();
+  Eigen::Matrix<double, 6, kStates> H = Eigen::Matrix<double, 6, kStates>::Zero();
   H.block<3, 3>(0, kP).setIdentity();
   H.block<3, 3>(0, kV) = -d * Eigen::Matrix3d::Identity();
   H.block<3, 3>(0, kTheta) = 0.5 * d * d * da_dtheta;
@@ -186,7 +189,7 @@ FuseResult Ekf::fuse_gps(const plant::GpsSample& sample) {
   H.block<3, 3>(3, kBa) = -d * da_dba;
 
   // χ² gate on the whole 6-vector: NIS = yᵀ S⁻¹ y with S = H P Hᵀ + R (a 6×6 Cholesky, at 10 Hz).
-  const Eigen::Matrix<double, 6, 15> HP = H * P_;
+  const Eigen::Matrix<double, 6, kStates> HP = H * P_;
   Eigen::Matrix<double, 6, 6> S = HP * H.transpose();
   S.diagonal() += r;
   const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(S);
@@ -203,7 +206,7 @@ FuseResult Ekf::fuse_gps(const plant::GpsSample& sample) {
   }
   gps_rejected_in_row_ = 0;
 
-  Vec15 dx = Vec15::Zero();
+  Vec dx = Vec::Zero();
   for (int i = 0; i < 6; ++i) {
     scalar_update(y(i), H.row(i).transpose(), r(i), dx);
   }
@@ -234,16 +237,17 @@ void Ekf::reset_position_velocity(const plant::GpsSample& sample) {
 }
 
 FuseResult Ekf::fuse_baro(const plant::BaroSample& sample) {
-  // Barometric altitude is −p_z (NED): h = −1 on δp_z.
-  const double y = sample.altitude_m - (-state_.p_N_m.z());
+  // The barometer reads the altitude −p_z plus its bias: h = −1 on δp_z, +1 on δb_baro.
+  const double y = sample.altitude_m - (-state_.p_N_m.z() + state_.baro_bias_m);
   const double r = params_.baro_noise_m * params_.baro_noise_m;
-  const double S = P_(kP + 2, kP + 2) + r;
+  const double S = P_(kP + 2, kP + 2) + P_(kBb, kBb) - 2.0 * P_(kP + 2, kBb) + r;
   if (!(y * y <= params_.baro_gate_chi2 * S)) {
     ++counters_.baro_rejected;
     if (++baro_rejected_in_row_ < params_.baro_reset_after_rejections) {
       return FuseResult::Rejected;
     }
-    state_.p_N_m.z() = -sample.altitude_m;
+    // Believe the barometer (with the bias learnt so far): the altitude jumps, the bias stays.
+    state_.p_N_m.z() = -(sample.altitude_m - state_.baro_bias_m);
     P_.row(kP + 2).setZero();
     P_.col(kP + 2).setZero();
     P_(kP + 2, kP + 2) = r;
@@ -252,9 +256,10 @@ FuseResult Ekf::fuse_baro(const plant::BaroSample& sample) {
     return FuseResult::Fused;
   }
   baro_rejected_in_row_ = 0;
-  Vec15 h = Vec15::Zero();
+  Vec h = Vec::Zero();
   h(kP + 2) = -1.0;
-  Vec15 dx = Vec15::Zero();
+  h(kBb) = 1.0;
+  Vec dx = Vec::Zero();
   scalar_update(y, h, r, dx);
   inject(dx);
   ++counters_.baro_fused;
@@ -281,7 +286,7 @@ FuseResult Ekf::fuse_mag(const plant::MagSample& sample) {
                                           std::sin(params_.mag_declination_rad) * tan_incl, 0.0);
   const Eigen::RowVector3d h_tilt = dalpha_dtilt_N * R;  // d(α)/d(δθ) through tilt
   const Eigen::RowVector3d h_yaw = -R.row(2);            // d(α)/d(δθ) through yaw: −(R̂ δθ)_z
-  Vec15 h = Vec15::Zero();
+  Vec h = Vec::Zero();
   h.segment<3>(kTheta) = h_yaw.transpose();
   const double r = params_.mag_heading_noise_rad * params_.mag_heading_noise_rad +
                    (h_tilt * P_.block<3, 3>(kTheta, kTheta) * h_tilt.transpose())(0, 0);
@@ -303,7 +308,7 @@ FuseResult Ekf::fuse_mag(const plant::MagSample& sample) {
     return FuseResult::Fused;
   }
   mag_rejected_in_row_ = 0;
-  Vec15 dx = Vec15::Zero();
+  Vec dx = Vec::Zero();
   scalar_update(y, h, r, dx);
   inject(dx);
   ++counters_.mag_fused;
@@ -333,7 +338,7 @@ std::optional<FuseResult> Ekf::fuse_drag(const Eigen::Vector3d& f_B_m_s2, Nanos 
   const Eigen::Vector3d f_pred = state_.accel_bias_m_s2 - c_m * v_B;
   const Eigen::Matrix3d df_dv = -c_m * R.transpose();
   const Eigen::Matrix3d df_dtheta = -c_m * skew(v_B);
-  Eigen::Matrix<double, 2, 15> H = Eigen::Matrix<double, 2, 15>::Zero();
+  Eigen::Matrix<double, 2, kStates> H = Eigen::Matrix<double, 2, kStates>::Zero();
   for (int i = 0; i < 2; ++i) {
     H.block<1, 3>(i, kV) = df_dv.row(i);
     H.block<1, 3>(i, kTheta) = df_dtheta.row(i);
@@ -353,7 +358,7 @@ std::optional<FuseResult> Ekf::fuse_drag(const Eigen::Vector3d& f_B_m_s2, Nanos 
     ++counters_.drag_rejected;
     return FuseResult::Rejected;
   }
-  Vec15 dx = Vec15::Zero();
+  Vec dx = Vec::Zero();
   for (int i = 0; i < 2; ++i) {
     scalar_update(y(i), H.row(i).transpose(), r, dx);
   }

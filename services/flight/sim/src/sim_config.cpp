@@ -34,6 +34,7 @@ Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& load
   c.handler.rho_s = sr.rho_s();
   c.rho_M = sr.rho_m();
   c.keep_generations = launch::keep_generations(sr);
+  c.estimate_catch_up = sr.estimate_catch_up();
   if (!(std::isfinite(sr.rho_s()) && std::isfinite(sr.rho_m()) && sr.rho_s() > 0.0 && sr.rho_s() < sr.rho_m() &&
         sr.rho_m() <= 1.0)) {
     return fail(semantic(sr_at("rho_s"), detail::printf_string("the tracking algorithm needs 0 < rho_s < rho_m <= 1 "

@@ -89,6 +89,11 @@ struct SrSimulation::Impl {
   Freeze freeze = Freeze::None;
   Nanos freeze_until{0};
   SampleQueue cp_queue;
+  // Estimate catch-up (SimConfig::estimate_catch_up): the plant's sensor samples since the latest checkpoint's
+  // cut, kept outside the software (the kernel's log in the runtime), and whether the last is this step's.
+  std::vector<plant::SensorSamples> since_checkpoint;
+  bool logged_this_step = false;
+  std::uint64_t replayed_samples = 0;
 
   Nanos t{0};
   Nanos dt;
@@ -228,6 +233,7 @@ struct SrSimulation::Impl {
         mode = SrMode::CP;
         event(SrEventKind::Mode, now);
         const Generation g = images.save(sw, now);
+        since_checkpoint.clear();  // the replay of a rollback to this image starts at its cut
         ++checkpoints;
         // At the start of the stop, as the kernel's comes before the step's charge (figure_data.hpp).
         event(SrEventKind::Checkpoint, now, g, to_nanos(cfg.t_cp));
@@ -332,6 +338,10 @@ struct SrSimulation::Impl {
     mode = SrMode::RB;
     freeze = Freeze::Rollback;
     freeze_until = now + to_nanos(cfg.t_rb);
+    if (cfg.estimate_catch_up) {
+      // The replay is part of the stop, charged by the samples logged so far (those of the stop are a few more).
+      freeze_until += static_cast<std::int64_t>(since_checkpoint.size()) * cfg.catch_up_charge_per_sample;
+    }
     ++rollbacks;
     event(SrEventKind::Mode, now);
     // At the start of the stop, with the generation it restores and the epoch it opens (figure_data.hpp).
@@ -352,8 +362,20 @@ struct SrSimulation::Impl {
     attacking = false;  // the corruption is wiped with the rest of the image
     cp_queue.clear();   // the broker's queues go back to the cut too
     handle(sw.handler.on_checkpoint_return(CheckpointRestored{entry->generation, epoch}), now);
-    // RollbackSignal to the services that asked for it (DESIGN §7 step 3): ekf2 and checkpoint_p.
-    sw.estimator.on_rollback(cfg.ekf_rearm);
+    if (cfg.estimate_catch_up) {
+      // The restored (clean) estimator is fed what the plant's sensors delivered since its checkpoint, in order:
+      // trusted input only, never what a (possibly compromised) service published. x̂ ends as fresh as a
+      // never-attacked estimator's, so its covariance is not re-armed.
+      // The step's own samples (logged last) are the software's to handle after this.
+      const std::size_t n = since_checkpoint.size() - (logged_this_step ? 1 : 0);
+      for (std::size_t i = 0; i < n; ++i) (void)sw.estimator.on_samples(since_checkpoint[i]);
+      replayed_samples += n;
+      since_checkpoint.clear();
+      logged_this_step = false;
+    } else {
+      // RollbackSignal to the services that asked for it (DESIGN §7 step 3): ekf2 and checkpoint_p.
+      sw.estimator.on_rollback(cfg.ekf_rearm);
+    }
     begin_handler_run(now);
   }
 
@@ -431,6 +453,8 @@ struct SrSimulation::Impl {
   bool step_once(const SimObservers& observers) {
     const Nanos now = t;
     const plant::SensorSamples samples = sensors.step(now, plant.state(), plant.acceleration_N());
+    logged_this_step = cfg.estimate_catch_up && sr_on() && any(samples);
+    if (logged_this_step) since_checkpoint.push_back(samples);
     if (freeze == Freeze::Rollback && now >= freeze_until) finish_rollback(now);
     if (freeze == Freeze::Checkpoint && now >= freeze_until) finish_checkpoint(now);
     if (sr_on() && freeze == Freeze::None && timer.fire_if_due(now)) start_rollback(now);

@@ -1,6 +1,7 @@
 // The state estimator of the flight stack (DESIGN §9, the `ekf2` of §III-A): an error-state extended Kalman
 // filter that integrates the IMU and fuses GPS position + velocity, barometric altitude, magnetic heading and
-// the multirotor drag constraint on the horizontal specific force.
+// the multirotor drag constraint on the horizontal specific force; the barometer's bias is a state, so that GPS
+// height anchors the altitude over hours while the barometer smooths it.
 // Frames: N = local NED, B = body FRD; q_NB rotates B-frame vectors into N.
 #pragma once
 
@@ -22,6 +23,7 @@ struct EkfState {
   Eigen::Quaterniond q_NB = Eigen::Quaterniond::Identity();
   Eigen::Vector3d gyro_bias_rad_s = Eigen::Vector3d::Zero();  // in B
   Eigen::Vector3d accel_bias_m_s2 = Eigen::Vector3d::Zero();  // in B
+  double baro_bias_m = 0;  // what the barometer reads above the true altitude, m
 };
 
 // Noise model, gates and initial uncertainty. Process noise is given as densities (per √Hz) so that it does
@@ -33,6 +35,10 @@ struct EkfParams {
   double accel_noise_m_s2_sqrt_hz = 5e-3;
   double gyro_bias_rw_rad_s2_sqrt_hz = 2e-4;  // bias random walk, (rad/s)/√s
   double accel_bias_rw_m_s3_sqrt_hz = 2e-3;   // bias random walk, (m/s²)/√s
+  // A barometer drifts (temperature, weather): its bias walks, and taking its altitude as absolute lets the
+  // estimate follow the drift (≈ 70 % of it, baro at 50 Hz against GPS height at 10 Hz). The plant's drift is
+  // 0.002 m/√s; a little more here so the filter keeps up with a worse sensor.
+  double baro_bias_rw_m_sqrt_s = 0.003;
   double gravity_m_s2 = 9.81;
   // Measurement noise (1σ). GPS position uses max(sample eph/epv, these floors).
   double gps_horizontal_noise_min_m = 0.05;
@@ -75,6 +81,7 @@ struct EkfParams {
   double initial_attitude_std_rad = 0.2;
   double initial_gyro_bias_std_rad_s = 0.01;
   double initial_accel_bias_std_m_s2 = 0.1;
+  double initial_baro_bias_std_m = 0.05;
 
   [[nodiscard]] static EkfParams defaults();
 };
@@ -93,15 +100,18 @@ struct EkfCounters {
   std::uint32_t drag_fused = 0, drag_rejected = 0;
 };
 
-// Error-state EKF with 15 error states (δp, δv, δθ, δb_g, δb_a); δθ is the attitude error as a rotation
+// Error-state EKF with 16 error states (δp, δv, δθ, δb_g, δb_a, δb_baro); δθ is the attitude error as a rotation
 // vector in B (q_true = q̂ ⊗ Exp(δθ)). predict() integrates the nominal state with the bias-corrected IMU and
-// propagates the covariance blockwise (no dense 15×15 product). Each update is a χ² gate on the whole
+// propagates the covariance blockwise (no dense 16×16 product). Each update is a χ² gate on the whole
 // measurement, then a sequence of scalar updates (no matrix inverse). GPS is predicted back by gps_delay; the
 // magnetometer corrects yaw only (tilt comes from the accelerometer and GPS; the drag constraint keeps the
 // accelerometer's horizontal bias apart from tilt). A copyable VALUE type with no heap memory: the SR
 // simulation checkpoints it by copy and restores it on rollback.
 class Ekf {
  public:
+  static constexpr int kStates = 16;
+  using Covariance = Eigen::Matrix<double, kStates, kStates>;
+
   Ekf(const EkfParams& params, const EkfState& initial);
 
   // Propagates by dt with a gyro (rad/s, B) and accelerometer (specific force, m/s², B) sample.
@@ -121,24 +131,23 @@ class Ekf {
   [[nodiscard]] Eigen::Vector3d omega_B_corrected(const Eigen::Vector3d& raw_omega_B) const;
   // Acceleration of B in N estimated by the last predict(), m/s².
   [[nodiscard]] const Eigen::Vector3d& acceleration_N_m_s2() const { return a_N_; }
-  // Error-state covariance, order: δp, δv, δθ, δb_g, δb_a.
-  [[nodiscard]] Eigen::Matrix<double, 15, 15> covariance() const { return P_; }
+  // Error-state covariance, order: δp, δv, δθ, δb_g, δb_a, δb_baro.
+  [[nodiscard]] const Covariance& covariance() const { return P_; }
   // NIS of the last GPS sample (fused or not), for tuning and tests.
   [[nodiscard]] double last_gps_nis() const { return last_gps_nis_; }
 
  private:
-  using Vec15 = Eigen::Matrix<double, 15, 1>;
-  using Mat15 = Eigen::Matrix<double, 15, 15>;
+  using Vec = Eigen::Matrix<double, kStates, 1>;
 
   // One scalar update: innovation y (already measured against the nominal state), sparse row h, variance r.
   // Accumulates the correction in dx.
-  void scalar_update(double y, const Vec15& h, double r, Vec15& dx);
-  void inject(const Vec15& dx);
+  void scalar_update(double y, const Vec& h, double r, Vec& dx);
+  void inject(const Vec& dx);
   void reset_position_velocity(const plant::GpsSample& sample);
 
   EkfParams params_;
   EkfState state_;
-  Mat15 P_;
+  Covariance P_;
   Eigen::Vector3d a_N_ = Eigen::Vector3d::Zero();  // last estimated acceleration, m/s², N
   Eigen::Vector3d f_B_ = Eigen::Vector3d::Zero();  // last bias-corrected specific force, m/s², B
   EkfCounters counters_;
