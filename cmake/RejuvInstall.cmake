@@ -1,5 +1,5 @@
-# `cmake --install <build> --component sdk [--prefix DIR]`: the service SDK as a package (issue 21 item 5;
-# docs/writing_a_service.md). Installs the SDK's headers and static libraries, the IDL of the topic types,
+# `cmake --install <build> --component sdk [--prefix DIR]`: the service SDK as a package
+# (docs/writing_a_service.md). Installs the SDK's headers and static libraries, the IDL of the topic types,
 # and a CMake package: find_package(Rejuv) gives Rejuv::sdk and rejuv_add_service().
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)

@@ -1,5 +1,5 @@
-// service_fork_probe EXECUTABLE [N]: what start-up and fork() cost in a process of a given service build (issue 21 item 4:
-// services with and without protobuf, side by side). Starts EXECUTABLE under ptrace, stops it at `main` (after its
+// service_fork_probe EXECUTABLE [N]: what start-up and fork() cost in a process of a given service build
+// (services with and without protobuf, side by side). Starts EXECUTABLE under ptrace, stops it at `main` (after its
 // static initialisation, protobuf's included, before it connects to any kernel), reports its RSS and mappings
 // there, then has it make N copies of itself with clone(CLONE_PARENT | SIGCHLD) — the call of sys::fork_sibling,
 // which makes every service image — and N getpid() calls the same way. Prints the median and max of each, and

@@ -1,4 +1,4 @@
-// The attack library on the multi-process runtime (issue 20 item 6; docs/control.md "Attack library"): each
+// The attack library on the multi-process runtime (docs/control.md "Attack library"): each
 // kind flown by `rejuv run` on the square (seed 1) through the real kernel, services and plant, with the hook
 // in the compromised service (ekf2, sensors, gen_set_point, lqr_control) — one test per kind, each two short
 // missions: without SR the attack does harm (the vehicle leaves the safety set, max V >= 1, and the run stops

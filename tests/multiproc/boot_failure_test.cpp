@@ -1,4 +1,4 @@
-// `rejuv run` of a graph whose service fails at boot (issue "wave failures", item 1): the real binary, the real
+// `rejuv run` of a graph whose service fails at boot: the real binary, the real
 // flight graph (launch/quad_square) with one thing wrong. Before the graph has booted there is no image to
 // roll back to, so the run stops — SR on or off — with exit 1 and the service's own error, instead of
 // waiting for ever. The test finishing at all is part of what it checks (ctest TIMEOUT); no timing is asserted.
@@ -90,7 +90,7 @@ TEST_F(BootFailure, BinTrueWithoutSr_Exit1NamingTheServiceAndItsExit) {
 // tests/test_domain.hpp: this process's domain is one byte of one fixed lock file, held for its whole life
 // (another open file description cannot take it), so no per-domain file is left behind in /tmp.
 // keep_generations 16 needs more fds than a hard limit of 256 allows: refused before anything starts, with
-// what to change, instead of failing spawns or checkpoints in flight (issue 19 item 4).
+// what to change, instead of failing spawns or checkpoints in flight.
 TEST_F(BootFailure, TooFewFdsForKeepGenerations_Exit1NamingTheLimit) {
   const auto g = graph([](std::string text) {
     const std::string k = "keep_generations: 2";

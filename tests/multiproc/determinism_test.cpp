@@ -1,4 +1,4 @@
-// Experiments a researcher can trust (issue 20): `rejuv run` in lockstep is deterministic for a seed, and SR
+// Experiments a researcher can trust: `rejuv run` in lockstep is deterministic for a seed, and SR
 // starts with the flight (DESIGN §6). The real binary on the real flight graph (launch/quad_square) with a
 // short alignment and a short T_est, so that a few seconds of flight hold several SR cycles: flown twice with
 // one seed, the traces (--csv) are byte-identical and the summaries equal but for their wall-clock fields; a

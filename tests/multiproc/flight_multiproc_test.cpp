@@ -1,5 +1,5 @@
 // Multi-process tests with the real flight services and the plant process (DESIGN §2, §6, §9): the hover
-// graph in lockstep with the plant as time master. Skipped (not failed) while a binary is not built.
+// graph in lockstep with the plant as time master. A flight binary that is not built fails the test.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -68,7 +68,8 @@ std::optional<FlightRun> fly_hover(double seconds, std::uint64_t seed) {
   options.idle_deadline = std::chrono::seconds{10};
   for (const std::string& name : missing_binaries(*graph)) {
     if (std::find(kNotFlightCritical.begin(), kNotFlightCritical.end(), name) == kNotFlightCritical.end()) {
-      return std::nullopt;  // a flight service or the plant is not built: the caller skips
+      ADD_FAILURE() << name << " is not built";
+      return std::nullopt;
     }
     options.skip_services.push_back(name);
   }
@@ -101,7 +102,7 @@ std::optional<FlightRun> fly_hover(double seconds, std::uint64_t seed) {
 
 TEST(FlightMultiproc, Hover_HoldsPositionWithinTheBound) {
   const auto run = fly_hover(10.0, 1);
-  if (!run) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(run.has_value()) << "the flight did not run (the failure is reported above)";
   EXPECT_EQ(run->outcome.reason, StopReason::Duration) << run->outcome.detail;
   ASSERT_GT(run->flying_samples, 2000U);  // 10 s at the plant's 4 ms step
   EXPECT_LT(run->d_max_m, kHoverBound_m);
@@ -109,7 +110,7 @@ TEST(FlightMultiproc, Hover_HoldsPositionWithinTheBound) {
 
 TEST(FlightMultiproc, SameSeed_GivesTheSameTrajectoryTwice) {
   const auto first = fly_hover(3.0, 5);
-  if (!first) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(first.has_value()) << "the flight did not run (the failure is reported above)";
   const auto second = fly_hover(3.0, 5);
   ASSERT_TRUE(second.has_value());
   ASSERT_EQ(first->truth.size(), second->truth.size());
@@ -144,7 +145,7 @@ TEST(FlightMultiproc, SquareMission_AgreesWithTheModelLevelSimulation) {
   options.idle_deadline = std::chrono::seconds{10};
   for (const std::string& name : missing_binaries(*graph)) {
     if (std::find(kNotFlightCritical.begin(), kNotFlightCritical.end(), name) == kNotFlightCritical.end()) {
-      GTEST_SKIP() << name << " is not built";
+      FAIL() << name << " is not built";
     }
     options.skip_services.push_back(name);
   }
@@ -179,7 +180,7 @@ TEST(FlightMultiproc, SquareMission_AgreesWithTheModelLevelSimulation) {
 
 TEST(FlightMultiproc, Hover_AgreesWithTheModelLevelSimulation) {
   const auto run = fly_hover(10.0, 1);
-  if (!run) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(run.has_value()) << "the flight did not run (the failure is reported above)";
   auto graph = launch::load_launch(fs::path(REJUV_SOURCE_DIR) / "launch/hover.launch.pbtxt");
   ASSERT_TRUE(graph.has_value());
   flight::SimOverrides overrides;

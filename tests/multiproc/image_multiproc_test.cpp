@@ -1,4 +1,4 @@
-// The image store end to end (DESIGN §7, issue "Image store"): real kernels, real service processes forking
+// The image store end to end (DESIGN §7): real kernels, real service processes forking
 // real images, lockstep driven by the test (TimeMaster::Manual). Graph: graphs/images.policy.pbtxt and the
 // purpose-built services/image_service.cpp (counter, listener, driver, worker). No timing is asserted.
 #include <gtest/gtest.h>
@@ -7,11 +7,10 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
-#include <csignal>
-#include <thread>
 
 #include "graph_fixture.hpp"
 #include "rejuv/channel/wire.hpp"
@@ -125,10 +124,14 @@ class Images : public ::testing::Test {
 };
 
 TEST_F(Images, CounterContinuesFromTheCheckpointAndTheQueuesAreRestored) {
-  start({.counter = param("checkpoint_at", 5) + param("rollback_at", 10) + param("max_cycles", 1), .keep = 2, .worker = false});
+  ASSERT_NO_FATAL_FAILURE(
+      start({.counter = param("checkpoint_at", 5) + param("rollback_at", 10) + param("max_cycles", 1),
+             .keep = 2,
+             .worker = false}));
   const int driver_pid = k_->stats(id("driver")).pid;
   const int listener_pid = k_->stats(id("listener")).pid;
-  step_until([&] { return k_->sr_stats().rollbacks == 1 && records("numbers", "counter").size() >= 15; }, 100);
+  ASSERT_NO_FATAL_FAILURE(step_until(
+      [&] { return k_->sr_stats().rollbacks == 1 && records("numbers", "counter").size() >= 15; }, 100));
   // 1..9, then from the checkpoint at 5: 6, 7, … (10 was published in the same round as the rollback
   // request: what a retired incarnation has not had routed yet is erased with it).
   const auto numbers = records("numbers", "counter");
@@ -166,9 +169,12 @@ constexpr bool kImagesByPagesPossible = true;
 #endif
 
 TEST_F(Images, BurstAcrossACheckpoint_NothingLostOrDuplicated) {
-  start({.counter = param("burst", 20) + param("checkpoint_at", 3) + param("rollback_at", 6) + param("max_cycles", 2),
-         .keep = 2, .worker = false});
-  step_until([&] { return k_->sr_stats().rollbacks == 2 && records("numbers", "counter").size() >= 200; }, 200);
+  ASSERT_NO_FATAL_FAILURE(start({.counter = param("burst", 20) + param("checkpoint_at", 3) +
+                                            param("rollback_at", 6) + param("max_cycles", 2),
+                                 .keep = 2,
+                                 .worker = false}));
+  ASSERT_NO_FATAL_FAILURE(step_until(
+      [&] { return k_->sr_stats().rollbacks == 2 && records("numbers", "counter").size() >= 200; }, 200));
   expect_exactly_once("listener");
   const auto driver = records("echoes", "driver");
   EXPECT_EQ(driver.back().altitude_m, static_cast<double>(driver.size()));
@@ -182,9 +188,12 @@ TEST_F(Images, BurstAcrossACheckpoint_NothingLostOrDuplicated) {
 // The same burst with every image by fork (KernelOptions::images_by_pages off): the other way gives the same.
 TEST_F(Images, BurstAcrossACheckpoint_ImagesByForkOnly) {
   fork_only_ = true;
-  start({.counter = param("burst", 20) + param("checkpoint_at", 3) + param("rollback_at", 6) + param("max_cycles", 2),
-         .keep = 2, .worker = false});
-  step_until([&] { return k_->sr_stats().rollbacks == 2 && records("numbers", "counter").size() >= 200; }, 200);
+  ASSERT_NO_FATAL_FAILURE(start({.counter = param("burst", 20) + param("checkpoint_at", 3) +
+                                            param("rollback_at", 6) + param("max_cycles", 2),
+                                 .keep = 2,
+                                 .worker = false}));
+  ASSERT_NO_FATAL_FAILURE(step_until(
+      [&] { return k_->sr_stats().rollbacks == 2 && records("numbers", "counter").size() >= 200; }, 200));
   expect_exactly_once("listener");
   EXPECT_EQ(k_->sr_stats().images_by_pages, 0U);
   EXPECT_GT(k_->sr_stats().images_by_fork, 0U);
@@ -200,20 +209,22 @@ long rss_kb() {
   return -1;
 }
 
-// Memory too (issue 19): between cycle 10 and cycle 1000 the kernel's RSS grows by at most 512 kB, the bound
+// Memory too: between cycle 10 and cycle 1000 the kernel's RSS grows by at most 512 kB, the bound
 // of `rejuv soak` (a leak of one allocation per cycle per service would pass it only below ≈ 100 bytes).
 TEST_F(Images, ThousandCycles_ProcessAndFdCountsStayFlat) {
   const Resources before = Resources::now();
   recorder.latest_only = true;
   {
-    start({.counter = param("checkpoint_at", 2) + param("rollback_at", 3) + param("max_cycles", 1000), .keep = 2,
-           .worker = false});
-    step_until([&] { return k_->sr_stats().rollbacks >= 10; }, 100);
+    ASSERT_NO_FATAL_FAILURE(
+        start({.counter = param("checkpoint_at", 2) + param("rollback_at", 3) + param("max_cycles", 1000),
+               .keep = 2,
+               .worker = false}));
+    ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().rollbacks >= 10; }, 100));
     k_->settle_images();
     const Resources early = Resources::now();
     const long early_rss_kb = rss_kb();
-    step_until([&] { return k_->sr_stats().rollbacks == 1000; }, 5000);
-    step_n(*k_, 3);
+    ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().rollbacks == 1000; }, 5000));
+    ASSERT_NO_FATAL_FAILURE(step_n(*k_, 3));
     k_->settle_images();
     const Resources late = Resources::now();
     const long late_rss_kb = rss_kb();
@@ -238,50 +249,65 @@ TEST_F(Images, ThousandCycles_ProcessAndFdCountsStayFlat) {
 }
 
 TEST_F(Images, AKilledImage_RollsBackToThePreviousGeneration) {
-  start({.counter = param("checkpoint_at", 3) + param("rollback_at", 8) + param("max_cycles", 2), .keep = 2, .worker = false});
-  step_until([&] { return k_->generations().size() == 2; }, 100);  // g1 and, after one rollback, g2
-  // Every frozen copy of the listener in g2 (the image and its spare, once the spare has reported).
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_NO_FATAL_FAILURE(
+      start({.counter = param("checkpoint_at", 3) + param("rollback_at", 8) + param("max_cycles", 2),
+             .keep = 2,
+             .worker = false}));
+  ASSERT_NO_FATAL_FAILURE(
+      step_until([&] { return k_->generations().size() == 2; }, 100));  // g1 and, after one rollback, g2
+  // Every frozen copy of the listener in g2: the image and its spare, once the spare has reported.
+  k_->settle_images();
   const auto pids = k_->image_pids(id("listener"), k_->generations().back());
-  ASSERT_FALSE(pids.empty());
+  ASSERT_EQ(pids.size(), 2U) << "the image and its spare";
   for (const int pid : pids) ASSERT_EQ(::kill(pid, SIGKILL), 0);
-  step_until([&] { return k_->sr_stats().rollbacks == 2; }, 100);
+  ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().rollbacks == 2; }, 100));
   EXPECT_EQ(k_->sr_stats().fallbacks, 1U);
   EXPECT_EQ(k_->sr_stats().cold_restarts, 0U);
-  step_n(*k_, 5);
+  ASSERT_NO_FATAL_FAILURE(step_n(*k_, 5));
   EXPECT_FALSE(k_->stop_reason().has_value());
   expect_exactly_once("listener");
 }
 
 TEST_F(Images, OneDeadCopy_TheSpareStillRestoresTheGeneration) {
-  start({.counter = param("checkpoint_at", 3) + param("rollback_at", 8) + param("max_cycles", 1), .keep = 2, .worker = false});
-  step_until([&] { return k_->generations().size() == 1; }, 100);
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the spare copies have reported
+  ASSERT_NO_FATAL_FAILURE(
+      start({.counter = param("checkpoint_at", 3) + param("rollback_at", 8) + param("max_cycles", 1),
+             .keep = 2,
+             .worker = false}));
+  ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->generations().size() == 1; }, 100));
+  k_->settle_images();  // the spare copies have reported
   const auto pids = k_->image_pids(id("listener"), k_->generations().back());
-  ASSERT_EQ(pids.size(), 2U);  // the image and its spare
+  ASSERT_EQ(pids.size(), 2U) << "the image and its spare";
   ASSERT_EQ(::kill(pids.front(), SIGKILL), 0);
-  step_until([&] { return k_->sr_stats().rollbacks == 1; }, 100);
+  ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().rollbacks == 1; }, 100));
   EXPECT_EQ(k_->sr_stats().fallbacks, 0U);
   EXPECT_EQ(k_->sr_stats().cold_restarts, 0U);
-  step_n(*k_, 5);
+  ASSERT_NO_FATAL_FAILURE(step_n(*k_, 5));
   EXPECT_FALSE(k_->stop_reason().has_value());
   expect_exactly_once("listener");
 }
 
 TEST_F(Images, NoIntactGeneration_ColdRestartInSafeControl) {
-  start({.counter = param("checkpoint_at", 3) + param("rollback_at", 8) + param("max_cycles", 1), .keep = 2, .worker = false});
-  step_until([&] { return k_->generations().size() == 1; }, 100);
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));  // the spare copies have reported
-  for (const int pid : k_->image_pids(id("counter"))) ASSERT_EQ(::kill(pid, SIGKILL), 0);
-  step_until([&] { return k_->sr_stats().cold_restarts == 1; }, 100);
+  ASSERT_NO_FATAL_FAILURE(
+      start({.counter = param("checkpoint_at", 3) + param("rollback_at", 8) + param("max_cycles", 1),
+             .keep = 2,
+             .worker = false}));
+  ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->generations().size() == 1; }, 100));
+  k_->settle_images();  // the spare copies have reported
+  const auto pids = k_->image_pids(id("counter"));
+  ASSERT_EQ(pids.size(), 2U) << "the image and its spare";
+  for (const int pid : pids) ASSERT_EQ(::kill(pid, SIGKILL), 0);
+  ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().cold_restarts == 1; }, 100));
   EXPECT_EQ(k_->mode(), SrMode::SC);
   // The restarted counter boots from its binary, counts from 1 again and checkpoints afresh.
-  step_until([&] { return k_->sr_stats().checkpoints >= 2; }, 200);
+  ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().checkpoints >= 2; }, 200));
   EXPECT_FALSE(k_->stop_reason().has_value());
 }
 
 TEST_F(Images, HundredRollbacks_OneWorkerAndThePersistentCellSurvives) {
-  start({.counter = param("checkpoint_at", 2) + param("rollback_at", 3) + param("max_cycles", 100), .keep = 2, .worker = true});
+  ASSERT_NO_FATAL_FAILURE(
+      start({.counter = param("checkpoint_at", 2) + param("rollback_at", 3) + param("max_cycles", 100),
+             .keep = 2,
+             .worker = true}));
   // Worker threads of the live incarnation (besides its main thread), read from outside after every step.
   int most = 0;
   const auto workers_now = [&] {
@@ -294,14 +320,20 @@ TEST_F(Images, HundredRollbacks_OneWorkerAndThePersistentCellSurvives) {
     }
     return n - 1;
   };
-  step_until([&] {
-    most = std::max(most, workers_now());
-    return k_->sr_stats().rollbacks == 100;
-  }, 1000);
-  // Let the last re-spawned worker start (a real thread), then look.
+  ASSERT_NO_FATAL_FAILURE(step_until(
+      [&] {
+        most = std::max(most, workers_now());
+        return k_->sr_stats().rollbacks == 100;
+      },
+      1000));
+  // The last re-spawned worker starts (a real thread): stepped until it runs (a deadline, not a measure),
+  // then 20 steps more, in which no second one may appear.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds{10};
+  while (workers_now() < 1 && std::chrono::steady_clock::now() < deadline)
+    ASSERT_NO_FATAL_FAILURE(step_n(*k_, 1));
+  ASSERT_EQ(workers_now(), 1) << "the re-spawned worker thread did not start within 10 s";
   for (int i = 0; i < 20; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    step_n(*k_, 1);
+    ASSERT_NO_FATAL_FAILURE(step_n(*k_, 1));
     most = std::max(most, workers_now());
   }
   const auto verdicts = records("verdicts", "worker");
@@ -313,11 +345,12 @@ TEST_F(Images, HundredRollbacks_OneWorkerAndThePersistentCellSurvives) {
 }
 
 TEST_F(Images, RejuvenationTimer_OneArmPerEpoch_AndItRollsBack) {
-  start({.counter = param("checkpoint_at", 3) + param("max_cycles", 3) + text_param("rollback_by", "timer") +
-                    param("arm_twice", 1),
-         .keep = 2, .worker = false});
-  step_until([&] { return k_->sr_stats().rollbacks == 3; }, 200);
-  step_n(*k_, 5);
+  ASSERT_NO_FATAL_FAILURE(start({.counter = param("checkpoint_at", 3) + param("max_cycles", 3) +
+                                            text_param("rollback_by", "timer") + param("arm_twice", 1),
+                                 .keep = 2,
+                                 .worker = false}));
+  ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().rollbacks == 3; }, 200));
+  ASSERT_NO_FATAL_FAILURE(step_n(*k_, 5));
   const kernel::SrStats& sr = k_->sr_stats();
   EXPECT_EQ(sr.timer_rollbacks, 3U);
   EXPECT_EQ(sr.timer_arms, 3U);

@@ -1,4 +1,4 @@
-// `rejuv run GRAPH --out DIR` as a user runs it (issue 20 item 2): the real binary flies a few seconds of the
+// `rejuv run GRAPH --out DIR` as a user runs it: the real binary flies a few seconds of the
 // square with SR under attack and writes the summary, the compact trace, the record of every control update
 // (Fig. 7) and of every SR event (Fig. 8), and, with gnuplot, Figs. 7-10 and the safety figure as PNG and SVG.
 // No timing is asserted.

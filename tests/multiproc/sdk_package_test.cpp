@@ -1,4 +1,4 @@
-// The SDK as a package (issue 21 item 5; docs/writing_a_service.md): install it into a scratch prefix with
+// The SDK as a package (docs/writing_a_service.md): install it into a scratch prefix with
 // `cmake --install --component sdk`, configure and build examples/hello_service out of the tree against it
 // (find_package(Rejuv) only; its own topic type by rejuv_add_topics), then fly examples/hello_service/hello.launch.pbtxt
 // with the service it built.

@@ -1,4 +1,4 @@
-// `rejuv soak` (issue 19, DESIGN §11): the real binary flies the shipped square with SR and attacks and samples
+// `rejuv soak` (DESIGN §11): the real binary flies the shipped square with SR and attacks and samples
 // the kernel's, the plant's and every service's memory, fds, mappings and processes. The short form (30 cycles)
 // runs in the default suite: it checks that the soak reaches its cycles, writes every series readable and
 // judges them flat. The 1000-cycle soak is DISABLED_ here and run only as the ctest label `soak`
@@ -85,7 +85,7 @@ TEST_F(Soak, DISABLED_OneKernelThreeThousandCycles_CycleLengthAndMemoryFlat) {
   std::printf("%s", r.out.c_str());
 }
 
-// Issue 19's done criterion: ≥ 1000 SR cycles with flat memory, fds and processes. About 3 min of wall time
+// What a long mission needs: ≥ 1000 SR cycles with flat memory, fds and processes. About 3 min of wall time
 // on two cores; run it with `./rejuv test -L soak`.
 TEST_F(Soak, DISABLED_ThousandCycles_MemoryFdsAndProcessesStayFlat) {
   const Outcome r = soak({"--cycles", "1000", "--sample-every", "10"});

@@ -2,7 +2,7 @@
 // the real kernel, the real flight services, checkpoint_p and the image store, the plant process over DDS, in
 // lockstep with the plant as time master (Kernel::run, TimeMaster::Plant). The metrics are `rejuv run`'s own
 // (its RunRecorder, rejuv_run_metrics), against the same path and safety ellipsoid as `rejuv sim`.
-// Skipped (not failed) while a service or the plant is not built.
+// A service or the plant that is not built fails the test (the build makes them all).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -58,11 +58,14 @@ struct Mission {
   GroundReport ground{};         // with a GroundUpload
 };
 
-bool all_built(const launch::LoadedLaunch& g) {
+// The first executable of the graph (a service or the plant) that is not built, if any.
+std::optional<fs::path> missing_executable(const launch::LoadedLaunch& g) {
   for (const proto::ServiceSpec& s : g.graph.services()) {
-    if (!fs::exists(kServiceDir / s.executable())) return false;
+    if (!fs::exists(kServiceDir / s.executable())) return kServiceDir / s.executable();
   }
-  return fs::exists(kServiceDir / g.graph.plant().executable());
+  if (!fs::exists(kServiceDir / g.graph.plant().executable()))
+    return kServiceDir / g.graph.plant().executable();
+  return std::nullopt;
 }
 
 enum class Sr : std::uint8_t { On, Off };
@@ -200,8 +203,8 @@ class GroundStation final : public kernel::Observer {
   GroundReport report_{};
 };
 
-// Flies launch/quad_square.launch.pbtxt (seed 1) as `rejuv run` does. nullopt: not built (the caller skips)
-// or a failure already reported.
+// Flies launch/quad_square.launch.pbtxt (seed 1) as `rejuv run` does. nullopt: a failure, already reported
+// (a missing executable among them); the caller asserts has_value().
 std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGroup> fault = std::nullopt,
                            std::optional<GroundUpload> ground = std::nullopt) {
   auto graph = launch::load_launch(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
@@ -209,7 +212,10 @@ std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGr
     ADD_FAILURE() << graph.error().to_string();
     return std::nullopt;
   }
-  if (!all_built(*graph)) return std::nullopt;
+  if (const auto missing = missing_executable(*graph)) {
+    ADD_FAILURE() << "not built: " << missing->string();
+    return std::nullopt;
+  }
   if (path == Path::FirstLeg) {
     auto* waypoints = graph->graph.mutable_mission()->mutable_waypoints();
     waypoints->DeleteSubrange(2, waypoints->size() - 2);
@@ -281,7 +287,7 @@ void expect_one_timer_arm_per_epoch(const Mission& m) {
 // discipline that makes it hold.
 TEST(SrEndToEnd, SrUnderAttack_CompletesTheSquareInsideTheSafetySet_OneTimerArmPerEpoch) {
   const auto m = fly(Sr::On, Attack::On, Path::Square);
-  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(m.has_value()) << "the mission did not fly (the failure is reported above)";
   EXPECT_EQ(m->outcome.reason, StopReason::MissionDone) << m->outcome.detail;
   EXPECT_TRUE(m->summary.mission_completed());
   EXPECT_FALSE(m->lost);
@@ -296,7 +302,7 @@ TEST(SrEndToEnd, SrUnderAttack_CompletesTheSquareInsideTheSafetySet_OneTimerArmP
 // (V > 100, as `rejuv sim`), long before the 59 s the square takes without attack.
 TEST(SrEndToEnd, NoSrUnderAttack_LeavesTheSafetySetAndStopsWhenLost) {
   const auto m = fly(Sr::Off, Attack::On, Path::Square);
-  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(m.has_value()) << "the mission did not fly (the failure is reported above)";
   EXPECT_GT(m->summary.max_v(), 1.0);
   EXPECT_TRUE(m->summary.left_safety_set());
   EXPECT_TRUE(m->lost);
@@ -311,7 +317,7 @@ TEST(SrEndToEnd, NoSrUnderAttack_LeavesTheSafetySetAndStopsWhenLost) {
 // as a mission that moves the setpoint across many cycles can be. The timer discipline holds here too.
 TEST(SrEndToEnd, SrWithoutAttack_CompletesAOneMetreLegInsideTheSafetySet) {
   const auto m = fly(Sr::On, Attack::Off, Path::FirstLeg);
-  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(m.has_value()) << "the mission did not fly (the failure is reported above)";
   EXPECT_EQ(m->outcome.reason, StopReason::MissionDone) << m->outcome.detail;
   EXPECT_TRUE(m->summary.mission_completed());
   EXPECT_GT(m->sr.rollbacks, 0U);
@@ -328,7 +334,7 @@ TEST(SrEndToEnd, SrWithoutAttack_CompletesAOneMetreLegInsideTheSafetySet) {
 TEST(SrEndToEnd, ColdRestartMidSquare_StaysInsideTheSafetySetAndCompletesTheMission) {
   const auto m = fly(Sr::On, Attack::On, Path::Square,
                      KillGroup{.service = "gen_set_point", .after = std::chrono::seconds{130}});
-  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(m.has_value()) << "the mission did not fly (the failure is reported above)";
   ASSERT_GE(m->killed, 2U) << "the live gen_set_point and at least one image";
   EXPECT_EQ(m->sr.cold_restarts, 1U);
   EXPECT_EQ(m->outcome.reason, StopReason::MissionDone) << m->outcome.detail;
@@ -338,7 +344,7 @@ TEST(SrEndToEnd, ColdRestartMidSquare_StaysInsideTheSafetySetAndCompletesTheMiss
   EXPECT_FALSE(m->summary.left_safety_set());
 }
 
-// Issue 18 item 5: a mission uploaded over the ground link is flown, and survives the rollbacks that wipe
+// A mission uploaded over the ground link is flown, and survives the rollbacks that wipe
 // everything else an MC window leaves behind (commander keeps it in the Persistent cell uploaded_mission,
 // gen_set_point flies it from the next setpoint update and records it in mission_state). The vehicle flies
 // the square's first leg north; 3 s in, the ground station uploads a 1 m leg west of it (inside the geofence).
@@ -349,7 +355,7 @@ TEST(SrEndToEnd, UploadedMission_FlownAcrossRollbacksToItsEnd) {
   ground.waypoints = {{.north_m = 0, .east_m = -1, .down_m = -3, .yaw_rad = 0}};
   ground.after = std::chrono::seconds{3};
   const auto m = fly(Sr::On, Attack::Off, Path::FirstLeg, std::nullopt, ground);
-  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(m.has_value()) << "the mission did not fly (the failure is reported above)";
   const GroundReport& g = m->ground;
   ASSERT_TRUE(g.result.has_value()) << "no answer after " << g.transmissions << " transmissions";
   EXPECT_EQ(*g.result, mavlink::MissionResult::Accepted);
@@ -380,7 +386,7 @@ TEST(SrEndToEnd, RefusedUpload_NegativelyAcknowledgedAndTheMissionFlownUnchanged
                       {.north_m = 0.5, .east_m = 12, .down_m = -3, .yaw_rad = 0}};
   ground.after = std::chrono::seconds{3};
   const auto m = fly(Sr::On, Attack::Off, Path::FirstLeg, std::nullopt, ground);
-  if (!m) GTEST_SKIP() << "flight services or the plant are not built";
+  ASSERT_TRUE(m.has_value()) << "the mission did not fly (the failure is reported above)";
   const GroundReport& g = m->ground;
   ASSERT_TRUE(g.result.has_value()) << "no answer after " << g.transmissions << " transmissions";
   EXPECT_EQ(*g.result, mavlink::MissionResult::InvalidParam5X);

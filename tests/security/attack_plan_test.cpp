@@ -81,7 +81,7 @@ TEST(RuntimeAttackPlan, RuntimeKindsInOrder_ControllerAttackSkipped) {
   EXPECT_EQ(plan->attacks[1].max_windows, 4U);
 }
 
-// Issue 17: ESCAPE_HELPER is carried out once, at boot; its target port is the service param escape_port.
+// ESCAPE_HELPER is carried out once, at boot; its target port is the service param escape_port.
 TEST(RuntimeAttackPlan, EscapeHelper_OnceAtBootWithTheDefaultPort) {
   Params p;
   p.numbers = {{"attack.enabled", 1}, {"attack.count", 1}};

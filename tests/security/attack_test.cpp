@@ -1,4 +1,4 @@
-// Every runtime attack of the catalogue (idl/launch.proto AttackKind 2…11; DESIGN §11, issue 3(b)) carried
+// Every runtime attack of the catalogue (idl/launch.proto AttackKind 2…11; DESIGN §11) carried
 // out by a compromised service of a real graph, and denied or contained: real kernel, real service processes
 // (tests/security/services/attack_service.cpp with the hooks of services/attacks), real channels and seccomp
 // filters, lockstep driven by the test (TimeMaster::Manual), SR on. The attack plan is the launch text's
@@ -18,11 +18,13 @@
 #include "rejuv/attacks/plan.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "security_launch.hpp"
+#include "services/verdicts.hpp"
 
 namespace rejuv::testing {
 namespace {
 
 using attacks::AttackKind;
+namespace verdicts = test_services::verdicts;
 
 constexpr double kForgedLimit = 1.0e6;       // attacks::kForgedLimit (hooks.hpp; not linked here)
 constexpr std::uint64_t kForgedCell = 0xA7A7'A7A7'A7A7'A7A7ULL;  // attacks::kForgedPersistentByte × 8
@@ -51,17 +53,30 @@ class Attacks : public ::testing::Test {
     ASSERT_TRUE(booted.has_value()) << booted.error().to_string();
   }
   ServiceId id(std::string_view name) const { return *k_->find_service(name); }
-  void step_until_rollbacks(std::uint64_t n, int limit = 600) { testing::step_until_rollbacks(*k_, n, limit); }
-  // Records on `verdicts` with `tag` from `who` (any publisher when empty).
-  std::vector<rejuv_msg_SensorBaro> verdicts(double tag, std::string_view who = "") const {
-    std::vector<rejuv_msg_SensorBaro> out;
+  [[nodiscard]] ::testing::AssertionResult step_until_rollbacks(std::uint64_t n, int limit = 600) {
+    return testing::step_until_rollbacks(*k_, n, limit);
+  }
+  // The reports of type T (services/verdicts.hpp) that `who` published on `verdicts`, in order.
+  template <class T>
+  std::vector<T> reports(std::string_view who) const {
+    std::vector<T> out;
     for (const Seen* s : recorder_.on("verdicts")) {
-      const auto r = Recorder::as<rejuv_msg_SensorBaro>(*s);
-      if (r.pressure_pa == tag && (who.empty() || s->publisher == id(who))) out.push_back(r);
+      if (s->publisher != id(who)) continue;
+      if (auto r = verdicts::decode<T>(Recorder::as<rejuv_msg_SensorBaro>(*s))) out.push_back(*r);
     }
     return out;
   }
-  std::vector<rejuv_msg_SensorBaro> attempts() const { return verdicts(100.0 + static_cast<double>(kind_), attacker_); }
+  // The attacker's reports of its attempts.
+  std::vector<verdicts::AttackAttempt> attempts() const {
+    std::vector<verdicts::AttackAttempt> out;
+    for (const Seen* s : recorder_.on("verdicts")) {
+      if (s->publisher != id(attacker_)) continue;
+      const auto r =
+          verdicts::decode_attempt(Recorder::as<rejuv_msg_SensorBaro>(*s), static_cast<double>(kind_));
+      if (r) out.push_back(*r);
+    }
+    return out;
+  }
   std::uint64_t denials_of(std::string_view who, cap::Operation op) const {
     std::uint64_t n = 0;
     for (const cap::CapError e : cap::kAllCapErrors) n += k_->caps().denials().at(id(who), e, op);
@@ -73,20 +88,20 @@ class Attacks : public ::testing::Test {
   // sent nothing, every image is alive and the run goes on.
   void expect_runtime_intact() const {
     const kernel::SrStats& sr = k_->sr_stats();
-    const std::size_t taken = verdicts(3, "rejuv").size();
+    const std::size_t taken = reports<verdicts::CheckpointTaken>("rejuv").size();
     EXPECT_EQ(sr.checkpoints, taken) << "a checkpoint the SR cycle did not take";
     EXPECT_EQ(sr.timer_arms, taken) << "a timer arm the SR cycle did not make";
     EXPECT_EQ(sr.timer_arm_refused, 0U);
     EXPECT_EQ(sr.fallbacks, 0U);
     EXPECT_EQ(sr.cold_restarts, 0U);
-    const auto limits = verdicts(1, "driver");
-    ASSERT_FALSE(limits.empty());
-    for (const auto& l : limits) EXPECT_EQ(l.altitude_m, 0.3) << "the limits the driver applies changed";
-    const auto cells = verdicts(2, "rejuv");
-    ASSERT_FALSE(cells.empty());
-    for (const auto& c : cells) EXPECT_LT(c.altitude_m, 1000.0) << "the persistent cell was overwritten";
+    const auto limits = reports<verdicts::LimitsRead>("driver");
+    EXPECT_FALSE(limits.empty());
+    for (const auto& l : limits) EXPECT_EQ(l.first_limit, 0.3) << "the limits the driver applies changed";
+    const auto cells = reports<verdicts::CellRead>("rejuv");
+    EXPECT_FALSE(cells.empty());
+    for (const auto& c : cells) EXPECT_LT(c.cell, 1000.0) << "the persistent cell was overwritten";
     const auto outputs = recorder_.on("actuator_outputs");
-    ASSERT_FALSE(outputs.empty());
+    EXPECT_FALSE(outputs.empty());
     for (const Seen* s : outputs) {
       EXPECT_EQ(s->publisher, id("driver"));
       EXPECT_EQ(Recorder::as<rejuv_msg_ActuatorOutputs>(*s).motor[0], 0.5);
@@ -103,9 +118,9 @@ class Attacks : public ::testing::Test {
     const auto a = attempts();
     EXPECT_GE(a.size(), at_least);
     for (const auto& r : a) {
-      EXPECT_NE(r.altitude_m, 0.0) << "accepted on slot " << r.temperature_c;
-      if (r.altitude_m > 0) {
-        EXPECT_LE(r.altitude_m, static_cast<double>(cap::kAllCapErrors.size())) << "not a denial";
+      EXPECT_NE(r.code, 0.0) << "accepted on slot " << r.target;
+      if (r.code > 0) {
+        EXPECT_LE(r.code, static_cast<double>(cap::kAllCapErrors.size())) << "not a denial";
       }
     }
   }
@@ -126,8 +141,9 @@ class Attacks : public ::testing::Test {
 };
 
 TEST_F(Attacks, InvokeCheckpoint_InMc_DeniedAndNoCheckpointTaken) {
-  start(AttackKind::InvokeCheckpoint, "rejuv");  // the rejuvenation service itself, compromised in MC
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(
+      start(AttackKind::InvokeCheckpoint, "rejuv"));  // the rejuvenation service itself, compromised in MC
+  ASSERT_TRUE(step_until_rollbacks(3));
   expect_all_denied(2 * 4);
   EXPECT_GE(denials_of("rejuv", cap::Operation::CheckpointCreate), 2U * 4U);
   EXPECT_GE(denials_of("rejuv", cap::Operation::CheckpointRollback), 2U * 4U);
@@ -136,8 +152,8 @@ TEST_F(Attacks, InvokeCheckpoint_InMc_DeniedAndNoCheckpointTaken) {
 }
 
 TEST_F(Attacks, ArmTimer_InMc_DeniedAndTheTimerArmedOncePerEpoch) {
-  start(AttackKind::ArmTimer, "rejuv");
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::ArmTimer, "rejuv"));
+  ASSERT_TRUE(step_until_rollbacks(3));
   expect_all_denied(2 * 4);
   EXPECT_GE(denials_of("rejuv", cap::Operation::TimerArm), 2U * 4U);
   EXPECT_EQ(k_->sr_stats().rollbacks, k_->sr_stats().timer_rollbacks);
@@ -145,17 +161,17 @@ TEST_F(Attacks, ArmTimer_InMc_DeniedAndTheTimerArmedOncePerEpoch) {
 }
 
 TEST_F(Attacks, WriteLimits_InMc_DeniedAndTheDriverKeepsTheRestrictedLimits) {
-  start(AttackKind::WriteLimits, "rejuv");
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::WriteLimits, "rejuv"));
+  ASSERT_TRUE(step_until_rollbacks(3));
   expect_all_denied(2 * 4);
   EXPECT_GE(denials_of("rejuv", cap::Operation::LimitsWrite), 2U * 4U);
-  for (const auto& l : verdicts(1, "driver")) EXPECT_NE(l.altitude_m, kForgedLimit);
+  for (const auto& l : reports<verdicts::LimitsRead>("driver")) EXPECT_NE(l.first_limit, kForgedLimit);
   expect_runtime_intact();
 }
 
 TEST_F(Attacks, PublishActuatorOutputs_NoOutputButTheDriversAndEveryPublishRefused) {
-  start(AttackKind::PublishActuatorOutputs, "worker");
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::PublishActuatorOutputs, "worker"));
+  ASSERT_TRUE(step_until_rollbacks(3));
   const auto a = attempts();
   ASSERT_GE(a.size(), 2U * 3U);  // numbers, verdicts and never-held slots, per window
   // Refused by the cap check (slots it does not hold, or without Write) or, on its own topics, by size.
@@ -166,20 +182,20 @@ TEST_F(Attacks, PublishActuatorOutputs_NoOutputButTheDriversAndEveryPublishRefus
 }
 
 TEST_F(Attacks, WritePersistent_InMc_DeniedAndTheCellKeepsItsValue) {
-  start(AttackKind::WritePersistent, "rejuv");
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::WritePersistent, "rejuv"));
+  ASSERT_TRUE(step_until_rollbacks(3));
   expect_all_denied(2 * 4);
   EXPECT_GE(denials_of("rejuv", cap::Operation::PersistentWrite), 2U * 4U);
-  const auto cells = verdicts(2, "rejuv");
-  for (const auto& c : cells) EXPECT_NE(c.altitude_m, static_cast<double>(kForgedCell));
+  const auto cells = reports<verdicts::CellRead>("rejuv");
+  for (const auto& c : cells) EXPECT_NE(c.cell, static_cast<double>(kForgedCell));
   // The cell counts the SR cycles (read before each write): 0, 1, 2, … with no forged value in between.
-  for (std::size_t i = 0; i < cells.size(); ++i) EXPECT_LE(cells[i].altitude_m, static_cast<double>(i));
+  for (std::size_t i = 0; i < cells.size(); ++i) EXPECT_LE(cells[i].cell, static_cast<double>(i));
   expect_runtime_intact();
 }
 
 TEST_F(Attacks, ForgedSlot_EveryRequestOnASlotNeverHeldDenied) {
-  start(AttackKind::ForgedSlot, "worker");
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::ForgedSlot, "worker"));
+  ASSERT_TRUE(step_until_rollbacks(3));
   expect_all_denied(2 * 4 * 5);
   const cap::DenialCounters& d = k_->caps().denials();
   const ServiceId w = id("worker");
@@ -196,8 +212,8 @@ TEST_F(Attacks, ForgedSlot_EveryRequestOnASlotNeverHeldDenied) {
 }
 
 TEST_F(Attacks, NetworkInSei_NetSendDeniedAndNothingSent) {
-  start(AttackKind::NetworkInSei, "link");
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::NetworkInSei, "link"));
+  ASSERT_TRUE(step_until_rollbacks(3));
   expect_all_denied(3);
   // Its own Network cap is empty outside MC: the gate never sees the datagram.
   EXPECT_GE(denials_of("link", cap::Operation::NetSend), 3U);
@@ -207,9 +223,9 @@ TEST_F(Attacks, NetworkInSei_NetSendDeniedAndNothingSent) {
 }
 
 TEST_F(Attacks, KillImage_TheSandboxEndsTheAttackerAndTheRollbackContainsIt) {
-  start(AttackKind::KillImage, "worker");
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::KillImage, "worker"));
   const int test_pid = ::getpid();
-  step_until_rollbacks(4);
+  ASSERT_TRUE(step_until_rollbacks(4));
   // Each attacked window the first forbidden call (kill, ptrace, process_vm_readv, pidfd_open) ended the
   // worker by SIGSYS: counted, and the worker was rolled back with the graph — no call ever returned.
   EXPECT_TRUE(attempts().empty()) << "a forbidden system call returned";
@@ -221,8 +237,8 @@ TEST_F(Attacks, KillImage_TheSandboxEndsTheAttackerAndTheRollbackContainsIt) {
 }
 
 TEST_F(Attacks, OpenSocket_TheSandboxEndsTheAttackerAndTheRollbackContainsIt) {
-  start(AttackKind::OpenSocket, "worker");
-  step_until_rollbacks(4);
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::OpenSocket, "worker"));
+  ASSERT_TRUE(step_until_rollbacks(4));
   EXPECT_TRUE(attempts().empty()) << "socket() or socketpair() returned";
   EXPECT_GE(k_->stats(id("worker")).sandbox_violations, 2U);
   expect_refused_only(k_->stats(id("worker")), {"socket", "socketpair"});
@@ -231,8 +247,8 @@ TEST_F(Attacks, OpenSocket_TheSandboxEndsTheAttackerAndTheRollbackContainsIt) {
 }
 
 TEST_F(Attacks, FloodBroker_BoundedPerStepAndTheReaderGetsOrCountsEveryMessage) {
-  start(AttackKind::FloodBroker, "worker");
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::FloodBroker, "worker"));
+  ASSERT_TRUE(step_until_rollbacks(3));
   const kernel::ServiceStats worker = k_->stats(id("worker"));
   // Each flood is cut at the per-step bound: at least kFloodMessages - 4096 dropped per attacked window.
   EXPECT_GE(worker.flood_dropped, 2U * (kFloodMessages - 4096U));

@@ -1,4 +1,4 @@
-// Issue 17's mission test (DESIGN §7 "Protection (containment)", §11): the square of
+// Containment in a whole mission (DESIGN §7 "Protection (containment)", §11): the square of
 // launch/quad_square.launch.pbtxt flown through the real kernel, the real flight services and the plant, with
 // the worst-case control attack of §VI-D and, on top of it, a compromised ekf2 that forks a helper at boot
 // (attack ESCAPE_HELPER, services/attacks) which tries, for as long as it lives, to send UDP to a listener
@@ -8,7 +8,7 @@
 // Asserted by effect, no timing: no datagram reaches the listener; the kernel counted the helper (a forbidden
 // call by name, or a stray); the helper is gone when the first rollback has happened; the mission completes
 // inside the safety set; after the run no process of ekf2's session exists and the kernel (this process)
-// has no child left. Skipped (not failed) while a service or the plant is not built.
+// has no child left. A service or the plant that is not built fails it.
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -36,7 +36,7 @@ namespace {
 namespace fs = std::filesystem;
 using kernel::Kernel;
 using kernel::StopReason;
-using mission::all_built;
+using mission::missing_executable;
 using mission::read_text;
 using mission::RunLog;
 using mission::session_members;
@@ -150,7 +150,7 @@ TEST(CompromisedMission, Ekf2ForksANetworkHelperAtBoot_NoDatagramHelperGoneByFir
   ASSERT_FALSE(text.empty()) << "launch/quad_square.launch.pbtxt no longer has ekf2 or the control attack";
   auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
   ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
-  if (!all_built(*graph)) GTEST_SKIP() << "flight services or the plant are not built";
+  if (const auto missing = missing_executable(*graph)) FAIL() << "not built: " << missing->string();
   auto reference = cli::run_reference(*graph, std::nullopt);
   ASSERT_TRUE(reference.has_value()) << reference.error();
 

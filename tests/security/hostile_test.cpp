@@ -1,4 +1,4 @@
-// The hostile-service suite (issue 17; DESIGN §7 "Protection (containment)"): the worker of the security
+// The hostile-service suite (DESIGN §7 "Protection (containment)"): the worker of the security
 // graph (security_launch.hpp) is compromised and tries one escape (services/escapes.cpp), at boot (after
 // connect, before Ready: boot calls such as open still pass, so the namespaces and limits must hold) or at its
 // first tick of each MC window. The service is spawned by the real kernel spawn path (allow-list filter with
@@ -28,11 +28,12 @@
 
 #include "graph_fixture.hpp"
 #include "security_launch.hpp"
+#include "services/verdicts.hpp"
 
 namespace rejuv::testing {
 namespace {
 
-constexpr double kEscapeTag = 300;  // escapes::kTag (tests/security/services/escapes.hpp)
+namespace verdicts = test_services::verdicts;
 constexpr double kNotTried = -1000;  // escapes::kNotTried
 constexpr std::uint64_t kCanaryValue = 0x5AFE'5AFE'5AFE'5AFEULL;
 volatile std::uint64_t g_canary = kCanaryValue;  // NOLINT: process_vm_writev's target in the kernel (this process)
@@ -221,13 +222,15 @@ class Hostile : public ::testing::Test {
   }
 
   ServiceId id(std::string_view name) const { return *k_->find_service(name); }
-  void step_until_rollbacks(std::uint64_t n, int limit = 600) { testing::step_until_rollbacks(*k_, n, limit); }
-  // What the worker reported of an escape that returned (value, detail).
-  std::vector<std::pair<double, double>> outcomes() const {
-    std::vector<std::pair<double, double>> out;
+  [[nodiscard]] ::testing::AssertionResult step_until_rollbacks(std::uint64_t n, int limit = 600) {
+    return testing::step_until_rollbacks(*k_, n, limit);
+  }
+  // What the worker reported of an escape that returned.
+  std::vector<verdicts::EscapeReport> outcomes() const {
+    std::vector<verdicts::EscapeReport> out;
     for (const Seen* s : recorder_.on("verdicts")) {
-      const auto r = Recorder::as<rejuv_msg_SensorBaro>(*s);
-      if (r.pressure_pa == kEscapeTag && s->publisher == id("worker")) out.emplace_back(r.altitude_m, r.temperature_c);
+      const auto r = verdicts::decode<verdicts::EscapeReport>(Recorder::as<rejuv_msg_SensorBaro>(*s));
+      if (r && s->publisher == id("worker")) out.push_back(*r);
     }
     return out;
   }
@@ -306,9 +309,9 @@ TEST_P(ForbiddenInMc, KilledInTheCall_CountedByName_RolledBack_NothingEscaped) {
   escape_.name = c.escape;
   std::string params = c.params;
   if (!c.file_dir.empty()) params += file_param(c.file_dir);
-  start({.name = c.escape, .at = "mc", .params = params, .limits = ""});
-  step_until_rollbacks(2);
-  EXPECT_TRUE(outcomes().empty()) << "the forbidden call returned " << outcomes().front().first;
+  ASSERT_NO_FATAL_FAILURE(start({.name = c.escape, .at = "mc", .params = params, .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(2));
+  EXPECT_TRUE(outcomes().empty()) << "the forbidden call returned " << outcomes().front().value;
   EXPECT_GE(refused(c.call), 1U) << "refused: " << refused_calls();
   EXPECT_GE(k_->stats(id("worker")).forbidden_calls, 1U);
   EXPECT_LT(k_->sr_stats().timer_rollbacks, k_->sr_stats().rollbacks) << "no rollback by the violation";
@@ -355,11 +358,12 @@ class CreateFileAtBoot : public Hostile, public ::testing::WithParamInterface<st
 
 TEST_P(CreateFileAtBoot, RefusedByTheReadOnlyMount_NoFile_RunGoesOn) {
   escape_.name = "create_file";
-  start({.name = "create_file", .at = "boot", .params = file_param(GetParam()), .limits = ""});
-  step_until_rollbacks(1);
+  ASSERT_NO_FATAL_FAILURE(
+      start({.name = "create_file", .at = "boot", .params = file_param(GetParam()), .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(1));
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "no report from the worker";
-  EXPECT_EQ(o.front().first, -EROFS) << "open(O_CREAT) in " << GetParam();
+  EXPECT_EQ(o.front().value, -EROFS) << "open(O_CREAT) in " << GetParam();
   EXPECT_EQ(k_->stats(id("worker")).forbidden_calls, 0U) << "a boot call counted: " << refused_calls();
   expect_nothing_escaped();
 }
@@ -368,22 +372,26 @@ INSTANTIATE_TEST_SUITE_P(Hostile, CreateFileAtBoot, ::testing::Values("/tmp", "/
                          [](const auto& p) { return p.param == "/tmp" ? "Tmp" : "DevShm"; });
 
 TEST_F(Hostile, OpenKernelEnvironAtBoot_RefusedByTheUid) {
-  start({.name = "open_kernel_environ", .at = "boot", .params = "", .limits = ""});
-  step_until_rollbacks(1);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "open_kernel_environ", .at = "boot", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(1));
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "no report from the worker";
-  std::printf("open(/proc/<kernel>/environ) at boot: %g\n", o.front().first);
-  EXPECT_LT(o.front().first, 0) << "the kernel's environment was opened (" << o.front().second << " bytes read)";
+  std::printf("open(/proc/<kernel>/environ) at boot: %g\n", o.front().value);
+  EXPECT_LT(o.front().value, 0) << "the kernel's environment was opened (" << o.front().detail
+                                << " bytes read)";
   expect_nothing_escaped();
 }
 
 TEST_F(Hostile, RaiseRlimitAtBoot_RefusedAndTheLimitsHold) {
-  start({.name = "raise_rlimit", .at = "boot", .params = "", .limits = "  limits { max_memory_mb: 1024 max_open_files: 64 }\n"});
-  step_until_rollbacks(1);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "raise_rlimit",
+                                 .at = "boot",
+                                 .params = "",
+                                 .limits = "  limits { max_memory_mb: 1024 max_open_files: 64 }\n"}));
+  ASSERT_TRUE(step_until_rollbacks(1));
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "no report from the worker";
-  EXPECT_EQ(o.front().first, -EPERM) << "RLIMIT_AS raised";
-  EXPECT_EQ(o.front().second, -EPERM) << "RLIMIT_NOFILE raised";
+  EXPECT_EQ(o.front().value, -EPERM) << "RLIMIT_AS raised";
+  EXPECT_EQ(o.front().detail, -EPERM) << "RLIMIT_NOFILE raised";
   const int pid = k_->stats(id("worker")).pid;
   EXPECT_NE(limits_line(pid, "Max address space").find(std::to_string(1024ULL << 20U)), std::string::npos)
       << limits_line(pid, "Max address space");
@@ -396,8 +404,8 @@ TEST_F(Hostile, RaiseRlimitAtBoot_RefusedAndTheLimitsHold) {
 // A helper made in MC is killed by the sweep of the rollback that ends the window (sandbox.cpp: after the
 // timed part, once the copies asked for earlier have reported) and counted as a stray.
 TEST_F(Hostile, HelperByImageFlags_GoneAfterTheNextRollbackAndCountedAsStray) {
-  start({.name = "helper", .at = "mc", .params = "", .limits = ""});
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "helper", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(3));
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "the worker never reported its helper";
   for (const auto& [rc, pid] : o) {
@@ -411,8 +419,8 @@ TEST_F(Hostile, HelperByImageFlags_GoneAfterTheNextRollbackAndCountedAsStray) {
 
 // What holds today: every helper is killed and counted by the kernel, at the latest at shutdown.
 TEST_F(Hostile, HelperByImageFlags_KilledAndCountedAsStrayByShutdown) {
-  start({.name = "helper", .at = "mc", .params = "", .limits = ""});
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "helper", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(3));
   expect_nothing_escaped();
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "the worker never reported its helper";
@@ -426,8 +434,8 @@ TEST_F(Hostile, HelperByImageFlags_KilledAndCountedAsStrayByShutdown) {
 }
 
 TEST_F(Hostile, HelperCallsSetsid_KilledInTheCallAndCounted) {
-  start({.name = "helper_setsid", .at = "mc", .params = "", .limits = ""});
-  step_until_rollbacks(2);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "helper_setsid", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(2));
   EXPECT_GE(refused("setsid"), 1U) << "refused: " << refused_calls();
   expect_nothing_escaped();
   const auto o = outcomes();
@@ -442,11 +450,11 @@ TEST_F(Hostile, HelperCallsSetsid_KilledInTheCallAndCounted) {
 // Every process of a bomb is killed by the sweep of the rollback that follows it, so the process limit it
 // filled is free again for the next window and the images (which share the worker uid's RLIMIT_NPROC).
 TEST_F(Hostile, ForkBomb_AllSweptAtTheNextRollbackAndTheRunGoesOn) {
-  start({.name = "fork_bomb", .at = "mc", .params = "", .limits = ""});
-  step_until_rollbacks(2);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "fork_bomb", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(2));
   // What the kernel does not know now: the bomb of the window before, or a spare image not reported yet.
   const std::vector<pid_t> before = unknown_in_session();
-  step_until_rollbacks(3);
+  ASSERT_TRUE(step_until_rollbacks(3));
   std::vector<pid_t> known = k_->image_pids(id("worker"));
   known.push_back(k_->stats(id("worker")).pid);
   for (const pid_t p : before) {
@@ -465,8 +473,8 @@ TEST_F(Hostile, ForkBomb_AllSweptAtTheNextRollbackAndTheRunGoesOn) {
 // What holds today: the bomb is bounded by RLIMIT_NPROC (as root), every process of it is killed and counted
 // by shutdown, and the run goes on.
 TEST_F(Hostile, ForkBomb_BoundedByTheProcessLimitAndKilledByShutdown) {
-  start({.name = "fork_bomb", .at = "mc", .params = "", .limits = ""});
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "fork_bomb", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(3));
   expect_nothing_escaped();
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "the worker never reported its bomb";
@@ -489,8 +497,8 @@ TEST_F(Hostile, ForkBomb_BoundedByTheProcessLimitAndKilledByShutdown) {
 // installed in) that signals the first incarnation's pid is refused and counted (the kernel compares the
 // target with the caller's own pid, seccomp.cpp ArgCheck::SelfPid).
 TEST_F(Hostile, KillFirstIncarnationFromAnImage_Refused) {
-  start({.name = "kill_first_incarnation", .at = "mc", .params = "", .limits = ""});
-  step_until_rollbacks(3);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "kill_first_incarnation", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(3));
   for (const auto& [rc, pid] : outcomes()) {
     if (rc != kNotTried) ADD_FAILURE() << "kill(" << pid << ", 0) from a restored image returned " << rc;
   }
@@ -501,9 +509,11 @@ TEST_F(Hostile, KillFirstIncarnationFromAnImage_Refused) {
 // ---- what it may do, bounded ----
 
 TEST_F(Hostile, MemoryHog_TheAllocationFailsUnderTheLimit) {
-  start({.name = "memory_hog", .at = "mc", .params = "  params { name: \"hog_mb\" number: 1024 }\n",
-         .limits = "  limits { max_memory_mb: 512 }\n"});
-  step_until_rollbacks(2);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "memory_hog",
+                                 .at = "mc",
+                                 .params = "  params { name: \"hog_mb\" number: 1024 }\n",
+                                 .limits = "  limits { max_memory_mb: 512 }\n"}));
+  ASSERT_TRUE(step_until_rollbacks(2));
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "no report from the worker";
   for (const auto& [rc, mb] : o) EXPECT_EQ(rc, -ENOMEM) << mb << " MiB allocated over a 512 MiB limit";
@@ -512,11 +522,11 @@ TEST_F(Hostile, MemoryHog_TheAllocationFailsUnderTheLimit) {
 }
 
 TEST_F(Hostile, FakeKernelLines_EveryLineSignedByTheWorker) {
-  start({.name = "fake_log", .at = "mc", .params = "", .limits = ""});
-  step_until_rollbacks(2);
+  ASSERT_NO_FATAL_FAILURE(start({.name = "fake_log", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(2));
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "no report from the worker";
-  EXPECT_GT(o.front().first, 0) << "nothing written";
+  EXPECT_GT(o.front().value, 0) << "nothing written";
   int fakes = 0;
   for (const auto& line : log_.lines()) {
     if (line.find("FAKE-KERNEL-LINE") == std::string::npos) continue;

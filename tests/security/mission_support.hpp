@@ -29,12 +29,14 @@ inline std::string read_text(const std::filesystem::path& path) {
   return text.str();
 }
 
-// Whether every service of the graph and its plant are built (else the test is skipped, not failed).
-inline bool all_built(const launch::LoadedLaunch& g) {
+// The first executable of the graph (a service or its plant) that is not built, if any: the test fails on it.
+inline std::optional<std::filesystem::path> missing_executable(const launch::LoadedLaunch& g) {
   for (const proto::ServiceSpec& s : g.graph.services()) {
-    if (!std::filesystem::exists(kServiceDir / s.executable())) return false;
+    if (!std::filesystem::exists(kServiceDir / s.executable())) return kServiceDir / s.executable();
   }
-  return std::filesystem::exists(kServiceDir / g.graph.plant().executable());
+  const std::filesystem::path plant = kServiceDir / g.graph.plant().executable();
+  if (!std::filesystem::exists(plant)) return plant;
+  return std::nullopt;
 }
 
 // Every living process of session `sid` (from /proc; a zombie is dead already: its parent reaps it).

@@ -49,7 +49,7 @@ using kernel::StopReason;
 constexpr std::chrono::seconds kFlight{14};
 constexpr int kAsyncFlag = 020000;  // O_ASYNC (FASYNC) in /proc/<pid>/fdinfo "flags:" (octal)
 
-using mission::all_built;
+using mission::missing_executable;
 using mission::read_text;
 using mission::RunLog;
 using mission::session_members;
@@ -170,7 +170,7 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   ASSERT_FALSE(text.empty()) << "launch/quad_square.launch.pbtxt no longer has the control attack, clock or alignment";
   auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
   ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
-  if (!all_built(*graph)) GTEST_SKIP() << "flight services or the plant are not built";
+  if (const auto missing = missing_executable(*graph)) FAIL() << "not built: " << missing->string();
   auto reference = cli::run_reference(*graph, std::nullopt);
   ASSERT_TRUE(reference.has_value()) << reference.error();
 

@@ -45,15 +45,25 @@ inline std::string security_launch(const SecurityGraph& g) {
 }
 
 // Steps the kernel 4 ms at a time until `n` rollbacks have happened (the run must go on meanwhile), then one
-// more step: the images of the last rollback are resumed and live (still in the secure interval).
-inline void step_until_rollbacks(kernel::Kernel& k, std::uint64_t n, int limit = 600) {
-  for (int i = 0; i < limit && k.sr_stats().rollbacks < n; ++i) {
+// more step: the images of the last rollback are resumed and live (still in the secure interval). A failure
+// is returned for the calling test to assert (ASSERT_TRUE(step_until_rollbacks(…))), so that it stops there.
+[[nodiscard]] inline ::testing::AssertionResult step_until_rollbacks(kernel::Kernel& k, std::uint64_t n,
+                                                                     int limit = 600) {
+  const auto step = [&]() -> ::testing::AssertionResult {
     auto r = k.step(k.now() + std::chrono::milliseconds{4});
-    ASSERT_TRUE(r.has_value()) << r.error().to_string();
-    ASSERT_FALSE(k.stop_reason().has_value()) << k.stop_detail();
+    if (!r) return ::testing::AssertionFailure() << "step: " << r.error().to_string();
+    return ::testing::AssertionSuccess();
+  };
+  for (int i = 0; i < limit && k.sr_stats().rollbacks < n; ++i) {
+    if (auto ok = step(); !ok) return ok;
+    if (k.stop_reason()) return ::testing::AssertionFailure() << "the run stopped: " << k.stop_detail();
   }
-  ASSERT_GE(k.sr_stats().rollbacks, n) << "not enough SR cycles";
-  step_n(k, 1);
+  if (k.sr_stats().rollbacks < n) {
+    return ::testing::AssertionFailure() << "not enough SR cycles: " << k.sr_stats().rollbacks << " of " << n
+                                         << " rollbacks in " << limit << " steps";
+  }
+  if (k.stop_reason()) return ::testing::AssertionSuccess();  // stopped at the last rollback: nothing to step
+  return step();
 }
 
 }  // namespace rejuv::testing

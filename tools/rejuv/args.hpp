@@ -1,4 +1,4 @@
-// The typed option layer of every `rejuv` subcommand (issue 21 item 6). A command declares its options once,
+// The typed option layer of every `rejuv` subcommand. A command declares its options once,
 // as a table: name, metavar, value type (flag, integer or real with a range, text, path, one of a list of
 // choices, or a value of the command's own syntax), the default (the variable's value when it is declared, or
 // what an unset optional means) and a help line. From that one table `Options` parses the arguments, checks

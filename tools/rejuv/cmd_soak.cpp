@@ -1,4 +1,4 @@
-// `rejuv soak GRAPH`: a soak of a flight graph (DESIGN §11, issue 19). Kernels in this process (as `rejuv run`)
+// `rejuv soak GRAPH`: a soak of a flight graph (DESIGN §11). Kernels in this process (as `rejuv run`)
 // fly the graph's mission with SR and its attacks — the closed waypoint loop repeated as often as a mission
 // holds (16 waypoints: three laps of the square, ≈ 240 SR cycles) — one mission after the other, each in a new
 // kernel, until N rollbacks (SR cycles) in all; with --one-kernel a single kernel flies the mission and then

@@ -1,4 +1,4 @@
-// `rejuv faults`: the fault campaign (DESIGN §7 "Faults", §11; issue 19 item 1). Missions of a launch graph
+// `rejuv faults`: the fault campaign (DESIGN §7 "Faults", §11). Missions of a launch graph
 // fly one after another (or in --jobs parallel processes, each with its own DDS domain), each with a few
 // faults injected at moments and phases drawn from the seed; after each one the campaign records the path by
 // which the kernel recovered, whether the vehicle stayed inside the safety set, whether anything leaked and

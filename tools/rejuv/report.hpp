@@ -26,7 +26,7 @@ void fill_image_phases(proto::ImagePhases& out, const kernel::SrStats& sr);
 // Two-letter mode names for progress lines and the CSV (UPDATE is "UP").
 [[nodiscard]] const char* mode_name(SrMode mode);
 
-// The run summary as JSON with the proto field names kept (issue 2: "max_V", not "maxV").
+// The run summary as JSON with the proto field names kept ("max_V", not "maxV": the names docs and scripts use).
 [[nodiscard]] std::string to_json(const proto::RunSummary& summary);
 
 // The network gate's counters into the summary, and as one line of the text summary.

@@ -128,7 +128,7 @@ Result<KernelFds, KernelError> open_kernel_fds() {
                    .seccomp = std::move(*seccomp)};
 }
 
-// File descriptors (issue 19: exhaustion reported, not met in flight): each process the kernel watches holds
+// File descriptors (their exhaustion is reported before the flight, never met in it): each process the kernel watches holds
 // a few (channel, pidfd, output pipe, seccomp listener), and each generation of images a resume socket and the
 // pidfds of an image and its spare per service. Measured: 131 at K = 2 and 456 at K = 16 for the square's 9
 // services and the plant; this bound is above both.

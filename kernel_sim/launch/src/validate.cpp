@@ -308,7 +308,7 @@ class Validator {
 
   // Sandbox limits (DESIGN §7 "Protection") that SR can live with: every process of a rejuvenated service —
   // the live one, an image and a spare per kept generation, and the generation being taken — counts against
-  // its max_processes (RLIMIT_NPROC); below that its image fork fails at a checkpoint (issue 19 item 4).
+  // its max_processes (RLIMIT_NPROC); below that its image fork fails at a checkpoint, so it is refused at load.
   Check check_limits() const {
     const auto where = [&](int i, std::string_view field) {
       return i < 0 ? at({{"sandbox_limits", -1}}, field) : at({{"services", i}, {"limits", -1}}, field);

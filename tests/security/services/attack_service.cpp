@@ -2,15 +2,11 @@
 // its role chosen by the text param `role`, and in every role the runtime attack hooks of the launch plan
 // (services/attacks) — the test's launch text names which service is compromised with which attack.
 //
-// Records on `verdicts` are SensorBaro used as a generic record: pressure_pa = tag, altitude_m = value,
-// temperature_c = detail.
-//   tag 1        driver: the limits it read (LimitsRead), value = the first double
-//   tag 2        rejuv: the persistent cell before its own write, value = the cell as a uint64
-//   tag 3        rejuv: a checkpoint it took (Taken), value = the generation
-//   tag 100 + k  an attempt of attack kind k: value = Attempt::code, detail = target (slot or pid)
-//   tag 300      worker: an escape that returned (escapes.hpp): value = Outcome::value, detail = Outcome::detail
+// What it reports on `verdicts` is one record type per kind of report (verdicts.hpp: LimitsRead, CellRead,
+// CheckpointTaken, AttackAttempt, EscapeReport), encoded there.
 //
-//   rejuv   the SR cycle in miniature (checkpoint_p): in the secure interval, after `sei_ticks` ticks, reads and
+//   rejuv   the SR cycle in miniature (checkpoint_p): in the secure interval, after `sei_ticks` ticks, reads
+//   and
 //           writes the cell, writes the restricted limits, checkpoints; on Taken arms the rejuvenation timer
 //           for `t_mc_ms` and requests MC; a restored image starts the secure interval again.
 //   worker  publishes one number per tick on `numbers`. With the text param `escape` (hostile_test.cpp) it is
@@ -29,10 +25,11 @@
 
 #include <unistd.h>
 
-#include "rejuv/attacks/hooks.hpp"
 #include "escapes.hpp"
+#include "rejuv/attacks/hooks.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "services/test_records.hpp"
+#include "verdicts.hpp"
 
 namespace {
 
@@ -43,6 +40,12 @@ using rejuv::test_services::fail;
 using rejuv::test_services::Record;
 using rejuv::test_services::record;
 using Op = rejuv::cap::Operation;
+
+namespace v = rejuv::test_services::verdicts;
+
+std::uint64_t stamp(const Service& svc) {
+  return static_cast<std::uint64_t>(svc.now().count());
+}
 
 constexpr double kRestrictedLimit = 0.3;  // what rejuv writes: the legitimate Ū
 constexpr auto kTick = std::chrono::milliseconds(4);
@@ -56,7 +59,7 @@ int run_rejuv(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
     if (svc.mode() == rejuv::SrMode::MC || ++ticks != sei_ticks) return;
     std::uint64_t cell = 0;
     if (auto r = svc.invoke("cell", Op::PersistentRead, 0, 8, {}, std::as_writable_bytes(std::span(&cell, 1))); r) {
-      (void)verdicts.publish(record(svc, 2, static_cast<double>(cell), 0));
+      (void)verdicts.publish(v::encode(v::CellRead{.cell = static_cast<double>(cell)}, stamp(svc)));
     }
     cycles = cell + 1;
     (void)svc.invoke("cell", Op::PersistentWrite, 0, 0, std::as_bytes(std::span(&cycles, 1)));
@@ -72,7 +75,8 @@ int run_rejuv(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
       ticks = 0;  // a new secure interval (RB): checkpoint again after sei_ticks
       return;
     }
-    (void)verdicts.publish(record(svc, 3, static_cast<double>(taken->generation.value()), 0));
+    (void)verdicts.publish(v::encode(
+        v::CheckpointTaken{.generation = static_cast<double>(taken->generation.value())}, stamp(svc)));
     if (auto a = svc.invoke("checkpoint", Op::TimerArm, static_cast<std::uint64_t>(std::chrono::nanoseconds(t_mc).count())); !a) {
       svc.logf(LogLevel::Error, "arm: %s", a.error().to_string().c_str());
     }
@@ -117,7 +121,8 @@ int run_worker(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
       if (!outcome) svc.stop(fail(svc, "unknown escape '" + escape + "'"));
     }
     if (outcome) {
-      (void)verdicts.publish(record(svc, escapes::kTag, outcome->value, outcome->detail));
+      (void)verdicts.publish(
+          v::encode(v::EscapeReport{.value = outcome->value, .detail = outcome->detail}, stamp(svc)));
       outcome.reset();
     }
   });
@@ -133,7 +138,8 @@ int run_driver(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
   auto timer = svc.every(kTick, [&] {
     std::array<double, 16> limits{};
     if (auto r = svc.invoke("limits", Op::LimitsRead, 0, 0, {}, std::as_writable_bytes(std::span(limits))); r && r->data_size > 0) {
-      (void)verdicts.publish(record(svc, 1, limits[0], static_cast<double>(r->data_size)));
+      (void)verdicts.publish(v::encode(
+          v::LimitsRead{.first_limit = limits[0], .bytes = static_cast<double>(r->data_size)}, stamp(svc)));
     }
     rejuv_msg_ActuatorOutputs u{};
     u.timestamp_ns = static_cast<std::uint64_t>(svc.now().count());
@@ -158,8 +164,10 @@ int main() {
   if (!s.require(hooks, "bad attack params")) return 1;
   if (*hooks) {
     (*hooks)->on_attempt([&](const rejuv::attacks::Attempt& a) {
-      (void)verdicts->publish(record(s, 100.0 + static_cast<double>(a.kind), static_cast<double>(a.code),
-                                     static_cast<double>(a.target)));
+      (void)verdicts->publish(v::encode(
+          static_cast<double>(a.kind),
+          v::AttackAttempt{.code = static_cast<double>(a.code), .target = static_cast<double>(a.target)},
+          stamp(s)));
     });
   }
   if (role == "rejuv") return run_rejuv(s, *verdicts);

@@ -1,4 +1,4 @@
-// The escapes of the hostile-service suite (tests/security/hostile_test.cpp, issue 17): what a compromised
+// The escapes of the hostile-service suite (tests/security/hostile_test.cpp): what a compromised
 // service tries in order to leave its sandbox (DESIGN §7 "Protection (containment)"), one named escape per
 // run, made with raw system calls where the C library would hide the call the filter sees. Each returns what
 // it achieved if the process survives; the sandbox is expected to kill it inside the first forbidden call.
@@ -32,8 +32,8 @@ struct Outcome {
   double detail = 0;
 };
 
-inline constexpr double kTag = 300;
-inline constexpr double kNotTried = -1000;  // Outcome::value of an escape that waits for a later epoch  // the `verdicts` record of an escape that returned (pressure_pa)
+// Outcome::value of an escape that waits for a later epoch (reported as verdicts.hpp's EscapeReport).
+inline constexpr double kNotTried = -1000;
 
 // Performs `escape`; nullopt for an unknown name.
 std::optional<Outcome> perform(std::string_view escape, const Target& target);

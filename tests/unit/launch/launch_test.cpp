@@ -233,8 +233,8 @@ TEST(LaunchLoader, SrKeepGenerationsExplicitZero_Semantic) {
   expect_semantic_at("keep_generations: 2", "keep_generations: 0", "keep_generations");
 }
 
-// K = 2 needs 1 + 2 × 3 = 7 processes per rejuvenated service (issue 19 item 4: refused at load, not a failed
-// image fork in flight). The error points at the limits line, the one after the executable.
+// K = 2 needs 1 + 2 × 3 = 7 processes per rejuvenated service (refused at load, not a failed image fork
+// in flight). The error points at the limits line, the one after the executable.
 void expect_limits_refused(std::string_view limits, std::string_view message_part) {
   const std::string exe = "  executable: \"rejuv_b\"\n";
   const Mutated m = mutate(exe, exe + std::string(limits));
@@ -363,12 +363,12 @@ TEST(LaunchLoader, DdsConfigMissing_Semantic) {
 }
 
 
-// ---- launch values nobody checked (issue "wave failures", item 4) ----
+// ---- launch values out of range or meaningless: refused at load ----
 
 TEST(LaunchLoader, SrTestZero_Semantic) {
   expect_semantic_at("t_est_s: 3", "t_est_s: 0", "sr.t_est_s (T_est) must be > 0 s");
 }
-// ---- lockstep timing (issue 20: the charge model and the alignment) ----
+// ---- lockstep timing: the charge model and the alignment ----
 
 TEST(LaunchLoader, LockstepUnset_DefaultsOfTheLoader) {
   const auto r = parse_launch(kGood, kAsPath);
@@ -480,7 +480,7 @@ TEST(LaunchLoader, RealtimeKernelPriorityOutOfRange_Semantic) {
   ASSERT_FALSE(r.has_value());
   EXPECT_NE(r.error().message.find("kernel_priority must be 2..99"), std::string::npos) << r.error().to_string();
 }
-// Issue 17: ekf2 installs the runtime hooks, so a plan may compromise it with a helper process at boot.
+// ekf2 installs the runtime hooks, so a plan may compromise it with a helper process at boot.
 TEST(LaunchLoader, EscapeHelperOnEkf2_Loads) {
   Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_ekf2\"");
   const std::size_t kind_at = m.text.find("kind: WORST_CASE_CONTROL");

@@ -490,7 +490,7 @@ TEST(AuditGraph, DriverLevelMismatch_Finding) {
 }
 
 
-// ---- checkpoint, mode, restricted, controls (issue: audit holes) ----
+// ---- checkpoint, mode, restricted, controls: holes that audited clean without deny rules ----
 
 std::vector<Finding> audit_text(std::string_view text) { return audit(must_parse(text)); }
 

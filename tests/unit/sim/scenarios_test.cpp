@@ -47,7 +47,7 @@ SimConfig square_config_with_plan(const std::string& attacks) {
   return config.value_or(SimConfig::defaults());
 }
 
-// Issue 17: a runtime attack (ESCAPE_HELPER on ekf2) is the runtime's business; the model flies without attack.
+// A runtime attack (ESCAPE_HELPER on ekf2) is the runtime's business; the model flies without attack.
 TEST(SimConfigFromLaunch, OnlyARuntimeAttack_ModelAttackOff) {
   const SimConfig c = square_config_with_plan("  attacks { kind: ESCAPE_HELPER service: \"ekf2\" }\n");
   EXPECT_EQ(c.attack.enabled, AttackSwitch::Off);

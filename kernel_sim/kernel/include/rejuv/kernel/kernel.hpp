@@ -314,7 +314,7 @@ struct NetStats {
 // Durations of one kind [ms], bounded: the first kCapacity are kept, after that each new one replaces a
 // uniformly chosen kept one with probability kCapacity / count (reservoir sampling, Vitter's algorithm R, with
 // a fixed-seed generator so that a lockstep run stays deterministic). A kernel that runs for days then holds
-// at most 8 kB per series instead of 8 bytes per SR cycle for ever (issue 19, `rejuv soak`); the count and
+// at most 8 kB per series instead of 8 bytes per SR cycle for ever (what `rejuv soak` checks); the count and
 // the maximum stay exact, the median is that of a uniform sample (exact up to kCapacity durations).
 class DurationSamples {
  public:

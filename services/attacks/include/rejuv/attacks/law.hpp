@@ -1,4 +1,4 @@
-// The attack library's runtime side (issue 20 item 6; docs/control.md "Attack library"): which law of
+// The attack library's runtime side (docs/control.md "Attack library"): which law of
 // flight/attack_library.hpp a compromised service carries out, from the boot params (attack.<j>.kind,
 // start_s, max_windows, magnitude; sr.enabled), and when it acts: in attacked MC windows, decided like every
 // windowed attack by the rollback epochs (plan.hpp WindowClock), so that a restored image knows which window

@@ -1,4 +1,4 @@
-// One start-up for every service's main() (issue 21 item 6): connect to the kernel on fd 3 / fd 4, report a
+// One start-up for every service's main(): connect to the kernel on fd 3 / fd 4, report a
 // failed connection, hand the Service to the service's own set-up, return its exit code.
 //
 //   int main() {

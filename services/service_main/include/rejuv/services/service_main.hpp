@@ -1,4 +1,4 @@
-// The start-up of the project's flight services (issue 21 item 6): sdk::run_service, plus, in a test build
+// The start-up of the project's flight services: sdk::run_service, plus, in a test build
 // (REJUV_ATTACK_HOOKS), the launch plan's runtime attack hooks for the services that carry them
 // (services/attacks; launch::attack_hooks_of says which). A service's main() is then
 //

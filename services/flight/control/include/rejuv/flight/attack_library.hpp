@@ -1,4 +1,4 @@
-// The attack library (issue 20 item 6; docs/control.md "Attack library"): the laws of the attacks that reach the
+// The attack library (docs/control.md "Attack library"): the laws of the attacks that reach the
 // vehicle through another compromised service than the controller (§II: "the attacker … changes the control
 // inputs indirectly, through the sensor readings and the state estimate"), one law per kind of idl/launch.proto
 // AttackKind 13–17, beside the worst-case control of §VI-D (attack.hpp). The model (flight/sim sr_sim.cpp) and the
