@@ -44,10 +44,19 @@ inline std::string security_launch(const SecurityGraph& g) {
   return t;
 }
 
+// Wall-clock deadline of step_until_rollbacks: far above what a test of these suites needs (a few seconds, also
+// under a sanitizer on a loaded machine) and below ctest's timeout, so that a run that stalls fails here, naming
+// what it waited for, instead of being killed by ctest without a word.
+inline constexpr std::chrono::seconds kStepDeadline{120};
+
 // Steps the kernel 4 ms at a time until `n` rollbacks have happened (the run must go on meanwhile), then one
 // more step: the images of the last rollback are resumed and live (still in the secure interval).
 inline void step_until_rollbacks(kernel::Kernel& k, std::uint64_t n, int limit = 600) {
+  const auto deadline = std::chrono::steady_clock::now() + kStepDeadline;
   for (int i = 0; i < limit && k.sr_stats().rollbacks < n; ++i) {
+    ASSERT_LT(std::chrono::steady_clock::now(), deadline)
+        << "deadline: " << k.sr_stats().rollbacks << " of " << n << " rollbacks after " << i << " steps in "
+        << kStepDeadline.count() << " s";
     auto r = k.step(k.now() + std::chrono::milliseconds{4});
     ASSERT_TRUE(r.has_value()) << r.error().to_string();
     ASSERT_FALSE(k.stop_reason().has_value()) << k.stop_detail();
