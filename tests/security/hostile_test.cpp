@@ -380,7 +380,8 @@ TEST_F(Hostile, OpenKernelEnvironAtBoot_RefusedByTheUid) {
 
 TEST_F(Hostile, RaiseRlimitAtBoot_RefusedAndTheLimitsHold) {
 #if defined(__SANITIZE_THREAD__)
-  GTEST_SKIP() << "a ThreadSanitizer build sets no RLIMIT_AS (its runtime reserves nearly the whole address space)";
+  GTEST_SKIP()
+      << "a ThreadSanitizer build sets no RLIMIT_AS (its runtime reserves nearly the whole address space)";
 #endif
   start({.name = "raise_rlimit", .at = "boot", .params = "", .limits = "  limits { max_memory_mb: 1024 max_open_files: 64 }\n"});
   step_until_rollbacks(1);
@@ -390,7 +391,8 @@ TEST_F(Hostile, RaiseRlimitAtBoot_RefusedAndTheLimitsHold) {
   EXPECT_EQ(o.front().second, -EPERM) << "RLIMIT_NOFILE raised";
   const int pid = k_->stats(id("worker")).pid;
   // In an AddressSanitizer build, on top of what its runtime reserves (sys::kSanitizerAddressSpace).
-  EXPECT_NE(limits_line(pid, "Max address space").find(std::to_string((1024ULL << 20U) + sys::kSanitizerAddressSpace)),
+  EXPECT_NE(limits_line(pid, "Max address space")
+                .find(std::to_string((1024ULL << 20U) + sys::kSanitizerAddressSpace)),
             std::string::npos)
       << limits_line(pid, "Max address space");
   EXPECT_NE(limits_line(pid, "Max open files").find("64"), std::string::npos) << limits_line(pid, "Max open files");
@@ -508,7 +510,8 @@ TEST_F(Hostile, KillFirstIncarnationFromAnImage_Refused) {
 
 TEST_F(Hostile, MemoryHog_TheAllocationFailsUnderTheLimit) {
 #if defined(__SANITIZE_THREAD__)
-  GTEST_SKIP() << "a ThreadSanitizer build sets no RLIMIT_AS (its runtime reserves nearly the whole address space)";
+  GTEST_SKIP()
+      << "a ThreadSanitizer build sets no RLIMIT_AS (its runtime reserves nearly the whole address space)";
 #endif
   start({.name = "memory_hog", .at = "mc", .params = "  params { name: \"hog_mb\" number: 1024 }\n",
          .limits = "  limits { max_memory_mb: 512 }\n"});

@@ -44,9 +44,9 @@ inline std::string security_launch(const SecurityGraph& g) {
   return t;
 }
 
-// Wall-clock deadline of step_until_rollbacks: far above what a test of these suites needs (a few seconds, also
-// under a sanitizer on a loaded machine) and below ctest's timeout, so that a run that stalls fails here, naming
-// what it waited for, instead of being killed by ctest without a word.
+// Wall-clock deadline of step_until_rollbacks: far above what a test of these suites needs (a few seconds,
+// also under a sanitizer on a loaded machine) and below ctest's timeout, so that a run that stalls fails
+// here, naming what it waited for, instead of being killed by ctest without a word.
 inline constexpr std::chrono::seconds kStepDeadline{120};
 
 // Steps the kernel 4 ms at a time until `n` rollbacks have happened (the run must go on meanwhile), then one

@@ -44,7 +44,8 @@ sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
   // On top of what a sanitizer's runtime reserves at start (its shadow memory): the limit still bounds what
   // the service maps, and stays below infinity, so raising it is refused. ThreadSanitizer's reservation
   // leaves nothing to bound: no limit in a TSan build.
-  if (v.max_memory_mb > 0) limits.address_space = (std::uint64_t{v.max_memory_mb} << 20U) + sys::kSanitizerAddressSpace;
+  if (v.max_memory_mb > 0)
+    limits.address_space = (std::uint64_t{v.max_memory_mb} << 20U) + sys::kSanitizerAddressSpace;
 #endif
   // No file can be opened after boot and every mount is read-only; what is left to write is the memfd of an
   // image by written pages (allocated ahead for twice the largest image, docs/protocol.md).

@@ -171,14 +171,14 @@ constexpr std::array kServiceRules{
     SyscallRule{"sysinfo", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
 };
 
-// What the sanitizer's runtime in a service calls by itself, admitted only in a sanitizer build (REJUV_SANITIZER:
-// kernel_sim/sys/CMakeLists.txt sets it when CMAKE_CXX_FLAGS has -fsanitize=, as the asan and tsan presets do).
-// A release build's filter has none of these; docs/sandbox.md lists them apart.
+// What the sanitizer's runtime in a service calls by itself, admitted only in a sanitizer build
+// (REJUV_SANITIZER: kernel_sim/sys/CMakeLists.txt sets it when CMAKE_CXX_FLAGS has -fsanitize=, as the asan
+// and tsan presets do). A release build's filter has none of these; docs/sandbox.md lists them apart.
 #if defined(REJUV_SANITIZER)
 constexpr std::array kSanitizerRules{
     SyscallRule{"pipe2", Allowance::Always, ArgCheck::None,
-                "sanitizer build: UBSan's vptr check asks whether memory is readable by writing it into a pipe "
-                "it makes and closes at once (IsAccessibleMemoryRange)"},
+                "sanitizer build: UBSan's vptr check asks whether memory is readable by writing it into a "
+                "pipe it makes and closes at once (IsAccessibleMemoryRange)"},
 };
 #else
 constexpr std::array<SyscallRule, 0> kSanitizerRules{};
