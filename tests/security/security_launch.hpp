@@ -44,6 +44,11 @@ inline std::string security_launch(const SecurityGraph& g) {
   return t;
 }
 
+// Wall-clock deadline of step_until_rollbacks: far above what a test of these suites needs (a few seconds,
+// also under a sanitizer on a loaded machine) and below ctest's timeout, so that a run that stalls fails
+// here, naming what it waited for, instead of being killed by ctest without a word.
+inline constexpr std::chrono::seconds kStepDeadline{120};
+
 // Steps the kernel 4 ms at a time until `n` rollbacks have happened (the run must go on meanwhile), then one
 // more step: the images of the last rollback are resumed and live (still in the secure interval). A failure
 // is returned for the calling test to assert (ASSERT_TRUE(step_until_rollbacks(…))), so that it stops there.
@@ -54,7 +59,13 @@ inline std::string security_launch(const SecurityGraph& g) {
     if (!r) return ::testing::AssertionFailure() << "step: " << r.error().to_string();
     return ::testing::AssertionSuccess();
   };
+  const auto deadline = std::chrono::steady_clock::now() + kStepDeadline;
   for (int i = 0; i < limit && k.sr_stats().rollbacks < n; ++i) {
+    if (std::chrono::steady_clock::now() >= deadline) {
+      return ::testing::AssertionFailure() << "deadline: " << k.sr_stats().rollbacks << " of " << n
+                                           << " rollbacks after " << i << " steps in " << kStepDeadline.count()
+                                           << " s";
+    }
     if (auto ok = step(); !ok) return ok;
     if (k.stop_reason()) return ::testing::AssertionFailure() << "the run stopped: " << k.stop_detail();
   }

@@ -13,6 +13,7 @@
 #include <csignal>
 
 #include "impl.hpp"
+#include "rejuv/sys/sanitizer.hpp"
 
 namespace rejuv::kernel {
 
@@ -39,9 +40,12 @@ sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
   // own uid (root) or its own user namespace (the strict sandbox without root, process.cpp isolate_in_child).
   if (sys::running_as_root() || options.sandbox == KernelOptions::Sandbox::Strict) limits.processes = v.max_processes;
   limits.open_files = v.max_open_files;
-#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
-  // A sanitizer reserves terabytes of address space for its shadow memory.
-  if (v.max_memory_mb > 0) limits.address_space = std::uint64_t{v.max_memory_mb} << 20U;
+#if !defined(__SANITIZE_THREAD__)
+  // On top of what a sanitizer's runtime reserves at start (its shadow memory): the limit still bounds what
+  // the service maps, and stays below infinity, so raising it is refused. ThreadSanitizer's reservation
+  // leaves nothing to bound: no limit in a TSan build.
+  if (v.max_memory_mb > 0)
+    limits.address_space = (std::uint64_t{v.max_memory_mb} << 20U) + sys::kSanitizerAddressSpace;
 #endif
   // No file can be opened after boot and every mount is read-only; what is left to write is the memfd of an
   // image by written pages (allocated ahead for twice the largest image, docs/protocol.md).

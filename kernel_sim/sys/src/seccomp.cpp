@@ -17,6 +17,7 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <csignal>
 #include <cstdlib>
@@ -65,7 +66,7 @@ constexpr std::array<int, 7> kFcntlCommands{F_DUPFD, F_DUPFD_CLOEXEC, F_GETFD, F
 
 // The allow-list (DESIGN §7 "Protection"; docs/sandbox.md prints it). x86-64 names, as libseccomp spells
 // them; a name this architecture lacks is skipped.
-constexpr std::array kRules{
+constexpr std::array kServiceRules{
     // ---- the channel to the kernel (a Unix SOCK_SEQPACKET pair it was given; no socket can be made) ----
     SyscallRule{"read", Allowance::Always, ArgCheck::None, "channel, resume socket, time page fd"},
     SyscallRule{"write", Allowance::Always, ArgCheck::None, "stdout/stderr (pipes the kernel logs), channel"},
@@ -169,6 +170,29 @@ constexpr std::array kRules{
     SyscallRule{"uname", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
     SyscallRule{"sysinfo", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
 };
+
+// What the sanitizer's runtime in a service calls by itself, admitted only in a sanitizer build
+// (REJUV_SANITIZER: kernel_sim/sys/CMakeLists.txt sets it when CMAKE_CXX_FLAGS has -fsanitize=, as the asan
+// and tsan presets do). A release build's filter has none of these; docs/sandbox.md lists them apart.
+#if defined(REJUV_SANITIZER)
+constexpr std::array kSanitizerRules{
+    SyscallRule{"pipe2", Allowance::Always, ArgCheck::None,
+                "sanitizer build: UBSan's vptr check asks whether memory is readable by writing it into a "
+                "pipe it makes and closes at once (IsAccessibleMemoryRange)"},
+};
+#else
+constexpr std::array<SyscallRule, 0> kSanitizerRules{};
+#endif
+
+template <std::size_t A, std::size_t B>
+constexpr std::array<SyscallRule, A + B> joined(const std::array<SyscallRule, A>& a,
+                                                const std::array<SyscallRule, B>& b) {
+  std::array<SyscallRule, A + B> out{};
+  std::copy(a.begin(), a.end(), out.begin());
+  std::copy(b.begin(), b.end(), out.begin() + A);
+  return out;
+}
+constexpr auto kRules = joined(kServiceRules, kSanitizerRules);
 
 struct CtxDeleter {
   void operator()(void* ctx) const { seccomp_release(ctx); }

@@ -264,7 +264,8 @@ class FrameBuffer {
 template <std::size_t N>
 bool copy_name(char (&out)[N], std::string_view in) {
   const std::size_t n = std::min(in.size(), N - 1);
-  std::memcpy(out, in.data(), n);
+  // An empty string_view may have a null data(): memcpy's arguments must be valid pointers even for 0 bytes.
+  if (n > 0) std::memcpy(out, in.data(), n);
   out[n] = '\0';
   return n == in.size();
 }
