@@ -117,6 +117,17 @@ class Images : public ::testing::Test {
                                              << e.altitude_m << "th message (epoch " << e.temperature_c << ")";
     }
   }
+  // A counter bursting 20 numbers per step across a checkpoint and two rollbacks (K = 2), until 200 numbers;
+  // the listener saw each exactly once.
+  void fly_burst_across_a_checkpoint() {
+    ASSERT_NO_FATAL_FAILURE(start({.counter = param("burst", 20) + param("checkpoint_at", 3) +
+                                              param("rollback_at", 6) + param("max_cycles", 2),
+                                   .keep = 2,
+                                   .worker = false}));
+    ASSERT_NO_FATAL_FAILURE(step_until(
+        [&] { return k_->sr_stats().rollbacks == 2 && records("numbers", "counter").size() >= 200; }, 200));
+    expect_exactly_once("listener");
+  }
 
   ImageRecorder recorder;
   std::unique_ptr<kernel::Kernel> k_;
@@ -169,13 +180,7 @@ constexpr bool kImagesByPagesPossible = true;
 #endif
 
 TEST_F(Images, BurstAcrossACheckpoint_NothingLostOrDuplicated) {
-  ASSERT_NO_FATAL_FAILURE(start({.counter = param("burst", 20) + param("checkpoint_at", 3) +
-                                            param("rollback_at", 6) + param("max_cycles", 2),
-                                 .keep = 2,
-                                 .worker = false}));
-  ASSERT_NO_FATAL_FAILURE(step_until(
-      [&] { return k_->sr_stats().rollbacks == 2 && records("numbers", "counter").size() >= 200; }, 200));
-  expect_exactly_once("listener");
+  ASSERT_NO_FATAL_FAILURE(fly_burst_across_a_checkpoint());
   const auto driver = records("echoes", "driver");
   EXPECT_EQ(driver.back().altitude_m, static_cast<double>(driver.size()));
   // The second rollback restored g2, whose images were taken by written pages against g1 (the services are
@@ -188,13 +193,7 @@ TEST_F(Images, BurstAcrossACheckpoint_NothingLostOrDuplicated) {
 // The same burst with every image by fork (KernelOptions::images_by_pages off): the other way gives the same.
 TEST_F(Images, BurstAcrossACheckpoint_ImagesByForkOnly) {
   fork_only_ = true;
-  ASSERT_NO_FATAL_FAILURE(start({.counter = param("burst", 20) + param("checkpoint_at", 3) +
-                                            param("rollback_at", 6) + param("max_cycles", 2),
-                                 .keep = 2,
-                                 .worker = false}));
-  ASSERT_NO_FATAL_FAILURE(step_until(
-      [&] { return k_->sr_stats().rollbacks == 2 && records("numbers", "counter").size() >= 200; }, 200));
-  expect_exactly_once("listener");
+  ASSERT_NO_FATAL_FAILURE(fly_burst_across_a_checkpoint());
   EXPECT_EQ(k_->sr_stats().images_by_pages, 0U);
   EXPECT_GT(k_->sr_stats().images_by_fork, 0U);
 }

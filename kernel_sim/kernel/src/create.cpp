@@ -33,6 +33,17 @@ Result<policy::Policy, KernelError> load_audited_policy(const launch::LoadedLaun
   return std::move(*policy);
 }
 
+// Launch fields the model flies and the runtime does not: refused rather than ignored, since a run would fly
+// another scheme than the graph says.
+Result<void, KernelError> refuse_model_only_fields(const launch::LoadedLaunch& graph) {
+  if (graph.graph.sr().estimate_catch_up()) {
+    return fail(kernel_error(K::Config, graph.path.string() +
+                                            ": sr.estimate_catch_up is modelled by `rejuv sim` only; the runtime's "
+                                            "replay of the plant's samples is not built yet (docs/control.md)"));
+  }
+  return {};
+}
+
 // The options' clock, else the graph's; refused when nothing could keep its time.
 Result<ClockMode, KernelError> choose_clock(const launch::LoadedLaunch& graph, const KernelOptions& options) {
   const ClockMode clock_mode =
@@ -42,12 +53,6 @@ Result<ClockMode, KernelError> choose_clock(const launch::LoadedLaunch& graph, c
   }
   if (options.time_master == TimeMaster::Manual && clock_mode == ClockMode::Realtime) {
     return fail(kernel_error(K::Config, "manual stepping needs the lockstep clock"));
-  }
-  if (graph.graph.sr().estimate_catch_up()) {
-    // Refused rather than ignored: a run would fly another scheme than the graph says.
-    return fail(kernel_error(K::Config, graph.path.string() +
-                                            ": sr.estimate_catch_up is modelled by `rejuv sim` only; the runtime's "
-                                            "replay of the plant's samples is not built yet (docs/control.md)"));
   }
   return clock_mode;
 }
@@ -321,6 +326,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
                                                             Observer* observer) {
   auto policy = load_audited_policy(graph);
   if (!policy) return fail(policy.error());
+  if (auto refused = refuse_model_only_fields(graph); !refused) return fail(std::move(refused.error()));
   auto clock_mode = choose_clock(graph, options);
   if (!clock_mode) return fail(clock_mode.error());
   const bool sr = graph.graph.sr().enabled() && !options.no_sr;

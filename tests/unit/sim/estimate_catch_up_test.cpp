@@ -25,6 +25,13 @@ SimConfig config_of(const std::string& file, SrSwitch sr) {
   return config.value_or(SimConfig::defaults());
 }
 
+// The catch-up square, with or without SR and its attack plan.
+SimConfig catch_up_square(SrSwitch sr, AttackSwitch attack) {
+  SimConfig c = config_of("quad_square_catch_up.launch.pbtxt", sr);
+  c.attack.enabled = attack;
+  return c;
+}
+
 proto::RunSummary fly(const SimConfig& c, const SimObservers& observers = {}) {
   auto s = run_simulation(c, observers);
   EXPECT_TRUE(s.has_value()) << (s ? "" : s.error().to_string());
@@ -67,19 +74,15 @@ TEST(EstimateCatchUp, AfterEveryRollback_TheEstimateIsFresh) {
   EXPECT_LT(b.worst_e, 0.02);
 }
 
-TEST(EstimateCatchUp, RefusedByTheRuntimeNotIgnored_TheModelFliesIt) {
+TEST(EstimateCatchUp, LaunchField_ReachesTheModelWithItsShortTest) {
   const SimConfig c = config_of("quad_square_catch_up.launch.pbtxt", SrSwitch::On);
   EXPECT_TRUE(c.estimate_catch_up);
   EXPECT_DOUBLE_EQ(c.handler.t_est.count(), 0.05);
 }
 
 TEST(EstimateCatchUp, SquareWithoutAttack_CostsAtMostATenthMoreThanWithoutSr) {
-  SimConfig sr = config_of("quad_square_catch_up.launch.pbtxt", SrSwitch::On);
-  SimConfig no_sr = config_of("quad_square_catch_up.launch.pbtxt", SrSwitch::Off);
-  sr.attack.enabled = AttackSwitch::Off;
-  no_sr.attack.enabled = AttackSwitch::Off;
-  const proto::RunSummary a = fly(sr);
-  const proto::RunSummary b = fly(no_sr);
+  const proto::RunSummary a = fly(catch_up_square(SrSwitch::On, AttackSwitch::Off));
+  const proto::RunSummary b = fly(catch_up_square(SrSwitch::Off, AttackSwitch::Off));
   ASSERT_TRUE(a.mission_completed());
   ASSERT_TRUE(b.mission_completed());
   EXPECT_GT(a.rollbacks(), 20U);
@@ -98,13 +101,11 @@ SimConfig two_laps(SimConfig c) {
 class EstimateCatchUpUnderAttack : public ::testing::TestWithParam<AttackLaw> {};
 
 TEST_P(EstimateCatchUpUnderAttack, TwoLaps_InsideTheSafetySetAtAtMostOneAndAHalfTheNoSrTime) {
-  SimConfig attacked = two_laps(config_of("quad_square_catch_up.launch.pbtxt", SrSwitch::On));
+  SimConfig attacked = two_laps(catch_up_square(SrSwitch::On, AttackSwitch::On));
   attacked.attack.law = GetParam();
   attacked.attack.magnitude = 0.0;  // the kind's default
-  SimConfig calm = two_laps(config_of("quad_square_catch_up.launch.pbtxt", SrSwitch::Off));
-  calm.attack.enabled = AttackSwitch::Off;
   const proto::RunSummary a = fly(attacked);
-  const proto::RunSummary b = fly(calm);
+  const proto::RunSummary b = fly(two_laps(catch_up_square(SrSwitch::Off, AttackSwitch::Off)));
   ASSERT_TRUE(b.mission_completed());
   EXPECT_TRUE(a.mission_completed());
   EXPECT_GE(a.attacks(), 45U);

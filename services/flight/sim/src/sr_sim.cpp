@@ -93,7 +93,6 @@ struct SrSimulation::Impl {
   // cut, kept outside the software (the kernel's log in the runtime), and whether the last is this step's.
   std::vector<plant::SensorSamples> since_checkpoint;
   bool logged_this_step = false;
-  std::uint64_t replayed_samples = 0;
 
   Nanos t{0};
   Nanos dt;
@@ -369,7 +368,6 @@ struct SrSimulation::Impl {
       // The step's own samples (logged last) are the software's to handle after this.
       const std::size_t n = since_checkpoint.size() - (logged_this_step ? 1 : 0);
       for (std::size_t i = 0; i < n; ++i) (void)sw.estimator.on_samples(since_checkpoint[i]);
-      replayed_samples += n;
       since_checkpoint.clear();
       logged_this_step = false;
     } else {
