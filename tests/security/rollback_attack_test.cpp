@@ -95,6 +95,21 @@ std::optional<int> policy_of(pid_t pid) {
   return std::nullopt;
 }
 
+// The CPUs `pid` may run on (/proc/<pid>/status Cpus_allowed_list, e.g. "1" or "0-1"), or "" when unreadable.
+std::string cpus_of(pid_t pid) {
+  std::istringstream in(read_text("/proc/" + std::to_string(pid) + "/status"));
+  for (std::string line; std::getline(in, line);) {
+    if (line.rfind("Cpus_allowed_list:", 0) == 0) {
+      const std::size_t v = line.find_first_not_of(" \t", sizeof("Cpus_allowed_list:") - 1);
+      return v == std::string::npos ? std::string() : line.substr(v);
+    }
+  }
+  return {};
+}
+
+// The CPU the real-time flights pin lqr_control to (launch `cpu`): the machine's last.
+unsigned pinned_cpu() { return static_cast<unsigned>(std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN)) - 1); }
+
 // Watches ext_link through the run: its session, and the flags of each live incarnation's fds 1–3 (about
 // every 100 ms of kernel time). Beside `rejuv run`'s recorder, in an ObserverFanout.
 class Watch final : public kernel::Observer {
@@ -118,7 +133,15 @@ class Watch final : public kernel::Observer {
     if (std::find(incarnations.begin(), incarnations.end(), pid) == incarnations.end()) incarnations.push_back(pid);
     // The real-time plan (docs/realtime.md): the live controller at SCHED_FIFO, its images never above it.
     if (const auto lqr = kernel_->find_service("lqr_control")) {
-      if (policy_of(kernel_->stats(*lqr).pid) == 1) ++chain_fifo;
+      const pid_t live = kernel_->stats(*lqr).pid;
+      if (policy_of(live) == 1) ++chain_fifo;
+      if (const std::string cpus = cpus_of(live); !cpus.empty()) {
+        if (cpus == std::to_string(pinned_cpu())) {
+          ++chain_pinned;
+        } else {
+          unpinned.push_back("pid " + std::to_string(live) + " on " + cpus);
+        }
+      }
       for (const pid_t image : kernel_->image_pids(*lqr)) image_fifo += policy_of(image) == 1 ? 1 : 0;
     }
     for (const int fd : {1, 2, 3}) {
@@ -132,6 +155,8 @@ class Watch final : public kernel::Observer {
   std::vector<std::string> async_fds{};  // fds seen with O_ASYNC
   int chain_fifo = 0;                    // looks that found the live lqr_control at SCHED_FIFO
   int image_fifo = 0;                    // images of lqr_control found at SCHED_FIFO
+  int chain_pinned = 0;                  // looks that found the live lqr_control on its launch `cpu` alone
+  std::vector<std::string> unpinned{};   // looks that found it allowed elsewhere
 
  private:
   SessionGuard& guard_;
@@ -157,6 +182,8 @@ struct Flight {
   std::size_t incarnations = 0;
   int chain_fifo = 0;
   int image_fifo = 0;
+  int chain_pinned = 0;
+  std::vector<std::string> unpinned;
   bool realtime = false;
   bool plan_applied = false;  // the kernel logged its real-time plan as applied (not refused by the machine)
   std::vector<pid_t> left_in_session;
@@ -171,6 +198,11 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
   ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
   if (const auto missing = missing_executable(*graph)) FAIL() << "not built: " << missing->string();
+  if (realtime) {  // the plan's CPU pinning (launch `cpu`), checked by effect in every look (Watch)
+    for (proto::ServiceSpec& s : *graph->graph.mutable_services()) {
+      if (s.name() == "lqr_control") s.set_cpu(pinned_cpu());
+    }
+  }
   auto reference = cli::run_reference(*graph, std::nullopt);
   ASSERT_TRUE(reference.has_value()) << reference.error();
 
@@ -204,6 +236,8 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   f.incarnations = watch.incarnations.size();
   f.chain_fifo = watch.chain_fifo;
   f.image_fifo = watch.image_fifo;
+  f.chain_pinned = watch.chain_pinned;
+  f.unpinned = watch.unpinned;
   f.realtime = realtime;
   // Applied to lqr_control: another kernel on the machine may hold the real-time budget (cgroup v1
   // cpu.rt_runtime_us is shared), and then the kernel says which services stay SCHED_OTHER.
@@ -216,14 +250,15 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   ::testing::Test::RecordProperty("rollbacks", std::to_string(f.sr.rollbacks));
   ::testing::Test::RecordProperty("sandbox_violations", std::to_string(f.ext_link.sandbox_violations));
   std::printf("[ %s %s ] max V %.3f, max control gap %.1f ms, %llu rollbacks, %llu cold restarts, ext_link: "
-              "%llu violations (%llu calls, %llu strays, %llu images lost), %zu incarnations seen\n",
+              "%llu violations (%llu calls, %llu strays, %llu images lost), %zu incarnations seen; lqr_control at SCHED_FIFO "
+              "in %d looks, on its launch cpu in %d\n",
               std::string(attacks::to_string(kind)).c_str(), realtime ? "real time" : "lockstep", f.summary.max_v(),
               f.summary.max_control_gap_ms(), static_cast<unsigned long long>(f.sr.rollbacks),
               static_cast<unsigned long long>(f.sr.cold_restarts),
               static_cast<unsigned long long>(f.ext_link.sandbox_violations),
               static_cast<unsigned long long>(f.ext_link.forbidden_calls),
               static_cast<unsigned long long>(f.ext_link.stray_processes),
-              static_cast<unsigned long long>(f.ext_link.images_lost), f.incarnations);
+              static_cast<unsigned long long>(f.ext_link.images_lost), f.incarnations, f.chain_fifo, f.chain_pinned);
 }
 
 // What no attack on rollback may do, whatever it was.
@@ -244,6 +279,9 @@ void expect_rollback_held(const Flight& f) {
   // on fork). Where it was refused (no CAP_SYS_NICE, a container), nothing at all may be SCHED_FIFO.
   if (f.realtime && f.plan_applied) {
     EXPECT_GT(f.chain_fifo, 0) << "lqr_control was never seen at SCHED_FIFO";
+    // Pinned (launch `cpu`) in every incarnation the rollbacks made live, not only the first.
+    EXPECT_GT(f.chain_pinned, 0) << "lqr_control was never seen on CPU " << pinned_cpu() << " alone";
+    EXPECT_EQ(f.unpinned, std::vector<std::string>{}) << "the live lqr_control off its launch cpu";
   }
   EXPECT_EQ(f.image_fifo, 0) << "an image of lqr_control ran at SCHED_FIFO";
 }

@@ -50,7 +50,8 @@ int run_bench(std::span<const std::string_view> args) {
                "  realtime [GRAPH]  this machine's floor (rt-tests cyclictest at the control period) and GRAPH flown\n"
                "                    in real time without SR, with SR, and with SR under its attacks: the intervals\n"
                "                    between actuator outputs and those holding a checkpoint or a rollback, as ratios\n"
-               "                    to the floor (docs/realtime.md).");
+               "                    to the floor (docs/realtime.md), and the lockstep charge they imply (what the\n"
+               "                    vehicle lost at a checkpoint and a rollback) in DIR/lockstep_charge.pbtxt.");
   opts.positional("WHAT", what, "what to measure: images or realtime")
       .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square.launch.pbtxt)", false)
       .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")

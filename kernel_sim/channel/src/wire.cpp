@@ -26,6 +26,7 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::BootEnd:
     case FrameKind::TimerFired:
     case FrameKind::Fork:
+    case FrameKind::Committed:
     case FrameKind::Shutdown: rule = kEmpty; return true;
     case FrameKind::Publish:
     case FrameKind::Deliver: rule = kMessage; return true;
@@ -78,6 +79,7 @@ std::string_view to_string(FrameKind kind) {
     case FrameKind::Copied: return "Copied";
     case FrameKind::TakenPages: return "TakenPages";
     case FrameKind::Patch: return "Patch";
+    case FrameKind::Committed: return "Committed";
   }
   return "?";
 }

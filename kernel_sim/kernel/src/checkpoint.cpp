@@ -126,6 +126,11 @@ void Kernel::Impl::run_checkpoint() {
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();
   answer(0, g.value());
+  // Each service of g prepares its next image now, in the slack the checkpoint started in (vehicle_pace.hpp),
+  // instead of when the next sample wakes it: there it cost the control chain ≈ 0.4 ms in real time.
+  for (const image::Image& im : images.newest()->images) {
+    if (tx.build(wire::FrameKind::Committed, 0, 0, g.value())) send_control(services[im.service.value()], tx.bytes());
+  }
   const std::uint64_t forks_before = sr_stats.images_by_fork;
   const Nanos took = t_saved - t0;
   abandoned.reset();  // an image still owed to an abandoned checkpoint is a stray from now on

@@ -177,6 +177,7 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys
   const proto::LockstepTiming& timing = k.graph.graph.lockstep();
   k.image_charge = ImageCharge(clock_mode, k.options.charge, std::chrono::round<Nanos>(launch::checkpoint_charge(timing)),
                                std::chrono::round<Nanos>(launch::rollback_charge(timing)));
+  k.pace = VehiclePace(clock_mode == ClockMode::Realtime && k.graph.graph.has_plant());
   // The plant aligns (held at rest) before the mission's t = 0; without a plant there is no alignment.
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
     k.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));

@@ -174,6 +174,7 @@ bool Kernel::Impl::service_images() {
     refill_pairs();
     open_pagemaps();
   }
+  if (!checkpoint_request) fire_rejuvenation_early();
   if (rollback_request) {
     const std::string reason = std::move(*rollback_request);
     rollback_request.reset();
@@ -181,7 +182,13 @@ bool Kernel::Impl::service_images() {
     run_rollback(reason);
     return true;
   }
-  if (checkpoint_request && quiescent_for_checkpoint()) {
+  if (!checkpoint_request) {
+    pace.started();  // nothing waits (a rollback may have voided the request)
+    return false;
+  }
+  // In real time with a vehicle, in the slack after a control update (vehicle_pace.hpp).
+  if (quiescent_for_checkpoint() && pace.may_start(wall())) {
+    pace.started();
     settle_dying();
     run_checkpoint();
     return true;
@@ -241,6 +248,16 @@ void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos 
   sr_event(SrEventKind::TimerArmed, {}, after, s.id);
   arm_timerfd();
   reply(s, seq, 0, static_cast<std::uint64_t>(rejuvenation.due->count()));
+}
+
+// In real time with a vehicle: a timer due before the next control update fires now, in the slack after this
+// one (vehicle_pace.hpp) — up to one period early, never late — so that the rollback does not run across the
+// next sample's update. The next safe point carries it out.
+void Kernel::Impl::fire_rejuvenation_early() {
+  if (!rejuvenation.due || rollback_request || !pace.fire_early(wall(), *rejuvenation.due - now())) return;
+  rejuvenation.due.reset();
+  ++sr_stats.timer_rollbacks;
+  request_rollback("the rejuvenation timer fired (in the slack before it was due)");
 }
 
 void Kernel::Impl::fire_rejuvenation() {

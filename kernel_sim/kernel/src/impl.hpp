@@ -25,6 +25,7 @@
 #include "output_batch.hpp"
 #include "reaper.hpp"
 #include "routing_freeze.hpp"
+#include "vehicle_pace.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/channel/codes.hpp"
@@ -160,6 +161,7 @@ struct Kernel::Impl {
   RejuvenationTimer rejuvenation{};
   SrStats sr_stats{};
   ImageCharge image_charge;                 // simulated time charged for image work (image_charge.hpp)
+  VehiclePace pace;                         // where in the control period image work may start (vehicle_pace.hpp)
   Nanos flight_start{0};                    // the end of the plant's alignment: the mission's t = 0
   // The untimed checkpoint of the alignment that forks every service's first image (DESIGN §6): asked for at
   // the first step (priming_request), carried out as any checkpoint but neither timed, counted nor charged.
@@ -313,6 +315,7 @@ struct Kernel::Impl {
   void retire_live_rejuvenated();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
+  void fire_rejuvenation_early();  // real time: due before the next control update, fired in this slack
   void set_mode(SrMode mode, std::optional<ServiceId> by = std::nullopt);  // enter_mode, sr_mode published
   // The capability system's mode, shown on the time page; false (logged) if the policy refuses it.
   bool enter_mode(SrMode mode);

@@ -248,6 +248,7 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
   if (const auto at = steps.idle_deadline(options.idle_deadline)) consider(*at);
   if (const auto at = steps.stall_deadline(); plant_started && at) consider(*at);
   if (image_work) consider(image_work->not_after);
+  if (const auto at = pace.wait_deadline()) consider(*at);
   return best;
 }
 

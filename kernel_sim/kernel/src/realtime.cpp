@@ -3,7 +3,9 @@
 // rt_priority; every one with SCHED_RESET_ON_FORK, so that what a service makes — an image, a spare, a stray,
 // a thread — runs SCHED_OTHER, never above the live chain; RLIMIT_RTTIME on each service, so that one
 // spinning at SCHED_FIFO is killed by the OS (and, lost, rolled back) instead of holding a CPU. Without the
-// privilege the run says once what it could not apply and goes on at SCHED_OTHER.
+// privilege the run says once what it could not apply and goes on at SCHED_OTHER. Where the plan names CPUs
+// (kernel_cpu, plant_cpu, a service's cpu), each is pinned to its own (sched_setaffinity); a CPU the machine
+// lacks is named in the log and ignored.
 #include "impl.hpp"
 #include "rejuv/sys/realtime.hpp"
 
@@ -26,13 +28,33 @@ void Kernel::Impl::start_realtime_plan() {
   if (plan.lock_memory()) {
     if (auto ok = sys::lock_all_memory(); !ok) notes += "; memory not locked (" + ok.error().to_string() + ")";
   }
+  if (plan.has_kernel_cpu()) {
+    if (auto ok = sys::pin_all_threads(plan.kernel_cpu()); !ok) {
+      notes += "; the kernel not pinned to CPU " + std::to_string(plan.kernel_cpu()) + " (" + ok.error().to_string() + ")";
+    } else {
+      notes += "; kernel on CPU " + std::to_string(plan.kernel_cpu());
+    }
+  }
   if (plant_started && plant_priority > 0) {
     if (auto ok = sys::set_fifo(plant.pid(), plant_priority); !ok) {
       notes += "; the plant stays SCHED_OTHER (" + ok.error().to_string() + ")";
     }
   }
+  if (plant_started && plan.has_plant_cpu()) {
+    if (auto ok = sys::pin_to_cpu(plant.pid(), plan.plant_cpu()); !ok) {
+      notes += "; the plant not pinned to CPU " + std::to_string(plan.plant_cpu()) + " (" + ok.error().to_string() + ")";
+    } else {
+      notes += "; plant on CPU " + std::to_string(plan.plant_cpu());
+    }
+  }
   int chain = 0;
   for (ServiceRuntime& s : services) {
+    if (s.config.spec != nullptr && s.config.spec->has_cpu() && s.live()) {
+      if (auto ok = sys::pin_to_cpu(s.proc.process.pid(), s.config.spec->cpu()); !ok) {
+        notes += "; '" + s.name + "' not pinned to CPU " + std::to_string(s.config.spec->cpu()) + " (" +
+                 ok.error().to_string() + ")";
+      }
+    }
     if (s.live() && s.proc.phase == Phase::Ready) apply_realtime(s);
     if (s.config.spec != nullptr && s.config.spec->rt_priority() > 0) ++chain;
   }
@@ -41,10 +63,17 @@ void Kernel::Impl::start_realtime_plan() {
 }
 
 void Kernel::Impl::apply_realtime(ServiceRuntime& s) {
-  if (!realtime_active || s.config.spec == nullptr || s.config.spec->rt_priority() == 0 || !s.live()) return;
+  if (!realtime_active || s.config.spec == nullptr || !s.live()) return;
+  const proto::ServiceSpec& spec = *s.config.spec;
+  // Its CPU first (a copy inherits its image's, which is the incarnation's it was taken from: set again for
+  // whichever process is the live service), then its priority.
+  if (spec.has_cpu()) {
+    (void)sys::pin_to_cpu(s.proc.process.pid(), spec.cpu());  // a refusal was named once (start_realtime_plan)
+  }
+  if (spec.rt_priority() == 0) return;
   // RLIMIT_RTTIME was set at spawn (limits_for) and is inherited by every image; the policy is reset on fork
   // and given back here to whichever process is the live service.
-  auto ok = sys::set_fifo(s.proc.process.pid(), static_cast<int>(s.config.spec->rt_priority()));
+  auto ok = sys::set_fifo(s.proc.process.pid(), static_cast<int>(spec.rt_priority()));
   if (!ok) log("real-time plan: '%s' stays SCHED_OTHER (%s)", s.name.c_str(), ok.error().to_string().c_str());
 }
 

@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <set>
+#include <string>
 #include <system_error>
+#include <tuple>
 
 #include "rejuv/core/vocabulary.hpp"
 #include "validate.hpp"
@@ -294,8 +296,19 @@ class Validator {
     if (p.has_max_rt_time_ms() && (p.max_rt_time_ms() < 1 || p.max_rt_time_ms() > 10000)) {
       return fail(error(where("max_rt_time_ms"), "max_rt_time_ms must be 1..10000, got " + std::to_string(p.max_rt_time_ms())));
     }
+    constexpr std::uint32_t kMaxCpu = 1023;  // CPU_SETSIZE - 1
+    for (const auto& [field, has, cpu] : {std::tuple{"kernel_cpu", p.has_kernel_cpu(), p.kernel_cpu()},
+                                          std::tuple{"plant_cpu", p.has_plant_cpu(), p.plant_cpu()}}) {
+      if (has && cpu > kMaxCpu) {
+        return fail(error(where(field), std::string(field) + " must be 0..1023, got " + std::to_string(cpu)));
+      }
+    }
     for (int i = 0; i < g_.services_size(); ++i) {
       const proto::ServiceSpec& s = g_.services(i);
+      if (s.has_cpu() && s.cpu() > kMaxCpu) {
+        return fail(error(at({{"services", i}}, "cpu"),
+                          "cpu of '" + s.name() + "' must be 0..1023, got " + std::to_string(s.cpu())));
+      }
       if (s.rt_priority() != 0 && s.rt_priority() >= kernel) {
         return fail(error(at({{"services", i}}, "rt_priority"),
                           "rt_priority " + std::to_string(s.rt_priority()) + " of '" + s.name() +

@@ -15,17 +15,38 @@ SysResult<void> set_fifo(pid_t tid, int priority) {
   return {};
 }
 
-SysResult<void> set_fifo_all_threads(int priority) {
+namespace {
+// `apply` on every thread of this process; the first refusal, after trying every thread.
+template <class Apply>
+SysResult<void> for_all_threads(Apply apply) {
   DIR* tasks = ::opendir("/proc/self/task");
   if (tasks == nullptr) return last_error("opendir(/proc/self/task)");
   SysResult<void> out{};
   while (const dirent* entry = ::readdir(tasks)) {
     if (entry->d_name[0] < '0' || entry->d_name[0] > '9') continue;
     const auto tid = static_cast<pid_t>(std::strtol(entry->d_name, nullptr, 10));
-    if (auto ok = set_fifo(tid, priority); !ok && out) out = ok;  // the first refusal, after trying every thread
+    if (auto ok = apply(tid); !ok && out) out = ok;
   }
   ::closedir(tasks);
   return out;
+}
+}  // namespace
+
+SysResult<void> set_fifo_all_threads(int priority) {
+  return for_all_threads([&](pid_t tid) { return set_fifo(tid, priority); });
+}
+
+SysResult<void> pin_to_cpu(pid_t tid, unsigned cpu) {
+  if (cpu >= CPU_SETSIZE) return std::unexpected(SysError{"sched_setaffinity", EINVAL});
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  if (::sched_setaffinity(tid, sizeof set, &set) != 0) return last_error("sched_setaffinity");
+  return {};
+}
+
+SysResult<void> pin_all_threads(unsigned cpu) {
+  return for_all_threads([&](pid_t tid) { return pin_to_cpu(tid, cpu); });
 }
 
 SysResult<void> lock_all_memory() {

@@ -326,7 +326,7 @@ int Service::run() {
         }
         if (!s.flush()) return 1;
         got = s.receive(true);  // sleeps in recvmmsg until the next frame: the wait is the read
-        s.prepare_pages_fd();   // after a checkpoint's commit (no frame comes before it), not inside it
+        s.prepare_pages_fd();   // if no Committed came (a kernel that does not send it): not inside a checkpoint
       }
       if (!got) {
         if (got.error().code == SdkError::ChannelClosed) return 1;
@@ -377,6 +377,9 @@ int Service::run() {
         }
         break;  // live or restored: the loop goes on (a restored image on its new channel)
       }
+      case wire::FrameKind::Committed:  // DESIGN §7: the next image's record file, in the slack after the commit
+        s.prepare_pages_fd();
+        break;
       case wire::FrameKind::Reply:           // a reply nobody waits for
       case wire::FrameKind::Boot:
       case wire::FrameKind::BootCap:

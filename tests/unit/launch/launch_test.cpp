@@ -480,6 +480,26 @@ TEST(LaunchLoader, RealtimeKernelPriorityOutOfRange_Semantic) {
   ASSERT_FALSE(r.has_value());
   EXPECT_NE(r.error().message.find("kernel_priority must be 2..99"), std::string::npos) << r.error().to_string();
 }
+// CPU pinning (docs/realtime.md): a CPU number a cpu_set_t cannot hold is refused at its field; any other loads
+// (a CPU the machine lacks is the run's to report, not the loader's).
+TEST(LaunchLoader, ServiceCpuBeyondCpuSetSize_SemanticAtTheField) {
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_a\"\n  cpu: 1024");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
+  EXPECT_EQ(r.error().where.line, m.line + 1) << r.error().to_string();  // the cpu line
+  EXPECT_NE(r.error().message.find("must be 0..1023, got 1024"), std::string::npos) << r.error().to_string();
+}
+TEST(LaunchLoader, ServiceCpuAndPlanCpus_Load) {
+  const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_a\"\n  cpu: 1023");
+  const auto r = parse_launch(m.text + "realtime { enabled: true kernel_cpu: 0 plant_cpu: 1 }\n", kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+}
+TEST(LaunchLoader, RealtimePlantCpuBeyondCpuSetSize_Semantic) {
+  const auto r = parse_launch(std::string(kGood) + "realtime { enabled: true plant_cpu: 4096 }\n", kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().message.find("plant_cpu must be 0..1023, got 4096"), std::string::npos) << r.error().to_string();
+}
 // ekf2 installs the runtime hooks, so a plan may compromise it with a helper process at boot.
 TEST(LaunchLoader, EscapeHelperOnEkf2_Loads) {
   Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_ekf2\"");

@@ -73,6 +73,9 @@ enum class FrameKind : std::uint16_t {
   Patch = 119,      // on a base image's resume socket: aux = the base generation; payload = PatchBody; carries
                     // two fds: the sealed pages (TakenPages) and the new image's resume socket. One copy forks
                     // a copy that applies the pages and answers Copied on the new socket as the new image
+  Committed = 120,  // aux = generation g: the checkpoint this service answered (Taken, TakenPages) is committed
+                    // (DESIGN §7): the service prepares its next image's record file now, in the vehicle's
+                    // slack after the checkpoint, not when the next sample wakes it (on the control chain's path)
 };
 
 [[nodiscard]] std::string_view to_string(FrameKind kind);

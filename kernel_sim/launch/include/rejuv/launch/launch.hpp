@@ -60,10 +60,11 @@ namespace defaults {
 inline constexpr std::uint32_t kKeepGenerations = 2;   // DESIGN §7: the last K generations are kept
 inline constexpr double kPhysicsRateHz = 1000.0;       // DESIGN §9: RK4 at 1 kHz
 inline constexpr Seconds kCheckPeriod{0.002};          // §V-B: condition (1) is checked every 2 ms
-// Lockstep charges (DESIGN §6, idl/launch.proto LockstepTiming): the p50 of `rejuv bench images` (docs/
-// performance.md "Deterministic lockstep") on the project's 2-vCPU machines, for a graph that sets none.
-inline constexpr Seconds kCheckpointCharge{0.00055};
-inline constexpr Seconds kRollbackCharge{0.0005};
+// Lockstep charges (DESIGN §6, idl/launch.proto LockstepTiming): what `rejuv bench realtime` measured the
+// vehicle lose at a checkpoint and at a rollback in real time on the project's 2-vCPU machines (docs/
+// performance.md "Deterministic lockstep"), for a graph that sets none.
+inline constexpr Seconds kCheckpointCharge{0.0003};
+inline constexpr Seconds kRollbackCharge{0.0003};
 inline constexpr Seconds kAlignment{20.0};             // pre-flight alignment before the mission's t = 0
 inline constexpr double kMaxChargeMs = 1000.0;         // the plant refuses a step charged more than 1 s
 inline constexpr double kMaxAlignmentS = 3600.0;       // the plant's --align-s bound
