@@ -240,7 +240,8 @@ int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, cons
     file << "# What the vehicle lost at a checkpoint and at a rollback in real time on this machine\n"
             "# (`rejuv bench realtime " << graph << " --seconds " << s << "`): the interval holding one, p50,\n"
             "# minus the " << period << " ms control period, the larger of the runs with SR, rounded up to 0.01 ms.\n"
-            "# Put it into a launch file so that lockstep charges what this runtime costs the vehicle\n"
+            "# Set these two fields in the launch file's own `lockstep` block (keep its alignment_s) so that\n"
+            "# lockstep charges what this runtime costs the vehicle\n"
             "# (docs/performance.md \"Deterministic lockstep\").\n"
          << "lockstep {\n  checkpoint_charge_ms: " << up(lost->first) << "\n  rollback_charge_ms: " << up(lost->second)
          << "\n}\n";
