@@ -65,7 +65,8 @@ int run_faults(std::span<const std::string_view> args) {
                "plant, in MC, in the secure interval and exactly inside checkpoints and rollbacks. After each it\n"
                "records the recovery path, safety (max V < 1, mission completed), leaks and hangs; prints the\n"
                "table by kind and phase and writes it as JSON (DIR/faults.json; kernel logs in DIR/job-N.log).\n"
-               "Exit 0 when nothing is unsafe, leaked, hung or unrecovered.");
+               "Exit 0 when nothing is unsafe, leaked, hung or unrecovered (a cold restart after the loss of one\n"
+               "image counts as unrecovered: with two or more generations kept an intact one was left).");
   opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
       .integer("--injections", "N", injections, {1, 100000}, "faults to plan")
       .integer("--seed", "S", seed, {}, "seed of the plan")

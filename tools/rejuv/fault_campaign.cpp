@@ -169,8 +169,8 @@ std::string recovery_path(const Counters& a, const Counters& b) {
 // Forwards everything to the recorder and carries out the mission's faults.
 class Injector final : public kernel::Observer {
  public:
-  Injector(RunRecorder& recorder, const Mission& mission, Nanos alignment, Helper& helper)
-      : rec_(recorder), mission_(mission), alignment_(alignment), helper_(helper) {
+  Injector(RunRecorder& recorder, const Mission& mission, Nanos alignment, Helper& helper, std::uint32_t keep)
+      : rec_(recorder), mission_(mission), alignment_(alignment), helper_(helper), keep_(keep) {
     for (const Planned& p : mission.faults) {
       outcomes_.push_back(Outcome{.mission = mission.index, .fault = p});
     }
@@ -355,6 +355,13 @@ class Injector final : public kernel::Observer {
     }
     o.recovered = back && (final || !k_->stop_reason().has_value());
     if (!back) o.note += "; '" + o.fault.target + "' not back";
+    // The cheapest safe recovery (DESIGN §7 "Faults"): one image of one generation lost leaves another intact
+    // generation when two or more are kept, so a cold restart after it is a finding, not a recovery.
+    if (o.path == "cold restart" && keep_ >= 2 &&
+        (o.fault.kind == FaultKind::KillImage || o.fault.kind == FaultKind::StopImage)) {
+      o.recovered = false;
+      o.note += "; a cold restart although an intact generation was left";
+    }
     if (max_v >= 1.0 && max_v_at_fire_ < 1.0) {
       o.unsafe = true;
       o.note += "; max V " + std::to_string(max_v);
@@ -372,6 +379,7 @@ class Injector final : public kernel::Observer {
   [[maybe_unused]] const Mission& mission_;  // clang: otherwise an unused private field
   Nanos alignment_;
   Helper& helper_;
+  std::uint32_t keep_;  // sr.keep_generations
   kernel::Kernel* k_ = nullptr;
   std::vector<Outcome> outcomes_;
   std::size_t next_ = 0;
@@ -419,8 +427,9 @@ std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>
     options.verbose = std::getenv("REJUV_FAULTS_VERBOSE") != nullptr;  // every checkpoint and rollback in the job log
     options.charge = config.charge;
     const Nanos alignment = reference->alignment;
+    const std::uint32_t keep = launch::keep_generations(graph->graph.sr());
     RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
-    Injector injector(recorder, mission, alignment, helper);
+    Injector injector(recorder, mission, alignment, helper, keep);
     auto k = kernel::Kernel::create(std::move(*graph), options, &injector);
     if (!k) {
       fail_all("kernel: " + k.error().to_string());

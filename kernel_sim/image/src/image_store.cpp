@@ -96,8 +96,18 @@ std::vector<GenerationRecord> ImageStore::commit(GenerationRecord record) {
   REJUV_ASSERT(record.g.value() >= next_, "generations are committed in order");
   next_ = record.g.value() + 1;
   generations_.push_back(std::move(record));
+  return trim();
+}
+
+std::vector<GenerationRecord> ImageStore::trim() {
+  const auto newest_confirmed = [&] {
+    return std::all_of(generations_.end() - static_cast<std::ptrdiff_t>(keep_), generations_.end(),
+                       [](const GenerationRecord& r) {
+                         return std::all_of(r.images.begin(), r.images.end(), [](const Image& i) { return i.confirmed(); });
+                       });
+  };
   std::vector<GenerationRecord> out;
-  while (generations_.size() > keep_) {
+  while (generations_.size() > keep_ + 1 || (generations_.size() > keep_ && newest_confirmed())) {
     out.push_back(std::move(generations_.front()));
     generations_.erase(generations_.begin());
   }

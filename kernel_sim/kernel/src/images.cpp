@@ -81,6 +81,15 @@ void Kernel::Impl::open_pagemaps() {
 
 // ---- retired generations ----
 
+// The generation kept beyond K while the newest are not confirmed (ImageStore::trim) goes once they are: looked
+// at every kTrimPeriod of wall time while there is one (a receive and a wait per copy), or at once (`now`).
+void Kernel::Impl::trim_images(bool now) {
+  if (images.size() <= images.keep() || (!now && wall() < next_trim)) return;
+  next_trim = wall() + kTrimPeriod;
+  images.refresh_all();
+  for (image::GenerationRecord& r : images.trim()) retire(std::move(r));
+}
+
 void Kernel::Impl::retire(image::GenerationRecord record) {
   retiring.push_back(std::move(record));
   finish_retiring(false);
@@ -173,6 +182,7 @@ bool Kernel::Impl::service_images() {
   if (!rollback_request && !checkpoint_request) {  // off the critical paths
     refill_pairs();
     open_pagemaps();
+    if (!image_work) trim_images(false);
   }
   if (!checkpoint_request) fire_rejuvenation_early();
   if (rollback_request) {

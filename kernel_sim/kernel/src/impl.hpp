@@ -175,6 +175,9 @@ struct Kernel::Impl {
   // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
   // be unknown children): destroyed once they have (images.cpp, service_images).
   std::vector<image::GenerationRecord> retiring;
+  static constexpr Nanos kTrimPeriod{std::chrono::milliseconds{2}};
+  Nanos next_trim{0};                   // wall clock: when trim_images looks again
+  void trim_images(bool now);           // the generation kept beyond K, once the newest K are confirmed
   void retire(image::GenerationRecord record);
   void finish_retiring(bool final);
   void refill_pairs();  // channel_pool, for one checkpoint or rollback of every rejuvenated service

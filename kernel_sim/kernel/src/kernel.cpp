@@ -192,6 +192,7 @@ void Kernel::settle_images() {
   const Nanos deadline = k.wall() + std::chrono::milliseconds{500};
   for (;;) {
     k.images.refresh_all();
+    k.trim_images(true);
     k.finish_retiring(false);
     bool pending = !k.retiring.empty();
     if (k.images.spares_pending() > 0) pending = true;

@@ -83,6 +83,35 @@ TEST(ImageStore, AnAbandonedGenerationsNumberIsNeverReused) {
   EXPECT_EQ(store.next_generation().value(), next.value() + 1);
 }
 
+// DESIGN §7 "Faults": while an image of the newest K is not confirmed (its Patch unanswered), one older
+// generation stays, so that losing the base it is made from leaves an intact one to fall back to; never more
+// than K + 1; once confirmed, trim() lets the extra one go.
+TEST(ImageStore, KeepsOneMoreGenerationWhileTheNewestIsNotConfirmed) {
+  ImageStore store(2);
+  for (int k = 0; k < 2; ++k) EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 2)).empty());
+  const auto pending = [&] {
+    GenerationRecord r = make_generation(store.next_generation(), 2);
+    r.images[1].patch_pending = true;  // made from written pages, its copy not reported yet
+    return r;
+  };
+  EXPECT_TRUE(store.commit(pending()).empty()) << "generation 1 is the fallback while 3 is not confirmed";
+  EXPECT_EQ(store.generations(), (std::vector<Generation>{Generation{1}, Generation{2}, Generation{3}}));
+  EXPECT_TRUE(store.trim().empty());
+  std::vector<GenerationRecord> out = store.commit(pending());
+  ASSERT_EQ(out.size(), 1U) << "never more than K + 1";
+  EXPECT_EQ(out.front().g, Generation{1});
+  destroy(out.front());
+  EXPECT_EQ(store.generations(), (std::vector<Generation>{Generation{2}, Generation{3}, Generation{4}}));
+  store.find(Generation{3})->images[1].patch_pending = false;
+  EXPECT_TRUE(store.trim().empty()) << "generation 4 is not confirmed yet";
+  store.find(Generation{4})->images[1].patch_pending = false;
+  out = store.trim();
+  ASSERT_EQ(out.size(), 1U);
+  EXPECT_EQ(out.front().g, Generation{2});
+  destroy(out.front());
+  EXPECT_EQ(store.generations(), (std::vector<Generation>{Generation{3}, Generation{4}}));
+}
+
 TEST(ImageStore, FindsADeadImage) {
   ImageStore store(3);
   EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 2)).empty());

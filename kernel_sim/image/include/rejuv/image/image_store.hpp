@@ -5,7 +5,8 @@
 // service forked at the cut (clone(CLONE_PARENT), so the kernel's child), blocked on its resume socket —
 // and, beside the images, the broker's queue state (rings, generations, cursors), each service's kernel
 // objects (subscriptions, timers) and the time of the cut t_cp. The store keeps the newest K generations
-// (launch `sr.keep_generations`, default 2); an older one is discarded: its images are killed and reaped
+// (launch `sr.keep_generations`, default 2; one more until the newest K are confirmed: trim()); an older
+// one is discarded: its images are killed and reaped
 // and their resume sockets closed. A generation whose image died (killed, crashed) is broken: a rollback
 // falls back to the previous one (DESIGN §7 "Faults").
 //
@@ -66,6 +67,8 @@ struct Image {
   std::string last_death{};                 // how the last copy found dead ended (for the kernel's reports)
   // A copy to resume, or one on its way (the Patch's): the image is not dead (as far as the last refresh knows).
   [[nodiscard]] bool has_copy_or_patch() const { return !copies.empty() || patch_pending; }
+  // A copy to resume and no Patch on its way (as far as the last refresh knows): the image exists for sure.
+  [[nodiscard]] bool confirmed() const { return !copies.empty() && !patch_pending; }
   // Reads the Copied answers that have arrived (adopting each new spare) and drops the copies that died.
   // Returns how many copies are alive.
   std::size_t refresh();
@@ -109,10 +112,16 @@ class ImageStore {
   // A generation that was begun and abandoned: its number is never used again, so that a late answer to it
   // can never be taken for an answer to the next checkpoint (whose images would then be of two moments).
   void abandon(Generation g) { next_ = std::max(next_, g.value() + 1); }
-  // Adds a complete generation (its number must be next_generation()). The oldest beyond K leave the
-  // store and are returned with their images still to be killed and reaped (destroy(), or the caller's own
-  // asynchronous reaping: a checkpoint need not wait for old images to die).
+  // Adds a complete generation (its number must be next_generation()) and returns what trim() lets go, with
+  // their images still to be killed and reaped (destroy(), or the caller's own asynchronous reaping: a
+  // checkpoint need not wait for old images to die).
   [[nodiscard]] std::vector<GenerationRecord> commit(GenerationRecord record);
+  // The oldest generations beyond K leave the store once the newest K are confirmed (every image has a copy
+  // to resume; one by written pages has none until its Patch is answered): until then one more is kept, so
+  // that the loss of a base image while its successor is being made from it — both generations then lack
+  // that service — leaves an intact generation to fall back to instead of a cold restart (DESIGN §7
+  // "Faults"). Never more than K + 1. The caller refreshes first (refresh_all).
+  [[nodiscard]] std::vector<GenerationRecord> trim();
   // The newest generation, or nullptr.
   [[nodiscard]] GenerationRecord* newest();
   // Generation g, or nullptr.
