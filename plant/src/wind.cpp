@@ -2,10 +2,16 @@
 #include "rejuv/plant/wind.hpp"
 
 #include <cmath>
+#include <numbers>
 
 #include "rejuv/core/result.hpp"
 
 namespace rejuv::plant {
+
+Eigen::Vector3d mean_wind_N(double speed_m_s, double toward_deg) {
+  const double a = toward_deg * std::numbers::pi / 180.0;
+  return {speed_m_s * std::cos(a), speed_m_s * std::sin(a), 0.0};
+}
 
 Wind::Wind(const WindParams& params, std::uint64_t seed) : params_(params), rng_(seed) {
   REJUV_ASSERT(params.gust_std_m_s >= 0 && params.gust_time_constant_s > 0,

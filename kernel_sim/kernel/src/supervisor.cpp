@@ -78,7 +78,9 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
     if (a.service() != s.name || !attack_on) continue;
     const std::string prefix = "attack." + std::to_string(attacks) + ".";
     text(prefix + "kind", attack_kind_name(a.kind()));
-    number(prefix + "start_s", a.start_s());
+    // The launch file's start_s is flight time, as in `rejuv sim` (its t = 0 ends the alignment); a service reads
+    // kernel time, so the alignment is added here, once for every attack hook: no window before take-off.
+    number(prefix + "start_s", a.start_s() + to_seconds(k.flight_start).count());
     number(prefix + "max_windows", a.max_windows());
     number(prefix + "magnitude", a.magnitude());  // the attack library's size (docs/control.md "Attack library")
     ++attacks;
@@ -182,6 +184,9 @@ Result<void, KernelError> Kernel::Impl::spawn_plant() {
                format_double(east), "--start-down", format_double(down)};
   if (g.plant().wind_mean_m_s() != 0) {
     spec.args.insert(spec.args.end(), {"--wind-mean", format_double(g.plant().wind_mean_m_s())});
+  }
+  if (g.plant().wind_toward_deg() != 0) {
+    spec.args.insert(spec.args.end(), {"--wind-toward", format_double(g.plant().wind_toward_deg())});
   }
   if (g.plant().wind_gust_m_s() != 0) {
     spec.args.insert(spec.args.end(), {"--wind-gust", format_double(g.plant().wind_gust_m_s())});

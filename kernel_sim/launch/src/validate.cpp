@@ -217,6 +217,11 @@ class Validator {
           error(at({{"plant", -1}}, "wind_mean_m_s"),
                 "plant.wind_mean_m_s must be a finite speed >= 0 m/s, got " + num(p.wind_mean_m_s())));
     }
+    if (!std::isfinite(p.wind_toward_deg()) || p.wind_toward_deg() < 0.0 || p.wind_toward_deg() >= 360.0) {
+      return fail(error(at({{"plant", -1}}, "wind_toward_deg"),
+                        "plant.wind_toward_deg must be in [0, 360) degrees clockwise from north (90 = toward "
+                        "east), got " + num(p.wind_toward_deg())));
+    }
     if (!std::isfinite(p.wind_gust_m_s()) || p.wind_gust_m_s() < 0.0) {
       return fail(
           error(at({{"plant", -1}}, "wind_gust_m_s"),

@@ -114,7 +114,7 @@ class PlantProcess {
         sim_(PlantSimConfig{
             .seed = options.seed,
             .start_N_m = options.start_N_m,
-            .wind = plant::WindParams{.mean_N_m_s = Eigen::Vector3d(options.wind_mean_m_s, 0, 0),
+            .wind = plant::WindParams{.mean_N_m_s = plant::mean_wind_N(options.wind_mean_m_s, options.wind_toward_deg),
                                       .gust_std_m_s = options.wind_gust_m_s,
                                       .gust_time_constant_s = plant::WindParams{}.gust_time_constant_s},
             .physics_period = std::chrono::milliseconds{1},

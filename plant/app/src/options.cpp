@@ -35,7 +35,9 @@ constexpr std::string_view kUsage =
     "  --step-ms MS             lockstep step, 1..1000 (default 4); the ground-truth period in realtime\n"
     "  --ack-timeout-ms MS      lockstep: exit 3 when no ack arrives for this long (default 10000)\n"
     "  --connect-timeout-ms MS  lockstep: exit 3 when the kernel's endpoints do not appear (default 30000)\n"
-    "  --wind-mean M/S          mean wind toward north (default 0)\n"
+    "  --wind-mean M/S          mean wind speed (default 0)\n"
+    "  --wind-toward DEG        where the mean wind blows toward, degrees clockwise from north, [0, 360)\n"
+    "                           (default 0: toward north; 90: toward east)\n"
     "  --wind-gust M/S          gust intensity, 1 sigma per axis (default 0)\n"
     "  --help                   this text\n"
     "\n"
@@ -68,10 +70,10 @@ Nanos millis(std::int64_t ms) {
   return std::chrono::milliseconds{ms};
 }
 
-constexpr std::array<std::string_view, 13> kFlags{
+constexpr std::array<std::string_view, 14> kFlags{
     "--domain",   "--seed",    "--clock",          "--start-north",        "--start-east", "--start-down",
     "--duration", "--step-ms", "--ack-timeout-ms", "--connect-timeout-ms", "--wind-mean",  "--wind-gust",
-    "--align-s"};
+    "--align-s",  "--wind-toward"};
 
 constexpr double kMaxPosition_m = 1e4;
 constexpr double kMaxDuration_s = 1e7;  // ~115 days
@@ -136,6 +138,11 @@ Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::str
   }
   if (flag == "--wind-mean")
     return assign(o.wind_mean_m_s, parse_double(flag, value, -kMaxWind_m_s, kMaxWind_m_s));
+  if (flag == "--wind-toward") {
+    auto deg = parse_double(flag, value, 0, 360);
+    if (deg && *deg == 360.0) return fail("--wind-toward: expected degrees in [0, 360), got '" + std::string(value) + "'");
+    return assign(o.wind_toward_deg, std::move(deg));
+  }
   if (flag == "--wind-gust") return assign(o.wind_gust_m_s, parse_double(flag, value, 0, kMaxWind_m_s));
   return fail("unknown option '" + std::string(flag) + "' (see --help)");
 }

@@ -69,7 +69,9 @@ TEST(PlantOptions, EveryFlag_Parsed) {
                                    "--wind-gust",
                                    "0.5",
                                    "--align-s",
-                                   "1.5"});
+                                   "1.5",
+                                   "--wind-toward",
+                                   "270"});
   EXPECT_EQ(o.domain, 17U);
   EXPECT_EQ(o.seed, 18446744073709551615ULL);
   EXPECT_EQ(o.clock, ClockMode::Realtime);
@@ -80,7 +82,15 @@ TEST(PlantOptions, EveryFlag_Parsed) {
   EXPECT_EQ(o.connect_timeout, 1000ms);
   EXPECT_DOUBLE_EQ(o.wind_mean_m_s, 3);
   EXPECT_DOUBLE_EQ(o.wind_gust_m_s, 0.5);
+  EXPECT_DOUBLE_EQ(o.wind_toward_deg, 270);
   EXPECT_EQ(o.alignment, 1500ms);
+}
+
+TEST(PlantOptions, WindTowardOutsideAFullTurn_Refused) {
+  EXPECT_NE(parse_error({"--wind-toward", "360"}).find("--wind-toward: expected degrees in [0, 360)"),
+            std::string::npos);
+  EXPECT_NE(parse_error({"--wind-toward", "-1"}).find("--wind-toward"), std::string::npos);
+  EXPECT_NE(parse_error({"--wind-toward", "nan"}).find("--wind-toward"), std::string::npos);
 }
 
 TEST(PlantOptions, Help_ShowHelp) {

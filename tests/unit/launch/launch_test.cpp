@@ -329,6 +329,12 @@ TEST(LaunchLoader, PlantNegativeRate_Semantic) {
   expect_semantic_at("physics_rate_hz: 1000", "physics_rate_hz: -1", "physics_rate_hz");
 }
 
+TEST(LaunchLoader, PlantWindTowardAFullTurn_Semantic) {
+  expect_semantic_at("physics_rate_hz: 1000", "physics_rate_hz: 1000 wind_toward_deg: 360", "wind_toward_deg",
+                     false);
+  expect_semantic_at("physics_rate_hz: 1000", "physics_rate_hz: 1000 wind_toward_deg: -90", "[0, 360)", false);
+}
+
 TEST(LaunchLoader, PlantZeroRate_DefaultsTo1kHz) {
   const Mutated m = mutate("physics_rate_hz: 1000", "physics_rate_hz: 0");
   const auto r = parse_launch(m.text, kAsPath);

@@ -1,5 +1,6 @@
 // Quadrotor rigid body and mixer (DESIGN §9, paper §IV-B).
 #include "rejuv/plant/quadrotor.hpp"
+#include "rejuv/plant/wind.hpp"
 
 #include <cmath>
 #include <numbers>
@@ -202,6 +203,26 @@ TEST(Quadrotor, Wind_DragPushesDownwind) {
   // Linear drag F = −c (v − w): at first a = c w / m, so after 1 s roughly half of c w t² / m.
   EXPECT_GT(quad.state().v_NB_N.x(), 0.0);
   EXPECT_NEAR(quad.state().p_NB_N.x(), 0.5 * p.drag_coefficient_N_s_m * 5.0 / p.mass_kg, 1e-3);
+}
+
+// plant.wind_toward_deg: clockwise from north, the direction the air moves to (a westerly, "from 270°", is 90).
+TEST(Wind, MeanTowardDegrees_ClockwiseFromNorth) {
+  EXPECT_TRUE(mean_wind_N(3, 0).isApprox(Eigen::Vector3d(3, 0, 0)));
+  EXPECT_LT((mean_wind_N(3, 90) - Eigen::Vector3d(0, 3, 0)).norm(), 1e-12);
+  EXPECT_LT((mean_wind_N(2, 225) - Eigen::Vector3d(-std::sqrt(2.0), -std::sqrt(2.0), 0)).norm(), 1e-12);
+}
+
+// The direction reaches the vehicle: a wind toward east pushes it east, not north.
+TEST(Wind, TowardEast_DriftsTheVehicleEast) {
+  const QuadParams p = QuadParams::jmavsim_default();
+  Quadrotor quad(p, Quadrotor::hover_at(p, Eigen::Vector3d(0, 0, -10)));
+  Wind wind(WindParams{.mean_N_m_s = mean_wind_N(5, 90)}, 1);
+  for (int i = 0; i < 1000; ++i) {
+    quad.step(kDt, Eigen::Vector4d::Constant(p.hover_level()), wind.step(kDt));
+  }
+  // As Wind_DragPushesDownwind, turned a quarter: about half of c w t² / m east after 1 s, none north.
+  EXPECT_NEAR(quad.state().p_NB_N.y(), 0.5 * p.drag_coefficient_N_s_m * 5.0 / p.mass_kg, 1e-3);
+  EXPECT_LT(std::abs(quad.state().p_NB_N.x()), 1e-6);
 }
 
 }  // namespace

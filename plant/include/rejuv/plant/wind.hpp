@@ -18,6 +18,11 @@ struct WindParams {
   double gust_time_constant_s = 2;
 };
 
+// The mean wind as an air velocity in N: `speed_m_s` blowing toward `toward_deg`, degrees clockwise from north
+// (0 = toward north, 90 = toward east). A wind reported as coming from θ (the meteorological way: a westerly is
+// "from 270°") blows toward θ + 180°. The one conversion for the plant process and the model (`rejuv sim`).
+[[nodiscard]] Eigen::Vector3d mean_wind_N(double speed_m_s, double toward_deg);
+
 // Seeded, deterministic wind generator; a copyable value type. The gust is discretised exactly:
 // g ← e^{−dt/τ} g + σ √(1 − e^{−2dt/τ}) n, n ~ N(0, 1), so its variance stays σ² for any dt.
 class Wind {

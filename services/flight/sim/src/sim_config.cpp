@@ -76,7 +76,7 @@ Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& load
 
   // Plant.
   c.physics_step = launch::physics_step(g.plant());
-  c.wind.mean_N_m_s = Eigen::Vector3d(g.plant().wind_mean_m_s(), 0.0, 0.0);
+  c.wind.mean_N_m_s = plant::mean_wind_N(g.plant().wind_mean_m_s(), g.plant().wind_toward_deg());
   c.wind.gust_std_m_s = g.plant().wind_gust_m_s();
   c.alignment = launch::alignment(g.lockstep());  // the runtime's plant aligns as long (idl/launch.proto)
 

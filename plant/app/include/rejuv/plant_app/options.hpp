@@ -33,7 +33,8 @@ struct PlantOptions {
   Nanos step{std::chrono::milliseconds{4}};               // lockstep step; ground-truth period in realtime
   Nanos ack_timeout{std::chrono::seconds{10}};            // lockstep: no ack for this long = kernel gone
   Nanos connect_timeout{std::chrono::seconds{30}};        // lockstep: waiting for the kernel's endpoints
-  double wind_mean_m_s = 0;                               // mean wind toward north, m/s
+  double wind_mean_m_s = 0;                               // mean wind, m/s, toward wind_toward_deg
+  double wind_toward_deg = 0;                             // clockwise from north (0 = toward north)
   double wind_gust_m_s = 0;                               // gust intensity (1σ per axis), m/s
 };
 
