@@ -139,7 +139,12 @@ void Kernel::Impl::check_stop_conditions() {
   }
   const Seconds timeout = launch::mission_timeout(graph.graph.mission());  // of the flight, after the alignment
   if (timeout.count() > 0 && now() >= flight_start + to_nanos(timeout)) {
-    stop_run(StopReason::MissionTimeout, "mission not completed within " + std::to_string(timeout.count()) + " s");
+    const proto::Mission& path = graph.graph.mission();
+    stop_run(StopReason::MissionTimeout,
+             "mission not completed within " + std::to_string(timeout.count()) + " s" +
+                 (path.has_timeout_s() ? std::string()
+                                          : " (derived from the path's " + std::to_string(launch::path_length_m(path)) +
+                                                " m: set mission.timeout_s for a slower scheme)"));
   }
 }
 

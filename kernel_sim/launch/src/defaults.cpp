@@ -1,5 +1,7 @@
 // The launch graph's defaults and accessors (launch.hpp "defaults"): the fields whose default is not the
 // proto's zero read in one place, the attack hooks of the in-tree services, service lookup and sandbox limits.
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 
 #include "rejuv/launch/launch.hpp"
@@ -57,8 +59,20 @@ Seconds t_est(const proto::SrParams& sr) {
 Seconds t_min(const proto::SrParams& sr) {
   return Seconds(sr.t_min_s());
 }
+double path_length_m(const proto::Mission& mission) {
+  double length = 0.0;
+  for (int i = 1; i < mission.waypoints_size(); ++i) {
+    const proto::Waypoint& a = mission.waypoints(i - 1);
+    const proto::Waypoint& b = mission.waypoints(i);
+    length += std::hypot(b.north_m() - a.north_m(), b.east_m() - a.east_m(), b.down_m() - a.down_m());
+  }
+  return length;
+}
+
 Seconds mission_timeout(const proto::Mission& mission) {
-  return Seconds(mission.timeout_s());
+  if (mission.has_timeout_s()) return Seconds(mission.timeout_s());
+  const double derived = defaults::kDerivedTimeoutBaseS + defaults::kDerivedTimeoutPerMetreS * path_length_m(mission);
+  return Seconds(std::clamp(derived, defaults::kMinDerivedTimeoutS, defaults::kMaxDurationS));
 }
 RealtimeValues realtime_values(const proto::RealtimePlan& plan) {
   RealtimeValues v;

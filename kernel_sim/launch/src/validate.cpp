@@ -496,10 +496,11 @@ class Validator {
       return fail(error(at({{"mission", -1}}, "acceptance_radius_m"),
                         "mission.acceptance_radius_m must be > 0 m, got " + num(m.acceptance_radius_m())));
     }
-    if (!std::isfinite(m.timeout_s()) || m.timeout_s() <= 0.0 || m.timeout_s() > defaults::kMaxDurationS) {
+    if (m.has_timeout_s() &&
+        (!std::isfinite(m.timeout_s()) || m.timeout_s() <= 0.0 || m.timeout_s() > defaults::kMaxDurationS)) {
       return fail(error(at({{"mission", -1}}, "timeout_s"),
-                        "mission.timeout_s must be > 0 s and at most " + num(defaults::kMaxDurationS) + " s, got " +
-                            num(m.timeout_s())));
+                        "mission.timeout_s must be > 0 s and at most " + num(defaults::kMaxDurationS) +
+                            " s (leave it out to derive it from the path), got " + num(m.timeout_s())));
     }
     return {};
   }

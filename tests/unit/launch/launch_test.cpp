@@ -317,6 +317,42 @@ TEST(LaunchLoader, MissionTimeoutNegative_Semantic) {
   expect_semantic_at("timeout_s: 60", "timeout_s: -1", "timeout_s");
 }
 
+TEST(LaunchLoader, MissionTimeoutZero_SemanticSayingItCanBeLeftOut) {
+  expect_semantic_at("timeout_s: 60", "timeout_s: 0", "leave it out to derive it from the path");
+}
+
+TEST(LaunchLoader, MissionTimeoutSet_Kept) {
+  const auto r = parse_launch(kGood, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_DOUBLE_EQ(mission_timeout(r->graph.mission()).count(), 60.0);
+}
+
+// Unset: 60 s + 150 s per metre of the path, at least 600 s, so that a long mission is not cut off by a fixed 600 s.
+TEST(LaunchLoader, MissionTimeoutUnset_DerivedFromThePath) {
+  const auto timeout_of = [](std::string_view waypoints) {
+    const Mutated m = mutate("timeout_s: 60", std::string(waypoints));
+    auto r = parse_launch(m.text, kAsPath);
+    EXPECT_TRUE(r.has_value()) << r.error().to_string();
+    return r ? std::optional{std::pair{path_length_m(r->graph.mission()), mission_timeout(r->graph.mission()).count()}}
+             : std::nullopt;
+  };
+  // The shipped square's path, 4 m: 660 s.
+  const auto square = timeout_of(
+      "waypoints { north_m: 1 down_m: -3 } waypoints { north_m: 1 east_m: 1 down_m: -3 } "
+      "waypoints { east_m: 1 down_m: -3 } waypoints { down_m: -3 }");
+  ASSERT_TRUE(square);
+  EXPECT_NEAR(square->first, 4.0, 1e-12);
+  EXPECT_DOUBLE_EQ(square->second, 660.0);
+  // A 10 m mission (the kind that took 640 s with SR): 1560 s, where a fixed 600 s would have ended it.
+  const auto long_one = timeout_of("waypoints { north_m: 6 east_m: 8 down_m: -3 }");
+  ASSERT_TRUE(long_one);
+  EXPECT_DOUBLE_EQ(long_one->second, 60.0 + 150.0 * 10.0);
+  // A hover: the floor.
+  const auto hover = timeout_of("");
+  ASSERT_TRUE(hover);
+  EXPECT_DOUBLE_EQ(hover->second, 600.0);
+}
+
 TEST(LaunchLoader, AttackUnknownService_Semantic) {
   expect_semantic_at("service: \"a\"", "service: \"zz\"", "not in the graph");
 }

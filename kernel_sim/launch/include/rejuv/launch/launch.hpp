@@ -90,6 +90,11 @@ inline constexpr std::uint32_t kMaxKeepGenerations = 16;  // each one holds a fr
 inline constexpr double kMinPhysicsRateHz = 100.0;     // below the sensor and control rates the model breaks
 inline constexpr double kMaxPhysicsRateHz = 100000.0;  // 10 µs RK4 steps: beyond, a run never ends
 inline constexpr double kMaxWaypointOffsetM = 10000.0; // |north|, |east|, |down| of a waypoint [m]
+// A mission timeout derived from the path (mission_timeout): the paper's scheme flies ≈ 65 s per metre under
+// attack (the 4 m square in ≈ 260 s with SR), so 150 s per metre leaves ≈ 2.3×; the base covers a short path.
+inline constexpr double kDerivedTimeoutBaseS = 60.0;
+inline constexpr double kDerivedTimeoutPerMetreS = 150.0;
+inline constexpr double kMinDerivedTimeoutS = 600.0;
 }  // namespace defaults
 
 // The attack kinds (idl/launch.proto AttackKind) that an in-tree service has a hook for (DESIGN §9: a plan
@@ -104,7 +109,12 @@ inline constexpr double kMaxWaypointOffsetM = 10000.0; // |north|, |east|, |down
 [[nodiscard]] Seconds t_mc(const proto::SrParams& sr);
 [[nodiscard]] Seconds t_est(const proto::SrParams& sr);
 [[nodiscard]] Seconds t_min(const proto::SrParams& sr);
+// The mission's timeout_s, or unset, derived from the path (idl/launch.proto Mission.timeout_s): at least
+// kMinDerivedTimeout, kDerivedTimeoutBase plus kDerivedTimeoutPerMetre per metre of the waypoints' path, at most
+// kMaxDurationS.
 [[nodiscard]] Seconds mission_timeout(const proto::Mission& mission);
+// The length of the mission's path: the first waypoint, where it starts hovering, through every other one [m].
+[[nodiscard]] double path_length_m(const proto::Mission& mission);
 // LockstepTiming with its defaults: the simulated time a checkpoint / rollback is charged, the alignment.
 // The real-time plan's values with their defaults (docs/realtime.md): the kernel's and the plant's SCHED_FIFO
 // priorities (0: SCHED_OTHER) and each SCHED_FIFO service's RLIMIT_RTTIME.
