@@ -45,13 +45,16 @@ int serve(sdk::Service& svc) {
   });
   // The simulation re-arms the estimator on every rollback (flight/sim: RollbackSignal to ekf2 and
   // checkpoint_p). Subscribed when the policy grants rollback_signal to ekf2.
-  const flight::EkfRearm rearm = flight_io::ekf_rearm();
+  const auto rearm_params = flight_io::ekf_rearm(flight_io::params_of(svc));
+  if (!svc.require(rearm_params, "bad params")) return 1;
+  const flight::EkfRearm rearm = *rearm_params;
   if (svc.cap("rollback_signal")) {
     auto rollback = svc.subscribe<rejuv_msg_RollbackSignal>(
         "rollback_signal", [&](const rejuv_msg_RollbackSignal& m) {
           ekf2.on_rollback(rearm);
-          svc.logf(sdk::LogLevel::Debug, "rollback to g %llu (epoch %u): estimator re-armed",
-                   static_cast<unsigned long long>(m.generation), m.epoch);
+          svc.logf(sdk::LogLevel::Debug, "rollback to g %llu (epoch %u): %s",
+                   static_cast<unsigned long long>(m.generation), m.epoch,
+                   rearm.enabled ? "estimator re-armed" : "held samples dropped, covariance kept (sr.ekf_rearm off)");
         });
     if (!svc.require(rollback, "subscribe")) return 1;
   } else {

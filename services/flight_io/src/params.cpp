@@ -268,8 +268,27 @@ flight::EkfParams ekf_params() {
   return p;
 }
 
-flight::EkfRearm ekf_rearm() {
-  return flight::SimConfig::defaults().ekf_rearm;
+Result<flight::EkfRearm, InputFailure> ekf_rearm(const Params& params) {
+  flight::EkfRearm r = flight::SimConfig::defaults().ekf_rearm;
+  if (const auto on = params.find("sr.ekf_rearm.enabled")) {
+    if (*on != 0.0 && *on != 1.0) {
+      return fail(failure(InputError::OutOfRange, "sr.ekf_rearm.enabled", "expected 0 or 1, got " + number_text(*on)));
+    }
+    r.enabled = *on == 1.0;
+  }
+  for (const auto& [name, field] : {std::pair{"sr.ekf_rearm.position_std_m", &r.position_std_m},
+                                    std::pair{"sr.ekf_rearm.velocity_std_m_s", &r.velocity_std_m_s},
+                                    std::pair{"sr.ekf_rearm.attitude_std_rad", &r.attitude_std_rad},
+                                    std::pair{"sr.ekf_rearm.gyro_bias_std_rad_s", &r.gyro_bias_std_rad_s},
+                                    std::pair{"sr.ekf_rearm.accel_bias_std_m_s2", &r.accel_bias_std_m_s2}}) {
+    const std::optional<double> v = params.find(name);
+    if (!v) continue;
+    if (!(std::isfinite(*v) && *v > 0.0)) {
+      return fail(failure(InputError::OutOfRange, name, "expected a finite 1-sigma > 0, got " + number_text(*v)));
+    }
+    *field = *v;
+  }
+  return r;
 }
 
 flight::EkfState ekf_initial_state(const MissionSpec& mission) {

@@ -268,6 +268,12 @@ TEST(LaunchLoader, SrRestrictedFractionZero_Semantic) {
   expect_semantic_at("restricted_limit_fraction: 0.3", "restricted_limit_fraction: 0", "(0, 1]");
 }
 
+TEST(LaunchLoader, SrEkfRearmZeroStd_SemanticAtTheField) {
+  expect_semantic_at("restricted_limit_fraction: 0.3",
+                     "restricted_limit_fraction: 0.3 ekf_rearm { enabled: true position_std_m: 0 }",
+                     "sr.ekf_rearm.position_std_m must be a finite 1-sigma > 0", false);
+}
+
 TEST(LaunchLoader, SrDisabled_ParametersNotChecked) {
   const Mutated m = mutate("  enabled: true\n  t_mc_s: 0.3", "  enabled: false\n  t_mc_s: -5");
   const auto r = parse_launch(m.text, kAsPath);

@@ -135,7 +135,7 @@ TEST(Ekf2Node, Ekf2Node_RollbackSignal_RearmsTheFilterAndDropsHeldSamples) {
   mag.b_B_gauss[0] = 0.2;
   mag.b_B_gauss[2] = 0.4;
   ASSERT_TRUE(node.on_mag(mag));
-  const flight::EkfRearm rearm = flight_io::ekf_rearm();
+  const flight::EkfRearm rearm = *flight_io::ekf_rearm(flight_io::Params::from_table({}));
   node.on_rollback(rearm);
   EXPECT_DOUBLE_EQ(node.node().ekf().covariance()(0, 0), rearm.position_std_m * rearm.position_std_m);
   rejuv_msg_SensorCombined tick{};

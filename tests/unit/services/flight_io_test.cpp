@@ -63,6 +63,36 @@ TEST(FlightIoParams, TrackingParams_NoParams_AreTheSimulations) {
   EXPECT_EQ(t->check_period, sim.handler.check_period);
 }
 
+TEST(FlightIoParams, EkfRearm_NoParams_AreTheSimulations) {
+  const flight::EkfRearm sim = flight::SimConfig::defaults().ekf_rearm;
+  auto r = ekf_rearm(Params::from_table({}));
+  ASSERT_TRUE(r);
+  EXPECT_TRUE(r->enabled);
+  EXPECT_EQ(r->position_std_m, sim.position_std_m);
+  EXPECT_EQ(r->accel_bias_std_m_s2, sim.accel_bias_std_m_s2);
+}
+
+// The launch file's sr.ekf_rearm, as the kernel passes it: what is set replaces the default, the rest stays.
+TEST(FlightIoParams, EkfRearm_LaunchValues_ReplaceTheDefaults) {
+  auto r = ekf_rearm(Params::from_table({{"sr.ekf_rearm.enabled", 0}, {"sr.ekf_rearm.attitude_std_rad", 0.2}}));
+  ASSERT_TRUE(r);
+  EXPECT_FALSE(r->enabled);
+  EXPECT_EQ(r->attitude_std_rad, 0.2);
+  EXPECT_EQ(r->position_std_m, flight::SimConfig::defaults().ekf_rearm.position_std_m);
+}
+
+TEST(FlightIoParams, EkfRearm_BadValues_RefusedNamingTheParam) {
+  auto zero = ekf_rearm(Params::from_table({{"sr.ekf_rearm.velocity_std_m_s", 0}}));
+  ASSERT_FALSE(zero);
+  EXPECT_EQ(zero.error().where, "sr.ekf_rearm.velocity_std_m_s");
+  auto nan = ekf_rearm(Params::from_table({{"sr.ekf_rearm.gyro_bias_std_rad_s", std::numeric_limits<double>::quiet_NaN()}}));
+  ASSERT_FALSE(nan);
+  EXPECT_EQ(nan.error().where, "sr.ekf_rearm.gyro_bias_std_rad_s");
+  auto on = ekf_rearm(Params::from_table({{"sr.ekf_rearm.enabled", 0.5}}));
+  ASSERT_FALSE(on);
+  EXPECT_EQ(on.error().where, "sr.ekf_rearm.enabled");
+}
+
 TEST(FlightIoParams, TrackingParams_SrDisabled_IsOff) {
   auto t = tracking_params(Params::from_table({{"sr.enabled", 0}}));
   ASSERT_TRUE(t);

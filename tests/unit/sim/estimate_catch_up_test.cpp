@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "rejuv/flight/sr_sim.hpp"
@@ -72,6 +74,42 @@ TEST(EstimateCatchUp, AfterEveryRollback_TheEstimateIsFresh) {
   // at most 0.0077.
   EXPECT_GT(a.worst_e, 0.05);
   EXPECT_LT(b.worst_e, 0.02);
+}
+
+// sr.ekf_rearm { enabled: false }: the restored filter keeps its converged covariance, as the paper's estimator, and
+// trusts a whole cycle's old estimate. Under the worst-case attack the estimate then stays wrong for long: with
+// T_est = 1 s the square left the safety set (max V 5.67, max e 4.98), re-armed it stayed far inside (0.35, 0.34).
+// This is the T_est dependence of Fig. 11 (docs/control.md §6.1) that the re-armed estimator hides.
+TEST(EstimateCatchUp, WithoutTheRearm_ShortTestLeavesTheSafetySet) {
+  SimConfig rearmed = config_of("quad_square.launch.pbtxt", SrSwitch::On);
+  rearmed.handler.t_est = Seconds{1.0};
+  ASSERT_TRUE(rearmed.ekf_rearm.enabled);
+  SimConfig kept = rearmed;
+  kept.ekf_rearm.enabled = false;
+  const proto::RunSummary a = fly(rearmed);
+  const proto::RunSummary b = fly(kept);
+  EXPECT_LT(a.max_v(), 0.6);
+  EXPECT_LT(a.max_est_err_p(), 0.6);
+  EXPECT_GT(b.max_v(), 1.0);
+  EXPECT_GT(b.max_est_err_p(), 1.0);
+}
+
+TEST(EstimateCatchUp, RearmLaunchField_ReachesTheModel) {
+  const std::filesystem::path file = kLaunch / "quad_square.launch.pbtxt";
+  std::ifstream in(file);
+  std::ostringstream read;
+  read << in.rdbuf();
+  std::string text = read.str();
+  const std::size_t sr = text.find("\nsr {");
+  ASSERT_NE(sr, std::string::npos);
+  text.insert(sr + 5, "\n  ekf_rearm { enabled: false attitude_std_rad: 0.2 }");
+  auto loaded = launch::parse_launch(text, file);
+  ASSERT_TRUE(loaded.has_value()) << loaded.error().to_string();
+  auto c = config_from_launch(*loaded, {});
+  ASSERT_TRUE(c.has_value()) << c.error().to_string();
+  EXPECT_FALSE(c->ekf_rearm.enabled);
+  EXPECT_DOUBLE_EQ(c->ekf_rearm.attitude_std_rad, 0.2);
+  EXPECT_DOUBLE_EQ(c->ekf_rearm.position_std_m, SimConfig::defaults().ekf_rearm.position_std_m);
 }
 
 TEST(EstimateCatchUp, LaunchField_ReachesTheModelWithItsShortTest) {

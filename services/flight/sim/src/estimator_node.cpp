@@ -33,6 +33,7 @@ bool EstimatorNode::on_samples(const plant::SensorSamples& samples) {
 }
 
 void EstimatorNode::on_rollback(const EkfRearm& rearm) {
+  if (!rearm.enabled) return;  // the restored filter goes on as it was at the checkpoint
   // The filter keeps its own parameters for everything but the initial covariance it is rebuilt with.
   EkfParams params = ekf_.params();
   params.initial_position_std_m = rearm.position_std_m;

@@ -127,8 +127,10 @@ struct ControlStart {
 [[nodiscard]] Nanos imu_period();
 // The EKF parameters of the simulation (defaults; GPS delay and gravity from the sensor suite and the quad).
 [[nodiscard]] flight::EkfParams ekf_params();
-// The uncertainty the estimator re-arms on a rollback (flight::EstimatorNode::on_rollback), the simulation's.
-[[nodiscard]] flight::EkfRearm ekf_rearm();
+// The estimator's re-arm on a rollback (flight::EstimatorNode::on_rollback): the launch file's sr.ekf_rearm.*
+// as the kernel passes them (only those it sets), the simulation's defaults for the rest. A 1σ that is not a
+// finite number > 0, or an `enabled` other than 0 or 1, is an error.
+[[nodiscard]] Result<flight::EkfRearm, InputFailure> ekf_rearm(const Params& params);
 // The state the EKF starts from: hovering at the first waypoint, heading as it says (the simulation's
 // initial state, which is also where the plant starts).
 [[nodiscard]] flight::EkfState ekf_initial_state(const MissionSpec& mission);

@@ -14,7 +14,10 @@
 namespace rejuv::flight {
 
 // The uncertainty (1σ) the filter re-arms on a rollback (see EstimatorNode::on_rollback).
+// The launch file's sr.ekf_rearm (idl/launch.proto EstimatorRearm); `enabled` false: no re-arm, the restored
+// filter keeps its covariance (the paper's estimator).
 struct EkfRearm {
+  bool enabled = true;
   double position_std_m = 0.1;
   double velocity_std_m_s = 0.2;
   double attitude_std_rad = 0.05;
