@@ -202,7 +202,14 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
   // by written pages carries over g's.
   tracked_base = memory_image::whole_memory_tracked() && workers == nullptr && memory_image::track_writes_self() ? g : 0;
   auto pid = sys::fork_sibling();
-  if (pid && *pid == 0) memory_image::run_on_standby_stack(frozen_image, resume_fd);  // never returns
+  if (pid && *pid == 0) {
+    // The image holds no pagemap: this one reads the live process's, and the incarnation a Resume makes of
+    // the image gets its own from the kernel (resumed_image forgets the number). Kept, it would stay open in
+    // every later incarnation and image of this line, one more per rollback, until RLIMIT_NOFILE refused
+    // the fds of a Resume.
+    if (pagemap_fd >= 0) ::close(pagemap_fd);
+    memory_image::run_on_standby_stack(frozen_image, resume_fd);  // never returns
+  }
   ::close(resume_fd);
   if (workers != nullptr) workers->unpark_all();
   if (auto a = answer(wire::FrameKind::Taken, pid ? *pid : 0); !a) return std::unexpected(a.error());
@@ -218,7 +225,7 @@ SdkResult<bool> Service::Impl::resumed_image() {
   restored = CheckpointOutcome{.kind = CheckpointOutcome::Kind::Restored, .generation = Generation{handoff.generation},
                                .epoch = Epoch{handoff.epoch}};
   tracked_base = handoff.tracking ? handoff.generation : 0;
-  pagemap_fd = -1;     // the numbers were the live process's: this one's kernel sends its own
+  pagemap_fd = -1;  // closed in every image (take_image): the kernel sends this incarnation its own
   next_pages_fd = -1;
   // Without its workers this incarnation would run half a service: it dies at once instead, so the kernel
   // sees its channel hang up and falls back (an abort here would signal itself, and a copy's signal to
