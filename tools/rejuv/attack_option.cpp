@@ -42,15 +42,6 @@ Result<launch::LoadedLaunch, std::string> load_with_attack(const std::string& pa
   return std::move(*loaded);
 }
 
-void start_attack_library_after(proto::Launch& graph, Nanos alignment) {
-  for (proto::Attack& a : *graph.mutable_attack()->mutable_attacks()) {
-    const auto law = flight::attack_law_from_number(a.kind());
-    if (law && *law != flight::AttackLaw::WorstCaseControl) {
-      a.set_start_s(a.start_s() + to_seconds(alignment).count());
-    }
-  }
-}
-
 std::string vehicle_attack_kind(const proto::Launch& graph) {
   if (!graph.attack().enabled()) return "";
   for (const proto::Attack& a : graph.attack().attacks()) {

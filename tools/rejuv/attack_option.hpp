@@ -25,8 +25,6 @@ namespace rejuv::cli {
 [[nodiscard]] Result<launch::LoadedLaunch, std::string> load_with_attack(const std::string& path,
                                                                        std::optional<flight::AttackLaw> law,
                                                                        std::string_view command);
-// Adds `alignment` to the start_s of every attack of kinds 13–17 (kernel time = flight time + alignment).
-void start_attack_library_after(proto::Launch& graph, Nanos alignment);
 // The kind of the graph's attack that acts on the vehicle (the model's: the first such one), "" if none or off.
 [[nodiscard]] std::string vehicle_attack_kind(const proto::Launch& graph);
 

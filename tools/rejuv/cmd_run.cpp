@@ -253,9 +253,8 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
   // The plant aligns as long as `rejuv sim` does (launch lockstep.alignment_s, passed by the kernel), so that both
   // fly from a converged estimate; --duration counts from the end of it.
   if (options.duration) *options.duration += reference->alignment;
-  // The attack library's laws carry time (a drift, a moving x_sp) or are learnt by the EKF (a gyro bias): they start
-  // with the flight, as in the model, not during the plant's alignment (docs/control.md "Attack library").
-  start_attack_library_after(loaded->graph, reference->alignment);
+  // Every attack's start_s is flight time: the kernel adds the alignment to the boot param (supervisor.cpp), so the
+  // attack library's laws (a drift, a moving x_sp, a gyro bias the EKF would learn) start with the flight.
 
   UniqueFile json_file, csv_file;
   if (auto opened = open_outputs("rejuv run", json_path, csv_path, json_file, csv_file); !opened) {
