@@ -7,7 +7,9 @@
 #   dims (1 or 2), zmax, reached (1 if a cell reaches level 1), title, zlabel, level_title, xlabel, xtics_text ('' or a tics list), ylabel, ytics_text
 set datafile missing 'NaN'
 n = words(runners)
-set palette defined (0 '#313695', 0.35 '#74add1', 0.7 '#ffffbf', 0.85 '#f46d43', 1 '#a50026')
+# A diverging scale centred on the level 1 (for max V the boundary of the safety set): blues inside, reds beyond.
+# zmax is at least 1.05 (rejuv sweep), so the centre is always inside the colour range.
+set palette defined (0 '#313695', 0.5 '#74add1', 1 '#ffffbf', (zmax + 1) / 2 '#f46d43', zmax '#a50026')
 do for [fmt in "png svg"] {
   if (fmt eq "png") {
     set terminal pngcairo size (n == 1 ? 800 : 640*n),580 font 'sans,10'
@@ -35,6 +37,13 @@ do for [fmt in "png svg"] {
       set table $L
       splot f using 1:2:col
       unset table
+      # Each level's line once more on its own, to label it at its second point (the first lies on the border).
+      do for [k=1:9] {
+        set cntrparam levels discrete k / 10.0
+        set table sprintf('%s/%s.level%d.tab', dir, r, k)
+        splot f using 1:2:col
+        unset table
+      }
       unset contour
       set surface
       set ylabel ylabel noenhanced
@@ -49,7 +58,9 @@ do for [fmt in "png svg"] {
            $C using 1:2 with lines lw 3 lc rgb 'black' notitle, \
            NaN with lines lw 1 dt 2 lc rgb '#555555' title 'levels 0.1, 0.2, ... (interpolated)', \
            NaN with lines lw 3 lc rgb 'black' title (reached ? level_title : level_title.' (not reached)'), \
-           f using 1:2:(sprintf('%.3f', column(col))) with labels font 'sans,9' notitle
+           f using 1:2:(sprintf('%.3f', column(col))) with labels font 'sans,9' notitle, \
+           for [k=1:9] sprintf('%s/%s.level%d.tab', dir, r, k) every ::1::1 using 1:2:(sprintf('%.1f', k / 10.0)) \
+               with labels font 'sans,8' tc rgb '#333333' notitle
     } else {
       set ylabel zlabel noenhanced
       set yrange [0:zmax]

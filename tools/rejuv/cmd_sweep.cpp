@@ -32,6 +32,8 @@
 namespace rejuv::cli {
 namespace {
 
+constexpr std::uint64_t kDefaultSeeds = 3;  // --seeds unset: the graph's seed and the next two
+
 namespace fs = std::filesystem;
 using sweep::Runner;
 using sweep::Task;
@@ -185,7 +187,7 @@ int run_sweep(std::span<const std::string_view> args) {
                 "e.g. sr.t_mc_s=0.2:0.3:0.025, sr.restricted_limit_fraction=0.1,0.2,\n"
                 "attack.attacks[0].kind=WORST_CASE_CONTROL (one or two --param)")
       .custom<std::vector<std::uint64_t>>("--seeds", "LIST", seeds, sweep::parse_seeds,
-                                          "seeds of each cell: a-b, a,b,c or one", "the graph's seed")
+                                          "seeds of each cell: a-b, a,b,c or one", "the graph's seed and the next two")
       .integer("--attacks", "N", attacks, {0, 100000}, "end each mission after N attacked MC windows (0 = fly it)")
       .choice<Runners>("--runner", {{"sim", Runners::Sim}, {"run", Runners::Run}, {"both", Runners::Both}}, runner,
                        "the model, the runtime or both")
@@ -215,7 +217,9 @@ int run_sweep(std::span<const std::string_view> args) {
   if (seeds) {
     for (const std::uint64_t s : *seeds) plan.add_seeds(s);
   } else {
-    plan.add_seeds(loaded->graph.seed());
+    // One seed is one sample of the sensor noise and the wind: a cell's max V over three is the least a figure
+    // should rest on (docs/sweep.md).
+    for (std::uint64_t k = 0; k < kDefaultSeeds; ++k) plan.add_seeds(loaded->graph.seed() + k);
   }
   plan.set_attacks(static_cast<std::uint32_t>(attacks));
   if (runner != Runners::Run) plan.add_runners("sim");

@@ -24,7 +24,7 @@ class SweepCli : public test_support::ScratchDirTest {
   // A 2 × 2 grid, 2 attacks per cell (a few seconds of flight each).
   test_support::CliOutcome sweep(const fs::path& out, std::vector<std::string> extra = {}) {
     std::vector<std::string> args = {"sweep", kGraph, "--param", "sr.t_mc_s=0.2,0.3", "--param", "sr.t_est_s=1:2:1",
-                                     "--attacks", "2", "--jobs", "2", "--out", out.string()};
+                                     "--attacks", "2", "--seeds", "1", "--jobs", "2", "--out", out.string()};
     args.insert(args.end(), extra.begin(), extra.end());
     return run_rejuv(dir_, args);
   }
@@ -34,6 +34,19 @@ proto::SweepReport report_of(const fs::path& out) {
   proto::SweepReport r;
   EXPECT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(out / "sweep.json"), &r).ok());
   return r;
+}
+
+// Without --seeds a cell flies the graph's seed (1) and the next two: one seed is one sample of noise and wind.
+TEST_F(SweepCli, NoSeedsGiven_ThreeSeedsFromTheGraphs) {
+  const fs::path out = dir_ / "d";
+  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.t_mc_s=0.3", "--attacks", "1", "--out", out.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const proto::SweepReport report = report_of(out);
+  ASSERT_EQ(report.plan().seeds_size(), 3);
+  EXPECT_EQ(report.plan().seeds(0), 1U);
+  EXPECT_EQ(report.plan().seeds(2), 3U);
+  ASSERT_EQ(report.cells_size(), 1);
+  EXPECT_EQ(report.cells(0).seeds(), 3U);
 }
 
 TEST_F(SweepCli, SimSweep_WritesCsvJsonAndFigures) {
@@ -83,7 +96,7 @@ TEST_F(SweepCli, ExistingSweepWithoutResume_Refused) {
 TEST_F(SweepCli, ResumeOfAnotherSweep_Refused) {
   const fs::path out = dir_ / "s";
   ASSERT_EQ(sweep(out).exit_code, 0);
-  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.t_mc_s=0.2", "--attacks", "2", "--out",
+  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--seeds", "1", "--param", "sr.t_mc_s=0.2", "--attacks", "2", "--out",
                                   out.string(), "--resume"});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("another sweep"), std::string::npos) << r.err;
@@ -103,7 +116,7 @@ TEST_F(SweepCli, ShardsMerged_SameAsOneSweep) {
 
 TEST_F(SweepCli, MergeOfDifferentSweeps_Refused) {
   ASSERT_EQ(sweep(dir_ / "a", {"--shard", "1/2"}).exit_code, 0);
-  ASSERT_EQ(run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.t_mc_s=0.2", "--attacks", "2", "--out",
+  ASSERT_EQ(run_rejuv(dir_, {"sweep", kGraph, "--seeds", "1", "--param", "sr.t_mc_s=0.2", "--attacks", "2", "--out",
                              (dir_ / "b").string()})
                 .exit_code,
             0);
@@ -115,7 +128,7 @@ TEST_F(SweepCli, MergeOfDifferentSweeps_Refused) {
 TEST_F(SweepCli, OneParameter_LinePlot) {
   const fs::path out = dir_ / "s";
   // Ū of 10–20 % of the way to each limit loses the vehicle (max V ≈ 100): studied here, so --allow-unsafe.
-  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.restricted_limit_fraction=0.1,0.2", "--attacks",
+  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--seeds", "1", "--param", "sr.restricted_limit_fraction=0.1,0.2", "--attacks",
                                   "2", "--seeds", "1-2", "--allow-unsafe", "--out", out.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const proto::SweepReport report = report_of(out);
@@ -127,7 +140,7 @@ TEST_F(SweepCli, OneParameter_LinePlot) {
 TEST_F(SweepCli, InvalidCell_ReportedNotCrashedOn) {
   // ρ_s must stay below ρ_M: the cell with ρ_s = 0.5 is refused by the launch checks, the other flies.
   const fs::path out = dir_ / "s";
-  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.rho_s=0.05,0.5", "--attacks", "2", "--out",
+  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--seeds", "1", "--param", "sr.rho_s=0.05,0.5", "--attacks", "2", "--out",
                                   out.string()});
   EXPECT_EQ(r.exit_code, 1) << r.err;
   const proto::SweepReport report = report_of(out);
@@ -141,7 +154,7 @@ TEST_F(SweepCli, InvalidCell_ReportedNotCrashedOn) {
 // A cell that left the safety set is not a success. T_MC = 3 s under the worst-case attack
 // takes the model out of it (max V > 1): exit 1 with the cell named; --allow-unsafe: exit 0, the same report.
 TEST_F(SweepCli, CellLeavesTheSafetySet_Exit1UnlessAllowUnsafe) {
-  const std::vector<std::string> args = {"sweep", kGraph, "--param", "sr.t_mc_s=0.3,3", "--attacks", "2"};
+  const std::vector<std::string> args = {"sweep", kGraph, "--seeds", "1", "--param", "sr.t_mc_s=0.3,3", "--attacks", "2"};
   std::vector<std::string> strict = args;
   strict.insert(strict.end(), {"--out", (dir_ / "strict").string()});
   const auto r = run_rejuv(dir_, strict);

@@ -198,6 +198,13 @@ TEST(MakeAxis, BadValueInList_Refused) {
   EXPECT_FALSE(make_axis(base(), "sr.keep_generations=1:3:0.5"));
 }
 
+TEST(AxisLabel, SrParameters_ByThePapersNames) {
+  EXPECT_EQ(axis_label("sr.t_mc_s", "s"), "T_MC [s] (sr.t_mc_s)");
+  EXPECT_EQ(axis_label("sr.t_est_s", "s"), "T_est [s] (sr.t_est_s)");
+  EXPECT_EQ(axis_label("sr.rho_m", ""), "ρ_M (sr.rho_m)");
+  EXPECT_EQ(axis_label("plant.wind_gust_m_s", "m/s"), "plant.wind_gust_m_s [m/s]");
+}
+
 TEST(UnitOf, Suffixes_Units) {
   EXPECT_EQ(unit_of("sr.t_mc_s"), "s");
   EXPECT_EQ(unit_of("plant.wind_mean_m_s"), "m/s");

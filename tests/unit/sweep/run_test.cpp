@@ -23,7 +23,7 @@ TEST_F(SweepRun, OneRuntimeCell_StoppedAfterItsAttacks) {
   const fs::path out = dir_ / "s";
   const auto r = test_support::run_rejuv(
       dir_, {"sweep", (test_support::kRepo / "launch" / "quad_square.launch.pbtxt").string(), "--param",
-             "sr.t_mc_s=0.3", "--attacks", "3", "--runner", "run", "--out", out.string()});
+             "sr.t_mc_s=0.3", "--attacks", "3", "--seeds", "1", "--runner", "run", "--out", out.string()});
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   proto::SweepReport report;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(test_support::slurp(out / "sweep.json"), &report).ok());

@@ -14,6 +14,7 @@
 #include "rejuv/sys/fd.hpp"
 #include "rejuv/sys/process.hpp"
 #include "sweep/grid.hpp"
+#include "sweep/params.hpp"
 
 extern char** environ;  // NOLINT: gnuplot inherits the environment (GNUPLOT_LIB, fonts)
 
@@ -45,7 +46,7 @@ std::string tics(const proto::SweepAxis& a) {
   return out + ")";
 }
 
-std::string label(const proto::SweepAxis& a) { return a.path() + (a.unit().empty() ? "" : " [" + a.unit() + "]"); }
+std::string label(const proto::SweepAxis& a) { return axis_label(a.path(), a.unit()); }
 
 // gnuplot string literal in single quotes ('' is a quote).
 std::string gp_quoted(const std::string& s) {

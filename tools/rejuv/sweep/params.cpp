@@ -308,6 +308,18 @@ Result<proto::SweepAxis, std::string> make_axis(const proto::Launch& base, std::
   return axis;
 }
 
+std::string axis_label(std::string_view path, std::string_view unit) {
+  const std::pair<std::string_view, std::string_view> names[] = {
+      {"sr.t_mc_s", "T_MC"},   {"sr.t_est_s", "T_est"},        {"sr.rho_m", "ρ_M"},
+      {"sr.rho_s", "ρ_s"},     {"sr.t_min_s", "t_min"},        {"sr.restricted_limit_fraction", "Ū / U"},
+      {"sr.check_period_s", "check period of (1)"},          {"sr.ekf_rearm.enabled", "estimator re-armed after RB"}};
+  const std::string units = unit.empty() ? "" : " [" + std::string(unit) + "]";
+  for (const auto& [p, name] : names) {
+    if (p == path) return std::string(name) + units + " (" + std::string(path) + ")";
+  }
+  return std::string(path) + units;
+}
+
 std::string unit_of(std::string_view path) {
   const std::string_view name = path.substr(path.rfind('.') == std::string_view::npos ? 0 : path.rfind('.') + 1);
   const std::pair<std::string_view, std::string_view> suffixes[] = {

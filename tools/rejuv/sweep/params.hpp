@@ -33,4 +33,8 @@ inline constexpr std::size_t kMaxValues = 10000;
 // The unit of a field from its name's suffix (CONVENTIONS: units in identifiers): "t_mc_s" → "s".
 [[nodiscard]] std::string unit_of(std::string_view path);
 
+// An axis as the paper names it, for a figure: "T_MC [s] (sr.t_mc_s)" for the SR parameters of §IV–§VI, the
+// path and its unit ("plant.wind_gust_m_s [m/s]") for any other field.
+[[nodiscard]] std::string axis_label(std::string_view path, std::string_view unit);
+
 }  // namespace rejuv::cli::sweep
