@@ -109,9 +109,9 @@ inline constexpr double kMinDerivedTimeoutS = 600.0;
 [[nodiscard]] Seconds t_mc(const proto::SrParams& sr);
 [[nodiscard]] Seconds t_est(const proto::SrParams& sr);
 [[nodiscard]] Seconds t_min(const proto::SrParams& sr);
-// The mission's timeout_s, or unset, derived from the path (idl/launch.proto Mission.timeout_s): at least
-// kMinDerivedTimeout, kDerivedTimeoutBase plus kDerivedTimeoutPerMetre per metre of the waypoints' path, at most
-// kMaxDurationS.
+// The mission's timeout_s, or unset, derived from the path (idl/launch.proto Mission.timeout_s):
+// kDerivedTimeoutBaseS plus kDerivedTimeoutPerMetreS per metre of the waypoints' path, at least
+// kMinDerivedTimeoutS and at most kMaxDurationS.
 [[nodiscard]] Seconds mission_timeout(const proto::Mission& mission);
 // The length of the mission's path: the first waypoint, where it starts hovering, through every other one [m].
 [[nodiscard]] double path_length_m(const proto::Mission& mission);
