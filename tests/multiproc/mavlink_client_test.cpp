@@ -61,8 +61,8 @@ using test_support::json_at;
 // A free UDP port on loopback for the kernel this test starts, chosen below the ephemeral range (32768–60999
 // here): the client sends to it before that kernel binds it, and a port from bind(0) (released for the kernel)
 // could meanwhile be handed to another test's `rejuv run --net-port 0`, whose summary would then count the
-// client's datagrams (seen once in CI: Determinism.TwoFlightsWithOneSeed, network.received 3). Each test holds
-// its own DDS domain lease, so the range 20000 + 50·domain … + 49 is this test's alone.
+// client's datagrams in its network counters. Each test holds its own DDS domain lease, so the range
+// 20000 + 50·domain … + 49 is this test's alone.
 std::uint16_t free_port() {
   for (std::uint16_t k = 0; k < 50; ++k) {
     const auto port = static_cast<std::uint16_t>(20000 + 50 * test_support::kOwnDdsDomain + k);
