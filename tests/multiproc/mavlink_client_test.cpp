@@ -58,18 +58,13 @@ int wait_client(pid_t pid, std::chrono::seconds limit) {
 
 using test_support::json_at;
 
-// A free UDP port on loopback for the kernel this test starts, chosen below the ephemeral range (32768–60999
-// here): the client sends to it before that kernel binds it, and a port from bind(0) (released for the kernel)
-// could meanwhile be handed to another test's `rejuv run --net-port 0`, whose summary would then count the
-// client's datagrams in its network counters. Each test holds its own DDS domain lease, so the range
-// 20000 + 50·domain … + 49 is this test's alone.
+// A free UDP port on loopback (bound, read, released: the kernel binds it next).
 std::uint16_t free_port() {
-  for (std::uint16_t k = 0; k < 50; ++k) {
-    const auto port = static_cast<std::uint16_t>(20000 + 50 * test_support::kOwnDdsDomain + k);
-    if (sys::UdpSocket::bind(sys::UdpAddress::loopback(port)).has_value()) return port;
-  }
-  ADD_FAILURE() << "no free UDP port in this test's range";
-  return 0;
+  auto s = sys::UdpSocket::bind(sys::UdpAddress::loopback(0));
+  EXPECT_TRUE(s.has_value());
+  if (!s) return 0;
+  auto a = s->local_address();
+  return a ? a->port : 0;
 }
 
 class MavlinkClient : public test_support::ScratchDirTest {
