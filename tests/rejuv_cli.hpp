@@ -42,10 +42,10 @@ struct CliOutcome {
   std::string out, err;
 };
 
-// Runs `program <args>` (no shell; the program by path) with stdout and stderr captured to `dir`/stdout and
-// `dir`/stderr.
-inline CliOutcome run_program(const std::filesystem::path& dir, const std::filesystem::path& program_path,
-                              std::vector<std::string> args) {
+// Starts `program <args>` (no shell; the program by path) with stdout and stderr going to `dir`/stdout and
+// `dir`/stderr. The child's pid, or -1.
+inline pid_t start_program(const std::filesystem::path& dir, const std::filesystem::path& program_path,
+                           std::vector<std::string> args) {
   const std::string out = (dir / "stdout").string();
   const std::string err = (dir / "stderr").string();
   posix_spawn_file_actions_t actions;
@@ -58,15 +58,27 @@ inline CliOutcome run_program(const std::filesystem::path& dir, const std::files
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t pid = -1;
+  if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) != 0) pid = -1;
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
+}
+
+// Waits for a child of start_program and collects what it wrote to `dir`.
+inline CliOutcome wait_program(const std::filesystem::path& dir, pid_t pid) {
   CliOutcome r;
-  if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) == 0) {
+  if (pid > 0) {
     int status = 0;
     if (::waitpid(pid, &status, 0) == pid && WIFEXITED(status)) r.exit_code = WEXITSTATUS(status);
   }
-  posix_spawn_file_actions_destroy(&actions);
-  r.out = slurp(out);
-  r.err = slurp(err);
+  r.out = slurp(dir / "stdout");
+  r.err = slurp(dir / "stderr");
   return r;
+}
+
+// Runs `program <args>` to its end (start_program, wait_program).
+inline CliOutcome run_program(const std::filesystem::path& dir, const std::filesystem::path& program_path,
+                              std::vector<std::string> args) {
+  return wait_program(dir, start_program(dir, program_path, std::move(args)));
 }
 
 // Runs `rejuv <args>` (run_program).

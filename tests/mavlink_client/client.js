@@ -2,8 +2,8 @@
 // by tests/multiproc/mavlink_client_test.cpp. It talks to the kernel's network gate over UDP and, within
 // --timeout seconds of wall-clock time:
 //   1. sends HEARTBEATs (MAV_TYPE_GCS) and waits for the vehicle's HEARTBEAT (MAV_TYPE_QUADROTOR);
-//   2. with --wrong-key, sends an unsigned and a wrongly signed MISSION_COUNT every 100 ms (the gate must
-//      refuse both: the test checks its counters in the run summary);
+//   2. with --wrong-key, sends an unsigned and a wrongly signed MISSION_COUNT every 100 ms and on the vehicle's
+//      messages (the gate must refuse both: the test checks its counters in the run summary);
 //   3. from the start, uploads a one-waypoint mission (MAV_FRAME_LOCAL_NED) with the mission protocol, retransmitting its
 //      last message every --retry-ms without an answer (the gate drops everything in the secure execution
 //      interval) and starting again on MAV_MISSION_INVALID_SEQUENCE (a rollback ended the transaction);
@@ -97,8 +97,21 @@ function startUpload() {
   uploadSend(missionCount());
 }
 
+// The refusal probes: an unsigned and a wrongly signed MISSION_COUNT.
+let lastProbeAt = 0;
+function probe() {
+  lastProbeAt = Date.now();
+  send(missionCount(), null);
+  send(missionCount(), wrongKey);
+  report.refusal_probes_sent += 2;
+}
+
 const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
 packets.on('data', (packet) => {
+  // The vehicle speaks only outside the secure execution interval, where the gate checks a frame's signature
+  // instead of dropping it: a probe now reaches the check. (In lockstep at 10× real time an MC window lasts
+  // tens of ms of wall-clock time, so probes on a 100 ms clock alone missed every window in some runs.)
+  if (wrongKey && Date.now() - lastProbeAt >= 20) probe();
   const clazz = REGISTRY[packet.header.msgid];
   if (!clazz) return;
   const data = packet.protocol.data(packet.payload, clazz);
@@ -137,7 +150,7 @@ packets.on('data', (packet) => {
 
 function complete() {
   return report.heartbeat && report.upload_ack === MAV_MISSION_ACCEPTED && report.reached_target &&
-         report.rollback_statustext !== null;
+         report.rollback_statustext !== null && (!wrongKey || report.refusal_probes_sent >= 20);
 }
 function finish(code) {
   console.log(JSON.stringify(report));
@@ -164,10 +177,6 @@ socket.bind(0, '127.0.0.1', () => {
     if (phase === 'upload' && lastUpload && now - lastUploadAt >= retryMs) uploadSend(lastUpload);
     // With --wrong-key, all along (so that some arrive in MC, where the gate checks rather than drops): an
     // unsigned and a wrongly signed MISSION_COUNT. The gate refuses both; ext_link never sees them.
-    if (wrongKey && report.heartbeat && now % 100 < 20) {
-      send(missionCount(), null);
-      send(missionCount(), wrongKey);
-      report.refusal_probes_sent += 2;
-    }
+    if (wrongKey && report.heartbeat && now % 100 < 20) probe();
   }, 20);
 });

@@ -56,8 +56,10 @@ class Determinism : public rejuv::test_support::ScratchDirTest {
     const auto csv = dir_ / (name + ".csv");
     const auto json = dir_ / (name + ".json");
     Flight f;
+    const auto logs = dir_ / name;  // its stdout and stderr (the kernel's log), kept beside the trace
+    std::filesystem::create_directories(logs);
     f.outcome = rejuv::test_support::run_rejuv(
-        dir_, {"run", graph().string(), "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain), "--net-port",
+        logs, {"run", graph().string(), "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain), "--net-port",
                "0", "--seed", "7", "--duration", duration_s, "--csv", csv.string(), "--summary-json", json.string()});
     f.csv = slurp(csv);
     const auto parsed = google::protobuf::util::JsonStringToMessage(slurp(json), &f.summary);

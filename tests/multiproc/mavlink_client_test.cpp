@@ -58,13 +58,24 @@ int wait_client(pid_t pid, std::chrono::seconds limit) {
 
 using test_support::json_at;
 
-// A free UDP port on loopback (bound, read, released: the kernel binds it next).
-std::uint16_t free_port() {
-  auto s = sys::UdpSocket::bind(sys::UdpAddress::loopback(0));
-  EXPECT_TRUE(s.has_value());
-  if (!s) return 0;
-  auto a = s->local_address();
-  return a ? a->port : 0;
+// The port `rejuv run --net-port 0` bound, from its log line "network gate: udp 127.0.0.1:<port> …" in
+// `dir`/stderr; 0 when the run ended or did not say within `limit`. The client is told this port only after the
+// kernel holds it: a port picked by the test (bound, released) could meanwhile be handed to another test's
+// socket — a listener that must see no datagram, or another run's gate — which would get the client's frames.
+std::uint16_t bound_port(const std::filesystem::path& dir, pid_t run, std::chrono::seconds limit) {
+  constexpr std::string_view kLine = "network gate: udp 127.0.0.1:";
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (std::chrono::steady_clock::now() < deadline) {
+    const std::string err = slurp(dir / "stderr");
+    if (const auto at = err.find(kLine); at != std::string::npos) {
+      const auto end = err.find_first_not_of("0123456789", at + kLine.size());
+      if (end != std::string::npos) return static_cast<std::uint16_t>(std::stoul(err.substr(at + kLine.size())));
+    }
+    siginfo_t ended{};
+    if (::waitid(P_PID, static_cast<id_t>(run), &ended, WEXITED | WNOHANG | WNOWAIT) == 0 && ended.si_pid == run) return 0;
+    std::this_thread::sleep_for(std::chrono::milliseconds{20});
+  }
+  return 0;
 }
 
 class MavlinkClient : public test_support::ScratchDirTest {
@@ -86,18 +97,26 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   graph_text += "\nnetwork { signing_key: \"" + std::string(kKey) + "\" }\n";
   const auto graph = dir() / "signed.launch.pbtxt";
   std::ofstream(graph) << graph_text;
-  const std::uint16_t port = free_port();
-  ASSERT_NE(port, 0);
-  // … when node-mavlink talks to it while it flies (lockstep; the client in wall-clock time) …
+  // … when node-mavlink talks to it while it flies (lockstep; the client in wall-clock time, told the port the
+  // kernel bound) …
+  const auto summary_json = dir() / "summary.json";
+  const pid_t rejuv_run = test_support::start_program(
+      dir(), test_support::kRejuv,
+      {"run", graph.string(), "--duration", "240", "--net-port", "0", "--domain",
+       std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json.string()});
+  ASSERT_GT(rejuv_run, 0) << "cannot start rejuv run";
+  const std::uint16_t port = bound_port(dir(), rejuv_run, std::chrono::seconds{60});
+  if (port == 0) {
+    const test_support::CliOutcome ended = test_support::wait_program(dir(), rejuv_run);
+    FAIL() << "rejuv run did not report its network gate's port:\n" << ended.err;
+  }
   const auto client_out = dir() / "client.json";
   const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--wrong-key",
                                      std::string(kWrongKey), "--timeout", "60", "--target", "-0.6,-0.4,-3.3"},
                                     client_out);
+  if (client <= 0) ::kill(rejuv_run, SIGTERM);
+  const test_support::CliOutcome run = test_support::wait_program(dir(), rejuv_run);
   ASSERT_GT(client, 0) << "cannot start node";
-  const auto summary_json = dir() / "summary.json";
-  const test_support::CliOutcome run = test_support::run_rejuv(
-      dir(), {"run", graph.string(), "--duration", "240", "--net-port", std::to_string(port), "--domain",
-              std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json.string()});
   const int client_exit = wait_client(client, std::chrono::seconds{90});
   EXPECT_EQ(run.exit_code, 0) << run.err;
   const std::string client_text = slurp(client_out);

@@ -113,6 +113,7 @@ class Watch final : public kernel::Observer {
       auto got = listener_.receive(buf);
       if (!got) break;  // EAGAIN: nothing queued
       ++datagrams;
+      if (senders.size() < 8) senders.push_back(got->from.to_string() + " (" + std::to_string(got->datagram_size) + " B)");
     }
     return datagrams;
   }
@@ -125,6 +126,7 @@ class Watch final : public kernel::Observer {
   std::optional<pid_t> sid{};
   std::optional<FirstRollback> at_first_rollback{};
   std::uint64_t datagrams = 0;
+  std::vector<std::string> senders{};  // where the first datagrams came from, for the failure message
 
  private:
   kernel::Observer& inner_;
@@ -181,7 +183,8 @@ TEST(CompromisedMission, Ekf2ForksANetworkHelperAtBoot_NoDatagramHelperGoneByFir
   ::testing::Test::RecordProperty("ekf2_stray_processes", std::to_string(stats.stray_processes));
 
   // Then no datagram arrived.
-  EXPECT_EQ(watch.drain(), 0U) << "the helper reached the network";
+  EXPECT_EQ(watch.drain(), 0U) << "the helper reached the network; from " << ::testing::PrintToString(watch.senders)
+                                << ", helper " << (helper_pid(log) ? std::to_string(*helper_pid(log)) : "unreported");
 
   // The kernel saw the helper and refused its network calls by name.
   const auto helper = helper_pid(log);

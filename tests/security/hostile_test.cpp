@@ -27,6 +27,7 @@
 #include <sstream>
 
 #include "graph_fixture.hpp"
+#include "mission_support.hpp"
 #include "rejuv/sys/sanitizer.hpp"
 #include "security_launch.hpp"
 #include "services/verdicts.hpp"
@@ -39,26 +40,7 @@ constexpr double kNotTried = -1000;  // escapes::kNotTried
 constexpr std::uint64_t kCanaryValue = 0x5AFE'5AFE'5AFE'5AFEULL;
 volatile std::uint64_t g_canary = kCanaryValue;  // NOLINT: process_vm_writev's target in the kernel (this process)
 
-// Every live process whose session is `sid`.
-std::vector<pid_t> session_members(pid_t sid) {
-  std::vector<pid_t> out;
-  DIR* dir = ::opendir("/proc");
-  if (dir == nullptr) return out;
-  while (const dirent* e = ::readdir(dir)) {
-    if (e->d_name[0] < '0' || e->d_name[0] > '9') continue;
-    const auto pid = static_cast<pid_t>(std::strtol(e->d_name, nullptr, 10));
-    if (::getsid(pid) != sid) continue;
-    // A zombie is dead already (its parent reaps it): only the living count.
-    std::ifstream stat("/proc/" + std::string(e->d_name) + "/stat");
-    std::string line;
-    std::getline(stat, line);
-    const std::size_t close = line.rfind(')');
-    if (close != std::string::npos && close + 2 < line.size() && line[close + 2] == 'Z') continue;
-    out.push_back(pid);
-  }
-  ::closedir(dir);
-  return out;
-}
+using mission::session_members;  // this process's descendants only: another test's pid may reuse a sid
 
 // Whether `pid` is a living process (a zombie is dead: its parent, the kernel, reaps it at its next sweep).
 bool living(pid_t pid) {

@@ -39,7 +39,35 @@ inline std::optional<std::filesystem::path> missing_executable(const launch::Loa
   return std::nullopt;
 }
 
-// Every living process of session `sid` (from /proc; a zombie is dead already: its parent reaps it).
+// What /proc/<pid>/stat says after the command: the state letter and the parent's pid ({'?', 0}: gone).
+struct ProcStat {
+  char state = '?';
+  pid_t parent = 0;
+};
+inline ProcStat proc_stat(pid_t pid) {
+  const std::string stat = read_text("/proc/" + std::to_string(pid) + "/stat");
+  const std::size_t close = stat.rfind(')');  // "pid (command) S ppid …": the command may hold anything
+  if (close == std::string::npos || close + 4 >= stat.size()) return {};
+  ProcStat out{.state = stat[close + 2], .parent = 0};
+  const char* from = stat.data() + close + 4;
+  (void)std::from_chars(from, stat.data() + stat.size(), out.parent);
+  return out;
+}
+
+// Whether `pid` is this process or descends from it. A session id is a pid: once the session the test watched
+// has no process left, the number can come back as another test's service (each is a session leader), which
+// must not be counted or killed here. Every process a service makes descends from the kernel, this process
+// (a subreaper: an orphan comes back to it).
+inline bool descends_from_us(pid_t pid) {
+  for (int depth = 0; pid > 1 && depth < 64; ++depth) {
+    if (pid == ::getpid()) return true;
+    pid = proc_stat(pid).parent;
+  }
+  return false;
+}
+
+// Every living process of session `sid` that descends from this process (from /proc; a zombie is dead
+// already: its parent reaps it).
 inline std::vector<pid_t> session_members(pid_t sid) {
   std::vector<pid_t> out;
   std::error_code ec;
@@ -49,9 +77,7 @@ inline std::vector<pid_t> session_members(pid_t sid) {
     const auto [end, err] = std::from_chars(name.data(), name.data() + name.size(), pid);
     if (err != std::errc{} || end != name.data() + name.size()) continue;
     if (::getsid(pid) != sid) continue;
-    const std::string stat = read_text("/proc/" + name + "/stat");
-    const std::size_t close = stat.rfind(')');
-    if (close != std::string::npos && close + 2 < stat.size() && stat[close + 2] == 'Z') continue;
+    if (proc_stat(pid).state == 'Z' || !descends_from_us(pid)) continue;
     out.push_back(pid);
   }
   return out;

@@ -58,13 +58,7 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   number("sr.keep_generations", launch::keep_generations(sr));
   number("sr.restricted_limit_fraction", sr.restricted_limit_fraction());
   // The estimator's re-arm after a rollback: only what the launch file sets (ekf2's defaults are flight::EkfRearm's).
-  const proto::EstimatorRearm& rearm = sr.ekf_rearm();
-  if (rearm.has_enabled()) number("sr.ekf_rearm.enabled", rearm.enabled() ? 1 : 0);
-  if (rearm.has_position_std_m()) number("sr.ekf_rearm.position_std_m", rearm.position_std_m());
-  if (rearm.has_velocity_std_m_s()) number("sr.ekf_rearm.velocity_std_m_s", rearm.velocity_std_m_s());
-  if (rearm.has_attitude_std_rad()) number("sr.ekf_rearm.attitude_std_rad", rearm.attitude_std_rad());
-  if (rearm.has_gyro_bias_std_rad_s()) number("sr.ekf_rearm.gyro_bias_std_rad_s", rearm.gyro_bias_std_rad_s());
-  if (rearm.has_accel_bias_std_m_s2()) number("sr.ekf_rearm.accel_bias_std_m_s2", rearm.accel_bias_std_m_s2());
+  for (const launch::RearmField& f : launch::ekf_rearm_fields(sr.ekf_rearm())) number("sr.ekf_rearm." + f.name, f.value);
   number("sr.box.position_m", sr.box().position_m());
   number("sr.box.velocity_m_s", sr.box().velocity_m_s());
   number("sr.box.angle_rad", sr.box().angle_rad());

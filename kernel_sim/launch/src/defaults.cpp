@@ -59,6 +59,18 @@ Seconds t_est(const proto::SrParams& sr) {
 Seconds t_min(const proto::SrParams& sr) {
   return Seconds(sr.t_min_s());
 }
+std::vector<RearmField> ekf_rearm_fields(const proto::EstimatorRearm& rearm) {
+  std::vector<const google::protobuf::FieldDescriptor*> set;
+  rearm.GetReflection()->ListFields(rearm, &set);
+  std::vector<RearmField> out;
+  for (const google::protobuf::FieldDescriptor* f : set) {
+    const bool is_switch = f->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_BOOL;
+    const double value = is_switch ? (rearm.GetReflection()->GetBool(rearm, f) ? 1.0 : 0.0)
+                                   : rearm.GetReflection()->GetDouble(rearm, f);
+    out.push_back(RearmField{.name = f->name(), .value = value, .is_switch = is_switch});
+  }
+  return out;
+}
 double path_length_m(const proto::Mission& mission) {
   double length = 0.0;
   for (int i = 1; i < mission.waypoints_size(); ++i) {

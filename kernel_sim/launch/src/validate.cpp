@@ -454,15 +454,10 @@ class Validator {
           loc("restricted_limit_fraction"),
           "sr.restricted_limit_fraction (Ū as a fraction of U, §III) must be in (0, 1], got " + num(frac)));
     }
-    const proto::EstimatorRearm& r = sr.ekf_rearm();
-    for (const auto& [set, v, f] : {std::tuple{r.has_position_std_m(), r.position_std_m(), "position_std_m"},
-                                    std::tuple{r.has_velocity_std_m_s(), r.velocity_std_m_s(), "velocity_std_m_s"},
-                                    std::tuple{r.has_attitude_std_rad(), r.attitude_std_rad(), "attitude_std_rad"},
-                                    std::tuple{r.has_gyro_bias_std_rad_s(), r.gyro_bias_std_rad_s(), "gyro_bias_std_rad_s"},
-                                    std::tuple{r.has_accel_bias_std_m_s2(), r.accel_bias_std_m_s2(), "accel_bias_std_m_s2"}}) {
-      if (set && !(std::isfinite(v) && v > 0.0)) {
-        return fail(error(at({{"sr", -1}, {"ekf_rearm", -1}}, f),
-                          "sr.ekf_rearm." + std::string(f) + " must be a finite 1-sigma > 0, got " + num(v)));
+    for (const RearmField& f : ekf_rearm_fields(sr.ekf_rearm())) {
+      if (!f.is_switch && !(std::isfinite(f.value) && f.value > 0.0)) {
+        return fail(error(at({{"sr", -1}, {"ekf_rearm", -1}}, f.name),
+                          "sr.ekf_rearm." + f.name + " must be a finite 1-sigma > 0, got " + num(f.value)));
       }
     }
     return {};

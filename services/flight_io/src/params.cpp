@@ -52,6 +52,17 @@ Result<std::optional<double>, InputFailure> finite_param(const Params& params, s
   return v;
 }
 
+// A 0/1 switch if present.
+Result<std::optional<bool>, InputFailure> switch_param(const Params& params, std::string_view name) {
+  auto v = finite_param(params, name);
+  if (!v) return fail(std::move(v.error()));
+  if (!*v) return std::optional<bool>{};
+  if (**v != 0.0 && **v != 1.0) {
+    return fail(failure(InputError::OutOfRange, std::string(name), "expected 0 or 1, got " + number_text(**v)));
+  }
+  return std::optional<bool>{**v == 1.0};
+}
+
 // A finite param, or `fallback` when absent.
 Result<double, InputFailure> number_or(const Params& params, std::string_view name, double fallback) {
   auto v = finite_param(params, name);
@@ -91,15 +102,9 @@ Result<TrackingParams, InputFailure> tracking_params(const Params& params) {
                    .rho_s = sim.handler.rho_s,
                    .t_min = sim.handler.t_min,
                    .check_period = sim.handler.check_period};
-  auto enabled = finite_param(params, "sr.enabled");
+  auto enabled = switch_param(params, "sr.enabled");
   if (!enabled) return fail(std::move(enabled.error()));
-  if (*enabled) {
-    if (**enabled != 0.0 && **enabled != 1.0) {
-      return fail(
-          failure(InputError::OutOfRange, "sr.enabled", "expected 0 or 1, got " + number_text(**enabled)));
-    }
-    t.sr = **enabled == 1.0 ? flight::SrSwitch::On : flight::SrSwitch::Off;
-  }
+  if (*enabled) t.sr = **enabled ? flight::SrSwitch::On : flight::SrSwitch::Off;
   auto rho_m = number_or(params, "sr.rho_m", t.rho_M);
   if (!rho_m) return fail(std::move(rho_m.error()));
   auto rho_s = number_or(params, "sr.rho_s", t.rho_s);
@@ -270,23 +275,13 @@ flight::EkfParams ekf_params() {
 
 Result<flight::EkfRearm, InputFailure> ekf_rearm(const Params& params) {
   flight::EkfRearm r = flight::SimConfig::defaults().ekf_rearm;
-  if (const auto on = params.find("sr.ekf_rearm.enabled")) {
-    if (*on != 0.0 && *on != 1.0) {
-      return fail(failure(InputError::OutOfRange, "sr.ekf_rearm.enabled", "expected 0 or 1, got " + number_text(*on)));
-    }
-    r.enabled = *on == 1.0;
-  }
-  for (const auto& [name, field] : {std::pair{"sr.ekf_rearm.position_std_m", &r.position_std_m},
-                                    std::pair{"sr.ekf_rearm.velocity_std_m_s", &r.velocity_std_m_s},
-                                    std::pair{"sr.ekf_rearm.attitude_std_rad", &r.attitude_std_rad},
-                                    std::pair{"sr.ekf_rearm.gyro_bias_std_rad_s", &r.gyro_bias_std_rad_s},
-                                    std::pair{"sr.ekf_rearm.accel_bias_std_m_s2", &r.accel_bias_std_m_s2}}) {
-    const std::optional<double> v = params.find(name);
-    if (!v) continue;
-    if (!(std::isfinite(*v) && *v > 0.0)) {
-      return fail(failure(InputError::OutOfRange, name, "expected a finite 1-sigma > 0, got " + number_text(*v)));
-    }
-    *field = *v;
+  auto on = switch_param(params, "sr.ekf_rearm.enabled");
+  if (!on) return fail(std::move(on.error()));
+  r.enabled = on->value_or(r.enabled);
+  for (const flight::EkfRearm::StdField& f : flight::EkfRearm::kStdFields) {
+    auto v = positive_or(params, "sr.ekf_rearm." + std::string(f.name), r.*f.member);  // a 1σ: finite, > 0
+    if (!v) return fail(std::move(v.error()));
+    r.*f.member = *v;
   }
   return r;
 }

@@ -35,13 +35,12 @@ Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& load
   c.rho_M = sr.rho_m();
   c.keep_generations = launch::keep_generations(sr);
   c.estimate_catch_up = sr.estimate_catch_up();
-  const proto::EstimatorRearm& rearm = sr.ekf_rearm();
-  if (rearm.has_enabled()) c.ekf_rearm.enabled = rearm.enabled();
-  if (rearm.has_position_std_m()) c.ekf_rearm.position_std_m = rearm.position_std_m();
-  if (rearm.has_velocity_std_m_s()) c.ekf_rearm.velocity_std_m_s = rearm.velocity_std_m_s();
-  if (rearm.has_attitude_std_rad()) c.ekf_rearm.attitude_std_rad = rearm.attitude_std_rad();
-  if (rearm.has_gyro_bias_std_rad_s()) c.ekf_rearm.gyro_bias_std_rad_s = rearm.gyro_bias_std_rad_s();
-  if (rearm.has_accel_bias_std_m_s2()) c.ekf_rearm.accel_bias_std_m_s2 = rearm.accel_bias_std_m_s2();
+  for (const launch::RearmField& f : launch::ekf_rearm_fields(sr.ekf_rearm())) {
+    if (f.is_switch) c.ekf_rearm.enabled = f.value == 1.0;
+    for (const EkfRearm::StdField& s : EkfRearm::kStdFields) {
+      if (s.name == f.name) c.ekf_rearm.*s.member = f.value;
+    }
+  }
   if (!(std::isfinite(sr.rho_s()) && std::isfinite(sr.rho_m()) && sr.rho_s() > 0.0 && sr.rho_s() < sr.rho_m() &&
         sr.rho_m() <= 1.0)) {
     return fail(semantic(sr_at("rho_s"), detail::printf_string("the tracking algorithm needs 0 < rho_s < rho_m <= 1 "

@@ -109,6 +109,15 @@ inline constexpr double kMinDerivedTimeoutS = 600.0;
 [[nodiscard]] Seconds t_mc(const proto::SrParams& sr);
 [[nodiscard]] Seconds t_est(const proto::SrParams& sr);
 [[nodiscard]] Seconds t_min(const proto::SrParams& sr);
+// The fields of sr.ekf_rearm the launch file sets, by name (idl/launch.proto EstimatorRearm; `enabled` as 1 or
+// 0): what ekf2 gets as its boot params sr.ekf_rearm.<name>, and the model as its flight::EkfRearm. Read by
+// reflection, so that a field added to the message reaches both without being spelt again.
+struct RearmField {
+  std::string name;
+  double value = 0.0;
+  bool is_switch = false;  // `enabled`; every other field is a 1σ
+};
+[[nodiscard]] std::vector<RearmField> ekf_rearm_fields(const proto::EstimatorRearm& rearm);
 // The mission's timeout_s, or unset, derived from the path (idl/launch.proto Mission.timeout_s):
 // kDerivedTimeoutBaseS plus kDerivedTimeoutPerMetreS per metre of the waypoints' path, at least
 // kMinDerivedTimeoutS and at most kMaxDurationS.

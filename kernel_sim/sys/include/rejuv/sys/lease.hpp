@@ -43,8 +43,18 @@ class Lease {
 [[nodiscard]] SysResult<Lease> lease_slot(const char* lock_file, std::uint32_t first, std::uint32_t count,
                                           std::uint32_t hint);
 
-// DDS domains 1..kLeasedDdsDomains (0 is the demo's and `rejuv run`'s default).
-inline constexpr std::uint32_t kLeasedDdsDomains = 200;
+// DDS domains 1..kLeasedDdsDomains (0 is the demo's and `rejuv run`'s default). Every UDP port of a leased
+// domain lies below Linux's ephemeral range (32768 onwards by default): a domain's RTPS ports start at
+// 7400 + 250·domain, and discovery (config/cyclonedds.xml: unicast to localhost, participant indices up to
+// kMaxParticipantIndex) sends to the next 10 + 2·(index + 1) of them whether a participant holds the port or not.
+// With domains up to 200, a socket bound to port 0 — a test's UDP listener that must see no datagram, a
+// network gate on `--net-port 0` — could be given such a port and got another run's discovery (CI: the
+// compromised-mission test counted 8 "escaped" datagrams, all RTPS from other tests' participants).
+inline constexpr std::uint32_t kLeasedDdsDomains = 100;
+inline constexpr std::uint32_t kMaxParticipantIndex = 100;  // config/cyclonedds.xml MaxAutoParticipantIndex
+inline constexpr std::uint32_t kEphemeralPortsFrom = 32768;
+static_assert(7400 + 250 * kLeasedDdsDomains + 10 + 2 * (kMaxParticipantIndex + 1) < kEphemeralPortsFrom,
+              "a leased DDS domain would send discovery into the ephemeral port range");
 inline constexpr const char* kDdsDomainLockFile = "/tmp/rejuv-test-dds-domains.lock";
 using DdsDomainLease = Lease;  // slot() is the domain
 [[nodiscard]] inline SysResult<DdsDomainLease> lease_dds_domain(std::uint32_t hint) {

@@ -4,7 +4,9 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <optional>
+#include <string_view>
 
 #include "rejuv/core/time.hpp"
 #include "rejuv/flight/ekf.hpp"
@@ -23,6 +25,20 @@ struct EkfRearm {
   double attitude_std_rad = 0.05;
   double gyro_bias_std_rad_s = 0.002;
   double accel_bias_std_m_s2 = 0.02;
+
+  // Its 1σ fields by their name in the launch file (EstimatorRearm) and in ekf2's boot params
+  // (sr.ekf_rearm.<name>): the one place the names meet the members.
+  struct StdField {
+    std::string_view name;
+    double EkfRearm::*member;
+  };
+  static constexpr std::array<StdField, 5> kStdFields{{
+      {"position_std_m", &EkfRearm::position_std_m},
+      {"velocity_std_m_s", &EkfRearm::velocity_std_m_s},
+      {"attitude_std_rad", &EkfRearm::attitude_std_rad},
+      {"gyro_bias_std_rad_s", &EkfRearm::gyro_bias_std_rad_s},
+      {"accel_bias_std_m_s2", &EkfRearm::accel_bias_std_m_s2},
+  }};
 };
 
 class EstimatorNode {
