@@ -65,6 +65,12 @@ std::string table(const proto::SweepReport& report) {
     }
     out += line;
   }
+  const std::string charged = sweep::charges_text(report);
+  if (!charged.empty()) {
+    const std::string& how = report.plan().charges();
+    out += "charged per checkpoint/rollback: " + charged +
+           (how.empty() ? " (each runner its own: --charges paper|runtime flies both alike)" : " (--charges " + how + ")") + "\n";
+  }
   return out;
 }
 
@@ -169,6 +175,7 @@ int run_sweep(std::span<const std::string_view> args) {
   fs::path dir = "out/sweep";
   bool resume = false;
   bool allow_unsafe = false;
+  enum class Charges : std::uint8_t { Own, Paper, Runtime } charges = Charges::Own;
   Options opts("sweep",
       "Fly a grid of launch parameters (§VI-D, Fig. 11: T_MC x T_est with 45 consecutive worst-case attacks per\n"
       "cell) on the model (`sim`: in this process, --jobs threads), the runtime (`run`: one `rejuv run` per cell\n"
@@ -195,6 +202,10 @@ int run_sweep(std::span<const std::string_view> args) {
       .path("--out", "DIR", dir, "output folder")
       .flag("--resume", resume, "continue the sweep kept in DIR: fly only the tasks without a record")
       .flag("--allow-unsafe", allow_unsafe, "exit 0 even when a cell left the safety set (studying the boundary)")
+      .choice<Charges>("--charges", {{"paper", Charges::Paper}, {"runtime", Charges::Runtime}}, charges,
+                       "charge both runners alike per checkpoint/rollback: the paper's 20/15 ms (§VI-B) or the\n"
+                       "launch file's lockstep charges; unset: the model the paper's, the runtime its own\n"
+                       "(sweep.csv and the figures say which)")
       .custom<sweep::Shard>("--shard", "i/n", shard, sweep::parse_shard,
                             "fly only every n-th cell, from the i-th (1-based); see `merge`");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
@@ -222,6 +233,8 @@ int run_sweep(std::span<const std::string_view> args) {
     for (std::uint64_t k = 0; k < kDefaultSeeds; ++k) plan.add_seeds(loaded->graph.seed() + k);
   }
   plan.set_attacks(static_cast<std::uint32_t>(attacks));
+  if (charges == Charges::Paper) plan.set_charges(std::string(sweep::kChargesPaper));
+  if (charges == Charges::Runtime) plan.set_charges(std::string(sweep::kChargesRuntime));
   if (runner != Runners::Run) plan.add_runners("sim");
   if (runner != Runners::Sim) plan.add_runners("run");
   if (sweep::cell_count(plan) > 100000) return bad_input("rejuv sweep: more than 100000 cells");
@@ -235,7 +248,7 @@ int run_sweep(std::span<const std::string_view> args) {
     if (!kept) return bad_input("rejuv sweep: " + kept.error());
     if (!sweep::same_plan(*kept, plan)) {
       return bad_input("rejuv sweep: --resume: " + dir.string() + " holds another sweep (its plan.json differs in graph, "
-                       "parameters, seeds, attacks or runners)");
+                       "parameters, seeds, attacks, runners or charges)");
     }
   }
   fs::create_directories(dir / "cells", ec);

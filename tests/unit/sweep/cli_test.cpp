@@ -3,6 +3,7 @@
 #include <google/protobuf/util/json_util.h>
 
 #include <filesystem>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,55 @@ TEST_F(SweepCli, SimSweep_WritesCsvJsonAndFigures) {
     EXPECT_GT(fs::file_size(out / f), 1000U) << f;
   }
   EXPECT_EQ(slurp(out / "fig11a.png").substr(1, 3), "PNG");
+}
+
+// The charge per checkpoint/rollback each row was flown with (sweep.csv's columns checkpoint_charge_ms and
+// rollback_charge_ms, the two before `error`), one pair per data row.
+std::vector<std::pair<double, double>> charges_in(const std::string& csv) {
+  std::vector<std::pair<double, double>> out;
+  std::istringstream in(csv);
+  std::string line;
+  std::getline(in, line);  // the header
+  while (std::getline(in, line)) {
+    const auto error = line.rfind(',');
+    const auto rb = line.rfind(',', error - 1);
+    const auto cp = line.rfind(',', rb - 1);
+    out.emplace_back(std::stod(line.substr(cp + 1, rb - cp - 1)), std::stod(line.substr(rb + 1, error - rb - 1)));
+  }
+  return out;
+}
+
+// The model charges the paper's T_CP/T_RB unless told to charge the launch file's lockstep charges (the
+// square: 0.3/0.3 ms), as the runtime does; sweep.csv and the table say which, and a sweep with other charges
+// is another sweep.
+TEST_F(SweepCli, ChargesRuntime_TheModelChargesTheLaunchFilesLockstep) {
+  const fs::path own = dir_ / "own";
+  const auto a = sweep(own);
+  ASSERT_EQ(a.exit_code, 0) << a.err;
+  const std::string own_csv = slurp(own / "sweep.csv");
+  EXPECT_NE(own_csv.find(",checkpoint_charge_ms,rollback_charge_ms,error\n"), std::string::npos) << own_csv;
+  for (const auto& [cp, rb] : charges_in(own_csv)) {
+    EXPECT_DOUBLE_EQ(cp, 20.0) << own_csv;
+    EXPECT_DOUBLE_EQ(rb, 15.0) << own_csv;
+  }
+  EXPECT_NE(a.out.find("charged per checkpoint/rollback: sim 20/15 ms (each runner its own"), std::string::npos) << a.out;
+
+  const fs::path like = dir_ / "like";
+  const auto b = sweep(like, {"--charges", "runtime"});
+  ASSERT_EQ(b.exit_code, 0) << b.err;
+  const auto charged = charges_in(slurp(like / "sweep.csv"));
+  ASSERT_EQ(charged.size(), 4U);
+  for (const auto& [cp, rb] : charged) {
+    EXPECT_DOUBLE_EQ(cp, 0.3);
+    EXPECT_DOUBLE_EQ(rb, 0.3);
+  }
+  EXPECT_NE(b.out.find("(--charges runtime)"), std::string::npos) << b.out;
+  // Less stop per cycle: the same cells fly with a lower or equal max V (the stop holds the controls).
+  EXPECT_LE(report_of(like).cells(3).max_v().max(), report_of(own).cells(3).max_v().max() + 1e-9);
+
+  const auto resumed = sweep(own, {"--resume", "--charges", "paper"});
+  EXPECT_EQ(resumed.exit_code, 2);
+  EXPECT_NE(resumed.err.find("another sweep"), std::string::npos) << resumed.err;
 }
 
 TEST_F(SweepCli, Resume_FliesNothingTwice) {

@@ -143,7 +143,12 @@ std::optional<proto::SweepRecord> fly_model(const proto::SweepPlan& plan, const 
     r.set_error(loaded.error().to_string());
     return r;
   }
-  auto config = flight::config_from_launch(*loaded, flight::SimOverrides{.seed = task.seed});
+  flight::SimOverrides overrides{.seed = task.seed};
+  if (plan.charges() == kChargesRuntime) {  // the model charges what the runtime does
+    overrides.t_cp = launch::checkpoint_charge(loaded->graph.lockstep());
+    overrides.t_rb = launch::rollback_charge(loaded->graph.lockstep());
+  }
+  auto config = flight::config_from_launch(*loaded, overrides);
   if (!config) {
     r.set_status("invalid");
     r.set_error(config.error().to_string());

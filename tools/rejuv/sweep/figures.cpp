@@ -131,6 +131,8 @@ Result<std::vector<fs::path>, std::string> draw_figures(const fs::path& dir, con
   }
   std::string runners;
   for (const std::string& r : plan.runners()) runners += (runners.empty() ? "" : " ") + r;
+  const std::string charged = charges_text(report);
+  const std::string charges = charged.empty() ? "" : "; CP/RB charged: " + charged;
   std::vector<fs::path> written;
   struct Figure {
     const char* name;
@@ -143,8 +145,8 @@ Result<std::vector<fs::path>, std::string> draw_figures(const fs::path& dir, con
   for (std::size_t f = 0; f < 2; ++f) {
     const Figure& fig = figures[f];
     char title[512];
-    std::snprintf(title, sizeof title, "Fig. 11(%c): %s, max over %d seed%s, %u attacks per cell", fig.name[5],
-                  fig.metric, plan.seeds_size(), plan.seeds_size() == 1 ? "" : "s", plan.attacks());
+    std::snprintf(title, sizeof title, "Fig. 11(%c): %s, max over %d seed%s, %u attacks per cell%s", fig.name[5],
+                  fig.metric, plan.seeds_size(), plan.seeds_size() == 1 ? "" : "s", plan.attacks(), charges.c_str());
     std::string vars = "dir=" + gp_quoted((dir / "plot").string()) + "; out=" + gp_quoted((dir / fig.name).string()) +
                        "; runners=" + gp_quoted(runners) + "; col=" + std::to_string(fig.column) +
                        "; dims=" + std::to_string(plan.axes_size()) + "; reached=" + (beyond[f] ? "1" : "0") + "; zmax=" + std::to_string(zmax[f] * 1.05) +

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "rejuv/flight/attack_library.hpp"
+#include "rejuv/flight/sim_config.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "sweep/params.hpp"
 
@@ -173,6 +174,11 @@ Result<proto::Launch, std::string> cell_launch(const proto::Launch& base, const 
   }
   move_attack_to_its_service(launch);
   launch.set_stop_after_attacks(plan.attacks());
+  if (plan.charges() == kChargesPaper) {  // the runtime charges what the model does by default (§VI-B)
+    const flight::SimConfig paper = flight::SimConfig::defaults();
+    launch.mutable_lockstep()->set_checkpoint_charge_ms(paper.t_cp.count() * 1e3);
+    launch.mutable_lockstep()->set_rollback_charge_ms(paper.t_rb.count() * 1e3);
+  }
   // The cell's launch lives in DIR: paths relative to the original launch file become absolute.
   if (!launch.policy().empty() && fs::path(launch.policy()).is_relative()) {
     launch.set_policy((base_dir / launch.policy()).lexically_normal().string());
@@ -337,20 +343,40 @@ proto::SweepReport aggregate(const proto::SweepPlan& plan, const std::vector<pro
   return report;
 }
 
+std::string charges_text(const proto::SweepReport& report) {
+  std::string out;
+  for (const std::string& runner : report.plan().runners()) {
+    for (const proto::SweepCellResult& c : report.cells()) {
+      const auto ok = std::find_if(c.records().begin(), c.records().end(),
+                                   [](const proto::SweepRecord& r) { return r.status() == "ok"; });
+      if (c.runner() != runner || ok == c.records().end()) continue;
+      char text[96];
+      std::snprintf(text, sizeof text, "%s%s %.3g/%.3g ms", out.empty() ? "" : ", ", runner.c_str(),
+                    ok->summary().charging().checkpoint_charge_ms(), ok->summary().charging().rollback_charge_ms());
+      out += text;
+      break;
+    }
+  }
+  return out;
+}
+
 std::string to_csv(const proto::SweepReport& report) {
   std::string out;
   for (const proto::SweepAxis& a : report.plan().axes()) out += a.path() + ",";
   out += "runner,seeds,ok,completed,safe,max_V_max,max_V_mean,max_est_err_P_max,max_est_err_P_mean,d_mean_m_mean,"
-         "d_max_m_max,rollbacks_mean,attacks_min,attacks_mean,mission_time_s_mean,mission_time_s_max,error\n";
+         "d_max_m_max,rollbacks_mean,attacks_min,attacks_mean,mission_time_s_mean,mission_time_s_max,"
+         "checkpoint_charge_ms,rollback_charge_ms,error\n";
   for (const proto::SweepCellResult& c : report.cells()) {
     for (const proto::SweepParamValue& p : c.params()) out += p.value() + ",";
     double attacks_min = 0;
     bool first = true;
+    const proto::Charging* charged = nullptr;  // what the cell's missions were charged (one launch: all alike)
     for (const proto::SweepRecord& r : c.records()) {
       if (r.status() != "ok") continue;
       const auto a = static_cast<double>(r.summary().attacks());
       attacks_min = first ? a : std::min(attacks_min, a);
       first = false;
+      charged = &r.summary().charging();
     }
     char line[512];
     std::snprintf(line, sizeof line, "%s,%u,%u,%u,%u,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,",
@@ -359,6 +385,12 @@ std::string to_csv(const proto::SweepReport& report) {
                   c.rollbacks().mean(), attacks_min, c.attacks().mean(), c.mission_time_s().mean(),
                   c.mission_time_s().max());
     out += line;
+    if (charged != nullptr) {
+      std::snprintf(line, sizeof line, "%.6g,%.6g,", charged->checkpoint_charge_ms(), charged->rollback_charge_ms());
+      out += line;
+    } else {
+      out += ",,";
+    }
     std::string error = c.error();
     std::replace(error.begin(), error.end(), ',', ';');
     std::replace(error.begin(), error.end(), '\n', ' ');

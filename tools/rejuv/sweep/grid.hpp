@@ -19,6 +19,11 @@ namespace rejuv::cli::sweep {
 
 enum class Runner : std::uint8_t { Sim, Run };
 [[nodiscard]] std::string_view to_string(Runner r);
+
+// SweepPlan.charges (idl/sweep.proto): both runners charge the paper's T_CP/T_RB, or both the launch file's
+// lockstep charges; "" each its own.
+inline constexpr std::string_view kChargesPaper = "paper";
+inline constexpr std::string_view kChargesRuntime = "runtime";
 [[nodiscard]] std::optional<Runner> runner_from(std::string_view name);
 
 // `--shard i/n`: the cells whose index is i modulo n (1 ≤ i ≤ n, written 1-based).
@@ -70,6 +75,9 @@ struct Task {
 // Per cell and runner: max and mean over the seeds of each metric; `missing` counts the planned records absent.
 [[nodiscard]] proto::SweepReport aggregate(const proto::SweepPlan& plan, const std::vector<proto::SweepRecord>& records);
 [[nodiscard]] std::string to_csv(const proto::SweepReport& report);
+// What each runner charged a checkpoint and a rollback, from its first flown record: "sim 20/15 ms, run
+// 0.3/0.3 ms" ("" before any flew). The model and the runtime differ unless the plan's `charges` is set.
+[[nodiscard]] std::string charges_text(const proto::SweepReport& report);
 [[nodiscard]] std::string to_json_text(const google::protobuf::Message& m);
 
 }  // namespace rejuv::cli::sweep

@@ -103,6 +103,8 @@ Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& load
     }
   }
   if (overrides.attack) c.attack.enabled = *overrides.attack;
+  if (overrides.t_cp) c.t_cp = *overrides.t_cp;
+  if (overrides.t_rb) c.t_rb = *overrides.t_rb;
   c.stop_after_attacks = g.stop_after_attacks();
 
   // The control design must succeed on these numbers: report a failure where the number was written.

@@ -493,6 +493,10 @@ struct SrSimulation::Impl {
     s.set_attacks(attack_windows);
     s.set_stopped_after_attacks(stopped_after_attacks);
     s.set_max_control_gap_ms(std::chrono::duration<double, std::milli>(driver.max_gap()).count());
+    // What the model charges a checkpoint and a rollback (T_CP, T_RB), as `rejuv run` reports its lockstep's.
+    s.mutable_charging()->set_charge("model");
+    s.mutable_charging()->set_checkpoint_charge_ms(cfg.t_cp.count() * 1e3);
+    s.mutable_charging()->set_rollback_charge_ms(cfg.t_rb.count() * 1e3);
     const double wall_s = std::chrono::duration<double>(WallClock::now() - wall_start).count();
     const double sim_s = to_seconds(t).count();
     s.set_sim_time_s(sim_s);

@@ -44,6 +44,10 @@ struct SimOverrides {
   std::optional<SrSwitch> sr = std::nullopt;
   std::optional<AttackSwitch> attack = std::nullopt;
   std::optional<std::uint64_t> seed = std::nullopt;
+  // T_CP and T_RB (SimConfig: the paper's 20 and 15 ms unless set), e.g. the runtime's lockstep charges for a
+  // like-for-like comparison (`rejuv sweep --charges runtime`).
+  std::optional<Seconds> t_cp = std::nullopt;
+  std::optional<Seconds> t_rb = std::nullopt;
 };
 
 // Fills a SimConfig from a loaded launch graph and checks what the engine needs beyond load_launch's checks
