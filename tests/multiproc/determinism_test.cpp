@@ -102,6 +102,22 @@ TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
   // the alignment): none of the flight's images is by fork.
   EXPECT_EQ(a.summary.image_phases().images_by_fork(), 0U) << a.outcome.out;
   EXPECT_EQ(a.summary.charging().priming_images(), kRejuvenated);
+  // Per service (ServiceSummary): each rejuvenated one was in every checkpoint (and the alignment's) and
+  // restored at every rollback; the driver-level output_driver never; each publishes on its own topics only.
+  ASSERT_EQ(a.summary.services_size(), static_cast<int>(kRejuvenated) + 1) << a.outcome.out;
+  for (const rejuv::proto::ServiceSummary& s : a.summary.services()) {
+    EXPECT_EQ(s.spawns(), 1U) << s.name();
+    EXPECT_EQ(s.rejuvenated(), s.name() != "output_driver") << s.name();
+    EXPECT_EQ(s.images(), s.rejuvenated() ? a.summary.checkpoints() + 1 : 0U) << s.name();
+    EXPECT_EQ(s.restores(), s.rejuvenated() ? a.summary.rollbacks() : 0U) << s.name();
+    std::uint64_t by_topic = 0;
+    for (const auto& [topic, n] : s.publishes_by_topic()) by_topic += n;
+    EXPECT_EQ(by_topic, s.publishes()) << s.name();
+    if (s.name() == "ekf2") {
+      EXPECT_GT(s.publishes_by_topic().at("vehicle_state"), 1000U);
+      EXPECT_EQ(s.publishes_by_topic().size(), 1U);
+    }
+  }
   // Byte-identical traces (the first differing row is in the kept scratch folder when this fails).
   EXPECT_TRUE(a.csv == b.csv) << "traces differ: diff " << (dir_ / "a.csv") << " " << (dir_ / "b.csv");
   // Field by field, so that a failure names the field (the whole text is longer than a failure shows).

@@ -48,6 +48,28 @@ std::string describe_sandbox(const proto::SandboxViolations& v) {
   return out + ")";
 }
 
+// One line per service (ServiceSummary): its part in SR and on the data plane.
+std::string describe_services(const proto::RunSummary& s) {
+  if (s.services().empty()) return {};
+  std::size_t width = 7;
+  for (const proto::ServiceSummary& v : s.services()) width = std::max(width, v.name().size());
+  char line[256];
+  std::snprintf(line, sizeof line, "  services    %-*s %6s %7s %8s %10s %10s %6s %7s %10s\n", static_cast<int>(width), "",
+                "spawns", "images", "restores", "published", "delivered", "lost", "denials", "violations");
+  std::string out = line;
+  for (const proto::ServiceSummary& v : s.services()) {
+    std::snprintf(line, sizeof line, "              %-*s %6llu %7s %8s %10llu %10llu %6llu %7llu %10llu%s\n",
+                  static_cast<int>(width), v.name().c_str(), static_cast<unsigned long long>(v.spawns()),
+                  v.rejuvenated() ? std::to_string(v.images()).c_str() : "-",
+                  v.rejuvenated() ? std::to_string(v.restores()).c_str() : "-",
+                  static_cast<unsigned long long>(v.publishes()), static_cast<unsigned long long>(v.delivered()),
+                  static_cast<unsigned long long>(v.lost()), static_cast<unsigned long long>(v.denials()),
+                  static_cast<unsigned long long>(v.sandbox_violations()), v.hung() ? "  (hung: killed)" : "");
+    out += line;
+  }
+  return out;
+}
+
 std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outcome) {
   std::string denials;
   for (const auto& [kind, n] : s.denials()) {
@@ -106,7 +128,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 static_cast<unsigned long long>(s.attacks()),
                 denials.empty() ? "none" : denials.c_str(), describe_sandbox(s.sandbox_violations()).c_str(),
                 describe_network(s.network()).c_str());
-  return buf;
+  return buf + describe_services(s);
 }
 
 void fill_sandbox(proto::SandboxViolations& out, const kernel::Kernel& k, bool insecure) {
@@ -120,6 +142,29 @@ void fill_sandbox(proto::SandboxViolations& out, const kernel::Kernel& k, bool i
     if (out.cgroup().empty() && !st.cgroup.empty()) out.set_cgroup(st.cgroup);
     if (st.sandbox_violations > 0) (*out.mutable_by_service())[st.name] = st.sandbox_violations;
     for (const auto& [name, n] : st.calls_refused) (*out.mutable_calls())[name] += n;
+  }
+}
+
+// Each service's evidence (ServiceSummary), in the policy's order.
+void fill_services(proto::RunSummary& out, const kernel::Kernel& k) {
+  for (std::size_t i = 0; i < k.service_count(); ++i) {
+    const kernel::ServiceStats st = k.stats(ServiceId{static_cast<std::uint32_t>(i)});
+    proto::ServiceSummary& s = *out.add_services();
+    s.set_name(st.name);
+    const auto& specs = k.graph().graph.services();
+    const auto spec = std::find_if(specs.begin(), specs.end(), [&](const proto::ServiceSpec& x) { return x.name() == st.name; });
+    s.set_rejuvenated(spec != specs.end() && (!spec->has_rejuvenate() || spec->rejuvenate()));
+    s.set_spawns(st.spawns);
+    s.set_images(st.images);
+    s.set_restores(st.restores);
+    s.set_publishes(st.publishes);
+    for (const auto& [topic, n] : st.publishes_by_topic) (*s.mutable_publishes_by_topic())[topic] = n;
+    s.set_delivered(st.delivered);
+    s.set_lost(st.lost);
+    s.set_denials(st.denials);
+    s.set_sandbox_violations(st.sandbox_violations);
+    s.set_images_lost(st.images_lost);
+    s.set_hung(st.hung);
   }
 }
 
@@ -336,6 +381,7 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
     overrun += st.lost;
   }
   fill_sandbox(*s.mutable_sandbox_violations(), **k, flags.insecure_sandbox);
+  fill_services(s, **k);
   for (const auto& [kind, n] : {std::pair{"SandboxViolation", s.sandbox_violations().total()}, std::pair{"FloodDropped", flood},
                                 std::pair{"WrongSize", wrong_size}, std::pair{"RingOverrun", overrun}}) {
     if (n > 0) (*s.mutable_denials())[kind] = n;

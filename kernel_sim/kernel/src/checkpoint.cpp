@@ -121,7 +121,10 @@ void Kernel::Impl::run_checkpoint() {
   flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
   done.record.state = save_state(done.t_cp, done.record.images, services, broker, timers);
   if (observer != nullptr) observer->on_checkpoint(g, broker);
-  for (const image::Image& im : done.record.images) services[im.service.value()].pages.base = g;
+  for (const image::Image& im : done.record.images) {
+    services[im.service.value()].pages.base = g;
+    ++services[im.service.value()].stats.images;
+  }
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
   const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();

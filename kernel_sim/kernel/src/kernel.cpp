@@ -233,6 +233,9 @@ ServiceStats Kernel::stats(ServiceId service) const {
   out.pid = s.proc.process.pid();
   out.exit = s.proc.process.status();
   out.cgroup = s.sandbox.cgroup_note;
+  for (std::size_t o = 0; o < s.published.size(); ++o) {
+    if (s.published[o] > 0) out.publishes_by_topic.emplace_back(impl_->objects[o].name, s.published[o]);
+  }
   // Messages routed to it that it will never get: skipped by the broker, or overrun while it stays blocked.
   // s.stats.lost has what next() already skipped; add what is overrun but not yet skipped.
   for (const SubscriptionRecord& r : s.subscriptions) {

@@ -145,6 +145,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     s.proc.phase = Phase::Ready;
     s.flow.new_channel();
     s.stats.pid = s.proc.process.pid();
+    ++s.stats.restores;
     // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
     // generation is unusable rather than half-installed.
     for (const auto& [fd, source] :

@@ -160,6 +160,7 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   s.proc.process = std::move(*child);
   s.proc.channel = std::move(kernel_end);
   s.proc.phase = Phase::Spawned;
+  ++s.stats.spawns;
   s.pages.start_incarnation(Generation{});  // a fresh process: its first image is by fork
   s.proc.spawned_at = wall();
   s.sandbox.limiter.last = s.proc.spawned_at;

@@ -264,6 +264,12 @@ struct ServiceStats {
   std::uint64_t frames_out = 0;     // frames sent to it
   std::uint64_t bad_frames = 0;     // refused at framing or protocol level
   std::uint64_t publishes = 0;      // accepted publications
+  std::vector<std::pair<std::string, std::uint64_t>> publishes_by_topic{};  // the same by topic (those it published on)
+  // Its part in SR (DESIGN §7): started from its binary (at boot and at each cold restart), images of it in
+  // committed generations (the checkpoints it was part of) and incarnations resumed from one of them (rollbacks).
+  std::uint64_t spawns = 0;
+  std::uint64_t images = 0;
+  std::uint64_t restores = 0;
   std::uint64_t denials = 0;        // refused by the capability check
   std::uint64_t wrong_size = 0;     // publications of the wrong size for the topic
   std::uint64_t delivered = 0;      // Deliver frames sent
