@@ -74,7 +74,13 @@ SdkResult<const CapInfo*> Service::cap(std::string_view object) const {
   for (const CapInfo& c : impl_->caps) {
     if (c.object == object) return &c;
   }
-  return error(SdkError::NoSuchObject, std::string(object));
+  // What to add, and what it holds: the usual cause is a grant the policy lacks (or a misspelt name).
+  std::string held;
+  for (const CapInfo& c : impl_->caps) held += (held.empty() ? "" : ", ") + c.object;
+  return error(SdkError::NoSuchObject,
+               "'" + std::string(object) + "': '" + impl_->name + "' holds no capability to it; the policy needs a line " +
+                   "grants { service: \"" + impl_->name + "\" object: \"" + std::string(object) +
+                   "\" rights: \"R\" (or \"W\") modes: [...] } (it holds: " + (held.empty() ? "nothing" : held) + ")");
 }
 
 SdkResult<const CapInfo*> Service::topic_cap(std::string_view object, std::string_view type, std::size_t size,

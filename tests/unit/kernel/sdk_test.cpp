@@ -185,7 +185,13 @@ TEST_F(SdkTest, Connect_ReadsIdentityCapsAndParams) {
 
 TEST_F(SdkTest, Advertise_ChecksNameKindTypeAndRights) {
   EXPECT_TRUE(svc->advertise<Record>("out").has_value());
-  EXPECT_EQ(svc->advertise<Record>("nope").error().code, SdkError::NoSuchObject);
+  const auto nope = svc->advertise<Record>("nope");
+  ASSERT_FALSE(nope.has_value());
+  EXPECT_EQ(nope.error().code, SdkError::NoSuchObject);
+  // The message names the grant to add and what the service holds.
+  EXPECT_NE(nope.error().detail.find("grants { service: \"" + std::string(svc->name()) + "\" object: \"nope\""),
+            std::string::npos) << nope.error().detail;
+  EXPECT_NE(nope.error().detail.find("it holds: "), std::string::npos) << nope.error().detail;
   EXPECT_EQ(svc->advertise<Record>("cell").error().code, SdkError::WrongObjectKind);
   EXPECT_EQ(svc->advertise<rejuv_msg_ActuatorControls>("out").error().code, SdkError::TypeMismatch);
   EXPECT_EQ(svc->advertise<Record>("numbers").error().code, SdkError::NeverGranted);
