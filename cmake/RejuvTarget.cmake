@@ -38,6 +38,11 @@ function(rejuv_gtest name)
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
+  # A sanitizer build (CMakePresets asan, tsan: -O1, shadow memory, checks on every access) runs several times
+  # slower: its per-test timeout is 4x, so that a slow test is not reported as a hang.
+  if(CMAKE_CXX_FLAGS MATCHES "-fsanitize=(address|thread)")
+    math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 4")
+  endif()
   include(GoogleTest)
   gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT}
                        DISCOVERY_TIMEOUT 60)
