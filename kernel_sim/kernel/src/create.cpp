@@ -25,8 +25,10 @@ Result<policy::Policy, KernelError> load_audited_policy(const launch::LoadedLaun
   auto policy = policy::load_policy(graph.policy_path);
   if (!policy) return fail(kernel_error(K::Policy, policy.error().to_string()));
   if (const auto findings = policy::audit(*policy, graph); !findings.empty()) {
+    // A finding is in the policy or in the launch graph (each says its file:line): name both.
     KernelError e = kernel_error(K::Audit, std::to_string(findings.size()) + " finding(s) in " +
-                                               graph.policy_path.string() + "; the kernel refuses to start");
+                                               graph.path.string() + " and its policy " + graph.policy_path.string() +
+                                               "; the kernel refuses to start");
     for (const policy::Finding& f : findings) e.findings.push_back(f.to_string());
     return fail(std::move(e));
   }

@@ -322,12 +322,15 @@ void coverage_names(const Context& c, Findings& out) {
   const Policy& p = c.policy;
   const proto::Launch& g = c.graph->graph;
   const TextLocations& at = c.graph->locations;
+  std::vector<std::string> declared;
+  for (const Service& s : p.services()) declared.push_back(s.name);
   for (int i = 0; i < g.services_size(); ++i) {
     const proto::ServiceSpec& ls = g.services(i);
     const auto id = p.find_service(ls.name());
     if (!id) {
       add(out, Invariant::Coverage,
-          "launch service \"" + ls.name() + "\" is not declared in the policy " + p.file(),
+          "launch service \"" + ls.name() + "\" is not declared in the policy " + p.file() +
+              did_you_mean(ls.name(), declared),
           at.locate({{"services", i}}, "name"));
       continue;
     }

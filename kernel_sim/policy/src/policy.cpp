@@ -131,19 +131,13 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return row[b.size()];
 }
 
-// " (did you mean \"x\"?)" when one known name is a likely typo of `name`; "" otherwise.
+// " (did you mean \"x\"?)" for a typo of a declared name (did_you_mean over their names).
 template <class Named>
 std::string suggestion(std::string_view name, const std::vector<Named>& known) {
-  const Named* best = nullptr;
-  std::size_t best_d = 3;  // more than two edits away is not a typo
-  for (const Named& k : known) {
-    const std::size_t d = edit_distance(name, k.name);
-    if (d < best_d) {
-      best_d = d;
-      best = &k;
-    }
-  }
-  return best == nullptr ? std::string() : " (did you mean \"" + best->name + "\"?)";
+  std::vector<std::string> names;
+  names.reserve(known.size());
+  for (const Named& k : known) names.push_back(k.name);
+  return did_you_mean(name, names);
 }
 
 // Why a rights string is refused, in the user's terms.
@@ -166,6 +160,19 @@ std::string explain_rights(std::string_view letters) {
 }
 
 }  // namespace
+
+std::string did_you_mean(std::string_view name, std::span<const std::string> known) {
+  const std::string* best = nullptr;
+  std::size_t best_d = 3;  // more than two edits away is not a typo
+  for (const std::string& k : known) {
+    const std::size_t d = edit_distance(name, k);
+    if (d < best_d) {
+      best_d = d;
+      best = &k;
+    }
+  }
+  return best == nullptr ? std::string() : " (did you mean \"" + *best + "\"?)";
+}
 
 // Turns a parsed proto::Policy into a Policy, refusing the first semantic problem (decode, then build:
 // nothing is returned unless every check passed).

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -21,6 +22,9 @@
 #include "rejuv/core/vocabulary.hpp"
 
 namespace rejuv::policy {
+
+// " (did you mean \"x\"?)" when one of `known` is at most two edits from `name` (a likely typo); "" otherwise.
+[[nodiscard]] std::string did_you_mean(std::string_view name, std::span<const std::string> known);
 
 // What a topic carries, for the `lateral` invariant (§III "Limits", §IV-C).
 enum class TopicRole : std::uint8_t { Data, Actuator, Setpoint };
