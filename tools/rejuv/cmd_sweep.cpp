@@ -164,6 +164,33 @@ int run_merge(std::span<const std::string_view> args) {
 
 }  // namespace
 
+// Each cell's launch written to DIR/launch/cell-NNNN.launch.pbtxt and checked by the loader of `rejuv run` and
+// `rejuv sim` (and the model's control design): a refused cell carries why, and is recorded, not flown.
+Result<std::vector<sweep::CellLaunch>, std::string> write_cell_launches(const fs::path& dir, const proto::Launch& graph,
+                                                                       const proto::SweepPlan& plan) {
+  const fs::path base_dir = fs::path(plan.graph()).parent_path();
+  std::vector<sweep::CellLaunch> cells;
+  std::error_code ec;
+  for (std::uint32_t c = 0; c < sweep::cell_count(plan); ++c) {
+    char name[64];
+    std::snprintf(name, sizeof name, "cell-%04u.launch.pbtxt", c);
+    sweep::CellLaunch cell{.file = fs::absolute(dir / "launch" / name, ec), .text = {}, .refused = {}};
+    auto launch = sweep::cell_launch(graph, base_dir, plan, c);
+    if (!launch) return fail(launch.error());
+    google::protobuf::TextFormat::PrintToString(*launch, &cell.text);
+    cell.text = "# rejuv sweep: cell " + std::to_string(c) + " of " + plan.graph() + "\n" + cell.text;
+    if (auto w = sweep::write_atomically(cell.file, cell.text); !w) return fail(w.error());
+    auto parsed_cell = launch::parse_launch(cell.text, cell.file);
+    if (!parsed_cell) {
+      cell.refused = parsed_cell.error().to_string();
+    } else if (auto config = flight::config_from_launch(*parsed_cell, {}); !config) {
+      cell.refused = config.error().to_string();
+    }
+    cells.push_back(std::move(cell));
+  }
+  return cells;
+}
+
 int run_sweep(std::span<const std::string_view> args) {
   if (!args.empty() && args.front() == "merge") return run_merge(args.subspan(1));
   std::string graph_path;
@@ -256,28 +283,10 @@ int run_sweep(std::span<const std::string_view> args) {
   if (ec) return bad_input("rejuv sweep: --out: cannot create '" + dir.string() + "': " + ec.message());
   if (auto w = sweep::write_plan(dir, plan); !w) return bad_input("rejuv sweep: " + w.error());
 
-  // Each cell's launch, checked by the loader of `rejuv run` and `rejuv sim` (and the model's control design).
-  const fs::path base_dir = fs::path(plan.graph()).parent_path();
-  std::vector<sweep::CellLaunch> cells;
-  std::size_t refused = 0;
-  for (std::uint32_t c = 0; c < sweep::cell_count(plan); ++c) {
-    char name[64];
-    std::snprintf(name, sizeof name, "cell-%04u.launch.pbtxt", c);
-    sweep::CellLaunch cell{.file = fs::absolute(dir / "launch" / name, ec), .text = {}, .refused = {}};
-    auto launch = sweep::cell_launch(loaded->graph, base_dir, plan, c);
-    if (!launch) return bad_input("rejuv sweep: " + launch.error());
-    google::protobuf::TextFormat::PrintToString(*launch, &cell.text);
-    cell.text = "# rejuv sweep: cell " + std::to_string(c) + " of " + plan.graph() + "\n" + cell.text;
-    if (auto w = sweep::write_atomically(cell.file, cell.text); !w) return bad_input("rejuv sweep: " + w.error());
-    auto parsed_cell = launch::parse_launch(cell.text, cell.file);
-    if (!parsed_cell) {
-      cell.refused = parsed_cell.error().to_string();
-    } else if (auto config = flight::config_from_launch(*parsed_cell, {}); !config) {
-      cell.refused = config.error().to_string();
-    }
-    refused += cell.refused.empty() ? 0 : 1;
-    cells.push_back(std::move(cell));
-  }
+  auto cells = write_cell_launches(dir, loaded->graph, plan);
+  if (!cells) return bad_input("rejuv sweep: " + cells.error());
+  const auto refused = static_cast<std::size_t>(
+      std::count_if(cells->begin(), cells->end(), [](const sweep::CellLaunch& c) { return !c.refused.empty(); }));
 
   std::vector<Task> todo;
   std::size_t kept = 0;
@@ -296,7 +305,7 @@ int run_sweep(std::span<const std::string_view> args) {
                refused > 0 ? (", " + std::to_string(refused) + " cells refused by the launch loader").c_str() : "");
   auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
   if (!signals) return bad_input("rejuv sweep: signalfd: " + signals.error().to_string());
-  const auto outcome = sweep::execute(plan, cells, todo, kept,
+  const auto outcome = sweep::execute(plan, *cells, todo, kept,
                                       sweep::ExecConfig{.dir = dir,
                                                         .jobs = static_cast<unsigned>(jobs),
                                                         .tty = tty,
