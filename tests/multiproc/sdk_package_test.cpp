@@ -4,7 +4,9 @@
 // with the service it built.
 // Every step is the guide's, so the guide cannot rot without this test failing.
 #include <gtest/gtest.h>
+#include <google/protobuf/util/json_util.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <regex>
 #include <string>
@@ -12,6 +14,7 @@
 
 #include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
+#include "summary.pb.h"
 
 namespace {
 
@@ -74,11 +77,13 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
       << slurp(example_build / "hello_topics.types.pbtxt");
   EXPECT_NE(slurp(example_build / "hello.policy.pbtxt").find("types { name: \"hello::Summary\""), std::string::npos);
 
-  // 4. Fly it: 5 s of hover with rejuvenation (the first MC window opens after T_est = 3 s in SC).
+  // 4. Fly it: 5 s of hover with rejuvenation (the first MC window opens after T_est = 3 s in SC), logged
+  // as ULog (the author's own type too: as its bytes, docs/ulog.md).
   const std::filesystem::path summary = dir_ / "summary.json";
+  const std::filesystem::path ulg = dir_ / "hello.ulg";
   auto flown = rejuv::test_support::run_rejuv(
-      dir_, {"run", graph.string(), "--duration", "5", "--domain",
-             std::to_string(rejuv::test_support::kOwnDdsDomain), "--net-port", "0", "--summary-json", summary.string()});
+      dir_, {"run", graph.string(), "--duration", "5", "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain),
+             "--net-port", "0", "--summary-json", summary.string(), "--ulog", ulg.string()});
   const std::string log = flown.out + flown.err;
   EXPECT_EQ(flown.exit_code, 0) << log;
   // It booted, received the state estimates and published its own topic (its log line says both counts, and
@@ -95,6 +100,17 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   EXPECT_NE(json.find("\"denials\": {}"), std::string::npos) << json;  // no denied invocation of any service
   // With rejuvenation on, the graph (hello_monitor with it) was checkpointed and rolled back.
   EXPECT_EQ(json.find("\"checkpoints\": \"0\""), std::string::npos) << json;
+  // The ULog holds the author's topic (hello_summary, type hello::Summary): what hello_monitor published of it.
+  rejuv::proto::RunSummary s;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(json, &s).ok()) << json;
+  EXPECT_GT(std::filesystem::file_size(ulg), 1000U);
+  const auto logged = s.ulog().routed_by_topic().find("hello_summary");
+  ASSERT_NE(logged, s.ulog().routed_by_topic().end()) << s.ulog().DebugString();
+  EXPECT_GT(logged->second, 0U);
+  const auto monitor = std::find_if(s.services().begin(), s.services().end(),
+                                    [](const rejuv::proto::ServiceSummary& v) { return v.name() == "hello_monitor"; });
+  ASSERT_NE(monitor, s.services().end());
+  EXPECT_EQ(monitor->publishes_by_topic().at("hello_summary"), logged->second);
 }
 
 }  // namespace

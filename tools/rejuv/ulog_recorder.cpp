@@ -117,8 +117,16 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
   const std::vector<kernel::Kernel::TopicInfo> topics = kernel.topics();
   for (const kernel::Kernel::TopicInfo& t : topics) {
     const ulog::TopicLayout* layout = ulog::find_layout(t.type);
-    if (layout == nullptr) return fail("no ULog layout for the topic type " + std::string(t.type));
-    if (auto ok = enc.format(ulog::topic_format(t.name, *layout)); !ok) return fail(with("format " + std::string(t.name), ok.error()));
+    // A type a service author declared in the policy (docs/writing_a_service.md "A new topic type"): the
+    // policy gives its size, not its fields, so its messages are logged as their bytes (`data`), named in
+    // the info `type.<topic>` so that a reader can decode them with the author's IDL.
+    const ulog::Format format = layout != nullptr ? ulog::topic_format(t.name, *layout) : ulog::raw_format(t.name, t.size);
+    if (layout == nullptr) {
+      if (auto ok = enc.info_string("type." + std::string(t.name), std::string(t.type)); !ok) {
+        return fail(with("info type." + std::string(t.name), ok.error()));
+      }
+    }
+    if (auto ok = enc.format(format); !ok) return fail(with("format " + std::string(t.name), ok.error()));
   }
   if (auto ok = enc.format(kSrEventFormat); !ok) return fail(with("format rejuv_sr_event", ok.error()));
   for (const kernel::Kernel::TopicInfo& t : topics) {

@@ -122,4 +122,10 @@ Format topic_format(std::string_view format_name, const TopicLayout& layout) {
   return f;
 }
 
+Format raw_format(std::string_view format_name, std::size_t size) {
+  return Format{.name = std::string(format_name),
+                .fields = {Field{.type = "uint64_t", .name = "timestamp"},
+                           Field{.type = "uint8_t", .name = "data", .array = static_cast<std::uint32_t>(size)}}};
+}
+
 }  // namespace rejuv::ulog

@@ -488,6 +488,7 @@ class Kernel {
     ObjectId id{};
     std::string_view name{};   // policy object name
     std::string_view type{};   // IDL type name
+    std::size_t size = 0;      // its payload [bytes]
   };
   [[nodiscard]] std::vector<TopicInfo> topics() const;
 

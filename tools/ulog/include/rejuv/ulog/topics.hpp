@@ -34,5 +34,8 @@ struct TopicLayout {
 // The format of a topic named `format_name` (e.g. the policy object "sensor_gyro") of this layout:
 // `uint64_t timestamp;` then the members.
 [[nodiscard]] Format topic_format(std::string_view format_name, const TopicLayout& layout);
+// The format of a topic whose fields are not known here (a type declared in a policy, not in the project's
+// IDL): `uint64_t timestamp;` then its `size` bytes as `uint8_t[size] data`.
+[[nodiscard]] Format raw_format(std::string_view format_name, std::size_t size);
 
 }  // namespace rejuv::ulog
