@@ -107,10 +107,20 @@ TEST_F(UlogReader, SquareWithSr_ReadBackByFoxgloveAsRouted) {
   const Struct& params = json_at(r, "parameters").struct_value();
   EXPECT_NEAR(json_at(params, "sr.t_mc_s").number_value(), loaded->graph.sr().t_mc_s(), 1e-6);
   EXPECT_NEAR(json_at(params, "sr.t_est_s").number_value(), loaded->graph.sr().t_est_s(), 1e-6);
+  // … and the values it flew with, defaults applied: the lockstep charges, the alignment, the wind, the attack
+  // plan and the mission's timeout (derived from the path when the file sets none)
+  EXPECT_NEAR(json_at(params, "lockstep.checkpoint_charge_ms").number_value(),
+              launch::checkpoint_charge(loaded->graph.lockstep()).count() * 1e3, 1e-6);
+  EXPECT_NEAR(json_at(params, "lockstep.alignment_s").number_value(), launch::alignment(loaded->graph.lockstep()).count(), 1e-6);
+  EXPECT_NEAR(json_at(params, "plant.wind_toward_deg").number_value(), loaded->graph.plant().wind_toward_deg(), 1e-6);
+  EXPECT_NEAR(json_at(params, "mission.timeout_s").number_value(), launch::mission_timeout(loaded->graph.mission()).count(), 1e-3);
+  ASSERT_GE(loaded->graph.attack().attacks_size(), 1);
+  EXPECT_EQ(json_at(params, "attack.0.kind").number_value(), loaded->graph.attack().attacks(0).kind());
   const Struct& info = json_at(r, "info").struct_value();
   EXPECT_EQ(json_at(info, "sys_name").string_value(), "Rejuv");
   EXPECT_EQ(json_at(info, "graph").string_value(), loaded->graph.name());
   EXPECT_EQ(json_at(info, "seed").number_value(), static_cast<double>(loaded->graph.seed()));
+  EXPECT_EQ(json_at(info, "attack.0.service").string_value(), loaded->graph.attack().attacks(0).service());
 
   // … and the checkpoints and rollbacks of the run, as logged strings
   ASSERT_GT(summary.checkpoints(), 0u);

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstring>
 
+#include "rejuv/launch/launch.hpp"
 #include "rejuv/ulog/topics.hpp"
 
 namespace rejuv::cli {
@@ -62,6 +63,45 @@ Result<void, ulog::UlogError> param(ulog::Encoder& enc, const std::string& owner
   return enc.parameter(name, static_cast<float>(p.number()));
 }
 
+// The launch values the run flew with, defaults applied (what a reader cannot reconstruct from the launch file
+// alone): the plant's physics and wind, the lockstep charges and alignment, the attack plan, the mission.
+// Numbers as float, counts, switches and enums as int32, names as info strings. The network block is not
+// logged (its signing key is a secret).
+Result<void, ulog::UlogError> effective_parameters(ulog::Encoder& enc, const proto::Launch& g) {
+  const auto number = [&](const std::string& name, double v) { return enc.parameter(name, static_cast<float>(v)); };
+  const auto integer = [&](const std::string& name, std::int64_t v) { return enc.parameter(name, static_cast<std::int32_t>(v)); };
+  std::vector<Result<void, ulog::UlogError>> done;
+  const proto::PlantSpec& plant = g.plant();
+  done.push_back(number("plant.physics_rate_hz", launch::physics_rate_hz(plant)));
+  done.push_back(number("plant.wind_mean_m_s", plant.wind_mean_m_s()));
+  done.push_back(number("plant.wind_toward_deg", plant.wind_toward_deg()));
+  done.push_back(number("plant.wind_gust_m_s", plant.wind_gust_m_s()));
+  const proto::LockstepTiming& lockstep = g.lockstep();
+  done.push_back(number("lockstep.checkpoint_charge_ms", launch::checkpoint_charge(lockstep).count() * 1e3));
+  done.push_back(number("lockstep.rollback_charge_ms", launch::rollback_charge(lockstep).count() * 1e3));
+  done.push_back(number("lockstep.alignment_s", launch::alignment(lockstep).count()));
+  done.push_back(integer("attack.enabled", g.attack().enabled() ? 1 : 0));
+  for (int j = 0; j < g.attack().attacks_size(); ++j) {
+    const proto::Attack& a = g.attack().attacks(j);
+    const std::string at = "attack." + std::to_string(j) + ".";
+    done.push_back(integer(at + "kind", a.kind()));
+    done.push_back(enc.info_string(at + "kind_name", proto::AttackKind_Name(a.kind())));
+    done.push_back(enc.info_string(at + "service", a.service()));
+    done.push_back(number(at + "start_s", a.start_s()));
+    done.push_back(integer(at + "max_windows", a.max_windows()));
+    done.push_back(number(at + "magnitude", a.magnitude()));
+  }
+  done.push_back(integer("stop_after_attacks", g.stop_after_attacks()));
+  const proto::Mission& mission = g.mission();
+  done.push_back(integer("mission.waypoints", mission.waypoints_size()));
+  done.push_back(number("mission.path_length_m", launch::path_length_m(mission)));
+  done.push_back(number("mission.timeout_s", launch::mission_timeout(mission).count()));
+  for (auto& d : done) {
+    if (!d) return d;
+  }
+  return {};
+}
+
 // rejuv_sr_event: the SR events of the kernel (rejuv::SrEvent, core/sr_event.hpp), one message each.
 #pragma pack(push, 1)
 struct SrEventMessage {
@@ -105,6 +145,7 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
   if (auto ok = enc.info_u64("seed", info.seed); !ok) return fail(with("info seed", ok.error()));
   // Parameters: the SR parameters, the plant's, every service's.
   if (auto ok = parameters_of(enc, graph.sr(), "sr"); !ok) return fail(with("sr parameters", ok.error()));
+  if (auto ok = effective_parameters(enc, graph); !ok) return fail(with("launch parameters", ok.error()));
   for (const proto::Param& p : graph.plant().params()) {
     if (auto ok = param(enc, "plant", p); !ok) return fail(with("plant parameter " + p.name(), ok.error()));
   }
