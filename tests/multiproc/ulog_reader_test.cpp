@@ -81,13 +81,44 @@ TEST_F(UlogReader, SquareWithSr_ReadBackByFoxgloveAsRouted) {
     EXPECT_EQ(json_at(json_at(topics, name).struct_value(), "count").number_value(), static_cast<double>(count)) << name;
     routed += count;
   }
-  EXPECT_EQ(topics.fields_size(), summary.ulog().routed_by_topic_size() + 1) << "the topics and rejuv_sr_event";
+  EXPECT_EQ(topics.fields_size(), summary.ulog().routed_by_topic_size() + summary.ulog().px4_by_topic_size() + 1)
+      << "the topics, PX4's and rejuv_sr_event";
   for (const char* busy : {"sensor_gyro", "vehicle_state", "actuator_outputs", "ground_truth", "sr_mode"}) {
     EXPECT_GT(summary.ulog().routed_by_topic().at(busy), 0u) << busy;
   }
   EXPECT_EQ(json_at(json_at(topics, "rejuv_sr_event").struct_value(), "count").number_value(),
             static_cast<double>(summary.ulog().sr_events()));
-  EXPECT_EQ(routed + summary.ulog().sr_events(), summary.ulog().data_messages());
+  // PX4's topics: one message each per estimate (vehicle_state) and per ground-truth sample, as read back
+  ASSERT_EQ(summary.ulog().px4_by_topic_size(), 4) << summary.ulog().DebugString();
+  std::uint64_t px4 = 0;
+  for (const auto& [name, count] : summary.ulog().px4_by_topic()) {
+    ASSERT_TRUE(topics.fields().contains(name)) << name;
+    EXPECT_EQ(json_at(json_at(topics, name).struct_value(), "count").number_value(), static_cast<double>(count)) << name;
+    px4 += count;
+  }
+  EXPECT_EQ(summary.ulog().px4_by_topic().at("vehicle_local_position"), summary.ulog().routed_by_topic().at("vehicle_state"));
+  EXPECT_EQ(summary.ulog().px4_by_topic().at("vehicle_attitude_groundtruth"),
+            summary.ulog().routed_by_topic().at("ground_truth"));
+  EXPECT_EQ(routed + summary.ulog().sr_events() + px4, summary.ulog().data_messages());
+  // … with PX4's field names and units, as a PX4 layout reads them: NED metres (the square flies 3 m up, z ≈ −3),
+  // the estimate near the truth, a unit quaternion q[4]
+  const auto last = [&](const char* topic) -> const Struct& {
+    return json_at(json_at(topics, topic).struct_value(), "last").struct_value();
+  };
+  const Struct& lp = last("vehicle_local_position");
+  const Struct& px4_truth = last("vehicle_local_position_groundtruth");
+  for (const char* field : {"x", "y", "z", "vx", "vy", "vz", "heading", "eph", "epv"}) {
+    EXPECT_TRUE(lp.fields().contains(field)) << field;
+  }
+  EXPECT_NEAR(json_at(lp, "z").number_value(), -3.0, 0.5);
+  EXPECT_TRUE(json_at(lp, "xy_valid").bool_value() || json_at(lp, "xy_valid").number_value() == 1);
+  EXPECT_NEAR(json_at(lp, "x").number_value(), json_at(px4_truth, "x").number_value(), 0.5);
+  EXPECT_GT(json_at(lp, "eph").number_value(), 0.0);
+  const auto& q = json_at(last("vehicle_attitude"), "q").list_value();
+  ASSERT_EQ(q.values_size(), 4);
+  double norm = 0;
+  for (const auto& c : q.values()) norm += c.number_value() * c.number_value();
+  EXPECT_NEAR(norm, 1.0, 1e-3);
   EXPECT_EQ(json_at(r, "data_messages").number_value(), static_cast<double>(summary.ulog().data_messages()));
   EXPECT_EQ(json_at(r, "log_count").number_value(), static_cast<double>(summary.ulog().logged_strings()));
 

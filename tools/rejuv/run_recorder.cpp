@@ -8,22 +8,11 @@
 
 #include "rejuv/flight/attack.hpp"
 #include "rejuv/flight_io/messages.hpp"
+#include "payload.hpp"
 #include "report.hpp"
 
 namespace rejuv::cli {
 namespace {
-
-template <class T>
-T as(std::span<const std::byte> payload) {
-  T v{};
-  std::memcpy(&v, payload.data(), std::min(sizeof(T), payload.size()));
-  return v;
-}
-
-template <class T>
-bool is(const kernel::Publication& p) {
-  return p.type == msgs::TopicTraits<T>::name;
-}
 
 // The forged controls are the corner itself (worst_case_corner returns the box's bounds); an honest LQR
 // output clamped to Ū lands on all four bounds of that very corner only by coincidence.
@@ -66,32 +55,32 @@ RunRecorder::RunRecorder(RunReference reference, std::FILE* csv, Progress progre
 }
 
 void RunRecorder::on_publication(const kernel::Publication& p) {
-  if (is<rejuv_msg_GroundTruth>(p)) {
-    on_truth(as<rejuv_msg_GroundTruth>(p.payload), p.t);
-  } else if (is<rejuv_msg_VehicleStateEstimate>(p)) {
-    const auto m = as<rejuv_msg_VehicleStateEstimate>(p.payload);
+  if (carries<rejuv_msg_GroundTruth>(p)) {
+    on_truth(payload_as<rejuv_msg_GroundTruth>(p.payload), p.t);
+  } else if (carries<rejuv_msg_VehicleStateEstimate>(p)) {
+    const auto m = payload_as<rejuv_msg_VehicleStateEstimate>(p.payload);
     if (auto x = flight_io::state_from_message(m)) {
       x_hat_ = *x;
       x_hat_stamp_ = Nanos{static_cast<std::int64_t>(m.timestamp_ns)};
     }
-  } else if (is<rejuv_msg_Setpoint>(p)) {
-    const auto m = as<rejuv_msg_Setpoint>(p.payload);
+  } else if (carries<rejuv_msg_Setpoint>(p)) {
+    const auto m = payload_as<rejuv_msg_Setpoint>(p.payload);
     if (auto x = flight_io::setpoint_from_message(m)) x_sp_ = *x;
     if (m.mission_done == 1 && !completed_at_) completed_at_ = std::max(p.t - ref_.alignment, Nanos{0});
-  } else if (is<rejuv_msg_ActuatorControls>(p)) {
-    const auto m = as<rejuv_msg_ActuatorControls>(p.payload);
+  } else if (carries<rejuv_msg_ActuatorControls>(p)) {
+    const auto m = payload_as<rejuv_msg_ActuatorControls>(p.payload);
     if (auto u = flight_io::controls_from_message(m)) {
       u_ = *u;
       // In MC only the mission controller holds the right to publish controls (the policy, DESIGN §8).
       if (mode_ == SrMode::MC) on_mc_controls(*u, Nanos{static_cast<std::int64_t>(m.timestamp_ns)}, m.epoch);
     }
-  } else if (is<rejuv_msg_ActuatorOutputs>(p)) {
-    const Nanos stamp{static_cast<std::int64_t>(as<rejuv_msg_ActuatorOutputs>(p.payload).timestamp_ns)};
+  } else if (carries<rejuv_msg_ActuatorOutputs>(p)) {
+    const Nanos stamp{static_cast<std::int64_t>(payload_as<rejuv_msg_ActuatorOutputs>(p.payload).timestamp_ns)};
     if (stamp < ref_.alignment) return;  // aligning: the plant does not apply them
     if (last_output_ && stamp > *last_output_) max_gap_ = std::max(max_gap_, stamp - *last_output_);
     last_output_ = stamp;
-  } else if (is<rejuv_msg_SrMode>(p)) {
-    const auto m = as<rejuv_msg_SrMode>(p.payload);
+  } else if (carries<rejuv_msg_SrMode>(p)) {
+    const auto m = payload_as<rejuv_msg_SrMode>(p.payload);
     if (auto mode = flight_io::mode_from_message(m)) {
       mode_ = *mode;
       if (mode_ == SrMode::MC && last_mc_epoch_ != m.epoch) {

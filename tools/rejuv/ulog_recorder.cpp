@@ -6,6 +6,10 @@
 #include <cstdio>
 #include <cstring>
 
+#include <algorithm>
+#include <cmath>
+
+#include "payload.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/ulog/topics.hpp"
 
@@ -120,6 +124,67 @@ const ulog::Format kSrEventFormat{.name = "rejuv_sr_event",
                                              {.type = "uint8_t", .name = "kind"},
                                              {.type = "uint8_t", .name = "mode"}}};
 
+// PX4's topics, as PX4's logger writes them, so that Flight Review's and PlotJuggler's PX4 layouts find the
+// vehicle: from the estimator's x̂ (vehicle_state) vehicle_local_position and vehicle_attitude, from the plant's
+// ground truth vehicle_local_position_groundtruth and vehicle_attitude_groundtruth (as PX4 SITL logs them).
+// The fields are a subset of PX4's (msg/VehicleLocalPosition.msg, VehicleAttitude.msg) with PX4's names, types
+// and units: NED metres and m/s, heading [rad], q = (w, x, y, z) body FRD to NED, std devs eph/epv/evh/evv [m, m/s].
+#pragma pack(push, 1)
+struct Px4LocalPosition {
+  std::uint64_t timestamp;         // [µs] when routed (kernel clock)
+  std::uint64_t timestamp_sample;  // [µs] the estimate's own time
+  std::uint8_t xy_valid, z_valid, v_xy_valid, v_z_valid;
+  float x, y, z, vx, vy, vz, heading, eph, epv, evh, evv;
+};
+struct Px4Attitude {
+  std::uint64_t timestamp;
+  std::uint64_t timestamp_sample;
+  float q[4];
+};
+#pragma pack(pop)
+ulog::Format px4_local_position_format(std::string name) {
+  ulog::Format f{.name = std::move(name), .fields = {{.type = "uint64_t", .name = "timestamp"},
+                                                     {.type = "uint64_t", .name = "timestamp_sample"}}};
+  for (const char* b : {"xy_valid", "z_valid", "v_xy_valid", "v_z_valid"}) f.fields.push_back({.type = "bool", .name = b});
+  for (const char* x : {"x", "y", "z", "vx", "vy", "vz", "heading", "eph", "epv", "evh", "evv"}) {
+    f.fields.push_back({.type = "float", .name = x});
+  }
+  return f;
+}
+ulog::Format px4_attitude_format(std::string name) {
+  return ulog::Format{.name = std::move(name), .fields = {{.type = "uint64_t", .name = "timestamp"},
+                                                          {.type = "uint64_t", .name = "timestamp_sample"},
+                                                          {.type = "float", .name = "q", .array = 4}}};
+}
+static_assert(sizeof(Px4LocalPosition) == 16 + 4 + 11 * 4 && sizeof(Px4Attitude) == 16 + 16, "packed as the formats say");
+
+// One pose (position, velocity, attitude, and for an estimate its variances and validity) as the two PX4 messages.
+struct Pose {
+  const double* p;
+  const double* v;
+  const double* q;
+  const double* var_p = nullptr;
+  const double* var_v = nullptr;
+  bool valid = true;
+  std::uint64_t sample_ns = 0;
+};
+std::pair<Px4LocalPosition, Px4Attitude> px4_of(const Pose& s, std::uint64_t t_us) {
+  const auto f = [](double x) { return static_cast<float>(x); };
+  const auto std_of = [&](const double* var, int a, int b) {
+    return var == nullptr ? 0.0F : f(std::sqrt(std::max(var[a], var[b])));
+  };
+  const double w = s.q[0], x = s.q[1], y = s.q[2], z = s.q[3];
+  const auto valid = static_cast<std::uint8_t>(s.valid ? 1 : 0);
+  Px4LocalPosition lp{.timestamp = t_us, .timestamp_sample = s.sample_ns / 1000,
+                      .xy_valid = valid, .z_valid = valid, .v_xy_valid = valid, .v_z_valid = valid,
+                      .x = f(s.p[0]), .y = f(s.p[1]), .z = f(s.p[2]), .vx = f(s.v[0]), .vy = f(s.v[1]), .vz = f(s.v[2]),
+                      .heading = f(std::atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))),
+                      .eph = std_of(s.var_p, 0, 1), .epv = std_of(s.var_p, 2, 2),
+                      .evh = std_of(s.var_v, 0, 1), .evv = std_of(s.var_v, 2, 2)};
+  Px4Attitude att{.timestamp = t_us, .timestamp_sample = s.sample_ns / 1000, .q = {f(w), f(x), f(y), f(z)}};
+  return {lp, att};
+}
+
 std::string with(std::string_view what, ulog::UlogError e) { return std::string(what) + ": " + std::string(ulog::to_string(e)); }
 
 }  // namespace
@@ -170,6 +235,33 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
     if (auto ok = enc.format(format); !ok) return fail(with("format " + std::string(t.name), ok.error()));
   }
   if (auto ok = enc.format(kSrEventFormat); !ok) return fail(with("format rejuv_sr_event", ok.error()));
+  // PX4's topics from the estimate and the ground truth, when the graph has them (and no topic of these names).
+  const auto topic_named = [&](std::string_view name, std::string_view type) -> std::optional<ObjectId> {
+    for (const kernel::Kernel::TopicInfo& t : topics) {
+      if (t.name == name && t.type == type) return t.id;
+    }
+    return std::nullopt;
+  };
+  const auto taken = [&](std::string_view name) {
+    return std::any_of(topics.begin(), topics.end(), [&](const kernel::Kernel::TopicInfo& t) { return t.name == name; });
+  };
+  struct Px4Source {
+    std::optional<ObjectId> topic;
+    std::string suffix;
+  };
+  const Px4Source sources[] = {
+      {topic_named("vehicle_state", msgs::TopicTraits<rejuv_msg_VehicleStateEstimate>::name), ""},
+      {topic_named("ground_truth", msgs::TopicTraits<rejuv_msg_GroundTruth>::name), "_groundtruth"}};
+  std::vector<std::pair<std::size_t, std::string>> px4_names;  // (source, ULog name) in subscription order
+  for (std::size_t i = 0; i < 2; ++i) {
+    const Px4Source& src = sources[i];
+    const std::string lp = "vehicle_local_position" + src.suffix, att = "vehicle_attitude" + src.suffix;
+    if (!src.topic || taken(lp) || taken(att)) continue;
+    if (auto ok = enc.format(px4_local_position_format(lp)); !ok) return fail(with("format " + lp, ok.error()));
+    if (auto ok = enc.format(px4_attitude_format(att)); !ok) return fail(with("format " + att, ok.error()));
+    px4_names.emplace_back(i, lp);
+    px4_names.emplace_back(i, att);
+  }
   for (const kernel::Kernel::TopicInfo& t : topics) {
     const auto id = enc.add_logged(t.name);
     if (!id) return fail(with("subscription " + std::string(t.name), id.error()));
@@ -184,6 +276,15 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
   const auto sr_id = enc.add_logged(kSrEventFormat.name);
   if (!sr_id) return fail(with("subscription rejuv_sr_event", sr_id.error()));
   rec->sr_event_id_ = *sr_id;
+  for (std::size_t k = 0; k + 1 < px4_names.size(); k += 2) {
+    const auto lp = enc.add_logged(px4_names[k].second);
+    const auto att = enc.add_logged(px4_names[k + 1].second);
+    if (!lp || !att) return fail(with("subscription " + px4_names[k].second, (!lp ? lp : att).error()));
+    const bool truth = px4_names[k].first == 1;
+    rec->px4_.push_back(Px4Topics{.source = *sources[px4_names[k].first].topic, .truth = truth,
+                                  .local_position = *lp, .attitude = *att,
+                                  .suffix = sources[px4_names[k].first].suffix, .written = 0});
+  }
   return rec;
 }
 
@@ -199,7 +300,34 @@ void UlogRecorder::on_publication(const kernel::Publication& p) {
     return;
   }
   ++data_messages_;
+  for (Px4Topics& x : px4_) {
+    if (x.source == p.topic) write_px4(x, p);
+  }
   writer_.flush_if_large();
+}
+
+void UlogRecorder::write_px4(Px4Topics& x, const kernel::Publication& p) {
+  Pose pose{};
+  rejuv_msg_VehicleStateEstimate est{};
+  rejuv_msg_GroundTruth truth{};
+  if (x.truth) {
+    truth = payload_as<rejuv_msg_GroundTruth>(p.payload);
+    pose = Pose{.p = truth.p_N_m, .v = truth.v_N_m_s, .q = truth.q_NB, .sample_ns = truth.timestamp_ns};
+  } else {
+    est = payload_as<rejuv_msg_VehicleStateEstimate>(p.payload);
+    pose = Pose{.p = est.p_N_m, .v = est.v_N_m_s, .q = est.q_NB, .var_p = est.variance_p_m2, .var_v = est.variance_v_m2_s2,
+                .valid = (est.flags & 2U) != 0, .sample_ns = est.timestamp_ns};
+  }
+  const auto [lp, att] = px4_of(pose, micros(p.t));
+  for (const auto& [id, bytes] : {std::pair{x.local_position, std::as_bytes(std::span(&lp, 1))},
+                                  std::pair{x.attitude, std::as_bytes(std::span(&att, 1))}}) {
+    if (auto ok = writer_.encoder().data(id, bytes); !ok) {
+      if (error_.empty()) error_ = with("data of PX4's topics from " + std::string(p.name), ok.error());
+      return;
+    }
+    ++data_messages_;
+  }
+  ++x.written;
 }
 
 void UlogRecorder::log(ulog::LogLevel level, Nanos t, std::string_view text) {
@@ -277,6 +405,10 @@ void UlogRecorder::fill(proto::UlogSummary& s, std::uint64_t bytes) const {
   s.set_data_messages(data_messages_);
   s.set_logged_strings(logged_strings_);
   s.set_sr_events(sr_events_);
+  for (const Px4Topics& x : px4_) {
+    (*s.mutable_px4_by_topic())["vehicle_local_position" + x.suffix] = x.written;
+    (*s.mutable_px4_by_topic())["vehicle_attitude" + x.suffix] = x.written;
+  }
   for (std::size_t i = 0; i < names_.size(); ++i) {
     if (by_object_[i]) (*s.mutable_routed_by_topic())[names_[i]] = routed_[i];
   }

@@ -45,12 +45,23 @@ class UlogRecorder final : public kernel::Observer {
  private:
   explicit UlogRecorder(ulog::FileWriter writer) : writer_(std::move(writer)) {}
   void log(ulog::LogLevel level, Nanos t, std::string_view text);
+  // PX4's vehicle_local_position and vehicle_attitude (or their _groundtruth) from one routed topic.
+  struct Px4Topics {
+    ObjectId source{};
+    bool truth = false;  // ground_truth (else the estimate vehicle_state)
+    ulog::MsgId local_position = 0;
+    ulog::MsgId attitude = 0;
+    std::string suffix{};    // "" or "_groundtruth"
+    std::uint64_t written = 0;  // messages of each of the two
+  };
+  void write_px4(Px4Topics& x, const kernel::Publication& p);
 
   ulog::FileWriter writer_;
   std::vector<std::optional<ulog::MsgId>> by_object_;  // msg_id of each topic, by ObjectId
   std::vector<std::string> names_;                     // policy name of each topic, by ObjectId
   std::vector<std::uint64_t> routed_;                  // publications seen, by ObjectId
   ulog::MsgId sr_event_id_ = 0;
+  std::vector<Px4Topics> px4_;
   std::vector<std::byte> scratch_;
   std::uint64_t data_messages_ = 0;
   std::uint64_t sr_events_ = 0;
