@@ -52,15 +52,17 @@ class Determinism : public rejuv::test_support::ScratchDirTest {
     rejuv::proto::RunSummary summary;
   };
 
-  Flight fly(const std::string& name, const std::string& duration_s) const {
+  Flight fly(const std::string& name, const std::string& duration_s, std::vector<std::string> extra = {}) const {
     const auto csv = dir_ / (name + ".csv");
     const auto json = dir_ / (name + ".json");
     Flight f;
     const auto logs = dir_ / name;  // its stdout and stderr (the kernel's log), kept beside the trace
     std::filesystem::create_directories(logs);
-    f.outcome = rejuv::test_support::run_rejuv(
-        logs, {"run", graph().string(), "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain), "--net-port",
-               "0", "--seed", "7", "--duration", duration_s, "--csv", csv.string(), "--summary-json", json.string()});
+    std::vector<std::string> args{"run", graph().string(), "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain),
+                                  "--net-port", "0", "--seed", "7", "--duration", duration_s, "--csv", csv.string(),
+                                  "--summary-json", json.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    f.outcome = rejuv::test_support::run_rejuv(logs, std::move(args));
     f.csv = slurp(csv);
     const auto parsed = google::protobuf::util::JsonStringToMessage(slurp(json), &f.summary);
     EXPECT_TRUE(parsed.ok()) << name << ": " << parsed.ToString() << "\n" << f.outcome.err;
@@ -125,6 +127,18 @@ TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
   google::protobuf::util::MessageDifferencer diff;
   diff.ReportDifferencesToString(&differences);
   EXPECT_TRUE(diff.Compare(without_wall_clock(a.summary), without_wall_clock(b.summary))) << differences;
+}
+
+// --speed paces lockstep for a ground station in wall-clock time: never faster than asked (a bound a loaded
+// machine cannot break: pacing only waits), and the flight is the same, byte for byte.
+TEST_F(Determinism, SpeedPaced_NoFasterThanAsked_SameTrace) {
+  const Flight free_run = fly("free", "2");
+  const Flight paced = fly("paced", "2", {"--speed", "4"});
+  ASSERT_EQ(paced.outcome.exit_code, 0) << paced.outcome.err;
+  // 2 s of alignment and 2 s of flight at 4x: at least 1 s of wall time.
+  EXPECT_LE(paced.summary.realtime_factor(), 4.0 * 1.02) << paced.outcome.out;
+  EXPECT_GE(paced.summary.wall_time_s(), paced.summary.sim_time_s() / (4.0 * 1.02));
+  EXPECT_TRUE(paced.csv == free_run.csv) << "traces differ: diff " << (dir_ / "free.csv") << " " << (dir_ / "paced.csv");
 }
 
 TEST_F(Determinism, FlightShorterThanTest_NoCheckpointRollbackOrTimerBeforeTheCycle) {

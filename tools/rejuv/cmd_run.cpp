@@ -224,7 +224,7 @@ int run_run(std::span<const std::string_view> args) {
   std::string graph_path;
   KernelFlags flags;
   FlightSwitches switches;
-  std::optional<double> duration;
+  std::optional<double> duration, speed;
   std::optional<std::filesystem::path> json_path, csv_path, ulog_path;
   std::optional<CpuPlacement> cpu;
   std::optional<std::vector<std::string>> skip;
@@ -241,7 +241,10 @@ Exit 0 when the mission completes inside the safety set (or the duration passes 
 it fails, a service fails at boot or the graph's policy fails its audit (as `rejuv audit`), 2 on
 bad flags or a file the loaders refuse (README "Exit codes").)");
   opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
-      .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant");
+      .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
+      .real("--speed", "X", speed, {.min = 0.01, .max = 1000},
+            "lockstep paced to X times real time (1: a ground station can follow the flight; deterministic\n"
+            "as ever)", "as fast as it can");
   flight_options(opts, switches, "no rejuvenation: mission control only, checkpoint_p not started");
   seed_option(opts, flags.seed, "seed of the plant and the services")
       .real("--duration", "S", duration, {.min = 0, .max = launch::defaults::kMaxDurationS, .open_min = true, .open_max = true},
@@ -274,6 +277,8 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
   options.no_attack = switches.no_attack;
   options.verbose = verbose;
   if (realtime) options.clock = kernel::ClockMode::Realtime;
+  if (speed && realtime) return bad_input("rejuv run: --speed paces lockstep; --realtime runs at the wall clock already");
+  options.speed = speed;
   if (duration) {
     options.duration = to_nanos(Seconds{*duration});
     options.stop_on_mission_done = false;

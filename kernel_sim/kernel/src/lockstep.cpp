@@ -120,6 +120,17 @@ void Kernel::Impl::finish_step() {
   check_stop_conditions();
 }
 
+Nanos Kernel::Impl::pace_wait() {
+  if (!options.speed || !(*options.speed > 0.0)) return Nanos{0};
+  if (!pace_origin) {
+    pace_origin = std::pair(now(), wall());
+    return Nanos{0};
+  }
+  const auto simulated = static_cast<double>((now() - pace_origin->first).count());
+  const Nanos due = pace_origin->second + Nanos{static_cast<std::int64_t>(simulated / *options.speed)};
+  return std::max(Nanos{0}, due - wall());
+}
+
 // DESIGN §6: the first images of every service are forked during the alignment, untimed, so that the
 // checkpoints of the flight all take theirs by written pages. Once, at the first step of a run with a plant
 // (lockstep or realtime); never in manual stepping, whose tests count their generations.
@@ -159,6 +170,10 @@ Result<void, KernelError> Kernel::Impl::run_lockstep() {
           static_cast<unsigned long long>(gave_up->step), static_cast<unsigned long long>(gave_up->missing));
     }
     if (!stop) {
+      if (const Nanos wait = pace_wait(); wait > Nanos{0}) {  // --speed: events are handled meanwhile
+        if (auto ok = pump(wait); !ok) return ok;
+        continue;
+      }
       if (const auto next = steps.begin_next(wall())) begin_step(*next);
     }
     if (steps.active() && advance_step()) {

@@ -125,6 +125,11 @@ struct KernelOptions {
   // durations (timing studies: the gaps of Fig. 7 as this machine makes them). Both are reported (SrStats).
   enum class Charge : std::uint8_t { Model, Measured };
   Charge charge = Charge::Model;
+  // Lockstep paced to this many times real time (`rejuv run --speed`, as PX4 SITL's PX4_SIM_SPEED_FACTOR), so
+  // that a ground station living in wall-clock time can follow a simulated flight: a step begins no earlier
+  // than its simulated time divided by the speed after the run's first step. Unset: as fast as it can. Pacing
+  // waits only, so the run stays deterministic for a seed.
+  std::optional<double> speed{};
   // Network gate (DESIGN §2): the UDP port of the external link, overriding the graph's `network.bind_port`
   // (0 = ephemeral: Kernel::network_port() tells which; tests use it).
   std::optional<std::uint16_t> network_port{};
