@@ -147,6 +147,8 @@ TEST_F(UlogReader, SquareWithSr_ReadBackByFoxgloveAsRouted) {
   EXPECT_NEAR(json_at(params, "mission.timeout_s").number_value(), launch::mission_timeout(loaded->graph.mission()).count(), 1e-3);
   ASSERT_GE(loaded->graph.attack().attacks_size(), 1);
   EXPECT_EQ(json_at(params, "attack.0.kind").number_value(), loaded->graph.attack().attacks(0).kind());
+  EXPECT_EQ(json_at(params, "ekf2.limits.max_processes").number_value(),
+            launch::sandbox_limits(loaded->graph, *launch::find_service(loaded->graph, "ekf2")).max_processes);
   const Struct& info = json_at(r, "info").struct_value();
   EXPECT_EQ(json_at(info, "sys_name").string_value(), "Rejuv");
   EXPECT_EQ(json_at(info, "graph").string_value(), loaded->graph.name());

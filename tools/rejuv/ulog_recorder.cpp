@@ -68,7 +68,8 @@ Result<void, ulog::UlogError> param(ulog::Encoder& enc, const std::string& owner
 }
 
 // The launch values the run flew with, defaults applied (what a reader cannot reconstruct from the launch file
-// alone): the plant's physics and wind, the lockstep charges and alignment, the attack plan, the mission.
+// alone): the plant's physics and wind, the lockstep charges and alignment, the attack plan, the mission, the
+// real-time plan and each service's sandbox limits.
 // Numbers as float, counts, switches and enums as int32, names as info strings. The network block is not
 // logged (its signing key is a secret).
 Result<void, ulog::UlogError> effective_parameters(ulog::Encoder& enc, const proto::Launch& g) {
@@ -100,6 +101,21 @@ Result<void, ulog::UlogError> effective_parameters(ulog::Encoder& enc, const pro
   done.push_back(integer("mission.waypoints", mission.waypoints_size()));
   done.push_back(number("mission.path_length_m", launch::path_length_m(mission)));
   done.push_back(number("mission.timeout_s", launch::mission_timeout(mission).count()));
+  const launch::RealtimeValues rt = launch::realtime_values(g.realtime());
+  done.push_back(integer("realtime.enabled", g.realtime().enabled() ? 1 : 0));
+  done.push_back(integer("realtime.kernel_priority", rt.kernel_priority));
+  done.push_back(integer("realtime.plant_priority", rt.plant_priority));
+  done.push_back(integer("realtime.max_rt_time_ms", rt.max_rt_time_ms));
+  for (const proto::ServiceSpec& s : g.services()) {  // each service's sandbox limits, the graph's defaults applied
+    const launch::SandboxLimitValues v = launch::sandbox_limits(g, s);
+    const std::string at = s.name() + ".limits.";
+    done.push_back(integer(at + "max_processes", v.max_processes));
+    done.push_back(integer(at + "max_memory_mb", v.max_memory_mb));
+    done.push_back(integer(at + "max_open_files", v.max_open_files));
+    done.push_back(integer(at + "max_cpu_percent", v.max_cpu_percent));
+    done.push_back(integer(at + "max_group_memory_mb", v.max_group_memory_mb));
+    done.push_back(integer(s.name() + ".rt_priority", s.rt_priority()));
+  }
   for (auto& d : done) {
     if (!d) return d;
   }
