@@ -110,7 +110,7 @@ const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
 packets.on('data', (packet) => {
   // The vehicle speaks only outside the secure execution interval, where the gate checks a frame's signature
   // instead of dropping it: a probe now reaches the check. (In lockstep at 10× real time an MC window lasts
-  // tens of ms of wall-clock time, so probes on a 100 ms clock alone missed every window in some runs.)
+  // tens of ms of wall-clock time: probes on a 100 ms clock alone can miss every window.)
   if (wrongKey && Date.now() - lastProbeAt >= 20) probe();
   const clazz = REGISTRY[packet.header.msgid];
   if (!clazz) return;

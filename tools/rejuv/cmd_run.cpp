@@ -151,9 +151,8 @@ void fill_services(proto::RunSummary& out, const kernel::Kernel& k) {
     const kernel::ServiceStats st = k.stats(ServiceId{static_cast<std::uint32_t>(i)});
     proto::ServiceSummary& s = *out.add_services();
     s.set_name(st.name);
-    const auto& specs = k.graph().graph.services();
-    const auto spec = std::find_if(specs.begin(), specs.end(), [&](const proto::ServiceSpec& x) { return x.name() == st.name; });
-    s.set_rejuvenated(spec != specs.end() && (!spec->has_rejuvenate() || spec->rejuvenate()));
+    const proto::ServiceSpec* spec = launch::find_service(k.graph().graph, st.name);
+    s.set_rejuvenated(spec != nullptr && launch::rejuvenate(*spec));
     s.set_spawns(st.spawns);
     s.set_images(st.images);
     s.set_restores(st.restores);

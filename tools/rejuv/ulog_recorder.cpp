@@ -252,31 +252,22 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
   }
   if (auto ok = enc.format(kSrEventFormat); !ok) return fail(with("format rejuv_sr_event", ok.error()));
   // PX4's topics from the estimate and the ground truth, when the graph has them (and no topic of these names).
-  const auto topic_named = [&](std::string_view name, std::string_view type) -> std::optional<ObjectId> {
-    for (const kernel::Kernel::TopicInfo& t : topics) {
-      if (t.name == name && t.type == type) return t.id;
-    }
-    return std::nullopt;
-  };
   const auto taken = [&](std::string_view name) {
     return std::any_of(topics.begin(), topics.end(), [&](const kernel::Kernel::TopicInfo& t) { return t.name == name; });
   };
-  struct Px4Source {
-    std::optional<ObjectId> topic;
-    std::string suffix;
-  };
-  const Px4Source sources[] = {
-      {topic_named("vehicle_state", msgs::TopicTraits<rejuv_msg_VehicleStateEstimate>::name), ""},
-      {topic_named("ground_truth", msgs::TopicTraits<rejuv_msg_GroundTruth>::name), "_groundtruth"}};
-  std::vector<std::pair<std::size_t, std::string>> px4_names;  // (source, ULog name) in subscription order
-  for (std::size_t i = 0; i < 2; ++i) {
-    const Px4Source& src = sources[i];
-    const std::string lp = "vehicle_local_position" + src.suffix, att = "vehicle_attitude" + src.suffix;
-    if (!src.topic || taken(lp) || taken(att)) continue;
-    if (auto ok = enc.format(px4_local_position_format(lp)); !ok) return fail(with("format " + lp, ok.error()));
-    if (auto ok = enc.format(px4_attitude_format(att)); !ok) return fail(with("format " + att, ok.error()));
-    px4_names.emplace_back(i, lp);
-    px4_names.emplace_back(i, att);
+  for (const auto& [name, type, truth] :
+       {std::tuple{"vehicle_state", msgs::TopicTraits<rejuv_msg_VehicleStateEstimate>::name, false},
+        std::tuple{"ground_truth", msgs::TopicTraits<rejuv_msg_GroundTruth>::name, true}}) {
+    const auto source = std::find_if(topics.begin(), topics.end(), [&](const kernel::Kernel::TopicInfo& t) {
+      return t.name == name && t.type == type;
+    });
+    Px4Topics x{.source = source == topics.end() ? ObjectId{} : source->id, .truth = truth};
+    if (source == topics.end() || taken(x.local_position_name()) || taken(x.attitude_name())) continue;
+    if (auto ok = enc.format(px4_local_position_format(x.local_position_name())); !ok) {
+      return fail(with("format " + x.local_position_name(), ok.error()));
+    }
+    if (auto ok = enc.format(px4_attitude_format(x.attitude_name())); !ok) return fail(with("format " + x.attitude_name(), ok.error()));
+    rec->px4_.push_back(x);
   }
   for (const kernel::Kernel::TopicInfo& t : topics) {
     const auto id = enc.add_logged(t.name);
@@ -292,14 +283,13 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
   const auto sr_id = enc.add_logged(kSrEventFormat.name);
   if (!sr_id) return fail(with("subscription rejuv_sr_event", sr_id.error()));
   rec->sr_event_id_ = *sr_id;
-  for (std::size_t k = 0; k + 1 < px4_names.size(); k += 2) {
-    const auto lp = enc.add_logged(px4_names[k].second);
-    const auto att = enc.add_logged(px4_names[k + 1].second);
-    if (!lp || !att) return fail(with("subscription " + px4_names[k].second, (!lp ? lp : att).error()));
-    const bool truth = px4_names[k].first == 1;
-    rec->px4_.push_back(Px4Topics{.source = *sources[px4_names[k].first].topic, .truth = truth,
-                                  .local_position = *lp, .attitude = *att,
-                                  .suffix = sources[px4_names[k].first].suffix, .written = 0});
+  for (Px4Topics& x : rec->px4_) {
+    const auto lp = enc.add_logged(x.local_position_name());
+    if (!lp) return fail(with("subscription " + x.local_position_name(), lp.error()));
+    const auto att = enc.add_logged(x.attitude_name());
+    if (!att) return fail(with("subscription " + x.attitude_name(), att.error()));
+    x.local_position = *lp;
+    x.attitude = *att;
   }
   return rec;
 }
@@ -422,8 +412,8 @@ void UlogRecorder::fill(proto::UlogSummary& s, std::uint64_t bytes) const {
   s.set_logged_strings(logged_strings_);
   s.set_sr_events(sr_events_);
   for (const Px4Topics& x : px4_) {
-    (*s.mutable_px4_by_topic())["vehicle_local_position" + x.suffix] = x.written;
-    (*s.mutable_px4_by_topic())["vehicle_attitude" + x.suffix] = x.written;
+    (*s.mutable_px4_by_topic())[x.local_position_name()] = x.written;
+    (*s.mutable_px4_by_topic())[x.attitude_name()] = x.written;
   }
   for (std::size_t i = 0; i < names_.size(); ++i) {
     if (by_object_[i]) (*s.mutable_routed_by_topic())[names_[i]] = routed_[i];

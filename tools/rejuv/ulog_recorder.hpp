@@ -51,8 +51,9 @@ class UlogRecorder final : public kernel::Observer {
     bool truth = false;  // ground_truth (else the estimate vehicle_state)
     ulog::MsgId local_position = 0;
     ulog::MsgId attitude = 0;
-    std::string suffix{};    // "" or "_groundtruth"
     std::uint64_t written = 0;  // messages of each of the two
+    [[nodiscard]] std::string local_position_name() const { return truth ? "vehicle_local_position_groundtruth" : "vehicle_local_position"; }
+    [[nodiscard]] std::string attitude_name() const { return truth ? "vehicle_attitude_groundtruth" : "vehicle_attitude"; }
   };
   void write_px4(Px4Topics& x, const kernel::Publication& p);
 

@@ -202,6 +202,7 @@ Result<void, KernelError> add_services(Kernel::Impl& k) {
     s.id = ps.id;
     s.name = ps.name;
     s.stats.name = ps.name;
+    s.published.assign(k.objects.size(), 0);  // counted on the publish path by object id: sized once, here
     s.config.spec = launch::find_service(k.graph.graph, ps.name);
     REJUV_ASSERT(s.config.spec != nullptr, "the audit checked that every policy service is in the graph");
     s.config.rejuvenate = launch::rejuvenate(*s.config.spec);

@@ -166,7 +166,6 @@ struct Kernel::Impl {
   // The untimed checkpoint of the alignment that forks every service's first image (DESIGN §6): asked for at
   // the first step (priming_request), carried out as any checkpoint but neither timed, counted nor charged.
   bool primed = false;
-  std::optional<std::pair<Nanos, Nanos>> pace_origin{};  // (kernel clock, wall) at the first paced step (options.speed)
   bool priming_request = false;
   void request_priming();
   Reaper reaper;  // retired incarnations, killed processes not reaped yet (reaper.hpp)
@@ -419,6 +418,7 @@ struct Kernel::Impl {
   bool advance_step();
   void finish_step();
   [[nodiscard]] Nanos pace_wait();  // how long the next lockstep step must wait for options.speed (0: none)
+  std::optional<std::pair<Nanos, Nanos>> pace_origin{};  // (kernel clock, wall) at the first paced step
   void check_stop_conditions();
   [[nodiscard]] Result<void, KernelError> run_lockstep();  // Kernel::run in lockstep with the plant
 };

@@ -154,7 +154,8 @@ const launch::LoadedLaunch& Kernel::graph() const { return impl_->graph; }
 std::vector<Kernel::TopicInfo> Kernel::topics() const {
   std::vector<TopicInfo> out;
   for (const ObjectInfo& o : impl_->objects) {
-    if (o.kind == ObjectKind::Topic && o.type != nullptr) out.push_back({.id = o.id, .name = o.name, .type = o.type->name, .size = o.type->size});
+    if (o.kind != ObjectKind::Topic || o.type == nullptr) continue;
+    out.push_back({.id = o.id, .name = o.name, .type = o.type->name, .size = o.type->size});
   }
   return out;
 }

@@ -70,7 +70,6 @@ void Kernel::Impl::route_publish(ServiceRuntime& s, std::uint32_t slot, std::spa
     return;
   }
   ++s.stats.publishes;
-  if (s.published.size() <= o.id.value()) s.published.resize(o.id.value() + 1);
   ++s.published[o.id.value()];
   after_publish(o.id, payload, *g, s.id, From::Service);
 }

@@ -283,7 +283,7 @@ struct ServiceRuntime {
   Containment sandbox{};
   std::vector<SubscriptionRecord> subscriptions{};
   ServiceStats stats{};  // frames_out is flow's (Kernel::stats fills it in)
-  std::vector<std::uint64_t> published{};  // accepted publications by object id (stats.publishes_by_topic)
+  std::vector<std::uint64_t> published{};  // accepted publications by object id, one per object (create.cpp)
 
   [[nodiscard]] bool live() const { return proc.live(); }
   // Lockstep (docs/protocol.md "Idle"): it has reported every frame sent to it and nothing waits for it.

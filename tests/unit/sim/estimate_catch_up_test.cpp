@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "launch.pb.h"
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/launch/launch.hpp"
 
@@ -110,6 +111,25 @@ TEST(EstimateCatchUp, RearmLaunchField_ReachesTheModel) {
   EXPECT_FALSE(c->ekf_rearm.enabled);
   EXPECT_DOUBLE_EQ(c->ekf_rearm.attitude_std_rad, 0.2);
   EXPECT_DOUBLE_EQ(c->ekf_rearm.position_std_m, SimConfig::defaults().ekf_rearm.position_std_m);
+}
+
+// launch::ekf_rearm_fields reads EstimatorRearm by reflection as a switch (bool) or a 1σ (double), and the model
+// and ekf2 match a 1σ by name against EkfRearm::kStdFields: a field of another type, or one the model has no
+// member for, would be lost (or abort the reflection). Every field the message has is one of the two.
+TEST(EstimateCatchUp, EveryRearmField_IsTheSwitchOrA1SigmaTheModelHas) {
+  const google::protobuf::Descriptor* d = proto::EstimatorRearm::descriptor();
+  for (int i = 0; i < d->field_count(); ++i) {
+    const google::protobuf::FieldDescriptor* f = d->field(i);
+    if (f->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_BOOL) {
+      EXPECT_EQ(f->name(), "enabled");
+      continue;
+    }
+    EXPECT_EQ(f->cpp_type(), google::protobuf::FieldDescriptor::CPPTYPE_DOUBLE) << f->name();
+    EXPECT_TRUE(std::any_of(EkfRearm::kStdFields.begin(), EkfRearm::kStdFields.end(),
+                            [&](const EkfRearm::StdField& s) { return s.name == f->name(); }))
+        << f->name() << " has no member in flight::EkfRearm::kStdFields";
+  }
+  EXPECT_EQ(static_cast<std::size_t>(d->field_count()), EkfRearm::kStdFields.size() + 1);
 }
 
 TEST(EstimateCatchUp, LaunchField_ReachesTheModelWithItsShortTest) {

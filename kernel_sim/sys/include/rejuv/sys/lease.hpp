@@ -47,9 +47,8 @@ class Lease {
 // domain lies below Linux's ephemeral range (32768 onwards by default): a domain's RTPS ports start at
 // 7400 + 250·domain, and discovery (config/cyclonedds.xml: unicast to localhost, participant indices up to
 // kMaxParticipantIndex) sends to the next 10 + 2·(index + 1) of them whether a participant holds the port or not.
-// With domains up to 200, a socket bound to port 0 — a test's UDP listener that must see no datagram, a
-// network gate on `--net-port 0` — could be given such a port and got another run's discovery (CI: the
-// compromised-mission test counted 8 "escaped" datagrams, all RTPS from other tests' participants).
+// Were those ports in the ephemeral range, a socket bound to port 0 — a test's UDP listener that must see no
+// datagram, a network gate on `--net-port 0` — could be given one and receive another run's discovery.
 inline constexpr std::uint32_t kLeasedDdsDomains = 100;
 inline constexpr std::uint32_t kMaxParticipantIndex = 100;  // config/cyclonedds.xml MaxAutoParticipantIndex
 inline constexpr std::uint32_t kEphemeralPortsFrom = 32768;
