@@ -26,12 +26,20 @@ install(FILES ${PROJECT_SOURCE_DIR}/idl/sensors.idl ${PROJECT_SOURCE_DIR}/idl/st
               ${PROJECT_SOURCE_DIR}/idl/control.idl ${PROJECT_SOURCE_DIR}/idl/sr.idl ${PROJECT_SOURCE_DIR}/idl/sim.idl
         DESTINATION ${REJUV_INSTALL_IDLDIR} COMPONENT sdk)
 
+# The project's graphs and policy, for an out-of-tree graph to include (docs/writing_a_service.md "Graph
+# fragments"): share/rejuv/launch/hover.launch.pbtxt names ../policies/quad_sr.policy.pbtxt as in the tree.
+set(REJUV_INSTALL_LAUNCHDIR ${CMAKE_INSTALL_DATADIR}/rejuv/launch)
+install(FILES ${PROJECT_SOURCE_DIR}/launch/hover.launch.pbtxt ${PROJECT_SOURCE_DIR}/launch/quad_square.launch.pbtxt
+        DESTINATION ${REJUV_INSTALL_LAUNCHDIR} COMPONENT sdk)
+install(FILES ${PROJECT_SOURCE_DIR}/policies/quad_sr.policy.pbtxt
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/rejuv/policies COMPONENT sdk)
+
 set(REJUV_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/Rejuv)
 install(EXPORT RejuvTargets NAMESPACE Rejuv:: DESTINATION ${REJUV_CMAKE_DIR} COMPONENT sdk)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/RejuvConfig.cmake.in
                               ${PROJECT_BINARY_DIR}/RejuvConfig.cmake
                               INSTALL_DESTINATION ${REJUV_CMAKE_DIR}
-                              PATH_VARS REJUV_INSTALL_IDLDIR)
+                              PATH_VARS REJUV_INSTALL_IDLDIR REJUV_INSTALL_LAUNCHDIR)
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/RejuvConfigVersion.cmake
                                  VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/RejuvConfig.cmake ${PROJECT_BINARY_DIR}/RejuvConfigVersion.cmake

@@ -1,7 +1,8 @@
 // The SDK as a package (docs/writing_a_service.md): install it into a scratch prefix with
 // `cmake --install --component sdk`, configure and build examples/hello_service out of the tree against it
-// (find_package(Rejuv) only; its own topic type by rejuv_add_topics), then fly examples/hello_service/hello.launch.pbtxt
-// with the service it built.
+// (find_package(Rejuv) only; its own topic type by rejuv_add_topics), then fly its graph — the installed hover
+// with the example's fragments — with the service it built. And the same for a service `rejuv new service`
+// wrote: its own multi-process test passes as written.
 // Every step is the guide's, so the guide cannot rot without this test failing.
 #include <gtest/gtest.h>
 #include <google/protobuf/util/json_util.h>
@@ -24,6 +25,7 @@ using rejuv::test_support::slurp;
 
 const std::filesystem::path kBuild(REJUV_BINARY_DIR);
 const std::filesystem::path kCmake(REJUV_CMAKE_COMMAND);
+const std::filesystem::path kCtest(REJUV_CTEST_COMMAND);
 
 class SdkPackage : public rejuv::test_support::ScratchDirTest {
  protected:
@@ -37,45 +39,64 @@ class SdkPackage : public rejuv::test_support::ScratchDirTest {
     std::filesystem::create_directories(logs);
     return run_program(logs, program, std::move(args));
   }
+
+  // 1. Install the SDK component into dir_/prefix.
+  void install() const {
+    auto installed = step("install", kCmake, {"--install", kBuild.string(), "--component", "sdk", "--prefix", prefix().string()});
+    ASSERT_EQ(installed.exit_code, 0) << installed.out << installed.err;
+    ASSERT_TRUE(std::filesystem::exists(prefix() / "lib" / "cmake" / "Rejuv" / "RejuvConfig.cmake")) << installed.out;
+    ASSERT_TRUE(std::filesystem::exists(prefix() / "include" / "rejuv" / "sdk" / "run.hpp"));
+    ASSERT_TRUE(std::filesystem::exists(prefix() / "share" / "rejuv" / "launch" / "hover.launch.pbtxt"))
+        << "the project's graphs, for a graph to include";
+    // The installed SDK carries no protobuf: no header of it names protobuf, no library of it is linked to it.
+    EXPECT_FALSE(std::filesystem::exists(prefix() / "include" / "rejuv" / "textproto")) << "textproto is not the SDK's";
+  }
+
+  // 2. Configure and build a project out of the tree, with nothing but the installed package.
+  void build(const std::filesystem::path& source, const std::filesystem::path& build_dir,
+             std::vector<std::string> extra = {}) const {
+    std::vector<std::string> args = {
+        "-S", source.string(), "-B", build_dir.string(), "-G", "Ninja", "-DCMAKE_BUILD_TYPE=Release",
+        "-DCMAKE_PREFIX_PATH=" + prefix().string(), "-DCMAKE_CXX_COMPILER=" REJUV_CXX_COMPILER,
+        "-DCMAKE_C_COMPILER=" REJUV_C_COMPILER,
+        // the build's own flags (a sanitizer preset's SDK needs its runtime in the service too)
+        "-DCMAKE_CXX_FLAGS=" REJUV_CXX_FLAGS, "-DCMAKE_C_FLAGS=" REJUV_C_FLAGS,
+        "-DCMAKE_EXE_LINKER_FLAGS=" REJUV_EXE_LINKER_FLAGS};
+    args.insert(args.end(), extra.begin(), extra.end());
+    auto configured = step("configure", kCmake, std::move(args));
+    ASSERT_EQ(configured.exit_code, 0) << configured.out << configured.err;
+    auto built = step("build", kCmake, {"--build", build_dir.string()});
+    ASSERT_EQ(built.exit_code, 0) << built.out << built.err;
+  }
+
+  // Where the SDK is installed (dir_ exists once the test has set up).
+  [[nodiscard]] std::filesystem::path prefix() const { return dir_ / "prefix"; }
 };
 
 TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
-  const std::filesystem::path prefix = dir_ / "prefix";
   const std::filesystem::path example_build = dir_ / "build-hello";
-
-  // 1. Install the SDK component.
-  auto installed = step("install", kCmake, {"--install", kBuild.string(), "--component", "sdk", "--prefix", prefix.string()});
-  ASSERT_EQ(installed.exit_code, 0) << installed.out << installed.err;
-  ASSERT_TRUE(std::filesystem::exists(prefix / "lib" / "cmake" / "Rejuv" / "RejuvConfig.cmake")) << installed.out;
-  ASSERT_TRUE(std::filesystem::exists(prefix / "include" / "rejuv" / "sdk" / "run.hpp"));
-  // The installed SDK carries no protobuf: no header of it names protobuf, no library of it is linked to it.
-  EXPECT_FALSE(std::filesystem::exists(prefix / "include" / "rejuv" / "textproto")) << "textproto is not the SDK's";
-
-  // 2. Configure and build the example out of the tree, with nothing but the installed package.
-  auto configured = step("configure", kCmake,
-                         {"-S", (kRepo / "examples" / "hello_service").string(), "-B", example_build.string(), "-G",
-                          "Ninja", "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_PREFIX_PATH=" + prefix.string(),
-                          "-DCMAKE_CXX_COMPILER=" REJUV_CXX_COMPILER, "-DCMAKE_C_COMPILER=" REJUV_C_COMPILER,
-                          // the build's own flags (a sanitizer preset's SDK needs its runtime in the service too)
-                          "-DCMAKE_CXX_FLAGS=" REJUV_CXX_FLAGS, "-DCMAKE_C_FLAGS=" REJUV_C_FLAGS,
-                          "-DCMAKE_EXE_LINKER_FLAGS=" REJUV_EXE_LINKER_FLAGS});
-  ASSERT_EQ(configured.exit_code, 0) << configured.out << configured.err;
-  auto built = step("build", kCmake, {"--build", example_build.string()});
-  ASSERT_EQ(built.exit_code, 0) << built.out << built.err;
+  ASSERT_NO_FATAL_FAILURE(install());
+  ASSERT_NO_FATAL_FAILURE(build(kRepo / "examples" / "hello_service", example_build));
   const std::filesystem::path service = example_build / "hello_monitor";
-  ASSERT_TRUE(std::filesystem::exists(service)) << built.out;
+  ASSERT_TRUE(std::filesystem::exists(service));
 
-  // 3. The example's build wrote its graph with the path of the service it built, beside the policy.
+  // 3. The example's build wrote its graph: the installed hover and the example's fragments, which it includes.
   const std::filesystem::path graph = example_build / "hello.launch.pbtxt";
-  ASSERT_NE(slurp(graph).find("executable: \"" + service.string() + "\""), std::string::npos) << slurp(graph);
-  ASSERT_TRUE(std::filesystem::exists(example_build / "hello.policy.pbtxt"));
+  ASSERT_NE(slurp(graph).find("include: \"" + (prefix() / "share" / "rejuv" / "launch" / "hover.launch.pbtxt").string()),
+            std::string::npos)
+      << slurp(graph);
   // The example's own topic type (hello.idl, rejuv_add_topics): the build printed its policy entry with the
-  // struct's size and alignment as compiled, and appended it to the policy the graph names.
+  // struct's size and alignment as compiled; the graph includes it in its policy.
   EXPECT_NE(slurp(example_build / "hello_topics.types.pbtxt")
                 .find("types { name: \"hello::Summary\" size_bytes: 24 align_bytes: 8 }"),
             std::string::npos)
       << slurp(example_build / "hello_topics.types.pbtxt");
-  EXPECT_NE(slurp(example_build / "hello.policy.pbtxt").find("types { name: \"hello::Summary\""), std::string::npos);
+  // The composed graph audits clean against the policy the graph names, with the fragments' grants.
+  auto audited = rejuv::test_support::run_rejuv(
+      dir_, {"audit", (prefix() / "share" / "rejuv" / "policies" / "quad_sr.policy.pbtxt").string(), "--launch",
+             graph.string()});
+  EXPECT_EQ(audited.exit_code, 0) << audited.out << audited.err;
+  EXPECT_NE(audited.out.find("hello_monitor"), std::string::npos) << audited.out;
 
   // 4. Fly it: 5 s of hover with rejuvenation (the first MC window opens after T_est = 3 s in SC), logged
   // as ULog (the author's own type too: as its bytes, docs/ulog.md).
@@ -111,6 +132,31 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
                                     [](const rejuv::proto::ServiceSummary& v) { return v.name() == "hello_monitor"; });
   ASSERT_NE(monitor, s.services().end());
   EXPECT_EQ(monitor->publishes_by_topic().at("hello_summary"), logged->second);
+}
+
+// `rejuv new service`: the files it writes build against the installed package, and the scaffold's own
+// multi-process test (the real kernel flies the hover with the new service, rejuvenation on) passes as written.
+TEST_F(SdkPackage, NewServiceScaffoldBuildsAndItsOwnTestFlies) {
+  ASSERT_NO_FATAL_FAILURE(install());
+  const std::filesystem::path source = dir_ / "geofence";
+  auto made = rejuv::test_support::run_rejuv(dir_, {"new", "service", "geofence", "--out", source.string()});
+  ASSERT_EQ(made.exit_code, 0) << made.out << made.err;
+  for (const char* f : {"geofence.cpp", "geofence.idl", "geofence.params.pbtxt", "geofence.policy.pbtxt",
+                        "geofence.launch.pbtxt", "geofence_flight.launch.pbtxt.in", "CMakeLists.txt"}) {
+    EXPECT_TRUE(std::filesystem::exists(source / f)) << f << "\n" << made.out;
+  }
+  // Nothing is overwritten: a second scaffold into the same folder is refused.
+  auto again = rejuv::test_support::run_rejuv(dir_, {"new", "service", "geofence", "--out", source.string()});
+  EXPECT_EQ(again.exit_code, 2) << again.out << again.err;
+
+  const std::filesystem::path build_dir = source / "build";
+  ASSERT_NO_FATAL_FAILURE(build(source, build_dir,
+                                {"-DREJUV_PROGRAM=" + (kBuild / "tools" / "rejuv" / "rejuv").string(),
+                                 "-DREJUV_DDS_DOMAIN=" + std::to_string(rejuv::test_support::kOwnDdsDomain)}));
+  auto tested = step("ctest", kCtest, {"--test-dir", build_dir.string(), "--output-on-failure"});
+  EXPECT_EQ(tested.exit_code, 0) << tested.out << tested.err;
+  EXPECT_NE(tested.out.find("geofence_flies"), std::string::npos) << tested.out;
+  EXPECT_NE(tested.out.find("100% tests passed"), std::string::npos) << tested.out;
 }
 
 }  // namespace

@@ -175,10 +175,6 @@ int run_audit(std::span<const std::string_view> args) {
       .choice<Format>("--format", {{"text", Format::Text}, {"json", Format::Json}}, format, "output format (json for CI)");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
 
-  const auto pol = policy::load_policy(policy_path);
-  if (!pol) {
-    return bad_input(format, policy_path, pol.error());
-  }
   std::optional<launch::LoadedLaunch> graph;
   if (launch_path) {
     auto g = launch::load_launch(*launch_path);
@@ -192,6 +188,12 @@ int run_audit(std::span<const std::string_view> args) {
       print(stderr, "rejuv audit: note: " + launch_path->string() + " names the policy " + graph->policy_path.string() +
                         ", not " + policy_path + "\n");
     }
+  }
+  // With a graph, its policy fragments (`policy_include`) are part of the policy audited.
+  const auto pol = policy::load_policy(policy_path, graph ? std::span<const ExtraFragment>(graph->policy_includes)
+                                                          : std::span<const ExtraFragment>());
+  if (!pol) {
+    return bad_input(format, policy_path, pol.error());
   }
   const auto findings = graph ? policy::audit(*pol, *graph) : policy::audit(*pol);
 

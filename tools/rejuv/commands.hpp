@@ -23,5 +23,6 @@ int run_report(std::span<const std::string_view> args);  // cmd_report.cpp
 int run_faults(std::span<const std::string_view> args);  // cmd_faults.cpp
 int run_soak(std::span<const std::string_view> args);    // cmd_soak.cpp
 int run_sweep(std::span<const std::string_view> args);   // cmd_sweep.cpp
+int run_new(std::span<const std::string_view> args);     // cmd_new.cpp
 
 }  // namespace rejuv::cli

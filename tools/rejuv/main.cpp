@@ -30,6 +30,8 @@ constexpr Command kCommands[] = {
      rejuv::cli::run_soak},
     {"sweep", "a grid of launch parameters on the model and/or the runtime: Fig. 11's T_MC x T_est maps (§VI-D)",
      rejuv::cli::run_sweep},
+    {"new", "`new service NAME`: a buildable out-of-tree service with its graph fragments and a test",
+     rejuv::cli::run_new},
 };
 
 void print_usage(std::FILE* to) {

@@ -22,7 +22,7 @@ using K = KernelError::Kind;
 
 // DESIGN §4: the kernel refuses to start a graph whose policy fails the audit.
 Result<policy::Policy, KernelError> load_audited_policy(const launch::LoadedLaunch& graph) {
-  auto policy = policy::load_policy(graph.policy_path);
+  auto policy = policy::load_policy(graph.policy_path, graph.policy_includes);
   if (!policy) return fail(kernel_error(K::Policy, policy.error().to_string()));
   if (const auto findings = policy::audit(*policy, graph); !findings.empty()) {
     // A finding is in the policy or in the launch graph (each says its file:line): name both.

@@ -86,22 +86,89 @@ std::string kind_list(const std::vector<proto::AttackKind>& kinds) {
 
 }  // namespace detail
 
+namespace {
+
+// The folder of the file that wrote a field.
+std::filesystem::path writer_folder(const TextLocations& locs, std::initializer_list<TextLocations::Step> path,
+                                    std::string_view field, int index = -1) {
+  return std::filesystem::path(locs.locate(path, field, index).file).parent_path();
+}
+
+// A relative path a fragment wrote, made relative to the root file's folder (where every reader of the
+// graph resolves it), so that a fragment's paths mean what they say in the fragment.
+void rebase(std::string& value, const std::filesystem::path& writer, const std::filesystem::path& root) {
+  const std::filesystem::path p(value);
+  if (value.empty() || p.is_absolute() || writer == root) {
+    return;
+  }
+  const std::filesystem::path relative = (writer / p).lexically_normal().lexically_relative(root);
+  value = relative.empty() ? std::filesystem::absolute(writer / p).lexically_normal().string() : relative.string();
+}
+
+Result<LoadedLaunch, LoadError> composed(proto::Launch graph, TextLocations locs, const std::filesystem::path& path) {
+  const std::filesystem::path root = path.parent_path();
+  rebase(*graph.mutable_policy(), writer_folder(locs, {}, "policy"), root);
+  if (graph.has_dds()) {
+    rebase(*graph.mutable_dds()->mutable_config(), writer_folder(locs, {{"dds", -1}}, "config"), root);
+  }
+  if (graph.has_network()) {
+    rebase(*graph.mutable_network()->mutable_signing_key_file(),
+           writer_folder(locs, {{"network", -1}}, "signing_key_file"), root);
+  }
+  // A relative executable found in a folder of `service_path` is named by its absolute path from here on.
+  std::vector<std::filesystem::path> search;
+  for (int i = 0; i < graph.service_path_size(); ++i) {
+    const std::filesystem::path dir(graph.service_path(i));
+    search.push_back(dir.is_relative() ? writer_folder(locs, {}, "service_path", i) / dir : dir);
+  }
+  const auto find_executable = [&](std::string& exe) {
+    if (exe.empty() || std::filesystem::path(exe).is_absolute()) return;
+    for (const std::filesystem::path& dir : search) {
+      std::error_code ec;
+      if (std::filesystem::is_regular_file(dir / exe, ec)) {
+        exe = std::filesystem::absolute(dir / exe, ec).lexically_normal().string();
+        return;
+      }
+    }
+  };
+  for (proto::ServiceSpec& s : *graph.mutable_services()) {
+    find_executable(*s.mutable_executable());
+  }
+  if (graph.has_plant()) {
+    find_executable(*graph.mutable_plant()->mutable_executable());
+  }
+  std::vector<ExtraFragment> policy_includes;
+  for (int i = 0; i < graph.policy_include_size(); ++i) {
+    const std::filesystem::path named(graph.policy_include(i));
+    const SourceLocation at = locs.locate({}, "policy_include", i);
+    policy_includes.push_back(
+        ExtraFragment{named.is_relative() ? std::filesystem::path(at.file).parent_path() / named : named, at});
+  }
+  auto loaded = detail::validate(std::move(graph), std::move(locs), path);
+  if (loaded) {
+    loaded->policy_includes = std::move(policy_includes);
+  }
+  return loaded;
+}
+
+}  // namespace
+
 Result<LoadedLaunch, LoadError> load_launch(const std::filesystem::path& path) {
   proto::Launch graph;
-  auto locs = load_textproto(path, graph);
+  auto locs = load_composed_textproto(path, graph);
   if (!locs) {
     return fail(std::move(locs.error()));
   }
-  return detail::validate(std::move(graph), std::move(*locs), path);
+  return composed(std::move(graph), std::move(*locs), path);
 }
 
 Result<LoadedLaunch, LoadError> parse_launch(std::string_view text, const std::filesystem::path& as_path) {
   proto::Launch graph;
-  auto locs = parse_textproto(text, as_path.string(), graph);
+  auto locs = parse_composed_textproto(text, as_path.string(), graph);
   if (!locs) {
     return fail(std::move(locs.error()));
   }
-  return detail::validate(std::move(graph), std::move(*locs), as_path);
+  return composed(std::move(graph), std::move(*locs), as_path);
 }
 
 }  // namespace rejuv::launch

@@ -600,7 +600,7 @@ Result<LoadedLaunch, LoadError> validate(proto::Launch graph, TextLocations locs
   if (!policy) {
     return fail(std::move(policy.error()));
   }
-  return LoadedLaunch{std::move(graph), std::move(locs), path, std::move(*policy)};
+  return LoadedLaunch{std::move(graph), std::move(locs), path, std::move(*policy), {}};
 }
 
 }  // namespace rejuv::launch::detail

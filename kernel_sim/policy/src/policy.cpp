@@ -622,16 +622,16 @@ bool Policy::is_network_facing(ServiceId service) const {
 
 Result<Policy, LoadError> parse_policy(std::string_view text, std::string name) {
   proto::Policy pb;
-  auto locs = parse_textproto(text, std::move(name), pb);
+  auto locs = parse_composed_textproto(text, std::move(name), pb);
   if (!locs) {
     return fail(std::move(locs.error()));
   }
   return PolicyBuilder(pb, *locs).build();
 }
 
-Result<Policy, LoadError> load_policy(const std::filesystem::path& path) {
+Result<Policy, LoadError> load_policy(const std::filesystem::path& path, std::span<const ExtraFragment> extra) {
   proto::Policy pb;
-  auto locs = load_textproto(path, pb);
+  auto locs = load_composed_textproto(path, pb, extra);
   if (!locs) {
     return fail(std::move(locs.error()));
   }

@@ -5,8 +5,9 @@
 #include <google/protobuf/message.h>
 #include <google/protobuf/text_format.h>
 
-#include <fstream>
 #include <algorithm>
+#include <fstream>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <system_error>
@@ -32,9 +33,118 @@ LoadError semantic_error(SourceLocation where, std::string message) {
   return LoadError{LoadErrorKind::Semantic, std::move(where), std::move(message)};
 }
 
+namespace {
+
+// One file of a (possibly composed) message: its location tree, and for each repeated field reached through
+// singular fields only ("services", "dds.bridges"), which elements of the merged message it holds.
+struct Part {
+  std::string file;
+  std::unique_ptr<pb::TextFormat::ParseInfoTree> tree;
+  std::map<std::string, std::pair<int, int>, std::less<>> ranges;  // key → [first, first + count)
+};
+
+// What one part knows of a field: the deepest location it has on the way (depth 0 = none), and whether it
+// wrote the field itself. depth −1: the path names an element another part holds.
+struct Found {
+  SourceLocation where;
+  int depth = 0;
+  bool exact = false;
+};
+
+Found locate_in(const Part& part, const pb::Descriptor* root, std::span<const TextLocations::Step> path,
+                std::string_view field, int index) {
+  Found best{SourceLocation{part.file, 0, 0}, 0, false};
+  const pb::Descriptor* desc = root;
+  const pb::TextFormat::ParseInfoTree* tree = part.tree.get();
+  std::string key;
+  bool inside_element = false;  // below an element of a repeated field: it is wholly this part's
+  int depth = 0;
+  // The element's index within this part, or nullopt when another part holds it.
+  const auto local = [&](const pb::FieldDescriptor* f, int i) -> std::optional<int> {
+    key += (key.empty() ? "" : ".") + f->name();
+    if (inside_element || !f->is_repeated() || i < 0) {
+      return i;
+    }
+    const auto it = part.ranges.find(key);
+    if (it == part.ranges.end() || i < it->second.first || i >= it->second.first + it->second.second) {
+      return std::nullopt;
+    }
+    return i - it->second.first;
+  };
+  const auto remember = [&](const pb::FieldDescriptor* f, int i) {
+    ++depth;
+    const pb::TextFormat::ParseLocation loc = tree->GetLocation(f, i);
+    if (loc.line >= 0) {
+      best = Found{SourceLocation{part.file, loc.line + 1, loc.column + 1}, depth, false};
+    }
+    return loc.line >= 0;
+  };
+  for (const TextLocations::Step& step : path) {
+    const pb::FieldDescriptor* f = desc->FindFieldByName(std::string(step.field));
+    if (f == nullptr || f->message_type() == nullptr || tree == nullptr) {
+      return best;
+    }
+    const std::optional<int> i = local(f, step.index);
+    if (!i) {
+      return Found{best.where, -1, false};
+    }
+    remember(f, *i);
+    inside_element = inside_element || f->is_repeated();
+    tree = tree->GetTreeForNested(f, *i);
+    desc = f->message_type();
+  }
+  if (tree == nullptr) {
+    return best;
+  }
+  if (const pb::FieldDescriptor* f = desc->FindFieldByName(std::string(field)); f != nullptr) {
+    const std::optional<int> i = local(f, index);
+    if (!i) {
+      return Found{best.where, -1, false};
+    }
+    best.exact = remember(f, *i);
+  }
+  return best;
+}
+
+// The ranges of a freshly parsed part: every repeated field reached through singular fields, from 0.
+void collect_ranges(const pb::Message& m, const std::string& prefix, Part& part) {
+  std::vector<const pb::FieldDescriptor*> fields;
+  m.GetReflection()->ListFields(m, &fields);
+  for (const pb::FieldDescriptor* f : fields) {
+    const std::string key = prefix.empty() ? f->name() : prefix + "." + f->name();
+    if (f->is_repeated()) {
+      part.ranges[key] = {0, m.GetReflection()->FieldSize(m, f)};
+    } else if (f->message_type() != nullptr) {
+      collect_ranges(m.GetReflection()->GetMessage(m, f), key, part);
+    }
+  }
+}
+
+// The size of the repeated field at `key` ("dds.bridges") in `m`; 0 where a message on the way is unset.
+int size_at(const pb::Message& m, std::string_view key) {
+  const pb::Message* at = &m;
+  while (true) {
+    const std::size_t dot = key.find('.');
+    const pb::FieldDescriptor* f = at->GetDescriptor()->FindFieldByName(std::string(key.substr(0, dot)));
+    if (f == nullptr) {
+      return 0;
+    }
+    if (dot == std::string_view::npos) {
+      return f->is_repeated() ? at->GetReflection()->FieldSize(*at, f) : 0;
+    }
+    if (f->is_repeated() || f->message_type() == nullptr || !at->GetReflection()->HasField(*at, f)) {
+      return 0;
+    }
+    at = &at->GetReflection()->GetMessage(*at, f);
+    key.remove_prefix(dot + 1);
+  }
+}
+
+}  // namespace
+
 struct TextLocations::Impl {
-  const pb::Descriptor* root;
-  pb::TextFormat::ParseInfoTree tree;
+  const pb::Descriptor* root = nullptr;
+  std::vector<Part> parts;  // merge order: fragments first, the root file last
 };
 
 TextLocations::TextLocations(std::string file, std::unique_ptr<Impl> impl)
@@ -43,33 +153,36 @@ TextLocations::TextLocations(TextLocations&&) noexcept = default;
 TextLocations& TextLocations::operator=(TextLocations&&) noexcept = default;
 TextLocations::~TextLocations() = default;
 
-SourceLocation TextLocations::locate(std::initializer_list<Step> path, std::string_view field,
-                                     int index) const {
-  SourceLocation best = file_only();
-  const pb::Descriptor* desc = impl_->root;
-  const pb::TextFormat::ParseInfoTree* tree = &impl_->tree;
-  const auto remember = [&](const pb::FieldDescriptor* f, int i) {
-    const pb::TextFormat::ParseLocation loc = tree->GetLocation(f, i);
-    if (loc.line >= 0) {
-      best = SourceLocation{file_, loc.line + 1, loc.column + 1};
+SourceLocation TextLocations::locate(std::initializer_list<Step> path, std::string_view field, int index) const {
+  return locate(std::span<const Step>(path.begin(), path.size()), field, index);
+}
+
+SourceLocation TextLocations::locate(std::span<const Step> path, std::string_view field, int index) const {
+  Found best{file_only(), 0, false};
+  // Later parts override earlier ones: a tie goes to the later (the including file is last).
+  for (const Part& part : impl_->parts) {
+    const Found f = locate_in(part, impl_->root, path, field, index);
+    if (f.depth > 0 && f.depth >= best.depth) {
+      best = f;
     }
-  };
-  for (const Step& step : path) {
-    const pb::FieldDescriptor* f = desc->FindFieldByName(std::string(step.field));
-    if (f == nullptr || f->message_type() == nullptr || tree == nullptr) {
-      return best;
+  }
+  return best.where;
+}
+
+bool TextLocations::written(std::span<const Step> path, std::string_view field, int index) const {
+  return std::any_of(impl_->parts.begin(), impl_->parts.end(), [&](const Part& part) {
+    return locate_in(part, impl_->root, path, field, index).exact;
+  });
+}
+
+std::vector<std::string> TextLocations::files() const {
+  std::vector<std::string> out;
+  for (const Part& part : impl_->parts) {
+    if (std::find(out.begin(), out.end(), part.file) == out.end()) {
+      out.push_back(part.file);
     }
-    remember(f, step.index);
-    tree = tree->GetTreeForNested(f, step.index);
-    desc = f->message_type();
   }
-  if (tree == nullptr) {
-    return best;
-  }
-  if (const pb::FieldDescriptor* f = desc->FindFieldByName(std::string(field)); f != nullptr) {
-    remember(f, index);
-  }
-  return best;
+  return out;
 }
 
 namespace {
@@ -132,9 +245,10 @@ Result<TextLocations, LoadError> parse_textproto(std::string_view text, std::str
   FirstErrorCollector errors;
   auto impl = std::make_unique<TextLocations::Impl>();
   impl->root = out.GetDescriptor();
+  Part part{name, std::make_unique<pb::TextFormat::ParseInfoTree>(), {}};
   pb::TextFormat::Parser parser;
   parser.RecordErrorsTo(&errors);
-  parser.WriteLocationsTo(&impl->tree);
+  parser.WriteLocationsTo(part.tree.get());
   parser.AllowPartialMessage(false);
   const bool ok = parser.ParseFromString(std::string(text), &out);
   if (!ok || errors.first()) {
@@ -149,10 +263,15 @@ Result<TextLocations, LoadError> parse_textproto(std::string_view text, std::str
     point_at_named_token(text, message, where);
     return fail(LoadError{LoadErrorKind::Syntax, std::move(where), std::move(message)});
   }
+  collect_ranges(out, "", part);
+  impl->parts.push_back(std::move(part));
   return TextLocations(std::move(name), std::move(impl));
 }
 
-Result<TextLocations, LoadError> load_textproto(const std::filesystem::path& path, pb::Message& out) {
+namespace {
+
+// The text of a file, or why it cannot be read.
+Result<std::string, LoadError> read_text(const std::filesystem::path& path) {
   const std::string name = path.string();
   std::error_code ec;
   const auto status = std::filesystem::status(path, ec);
@@ -174,7 +293,266 @@ Result<TextLocations, LoadError> load_textproto(const std::filesystem::path& pat
   }
   std::ostringstream buffer;
   buffer << in.rdbuf();
-  return parse_textproto(buffer.str(), name, out);
+  return buffer.str();
+}
+
+}  // namespace
+
+Result<TextLocations, LoadError> load_textproto(const std::filesystem::path& path, pb::Message& out) {
+  auto text = read_text(path);
+  if (!text) {
+    out.Clear();
+    return fail(std::move(text.error()));
+  }
+  return parse_textproto(*text, path.string(), out);
+}
+
+
+
+// ---- Composition ----
+
+namespace {
+
+void copy_scalar(const pb::Message& src, pb::Message& dst, const pb::FieldDescriptor* f) {
+  const pb::Reflection* s = src.GetReflection();
+  const pb::Reflection* d = dst.GetReflection();
+  switch (f->cpp_type()) {
+    case pb::FieldDescriptor::CPPTYPE_INT32: d->SetInt32(&dst, f, s->GetInt32(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_INT64: d->SetInt64(&dst, f, s->GetInt64(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_UINT32: d->SetUInt32(&dst, f, s->GetUInt32(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_UINT64: d->SetUInt64(&dst, f, s->GetUInt64(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_DOUBLE: d->SetDouble(&dst, f, s->GetDouble(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_FLOAT: d->SetFloat(&dst, f, s->GetFloat(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_BOOL: d->SetBool(&dst, f, s->GetBool(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_ENUM: d->SetEnumValue(&dst, f, s->GetEnumValue(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_STRING: d->SetString(&dst, f, s->GetString(src, f)); break;
+    case pb::FieldDescriptor::CPPTYPE_MESSAGE: d->MutableMessage(&dst, f)->CopyFrom(s->GetMessage(src, f)); break;
+  }
+}
+
+void append_repeated(const pb::Message& src, pb::Message& dst, const pb::FieldDescriptor* f) {
+  const pb::Reflection* s = src.GetReflection();
+  const pb::Reflection* d = dst.GetReflection();
+  for (int k = 0; k < s->FieldSize(src, f); ++k) {
+    switch (f->cpp_type()) {
+      case pb::FieldDescriptor::CPPTYPE_INT32: d->AddInt32(&dst, f, s->GetRepeatedInt32(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_INT64: d->AddInt64(&dst, f, s->GetRepeatedInt64(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_UINT32: d->AddUInt32(&dst, f, s->GetRepeatedUInt32(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_UINT64: d->AddUInt64(&dst, f, s->GetRepeatedUInt64(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_DOUBLE: d->AddDouble(&dst, f, s->GetRepeatedDouble(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_FLOAT: d->AddFloat(&dst, f, s->GetRepeatedFloat(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_BOOL: d->AddBool(&dst, f, s->GetRepeatedBool(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_ENUM: d->AddEnumValue(&dst, f, s->GetRepeatedEnumValue(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_STRING: d->AddString(&dst, f, s->GetRepeatedString(src, f, k)); break;
+      case pb::FieldDescriptor::CPPTYPE_MESSAGE:
+        d->AddMessage(&dst, f)->CopyFrom(s->GetRepeatedMessage(src, f, k));
+        break;
+    }
+  }
+}
+
+std::string dotted(std::span<const TextLocations::Step> path, std::string_view field) {
+  std::string out;
+  for (const TextLocations::Step& s : path) {
+    out += std::string(s.field) + ".";
+  }
+  return out + std::string(field);
+}
+
+// The `include` field of a message type that can be composed, or nullptr.
+const pb::FieldDescriptor* include_field(const pb::Descriptor* d) {
+  const pb::FieldDescriptor* f = d->FindFieldByName("include");
+  return f != nullptr && f->is_repeated() && f->cpp_type() == pb::FieldDescriptor::CPPTYPE_STRING ? f : nullptr;
+}
+
+std::string canonical_name(const std::filesystem::path& p) {
+  std::error_code ec;
+  const std::filesystem::path c = std::filesystem::weakly_canonical(p, ec);
+  return (ec ? p.lexically_normal() : c).string();
+}
+
+}  // namespace
+
+// Composes a file from its fragments (textproto.hpp "Composition"); one per load, it remembers the files
+// being composed (cycles) and those already merged (a file included twice).
+class Composer {
+ public:
+  explicit Composer(const std::filesystem::path& root) : stack_{canonical_name(root)}, seen_{{stack_[0], "the root"}} {}
+
+  Result<TextLocations, LoadError> compose(std::string_view text, const std::filesystem::path& file,
+                                           pb::Message& out, std::span<const ExtraFragment> extra, int depth) {
+    ++files_;
+    std::unique_ptr<pb::Message> own(out.New());
+    auto own_locs = parse_textproto(text, file.string(), *own);
+    if (!own_locs) {
+      out.Clear();
+      return fail(std::move(own_locs.error()));
+    }
+    out.Clear();
+    auto impl = std::make_unique<TextLocations::Impl>();
+    impl->root = out.GetDescriptor();
+    TextLocations merged(file.string(), std::move(impl));
+    std::vector<ExtraFragment> fragments(extra.begin(), extra.end());
+    const pb::FieldDescriptor* include = include_field(out.GetDescriptor());
+    if (include != nullptr) {
+      for (int i = 0; i < own->GetReflection()->FieldSize(*own, include); ++i) {
+        const std::filesystem::path named(own->GetReflection()->GetRepeatedString(*own, include, i));
+        fragments.push_back(ExtraFragment{named.is_relative() ? file.parent_path() / named : named,
+                                          own_locs->locate({}, "include", i)});
+      }
+    }
+    for (const ExtraFragment& fragment : fragments) {
+      auto sub = include_one(fragment, out, depth);
+      if (!sub) {
+        out.Clear();
+        return fail(std::move(sub.error()));
+      }
+      if (auto m = merge(out, merged, *sub->first, std::move(sub->second), false); !m) {
+        out.Clear();
+        return fail(std::move(m.error()));
+      }
+    }
+    if (auto m = merge(out, merged, *own, std::move(*own_locs), true); !m) {
+      out.Clear();
+      return fail(std::move(m.error()));
+    }
+    if (include != nullptr) {
+      out.GetReflection()->ClearField(&out, include);
+    }
+    return merged;
+  }
+
+ private:
+  using Composed = std::pair<std::unique_ptr<pb::Message>, TextLocations>;
+
+  Result<Composed, LoadError> include_one(const ExtraFragment& fragment, const pb::Message& like, int depth) {
+    const SourceLocation& at = fragment.named_at;
+    const std::string shown = fragment.path.lexically_normal().string();
+    if (depth + 1 > kMaxIncludeDepth) {
+      return fail(semantic_error(at, "cannot include \"" + shown + "\": includes nest deeper than " +
+                                         std::to_string(kMaxIncludeDepth) + " files"));
+    }
+    if (files_ >= kMaxComposedFiles) {
+      return fail(semantic_error(at, "cannot include \"" + shown + "\": more than " +
+                                         std::to_string(kMaxComposedFiles) + " files in one composition"));
+    }
+    const std::string canonical = canonical_name(fragment.path);
+    if (std::find(stack_.begin(), stack_.end(), canonical) != stack_.end()) {
+      std::string chain;
+      for (const std::string& s : stack_) {
+        chain += s + " → ";
+      }
+      return fail(semantic_error(at, "include cycle: " + chain + canonical));
+    }
+    if (const auto it = seen_.find(canonical); it != seen_.end()) {
+      return fail(semantic_error(at, "\"" + shown + "\" is already included (by " + it->second +
+                                         "): include each file once"));
+    }
+    auto text = read_text(fragment.path);
+    if (!text) {
+      return fail(semantic_error(at, "cannot include \"" + shown + "\": " + text.error().message));
+    }
+    seen_.emplace(canonical, at.to_string());
+    stack_.push_back(canonical);
+    std::unique_ptr<pb::Message> sub(like.New());
+    auto locs = compose(*text, fragment.path.lexically_normal(), *sub, {}, depth + 1);
+    stack_.pop_back();
+    if (!locs) {
+      return fail(std::move(locs.error()));
+    }
+    return Composed{std::move(sub), std::move(*locs)};
+  }
+
+  // Merges `src` (read from `src_locs`) into `dst`; with `override_`, src's singular fields replace dst's,
+  // without, a field both set is refused at src's place.
+  static Result<void, LoadError> merge(pb::Message& dst, TextLocations& dst_locs, const pb::Message& src,
+                                       TextLocations src_locs, bool override_) {
+    std::vector<TextLocations::Step> path;
+    if (auto m = merge_fields(dst, dst_locs, src, src_locs, path, override_); !m) {
+      return m;
+    }
+    // The elements src appended follow those dst held before: shift src's ranges by that many.
+    for (Part& part : src_locs.impl_->parts) {
+      for (auto& [key, range] : part.ranges) {
+        range.first += size_at(dst, key) - size_at(src, key);
+      }
+      dst_locs.impl_->parts.push_back(std::move(part));
+    }
+    return {};
+  }
+
+  static Result<void, LoadError> merge_fields(pb::Message& dst, const TextLocations& dst_locs, const pb::Message& src,
+                                              const TextLocations& src_locs, std::vector<TextLocations::Step>& path,
+                                              bool override_) {
+    const pb::Descriptor* desc = src.GetDescriptor();
+    const pb::Reflection* s = src.GetReflection();
+    const pb::Reflection* d = dst.GetReflection();
+    for (int i = 0; i < desc->field_count(); ++i) {
+      const pb::FieldDescriptor* f = desc->field(i);
+      if (path.empty() && f == include_field(desc)) {
+        continue;  // composed already
+      }
+      if (f->is_repeated()) {
+        append_repeated(src, dst, f);
+        continue;
+      }
+      if (f->message_type() != nullptr && f->containing_oneof() == nullptr) {
+        if (!s->HasField(src, f)) {
+          continue;
+        }
+        if (!d->HasField(dst, f)) {
+          d->MutableMessage(&dst, f)->CopyFrom(s->GetMessage(src, f));
+          continue;
+        }
+        path.push_back(TextLocations::Step{f->name(), -1});
+        auto m = merge_fields(*d->MutableMessage(&dst, f), dst_locs, s->GetMessage(src, f), src_locs, path, override_);
+        path.pop_back();
+        if (!m) {
+          return m;
+        }
+        continue;
+      }
+      if (!src_locs.written(path, f->name())) {
+        continue;
+      }
+      // The field dst already has: this one, or another member of its oneof.
+      const pb::FieldDescriptor* held = f;
+      if (const pb::OneofDescriptor* o = f->containing_oneof(); o != nullptr && d->HasOneof(dst, o)) {
+        held = d->GetOneofFieldDescriptor(dst, o);
+      }
+      if (!override_ && dst_locs.written(path, held->name())) {
+        return fail(semantic_error(src_locs.locate(path, f->name()),
+                                   "`" + dotted(path, f->name()) + "` is set here and at " +
+                                       dst_locs.locate(path, held->name()).to_string() +
+                                       ": set it in one of them, or in the file that includes both"));
+      }
+      copy_scalar(src, dst, f);
+    }
+    return {};
+  }
+
+  std::vector<std::string> stack_;           // canonical names of the files being composed, root first
+  std::map<std::string, std::string> seen_;  // canonical name → where it was included
+  int files_ = 0;
+};
+
+Result<TextLocations, LoadError> parse_composed_textproto(std::string_view text, std::string name, pb::Message& out,
+                                                          std::span<const ExtraFragment> extra) {
+  if (text.size() > kMaxTextprotoBytes) {
+    return parse_textproto(text, std::move(name), out);  // the size error
+  }
+  const std::filesystem::path file(name);
+  return Composer(file).compose(text, file, out, extra, 0);
+}
+
+Result<TextLocations, LoadError> load_composed_textproto(const std::filesystem::path& path, pb::Message& out,
+                                                         std::span<const ExtraFragment> extra) {
+  auto text = read_text(path);
+  if (!text) {
+    out.Clear();
+    return fail(std::move(text.error()));
+  }
+  return Composer(path).compose(*text, path, out, extra, 0);
 }
 
 }  // namespace rejuv

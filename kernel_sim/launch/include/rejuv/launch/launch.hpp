@@ -27,13 +27,17 @@ struct LoadedLaunch {
   TextLocations locations;
   std::filesystem::path path;         // the launch file as given
   std::filesystem::path policy_path;  // resolved; exists and is a regular file
+  // The graph's `policy_include` fragments, resolved against the file naming each: load_policy merges them.
+  std::vector<ExtraFragment> policy_includes;
 };
 
-// Reads, parses and validates a launch graph. CannotRead / Syntax / Semantic errors, never an exception.
+// Reads, parses and validates a launch graph with the fragments it includes (idl/launch.proto `include`;
+// a path a fragment writes is made relative to this file's folder, where every reader resolves it).
+// CannotRead / Syntax / Semantic errors at the file:line:column of the fragment concerned, never an exception.
 [[nodiscard]] Result<LoadedLaunch, LoadError> load_launch(const std::filesystem::path& path);
 
-// The same from text; `as_path` names the file in messages and anchors the relative policy path
-// (tests, fuzzing).
+// The same from text; `as_path` names the file in messages and anchors the relative policy path and the
+// includes (tests, fuzzing).
 [[nodiscard]] Result<LoadedLaunch, LoadError> parse_launch(std::string_view text,
                                                            const std::filesystem::path& as_path);
 

@@ -144,9 +144,12 @@ class Policy {
   std::vector<Cell> cells_;  // [service][object][mode], dense
 };
 
-// Reads, parses and validates a policy file. CannotRead / Syntax / Semantic errors; never an exception.
-[[nodiscard]] Result<Policy, LoadError> load_policy(const std::filesystem::path& path);
-// The same from text; `name` stands for the file in messages (tests, fuzzing).
+// Reads, parses and validates a policy file with the fragments it includes (`include`) and `extra` ones
+// (a launch graph's `policy_include`), merged as kernel_sim/textproto "Composition" says. CannotRead /
+// Syntax / Semantic errors at the file:line:column of the fragment concerned; never an exception.
+[[nodiscard]] Result<Policy, LoadError> load_policy(const std::filesystem::path& path,
+                                                    std::span<const ExtraFragment> extra = {});
+// The same from text; `name` stands for the file in messages and anchors its includes (tests, fuzzing).
 [[nodiscard]] Result<Policy, LoadError> parse_policy(std::string_view text, std::string name);
 
 // The kernel's per-mode table (DESIGN §3): ServiceId and ObjectId are declaration order; each service

@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -58,13 +59,22 @@ class TextLocations {
   ~TextLocations();
 
   // Location of `field` (element `index` if repeated) in the message reached by `path` from the root.
-  // Falls back to the nearest enclosing location that is known, then to the file itself.
+  // Falls back to the nearest enclosing location that is known, then to the file itself. In a composed file
+  // (load_composed_textproto) the location is in the fragment that wrote the field: an element of a repeated
+  // field is in the file that holds it, a singular field in the last file that set it.
   [[nodiscard]] SourceLocation locate(std::initializer_list<Step> path, std::string_view field,
                                       int index = -1) const;
+  [[nodiscard]] SourceLocation locate(std::span<const Step> path, std::string_view field, int index = -1) const;
+  // Whether `field` was written in any file (not merely its enclosing message).
+  [[nodiscard]] bool written(std::span<const Step> path, std::string_view field, int index = -1) const;
+  // The root file (the one loaded; a composed file's fragments are in files()).
   [[nodiscard]] SourceLocation file_only() const { return SourceLocation{file_, 0, 0}; }
   [[nodiscard]] const std::string& file() const { return file_; }
+  // Every file the message was read from: the fragments in the order they were merged, the root file last.
+  [[nodiscard]] std::vector<std::string> files() const;
 
  private:
+  friend class Composer;
   std::string file_;
   std::unique_ptr<Impl> impl_;
 };
@@ -79,5 +89,36 @@ inline constexpr std::size_t kMaxTextprotoBytes = 4U << 20U;
 // The same from a string, `name` standing for the file in messages (tests, fuzzing).
 [[nodiscard]] Result<TextLocations, LoadError> parse_textproto(std::string_view text, std::string name,
                                                                google::protobuf::Message& out);
+
+// ---- Composition: a file made of fragments (docs/writing_a_service.md "Graph fragments") ----
+//
+// A message type with a `repeated string include` field can name other files of the same type, each
+// relative to the folder of the file that names it (ROS 2 launch includes). The file is the merge of its
+// fragments, in order, and then of its own fields:
+//   - repeated fields are appended (a fragment's services, grants, bridges, waypoints …);
+//   - a singular field set by two fragments is refused at the second one's file:line:column, naming the
+//     first; a field the including file sets itself overrides what its fragments set;
+//   - a cycle, a file included twice, more than kMaxIncludeDepth levels or kMaxComposedFiles files are
+//     refused at the `include` line.
+// `include` is empty in the result; TextLocations::files() lists the files and every location is in the
+// fragment that wrote the field. A type without an `include` field loads as one file.
+inline constexpr int kMaxIncludeDepth = 8;
+inline constexpr int kMaxComposedFiles = 64;
+
+// A fragment named from outside the file (e.g. a launch graph's `policy_include` for its policy): merged as
+// if the root file included it first; `named_at` is where it was named, for errors.
+struct ExtraFragment {
+  std::filesystem::path path;
+  SourceLocation named_at;
+};
+
+[[nodiscard]] Result<TextLocations, LoadError> load_composed_textproto(const std::filesystem::path& path,
+                                                                       google::protobuf::Message& out,
+                                                                       std::span<const ExtraFragment> extra = {});
+
+// The same with the root file's text given; its includes are resolved against `name`'s folder.
+[[nodiscard]] Result<TextLocations, LoadError> parse_composed_textproto(std::string_view text, std::string name,
+                                                                        google::protobuf::Message& out,
+                                                                        std::span<const ExtraFragment> extra = {});
 
 }  // namespace rejuv
