@@ -64,6 +64,9 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   ASSERT_EQ(built.exit_code, 0) << built.out << built.err;
   const std::filesystem::path service = example_build / "hello_monitor";
   ASSERT_TRUE(std::filesystem::exists(service)) << built.out;
+  // Its declared parameters (rejuv_add_service PARAMS) beside it, where the kernel checks the graph's params.
+  EXPECT_NE(slurp(example_build / "hello_monitor.params.pbtxt").find("name: \"period_s\""), std::string::npos)
+      << built.out;
 
   // 3. The example's build wrote its graph with the path of the service it built, beside the policy.
   const std::filesystem::path graph = example_build / "hello.launch.pbtxt";
