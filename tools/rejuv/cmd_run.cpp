@@ -260,6 +260,11 @@ int help_service(const std::string& name, const std::string& graph_path) {
     return static_cast<int>(Exit::Ok);
   }
   const proto::ServiceParams& decls = (*declared)->decls;
+  if (decls.params_size() == 0) {
+    std::printf("%s declares no parameters (%s): a launch graph that sets any is refused\n",
+                executable.filename().string().c_str(), (*declared)->path.string().c_str());
+    return static_cast<int>(Exit::Ok);
+  }
   std::printf("%s: %d declared parameter(s) (%s)\n", executable.filename().string().c_str(), decls.params_size(),
               (*declared)->path.string().c_str());
   std::fputs(launch::format_declared_params(decls).c_str(), stdout);
