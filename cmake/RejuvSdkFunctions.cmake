@@ -9,13 +9,16 @@ if(CMAKE_SCRIPT_MODE_FILE)
   return()
 endif()
 
-# rejuv_add_service(NAME SOURCES ... [LIBRARIES ...]): a service executable linked against Rejuv::sdk the way
-# the project's own services are (DESIGN §7 images: statically linked unless the SDK was built without
-# REJUV_STATIC_SERVICES, so that fork() copies few mappings; no
+# rejuv_add_service(NAME SOURCES ... [LIBRARIES ...] [PARAMS file.params.pbtxt]): a service executable linked
+# against Rejuv::sdk the way the project's own services are (DESIGN §7 images: statically linked unless the SDK
+# was built without REJUV_STATIC_SERVICES, so that fork() copies few mappings; no
 # Cyclone DDS, no protobuf: a service reaches nothing but its channel to the kernel). The kernel starts it
 # by the path a launch graph names in `executable:` (absolute, or relative to the kernel's service folder).
+# PARAMS: the parameters the service declares (docs/writing_a_service.md "Declaring parameters"), copied beside
+# the executable as $<TARGET_FILE:NAME>.params.pbtxt at every build; `cmake --install` installs the service and
+# that file beside it in the bin folder. The kernel then refuses a launch param the file does not declare.
 function(rejuv_add_service name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LIBRARIES" ${ARGN})
+  cmake_parse_arguments(ARG "" "PARAMS" "SOURCES;LIBRARIES" ${ARGN})
   if(NOT ARG_SOURCES)
     message(FATAL_ERROR "rejuv_add_service(${name}): no SOURCES")
   endif()
@@ -27,6 +30,20 @@ function(rejuv_add_service name)
     target_link_options(${name} PRIVATE -static)
   endif()
   target_link_libraries(${name} PRIVATE Rejuv::sdk ${ARG_LIBRARIES})
+  if(ARG_PARAMS)
+    get_filename_component(params "${ARG_PARAMS}" ABSOLUTE)
+    add_custom_target(${name}_params ALL
+                      COMMAND ${CMAKE_COMMAND} -E copy_if_different ${params} $<TARGET_FILE:${name}>.params.pbtxt
+                      DEPENDS ${params}
+                      COMMENT "declared parameters of ${name}: $<TARGET_FILE_NAME:${name}>.params.pbtxt" VERBATIM)
+    add_dependencies(${name}_params ${name})
+    set(bindir bin)
+    if(CMAKE_INSTALL_BINDIR)
+      set(bindir ${CMAKE_INSTALL_BINDIR})
+    endif()
+    install(TARGETS ${name} RUNTIME DESTINATION ${bindir})
+    install(FILES ${params} DESTINATION ${bindir} RENAME ${name}.params.pbtxt)  # the executable is NAME (Linux)
+  endif()
 endfunction()
 
 # rejuv_add_topics(NAME FILES a.idl ... TYPES module::Struct ... [POLICY p.policy.pbtxt]): topic types of your own IDL, beside the

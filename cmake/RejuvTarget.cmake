@@ -67,9 +67,23 @@ endfunction()
 # launch graph names them by file name: `executable: "rejuv_ekf2"`.
 set(REJUV_SERVICE_BIN_DIR ${CMAKE_BINARY_DIR}/bin CACHE INTERNAL "where service executables are built")
 # DYNAMIC: a process of the bin folder that is no service and is never imaged (the plant, which talks DDS).
+# PARAMS: the service's declared parameters (idl/params.proto; docs/writing_a_service.md "Declaring parameters"),
+# one or more files, written one after the other beside the executable as <name>.params.pbtxt, where the launch
+# check and `rejuv run --help-service` find them.
 function(rejuv_service_executable name)
-  cmake_parse_arguments(ARG "DYNAMIC" "" "SOURCES;DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "DYNAMIC" "" "SOURCES;DEPS;PARAMS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
+  if(ARG_PARAMS)
+    list(TRANSFORM ARG_PARAMS PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/ REGEX "^[^/]")
+    list(JOIN ARG_PARAMS "|" files)
+    add_custom_command(OUTPUT ${REJUV_SERVICE_BIN_DIR}/${name}.params.pbtxt
+                       COMMAND ${CMAKE_COMMAND} "-DFILES=${files}" -DOUT=${REJUV_SERVICE_BIN_DIR}/${name}.params.pbtxt
+                               -P ${REJUV_SOURCE_DIR}/cmake/ServiceParams.cmake
+                       DEPENDS ${ARG_PARAMS} ${REJUV_SOURCE_DIR}/cmake/ServiceParams.cmake
+                       COMMENT "declared parameters of ${name}" VERBATIM)
+    add_custom_target(${name}_params ALL DEPENDS ${REJUV_SERVICE_BIN_DIR}/${name}.params.pbtxt)
+    add_dependencies(${name} ${name}_params)
+  endif()
   target_link_libraries(${name} PRIVATE ${ARG_DEPS})
   set_target_properties(${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${REJUV_SERVICE_BIN_DIR})
   if(REJUV_STATIC_SERVICES AND NOT ARG_DYNAMIC)  # see REJUV_STATIC_SERVICES in the top CMakeLists.txt

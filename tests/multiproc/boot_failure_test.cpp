@@ -10,12 +10,14 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <regex>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "../rejuv_cli.hpp"
@@ -49,10 +51,19 @@ class BootFailure : public rejuv::test_support::ScratchDirTest {
   }
 };
 
-// ext_link refuses telemetry_period_s: -1 and exits 1 before it is Ready.
+// ext_link refuses a home latitude without its longitude (a rule between two params that its declarations,
+// each in range, cannot state) and exits 1 before it is Ready.
 std::string refused_parameter(std::string text) {
   const std::string exe = "executable: \"rejuv_ext_link\"\n";
-  return text.insert(text.find(exe) + exe.size(), "  params { name: \"telemetry_period_s\" number: -1 }\n");
+  return text.insert(text.find(exe) + exe.size(), "  params { name: \"home_lat_deg\" number: 45 }\n");
+}
+
+// `line` after ext_link's executable line of the shipped graph, and that line's number (1-based).
+std::pair<std::string, int> with_ext_link_line(std::string text, const std::string& line) {
+  const std::string exe = "executable: \"rejuv_ext_link\"\n";
+  const std::size_t at = text.find(exe) + exe.size();
+  text.insert(at, line);
+  return {text, static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(at), '\n')) + 1};
 }
 
 // Every service is /bin/true: it exits 0 without ever saying Hello.
@@ -65,14 +76,44 @@ TEST_F(BootFailure, RefusedParameterWithSr_Exit1WithTheServicesError) {
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("service 'ext_link'"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("failed at boot"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("telemetry_period_s: expected 0.01 to 10 s"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("expected both coordinates"), std::string::npos) << r.err;
 }
 
 TEST_F(BootFailure, RefusedParameterWithoutSr_Exit1WithTheServicesError) {
   const Outcome r = run(graph(refused_parameter), {"--no-sr"});
   EXPECT_EQ(r.exit_code, 1) << r.err;
   EXPECT_NE(r.err.find("service 'ext_link'"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("telemetry_period_s: expected 0.01 to 10 s"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("expected both coordinates"), std::string::npos) << r.err;
+}
+
+// A value outside ext_link's declared range (rejuv_ext_link.params.pbtxt) never reaches the service: the kernel
+// refuses the graph at the param's line and column before anything starts, exit 2.
+TEST_F(BootFailure, ParameterOutOfDeclaredRange_Exit2AtItsLineBeforeAnythingStarts) {
+  int line = 0;
+  const auto g = graph([&](std::string text) {
+    auto [edited, at] = with_ext_link_line(std::move(text), "  params { name: \"telemetry_period_s\" number: -1 }\n");
+    line = at;
+    return edited;
+  });
+  const Outcome r = run(g, {});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(g.string() + ":" + std::to_string(line) + ":39: error: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("-1 s is out of range: expected [0.01, 10] s"), std::string::npos) << r.err;
+  EXPECT_EQ((r.out + r.err).find("services ready"), std::string::npos) << "no service may have started: " << r.err;
+}
+
+// The trap of a misspelt name (the service would fly its default): refused at the name, with the declared one.
+TEST_F(BootFailure, MisspeltParameter_Exit2AtItsLineWithSuggestion) {
+  int line = 0;
+  const auto g = graph([&](std::string text) {
+    auto [edited, at] = with_ext_link_line(std::move(text), "  params { name: \"telemetry_perod_s\" number: 0.5 }\n");
+    line = at;
+    return edited;
+  });
+  const Outcome r = run(g, {"--no-sr"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(g.string() + ":" + std::to_string(line) + ":12: error: "), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(did you mean \"telemetry_period_s\"?)"), std::string::npos) << r.err;
 }
 
 TEST_F(BootFailure, BinTrueWithSr_Exit1NamingTheServiceAndItsExit) {

@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <fstream>
 #include <regex>
 #include <string>
 #include <vector>
@@ -79,6 +80,8 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   ASSERT_NO_FATAL_FAILURE(build(kRepo / "examples" / "hello_service", example_build));
   const std::filesystem::path service = example_build / "hello_monitor";
   ASSERT_TRUE(std::filesystem::exists(service));
+  // Its declared parameters (rejuv_add_service PARAMS) beside it, where the kernel checks the graph's params.
+  EXPECT_NE(slurp(example_build / "hello_monitor.params.pbtxt").find("name: \"period_s\""), std::string::npos);
 
   // 3. The example's build wrote its graph: the installed hover and the example's fragments, which it includes.
   const std::filesystem::path graph = example_build / "hello.launch.pbtxt";
@@ -157,6 +160,23 @@ TEST_F(SdkPackage, NewServiceScaffoldBuildsAndItsOwnTestFlies) {
   EXPECT_EQ(tested.exit_code, 0) << tested.out << tested.err;
   EXPECT_NE(tested.out.find("geofence_flies"), std::string::npos) << tested.out;
   EXPECT_NE(tested.out.find("100% tests passed"), std::string::npos) << tested.out;
+
+  // A misspelt parameter in the service's own fragment is refused before anything starts, at the fragment's
+  // line and column, with the declared name suggested.
+  const std::filesystem::path fragment = source / "geofence.launch.pbtxt";
+  std::string text = slurp(fragment);
+  const std::size_t at = text.find("params { name: \"period_s\"");
+  ASSERT_NE(at, std::string::npos) << text;
+  text.replace(at, std::string("params { name: \"period_s\"").size(), "params { name: \"periods\"");
+  std::ofstream(fragment) << text;
+  const int line = static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n')) + 1;
+  auto refused = rejuv::test_support::run_rejuv(
+      dir_, {"run", (build_dir / "geofence_flight.launch.pbtxt").string(), "--duration", "1", "--net-port", "0",
+             "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain)});
+  EXPECT_EQ(refused.exit_code, 2) << refused.out << refused.err;
+  EXPECT_NE(refused.err.find(fragment.string() + ":" + std::to_string(line) + ":"), std::string::npos)
+      << "expected the error at " << fragment << ":" << line << "\n" << refused.err;
+  EXPECT_NE(refused.err.find("did you mean \"period_s\""), std::string::npos) << refused.err;
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 
 #include "args.hpp"
 #include "commands.hpp"
+#include "common_options.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/policy/audit.hpp"
 #include "rejuv/policy/policy.hpp"
@@ -180,6 +181,10 @@ int run_audit(std::span<const std::string_view> args) {
     auto g = launch::load_launch(*launch_path);
     if (!g) {
       return bad_input(format, policy_path, g.error());
+    }
+    // Each service's params against the parameters it declares (as `rejuv run` refuses them).
+    if (auto ok = launch::check_declared_params(*g, service_dir()); !ok) {
+      return bad_input(format, policy_path, ok.error());
     }
     graph = std::move(*g);
     // Auditing a candidate policy against a graph that names another one is allowed, but say so.

@@ -227,7 +227,7 @@ find_package(Rejuv 0.1 REQUIRED)
 # (<build>/@NAME@_topics.types.pbtxt, which the flight graph includes).
 rejuv_add_topics(@NAME@_topics FILES @NAME@.idl TYPES @SCOPED@)
 # The service, linked the way the kernel expects, with its declared parameters beside the executable.
-rejuv_add_service(@NAME@ SOURCES @NAME@.cpp LIBRARIES @NAME@_topics)
+rejuv_add_service(@NAME@ SOURCES @NAME@.cpp LIBRARIES @NAME@_topics PARAMS @NAME@.params.pbtxt)
 
 # The graph to fly: the project's hover with this service's fragments (configure_file: an edit configures again).
 configure_file(@NAME@_flight.launch.pbtxt.in @NAME@_flight.launch.pbtxt @ONLY)

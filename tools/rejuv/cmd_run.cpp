@@ -14,9 +14,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "args.hpp"
@@ -28,6 +30,7 @@
 #include "run_recorder.hpp"
 #include "ulog_recorder.hpp"
 #include "rejuv/cap/capability.hpp"
+#include "rejuv/core/did_you_mean.hpp"
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/flight_io/messages.hpp"
 #include "rejuv/kernel/kernel.hpp"
@@ -217,6 +220,57 @@ Result<std::vector<std::string>, std::string> service_names_of(std::string_view 
   return names;
 }
 
+// `rejuv run --help-service NAME [GRAPH]`: the parameters service NAME declares (launch.hpp "declared parameters").
+// With a graph, NAME is one of its services, found by its `executable`; without, NAME is an executable of the
+// service folder, with or without its "rejuv_" prefix (rejuv_lqr_control or lqr_control).
+int help_service(const std::string& name, const std::string& graph_path) {
+  std::filesystem::path executable;
+  if (!graph_path.empty()) {
+    auto loaded = launch::load_launch(graph_path);
+    if (!loaded) return bad_input(loaded.error().to_string());
+    const proto::ServiceSpec* spec = launch::find_service(loaded->graph, name);
+    if (spec == nullptr) {
+      std::vector<std::string> names;
+      for (const proto::ServiceSpec& s : loaded->graph.services()) names.push_back(s.name());
+      std::string list;
+      for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
+      return bad_input("rejuv run: --help-service: " + graph_path + " has no service '" + name + "'" +
+                       did_you_mean(name, names) + "; its services: " + list);
+    }
+    executable = launch::resolve_executable(spec->executable(), service_dir());
+  } else {
+    const std::filesystem::path dir = service_dir();
+    const std::filesystem::path exe(name);
+    std::error_code ec;
+    executable = exe.is_absolute() ? exe : dir / exe;
+    if (!exe.is_absolute() && !std::filesystem::exists(executable, ec) &&
+        std::filesystem::exists(dir / ("rejuv_" + name), ec)) {
+      executable = dir / ("rejuv_" + name);
+    }
+    if (!std::filesystem::exists(executable, ec)) {
+      return bad_input("rejuv run: --help-service: no service executable '" + name + "' in " + dir.string() +
+                       " (give a launch graph to name a service of it)");
+    }
+  }
+  auto declared = launch::declared_params_of(executable);
+  if (!declared) return bad_input(declared.error().to_string());
+  if (!*declared) {
+    std::printf("%s declares no parameters (no %s): its params are not checked\n", executable.string().c_str(),
+                launch::params_file_of(executable).string().c_str());
+    return static_cast<int>(Exit::Ok);
+  }
+  const proto::ServiceParams& decls = (*declared)->decls;
+  if (decls.params_size() == 0) {
+    std::printf("%s declares no parameters (%s): a launch graph that sets any is refused\n",
+                executable.filename().string().c_str(), (*declared)->path.string().c_str());
+    return static_cast<int>(Exit::Ok);
+  }
+  std::printf("%s: %d declared parameter(s) (%s)\n", executable.filename().string().c_str(), decls.params_size(),
+              (*declared)->path.string().c_str());
+  std::fputs(launch::format_declared_params(decls).c_str(), stdout);
+  return static_cast<int>(Exit::Ok);
+}
+
 }  // namespace
 
 int run_run(std::span<const std::string_view> args) {
@@ -229,6 +283,7 @@ int run_run(std::span<const std::string_view> args) {
   std::optional<std::vector<std::string>> skip;
   OutFlags out;
   bool realtime = false, verbose = false;
+  std::optional<std::string> help_service_name;
   Options opts("run", R"(Run a launch graph on the multi-process runtime: the kernel spawns every service and the plant,
 routes every message through the capability check and the broker, and keeps time (lockstep with
 the plant as time master unless --realtime). Without --duration the run ends at mission end or
@@ -239,7 +294,10 @@ The run stops when the vehicle is lost (V = ||x - x_sp||^2_P > 100, as `rejuv si
 Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when
 it fails, a service fails at boot or the graph's policy fails its audit (as `rejuv audit`), 2 on
 bad flags or a file the loaders refuse (README "Exit codes").)");
-  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
+  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)", /*required=*/false)
+      .text("--help-service", "NAME", help_service_name,
+            "print the parameters service NAME declares (name, type, default, range, unit, help) and exit:\n"
+            "a service of GRAPH, or without GRAPH an executable of the service folder (e.g. lqr_control)")
       .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
       .real("--speed", "X", speed, {.min = 0.01, .max = 1000},
             "lockstep paced to X times real time (1: a ground station can follow the flight; deterministic\n"
@@ -269,6 +327,8 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
             "user namespaces are available); the allow-list, limits and sweeps still hold; the summary says so")
       .flag("--verbose", verbose, "also print the services' debug log lines");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (help_service_name) return help_service(*help_service_name, graph_path);
+  if (graph_path.empty()) return bad_input("rejuv run: missing argument GRAPH (see 'rejuv run --help')");
   if (auto ok = check_out_options(opts, out); !ok) return bad_input("rejuv run: " + ok.error());
 
   kernel::KernelOptions options = kernel_options(flags);

@@ -1,8 +1,9 @@
 // Kernel::create (DESIGN §2, §4–§6): a launch graph becomes a kernel ready to boot, in named steps — the
-// audited policy, the clock, the capability system, the objects and the broker, the kernel's own descriptors,
-// the descriptor limit, the service uid block, then on the kernel: its configuration, the services, the plant's
-// executable, the CPU placement, the DDS bridge, the event sources and the network gate. Each step checks
-// before it changes anything; the first that fails ends creation with its KernelError.
+// services' params against their declarations, the audited policy, the clock, the capability system, the objects
+// and the broker, the kernel's own descriptors, the descriptor limit, the service uid block, then on the kernel:
+// its configuration, the services, the plant's executable, the CPU placement, the DDS bridge, the event sources
+// and the network gate. Each step checks before it changes anything; the first that fails ends creation with
+// its KernelError.
 #include <algorithm>
 #include <cerrno>
 #include <csignal>
@@ -42,6 +43,16 @@ Result<void, KernelError> refuse_model_only_fields(const launch::LoadedLaunch& g
     return fail(kernel_error(K::Config, graph.path.string() +
                                             ": sr.estimate_catch_up is modelled by `rejuv sim` only; the runtime's "
                                             "replay of the plant's samples is not built yet (docs/control.md)"));
+  }
+  return {};
+}
+
+// Each service's `params` against the parameters it declares beside its executable (launch.hpp "declared
+// parameters"): a misspelt name or a value out of range is refused at the launch file's line, not flown with the
+// service's default.
+Result<void, KernelError> check_params(const launch::LoadedLaunch& graph, const KernelOptions& options) {
+  if (auto ok = launch::check_declared_params(graph, options.service_dir); !ok) {
+    return fail(kernel_error(K::Config, ok.error().to_string()));
   }
   return {};
 }
@@ -190,8 +201,7 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys
 
 // Where an executable named in the graph is: absolute, or under KernelOptions::service_dir.
 std::filesystem::path executable_path(const Kernel::Impl& k, const std::string& executable) {
-  const std::filesystem::path exe(executable);
-  return exe.is_absolute() ? exe : std::filesystem::path(k.options.service_dir) / exe;
+  return launch::resolve_executable(executable, k.options.service_dir);
 }
 
 // Services, by policy order (ServiceId = policy declaration order = CSpace index), each with its executable
@@ -328,6 +338,7 @@ Result<void, KernelError> watch_event_sources(Kernel::Impl& k) {
 
 Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch graph, KernelOptions options,
                                                             Observer* observer) {
+  if (auto refused = check_params(graph, options); !refused) return fail(std::move(refused.error()));
   auto policy = load_audited_policy(graph);
   if (!policy) return fail(policy.error());
   if (auto refused = refuse_model_only_fields(graph); !refused) return fail(std::move(refused.error()));

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "launch.pb.h"
+#include "params.pb.h"
 #include "rejuv/core/result.hpp"
 #include "rejuv/mavlink/frame.hpp"
 #include "rejuv/textproto/textproto.hpp"
@@ -163,5 +164,47 @@ struct SandboxLimitValues {
 
 // The service called `name`, or nullptr.
 [[nodiscard]] const proto::ServiceSpec* find_service(const proto::Launch& graph, std::string_view name);
+
+// ---- declared parameters (idl/params.proto; docs/writing_a_service.md "Declaring parameters") ----
+// A service declares the `params` its launch entry may set in `<executable>.params.pbtxt`, installed beside its
+// executable. check_declared_params refuses, at the param's file:line:column, a name the service does not declare
+// (with "did you mean"), a value of the wrong type, not one of its choices or out of its range. A service whose
+// executable has no such file is not checked (its params reach it as written).
+
+// A declaration file, checked (load_params_file / parse_params_file), with where each field was written.
+struct LoadedParams {
+  proto::ServiceParams decls;
+  TextLocations locations;
+  std::filesystem::path path;
+};
+
+// `<executable>.params.pbtxt`: the declaration file of the service built as `executable`.
+[[nodiscard]] std::filesystem::path params_file_of(const std::filesystem::path& executable);
+// An `executable:` of a graph as the kernel starts it: absolute as written, else under `service_dir`.
+[[nodiscard]] std::filesystem::path resolve_executable(std::string_view executable,
+                                                       const std::filesystem::path& service_dir);
+
+// Reads and checks one declaration file: a syntax error at its file:line:column; a declaration that cannot mean
+// what was intended (no name or help, a duplicate, min above max, a range or choices its type has no use for, a
+// default of the wrong type or outside its own range) at the field.
+[[nodiscard]] Result<LoadedParams, LoadError> load_params_file(const std::filesystem::path& path);
+[[nodiscard]] Result<LoadedParams, LoadError> parse_params_file(std::string_view text,
+                                                                const std::filesystem::path& as_path);
+
+// The declarations of the service built as `executable` (params_file_of): nullopt when it has no such file.
+[[nodiscard]] Result<std::optional<LoadedParams>, LoadError> declared_params_of(const std::filesystem::path& executable);
+
+// The params of graph service `service_index` against `declared` (its declaration file): the first problem, at
+// the param's name (unknown) or value (type, choices, range) in the launch file.
+[[nodiscard]] Result<void, LoadError> check_service_params(const LoadedLaunch& loaded, int service_index,
+                                                           const LoadedParams& declared);
+
+// Every service of the graph whose executable (resolved against `service_dir`) has a declaration file, checked
+// as check_service_params; a declaration file that does not load is the error.
+[[nodiscard]] Result<void, LoadError> check_declared_params(const LoadedLaunch& loaded,
+                                                            const std::filesystem::path& service_dir);
+
+// The declarations as a table for `rejuv run --help-service`: name, type, default, range or choices, unit, help.
+[[nodiscard]] std::string format_declared_params(const proto::ServiceParams& decls);
 
 }  // namespace rejuv::launch

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "rejuv/cap/mode_table.hpp"
+#include "rejuv/core/did_you_mean.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/textproto/textproto.hpp"
@@ -23,8 +24,8 @@
 
 namespace rejuv::policy {
 
-// " (did you mean \"x\"?)" when one of `known` is at most two edits from `name` (a likely typo); "" otherwise.
-[[nodiscard]] std::string did_you_mean(std::string_view name, std::span<const std::string> known);
+// " (did you mean \"x\"?)" for a likely typo (rejuv/core/did_you_mean.hpp; the launch loader uses it too).
+using ::rejuv::did_you_mean;
 
 // What a topic carries, for the `lateral` invariant (§III "Limits", §IV-C).
 enum class TopicRole : std::uint8_t { Data, Actuator, Setpoint };

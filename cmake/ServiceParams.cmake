@@ -1,0 +1,16 @@
+# Script mode (rejuv_service_params, rejuv_add_service's PARAMS, at build time): OUT = the FILES ('|'-separated)
+# one after the other: a service's declared parameters (idl/params.proto), its own file first, then, in a build
+# with the attack hooks, the params the hooks read. Rewritten only when it changes.
+string(REPLACE "|" ";" files "${FILES}")
+set(text "")
+foreach(f IN LISTS files)
+  file(READ "${f}" part)
+  string(APPEND text "${part}")
+endforeach()
+set(old "")
+if(EXISTS "${OUT}")
+  file(READ "${OUT}" old)
+endif()
+if(NOT old STREQUAL text)
+  file(WRITE "${OUT}" "${text}")
+endif()
