@@ -308,17 +308,22 @@ TEST(LaunchParamsInTree, ShippedGraphs_PassTheCheck) {
   }
 }
 
-// The out-of-tree example: its declaration file loads and its graph's params pass against it.
+// The out-of-tree example: its declaration file loads and its launch fragment's params, in the hover it is
+// flown in, pass against it.
 TEST(LaunchParamsInTree, HelloExample_ParamsPassItsDeclarations) {
   const auto d = load_params_file(kSource / "examples" / "hello_service" / "hello_monitor.params.pbtxt");
   ASSERT_TRUE(d.has_value()) << d.error().to_string();
-  const auto g = load_launch(kSource / "examples" / "hello_service" / "hello.launch.pbtxt");
+  const auto g = parse_launch("include: \"../../launch/hover.launch.pbtxt\"\ninclude: \"hello_monitor.launch.pbtxt\"\n",
+                              kSource / "examples" / "hello_service" / "unit_test.launch.pbtxt");
   ASSERT_TRUE(g.has_value()) << g.error().to_string();
+  bool found = false;
   for (int i = 0; i < g->graph.services_size(); ++i) {
     if (g->graph.services(i).name() != "hello_monitor") continue;
+    found = true;
     const auto r = check_service_params(*g, i, *d);
     EXPECT_TRUE(r.has_value()) << r.error().to_string();
   }
+  EXPECT_TRUE(found);
 }
 
 }  // namespace
