@@ -170,11 +170,16 @@ int run_audit(std::span<const std::string_view> args) {
   Options opts("audit",
                "Checks a capability policy against the CPS SR invariants of DESIGN §4 (timer, sei, limits,\n"
                "persistent, lateral, coverage) and its own deny rules, and prints the service x object x\n"
-               "mode matrix. Exit 0 when clean, 1 on violations, 2 when a file cannot be read or parsed.");
-  opts.positional("POLICY", policy_path, "the policy (*.policy.pbtxt)")
+               "mode matrix. Exit 0 when clean, 1 on violations, 2 when a file cannot be read or parsed.\n"
+               "With --launch and no POLICY, the policy the graph names (with its policy fragments).");
+  opts.positional("POLICY", policy_path, "the policy (*.policy.pbtxt); optional with --launch", false)
       .path("--launch", "GRAPH", launch_path, "also check against this launch graph (*.launch.pbtxt)")
       .choice<Format>("--format", {{"text", Format::Text}, {"json", Format::Json}}, format, "output format (json for CI)");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (policy_path.empty() && !launch_path) {
+    print(stderr, "rejuv audit: POLICY is required without --launch GRAPH (rejuv audit --help)\n");
+    return static_cast<int>(Exit::BadInput);
+  }
 
   std::optional<launch::LoadedLaunch> graph;
   if (launch_path) {
@@ -187,6 +192,9 @@ int run_audit(std::span<const std::string_view> args) {
       return bad_input(format, policy_path, ok.error());
     }
     graph = std::move(*g);
+    if (policy_path.empty()) {
+      policy_path = graph->policy_path.string();
+    }
     // Auditing a candidate policy against a graph that names another one is allowed, but say so.
     std::error_code ec;
     if (format == Format::Text && !std::filesystem::equivalent(graph->policy_path, policy_path, ec)) {

@@ -64,6 +64,14 @@ TEST_F(RejuvCli, QuadSrWithLaunch_Exit0) {
   EXPECT_NE(r.out.find("with graph \"quad_square\""), std::string::npos) << r.out;
 }
 
+TEST_F(RejuvCli, LaunchWithoutPolicy_AuditsThePolicyTheGraphNames) {
+  const Outcome r = rejuv({"audit", "--launch", kQuadSquare});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("quad_sr.policy.pbtxt"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("with graph \"quad_square\""), std::string::npos) << r.out;
+  EXPECT_TRUE(r.err.empty()) << r.err;
+}
+
 TEST_F(RejuvCli, TextMatrix_FitsIn100Columns) {
   const Outcome r = rejuv({"audit", kQuadSr});
   std::istringstream lines(r.out);
