@@ -18,7 +18,7 @@ bool Kernel::Impl::quiescent_for_checkpoint() const {
   const std::optional<ServiceId> caller = checkpoint_request->first;
   return std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
     if (!s.live()) return true;
-    if (s.proc.phase != Phase::Ready || !s.flow.drained()) return false;
+    if (s.proc.phase() != Phase::Ready || !s.flow.drained()) return false;
     return clock_mode == ClockMode::Realtime || s.id == caller || s.idle();
   });
 }
@@ -53,7 +53,7 @@ void Kernel::Impl::run_checkpoint() {
   routing.freeze();
   flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   for (ServiceRuntime& s : services) {
-    if (!s.config.rejuvenate || s.proc.phase != Phase::Ready) continue;
+    if (!s.config.rejuvenate || s.proc.phase() != Phase::Ready) continue;
     auto pair = channel_pool.take();
     if (!pair) {
       run.failure = "resume socket: " + pair.error().to_string();

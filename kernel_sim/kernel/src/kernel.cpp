@@ -35,7 +35,7 @@ Result<void, KernelError> Kernel::boot() {
     if (k.wall() >= boot_limit) {
       std::string waiting;
       for (const ServiceRuntime& s : k.services) {
-        if (!s.config.skip && s.proc.phase != Phase::Ready) waiting += (waiting.empty() ? "'" : ", '") + s.name + "'";
+        if (!s.config.skip && s.proc.phase() != Phase::Ready) waiting += (waiting.empty() ? "'" : ", '") + s.name + "'";
       }
       k.stop_run(StopReason::ServiceFailed, "the graph did not boot within " +
                                                 std::to_string(to_seconds(k.options.boot_deadline).count()) +
@@ -228,9 +228,9 @@ ServiceStats Kernel::stats(ServiceId service) const {
   const ServiceRuntime& s = impl_->services.at(service.value());
   ServiceStats out = s.stats;
   out.frames_out = s.flow.frames_out();
-  out.started = !s.config.skip && s.proc.phase != Phase::NotStarted;
+  out.started = !s.config.skip && s.proc.phase() != Phase::NotStarted;
   out.alive = s.live();
-  out.ready = s.proc.phase == Phase::Ready;
+  out.ready = s.proc.phase() == Phase::Ready;
   out.pid = s.proc.process.pid();
   out.exit = s.proc.process.status();
   out.cgroup = s.sandbox.cgroup_note;

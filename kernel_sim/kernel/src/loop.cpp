@@ -235,7 +235,7 @@ bool Kernel::Impl::all_idle() const {
 
 bool Kernel::Impl::all_ready() const {
   return std::all_of(services.begin(), services.end(),
-                     [](const ServiceRuntime& s) { return s.config.skip || s.proc.phase == Phase::Ready; });
+                     [](const ServiceRuntime& s) { return s.config.skip || s.proc.phase() == Phase::Ready; });
 }
 
 std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {

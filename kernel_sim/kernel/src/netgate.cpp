@@ -168,7 +168,7 @@ void Kernel::Impl::net_poll() {
       if (!holds(reader)) continue;
       held = true;
       ServiceRuntime& s = services[reader.service.value()];
-      if (s.proc.phase != Phase::Ready || !s.proc.channel.valid() || stopping) continue;
+      if (s.proc.phase() != Phase::Ready || !s.proc.channel.valid() || stopping) continue;
       running = true;
       // A service that does not read its channel gets no more: queued frames are bounded, and overflowing
       // them would be its fault (docs/protocol.md "flow control") — a flood must not make it one.

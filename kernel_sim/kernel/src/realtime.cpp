@@ -55,7 +55,7 @@ void Kernel::Impl::start_realtime_plan() {
                  ok.error().to_string() + ")";
       }
     }
-    if (s.live() && s.proc.phase == Phase::Ready) apply_realtime(s);
+    if (s.live() && s.proc.phase() == Phase::Ready) apply_realtime(s);
     if (s.config.spec != nullptr && s.config.spec->rt_priority() > 0) ++chain;
   }
   log("real-time plan: kernel SCHED_FIFO %d, plant %d, %d services at their rt_priority (RLIMIT_RTTIME %u ms)%s",

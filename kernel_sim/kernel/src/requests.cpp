@@ -97,13 +97,13 @@ constexpr bool needs_boot(wire::FrameKind kind) {
 }  // namespace
 
 void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
-  if (needs_boot(f.kind) && s.proc.phase != Phase::Booted && s.proc.phase != Phase::Ready) {
+  if (needs_boot(f.kind) && s.proc.phase() != Phase::Booted && s.proc.phase() != Phase::Ready) {
     refuse(s, std::string(wire::to_string(f.kind)) + " before boot");
     return;
   }
   switch (f.kind) {
     case wire::FrameKind::Hello:
-      if (s.proc.phase != Phase::Spawned) {
+      if (s.proc.phase() != Phase::Spawned) {
         refuse(s, "Hello after boot");
         return;
       }
@@ -112,14 +112,14 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
             static_cast<unsigned long long>(f.header.aux), static_cast<unsigned>(wire::kProtocolVersion));
       }
       send_boot(s);
-      s.proc.phase = Phase::Booted;
+      s.proc.booted();
       return;
     case wire::FrameKind::Ready:
-      if (s.proc.phase != Phase::Booted) {
+      if (s.proc.phase() != Phase::Booted) {
         refuse(s, "Ready outside boot");
         return;
       }
-      s.proc.phase = Phase::Ready;
+      s.proc.became_ready();
       apply_realtime(s);  // realtime.cpp: a (re)started service joins the real-time plan
       return;
     case wire::FrameKind::Publish:

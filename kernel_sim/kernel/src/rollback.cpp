@@ -21,7 +21,7 @@ void Kernel::Impl::request_rollback(std::string reason) {
 void Kernel::Impl::retire_live_rejuvenated() {
   staged.erase_if([&](std::uint32_t origin, std::uint32_t /*slot*/) { return services[origin].config.rejuvenate; });
   for (ServiceRuntime& s : services) {
-    if (!s.config.rejuvenate || s.config.skip || s.proc.phase == Phase::NotStarted) continue;
+    if (!s.config.rejuvenate || s.config.skip || s.proc.phase() == Phase::NotStarted) continue;
     if (s.live()) {
       // Out of the rollback's way (Reaper::retire: SIGSTOP, every thread stopped before any image is resumed
       // and before the epoch changes), with its channel out of the loop, no signal to another process and no
@@ -35,7 +35,7 @@ void Kernel::Impl::retire_live_rejuvenated() {
       (void)epoll.remove(s.proc.channel.fd());
       channel_pool.close_later(s.proc.channel.take_fd());  // closed off the critical path (refill_pairs)
     }
-    s.proc.phase = Phase::Dead;
+    s.proc.ended();
     broker.remove_service(s.id);
     timers.remove_service(s.id);
     s.flow.reset();
@@ -142,7 +142,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     if (auto watched = replace_output(s, std::move(p.output)); !watched && failure.empty()) {
       failure = "watching the restored '" + s.name + "' output: " + watched.error().to_string();
     }
-    s.proc.phase = Phase::Ready;
+    s.proc.resumed();
     s.flow.new_channel();
     s.stats.pid = s.proc.process.pid();
     ++s.stats.restores;
@@ -278,7 +278,7 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
     if (!pump(options.boot_deadline)) break;
   }
   rollback_request.reset();
-  if (restarted([](const ServiceRuntime& s) { return s.proc.phase != Phase::Ready; })) {
+  if (restarted([](const ServiceRuntime& s) { return s.proc.phase() != Phase::Ready; })) {
     stop_run(StopReason::ServiceFailed, "cold restart: a rejuvenated service did not boot");
   }
 }

@@ -34,7 +34,7 @@ void Kernel::Impl::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::sp
 void Kernel::Impl::flush_staged() {
   staged.drain([&](std::uint32_t origin, std::uint32_t slot, std::span<const std::byte> payload) {
     ServiceRuntime& s = services[origin];
-    if (s.proc.phase == Phase::Dead) return;  // output of a service that died since: discarded
+    if (s.proc.phase() == Phase::Dead) return;  // output of a service that died since: discarded
     route_publish(s, slot, payload);
   });
 }
@@ -181,7 +181,7 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
 }
 
 void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
-  if (s.proc.phase != Phase::Booted && s.proc.phase != Phase::Ready) return;
+  if (s.proc.phase() != Phase::Booted && s.proc.phase() != Phase::Ready) return;
   if (routing.frozen()) return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
   hand_over_polled(s);         // the service is about to wake: its polled news goes first
   if (!s.flow.drained()) {

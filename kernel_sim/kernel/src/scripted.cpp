@@ -22,7 +22,7 @@ Result<std::vector<sys::SeqPacket>, KernelError> Kernel::attach_scripted_service
     s.proc.channel = std::move(pair->first);
     ends[s.id.value()] = std::move(pair->second);
     s.proc.scripted = true;
-    s.proc.phase = Phase::Spawned;
+    s.proc.spawned();
     s.proc.spawned_at = k.wall();
     s.sandbox.limiter.last = s.proc.spawned_at;
     if (auto ok = k.epoll.add(s.proc.channel.fd(), token(Source::Channel, s.id.value())); !ok) {

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "fixed_ring.hpp"
+#include "rejuv/core/result.hpp"
 #include "rejuv/sys/cgroup.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
@@ -67,10 +68,37 @@ struct ServiceConfig {
   std::vector<wire::BootParam> params{};
 };
 
-// The live incarnation (DESIGN §2 "Processes and trust"): spawned, booted and lost by supervisor.cpp, taken over
-// from an image by rollback.cpp (DESIGN §7 "Rollback"), read by requests.cpp as the protocol phase.
+// The live incarnation (DESIGN §2 "Processes and trust"). Its phase changes only through the transitions below,
+// each of which asserts that it is legal: spawned by supervisor.cpp (or attached by scripted.cpp), booted and
+// ready by requests.cpp (Hello, Ready), resumed from an image by rollback.cpp (DESIGN §7 "Rollback"), ended by
+// supervisor.cpp (lost, shut down) or rollback.cpp (retired).
+//
+//   NotStarted ─spawned→ Spawned ─booted→ Booted ─became_ready→ Ready
+//        Dead ─spawned→ (a cold restart)         Dead ─resumed→ Ready (a rollback's restored image)
+//   any started phase ─ended→ Dead
 struct Incarnation {
-  Phase phase = Phase::NotStarted;
+  [[nodiscard]] Phase phase() const { return phase_; }
+  void spawned() {
+    REJUV_ASSERT(phase_ == Phase::NotStarted || phase_ == Phase::Dead, "spawned: the previous incarnation is live");
+    phase_ = Phase::Spawned;
+  }
+  void booted() {
+    REJUV_ASSERT(phase_ == Phase::Spawned, "booted: not waiting for Hello");
+    phase_ = Phase::Booted;
+  }
+  void became_ready() {
+    REJUV_ASSERT(phase_ == Phase::Booted, "ready: not booted");
+    phase_ = Phase::Ready;
+  }
+  void resumed() {
+    REJUV_ASSERT(phase_ == Phase::Dead, "resumed: the live incarnation was not retired first");
+    phase_ = Phase::Ready;
+  }
+  void ended() {
+    REJUV_ASSERT(phase_ != Phase::NotStarted, "ended: never started");
+    phase_ = Phase::Dead;
+  }
+
   sys::ChildProcess process{};
   sys::SeqPacket channel{};        // the kernel's end, non-blocking
   bool scripted = false;           // a test seam's socket pair, no process (Kernel::attach_scripted_services)
@@ -79,8 +107,11 @@ struct Incarnation {
   std::string loss_reason{};
   std::string last_error{};        // its last Error-level log line: named when it fails at boot (loop.cpp)
 
-  [[nodiscard]] bool booting() const { return phase == Phase::Spawned || phase == Phase::Booted; }
-  [[nodiscard]] bool live() const { return booting() || phase == Phase::Ready; }
+  [[nodiscard]] bool booting() const { return phase_ == Phase::Spawned || phase_ == Phase::Booted; }
+  [[nodiscard]] bool live() const { return booting() || phase_ == Phase::Ready; }
+
+ private:
+  Phase phase_ = Phase::NotStarted;
 };
 
 // Images by written pages (DESIGN §7; checkpoint.cpp): the generation the live incarnation's memory derives
@@ -288,7 +319,7 @@ struct ServiceRuntime {
   [[nodiscard]] bool live() const { return proc.live(); }
   // Lockstep (docs/protocol.md "Idle"): it has reported every frame sent to it and nothing waits for it.
   [[nodiscard]] bool idle() const {
-    return proc.phase != Phase::Ready || proc.scripted || (flow.reported_all() && flow.drained());
+    return proc.phase() != Phase::Ready || proc.scripted || (flow.reported_all() && flow.drained());
   }
 };
 

@@ -159,7 +159,7 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   if (auto ok = watch(s.sandbox.output.get(), Source::Output); !ok) return system_error(ok.error());
   s.proc.process = std::move(*child);
   s.proc.channel = std::move(kernel_end);
-  s.proc.phase = Phase::Spawned;
+  s.proc.spawned();
   ++s.stats.spawns;
   s.pages.start_incarnation(Generation{});  // a fresh process: its first image is by fork
   s.proc.spawned_at = wall();
@@ -234,7 +234,7 @@ void Kernel::Impl::send_boot(ServiceRuntime& s) {
 }
 
 void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
-  if (s.proc.phase == Phase::Dead || s.proc.phase == Phase::NotStarted) return;
+  if (s.proc.phase() == Phase::Dead || s.proc.phase() == Phase::NotStarted) return;
   auto status = s.proc.process.try_wait();
   if (status && !*status) return;  // not yet (spurious wakeup)
   if (!status) {
@@ -257,7 +257,7 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
     (void)epoll.remove(s.proc.channel.fd());
     s.proc.channel.close();
   }
-  s.proc.phase = Phase::Dead;
+  s.proc.ended();
   s.stats.exit = **status;
   broker.remove_service(s.id);
   timers.remove_service(s.id);
@@ -327,7 +327,7 @@ void Kernel::Impl::report_stall() {
     what = "step " + std::to_string(steps.active()->step) + " in round " + std::to_string(steps.rounds());
     for (const ServiceRuntime& s : services) {
       if (!s.live() || s.idle()) continue;
-      what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.proc.phase)) + ", idle " +
+      what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.proc.phase())) + ", idle " +
               std::to_string(s.flow.reported()) + "/" + std::to_string(s.flow.frames_out()) +
               (s.flow.has_held() ? ", held" : "") +
               (s.flow.queued() == 0 ? "" : ", queued " + std::to_string(s.flow.queued())) +
@@ -399,7 +399,7 @@ void Kernel::Impl::shutdown_all() {
     (void)epoll.remove(s.proc.process.pidfd());
     s.proc.channel.close();
     s.stats.exit = s.proc.process.status();
-    s.proc.phase = Phase::Dead;
+    s.proc.ended();
   }
   if (plant_started && plant.running()) {
     (void)plant.signal(SIGTERM);
