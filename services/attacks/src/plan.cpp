@@ -103,25 +103,11 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
   return plan;
 }
 
-bool WindowClock::begins(Nanos now, SrMode mode, Epoch epoch) {
-  const bool started = now >= to_nanos(attack_.start);
-  const WindowKind here = mode == SrMode::MC ? WindowKind::MissionControl : WindowKind::SecureInterval;
-  if (sr_ == Rejuvenation::Off) {
-    if (here != WindowKind::MissionControl || window_kind_of(attack_.kind) != here || !started) return false;
-    if (attacked_without_sr_) return false;
-    attacked_without_sr_ = true;
-    ordinal_ = 0;
-    return true;
-  }
-  const auto e = static_cast<std::uint32_t>(epoch.value());
-  if (here == WindowKind::SecureInterval && started && !first_epoch_) first_epoch_ = e;
-  if (window_kind_of(attack_.kind) != here || window_epoch_ == e) return false;
-  window_epoch_ = e;
-  if (!first_epoch_ || e < *first_epoch_) return false;
-  const std::uint32_t n = e - *first_epoch_;
-  if (attack_.max_windows != 0 && n >= attack_.max_windows) return false;
-  ordinal_ = n;
-  return true;
-}
+WindowClock::WindowClock(const RuntimeAttack& attack, Rejuvenation sr)
+    : attack_(attack),
+      clock_(AttackSchedule{.start = to_nanos(attack.start),
+                            .max_windows = attack.max_windows,
+                            .window = window_kind_of(attack.kind),
+                            .sr = sr}) {}
 
 }  // namespace rejuv::attacks
