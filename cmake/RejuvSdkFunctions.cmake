@@ -14,8 +14,13 @@ endif()
 # REJUV_STATIC_SERVICES, so that fork() copies few mappings; no
 # Cyclone DDS, no protobuf: a service reaches nothing but its channel to the kernel). The kernel starts it
 # by the path a launch graph names in `executable:` (absolute, or relative to the kernel's service folder).
+#
+# ATTACK_HOOKS (or REJUV_ATTACK_HOOKS set true in the project, e.g. -DREJUV_ATTACK_HOOKS=ON for a test build)
+# links Rejuv::sdk_attack as well, which defines REJUV_ATTACK_HOOKS: the CUSTOM attack hook of
+# rejuv/sdk/attack_hook.hpp (docs/writing_a_service.md "Injecting a fault into your own service"). Never in a
+# build that flies for real: the hook is how a test injects a fault.
 function(rejuv_add_service name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;LIBRARIES" ${ARGN})
+  cmake_parse_arguments(ARG "ATTACK_HOOKS" "" "SOURCES;LIBRARIES" ${ARGN})
   if(NOT ARG_SOURCES)
     message(FATAL_ERROR "rejuv_add_service(${name}): no SOURCES")
   endif()
@@ -27,6 +32,9 @@ function(rejuv_add_service name)
     target_link_options(${name} PRIVATE -static)
   endif()
   target_link_libraries(${name} PRIVATE Rejuv::sdk ${ARG_LIBRARIES})
+  if(ARG_ATTACK_HOOKS OR REJUV_ATTACK_HOOKS)
+    target_link_libraries(${name} PRIVATE Rejuv::sdk_attack)
+  endif()
 endfunction()
 
 # rejuv_add_topics(NAME FILES a.idl ... TYPES module::Struct ... [POLICY p.policy.pbtxt]): topic types of your own IDL, beside the

@@ -51,17 +51,32 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   // The installed SDK carries no protobuf: no header of it names protobuf, no library of it is linked to it.
   EXPECT_FALSE(std::filesystem::exists(prefix / "include" / "rejuv" / "textproto")) << "textproto is not the SDK's";
 
+  // The CUSTOM attack hook for a service's test build (Rejuv::sdk_attack).
+  EXPECT_TRUE(std::filesystem::exists(prefix / "include" / "rejuv" / "sdk" / "attack_hook.hpp"));
+
   // 2. Configure and build the example out of the tree, with nothing but the installed package.
-  auto configured = step("configure", kCmake,
-                         {"-S", (kRepo / "examples" / "hello_service").string(), "-B", example_build.string(), "-G",
-                          "Ninja", "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_PREFIX_PATH=" + prefix.string(),
-                          "-DCMAKE_CXX_COMPILER=" REJUV_CXX_COMPILER, "-DCMAKE_C_COMPILER=" REJUV_C_COMPILER,
-                          // the build's own flags (a sanitizer preset's SDK needs its runtime in the service too)
-                          "-DCMAKE_CXX_FLAGS=" REJUV_CXX_FLAGS, "-DCMAKE_C_FLAGS=" REJUV_C_FLAGS,
-                          "-DCMAKE_EXE_LINKER_FLAGS=" REJUV_EXE_LINKER_FLAGS});
+  const auto configure = [&](const std::string& name, const std::filesystem::path& build,
+                             std::vector<std::string> extra) {
+    std::vector<std::string> args{"-S", (kRepo / "examples" / "hello_service").string(), "-B", build.string(), "-G",
+                                  "Ninja", "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_PREFIX_PATH=" + prefix.string(),
+                                  "-DCMAKE_CXX_COMPILER=" REJUV_CXX_COMPILER, "-DCMAKE_C_COMPILER=" REJUV_C_COMPILER,
+                                  // the build's own flags (a sanitizer preset's SDK needs its runtime in the service too)
+                                  "-DCMAKE_CXX_FLAGS=" REJUV_CXX_FLAGS, "-DCMAKE_C_FLAGS=" REJUV_C_FLAGS,
+                                  "-DCMAKE_EXE_LINKER_FLAGS=" REJUV_EXE_LINKER_FLAGS};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return step(name, kCmake, std::move(args));
+  };
+  auto configured = configure("configure", example_build, {});
   ASSERT_EQ(configured.exit_code, 0) << configured.out << configured.err;
   auto built = step("build", kCmake, {"--build", example_build.string()});
   ASSERT_EQ(built.exit_code, 0) << built.out << built.err;
+  // A test build of it turns the hooks on (docs/writing_a_service.md "Injecting a fault into your own service"):
+  // its CUSTOM hook compiles and links against the installed package.
+  const std::filesystem::path hooks_build = dir_ / "build-hello-hooks";
+  auto hooks_configured = configure("configure_hooks", hooks_build, {"-DREJUV_ATTACK_HOOKS=ON"});
+  ASSERT_EQ(hooks_configured.exit_code, 0) << hooks_configured.out << hooks_configured.err;
+  auto hooks_built = step("build_hooks", kCmake, {"--build", hooks_build.string(), "--target", "hello_monitor"});
+  ASSERT_EQ(hooks_built.exit_code, 0) << hooks_built.out << hooks_built.err;
   const std::filesystem::path service = example_build / "hello_monitor";
   ASSERT_TRUE(std::filesystem::exists(service)) << built.out;
 
@@ -95,6 +110,8 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   EXPECT_GT(std::stoull(m[2].str()), 0U) << log;
   EXPECT_EQ(log.find("publishing monitor_state"), std::string::npos) << log;
   EXPECT_EQ(log.find("publishing hello_summary"), std::string::npos) << log;  // its own type, routed
+  // Its on_restored ran in a restored incarnation (the run rolls back: checkpoints and rollbacks below).
+  EXPECT_NE(log.find("hello: restored into epoch 1"), std::string::npos) << log;
   const std::string json = slurp(summary);
   ASSERT_FALSE(json.empty());
   EXPECT_NE(json.find("\"denials\": {}"), std::string::npos) << json;  // no denied invocation of any service

@@ -78,9 +78,10 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
     const std::string name = text(prefix + "kind");
     const auto kind = attack_kind_from_name(name);
     if (!kind) {
-      // The attacks on the vehicle (the worst-case control and the attack library: law.hpp) and the proto's unset
-      // value are not runtime attacks; anything else is a typo.
-      if (flight::attack_law_from_name(name) || name == "ATTACK_UNSPECIFIED") continue;
+      // The attacks on the vehicle (the worst-case control and the attack library: law.hpp), CUSTOM (the
+      // service's own hook: rejuv/sdk/attack_hook.hpp) and the proto's unset value are not runtime attacks;
+      // anything else is a typo.
+      if (flight::attack_law_from_name(name) || name == "CUSTOM" || name == "ATTACK_UNSPECIFIED") continue;
       return fail(bad(prefix + "kind", "unknown attack kind '" + name + "'"));
     }
     const double start = number(prefix + "start_s").value_or(0.0);
