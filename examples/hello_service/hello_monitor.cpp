@@ -38,11 +38,14 @@ int main() {
         });
     if (!svc.require(state, "vehicle_state")) return 1;
 
-    // After a rollback this process is a restored image (its memory the checkpoint's): said once per rollback.
-    svc.on_restored([&](rejuv::Epoch epoch) { svc.logf(LogLevel::Info, "hello: restored into epoch %u", epoch.value()); });
+    // After a rollback this process is a restored image (its memory the checkpoint's): said once per
+    // rollback.
+    svc.on_restored([&](rejuv::Epoch epoch) {
+      svc.logf(LogLevel::Info, "hello: restored into epoch %u", epoch.value());
+    });
 #if defined(REJUV_ATTACK_HOOKS)
-    // A launch plan's CUSTOM attack on this service (docs/writing_a_service.md "Injecting a fault into your own
-    // service"): from its first attacked window on, every altitude reads `magnitude` m too high — until a
+    // A launch plan's CUSTOM attack on this service (docs/writing_a_service.md "Injecting a fault into your
+    // own service"): from its first attacked window on, every altitude reads `magnitude` m too high — until a
     // rollback restores the clean image.
     auto attack = rejuv::sdk::on_attack(svc, [&](const rejuv::sdk::AttackWindow& w) {
       altitude_fault_m = w.magnitude;

@@ -38,16 +38,26 @@ class AttackLibrary : public rejuv::test_support::ScratchDirTest {
     std::string err;
   };
 
-  // `graph`: the square (the default) or a variant of it; `kind`: the --attack KIND, or "" to fly the graph's plan.
-  Flight fly(const std::string& kind, bool sr, const fs::path& graph = kRepo / "launch/quad_square.launch.pbtxt",
-             double seconds = 0) {
-    const fs::path json = dir_ / ((kind.empty() ? graph.stem().string() : kind) + (sr ? "_sr" : "_nosr") + ".json");
-    std::vector<std::string> args{"run",          graph.string(),
-                                  "--seed",       "1",
-                                  "--duration",   std::to_string(seconds > 0 ? seconds : sr ? kFlightSr : kFlightNoSr),
-                                  "--domain",     std::to_string(rejuv::test_support::kOwnDdsDomain),
-                                  "--net-port",   "0",
-                                  "--summary-json", json.string()};
+  // `graph`: the square (the default) or a variant of it; `kind`: the --attack KIND, or "" to fly the graph's
+  // plan.
+  Flight fly(const std::string& kind, bool sr,
+             const fs::path& graph = kRepo / "launch/quad_square.launch.pbtxt", double seconds = 0) {
+    const fs::path json =
+        dir_ / ((kind.empty() ? graph.stem().string() : kind) + (sr ? "_sr" : "_nosr") + ".json");
+    std::vector<std::string> args{"run",
+                                  graph.string(),
+                                  "--seed",
+                                  "1",
+                                  "--duration",
+                                  std::to_string(seconds > 0 ? seconds
+                                                 : sr        ? kFlightSr
+                                                             : kFlightNoSr),
+                                  "--domain",
+                                  std::to_string(rejuv::test_support::kOwnDdsDomain),
+                                  "--net-port",
+                                  "0",
+                                  "--summary-json",
+                                  json.string()};
     if (!kind.empty()) args.insert(args.begin() + 2, std::initializer_list<std::string>{"--attack", kind});
     if (!sr) args.emplace_back("--no-sr");
     const auto r = rejuv::test_support::run_rejuv(dir_, args);
@@ -83,8 +93,8 @@ class AttackLibrary : public rejuv::test_support::ScratchDirTest {
     EXPECT_GE(on.summary.rollbacks(), 3U) << "attacked MC windows, each rolled back";
     EXPECT_GE(on.summary.attacks(), on.summary.rollbacks()) << "every rolled-back MC window was attacked";
     EXPECT_LE(on.summary.attacks(), on.summary.rollbacks() + 1);
-    // Counted by kind (the summary's attacks_by_kind): the plan's one attack, fired in the windows the summary
-    // counts, denied nothing (it acts through the service's own data), its effect the run's max V.
+    // Counted by kind (the summary's attacks_by_kind): the plan's one attack, fired in the windows the
+    // summary counts, denied nothing (it acts through the service's own data), its effect the run's max V.
     for (const Flight* f : {&off, &on}) {
       ASSERT_EQ(f->summary.attacks_by_kind_size(), 1) << f->summary.DebugString();
       const rejuv::proto::AttackKindSummary& row = f->summary.attacks_by_kind(0);
@@ -105,18 +115,20 @@ class AttackLibrary : public rejuv::test_support::ScratchDirTest {
 };
 
 // Attacks counted by kind: the square's worst-case control attack beside FORGED_SLOT in commander for two
-// windows. Each kind fired; what the kernel denied is FORGED_SLOT's alone and is every capability denial of the
-// run (the summary's per-reason `denials`); the vehicle stayed inside the safety set through both.
+// windows. Each kind fired; what the kernel denied is FORGED_SLOT's alone and is every capability denial of
+// the run (the summary's per-reason `denials`); the vehicle stayed inside the safety set through both.
 TEST_F(AttackLibrary, TwoKindsInOnePlan_CountedByKindDenialsMatchTheReasons) {
   std::string text = rejuv::test_support::slurp(kRepo / "launch/quad_square.launch.pbtxt");
   const std::string policy = "policy: \"../policies/quad_sr.policy.pbtxt\"";
   const std::string control = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
   const std::size_t policy_at = text.find(policy);
   ASSERT_NE(policy_at, std::string::npos);
-  text.replace(policy_at, policy.size(), "policy: \"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
+  text.replace(policy_at, policy.size(),
+               "policy: \"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
   const std::size_t control_at = text.find(control);
   ASSERT_NE(control_at, std::string::npos);
-  text.insert(control_at + control.size(), "\n  attacks { kind: FORGED_SLOT service: \"commander\" max_windows: 2 }");
+  text.insert(control_at + control.size(),
+              "\n  attacks { kind: FORGED_SLOT service: \"commander\" max_windows: 2 }");
   const fs::path graph = dir_ / "two_kinds.launch.pbtxt";
   {
     std::ofstream out(graph);
@@ -141,8 +153,8 @@ TEST_F(AttackLibrary, TwoKindsInOnePlan_CountedByKindDenialsMatchTheReasons) {
   // The per-reason count: every capability error (the keys that are not the kernel's other counters).
   std::uint64_t by_reason = 0;
   for (const auto& [reason, n] : f.summary.denials()) {
-    const std::vector<std::string> other{"BadFrame", "SandboxViolation", "FloodDropped", "WrongSize", "RingOverrun",
-                                         "TimerArmedTwice"};
+    const std::vector<std::string> other{"BadFrame",  "SandboxViolation", "FloodDropped",
+                                         "WrongSize", "RingOverrun",      "TimerArmedTwice"};
     if (std::find(other.begin(), other.end(), reason) == other.end()) by_reason += n;
   }
   EXPECT_EQ(forged.denied() + control_row.denied(), by_reason) << f.summary.DebugString();

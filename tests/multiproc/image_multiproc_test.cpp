@@ -46,7 +46,10 @@ std::string image_launch(const ImageGraph& g) {
                "  uses { object: \"numbers\" rights: \"R\" }\n  uses { object: \"echoes\" rights: \"W\" }\n");
   t += service("driver", "driver",
                "  rejuvenate: false\n  uses { object: \"numbers\" rights: \"R\" }\n  uses { object: \"echoes\" rights: \"W\" }\n");
-  t += service("worker", g.hooked ? "hooked" : g.worker ? "worker" : "idle",
+  t += service("worker",
+               g.hooked   ? "hooked"
+               : g.worker ? "worker"
+                          : "idle",
                "  uses { object: \"verdicts\" rights: \"W\" }\n" + g.worker_extra);
   t += "sr { enabled: true t_mc_s: 0.3 t_est_s: 3 rho_m: 0.1 rho_s: 0.05 keep_generations: " + std::to_string(g.keep) +
        " box { position_m: 0.5 velocity_m_s: 1 angle_rad: 0.3 rate_rad_s: 2 } restricted_limit_fraction: 0.3 }\n";
@@ -378,15 +381,17 @@ TEST_F(Images, FortyRollbacksByFork_FewOpenFiles_NoImageLost) {
   EXPECT_FALSE(k_->stop_reason().has_value());
 }
 
-constexpr double kRestoredMark = -1;  // pressure_pa of the `hooked` role's on_restored record (test_records.hpp)
+constexpr double kRestoredMark =
+    -1;  // pressure_pa of the `hooked` role's on_restored record (test_records.hpp)
 
-// on_restored (service.hpp): once in every restored incarnation, with the epoch the time page shows, before any
-// handler of that epoch runs (the `hooked` worker's ticks carry the epoch they ran in).
+// on_restored (service.hpp): once in every restored incarnation, with the epoch the time page shows, before
+// any handler of that epoch runs (the `hooked` worker's ticks carry the epoch they ran in).
 TEST_F(Images, OnRestored_OncePerRollbackWithItsEpochBeforeAnyHandlerOfIt) {
-  ASSERT_NO_FATAL_FAILURE(start({.counter = param("checkpoint_at", 3) + param("rollback_at", 6) + param("max_cycles", 3),
-                                 .keep = 2,
-                                 .worker = false,
-                                 .hooked = true}));
+  ASSERT_NO_FATAL_FAILURE(
+      start({.counter = param("checkpoint_at", 3) + param("rollback_at", 6) + param("max_cycles", 3),
+             .keep = 2,
+             .worker = false,
+             .hooked = true}));
   ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().rollbacks == 3; }, 300));
   ASSERT_NO_FATAL_FAILURE(step_n(*k_, 5));
   const auto all = records("verdicts", "worker");

@@ -57,12 +57,13 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   // 2. Configure and build the example out of the tree, with nothing but the installed package.
   const auto configure = [&](const std::string& name, const std::filesystem::path& build,
                              std::vector<std::string> extra) {
-    std::vector<std::string> args{"-S", (kRepo / "examples" / "hello_service").string(), "-B", build.string(), "-G",
-                                  "Ninja", "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_PREFIX_PATH=" + prefix.string(),
-                                  "-DCMAKE_CXX_COMPILER=" REJUV_CXX_COMPILER, "-DCMAKE_C_COMPILER=" REJUV_C_COMPILER,
-                                  // the build's own flags (a sanitizer preset's SDK needs its runtime in the service too)
-                                  "-DCMAKE_CXX_FLAGS=" REJUV_CXX_FLAGS, "-DCMAKE_C_FLAGS=" REJUV_C_FLAGS,
-                                  "-DCMAKE_EXE_LINKER_FLAGS=" REJUV_EXE_LINKER_FLAGS};
+    std::vector<std::string> args{
+        "-S", (kRepo / "examples" / "hello_service").string(), "-B", build.string(), "-G", "Ninja",
+        "-DCMAKE_BUILD_TYPE=Release", "-DCMAKE_PREFIX_PATH=" + prefix.string(),
+        "-DCMAKE_CXX_COMPILER=" REJUV_CXX_COMPILER, "-DCMAKE_C_COMPILER=" REJUV_C_COMPILER,
+        // the build's own flags (a sanitizer preset's SDK needs its runtime in the service too)
+        "-DCMAKE_CXX_FLAGS=" REJUV_CXX_FLAGS, "-DCMAKE_C_FLAGS=" REJUV_C_FLAGS,
+        "-DCMAKE_EXE_LINKER_FLAGS=" REJUV_EXE_LINKER_FLAGS};
     args.insert(args.end(), extra.begin(), extra.end());
     return step(name, kCmake, std::move(args));
   };
@@ -70,12 +71,13 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   ASSERT_EQ(configured.exit_code, 0) << configured.out << configured.err;
   auto built = step("build", kCmake, {"--build", example_build.string()});
   ASSERT_EQ(built.exit_code, 0) << built.out << built.err;
-  // A test build of it turns the hooks on (docs/writing_a_service.md "Injecting a fault into your own service"):
-  // its CUSTOM hook compiles and links against the installed package.
+  // A test build of it turns the hooks on (docs/writing_a_service.md "Injecting a fault into your own
+  // service"): its CUSTOM hook compiles and links against the installed package.
   const std::filesystem::path hooks_build = dir_ / "build-hello-hooks";
   auto hooks_configured = configure("configure_hooks", hooks_build, {"-DREJUV_ATTACK_HOOKS=ON"});
   ASSERT_EQ(hooks_configured.exit_code, 0) << hooks_configured.out << hooks_configured.err;
-  auto hooks_built = step("build_hooks", kCmake, {"--build", hooks_build.string(), "--target", "hello_monitor"});
+  auto hooks_built =
+      step("build_hooks", kCmake, {"--build", hooks_build.string(), "--target", "hello_monitor"});
   ASSERT_EQ(hooks_built.exit_code, 0) << hooks_built.out << hooks_built.err;
   const std::filesystem::path service = example_build / "hello_monitor";
   ASSERT_TRUE(std::filesystem::exists(service)) << built.out;

@@ -43,8 +43,8 @@ class Attacks : public ::testing::Test {
     start_graph(attack_launch(kind, attacker));
   }
   void start_graph(const std::string& text) {
-    auto loaded = launch::parse_launch(text, std::filesystem::path(REJUV_SOURCE_DIR) /
-                                                 "tests/security/graphs/attacks.launch.pbtxt");
+    auto loaded = launch::parse_launch(
+        text, std::filesystem::path(REJUV_SOURCE_DIR) / "tests/security/graphs/attacks.launch.pbtxt");
     ASSERT_TRUE(loaded.has_value()) << loaded.error().to_string();
     kernel::KernelOptions o = test_options();
     o.log = std::getenv("REJUV_TEST_LOG") != nullptr ? stderr : nullptr;  // quiet unless asked
@@ -148,9 +148,10 @@ class Attacks : public ::testing::Test {
 // itself does nothing the author did not write).
 TEST_F(Attacks, Custom_TheSdkHookSeesThePlansWindowsInMcOnly) {
   attacker_ = "worker";
-  ASSERT_NO_FATAL_FAILURE(start_graph(security_launch(
-      {.worker_extra = "",
-       .attack = "attack {\n  enabled: true\n  attacks { kind: CUSTOM service: \"worker\" max_windows: 2 magnitude: 3 }\n}\n"})));
+  ASSERT_NO_FATAL_FAILURE(
+      start_graph(security_launch({.worker_extra = "",
+                                   .attack = "attack {\n  enabled: true\n  attacks { kind: CUSTOM service: "
+                                             "\"worker\" max_windows: 2 magnitude: 3 }\n}\n"})));
   ASSERT_TRUE(step_until_rollbacks(5));
   const double mc = static_cast<double>(index_of(SrMode::MC));
   const auto windows = reports<verdicts::CustomWindow>("worker");

@@ -9,10 +9,13 @@ AttackLedger::AttackLedger(const proto::Launch& graph, bool attacks_on, Rejuvena
                            const FindService& find_service) {
   if (!attacks_on) return;
   for (const proto::Attack& a : graph.attack().attacks()) {
-    Entry e{.kind = proto::AttackKind_Name(a.kind()), .service = a.service(), .service_id = find_service(a.service())};
-    // The windows of launch.proto AttackKind: NETWORK_IN_SEI acts in the secure intervals, ESCAPE_HELPER once at
-    // boot (services/attacks plan.cpp window_kind_of, occasion_of), every other kind in MC windows.
-    e.window = a.kind() == proto::NETWORK_IN_SEI ? AttackWindowKind::SecureInterval : AttackWindowKind::MissionControl;
+    Entry e{.kind = proto::AttackKind_Name(a.kind()),
+            .service = a.service(),
+            .service_id = find_service(a.service())};
+    // The windows of launch.proto AttackKind: NETWORK_IN_SEI acts in the secure intervals, ESCAPE_HELPER once
+    // at boot (services/attacks plan.cpp window_kind_of, occasion_of), every other kind in MC windows.
+    e.window = a.kind() == proto::NETWORK_IN_SEI ? AttackWindowKind::SecureInterval
+                                                 : AttackWindowKind::MissionControl;
     if (a.kind() != proto::ESCAPE_HELPER) {
       e.clock.emplace(AttackSchedule{.start = flight_start + to_nanos(Seconds{a.start_s()}),
                                      .max_windows = a.max_windows(),
@@ -23,7 +26,9 @@ AttackLedger::AttackLedger(const proto::Launch& graph, bool attacks_on, Rejuvena
   }
 }
 
-void AttackLedger::on_mode(SrMode /*mode*/, Epoch epoch) { epoch_ = epoch; }
+void AttackLedger::on_mode(SrMode /*mode*/, Epoch epoch) {
+  epoch_ = epoch;
+}
 
 void AttackLedger::on_step(Nanos t, SrMode mode) {
   if (!booted_) {
@@ -52,7 +57,8 @@ void AttackLedger::on_step(Nanos t, SrMode mode) {
 
 void AttackLedger::on_security_event(const rejuv_msg_SecurityEvent& event) {
   const bool denial = event.kind == rejuv_msg_SECURITY_CAPABILITY_DENIAL;
-  const bool violation = event.kind == rejuv_msg_SECURITY_FORBIDDEN_CALL || event.kind == rejuv_msg_SECURITY_STRAY_PROCESS;
+  const bool violation =
+      event.kind == rejuv_msg_SECURITY_FORBIDDEN_CALL || event.kind == rejuv_msg_SECURITY_STRAY_PROCESS;
   if (!denial && !violation) return;
   for (Entry& e : attacks_) {
     if (!e.live || !e.service_id || e.service_id->value() != event.service_id) continue;

@@ -1,6 +1,6 @@
-// The run summary's attacks by kind (idl/summary.proto AttackKindSummary): for each attack of the launch plan,
-// the windows it fired in, what the kernel denied its service in them, what the sandbox contained, and the
-// vehicle's worst V while it acted. A kernel observer's view, fed by the run recorder (run_recorder.hpp):
+// The run summary's attacks by kind (idl/summary.proto AttackKindSummary): for each attack of the launch
+// plan, the windows it fired in, what the kernel denied its service in them, what the sandbox contained, and
+// the vehicle's worst V while it acted. A kernel observer's view, fed by the run recorder (run_recorder.hpp):
 //   - windows: the plan's rule (rejuv/core/attack_window.hpp), the one the hooks in the services act by,
 //     applied to the kernel's clock, mode and epoch at every step; ESCAPE_HELPER fires once, at boot;
 //   - denied / contained: the kernel's SecurityEvents (a policy without a SecurityEvent topic the kernel
@@ -8,7 +8,8 @@
 //     windows to the start of the next MC window of a later epoch (the window, the rollback that ends it and
 //     the secure interval after it, where what it left behind is swept); without SR, to the end;
 //   - max V: ‖x − x_sp‖²_P over the same spans (the plant's ground truth).
-// An event in a span that two attacks on one service share is counted once, for the first of them in the plan.
+// An event in a span that two attacks on one service share is counted once, for the first of them in the
+// plan.
 #pragma once
 
 #include <cstdint>
@@ -18,12 +19,12 @@
 #include <string_view>
 #include <vector>
 
+#include "launch.pb.h"
 #include "rejuv/core/attack_window.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/msgs/topic_types.hpp"
-#include "launch.pb.h"
 #include "summary.pb.h"
 
 namespace rejuv::cli {
@@ -55,8 +56,8 @@ class AttackLedger {
     std::optional<ServiceId> service_id;
     std::optional<AttackWindowClock> clock{};  // nullopt: fires once, at boot (ESCAPE_HELPER)
     AttackWindowKind window = AttackWindowKind::MissionControl;
-    bool live = false;                       // inside a span (see the file comment)
-    std::optional<Epoch> live_epoch{};       // the epoch of the window that opened the span
+    bool live = false;                  // inside a span (see the file comment)
+    std::optional<Epoch> live_epoch{};  // the epoch of the window that opened the span
     std::uint64_t windows = 0;
     std::uint64_t denied = 0;
     std::uint64_t contained = 0;

@@ -70,7 +70,7 @@ std::string describe_services(const proto::RunSummary& s) {
   return out;
 }
 
-// One line per attack of the plan (AttackKindSummary): windows fired, denied and contained in its spans, max V.
+// One line per attack of the plan (AttackKindSummary): windows, denials, containment, max V in its spans.
 std::string describe_attacks(const proto::RunSummary& s) {
   if (s.attacks_by_kind().empty()) return {};
   std::size_t kind_width = 4, service_width = 7;
@@ -79,15 +79,16 @@ std::string describe_attacks(const proto::RunSummary& s) {
     service_width = std::max(service_width, a.service().size());
   }
   char line[256];
-  std::snprintf(line, sizeof line, "  attacks     %-*s %-*s %7s %7s %9s %8s\n", static_cast<int>(kind_width), "kind",
-                static_cast<int>(service_width), "service", "windows", "denied", "contained", "max V");
+  std::snprintf(line, sizeof line, "  attacks     %-*s %-*s %7s %7s %9s %8s\n", static_cast<int>(kind_width),
+                "kind", static_cast<int>(service_width), "service", "windows", "denied", "contained",
+                "max V");
   std::string out = line;
   for (const proto::AttackKindSummary& a : s.attacks_by_kind()) {
-    std::snprintf(line, sizeof line, "              %-*s %-*s %7llu %7llu %9llu %8.4f%s\n", static_cast<int>(kind_width),
-                  a.kind().c_str(), static_cast<int>(service_width), a.service().c_str(),
-                  static_cast<unsigned long long>(a.windows_fired()), static_cast<unsigned long long>(a.denied()),
-                  static_cast<unsigned long long>(a.contained()), a.max_v(),
-                  a.left_safety_set() ? "  LEFT THE SAFETY SET" : "");
+    std::snprintf(line, sizeof line, "              %-*s %-*s %7llu %7llu %9llu %8.4f%s\n",
+                  static_cast<int>(kind_width), a.kind().c_str(), static_cast<int>(service_width),
+                  a.service().c_str(), static_cast<unsigned long long>(a.windows_fired()),
+                  static_cast<unsigned long long>(a.denied()), static_cast<unsigned long long>(a.contained()),
+                  a.max_v(), a.left_safety_set() ? "  LEFT THE SAFETY SET" : "");
     out += line;
   }
   return out;
@@ -364,9 +365,10 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
     ulog = std::move(*opened);
   }
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
-  recorder.track_attacks(AttackLedger((*k)->graph().graph, attack, (*k)->sr_enabled() ? Rejuvenation::On : Rejuvenation::Off,
-                                      (*k)->flight_start(),
-                                      [kernel = k->get()](std::string_view name) { return kernel->find_service(name); }));
+  recorder.track_attacks(
+      AttackLedger((*k)->graph().graph, attack, (*k)->sr_enabled() ? Rejuvenation::On : Rejuvenation::Off,
+                   (*k)->flight_start(),
+                   [kernel = k->get()](std::string_view name) { return kernel->find_service(name); }));
   if (files) files->set_service_names(service_names(**k));
   if ((*k)->sr_enabled()) recorder.stop_after_attacks(stop_after_attacks, [kernel = k->get()] { kernel->request_stop(); });
   std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),

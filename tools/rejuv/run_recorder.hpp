@@ -10,6 +10,8 @@
 #include <optional>
 #include <string>
 
+#include "attack_ledger.hpp"
+#include "figure_data.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
@@ -19,8 +21,6 @@
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/msgs/topic_types.hpp"
-#include "attack_ledger.hpp"
-#include "figure_data.hpp"
 #include "summary.pb.h"
 
 namespace rejuv::cli {

@@ -28,8 +28,8 @@ CustomAttack::CustomAttack(Service& svc, std::vector<std::pair<AttackWindowClock
                            std::function<void(const AttackWindow&)> on_window)
     : svc_(svc), clocks_(std::move(clocks)), on_window_(std::move(on_window)), current_(clocks_.size()) {}
 
-SdkResult<std::unique_ptr<CustomAttack>> CustomAttack::install(Service& svc,
-                                                               std::function<void(const AttackWindow&)> on_window) {
+SdkResult<std::unique_ptr<CustomAttack>> CustomAttack::install(
+    Service& svc, std::function<void(const AttackWindow&)> on_window) {
   if (svc.param("attack.enabled", 0.0) != 1.0) return std::unique_ptr<CustomAttack>{};
   auto count = checked(svc, "attack.count", 64.0, true);
   if (!count) return std::unexpected(count.error());
@@ -54,7 +54,9 @@ SdkResult<std::unique_ptr<CustomAttack>> CustomAttack::install(Service& svc,
     char line[160];
     std::snprintf(line, sizeof line, "%sCUSTOM from t = %.3f s (kernel time), %s, magnitude %g",
                   described.empty() ? "" : "; ", *start,
-                  *windows == 0 ? "every MC window" : (std::to_string(static_cast<std::uint64_t>(*windows)) + " MC window(s)").c_str(),
+                  *windows == 0
+                      ? "every MC window"
+                      : (std::to_string(static_cast<std::uint64_t>(*windows)) + " MC window(s)").c_str(),
                   *magnitude);
     described += line;
   }

@@ -345,9 +345,9 @@ int Service::run() {
     }
     if (s.restored_pending) {
       // A rollback resumed this process (take_image returned true, here or inside a call's request) and this
-      // is the first frame of the new incarnation: the kernel has finished the rollback, so the time page shows
-      // the new epoch. The author's hook runs before the frame is handled (kept in `queued`, its fds aside:
-      // the hook may make requests of its own, which read the channel).
+      // is the first frame of the new incarnation: the kernel has finished the rollback, so the time page
+      // shows the new epoch. The author's hook runs before the frame is handled (kept in `queued`, its fds
+      // aside: the hook may make requests of its own, which read the channel).
       s.restored_pending = false;
       s.queued.emplace_front(bytes.begin(), bytes.end());
       std::vector<sys::UniqueFd> fds = std::move(s.rx_fds);

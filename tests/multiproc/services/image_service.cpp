@@ -138,9 +138,11 @@ int run_hooked(Service& svc) {
   auto verdicts = svc.advertise<Record>("verdicts");
   if (!verdicts) return fail(svc, "advertise verdicts: " + verdicts.error().to_string());
   svc.on_restored([&](rejuv::Epoch epoch) {
-    (void)verdicts->publish(record(svc, rejuv::test_services::kRestoredMark, epoch.value(), svc.epoch().value()));
+    (void)verdicts->publish(
+        record(svc, rejuv::test_services::kRestoredMark, epoch.value(), svc.epoch().value()));
   });
-  auto timer = svc.every(period(svc), [&] { (void)verdicts->publish(record(svc, 0, svc.epoch().value(), 0)); });
+  auto timer =
+      svc.every(period(svc), [&] { (void)verdicts->publish(record(svc, 0, svc.epoch().value(), 0)); });
   if (!timer) return fail(svc, "timer: " + timer.error().to_string());
   return svc.run();
 }

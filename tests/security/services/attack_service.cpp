@@ -171,19 +171,21 @@ int main() {
           stamp(s)));
     });
   }
-  // ==== CUSTOM HOOK ====: the SDK's (rejuv/sdk/attack_hook.hpp), as a service author installs it: each window
-  // that begins is reported, and each tick at which the hook says a window is in force.
+  // ==== CUSTOM HOOK ====: the SDK's (rejuv/sdk/attack_hook.hpp), as a service author installs it: each
+  // window that begins is reported, and each tick at which the hook says a window is in force.
   auto custom = rejuv::sdk::on_attack(s, [&](const rejuv::sdk::AttackWindow& w) {
     (void)verdicts->publish(v::encode(
-        v::CustomWindow{.mode = static_cast<double>(rejuv::index_of(s.mode())), .magnitude = w.magnitude}, stamp(s)));
+        v::CustomWindow{.mode = static_cast<double>(rejuv::index_of(s.mode())), .magnitude = w.magnitude},
+        stamp(s)));
   });
   if (!s.require(custom, "bad CUSTOM attack params")) return 1;
   if (*custom) {
     auto watch = s.every(kTick, [&] {
       if (const auto w = (*custom)->window()) {
-        (void)verdicts->publish(v::encode(v::CustomActive{.epoch = static_cast<double>(w->epoch.value()),
-                                                          .mode = static_cast<double>(rejuv::index_of(s.mode()))},
-                                          stamp(s)));
+        (void)verdicts->publish(
+            v::encode(v::CustomActive{.epoch = static_cast<double>(w->epoch.value()),
+                                      .mode = static_cast<double>(rejuv::index_of(s.mode()))},
+                      stamp(s)));
       }
     });
     if (!s.require(watch, "timer")) return 1;

@@ -45,7 +45,7 @@ void cycle(AttackLedger& l, std::uint32_t e, Nanos t0) {
 
 TEST(AttackLedger, WindowsDenialsAndVByTheAttackWhoseSpanHoldsThem) {
   AttackLedger l(plan(), true, Rejuvenation::On, 1s, find);
-  l.on_step(0ms, SrMode::SC);  // aligning: before start_s + the alignment
+  l.on_step(0ms, SrMode::SC);      // aligning: before start_s + the alignment
   l.on_security_event(denial(0));  // in no span
   cycle(l, 0, 1s);
   l.on_security_event(denial(0));

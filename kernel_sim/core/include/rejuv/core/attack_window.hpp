@@ -27,8 +27,8 @@ enum class Rejuvenation : std::uint8_t { On, Off };
 
 // One attack's windows as the plan gives them.
 struct AttackSchedule {
-  Nanos start{0};                  // first window that starts at or after this kernel time
-  std::uint32_t max_windows = 0;   // 0 = every window
+  Nanos start{0};                 // first window that starts at or after this kernel time
+  std::uint32_t max_windows = 0;  // 0 = every window
   AttackWindowKind window = AttackWindowKind::MissionControl;
   Rejuvenation sr = Rejuvenation::On;
 };
@@ -51,8 +51,8 @@ class AttackWindowClock {
  private:
   AttackSchedule schedule_;
   std::optional<std::uint32_t> first_epoch_{};
-  std::optional<std::uint32_t> window_epoch_{};   // the epoch whose window of our kind was last seen
-  std::optional<std::uint32_t> attacked_epoch_{}; // the epoch of the window last begun (attacked)
+  std::optional<std::uint32_t> window_epoch_{};    // the epoch whose window of our kind was last seen
+  std::optional<std::uint32_t> attacked_epoch_{};  // the epoch of the window last begun (attacked)
   std::uint32_t ordinal_ = 0;
   bool attacked_without_sr_ = false;
 };

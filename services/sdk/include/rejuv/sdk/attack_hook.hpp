@@ -1,9 +1,9 @@
-// The CUSTOM attack hook (idl/launch.proto AttackKind CUSTOM; docs/writing_a_service.md "Injecting a fault into
-// your own service"): how any SDK service lets the launch plan inject a fault of its author's own — a gain
-// overwritten, a stuck output, a bad estimate — in the windows the kernel's plan decides, exactly as for the
-// project's own attack kinds (start_s, max_windows; MC windows only; rejuv/core/attack_window.hpp). What the
-// fault is stays in the service's memory, so a rollback erases it like any corruption: that is what a test of
-// the service under SR shows.
+// The CUSTOM attack hook (idl/launch.proto AttackKind CUSTOM; docs/writing_a_service.md "Injecting a fault
+// into your own service"): how any SDK service lets the launch plan inject a fault of its author's own — a
+// gain overwritten, a stuck output, a bad estimate — in the windows the kernel's plan decides, exactly as for
+// the project's own attack kinds (start_s, max_windows; MC windows only; rejuv/core/attack_window.hpp). What
+// the fault is stays in the service's memory, so a rollback erases it like any corruption: that is what a
+// test of the service under SR shows.
 //
 // Test builds only: this header refuses to compile unless REJUV_ATTACK_HOOKS is defined, which linking the
 // library Rejuv::sdk_attack (rejuv_add_service(... ATTACK_HOOKS), or -DREJUV_ATTACK_HOOKS=ON for every
@@ -26,7 +26,8 @@
 #pragma once
 
 #if !defined(REJUV_ATTACK_HOOKS)
-#error "rejuv/sdk/attack_hook.hpp is for test builds: link Rejuv::sdk_attack (rejuv_add_service(... ATTACK_HOOKS)), which defines REJUV_ATTACK_HOOKS"
+#error \
+    "rejuv/sdk/attack_hook.hpp is for test builds: link Rejuv::sdk_attack (rejuv_add_service(... ATTACK_HOOKS)), which defines REJUV_ATTACK_HOOKS"
 #endif
 
 #include <cstdint>
@@ -56,11 +57,11 @@ class CustomAttack {
   // Reads the launch plan from the boot params (attack.enabled, attack.count, attack.<j>.kind, start_s,
   // max_windows, magnitude; sr.enabled) and keeps the CUSTOM attacks that name this service. None (attacks
   // off, `rejuv run --no-attack`, another service named): nullptr, and nothing is armed. Otherwise logs the
-  // plan (Warn) and arms one kernel timer (kTick) that watches the time page, so that `on_window` runs once at
-  // the start of every attacked window, in the event loop like every callback. A malformed param is
+  // plan (Warn) and arms one kernel timer (kTick) that watches the time page, so that `on_window` runs once
+  // at the start of every attacked window, in the event loop like every callback. A malformed param is
   // BadArgument naming it.
-  [[nodiscard]] static SdkResult<std::unique_ptr<CustomAttack>> install(Service& svc,
-                                                                       std::function<void(const AttackWindow&)> on_window);
+  [[nodiscard]] static SdkResult<std::unique_ptr<CustomAttack>> install(
+      Service& svc, std::function<void(const AttackWindow&)> on_window);
 
   static constexpr Nanos kTick{std::chrono::milliseconds{2}};
 
@@ -86,13 +87,13 @@ class CustomAttack {
   Service& svc_;
   std::vector<std::pair<AttackWindowClock, double>> clocks_;  // one per CUSTOM attack, with its magnitude
   std::function<void(const AttackWindow&)> on_window_;
-  std::vector<std::optional<AttackWindow>> current_;           // the window each attack began last
+  std::vector<std::optional<AttackWindow>> current_;  // the window each attack began last
   std::uint64_t windows_ = 0;
 };
 
 // CustomAttack::install: `svc`'s CUSTOM attacks, `fn` at the start of each attacked window.
-[[nodiscard]] inline SdkResult<std::unique_ptr<CustomAttack>> on_attack(Service& svc,
-                                                                       std::function<void(const AttackWindow&)> fn) {
+[[nodiscard]] inline SdkResult<std::unique_ptr<CustomAttack>> on_attack(
+    Service& svc, std::function<void(const AttackWindow&)> fn) {
   return CustomAttack::install(svc, std::move(fn));
 }
 
