@@ -5,8 +5,9 @@ include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 # What a service links (the closure of rejuv_sdk): no protobuf, no Cyclone DDS library, no simulation.
+# rejuv_sdk_attack: the CUSTOM attack hook, linked by a service's test build only (rejuv_add_service ATTACK_HOOKS).
 set(REJUV_SDK_TARGETS rejuv_sdk rejuv_core rejuv_channel rejuv_clock rejuv_sys rejuv_cap rejuv_memory_image
-    rejuv_msgs rejuv_msgs_c)
+    rejuv_msgs rejuv_msgs_c rejuv_sdk_attack)
 foreach(target IN LISTS REJUV_SDK_TARGETS)
   string(REGEX REPLACE "^rejuv_" "" short ${target})
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${short})

@@ -17,8 +17,13 @@ endif()
 # PARAMS: the parameters the service declares (docs/writing_a_service.md "Declaring parameters"), copied beside
 # the executable as $<TARGET_FILE:NAME>.params.pbtxt at every build; `cmake --install` installs the service and
 # that file beside it in the bin folder. The kernel then refuses a launch param the file does not declare.
+#
+# ATTACK_HOOKS (or REJUV_ATTACK_HOOKS set true in the project, e.g. -DREJUV_ATTACK_HOOKS=ON for a test build)
+# links Rejuv::sdk_attack as well, which defines REJUV_ATTACK_HOOKS: the CUSTOM attack hook of
+# rejuv/sdk/attack_hook.hpp (docs/writing_a_service.md "Injecting a fault into your own service"). Never in a
+# build that flies for real: the hook is how a test injects a fault.
 function(rejuv_add_service name)
-  cmake_parse_arguments(ARG "" "PARAMS" "SOURCES;LIBRARIES" ${ARGN})
+  cmake_parse_arguments(ARG "ATTACK_HOOKS" "PARAMS" "SOURCES;LIBRARIES" ${ARGN})
   if(NOT ARG_SOURCES)
     message(FATAL_ERROR "rejuv_add_service(${name}): no SOURCES")
   endif()
@@ -30,6 +35,9 @@ function(rejuv_add_service name)
     target_link_options(${name} PRIVATE -static)
   endif()
   target_link_libraries(${name} PRIVATE Rejuv::sdk ${ARG_LIBRARIES})
+  if(ARG_ATTACK_HOOKS OR REJUV_ATTACK_HOOKS)
+    target_link_libraries(${name} PRIVATE Rejuv::sdk_attack)
+  endif()
   if(ARG_PARAMS)
     get_filename_component(params "${ARG_PARAMS}" ABSOLUTE)
     add_custom_target(${name}_params ALL

@@ -8,6 +8,9 @@
 #include "hello.h"  // idlc's C struct hello_Summary
 #include "rejuv/sdk/run.hpp"
 #include "rejuv/sdk/service.hpp"
+#if defined(REJUV_ATTACK_HOOKS)
+#include "rejuv/sdk/attack_hook.hpp"  // a test build's fault injection (rejuv_add_service ATTACK_HOOKS)
+#endif
 
 REJUV_TOPIC_TYPE(hello_Summary, "hello::Summary");
 
@@ -28,11 +31,28 @@ int main() {
     auto summary = svc.advertise<hello_Summary>("hello_summary");  // the policy's `types` size is checked here
     if (!svc.require(summary, "hello_summary")) return 1;
     double max_altitude_m = 0.0;
+    double altitude_fault_m = 0.0;  // 0 unless a CUSTOM attack corrupted it (test builds only, below)
     auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>(
         "vehicle_state", [&](const rejuv_msg_VehicleStateEstimate& m) {
-          max_altitude_m = std::max(max_altitude_m, -m.p_N_m[2]);  // NED: up is −down
+          max_altitude_m = std::max(max_altitude_m, -m.p_N_m[2] + altitude_fault_m);  // NED: up is −down
         });
     if (!svc.require(state, "vehicle_state")) return 1;
+
+    // After a rollback this process is a restored image (its memory the checkpoint's): said once per
+    // rollback.
+    svc.on_restored([&](rejuv::Epoch epoch) {
+      svc.logf(LogLevel::Info, "hello: restored into epoch %u", epoch.value());
+    });
+#if defined(REJUV_ATTACK_HOOKS)
+    // A launch plan's CUSTOM attack on this service (docs/writing_a_service.md "Injecting a fault into your
+    // own service"): from its first attacked window on, every altitude reads `magnitude` m too high — until a
+    // rollback restores the clean image.
+    auto attack = rejuv::sdk::on_attack(svc, [&](const rejuv::sdk::AttackWindow& w) {
+      altitude_fault_m = w.magnitude;
+      svc.logf(LogLevel::Warn, "hello: attacked window %u (epoch %u)", w.ordinal, w.epoch.value());
+    });
+    if (!svc.require(attack, "attack plan")) return 1;
+#endif
 
     std::uint64_t published = 0;
     auto tick = svc.every(rejuv::to_nanos(rejuv::Seconds{period_s}), [&] {

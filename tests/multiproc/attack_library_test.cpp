@@ -7,7 +7,9 @@
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -36,15 +38,27 @@ class AttackLibrary : public rejuv::test_support::ScratchDirTest {
     std::string err;
   };
 
-  Flight fly(const std::string& kind, bool sr) {
-    const fs::path json = dir_ / (kind + (sr ? "_sr" : "_nosr") + ".json");
-    std::vector<std::string> args{"run",          (kRepo / "launch/quad_square.launch.pbtxt").string(),
-                                  "--attack",     kind,
-                                  "--seed",       "1",
-                                  "--duration",   std::to_string(sr ? kFlightSr : kFlightNoSr),
-                                  "--domain",     std::to_string(rejuv::test_support::kOwnDdsDomain),
-                                  "--net-port",   "0",
-                                  "--summary-json", json.string()};
+  // `graph`: the square (the default) or a variant of it; `kind`: the --attack KIND, or "" to fly the graph's
+  // plan.
+  Flight fly(const std::string& kind, bool sr,
+             const fs::path& graph = kRepo / "launch/quad_square.launch.pbtxt", double seconds = 0) {
+    const fs::path json =
+        dir_ / ((kind.empty() ? graph.stem().string() : kind) + (sr ? "_sr" : "_nosr") + ".json");
+    std::vector<std::string> args{"run",
+                                  graph.string(),
+                                  "--seed",
+                                  "1",
+                                  "--duration",
+                                  std::to_string(seconds > 0 ? seconds
+                                                 : sr        ? kFlightSr
+                                                             : kFlightNoSr),
+                                  "--domain",
+                                  std::to_string(rejuv::test_support::kOwnDdsDomain),
+                                  "--net-port",
+                                  "0",
+                                  "--summary-json",
+                                  json.string()};
+    if (!kind.empty()) args.insert(args.begin() + 2, std::initializer_list<std::string>{"--attack", kind});
     if (!sr) args.emplace_back("--no-sr");
     const auto r = rejuv::test_support::run_rejuv(dir_, args);
     Flight f;
@@ -79,8 +93,73 @@ class AttackLibrary : public rejuv::test_support::ScratchDirTest {
     EXPECT_GE(on.summary.rollbacks(), 3U) << "attacked MC windows, each rolled back";
     EXPECT_GE(on.summary.attacks(), on.summary.rollbacks()) << "every rolled-back MC window was attacked";
     EXPECT_LE(on.summary.attacks(), on.summary.rollbacks() + 1);
+    // Counted by kind (the summary's attacks_by_kind): the plan's one attack, fired in the windows the
+    // summary counts, denied nothing (it acts through the service's own data), its effect the run's max V.
+    for (const Flight* f : {&off, &on}) {
+      ASSERT_EQ(f->summary.attacks_by_kind_size(), 1) << f->summary.DebugString();
+      const rejuv::proto::AttackKindSummary& row = f->summary.attacks_by_kind(0);
+      EXPECT_EQ(row.kind(), kind);
+      EXPECT_GT(row.windows_fired(), 0U);
+      EXPECT_EQ(row.denied(), 0U);
+      EXPECT_LE(row.max_v(), f->summary.max_v());
+    }
+    EXPECT_TRUE(off.summary.attacks_by_kind(0).left_safety_set()) << "the harm shows in the kind's spans";
+    EXPECT_EQ(off.summary.attacks_by_kind(0).windows_fired(), 1U) << "without SR: one endless window";
+    EXPECT_FALSE(on.summary.attacks_by_kind(0).left_safety_set());
+    // The plan's windows by the kernel's steps, and the summary's by the controls the recorder sees: the
+    // same windows, the last one perhaps counted by one of them only.
+    EXPECT_LE(std::max(on.summary.attacks_by_kind(0).windows_fired(), on.summary.attacks()) -
+                  std::min(on.summary.attacks_by_kind(0).windows_fired(), on.summary.attacks()),
+              1U);
   }
 };
+
+// Attacks counted by kind: the square's worst-case control attack beside FORGED_SLOT in commander for two
+// windows. Each kind fired; what the kernel denied is FORGED_SLOT's alone and is every capability denial of
+// the run (the summary's per-reason `denials`); the vehicle stayed inside the safety set through both.
+TEST_F(AttackLibrary, TwoKindsInOnePlan_CountedByKindDenialsMatchTheReasons) {
+  std::string text = rejuv::test_support::slurp(kRepo / "launch/quad_square.launch.pbtxt");
+  const std::string policy = "policy: \"../policies/quad_sr.policy.pbtxt\"";
+  const std::string control = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
+  const std::size_t policy_at = text.find(policy);
+  ASSERT_NE(policy_at, std::string::npos);
+  text.replace(policy_at, policy.size(),
+               "policy: \"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
+  const std::size_t control_at = text.find(control);
+  ASSERT_NE(control_at, std::string::npos);
+  text.insert(control_at + control.size(),
+              "\n  attacks { kind: FORGED_SLOT service: \"commander\" max_windows: 2 }");
+  const fs::path graph = dir_ / "two_kinds.launch.pbtxt";
+  {
+    std::ofstream out(graph);
+    out << text;
+  }
+  const Flight f = fly("", true, graph, 12.0);
+  EXPECT_EQ(f.exit_code, 0) << f.err;
+  ASSERT_EQ(f.summary.attacks_by_kind_size(), 2) << f.summary.DebugString();
+  const rejuv::proto::AttackKindSummary& control_row = f.summary.attacks_by_kind(0);
+  const rejuv::proto::AttackKindSummary& forged = f.summary.attacks_by_kind(1);
+  EXPECT_EQ(control_row.kind(), "WORST_CASE_CONTROL");
+  EXPECT_EQ(control_row.service(), "lqr_control");
+  EXPECT_GT(control_row.windows_fired(), 0U);
+  EXPECT_EQ(control_row.denied(), 0U);
+  EXPECT_FALSE(control_row.left_safety_set());
+  EXPECT_EQ(forged.kind(), "FORGED_SLOT");
+  EXPECT_EQ(forged.service(), "commander");
+  ASSERT_GE(f.summary.rollbacks(), 2U) << "two MC windows flown after the first";
+  EXPECT_EQ(forged.windows_fired(), 2U) << "max_windows";
+  EXPECT_GT(forged.denied(), 0U);
+  EXPECT_EQ(forged.contained(), 0U);
+  // The per-reason count: every capability error (the keys that are not the kernel's other counters).
+  std::uint64_t by_reason = 0;
+  for (const auto& [reason, n] : f.summary.denials()) {
+    const std::vector<std::string> other{"BadFrame",  "SandboxViolation", "FloodDropped",
+                                         "WrongSize", "RingOverrun",      "TimerArmedTwice"};
+    if (std::find(other.begin(), other.end(), reason) == other.end()) by_reason += n;
+  }
+  EXPECT_EQ(forged.denied() + control_row.denied(), by_reason) << f.summary.DebugString();
+  EXPECT_FALSE(forged.left_safety_set());
+}
 
 TEST_F(AttackLibrary, EstimateShift_HarmsWithoutSrContainedWithSr) { harms_without_sr_contained_with_sr("ESTIMATE_SHIFT"); }
 TEST_F(AttackLibrary, SensorBias_HarmsWithoutSrContainedWithSr) { harms_without_sr_contained_with_sr("SENSOR_BIAS"); }

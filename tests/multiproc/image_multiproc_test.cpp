@@ -23,6 +23,7 @@ struct ImageGraph {
   std::uint32_t keep = 2;   // sr.keep_generations
   bool worker = false;
   std::string worker_extra{};  // more lines in the worker's entry (`limits { … }`)
+  bool hooked = false;         // the `worker` service in the role `hooked` (on_restored) instead
 };
 
 std::string param(const std::string& name, double v) {
@@ -45,7 +46,10 @@ std::string image_launch(const ImageGraph& g) {
                "  uses { object: \"numbers\" rights: \"R\" }\n  uses { object: \"echoes\" rights: \"W\" }\n");
   t += service("driver", "driver",
                "  rejuvenate: false\n  uses { object: \"numbers\" rights: \"R\" }\n  uses { object: \"echoes\" rights: \"W\" }\n");
-  t += service("worker", g.worker ? "worker" : "idle",
+  t += service("worker",
+               g.hooked   ? "hooked"
+               : g.worker ? "worker"
+                          : "idle",
                "  uses { object: \"verdicts\" rights: \"W\" }\n" + g.worker_extra);
   t += "sr { enabled: true t_mc_s: 0.3 t_est_s: 3 rho_m: 0.1 rho_s: 0.05 keep_generations: " + std::to_string(g.keep) +
        " box { position_m: 0.5 velocity_m_s: 1 angle_rad: 0.3 rate_rad_s: 2 } restricted_limit_fraction: 0.3 }\n";
@@ -375,6 +379,38 @@ TEST_F(Images, FortyRollbacksByFork_FewOpenFiles_NoImageLost) {
   EXPECT_EQ(k_->sr_stats().fallbacks, 0U);
   EXPECT_EQ(k_->sr_stats().cold_restarts, 0U);
   EXPECT_FALSE(k_->stop_reason().has_value());
+}
+
+constexpr double kRestoredMark =
+    -1;  // pressure_pa of the `hooked` role's on_restored record (test_records.hpp)
+
+// on_restored (service.hpp): once in every restored incarnation, with the epoch the time page shows, before
+// any handler of that epoch runs (the `hooked` worker's ticks carry the epoch they ran in).
+TEST_F(Images, OnRestored_OncePerRollbackWithItsEpochBeforeAnyHandlerOfIt) {
+  ASSERT_NO_FATAL_FAILURE(
+      start({.counter = param("checkpoint_at", 3) + param("rollback_at", 6) + param("max_cycles", 3),
+             .keep = 2,
+             .worker = false,
+             .hooked = true}));
+  ASSERT_NO_FATAL_FAILURE(step_until([&] { return k_->sr_stats().rollbacks == 3; }, 300));
+  ASSERT_NO_FATAL_FAILURE(step_n(*k_, 5));
+  const auto all = records("verdicts", "worker");
+  std::vector<rejuv_msg_SensorBaro> hooks;
+  for (const auto& r : all) {
+    if (r.pressure_pa == kRestoredMark) hooks.push_back(r);
+  }
+  ASSERT_EQ(hooks.size(), 3U) << "one on_restored per rollback";
+  for (std::size_t i = 0; i < hooks.size(); ++i) {
+    EXPECT_EQ(hooks[i].altitude_m, static_cast<double>(i + 1)) << "the epoch it was restored into";
+    EXPECT_EQ(hooks[i].temperature_c, hooks[i].altitude_m) << "the epoch the time page shows then";
+  }
+  EXPECT_EQ(k_->epoch().value(), 3U);
+  // In every restored epoch the first record of it is the hook's: no tick of that epoch ran before it.
+  for (std::uint32_t e = 1; e <= 3; ++e) {
+    const auto first = std::find_if(all.begin(), all.end(), [&](const auto& r) { return r.altitude_m == e; });
+    ASSERT_NE(first, all.end()) << "epoch " << e;
+    EXPECT_EQ(first->pressure_pa, kRestoredMark) << "a handler of epoch " << e << " ran before on_restored";
+  }
 }
 
 TEST_F(Images, RejuvenationTimer_OneArmPerEpoch_AndItRollsBack) {

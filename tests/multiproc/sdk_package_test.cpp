@@ -77,7 +77,13 @@ class SdkPackage : public rejuv::test_support::ScratchDirTest {
 TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   const std::filesystem::path example_build = dir_ / "build-hello";
   ASSERT_NO_FATAL_FAILURE(install());
+  // The CUSTOM attack hook for a service's test build (Rejuv::sdk_attack).
+  EXPECT_TRUE(std::filesystem::exists(prefix() / "include" / "rejuv" / "sdk" / "attack_hook.hpp"));
   ASSERT_NO_FATAL_FAILURE(build(kRepo / "examples" / "hello_service", example_build));
+  // A test build of it turns the hooks on (docs/writing_a_service.md "Injecting a fault into your own
+  // service"): its CUSTOM hook compiles and links against the installed package.
+  ASSERT_NO_FATAL_FAILURE(build(kRepo / "examples" / "hello_service", dir_ / "build-hello-hooks",
+                                {"-DREJUV_ATTACK_HOOKS=ON"}));
   const std::filesystem::path service = example_build / "hello_monitor";
   ASSERT_TRUE(std::filesystem::exists(service));
   // Its declared parameters (rejuv_add_service PARAMS) beside it, where the kernel checks the graph's params.
@@ -119,6 +125,8 @@ TEST_F(SdkPackage, ExampleServiceBuildsAgainstTheInstalledPackageAndFlies) {
   EXPECT_GT(std::stoull(m[2].str()), 0U) << log;
   EXPECT_EQ(log.find("publishing monitor_state"), std::string::npos) << log;
   EXPECT_EQ(log.find("publishing hello_summary"), std::string::npos) << log;  // its own type, routed
+  // Its on_restored ran in a restored incarnation (the run rolls back: checkpoints and rollbacks below).
+  EXPECT_NE(log.find("hello: restored into epoch 1"), std::string::npos) << log;
   const std::string json = slurp(summary);
   ASSERT_FALSE(json.empty());
   EXPECT_NE(json.find("\"denials\": {}"), std::string::npos) << json;  // no denied invocation of any service

@@ -45,14 +45,25 @@ TEST(AttackKindNames, SameNamesAndNumbersAsTheLaunchProto) {
     EXPECT_EQ(to_string(k), proto::AttackKind_Name(static_cast<proto::AttackKind>(k)));
     EXPECT_EQ(attack_kind_from_name(to_string(k)), k);
   }
-  // Every runtime kind of the proto is here: all but the unset value and the attacks on the vehicle (the
-  // controller's worst case and the attack library, flight::AttackLaw), which are not runtime attacks.
+  // Every runtime kind of the proto is here: all but the unset value, the attacks on the vehicle (the
+  // controller's worst case and the attack library, flight::AttackLaw) and CUSTOM (the service's own hook,
+  // rejuv/sdk/attack_hook.hpp), which are not runtime attacks.
   EXPECT_EQ(kAllAttackKinds.size(),
-            static_cast<std::size_t>(proto::AttackKind_MAX) - flight::kAllAttackLaws.size());
+            static_cast<std::size_t>(proto::AttackKind_MAX) - flight::kAllAttackLaws.size() - 1);
+  EXPECT_EQ(attack_kind_from_name("CUSTOM"), std::nullopt);
   for (const flight::AttackLaw law : flight::kAllAttackLaws) {
     EXPECT_EQ(attack_kind_from_name(flight::to_string(law)), std::nullopt) << flight::to_string(law);
     EXPECT_EQ(proto::AttackKind_Name(static_cast<proto::AttackKind>(flight::proto_number(law))), flight::to_string(law));
   }
+}
+
+TEST(RuntimeAttackPlan, Custom_NotARuntimeAttackAndNoError) {
+  Params p;
+  p.numbers = {{"attack.enabled", 1}, {"attack.count", 1}, {"attack.0.max_windows", 2}};
+  p.texts = {{"attack.0.kind", "CUSTOM"}};
+  auto plan = p.plan();
+  ASSERT_TRUE(plan.has_value()) << plan.error().to_string();
+  EXPECT_TRUE(plan->attacks.empty());
 }
 
 TEST(RuntimeAttackPlan, AttacksOff_NoAttacks) {

@@ -40,8 +40,11 @@ class Attacks : public ::testing::Test {
   void start(AttackKind kind, const std::string& attacker) {
     kind_ = kind;
     attacker_ = attacker;
-    auto loaded = launch::parse_launch(attack_launch(kind, attacker), std::filesystem::path(REJUV_SOURCE_DIR) /
-                                                                          "tests/security/graphs/attacks.launch.pbtxt");
+    start_graph(attack_launch(kind, attacker));
+  }
+  void start_graph(const std::string& text) {
+    auto loaded = launch::parse_launch(
+        text, std::filesystem::path(REJUV_SOURCE_DIR) / "tests/security/graphs/attacks.launch.pbtxt");
     ASSERT_TRUE(loaded.has_value()) << loaded.error().to_string();
     kernel::KernelOptions o = test_options();
     o.log = std::getenv("REJUV_TEST_LOG") != nullptr ? stderr : nullptr;  // quiet unless asked
@@ -139,6 +142,38 @@ class Attacks : public ::testing::Test {
   Recorder recorder_;
   std::unique_ptr<kernel::Kernel> k_;
 };
+
+// CUSTOM (rejuv/sdk/attack_hook.hpp): the windows the plan decides reach the service's own hook — in MC only,
+// max_windows of them from start_s on, with the plan's magnitude — and the runtime is untouched (the hook
+// itself does nothing the author did not write).
+TEST_F(Attacks, Custom_TheSdkHookSeesThePlansWindowsInMcOnly) {
+  attacker_ = "worker";
+  ASSERT_NO_FATAL_FAILURE(
+      start_graph(security_launch({.worker_extra = "",
+                                   .attack = "attack {\n  enabled: true\n  attacks { kind: CUSTOM service: "
+                                             "\"worker\" max_windows: 2 magnitude: 3 }\n}\n"})));
+  ASSERT_TRUE(step_until_rollbacks(5));
+  const double mc = static_cast<double>(index_of(SrMode::MC));
+  const auto windows = reports<verdicts::CustomWindow>("worker");
+  ASSERT_EQ(windows.size(), 2U) << "max_windows of the 5 MC windows flown";
+  for (const auto& w : windows) {
+    EXPECT_EQ(w.mode, mc) << "a window began outside MC";
+    EXPECT_EQ(w.magnitude, 3.0);
+  }
+  const auto active = reports<verdicts::CustomActive>("worker");
+  ASSERT_FALSE(active.empty()) << "the hook never said a window was in force";
+  std::vector<double> epochs;
+  for (const auto& a : active) {
+    EXPECT_EQ(a.mode, mc) << "in force outside MC (epoch " << a.epoch << ")";
+    if (std::find(epochs.begin(), epochs.end(), a.epoch) == epochs.end()) epochs.push_back(a.epoch);
+  }
+  EXPECT_EQ(epochs.size(), 2U) << "in force in exactly the two attacked windows";
+  for (const char* who : {"rejuv", "link", "driver"}) {
+    EXPECT_TRUE(reports<verdicts::CustomWindow>(who).empty()) << who << " is not named by the plan";
+  }
+  EXPECT_EQ(k_->stats(id("worker")).denials, 0U);
+  expect_runtime_intact();
+}
 
 TEST_F(Attacks, InvokeCheckpoint_InMc_DeniedAndNoCheckpointTaken) {
   ASSERT_NO_FATAL_FAILURE(

@@ -73,6 +73,30 @@ std::string describe_services(const proto::RunSummary& s) {
   return out;
 }
 
+// One line per attack of the plan (AttackKindSummary): windows, denials, containment, max V in its spans.
+std::string describe_attacks(const proto::RunSummary& s) {
+  if (s.attacks_by_kind().empty()) return {};
+  std::size_t kind_width = 4, service_width = 7;
+  for (const proto::AttackKindSummary& a : s.attacks_by_kind()) {
+    kind_width = std::max(kind_width, a.kind().size());
+    service_width = std::max(service_width, a.service().size());
+  }
+  char line[256];
+  std::snprintf(line, sizeof line, "  attacks     %-*s %-*s %7s %7s %9s %8s\n", static_cast<int>(kind_width),
+                "kind", static_cast<int>(service_width), "service", "windows", "denied", "contained",
+                "max V");
+  std::string out = line;
+  for (const proto::AttackKindSummary& a : s.attacks_by_kind()) {
+    std::snprintf(line, sizeof line, "              %-*s %-*s %7llu %7llu %9llu %8.4f%s\n",
+                  static_cast<int>(kind_width), a.kind().c_str(), static_cast<int>(service_width),
+                  a.service().c_str(), static_cast<unsigned long long>(a.windows_fired()),
+                  static_cast<unsigned long long>(a.denied()), static_cast<unsigned long long>(a.contained()),
+                  a.max_v(), a.left_safety_set() ? "  LEFT THE SAFETY SET" : "");
+    out += line;
+  }
+  return out;
+}
+
 std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outcome) {
   std::string denials;
   for (const auto& [kind, n] : s.denials()) {
@@ -131,7 +155,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                 static_cast<unsigned long long>(s.attacks()),
                 denials.empty() ? "none" : denials.c_str(), describe_sandbox(s.sandbox_violations()).c_str(),
                 describe_network(s.network()).c_str());
-  return buf + describe_services(s);
+  return buf + describe_services(s) + describe_attacks(s);
 }
 
 void fill_sandbox(proto::SandboxViolations& out, const kernel::Kernel& k, bool insecure) {
@@ -401,6 +425,10 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
     ulog = std::move(*opened);
   }
   recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
+  recorder.track_attacks(
+      AttackLedger((*k)->graph().graph, attack, (*k)->sr_enabled() ? Rejuvenation::On : Rejuvenation::Off,
+                   (*k)->flight_start(),
+                   [kernel = k->get()](std::string_view name) { return kernel->find_service(name); }));
   if (files) files->set_service_names(service_names(**k));
   if ((*k)->sr_enabled()) recorder.stop_after_attacks(stop_after_attacks, [kernel = k->get()] { kernel->request_stop(); });
   std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),

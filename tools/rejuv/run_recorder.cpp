@@ -79,10 +79,13 @@ void RunRecorder::on_publication(const kernel::Publication& p) {
     if (stamp < ref_.alignment) return;  // aligning: the plant does not apply them
     if (last_output_ && stamp > *last_output_) max_gap_ = std::max(max_gap_, stamp - *last_output_);
     last_output_ = stamp;
+  } else if (carries<rejuv_msg_SecurityEvent>(p)) {
+    if (attack_ledger_) attack_ledger_->on_security_event(payload_as<rejuv_msg_SecurityEvent>(p.payload));
   } else if (carries<rejuv_msg_SrMode>(p)) {
     const auto m = payload_as<rejuv_msg_SrMode>(p.payload);
     if (auto mode = flight_io::mode_from_message(m)) {
       mode_ = *mode;
+      if (attack_ledger_) attack_ledger_->on_mode(*mode, Epoch{m.epoch});
       if (mode_ == SrMode::MC && last_mc_epoch_ != m.epoch) {
         last_mc_epoch_ = m.epoch;
         ++mc_windows_;
@@ -111,6 +114,7 @@ void RunRecorder::on_sr_event(const SrEvent& event) {
 
 void RunRecorder::on_step(std::uint64_t /*step*/, Nanos t, SrMode mode) {
   mode_ = mode;
+  if (attack_ledger_) attack_ledger_->on_step(t, mode);
   if (progress_ == Progress::Off) return;
   const Nanos every = progress_ == Progress::Every1s ? std::chrono::seconds{1} : std::chrono::seconds{10};
   if (t - last_progress_ < every) return;
@@ -133,6 +137,7 @@ void RunRecorder::fill(proto::RunSummary& s, Nanos end) const {
   fill_percentiles(*s.mutable_control_interval_at_rb_ms(), at_rb_ms_);
   s.set_attacks(stopped_after_attacks_ ? attacked_closed_ : attacked_windows());
   s.set_stopped_after_attacks(stopped_after_attacks_);
+  if (attack_ledger_) attack_ledger_->fill(s);
 }
 
 bool RunRecorder::window_attacked(const Window& w) const {
@@ -197,6 +202,7 @@ void RunRecorder::on_truth(const rejuv_msg_GroundTruth& g, Nanos t) {
   if (x_sp_) {
     V = ref_.design.ellipsoid.V(x_, *x_sp_);
     if (std::isfinite(V)) max_V_ = std::max(max_V_, V);
+    if (attack_ledger_) attack_ledger_->on_V(V);
     if (!std::isfinite(V) || V > ref_.lost_V) declare_lost(t, V);
   }
   const double est_err = x_hat_ ? ref_.design.ellipsoid.V(x_, *x_hat_) : 0.0;

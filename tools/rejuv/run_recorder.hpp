@@ -10,6 +10,8 @@
 #include <optional>
 #include <string>
 
+#include "attack_ledger.hpp"
+#include "figure_data.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
@@ -19,7 +21,6 @@
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/msgs/topic_types.hpp"
-#include "figure_data.hpp"
 #include "summary.pb.h"
 
 namespace rejuv::cli {
@@ -71,6 +72,8 @@ class RunRecorder final : public kernel::Observer {
   // `--out DIR` (figure_data.hpp): the trace, every control update and SR event (flight time: after the
   // alignment) also go to `files`. Not owned; nullptr: none.
   void record_to(RunFiles* files) { files_ = files; }
+  // The plan's attacks, counted by kind into the summary's attacks_by_kind (attack_ledger.hpp).
+  void track_attacks(AttackLedger ledger) { attack_ledger_.emplace(std::move(ledger)); }
 
   void on_publication(const kernel::Publication& p) override;
   void on_step(std::uint64_t step, Nanos t, SrMode mode) override;
@@ -98,6 +101,7 @@ class RunRecorder final : public kernel::Observer {
   RunReference ref_;
   std::FILE* csv_;
   RunFiles* files_ = nullptr;
+  std::optional<AttackLedger> attack_ledger_;
   ControlIntervals intervals_;              // every run: the intervals holding a checkpoint or a rollback
   kernel::DurationSamples at_cp_ms_, at_rb_ms_;
   Progress progress_;

@@ -535,10 +535,13 @@ class Validator {
       // models it anyway: refused, so that model and runtime never disagree without a word.
       if (const auto hooks = attack_hooks_of(target->executable()); hooks) {
         if (std::find(hooks->begin(), hooks->end(), a.kind()) == hooks->end()) {
-          return fail(error(at({{"attack", -1}, {"attacks", i}}, "kind"),
-                            "service \"" + a.service() + "\" (" + target->executable() + ") has no hook for " +
-                                proto::AttackKind_Name(a.kind()) + "; the kinds it supports: " +
-                                kind_list(*hooks)));
+          return fail(
+              error(at({{"attack", -1}, {"attacks", i}}, "kind"),
+                    "service \"" + a.service() + "\" (" + target->executable() + ") has no hook for " +
+                        proto::AttackKind_Name(a.kind()) + "; the kinds it supports: " + kind_list(*hooks) +
+                        (a.kind() == proto::CUSTOM ? " (CUSTOM is for a service of your own that installs "
+                                                     "the SDK's hook, rejuv/sdk/attack_hook.hpp)"
+                                                   : "")));
         }
       }
       if (!std::isfinite(a.start_s()) || a.start_s() < 0.0) {

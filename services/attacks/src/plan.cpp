@@ -78,9 +78,10 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
     const std::string name = text(prefix + "kind");
     const auto kind = attack_kind_from_name(name);
     if (!kind) {
-      // The attacks on the vehicle (the worst-case control and the attack library: law.hpp) and the proto's unset
-      // value are not runtime attacks; anything else is a typo.
-      if (flight::attack_law_from_name(name) || name == "ATTACK_UNSPECIFIED") continue;
+      // The attacks on the vehicle (the worst-case control and the attack library: law.hpp), CUSTOM (the
+      // service's own hook: rejuv/sdk/attack_hook.hpp) and the proto's unset value are not runtime attacks;
+      // anything else is a typo.
+      if (flight::attack_law_from_name(name) || name == "CUSTOM" || name == "ATTACK_UNSPECIFIED") continue;
       return fail(bad(prefix + "kind", "unknown attack kind '" + name + "'"));
     }
     const double start = number(prefix + "start_s").value_or(0.0);
@@ -103,25 +104,11 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
   return plan;
 }
 
-bool WindowClock::begins(Nanos now, SrMode mode, Epoch epoch) {
-  const bool started = now >= to_nanos(attack_.start);
-  const WindowKind here = mode == SrMode::MC ? WindowKind::MissionControl : WindowKind::SecureInterval;
-  if (sr_ == Rejuvenation::Off) {
-    if (here != WindowKind::MissionControl || window_kind_of(attack_.kind) != here || !started) return false;
-    if (attacked_without_sr_) return false;
-    attacked_without_sr_ = true;
-    ordinal_ = 0;
-    return true;
-  }
-  const auto e = static_cast<std::uint32_t>(epoch.value());
-  if (here == WindowKind::SecureInterval && started && !first_epoch_) first_epoch_ = e;
-  if (window_kind_of(attack_.kind) != here || window_epoch_ == e) return false;
-  window_epoch_ = e;
-  if (!first_epoch_ || e < *first_epoch_) return false;
-  const std::uint32_t n = e - *first_epoch_;
-  if (attack_.max_windows != 0 && n >= attack_.max_windows) return false;
-  ordinal_ = n;
-  return true;
-}
+WindowClock::WindowClock(const RuntimeAttack& attack, Rejuvenation sr)
+    : attack_(attack),
+      clock_(AttackSchedule{.start = to_nanos(attack.start),
+                            .max_windows = attack.max_windows,
+                            .window = window_kind_of(attack.kind),
+                            .sr = sr}) {}
 
 }  // namespace rejuv::attacks

@@ -224,6 +224,7 @@ SdkResult<bool> Service::Impl::resumed_image() {
   reader.forget();      // frames read ahead on the old channel belong to the old incarnation
   restored = CheckpointOutcome{.kind = CheckpointOutcome::Kind::Restored, .generation = Generation{handoff.generation},
                                .epoch = Epoch{handoff.epoch}};
+  restored_pending = true;  // on_restored runs in the event loop, before the next frame (service.cpp run)
   tracked_base = handoff.tracking ? handoff.generation : 0;
   pagemap_fd = -1;  // closed in every image (take_image): the kernel sends this incarnation its own
   next_pages_fd = -1;

@@ -302,6 +302,7 @@ void Service::stop(int exit_code) {
 }
 
 void Service::on_shutdown(std::function<void()> fn) { impl_->on_shutdown = std::move(fn); }
+void Service::on_restored(std::function<void(Epoch)> fn) { impl_->on_restored = std::move(fn); }
 
 SdkResult<void> Service::send_raw(std::span<const std::byte> frame) { return impl_->send(frame); }
 
@@ -341,6 +342,18 @@ int Service::run() {
       }
       if (!*got) continue;
       bytes = std::span<const std::byte>(s.rx.data(), **got);
+    }
+    if (s.restored_pending) {
+      // A rollback resumed this process (take_image returned true, here or inside a call's request) and this
+      // is the first frame of the new incarnation: the kernel has finished the rollback, so the time page
+      // shows the new epoch. The author's hook runs before the frame is handled (kept in `queued`, its fds
+      // aside: the hook may make requests of its own, which read the channel).
+      s.restored_pending = false;
+      s.queued.emplace_front(bytes.begin(), bytes.end());
+      std::vector<sys::UniqueFd> fds = std::move(s.rx_fds);
+      if (s.on_restored) s.on_restored(s.restored->epoch);
+      s.rx_fds = std::move(fds);
+      continue;
     }
     auto frame = wire::decode(bytes, wire::Direction::ToService);
     if (!frame) {

@@ -89,6 +89,8 @@ struct Service::Impl {
   int exit_code = 0;
   bool lockstep = true;  // Idle is only meaningful in lockstep (docs/protocol.md "Idle")
   std::function<void()> on_shutdown;
+  std::function<void(Epoch)> on_restored;
+  bool restored_pending = false;  // a restored incarnation whose on_restored has not run yet (resumed_image)
   std::deque<std::vector<std::byte>> queued;  // frames read while waiting for a Reply
   // Network gate: a handler per Network cap slot, and a copy of the datagram being handled (a handler that
   // sends reuses rx for the Reply).

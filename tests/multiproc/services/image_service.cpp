@@ -16,6 +16,9 @@
 //   worker   — runs one registered worker thread; every period publishes on `verdicts` how many threads
 //              besides the main one run in this process (altitude_m) and the worker's incarnation
 //              (temperature_c).
+//   hooked   — registers on_restored, which publishes on `verdicts` pressure_pa = kRestoredMark, altitude_m =
+//              the epoch it was given, temperature_c = epoch() as the time page shows it then; every period
+//              publishes pressure_pa = 0, altitude_m = epoch() (a handler of that epoch).
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -131,6 +134,19 @@ int run_worker(Service& svc) {
   return svc.run();
 }
 
+int run_hooked(Service& svc) {
+  auto verdicts = svc.advertise<Record>("verdicts");
+  if (!verdicts) return fail(svc, "advertise verdicts: " + verdicts.error().to_string());
+  svc.on_restored([&](rejuv::Epoch epoch) {
+    (void)verdicts->publish(
+        record(svc, rejuv::test_services::kRestoredMark, epoch.value(), svc.epoch().value()));
+  });
+  auto timer =
+      svc.every(period(svc), [&] { (void)verdicts->publish(record(svc, 0, svc.epoch().value(), 0)); });
+  if (!timer) return fail(svc, "timer: " + timer.error().to_string());
+  return svc.run();
+}
+
 }  // namespace
 
 int main() {
@@ -141,6 +157,7 @@ int main() {
   if (role == "counter") return run_counter(s);
   if (role == "listener" || role == "driver") return run_listener(s);
   if (role == "worker") return run_worker(s);
+  if (role == "hooked") return run_hooked(s);
   if (role == "idle") return s.run();
   return fail(s, "unknown role '" + role + "'");
 }

@@ -12,6 +12,10 @@ namespace rejuv::test_services {
 
 using Record = rejuv_msg_SensorBaro;
 
+// pressure_pa of the record image_service's `hooked` role publishes from on_restored (no sequence number is <
+// 0).
+inline constexpr double kRestoredMark = -1;
+
 // A record stamped now: pressure_pa = a, altitude_m = b, temperature_c = c.
 inline Record record(const sdk::Service& svc, double a, double b, double c) {
   Record r{};

@@ -27,6 +27,7 @@
 
 #include "escapes.hpp"
 #include "rejuv/attacks/hooks.hpp"
+#include "rejuv/sdk/attack_hook.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "services/test_records.hpp"
 #include "verdicts.hpp"
@@ -169,6 +170,25 @@ int main() {
           v::AttackAttempt{.code = static_cast<double>(a.code), .target = static_cast<double>(a.target)},
           stamp(s)));
     });
+  }
+  // ==== CUSTOM HOOK ====: the SDK's (rejuv/sdk/attack_hook.hpp), as a service author installs it: each
+  // window that begins is reported, and each tick at which the hook says a window is in force.
+  auto custom = rejuv::sdk::on_attack(s, [&](const rejuv::sdk::AttackWindow& w) {
+    (void)verdicts->publish(v::encode(
+        v::CustomWindow{.mode = static_cast<double>(rejuv::index_of(s.mode())), .magnitude = w.magnitude},
+        stamp(s)));
+  });
+  if (!s.require(custom, "bad CUSTOM attack params")) return 1;
+  if (*custom) {
+    auto watch = s.every(kTick, [&] {
+      if (const auto w = (*custom)->window()) {
+        (void)verdicts->publish(
+            v::encode(v::CustomActive{.epoch = static_cast<double>(w->epoch.value()),
+                                      .mode = static_cast<double>(rejuv::index_of(s.mode()))},
+                      stamp(s)));
+      }
+    });
+    if (!s.require(watch, "timer")) return 1;
   }
   if (role == "rejuv") return run_rejuv(s, *verdicts);
   if (role == "worker") return run_worker(s, *verdicts);

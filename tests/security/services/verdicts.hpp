@@ -43,6 +43,19 @@ struct EscapeReport {
   double detail = 0;
 };
 
+// Any service with a CUSTOM attack (rejuv/sdk/attack_hook.hpp): a window of it began (on_attack's callback).
+struct CustomWindow {
+  static constexpr double kTag = 400;
+  double mode = 0;       // index_of(mode()) when it began
+  double magnitude = 0;  // AttackWindow::magnitude
+};
+// Any service with a CUSTOM attack: a tick at which the hook said a window is in force (active()).
+struct CustomActive {
+  static constexpr double kTag = 401;
+  double epoch = 0;
+  double mode = 0;  // index_of(mode()) then
+};
+
 inline rejuv_msg_SensorBaro encode(double tag, double a, double b, std::uint64_t timestamp_ns) {
   rejuv_msg_SensorBaro r{};
   r.timestamp_ns = timestamp_ns;
@@ -65,6 +78,12 @@ inline rejuv_msg_SensorBaro encode(double attack_kind, const AttackAttempt& v, s
 }
 inline rejuv_msg_SensorBaro encode(const EscapeReport& v, std::uint64_t t) {
   return encode(EscapeReport::kTag, v.value, v.detail, t);
+}
+inline rejuv_msg_SensorBaro encode(const CustomWindow& v, std::uint64_t t) {
+  return encode(CustomWindow::kTag, v.mode, v.magnitude, t);
+}
+inline rejuv_msg_SensorBaro encode(const CustomActive& v, std::uint64_t t) {
+  return encode(CustomActive::kTag, v.epoch, v.mode, t);
 }
 
 // The record of type T that `r` carries, or nullopt when it carries another kind of report.

@@ -566,6 +566,30 @@ TEST(LaunchLoader, EscapeHelperOnAServiceWithoutHooks_Semantic) {
   ASSERT_FALSE(r.has_value());
   EXPECT_NE(r.error().message.find("has no hook for ESCAPE_HELPER"), std::string::npos) << r.error().to_string();
 }
+// CUSTOM (the SDK's hook, rejuv/sdk/attack_hook.hpp): loads for a service outside the in-tree table (its
+// author installs the hook), refused for an in-tree service, which has none, saying what CUSTOM is for.
+TEST(LaunchLoader, CustomOnAServiceOutsideTheTree_Loads) {
+  Mutated m = mutate("kind: WORST_CASE_CONTROL", "kind: CUSTOM");  // on "a" (rejuv_a: not in the table)
+  const auto r = parse_launch(m.text, kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+}
+TEST(LaunchLoader, CustomOnAnInTreeService_SemanticAtTheKind) {
+  for (const char* exe : {"rejuv_ekf2", "rejuv_lqr_control", "rejuv_safety_control"}) {
+    Mutated m = mutate("executable: \"rejuv_a\"", std::string("executable: \"") + exe + "\"");
+    const std::size_t kind_at = m.text.find("kind: WORST_CASE_CONTROL");
+    ASSERT_NE(kind_at, std::string::npos);
+    m.text.replace(kind_at, std::string_view("kind: WORST_CASE_CONTROL").size(), "kind: CUSTOM");
+    const int kind_line =
+        static_cast<int>(std::count(m.text.begin(), m.text.begin() + static_cast<long>(kind_at), '\n')) + 1;
+    const auto r = parse_launch(m.text, kAsPath);
+    ASSERT_FALSE(r.has_value()) << exe;
+    EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
+    EXPECT_EQ(r.error().where.line, kind_line) << r.error().to_string();
+    EXPECT_NE(r.error().message.find("has no hook for CUSTOM"), std::string::npos) << r.error().to_string();
+    EXPECT_NE(r.error().message.find("rejuv/sdk/attack_hook.hpp"), std::string::npos)
+        << r.error().to_string();
+  }
+}
 // The attack library (docs/control.md "Attack library"): each kind loads on the service that carries its hook,
 // is refused on another, and its magnitude must be a size >= 0.
 TEST(LaunchLoader, AttackLibraryKindOnItsService_LoadsElsewhereSemantic) {

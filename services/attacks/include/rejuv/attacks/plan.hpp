@@ -18,6 +18,7 @@
 #include <string_view>
 #include <vector>
 
+#include "rejuv/core/attack_window.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
@@ -69,7 +70,7 @@ inline constexpr std::array kRollbackAttackKinds{
 [[nodiscard]] std::optional<AttackKind> attack_kind_from_name(std::string_view name);
 
 // Which windows an attack acts in: MC windows, or (NETWORK_IN_SEI) the secure intervals.
-enum class WindowKind : std::uint8_t { MissionControl, SecureInterval };
+using WindowKind = rejuv::AttackWindowKind;  // rejuv/core/attack_window.hpp
 [[nodiscard]] WindowKind window_kind_of(AttackKind kind);
 
 // When an attack is carried out: at the start of its windows (WindowClock), or once when the hooks are
@@ -83,7 +84,7 @@ inline constexpr double kMaxAttackCount = 1000.0;
 // ESCAPE_HELPER's UDP target port on 127.0.0.1 when the service has no escape_port param (discard).
 inline constexpr std::uint16_t kDefaultEscapePort = 9;
 
-enum class Rejuvenation : std::uint8_t { On, Off };
+using Rejuvenation = rejuv::Rejuvenation;
 
 struct RuntimeAttack {
   AttackKind kind = AttackKind::ForgedSlot;
@@ -116,28 +117,20 @@ using TextLookup = std::function<std::string(std::string_view)>;
 [[nodiscard]] Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& number,
                                                                        const TextLookup& text);
 
-// Decides, callback by callback, whether a window of the attack's kind starts now and is to be attacked.
-// A window is keyed by the rollback epoch: every epoch has one secure interval (RB…CP) followed by one MC
-// window, so "the first call in epoch e while in MC" is the start of the MC window of e — also in a
-// restored image, whose memory is that of the checkpoint. The first attacked epoch is fixed in the secure
-// interval (so it is in every later checkpoint): the first one at or after `start`. With SR off there is one
-// endless MC window, attacked once from `start` on.
+// Decides, callback by callback, whether a window of the attack's kind starts now and is to be attacked: the
+// rule of rejuv/core/attack_window.hpp (AttackWindowClock), which the run summary counts windows by too.
 class WindowClock {
  public:
-  WindowClock(const RuntimeAttack& attack, Rejuvenation sr) : attack_(attack), sr_(sr) {}
+  WindowClock(const RuntimeAttack& attack, Rejuvenation sr);
   // True exactly once, at the first call of a window that is to be attacked.
-  [[nodiscard]] bool begins(Nanos now, SrMode mode, Epoch epoch);
+  [[nodiscard]] bool begins(Nanos now, SrMode mode, Epoch epoch) { return clock_.begins(now, mode, epoch); }
   // Ordinal of the window last attacked (0 = the first), e.g. to vary an attack from window to window.
-  [[nodiscard]] std::uint32_t ordinal() const { return ordinal_; }
+  [[nodiscard]] std::uint32_t ordinal() const { return clock_.ordinal(); }
   [[nodiscard]] const RuntimeAttack& attack() const { return attack_; }
 
  private:
   RuntimeAttack attack_;
-  Rejuvenation sr_;
-  std::optional<std::uint32_t> first_epoch_{};
-  std::optional<std::uint32_t> window_epoch_{};
-  std::uint32_t ordinal_ = 0;
-  bool attacked_without_sr_ = false;
+  AttackWindowClock clock_;  // the one rule (rejuv/core/attack_window.hpp)
 };
 
 }  // namespace rejuv::attacks

@@ -419,6 +419,14 @@ class Service {
   void stop(int exit_code);
   // Runs `fn` when Shutdown arrives, before run() returns.
   void on_shutdown(std::function<void()> fn);
+  // Runs `fn` once in every restored incarnation (DESIGN §7: a rollback resumed this process from one of its
+  // images), with the epoch it was restored into — epoch() at that moment: the kernel has finished the
+  // rollback — when the first frame of that incarnation arrives, before it is handled (a delivery, a timer):
+  // so before any handler of the new epoch runs. (An
+  // image taken inside a call, checkpoint(), returns from that call first: Restored{g, epoch}; the callback
+  // follows once that handler returns.) Never in the process that took the image. One callback; a second call
+  // replaces it. Register it before run(): the images then carry it.
+  void on_restored(std::function<void(Epoch)> fn);
 
   // Frames a service sends (publish, log, timers) are queued and leave together when the event loop next
   // waits; flush() sends them now (e.g. before a long computation in a callback).
