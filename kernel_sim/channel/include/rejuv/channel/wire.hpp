@@ -178,6 +178,9 @@ struct ResumeBody {
   std::uint32_t reserved = 0;
 };
 inline constexpr std::size_t kMaxDatagramBytes = 1400;  // network gate: larger datagrams are dropped
+// NetReceive verdict codes (docs/protocol.md "Network gate"): 0 = valid, 1 … kNetVerdictCodes − 1 = the
+// receiver's refusal reasons. One number for the kernel that counts them and the SDK that sends them.
+inline constexpr std::uint32_t kNetVerdictCodes = 32;
 
 // The time page (DESIGN §6): written only by the kernel, mapped read-only by services; a seqlock.
 struct TimePage {

@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "rejuv/broker/broker.hpp"
+#include "rejuv/channel/wire.hpp"
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
@@ -293,8 +294,8 @@ struct ServiceStats {
   std::string cgroup{};                  // what its cgroup bounds ("cgroup v2 (cgroup.kill), pids.max 64 …"), or why none
 };
 
-// NetReceive verdict codes: 0 = valid, 1 … kNetVerdictCodes − 1 = the receiver's refusal reasons.
-inline constexpr std::size_t kNetVerdictCodes = 32;
+// NetReceive verdict codes: 0 = valid, 1 … kNetVerdictCodes − 1 = the receiver's refusal reasons (the wire's).
+inline constexpr std::size_t kNetVerdictCodes = wire::kNetVerdictCodes;
 
 // Counters of the network gate (DESIGN §2; docs/protocol.md "Network gate"). Every datagram read is
 // received = relayed + the dropped_* counters.

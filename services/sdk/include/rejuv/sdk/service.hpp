@@ -376,7 +376,7 @@ class Service {
   // datagram). 0 = valid: its sender becomes the ground station that send_datagram reaches; 1 …
   // kernel_net_verdict_codes − 1 = refused, for that reason (counted by the kernel, in the run summary).
   // Until a valid datagram has been judged, send_datagram is Refused: garbage never redirects replies.
-  static constexpr std::uint32_t kernel_net_verdict_codes = 32;  // kernel::kNetVerdictCodes
+  static constexpr std::uint32_t kernel_net_verdict_codes = wire::kNetVerdictCodes;
   [[nodiscard]] SdkResult<void> judge_datagram(std::string_view object, std::uint32_t verdict);
 
   // ---- images (DESIGN §7) ----
