@@ -229,7 +229,7 @@ std::uint64_t Kernel::Impl::processes_to_spare() const {
   return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;
 }
 
-Result<void, KernelError> Kernel::Impl::settle_images() {
+Result<void, KernelError> Kernel::Impl::finish_image_requests() {
   while (!stopping && (checkpoint_request || rollback_request)) {
     if (service_images()) continue;
     if (auto ok = pump(std::chrono::milliseconds{100}); !ok) return ok;

@@ -314,7 +314,7 @@ struct Kernel::Impl {
   void cold_restart(const std::string& reason);
   void resume_routing();
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
-  [[nodiscard]] Result<void, KernelError> settle_images();
+  [[nodiscard]] Result<void, KernelError> finish_image_requests();
   void retire_live_rejuvenated();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back

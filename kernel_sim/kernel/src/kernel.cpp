@@ -169,7 +169,7 @@ Result<Generation, KernelError> Kernel::checkpoint_now() {
   }
   const std::uint64_t before = k.sr_stats.checkpoints;
   k.checkpoint_request = std::pair(std::optional<ServiceId>{}, std::uint32_t{0});
-  if (auto ok = k.settle_images(); !ok) return fail(ok.error());
+  if (auto ok = k.finish_image_requests(); !ok) return fail(ok.error());
   if (k.sr_stats.checkpoints == before) return fail(kernel_error(KernelError::Kind::Boot, "the checkpoint was abandoned"));
   return k.images.newest()->g;
 }
@@ -184,7 +184,7 @@ Result<void, KernelError> Kernel::rollback_now(bool cold) {
     return {};
   }
   k.request_rollback("requested");
-  return k.settle_images();
+  return k.finish_image_requests();
 }
 Epoch Kernel::epoch() const { return impl_->kernel_clock.epoch(); }
 Nanos Kernel::flight_start() const { return impl_->flight_start; }

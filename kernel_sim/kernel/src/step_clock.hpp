@@ -1,9 +1,11 @@
 // The steps of the lockstep clock (DESIGN §6; docs/protocol.md "Lockstep with the plant"): the queue of steps
 // offered by the plant (SimStep, through the bridge's lockstep adapter) or by Kernel::step (manual), the count
 // of the samples they wait for, the active step and its routing rounds, and the wall-clock references of its
-// deadlines. One owner: the kernel's lockstep (lockstep.cpp) drives it; the loop (loop.cpp) and the supervisor
-// (supervisor.cpp) read its deadlines. What a step does — the clock, timers, samples, rounds until idle, the
-// ack — is lockstep.cpp's.
+// deadlines. One owner: the kernel's lockstep (lockstep.cpp) drives it. Besides reading its deadlines, the loop
+// (loop.cpp) counts the samples that arrive (count_samples) and the steps done (tick), and the supervisor
+// (supervisor.cpp) notes a hung service (note_hung), a reported stall (stall_reported), a restarted idle deadline
+// after a kill (restart_idle_deadline) and a step given up at shutdown (abandon) — each through a method here.
+// What a step does — the clock, timers, samples, rounds until idle, the ack — is lockstep.cpp's.
 #pragma once
 
 #include <chrono>

@@ -6,10 +6,10 @@
 #include <google/protobuf/text_format.h>
 
 #include <algorithm>
+#include <array>
 #include <fstream>
 #include <map>
 #include <optional>
-#include <sstream>
 #include <system_error>
 
 namespace rejuv {
@@ -291,9 +291,23 @@ Result<std::string, LoadError> read_text(const std::filesystem::path& path) {
   if (!in) {
     return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0}, "cannot open for reading"});
   }
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
+  // Read in chunks up to just past the bound: a file whose reported size is 0 (/proc, sysfs) may be endless.
+  // (A chunk is a multiple of 8 bytes: /proc/<pid>/pagemap refuses other sizes.)
+  std::string text;
+  std::array<char, 64 * 1024> chunk{};
+  while (text.size() <= kMaxTextprotoBytes) {
+    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+    text.append(chunk.data(), static_cast<std::size_t>(in.gcount()));
+    if (in.bad()) {
+      return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0}, "cannot read"});
+    }
+    if (in.eof()) break;
+  }
+  if (text.size() > kMaxTextprotoBytes) {
+    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0},
+                          "file is larger than " + std::to_string(kMaxTextprotoBytes) + " bytes"});
+  }
+  return text;
 }
 
 }  // namespace

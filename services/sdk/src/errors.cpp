@@ -13,7 +13,6 @@ namespace rejuv::sdk {
 std::string_view to_string(SdkError error) {
   switch (error) {
     case SdkError::NotAService: return "not a service";
-    case SdkError::Seccomp: return "seccomp";
     case SdkError::ChannelIo: return "channel i/o";
     case SdkError::ChannelClosed: return "channel closed";
     case SdkError::Protocol: return "protocol violation";

@@ -138,6 +138,16 @@ TEST_F(Compose, BadIncludes_RefusedAtTheIncludeLine) {
   EXPECT_EQ(p.services_size(), 0) << "nothing is half-loaded";
 }
 
+TEST_F(Compose, EndlessFileOfReportedSizeZero_RefusedNotReadToTheEnd) {
+  // /proc/self/pagemap says 0 bytes and reads on for gigabytes: an include of it is refused at its bound.
+  const auto root = write("proc.pbtxt", "include: \"/proc/self/pagemap\"\n");
+  proto::Policy p;
+  const auto r = load_composed_textproto(root, p);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("proc.pbtxt", 1, 1));
+  EXPECT_NE(r.error().message.find("larger than"), std::string::npos) << r.error().message;
+}
+
 TEST_F(Compose, DeepChain_RefusedPastTheDepthLimit) {
   for (int i = 0; i <= kMaxIncludeDepth + 1; ++i) {
     write("d" + std::to_string(i) + ".pbtxt", "include: \"d" + std::to_string(i + 1) + ".pbtxt\"\n");

@@ -55,7 +55,6 @@ namespace rejuv::sdk {
 // What went wrong in an SDK call. One enum for the SDK (CONVENTIONS); Error adds the detail.
 enum class SdkError : std::uint8_t {
   NotAService,       // fd 3 is not a channel, fd 4 not a time page, or REJUV_SERVICE is unset
-  Seccomp,           // unused since the kernel installs the whole filter (kept: the numbers are stable)
   ChannelIo,         // a send or receive on fd 3 failed (errno in Error::detail)
   ChannelClosed,     // the kernel closed the channel
   Protocol,          // the kernel sent something the protocol does not allow here (boot sequence, reply)
