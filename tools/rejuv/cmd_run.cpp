@@ -266,7 +266,7 @@ int help_service(const std::string& name, const std::string& graph_path) {
     const std::filesystem::path dir = service_dir();
     const std::filesystem::path exe(name);
     std::error_code ec;
-    executable = exe.is_absolute() ? exe : dir / exe;
+    executable = launch::resolve_executable(name, dir);
     if (!exe.is_absolute() && !std::filesystem::exists(executable, ec) &&
         std::filesystem::exists(dir / ("rejuv_" + name), ec)) {
       executable = dir / ("rejuv_" + name);

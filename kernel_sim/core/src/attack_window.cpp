@@ -1,5 +1,8 @@
 #include "rejuv/core/attack_window.hpp"
 
+#include <cmath>
+#include <string>
+
 namespace rejuv {
 
 namespace {
@@ -33,6 +36,41 @@ bool AttackWindowClock::begins(Nanos now, SrMode mode, Epoch epoch) {
 bool AttackWindowClock::open(SrMode mode, Epoch epoch) const {
   if (schedule_.sr == Rejuvenation::Off) return attacked_without_sr_;
   return attacked_epoch_ == epoch.value() && kind_of(mode) == schedule_.window;
+}
+
+Result<std::uint32_t, AttackParamError> whole_param(const NumberLookup& number, const std::string& name, double max) {
+  const double v = number(name).value_or(0.0);
+  if (!std::isfinite(v) || v < 0.0 || v > max || v != std::floor(v)) {
+    return fail(AttackParamError{.param = name,
+                                 .message = "expected a whole number in [0, " +
+                                            std::to_string(static_cast<std::uint64_t>(max)) + "]"});
+  }
+  return static_cast<std::uint32_t>(v);
+}
+
+Result<BootAttackPlan, AttackParamError> boot_attack_plan(const NumberLookup& number, const TextLookup& text) {
+  BootAttackPlan plan;
+  plan.sr = number("sr.enabled").value_or(1.0) == 1.0 ? Rejuvenation::On : Rejuvenation::Off;
+  plan.enabled = number("attack.enabled").value_or(0.0) == 1.0;
+  if (!plan.enabled) return plan;
+  auto count = whole_param(number, "attack.count", 64.0);
+  if (!count) return fail(std::move(count.error()));
+  for (std::uint32_t j = 0; j < *count; ++j) {
+    BootAttack a;
+    a.prefix = "attack." + std::to_string(j) + ".";
+    a.kind = text(a.prefix + "kind");
+    const double start = number(a.prefix + "start_s").value_or(0.0);
+    if (!std::isfinite(start) || start < 0.0) {
+      return fail(AttackParamError{.param = a.prefix + "start_s", .message = "expected a finite time >= 0 s"});
+    }
+    a.start = Seconds{start};
+    auto windows = whole_param(number, a.prefix + "max_windows", 4294967295.0);
+    if (!windows) return fail(std::move(windows.error()));
+    a.max_windows = *windows;
+    a.magnitude = number(a.prefix + "magnitude");
+    plan.attacks.push_back(std::move(a));
+  }
+  return plan;
 }
 
 }  // namespace rejuv

@@ -171,9 +171,8 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
 
 Result<void, KernelError> Kernel::Impl::spawn_plant() {
   const proto::Launch& g = graph.graph;
-  const std::filesystem::path exe(g.plant().executable());
   sys::SpawnSpec spec;
-  spec.executable = (exe.is_absolute() ? exe : options.service_dir / exe).string();
+  spec.executable = launch::resolve_executable(g.plant().executable(), options.service_dir).string();
   double north = 0;
   double east = 0;
   double down = -3;

@@ -56,44 +56,30 @@ PlanError bad(std::string param, std::string message) {
   return PlanError{.param = std::move(param), .message = std::move(message)};
 }
 
-// A whole number in [0, max] (count, max_windows); absent = 0.
-Result<std::uint32_t, PlanError> whole(const NumberLookup& number, const std::string& name, double max) {
-  const double v = number(name).value_or(0.0);
-  if (!std::isfinite(v) || v < 0.0 || v > max || v != std::floor(v)) {
-    return fail(bad(name, "expected a whole number in [0, " + std::to_string(static_cast<std::uint64_t>(max)) + "]"));
-  }
-  return static_cast<std::uint32_t>(v);
-}
-
 }  // namespace
 
 Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& number, const TextLookup& text) {
+  auto boot = boot_attack_plan(number, text);
+  if (!boot) return fail(std::move(boot.error()));
   RuntimeAttackPlan plan;
-  plan.sr = number("sr.enabled").value_or(1.0) == 1.0 ? Rejuvenation::On : Rejuvenation::Off;
-  if (number("attack.enabled").value_or(0.0) != 1.0) return plan;
-  auto count = whole(number, "attack.count", 64.0);
-  if (!count) return fail(std::move(count.error()));
-  for (std::uint32_t j = 0; j < *count; ++j) {
-    const std::string prefix = "attack." + std::to_string(j) + ".";
-    const std::string name = text(prefix + "kind");
-    const auto kind = attack_kind_from_name(name);
+  plan.sr = boot->sr;
+  if (!boot->enabled) return plan;
+  for (const BootAttack& a : boot->attacks) {
+    const auto kind = attack_kind_from_name(a.kind);
     if (!kind) {
       // The attacks on the vehicle (the worst-case control and the attack library: law.hpp), CUSTOM (the
       // service's own hook: rejuv/sdk/attack_hook.hpp) and the proto's unset value are not runtime attacks;
       // anything else is a typo.
-      if (flight::attack_law_from_name(name) || name == "CUSTOM" || name == "ATTACK_UNSPECIFIED") continue;
-      return fail(bad(prefix + "kind", "unknown attack kind '" + name + "'"));
+      if (flight::attack_law_from_name(a.kind) || a.kind == "CUSTOM" || a.kind == "ATTACK_UNSPECIFIED") continue;
+      return fail(bad(a.prefix + "kind", "unknown attack kind '" + a.kind + "'"));
     }
-    const double start = number(prefix + "start_s").value_or(0.0);
-    if (!std::isfinite(start) || start < 0.0) return fail(bad(prefix + "start_s", "expected a finite time >= 0 s"));
-    auto windows = whole(number, prefix + "max_windows", 4294967295.0);
-    if (!windows) return fail(std::move(windows.error()));
     // A count only for the attacks on rollback (18…27); the others ignore their magnitude.
     const bool counted = std::ranges::find(kRollbackAttackKinds, *kind) != kRollbackAttackKinds.end();
-    auto processes = counted ? whole(number, prefix + "magnitude", kMaxAttackCount) : Result<std::uint32_t, PlanError>{0U};
+    auto processes =
+        counted ? whole_param(number, a.prefix + "magnitude", kMaxAttackCount) : Result<std::uint32_t, PlanError>{0U};
     if (!processes) return fail(std::move(processes.error()));
     plan.attacks.push_back(
-        RuntimeAttack{.kind = *kind, .start = Seconds{start}, .max_windows = *windows, .count = *processes});
+        RuntimeAttack{.kind = *kind, .start = a.start, .max_windows = a.max_windows, .count = *processes});
   }
   if (const auto port = number("escape_port")) {
     if (!std::isfinite(*port) || *port < 1.0 || *port > 65535.0 || *port != std::floor(*port)) {

@@ -10,54 +10,40 @@
 
 namespace rejuv::sdk {
 
-namespace {
-
-// A number param that must be finite, >= 0 and at most `max` (and whole when `whole`); absent = 0.
-SdkResult<double> checked(const Service& svc, const std::string& name, double max, bool whole) {
-  const double v = svc.param(name, 0.0);
-  if (!std::isfinite(v) || v < 0.0 || v > max || (whole && v != std::floor(v))) {
-    return error(SdkError::BadArgument, name + ": expected " + (whole ? "a whole number" : "a number") +
-                                            " in [0, " + std::to_string(max) + "], got " + std::to_string(v));
-  }
-  return v;
-}
-
-}  // namespace
-
 CustomAttack::CustomAttack(Service& svc, std::vector<std::pair<AttackWindowClock, double>> clocks,
                            std::function<void(const AttackWindow&)> on_window)
     : svc_(svc), clocks_(std::move(clocks)), on_window_(std::move(on_window)), current_(clocks_.size()) {}
 
 SdkResult<std::unique_ptr<CustomAttack>> CustomAttack::install(
     Service& svc, std::function<void(const AttackWindow&)> on_window) {
-  if (svc.param("attack.enabled", 0.0) != 1.0) return std::unique_ptr<CustomAttack>{};
-  auto count = checked(svc, "attack.count", 64.0, true);
-  if (!count) return std::unexpected(count.error());
-  const Rejuvenation sr = svc.param("sr.enabled", 1.0) == 1.0 ? Rejuvenation::On : Rejuvenation::Off;
+  auto plan = boot_attack_plan(
+      [&svc](std::string_view name) -> std::optional<double> {
+        if (!svc.has_param(name)) return std::nullopt;
+        return svc.param(name, 0.0);
+      },
+      [&svc](std::string_view name) { return std::string(svc.text_param(name, "")); });
+  if (!plan) return error(SdkError::BadArgument, plan.error().to_string());
   std::vector<std::pair<AttackWindowClock, double>> clocks;
   std::string described;
-  for (int j = 0; j < static_cast<int>(*count); ++j) {
-    const std::string prefix = "attack." + std::to_string(j) + ".";
-    if (svc.text_param(prefix + "kind", "") != "CUSTOM") continue;
-    // start_s is kernel time: the kernel adds the pre-flight alignment (no window before take-off).
-    auto start = checked(svc, prefix + "start_s", 1e9, false);
-    if (!start) return std::unexpected(start.error());
-    auto windows = checked(svc, prefix + "max_windows", 4294967295.0, true);
-    if (!windows) return std::unexpected(windows.error());
-    auto magnitude = checked(svc, prefix + "magnitude", 1e6, false);
-    if (!magnitude) return std::unexpected(magnitude.error());
-    clocks.emplace_back(AttackWindowClock(AttackSchedule{.start = to_nanos(Seconds{*start}),
-                                                         .max_windows = static_cast<std::uint32_t>(*windows),
+  for (const BootAttack& a : plan->attacks) {
+    if (a.kind != "CUSTOM") continue;
+    // The magnitude is the author's to interpret; a finite number in [0, 1e6] (absent = 0).
+    const double magnitude = a.magnitude.value_or(0.0);
+    if (!std::isfinite(magnitude) || magnitude < 0.0 || magnitude > 1e6) {
+      return error(SdkError::BadArgument, a.prefix + "magnitude: expected a number in [0, 1e6], got " +
+                                               std::to_string(magnitude));
+    }
+    // start is kernel time: the kernel adds the pre-flight alignment (no window before take-off).
+    clocks.emplace_back(AttackWindowClock(AttackSchedule{.start = to_nanos(a.start),
+                                                         .max_windows = a.max_windows,
                                                          .window = AttackWindowKind::MissionControl,
-                                                         .sr = sr}),
-                        *magnitude);
+                                                         .sr = plan->sr}),
+                        magnitude);
     char line[160];
     std::snprintf(line, sizeof line, "%sCUSTOM from t = %.3f s (kernel time), %s, magnitude %g",
-                  described.empty() ? "" : "; ", *start,
-                  *windows == 0
-                      ? "every MC window"
-                      : (std::to_string(static_cast<std::uint64_t>(*windows)) + " MC window(s)").c_str(),
-                  *magnitude);
+                  described.empty() ? "" : "; ", a.start.count(),
+                  a.max_windows == 0 ? "every MC window" : (std::to_string(a.max_windows) + " MC window(s)").c_str(),
+                  magnitude);
     described += line;
   }
   if (clocks.empty()) return std::unique_ptr<CustomAttack>{};

@@ -11,9 +11,14 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
 
 #include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
 
@@ -56,5 +61,46 @@ class AttackWindowClock {
   std::uint32_t ordinal_ = 0;
   bool attacked_without_sr_ = false;
 };
+
+// ---- The plan as a service reads it: its boot params (rejuv/sdk/service.hpp "Params") ----
+//
+// sr.enabled, attack.enabled, attack.count and, per attack j, attack.<j>.kind (text), .start_s, .max_windows and
+// .magnitude. One reader for every hook that acts on the plan (services/attacks, the SDK's CUSTOM hook), so that
+// they agree on what a plan says and on what is malformed.
+
+// A malformed attack param: which one and what was expected.
+struct AttackParamError {
+  std::string param{};
+  std::string message{};
+  [[nodiscard]] std::string to_string() const { return param + ": " + message; }
+};
+
+// Param lookups (the SDK's param/text_param, or a map in tests): nullopt / "" when absent.
+using NumberLookup = std::function<std::optional<double>(std::string_view)>;
+using TextLookup = std::function<std::string(std::string_view)>;
+
+// One attack of the plan, whatever its kind; each kind reads its magnitude by its own rule.
+struct BootAttack {
+  std::string kind;              // the AttackKind name (idl/launch.proto)
+  std::string prefix;            // "attack.<j>.": the params it was read from
+  Seconds start{0};              // kernel time (the kernel has added the pre-flight alignment)
+  std::uint32_t max_windows = 0;  // 0 = every window
+  std::optional<double> magnitude{};
+};
+
+struct BootAttackPlan {
+  Rejuvenation sr = Rejuvenation::On;
+  bool enabled = false;  // attack.enabled: the plan is on and names this service
+  std::vector<BootAttack> attacks{};
+};
+
+// A whole number in [0, max]; absent = 0.
+[[nodiscard]] Result<std::uint32_t, AttackParamError> whole_param(const NumberLookup& number, const std::string& name,
+                                                                   double max);
+
+// The plan of the boot params. An attack count or a max_windows that is not a whole number, or a negative or
+// non-finite start, is an error (bad input never aborts, CONVENTIONS).
+[[nodiscard]] Result<BootAttackPlan, AttackParamError> boot_attack_plan(const NumberLookup& number,
+                                                                        const TextLookup& text);
 
 }  // namespace rejuv

@@ -99,16 +99,10 @@ struct RuntimeAttackPlan {
   std::uint16_t escape_port = kDefaultEscapePort;  // service param escape_port (ESCAPE_HELPER)
 };
 
-// A malformed attack param: which one and what was expected.
-struct PlanError {
-  std::string param{};
-  std::string message{};
-  [[nodiscard]] std::string to_string() const { return param + ": " + message; }
-};
-
-// Param lookups (the SDK's param/text_param, or a map in tests): nullopt / "" when absent.
-using NumberLookup = std::function<std::optional<double>(std::string_view)>;
-using TextLookup = std::function<std::string(std::string_view)>;
+// A malformed attack param, and the param lookups: the plan reader's (rejuv/core/attack_window.hpp).
+using PlanError = AttackParamError;
+using ::rejuv::NumberLookup;
+using ::rejuv::TextLookup;
 
 // The runtime attacks of the boot params, in plan order; empty when attacks are off or none is a runtime
 // attack. An unknown kind name, a negative or non-finite start, a count/max_windows that is not a whole
