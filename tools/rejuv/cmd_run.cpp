@@ -114,7 +114,7 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                   static_cast<unsigned long long>(ph.images_by_fork()));
   }
   const proto::Charging& ch = s.charging();
-  char charged[384] = "";
+  char charged[640] = "";
   if (s.checkpoints() + s.rollbacks() > 0 || ch.priming_images() > 0) {
     std::snprintf(charged, sizeof charged,
                   "  charged     %s: %.3f s of simulated time (real %.3f s); first checkpoint %.3f ms, p99 %.3f ms; "
@@ -122,6 +122,17 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
                   ch.charge() == "model" ? "model" : ch.charge().c_str(), ch.charged_s(), ch.measured_s(),
                   ch.first_checkpoint_ms(), ch.checkpoint_p99_ms(),
                   static_cast<unsigned long long>(ch.priming_images()), ch.alignment_s());
+  }
+  if (s.has_catch_up()) {  // appended to the charges' line group: the replay is charged with the rollback
+    const proto::CatchUpSummary& c = s.catch_up();
+    char line[256];
+    std::snprintf(line, sizeof line,
+                  "  catch-up    %llu replays of %llu samples (p50 %.3f ms, max %.3f ms real); %llu estimates held from "
+                  "the controllers; %llu rollbacks not caught up\n",
+                  static_cast<unsigned long long>(c.replays()), static_cast<unsigned long long>(c.samples()),
+                  c.replay_ms().p50(), c.replay_ms().max(), static_cast<unsigned long long>(c.dropped()),
+                  static_cast<unsigned long long>(c.without_log()));
+    std::strncat(charged, line, sizeof charged - std::strlen(charged) - 1);
   }
   char buf[4096];
   std::snprintf(buf, sizeof buf,
@@ -192,6 +203,16 @@ void fill_services(proto::RunSummary& out, const kernel::Kernel& k) {
     s.set_images_lost(st.images_lost);
     s.set_hung(st.hung);
   }
+}
+
+// The estimate catch-up after each rollback (docs/control.md §6.3).
+void fill_catch_up(proto::CatchUpSummary& out, const kernel::Kernel& k) {
+  const kernel::CatchUpStats& c = k.catch_up_stats();
+  out.set_replays(c.replays);
+  out.set_samples(c.samples);
+  out.set_dropped(c.dropped);
+  out.set_without_log(c.without_log);
+  fill_percentiles(*out.mutable_replay_ms(), k.sr_stats().catch_up_ms);
 }
 
 // DESIGN §6: what was charged to simulated time, and the real durations beside it (wall-clock fields).
@@ -492,6 +513,7 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
   fill_percentiles(*s.mutable_rollback_ms(), sr.rollback_ms);
   fill_image_phases(*s.mutable_image_phases(), sr);
   fill_charging(*s.mutable_charging(), **k, options.charge);
+  if (s.sr() && (*k)->graph().graph.sr().estimate_catch_up()) fill_catch_up(*s.mutable_catch_up(), **k);
   if (sr.timer_arm_refused > 0) (*s.mutable_denials())["TimerArmedTwice"] = sr.timer_arm_refused;
   if (ulog) {
     if (auto done = finish_ulog(*ulog, s); !done) {

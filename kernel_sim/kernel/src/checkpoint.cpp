@@ -120,6 +120,7 @@ void Kernel::Impl::run_checkpoint() {
   if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointTaken, g);
   flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
   done.record.state = save_state(done.t_cp, done.record.images, services, broker, timers);
+  catch_up.cut(g);  // every plant sample kept so far is in the queue state just saved
   if (observer != nullptr) observer->on_checkpoint(g, broker);
   for (const image::Image& im : done.record.images) {
     services[im.service.value()].pages.base = g;

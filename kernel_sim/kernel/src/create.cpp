@@ -36,17 +36,6 @@ Result<policy::Policy, KernelError> load_audited_policy(const launch::LoadedLaun
   return std::move(*policy);
 }
 
-// Launch fields the model flies and the runtime does not: refused rather than ignored, since a run would fly
-// another scheme than the graph says.
-Result<void, KernelError> refuse_model_only_fields(const launch::LoadedLaunch& graph) {
-  if (graph.graph.sr().estimate_catch_up()) {
-    return fail(kernel_error(K::Config, graph.path.string() +
-                                            ": sr.estimate_catch_up is modelled by `rejuv sim` only; the runtime's "
-                                            "replay of the plant's samples is not built yet (docs/control.md)"));
-  }
-  return {};
-}
-
 // Each service's `params` against the parameters it declares beside its executable (launch.hpp "declared
 // parameters"): a misspelt name or a value out of range is refused at the launch file's line, not flown with the
 // service's default.
@@ -189,7 +178,8 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys
   k.seed = k.options.seed.value_or(k.graph.graph.seed());
   const proto::LockstepTiming& timing = k.graph.graph.lockstep();
   k.image_charge = ImageCharge(clock_mode, k.options.charge, std::chrono::round<Nanos>(launch::checkpoint_charge(timing)),
-                               std::chrono::round<Nanos>(launch::rollback_charge(timing)));
+                               std::chrono::round<Nanos>(launch::rollback_charge(timing)),
+                               std::chrono::round<Nanos>(launch::catch_up_charge_per_sample(timing)));
   k.pace = VehiclePace(clock_mode == ClockMode::Realtime && k.graph.graph.has_plant());
   // The plant aligns (held at rest) before the mission's t = 0; without a plant there is no alignment.
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
@@ -253,6 +243,67 @@ Result<void, KernelError> check_plant_executable(Kernel::Impl& k) {
     return fail(kernel_error(K::Config, k.graph.locations.locate({{"plant", -1}}, "executable").to_string() +
                                             ": error: plant executable " + path.string() + " not found (not built yet?)"));
   }
+  return {};
+}
+
+// The estimate catch-up (launch sr.estimate_catch_up; catch_up.hpp): which samples are kept and which
+// services form the chain they are replayed through — the rejuvenated services that read a topic bridged in
+// from the plant — from the graph's `uses`. Refused where a replay could not be what the model flies.
+Result<void, KernelError> plan_catch_up(Kernel::Impl& k) {
+  const proto::Launch& g = k.graph.graph;
+  if (!k.sr || !g.sr().estimate_catch_up()) return {};
+  const std::string at = k.graph.locations.locate({{"sr", -1}}, "estimate_catch_up").to_string() + ": error: ";
+  const auto refuse = [&](const std::string& why) { return fail(kernel_error(K::Config, at + why)); };
+  if (k.clock_mode == ClockMode::Realtime) {
+    return refuse("sr.estimate_catch_up replays the plant's samples in lockstep only (the world stops meanwhile); "
+                  "fly this graph in lockstep, or turn the catch-up off for a real-time run (docs/control.md §6.3)");
+  }
+  const auto object = [&](const std::string& name) -> std::optional<std::uint32_t> {
+    const auto it = std::find_if(k.objects.begin(), k.objects.end(), [&](const ObjectInfo& o) { return o.name == name; });
+    return it == k.objects.end() ? std::nullopt : std::optional(it->id.value());
+  };
+  const auto uses = [&](const ServiceRuntime& s, std::uint32_t topic, char right) {
+    return std::any_of(s.config.spec->uses().begin(), s.config.spec->uses().end(), [&](const proto::Use& u) {
+      return u.rights().find(right) != std::string::npos && object(u.object()) == topic;
+    });
+  };
+  CatchUp::Plan plan{.logged = std::vector<bool>(k.objects.size()), .cut_off = std::vector<bool>(k.objects.size()),
+                     .chain = std::vector<bool>(k.services.size())};
+  std::size_t slot_bytes = 0;
+  for (const proto::Bridge& b : g.dds().bridges()) {
+    const auto topic = object(b.topic());
+    if (b.direction() != proto::BRIDGE_IN || !topic) continue;
+    for (const ServiceRuntime& s : k.services) {
+      if (s.config.skip || !uses(s, *topic, 'R')) continue;
+      if (!s.config.rejuvenate) {
+        return refuse("'" + s.name + "' reads '" + b.topic() + "', which the catch-up replays after a rollback, "
+                      "but is not rejuvenated: it would be handed those samples a second time");
+      }
+      plan.logged[*topic] = true;
+      plan.chain[s.id.value()] = true;
+      slot_bytes = std::max(slot_bytes, k.objects[*topic].type->size);
+    }
+  }
+  if (slot_bytes == 0) return refuse("no rejuvenated service reads a topic bridged in from the plant: nothing to catch up");
+  // What the chain publishes goes either to the chain alone (routed during the replay) or to services outside it
+  // alone (held from them during the replay): a topic read on both sides would starve one of them.
+  for (const ObjectInfo& o : k.objects) {
+    if (o.kind != ObjectKind::Topic || plan.logged[o.id.value()]) continue;
+    std::string writer, inside, outside;
+    for (const ServiceRuntime& s : k.services) {
+      if (s.config.skip) continue;
+      if (plan.chain[s.id.value()] && uses(s, o.id.value(), 'W')) writer = s.name;
+      if (uses(s, o.id.value(), 'R')) (plan.chain[s.id.value()] ? inside : outside) = s.name;
+    }
+    if (writer.empty() || outside.empty()) continue;
+    if (!inside.empty()) {
+      return refuse("'" + o.name + "', written by '" + writer + "' of the catch-up chain, is read both inside the chain ('" +
+                    inside + "') and outside it ('" + outside + "'): during a replay one of them would miss it");
+    }
+    plan.cut_off[o.id.value()] = true;
+  }
+  // 32768 samples: ≈ 100 s of the plant's sensors, far more than the generations a store keeps span.
+  k.catch_up = CatchUp(std::move(plan), 32768, slot_bytes);
   return {};
 }
 
@@ -341,7 +392,6 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   if (auto refused = check_params(graph, options); !refused) return fail(std::move(refused.error()));
   auto policy = load_audited_policy(graph);
   if (!policy) return fail(policy.error());
-  if (auto refused = refuse_model_only_fields(graph); !refused) return fail(std::move(refused.error()));
   auto clock_mode = choose_clock(graph, options);
   if (!clock_mode) return fail(clock_mode.error());
   const bool sr = graph.graph.sr().enabled() && !options.no_sr;
@@ -366,7 +416,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   k.seccomp = std::move(fds->seccomp);
   configure(k, *clock_mode, sr, std::move(*uid_block));
   using Step = Result<void, KernelError> (*)(Impl&);
-  for (const Step step : {&add_services, &check_plant_executable, &place, &open_bridge, &watch_event_sources}) {
+  for (const Step step : {&add_services, &plan_catch_up, &check_plant_executable, &place, &open_bridge, &watch_event_sources}) {
     if (auto ok = step(k); !ok) return fail(ok.error());
   }
   k.reaper.set_slack(k.processes_to_spare());  // the services' limits are known now (add_services)

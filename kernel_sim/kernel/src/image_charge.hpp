@@ -3,7 +3,7 @@
 // default) it is the launch file's model, so that a run with one seed is deterministic; with --charge measured
 // it is the real duration, and in real time the world simply went on meanwhile. The charge accumulates over
 // the lockstep step in progress and leaves with its ack (lockstep.cpp, finish_step). One owner: the image
-// coordinator charges (checkpoint.cpp, rollback.cpp); the lockstep takes.
+// coordinator charges (checkpoint.cpp, rollback.cpp; the catch-up after a rollback, router.cpp); the lockstep takes.
 #pragma once
 
 #include <utility>
@@ -16,17 +16,23 @@ namespace rejuv::kernel {
 class ImageCharge {
  public:
   ImageCharge() = default;
-  ImageCharge(ClockMode clock_mode, KernelOptions::Charge charge, Nanos checkpoint_model, Nanos rollback_model)
+  ImageCharge(ClockMode clock_mode, KernelOptions::Charge charge, Nanos checkpoint_model, Nanos rollback_model,
+              Nanos catch_up_model_per_sample)
       : lockstep_(clock_mode == ClockMode::Lockstep),
         measured_(charge == KernelOptions::Charge::Measured),
         checkpoint_model_(checkpoint_model),
-        rollback_model_(rollback_model) {}
+        rollback_model_(rollback_model),
+        catch_up_model_per_sample_(catch_up_model_per_sample) {}
 
   // Whether the vehicle lives through the real duration of the image work: real time, or lockstep charging the
   // measured duration. Then the kernel may wait only resume_deadline for images (KernelOptions).
   [[nodiscard]] bool vehicle_sees_work() const { return !lockstep_ || measured_; }
   void checkpoint(Nanos took, SrStats& stats) { add(took, checkpoint_model_, stats); }
   void rollback(Nanos took, SrStats& stats) { add(took, rollback_model_, stats); }
+  // The estimate catch-up after a rollback (catch_up.hpp): part of the rollback's stop, modelled per sample.
+  void catch_up(Nanos took, std::uint64_t samples, SrStats& stats) {
+    add(took, catch_up_model_per_sample_ * static_cast<std::int64_t>(samples), stats);
+  }
   // The step's charge, for its ack; the next step starts from zero.
   [[nodiscard]] Nanos take_step_charge() { return std::exchange(step_, Nanos{0}); }
 
@@ -42,6 +48,7 @@ class ImageCharge {
   bool measured_ = false;
   Nanos checkpoint_model_{0};
   Nanos rollback_model_{0};
+  Nanos catch_up_model_per_sample_{0};
   Nanos step_{0};  // charged to the lockstep step in progress
 };
 

@@ -15,6 +15,7 @@
 
 #include "bridge.hpp"
 #include "canonical_stage.hpp"
+#include "catch_up.hpp"
 #include "channel_pool.hpp"
 #include "image_charge.hpp"
 #include "invocation.hpp"
@@ -157,6 +158,7 @@ struct Kernel::Impl {
   };
   std::optional<Abandoned> abandoned;
   RoutingFreeze routing;  // frozen while a checkpoint or rollback is timed (routing_freeze.hpp)
+  CatchUp catch_up;       // the plant's samples since each cut, replayed after a rollback (catch_up.hpp)
   std::optional<std::string> rollback_request;  // the reason; carried out at the next safe point
   RejuvenationTimer rejuvenation{};
   SrStats sr_stats{};
@@ -353,7 +355,9 @@ struct Kernel::Impl {
   void ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload);
   void route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload);
   // Who published: the kernel's own topics go out through the bridge, samples that came in do not.
-  enum class From : std::uint8_t { Service, Kernel, Bridge };
+  // Bridge: a plant sample; Replay: a plant sample the catch-up hands on again (not watched twice); Held: a
+  // plant sample that waited behind a replay (kept already). None of them goes back out to the plant.
+  enum class From : std::uint8_t { Service, Kernel, Bridge, Replay, Held };
   void publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from = From::Kernel);
   // A message of the kernel's own (SrMode, RollbackSignal, SecurityEvent) on every topic of its type that the
   // policy says the kernel publishes (KERNEL_PUBLISHES; none: not published). The one place that finds them.
@@ -371,6 +375,9 @@ struct Kernel::Impl {
   void finish_routes(ObjectId topic);  // pushes the topic's newest message to every subscriber
   void flush_staged();
   void route_samples();
+  // Lockstep, the graph idle: the catch-up's next sampling instant routed as a round of its own; at its end,
+  // what it cost charged (catch_up.hpp).
+  void replay_next_instant();
   void publish_sr_mode();
   bool write_to_bridge(ObjectId topic, std::span<const std::byte> payload);  // false: the run stops
   // Output to a service (flow control: FlowControl, service_runtime.hpp, keeps the order, the pool, the count).

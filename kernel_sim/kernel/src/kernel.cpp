@@ -161,6 +161,7 @@ std::vector<Kernel::TopicInfo> Kernel::topics() const {
 }
 std::uint64_t Kernel::bad_frames_total() const { return impl_->kernel_bad_frames; }
 const SrStats& Kernel::sr_stats() const { return impl_->sr_stats; }
+const CatchUpStats& Kernel::catch_up_stats() const { return impl_->catch_up.stats(); }
 
 Result<Generation, KernelError> Kernel::checkpoint_now() {
   Impl& k = *impl_;

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <string>
 
-#include "impl.hpp"
+#include "images.hpp"
 
 namespace rejuv::kernel {
 
@@ -78,6 +78,22 @@ void Kernel::Impl::begin_step(const PendingStep& step) {
   net_poll();  // datagrams that arrived before the step: handed over at its start (netgate.cpp)
 }
 
+// The catch-up's next sampling instant (catch_up.hpp), once the graph is idle: routed as a batch of its own.
+void Kernel::Impl::replay_next_instant() {
+  if (!catch_up.replaying()) return;
+  steps.next_batch(wall());  // its rounds and idle deadline count from here
+  cork();
+  const bool more = catch_up.replay_instant(
+      [&](ObjectId topic, std::span<const std::byte> bytes) { publish_as_kernel(topic, bytes, From::Replay); },
+      [&](ObjectId topic, std::span<const std::byte> bytes) { publish_as_kernel(topic, bytes, From::Held); });
+  uncork();
+  if (!more) {
+    const Nanos took = wall() - catch_up.began_at();
+    sr_stats.catch_up_ms.add(to_ms(took));
+    image_charge.catch_up(took, catch_up.replayed(), sr_stats);
+  }
+}
+
 bool Kernel::Impl::advance_step() {
   for (;;) {
     if (service_images()) continue;  // a pending rollback, or a checkpoint once quiescent (images.cpp)
@@ -100,6 +116,12 @@ bool Kernel::Impl::advance_step() {
       cork();
       fire_timers();
       uncork();
+      continue;
+    }
+    // After a rollback the restored estimator chain catches up before the step goes on (the world is stopped,
+    // the replay charged).
+    if (catch_up.replaying()) {
+      replay_next_instant();
       continue;
     }
     return true;

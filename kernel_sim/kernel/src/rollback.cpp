@@ -222,6 +222,11 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   publish_sr_mode();
   const Nanos took = wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
   resume_routing();
+  // The restored estimator chain is fed the plant's samples since g's cut before the step goes on (lockstep.cpp).
+  if (catch_up.begin(restored->g, wall()) == CatchUp::Begin::NoLog) {
+    log("rollback to generation %llu: its samples are no longer all kept; the estimator is not caught up",
+        num(restored->g));
+  }
   // The restored copies ran SCHED_OTHER (reset on fork) until now: the real-time plan back, after the timed
   // part (realtime.cpp; a system call per service).
   for (const image::Image& im : restored->images) apply_realtime(services[im.service.value()]);
@@ -253,6 +258,7 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
   reaper.kill_retired();
+  catch_up.forget();  // the services start from their binaries: no generation to catch up to
   rejuvenation = RejuvenationTimer{};
   arm_timerfd();
   kernel_clock.begin_epoch();

@@ -64,6 +64,7 @@ void Kernel::Impl::route_publish(ServiceRuntime& s, std::uint32_t slot, std::spa
     refuse(s, "publish on '" + o.name + "', which only the kernel publishes");  // the audit forbids the grant
     return;
   }
+  if (catch_up.drops(s.id, o.id)) return;  // the chain catching up: its estimate is not the controllers' yet
   auto g = broker.publish(o.id, payload, now());
   if (!g) {
     refuse(s, "broker: " + std::string(broker::to_string(g.error())));
@@ -75,6 +76,10 @@ void Kernel::Impl::route_publish(ServiceRuntime& s, std::uint32_t slot, std::spa
 }
 
 void Kernel::Impl::publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from) {
+  if (from == From::Bridge && catch_up.logs(topic) &&
+      catch_up.keep(topic, payload, dds::plant_topics::stamp_of(payload).value_or(0))) {
+    return;  // behind the replay in progress, which hands it on in its turn
+  }
   auto g = broker.publish(topic, payload, now());
   if (!g) {
     log("kernel publish on '%s' refused: %s", objects[topic.value()].name.c_str(),
@@ -103,8 +108,8 @@ bool Kernel::Impl::write_to_bridge(ObjectId topic, std::span<const std::byte> pa
 
 void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
                                  std::optional<ServiceId> publisher, From from) {
-  watch_publication(objects[topic.value()], payload, g, publisher);  // observers (watch.cpp)
-  if (bridge && from != From::Bridge) {  // what came in through the bridge does not go back out
+  if (from != From::Replay) watch_publication(objects[topic.value()], payload, g, publisher);  // observers (watch.cpp)
+  if (bridge && (from == From::Service || from == From::Kernel)) {  // what came in from the plant does not go back out
     if (routing.frozen()) {  // a checkpoint or rollback is timed: written by resume_routing
       routing.hold(topic, payload);
     } else {

@@ -72,6 +72,13 @@ class StepClock {
   [[nodiscard]] std::uint32_t rounds() const { return rounds_; }
   [[nodiscard]] bool rounds_exhausted() const { return rounds_ >= kMaxRoundsPerStep; }
   void next_round() { ++rounds_; }
+  // A new batch of input inside the active step (a sampling instant the catch-up replays, catch_up.hpp): its
+  // rounds and its idle deadline count from here, so that a long replay is not taken for a step that never
+  // settles or for a hung service.
+  void next_batch(Nanos wall_now) {
+    rounds_ = 0;
+    started_ = wall_now;
+  }
   void note_hung(ServiceId s) {
     if (active_) hung_.push_back(s);
   }

@@ -58,7 +58,12 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   number("sr.keep_generations", launch::keep_generations(sr));
   number("sr.restricted_limit_fraction", sr.restricted_limit_fraction());
   // The estimator's re-arm after a rollback: only what the launch file sets (ekf2's defaults are flight::EkfRearm's).
-  for (const launch::RearmField& f : launch::ekf_rearm_fields(sr.ekf_rearm())) number("sr.ekf_rearm." + f.name, f.value);
+  // With the estimate catch-up the restored estimator is fed the samples it missed instead, its covariance kept
+  // (catch_up.hpp), as the model does.
+  for (const launch::RearmField& f : launch::ekf_rearm_fields(sr.ekf_rearm())) {
+    if (!(f.is_switch && sr.estimate_catch_up())) number("sr.ekf_rearm." + f.name, f.value);
+  }
+  if (sr.estimate_catch_up()) number("sr.ekf_rearm.enabled", 0);
   number("sr.box.position_m", sr.box().position_m());
   number("sr.box.velocity_m_s", sr.box().velocity_m_s());
   number("sr.box.angle_rad", sr.box().angle_rad());

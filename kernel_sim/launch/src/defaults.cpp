@@ -101,6 +101,10 @@ Seconds rollback_charge(const proto::LockstepTiming& lockstep) {
   return lockstep.has_rollback_charge_ms() ? Seconds(lockstep.rollback_charge_ms() / 1000.0)
                                            : defaults::kRollbackCharge;
 }
+Seconds catch_up_charge_per_sample(const proto::LockstepTiming& lockstep) {
+  return lockstep.has_catch_up_charge_us_per_sample() ? Seconds(lockstep.catch_up_charge_us_per_sample() / 1e6)
+                                                      : defaults::kCatchUpChargePerSample;
+}
 Seconds alignment(const proto::LockstepTiming& lockstep) {
   return lockstep.has_alignment_s() ? Seconds(lockstep.alignment_s()) : defaults::kAlignment;
 }

@@ -243,6 +243,11 @@ class Validator {
                                       " ms, got " + num(v)));
       }
     }
+    if (const double v = l.catch_up_charge_us_per_sample();
+        !std::isfinite(v) || v < 0.0 || v > defaults::kMaxCatchUpChargeUs) {
+      return fail(error(loc("catch_up_charge_us_per_sample"), "lockstep.catch_up_charge_us_per_sample must be 0 to " +
+                                                                  num(defaults::kMaxCatchUpChargeUs) + " µs, got " + num(v)));
+    }
     if (!std::isfinite(l.alignment_s()) || l.alignment_s() < 0.0 || l.alignment_s() > defaults::kMaxAlignmentS) {
       return fail(error(loc("alignment_s"), "lockstep.alignment_s must be 0 to " + num(defaults::kMaxAlignmentS) +
                                                 " s, got " + num(l.alignment_s())));

@@ -24,6 +24,7 @@
 namespace rejuv::kernel {
 namespace {
 
+using std::chrono::microseconds;
 using std::chrono::milliseconds;
 using std::chrono::seconds;
 
@@ -245,7 +246,7 @@ TEST(RoutingFreezeDeathTest, HoldWhileRouting_BreaksTheInvariant) {
 // ---- ImageCharge ----
 
 TEST(ImageCharge, LockstepModel_ChargesTheModel_MeasuresTheRealDuration) {
-  ImageCharge charge(ClockMode::Lockstep, KernelOptions::Charge::Model, milliseconds{3}, milliseconds{2});
+  ImageCharge charge(ClockMode::Lockstep, KernelOptions::Charge::Model, milliseconds{3}, milliseconds{2}, microseconds{2});
   EXPECT_FALSE(charge.vehicle_sees_work());
   SrStats stats;
   charge.checkpoint(milliseconds{10}, stats);
@@ -259,8 +260,20 @@ TEST(ImageCharge, LockstepModel_ChargesTheModel_MeasuresTheRealDuration) {
   EXPECT_EQ(stats.charged, milliseconds{8}) << "the run's total goes on";
 }
 
+TEST(ImageCharge, CatchUp_ChargesItsSamplesByTheModel_MeasuresTheRealDuration) {
+  ImageCharge model(ClockMode::Lockstep, KernelOptions::Charge::Model, milliseconds{3}, milliseconds{2}, microseconds{2});
+  SrStats stats;
+  model.catch_up(milliseconds{4}, 100, stats);
+  EXPECT_EQ(model.take_step_charge(), microseconds{200});
+  EXPECT_EQ(stats.measured, milliseconds{4});
+  ImageCharge measured(ClockMode::Lockstep, KernelOptions::Charge::Measured, milliseconds{3}, milliseconds{2},
+                       microseconds{2});
+  measured.catch_up(milliseconds{4}, 100, stats);
+  EXPECT_EQ(measured.take_step_charge(), milliseconds{4});
+}
+
 TEST(ImageCharge, LockstepMeasured_ChargesTheRealDuration) {
-  ImageCharge charge(ClockMode::Lockstep, KernelOptions::Charge::Measured, milliseconds{3}, milliseconds{2});
+  ImageCharge charge(ClockMode::Lockstep, KernelOptions::Charge::Measured, milliseconds{3}, milliseconds{2}, microseconds{2});
   EXPECT_TRUE(charge.vehicle_sees_work());
   SrStats stats;
   charge.checkpoint(milliseconds{10}, stats);
@@ -271,7 +284,7 @@ TEST(ImageCharge, LockstepMeasured_ChargesTheRealDuration) {
 }
 
 TEST(ImageCharge, Realtime_ChargesNothing_TheWorldWentOn) {
-  ImageCharge charge(ClockMode::Realtime, KernelOptions::Charge::Model, milliseconds{3}, milliseconds{2});
+  ImageCharge charge(ClockMode::Realtime, KernelOptions::Charge::Model, milliseconds{3}, milliseconds{2}, microseconds{2});
   EXPECT_TRUE(charge.vehicle_sees_work());
   SrStats stats;
   charge.checkpoint(milliseconds{10}, stats);

@@ -131,13 +131,17 @@ TEST(SimCli, Csv_HeaderAndOneRowPerControlPeriod) {
 
 namespace {
 
-// A graph with sr.estimate_catch_up is flown by `rejuv sim` and refused by `rejuv run` before any process starts
-// (the runtime has no replay yet): exit 2 naming the field, rather than a run of another scheme.
-TEST(RunCli, EstimateCatchUp_RefusedNamingTheField) {
+// A graph with sr.estimate_catch_up is flown by `rejuv run` in lockstep (tests/multiproc sr_e2e_test) and refused
+// in real time before any process starts (the replay stops the world): exit 2 at the field's line, rather than a
+// run of another scheme.
+TEST(RunCli, EstimateCatchUp_InRealTime_RefusedAtTheField) {
   const std::string graph = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_catch_up.launch.pbtxt";
-  const Outcome run_outcome = run(graph + " --duration 1 --domain 231", "run");
+  const Outcome run_outcome = run(graph + " --realtime --duration 1 --domain 231", "run");
   EXPECT_EQ(run_outcome.exit_code, 2) << run_outcome.output;
-  EXPECT_NE(run_outcome.output.find("sr.estimate_catch_up"), std::string::npos) << run_outcome.output;
+  EXPECT_NE(run_outcome.output.find("quad_square_catch_up.launch.pbtxt:"), std::string::npos) << run_outcome.output;
+  EXPECT_NE(run_outcome.output.find("sr.estimate_catch_up replays the plant's samples in lockstep only"),
+            std::string::npos)
+      << run_outcome.output;
   EXPECT_EQ(run_outcome.output.find("services ready"), std::string::npos) << run_outcome.output;
 }
 

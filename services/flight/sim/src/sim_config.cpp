@@ -35,6 +35,7 @@ Result<SimConfig, LoadError> config_from_launch(const launch::LoadedLaunch& load
   c.rho_M = sr.rho_m();
   c.keep_generations = launch::keep_generations(sr);
   c.estimate_catch_up = sr.estimate_catch_up();
+  c.catch_up_charge_per_sample = std::chrono::round<Nanos>(launch::catch_up_charge_per_sample(g.lockstep()));
   for (const launch::RearmField& f : launch::ekf_rearm_fields(sr.ekf_rearm())) {
     if (f.is_switch) c.ekf_rearm.enabled = f.value == 1.0;
     for (const EkfRearm::StdField& s : EkfRearm::kStdFields) {

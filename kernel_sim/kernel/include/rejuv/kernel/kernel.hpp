@@ -398,6 +398,16 @@ struct SrStats {
   };
   Phases checkpoint_phases{};  // a: snapshot, b: taken, c: save  [ms]
   Phases rollback_phases{};    // a: kill, b: resume, c: restore  [ms]
+  DurationSamples catch_up_ms{};  // the estimate catch-up after a rollback, per replay (launch sr.estimate_catch_up)
+};
+
+// The estimate catch-up after a rollback (launch sr.estimate_catch_up; docs/control.md §6.3): the plant's samples
+// since the restored generation's cut, replayed through the restored estimator chain.
+struct CatchUpStats {
+  std::uint64_t replays = 0;      // rollbacks followed by a replay
+  std::uint64_t samples = 0;      // samples replayed, in all
+  std::uint64_t dropped = 0;      // publications of the chain held from the services outside it meanwhile
+  std::uint64_t without_log = 0;  // rollbacks to a generation whose samples were no longer all kept
 };
 
 // Result of one manual lockstep step.
@@ -471,6 +481,7 @@ class Kernel {
   [[nodiscard]] ServiceStats stats(ServiceId service) const;
   [[nodiscard]] std::uint64_t bad_frames_total() const;
   [[nodiscard]] const SrStats& sr_stats() const;
+  [[nodiscard]] const CatchUpStats& catch_up_stats() const;
   [[nodiscard]] Epoch epoch() const;
   // The kernel time of the mission's t = 0: the end of the plant's pre-flight alignment (launch lockstep.
   // alignment_s). SR starts there (DESIGN §6).

@@ -70,6 +70,8 @@ inline constexpr Seconds kCheckPeriod{0.002};          // §V-B: condition (1) i
 // performance.md "Deterministic lockstep"), for a graph that sets none.
 inline constexpr Seconds kCheckpointCharge{0.0003};
 inline constexpr Seconds kRollbackCharge{0.0003};
+inline constexpr Seconds kCatchUpChargePerSample{2e-6};  // lockstep.catch_up_charge_us_per_sample
+inline constexpr double kMaxCatchUpChargeUs = 1000.0;
 inline constexpr Seconds kAlignment{20.0};             // pre-flight alignment before the mission's t = 0
 inline constexpr double kMaxChargeMs = 1000.0;         // the plant refuses a step charged more than 1 s
 inline constexpr double kMaxAlignmentS = 3600.0;       // the plant's --align-s bound
@@ -140,6 +142,7 @@ struct RealtimeValues {
 [[nodiscard]] RealtimeValues realtime_values(const proto::RealtimePlan& plan);
 [[nodiscard]] Seconds checkpoint_charge(const proto::LockstepTiming& lockstep);
 [[nodiscard]] Seconds rollback_charge(const proto::LockstepTiming& lockstep);
+[[nodiscard]] Seconds catch_up_charge_per_sample(const proto::LockstepTiming& lockstep);
 [[nodiscard]] Seconds alignment(const proto::LockstepTiming& lockstep);
 // Physics rate of the plant [Hz]; 0 in the file means the default.
 [[nodiscard]] double physics_rate_hz(const proto::PlantSpec& plant);

@@ -54,7 +54,7 @@ struct SimConfig {
   EkfRearm ekf_rearm;
   // Estimate catch-up (launch sr.estimate_catch_up): at a rollback the plant's sensor samples since the
   // checkpoint are replayed through the restored estimator instead of re-arming its covariance; the replay is
-  // charged to the rollback's stop at this much per sample (EKF predict + fusion, ekf_bench's order, rounded up).
+  // charged to the rollback's stop at this much per sample (launch lockstep.catch_up_charge_us_per_sample).
   bool estimate_catch_up = false;
   Nanos catch_up_charge_per_sample{std::chrono::microseconds{2}};
   std::vector<PathWaypoint> waypoints;

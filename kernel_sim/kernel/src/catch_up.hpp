@@ -1,0 +1,124 @@
+// Estimate catch-up after a rollback (launch sr.estimate_catch_up; docs/control.md §6.3). The paper's §VII
+// names SR's cost as its open problem and "the estimation error from the time lapse between checkpoint and
+// restore" as one cause: a restored estimator is a whole SR cycle old, and T_est waits for it to converge.
+//
+// The kernel keeps the samples that entered from the plant through the bridge on the topics the estimator chain
+// reads — never what a service published, so a compromised `sensors` or `ekf2` cannot put anything in it — in
+// a ring that outlives rollbacks (like the run's counters), with the position of each checkpoint's cut. When a
+// rollback restores generation g, the samples since g's cut are replayed through the restored chain (the
+// rejuvenated services that read them: sensors → ekf2), one sampling instant at a time, before the step goes
+// on. Meanwhile a live sample queues behind the replay, and what the chain publishes for services outside it
+// (vehicle_state for the controllers) is dropped: the controllers' next estimate is the live step's, as fresh
+// as a never-attacked estimator's.
+//
+// One owner of the log, the cuts and the replay: the router keeps and replays (router.cpp), the checkpoint cuts
+// (checkpoint.cpp), the rollback begins (rollback.cpp), a cold restart forgets (there is nothing to catch up).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
+#include "rejuv/core/time.hpp"
+#include "rejuv/kernel/kernel.hpp"
+
+namespace rejuv::kernel {
+
+class CatchUp {
+ public:
+  // Which topics are logged and which services form the chain (create.cpp, plan_catch_up).
+  struct Plan {
+    std::vector<bool> logged;   // by ObjectId: bridged in from the plant and read by the chain
+    std::vector<bool> cut_off;  // by ObjectId: published by the chain for services outside it
+    std::vector<bool> chain;    // by ServiceId
+  };
+  using Stats = CatchUpStats;
+  enum class Begin : std::uint8_t { Replaying, NothingToReplay, NoLog };
+
+  CatchUp() = default;  // off: logs nothing, never replays
+  // `capacity` samples of at most `slot_bytes` each, allocated here once.
+  CatchUp(Plan plan, std::size_t capacity, std::size_t slot_bytes);
+
+  [[nodiscard]] bool enabled() const { return capacity_ > 0; }
+  [[nodiscard]] bool logs(ObjectId topic) const { return flag(plan_.logged, topic.value()); }
+  [[nodiscard]] bool replaying() const { return replaying_; }
+  [[nodiscard]] const Stats& stats() const { return stats_; }
+
+  // A sample from the plant on a logged topic: kept. True when it has to wait behind the replay in progress (the
+  // replay hands it on in its turn); false when the caller routes it now.
+  [[nodiscard]] bool keep(ObjectId topic, std::span<const std::byte> bytes, std::uint64_t stamp);
+  // The checkpoint of generation g takes its cut now: its queue state holds every sample kept so far.
+  void cut(Generation g);
+  // A rollback restored g: the samples since g's cut are replayed (Replaying), there are none (NothingToReplay),
+  // or some were overwritten or g's cut is not known (NoLog: the restored estimator stays a cycle old).
+  // `wall`: when (the replay's real duration is measured from it).
+  [[nodiscard]] Begin begin(Generation g, Nanos wall);
+  [[nodiscard]] Nanos began_at() const { return began_at_; }
+  [[nodiscard]] std::uint64_t replayed() const { return replayed_; }  // by the replay in progress or the last
+  // Replaying: whether `publisher`'s publication on `topic` is held from the services outside the chain (and
+  // counted).
+  [[nodiscard]] bool drops(ServiceId publisher, ObjectId topic);
+  // The next sampling instant (the samples kept next with one stamp, up to those kept when the replay began):
+  // replay(topic, bytes) for each. When none is left the replay is over: the live samples that waited behind it
+  // are handed to release(topic, bytes), in order, to be routed as live (they are kept already), and false is
+  // returned.
+  template <typename Replay, typename Release>
+  [[nodiscard]] bool replay_instant(Replay&& replay, Release&& release) {
+    if (!replaying_) return false;
+    if (replay_ == end_) {
+      replaying_ = false;
+      for (; replay_ != next_; ++replay_) release(ObjectId{entry(replay_).topic}, bytes_of(replay_));
+      return false;
+    }
+    const std::uint64_t stamp = entry(replay_).stamp;
+    do {
+      replay(ObjectId{entry(replay_).topic}, bytes_of(replay_));
+      ++replay_;
+      ++replayed_;
+      ++stats_.samples;
+    } while (replay_ != end_ && entry(replay_).stamp == stamp);
+    return true;
+  }
+  // A cold restart: no generation is left to catch up to.
+  void forget();
+
+ private:
+  struct Entry {
+    std::uint32_t topic = 0;
+    std::uint32_t size = 0;
+    std::uint64_t stamp = 0;
+  };
+  struct Cut {
+    Generation g{};
+    std::uint64_t seq = 0;  // the first sample after the cut
+  };
+  static constexpr std::size_t kCutsKept = 8;  // more than any store keeps (launch keep_generations ≤ 4, + 1)
+
+  [[nodiscard]] static bool flag(const std::vector<bool>& v, std::size_t i) { return i < v.size() && v[i]; }
+  [[nodiscard]] const Entry& entry(std::uint64_t seq) const { return entries_[seq % capacity_]; }
+  [[nodiscard]] std::span<const std::byte> bytes_of(std::uint64_t seq) const {
+    return std::span<const std::byte>(arena_).subspan((seq % capacity_) * slot_bytes_, entry(seq).size);
+  }
+
+  Plan plan_{};
+  std::size_t capacity_ = 0;
+  std::size_t slot_bytes_ = 0;
+  std::vector<Entry> entries_{};
+  std::vector<std::byte> arena_{};
+  // Samples are numbered from 0 in the order kept: [first_, next_) are in the ring, replay_ is the next to hand
+  // on, end_ the first that came after the replay began (live: released when the replay is over).
+  std::uint64_t first_ = 0;
+  std::uint64_t next_ = 0;
+  std::uint64_t replay_ = 0;
+  std::uint64_t end_ = 0;
+  bool replaying_ = false;
+  Nanos began_at_{0};
+  std::uint64_t replayed_ = 0;
+  std::vector<Cut> cuts_{};  // oldest first
+  Stats stats_{};
+};
+
+}  // namespace rejuv::kernel
