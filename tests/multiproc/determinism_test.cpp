@@ -32,19 +32,21 @@ class Determinism : public rejuv::test_support::ScratchDirTest {
   Determinism() : ScratchDirTest("rejuv_determinism_") {}
   [[nodiscard]] bool keep_on_failure() const override { return true; }  // the traces to diff
 
-  // The shipped square with its policy path made absolute, a 2 s alignment and T_est = 0.5 s.
+  // A shipped square (the paper's unless named) with its policy path made absolute, a 2 s alignment and, for the
+  // paper's, T_est = 0.5 s.
   std::filesystem::path graph() const {
-    std::string text = slurp(kRepo / "launch" / "quad_square.launch.pbtxt");
+    std::string text = slurp(kRepo / "launch" / square_);
     const std::string rel = "policy: \"../policies/quad_sr.policy.pbtxt\"";
     text.replace(text.find(rel), rel.size(), "policy: \"" + (kRepo / "policies" / "quad_sr.policy.pbtxt").string() + "\"");
     const std::string t_est = "t_est_s: 3.0";
-    text.replace(text.find(t_est), t_est.size(), "t_est_s: 0.5");
+    if (const auto at = text.find(t_est); at != std::string::npos) text.replace(at, t_est.size(), "t_est_s: 0.5");
     const std::string align = "alignment_s: 20";
     text.replace(text.find(align), align.size(), "alignment_s: 2");
     const auto p = dir_ / "g.launch.pbtxt";
     std::ofstream(p) << text;
     return p;
   }
+  std::string square_ = "quad_square.launch.pbtxt";
 
   struct Flight {
     Outcome outcome;
@@ -86,6 +88,7 @@ rejuv::proto::RunSummary without_wall_clock(rejuv::proto::RunSummary s) {
   c.clear_first_checkpoint_ms();
   c.clear_checkpoint_p99_ms();
   c.clear_rollback_p99_ms();
+  if (s.has_catch_up()) s.mutable_catch_up()->clear_replay_ms();
   return s;
 }
 
@@ -123,6 +126,24 @@ TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
   // Byte-identical traces (the first differing row is in the kept scratch folder when this fails).
   EXPECT_TRUE(a.csv == b.csv) << "traces differ: diff " << (dir_ / "a.csv") << " " << (dir_ / "b.csv");
   // Field by field, so that a failure names the field (the whole text is longer than a failure shows).
+  std::string differences;
+  google::protobuf::util::MessageDifferencer diff;
+  diff.ReportDifferencesToString(&differences);
+  EXPECT_TRUE(diff.Compare(without_wall_clock(a.summary), without_wall_clock(b.summary))) << differences;
+}
+
+// The estimate catch-up's replay (launch/quad_square_catch_up) keeps the run deterministic: it is routed in the
+// lockstep's canonical order with the graph idle between its instants, and charged by the model per sample.
+TEST_F(Determinism, EstimateCatchUp_TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
+  square_ = "quad_square_catch_up.launch.pbtxt";
+  const Flight a = fly("a", "6");
+  const Flight b = fly("b", "6");
+  ASSERT_EQ(a.outcome.exit_code, 0) << a.outcome.err;
+  ASSERT_EQ(b.outcome.exit_code, 0) << b.outcome.err;
+  EXPECT_GT(a.summary.rollbacks(), 1U) << a.outcome.out;
+  EXPECT_EQ(a.summary.catch_up().replays(), a.summary.rollbacks()) << a.outcome.out;
+  EXPECT_GT(a.summary.catch_up().samples(), 0U);
+  EXPECT_TRUE(a.csv == b.csv) << "traces differ: diff " << (dir_ / "a.csv") << " " << (dir_ / "b.csv");
   std::string differences;
   google::protobuf::util::MessageDifferencer diff;
   diff.ReportDifferencesToString(&differences);
