@@ -60,7 +60,15 @@ std::size_t Image::refresh() {
   std::erase_if(copies, [&](sys::ChildProcess& c) {
     if (!c.running()) return true;
     auto status = c.try_wait();
-    if (status && !status->has_value()) return false;
+    if (status && !status->has_value()) {
+      // A frozen copy never stops itself: one that was stopped would take a Resume and never answer, and the
+      // rollback would wait its whole deadline for it. It is lost like a dead one, at once.
+      const auto stopped = c.stopped_since_last_look();
+      if (!stopped || !*stopped) return false;
+      c.kill_and_reap();
+      last_death = "copy " + std::to_string(c.pid()) + " was stopped (killed: a frozen copy never stops itself)";
+      return true;
+    }
     last_death = "copy " + std::to_string(c.pid()) + " " + (status ? (*status)->to_string() : status.error().to_string());
     return true;
   });
@@ -78,6 +86,22 @@ std::optional<ServiceId> GenerationRecord::dead_image() {
   for (Image& i : images) {
     (void)i.refresh();
     if (!i.has_copy_or_patch()) return i.service;
+  }
+  return std::nullopt;
+}
+
+std::optional<ServiceId> ImageStore::dead_image(GenerationRecord& record) {
+  if (const auto dead = record.dead_image()) return dead;
+  for (Image& i : record.images) {
+    if (!i.copies.empty() || !i.patch_pending) continue;
+    GenerationRecord* base = find(i.base);
+    Image* from = base != nullptr ? base->image_of(i.service) : nullptr;
+    if (from == nullptr) continue;
+    (void)from->refresh();
+    if (from->has_copy_or_patch()) continue;
+    i.last_death = "its patch will not come: every copy of generation " + std::to_string(i.base.value()) +
+                   "'s image is gone" + (from->last_death.empty() ? "" : " (" + from->last_death + ")");
+    return i.service;
   }
   return std::nullopt;
 }

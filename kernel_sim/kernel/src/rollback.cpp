@@ -190,7 +190,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   while (image::GenerationRecord* record = images.newest()) {
     std::string failure;
     if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
-    if (const auto dead = record->dead_image()) {
+    if (const auto dead = images.dead_image(*record)) {
       const image::Image* im = record->image_of(*dead);
       failure = "the image of '" + services[dead->value()].name + "' is gone" +
                 (im != nullptr && !im->last_death.empty() ? " (" + im->last_death + ")" : "");

@@ -107,6 +107,17 @@ SysResult<std::optional<ExitStatus>> ChildProcess::try_wait() {
   return status_;
 }
 
+SysResult<bool> ChildProcess::stopped_since_last_look() {
+  if (status_ || pid_ <= 0) return false;
+  siginfo_t info{};
+  int rc = -1;
+  do {
+    rc = ::waitid(P_PIDFD, static_cast<id_t>(pidfd_.get()), &info, WSTOPPED | WNOHANG);
+  } while (rc < 0 && errno == EINTR);
+  if (rc < 0) return last_error("waitid");
+  return info.si_pid != 0 && info.si_code == CLD_STOPPED;
+}
+
 SysResult<ExitStatus> ChildProcess::wait() {
   if (status_) {
     return *status_;

@@ -5,7 +5,11 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <sys/wait.h>
+
+#include <cerrno>
 #include <csignal>
+#include <string>
 
 namespace rejuv::image {
 namespace {
@@ -130,6 +134,56 @@ TEST(ImageStore, FindsADeadImage) {
   EXPECT_EQ(store.size(), 1U);
   EXPECT_EQ(store.newest()->g, Generation{1});
   EXPECT_FALSE(store.newest()->dead_image().has_value());
+}
+
+// Blocks until `copy` is stopped, leaving the stop to be reported (WNOWAIT).
+void wait_stopped(const sys::ChildProcess& copy) {
+  siginfo_t info{};
+  ASSERT_EQ(::waitid(P_PIDFD, static_cast<id_t>(copy.pidfd()), &info, WSTOPPED | WNOWAIT), 0);
+  ASSERT_EQ(info.si_code, CLD_STOPPED);
+}
+
+// A stopped frozen copy would take a Resume and never answer (the rollback would wait its whole deadline): the
+// store finds it lost like a dead one, and kills it.
+TEST(ImageStore, AStoppedCopy_IsLostAtOnce_AndKilled) {
+  ImageStore store(2);
+  EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 2)).empty());
+  GenerationRecord* newest = store.newest();
+  ASSERT_NE(newest, nullptr);
+  sys::ChildProcess& copy = newest->image_of(ServiceId(1))->copies.front();
+  const pid_t pid = copy.pid();
+  ASSERT_TRUE(copy.signal(SIGSTOP).has_value());
+  wait_stopped(copy);
+  EXPECT_EQ(store.dead_image(*newest), ServiceId(1));
+  EXPECT_NE(newest->image_of(ServiceId(1))->last_death.find("was stopped"), std::string::npos);
+  EXPECT_TRUE(newest->image_of(ServiceId(1))->copies.empty());
+  EXPECT_EQ(::kill(pid, 0), -1) << "the stopped copy is killed and reaped";
+  EXPECT_EQ(errno, ESRCH);
+  EXPECT_TRUE(newest->image_of(ServiceId(0))->has_copy_or_patch()) << "the other service's image is untouched";
+}
+
+// An image by written pages is made by a copy of its base generation's image (Patch): with every such copy gone
+// the patch never comes, so the image is dead now rather than after the rollback's resume deadline.
+TEST(ImageStore, APatchWhoseBaseCopiesAreAllGone_IsDeadAtOnce) {
+  ImageStore store(3);
+  EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 1)).empty());
+  GenerationRecord second = make_generation(store.next_generation(), 1);
+  Image& patched = second.images.front();
+  patched.copies.front().kill_and_reap();
+  patched.copies.clear();
+  patched.patch_pending = true;
+  patched.base = Generation{1};
+  EXPECT_TRUE(store.commit(std::move(second)).empty());
+  GenerationRecord* newest = store.newest();
+  ASSERT_NE(newest, nullptr);
+  EXPECT_FALSE(store.dead_image(*newest).has_value()) << "its base can still apply the patch";
+  sys::ChildProcess& base_copy = store.find(Generation{1})->image_of(ServiceId(0))->copies.front();
+  ASSERT_TRUE(base_copy.signal(SIGSTOP).has_value());
+  wait_stopped(base_copy);
+  EXPECT_EQ(store.dead_image(*newest), ServiceId(0));
+  EXPECT_NE(newest->image_of(ServiceId(0))->last_death.find("its patch will not come"), std::string::npos)
+      << newest->image_of(ServiceId(0))->last_death;
+  EXPECT_EQ(store.dead_image(*store.find(Generation{1})), ServiceId(0));
 }
 
 TEST(ImageStore, ClosingTheResumeSocketEndsAnImage) {

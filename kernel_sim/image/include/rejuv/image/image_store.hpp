@@ -126,6 +126,10 @@ class ImageStore {
   [[nodiscard]] GenerationRecord* newest();
   // Generation g, or nullptr.
   [[nodiscard]] GenerationRecord* find(Generation g);
+  // The first service of `record` whose image cannot be resumed: none of its copies runs and none is on its way
+  // (GenerationRecord::dead_image), or its Patch is on its way but every copy of the base generation's image that
+  // would apply it is gone (then it never comes: the rollback falls back at once instead of waiting for it).
+  [[nodiscard]] std::optional<ServiceId> dead_image(GenerationRecord& record);
   // Takes a generation (or all) out of the store; the caller destroys it (destroy(), or retires it once its
   // pending spares have reported, so that no forked copy goes unreaped).
   [[nodiscard]] std::optional<GenerationRecord> take(Generation g);

@@ -51,6 +51,8 @@ class ChildProcess {
 
   // Reaps it if it has exited; nullopt while it runs.
   [[nodiscard]] SysResult<std::optional<ExitStatus>> try_wait();
+  // Whether it has been stopped (SIGSTOP, SIGTSTP …) since the last look: each stop is reported once.
+  [[nodiscard]] SysResult<bool> stopped_since_last_look();
   [[nodiscard]] SysResult<ExitStatus> wait();
   [[nodiscard]] SysResult<void> signal(int sig) const;
   // SIGKILL (if still running) and reap. Idempotent.
