@@ -150,6 +150,22 @@ TEST_F(Determinism, EstimateCatchUp_TwoFlightsWithOneSeed_IdenticalTracesAndSumm
   EXPECT_TRUE(diff.Compare(without_wall_clock(a.summary), without_wall_clock(b.summary))) << differences;
 }
 
+// The catch-up in real time (no determinism to check there: the world goes on): the replay is handed on as fast
+// as the chain takes it and ends when the chain answered the kernel's Sync; every rollback is caught up and the
+// vehicle stays inside the safety set. No timing is asserted.
+TEST_F(Determinism, EstimateCatchUp_InRealTime_EveryRollbackCaughtUp) {
+  square_ = "quad_square_catch_up.launch.pbtxt";
+  const Flight a = fly("realtime", "6", {"--realtime"});
+  ASSERT_EQ(a.outcome.exit_code, 0) << a.outcome.err;
+  EXPECT_GT(a.summary.rollbacks(), 1U) << a.outcome.out;
+  EXPECT_EQ(a.summary.catch_up().replays(), a.summary.rollbacks()) << a.outcome.out;
+  EXPECT_EQ(a.summary.catch_up().without_log(), 0U);
+  EXPECT_GT(a.summary.catch_up().samples(), 50 * a.summary.catch_up().replays());
+  EXPECT_GT(a.summary.catch_up().dropped(), 0U);
+  EXPECT_EQ(a.summary.charging().charge(), "none");
+  EXPECT_LT(a.summary.max_v(), 1.0);
+}
+
 // --speed paces lockstep for a ground station in wall-clock time: never faster than asked (a bound a loaded
 // machine cannot break: pacing only waits), and the flight is the same, byte for byte.
 TEST_F(Determinism, SpeedPaced_NoFasterThanAsked_SameTrace) {

@@ -27,6 +27,7 @@ bool rule_of(FrameKind kind, SizeRule& rule) {
     case FrameKind::TimerFired:
     case FrameKind::Fork:
     case FrameKind::Committed:
+    case FrameKind::Sync:
     case FrameKind::Shutdown: rule = kEmpty; return true;
     case FrameKind::Publish:
     case FrameKind::Deliver: rule = kMessage; return true;
@@ -80,6 +81,7 @@ std::string_view to_string(FrameKind kind) {
     case FrameKind::TakenPages: return "TakenPages";
     case FrameKind::Patch: return "Patch";
     case FrameKind::Committed: return "Committed";
+    case FrameKind::Sync: return "Sync";
   }
   return "?";
 }

@@ -6,13 +6,15 @@
 // reads — never what a service published, so a compromised `sensors` or `ekf2` cannot put anything in it — in
 // a ring that outlives rollbacks (like the run's counters), with the position of each checkpoint's cut. When a
 // rollback restores generation g, the samples since g's cut are replayed through the restored chain (the
-// rejuvenated services that read them: sensors → ekf2), one sampling instant at a time, before the step goes
-// on. Meanwhile a live sample queues behind the replay, and what the chain publishes for services outside it
-// (vehicle_state for the controllers) is dropped: the controllers' next estimate is the live step's, as fresh
-// as a never-attacked estimator's.
+// rejuvenated services that read them: sensors → ekf2) — in lockstep one sampling instant at a time with the
+// graph idle in between (lockstep.cpp), in real time as fast as the chain's channels take it, ended once the
+// chain answers a Sync with Idle (loop.cpp). Meanwhile a live sample queues behind the replay, and what the
+// chain publishes for services outside it (vehicle_state for the controllers) is dropped: the controllers' next
+// estimate is the live one, as fresh as a never-attacked estimator's.
 //
-// One owner of the log, the cuts and the replay: the router keeps and replays (router.cpp), the checkpoint cuts
-// (checkpoint.cpp), the rollback begins (rollback.cpp), a cold restart forgets (there is nothing to catch up).
+// One owner of the log, the cuts and the replay: the router keeps (router.cpp), the lockstep and the real-time
+// loop replay (lockstep.cpp, loop.cpp), the checkpoint cuts (checkpoint.cpp), the rollback begins (rollback.cpp),
+// a cold restart forgets (there is nothing to catch up).
 #pragma once
 
 #include <cstddef>
@@ -45,6 +47,9 @@ class CatchUp {
   [[nodiscard]] bool enabled() const { return capacity_ > 0; }
   [[nodiscard]] bool logs(ObjectId topic) const { return flag(plan_.logged, topic.value()); }
   [[nodiscard]] bool replaying() const { return replaying_; }
+  // Replaying, and samples kept before the replay began are still to be handed on.
+  [[nodiscard]] bool replay_pending() const { return replaying_ && replay_ != end_; }
+  [[nodiscard]] bool in_chain(ServiceId service) const { return flag(plan_.chain, service.value()); }
   [[nodiscard]] const Stats& stats() const { return stats_; }
 
   // A sample from the plant on a logged topic: kept. True when it has to wait behind the replay in progress (the

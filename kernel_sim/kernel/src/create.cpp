@@ -254,10 +254,6 @@ Result<void, KernelError> plan_catch_up(Kernel::Impl& k) {
   if (!k.sr || !g.sr().estimate_catch_up()) return {};
   const std::string at = k.graph.locations.locate({{"sr", -1}}, "estimate_catch_up").to_string() + ": error: ";
   const auto refuse = [&](const std::string& why) { return fail(kernel_error(K::Config, at + why)); };
-  if (k.clock_mode == ClockMode::Realtime) {
-    return refuse("sr.estimate_catch_up replays the plant's samples in lockstep only (the world stops meanwhile); "
-                  "fly this graph in lockstep, or turn the catch-up off for a real-time run (docs/control.md §6.3)");
-  }
   const auto object = [&](const std::string& name) -> std::optional<std::uint32_t> {
     const auto it = std::find_if(k.objects.begin(), k.objects.end(), [&](const ObjectInfo& o) { return o.name == name; });
     return it == k.objects.end() ? std::nullopt : std::optional(it->id.value());

@@ -376,8 +376,13 @@ struct Kernel::Impl {
   void flush_staged();
   void route_samples();
   // Lockstep, the graph idle: the catch-up's next sampling instant routed as a round of its own; at its end,
-  // what it cost charged (catch_up.hpp).
+  // what it cost charged (catch_up.hpp, lockstep.cpp).
   void replay_next_instant();
+  // Real time (loop.cpp): the replay handed on a few instants at a time while the chain's channels keep up, then
+  // ended once the chain has handled it all (Sync → Idle; its outputs held from the others until then).
+  void pace_catch_up();
+  bool replay_instant();  // the next instant, or the end of the replay (false): measured and charged
+  std::vector<std::uint64_t> catch_up_synced;  // per service: frames_out when its last Sync went out
   void publish_sr_mode();
   bool write_to_bridge(ObjectId topic, std::span<const std::byte> payload);  // false: the run stops
   // Output to a service (flow control: FlowControl, service_runtime.hpp, keeps the order, the pool, the count).

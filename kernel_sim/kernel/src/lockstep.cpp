@@ -83,15 +83,21 @@ void Kernel::Impl::replay_next_instant() {
   if (!catch_up.replaying()) return;
   steps.next_batch(wall());  // its rounds and idle deadline count from here
   cork();
+  const bool more = replay_instant();
+  uncork();
+  (void)more;
+}
+
+bool Kernel::Impl::replay_instant() {
   const bool more = catch_up.replay_instant(
       [&](ObjectId topic, std::span<const std::byte> bytes) { publish_as_kernel(topic, bytes, From::Replay); },
       [&](ObjectId topic, std::span<const std::byte> bytes) { publish_as_kernel(topic, bytes, From::Held); });
-  uncork();
   if (!more) {
     const Nanos took = wall() - catch_up.began_at();
     sr_stats.catch_up_ms.add(to_ms(took));
     image_charge.catch_up(took, catch_up.replayed(), sr_stats);
   }
+  return more;
 }
 
 bool Kernel::Impl::advance_step() {

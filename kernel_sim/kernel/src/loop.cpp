@@ -252,6 +252,37 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
   return best;
 }
 
+// Real time: the catch-up's replay (catch_up.hpp). The world goes on meanwhile, so the replay is handed on as fast
+// as the chain's channels take it — a few sampling instants per round, corked into one datagram per service, the
+// next round once nothing waits for the chain on the kernel's side (the broker's rings hold 8 per topic) — and
+// ends when the chain has handled all of it: each of its services is sent a Sync after its last frame and
+// answers Idle. Live samples wait behind the replay and are released at its end.
+void Kernel::Impl::pace_catch_up() {
+  if (!catch_up.replaying()) return;
+  static constexpr int kInstantsPerRound = 4;
+  if (catch_up.replay_pending()) {
+    const bool keeping_up = std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
+      return !catch_up.in_chain(s.id) || !s.live() || s.flow.drained();
+    });
+    if (!keeping_up) return;
+    cork();
+    for (int i = 0; i < kInstantsPerRound && catch_up.replay_pending(); ++i) (void)replay_instant();
+    uncork();
+    return;
+  }
+  catch_up_synced.resize(services.size());
+  bool handled = true;
+  for (ServiceRuntime& s : services) {
+    if (!catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
+    handled = false;
+    if (catch_up_synced[s.id.value()] != s.flow.frames_out() && tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
+      send_control(s, tx.bytes());
+      catch_up_synced[s.id.value()] = s.flow.frames_out();
+    }
+  }
+  if (handled) (void)replay_instant();  // nothing left: the replay ends, the live samples go out
+}
+
 // The realtime clock (DESIGN §6): the kernel clock is CLOCK_MONOTONIC since the run started (or the plant's,
 // from its first sample); timers fire from the timerfd; progress is reported every 100 ms of it.
 Result<void, KernelError> Kernel::Impl::run_realtime() {
@@ -264,9 +295,11 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
   arm_timerfd();
   start_realtime_plan();  // realtime.cpp
   while (!stop) {
-    if (auto ok = pump(std::chrono::milliseconds{100}); !ok) return ok;
+    // While the estimate catches up the loop only looks for events: the replay goes on as soon as it can.
+    if (auto ok = pump(catch_up.replaying() ? Nanos{0} : Nanos{std::chrono::milliseconds{100}}); !ok) return ok;
     while (service_images()) {
     }
+    pace_catch_up();
     if (now() - last_progress >= std::chrono::milliseconds{100}) {
       last_progress = now();
       if (observer != nullptr) observer->on_step(steps.steps_done(), now(), caps.mode());

@@ -190,6 +190,7 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Fork:
     case wire::FrameKind::Patch:
     case wire::FrameKind::Committed:
+    case wire::FrameKind::Sync:
       refuse(s, "kernel-to-service frame kind");  // decode(ToKernel) already refuses these
       return;
   }

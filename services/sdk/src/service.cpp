@@ -327,10 +327,11 @@ int Service::run() {
       auto got = s.receive(false);
       if (got && !*got) {
         // Drained: everything received has been handled (docs/protocol.md "Idle").
-        if (s.lockstep && s.frames_received != s.idle_reported) {
+        if ((s.lockstep || s.sync_asked) && s.frames_received != s.idle_reported) {
           if (!s.tx.build(wire::FrameKind::Idle, 0, 0, s.frames_received) || !s.send_built()) return 1;
           s.idle_reported = s.frames_received;
         }
+        s.sync_asked = false;
         if (!s.flush()) return 1;
         got = s.receive(true);  // sleeps in recvmmsg until the next frame: the wait is the read
         s.prepare_pages_fd();   // if no Committed came (a kernel that does not send it): not inside a checkpoint
@@ -398,6 +399,9 @@ int Service::run() {
       }
       case wire::FrameKind::Committed:  // DESIGN §7: the next image's record file, in the slack after the commit
         s.prepare_pages_fd();
+        break;
+      case wire::FrameKind::Sync:  // docs/protocol.md "Idle": the Idle once drained, in real time too
+        s.sync_asked = true;
         break;
       case wire::FrameKind::Reply:           // a reply nobody waits for
       case wire::FrameKind::Boot:

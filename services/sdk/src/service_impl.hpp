@@ -88,6 +88,7 @@ struct Service::Impl {
   bool stopping = false;
   int exit_code = 0;
   bool lockstep = true;  // Idle is only meaningful in lockstep (docs/protocol.md "Idle")
+  bool sync_asked = false;  // a Sync came: the next Idle goes out in real time too
   std::function<void()> on_shutdown;
   std::function<void(Epoch)> on_restored;
   bool restored_pending = false;  // a restored incarnation whose on_restored has not run yet (resumed_image)

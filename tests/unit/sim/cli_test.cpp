@@ -131,17 +131,43 @@ TEST(SimCli, Csv_HeaderAndOneRowPerControlPeriod) {
 
 namespace {
 
-// A graph with sr.estimate_catch_up is flown by `rejuv run` in lockstep (tests/multiproc sr_e2e_test) and refused
-// in real time before any process starts (the replay stops the world): exit 2 at the field's line, rather than a
-// run of another scheme.
-TEST(RunCli, EstimateCatchUp_InRealTime_RefusedAtTheField) {
-  const std::string graph = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_catch_up.launch.pbtxt";
-  const Outcome run_outcome = run(graph + " --realtime --duration 1 --domain 231", "run");
+// The estimate catch-up replays the plant's samples into the rejuvenated services that read them: a graph where a
+// service that is not rejuvenated reads one is refused before any process starts (it would be handed those samples
+// a second time), exit 2 at the field's line.
+TEST(RunCli, EstimateCatchUp_ANonRejuvenatedReader_RefusedAtTheField) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("rejuv_catch_up_cli_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  std::string text;
+  {
+    std::ifstream in(std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_catch_up.launch.pbtxt");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text = ss.str();
+  }
+  // sensors at driver level in the graph and in a copy of its policy (the audit wants the two to agree).
+  const std::string policy = "policy: \"../policies/quad_sr.policy.pbtxt\"";
+  text.replace(text.find(policy), policy.size(), "policy: \"" + (dir / "p.policy.pbtxt").string() + "\"");
+  const std::string sensors = "executable: \"rejuv_sensors\"";
+  text.replace(text.find(sensors), sensors.size(), sensors + "\n  rejuvenate: false");
+  std::string policy_text;
+  {
+    std::ifstream in(std::string(REJUV_SOURCE_DIR) + "/policies/quad_sr.policy.pbtxt");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    policy_text = ss.str();
+  }
+  const std::string declared = "services { name: \"sensors\" }";
+  policy_text.replace(policy_text.find(declared), declared.size(), "services { name: \"sensors\" level: DRIVER }");
+  std::ofstream(dir / "p.policy.pbtxt") << policy_text;
+  const fs::path graph = dir / "g.launch.pbtxt";
+  std::ofstream(graph) << text;
+  const Outcome run_outcome = run(graph.string() + " --duration 1 --domain 231", "run");
+  fs::remove_all(dir);
   EXPECT_EQ(run_outcome.exit_code, 2) << run_outcome.output;
-  EXPECT_NE(run_outcome.output.find("quad_square_catch_up.launch.pbtxt:"), std::string::npos) << run_outcome.output;
-  EXPECT_NE(run_outcome.output.find("sr.estimate_catch_up replays the plant's samples in lockstep only"),
-            std::string::npos)
-      << run_outcome.output;
+  EXPECT_NE(run_outcome.output.find("g.launch.pbtxt:"), std::string::npos) << run_outcome.output;
+  EXPECT_NE(run_outcome.output.find("'sensors' reads 'sensor_gyro'"), std::string::npos) << run_outcome.output;
+  EXPECT_NE(run_outcome.output.find("not rejuvenated"), std::string::npos) << run_outcome.output;
   EXPECT_EQ(run_outcome.output.find("services ready"), std::string::npos) << run_outcome.output;
 }
 

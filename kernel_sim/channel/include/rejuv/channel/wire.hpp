@@ -76,6 +76,8 @@ enum class FrameKind : std::uint16_t {
   Committed = 120,  // aux = generation g: the checkpoint this service answered (Taken, TakenPages) is committed
                     // (DESIGN §7): the service prepares its next image's record file now, in the vehicle's
                     // slack after the checkpoint, not when the next sample wakes it (on the control chain's path)
+  Sync = 121,       // answer Idle once every frame before this one is handled, also in real time (where a service
+                    // sends no Idle otherwise): the kernel paces the estimate catch-up's replay by it (catch_up.hpp)
 };
 
 [[nodiscard]] std::string_view to_string(FrameKind kind);
