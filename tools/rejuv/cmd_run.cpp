@@ -128,10 +128,10 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
     char line[256];
     std::snprintf(line, sizeof line,
                   "  catch-up    %llu replays of %llu samples (p50 %.3f ms, max %.3f ms real); %llu estimates held from "
-                  "the controllers; %llu rollbacks not caught up\n",
+                  "the controllers; %llu rollbacks not caught up, %llu replays cut short\n",
                   static_cast<unsigned long long>(c.replays()), static_cast<unsigned long long>(c.samples()),
                   c.replay_ms().p50(), c.replay_ms().max(), static_cast<unsigned long long>(c.dropped()),
-                  static_cast<unsigned long long>(c.without_log()));
+                  static_cast<unsigned long long>(c.without_log()), static_cast<unsigned long long>(c.cut_short()));
     std::strncat(charged, line, sizeof charged - std::strlen(charged) - 1);
   }
   char buf[4096];
@@ -212,6 +212,7 @@ void fill_catch_up(proto::CatchUpSummary& out, const kernel::Kernel& k) {
   out.set_samples(c.samples);
   out.set_dropped(c.dropped);
   out.set_without_log(c.without_log);
+  out.set_cut_short(c.cut_short);
   fill_percentiles(*out.mutable_replay_ms(), k.sr_stats().catch_up_ms);
 }
 

@@ -87,6 +87,16 @@ class CatchUp {
     } while (replay_ != end_ && entry(replay_).stamp == stamp);
     return true;
   }
+  // Real time, the replay over its bound (a reader that does not keep up): the samples not handed on yet are
+  // skipped (the estimator goes on as after lost samples), the live ones that waited are handed to
+  // release(topic, bytes), and the chain's publications go to everyone again.
+  template <typename Release>
+  void cut_short(Release&& release) {
+    if (!replaying_) return;
+    replaying_ = false;
+    ++stats_.cut_short;
+    for (replay_ = end_; replay_ != next_; ++replay_) release(ObjectId{entry(replay_).topic}, bytes_of(replay_));
+  }
   // A cold restart: no generation is left to catch up to.
   void forget();
 

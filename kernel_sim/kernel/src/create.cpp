@@ -298,7 +298,7 @@ Result<void, KernelError> plan_catch_up(Kernel::Impl& k) {
     }
     plan.cut_off[o.id.value()] = true;
   }
-  // 32768 samples: ≈ 100 s of the plant's sensors, far more than the generations a store keeps span.
+  // 32768 samples: ≈ 1 min of the plant's sensors (≈ 550 a second), far more than the generations a store keeps span.
   k.catch_up = CatchUp(std::move(plan), 32768, slot_bytes);
   return {};
 }

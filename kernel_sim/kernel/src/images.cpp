@@ -196,8 +196,9 @@ bool Kernel::Impl::service_images() {
     pace.started();  // nothing waits (a rollback may have voided the request)
     return false;
   }
-  // In real time with a vehicle, in the slack after a control update (vehicle_pace.hpp).
-  if (quiescent_for_checkpoint() && pace.may_start(wall())) {
+  // In real time with a vehicle, in the slack after a control update (vehicle_pace.hpp); never during an estimate
+  // catch-up (its cut would fall inside the replay, with live samples still waiting behind it: catch_up.hpp).
+  if (!catch_up.replaying() && quiescent_for_checkpoint() && pace.may_start(wall())) {
     pace.started();
     settle_dying();
     run_checkpoint();

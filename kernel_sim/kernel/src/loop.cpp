@@ -260,6 +260,15 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
 void Kernel::Impl::pace_catch_up() {
   if (!catch_up.replaying()) return;
   static constexpr int kInstantsPerRound = 4;
+  // A reader that does not keep up (hung, or starved of the CPU) must not hold the controllers' estimates back:
+  // past five control periods the replay stops where it is and the live samples go out.
+  static constexpr Nanos kBound{std::chrono::milliseconds{20}};
+  if (const Nanos took = wall() - catch_up.began_at(); took > kBound) {
+    log("estimate catch-up cut short after %.1f ms: the chain did not keep up", to_seconds(took).count() * 1e3);
+    catch_up.cut_short(
+        [&](ObjectId topic, std::span<const std::byte> bytes) { publish_as_kernel(topic, bytes, From::Held); });
+    return;
+  }
   if (catch_up.replay_pending()) {
     const bool keeping_up = std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
       return !catch_up.in_chain(s.id) || !s.live() || s.flow.drained();

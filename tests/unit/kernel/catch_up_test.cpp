@@ -157,6 +157,25 @@ TEST(CatchUp, ACutTheFullRingOverwrote_NoLog_TheRingStaysBounded) {
   EXPECT_EQ(instants[0][0].second, 9);
 }
 
+TEST(CatchUp, CutShort_SkipsTheRest_ReleasesTheLiveOnes_RoutesTheChainAgain) {
+  CatchUp c = make(16);
+  c.cut(Generation{1});
+  EXPECT_FALSE(c.keep(kGyro, sample(1), 100));
+  EXPECT_FALSE(c.keep(kGyro, sample(2), 200));
+  ASSERT_EQ(c.begin(Generation{1}, Nanos{0}), CatchUp::Begin::Replaying);
+  EXPECT_TRUE(c.keep(kGyro, sample(3), 300));
+  Samples first;
+  ASSERT_TRUE(c.replay_instant([&](ObjectId t, std::span<const std::byte> b) { first.emplace_back(t.value(), std::to_integer<int>(b[0])); },
+                               [](ObjectId, std::span<const std::byte>) {}));
+  Samples released;
+  c.cut_short([&](ObjectId t, std::span<const std::byte> b) { released.emplace_back(t.value(), std::to_integer<int>(b[0])); });
+  EXPECT_EQ(first, (Samples{{1, 1}}));
+  EXPECT_EQ(released, (Samples{{1, 3}})) << "sample 2 skipped, the live sample 3 released";
+  EXPECT_FALSE(c.replaying());
+  EXPECT_FALSE(c.drops(kEkf, kState));
+  EXPECT_EQ(c.stats().cut_short, 1u);
+}
+
 TEST(CatchUp, AColdRestart_ForgetsEveryCut) {
   CatchUp c = make(16);
   c.cut(Generation{1});
