@@ -53,6 +53,7 @@ class Determinism : public rejuv::test_support::ScratchDirTest {
     std::string csv;
     rejuv::proto::RunSummary summary;
   };
+  void expect_same_flight(const Flight& a, const Flight& b) const;
 
   Flight fly(const std::string& name, const std::string& duration_s, std::vector<std::string> extra = {}) const {
     const auto csv = dir_ / (name + ".csv");
@@ -92,6 +93,16 @@ rejuv::proto::RunSummary without_wall_clock(rejuv::proto::RunSummary s) {
   return s;
 }
 
+// Flights "a" and "b": byte-identical traces (the first differing row is in the kept scratch folder when this
+// fails) and summaries equal but for the wall clock, field by field so that a failure names the field.
+void Determinism::expect_same_flight(const Flight& a, const Flight& b) const {
+  EXPECT_TRUE(a.csv == b.csv) << "traces differ: diff " << (dir_ / "a.csv") << " " << (dir_ / "b.csv");
+  std::string differences;
+  google::protobuf::util::MessageDifferencer diff;
+  diff.ReportDifferencesToString(&differences);
+  EXPECT_TRUE(diff.Compare(without_wall_clock(a.summary), without_wall_clock(b.summary))) << differences;
+}
+
 TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
   const Flight a = fly("a", "8");
   const Flight b = fly("b", "8");
@@ -123,13 +134,7 @@ TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
       EXPECT_EQ(s.publishes_by_topic().size(), 1U);
     }
   }
-  // Byte-identical traces (the first differing row is in the kept scratch folder when this fails).
-  EXPECT_TRUE(a.csv == b.csv) << "traces differ: diff " << (dir_ / "a.csv") << " " << (dir_ / "b.csv");
-  // Field by field, so that a failure names the field (the whole text is longer than a failure shows).
-  std::string differences;
-  google::protobuf::util::MessageDifferencer diff;
-  diff.ReportDifferencesToString(&differences);
-  EXPECT_TRUE(diff.Compare(without_wall_clock(a.summary), without_wall_clock(b.summary))) << differences;
+  expect_same_flight(a, b);
 }
 
 // The estimate catch-up's replay (launch/quad_square_catch_up) keeps the run deterministic: it is routed in the
@@ -143,11 +148,7 @@ TEST_F(Determinism, EstimateCatchUp_TwoFlightsWithOneSeed_IdenticalTracesAndSumm
   EXPECT_GT(a.summary.rollbacks(), 1U) << a.outcome.out;
   EXPECT_EQ(a.summary.catch_up().replays(), a.summary.rollbacks()) << a.outcome.out;
   EXPECT_GT(a.summary.catch_up().samples(), 0U);
-  EXPECT_TRUE(a.csv == b.csv) << "traces differ: diff " << (dir_ / "a.csv") << " " << (dir_ / "b.csv");
-  std::string differences;
-  google::protobuf::util::MessageDifferencer diff;
-  diff.ReportDifferencesToString(&differences);
-  EXPECT_TRUE(diff.Compare(without_wall_clock(a.summary), without_wall_clock(b.summary))) << differences;
+  expect_same_flight(a, b);
 }
 
 // The catch-up in real time (no determinism to check there: the world goes on): the replay is handed on as fast

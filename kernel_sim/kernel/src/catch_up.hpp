@@ -74,8 +74,7 @@ class CatchUp {
   [[nodiscard]] bool replay_instant(Replay&& replay, Release&& release) {
     if (!replaying_) return false;
     if (replay_ == end_) {
-      replaying_ = false;
-      for (; replay_ != next_; ++replay_) release(ObjectId{entry(replay_).topic}, bytes_of(replay_));
+      release_waiting(release);
       return false;
     }
     const std::uint64_t stamp = entry(replay_).stamp;
@@ -93,9 +92,16 @@ class CatchUp {
   template <typename Release>
   void cut_short(Release&& release) {
     if (!replaying_) return;
-    replaying_ = false;
     ++stats_.cut_short;
-    for (replay_ = end_; replay_ != next_; ++replay_) release(ObjectId{entry(replay_).topic}, bytes_of(replay_));
+    release_waiting(release);
+  }
+  // Real time: whether `service`, with `frames_out` frames sent to it so far, still needs a Sync to answer
+  // (none went out since its last frame); noted as sent when it does.
+  [[nodiscard]] bool sync_due(ServiceId service, std::uint64_t frames_out) {
+    if (synced_.size() <= service.value()) synced_.resize(service.value() + 1, 0);
+    if (synced_[service.value()] == frames_out) return false;
+    synced_[service.value()] = frames_out + 1;  // the Sync itself is one more frame
+    return true;
   }
   // A cold restart: no generation is left to catch up to.
   void forget();
@@ -113,6 +119,12 @@ class CatchUp {
   static constexpr std::size_t kCutsKept = 8;  // more than any store keeps (launch keep_generations ≤ 4, + 1)
 
   [[nodiscard]] static bool flag(const std::vector<bool>& v, std::size_t i) { return i < v.size() && v[i]; }
+  // The replay is over: the live samples that waited behind it go to release(topic, bytes), in order.
+  template <typename Release>
+  void release_waiting(Release&& release) {
+    replaying_ = false;
+    for (replay_ = end_; replay_ != next_; ++replay_) release(ObjectId{entry(replay_).topic}, bytes_of(replay_));
+  }
   [[nodiscard]] const Entry& entry(std::uint64_t seq) const { return entries_[seq % capacity_]; }
   [[nodiscard]] std::span<const std::byte> bytes_of(std::uint64_t seq) const {
     return std::span<const std::byte>(arena_).subspan((seq % capacity_) * slot_bytes_, entry(seq).size);
@@ -133,6 +145,7 @@ class CatchUp {
   Nanos began_at_{0};
   std::uint64_t replayed_ = 0;
   std::vector<Cut> cuts_{};  // oldest first
+  std::vector<std::uint64_t> synced_{};  // per service: its frames_out once its last Sync went out
   Stats stats_{};
 };
 

@@ -382,7 +382,6 @@ struct Kernel::Impl {
   // ended once the chain has handled it all (Sync → Idle; its outputs held from the others until then).
   void pace_catch_up();
   bool replay_instant();  // the next instant, or the end of the replay (false): measured and charged
-  std::vector<std::uint64_t> catch_up_synced;  // per service: frames_out when its last Sync went out
   void publish_sr_mode();
   bool write_to_bridge(ObjectId topic, std::span<const std::byte> payload);  // false: the run stops
   // Output to a service (flow control: FlowControl, service_runtime.hpp, keeps the order, the pool, the count).

@@ -279,14 +279,12 @@ void Kernel::Impl::pace_catch_up() {
     uncork();
     return;
   }
-  catch_up_synced.resize(services.size());
   bool handled = true;
   for (ServiceRuntime& s : services) {
     if (!catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
     handled = false;
-    if (catch_up_synced[s.id.value()] != s.flow.frames_out() && tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
+    if (catch_up.sync_due(s.id, s.flow.frames_out()) && tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
       send_control(s, tx.bytes());
-      catch_up_synced[s.id.value()] = s.flow.frames_out();
     }
   }
   if (handled) (void)replay_instant();  // nothing left: the replay ends, the live samples go out

@@ -176,6 +176,14 @@ TEST(CatchUp, CutShort_SkipsTheRest_ReleasesTheLiveOnes_RoutesTheChainAgain) {
   EXPECT_EQ(c.stats().cut_short, 1u);
 }
 
+TEST(CatchUp, SyncDue_OnceAfterEachNewFrame) {
+  CatchUp c = make(16);
+  EXPECT_TRUE(c.sync_due(kEkf, 10)) << "frames went out, no Sync yet";
+  EXPECT_FALSE(c.sync_due(kEkf, 11)) << "the Sync itself was the 11th";
+  EXPECT_TRUE(c.sync_due(kEkf, 12)) << "a frame after the Sync";
+  EXPECT_TRUE(c.sync_due(kController, 1)) << "per service";
+}
+
 TEST(CatchUp, AColdRestart_ForgetsEveryCut) {
   CatchUp c = make(16);
   c.cut(Generation{1});

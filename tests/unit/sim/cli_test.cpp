@@ -9,6 +9,8 @@
 #include <sstream>
 #include <string>
 
+#include "../../rejuv_cli.hpp"
+
 namespace {
 
 const std::string kRejuv = std::string(REJUV_BINARY_DIR) + "/tools/rejuv/rejuv";
@@ -138,25 +140,13 @@ TEST(RunCli, EstimateCatchUp_ANonRejuvenatedReader_RefusedAtTheField) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / ("rejuv_catch_up_cli_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::string text;
-  {
-    std::ifstream in(std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_catch_up.launch.pbtxt");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    text = ss.str();
-  }
+  std::string text = rejuv::test_support::slurp(rejuv::test_support::kRepo / "launch/quad_square_catch_up.launch.pbtxt");
   // sensors at driver level in the graph and in a copy of its policy (the audit wants the two to agree).
   const std::string policy = "policy: \"../policies/quad_sr.policy.pbtxt\"";
   text.replace(text.find(policy), policy.size(), "policy: \"" + (dir / "p.policy.pbtxt").string() + "\"");
   const std::string sensors = "executable: \"rejuv_sensors\"";
   text.replace(text.find(sensors), sensors.size(), sensors + "\n  rejuvenate: false");
-  std::string policy_text;
-  {
-    std::ifstream in(std::string(REJUV_SOURCE_DIR) + "/policies/quad_sr.policy.pbtxt");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    policy_text = ss.str();
-  }
+  std::string policy_text = rejuv::test_support::slurp(rejuv::test_support::kRepo / "policies/quad_sr.policy.pbtxt");
   const std::string declared = "services { name: \"sensors\" }";
   policy_text.replace(policy_text.find(declared), declared.size(), "services { name: \"sensors\" level: DRIVER }");
   std::ofstream(dir / "p.policy.pbtxt") << policy_text;
