@@ -30,7 +30,8 @@ install(FILES ${PROJECT_SOURCE_DIR}/idl/sensors.idl ${PROJECT_SOURCE_DIR}/idl/st
 # The project's graphs and policy, for an out-of-tree graph to include (docs/writing_a_service.md "Graph
 # fragments"): share/rejuv/launch/hover.launch.pbtxt names ../policies/quad_sr.policy.pbtxt as in the tree.
 set(REJUV_INSTALL_LAUNCHDIR ${CMAKE_INSTALL_DATADIR}/rejuv/launch)
-install(FILES ${PROJECT_SOURCE_DIR}/launch/hover.launch.pbtxt ${PROJECT_SOURCE_DIR}/launch/quad_square.launch.pbtxt
+install(FILES ${PROJECT_SOURCE_DIR}/launch/hover.launch.pbtxt
+              ${PROJECT_SOURCE_DIR}/launch/quad_square_paper.launch.pbtxt ${PROJECT_SOURCE_DIR}/launch/quad_square.launch.pbtxt
         DESTINATION ${REJUV_INSTALL_LAUNCHDIR} COMPONENT sdk)
 install(FILES ${PROJECT_SOURCE_DIR}/policies/quad_sr.policy.pbtxt
         DESTINATION ${CMAKE_INSTALL_DATADIR}/rejuv/policies COMPONENT sdk)

@@ -30,6 +30,18 @@ inline std::string slurp(const std::filesystem::path& p) {
   return s.str();
 }
 
+// A shipped graph that extends the paper's square (launch/quad_square: `include: "quad_square_paper.launch.pbtxt"`
+// and its own fields) written to `to`, including `base` (an edited copy of the paper's square) instead.
+inline void write_extending(const std::string& shipped, const std::filesystem::path& base,
+                            const std::filesystem::path& to) {
+  std::string text = slurp(kRepo / "launch" / shipped);
+  const std::string paper = "include: \"quad_square_paper.launch.pbtxt\"";
+  const auto at = text.find(paper);
+  ASSERT_NE(at, std::string::npos) << shipped << " does not include the paper's square";
+  text.replace(at, paper.size(), "include: \"" + base.string() + "\"");
+  std::ofstream(to) << text;
+}
+
 // How many times `needle` occurs in `text` (e.g. rows of a CSV that end a certain way).
 inline std::size_t count_of(const std::string& text, const std::string& needle) {
   std::size_t n = 0;

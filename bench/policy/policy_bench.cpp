@@ -17,7 +17,7 @@ namespace {
 const std::filesystem::path kPolicy =
     std::filesystem::path(REJUV_SOURCE_DIR) / "policies" / "quad_sr.policy.pbtxt";
 const std::filesystem::path kLaunch =
-    std::filesystem::path(REJUV_SOURCE_DIR) / "launch" / "quad_square.launch.pbtxt";
+    std::filesystem::path(REJUV_SOURCE_DIR) / "launch" / "quad_square_paper.launch.pbtxt";
 
 std::string read_all(const std::filesystem::path& p) {
   std::ifstream in(p);

@@ -235,7 +235,7 @@ BENCHMARK_CAPTURE(BM_PublishDeliverLatency, VehicleStateEstimate_216B, std::stri
     ->Iterations(1)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(BM_LockstepMission, hover_20s, std::string("launch/hover.launch.pbtxt"), 20.0)
     ->Iterations(1)->Unit(benchmark::kMillisecond);
-BENCHMARK_CAPTURE(BM_LockstepMission, quad_square, std::string("launch/quad_square.launch.pbtxt"), 0.0)
+BENCHMARK_CAPTURE(BM_LockstepMission, quad_square, std::string("launch/quad_square_paper.launch.pbtxt"), 0.0)
     ->Iterations(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace

@@ -17,7 +17,7 @@ using rejuv::flight::SimConfig;
 using rejuv::flight::SrSwitch;
 
 SimConfig square(SrSwitch sr, AttackSwitch attack) {
-  const auto path = std::filesystem::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt";
+  const auto path = std::filesystem::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt";
   auto loaded = rejuv::launch::load_launch(path);
   if (!loaded) return SimConfig::defaults();
   auto config = rejuv::flight::config_from_launch(*loaded, {.sr = sr, .attack = attack, .seed = std::nullopt});

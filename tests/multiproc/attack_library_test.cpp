@@ -41,7 +41,7 @@ class AttackLibrary : public rejuv::test_support::ScratchDirTest {
   // `graph`: the square (the default) or a variant of it; `kind`: the --attack KIND, or "" to fly the graph's
   // plan.
   Flight fly(const std::string& kind, bool sr,
-             const fs::path& graph = kRepo / "launch/quad_square.launch.pbtxt", double seconds = 0) {
+             const fs::path& graph = kRepo / "launch/quad_square_paper.launch.pbtxt", double seconds = 0) {
     const fs::path json =
         dir_ / ((kind.empty() ? graph.stem().string() : kind) + (sr ? "_sr" : "_nosr") + ".json");
     std::vector<std::string> args{"run",
@@ -118,7 +118,7 @@ class AttackLibrary : public rejuv::test_support::ScratchDirTest {
 // windows. Each kind fired; what the kernel denied is FORGED_SLOT's alone and is every capability denial of
 // the run (the summary's per-reason `denials`); the vehicle stayed inside the safety set through both.
 TEST_F(AttackLibrary, TwoKindsInOnePlan_CountedByKindDenialsMatchTheReasons) {
-  std::string text = rejuv::test_support::slurp(kRepo / "launch/quad_square.launch.pbtxt");
+  std::string text = rejuv::test_support::slurp(kRepo / "launch/quad_square_paper.launch.pbtxt");
   const std::string policy = "policy: \"../policies/quad_sr.policy.pbtxt\"";
   const std::string control = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
   const std::size_t policy_at = text.find(policy);
@@ -170,7 +170,7 @@ TEST_F(AttackLibrary, EstimateDrift_HarmsWithoutSrContainedWithSr) { harms_witho
 // --attack is case-insensitive and an unknown kind is refused before any work, naming the valid ones.
 TEST_F(AttackLibrary, UnknownKind_Exit2ListingTheKinds) {
   const auto r = rejuv::test_support::run_rejuv(
-      dir_, {"run", (kRepo / "launch/quad_square.launch.pbtxt").string(), "--attack", "ESTIMATE_SHIFTY"});
+      dir_, {"run", (kRepo / "launch/quad_square_paper.launch.pbtxt").string(), "--attack", "ESTIMATE_SHIFTY"});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("unknown attack kind 'ESTIMATE_SHIFTY'"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("WORST_CASE_CONTROL, ESTIMATE_SHIFT, SENSOR_BIAS"), std::string::npos) << r.err;

@@ -1,5 +1,5 @@
 // `rejuv run` of a graph whose service fails at boot: the real binary, the real
-// flight graph (launch/quad_square) with one thing wrong. Before the graph has booted there is no image to
+// flight graph (launch/quad_square_paper) with one thing wrong. Before the graph has booted there is no image to
 // roll back to, so the run stops — SR on or off — with exit 1 and the service's own error, instead of
 // waiting for ever. The test finishing at all is part of what it checks (ctest TIMEOUT); no timing is asserted.
 #include <fcntl.h>
@@ -35,7 +35,7 @@ class BootFailure : public rejuv::test_support::ScratchDirTest {
 
   // The shipped square graph, its policy path made absolute, then `edit`ed.
   std::filesystem::path graph(const std::function<std::string(std::string)>& edit) const {
-    std::string text = slurp(kRepo / "launch" / "quad_square.launch.pbtxt");
+    std::string text = slurp(kRepo / "launch" / "quad_square_paper.launch.pbtxt");
     const std::string rel = "policy: \"../policies/quad_sr.policy.pbtxt\"";
     text.replace(text.find(rel), rel.size(), "policy: \"" + (kRepo / "policies" / "quad_sr.policy.pbtxt").string() + "\"");
     const auto p = dir_ / "g.launch.pbtxt";

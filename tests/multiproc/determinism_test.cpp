@@ -1,5 +1,5 @@
 // Experiments a researcher can trust: `rejuv run` in lockstep is deterministic for a seed, and SR
-// starts with the flight (DESIGN §6). The real binary on the real flight graph (launch/quad_square) with a
+// starts with the flight (DESIGN §6). The real binary on the real flight graph (launch/quad_square_paper) with a
 // short alignment and a short T_est, so that a few seconds of flight hold several SR cycles: flown twice with
 // one seed, the traces (--csv) are byte-identical and the summaries equal but for their wall-clock fields; a
 // flight shorter than T_est has no checkpoint, rollback or rejuvenation timer at all, and its setpoint has not
@@ -33,20 +33,23 @@ class Determinism : public rejuv::test_support::ScratchDirTest {
   [[nodiscard]] bool keep_on_failure() const override { return true; }  // the traces to diff
 
   // A shipped square (the paper's unless named) with its policy path made absolute, a 2 s alignment and, for the
-  // paper's, T_est = 0.5 s.
+  // paper's, T_est = 0.5 s; a square that extends the paper's (launch/quad_square) extends that copy.
   std::filesystem::path graph() const {
-    std::string text = slurp(kRepo / "launch" / square_);
+    std::string text = slurp(kRepo / "launch" / "quad_square_paper.launch.pbtxt");
     const std::string rel = "policy: \"../policies/quad_sr.policy.pbtxt\"";
     text.replace(text.find(rel), rel.size(), "policy: \"" + (kRepo / "policies" / "quad_sr.policy.pbtxt").string() + "\"");
     const std::string t_est = "t_est_s: 3.0";
-    if (const auto at = text.find(t_est); at != std::string::npos) text.replace(at, t_est.size(), "t_est_s: 0.5");
+    text.replace(text.find(t_est), t_est.size(), "t_est_s: 0.5");
     const std::string align = "alignment_s: 20";
     text.replace(text.find(align), align.size(), "alignment_s: 2");
-    const auto p = dir_ / "g.launch.pbtxt";
-    std::ofstream(p) << text;
-    return p;
+    const auto base = dir_ / "g.launch.pbtxt";
+    std::ofstream(base) << text;
+    if (square_ == "quad_square_paper.launch.pbtxt") return base;
+    const auto extended = dir_ / "extended.launch.pbtxt";
+    rejuv::test_support::write_extending(square_, base, extended);
+    return extended;
   }
-  std::string square_ = "quad_square.launch.pbtxt";
+  std::string square_ = "quad_square_paper.launch.pbtxt";
 
   struct Flight {
     Outcome outcome;
@@ -137,10 +140,10 @@ TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
   expect_same_flight(a, b);
 }
 
-// The estimate catch-up's replay (launch/quad_square_catch_up) keeps the run deterministic: it is routed in the
+// The estimate catch-up's replay (launch/quad_square) keeps the run deterministic: it is routed in the
 // lockstep's canonical order with the graph idle between its instants, and charged by the model per sample.
 TEST_F(Determinism, EstimateCatchUp_TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
-  square_ = "quad_square_catch_up.launch.pbtxt";
+  square_ = "quad_square.launch.pbtxt";
   const Flight a = fly("a", "6");
   const Flight b = fly("b", "6");
   ASSERT_EQ(a.outcome.exit_code, 0) << a.outcome.err;
@@ -155,7 +158,7 @@ TEST_F(Determinism, EstimateCatchUp_TwoFlightsWithOneSeed_IdenticalTracesAndSumm
 // as the chain takes it and ends when the chain answered the kernel's Sync; every rollback is caught up and the
 // vehicle stays inside the safety set. No timing is asserted.
 TEST_F(Determinism, EstimateCatchUp_InRealTime_EveryRollbackCaughtUp) {
-  square_ = "quad_square_catch_up.launch.pbtxt";
+  square_ = "quad_square.launch.pbtxt";
   const Flight a = fly("realtime", "6", {"--realtime"});
   ASSERT_EQ(a.outcome.exit_code, 0) << a.outcome.err;
   EXPECT_GT(a.summary.rollbacks(), 1U) << a.outcome.out;

@@ -128,7 +128,7 @@ constexpr double kSquareDMeanAgreement_m = 0.005;
 constexpr double kSquareTimeAgreement = 0.05;
 
 TEST(FlightMultiproc, SquareMission_AgreesWithTheModelLevelSimulation) {
-  auto graph = launch::load_launch(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
+  auto graph = launch::load_launch(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt");
   ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
   flight::SimOverrides overrides;
   overrides.sr = flight::SrSwitch::Off;

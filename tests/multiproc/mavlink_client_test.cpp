@@ -89,7 +89,7 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
       << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
   // Given the square with the key in its network block (the policy path made absolute for the copy) …
-  std::string graph_text = slurp(kRepo / "launch/quad_square.launch.pbtxt");
+  std::string graph_text = slurp(kRepo / "launch/quad_square_paper.launch.pbtxt");
   const std::string relative = "\"../policies/quad_sr.policy.pbtxt\"";
   const auto policy_at = graph_text.find(relative);
   ASSERT_NE(policy_at, std::string::npos);

@@ -27,7 +27,7 @@ class RunFigures : public rejuv::test_support::ScratchDirTest {
 TEST_F(RunFigures, RunOut_WritesTheRecordsAndTheFigures) {
   const fs::path out = dir_ / "run";
   const auto r = rejuv::test_support::run_rejuv(
-      dir_, {"run", (kRepo / "launch" / "quad_square.launch.pbtxt").string(), "--duration", "9", "--domain",
+      dir_, {"run", (kRepo / "launch" / "quad_square_paper.launch.pbtxt").string(), "--duration", "9", "--domain",
              std::to_string(rejuv::test_support::kOwnDdsDomain), "--net-port", "0", "--out", out.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string control = slurp(out / "control.csv");

@@ -33,10 +33,10 @@ class Soak : public rejuv::test_support::ScratchDirTest {
   Soak() : ScratchDirTest("rejuv_soak_") {}
   [[nodiscard]] bool keep_on_failure() const override { return true; }  // soak.csv tells what grew
 
-  // `rejuv soak launch/quad_square.launch.pbtxt <extra>` on this process's own DDS domain. The soak's kernel
+  // `rejuv soak launch/quad_square_paper.launch.pbtxt <extra>` on this process's own DDS domain. The soak's kernel
   // kills and reaps every process it started before it exits (Kernel::shutdown).
   Outcome soak(const std::vector<std::string>& extra) const {
-    std::vector<std::string> args{"soak", (kRepo / "launch" / "quad_square.launch.pbtxt").string(), "--domain",
+    std::vector<std::string> args{"soak", (kRepo / "launch" / "quad_square_paper.launch.pbtxt").string(), "--domain",
                                   std::to_string(rejuv::test_support::kOwnDdsDomain), "--out", dir_.string()};
     args.insert(args.end(), extra.begin(), extra.end());
     Outcome r;

@@ -204,7 +204,7 @@ class GroundStation final : public kernel::Observer {
   GroundReport report_{};
 };
 
-// The SR scheme flown: the paper's (launch/quad_square), or the estimate catch-up's (launch/quad_square_catch_up:
+// The SR scheme flown: the paper's (launch/quad_square_paper), or the estimate catch-up's (launch/quad_square:
 // T_est 50 ms, ρ_M 0.2), with its replay on or switched off in the same file.
 enum class Scheme : std::uint8_t { Paper, CatchUp, CatchUpWithoutReplay };
 
@@ -213,8 +213,8 @@ enum class Scheme : std::uint8_t { Paper, CatchUp, CatchUpWithoutReplay };
 std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGroup> fault = std::nullopt,
                            std::optional<GroundUpload> ground = std::nullopt, Scheme scheme = Scheme::Paper) {
   auto graph = launch::load_launch(fs::path(REJUV_SOURCE_DIR) /
-                                   (scheme == Scheme::Paper ? "launch/quad_square.launch.pbtxt"
-                                                            : "launch/quad_square_catch_up.launch.pbtxt"));
+                                   (scheme == Scheme::Paper ? "launch/quad_square_paper.launch.pbtxt"
+                                                            : "launch/quad_square.launch.pbtxt"));
   if (!graph) {
     ADD_FAILURE() << graph.error().to_string();
     return std::nullopt;

@@ -53,7 +53,7 @@ TEST_F(UlogReader, SquareWithSr_ReadBackByFoxgloveAsRouted) {
   ASSERT_TRUE(std::filesystem::exists(kReaderDir / "node_modules/@foxglove/ulog/package.json"))
       << "the independent ULog reader is not installed: ./rejuv build installs it (npm ci in "
       << kReaderDir.string() << ")";
-  const auto graph = kRepo / "launch/quad_square.launch.pbtxt";
+  const auto graph = kRepo / "launch/quad_square_paper.launch.pbtxt";
   const auto ulg = dir() / "run.ulg";
   const auto summary_json = dir() / "summary.json";
   // Given a short flight with SR and the attack (4 s after the alignment: several SR cycles at T_MC = 0.3 s)

@@ -1,5 +1,5 @@
 // Containment in a whole mission (DESIGN §7 "Protection (containment)", §11): the square of
-// launch/quad_square.launch.pbtxt flown through the real kernel, the real flight services and the plant, with
+// launch/quad_square_paper.launch.pbtxt flown through the real kernel, the real flight services and the plant, with
 // the worst-case control attack of §VI-D and, on top of it, a compromised ekf2 that forks a helper at boot
 // (attack ESCAPE_HELPER, services/attacks) which tries, for as long as it lives, to send UDP to a listener
 // this test owns and to set up an io_uring. A rollback erases only what is inside an image; a process is
@@ -43,11 +43,11 @@ using mission::session_members;
 using mission::SessionGuard;
 
 
-// quad_square's text with ekf2 compromised: its escape_port param and an ESCAPE_HELPER entry in the plan,
+// quad_square_paper's text with ekf2 compromised: its escape_port param and an ESCAPE_HELPER entry in the plan,
 // next to the worst-case control attack the graph already has. Empty when the graph no longer reads as
 // expected (the caller fails).
 std::string compromised_square(std::uint16_t port) {
-  std::string t = read_text(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
+  std::string t = read_text(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt");
   const std::string ekf2 = "name: \"ekf2\"\n  executable: \"rejuv_ekf2\"\n";
   const std::string control_attack = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
   const std::size_t at_ekf2 = t.find(ekf2);
@@ -149,8 +149,8 @@ TEST(CompromisedMission, Ekf2ForksANetworkHelperAtBoot_NoDatagramHelperGoneByFir
   ASSERT_TRUE(bound.has_value()) << bound.error().to_string();
   const std::uint16_t port = bound->port;
   const std::string text = compromised_square(port);
-  ASSERT_FALSE(text.empty()) << "launch/quad_square.launch.pbtxt no longer has ekf2 or the control attack";
-  auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
+  ASSERT_FALSE(text.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has ekf2 or the control attack";
+  auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt");
   ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
   if (const auto missing = missing_executable(*graph)) FAIL() << "not built: " << missing->string();
   auto reference = cli::run_reference(*graph, std::nullopt);

@@ -1,6 +1,6 @@
 // The attacks on rollback itself (idl/launch.proto AttackKind 18…27; services/attacks
 // rollback_attacks.cpp; docs/sandbox.md "Threats to rollback"), each carried out by a compromised ext_link in
-// every MC window of the square (launch/quad_square.launch.pbtxt, with its worst-case control attack), flown
+// every MC window of the square (launch/quad_square_paper.launch.pbtxt, with its worst-case control attack), flown
 // through the real kernel, the real flight services and the plant — in REAL TIME and in LOCKSTEP. Lockstep
 // stops the world while the kernel cleans up; a vehicle does not, so both are flown.
 //
@@ -55,10 +55,10 @@ using mission::RunLog;
 using mission::session_members;
 using mission::SessionGuard;
 
-// quad_square with ext_link compromised by `kind` (every MC window) next to the worst-case control attack,
+// quad_square_paper with ext_link compromised by `kind` (every MC window) next to the worst-case control attack,
 // flown in `clock`. Empty when the graph no longer reads as expected (the caller fails).
 std::string attacked_square(AttackKind kind, bool realtime) {
-  std::string t = read_text(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
+  std::string t = read_text(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt");
   const std::string control_attack = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
   const std::size_t at = t.find(control_attack);
   const std::size_t clock = t.find("clock: LOCKSTEP");
@@ -194,8 +194,8 @@ struct Flight {
 // through gtest (the caller checks HasFatalFailure).
 void fly(AttackKind kind, bool realtime, Flight& f) {
   const std::string text = attacked_square(kind, realtime);
-  ASSERT_FALSE(text.empty()) << "launch/quad_square.launch.pbtxt no longer has the control attack, clock or alignment";
-  auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt");
+  ASSERT_FALSE(text.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has the control attack, clock or alignment";
+  auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt");
   ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
   if (const auto missing = missing_executable(*graph)) FAIL() << "not built: " << missing->string();
   if (realtime) {  // the plan's CPU pinning (launch `cpu`), checked by effect in every look (Watch)

@@ -160,7 +160,7 @@ Flight fly(const std::string& label, const std::string& graph, int seconds, cons
 }  // namespace
 
 int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, const std::optional<fs::path>& out_dir) {
-  const std::string graph = graph_arg.empty() ? std::string(REJUV_SOURCE_DIR) + "/launch/quad_square.launch.pbtxt" : graph_arg;
+  const std::string graph = graph_arg.empty() ? std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt" : graph_arg;
   auto loaded = launch::load_launch(graph);
   if (!loaded) return bad_input(loaded.error().to_string());
   if (!loaded->graph.has_plant()) return bad_input("rejuv bench realtime: " + graph + " has no plant (no vehicle to measure)");

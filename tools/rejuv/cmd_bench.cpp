@@ -45,7 +45,7 @@ int run_bench(std::span<const std::string_view> args) {
   Options opts("bench",
                "Benchmarks, side by side in one run.\n"
                "  images [GRAPH]    checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
-               "                    launch/quad_square.launch.pbtxt) with the queue state, against a cold restart\n"
+               "                    launch/quad_square_paper.launch.pbtxt) with the queue state, against a cold restart\n"
                "                    of the same services from their binaries.\n"
                "  realtime [GRAPH]  this machine's floor (rt-tests cyclictest at the control period) and GRAPH flown\n"
                "                    in real time without SR, with SR, and with SR under its attacks: the intervals\n"
@@ -53,7 +53,7 @@ int run_bench(std::span<const std::string_view> args) {
                "                    to the floor (docs/realtime.md), and the lockstep charge they imply (what the\n"
                "                    vehicle lost at a checkpoint and a rollback) in DIR/lockstep_charge.pbtxt.");
   opts.positional("WHAT", what, "what to measure: images or realtime")
-      .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square.launch.pbtxt)", false)
+      .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square_paper.launch.pbtxt)", false)
       .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")
       .integer("--restarts", "N", restarts, {1, 1000}, "cold restarts")
       .integer("--between", "MS", between, {1, 10000},
@@ -65,7 +65,7 @@ int run_bench(std::span<const std::string_view> args) {
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (what == "realtime") return run_bench_realtime(graph_path, seconds, out);
   if (what != "images") return bad_input("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime)");
-  if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square.launch.pbtxt";
+  if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt";
   auto loaded = launch::load_launch(graph_path);
   if (!loaded) return bad_input(loaded.error().to_string());
   if (!loaded->graph.sr().enabled()) return bad_input("rejuv bench images: " + graph_path + " has sr.enabled false");

@@ -20,7 +20,7 @@ class CliCommands : public rejuv::test_support::ScratchDirTest {
   }
 };
 
-const std::string kGraph = (kRepo / "launch" / "quad_square.launch.pbtxt").string();
+const std::string kGraph = (kRepo / "launch" / "quad_square_paper.launch.pbtxt").string();
 const std::string kPolicy = (kRepo / "policies" / "quad_sr.policy.pbtxt").string();
 
 struct Command {

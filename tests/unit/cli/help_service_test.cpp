@@ -18,7 +18,7 @@ using rejuv::test_support::kRepo;
 using rejuv::test_support::slurp;
 using Outcome = rejuv::test_support::CliOutcome;
 
-const std::string kGraph = (kRepo / "launch" / "quad_square.launch.pbtxt").string();
+const std::string kGraph = (kRepo / "launch" / "quad_square_paper.launch.pbtxt").string();
 const std::string kPolicy = (kRepo / "policies" / "quad_sr.policy.pbtxt").string();
 
 class CliHelpService : public rejuv::test_support::ScratchDirTest {
@@ -60,7 +60,7 @@ TEST_F(CliHelpService, RunWithoutGraph_Exit2) {
   EXPECT_NE(r.err.find("missing argument GRAPH"), std::string::npos) << r.err;
 }
 
-// quad_square with a misspelt param on ext_link: refused at its line and column, with the declared name.
+// quad_square_paper with a misspelt param on ext_link: refused at its line and column, with the declared name.
 TEST_F(CliHelpService, MisspeltParamInAGraph_Exit2AtItsLineWithSuggestion) {
   std::string text = slurp(kGraph);
   const std::string rel = "policy: \"../policies/quad_sr.policy.pbtxt\"";

@@ -48,7 +48,7 @@ constexpr const char* kControlHeader = "t_s,wall_s,interval_ms,wall_interval_ms,
 constexpr const char* kEventsHeader = "t_s,wall_s,kind,epoch,generation,mode,span_ms,by\n";
 
 TEST_F(FiguresCli, SimOut_WritesTheCsvsAndTheFigures) {
-  const auto r = run_rejuv(dir_, {"sim", (kRepo / "launch" / "quad_square.launch.pbtxt").string(), "--out",
+  const auto r = run_rejuv(dir_, {"sim", (kRepo / "launch" / "quad_square_paper.launch.pbtxt").string(), "--out",
                                   (dir_ / "sim").string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string control = slurp(dir_ / "sim" / "control.csv");
@@ -70,7 +70,7 @@ TEST_F(FiguresCli, SimOut_WritesTheCsvsAndTheFigures) {
 }
 
 TEST_F(FiguresCli, SimOutFullTrace_IsLargerThanCompact) {
-  const std::string graph = (kRepo / "launch" / "quad_square.launch.pbtxt").string();
+  const std::string graph = (kRepo / "launch" / "quad_square_paper.launch.pbtxt").string();
   ASSERT_EQ(run_rejuv(dir_, {"sim", graph, "--no-sr", "--no-attack", "--out", (dir_ / "c").string(), "--no-figures"})
                 .exit_code,
             0);
@@ -112,7 +112,7 @@ TEST_F(FiguresCli, ReportFigures_GarbageSummary_Exit2NamingIt) {
 }
 
 TEST_F(FiguresCli, TraceOrNoFiguresWithoutOut_Exit2) {
-  const std::string graph = (kRepo / "launch" / "quad_square.launch.pbtxt").string();
+  const std::string graph = (kRepo / "launch" / "quad_square_paper.launch.pbtxt").string();
   for (const char* command : {"sim", "run"}) {
     const auto r = run_rejuv(dir_, {command, graph, "--trace", "full"});
     EXPECT_EQ(r.exit_code, 2) << command;

@@ -12,6 +12,8 @@
 #include <string_view>
 #include <utility>
 
+#include <google/protobuf/util/message_differencer.h>
+
 #include "rejuv/launch/launch.hpp"
 
 namespace rejuv::launch {
@@ -104,10 +106,48 @@ void expect_semantic_at(std::string_view from, std::string_view to, std::string_
   EXPECT_NE(r.error().message.find(message_part), std::string::npos) << r.error().to_string();
 }
 
+// launch/quad_square is the paper's square with the scheme of docs/control.md §6.3, and the held-out missions
+// are that square with their own mission and wind: nothing else may drift from the paper's file.
+TEST(LaunchLoader, TheSchemeAndTheHeldOutMissions_DifferFromThePapersSquareOnlyWhereTheySay) {
+  const std::filesystem::path dir = std::filesystem::path(REJUV_SOURCE_DIR) / "launch";
+  const auto paper = load_launch(dir / "quad_square_paper.launch.pbtxt");
+  const auto scheme = load_launch(dir / "quad_square.launch.pbtxt");
+  ASSERT_TRUE(paper.has_value()) << paper.error().to_string();
+  ASSERT_TRUE(scheme.has_value()) << scheme.error().to_string();
+  EXPECT_TRUE(scheme->graph.sr().estimate_catch_up());
+  const auto as_paper = [&](proto::Launch g) {
+    g.set_name(paper->graph.name());
+    g.clear_policy();
+    *g.mutable_sr() = paper->graph.sr();
+    *g.mutable_mission() = paper->graph.mission();
+    g.mutable_plant()->set_wind_mean_m_s(paper->graph.plant().wind_mean_m_s());
+    g.mutable_plant()->set_wind_gust_m_s(paper->graph.plant().wind_gust_m_s());
+    g.mutable_plant()->set_wind_toward_deg(paper->graph.plant().wind_toward_deg());
+    return g;
+  };
+  proto::Launch reference = paper->graph;
+  reference.clear_policy();
+  google::protobuf::util::MessageDifferencer same;
+  std::string diff;
+  same.ReportDifferencesToString(&diff);
+  EXPECT_TRUE(same.Compare(as_paper(scheme->graph), reference)) << diff;
+  for (const char* held_out : {"held_out/pentagon_5m.launch.pbtxt", "held_out/zigzag_2m.launch.pbtxt"}) {
+    const auto g = load_launch(dir / held_out);
+    ASSERT_TRUE(g.has_value()) << g.error().to_string();
+    EXPECT_EQ(g->policy_path, paper->policy_path) << held_out;
+    EXPECT_GT(g->graph.plant().wind_mean_m_s(), 0.0) << held_out;
+    EXPECT_NE(g->graph.mission().waypoints(0).down_m(), paper->graph.mission().waypoints(0).down_m()) << held_out;
+    diff.clear();
+    EXPECT_TRUE(same.Compare(g->graph.sr(), scheme->graph.sr())) << held_out << ": the scheme's sr\n" << diff;
+    diff.clear();
+    EXPECT_TRUE(same.Compare(as_paper(g->graph), reference)) << held_out << "\n" << diff;
+  }
+}
+
 TEST(LaunchLoader, ShippedQuadSquare_Loads) {
-  const auto r = load_launch(std::filesystem::path(REJUV_SOURCE_DIR) / "launch" / "quad_square.launch.pbtxt");
+  const auto r = load_launch(std::filesystem::path(REJUV_SOURCE_DIR) / "launch" / "quad_square_paper.launch.pbtxt");
   ASSERT_TRUE(r.has_value()) << r.error().to_string();
-  EXPECT_EQ(r->graph.name(), "quad_square");
+  EXPECT_EQ(r->graph.name(), "quad_square_paper");
   EXPECT_EQ(r->policy_path.filename(), "quad_sr.policy.pbtxt");
   EXPECT_TRUE(std::filesystem::is_regular_file(r->policy_path));
   EXPECT_NE(find_service(r->graph, "output_driver"), nullptr);

@@ -251,7 +251,7 @@ TEST(AuditShipped, QuadSr_Clean) {
 TEST(AuditShipped, QuadSrWithQuadSquareLaunch_Clean) {
   const auto p = load_policy(kRepo / "policies" / "quad_sr.policy.pbtxt");
   ASSERT_TRUE(p.has_value()) << p.error().to_string();
-  const auto g = launch::load_launch(kRepo / "launch" / "quad_square.launch.pbtxt");
+  const auto g = launch::load_launch(kRepo / "launch" / "quad_square_paper.launch.pbtxt");
   ASSERT_TRUE(g.has_value()) << g.error().to_string();
   const auto f = audit(*p, *g);
   EXPECT_TRUE(f.empty()) << ids(f);

@@ -42,7 +42,7 @@ std::string example(std::string_view name) {
   return (kRepo / "policies" / "examples" / name).string();
 }
 const std::string kQuadSr = (kRepo / "policies" / "quad_sr.policy.pbtxt").string();
-const std::string kQuadSquare = (kRepo / "launch" / "quad_square.launch.pbtxt").string();
+const std::string kQuadSquare = (kRepo / "launch" / "quad_square_paper.launch.pbtxt").string();
 
 // Parses JSON with protobuf's own parser into a google.protobuf.Struct (fails on invalid JSON).
 bool parse_json(const std::string& text, google::protobuf::Struct& out) {
@@ -61,14 +61,14 @@ TEST_F(RejuvCli, QuadSr_Exit0WithMatrixAndVerdict) {
 TEST_F(RejuvCli, QuadSrWithLaunch_Exit0) {
   const Outcome r = rejuv({"audit", kQuadSr, "--launch", kQuadSquare});
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
-  EXPECT_NE(r.out.find("with graph \"quad_square\""), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("with graph \"quad_square_paper\""), std::string::npos) << r.out;
 }
 
 TEST_F(RejuvCli, LaunchWithoutPolicy_AuditsThePolicyTheGraphNames) {
   const Outcome r = rejuv({"audit", "--launch", kQuadSquare});
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("quad_sr.policy.pbtxt"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("with graph \"quad_square\""), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("with graph \"quad_square_paper\""), std::string::npos) << r.out;
   EXPECT_TRUE(r.err.empty()) << r.err;
 }
 

@@ -11,7 +11,7 @@
 namespace rejuv::flight {
 namespace {
 
-const std::filesystem::path kSquare = std::filesystem::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt";
+const std::filesystem::path kSquare = std::filesystem::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt";
 
 SimConfig config_for(AttackLaw law, SrSwitch sr) {
   auto loaded = launch::load_launch(kSquare);

@@ -14,7 +14,7 @@
 namespace {
 
 const std::string kRejuv = std::string(REJUV_BINARY_DIR) + "/tools/rejuv/rejuv";
-const std::string kSquare = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square.launch.pbtxt";
+const std::string kSquare = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt";
 
 struct Outcome {
   int exit_code = -1;
@@ -140,7 +140,7 @@ TEST(RunCli, EstimateCatchUp_ANonRejuvenatedReader_RefusedAtTheField) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::temp_directory_path() / ("rejuv_catch_up_cli_" + std::to_string(::getpid()));
   fs::create_directories(dir);
-  std::string text = rejuv::test_support::slurp(rejuv::test_support::kRepo / "launch/quad_square_catch_up.launch.pbtxt");
+  std::string text = rejuv::test_support::slurp(rejuv::test_support::kRepo / "launch/quad_square_paper.launch.pbtxt");
   // sensors at driver level in the graph and in a copy of its policy (the audit wants the two to agree).
   const std::string policy = "policy: \"../policies/quad_sr.policy.pbtxt\"";
   text.replace(text.find(policy), policy.size(), "policy: \"" + (dir / "p.policy.pbtxt").string() + "\"");
@@ -150,12 +150,13 @@ TEST(RunCli, EstimateCatchUp_ANonRejuvenatedReader_RefusedAtTheField) {
   const std::string declared = "services { name: \"sensors\" }";
   policy_text.replace(policy_text.find(declared), declared.size(), "services { name: \"sensors\" level: DRIVER }");
   std::ofstream(dir / "p.policy.pbtxt") << policy_text;
-  const fs::path graph = dir / "g.launch.pbtxt";
-  std::ofstream(graph) << text;
+  std::ofstream(dir / "g.launch.pbtxt") << text;
+  const fs::path graph = dir / "catch_up.launch.pbtxt";  // launch/quad_square extending the edited copy
+  rejuv::test_support::write_extending("quad_square.launch.pbtxt", dir / "g.launch.pbtxt", graph);
   const Outcome run_outcome = run(graph.string() + " --duration 1 --domain 231", "run");
   fs::remove_all(dir);
   EXPECT_EQ(run_outcome.exit_code, 2) << run_outcome.output;
-  EXPECT_NE(run_outcome.output.find("g.launch.pbtxt:"), std::string::npos) << run_outcome.output;
+  EXPECT_NE(run_outcome.output.find("catch_up.launch.pbtxt:"), std::string::npos) << run_outcome.output;  // sr.estimate_catch_up
   EXPECT_NE(run_outcome.output.find("'sensors' reads 'sensor_gyro'"), std::string::npos) << run_outcome.output;
   EXPECT_NE(run_outcome.output.find("not rejuvenated"), std::string::npos) << run_outcome.output;
   EXPECT_EQ(run_outcome.output.find("services ready"), std::string::npos) << run_outcome.output;

@@ -14,7 +14,7 @@
 namespace rejuv::flight {
 namespace {
 
-const std::filesystem::path kSquare = std::filesystem::path(REJUV_SOURCE_DIR) / "launch/quad_square.launch.pbtxt";
+const std::filesystem::path kSquare = std::filesystem::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt";
 
 SimConfig square_config(SimOverrides overrides = {}) {
   auto loaded = launch::load_launch(kSquare);

@@ -17,7 +17,7 @@ namespace fs = std::filesystem;
 using test_support::run_rejuv;
 using test_support::slurp;
 
-const std::string kGraph = (test_support::kRepo / "launch" / "quad_square.launch.pbtxt").string();
+const std::string kGraph = (test_support::kRepo / "launch" / "quad_square_paper.launch.pbtxt").string();
 
 class SweepCli : public test_support::ScratchDirTest {
  protected:

@@ -22,7 +22,7 @@ class SweepRun : public test_support::ScratchDirTest {
 TEST_F(SweepRun, OneRuntimeCell_StoppedAfterItsAttacks_ChargedThePapers) {
   const fs::path out = dir_ / "s";
   const auto r = test_support::run_rejuv(
-      dir_, {"sweep", (test_support::kRepo / "launch" / "quad_square.launch.pbtxt").string(), "--param",
+      dir_, {"sweep", (test_support::kRepo / "launch" / "quad_square_paper.launch.pbtxt").string(), "--param",
              "sr.t_mc_s=0.3", "--attacks", "3", "--seeds", "1", "--runner", "run", "--charges", "paper", "--out",
              out.string()});
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
