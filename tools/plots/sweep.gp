@@ -12,9 +12,9 @@ n = words(runners)
 set palette defined (0 '#313695', 0.5 '#74add1', 1 '#ffffbf', (zmax + 1) / 2 '#f46d43', zmax '#a50026')
 do for [fmt in "png svg"] {
   if (fmt eq "png") {
-    set terminal pngcairo size (n == 1 ? 800 : 640*n),580 font 'sans,10'
+    set terminal pngcairo size (n == 1 ? 800 : 640*n),580 font 'sans,10' noenhanced
   } else {
-    set terminal svg size (n == 1 ? 800 : 640*n),580 font 'sans,10'
+    set terminal svg size (n == 1 ? 800 : 640*n),580 font 'sans,10' noenhanced
   }
   set output out.'.'.fmt
   set multiplot layout 1,n title title noenhanced font 'sans,12'

@@ -54,8 +54,8 @@ struct Row {
 }  // namespace
 
 // Where the faults go: over the first 95 % of the flight, as long as the model (`rejuv sim`, a fraction of a second)
-// flies this graph with its SR scheme and attacks (the paper's square: 230 of 243 s; the catch-up square: 41 of
-// 44 s), so that every fault lands in flight whatever the graph. The runtime flies a little longer than the model
+// flies this graph with its SR scheme and attacks (the paper's square: 230 of 243 s; launch/quad_square: 56 of
+// 59 s), so that every fault lands in flight whatever the graph. The runtime flies a little longer than the model
 // (docs/control.md), never shorter by much.
 Result<Nanos, std::string> fault_window(const launch::LoadedLaunch& graph) {
   auto config = flight::config_from_launch(graph, flight::SimOverrides{});
