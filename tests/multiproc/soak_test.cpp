@@ -59,7 +59,7 @@ TEST_F(Soak, ThirtyCycles_ReachesThemAndEverySeriesIsFlat) {
   EXPECT_EQ(r.out.find("unreadable"), std::string::npos) << r.out;  // every /proc file this soak reads
   // Header and one row per sample: cycles 0, 2, …, 30.
   EXPECT_EQ(lines(r.csv), 1U + 16U) << r.csv;
-  for (const char* column : {"kernel_rss_kb", "plant_rss_kb", "ekf2_rss_kb", "kernel_fds", "ekf2_fds",
+  for (const char* column : {"kernel_rss_kb", "kernel_heap_kb", "plant_rss_kb", "ekf2_rss_kb", "kernel_fds", "ekf2_fds",
                              "kernel_maps", "processes", "lqr_control_procs"}) {
     EXPECT_NE(r.csv.find(column), std::string::npos) << column;
   }

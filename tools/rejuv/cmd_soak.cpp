@@ -5,7 +5,8 @@
 // hovers at its last waypoint with SR and attacks going on. Every C cycles it samples from /proc: this process's
 // (the kernel's) RSS, mappings, open fds and threads, the processes descending from it, and for the plant and
 // each live service its RSS, mappings, fds and (services) the processes of its session (the live incarnation
-// and its frozen images). Progress on stderr; the samples as CSV (and a PNG through tools/plots/soak.gp when
+// and its frozen images), and the bytes this process's malloc holds in use (kernel_heap_kb: a growing RSS with a
+// flat heap is pages touched or fragmentation, not a leak). Progress on stderr; the samples as CSV (and a PNG through tools/plots/soak.gp when
 // gnuplot is present).
 //
 // The verdict compares, per series, the median of the last 20 % of the samples with the median of the 20 %
@@ -21,6 +22,7 @@
 // /proc files root's); /proc/<pid>/status is readable by anyone. A file that cannot be read gives NaN in the
 // CSV and the series is reported as unreadable instead of judged.
 #include <dirent.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -142,9 +144,14 @@ struct Series {
   // CycleLength: simulated seconds per SR cycle since the last sample; judged with --one-kernel,
   // where one kernel flies the whole soak (a new kernel per mission restarts the flight, so the length there is
   // reported, not judged).
-  enum class Kind : std::uint8_t { KernelRss, ServiceRss, Maps, Count, CycleLength } kind = Kind::Count;
+  // KernelHeap: malloc's bytes in use in this process, judged like the kernel's RSS.
+  enum class Kind : std::uint8_t { KernelRss, KernelHeap, ServiceRss, Maps, Count, CycleLength } kind = Kind::Count;
   std::vector<double> values{};
 };
+
+// Samples beyond cycles / every that a soak can take: the first sample of each kernel (a soak of missions starts
+// one per mission), more than any soak here flies.
+constexpr std::size_t kSampleSlack = 64;
 
 class Soak final : public kernel::Observer {
  public:
@@ -165,6 +172,7 @@ class Soak final : public kernel::Observer {
     const auto add = [&](std::string name, Series::Kind kind) { series_.push_back({std::move(name), kind}); };
     add("sr_cycle_s", Series::Kind::CycleLength);
     add("kernel_rss_kb", Series::Kind::KernelRss);
+    add("kernel_heap_kb", Series::Kind::KernelHeap);
     add("plant_rss_kb", Series::Kind::ServiceRss);
     for (const auto& s : services_) add(s.name + "_rss_kb", Series::Kind::ServiceRss);
     add("kernel_fds", Series::Kind::Count);
@@ -177,6 +185,14 @@ class Soak final : public kernel::Observer {
     add("kernel_children", Series::Kind::Count);
     add("processes", Series::Kind::Count);
     for (const auto& s : services_) add(s.name + "_procs", Series::Kind::Count);
+    // Room for every sample up front (one every `every_` cycles, and the first of each kernel): the soak's own
+    // samples, 8 bytes per series each, would otherwise grow this process's heap and RSS by doubling vectors
+    // while they measure them (≈ 60 B per cycle on the square at a sample every 10 cycles).
+    const std::size_t room = static_cast<std::size_t>(cycles_ / std::max<std::uint64_t>(every_, 1)) + kSampleSlack;
+    cycle_.reserve(room);
+    t_sim_.reserve(room);
+    wall_.reserve(room);
+    for (Series& x : series_) x.values.reserve(room);
   }
 
   void detach() { k_ = nullptr; }
@@ -261,6 +277,8 @@ class Soak final : public kernel::Observer {
       v[who + "_maps"] = count_lines(proc + "/maps");
     };
     per_process("kernel", self);
+    const struct mallinfo2 heap = ::mallinfo2();  // every arena: allocated chunks plus mmapped blocks
+    v["kernel_heap_kb"] = static_cast<double>(heap.uordblks + heap.hblkhd) / 1024.0;
     v["kernel_threads"] = read_status("/proc/self").threads;
     per_process("plant", plant);
     int children = 0;
@@ -334,7 +352,8 @@ Verdict judge(const Series& s, double kernel_rss_kb, double service_rss_kb, doub
   v.last = median(last);
   v.growth = v.last - v.baseline;
   switch (s.kind) {
-    case Series::Kind::KernelRss: v.bound = kernel_rss_kb; break;
+    case Series::Kind::KernelRss:
+    case Series::Kind::KernelHeap: v.bound = kernel_rss_kb; break;
     case Series::Kind::ServiceRss: v.bound = service_rss_kb; break;
     case Series::Kind::Maps:
       v.bound = *std::max_element(base.begin(), base.end()) - v.baseline + maps_slack;
@@ -506,7 +525,7 @@ int run_soak(std::span<const std::string_view> args) {
   if (soak.samples() >= 2 && std::system("command -v gnuplot >/dev/null 2>&1") == 0 && fs::exists(gp)) {
     std::size_t rss = 0, fds = 0, maps = 0;
     for (const Series& x : soak.series()) {
-      rss += x.name.ends_with("_rss_kb") ? 1 : 0;
+      rss += x.name.ends_with("_kb") ? 1 : 0;  // the RSS and the kernel's heap: one memory panel
       fds += x.name.ends_with("_fds") ? 1 : 0;
       maps += x.name.ends_with("_maps") ? 1 : 0;
     }

@@ -40,13 +40,18 @@ class CanonicalStage {
     entries_.clear();
     bytes_.clear();
   }
-  // Drops the entries for which p(key, tag) holds (their bytes stay until the next drain).
+  // Drops the entries for which p(key, tag) holds. Their bytes stay until the next drain, or go at once when no
+  // entry is left: a stage emptied this way (a rollback drops what the rejuvenated services staged) may see no
+  // drain for many rounds, and must not keep what it dropped (DESIGN §11 soak: a graph whose only publications
+  // fall in the rollback's round grew it by their size every cycle).
   template <typename P>
   void erase_if(P&& p) {
     std::erase_if(entries_, [&](const Entry& e) { return p(e.key, e.tag); });
+    if (entries_.empty()) bytes_.clear();
   }
   [[nodiscard]] bool empty() const { return entries_.empty(); }
   [[nodiscard]] std::size_t size() const { return entries_.size(); }
+  [[nodiscard]] std::size_t bytes_held() const { return bytes_.size(); }  // the staged entries' and dropped ones'
 
  private:
   struct Entry {

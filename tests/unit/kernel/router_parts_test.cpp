@@ -294,6 +294,23 @@ TEST(CanonicalStage, EraseIf_DropsTheMatchingEntriesOnly) {
   EXPECT_EQ(drain(stage), (std::vector<Drained>{{2, 'y', "kept"}}));
 }
 
+// A stage that is only ever emptied by erase_if (a rollback every cycle dropping the cycle's only publications)
+// holds no more bytes after a thousand cycles than after one.
+TEST(CanonicalStage, EmptiedByEraseIfOnly_KeepsNoBytes) {
+  CanonicalStage<int, char> stage;
+  for (int cycle = 0; cycle < 1000; ++cycle) {
+    stage.add(cycle, 'x', text("a publication of the rolled-back cycle"));
+    stage.erase_if([](int, char tag) { return tag == 'x'; });
+    ASSERT_TRUE(stage.empty());
+    ASSERT_EQ(stage.bytes_held(), 0U) << "cycle " << cycle;
+  }
+  stage.add(1, 'y', text("kept"));
+  stage.add(2, 'x', text("gone"));
+  stage.erase_if([](int, char tag) { return tag == 'x'; });
+  EXPECT_EQ(drain(stage), (std::vector<Drained>{{1, 'y', "kept"}}));
+  EXPECT_EQ(stage.bytes_held(), 0U);
+}
+
 TEST(CanonicalStageDeathTest, AddWhileDraining_BreaksTheInvariant) {
   CanonicalStage<int, char> stage;
   stage.add(1, 'a', text("a"));
