@@ -41,9 +41,8 @@ class CanonicalStage {
     bytes_.clear();
   }
   // Drops the entries for which p(key, tag) holds. Their bytes stay until the next drain, or go at once when no
-  // entry is left: a stage emptied this way (a rollback drops what the rejuvenated services staged) may see no
-  // drain for many rounds, and must not keep what it dropped (DESIGN §11 soak: a graph whose only publications
-  // fall in the rollback's round grew it by their size every cycle).
+  // entry is left: a stage emptied this way (a rollback drops what the rejuvenated services staged) is not
+  // drained until something new is staged, and must not hold what it dropped meanwhile.
   template <typename P>
   void erase_if(P&& p) {
     std::erase_if(entries_, [&](const Entry& e) { return p(e.key, e.tag); });

@@ -95,12 +95,13 @@ class CatchUp {
     ++stats_.cut_short;
     release_waiting(release);
   }
-  // Real time: whether `service`, with `frames_out` frames sent to it so far, still needs a Sync to answer
-  // (none went out since its last frame); noted as sent when it does.
-  [[nodiscard]] bool sync_due(ServiceId service, std::uint64_t frames_out) {
+  // Real time: whether `service`, with `frames_issued` frames sent or on their way to it (FlowControl), still
+  // needs a Sync to answer: none was issued after its last frame. Noted as issued when it does, so that a Sync
+  // still waiting in the service's out-queue is not issued again.
+  [[nodiscard]] bool sync_due(ServiceId service, std::uint64_t frames_issued) {
     if (synced_.size() <= service.value()) synced_.resize(service.value() + 1, 0);
-    if (synced_[service.value()] == frames_out) return false;
-    synced_[service.value()] = frames_out + 1;  // the Sync itself is one more frame
+    if (synced_[service.value()] == frames_issued) return false;
+    synced_[service.value()] = frames_issued + 1;  // the Sync itself is one more frame
     return true;
   }
   // A cold restart: no generation is left to catch up to.
@@ -145,7 +146,7 @@ class CatchUp {
   Nanos began_at_{0};
   std::uint64_t replayed_ = 0;
   std::vector<Cut> cuts_{};  // oldest first
-  std::vector<std::uint64_t> synced_{};  // per service: its frames_out once its last Sync went out
+  std::vector<std::uint64_t> synced_{};  // per service: its frames issued once its last Sync was
   Stats stats_{};
 };
 

@@ -283,7 +283,7 @@ void Kernel::Impl::pace_catch_up() {
   for (ServiceRuntime& s : services) {
     if (!catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
     handled = false;
-    if (catch_up.sync_due(s.id, s.flow.frames_out()) && tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
+    if (catch_up.sync_due(s.id, s.flow.frames_issued()) && tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
       send_control(s, tx.bytes());
     }
   }

@@ -252,6 +252,11 @@ class FlowControl {
     frames_base_ = frames_out_;
   }
   [[nodiscard]] std::uint64_t frames_out() const { return frames_out_; }
+  // Frames sent or on their way (held, or waiting in the out-queue): a frame moves from waiting to sent without
+  // changing it; a new frame, or one a sweep sends, adds to it.
+  [[nodiscard]] std::uint64_t frames_issued() const {
+    return frames_out_ + queue_.size() + (has_held_ ? 1U : 0U);
+  }
   [[nodiscard]] std::uint64_t reported() const { return idle_count_ + frames_base_; }
   [[nodiscard]] bool reported_all() const { return reported() == frames_out_; }
 

@@ -182,6 +182,7 @@ TEST(CatchUp, SyncDue_OnceAfterEachNewFrame) {
   EXPECT_FALSE(c.sync_due(kEkf, 11)) << "the Sync itself was the 11th";
   EXPECT_TRUE(c.sync_due(kEkf, 12)) << "a frame after the Sync";
   EXPECT_TRUE(c.sync_due(kController, 1)) << "per service";
+  EXPECT_FALSE(c.sync_due(kController, 2)) << "the Sync still waiting, or sent since: not issued again";
 }
 
 TEST(CatchUp, AColdRestart_ForgetsEveryCut) {
