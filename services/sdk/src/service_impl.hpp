@@ -93,6 +93,7 @@ struct Service::Impl {
   std::function<void(Epoch)> on_restored;
   bool restored_pending = false;  // a restored incarnation whose on_restored has not run yet (resumed_image)
   std::deque<std::vector<std::byte>> queued;  // frames read while waiting for a Reply
+  [[nodiscard]] bool fire_queued(std::uint64_t timer_id) const;  // a TimerFired of this timer waits in it
   // Network gate: a handler per Network cap slot, and a copy of the datagram being handled (a handler that
   // sends reuses rx for the Reply).
   std::vector<std::pair<std::uint32_t, std::function<void(std::span<const std::byte>)>>> datagram_handlers;

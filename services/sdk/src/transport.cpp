@@ -82,8 +82,20 @@ SdkResult<InvokeReply> Service::Impl::request(std::span<std::byte> reply_data, s
       if (n > 0) std::memcpy(reply_data.data(), data.data(), n);  // reply_data may be empty (a null data())
       return InvokeReply{.value = head.value, .data_size = n};
     }
+    if (frame && frame->kind == wire::FrameKind::TimerFired && fire_queued(frame->header.aux)) continue;
     queued.emplace_back(bytes.begin(), bytes.end());
   }
+}
+
+// A timer that fires again while its last firing still waits in `queued` fires once: the kernel coalesces the
+// periods a timer missed the same way (clock/timers.cpp collect_due). Without this a service that checkpoints
+// right after a restore, before it has handled what it read meanwhile, carries one more firing in each image,
+// and its last incarnation handles them all at one instant.
+bool Service::Impl::fire_queued(std::uint64_t timer_id) const {
+  return std::any_of(queued.begin(), queued.end(), [&](const std::vector<std::byte>& q) {
+    auto f = wire::decode(q, wire::Direction::ToService);
+    return f && f->kind == wire::FrameKind::TimerFired && f->header.aux == timer_id;
+  });
 }
 
 }  // namespace rejuv::sdk

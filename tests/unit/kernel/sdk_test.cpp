@@ -331,6 +331,29 @@ TEST_F(SdkTest, Timers_ArmFireAndCancel) {
   EXPECT_EQ(svc->every(Nanos{10}, [] {}).error().code, SdkError::BadArgument);
 }
 
+// Firings of one timer that arrive while a request waits fire it once (as the kernel coalesces missed periods):
+// a service that restores and checkpoints again before handling them must not carry one more in each image.
+TEST_F(SdkTest, FiringsOfOneTimerQueuedDuringARequest_FireItOnce) {
+  int periodic = 0;
+  int other = 0;
+  auto every = svc->every(milliseconds{4}, [&] { ++periodic; });
+  auto second = svc->every(milliseconds{8}, [&] { ++other; });
+  ASSERT_TRUE(every.has_value() && second.has_value());
+  ASSERT_TRUE(svc->flush().has_value());
+  (void)kernel.sent();
+  for (int i = 0; i < 50; ++i) kernel.send(wire::FrameKind::TimerFired, 0, 0, every->id());
+  kernel.send(wire::FrameKind::TimerFired, 0, 0, second->id());
+  kernel.reply(1, 0);
+  auto got = svc->invoke("cell", cap::Operation::PersistentWrite);
+  ASSERT_TRUE(got.has_value()) << got.error().to_string();
+  EXPECT_EQ(periodic, 0) << "nothing fires inside the request";
+  kernel.send(wire::FrameKind::TimerFired, 0, 0, every->id());  // a firing after the request: its own
+  kernel.send(wire::FrameKind::Shutdown, 0, 0, 0);
+  EXPECT_EQ(svc->run(), 0);
+  EXPECT_EQ(periodic, 2);
+  EXPECT_EQ(other, 1);
+}
+
 TEST_F(SdkTest, Run_SendsReadyThenIdleWithTheCountOfFramesReceived) {
   auto sub = [&] {
     kernel.reply(1, 0);
