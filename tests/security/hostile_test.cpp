@@ -366,7 +366,7 @@ TEST_F(Hostile, OpenKernelEnvironAtBoot_RefusedByTheUid) {
 }
 
 TEST_F(Hostile, RaiseRlimitAtBoot_RefusedAndTheLimitsHold) {
-#if defined(__SANITIZE_THREAD__)
+#if defined(REJUV_TSAN)
   GTEST_SKIP()
       << "a ThreadSanitizer build sets no RLIMIT_AS (its runtime reserves nearly the whole address space)";
 #endif
@@ -499,7 +499,7 @@ TEST_F(Hostile, KillFirstIncarnationFromAnImage_Refused) {
 // ---- what it may do, bounded ----
 
 TEST_F(Hostile, MemoryHog_TheAllocationFailsUnderTheLimit) {
-#if defined(__SANITIZE_THREAD__)
+#if defined(REJUV_TSAN)
   GTEST_SKIP()
       << "a ThreadSanitizer build sets no RLIMIT_AS (its runtime reserves nearly the whole address space)";
 #endif

@@ -40,7 +40,7 @@ sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
   // own uid (root) or its own user namespace (the strict sandbox without root, process.cpp isolate_in_child).
   if (sys::running_as_root() || options.sandbox == KernelOptions::Sandbox::Strict) limits.processes = v.max_processes;
   limits.open_files = v.max_open_files;
-#if !defined(__SANITIZE_THREAD__)
+#if !defined(REJUV_TSAN)
   // On top of what a sanitizer's runtime reserves at start (its shadow memory): the limit still bounds what
   // the service maps, and stays below infinity, so raising it is refused. ThreadSanitizer's reservation
   // leaves nothing to bound: no limit in a TSan build.

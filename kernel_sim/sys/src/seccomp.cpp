@@ -179,6 +179,9 @@ constexpr std::array kSanitizerRules{
     SyscallRule{"pipe2", Allowance::Always, ArgCheck::None,
                 "sanitizer build: UBSan's vptr check asks whether memory is readable by writing it into a "
                 "pipe it makes and closes at once (IsAccessibleMemoryRange)"},
+    SyscallRule{"unlink", Allowance::WhileBooting, ArgCheck::None,
+                "sanitizer build: ThreadSanitizer's start-up backs its read-only shadow with a file it makes in "
+                "TMPDIR and unlinks at once (MapRodata); a service's read-only mounts make the open fail first"},
 };
 #else
 constexpr std::array<SyscallRule, 0> kSanitizerRules{};

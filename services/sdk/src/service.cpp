@@ -9,9 +9,10 @@
 
 #include "rejuv/clock/timers.hpp"
 #include "rejuv/sys/fd.hpp"
+#include "rejuv/sys/sanitizer.hpp"
 #include "service_impl.hpp"
 
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(REJUV_ASAN)
 // LeakSanitizer's check at exit stops the process with ptrace from a helper task, which a service's seccomp
 // policy forbids (sys/seccomp.cpp): the check hung until the kernel's shutdown grace ran out and the
 // service was killed. Services of an AddressSanitizer build leave leak checking to the tests themselves.

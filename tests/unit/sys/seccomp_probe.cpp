@@ -22,7 +22,9 @@
 #include <pthread.h>
 #include <sys/resource.h>
 
-#if defined(__SANITIZE_ADDRESS__)
+#include "rejuv/sys/sanitizer.hpp"
+
+#if defined(REJUV_ASAN)
 // As in a service (services/sdk): LeakSanitizer's exit check needs ptrace, which the filter forbids, so a
 // probe that exits normally would hang in it.
 extern "C" int __lsan_is_turned_off() { return 1; }  // NOLINT(bugprone-reserved-identifier)
