@@ -9,7 +9,7 @@ function(rejuv_warnings target)
   # The sanitizers' instrumentation at -O1 makes GCC's flow analysis report initialised members as "may be
   # used uninitialized" (PlantOptions inside a std::variant, every field with an initialiser; GCC's manual
   # warns of false positives with -fsanitize): a warning there, not an error. The default build keeps it an error.
-  if(CMAKE_CXX_FLAGS MATCHES "-fsanitize=(address|thread)")
+  if(CMAKE_CXX_FLAGS MATCHES "-fsanitize=(address|thread)" AND CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
     target_compile_options(${target} PRIVATE -Wno-error=maybe-uninitialized)
   endif()
 endfunction()

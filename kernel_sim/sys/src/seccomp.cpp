@@ -182,6 +182,8 @@ constexpr std::array kSanitizerRules{
     SyscallRule{"unlink", Allowance::WhileBooting, ArgCheck::None,
                 "sanitizer build: ThreadSanitizer's start-up backs its read-only shadow with a file it makes in "
                 "TMPDIR and unlinks at once (MapRodata); a service's read-only mounts make the open fail first"},
+    SyscallRule{"unlinkat", Allowance::WhileBooting, ArgCheck::None,
+                "sanitizer build: as unlink (Clang's ThreadSanitizer runtime calls this one)"},
 };
 #else
 constexpr std::array<SyscallRule, 0> kSanitizerRules{};

@@ -1,5 +1,7 @@
 #include "workers.hpp"
 
+#include <sys/prctl.h>
+
 #include <cerrno>
 #include <system_error>
 
@@ -21,6 +23,8 @@ int WorkerSet::start(Worker& w) {
   }
   try {
     w.thread = new std::thread([this, body = &w.body] {  // NOLINT(cppcoreguidelines-owning-memory): see header
+      // Named, so that ps, top and the tests tell a worker from the process's other threads (a sanitizer's).
+      (void)::prctl(PR_SET_NAME, Service::kWorkerThreadName, 0, 0, 0);
       WorkerContext ctx(this, incarnation_);
       (*body)(ctx);
       const std::lock_guard lock(mutex_);

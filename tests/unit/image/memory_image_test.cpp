@@ -15,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "rejuv/sdk/memory_image.hpp"
+#include "rejuv/sys/sanitizer.hpp"
 
 namespace rejuv::memory_image {
 namespace {
@@ -91,6 +92,11 @@ TEST(MemoryImage, TouchedWorkingSetIsUnchangedAndTakesNoFaultAfterTheFork) {
 
 TEST(MemoryImage, WithoutTheTouchTheCopyFaultsOnEachPage) {
   // The counterpart of the test above: it shows that the fault count it asserts on does move.
+#if defined(REJUV_TSAN)
+  // Not in a ThreadSanitizer build, which skips the test above: its allocator's heap is not the brk heap an
+  // image tracks, and a copy's writes there take fewer faults than pages (measured: exit 11).
+  GTEST_SKIP() << "the heap is ThreadSanitizer's, whose faults after a fork are not per page";
+#endif
   EXPECT_EQ(in_child([]() -> int {
               auto* buf = static_cast<unsigned char*>(std::aligned_alloc(kPageBytes, kPages * kPageBytes));
               if (buf == nullptr) return 2;

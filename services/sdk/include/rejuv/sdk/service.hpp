@@ -386,8 +386,10 @@ class Service {
 
   // Starts a registered worker thread running `body`. Before a checkpoint the SDK parks every worker at
   // its next park_point(); the live process resumes them, a restored image starts each body again exactly
-  // once (its old threads do not exist in the image). At most kMaxWorkers.
+  // once (its old threads do not exist in the image). At most kMaxWorkers. Each is named kWorkerThreadName
+  // (/proc/<pid>/task/<tid>/comm).
   static constexpr std::size_t kMaxWorkers = 8;
+  static constexpr const char* kWorkerThreadName = "rejuv-worker";
   SdkResult<void> spawn_worker(std::function<void(WorkerContext&)> body);
 
   // ---- log ----
