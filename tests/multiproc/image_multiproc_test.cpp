@@ -180,13 +180,9 @@ TEST_F(Images, CounterContinuesFromTheCheckpointAndTheQueuesAreRestored) {
   EXPECT_EQ(k_->sr_stats().fallbacks, 0U);
 }
 
-// A sanitized build's services take every image by fork (memory_image::prepare_self fails: the sanitizer's
-// allocator refuses mallopt), so what is asserted about images by written pages holds only without one.
-#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
-constexpr bool kImagesByPagesPossible = false;
-#else
-constexpr bool kImagesByPagesPossible = true;
-#endif
+// A sanitized build's services take every image by fork (memory_image::prepare_self refuses: the sanitizer's
+// allocator keeps its heap outside the tracked layout), so what is asserted about images by written pages holds only without one.
+constexpr bool kImagesByPagesPossible = !sys::kSanitizerBuild;
 
 TEST_F(Images, BurstAcrossACheckpoint_NothingLostOrDuplicated) {
   ASSERT_NO_FATAL_FAILURE(fly_burst_across_a_checkpoint());
@@ -207,10 +203,6 @@ TEST_F(Images, BurstAcrossACheckpoint_ImagesByForkOnly) {
   EXPECT_GT(k_->sr_stats().images_by_fork, 0U);
 }
 
-#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
-// The sanitizer runtime's (sanitizer/allocator_interface.h, a header GCC does not install).
-extern "C" std::size_t __sanitizer_get_current_allocated_bytes();  // NOLINT(bugprone-reserved-identifier)
-#endif
 
 // The memory of this process (the kernel) [kB]: its RSS, from /proc/self/status. In a sanitizer build only,
 // the bytes its allocations hold instead: under ASan what it frees waits in the allocator's quarantine (256 MiB
@@ -220,7 +212,7 @@ extern "C" std::size_t __sanitizer_get_current_allocated_bytes();  // NOLINT(bug
 // allocations is checked by the build without one.
 long memory_kb() {
 #if defined(REJUV_ASAN) || defined(REJUV_TSAN)
-  return static_cast<long>(__sanitizer_get_current_allocated_bytes() / 1024U);
+  return static_cast<long>(sys::heap_in_use_bytes() / 1024U);
 #else
   std::ifstream in("/proc/self/status");
   std::string line;
@@ -231,16 +223,8 @@ long memory_kb() {
 #endif
 }
 
-// The bytes malloc holds in use in this process (every arena, and mmapped blocks) [kB]: what a leak grows,
-// while the RSS also moves with pages touched and freed memory not given back.
-long heap_kb() {
-#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
-  return static_cast<long>(__sanitizer_get_current_allocated_bytes() / 1024U);  // the sanitizer's allocator
-#else
-  const struct mallinfo2 m = ::mallinfo2();
-  return static_cast<long>((m.uordblks + m.hblkhd) / 1024U);
-#endif
-}
+// The bytes the allocations of this process hold [kB] (sys::heap_in_use_bytes): what a leak grows.
+long heap_kb() { return static_cast<long>(sys::heap_in_use_bytes() / 1024U); }
 
 // Memory too: between cycle 10 and cycle 1000 the kernel's memory (memory_kb) grows by at most 512 kB, the
 // bound of `rejuv soak` (a leak of one allocation per cycle per service would pass it only below ≈ 100

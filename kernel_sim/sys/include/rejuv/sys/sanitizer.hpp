@@ -1,6 +1,9 @@
-// What a sanitizer build (the asan and tsan presets) changes in a service's sandbox.
+// What a sanitizer build (the asan and tsan presets) changes: in a service's sandbox, and in what memory means.
 #pragma once
 
+#include <malloc.h>
+
+#include <cstddef>
 #include <cstdint>
 
 // Which sanitizer this translation unit is built with: GCC says so with __SANITIZE_ADDRESS__ /
@@ -20,7 +23,31 @@
 #endif
 #endif
 
+#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
+// The sanitizer runtime's (sanitizer/allocator_interface.h, a header GCC does not install).
+extern "C" std::size_t __sanitizer_get_current_allocated_bytes();  // NOLINT(bugprone-reserved-identifier)
+#endif
+
 namespace rejuv::sys {
+
+#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
+inline constexpr bool kSanitizerBuild = true;
+#else
+inline constexpr bool kSanitizerBuild = false;
+#endif
+
+// The bytes this process's allocations hold: malloc's count (mallinfo2: every arena and mmapped block), or in
+// a sanitizer build its allocator's, which malloc's does not see. A leak grows this; the RSS also moves with
+// pages touched and freed memory not given back, and in a sanitizer build with its shadow of every address
+// touched (so a sanitizer build's RSS is not a leak's measure).
+inline std::uint64_t heap_in_use_bytes() {
+#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
+  return __sanitizer_get_current_allocated_bytes();
+#else
+  const struct mallinfo2 m = ::mallinfo2();
+  return m.uordblks + m.hblkhd;
+#endif
+}
 
 // The address space a sanitizer's runtime reserves in every process at start, which RLIMIT_AS counts (0 in a
 // build without one). AddressSanitizer on x86-64 (47-bit addresses): its shadow memory, 16 TiB from
