@@ -24,6 +24,7 @@
 #include "run_recorder.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/sanitizer.hpp"
 
 #ifndef REJUV_SOURCE_DIR
 #define REJUV_SOURCE_DIR ""
@@ -69,7 +70,11 @@ std::vector<int> children() {
   return out;
 }
 
+// The memory this process holds [kB]: its RSS, or in a sanitizer build its allocator's bytes in use (ASan's
+// quarantine and either sanitizer's shadow grow the RSS with every page touched: rejuv/sys/sanitizer.hpp).
+constexpr const char* kMemoryName = sys::kSanitizerBuild ? "heap" : "RSS";
 long rss_kb() {
+  if (sys::kSanitizerBuild) return static_cast<long>(sys::heap_in_use_bytes() / 1024U);
   std::ifstream status("/proc/self/status");
   std::string line;
   while (std::getline(status, line)) {
@@ -451,7 +456,7 @@ std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>
     helper.clear_conts();
     if (log != nullptr) std::fflush(log);
     // Nothing left: no child of this process (the kernel is a subreaper: whatever it started and lost would
-    // be ours now), no fd above the baseline, RSS within 64 MiB of it.
+    // be ours now), no fd above the baseline, RSS (a sanitizer build: heap) within 64 MiB of it.
     std::string leak;
     std::vector<int> left = children();
     for (int i = 0; i < 20 && !left.empty(); ++i) {  // zombies being reaped: give them 1 s
@@ -475,7 +480,7 @@ std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>
       leak += (leak.empty() ? "" : ", ") + std::to_string(fds - *fd_baseline) + " fds above the baseline";
     }
     if (rss > rss_baseline + 64 * 1024) {
-      leak += (leak.empty() ? "" : ", ") + std::string("RSS ") + std::to_string(rss / 1024) + " MiB (baseline " +
+      leak += (leak.empty() ? "" : ", ") + std::string(kMemoryName) + " " + std::to_string(rss / 1024) + " MiB (baseline " +
               std::to_string(rss_baseline / 1024) + " MiB)";
     }
     for (Outcome& o : done) {
