@@ -47,8 +47,7 @@ function(rejuv_gtest name)
   # A sanitizer build (CMakePresets asan, tsan: -O1, shadow memory, checks on every access) runs several times
   # slower: its per-test timeout is 4x, so that a slow test is not reported as a hang.
   # Its multi-process tests run one at a time: a real-time flight there is already several times slower than a
-  # vehicle, and one more such flight beside it on two cores made a rollback miss its deadlines (a containment
-  # test in real time under TSan: passes alone, failed twice beside another).
+  # vehicle, and a second flight beside it on two cores can make a rollback miss its deadlines.
   set(serial FALSE)
   if(CMAKE_CXX_FLAGS MATCHES "-fsanitize=(address|thread)")
     math(EXPR ARG_TIMEOUT "${ARG_TIMEOUT} * 4")

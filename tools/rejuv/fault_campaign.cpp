@@ -73,7 +73,7 @@ std::vector<int> children() {
 // The memory this process holds [kB]: its RSS, or in a sanitizer build its allocator's bytes in use (ASan's
 // quarantine and either sanitizer's shadow grow the RSS with every page touched: rejuv/sys/sanitizer.hpp).
 constexpr const char* kMemoryName = sys::kSanitizerBuild ? "heap" : "RSS";
-long rss_kb() {
+long memory_kb() {
   if (sys::kSanitizerBuild) return static_cast<long>(sys::heap_in_use_bytes() / 1024U);
   std::ifstream status("/proc/self/status");
   std::string line;
@@ -468,7 +468,7 @@ std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>
       for (const int pid : left) ::kill(pid, SIGKILL);
     }
     const std::size_t fds = count_fds();
-    const long rss = rss_kb();
+    const long rss = memory_kb();
     if (!fd_baseline) {
       // The first mission sets the baseline (libraries' one-time state); said if it grew.
       fd_baseline = fds;

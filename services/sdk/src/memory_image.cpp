@@ -189,11 +189,9 @@ const char* check(const Layout& l) {
 
 sys::SysResult<void> prepare_self() {
   if (self.standby_lo != 0) return {};  // prepared already
-#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
   // A sanitizer's allocator keeps the heap in regions of its own, outside the brk heap the layout covers (ASan
   // refuses mallopt; TSan accepts it and allocates elsewhere all the same): images by fork only.
-  return std::unexpected(sys::SysError{"prepare_self (sanitizer build)", ENOTSUP});
-#endif
+  if (sys::kSanitizerBuild) return std::unexpected(sys::SysError{"prepare_self (sanitizer build)", ENOTSUP});
   // Every allocation in the brk heap, which the layout covers: no mmap for large blocks, no second arena,
   // no trimming (a heap that shrinks and grows again is a layout that changed), room to grow in steps.
   if (::mallopt(M_MMAP_MAX, 0) == 0 || ::mallopt(M_ARENA_MAX, 1) == 0 ||

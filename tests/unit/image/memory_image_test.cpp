@@ -94,7 +94,7 @@ TEST(MemoryImage, WithoutTheTouchTheCopyFaultsOnEachPage) {
   // The counterpart of the test above: it shows that the fault count it asserts on does move.
 #if defined(REJUV_TSAN)
   // Not in a ThreadSanitizer build, which skips the test above: its allocator's heap is not the brk heap an
-  // image tracks, and a copy's writes there take fewer faults than pages (measured: exit 11).
+  // image tracks, and a copy's writes there take fewer faults than pages.
   GTEST_SKIP() << "the heap is ThreadSanitizer's, whose faults after a fork are not per page";
 #endif
   EXPECT_EQ(in_child([]() -> int {

@@ -24,13 +24,14 @@
 #endif
 
 #if defined(REJUV_ASAN) || defined(REJUV_TSAN)
+#define REJUV_SANITIZED 1
 // The sanitizer runtime's (sanitizer/allocator_interface.h, a header GCC does not install).
 extern "C" std::size_t __sanitizer_get_current_allocated_bytes();  // NOLINT(bugprone-reserved-identifier)
 #endif
 
 namespace rejuv::sys {
 
-#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
+#if defined(REJUV_SANITIZED)
 inline constexpr bool kSanitizerBuild = true;
 #else
 inline constexpr bool kSanitizerBuild = false;
@@ -41,7 +42,7 @@ inline constexpr bool kSanitizerBuild = false;
 // pages touched and freed memory not given back, and in a sanitizer build with its shadow of every address
 // touched (so a sanitizer build's RSS is not a leak's measure).
 inline std::uint64_t heap_in_use_bytes() {
-#if defined(REJUV_ASAN) || defined(REJUV_TSAN)
+#if defined(REJUV_SANITIZED)
   return __sanitizer_get_current_allocated_bytes();
 #else
   const struct mallinfo2 m = ::mallinfo2();
