@@ -23,7 +23,7 @@ int serve(sdk::Service& svc) {
       cold_restart ? services::Ekf2Node::from_first_fix(flight_io::ekf_params(), take_off.q_NB, flight_io::imu_period())
                    : services::Ekf2Node(flight_io::ekf_params(), take_off, flight_io::imu_period());
   if (cold_restart) svc.log(sdk::LogLevel::Info, "cold restart: the estimate starts from the first GPS fix");
-  if (!services::arm_estimate_attack(svc, ekf2)) return 1;  // the attack library (test builds only)
+  if (!services::arm_attack(svc, ekf2)) return 1;  // the attack library (test builds only)
 
   auto state = svc.advertise<rejuv_msg_VehicleStateEstimate>("vehicle_state");
   if (!svc.require(state, "vehicle_state")) return 1;

@@ -19,7 +19,7 @@ int serve(sdk::Service& svc) {
   auto design = flight_io::control_design(params);
   if (!svc.require(design, "bad params")) return 1;
   services::SetpointNode node(design->ellipsoid, *tracking);
-  if (!services::arm_setpoint_attack(svc, node)) return 1;  // the attack library (test builds only)
+  if (!services::arm_attack(svc, node)) return 1;  // the attack library (test builds only)
 
   auto setpoint = svc.advertise<rejuv_msg_Setpoint>("setpoint");
   if (!svc.require(setpoint, "setpoint")) return 1;

@@ -22,7 +22,7 @@ int serve(sdk::Service& svc) {
   auto start = flight_io::control_start(params);
   if (!svc.require(start, "bad params")) return 1;
   services::MissionControl control(start->design, start->x_sp);
-  if (!services::arm_gain_attack(svc, control)) return 1;  // the attack library (test builds only)
+  if (!services::arm_attack(svc, control)) return 1;  // the attack library (test builds only)
 
 #if defined(REJUV_ATTACK_HOOKS)
   // ==== ATTACK HOOK (test builds only) ====: the launch plan's worst-case control attack (§VI-D), when an

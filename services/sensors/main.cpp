@@ -18,7 +18,7 @@ int serve(sdk::Service& svc) {
     (void)combined->publish(m);  // granted in every mode; a refusal is the kernel's to count
   });
 
-  if (!services::arm_bias_attack(svc, combiner)) return 1;  // the attack library (test builds only)
+  if (!services::arm_attack(svc, combiner)) return 1;  // the attack library (test builds only)
   auto gyro = svc.subscribe<rejuv_msg_SensorGyro>("sensor_gyro", [&](const rejuv_msg_SensorGyro& m) {
     if (auto ok = combiner.on_gyro(m); !ok) refuse(ok.error());
   });

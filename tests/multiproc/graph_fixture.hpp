@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstddef>
 #include <cstring>
+#include <ostream>
 #include <map>
 #include <memory>
 #include <string>
@@ -87,6 +89,13 @@ struct Seen {
   std::vector<std::byte> payload;
   std::int64_t t_ns = 0;
   friend bool operator==(const Seen&, const Seen&) = default;
+  // What a failed comparison prints: the fields, the payload in hex (not the object's bytes, whose pointers
+  // differ between any two runs).
+  friend void PrintTo(const Seen& s, std::ostream* os) {
+    *os << s.topic << " from " << (s.publisher ? std::to_string(s.publisher->value()) : std::string("the kernel"))
+        << ", generation " << s.generation << ", t " << s.t_ns << " ns, payload";
+    for (const std::byte b : s.payload) *os << ' ' << std::hex << std::to_integer<int>(b) << std::dec;
+  }
 };
 
 class Recorder final : public kernel::Observer {

@@ -204,8 +204,10 @@ void CapSystem::fill(Invocation& inv, ServiceId caller, Slot slot, Operation op,
 
 Result<Invocation, CapError> CapSystem::decode_management(Invocation inv, const Args& args) const {
   const Capability& source = inv.cap_;
-  switch (inv.operation_) {
-    case Operation::Copy: {
+  const std::optional<CapManagement> op = management_of(inv.operation_);
+  REJUV_ASSERT(op.has_value(), "decode_management called for a data-plane operation");
+  switch (*op) {
+    case CapManagement::Copy: {
       const auto* copy = std::get_if<CopyArgs>(&args);
       if (copy == nullptr) {
         return fail(CapError::BadArgument);
@@ -224,7 +226,7 @@ Result<Invocation, CapError> CapSystem::decode_management(Invocation inv, const 
       inv.derived_badge_ = source.badge;
       return inv;
     }
-    case Operation::Mint: {
+    case CapManagement::Mint: {
       const auto* mint = std::get_if<MintArgs>(&args);
       if (mint == nullptr) {
         return fail(CapError::BadArgument);
@@ -246,26 +248,13 @@ Result<Invocation, CapError> CapSystem::decode_management(Invocation inv, const 
       inv.derived_badge_ = mint->badge;
       return inv;
     }
-    case Operation::Revoke:
-    case Operation::Delete:
+    case CapManagement::Revoke:
+    case CapManagement::Delete:
       if (!std::holds_alternative<NoArgs>(args)) {
         return fail(CapError::BadArgument);
       }
       return inv;
-    case Operation::Publish:
-    case Operation::Subscribe:
-    case Operation::CheckpointCreate:
-    case Operation::CheckpointRollback:
-    case Operation::TimerArm:
-    case Operation::NetSend:
-    case Operation::NetReceive:
-    case Operation::LimitsWrite:
-    case Operation::LimitsRead:
-    case Operation::PersistentRead:
-    case Operation::PersistentWrite:
-    case Operation::ModeRequest: break;
   }
-  REJUV_ASSERT(false, "decode_management called for a data-plane operation");
   return fail(CapError::BadArgument);
 }
 
@@ -309,31 +298,19 @@ Performed CapSystem::invoke(const Invocation& inv) {
   REJUV_ASSERT(inv.version_ == version_, "stale Invocation: a CSpace changed since it was decoded");
   const std::uint32_t source = index_of_slot(inv.caller_, inv.slot_);
   REJUV_ASSERT(entries_[source].occupied && cap_of(entries_[source]) == inv.cap_, "Invocation source moved");
+  const std::optional<CapManagement> op = management_of(inv.operation_);
+  REJUV_ASSERT(op.has_value(), "invoke of a data-plane Invocation: its component carries it out");
   Performed done;
-  switch (inv.operation_) {
-    case Operation::Copy:
-    case Operation::Mint: {
+  switch (*op) {
+    case CapManagement::Copy:
+    case CapManagement::Mint: {
       const std::uint32_t dest = index_of_slot(inv.destination_.space, inv.destination_.slot);
       place(source, dest, inv.derived());
       done.placed = inv.destination_;
       break;
     }
-    case Operation::Revoke: done.deleted = delete_descendants(source); break;
-    case Operation::Delete: done.deleted = delete_subtree(source); break;
-    case Operation::Publish:
-    case Operation::Subscribe:
-    case Operation::CheckpointCreate:
-    case Operation::CheckpointRollback:
-    case Operation::TimerArm:
-    case Operation::NetSend:
-    case Operation::NetReceive:
-    case Operation::LimitsWrite:
-    case Operation::LimitsRead:
-    case Operation::PersistentRead:
-    case Operation::PersistentWrite:
-    case Operation::ModeRequest:
-      REJUV_ASSERT(false, "invoke of a data-plane Invocation: its component carries it out");
-      break;
+    case CapManagement::Revoke: done.deleted = delete_descendants(source); break;
+    case CapManagement::Delete: done.deleted = delete_subtree(source); break;
   }
   ++version_;
   return done;

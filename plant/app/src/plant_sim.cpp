@@ -31,6 +31,62 @@ plant::QuadState initial_state(const PlantSimConfig& c) {
   return plant::Quadrotor::hover_at(plant::QuadParams::jmavsim_default(), c.start_N_m);
 }
 
+// One sample as the message its topic carries (flight_io/messages.hpp). The IMU's two: a body-frame vector
+// and the IMU's temperature.
+template <typename Msg>
+Msg imu_message(Nanos t, double (Msg::*vector)[3], const Eigen::Vector3d& value) {
+  Msg m{};
+  m.timestamp_ns = stamp(t);
+  copy3(m.*vector, value);
+  m.temperature_c = kImuTemperature_c;
+  return m;
+}
+rejuv_msg_SensorGyro message_of(const plant::GyroSample& g, const plant::SensorParams& /*sp*/) {
+  return imu_message(g.t, &rejuv_msg_SensorGyro::omega_B_rad_s, g.omega_B_rad_s);
+}
+rejuv_msg_SensorAccel message_of(const plant::AccelSample& a, const plant::SensorParams& /*sp*/) {
+  return imu_message(a.t, &rejuv_msg_SensorAccel::f_B_m_s2, a.f_B_m_s2);
+}
+rejuv_msg_SensorMag message_of(const plant::MagSample& b, const plant::SensorParams& /*sp*/) {
+  rejuv_msg_SensorMag m{};
+  m.timestamp_ns = stamp(b.t);
+  copy3(m.b_B_gauss, b.b_B_gauss);
+  return m;
+}
+rejuv_msg_SensorBaro message_of(const plant::BaroSample& b, const plant::SensorParams& sp) {
+  rejuv_msg_SensorBaro m{};
+  m.timestamp_ns = stamp(b.t);
+  m.pressure_pa = b.pressure_pa;
+  m.altitude_m = b.altitude_m;
+  m.temperature_c = kIsaSeaLevel_c - kIsaLapse_c_per_m * (sp.home_altitude_amsl_m + b.altitude_m);
+  return m;
+}
+rejuv_msg_SensorGps message_of(const plant::GpsSample& g, const plant::SensorParams& /*sp*/) {
+  rejuv_msg_SensorGps m{};
+  m.timestamp_ns = stamp(g.t);
+  copy3(m.p_N_m, g.p_N_m);
+  copy3(m.v_N_m_s, g.v_N_m_s);
+  m.eph_m = g.eph_m;
+  m.epv_m = g.epv_m;
+  m.fix_type = kGpsFix3d;
+  m.satellites_used = kGpsSatellites;
+  return m;
+}
+
+// The messages of one sensor step, in the order the flight services expect them within a tick (gyro, accel,
+// then the aiding sensors).
+template <typename Emit>
+void for_each_message(const plant::SensorSamples& s, const plant::SensorParams& sp, Emit&& emit) {
+  const auto put = [&](const auto& sample) {
+    if (sample) emit(message_of(*sample, sp));
+  };
+  put(s.gyro);
+  put(s.accel);
+  put(s.mag);
+  put(s.baro);
+  put(s.gps);
+}
+
 }  // namespace
 
 void pack_step(const std::vector<SensorMessage>& batch, const rejuv_msg_GroundTruth& truth, rejuv_msg_SimStep& step,
@@ -82,45 +138,7 @@ void PlantSim::advance(Nanos interval, std::vector<SensorMessage>& out) {
     remaining -= dt;
     const plant::SensorSamples s =
         sensors_.step(now_, quad_.state(), at_rest ? Eigen::Vector3d::Zero() : quad_.acceleration_N());
-    if (s.gyro) {
-      rejuv_msg_SensorGyro m{};
-      m.timestamp_ns = stamp(s.gyro->t);
-      copy3(m.omega_B_rad_s, s.gyro->omega_B_rad_s);
-      m.temperature_c = kImuTemperature_c;
-      out.emplace_back(m);
-    }
-    if (s.accel) {
-      rejuv_msg_SensorAccel m{};
-      m.timestamp_ns = stamp(s.accel->t);
-      copy3(m.f_B_m_s2, s.accel->f_B_m_s2);
-      m.temperature_c = kImuTemperature_c;
-      out.emplace_back(m);
-    }
-    if (s.mag) {
-      rejuv_msg_SensorMag m{};
-      m.timestamp_ns = stamp(s.mag->t);
-      copy3(m.b_B_gauss, s.mag->b_B_gauss);
-      out.emplace_back(m);
-    }
-    if (s.baro) {
-      rejuv_msg_SensorBaro m{};
-      m.timestamp_ns = stamp(s.baro->t);
-      m.pressure_pa = s.baro->pressure_pa;
-      m.altitude_m = s.baro->altitude_m;
-      m.temperature_c = kIsaSeaLevel_c - kIsaLapse_c_per_m * (sp.home_altitude_amsl_m + s.baro->altitude_m);
-      out.emplace_back(m);
-    }
-    if (s.gps) {
-      rejuv_msg_SensorGps m{};
-      m.timestamp_ns = stamp(s.gps->t);
-      copy3(m.p_N_m, s.gps->p_N_m);
-      copy3(m.v_N_m_s, s.gps->v_N_m_s);
-      m.eph_m = s.gps->eph_m;
-      m.epv_m = s.gps->epv_m;
-      m.fix_type = kGpsFix3d;
-      m.satellites_used = kGpsSatellites;
-      out.emplace_back(m);
-    }
+    for_each_message(s, sp, [&](const auto& m) { out.emplace_back(m); });
   }
 }
 

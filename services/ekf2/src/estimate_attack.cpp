@@ -29,7 +29,7 @@ void shift_estimate(rejuv_msg_VehicleStateEstimate& m, const flight::StateVec& o
   m.q_NB[3] = q.z();
 }
 
-bool arm_estimate_attack(sdk::Service& svc, Ekf2Node& node) {
+bool arm_library_attack(sdk::Service& svc, Ekf2Node& node) {
   auto plan = attacks::law_attack_of(svc, {flight::AttackLaw::EstimateShift, flight::AttackLaw::EstimateDrift});
   if (!svc.require(plan, "bad attack params")) return false;
   if (!*plan) return true;

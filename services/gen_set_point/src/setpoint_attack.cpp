@@ -9,7 +9,7 @@
 
 namespace rejuv::services {
 
-bool arm_setpoint_attack(sdk::Service& svc, SetpointNode& node) {
+bool arm_library_attack(sdk::Service& svc, SetpointNode& node) {
   auto plan = attacks::law_attack_of(svc, {flight::AttackLaw::SetpointShift});
   if (!svc.require(plan, "bad attack params")) return false;
   if (!*plan) return true;

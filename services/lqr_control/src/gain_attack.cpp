@@ -9,7 +9,7 @@
 
 namespace rejuv::services {
 
-bool arm_gain_attack(sdk::Service& svc, MissionControl& control) {
+bool arm_library_attack(sdk::Service& svc, MissionControl& control) {
   auto plan = attacks::law_attack_of(svc, {flight::AttackLaw::GainOverwrite});
   if (!svc.require(plan, "bad attack params")) return false;
   if (!*plan) return true;

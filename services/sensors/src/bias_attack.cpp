@@ -9,7 +9,7 @@
 
 namespace rejuv::services {
 
-bool arm_bias_attack(sdk::Service& svc, ImuCombiner& combiner) {
+bool arm_library_attack(sdk::Service& svc, ImuCombiner& combiner) {
   auto plan = attacks::law_attack_of(svc, {flight::AttackLaw::SensorBias});
   if (!svc.require(plan, "bad attack params")) return false;
   if (!*plan) return true;

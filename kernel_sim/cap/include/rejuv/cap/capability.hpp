@@ -130,6 +130,24 @@ static_assert([] {
 // True for the operations CapSystem::invoke carries out itself (they change CSpaces): those of any kind.
 [[nodiscard]] constexpr bool is_cap_management(Operation op) { return requirement(op).any_kind; }
 
+// The capability-management operations alone (seL4's CNode calls), for code that carries out only those: a
+// switch over CapManagement is exhaustive without naming a data-plane operation. nullopt for the others.
+enum class CapManagement : std::uint8_t { Copy, Mint, Revoke, Delete };
+[[nodiscard]] constexpr std::optional<CapManagement> management_of(Operation op) {
+  if (!is_cap_management(op)) return std::nullopt;
+  if (op == Operation::Copy) return CapManagement::Copy;
+  if (op == Operation::Mint) return CapManagement::Mint;
+  if (op == Operation::Revoke) return CapManagement::Revoke;
+  if (op == Operation::Delete) return CapManagement::Delete;
+  return std::nullopt;
+}
+static_assert([] {
+  for (const Operation op : kAllOperations) {
+    if (management_of(op).has_value() != is_cap_management(op)) return false;
+  }
+  return true;
+}(), "every operation of any kind has its CapManagement");
+
 // Why a capability invocation (or a kernel-side lookup) was refused. One enum for the whole family
 // (CONVENTIONS "Errors are values"); the numeric values travel in SecurityEvent.error.
 enum class CapError : std::uint8_t {

@@ -22,6 +22,10 @@
 #include "rejuv/flight/estimator_node.hpp"
 #include "rejuv/flight_io/messages.hpp"
 
+namespace rejuv::sdk {
+class Service;
+}  // namespace rejuv::sdk
+
 namespace rejuv::services {
 
 class Ekf2Node {
@@ -81,28 +85,16 @@ class Ekf2Node {
 #endif
 };
 
-}  // namespace rejuv::services
-
-namespace rejuv::sdk {
-class Service;
-}  // namespace rejuv::sdk
-
-namespace rejuv::services {
-
 // The attack library on ekf2 (docs/control.md "Attack library", flight/attack_library.hpp): ESTIMATE_SHIFT and
 // ESTIMATE_DRIFT, a compromised estimator that publishes x̂ + offset in attacked MC windows — false data on the
 // topic every controller reads. The offset and the window live in this process's memory (the hook of
-// Ekf2Node), so the rollback to the clean image erases them. Test builds only (REJUV_ATTACK_HOOKS); otherwise
-// arming does nothing.
-#if defined(REJUV_ATTACK_HOOKS)
+// Ekf2Node), so the rollback to the clean image erases them. Armed at boot by services::arm_attack
+// (service_main.hpp), which calls this in a test build; defined in estimate_attack.cpp.
 // Reads the plan (attack.*), and if it names ESTIMATE_SHIFT or ESTIMATE_DRIFT installs the hook. False (the
 // error logged) on bad params: the service refuses to boot.
-[[nodiscard]] bool arm_estimate_attack(sdk::Service& svc, Ekf2Node& node);
+[[nodiscard]] bool arm_library_attack(sdk::Service& svc, Ekf2Node& node);
 // The message as x̂ + offset would be published: p, v, ω shifted, the attitude rebuilt from the shifted Euler
 // angles (ZYX, the inverse of flight::euler_from_quaternion), so that state_from_message reads x̂ + offset.
 void shift_estimate(rejuv_msg_VehicleStateEstimate& m, const flight::StateVec& offset);
-#else
-[[nodiscard]] inline bool arm_estimate_attack(sdk::Service& /*svc*/, Ekf2Node& /*node*/) { return true; }
-#endif
 
 }  // namespace rejuv::services

@@ -29,6 +29,10 @@
 #include "rejuv/flight/setpoint.hpp"
 #include "rejuv/flight_io/messages.hpp"
 
+namespace rejuv::sdk {
+class Service;
+}  // namespace rejuv::sdk
+
 namespace rejuv::services {
 
 class SetpointNode {
@@ -65,7 +69,7 @@ class SetpointNode {
   }
 
 #if defined(REJUV_ATTACK_HOOKS)
-  // ==== ATTACK HOOK (test builds only; arm_setpoint_attack) ====
+  // ==== ATTACK HOOK (test builds only; arm_library_attack) ====
   // Called on every estimate with its time; a returned offset is added to x_sp from then on (a compromised
   // gen_set_point), and the moved x_sp is published as soon as the mode allows. The offset stays in memory
   // until a rollback wipes it, like any other corruption of the image.
@@ -96,23 +100,11 @@ class SetpointNode {
 #endif
 };
 
-}  // namespace rejuv::services
-
-namespace rejuv::sdk {
-class Service;
-}  // namespace rejuv::sdk
-
-namespace rejuv::services {
-
 // The attack library on gen_set_point (docs/control.md "Attack library", flight/attack_library.hpp):
 // SETPOINT_SHIFT, a compromised generator that moves x_sp down, towards the ground, in attacked MC windows
 // (the policy lets it publish in MC). The offset and the window live in this process's memory: the rollback
-// erases them. Test builds only; otherwise arming does nothing.
-#if defined(REJUV_ATTACK_HOOKS)
-// False (the error logged) on bad attack params: the service refuses to boot.
-[[nodiscard]] bool arm_setpoint_attack(sdk::Service& svc, SetpointNode& node);
-#else
-[[nodiscard]] inline bool arm_setpoint_attack(sdk::Service& /*svc*/, SetpointNode& /*node*/) { return true; }
-#endif
+// erases them. Armed at boot by services::arm_attack (service_main.hpp), which calls this in a test build;
+// defined in setpoint_attack.cpp.
+[[nodiscard]] bool arm_library_attack(sdk::Service& svc, SetpointNode& node);
 
 }  // namespace rejuv::services

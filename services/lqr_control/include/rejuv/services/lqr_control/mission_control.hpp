@@ -20,6 +20,10 @@
 #include "rejuv/flight/control_design.hpp"
 #include "rejuv/flight_io/messages.hpp"
 
+namespace rejuv::sdk {
+class Service;
+}  // namespace rejuv::sdk
+
 namespace rejuv::services {
 
 class MissionControl {
@@ -49,7 +53,7 @@ class MissionControl {
     attack_hook_ = std::move(hook);
   }
   // Called at the start of every control step; a returned gain is written over the mission controller's K in
-  // this object and left there (the attack library's GAIN_OVERWRITE, arm_gain_attack).
+  // this object and left there (the attack library's GAIN_OVERWRITE, arm_library_attack).
   using GainHook = std::function<std::optional<flight::GainMat>()>;
   void set_gain_hook(GainHook hook) { gain_hook_ = std::move(hook); }
 #endif
@@ -63,23 +67,10 @@ class MissionControl {
 #endif
 };
 
-}  // namespace rejuv::services
-
-namespace rejuv::sdk {
-class Service;
-}  // namespace rejuv::sdk
-
-namespace rejuv::services {
-
 // The attack library on lqr_control (docs/control.md "Attack library", flight/attack_library.hpp):
 // GAIN_OVERWRITE, the mission controller's gain matrix overwritten by −m·K at the start of an attacked MC
-// window and left so: only the rollback to the clean image restores it. Test builds only; otherwise arming
-// does nothing.
-#if defined(REJUV_ATTACK_HOOKS)
-// False (the error logged) on bad attack params: the service refuses to boot.
-[[nodiscard]] bool arm_gain_attack(sdk::Service& svc, MissionControl& control);
-#else
-[[nodiscard]] inline bool arm_gain_attack(sdk::Service& /*svc*/, MissionControl& /*control*/) { return true; }
-#endif
+// window and left so: only the rollback to the clean image restores it. Armed at boot by
+// services::arm_attack (service_main.hpp), which calls this in a test build; defined in gain_attack.cpp.
+[[nodiscard]] bool arm_library_attack(sdk::Service& svc, MissionControl& control);
 
 }  // namespace rejuv::services

@@ -22,6 +22,10 @@
 #include "rejuv/core/time.hpp"
 #include "rejuv/flight_io/messages.hpp"
 
+namespace rejuv::sdk {
+class Service;
+}  // namespace rejuv::sdk
+
 namespace rejuv::services {
 
 class ImuCombiner {
@@ -38,7 +42,7 @@ class ImuCombiner {
   [[nodiscard]] std::uint64_t published() const { return published_; }
 
 #if defined(REJUV_ATTACK_HOOKS)
-  // ==== ATTACK HOOK (test builds only; arm_bias_attack) ====
+  // ==== ATTACK HOOK (test builds only; arm_library_attack) ====
   // Sees every combined tick on its way out and may change it (a compromised sensors service).
   using CombinedHook = std::function<void(rejuv_msg_SensorCombined&)>;
   void set_attack_hook(CombinedHook hook) { attack_hook_ = std::move(hook); }
@@ -60,23 +64,11 @@ class ImuCombiner {
 #endif
 };
 
-}  // namespace rejuv::services
-
-namespace rejuv::sdk {
-class Service;
-}  // namespace rejuv::sdk
-
-namespace rejuv::services {
-
 // The attack library on sensors (docs/control.md "Attack library", flight/attack_library.hpp): SENSOR_BIAS, a
 // compromised sensors service that adds a gyro bias to every combined tick in attacked MC windows; ekf2
 // integrates it. The bias and the window live in this process's memory (the hook of ImuCombiner): the rollback
-// erases them (and ekf2's rollback what it integrated). Test builds only; otherwise arming does nothing.
-#if defined(REJUV_ATTACK_HOOKS)
-// False (the error logged) on bad attack params: the service refuses to boot.
-[[nodiscard]] bool arm_bias_attack(sdk::Service& svc, ImuCombiner& combiner);
-#else
-[[nodiscard]] inline bool arm_bias_attack(sdk::Service& /*svc*/, ImuCombiner& /*combiner*/) { return true; }
-#endif
+// erases them (and ekf2's rollback what it integrated). Armed at boot by services::arm_attack
+// (service_main.hpp), which calls this in a test build; defined in bias_attack.cpp.
+[[nodiscard]] bool arm_library_attack(sdk::Service& svc, ImuCombiner& combiner);
 
 }  // namespace rejuv::services
