@@ -40,7 +40,7 @@ double ms_since(Nanos start) { return static_cast<double>((sys::monotonic_now() 
 
 int run_bench(std::span<const std::string_view> args) {
   std::string what, graph_path;
-  std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20;
+  std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20, rounds = 1;
   std::optional<std::filesystem::path> out;
   Options opts("bench",
                "Benchmarks, side by side in one run.\n"
@@ -60,10 +60,13 @@ int run_bench(std::span<const std::string_view> args) {
                "simulated ms between a checkpoint and its rollback and between a rollback and the next checkpoint\n"
                "(1: the next one comes while the images are still being made; a mission has seconds)");
   opts.integer("--seconds", "N", seconds, {2, 3600}, "realtime: seconds of each flight and of the floor")
+      .integer("--rounds", "N", rounds, {1, 100},
+               "realtime: fly the configurations N times, alternated, and pool each one's intervals (a shared\n"
+               "machine's slow spells then fall on all of them alike)")
       .path("--out", "DIR", out, "realtime: where the flights' files and cyclictest's histograms go",
             "a new temporary folder");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (what == "realtime") return run_bench_realtime(graph_path, seconds, out);
+  if (what == "realtime") return run_bench_realtime(graph_path, seconds, rounds, out);
   if (what != "images") return bad_input("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime)");
   if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt";
   auto loaded = launch::load_launch(graph_path);
