@@ -21,6 +21,7 @@
 #include "rejuv/mavlink/mission.hpp"
 #include "rejuv/sys/udp.hpp"
 #include "run_recorder.hpp"
+#include "run_summary.hpp"
 
 namespace rejuv::testing {
 namespace {
@@ -48,7 +49,7 @@ struct GroundReport {
 };
 
 struct Mission {
-  proto::RunSummary summary;  // as `rejuv run` fills it (recorder + the image store's counters)
+  proto::RunSummary summary;  // as `rejuv run` fills it (cli::fill_summary)
   kernel::RunOutcome outcome;
   kernel::SrStats sr;
   kernel::CatchUpStats catch_up;
@@ -264,11 +265,9 @@ std::optional<Mission> fly(Sr sr, Attack attack, Path path, std::optional<KillGr
     return std::nullopt;
   }
   m.outcome = *outcome;
-  recorder.fill(m.summary, outcome->sim_time);
+  cli::fill_summary(m.summary, **k, recorder, *outcome, cli::facts_of(**k, options));
   m.sr = (*k)->sr_stats();
   m.catch_up = (*k)->catch_up_stats();
-  m.summary.set_rollbacks(m.sr.rollbacks);
-  m.summary.set_checkpoints(m.sr.checkpoints);
   m.mc_windows = recorder.mc_windows();
   m.killed = injector ? injector->killed() : 0;
   m.lost = recorder.lost().has_value();

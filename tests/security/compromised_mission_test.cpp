@@ -29,6 +29,7 @@
 #include "mission_support.hpp"
 #include "rejuv/sys/udp.hpp"
 #include "run_recorder.hpp"
+#include "run_summary.hpp"
 
 namespace rejuv::testing {
 namespace {
@@ -173,7 +174,7 @@ TEST(CompromisedMission, Ekf2ForksANetworkHelperAtBoot_NoDatagramHelperGoneByFir
   auto outcome = (*k)->run();
   ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string() << "\n" << log.lines_with("ekf2");
   proto::RunSummary summary;
-  recorder.fill(summary, outcome->sim_time);
+  cli::fill_summary(summary, **k, recorder, *outcome, cli::facts_of(**k, options));
   const auto ekf2 = (*k)->find_service("ekf2");
   ASSERT_TRUE(ekf2.has_value());
   const kernel::ServiceStats stats = (*k)->stats(*ekf2);

@@ -36,6 +36,7 @@
 #include "mission_support.hpp"
 #include "rejuv/attacks/plan.hpp"
 #include "run_recorder.hpp"
+#include "run_summary.hpp"
 
 namespace rejuv::testing {
 namespace {
@@ -224,7 +225,7 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   auto outcome = (*k)->run();
   ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string() << "\n" << log.text();
   f.outcome = *outcome;
-  recorder.fill(f.summary, outcome->sim_time);
+  cli::fill_summary(f.summary, **k, recorder, *outcome, cli::facts_of(**k, options));
   const auto id = (*k)->find_service("ext_link");
   ASSERT_TRUE(id.has_value());
   f.ext_link = (*k)->stats(*id);

@@ -34,41 +34,53 @@ proto::Percentiles summarize(const Samples& v) {
   return p;
 }
 
+struct ImageBench {
+  std::uint64_t cycles = 200;
+  std::uint64_t restarts = 20;
+  std::uint64_t between = 1;  // simulated ms
+};
+
 double ms_since(Nanos start) { return static_cast<double>((sys::monotonic_now() - start).count()) / 1e6; }
 
-}  // namespace
+// The table of `rejuv bench images`: checkpoint, rollback and cold restart beside the paper's, the phases and
+// the ratios.
+void print_images(const kernel::SrStats& sr, const std::string& name, std::size_t rejuvenated,
+                  const std::vector<double>& cold) {
+  const proto::Percentiles cp = summarize(sr.checkpoint_ms);
+  const proto::Percentiles rb = summarize(sr.rollback_ms);
+  const proto::Percentiles cr = summarize(cold);
+  std::printf("images: %s, %zu rejuvenated services + queue state, %zu checkpoints, %zu rollbacks, %zu cold restarts\n",
+              name.c_str(), rejuvenated, static_cast<std::size_t>(sr.checkpoint_ms.count()),
+              static_cast<std::size_t>(sr.rollback_ms.count()), cold.size());
+  std::printf("%-14s %10s %10s   %s\n", "", "p50 [ms]", "max [ms]", "paper (PX4 kernel module)");
+  std::printf("%-14s %10.3f %10.3f   ≈20 ms\n", "checkpoint", cp.p50(), cp.max());
+  std::printf("%-14s %10.3f %10.3f   ≈15 ms\n", "rollback", rb.p50(), rb.max());
+  std::printf("%-14s %10.3f %10.3f   (restart-based baseline)\n", "cold restart", cr.p50(), cr.max());
+  proto::ImagePhases ph;
+  fill_image_phases(ph, sr);
+  const auto phase = [](const char* label, const proto::Percentiles& p) {
+    std::printf("  %-12s %10.3f %10.3f\n", label, p.p50(), p.max());
+  };
+  std::printf("service images: %llu by written pages, %llu by fork\n",
+              static_cast<unsigned long long>(ph.images_by_pages()), static_cast<unsigned long long>(ph.images_by_fork()));
+  std::printf("phases:\n");
+  phase("cp: snapshot", ph.checkpoint_snapshot());
+  phase("cp: taken", ph.checkpoint_taken());
+  phase("cp: save", ph.checkpoint_save());
+  phase("rb: kill", ph.rollback_kill());
+  phase("rb: resume", ph.rollback_resume());
+  phase("rb: restore", ph.rollback_restore());
+  std::printf("ratio cold restart / rollback (p50): %.1fx; cold restart / checkpoint (p50): %.1fx\n",
+              rb.p50() > 0 ? cr.p50() / rb.p50() : 0.0, cp.p50() > 0 ? cr.p50() / cp.p50() : 0.0);
+  std::printf("targets: checkpoint p50 <= 0.5 ms: %s; rollback p50 <= 0.5 ms: %s\n", cp.p50() <= 0.5 ? "met" : "NOT met",
+              rb.p50() <= 0.5 ? "met" : "NOT met");
+}
 
-int run_bench(std::span<const std::string_view> args) {
-  std::string what, graph_path;
-  std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20, rounds = 1;
-  std::optional<std::filesystem::path> out;
-  Options opts("bench",
-               "Benchmarks, side by side in one run.\n"
-               "  images [GRAPH]    checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
-               "                    launch/quad_square_paper.launch.pbtxt) with the queue state, against a cold restart\n"
-               "                    of the same services from their binaries.\n"
-               "  realtime [GRAPH]  this machine's floor (rt-tests cyclictest at the control period) and GRAPH flown\n"
-               "                    in real time without SR, with SR, and with SR under its attacks: the intervals\n"
-               "                    between actuator outputs and those holding a checkpoint or a rollback, as ratios\n"
-               "                    to the floor (docs/realtime.md), and the lockstep charge they imply (what the\n"
-               "                    vehicle lost at a checkpoint and a rollback) in DIR/lockstep_charge.pbtxt.");
-  opts.positional("WHAT", what, "what to measure: images or realtime")
-      .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square_paper.launch.pbtxt)", false)
-      .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")
-      .integer("--restarts", "N", restarts, {1, 1000}, "cold restarts")
-      .integer("--between", "MS", between, {1, 10000},
-               "simulated ms between a checkpoint and its rollback and between a rollback and the next checkpoint\n"
-               "(1: the next one comes while the images are still being made; a mission has seconds)");
-  opts.integer("--seconds", "N", seconds, {2, 3600}, "realtime: seconds of each flight and of the floor")
-      .integer("--rounds", "N", rounds, {1, 100},
-               "realtime: fly the configurations N times, alternated, and pool each one's intervals (a shared\n"
-               "machine's slow spells then fall on all of them alike)")
-      .path("--out", "DIR", out, "realtime: where the flights' files and cyclictest's histograms go",
-            "a new temporary folder");
-  if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (what == "realtime") return run_bench_realtime(graph_path, seconds, rounds, out);
-  if (what != "images") return bad_input("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime)");
-  if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt";
+// `rejuv bench images GRAPH`: the cycles, then the cold restarts, on one kernel; the table (print_images).
+int bench_images(const std::string& graph_path, const ImageBench& b) {
+  const std::uint64_t cycles = b.cycles;
+  const std::uint64_t restarts = b.restarts;
+  const std::uint64_t between = b.between;
   auto loaded = launch::load_launch(graph_path);
   if (!loaded) return bad_input(loaded.error().to_string());
   if (!loaded->graph.sr().enabled()) return bad_input("rejuv bench images: " + graph_path + " has sr.enabled false");
@@ -132,37 +144,45 @@ int run_bench(std::span<const std::string_view> args) {
     cold.push_back(ms_since(t0));
     if (!step()) return static_cast<int>(Exit::Findings);
   }
-  const kernel::SrStats& sr = k.sr_stats();
-  const proto::Percentiles cp = summarize(sr.checkpoint_ms);
-  const proto::Percentiles rb = summarize(sr.rollback_ms);
-  const proto::Percentiles cr = summarize(cold);
-  std::printf("images: %s, %zu rejuvenated services + queue state, %zu checkpoints, %zu rollbacks, %zu cold restarts\n",
-              name.c_str(), rejuvenated, static_cast<std::size_t>(sr.checkpoint_ms.count()),
-              static_cast<std::size_t>(sr.rollback_ms.count()), cold.size());
-  std::printf("%-14s %10s %10s   %s\n", "", "p50 [ms]", "max [ms]", "paper (PX4 kernel module)");
-  std::printf("%-14s %10.3f %10.3f   ≈20 ms\n", "checkpoint", cp.p50(), cp.max());
-  std::printf("%-14s %10.3f %10.3f   ≈15 ms\n", "rollback", rb.p50(), rb.max());
-  std::printf("%-14s %10.3f %10.3f   (restart-based baseline)\n", "cold restart", cr.p50(), cr.max());
-  proto::ImagePhases ph;
-  fill_image_phases(ph, sr);
-  const auto phase = [](const char* label, const proto::Percentiles& p) {
-    std::printf("  %-12s %10.3f %10.3f\n", label, p.p50(), p.max());
-  };
-  std::printf("service images: %llu by written pages, %llu by fork\n",
-              static_cast<unsigned long long>(ph.images_by_pages()), static_cast<unsigned long long>(ph.images_by_fork()));
-  std::printf("phases:\n");
-  phase("cp: snapshot", ph.checkpoint_snapshot());
-  phase("cp: taken", ph.checkpoint_taken());
-  phase("cp: save", ph.checkpoint_save());
-  phase("rb: kill", ph.rollback_kill());
-  phase("rb: resume", ph.rollback_resume());
-  phase("rb: restore", ph.rollback_restore());
-  std::printf("ratio cold restart / rollback (p50): %.1fx; cold restart / checkpoint (p50): %.1fx\n",
-              rb.p50() > 0 ? cr.p50() / rb.p50() : 0.0, cp.p50() > 0 ? cr.p50() / cp.p50() : 0.0);
-  std::printf("targets: checkpoint p50 <= 0.5 ms: %s; rollback p50 <= 0.5 ms: %s\n", cp.p50() <= 0.5 ? "met" : "NOT met",
-              rb.p50() <= 0.5 ? "met" : "NOT met");
+  print_images(k.sr_stats(), name, rejuvenated, cold);
   k.shutdown();
   return static_cast<int>(Exit::Ok);
+}
+
+}  // namespace
+
+int run_bench(std::span<const std::string_view> args) {
+  std::string what, graph_path;
+  std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20, rounds = 1;
+  std::optional<std::filesystem::path> out;
+  Options opts("bench",
+               "Benchmarks, side by side in one run.\n"
+               "  images [GRAPH]    checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
+               "                    launch/quad_square_paper.launch.pbtxt) with the queue state, against a cold restart\n"
+               "                    of the same services from their binaries.\n"
+               "  realtime [GRAPH]  this machine's floor (rt-tests cyclictest at the control period) and GRAPH flown\n"
+               "                    in real time without SR, with SR, and with SR under its attacks: the intervals\n"
+               "                    between actuator outputs and those holding a checkpoint or a rollback, as ratios\n"
+               "                    to the floor (docs/realtime.md), and the lockstep charge they imply (what the\n"
+               "                    vehicle lost at a checkpoint and a rollback) in DIR/lockstep_charge.pbtxt.");
+  opts.positional("WHAT", what, "what to measure: images or realtime")
+      .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square_paper.launch.pbtxt)", false)
+      .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")
+      .integer("--restarts", "N", restarts, {1, 1000}, "cold restarts")
+      .integer("--between", "MS", between, {1, 10000},
+               "simulated ms between a checkpoint and its rollback and between a rollback and the next checkpoint\n"
+               "(1: the next one comes while the images are still being made; a mission has seconds)");
+  opts.integer("--seconds", "N", seconds, {2, 3600}, "realtime: seconds of each flight and of the floor")
+      .integer("--rounds", "N", rounds, {1, 100},
+               "realtime: fly the configurations N times, alternated, and pool each one's intervals (a shared\n"
+               "machine's slow spells then fall on all of them alike)")
+      .path("--out", "DIR", out, "realtime: where the flights' files and cyclictest's histograms go",
+            "a new temporary folder");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (what == "realtime") return run_bench_realtime(graph_path, seconds, rounds, out);
+  if (what != "images") return bad_input("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime)");
+  if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt";
+  return bench_images(graph_path, ImageBench{.cycles = cycles, .restarts = restarts, .between = between});
 }
 
 }  // namespace rejuv::cli

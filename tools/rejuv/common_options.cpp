@@ -14,8 +14,6 @@
 
 namespace rejuv::cli {
 
-std::string_view to_string(Charge charge) { return charge == Charge::Model ? "model" : "measured"; }
-
 Options& seed_option(Options& o, std::optional<std::uint64_t>& out, std::string help) {
   return o.integer("--seed", "N", out, {}, std::move(help), "the graph's");
 }

@@ -16,12 +16,11 @@
 #include "figure_data.hpp"
 #include "rejuv/flight/attack_library.hpp"
 #include "rejuv/kernel/kernel.hpp"
+#include "run_summary.hpp"
 
 namespace rejuv::cli {
 
-using Charge = kernel::KernelOptions::Charge;
-
-[[nodiscard]] std::string_view to_string(Charge charge);
+using Charge = kernel::KernelOptions::Charge;  // its name: to_string (run_summary.hpp)
 
 // --seed N: the seed of the plant and the services (or the model's noise), default the graph's.
 Options& seed_option(Options& o, std::optional<std::uint64_t>& out, std::string help);
