@@ -252,9 +252,8 @@ int help_service(const std::string& name, const std::string& graph_path) {
   return static_cast<int>(Exit::Ok);
 }
 
-}  // namespace
-
-int run_run(std::span<const std::string_view> args) {
+// What `rejuv run` was asked for: its options as parsed (declare_run_options).
+struct RunRequest {
   std::string graph_path;
   KernelFlags flags;
   FlightSwitches switches;
@@ -265,6 +264,150 @@ int run_run(std::span<const std::string_view> args) {
   OutFlags out;
   bool realtime = false, verbose = false;
   std::optional<std::string> help_service_name;
+};
+
+void declare_run_options(Options& opts, RunRequest& r) {
+  opts.positional("GRAPH", r.graph_path, "the launch graph (*.launch.pbtxt)", /*required=*/false)
+      .text("--help-service", "NAME", r.help_service_name,
+            "print the parameters service NAME declares (name, type, default, range, unit, help) and exit:\n"
+            "a service of GRAPH, or without GRAPH an executable of the service folder (e.g. lqr_control)")
+      .flag("--realtime", r.realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
+      .real("--speed", "X", r.speed, {.min = 0.01, .max = 1000},
+            "lockstep paced to X times real time (1: a ground station can follow the flight; deterministic\n"
+            "as ever)", "as fast as it can");
+  flight_options(opts, r.switches, "no rejuvenation: mission control only, checkpoint_p not started");
+  seed_option(opts, r.flags.seed, "seed of the plant and the services")
+      .real("--duration", "S", r.duration, {.min = 0, .max = launch::defaults::kMaxDurationS, .open_min = true, .open_max = true},
+            "stop after S seconds of flight (kernel time after the plant's pre-flight alignment)",
+            "the mission's end or timeout")
+      .path("--summary-json", "FILE", r.json_path, "write the RunSummary as JSON")
+      .path("--csv", "FILE", r.csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step");
+  charge_option(opts, r.flags.charge);
+  out_options(opts, r.out)
+      .path("--ulog", "FILE", r.ulog_path,
+            "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
+            "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)",
+            "DIR/run.ulg with --out");
+  domain_option(opts, r.flags.domain, "DDS domain id", "the graph's")
+      .custom<std::vector<std::string>>("--skip", "NAMES", r.skip, service_names_of,
+                                        "comma-separated services not to start (e.g. not built yet)");
+  net_port_option(opts, r.flags.net_port, "UDP port of the network gate; 0: any free port",
+                  "the graph's network.bind_port or 14555")
+      .custom<CpuPlacement>("--cpu", "N|all", r.cpu, cpu_placement, "kernel, services and plant on CPU N or on all",
+                            "lockstep stays on the CPU it starts on")
+      .flag("--insecure-sandbox", r.flags.insecure_sandbox,
+            "run the services without their network and mount namespaces (where neither root nor unprivileged\n"
+            "user namespaces are available); the allow-list, limits and sweeps still hold; the summary says so")
+      .flag("--verbose", r.verbose, "also print the services' debug log lines");
+}
+
+// The kernel's options for the request; an error names flags that contradict each other.
+Result<kernel::KernelOptions, std::string> kernel_options_for(const RunRequest& r) {
+  kernel::KernelOptions options = kernel_options(r.flags);
+  options.no_sr = r.switches.no_sr;
+  options.no_attack = r.switches.no_attack;
+  options.verbose = r.verbose;
+  if (r.realtime) options.clock = kernel::ClockMode::Realtime;
+  if (r.speed && r.realtime) return fail(std::string("--speed paces lockstep; --realtime runs at the wall clock already"));
+  options.speed = r.speed;
+  if (r.duration) {
+    options.duration = to_nanos(Seconds{*r.duration});
+    options.stop_on_mission_done = false;
+  }
+  if (r.cpu) {
+    options.placement = r.cpu->placement;
+    options.cpu = r.cpu->cpu;
+  }
+  if (r.skip) options.skip_services = *r.skip;
+  return options;
+}
+
+// Where a run's records go: the summary JSON, the trace CSV and the --out directory.
+struct RunOutputs {
+  UniqueFile json, csv;
+  std::optional<RunFiles> files;
+};
+
+// After the flight: the summary filled and finished (ULog, --out), printed and written; the exit code.
+int finish_run(const RunRequest& r, kernel::Kernel& k, const kernel::KernelOptions& options, const RunRecorder& recorder,
+               kernel::RunOutcome outcome, UlogRecorder* ulog, RunOutputs& outputs) {
+  if (recorder.stopped_after_attacks()) {
+    outcome.detail = std::to_string(k.graph().graph.stop_after_attacks()) + " attacked MC windows (stop_after_attacks)";
+  }
+  if (const auto& lost = recorder.lost()) {
+    char why[128];
+    std::snprintf(why, sizeof why, "vehicle lost at t = %.1f s (V = %.4g)", to_seconds(lost->t).count(), lost->V);
+    outcome.detail = why;
+  }
+  proto::RunSummary s;
+  fill_summary(s, k, recorder, outcome, facts_of(k, options));
+  if (ulog != nullptr) {
+    if (auto done = finish_ulog(*ulog, s); !done) {
+      std::fprintf(stderr, "rejuv run: %s\n", done.error().c_str());
+      return static_cast<int>(Exit::Findings);
+    }
+  }
+  const bool out_ok = !outputs.files || finish_out_dir(*outputs.files, s, "rejuv run",
+                                                       r.out.no_figures ? Figures::Skip : Figures::Draw);
+  std::fputs(describe(s, outcome).c_str(), stdout);
+  if (outputs.json) std::fputs((to_json(s) + "\n").c_str(), outputs.json.get());
+  const bool completed_run = s.mission_completed() || outcome.reason == kernel::StopReason::Duration ||
+                             s.stopped_after_attacks();
+  const bool good = completed_run && !kernel::is_failure(outcome.reason) && !s.left_safety_set() &&
+                    outcome.reason != kernel::StopReason::Signal && out_ok;
+  return static_cast<int>(good ? Exit::Ok : Exit::Findings);
+}
+
+// The flight: the kernel made and run with the recorder (and the ULog) watching; then finish_run.
+int fly(const RunRequest& r, const kernel::KernelOptions& options, launch::LoadedLaunch loaded, RunReference reference) {
+  RunOutputs outputs;
+  if (auto opened = open_outputs("rejuv run", r.json_path, r.csv_path, outputs.json, outputs.csv); !opened) {
+    return bad_input(opened.error());
+  }
+  RunRecorder recorder(std::move(reference), outputs.csv.get(),
+                       isatty(STDERR_FILENO) == 1 ? RunRecorder::Progress::Every1s : RunRecorder::Progress::Every10s);
+  if (r.out.dir) {
+    auto opened = RunFiles::open(*r.out.dir, r.out.trace);
+    if (!opened) return bad_input("rejuv run: " + opened.error());
+    outputs.files.emplace(std::move(*opened));
+    recorder.record_to(&*outputs.files);
+  }
+  kernel::ObserverFanout observers;
+  observers.add(&recorder);
+  auto made = kernel::Kernel::create(std::move(loaded), options, &observers);
+  if (!made) {
+    std::fprintf(stderr, "rejuv run: %s\n", made.error().to_string().c_str());
+    return static_cast<int>(made.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+  kernel::Kernel& k = **made;
+  const RunFacts facts = facts_of(k, options);
+  std::unique_ptr<UlogRecorder> ulog;
+  if (r.ulog_path || r.out.dir) {  // --out DIR writes DIR/run.ulg too, unless --ulog names another file
+    auto opened = write_ulog_to(r.ulog_path ? *r.ulog_path : *r.out.dir / "run.ulg", k,
+                                {.seed = facts.seed, .sr = k.sr_enabled(), .attack = facts.attack}, observers);
+    if (!opened) return bad_input("rejuv run: --ulog: " + opened.error());
+    ulog = std::move(*opened);
+  }
+  recorder.on_vehicle_lost([&k] { k.request_stop(); });  // as `rejuv sim`: V > lost_V
+  recorder.track_attacks(AttackLedger(k.graph().graph, facts.attack, k.sr_enabled() ? Rejuvenation::On : Rejuvenation::Off,
+                                      k.flight_start(), [&k](std::string_view name) { return k.find_service(name); }));
+  if (outputs.files) outputs.files->set_service_names(service_names(k));
+  if (k.sr_enabled()) recorder.stop_after_attacks(k.graph().graph.stop_after_attacks(), [&k] { k.request_stop(); });
+  std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", facts.graph.c_str(),
+               std::string(kernel::to_string(k.clock_mode())).c_str(), k.sr_enabled() ? "on" : "off",
+               static_cast<unsigned long long>(facts.seed));
+  auto outcome = k.run();
+  if (!outcome) {
+    std::fprintf(stderr, "rejuv run: %s\n", outcome.error().to_string().c_str());
+    return static_cast<int>(outcome.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+  return finish_run(r, k, options, recorder, std::move(*outcome), ulog.get(), outputs);
+}
+
+}  // namespace
+
+int run_run(std::span<const std::string_view> args) {
+  RunRequest r;
   Options opts("run", R"(Run a launch graph on the multi-process runtime: the kernel spawns every service and the plant,
 routes every message through the capability check and the broker, and keeps time (lockstep with
 the plant as time master unless --realtime). Without --duration the run ends at mission end or
@@ -275,152 +418,31 @@ The run stops when the vehicle is lost (V = ||x - x_sp||^2_P > 100, as `rejuv si
 Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when
 it fails, a service fails at boot or the graph's policy fails its audit (as `rejuv audit`), 2 on
 bad flags or a file the loaders refuse (README "Exit codes").)");
-  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)", /*required=*/false)
-      .text("--help-service", "NAME", help_service_name,
-            "print the parameters service NAME declares (name, type, default, range, unit, help) and exit:\n"
-            "a service of GRAPH, or without GRAPH an executable of the service folder (e.g. lqr_control)")
-      .flag("--realtime", realtime, "wall-clock time (CLOCK_MONOTONIC) instead of lockstep with the plant")
-      .real("--speed", "X", speed, {.min = 0.01, .max = 1000},
-            "lockstep paced to X times real time (1: a ground station can follow the flight; deterministic\n"
-            "as ever)", "as fast as it can");
-  flight_options(opts, switches, "no rejuvenation: mission control only, checkpoint_p not started");
-  seed_option(opts, flags.seed, "seed of the plant and the services")
-      .real("--duration", "S", duration, {.min = 0, .max = launch::defaults::kMaxDurationS, .open_min = true, .open_max = true},
-            "stop after S seconds of flight (kernel time after the plant's pre-flight alignment)",
-            "the mission's end or timeout")
-      .path("--summary-json", "FILE", json_path, "write the RunSummary as JSON")
-      .path("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V per plant step");
-  charge_option(opts, flags.charge);
-  out_options(opts, out)
-      .path("--ulog", "FILE", ulog_path,
-            "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
-            "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)",
-            "DIR/run.ulg with --out");
-  domain_option(opts, flags.domain, "DDS domain id", "the graph's")
-      .custom<std::vector<std::string>>("--skip", "NAMES", skip, service_names_of,
-                                        "comma-separated services not to start (e.g. not built yet)");
-  net_port_option(opts, flags.net_port, "UDP port of the network gate; 0: any free port",
-                  "the graph's network.bind_port or 14555")
-      .custom<CpuPlacement>("--cpu", "N|all", cpu, cpu_placement, "kernel, services and plant on CPU N or on all",
-                            "lockstep stays on the CPU it starts on")
-      .flag("--insecure-sandbox", flags.insecure_sandbox,
-            "run the services without their network and mount namespaces (where neither root nor unprivileged\n"
-            "user namespaces are available); the allow-list, limits and sweeps still hold; the summary says so")
-      .flag("--verbose", verbose, "also print the services' debug log lines");
+  declare_run_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (help_service_name) return help_service(*help_service_name, graph_path);
-  if (graph_path.empty()) return bad_input("rejuv run: missing argument GRAPH (see 'rejuv run --help')");
-  if (auto ok = check_out_options(opts, out); !ok) return bad_input("rejuv run: " + ok.error());
+  if (r.help_service_name) return help_service(*r.help_service_name, r.graph_path);
+  if (r.graph_path.empty()) return bad_input("rejuv run: missing argument GRAPH (see 'rejuv run --help')");
+  if (auto ok = check_out_options(opts, r.out); !ok) return bad_input("rejuv run: " + ok.error());
+  auto options = kernel_options_for(r);
+  if (!options) return bad_input("rejuv run: " + options.error());
 
-  kernel::KernelOptions options = kernel_options(flags);
-  options.no_sr = switches.no_sr;
-  options.no_attack = switches.no_attack;
-  options.verbose = verbose;
-  if (realtime) options.clock = kernel::ClockMode::Realtime;
-  if (speed && realtime) return bad_input("rejuv run: --speed paces lockstep; --realtime runs at the wall clock already");
-  options.speed = speed;
-  if (duration) {
-    options.duration = to_nanos(Seconds{*duration});
-    options.stop_on_mission_done = false;
-  }
-  if (cpu) {
-    options.placement = cpu->placement;
-    options.cpu = cpu->cpu;
-  }
-  if (skip) options.skip_services = *skip;
-
-  auto loaded = load_with_attack(graph_path, switches.attack, "rejuv run");
+  auto loaded = load_with_attack(r.graph_path, r.switches.attack, "rejuv run");
   if (!loaded) return bad_input(loaded.error());
-  for (const std::string& name : options.skip_services) {
+  for (const std::string& name : options->skip_services) {
     if (launch::find_service(loaded->graph, name) == nullptr) {
       return bad_input("rejuv run: --skip: the graph has no service '" + name + "'");
     }
   }
   // The reference for the metrics: the same path, control design and P as `rejuv sim` (services/flight/sim).
-  auto reference = run_reference(*loaded, options.seed);
+  auto reference = run_reference(*loaded, options->seed);
   if (!reference) return bad_input(reference.error());
-  if (switches.no_attack) reference->library_attack.reset();
+  if (r.switches.no_attack) reference->library_attack.reset();
   // The plant aligns as long as `rejuv sim` does (launch lockstep.alignment_s, passed by the kernel), so that both
   // fly from a converged estimate; --duration counts from the end of it.
-  if (options.duration) *options.duration += reference->alignment;
+  if (options->duration) *options->duration += reference->alignment;
   // Every attack's start_s is flight time: the kernel adds the alignment to the boot param (supervisor.cpp), so the
   // attack library's laws (a drift, a moving x_sp, a gyro bias the EKF would learn) start with the flight.
-
-  UniqueFile json_file, csv_file;
-  if (auto opened = open_outputs("rejuv run", json_path, csv_path, json_file, csv_file); !opened) {
-    return bad_input(opened.error());
-  }
-  RunRecorder recorder(std::move(*reference), csv_file.get(),
-                       isatty(STDERR_FILENO) == 1 ? RunRecorder::Progress::Every1s : RunRecorder::Progress::Every10s);
-  std::optional<RunFiles> files;
-  if (out.dir) {
-    auto opened = RunFiles::open(*out.dir, out.trace);
-    if (!opened) return bad_input("rejuv run: " + opened.error());
-    files.emplace(std::move(*opened));
-    recorder.record_to(&*files);
-  }
-
-  const std::string graph_name = loaded->graph.name();
-  const bool attack = loaded->graph.attack().enabled() && !switches.no_attack;
-  const std::uint32_t stop_after_attacks = loaded->graph.stop_after_attacks();
-  kernel::ObserverFanout observers;
-  observers.add(&recorder);
-  auto k = kernel::Kernel::create(std::move(*loaded), options, &observers);
-  if (!k) {
-    std::fprintf(stderr, "rejuv run: %s\n", k.error().to_string().c_str());
-    return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
-  }
-  std::unique_ptr<UlogRecorder> ulog;
-  if (ulog_path || out.dir) {  // --out DIR writes DIR/run.ulg too, unless --ulog names another file
-    auto opened = write_ulog_to(ulog_path ? *ulog_path : *out.dir / "run.ulg", **k,
-                                {.seed = options.seed.value_or((*k)->graph().graph.seed()),
-                                 .sr = (*k)->sr_enabled(),
-                                 .attack = attack},
-                                observers);
-    if (!opened) return bad_input("rejuv run: --ulog: " + opened.error());
-    ulog = std::move(*opened);
-  }
-  recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });  // as `rejuv sim`: V > lost_V
-  recorder.track_attacks(
-      AttackLedger((*k)->graph().graph, attack, (*k)->sr_enabled() ? Rejuvenation::On : Rejuvenation::Off,
-                   (*k)->flight_start(),
-                   [kernel = k->get()](std::string_view name) { return kernel->find_service(name); }));
-  if (files) files->set_service_names(service_names(**k));
-  if ((*k)->sr_enabled()) recorder.stop_after_attacks(stop_after_attacks, [kernel = k->get()] { kernel->request_stop(); });
-  std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", graph_name.c_str(),
-               std::string(kernel::to_string((*k)->clock_mode())).c_str(), (*k)->sr_enabled() ? "on" : "off",
-               static_cast<unsigned long long>(options.seed.value_or((*k)->graph().graph.seed())));
-  auto outcome = (*k)->run();
-  if (!outcome) {
-    std::fprintf(stderr, "rejuv run: %s\n", outcome.error().to_string().c_str());
-    return static_cast<int>(outcome.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
-  }
-  if (recorder.stopped_after_attacks()) {
-    outcome->detail = std::to_string(stop_after_attacks) + " attacked MC windows (stop_after_attacks)";
-  }
-  if (const auto& lost = recorder.lost()) {
-    char why[128];
-    std::snprintf(why, sizeof why, "vehicle lost at t = %.1f s (V = %.4g)", to_seconds(lost->t).count(), lost->V);
-    outcome->detail = why;
-  }
-
-  proto::RunSummary s;
-  fill_summary(s, **k, recorder, *outcome, facts_of(**k, options));
-  if (ulog) {
-    if (auto done = finish_ulog(*ulog, s); !done) {
-      std::fprintf(stderr, "rejuv run: %s\n", done.error().c_str());
-      return static_cast<int>(Exit::Findings);
-    }
-  }
-
-  const bool out_ok = !files || finish_out_dir(*files, s, "rejuv run", out.no_figures ? Figures::Skip : Figures::Draw);
-  std::fputs(describe(s, *outcome).c_str(), stdout);
-  if (json_file) std::fputs((to_json(s) + "\n").c_str(), json_file.get());
-  const bool completed_run = s.mission_completed() || outcome->reason == kernel::StopReason::Duration ||
-                             s.stopped_after_attacks();
-  const bool good = completed_run && !kernel::is_failure(outcome->reason) && !s.left_safety_set() &&
-                    outcome->reason != kernel::StopReason::Signal && out_ok;
-  return static_cast<int>(good ? Exit::Ok : Exit::Findings);
+  return fly(r, *options, std::move(*loaded), std::move(*reference));
 }
 
 }  // namespace rejuv::cli
