@@ -3,7 +3,6 @@
 // outcomes, prints the table by fault kind and phase and writes it with every injection as JSON.
 // Exit 0 when every injection was recovered by a designed path with nothing unsafe, leaked or hung; 1 when
 // not; 2 on bad input.
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -21,6 +20,7 @@
 #include "rejuv/sys/process.hpp"
 #include "commands.hpp"
 #include "fault_campaign.hpp"
+#include "faults.pb.h"
 #include "report.hpp"
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/launch/launch.hpp"
@@ -30,26 +30,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using faults::Outcome;
-
-std::string json_escape(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += c;
-    } else if (static_cast<unsigned char>(c) < 0x20) {
-      out += ' ';
-    } else {
-      out += c;
-    }
-  }
-  return out;
-}
-
-struct Row {
-  std::uint64_t injections = 0, recovered = 0, unsafe = 0, leaked = 0, hung = 0;
-  std::map<std::string, std::uint64_t> paths;
-};
 
 }  // namespace
 
@@ -69,12 +49,215 @@ Result<Nanos, std::string> fault_window(const launch::LoadedLaunch& graph) {
   return std::chrono::round<Nanos>(Seconds(0.95 * summary->mission_time_s()));
 }
 
-int run_faults(std::span<const std::string_view> args) {
+namespace {
+
+// What `rejuv faults` was asked for.
+struct CampaignRequest {
   std::string graph_path;
   std::uint64_t injections = 200, seed = 1, jobs = 1, per = 6, bound = 300;
   std::optional<std::uint64_t> domain, only;
   std::filesystem::path out_dir = "out/faults";
   Charge charge = Charge::Measured;
+};
+
+void declare_campaign_options(Options& opts, CampaignRequest& r) {
+  opts.positional("GRAPH", r.graph_path, "the launch graph (*.launch.pbtxt)")
+      .integer("--injections", "N", r.injections, {1, 100000}, "faults to plan")
+      .integer("--seed", "S", r.seed, {}, "seed of the plan")
+      .integer("--jobs", "J", r.jobs, {1, 16}, "missions in J processes side by side")
+      .integer("--per-mission", "K", r.per, {1, 50}, "faults per mission at most");
+  domain_option(opts, r.domain, "DDS domain of job 0; job j uses N + j",
+                "each job leases a free domain, as the tests do")
+      .integer("--mission-timeout", "S", r.bound, {10}, "wall-clock bound of one mission [s]: the watchdog")
+      .path("--out", "DIR", r.out_dir, "where faults.json and the logs go");
+  charge_option(opts, r.charge, "\n('measured' here: a fault's recovery costs the flight its real time)")
+      .integer("--mission", "M", r.only, {},
+               "fly only mission M of the plan (the same seed, --injections and --per-mission): to reproduce one");
+}
+
+// The missions of the plan (all, or --mission's), their faults spread over the model's flight of the graph.
+Result<std::vector<faults::Mission>, std::string> plan_campaign(const CampaignRequest& r) {
+  auto graph = launch::load_launch(r.graph_path);
+  if (!graph) return fail(graph.error().to_string());
+  std::vector<std::string> rejuvenated;
+  for (const proto::ServiceSpec& s : graph->graph.services()) {
+    if (!s.has_rejuvenate() || s.rejuvenate()) rejuvenated.push_back(s.name());
+  }
+  if (rejuvenated.empty() || !graph->graph.sr().enabled()) {
+    return fail(r.graph_path + ": the graph has no rejuvenated service or SR is off");
+  }
+  const auto window = fault_window(*graph);
+  if (!window) return fail(r.graph_path + ": " + window.error());
+  std::vector<faults::Mission> missions = faults::plan(r.seed, static_cast<std::uint32_t>(r.injections),
+                                                       static_cast<std::uint32_t>(r.per), rejuvenated, *window);
+  if (r.only) {
+    std::erase_if(missions, [&](const faults::Mission& m) { return m.index != *r.only; });
+    if (missions.empty()) return fail("--mission: the plan has no mission " + std::to_string(*r.only));
+  }
+  return missions;
+}
+
+// What the jobs reported: every outcome, and whether a job ended abnormally.
+struct JobsDone {
+  std::vector<Outcome> outcomes;
+  bool job_failed = false;
+  std::size_t missing = 0;  // planned faults no job reported (its job died): counted as hung
+};
+
+// One process per job, forked while this one is still single-threaded; each flies every jobs-th mission and
+// writes its outcomes to DIR/job-N.tsv, read back here.
+JobsDone run_jobs(const CampaignRequest& r, const std::vector<faults::Mission>& missions,
+                  const std::vector<sys::DdsDomainLease>& leases) {
+  const long cpus = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
+  std::vector<std::optional<sys::ChildProcess>> workers;
+  for (std::uint64_t j = 0; j < r.jobs; ++j) {
+    auto worker = sys::fork_worker([&] {
+      std::vector<faults::Mission> mine;
+      for (std::size_t m = j; m < missions.size(); m += r.jobs) mine.push_back(missions[m]);
+      const faults::JobConfig config{.graph = r.graph_path,
+                                     .dds_domain = r.domain ? static_cast<std::uint32_t>(*r.domain + j) : leases[j].slot(),
+                                     .cpu = static_cast<int>(j % static_cast<std::uint64_t>(cpus)),
+                                     .mission_wall_bound = std::chrono::seconds{r.bound},
+                                     .log = r.out_dir / ("job-" + std::to_string(j) + ".log"),
+                                     .charge = r.charge};
+      const std::vector<Outcome> outcomes = faults::run_job(config, mine);
+      std::ofstream f(r.out_dir / ("job-" + std::to_string(j) + ".tsv"));
+      for (const Outcome& o : outcomes) f << faults::encode(o);
+      return f.good() ? 0 : 1;
+    });
+    if (!worker) std::fprintf(stderr, "rejuv faults: job %llu: %s\n", static_cast<unsigned long long>(j),
+                              worker.error().to_string().c_str());
+    workers.push_back(worker ? std::optional(std::move(*worker)) : std::nullopt);
+  }
+  JobsDone done;
+  for (std::size_t j = 0; j < workers.size(); ++j) {
+    if (!workers[j]) {
+      done.job_failed = true;  // not started (reported above): its missions count as hung
+      continue;
+    }
+    const auto status = workers[j]->wait();
+    if (!status || !status->success()) {
+      done.job_failed = true;
+      std::fprintf(stderr, "rejuv faults: job %zu ended abnormally (%s): its missions count as hung\n", j,
+                   status ? status->to_string().c_str() : status.error().to_string().c_str());
+    }
+    std::ifstream f(r.out_dir / ("job-" + std::to_string(j) + ".tsv"));
+    for (std::string line; std::getline(f, line);) {
+      Outcome o;
+      if (faults::decode(line, o)) done.outcomes.push_back(std::move(o));
+    }
+  }
+  // A job that died takes its missions' outcomes with it: they are hung.
+  for (const faults::Mission& m : missions) {
+    for (const faults::Planned& p : m.faults) {
+      const bool found = std::any_of(done.outcomes.begin(), done.outcomes.end(), [&](const Outcome& o) {
+        return o.mission == m.index && o.fault.kind == p.kind && o.fault.where == p.where && o.fault.at == p.at;
+      });
+      if (!found) {
+        done.outcomes.push_back(Outcome{.mission = m.index, .fault = p, .fired = true, .hung = true, .note = "its job died"});
+        ++done.missing;
+      }
+    }
+  }
+  return done;
+}
+
+void count(proto::FaultRow& row, const Outcome& o) {
+  row.set_injections(row.injections() + 1);
+  row.set_recovered(row.recovered() + (o.recovered ? 1 : 0));
+  row.set_unsafe(row.unsafe() + (o.unsafe ? 1 : 0));
+  row.set_leaked(row.leaked() + (o.leaked ? 1 : 0));
+  row.set_hung(row.hung() + (o.hung ? 1 : 0));
+  const std::string path = o.path.rfind("clean stop", 0) == 0 ? "clean stop" : o.path;
+  ++(*row.mutable_paths())[path.empty() ? "?" : path];
+}
+
+// The campaign's result: the table by fault kind and phase, the totals and every injection.
+proto::FaultCampaign tally(const CampaignRequest& r, const std::vector<Outcome>& outcomes) {
+  proto::FaultCampaign c;
+  c.set_graph(r.graph_path);
+  c.set_seed(r.seed);
+  c.set_planned(static_cast<std::uint32_t>(r.injections));
+  std::map<std::pair<std::string, std::string>, proto::FaultRow> table;
+  proto::FaultRow total;
+  for (const Outcome& o : outcomes) {
+    proto::FaultInjection& i = *c.add_injections();
+    i.set_mission(o.mission);
+    i.set_fault(std::string(faults::to_string(o.fault.kind)));
+    i.set_phase(std::string(faults::to_string(o.fault.where)));
+    i.set_target(o.fault.target);
+    i.set_armed_at_s(to_seconds(o.fault.at).count());
+    i.set_injected(o.fired);
+    i.set_at_s(o.fired_at_s);
+    i.set_path(o.path);
+    i.set_recovered(o.recovered);
+    i.set_unsafe(o.unsafe);
+    i.set_leaked(o.leaked);
+    i.set_hung(o.hung);
+    i.set_note(o.note);
+    if (!o.fired) {
+      c.set_not_injected(c.not_injected() + 1);
+      continue;
+    }
+    proto::FaultRow& row = table[{i.fault(), i.phase()}];
+    row.set_fault(i.fault());
+    row.set_phase(i.phase());
+    count(row, o);
+    count(total, o);
+  }
+  for (auto& [key, row] : table) *c.add_table() = std::move(row);
+  c.set_injected(total.injections());
+  c.set_recovered(total.recovered());
+  c.set_unsafe(total.unsafe());
+  c.set_leaked(total.leaked());
+  c.set_hung(total.hung());
+  return c;
+}
+
+void print_row(const std::string& fault, const std::string& phase, const proto::FaultRow& r, std::string_view paths) {
+  std::printf("%-20s %-20s %5u %5u %5u %5u %5u  %.*s\n", fault.c_str(), phase.c_str(), r.injections(), r.recovered(),
+              r.unsafe(), r.leaked(), r.hung(), static_cast<int>(paths.size()), paths.data());
+}
+
+std::string paths_text(const google::protobuf::Map<std::string, std::uint32_t>& paths) {
+  std::map<std::string, std::uint32_t> sorted(paths.begin(), paths.end());
+  std::string s;
+  for (const auto& [p, n] : sorted) s += (s.empty() ? "" : ", ") + p + " " + std::to_string(n);
+  return s;
+}
+
+// The table by kind and phase, the total, and each injection that was not survived.
+void print_campaign(const proto::FaultCampaign& c) {
+  std::printf("%-20s %-20s %5s %5s %5s %5s %5s  %s\n", "fault", "phase", "inj", "recov", "unsafe", "leak", "hung",
+              "recovery paths");
+  proto::FaultRow total;
+  for (const proto::FaultRow& r : c.table()) {
+    print_row(r.fault(), r.phase(), r, paths_text(r.paths()));
+    for (const auto& [p, n] : r.paths()) (*total.mutable_paths())[p] += n;
+  }
+  total.set_injections(c.injected());
+  total.set_recovered(c.recovered());
+  total.set_unsafe(c.unsafe());
+  total.set_leaked(c.leaked());
+  total.set_hung(c.hung());
+  print_row("total", "", total, paths_text(total.paths()));
+  if (c.not_injected() > 0) {
+    std::printf("(%u planned faults found no phase or target in their window: not injected)\n", c.not_injected());
+  }
+  for (const proto::FaultInjection& o : c.injections()) {
+    if (o.injected() && (!o.recovered() || o.unsafe() || o.leaked() || o.hung())) {
+      std::printf("  exception: mission %u, %s at %s on %s at %.1f s: %s%s%s%s — %s; %s\n", o.mission(), o.fault().c_str(),
+                  o.phase().c_str(), o.target().c_str(), o.at_s(), o.recovered() ? "" : "NOT RECOVERED ",
+                  o.unsafe() ? "UNSAFE " : "", o.leaked() ? "LEAKED " : "", o.hung() ? "HUNG" : "", o.path().c_str(),
+                  o.note().c_str());
+    }
+  }
+}
+
+}  // namespace
+
+int run_faults(std::span<const std::string_view> args) {
+  CampaignRequest r;
   Options opts("faults",
                "Fault campaign (DESIGN §7 \"Faults\", §11): flies GRAPH several times and injects, at moments and\n"
                "phases drawn from the seed, SIGKILL/SIGSTOP of a live service, of one image, of every image of a\n"
@@ -84,199 +267,41 @@ int run_faults(std::span<const std::string_view> args) {
                "table by kind and phase and writes it as JSON (DIR/faults.json; kernel logs in DIR/job-N.log).\n"
                "Exit 0 when nothing is unsafe, leaked, hung or unrecovered (a cold restart after the loss of one\n"
                "image counts as unrecovered: with two or more generations kept an intact one was left).");
-  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
-      .integer("--injections", "N", injections, {1, 100000}, "faults to plan")
-      .integer("--seed", "S", seed, {}, "seed of the plan")
-      .integer("--jobs", "J", jobs, {1, 16}, "missions in J processes side by side")
-      .integer("--per-mission", "K", per, {1, 50}, "faults per mission at most");
-  domain_option(opts, domain, "DDS domain of job 0; job j uses N + j",
-                "each job leases a free domain, as the tests do")
-      .integer("--mission-timeout", "S", bound, {10}, "wall-clock bound of one mission [s]: the watchdog")
-      .path("--out", "DIR", out_dir, "where faults.json and the logs go");
-  charge_option(opts, charge, "\n('measured' here: a fault's recovery costs the flight its real time)")
-      .integer("--mission", "M", only, {},
-               "fly only mission M of the plan (the same seed, --injections and --per-mission): to reproduce one");
+  declare_campaign_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (domain && *domain + jobs - 1 > launch::defaults::kMaxDdsDomainId) {
-    return bad_input("rejuv faults: --domain " + std::to_string(*domain) + " + --jobs " + std::to_string(jobs) +
+  if (r.domain && *r.domain + r.jobs - 1 > launch::defaults::kMaxDdsDomainId) {
+    return bad_input("rejuv faults: --domain " + std::to_string(*r.domain) + " + --jobs " + std::to_string(r.jobs) +
                      " - 1 is above the highest DDS domain " + std::to_string(launch::defaults::kMaxDdsDomainId));
   }
   // Without --domain each job holds a leased domain (sys/lease.hpp) for the campaign: two campaigns, a
   // campaign and the tests, or two checkouts' test suites on one machine never share a DDS domain.
   std::vector<sys::DdsDomainLease> leases;
-  if (!domain) {
-    for (std::uint64_t j = 0; j < jobs; ++j) {
-      auto lease = sys::lease_dds_domain(static_cast<std::uint32_t>(::getpid() + j));
-      if (!lease) return bad_input("rejuv faults: no free DDS domain (" + lease.error().to_string() + "): give --domain");
-      leases.push_back(std::move(*lease));
-    }
+  for (std::uint64_t j = 0; !r.domain && j < r.jobs; ++j) {
+    auto lease = sys::lease_dds_domain(static_cast<std::uint32_t>(::getpid() + j));
+    if (!lease) return bad_input("rejuv faults: no free DDS domain (" + lease.error().to_string() + "): give --domain");
+    leases.push_back(std::move(*lease));
   }
-
-  auto graph = launch::load_launch(graph_path);
-  if (!graph) return bad_input(graph.error().to_string());
-  std::vector<std::string> rejuvenated;
-  for (const proto::ServiceSpec& s : graph->graph.services()) {
-    if (!s.has_rejuvenate() || s.rejuvenate()) rejuvenated.push_back(s.name());
-  }
-  if (rejuvenated.empty() || !graph->graph.sr().enabled()) {
-    return bad_input("rejuv faults: " + graph_path + ": the graph has no rejuvenated service or SR is off");
-  }
-  const auto window = fault_window(*graph);
-  if (!window) return bad_input("rejuv faults: " + graph_path + ": " + window.error());
-  std::vector<faults::Mission> missions =
-      faults::plan(seed, static_cast<std::uint32_t>(injections), static_cast<std::uint32_t>(per), rejuvenated, *window);
-  if (only) {
-    std::erase_if(missions, [&](const faults::Mission& m) { return m.index != *only; });
-    if (missions.empty()) return bad_input("rejuv faults: --mission: the plan has no mission " + std::to_string(*only));
-  }
+  const auto missions = plan_campaign(r);
+  if (!missions) return bad_input("rejuv faults: " + missions.error());
   std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (ec) return bad_input("rejuv faults: --out: cannot create '" + out_dir.string() + "': " + ec.message());
+  fs::create_directories(r.out_dir, ec);
+  if (ec) return bad_input("rejuv faults: --out: cannot create '" + r.out_dir.string() + "': " + ec.message());
   std::fprintf(stderr, "rejuv faults: %llu faults in %zu missions, %llu job%s, seed %llu\n",
-               static_cast<unsigned long long>(injections), missions.size(), static_cast<unsigned long long>(jobs),
-               jobs == 1 ? "" : "s", static_cast<unsigned long long>(seed));
-
-  // One process per job, forked while this one is still single-threaded.
-  const long cpus = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
-  std::vector<pid_t> pids;
-  std::fflush(nullptr);
-  const pid_t campaign = ::getpid();
-  for (std::uint64_t j = 0; j < jobs; ++j) {
-    const pid_t pid = ::fork();
-    if (pid < 0) return bad_input("rejuv faults: fork failed");
-    if (pid == 0) {
-      // A job never outlives the campaign (Ctrl-C, a kill): SIGTERM stops its kernel, which shuts its mission down.
-      if (!sys::die_with_parent(campaign, SIGTERM)) ::_exit(1);
-      std::vector<faults::Mission> mine;
-      for (std::size_t m = j; m < missions.size(); m += jobs) mine.push_back(missions[m]);
-      const faults::JobConfig config{.graph = graph_path,
-                                     .dds_domain = domain ? static_cast<std::uint32_t>(*domain + j) : leases[j].slot(),
-                                     .cpu = static_cast<int>(j % static_cast<std::uint64_t>(cpus)),
-                                     .mission_wall_bound = std::chrono::seconds{bound},
-                                     .log = out_dir / ("job-" + std::to_string(j) + ".log"),
-                                     .charge = charge};
-      const std::vector<Outcome> outcomes = faults::run_job(config, mine);
-      std::ofstream f(out_dir / ("job-" + std::to_string(j) + ".tsv"));
-      for (const Outcome& o : outcomes) f << faults::encode(o);
-      f.close();
-      std::fflush(nullptr);
-      ::_exit(0);
-    }
-    pids.push_back(pid);
-  }
-  std::vector<Outcome> all;
-  bool job_failed = false;
-  for (std::size_t j = 0; j < pids.size(); ++j) {
-    int status = 0;
-    while (::waitpid(pids[j], &status, 0) < 0 && errno == EINTR) {
-    }
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
-      job_failed = true;
-      std::fprintf(stderr, "rejuv faults: job %zu ended abnormally (status %d): its missions count as hung\n", j, status);
-    }
-    std::ifstream f(out_dir / ("job-" + std::to_string(j) + ".tsv"));
-    std::string line;
-    while (std::getline(f, line)) {
-      Outcome o;
-      if (faults::decode(line, o)) all.push_back(std::move(o));
-    }
-  }
-  // A job that died takes its missions' outcomes with it: they are hung.
-  std::size_t missing = 0;
-  for (const faults::Mission& m : missions) {
-    for (const faults::Planned& p : m.faults) {
-      const bool found = std::any_of(all.begin(), all.end(), [&](const Outcome& o) {
-        return o.mission == m.index && o.fault.kind == p.kind && o.fault.where == p.where && o.fault.at == p.at;
-      });
-      if (!found) {
-        all.push_back(Outcome{.mission = m.index, .fault = p, .fired = true, .hung = true, .note = "its job died"});
-        ++missing;
-      }
-    }
-  }
-
-  std::map<std::pair<std::string, std::string>, Row> table;
-  Row total;
-  std::uint64_t not_fired = 0;
-  for (const Outcome& o : all) {
-    if (!o.fired) {
-      ++not_fired;
-      continue;
-    }
-    for (Row* r : {&table[{std::string(faults::to_string(o.fault.kind)), std::string(faults::to_string(o.fault.where))}],
-                   &total}) {
-      ++r->injections;
-      r->recovered += o.recovered ? 1 : 0;
-      r->unsafe += o.unsafe ? 1 : 0;
-      r->leaked += o.leaked ? 1 : 0;
-      r->hung += o.hung ? 1 : 0;
-      std::string path = o.path.rfind("clean stop", 0) == 0 ? "clean stop" : o.path;
-      ++r->paths[path.empty() ? "?" : path];
-    }
-  }
-  const auto paths_text = [](const Row& r) {
-    std::string s;
-    for (const auto& [p, n] : r.paths) s += (s.empty() ? "" : ", ") + p + " " + std::to_string(n);
-    return s;
-  };
-  std::printf("%-20s %-20s %5s %5s %5s %5s %5s  %s\n", "fault", "phase", "inj", "recov", "unsafe", "leak", "hung",
-              "recovery paths");
-  for (const auto& [key, r] : table) {
-    std::printf("%-20s %-20s %5llu %5llu %5llu %5llu %5llu  %s\n", key.first.c_str(), key.second.c_str(),
-                static_cast<unsigned long long>(r.injections), static_cast<unsigned long long>(r.recovered),
-                static_cast<unsigned long long>(r.unsafe), static_cast<unsigned long long>(r.leaked),
-                static_cast<unsigned long long>(r.hung), paths_text(r).c_str());
-  }
-  std::printf("%-20s %-20s %5llu %5llu %5llu %5llu %5llu  %s\n", "total", "", static_cast<unsigned long long>(total.injections),
-              static_cast<unsigned long long>(total.recovered), static_cast<unsigned long long>(total.unsafe),
-              static_cast<unsigned long long>(total.leaked), static_cast<unsigned long long>(total.hung),
-              paths_text(total).c_str());
-  if (not_fired > 0) std::printf("(%llu planned faults found no phase or target in their window: not injected)\n",
-                                 static_cast<unsigned long long>(not_fired));
-  for (const Outcome& o : all) {
-    if (o.fired && (!o.recovered || o.unsafe || o.leaked || o.hung)) {
-      std::printf("  exception: mission %u, %s at %s on %s at %.1f s: %s%s%s%s — %s; %s\n", o.mission,
-                  std::string(faults::to_string(o.fault.kind)).c_str(), std::string(faults::to_string(o.fault.where)).c_str(),
-                  o.fault.target.c_str(), o.fired_at_s, o.recovered ? "" : "NOT RECOVERED ", o.unsafe ? "UNSAFE " : "",
-                  o.leaked ? "LEAKED " : "", o.hung ? "HUNG" : "", o.path.c_str(), o.note.c_str());
-    }
-  }
-
-  std::ofstream json(out_dir / "faults.json");
-  json << "{\n  \"graph\": \"" << json_escape(graph_path) << "\", \"seed\": " << seed << ", \"planned\": " << injections
-       << ", \"injected\": " << total.injections << ", \"not_injected\": " << not_fired
-       << ", \"recovered\": " << total.recovered << ", \"unsafe\": " << total.unsafe << ", \"leaked\": " << total.leaked
-       << ", \"hung\": " << total.hung << ",\n  \"table\": [\n";
-  bool first = true;
-  for (const auto& [key, r] : table) {
-    json << (first ? "" : ",\n") << "    {\"fault\": \"" << key.first << "\", \"phase\": \"" << key.second
-         << "\", \"injections\": " << r.injections << ", \"recovered\": " << r.recovered << ", \"unsafe\": " << r.unsafe
-         << ", \"leaked\": " << r.leaked << ", \"hung\": " << r.hung << ", \"paths\": {";
-    bool fp = true;
-    for (const auto& [p, n] : r.paths) {
-      json << (fp ? "" : ", ") << "\"" << json_escape(p) << "\": " << n;
-      fp = false;
-    }
-    json << "}}";
-    first = false;
-  }
-  json << "\n  ],\n  \"injections\": [\n";
-  first = true;
-  for (const Outcome& o : all) {
-    json << (first ? "" : ",\n") << "    {\"mission\": " << o.mission << ", \"fault\": \"" << faults::to_string(o.fault.kind)
-         << "\", \"phase\": \"" << faults::to_string(o.fault.where) << "\", \"target\": \"" << json_escape(o.fault.target)
-         << "\", \"armed_at_s\": " << to_seconds(o.fault.at).count() << ", \"injected\": " << (o.fired ? "true" : "false")
-         << ", \"at_s\": " << o.fired_at_s << ", \"path\": \"" << json_escape(o.path)
-         << "\", \"recovered\": " << (o.recovered ? "true" : "false") << ", \"unsafe\": " << (o.unsafe ? "true" : "false")
-         << ", \"leaked\": " << (o.leaked ? "true" : "false") << ", \"hung\": " << (o.hung ? "true" : "false")
-         << ", \"note\": \"" << json_escape(o.note) << "\"}";
-    first = false;
-  }
-  json << "\n  ]\n}\n";
+               static_cast<unsigned long long>(r.injections), missions->size(), static_cast<unsigned long long>(r.jobs),
+               r.jobs == 1 ? "" : "s", static_cast<unsigned long long>(r.seed));
+  const JobsDone done = run_jobs(r, *missions, leases);
+  const proto::FaultCampaign campaign = tally(r, done.outcomes);
+  print_campaign(campaign);
+  std::ofstream json(r.out_dir / "faults.json");
+  json << to_json(campaign) << "\n";
   json.close();
-  std::printf("wrote %s\n", (out_dir / "faults.json").c_str());
-  const bool good = !job_failed && missing == 0 && total.recovered == total.injections && total.unsafe == 0 &&
-                    total.leaked == 0 && total.hung == 0;
+  if (!json) {
+    std::fprintf(stderr, "rejuv faults: cannot write %s\n", (r.out_dir / "faults.json").c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  std::printf("wrote %s\n", (r.out_dir / "faults.json").c_str());
+  const bool good = !done.job_failed && done.missing == 0 && campaign.recovered() == campaign.injected() &&
+                    campaign.unsafe() == 0 && campaign.leaked() == 0 && campaign.hung() == 0;
   return static_cast<int>(good ? Exit::Ok : Exit::Findings);
 }
 

@@ -54,13 +54,13 @@ void fill_image_phases(proto::ImagePhases& out, const kernel::SrStats& sr) {
   out.set_images_by_fork(sr.images_by_fork);
 }
 
-std::string to_json(const proto::RunSummary& summary) {
+std::string to_json(const google::protobuf::Message& record) {
   google::protobuf::util::JsonPrintOptions options;
   options.preserve_proto_field_names = true;
   options.always_print_primitive_fields = true;
   options.add_whitespace = true;
   std::string out;
-  (void)google::protobuf::util::MessageToJsonString(summary, &out, options);
+  (void)google::protobuf::util::MessageToJsonString(record, &out, options);
   while (!out.empty() && out.back() == '\n') out.pop_back();
   return out;
 }

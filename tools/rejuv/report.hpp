@@ -26,8 +26,9 @@ void fill_image_phases(proto::ImagePhases& out, const kernel::SrStats& sr);
 // Two-letter mode names for progress lines and the CSV (UPDATE is "UP").
 [[nodiscard]] const char* mode_name(SrMode mode);
 
-// The run summary as JSON with the proto field names kept ("max_V", not "maxV": the names docs and scripts use).
-[[nodiscard]] std::string to_json(const proto::RunSummary& summary);
+// A record (the run summary, a fault campaign) as JSON with the proto field names kept ("max_V", not "maxV":
+// the names docs and scripts use) and every field printed.
+[[nodiscard]] std::string to_json(const google::protobuf::Message& record);
 
 // The network gate's counters into the summary, and as one line of the text summary.
 void fill_network(proto::NetworkSummary& out, const kernel::NetStats& stats, std::optional<std::uint16_t> port);

@@ -17,6 +17,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <csignal>
+#include <cstdio>
 #include <array>
 #include <cerrno>
 #include <cstdlib>
@@ -415,6 +417,25 @@ SysResult<void> die_with_parent(pid_t parent, int sig) {
   if (::prctl(PR_SET_PDEATHSIG, sig, 0, 0, 0) != 0) return last_error("prctl(PR_SET_PDEATHSIG)");
   if (::getppid() != parent) ::_exit(1);  // the parent died before the prctl took effect
   return {};
+}
+
+SysResult<ChildProcess> fork_worker(const std::function<int()>& body) {
+  std::fflush(nullptr);  // nothing buffered is written twice
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid < 0) return last_error("fork");
+  if (pid == 0) {
+    if (!die_with_parent(parent, SIGTERM)) ::_exit(1);
+    const int code = body();
+    std::fflush(nullptr);
+    ::_exit(code);
+  }
+  auto child = ChildProcess::adopt(pid);
+  if (!child) {
+    (void)kill_and_reap_own_child(pid);
+    return child;
+  }
+  return child;
 }
 
 SysResult<void> become_subreaper() {

@@ -118,6 +118,11 @@ struct Spawned {
 // parent `parent` is already gone: a worker forked by a command never outlives the command.
 [[nodiscard]] SysResult<void> die_with_parent(pid_t parent, int sig);
 
+// Forks a worker process of a command that runs `body` and exits with what it returns; the caller gets the
+// worker as its child. The worker dies with the caller (SIGTERM: die_with_parent) and flushes stdio before it
+// exits. Fork from a single-threaded process only (the worker has the calling thread alone).
+[[nodiscard]] SysResult<ChildProcess> fork_worker(const std::function<int()>& body);
+
 // Makes this process the reaper of its orphaned descendants (PR_SET_CHILD_SUBREAPER), so that images
 // double-forked by services become the kernel's children (DESIGN §7).
 [[nodiscard]] SysResult<void> become_subreaper();
