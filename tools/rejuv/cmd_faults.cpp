@@ -179,7 +179,7 @@ proto::FaultCampaign tally(const CampaignRequest& r, const std::vector<Outcome>&
   c.set_seed(r.seed);
   c.set_planned(static_cast<std::uint32_t>(r.injections));
   std::map<std::pair<std::string, std::string>, proto::FaultRow> table;
-  proto::FaultRow total;
+  proto::FaultRow& total = *c.mutable_total();
   for (const Outcome& o : outcomes) {
     proto::FaultInjection& i = *c.add_injections();
     i.set_mission(o.mission);
@@ -206,17 +206,7 @@ proto::FaultCampaign tally(const CampaignRequest& r, const std::vector<Outcome>&
     count(total, o);
   }
   for (auto& [key, row] : table) *c.add_table() = std::move(row);
-  c.set_injected(total.injections());
-  c.set_recovered(total.recovered());
-  c.set_unsafe(total.unsafe());
-  c.set_leaked(total.leaked());
-  c.set_hung(total.hung());
   return c;
-}
-
-void print_row(const std::string& fault, const std::string& phase, const proto::FaultRow& r, std::string_view paths) {
-  std::printf("%-20s %-20s %5u %5u %5u %5u %5u  %.*s\n", fault.c_str(), phase.c_str(), r.injections(), r.recovered(),
-              r.unsafe(), r.leaked(), r.hung(), static_cast<int>(paths.size()), paths.data());
 }
 
 std::string paths_text(const google::protobuf::Map<std::string, std::uint32_t>& paths) {
@@ -226,21 +216,19 @@ std::string paths_text(const google::protobuf::Map<std::string, std::uint32_t>& 
   return s;
 }
 
+// One row of the table: `label` for the total, the row's own fault and phase otherwise.
+void print_row(const proto::FaultRow& r, const char* label = nullptr) {
+  std::printf("%-20s %-20s %5u %5u %5u %5u %5u  %s\n", label != nullptr ? label : r.fault().c_str(),
+              label != nullptr ? "" : r.phase().c_str(), r.injections(), r.recovered(), r.unsafe(), r.leaked(),
+              r.hung(), paths_text(r.paths()).c_str());
+}
+
 // The table by kind and phase, the total, and each injection that was not survived.
 void print_campaign(const proto::FaultCampaign& c) {
   std::printf("%-20s %-20s %5s %5s %5s %5s %5s  %s\n", "fault", "phase", "inj", "recov", "unsafe", "leak", "hung",
               "recovery paths");
-  proto::FaultRow total;
-  for (const proto::FaultRow& r : c.table()) {
-    print_row(r.fault(), r.phase(), r, paths_text(r.paths()));
-    for (const auto& [p, n] : r.paths()) (*total.mutable_paths())[p] += n;
-  }
-  total.set_injections(c.injected());
-  total.set_recovered(c.recovered());
-  total.set_unsafe(c.unsafe());
-  total.set_leaked(c.leaked());
-  total.set_hung(c.hung());
-  print_row("total", "", total, paths_text(total.paths()));
+  for (const proto::FaultRow& r : c.table()) print_row(r);
+  print_row(c.total(), "total");
   if (c.not_injected() > 0) {
     std::printf("(%u planned faults found no phase or target in their window: not injected)\n", c.not_injected());
   }
@@ -300,8 +288,9 @@ int run_faults(std::span<const std::string_view> args) {
     return static_cast<int>(Exit::Findings);
   }
   std::printf("wrote %s\n", (r.out_dir / "faults.json").c_str());
-  const bool good = !done.job_failed && done.missing == 0 && campaign.recovered() == campaign.injected() &&
-                    campaign.unsafe() == 0 && campaign.leaked() == 0 && campaign.hung() == 0;
+  const proto::FaultRow& total = campaign.total();
+  const bool good = !done.job_failed && done.missing == 0 && total.recovered() == total.injections() &&
+                    total.unsafe() == 0 && total.leaked() == 0 && total.hung() == 0;
   return static_cast<int>(good ? Exit::Ok : Exit::Findings);
 }
 

@@ -431,10 +431,7 @@ SysResult<ChildProcess> fork_worker(const std::function<int()>& body) {
     ::_exit(code);
   }
   auto child = ChildProcess::adopt(pid);
-  if (!child) {
-    (void)kill_and_reap_own_child(pid);
-    return child;
-  }
+  if (!child) (void)kill_and_reap_own_child(pid);  // no pidfd: nothing could wait for it
   return child;
 }
 
