@@ -119,7 +119,6 @@ struct Intervals {
 struct Flight {
   std::string label;
   Spread all, cp, rb;
-  std::size_t rounds = 0;
   std::string error{};
 };
 
@@ -173,11 +172,7 @@ std::vector<Flight> fly_rounds(const std::vector<std::pair<std::string, std::vec
       std::fprintf(stderr, "  rejuv run --realtime (%s", f.label.c_str());
       if (rounds > 1) std::fprintf(stderr, ", round %d of %d", r, rounds);
       std::fprintf(stderr, ") …\n");
-      if (auto error = fly(name, graph, seconds, plan[i].second, dir, pooled[i])) {
-        f.error = *error;
-      } else {
-        ++f.rounds;
-      }
+      if (auto error = fly(name, graph, seconds, plan[i].second, dir, pooled[i])) f.error = *error;
     }
   }
   for (std::size_t i = 0; i < plan.size(); ++i) {
