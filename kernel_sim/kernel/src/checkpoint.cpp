@@ -15,7 +15,7 @@
 namespace rejuv::kernel {
 
 bool Kernel::Impl::quiescent_for_checkpoint() const {
-  const std::optional<ServiceId> caller = checkpoint_request->first;
+  const std::optional<ServiceId> caller = coordinator.asked_by();
   return std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
     if (!s.live()) return true;
     if (s.proc.phase() != Phase::Ready || !s.flow.drained()) return false;
@@ -42,14 +42,13 @@ bool Kernel::Impl::lost_during(CheckpointRun& run) const {
 }
 
 void Kernel::Impl::run_checkpoint() {
-  if (image_work) run_image_work();  // the last checkpoint's or rollback's, if the vehicle has not had its update yet
-  const auto [caller, seq] = *checkpoint_request;
-  checkpoint_request.reset();
-  const bool priming = std::exchange(priming_request, false);
+  if (coordinator.work_left()) run_image_work();  // the last checkpoint's or rollback's, if the vehicle has not had its update yet
   const Nanos t0 = wall();
   const Generation g = images.next_generation();
-  CheckpointRun run{.caller = caller, .seq = seq, .t_cp = now(), .record = {}, .waiting = {}, .failure = {}};
-  run.record.g = g;
+  CheckpointRun& run = coordinator.begin_checkpoint(g, now());
+  const std::optional<ServiceId> caller = run.caller;
+  const std::uint32_t seq = run.seq;
+  const bool priming = run.priming;
   routing.freeze();
   flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   for (ServiceRuntime& s : services) {
@@ -77,26 +76,24 @@ void Kernel::Impl::run_checkpoint() {
                                              .base = base, .image_end = pair->second.take_fd()});
     run.waiting.push_back(s.id);
   }
-  checkpoint = std::move(run);
   const Nanos t_sent = wall();
   if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointSnapshotsSent, g);
   // Every other event is handled meanwhile (pump); Taken frames come through handle_frame → on_taken,
   // TakenPages (with its fd) through read_channel → on_taken_pages.
   const Nanos deadline = wall() + options.snapshot_deadline;
   bool late = false;
-  while (checkpoint->failure.empty() && !checkpoint->waiting.empty() && !stopping) {
-    if (lost_during(*checkpoint)) break;  // abandoned now rather than at the deadline
+  while (run.failure.empty() && !run.waiting.empty() && !stopping) {
+    if (lost_during(run)) break;  // abandoned now rather than at the deadline
     const Nanos left = deadline - wall();
     if (left <= Nanos{0}) {
       late = true;
-      checkpoint->failure = "no Taken from '" + services[checkpoint->waiting.front().value()].name +
+      run.failure = "no Taken from '" + services[run.waiting.front().value()].name +
                             "' within the snapshot deadline";
       break;
     }
     if (!pump(left)) break;
   }
-  CheckpointRun done = std::move(*checkpoint);
-  checkpoint.reset();
+  CheckpointRun done = coordinator.end_checkpoint();
   if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
   (void)lost_during(done);  // a death read in the last pump
   const auto answer = [&](std::int32_t error, std::uint64_t value) {
@@ -106,7 +103,7 @@ void Kernel::Impl::run_checkpoint() {
     if (!priming) ++sr_stats.checkpoint_failures;
     if (!priming) sr_event(SrEventKind::CheckpointFailed, g, wall() - t0, caller);
     log("%s %llu abandoned: %s", priming ? "the alignment's checkpoint" : "checkpoint", num(g), done.failure.c_str());
-    abandoned = Abandoned{.g = g, .waiting = done.waiting};
+    coordinator.abandoned(g, done.waiting);
     images.abandon(g);
     image::destroy(done.record);
     if (late) {
@@ -137,13 +134,13 @@ void Kernel::Impl::run_checkpoint() {
   }
   const std::uint64_t forks_before = sr_stats.images_by_fork;
   const Nanos took = t_saved - t0;
-  abandoned.reset();  // an image still owed to an abandoned checkpoint is a stray from now on
+  coordinator.forget_abandoned();  // an image still owed to an abandoned checkpoint is a stray from now on
   // The patches (before old generations go: a base may be among them), the evicted generations, the stray
   // sweep (before the new spares are on their way, so that only copies asked for earlier can defer it) and the
   // spare copies: after the vehicle's next control update (leave_image_work).
   leave_image_work(
       ImageWork{.patches = g, .evicted = std::move(evicted), .sweep = "a checkpoint's commit",
-                .sweep_wait = SweepWait::No, .spares = g, .not_after = {}});
+                .sweep_wait = SweepWait::No, .spares = g});
   if (priming) {
     run_image_work();  // before the flight: nothing to wait for, and the count below needs it
     // DESIGN §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
@@ -165,10 +162,7 @@ void Kernel::Impl::run_checkpoint() {
 }
 
 bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
-  if (!abandoned || frame.header.aux != abandoned->g.value()) return false;
-  const auto waiting = std::find(abandoned->waiting.begin(), abandoned->waiting.end(), s.id);
-  if (waiting == abandoned->waiting.end()) return false;
-  abandoned->waiting.erase(waiting);
+  if (!coordinator.settle_owed(Generation(frame.header.aux), s.id)) return false;
   // TakenPages: its pages fd closes with the frame. Taken: the image is a process of the service's session
   // that the kernel made it fork and no longer wants. Anything else the pid could name is left alone.
   if (frame.kind != wire::FrameKind::Taken) return true;
@@ -183,11 +177,12 @@ bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
 
 bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& frame) {
   if (late_image(s, frame)) return false;  // the answer of an abandoned checkpoint: not a protocol error
-  if (!checkpoint) {
+  CheckpointRun* running = coordinator.running();
+  if (running == nullptr) {
     refuse(s, std::string(wire::to_string(frame.kind)) + " without a checkpoint in progress");
     return false;
   }
-  CheckpointRun& run = *checkpoint;
+  CheckpointRun& run = *running;
   const auto waiting = std::find(run.waiting.begin(), run.waiting.end(), s.id);
   if (waiting == run.waiting.end()) {
     refuse(s, std::string(wire::to_string(frame.kind)) + " it was not asked for");
@@ -220,7 +215,7 @@ Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
 
 void Kernel::Impl::on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages) {
   if (!expecting_image(s, frame)) return;
-  CheckpointRun& run = *checkpoint;
+  CheckpointRun& run = *coordinator.running();
   image::Image* im = run.record.image_of(s.id);
   const auto body = wire::payload_as<wire::TakenPagesBody>(frame);
   // What the service may not choose: the base (the one offered), and pages that change after this answer
@@ -277,7 +272,7 @@ bool Kernel::Impl::knows_process(pid_t pid, const image::GenerationRecord* takin
 
 void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
   if (!expecting_image(s, frame)) return;
-  CheckpointRun& run = *checkpoint;
+  CheckpointRun& run = *coordinator.running();
   const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
   if (pid <= 0) {
     run.failure = "'" + s.name + "' could not take its image";

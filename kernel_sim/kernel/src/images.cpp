@@ -133,22 +133,19 @@ void Kernel::Impl::resume_routing() {
 // ---- safe points ----
 
 void Kernel::Impl::leave_image_work(ImageWork work) {
-  REJUV_ASSERT(!image_work, "image work is run before the next checkpoint or rollback leaves more");
-  work.not_after = wall() + kImageWorkWait;
-  image_work = std::move(work);
-  control_update_routed = false;
+  coordinator.leave_work(std::move(work), wall() + ImageCoordinator::kImageWorkWait);
   // Without a vehicle no control update comes: at once, as before (benchmarks, tests of the image store).
   if (!graph.graph.has_plant()) run_image_work();
 }
 
 void Kernel::Impl::image_work_if_due() {
-  if (image_work && (control_update_routed || wall() >= image_work->not_after)) run_image_work();
+  if (coordinator.work_due(wall())) run_image_work();
 }
 
 void Kernel::Impl::run_image_work() {
-  if (!image_work) return;
-  ImageWork work = std::move(*image_work);
-  image_work.reset();
+  std::optional<ImageWork> left = coordinator.take_work();
+  if (!left) return;
+  ImageWork& work = *left;
   if (work.patches) {
     if (image::GenerationRecord* record = images.find(*work.patches)) send_patches(*record);
   }
@@ -174,25 +171,25 @@ bool Kernel::Impl::service_images() {
   // killed ones reaped (Reaper::reap), all off the rollback's critical path. In this order: a SIGKILL's victim
   // runs its exit at once, so most are reaped here, not one safe point later (where `rejuv soak` found them as
   // one more process and fd at a sample).
-  if (!image_work) reaper.kill_retired();
+  if (!coordinator.work_left()) reaper.kill_retired();
   if (!retiring.empty()) finish_retiring(false);
   reaper.reap();
-  if (!stopping && !checkpoint && !rollback_request && !checkpoint_request) sweep_if_due();  // sandbox.cpp
-  if (!sr || stopping || checkpoint) return false;
-  if (!rollback_request && !checkpoint_request) {  // off the critical paths
+  using enum ImageCoordinator::Checkpoint;
+  if (!stopping && coordinator.checkpoint() == None && !coordinator.rollback_asked()) sweep_if_due();  // sandbox.cpp
+  if (!sr || stopping || coordinator.checkpoint() == Running) return false;
+  if (!coordinator.asked()) {  // off the critical paths
     refill_pairs();
     open_pagemaps();
-    if (!image_work) trim_images(false);
+    if (!coordinator.work_left()) trim_images(false);
   }
-  if (!checkpoint_request) fire_rejuvenation_early();
-  if (rollback_request) {
-    const std::string reason = std::move(*rollback_request);
-    rollback_request.reset();
+  if (coordinator.checkpoint() != Asked) fire_rejuvenation_early();
+  if (coordinator.rollback_asked()) {
+    const std::string reason = coordinator.take_rollback();
     settle_dying();
     run_rollback(reason);
     return true;
   }
-  if (!checkpoint_request) {
+  if (coordinator.checkpoint() != Asked) {
     pace.started();  // nothing waits (a rollback may have voided the request)
     return false;
   }
@@ -231,7 +228,7 @@ std::uint64_t Kernel::Impl::processes_to_spare() const {
 }
 
 Result<void, KernelError> Kernel::Impl::finish_image_requests() {
-  while (!stopping && (checkpoint_request || rollback_request)) {
+  while (!stopping && coordinator.asked()) {
     if (service_images()) continue;
     if (auto ok = pump(std::chrono::milliseconds{100}); !ok) return ok;
   }
@@ -242,7 +239,7 @@ Result<void, KernelError> Kernel::Impl::finish_image_requests() {
 
 void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period) {
   const Epoch epoch = kernel_clock.epoch();
-  if (rejuvenation.armed_in == epoch) {
+  if (coordinator.armed_in(epoch)) {
     // DESIGN §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
     ++sr_stats.timer_arm_refused;
     log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(), epoch.value());
@@ -254,26 +251,28 @@ void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos 
     reply(s, seq, op_code(wire::OpError::BadArgument));
     return;
   }
-  rejuvenation = RejuvenationTimer{.due = now() + after, .period = period, .armed_in = epoch};
+  coordinator.arm_timer(epoch, now() + after, period);
   ++sr_stats.timer_arms;
   sr_event(SrEventKind::TimerArmed, {}, after, s.id);
   arm_timerfd();
-  reply(s, seq, 0, static_cast<std::uint64_t>(rejuvenation.due->count()));
+  reply(s, seq, 0, static_cast<std::uint64_t>(coordinator.timer_due()->count()));
 }
 
 // In real time with a vehicle: a timer due before the next control update fires now, in the slack after this
 // one (vehicle_pace.hpp) — up to one period early, never late — so that the rollback does not run across the
 // next sample's update. The next safe point carries it out.
 void Kernel::Impl::fire_rejuvenation_early() {
-  if (!rejuvenation.due || rollback_request || !pace.fire_early(wall(), *rejuvenation.due - now())) return;
-  rejuvenation.due.reset();
+  const std::optional<Nanos> due = coordinator.timer_due();
+  if (!due || coordinator.rollback_asked() || !pace.fire_early(wall(), *due - now())) return;
+  coordinator.timer_fired();
   ++sr_stats.timer_rollbacks;
   request_rollback("the rejuvenation timer fired (in the slack before it was due)");
 }
 
 void Kernel::Impl::fire_rejuvenation() {
-  if (!rejuvenation.due || *rejuvenation.due > now()) return;
-  rejuvenation.due.reset();
+  const std::optional<Nanos> due = coordinator.timer_due();
+  if (!due || *due > now()) return;
+  coordinator.timer_fired();
   ++sr_stats.timer_rollbacks;
   request_rollback("the rejuvenation timer fired");
 }

@@ -18,6 +18,7 @@
 #include "catch_up.hpp"
 #include "channel_pool.hpp"
 #include "image_charge.hpp"
+#include "image_coordinator.hpp"
 #include "invocation.hpp"
 #include "kernel_clock.hpp"
 #include "step_clock.hpp"
@@ -69,24 +70,6 @@ struct ObjectInfo {
 // Publications: key the publisher's ServiceId value, tag the slot. Samples: key (timestamp, reader), no tag.
 using PublicationStage = CanonicalStage<std::uint32_t, std::uint32_t>;
 using SampleStage = CanonicalStage<std::pair<std::uint64_t, std::uint32_t>, std::monostate>;
-
-// A checkpoint in progress (DESIGN §7 "Checkpoint g"): the caller waits for its Reply; every rejuvenated
-// service is asked for an image and answers Taken.
-struct CheckpointRun {
-  std::optional<ServiceId> caller{};
-  std::uint32_t seq = 0;  // the caller's Invoke, answered when the generation is committed
-  Nanos t_cp{0};          // the cut (kernel clock): saved with the generation's state at the commit
-  image::GenerationRecord record{};
-  std::vector<ServiceId> waiting{};  // Snapshot sent, no Taken yet
-  std::string failure{};             // the first reason the generation cannot be committed
-};
-
-// The rejuvenation timer (DESIGN §7–8): a kernel object, not part of any image; armed at most once per epoch.
-struct RejuvenationTimer {
-  std::optional<Nanos> due{};
-  Nanos period{0};                   // 0 = once
-  std::optional<Epoch> armed_in{};   // the epoch of the last arm
-};
 
 enum class Source : std::uint8_t {
   Channel = 1, Pidfd = 2, Signal = 3, Timer = 4, Dds = 5, Plant = 6, Net = 7, Seccomp = 8, Output = 9
@@ -147,28 +130,15 @@ struct Kernel::Impl {
 
   // ---- the image coordinator's state (images.cpp, checkpoint.cpp, rollback.cpp; DESIGN §7) ----
   image::ImageStore images{2};
-  // The caller and its Invoke seq; no caller: the kernel's own (Kernel::checkpoint_now, benchmarks).
-  std::optional<std::pair<std::optional<ServiceId>, std::uint32_t>> checkpoint_request;
-  std::optional<CheckpointRun> checkpoint;  // between the Snapshots and the commit
-  // The last abandoned checkpoint and the services whose Taken it had not read: an image taken for it that
-  // reports late is the kernel's own process, killed then (late_image) rather than swept as a stray.
-  struct Abandoned {
-    Generation g{};
-    std::vector<ServiceId> waiting{};
-  };
-  std::optional<Abandoned> abandoned;
+  ImageCoordinator coordinator;  // the requests, the run, the work left, the timer (image_coordinator.hpp)
   RoutingFreeze routing;  // frozen while a checkpoint or rollback is timed (routing_freeze.hpp)
   CatchUp catch_up;       // the plant's samples since each cut, replayed after a rollback (catch_up.hpp)
-  std::optional<std::string> rollback_request;  // the reason; carried out at the next safe point
-  RejuvenationTimer rejuvenation{};
   SrStats sr_stats{};
   ImageCharge image_charge;                 // simulated time charged for image work (image_charge.hpp)
   VehiclePace pace;                         // where in the control period image work may start (vehicle_pace.hpp)
   Nanos flight_start{0};                    // the end of the plant's alignment: the mission's t = 0
   // The untimed checkpoint of the alignment that forks every service's first image (DESIGN §6): asked for at
-  // the first step (priming_request), carried out as any checkpoint but neither timed, counted nor charged.
-  bool primed = false;
-  bool priming_request = false;
+  // the first step, carried out as any checkpoint but neither timed, counted nor charged.
   void request_priming();
   Reaper reaper;  // retired incarnations, killed processes not reaped yet (reaper.hpp)
   // As root, service i runs as sys::service_uid(*uid_block, i), from a block this kernel alone holds.
@@ -248,7 +218,6 @@ struct Kernel::Impl {
   // Deferred while copies the kernel asked for are on their way (their pids are not known yet).
   // After a rollback it first waits (briefly, off the critical path) for copies asked for earlier, so that no
   // stray outlives the rollback (ForCopies); elsewhere a service with a copy on its way is swept next time.
-  enum class SweepWait : std::uint8_t { No, ForCopies };
   void sweep_strays(std::string_view when, bool final = false, SweepWait wait = SweepWait::No);
   void sweep_if_due();  // at a safe point off the critical paths: sweep_due, or a simulated second since the last
   void record_violation(ServiceRuntime& s, Violation kind, std::string_view what);
@@ -284,23 +253,8 @@ struct Kernel::Impl {
   [[nodiscard]] Generation pages_base_for(const ServiceRuntime& s);
   // After a commit: has a copy of each base image make the new generation's images by written pages.
   void send_patches(image::GenerationRecord& record);
-  // The image work a checkpoint or a rollback leaves behind: the new generation's patches, the
-  // evicted generations, the stray sweep, the spare copies and the kill of retired incarnations. None of it is
-  // needed before the next checkpoint or rollback, and all of it takes CPU (forks, page copies, exits) that
-  // the vehicle's control chain needs right then: with a vehicle it waits until the first control update
-  // after the event has been routed (or kImageWorkWait of wall time), so that the chain's period holding the
-  // checkpoint or rollback is not also the one the image work runs in. Without a plant it runs at once.
-  struct ImageWork {
-    std::optional<Generation> patches{};               // send_patches of this generation, then
-    std::vector<image::GenerationRecord> evicted{};    // retire these (a base of the patches may be among them)
-    std::string_view sweep{};                          // why the stray sweep is due
-    SweepWait sweep_wait = SweepWait::No;              // ForCopies after a rollback (never in real time)
-    std::optional<Generation> spares{};                // a spare copy of each image of this generation
-    Nanos not_after{0};                                // wall clock
-  };
-  static constexpr Nanos kImageWorkWait{std::chrono::milliseconds{20}};
-  std::optional<ImageWork> image_work;
-  bool control_update_routed = false;  // an ActuatorOutputs routed since the image work was left
+  // The image work a checkpoint or rollback leaves behind (ImageWork): run after the vehicle's next control
+  // update, or at once without a plant.
   void leave_image_work(ImageWork work);
   void run_image_work();               // now, whatever the trigger (also before a checkpoint or rollback)
   void image_work_if_due();

@@ -146,7 +146,7 @@ Nanos Kernel::now() const { return impl_->now(); }
 SrMode Kernel::mode() const { return impl_->caps.mode(); }
 ClockMode Kernel::clock_mode() const { return impl_->clock_mode; }
 bool Kernel::sr_enabled() const { return impl_->sr; }
-bool Kernel::image_work_pending() const { return impl_->image_work.has_value(); }
+bool Kernel::image_work_pending() const { return impl_->coordinator.work_left(); }
 const cap::CapSystem& Kernel::caps() const { return impl_->caps; }
 const broker::Broker& Kernel::broker() const { return impl_->broker; }
 std::size_t Kernel::service_count() const { return impl_->services.size(); }
@@ -165,11 +165,11 @@ const CatchUpStats& Kernel::catch_up_stats() const { return impl_->catch_up.stat
 
 Result<Generation, KernelError> Kernel::checkpoint_now() {
   Impl& k = *impl_;
-  if (!k.sr || !k.booted || k.steps.active() || k.checkpoint_request) {
+  if (!k.sr || !k.booted || k.steps.active() || k.coordinator.checkpoint() != ImageCoordinator::Checkpoint::None) {
     return fail(kernel_error(KernelError::Kind::Config, "checkpoint_now: needs SR on, a booted kernel and no step in progress"));
   }
   const std::uint64_t before = k.sr_stats.checkpoints;
-  k.checkpoint_request = std::pair(std::optional<ServiceId>{}, std::uint32_t{0});
+  (void)k.coordinator.ask_checkpoint(std::nullopt, 0);
   if (auto ok = k.finish_image_requests(); !ok) return fail(ok.error());
   if (k.sr_stats.checkpoints == before) return fail(kernel_error(KernelError::Kind::Boot, "the checkpoint was abandoned"));
   return k.images.newest()->g;

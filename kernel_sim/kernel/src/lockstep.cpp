@@ -162,13 +162,8 @@ Nanos Kernel::Impl::pace_wait() {
 // checkpoints of the flight all take theirs by written pages. Once, at the first step of a run with a plant
 // (lockstep or realtime); never in manual stepping, whose tests count their generations.
 void Kernel::Impl::request_priming() {
-  if (primed || !sr || options.time_master != TimeMaster::Plant || !graph.graph.has_plant() || checkpoint_request ||
-      rollback_request) {
-    return;
-  }
-  primed = true;
-  priming_request = true;
-  checkpoint_request = std::pair(std::optional<ServiceId>{}, std::uint32_t{0});
+  if (!sr || options.time_master != TimeMaster::Plant || !graph.graph.has_plant()) return;
+  (void)coordinator.ask_priming();  // once per run, while nothing else is asked
 }
 
 void Kernel::Impl::check_stop_conditions() {

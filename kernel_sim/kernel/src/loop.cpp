@@ -225,7 +225,7 @@ void Kernel::Impl::fire_timers() {
 void Kernel::Impl::arm_timerfd() {
   if (!timerfd || !clock_synced) return;
   auto due = timers.next_due();
-  if (rejuvenation.due) due = due ? std::min(*due, *rejuvenation.due) : *rejuvenation.due;
+  if (const auto timer = coordinator.timer_due()) due = due ? std::min(*due, *timer) : *timer;
   (void)timerfd->arm_at(due ? std::optional<Nanos>(*due + run_start_mono) : std::nullopt);
 }
 
@@ -247,7 +247,7 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
   }
   if (const auto at = steps.idle_deadline(options.idle_deadline)) consider(*at);
   if (const auto at = steps.stall_deadline(); plant_started && at) consider(*at);
-  if (image_work) consider(image_work->not_after);
+  if (const auto at = coordinator.work_deadline()) consider(*at);
   if (const auto at = pace.wait_deadline()) consider(*at);
   return best;
 }

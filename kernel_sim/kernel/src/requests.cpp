@@ -43,13 +43,13 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
       lose_channel();
       return;
     }
-    if (!r.truncated && r.fds_truncated && checkpoint) {
+    if (CheckpointRun* const running = coordinator.running(); !r.truncated && r.fds_truncated && running != nullptr) {
       // A TakenPages whose pages fd the kernel could not install (out of fds: MSG_CTRUNC) is its answer all
       // the same: the checkpoint is abandoned now, instead of killing every service at the snapshot deadline.
       auto frame = wire::decode(datagram, wire::Direction::ToKernel);
       if (frame && frame->kind == wire::FrameKind::TakenPages && expecting_image(s, *frame)) {
         ++s.stats.frames_in;
-        checkpoint->failure = "the written pages of '" + s.name + "' could not be received (is the kernel out of fds?)";
+        running->failure = "the written pages of '" + s.name + "' could not be received (is the kernel out of fds?)";
         continue;
       }
     }
@@ -367,11 +367,7 @@ void Kernel::Impl::invoke_checkpoint(ServiceRuntime& s, std::uint32_t seq, const
   std::visit(Overloaded{
                  [&](const CheckpointInvocation::Create&) {
                    // DESIGN §7: answered when generation g is committed (checkpoint.cpp); in a restored image never.
-                   if (checkpoint_request || checkpoint) {
-                     reply(s, seq, op_code(wire::OpError::Refused));
-                   } else {
-                     checkpoint_request = std::pair(std::optional<ServiceId>(s.id), seq);
-                   }
+                   if (!coordinator.ask_checkpoint(s.id, seq)) reply(s, seq, op_code(wire::OpError::Refused));
                  },
                  [&](const CheckpointInvocation::Rollback&) {
                    if (images.size() == 0) {

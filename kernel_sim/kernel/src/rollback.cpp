@@ -14,9 +14,7 @@ namespace rejuv::kernel {
 
 // ---- rollback ----
 
-void Kernel::Impl::request_rollback(std::string reason) {
-  if (!rollback_request) rollback_request = std::move(reason);
-}
+void Kernel::Impl::request_rollback(std::string reason) { coordinator.ask_rollback(std::move(reason)); }
 
 void Kernel::Impl::retire_live_rejuvenated() {
   staged.erase_if([&](std::uint32_t origin, std::uint32_t /*slot*/) { return services[origin].config.rejuvenate; });
@@ -168,12 +166,12 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
 }
 
 void Kernel::Impl::run_rollback(const std::string& reason) {
-  if (image_work) run_image_work();  // the newest generation's patches first: the rollback resumes them
+  if (coordinator.work_left()) run_image_work();  // the newest generation's patches first: the rollback resumes them
   const Nanos t0 = wall();
   // A checkpoint asked for by an incarnation that is about to die is void: nobody waits for its answer.
-  if (checkpoint_request && checkpoint_request->first &&
-      services[checkpoint_request->first->value()].config.rejuvenate) {
-    checkpoint_request.reset();
+  if (coordinator.checkpoint() == ImageCoordinator::Checkpoint::Asked) {
+    const std::optional<ServiceId> by = coordinator.asked_by();
+    if (by && services[by->value()].config.rejuvenate) coordinator.void_ask();
   }
   // The network is revoked before anything else happens; sr_mode is published once the services are back
   // (the ones about to die need not be woken for it).
@@ -210,7 +208,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     return;
   }
   // The rollback is the rejuvenation: a pending once-timer is spent; a periodic one runs on.
-  rejuvenation.due = rejuvenation.period > Nanos{0} ? std::optional<Nanos>(now() + rejuvenation.period) : std::nullopt;
+  coordinator.rejuvenated(now());
   arm_timerfd();
   const Epoch epoch = kernel_clock.epoch();
   // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
@@ -236,7 +234,7 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   // As after a commit: the sweep before the new spares go out, and the spares (g restorable again) after the
   // vehicle's next control update; the retired incarnations stay stopped until then (leave_image_work).
   leave_image_work(ImageWork{.patches = {}, .evicted = {}, .sweep = "a rollback", .sweep_wait = SweepWait::ForCopies,
-                             .spares = restored->g, .not_after = {}});
+                             .spares = restored->g});
   sr_event(SrEventKind::Rollback, restored->g, took);
   ++sr_stats.rollbacks;
   sr_stats.rollback_ms.add(to_ms(took));
@@ -251,15 +249,14 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats.cold_restarts;
   sr_event(SrEventKind::ColdRestart);
-  if (image_work) {  // what was left for generations that go now: only the evicted ones still matter
-    for (image::GenerationRecord& r : image_work->evicted) retire(std::move(r));
-    image_work.reset();
+  if (std::optional<ImageWork> left = coordinator.take_work()) {  // for generations that go now: only the evicted matter
+    for (image::GenerationRecord& r : left->evicted) retire(std::move(r));
   }
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
   reaper.kill_retired();
   catch_up.forget();  // the services start from their binaries: no generation to catch up to
-  rejuvenation = RejuvenationTimer{};
+  coordinator.reset_timer();
   arm_timerfd();
   kernel_clock.begin_epoch();
   set_mode(SrMode::SC);  // safe, network off
@@ -283,7 +280,7 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   while (!stopping && restarted([](const ServiceRuntime& s) { return s.proc.booting(); })) {
     if (!pump(options.boot_deadline)) break;
   }
-  rollback_request.reset();
+  coordinator.drop_rollback();
   if (restarted([](const ServiceRuntime& s) { return s.proc.phase() != Phase::Ready; })) {
     stop_run(StopReason::ServiceFailed, "cold restart: a rejuvenated service did not boot");
   }

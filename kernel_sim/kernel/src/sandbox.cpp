@@ -241,7 +241,7 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
   for (;;) {
     images.refresh_all();
     if (!retiring.empty()) finish_retiring(false);
-    std::fill(pending.begin(), pending.end(), checkpoint.has_value() && !final);
+    std::fill(pending.begin(), pending.end(), coordinator.running() != nullptr && !final);
     int answer_fd = -1;  // where the next Copied of a copy on its way arrives
     const auto note = [&](const image::Image& im) {
       if (im.spares_pending == 0 && !im.patch_pending) return;
@@ -288,8 +288,7 @@ void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wai
       if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
       // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,
       // not counted. Until the next commit (images.cpp), then a stray like any other.
-      const bool owed = abandoned && std::find(abandoned->waiting.begin(), abandoned->waiting.end(), s.id) !=
-                                         abandoned->waiting.end();
+      const bool owed = coordinator.owes(s.id);
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.

@@ -337,8 +337,8 @@ void Kernel::Impl::report_stall() {
               (s.flow.queued() == 0 ? "" : ", queued " + std::to_string(s.flow.queued())) +
               (s.flow.sweeping() ? ", sweep" : "") + ")";
     }
-    if (checkpoint_request) what += "; a checkpoint waits for quiescence";
-    if (rollback_request) what += "; a rollback is pending";
+    if (coordinator.checkpoint() == ImageCoordinator::Checkpoint::Asked) what += "; a checkpoint waits for quiescence";
+    if (coordinator.rollback_asked()) what += "; a rollback is pending";
     if (!staged.empty()) what += "; " + std::to_string(staged.size()) + " staged";
   }
   log("no lockstep step completed for %.1f s: %s", to_seconds(wall() - steps.last_done()).count(), what.c_str());
@@ -414,9 +414,8 @@ void Kernel::Impl::shutdown_all() {
     plant.kill_and_reap();
   }
   // Every image and every killed incarnation (DESIGN §7): killed and reaped.
-  if (image_work) {
-    for (image::GenerationRecord& r : image_work->evicted) retiring.push_back(std::move(r));
-    image_work.reset();
+  if (std::optional<ImageWork> left = coordinator.take_work()) {
+    for (image::GenerationRecord& r : left->evicted) retiring.push_back(std::move(r));
   }
   for (image::GenerationRecord& r : images.take_all()) retiring.push_back(std::move(r));
   finish_retiring(true);

@@ -18,7 +18,7 @@ bool MissionWatch::on_setpoint(std::span<const std::byte> payload) {
 void Kernel::Impl::watch_publication(const ObjectInfo& o, std::span<const std::byte> payload, broker::TopicGeneration g,
                                      std::optional<ServiceId> publisher) {
   if (o.is_actuator_outputs && publisher) {
-    control_update_routed = true;  // the image work may run (images.cpp)
+    coordinator.control_update_routed();  // the image work may run (images.cpp)
     pace.on_control_update(wall());
   }
   if (observer != nullptr) {
