@@ -41,16 +41,31 @@ bool Kernel::Impl::lost_during(CheckpointRun& run) const {
   return false;
 }
 
+// The checkpoint asked for, from the cut to the caller's answer: Snapshots out, every image awaited, then
+// the generation committed or abandoned.
 void Kernel::Impl::run_checkpoint() {
   if (coordinator.work_left()) run_image_work();  // the last checkpoint's or rollback's, if the vehicle has not had its update yet
-  const Nanos t0 = wall();
-  const Generation g = images.next_generation();
-  CheckpointRun& run = coordinator.begin_checkpoint(g, now());
-  const std::optional<ServiceId> caller = run.caller;
-  const std::uint32_t seq = run.seq;
-  const bool priming = run.priming;
+  CheckpointTimes times{.start = wall()};
+  CheckpointRun& run = coordinator.begin_checkpoint(images.next_generation(), now());
   routing.freeze();
   flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
+  send_snapshots(run);
+  times.sent = wall();
+  if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointSnapshotsSent, run.record.g);
+  const bool late = await_images(run);
+  CheckpointRun done = coordinator.end_checkpoint();
+  if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
+  (void)lost_during(done);  // a death read in the last pump
+  if (!done.failure.empty()) {
+    abandon_checkpoint(std::move(done), late, times);
+    return;
+  }
+  commit_checkpoint(std::move(done), times);
+}
+
+// A Snapshot with a fresh resume socket to every live rejuvenated service (the first failure stops them).
+void Kernel::Impl::send_snapshots(CheckpointRun& run) {
+  const Generation g = run.record.g;
   for (ServiceRuntime& s : services) {
     if (!s.config.rejuvenate || s.proc.phase() != Phase::Ready) continue;
     auto pair = channel_pool.take();
@@ -76,44 +91,53 @@ void Kernel::Impl::run_checkpoint() {
                                              .base = base, .image_end = pair->second.take_fd()});
     run.waiting.push_back(s.id);
   }
-  const Nanos t_sent = wall();
-  if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointSnapshotsSent, g);
-  // Every other event is handled meanwhile (pump); Taken frames come through handle_frame → on_taken,
-  // TakenPages (with its fd) through read_channel → on_taken_pages.
+}
+
+// Handles every other event meanwhile (pump) until each service has answered, one is lost, or the snapshot
+// deadline passes (true: late). Taken frames come through handle_frame → on_taken, TakenPages (with its fd)
+// through read_channel → on_taken_pages.
+bool Kernel::Impl::await_images(CheckpointRun& run) {
   const Nanos deadline = wall() + options.snapshot_deadline;
-  bool late = false;
   while (run.failure.empty() && !run.waiting.empty() && !stopping) {
     if (lost_during(run)) break;  // abandoned now rather than at the deadline
     const Nanos left = deadline - wall();
     if (left <= Nanos{0}) {
-      late = true;
-      run.failure = "no Taken from '" + services[run.waiting.front().value()].name +
-                            "' within the snapshot deadline";
-      break;
+      run.failure = "no Taken from '" + services[run.waiting.front().value()].name + "' within the snapshot deadline";
+      return true;
     }
     if (!pump(left)) break;
   }
-  CheckpointRun done = coordinator.end_checkpoint();
-  if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
-  (void)lost_during(done);  // a death read in the last pump
-  const auto answer = [&](std::int32_t error, std::uint64_t value) {
-    if (caller) reply(services[caller->value()], seq, error, value);
-  };
-  if (!done.failure.empty()) {
-    if (!priming) ++sr_stats.checkpoint_failures;
-    if (!priming) sr_event(SrEventKind::CheckpointFailed, g, wall() - t0, caller);
-    log("%s %llu abandoned: %s", priming ? "the alignment's checkpoint" : "checkpoint", num(g), done.failure.c_str());
-    coordinator.abandoned(g, done.waiting);
-    images.abandon(g);
-    image::destroy(done.record);
-    if (late) {
-      for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
-    }
-    resume_routing();
-    answer(op_code(wire::OpError::Refused), 0);
-    return;
+  return false;
+}
+
+void Kernel::Impl::answer_checkpoint(const CheckpointRun& run, std::int32_t error, std::uint64_t value) {
+  if (run.caller) reply(services[run.caller->value()], run.seq, error, value);
+}
+
+// Not a generation: its images destroyed, a late service killed, routing resumed and the caller refused.
+void Kernel::Impl::abandon_checkpoint(CheckpointRun done, bool late, const CheckpointTimes& times) {
+  const Generation g = done.record.g;
+  if (!done.priming) {
+    ++sr_stats.checkpoint_failures;
+    sr_event(SrEventKind::CheckpointFailed, g, wall() - times.start, done.caller);
   }
-  const Nanos t_taken = wall();
+  log("%s %llu abandoned: %s", done.priming ? "the alignment's checkpoint" : "checkpoint", num(g),
+      done.failure.c_str());
+  coordinator.abandoned(g, done.waiting);
+  images.abandon(g);
+  image::destroy(done.record);
+  if (late) {
+    for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
+  }
+  resume_routing();
+  answer_checkpoint(done, op_code(wire::OpError::Refused), 0);
+}
+
+// The generation committed with the kernel state beside it (DESIGN §7 step 3), the caller answered, and what
+// is left to do (patches, evicted generations, the sweep, the spares) left for after the vehicle's next update.
+void Kernel::Impl::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
+  const Generation g = done.record.g;
+  times.taken = wall();
   if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointTaken, g);
   flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
   done.record.state = save_state(done.t_cp, done.record.images, services, broker, timers);
@@ -124,16 +148,15 @@ void Kernel::Impl::run_checkpoint() {
     ++services[im.service.value()].stats.images;
   }
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
-  const Nanos t_saved = wall();  // committed: the caller may go on (what follows is not on its path)
+  times.saved = wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();
-  answer(0, g.value());
+  answer_checkpoint(done, 0, g.value());  // its record is the store's now: caller and seq only
   // Each service of g prepares its next image now, in the slack the checkpoint started in (vehicle_pace.hpp),
   // instead of when the next sample wakes it: there it cost the control chain ≈ 0.4 ms in real time.
   for (const image::Image& im : images.newest()->images) {
     if (tx.build(wire::FrameKind::Committed, 0, 0, g.value())) send_control(services[im.service.value()], tx.bytes());
   }
   const std::uint64_t forks_before = sr_stats.images_by_fork;
-  const Nanos took = t_saved - t0;
   coordinator.forget_abandoned();  // an image still owed to an abandoned checkpoint is a stray from now on
   // The patches (before old generations go: a base may be among them), the evicted generations, the stray
   // sweep (before the new spares are on their way, so that only copies asked for earlier can defer it) and the
@@ -141,23 +164,29 @@ void Kernel::Impl::run_checkpoint() {
   leave_image_work(
       ImageWork{.patches = g, .evicted = std::move(evicted), .sweep = "a checkpoint's commit",
                 .sweep_wait = SweepWait::No, .spares = g});
-  if (priming) {
+  if (done.priming) {
     run_image_work();  // before the flight: nothing to wait for, and the count below needs it
     // DESIGN §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
     sr_stats.priming_images += sr_stats.images_by_fork - forks_before;
     sr_stats.images_by_fork = forks_before;
     log("the alignment's checkpoint: %zu images by fork in %.3f ms (untimed, not charged)",
-        images.newest()->images.size(), to_ms(took));
+        images.newest()->images.size(), to_ms(times.saved - times.start));
     return;
   }
-  sr_stats.checkpoint_phases.a.add(to_ms(t_sent - t0));
-  sr_stats.checkpoint_phases.b.add(to_ms(t_taken - t_sent));
-  sr_stats.checkpoint_phases.c.add(to_ms(t_saved - t_taken));
+  count_checkpoint(g, done.caller, times);
+}
+
+// A timed checkpoint in the run's statistics, its SR event and its charge in simulated time (DESIGN §6).
+void Kernel::Impl::count_checkpoint(Generation g, std::optional<ServiceId> caller, const CheckpointTimes& times) {
+  const Nanos took = times.saved - times.start;
+  sr_stats.checkpoint_phases.a.add(to_ms(times.sent - times.start));
+  sr_stats.checkpoint_phases.b.add(to_ms(times.taken - times.sent));
+  sr_stats.checkpoint_phases.c.add(to_ms(times.saved - times.taken));
   ++sr_stats.checkpoints;
   sr_event(SrEventKind::Checkpoint, g, took, caller);
   sr_stats.checkpoint_ms.add(to_ms(took));
   if (!sr_stats.first_checkpoint_ms) sr_stats.first_checkpoint_ms = to_ms(took);
-  image_charge.checkpoint(took, sr_stats);  // DESIGN §6: in simulated time
+  image_charge.checkpoint(took, sr_stats);
   if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }
 

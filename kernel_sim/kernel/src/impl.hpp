@@ -241,6 +241,17 @@ struct Kernel::Impl {
   bool service_images();
   [[nodiscard]] bool quiescent_for_checkpoint() const;
   void run_checkpoint();
+  // Its steps (checkpoint.cpp): the wall times of the timed part, the Snapshots, the wait for every image
+  // (true: the deadline passed), and the end, abandoned or committed (and, unless the alignment's, counted).
+  struct CheckpointTimes {
+    Nanos start{0}, sent{0}, taken{0}, saved{0};
+  };
+  void send_snapshots(CheckpointRun& run);
+  bool await_images(CheckpointRun& run);
+  void answer_checkpoint(const CheckpointRun& run, std::int32_t error, std::uint64_t value);
+  void abandon_checkpoint(CheckpointRun done, bool late, const CheckpointTimes& times);
+  void commit_checkpoint(CheckpointRun done, CheckpointTimes times);
+  void count_checkpoint(Generation g, std::optional<ServiceId> caller, const CheckpointTimes& times);
   // Whether a service of the checkpoint in progress died (sets its failure): the generation is abandoned.
   [[nodiscard]] bool lost_during(CheckpointRun& run) const;
   // Taken or TakenPages from `s`: whether the checkpoint in progress waits for it (no longer, once true).
@@ -287,6 +298,10 @@ struct Kernel::Impl {
   // not decode (the rest of its datagram is refused with it) or the service is lost.
   void receive_datagram(ServiceRuntime& s, std::span<const std::byte> datagram);
   void handle_frame(ServiceRuntime& s, const wire::FrameView& frame);
+  void handle_hello(ServiceRuntime& s, const wire::FrameView& frame);  // Boot sent; Phase::Booted
+  void handle_ready(ServiceRuntime& s);                                // Phase::Ready, the real-time plan
+  void handle_timer_arm(ServiceRuntime& s, const wire::FrameView& frame);
+  void handle_log(ServiceRuntime& s, const wire::FrameView& frame);
   void handle_subscribe(ServiceRuntime& s, const wire::FrameView& frame);
   // Invoke (invocation.hpp): decoded per object kind, the authority checked, then invoked on its owner.
   void handle_invoke(ServiceRuntime& s, const wire::FrameView& frame);

@@ -96,6 +96,53 @@ constexpr bool needs_boot(wire::FrameKind kind) {
 }
 }  // namespace
 
+void Kernel::Impl::handle_hello(ServiceRuntime& s, const wire::FrameView& f) {
+  if (s.proc.phase() != Phase::Spawned) {
+    refuse(s, "Hello after boot");
+    return;
+  }
+  if (f.header.aux != wire::kProtocolVersion) {
+    log("'%s' speaks protocol version %llu, the kernel %u", s.name.c_str(),
+        static_cast<unsigned long long>(f.header.aux), static_cast<unsigned>(wire::kProtocolVersion));
+  }
+  send_boot(s);
+  s.proc.booted();
+}
+
+void Kernel::Impl::handle_ready(ServiceRuntime& s) {
+  if (s.proc.phase() != Phase::Booted) {
+    refuse(s, "Ready outside boot");
+    return;
+  }
+  s.proc.became_ready();
+  apply_realtime(s);  // realtime.cpp: a (re)started service joins the real-time plan
+}
+
+void Kernel::Impl::handle_timer_arm(ServiceRuntime& s, const wire::FrameView& f) {
+  const auto spec = wire::payload_as<wire::TimerSpec>(f);
+  constexpr std::uint64_t kMaxNs = std::uint64_t{1} << 62U;
+  if (spec.first_ns >= kMaxNs || spec.period_ns >= kMaxNs) {
+    refuse(s, "TimerArm: time out of range");
+    return;
+  }
+  if (auto ok = timers.arm(s.id, spec.id, Nanos{static_cast<std::int64_t>(spec.first_ns)},
+                           Nanos{static_cast<std::int64_t>(spec.period_ns)});
+      !ok) {
+    refuse(s, std::string("TimerArm: ") + std::string(clock::to_string(ok.error())));
+    return;
+  }
+  if (clock_mode == ClockMode::Realtime) arm_timerfd();
+}
+
+void Kernel::Impl::handle_log(ServiceRuntime& s, const wire::FrameView& f) {
+  const auto head = wire::payload_as<wire::LogHeader>(f);
+  const auto text = f.payload.subspan(sizeof(wire::LogHeader));
+  const auto level = head.level <= static_cast<std::uint8_t>(wire::LogLevel::Error)
+                         ? static_cast<wire::LogLevel>(head.level)
+                         : wire::LogLevel::Info;
+  service_log(s, level, std::string_view(reinterpret_cast<const char*>(text.data()), text.size()));
+}
+
 void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
   if (needs_boot(f.kind) && s.proc.phase() != Phase::Booted && s.proc.phase() != Phase::Ready) {
     refuse(s, std::string(wire::to_string(f.kind)) + " before boot");
@@ -103,24 +150,10 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
   }
   switch (f.kind) {
     case wire::FrameKind::Hello:
-      if (s.proc.phase() != Phase::Spawned) {
-        refuse(s, "Hello after boot");
-        return;
-      }
-      if (f.header.aux != wire::kProtocolVersion) {
-        log("'%s' speaks protocol version %llu, the kernel %u", s.name.c_str(),
-            static_cast<unsigned long long>(f.header.aux), static_cast<unsigned>(wire::kProtocolVersion));
-      }
-      send_boot(s);
-      s.proc.booted();
+      handle_hello(s, f);
       return;
     case wire::FrameKind::Ready:
-      if (s.proc.phase() != Phase::Booted) {
-        refuse(s, "Ready outside boot");
-        return;
-      }
-      s.proc.became_ready();
-      apply_realtime(s);  // realtime.cpp: a (re)started service joins the real-time plan
+      handle_ready(s);
       return;
     case wire::FrameKind::Publish:
       ingest_publish(s, f.header.slot, f.payload);
@@ -131,35 +164,16 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Invoke:
       handle_invoke(s, f);
       return;
-    case wire::FrameKind::TimerArm: {
-      const auto spec = wire::payload_as<wire::TimerSpec>(f);
-      constexpr std::uint64_t kMaxNs = std::uint64_t{1} << 62U;
-      if (spec.first_ns >= kMaxNs || spec.period_ns >= kMaxNs) {
-        refuse(s, "TimerArm: time out of range");
-        return;
-      }
-      if (auto ok = timers.arm(s.id, spec.id, Nanos{static_cast<std::int64_t>(spec.first_ns)},
-                               Nanos{static_cast<std::int64_t>(spec.period_ns)});
-          !ok) {
-        refuse(s, std::string("TimerArm: ") + std::string(clock::to_string(ok.error())));
-        return;
-      }
-      if (clock_mode == ClockMode::Realtime) arm_timerfd();
+    case wire::FrameKind::TimerArm:
+      handle_timer_arm(s, f);
       return;
-    }
     case wire::FrameKind::TimerCancel:
       // A one-shot timer that fired while the cancel was in flight is gone already: not an error.
       (void)timers.cancel(s.id, f.header.aux);
       return;
-    case wire::FrameKind::Log: {
-      const auto head = wire::payload_as<wire::LogHeader>(f);
-      const auto text = f.payload.subspan(sizeof(wire::LogHeader));
-      const auto level = head.level <= static_cast<std::uint8_t>(wire::LogLevel::Error)
-                             ? static_cast<wire::LogLevel>(head.level)
-                             : wire::LogLevel::Info;
-      service_log(s, level, std::string_view(reinterpret_cast<const char*>(text.data()), text.size()));
+    case wire::FrameKind::Log:
+      handle_log(s, f);
       return;
-    }
     case wire::FrameKind::Idle:
       s.flow.on_idle(f.header.aux);
       return;
