@@ -32,9 +32,9 @@ class SdkEffects final : public services::SrEffects {
   [[nodiscard]] Epoch epoch() const override { return svc_.epoch(); }
 
   Result<void, services::EffectFailure> request_mode(SrMode mode) override {
-    auto r = svc_.invoke("sr_mode_control", cap::Operation::ModeRequest,
-                         static_cast<std::uint64_t>(index_of(mode)));
-    if (!r) return fail(failure_of(r.error()));
+    auto control = svc_.mode_control("sr_mode_control");
+    if (!control) return fail(failure_of(control.error()));
+    if (auto r = control->request(mode); !r) return fail(failure_of(r.error()));
     return {};
   }
   Result<void, services::EffectFailure> request_setpoint_update(
@@ -55,17 +55,17 @@ class SdkEffects final : public services::SrEffects {
     return fail(services::EffectFailure{.message = "checkpoint: unknown outcome"});
   }
   Result<void, services::EffectFailure> arm_rejuvenation_timer(Nanos after) override {
-    // arg0: T_MC [ns]; arg1 = 0: once (do_timer(T_MC, 0), §V-A).
-    auto r =
-        svc_.invoke("checkpoint", cap::Operation::TimerArm, static_cast<std::uint64_t>(after.count()), 0);
-    if (!r) return fail(failure_of(r.error()));
+    // Once, T_MC from now: do_timer(T_MC, 0) of §V-A.
+    auto rejuvenation = svc_.rejuvenation("checkpoint");
+    if (!rejuvenation) return fail(failure_of(rejuvenation.error()));
+    if (auto r = rejuvenation->arm_timer(after); !r) return fail(failure_of(r.error()));
     return {};
   }
   Result<void, services::EffectFailure> write_limits(const flight_io::LimitsRecord& record) override {
     const auto bytes = flight_io::limits_bytes(record);
-    auto r =
-        svc_.invoke("actuator_limits", cap::Operation::LimitsWrite, 0, 0, std::span<const std::byte>(bytes));
-    if (!r) return fail(failure_of(r.error()));
+    auto cell = svc_.limits("actuator_limits");
+    if (!cell) return fail(failure_of(cell.error()));
+    if (auto r = cell->write(std::span<const std::byte>(bytes)); !r) return fail(failure_of(r.error()));
     return {};
   }
   void log(services::Severity severity, std::string_view text) override {

@@ -25,8 +25,9 @@ int serve(sdk::Service& svc) {
   const bool has_limits_cap = svc.cap("actuator_limits").has_value();
   const auto read_limits = [&] {
     std::array<std::byte, sizeof(flight_io::LimitsRecord)> record{};
-    auto r = svc.invoke("actuator_limits", cap::Operation::LimitsRead, 0, 0, {}, record);
-    if (!r || r->value != record.size()) {
+    auto cell = svc.limits("actuator_limits");
+    auto r = cell ? cell->read(record) : sdk::SdkResult<std::size_t>(std::unexpected(cell.error()));
+    if (!r || *r != record.size()) {
       svc.log(sdk::LogLevel::Warn, "no restricted limits written before MC: the graph's Ū stays in force");
       return;
     }

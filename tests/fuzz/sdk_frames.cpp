@@ -20,6 +20,7 @@
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/clock/time_page.hpp"
 #include "rejuv/sdk/service.hpp"
+#include "rejuv/sdk/testing.hpp"
 #include "rejuv/sys/channel.hpp"
 
 namespace {
@@ -70,7 +71,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   });
   (void)s.on_datagram("ext_net", [&](std::span<const std::byte> d) { seen += d.size(); });
   std::array<std::byte, 64> out{};
-  (void)s.invoke("cell", rejuv::cap::Operation::PersistentRead, 0, 8, {}, out);
+  (void)rejuv::sdk::testing::invoke(s, "cell", rejuv::cap::Operation::PersistentRead, 0, 8, {}, out);
   (void)push;
   (void)timer;
   (void)s.run();

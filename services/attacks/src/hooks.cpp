@@ -21,6 +21,7 @@
 #include <string>
 
 #include "rejuv/msgs/topic_types.hpp"
+#include "rejuv/sdk/testing.hpp"
 
 namespace rejuv::attacks {
 
@@ -130,7 +131,7 @@ void AttackHooks::invoke_all(AttackKind kind, ObjectKind target_kind, cap::Opera
   if (other != nullptr) slots.push_back(other->slot);
   for (const Slot s : never_held()) slots.push_back(s);
   for (const Slot s : slots) {
-    auto r = svc_.invoke_slot(s, op, arg0, arg1, data);
+    auto r = sdk::testing::invoke_slot(svc_, s, op, arg0, arg1, data);
     report(kind, std::string(cap::to_string(op)), s.value(), r ? 0 : std::max<std::int64_t>(r.error().wire_error, 1));
   }
 }
@@ -139,7 +140,7 @@ void AttackHooks::publish_to(AttackKind kind, Slot slot, std::span<const std::by
   sdk::CapInfo forged{};
   forged.slot = slot;
   forged.object = "forged";
-  (void)svc_.publish_bytes(forged, payload, false);
+  (void)sdk::testing::publish_unchecked(svc_, forged, payload);
   report(kind, "Publish", slot.value(), Attempt::kFireAndForget);
 }
 
@@ -188,7 +189,7 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
               std::tuple{cap::Operation::NetSend, std::uint64_t{0}, std::span<const std::byte>(bytes)},
               std::tuple{cap::Operation::ModeRequest, std::uint64_t{index_of(SrMode::MC)}, std::span<const std::byte>{}},
               std::tuple{cap::Operation::Copy, std::uint64_t{s.value() + 1U}, std::span<const std::byte>{}}}) {
-          auto r = svc_.invoke_slot(s, op, arg0, op == cap::Operation::Copy ? 0x7U : 0U, data);
+          auto r = sdk::testing::invoke_slot(svc_, s, op, arg0, op == cap::Operation::Copy ? 0x7U : 0U, data);
           report(kind, std::string(cap::to_string(op)), s.value(), r ? 0 : std::max<std::int64_t>(r.error().wire_error, 1));
         }
       }
@@ -318,7 +319,7 @@ void AttackHooks::flood() {
   for (std::uint32_t i = 0; i < kFloodMessages; ++i) {
     const sdk::CapInfo& c = *topics[i % topics.size()];
     payload.assign(std::max<std::size_t>(c.payload_size, 1), std::byte{0});
-    (void)svc_.publish_bytes(c, payload, false);
+    (void)sdk::testing::publish_unchecked(svc_, c, payload);
   }
   report(AttackKind::FloodBroker, "Publish x" + std::to_string(kFloodMessages), topics.front()->slot.value(),
          Attempt::kFireAndForget);

@@ -10,6 +10,7 @@
 #include "rejuv/clock/timers.hpp"
 #include "rejuv/sys/fd.hpp"
 #include "rejuv/sys/sanitizer.hpp"
+#include "rejuv/sdk/testing.hpp"
 #include "service_impl.hpp"
 
 #if defined(REJUV_ASAN)
@@ -184,15 +185,79 @@ SdkResult<void> Timer::cancel() const { return service_->cancel(*this); }
 
 // ---- invocations ----
 
-SdkResult<InvokeReply> Service::invoke(std::string_view object, cap::Operation op, std::uint64_t arg0,
-                                       std::uint64_t arg1, std::span<const std::byte> data, std::span<std::byte> out) {
+SdkResult<Slot> Service::object_slot(std::string_view object, ObjectKind kind) const {
   auto found = cap(object);
   if (!found) return std::unexpected(found.error());
-  return invoke_slot((*found)->slot, op, arg0, arg1, data, out);
+  if ((*found)->kind != kind) {
+    return error(SdkError::WrongObjectKind,
+                 std::string(object) + " is not a " + std::string(rejuv::to_string(kind)) + " object");
+  }
+  return (*found)->slot;
+}
+
+SdkResult<ModeControl> Service::mode_control(std::string_view object) {
+  auto slot = object_slot(object, ObjectKind::Mode);
+  if (!slot) return std::unexpected(slot.error());
+  return ModeControl(this, *slot);
+}
+SdkResult<LimitsCell> Service::limits(std::string_view object) {
+  auto slot = object_slot(object, ObjectKind::Limits);
+  if (!slot) return std::unexpected(slot.error());
+  return LimitsCell(this, *slot);
+}
+SdkResult<PersistentCell> Service::persistent(std::string_view object) {
+  auto slot = object_slot(object, ObjectKind::Persistent);
+  if (!slot) return std::unexpected(slot.error());
+  return PersistentCell(this, *slot);
+}
+SdkResult<Rejuvenation> Service::rejuvenation(std::string_view object) {
+  auto slot = object_slot(object, ObjectKind::Checkpoint);
+  if (!slot) return std::unexpected(slot.error());
+  return Rejuvenation(this, *slot);
+}
+
+// The handles' calls, in the wire's conventions (docs/protocol.md "Invoke": arg0, arg1, data, reply data).
+namespace {
+SdkResult<void> done(SdkResult<InvokeReply> reply) {
+  if (!reply) return std::unexpected(reply.error());
+  return {};
+}
+}  // namespace
+
+SdkResult<void> ModeControl::request(SrMode mode) const {
+  return done(service_->invoke_slot(slot_, cap::Operation::ModeRequest, static_cast<std::uint64_t>(index_of(mode))));
+}
+SdkResult<void> LimitsCell::write(std::span<const std::byte> record) const {
+  return done(service_->invoke_slot(slot_, cap::Operation::LimitsWrite, 0, 0, record));
+}
+SdkResult<std::size_t> LimitsCell::read(std::span<std::byte> out) const {
+  auto reply = service_->invoke_slot(slot_, cap::Operation::LimitsRead, 0, 0, {}, out);
+  if (!reply) return std::unexpected(reply.error());
+  return static_cast<std::size_t>(reply->value);
+}
+SdkResult<std::size_t> PersistentCell::read(std::span<std::byte> out) const {
+  auto reply = service_->invoke_slot(slot_, cap::Operation::PersistentRead, 0, out.size(), {}, out);
+  if (!reply) return std::unexpected(reply.error());
+  return static_cast<std::size_t>(reply->value);
+}
+SdkResult<void> PersistentCell::write(std::span<const std::byte> data) const {
+  return done(service_->invoke_slot(slot_, cap::Operation::PersistentWrite, 0, 0, data));
+}
+SdkResult<Nanos> Rejuvenation::arm_timer(Nanos after, Nanos period) const {
+  if (after <= Nanos{0} || period < Nanos{0}) return error(SdkError::BadArgument, "the rejuvenation timer needs after > 0, period >= 0");
+  auto reply = service_->invoke_slot(slot_, cap::Operation::TimerArm, static_cast<std::uint64_t>(after.count()),
+                                     static_cast<std::uint64_t>(period.count()));
+  if (!reply) return std::unexpected(reply.error());
+  return Nanos{static_cast<std::int64_t>(reply->value)};
+}
+SdkResult<void> Rejuvenation::roll_back() const {
+  return done(service_->invoke_slot(slot_, cap::Operation::CheckpointRollback));
 }
 
 SdkResult<CheckpointOutcome> Service::checkpoint(std::string_view object) {
-  auto reply = invoke(object, cap::Operation::CheckpointCreate);
+  auto slot = object_slot(object, ObjectKind::Checkpoint);
+  if (!slot) return std::unexpected(slot.error());
+  auto reply = invoke_slot(*slot, cap::Operation::CheckpointCreate);
   if (!reply) {
     if (reply.error().code == SdkError::RolledBack && impl_->restored) return *impl_->restored;
     return std::unexpected(reply.error());
@@ -305,7 +370,25 @@ void Service::stop(int exit_code) {
 void Service::on_shutdown(std::function<void()> fn) { impl_->on_shutdown = std::move(fn); }
 void Service::on_restored(std::function<void(Epoch)> fn) { impl_->on_restored = std::move(fn); }
 
-SdkResult<void> Service::send_raw(std::span<const std::byte> frame) { return impl_->send(frame); }
+// ---- the raw surface (testing.hpp) ----
+
+namespace testing {
+SdkResult<void> RawAccess::send_raw(Service& svc, std::span<const std::byte> frame) { return svc.impl_->send(frame); }
+SdkResult<InvokeReply> RawAccess::invoke(Service& svc, std::string_view object, cap::Operation op, std::uint64_t arg0,
+                                         std::uint64_t arg1, std::span<const std::byte> data, std::span<std::byte> out) {
+  auto found = svc.cap(object);
+  if (!found) return std::unexpected(found.error());
+  return svc.invoke_slot((*found)->slot, op, arg0, arg1, data, out);
+}
+SdkResult<InvokeReply> RawAccess::invoke_slot(Service& svc, Slot slot, cap::Operation op, std::uint64_t arg0,
+                                              std::uint64_t arg1, std::span<const std::byte> data,
+                                              std::span<std::byte> out) {
+  return svc.invoke_slot(slot, op, arg0, arg1, data, out);
+}
+SdkResult<void> RawAccess::publish_unchecked(Service& svc, const CapInfo& cap, std::span<const std::byte> payload) {
+  return svc.publish_bytes(cap, payload, false);
+}
+}  // namespace testing
 
 int Service::run() {
   Impl& s = *impl_;

@@ -57,17 +57,17 @@ int run_counter(Service& svc) {
   std::uint64_t cycles = 0;  // the persistent cell's value, as last read or written
   const auto read_cycles = [&]() -> std::uint64_t {
     std::uint64_t v = 0;
-    auto r = svc.invoke("cycles", rejuv::cap::Operation::PersistentRead, 0, 8, {},
-                        std::as_writable_bytes(std::span(&v, 1)));
+    auto cell = svc.persistent("cycles");
+    auto r = cell ? cell->read(std::as_writable_bytes(std::span(&v, 1))) : std::unexpected(cell.error());
     return r ? v : 0;
   };
   const auto arm = [&]() {
-    auto first = svc.invoke("checkpoint", rejuv::cap::Operation::TimerArm,
-                            static_cast<std::uint64_t>(period(svc).count()), 0);
+    auto rejuvenation = svc.rejuvenation();
+    if (!rejuvenation) return svc.logf(LogLevel::Warn, "arm: %s", rejuvenation.error().to_string().c_str());
+    auto first = rejuvenation->arm_timer(period(svc));
     if (!first) svc.logf(LogLevel::Warn, "arm: %s", first.error().to_string().c_str());
     if (arm_twice) {
-      auto second = svc.invoke("checkpoint", rejuv::cap::Operation::TimerArm,
-                               static_cast<std::uint64_t>(period(svc).count()), 0);
+      auto second = rejuvenation->arm_timer(period(svc));
       (void)verdicts->publish(record(svc, static_cast<double>(cycles), second ? 0 : 1, second ? 0 : second.error().wire_error));
     }
   };
@@ -84,8 +84,7 @@ int run_counter(Service& svc) {
         return;
       }
       cycles = read_cycles() + 1;
-      (void)svc.invoke("cycles", rejuv::cap::Operation::PersistentWrite, 0, 0,
-                       std::as_bytes(std::span(&cycles, 1)));
+      if (auto cell = svc.persistent("cycles")) (void)cell->write(std::as_bytes(std::span(&cycles, 1)));
     }
   };
   auto timer = svc.every(period(svc), [&] {
@@ -96,7 +95,7 @@ int run_counter(Service& svc) {
     }
     if (step == checkpoint_at) take();
     if (!by_timer && step >= rollback_at && cycles < max_cycles) {
-      (void)svc.invoke("checkpoint", rejuv::cap::Operation::CheckpointRollback);
+      if (auto rejuvenation = svc.rejuvenation()) (void)rejuvenation->roll_back();
     }
   });
   if (!timer) return fail(svc, "timer: " + timer.error().to_string());

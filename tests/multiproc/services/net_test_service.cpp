@@ -8,6 +8,7 @@
 #include <string>
 
 #include "rejuv/sdk/service.hpp"
+#include "rejuv/sdk/testing.hpp"
 
 int main() {
   using namespace rejuv;
@@ -29,12 +30,12 @@ int main() {
   // mode_command: a SensorBaro record whose altitude_m is the SrMode index to request.
   auto commands = svc.subscribe<rejuv_msg_SensorBaro>("mode_command", [&](const rejuv_msg_SensorBaro& m) {
     const auto mode = static_cast<std::uint64_t>(m.altitude_m);
-    if (auto ok = svc.invoke("sr_mode_control", cap::Operation::ModeRequest, mode); !ok) {
+    if (auto ok = rejuv::sdk::testing::invoke(svc, "sr_mode_control", cap::Operation::ModeRequest, mode); !ok) {
       svc.log(sdk::LogLevel::Error, "mode request: " + ok.error().to_string());
       return;
     }
     const std::string rogue = "rogue datagram";
-    auto sent = svc.invoke_slot(net_slot, cap::Operation::NetSend, 0, 0, std::as_bytes(std::span(rogue)));
+    auto sent = rejuv::sdk::testing::invoke_slot(svc, net_slot, cap::Operation::NetSend, 0, 0, std::as_bytes(std::span(rogue)));
     svc.logf(sdk::LogLevel::Info, "NetSend in mode %u: %s", static_cast<unsigned>(mode),
              sent ? "sent" : sent.error().to_string().c_str());
   });

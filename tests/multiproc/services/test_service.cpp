@@ -16,6 +16,7 @@
 #include "rejuv/channel/transport.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/sdk/service.hpp"
+#include "rejuv/sdk/testing.hpp"
 #include "rejuv/sys/channel.hpp"
 
 namespace {
@@ -176,31 +177,31 @@ int run_intruder(Service& svc) {
       const Record r{};
       const auto bytes = std::as_bytes(std::span(&r, 1));
       for (const std::uint32_t slot : {read_only_slot.value(), 0U, 77U, 255U, 100000U}) {
-        if (fb.build(rejuv::wire::FrameKind::Publish, slot, 0, 0, bytes)) (void)svc.send_raw(fb.bytes());
+        if (fb.build(rejuv::wire::FrameKind::Publish, slot, 0, 0, bytes)) (void)rejuv::sdk::testing::send_raw(svc, fb.bytes());
       }
     } else if (attack == "garbage") {
       std::array<std::byte, 64> junk{};
       for (std::size_t i = 0; i < junk.size(); ++i) junk[i] = static_cast<std::byte>(i * 37 + 11);
-      (void)svc.send_raw(std::span(junk).first(5));              // shorter than a header
-      (void)svc.send_raw(junk);                                  // garbage header
+      (void)rejuv::sdk::testing::send_raw(svc, std::span(junk).first(5));              // shorter than a header
+      (void)rejuv::sdk::testing::send_raw(svc, junk);                                  // garbage header
       rejuv::wire::FrameHeader h{};
       h.kind = 999;                                              // unknown kind
-      (void)svc.send_raw(std::as_bytes(std::span(&h, 1)));
+      (void)rejuv::sdk::testing::send_raw(svc, std::as_bytes(std::span(&h, 1)));
       h.kind = static_cast<std::uint16_t>(rejuv::wire::FrameKind::Deliver);  // wrong direction
-      (void)svc.send_raw(std::as_bytes(std::span(&h, 1)));
+      (void)rejuv::sdk::testing::send_raw(svc, std::as_bytes(std::span(&h, 1)));
       h.kind = static_cast<std::uint16_t>(rejuv::wire::FrameKind::Idle);
       h.flags = 1;                                               // reserved flags
-      (void)svc.send_raw(std::as_bytes(std::span(&h, 1)));
+      (void)rejuv::sdk::testing::send_raw(svc, std::as_bytes(std::span(&h, 1)));
       h.flags = 0;
       h.length = 1000;                                           // length disagrees with the datagram
-      (void)svc.send_raw(std::as_bytes(std::span(&h, 1)));
+      (void)rejuv::sdk::testing::send_raw(svc, std::as_bytes(std::span(&h, 1)));
       const std::array<std::byte, 3> tiny{};
       if (fb.build(rejuv::wire::FrameKind::Publish, read_only_slot.value(), 0, 0, tiny)) {
-        (void)svc.send_raw(fb.bytes());                          // wrong payload size (and no Write right)
+        (void)rejuv::sdk::testing::send_raw(svc, fb.bytes());                          // wrong payload size (and no Write right)
       }
-      if (fb.build(rejuv::wire::FrameKind::TimerArm, 0, 0, 0, tiny)) (void)svc.send_raw(fb.bytes());  // bad size
+      if (fb.build(rejuv::wire::FrameKind::TimerArm, 0, 0, 0, tiny)) (void)rejuv::sdk::testing::send_raw(svc, fb.bytes());  // bad size
       if (fb.build(rejuv::wire::FrameKind::Taken, 0, 0, 0, std::as_bytes(std::span(&h, 1)).first(8))) {
-        (void)svc.send_raw(fb.bytes());                          // Taken without a Snapshot
+        (void)rejuv::sdk::testing::send_raw(svc, fb.bytes());                          // Taken without a Snapshot
       }
       // A frame that carries an fd (a copy of the time page fd): the kernel must close it and refuse.
       rejuv::sys::SeqPacket raw{rejuv::sys::UniqueFd(rejuv::wire::kChannelFd)};
@@ -219,7 +220,7 @@ int run_intruder(Service& svc) {
       junk.kind = 999;
       append(std::as_bytes(std::span(&junk, 1)));
       append(fb.bytes());
-      (void)svc.send_raw(datagram);
+      (void)rejuv::sdk::testing::send_raw(svc, datagram);
     } else if (attack == "crash") {
       std::abort();
     }

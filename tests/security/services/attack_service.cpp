@@ -29,6 +29,7 @@
 #include "rejuv/attacks/hooks.hpp"
 #include "rejuv/sdk/attack_hook.hpp"
 #include "rejuv/sdk/service.hpp"
+#include "rejuv/sdk/testing.hpp"
 #include "services/test_records.hpp"
 #include "verdicts.hpp"
 
@@ -59,14 +60,14 @@ int run_rejuv(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
   auto timer = svc.every(kTick, [&] {
     if (svc.mode() == rejuv::SrMode::MC || ++ticks != sei_ticks) return;
     std::uint64_t cell = 0;
-    if (auto r = svc.invoke("cell", Op::PersistentRead, 0, 8, {}, std::as_writable_bytes(std::span(&cell, 1))); r) {
+    if (auto r = rejuv::sdk::testing::invoke(svc, "cell", Op::PersistentRead, 0, 8, {}, std::as_writable_bytes(std::span(&cell, 1))); r) {
       (void)verdicts.publish(v::encode(v::CellRead{.cell = static_cast<double>(cell)}, stamp(svc)));
     }
     cycles = cell + 1;
-    (void)svc.invoke("cell", Op::PersistentWrite, 0, 0, std::as_bytes(std::span(&cycles, 1)));
+    (void)rejuv::sdk::testing::invoke(svc, "cell", Op::PersistentWrite, 0, 0, std::as_bytes(std::span(&cycles, 1)));
     std::array<double, 16> limits{};
     limits.fill(kRestrictedLimit);
-    (void)svc.invoke("limits", Op::LimitsWrite, 0, 0, std::as_bytes(std::span(limits)));
+    (void)rejuv::sdk::testing::invoke(svc, "limits", Op::LimitsWrite, 0, 0, std::as_bytes(std::span(limits)));
     auto taken = svc.checkpoint();
     if (!taken) {
       svc.logf(LogLevel::Error, "checkpoint: %s", taken.error().to_string().c_str());
@@ -78,10 +79,10 @@ int run_rejuv(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
     }
     (void)verdicts.publish(v::encode(
         v::CheckpointTaken{.generation = static_cast<double>(taken->generation.value())}, stamp(svc)));
-    if (auto a = svc.invoke("checkpoint", Op::TimerArm, static_cast<std::uint64_t>(std::chrono::nanoseconds(t_mc).count())); !a) {
+    if (auto a = rejuv::sdk::testing::invoke(svc, "checkpoint", Op::TimerArm, static_cast<std::uint64_t>(std::chrono::nanoseconds(t_mc).count())); !a) {
       svc.logf(LogLevel::Error, "arm: %s", a.error().to_string().c_str());
     }
-    (void)svc.invoke("mode", Op::ModeRequest, rejuv::index_of(rejuv::SrMode::MC));
+    (void)rejuv::sdk::testing::invoke(svc, "mode", Op::ModeRequest, rejuv::index_of(rejuv::SrMode::MC));
   });
   if (!timer) return fail(svc, "timer: " + timer.error().to_string());
   return svc.run();
@@ -138,7 +139,7 @@ int run_driver(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
   if (!numbers) return fail(svc, "subscribe numbers: " + numbers.error().to_string());
   auto timer = svc.every(kTick, [&] {
     std::array<double, 16> limits{};
-    if (auto r = svc.invoke("limits", Op::LimitsRead, 0, 0, {}, std::as_writable_bytes(std::span(limits))); r && r->data_size > 0) {
+    if (auto r = rejuv::sdk::testing::invoke(svc, "limits", Op::LimitsRead, 0, 0, {}, std::as_writable_bytes(std::span(limits))); r && r->data_size > 0) {
       (void)verdicts.publish(v::encode(
           v::LimitsRead{.first_limit = limits[0], .bytes = static_cast<double>(r->data_size)}, stamp(svc)));
     }

@@ -11,6 +11,7 @@
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/clock/time_page.hpp"
 #include "rejuv/sdk/service.hpp"
+#include "rejuv/sdk/testing.hpp"
 #include "rejuv/sys/channel.hpp"
 #include "rejuv/sys/event.hpp"
 
@@ -207,7 +208,7 @@ TEST_F(SdkTest, Publish_SendsOnlyWhenWriteIsHeldInTheCurrentMode) {
   auto refused = out->publish(r);
   ASSERT_FALSE(refused.has_value());
   EXPECT_EQ(refused.error().code, SdkError::NotHeldInMode);
-  ASSERT_TRUE(out->publish_unchecked(r).has_value());
+  ASSERT_TRUE(rejuv::sdk::testing::publish_unchecked(*out, r).has_value());
   EXPECT_TRUE(kernel.sent().empty()) << "queued until the service waits or flushes";
   ASSERT_TRUE(svc->flush().has_value());
   const auto sent = kernel.sent();
@@ -284,7 +285,7 @@ TEST_F(SdkTest, FramesArrivingBeforeAReply_AreHandledAfterItInOrder) {
   const std::array<std::byte, 3> data{std::byte{1}, std::byte{2}, std::byte{3}};
   kernel.reply(2, 0, 42, data);
   std::array<std::byte, 8> out{};
-  auto got = svc->invoke("cell", cap::Operation::PersistentRead, 0, 3, {}, out);
+  auto got = rejuv::sdk::testing::invoke(*svc, "cell", cap::Operation::PersistentRead, 0, 3, {}, out);
   ASSERT_TRUE(got.has_value()) << got.error().to_string();
   EXPECT_EQ(got->value, 42U);
   EXPECT_EQ(got->data_size, 3U);
@@ -297,7 +298,7 @@ TEST_F(SdkTest, FramesArrivingBeforeAReply_AreHandledAfterItInOrder) {
 
 TEST_F(SdkTest, InvokeFailure_IsAnOperationError) {
   kernel.reply(1, static_cast<std::int32_t>(wire::OpError::NotSupported));
-  auto got = svc->invoke("cell", cap::Operation::PersistentWrite);
+  auto got = rejuv::sdk::testing::invoke(*svc, "cell", cap::Operation::PersistentWrite);
   ASSERT_FALSE(got.has_value());
   EXPECT_EQ(got.error().code, SdkError::OperationFailed);
   EXPECT_EQ(got.error().wire_error, static_cast<std::int32_t>(wire::OpError::NotSupported));
@@ -344,7 +345,7 @@ TEST_F(SdkTest, FiringsOfOneTimerQueuedDuringARequest_FireItOnce) {
   for (int i = 0; i < 50; ++i) kernel.send(wire::FrameKind::TimerFired, 0, 0, every->id());
   kernel.send(wire::FrameKind::TimerFired, 0, 0, second->id());
   kernel.reply(1, 0);
-  auto got = svc->invoke("cell", cap::Operation::PersistentWrite);
+  auto got = rejuv::sdk::testing::invoke(*svc, "cell", cap::Operation::PersistentWrite);
   ASSERT_TRUE(got.has_value()) << got.error().to_string();
   EXPECT_EQ(periodic, 0) << "nothing fires inside the request";
   kernel.send(wire::FrameKind::TimerFired, 0, 0, every->id());  // a firing after the request: its own

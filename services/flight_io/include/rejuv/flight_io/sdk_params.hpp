@@ -34,11 +34,13 @@ namespace rejuv::flight_io {
                                                                                        std::string_view object) {
   auto found = service.cap(object);
   if (!found || !(*found)->rights_in(service.mode()).has(Right::Read)) return std::optional<MissionRecord>{};
+  auto cell = service.persistent(object);
+  if (!cell) return fail(cell.error().to_string());
   MissionRecordBytes bytes{};
-  auto read = service.invoke(object, cap::Operation::PersistentRead, 0, bytes.size(), {}, bytes);
+  auto read = cell->read(bytes);
   if (!read) return fail(read.error().to_string());
-  if (read->data_size != bytes.size()) {
-    return fail("expected " + std::to_string(bytes.size()) + " bytes, got " + std::to_string(read->data_size));
+  if (*read != bytes.size()) {
+    return fail("expected " + std::to_string(bytes.size()) + " bytes, got " + std::to_string(*read));
   }
   auto record = decode_mission_record(bytes);
   if (!record) return fail(record.error().to_string());
@@ -51,8 +53,10 @@ namespace rejuv::flight_io {
                                                                  const MissionRecord& record) {
   auto found = service.cap(object);
   if (!found || !(*found)->rights_in(service.mode()).has(Right::Write)) return false;
+  auto cell = service.persistent(object);
+  if (!cell) return fail(cell.error().to_string());
   const MissionRecordBytes bytes = encode_mission_record(record);
-  auto written = service.invoke(object, cap::Operation::PersistentWrite, 0, 0, bytes);
+  auto written = cell->write(bytes);
   if (!written) return fail(written.error().to_string());
   return true;
 }

@@ -5,16 +5,28 @@
 // kernel_sim/channel/wire.hpp for it and gives the service author a small, typed, single-threaded API:
 //
 //   int main() {
-//     auto svc = rejuv::sdk::Service::connect();           // Hello/Boot
-//     if (!svc) { return rejuv::sdk::report_connect_failure(svc.error()); }
-//     auto out = (*svc)->advertise<rejuv_msg_ActuatorControls>("actuator_controls");
-//     auto est = (*svc)->subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state");
-//     const double gain = (*svc)->param("gain", 1.0);
-//     auto tick = (*svc)->every(std::chrono::milliseconds(4), [&] {
-//       if (est->updated()) { const auto& x = est->copy(); ... out->publish(u); }
+//     return rejuv::sdk::run_service([](rejuv::sdk::Service& svc) {  // rejuv/sdk/run.hpp: Hello/Boot
+//       const double gain = svc.param("gain", 1.0);
+//       auto out = svc.advertise<rejuv_msg_ActuatorControls>("actuator_controls");
+//       if (!svc.require(out, "actuator_controls")) return 1;
+//       auto est = svc.subscribe<rejuv_msg_VehicleStateEstimate>("vehicle_state");
+//       if (!svc.require(est, "vehicle_state")) return 1;
+//       auto tick = svc.every(std::chrono::milliseconds(4), [&] {
+//         if (!est->updated()) return;
+//         const rejuv_msg_VehicleStateEstimate& x = est->copy();
+//         rejuv_msg_ActuatorControls u{};
+//         u.timestamp_ns = x.timestamp_ns;
+//         u.thrust_N = gain * -x.v_N_m_s[2];
+//         (void)out->publish(u);
+//       });
+//       if (!svc.require(tick, "timer")) return 1;
+//       return svc.run();  // Ready, then the event loop until Shutdown; the exit code
 //     });
-//     return (*svc)->run();                                 // until Shutdown; returns the exit code
 //   }
+//
+// (tests/unit/kernel/sdk_example_test.cpp compiles this example and checks that it is the one written here.)
+// Kernel objects other than topics have typed handles (mode_control, limits, persistent, rejuvenation); the raw
+// surface that security tests and the attack library need is in rejuv/sdk/testing.hpp, not here.
 //
 // Every fallible call returns Result<T, Error> (CONVENTIONS "Errors are values"). Handles (Publisher,
 // Subscription, Timer) are small views into the Service and are valid as long as the Service lives; the
@@ -92,6 +104,9 @@ int report_connect_failure(const Error& error);
 using wire::LogLevel;
 
 class Service;
+namespace testing {
+class RawAccess;  // rejuv/sdk/testing.hpp: the raw surface for security tests and the attack library
+}  // namespace testing
 
 // ---- Capabilities ----
 
@@ -211,14 +226,13 @@ class Publisher {
   // returns NotHeldInMode and sends nothing, so an honest service never causes a denial. The kernel is
   // still the authority: a mode change in flight can make it refuse (counted as a denial).
   SdkResult<void> publish(const T& message) const;
-  // Sends regardless of the current mode (attack hooks and security tests; the kernel decides).
-  SdkResult<void> publish_unchecked(const T& message) const;
   // True when the current mode grants Write on this topic.
   [[nodiscard]] bool allowed() const;
   [[nodiscard]] Slot slot() const { return slot_; }
 
  private:
   friend class Service;
+  friend class testing::RawAccess;
   Publisher(Service* service, const CapInfo* cap) : service_(service), cap_(cap), slot_(cap->slot) {}
   Service* service_;
   const CapInfo* cap_;
@@ -265,6 +279,69 @@ class Timer {
   Timer(Service* service, std::uint64_t id) : service_(service), id_(id) {}
   Service* service_;
   std::uint64_t id_;
+};
+
+// ---- Kernel objects other than topics (DESIGN §3) ----
+// Typed handles, each resolved once by name and checked to be of its kind (Service::mode_control, limits,
+// persistent, rejuvenation); small views, valid as long as the Service lives. Each call blocks for the
+// kernel's Reply: a refusal comes back as Denied with the CapError, an operation failure as OperationFailed.
+
+// The Mode object: asks the kernel for an SR mode (§V; the policy's transition table decides).
+class ModeControl {
+ public:
+  SdkResult<void> request(SrMode mode) const;
+
+ private:
+  friend class Service;
+  ModeControl(Service* service, Slot slot) : service_(service), slot_(slot) {}
+  Service* service_;
+  Slot slot_;
+};
+
+// A Limits object: a record of restricted actuator limits, written by the service the policy lets write it
+// and read by the driver that enforces it.
+class LimitsCell {
+ public:
+  SdkResult<void> write(std::span<const std::byte> record) const;
+  // The last record written, copied into `out` (truncated to its size); its size (0: none written yet).
+  SdkResult<std::size_t> read(std::span<std::byte> out) const;
+
+ private:
+  friend class Service;
+  LimitsCell(Service* service, Slot slot) : service_(service), slot_(slot) {}
+  Service* service_;
+  Slot slot_;
+};
+
+// A Persistent object: bytes that survive rollback (DESIGN §3), read and written from its start.
+class PersistentCell {
+ public:
+  // Up to out.size() bytes into `out`; how many were copied.
+  SdkResult<std::size_t> read(std::span<std::byte> out) const;
+  SdkResult<void> write(std::span<const std::byte> data) const;
+
+ private:
+  friend class Service;
+  PersistentCell(Service* service, Slot slot) : service_(service), slot_(slot) {}
+  Service* service_;
+  Slot slot_;
+};
+
+// The Checkpoint object's rejuvenation side (DESIGN §7–8): the timer that rolls the images back (§V-A
+// do_timer) and a rollback asked for now. Checkpoints are taken with Service::checkpoint.
+class Rejuvenation {
+ public:
+  // Fires `after` from now, then every `period` (0: once); at most one arm per epoch (a second is Denied by
+  // the kernel as Refused). Returns when it is due (kernel clock).
+  SdkResult<Nanos> arm_timer(Nanos after, Nanos period = Nanos{0}) const;
+  // A rollback at the kernel's next safe point (this process is then retired: no answer comes back to it).
+  SdkResult<void> roll_back() const;
+
+ private:
+  friend class Service;
+  Rejuvenation(Service* service, Slot slot) : service_(service), slot_(slot) {}
+  Service* service_;
+  Slot slot_;
 };
 
 // How connect() finds its channel (tests may override; services use the defaults).
@@ -344,19 +421,11 @@ class Service {
   [[nodiscard]] SdkResult<Timer> after(Nanos delay, std::function<void()> on_fire);
   SdkResult<void> cancel(const Timer& timer);
 
-  // ---- other capabilities (Checkpoint, Limits, Persistent, Mode, Network) ----
-  // Invokes `op` on the cap of `object`; blocks for the kernel's Reply (frames that arrive meanwhile are
-  // queued and handled afterwards, in order). Reply data is copied into `out` (truncated to its size).
-  // A refusal comes back as Denied with the CapError; an operation failure as OperationFailed.
-  [[nodiscard]] SdkResult<InvokeReply> invoke(std::string_view object, cap::Operation op,
-                                              std::uint64_t arg0 = 0, std::uint64_t arg1 = 0,
-                                              std::span<const std::byte> data = {},
-                                              std::span<std::byte> out = {});
-  // The same by slot: a forged or empty slot is the kernel's to refuse (security tests).
-  [[nodiscard]] SdkResult<InvokeReply> invoke_slot(Slot slot, cap::Operation op, std::uint64_t arg0 = 0,
-                                                   std::uint64_t arg1 = 0,
-                                                   std::span<const std::byte> data = {},
-                                                   std::span<std::byte> out = {});
+  // ---- other kernel objects (typed handles above; WrongObjectKind when `object` is of another kind) ----
+  [[nodiscard]] SdkResult<ModeControl> mode_control(std::string_view object);
+  [[nodiscard]] SdkResult<LimitsCell> limits(std::string_view object);
+  [[nodiscard]] SdkResult<PersistentCell> persistent(std::string_view object);
+  [[nodiscard]] SdkResult<Rejuvenation> rejuvenation(std::string_view object = "checkpoint");
 
   // ---- network (DESIGN §2: the kernel's network gate, through a Network cap) ----
   // Runs `handler` for every datagram the kernel relays on the Network cap of `object` (NetDatagram frames:
@@ -433,18 +502,28 @@ class Service {
   // waits; flush() sends them now (e.g. before a long computation in a callback).
   SdkResult<void> flush();
 
-  // ---- raw access (security tests and attack hooks only: it is just a write to fd 3) ----
-  // Sends everything queued, then `frame`, at once.
-  SdkResult<void> send_raw(std::span<const std::byte> frame);
-
-  // Internal: used by the handle templates.
-  SdkResult<void> publish_bytes(const CapInfo& cap, std::span<const std::byte> payload, bool check_mode);
-  SdkResult<Timer> arm_timer(Nanos first, Nanos period, std::function<void()> on_fire);
-
   struct Impl;  // private state (channel, time page, boot info, queues), defined in src/
 
  private:
+  friend class ModeControl;
+  friend class LimitsCell;
+  friend class PersistentCell;
+  friend class Rejuvenation;
+  template <class>
+  friend class Publisher;
+  friend class testing::RawAccess;
+
   explicit Service(std::unique_ptr<Impl> impl);
+  // The slot of `object`'s cap, if it is of `kind` (NoSuchObject, WrongObjectKind).
+  [[nodiscard]] SdkResult<Slot> object_slot(std::string_view object, ObjectKind kind) const;
+  // Invoke on a slot: the wire's raw conventions (docs/protocol.md "Invoke"); blocks for the Reply (frames
+  // that arrive meanwhile are queued and handled afterwards, in order). Reply data is copied into `out`.
+  [[nodiscard]] SdkResult<InvokeReply> invoke_slot(Slot slot, cap::Operation op, std::uint64_t arg0 = 0,
+                                                   std::uint64_t arg1 = 0, std::span<const std::byte> data = {},
+                                                   std::span<std::byte> out = {});
+  // Publish on a cap; `check_mode`: only if the current mode grants Write (NotHeldInMode otherwise).
+  SdkResult<void> publish_bytes(const CapInfo& cap, std::span<const std::byte> payload, bool check_mode);
+  SdkResult<Timer> arm_timer(Nanos first, Nanos period, std::function<void()> on_fire);
   [[nodiscard]] SdkResult<const CapInfo*> topic_cap(std::string_view object, std::string_view type,
                                                     std::size_t size, Right needed) const;
   [[nodiscard]] SdkResult<void> request_subscribe(const CapInfo& cap, bool polled);
@@ -462,11 +541,6 @@ template <class T>
 SdkResult<void> Publisher<T>::publish(const T& message) const {
   static_assert(std::is_trivially_copyable_v<T>);
   return service_->publish_bytes(*cap_, std::as_bytes(std::span(&message, 1)), true);
-}
-template <class T>
-SdkResult<void> Publisher<T>::publish_unchecked(const T& message) const {
-  static_assert(std::is_trivially_copyable_v<T>);
-  return service_->publish_bytes(*cap_, std::as_bytes(std::span(&message, 1)), false);
 }
 template <class T>
 bool Publisher<T>::allowed() const {
