@@ -27,7 +27,11 @@ void Kernel::Impl::take_steps() {
   auto n = adapter->take_steps(
       bridge->bridge(),
       [&](const dds::PlantLockstep::Step& step) {
-        steps.offer(PendingStep{.step = step.step, .t = step.t, .samples_needed = step.samples_needed});
+        auto offered = steps.offer(PendingStep{.step = step.step, .t = step.t, .samples_needed = step.samples_needed});
+        if (!offered) {
+          stop_run(StopReason::PlantProtocol, "the plant's steps: " + offered.error() + " (a second plant on DDS domain " +
+                                                  std::to_string(domain) + "?)");
+        }
       },
       [&](std::size_t input, std::span<const std::byte> bytes) {
         if (!stopping) stage_sample(input, bytes);

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 
 namespace rejuv::kernel {
@@ -32,7 +33,19 @@ struct PendingStep {
 class StepClock {
  public:
   // ---- the queue ----
-  void offer(const PendingStep& step) { pending_.push_back(step); }
+  // A plant's step (SimStep): refused, and not queued, unless it follows the last one offered — the next
+  // number, later in time. A SimStep of another plant on the same DDS domain would otherwise move the clock
+  // back and route that plant's samples as this vehicle's.
+  [[nodiscard]] Result<void, std::string> offer(const PendingStep& step) {
+    if (last_offered_ && (step.step != last_offered_->step + 1 || step.t <= last_offered_->t)) {
+      return fail("step " + std::to_string(step.step) + " at t = " + std::to_string(step.t.count()) +
+                  " ns does not follow step " + std::to_string(last_offered_->step) + " at t = " +
+                  std::to_string(last_offered_->t.count()) + " ns");
+    }
+    last_offered_ = step;
+    pending_.push_back(step);
+    return {};
+  }
   // Kernel::step: a step numbered here, waiting for no sample.
   void offer_manual(Nanos t) { pending_.push_back(PendingStep{.step = next_manual_++, .t = t, .samples_needed = 0}); }
   void count_samples(std::uint64_t n) { samples_received_ += n; }
@@ -120,6 +133,7 @@ class StepClock {
 
  private:
   std::vector<PendingStep> pending_;
+  std::optional<PendingStep> last_offered_;  // the plant's last step (offer)
   std::optional<PendingStep> active_;
   std::uint64_t samples_received_ = 0;
   std::optional<Nanos> short_since_;  // wall time the next step began to wait for missing samples

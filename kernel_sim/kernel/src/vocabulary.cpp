@@ -22,6 +22,7 @@ std::string_view to_string(StopReason reason) {
     case StopReason::Signal: return "signal";
     case StopReason::ServiceFailed: return "service failed";
     case StopReason::PlantExited: return "plant exited";
+    case StopReason::PlantProtocol: return "plant protocol broken";
     case StopReason::Requested: return "stop requested";
   }
   return "?";
@@ -45,7 +46,8 @@ bool is_failure(StopReason reason) {
     case StopReason::Requested: return false;
     case StopReason::MissionTimeout:
     case StopReason::ServiceFailed:
-    case StopReason::PlantExited: return true;
+    case StopReason::PlantExited:
+    case StopReason::PlantProtocol: return true;
   }
   return true;
 }
@@ -59,7 +61,8 @@ bool graceful(StopReason reason) {
     case StopReason::Requested: return true;
     case StopReason::Signal:
     case StopReason::ServiceFailed:
-    case StopReason::PlantExited: return false;
+    case StopReason::PlantExited:
+    case StopReason::PlantProtocol: return false;
   }
   return false;
 }

@@ -33,7 +33,7 @@ TEST(KernelClock, EveryChange_IsSeenByAServiceReader) {
 
 TEST(StepClock, AStepBegins_OnlyOnceItsSamplesAreIn) {
   StepClock c;
-  c.offer(PendingStep{.step = 7, .t = milliseconds{4}, .samples_needed = 3});
+  ASSERT_TRUE(c.offer(PendingStep{.step = 7, .t = milliseconds{4}, .samples_needed = 3}).has_value());
   c.count_samples(2);
   EXPECT_TRUE(c.short_of_samples());
   EXPECT_FALSE(c.begin_next(Nanos{0}).has_value());
@@ -46,10 +46,36 @@ TEST(StepClock, AStepBegins_OnlyOnceItsSamplesAreIn) {
   EXPECT_FALSE(c.begin_next(milliseconds{10}).has_value()) << "one active step at a time";
 }
 
+// A second plant on the kernel's DDS domain: its SimSteps restart at 1 and t = 4 ms while this plant's are at
+// step 500. Each must follow the last offered, or it is refused and not queued.
+TEST(StepClock, AStepThatDoesNotFollowTheLast_IsRefusedAndNotQueued) {
+  StepClock c;
+  ASSERT_TRUE(c.offer(PendingStep{.step = 499, .t = milliseconds{1996}, .samples_needed = 0}).has_value());
+  ASSERT_TRUE(c.offer(PendingStep{.step = 500, .t = milliseconds{2000}, .samples_needed = 0}).has_value());
+  const auto other_plant = c.offer(PendingStep{.step = 1, .t = milliseconds{4}, .samples_needed = 0});
+  ASSERT_FALSE(other_plant.has_value());
+  EXPECT_NE(other_plant.error().find("step 1 at t = 4000000 ns does not follow step 500"), std::string::npos)
+      << other_plant.error();
+  EXPECT_FALSE(c.offer(PendingStep{.step = 500, .t = milliseconds{2000}, .samples_needed = 0}).has_value())
+      << "a step offered twice";
+  EXPECT_FALSE(c.offer(PendingStep{.step = 501, .t = milliseconds{2000}, .samples_needed = 0}).has_value())
+      << "the next number at the same time";
+  EXPECT_FALSE(c.offer(PendingStep{.step = 502, .t = milliseconds{2008}, .samples_needed = 0}).has_value())
+      << "a step skipped";
+  std::vector<std::uint64_t> queued;
+  while (const auto s = c.begin_next(Nanos{0})) {
+    queued.push_back(s->step);
+    c.finish(Nanos{0});
+  }
+  EXPECT_EQ(queued, (std::vector<std::uint64_t>{499, 500})) << "only the steps that followed were queued";
+  EXPECT_TRUE(c.offer(PendingStep{.step = 501, .t = milliseconds{2004}, .samples_needed = 0}).has_value())
+      << "the plant's own next step is still taken";
+}
+
 TEST(StepClock, MissingSamples_GivenUpAfterPatience_AndTheCountResynchronised) {
   StepClock c;
-  c.offer(PendingStep{.step = 1, .t = milliseconds{4}, .samples_needed = 5});
-  c.offer(PendingStep{.step = 2, .t = milliseconds{8}, .samples_needed = 9});
+  ASSERT_TRUE(c.offer(PendingStep{.step = 1, .t = milliseconds{4}, .samples_needed = 5}).has_value());
+  ASSERT_TRUE(c.offer(PendingStep{.step = 2, .t = milliseconds{8}, .samples_needed = 9}).has_value());
   c.count_samples(3);
   EXPECT_FALSE(c.give_up_on_samples(seconds{10}, seconds{1}).has_value());  // the wait starts here
   EXPECT_FALSE(c.give_up_on_samples(seconds{11}, seconds{1}).has_value());  // not longer than the patience

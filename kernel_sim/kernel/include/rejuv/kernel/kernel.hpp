@@ -78,6 +78,7 @@ enum class StopReason : std::uint8_t {
   Signal,          // SIGINT or SIGTERM
   ServiceFailed,   // a service died or hung and could not be recovered (SR off: always)
   PlantExited,     // the plant process exited by itself
+  PlantProtocol,   // a SimStep that does not follow the last (another plant on the DDS domain): refused
   Requested,       // request_stop()
 };
 [[nodiscard]] std::string_view to_string(StopReason reason);
