@@ -1,6 +1,6 @@
 // The worker pool of `rejuv faults` and `rejuv sweep` (tools/rejuv/job_pool.hpp) with real forked workers:
 // every task runs once and is reported with its exit status, the DDS-domain rule, and no worker outlives the
-// pool when a task cannot start or the pool is interrupted.
+// pool when a task cannot start, its end cannot be kept or the pool is interrupted.
 #include "job_pool.hpp"
 
 #include <gtest/gtest.h>
@@ -81,6 +81,26 @@ TEST(JobPool, TaskCannotStart_ErrorAndRunningWorkersKilled) {
   EXPECT_EQ(outcome.error(), "task 1 cannot start");
   ASSERT_EQ(started.size(), 1U);
   EXPECT_TRUE(gone(started.front()));
+}
+
+TEST(JobPool, EndedHookFails_ErrorAndRunningWorkersKilled) {
+  auto pool = JobPool::create(PoolConfig{.workers = 2, .first_domain = 75});
+  ASSERT_TRUE(pool) << pool.error();
+  const StartTask quick = forked([](std::size_t, const WorkerSlot&) { return 0; });
+  const StartTask stays = forked(wait_forever);
+  std::vector<pid_t> started;
+  const auto outcome = pool->run(
+      2,
+      [&](std::size_t task, const WorkerSlot& slot) {
+        auto child = task == 0 ? quick(task, slot) : stays(task, slot);
+        if (child) started.push_back(child->pid());
+        return child;
+      },
+      PoolHooks{.ended = [](const TaskEnd&) -> Result<void, std::string> { return fail(std::string("cannot keep it")); }});
+  ASSERT_FALSE(outcome);
+  EXPECT_EQ(outcome.error(), "cannot keep it");
+  ASSERT_EQ(started.size(), 2U);
+  for (const pid_t pid : started) EXPECT_TRUE(gone(pid));
 }
 
 TEST(JobPool, Interrupted_StopsStartingAndKillsWorkersAfterGrace) {
