@@ -183,42 +183,37 @@ std::vector<Flight> fly_rounds(const std::vector<std::pair<std::string, std::vec
   return flights;
 }
 
-}  // namespace
+using FlightPlan = std::vector<std::pair<std::string, std::vector<std::string>>>;  // label, `rejuv run` flags
 
-int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, std::uint64_t rounds,
-                       const std::optional<fs::path>& out_dir) {
-  const std::string graph = graph_arg.empty() ? std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt" : graph_arg;
-  auto loaded = launch::load_launch(graph);
-  if (!loaded) return bad_input(loaded.error().to_string());
-  if (!loaded->graph.has_plant()) return bad_input("rejuv bench realtime: " + graph + " has no plant (no vehicle to measure)");
-  std::error_code ec;
-  const fs::path dir = out_dir.value_or(fs::temp_directory_path(ec) / ("rejuv-bench-realtime-" + std::to_string(::getpid())));
-  fs::create_directories(dir, ec);
-  if (ec) return bad_input("rejuv bench realtime: --out: cannot create '" + dir.string() + "': " + ec.message());
-  const int s = static_cast<int>(seconds);
-  std::fprintf(stderr, "rejuv bench realtime: %s, %d s each: the floor (cyclictest), then the flights in real time "
-               "(%llu round%s); files in %s\n", graph.c_str(), s, static_cast<unsigned long long>(rounds),
-               rounds == 1 ? "" : "s", dir.c_str());
+// The floor: cyclictest under SCHED_OTHER, and (as root) SCHED_FIFO 80.
+std::vector<Floor> measure_floors(int seconds, const fs::path& dir) {
   std::vector<Floor> floors;
   std::fprintf(stderr, "  cyclictest SCHED_OTHER …\n");
-  floors.push_back(cyclictest("SCHED_OTHER", 0, s, dir));
+  floors.push_back(cyclictest("SCHED_OTHER", 0, seconds, dir));
   if (::geteuid() == 0) {
     std::fprintf(stderr, "  cyclictest SCHED_FIFO 80 …\n");
-    floors.push_back(cyclictest("SCHED_FIFO_80", 80, s, dir));
+    floors.push_back(cyclictest("SCHED_FIFO_80", 80, seconds, dir));
   }
-  const bool sr = loaded->graph.sr().enabled();
-  const bool attack = loaded->graph.attack().enabled() && loaded->graph.attack().attacks_size() > 0;
-  // The baseline flies neither SR nor the attacks: without SR nothing ends an attack (the square under its
-  // worst-case attack leaves the safety set within two seconds), and the bound of docs/realtime.md compares
-  // against a whole flight of the undisturbed chain.
-  std::vector<std::pair<std::string, std::vector<std::string>>> plan{{"no_sr", {"--no-sr", "--no-attack"}}};
+  return floors;
+}
+
+// The configurations to fly. The baseline flies neither SR nor the attacks: without SR nothing ends an attack
+// (the square under its worst-case attack leaves the safety set within two seconds), and the bound of
+// docs/realtime.md compares against a whole flight of the undisturbed chain.
+FlightPlan flight_plan(const proto::Launch& graph) {
+  const bool sr = graph.sr().enabled();
+  const bool attack = graph.attack().enabled() && graph.attack().attacks_size() > 0;
+  FlightPlan plan{{"no_sr", {"--no-sr", "--no-attack"}}};
   if (sr) plan.push_back({"sr", {"--no-attack"}});
   if (sr && attack) plan.push_back({"sr_attack", {}});
-  const std::vector<Flight> flights = fly_rounds(plan, graph, s, static_cast<int>(rounds), dir);
+  return plan;
+}
 
-  // The table.
+// The table: the floors, then each flight with its ratios to the floor and to the baseline (no_sr).
+void print_table(const std::string& graph, int seconds, std::uint64_t rounds, const std::vector<Floor>& floors,
+                 const std::vector<Flight>& flights) {
   const Floor& floor = floors.front();
-  std::printf("rejuv bench realtime: %s, %d s each, %llu round%s, control period %.1f ms\n", graph.c_str(), s,
+  std::printf("rejuv bench realtime: %s, %d s each, %llu round%s, control period %.1f ms\n", graph.c_str(), seconds,
               static_cast<unsigned long long>(rounds), rounds == 1 ? "" : "s", kPeriodUs / 1000.0);
   std::printf("%-26s %7s %7s %7s %7s %8s %9s | %-20s | %-20s\n", "intervals [ms]", "p50", "p99", "p99.9", "max",
               "p99.9/fl", "/no SR", "holding a CP p50/max", "holding a RB p50/max");
@@ -253,11 +248,15 @@ int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, std:
   std::printf("(%zu intervals per flight configuration; /no SR: the p99.9 as a ratio to the flight without SR and "
               "without attacks, bound 1.5 in docs/realtime.md)\n",
               baseline.all.n);
-  // What the vehicle loses at a checkpoint or a rollback, beside what lockstep charges for it
-  // (the launch file's lockstep.checkpoint_charge_ms / rollback_charge_ms model the interval's excess).
+}
+
+// What the vehicle loses at a checkpoint or a rollback, beside what lockstep charges for it (the launch file's
+// lockstep.checkpoint_charge_ms / rollback_charge_ms model the interval's excess); the larger of the SR runs'
+// losses [ms] written to DIR/lockstep_charge.pbtxt as the charge to model. An error when it cannot be written.
+Result<void, std::string> derive_charge(const std::string& graph, int seconds, const proto::LockstepTiming& lt,
+                                        const std::vector<Flight>& flights, const fs::path& dir) {
   const double period = kPeriodUs / 1000.0;
-  const proto::LockstepTiming& lt = loaded->graph.lockstep();
-  std::optional<std::pair<double, double>> lost;  // the larger of the SR runs' losses [ms]: the charge to model
+  std::optional<std::pair<double, double>> lost;
   for (const Flight& f : flights) {
     if (!f.error.empty() || f.cp.n == 0 || f.label == "no_sr") continue;
     const double at_cp = std::max(0.0, f.cp.p50 - period);
@@ -268,27 +267,49 @@ int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, std:
                 ("rejuv run " + f.label).c_str(), at_cp, at_rb, period, 1000.0 * launch::checkpoint_charge(lt).count(),
                 1000.0 * launch::rollback_charge(lt).count());
   }
-  if (lost) {
-    // docs/performance.md "Deterministic lockstep": lockstep charges what the vehicle loses in real time, not the
-    // timed part (the timed part runs in the slack of the control period and is mostly hidden from it).
-    const auto up = [](double ms) { return std::ceil(ms * 100.0) / 100.0; };  // to 0.01 ms, never below
-    const fs::path charge = dir / "lockstep_charge.pbtxt";
-    std::ofstream file(charge);
-    file << "# What the vehicle lost at a checkpoint and at a rollback in real time on this machine\n"
-            "# (`rejuv bench realtime " << graph << " --seconds " << s << "`): the interval holding one, p50,\n"
-            "# minus the " << period << " ms control period, the larger of the runs with SR, rounded up to 0.01 ms.\n"
-            "# Set these two fields in the launch file's own `lockstep` block (keep its alignment_s) so that\n"
-            "# lockstep charges what this runtime costs the vehicle\n"
-            "# (docs/performance.md \"Deterministic lockstep\").\n"
-         << "lockstep {\n  checkpoint_charge_ms: " << up(lost->first) << "\n  rollback_charge_ms: " << up(lost->second)
-         << "\n}\n";
-    file.close();
-    if (!file) {
-      std::fprintf(stderr, "rejuv bench realtime: cannot write %s\n", charge.c_str());
-      return static_cast<int>(Exit::Findings);
-    }
-    std::printf("lockstep charge derived from these runs: checkpoint %.2f ms, rollback %.2f ms (%s)\n", up(lost->first),
-                up(lost->second), charge.c_str());
+  if (!lost) return {};
+  // docs/performance.md "Deterministic lockstep": lockstep charges what the vehicle loses in real time, not the
+  // timed part (the timed part runs in the slack of the control period and is mostly hidden from it).
+  const auto up = [](double ms) { return std::ceil(ms * 100.0) / 100.0; };  // to 0.01 ms, never below
+  const fs::path charge = dir / "lockstep_charge.pbtxt";
+  std::ofstream file(charge);
+  file << "# What the vehicle lost at a checkpoint and at a rollback in real time on this machine\n"
+          "# (`rejuv bench realtime " << graph << " --seconds " << seconds << "`): the interval holding one, p50,\n"
+          "# minus the " << period << " ms control period, the larger of the runs with SR, rounded up to 0.01 ms.\n"
+          "# Set these two fields in the launch file's own `lockstep` block (keep its alignment_s) so that\n"
+          "# lockstep charges what this runtime costs the vehicle\n"
+          "# (docs/performance.md \"Deterministic lockstep\").\n"
+       << "lockstep {\n  checkpoint_charge_ms: " << up(lost->first) << "\n  rollback_charge_ms: " << up(lost->second)
+       << "\n}\n";
+  file.close();
+  if (!file) return fail("cannot write " + charge.string());
+  std::printf("lockstep charge derived from these runs: checkpoint %.2f ms, rollback %.2f ms (%s)\n", up(lost->first),
+              up(lost->second), charge.c_str());
+  return {};
+}
+
+}  // namespace
+
+int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, std::uint64_t rounds,
+                       const std::optional<fs::path>& out_dir) {
+  const std::string graph = graph_arg.empty() ? std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt" : graph_arg;
+  auto loaded = launch::load_launch(graph);
+  if (!loaded) return bad_input(loaded.error().to_string());
+  if (!loaded->graph.has_plant()) return bad_input("rejuv bench realtime: " + graph + " has no plant (no vehicle to measure)");
+  std::error_code ec;
+  const fs::path dir = out_dir.value_or(fs::temp_directory_path(ec) / ("rejuv-bench-realtime-" + std::to_string(::getpid())));
+  fs::create_directories(dir, ec);
+  if (ec) return bad_input("rejuv bench realtime: --out: cannot create '" + dir.string() + "': " + ec.message());
+  const int s = static_cast<int>(seconds);
+  std::fprintf(stderr, "rejuv bench realtime: %s, %d s each: the floor (cyclictest), then the flights in real time "
+               "(%llu round%s); files in %s\n", graph.c_str(), s, static_cast<unsigned long long>(rounds),
+               rounds == 1 ? "" : "s", dir.c_str());
+  const std::vector<Floor> floors = measure_floors(s, dir);
+  const std::vector<Flight> flights = fly_rounds(flight_plan(loaded->graph), graph, s, static_cast<int>(rounds), dir);
+  print_table(graph, s, rounds, floors, flights);
+  if (auto written = derive_charge(graph, s, loaded->graph.lockstep(), flights, dir); !written) {
+    std::fprintf(stderr, "rejuv bench realtime: %s\n", written.error().c_str());
+    return static_cast<int>(Exit::Findings);
   }
   const bool failed = std::any_of(flights.begin(), flights.end(), [](const Flight& f) { return !f.error.empty(); });
   return static_cast<int>(failed ? Exit::Findings : Exit::Ok);

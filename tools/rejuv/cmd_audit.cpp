@@ -161,86 +161,89 @@ std::string verdict(const policy::Policy& p, const std::vector<policy::Finding>&
          ")\n";
 }
 
-}  // namespace
-
-int run_audit(std::span<const std::string_view> args) {
+// What `rejuv audit` was asked for.
+struct AuditRequest {
   std::string policy_path;
   std::optional<std::filesystem::path> launch_path;
   Format format = Format::Text;
+};
+
+void declare_audit_options(Options& opts, AuditRequest& r) {
+  opts.positional("POLICY", r.policy_path, "the policy (*.policy.pbtxt); optional with --launch", false)
+      .path("--launch", "GRAPH", r.launch_path, "also check against this launch graph (*.launch.pbtxt)")
+      .choice<Format>("--format", {{"text", Format::Text}, {"json", Format::Json}}, r.format, "output format (json for CI)");
+}
+
+// --launch's graph, its services' params checked against what they declare (as `rejuv run` refuses them);
+// without POLICY, the policy it names becomes r.policy_path. The error is the exit code (reported).
+Result<std::optional<launch::LoadedLaunch>, int> load_audit_graph(AuditRequest& r) {
+  if (!r.launch_path) return std::optional<launch::LoadedLaunch>{};
+  auto g = launch::load_launch(*r.launch_path);
+  if (!g) return fail(bad_input(r.format, r.policy_path, g.error()));
+  if (auto ok = launch::check_declared_params(*g, service_dir()); !ok) {
+    return fail(bad_input(r.format, r.policy_path, ok.error()));
+  }
+  if (r.policy_path.empty()) r.policy_path = g->policy_path.string();
+  // Auditing a candidate policy against a graph that names another one is allowed, but say so.
+  std::error_code ec;
+  if (r.format == Format::Text && !std::filesystem::equivalent(g->policy_path, r.policy_path, ec)) {
+    print(stderr, "rejuv audit: note: " + r.launch_path->string() + " names the policy " + g->policy_path.string() +
+                      ", not " + r.policy_path + "\n");
+  }
+  return std::optional<launch::LoadedLaunch>(std::move(*g));
+}
+
+std::string text_report(const policy::Policy& pol, const std::string& policy_path,
+                        const std::vector<policy::Finding>& findings, const launch::LoadedLaunch* graph) {
+  std::string out = "policy \"" + pol.name() + "\" (" + policy_path + "): " + std::to_string(pol.services().size()) +
+                    " services, " + std::to_string(pol.objects().size()) + " objects, " +
+                    std::to_string(pol.grants().size()) + " grants, " + std::to_string(pol.deny_rules().size()) +
+                    " deny rules\n\n";
+  out += text_matrix(pol);
+  if (!findings.empty()) {
+    out += "\n";
+    for (const auto& f : findings) out += f.to_string() + "\n";
+  }
+  return out + "\n" + verdict(pol, findings, graph);
+}
+
+std::string json_report(const policy::Policy& pol, const AuditRequest& r, const std::vector<policy::Finding>& findings) {
+  std::string out = "{\"policy\":" + json_string(r.policy_path) + ",\"name\":" + json_string(pol.name()) +
+                    ",\"launch\":" + (r.launch_path ? json_string(r.launch_path->string()) : std::string("null")) +
+                    ",\"ok\":" + (findings.empty() ? "true" : "false") + ",\"findings\":[";
+  for (std::size_t i = 0; i < findings.size(); ++i) {
+    const auto& f = findings[i];
+    out += (i == 0 ? "" : ",") + std::string("{\"invariant\":") + json_string(f.id()) +
+           ",\"message\":" + json_string(f.message) + "," + json_location(f.where) + "}";
+  }
+  return out + "],\"matrix\":" + json_matrix(pol) + "}\n";
+}
+
+}  // namespace
+
+int run_audit(std::span<const std::string_view> args) {
+  AuditRequest r;
   Options opts("audit",
                "Checks a capability policy against the CPS SR invariants of DESIGN §4 (timer, sei, limits,\n"
                "persistent, lateral, coverage) and its own deny rules, and prints the service x object x\n"
                "mode matrix. Exit 0 when clean, 1 on violations, 2 when a file cannot be read or parsed.\n"
                "With --launch and no POLICY, the policy the graph names (with its policy fragments).");
-  opts.positional("POLICY", policy_path, "the policy (*.policy.pbtxt); optional with --launch", false)
-      .path("--launch", "GRAPH", launch_path, "also check against this launch graph (*.launch.pbtxt)")
-      .choice<Format>("--format", {{"text", Format::Text}, {"json", Format::Json}}, format, "output format (json for CI)");
+  declare_audit_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (policy_path.empty() && !launch_path) {
+  if (r.policy_path.empty() && !r.launch_path) {
     print(stderr, "rejuv audit: POLICY is required without --launch GRAPH (rejuv audit --help)\n");
     return static_cast<int>(Exit::BadInput);
   }
-
-  std::optional<launch::LoadedLaunch> graph;
-  if (launch_path) {
-    auto g = launch::load_launch(*launch_path);
-    if (!g) {
-      return bad_input(format, policy_path, g.error());
-    }
-    // Each service's params against the parameters it declares (as `rejuv run` refuses them).
-    if (auto ok = launch::check_declared_params(*g, service_dir()); !ok) {
-      return bad_input(format, policy_path, ok.error());
-    }
-    graph = std::move(*g);
-    if (policy_path.empty()) {
-      policy_path = graph->policy_path.string();
-    }
-    // Auditing a candidate policy against a graph that names another one is allowed, but say so.
-    std::error_code ec;
-    if (format == Format::Text && !std::filesystem::equivalent(graph->policy_path, policy_path, ec)) {
-      print(stderr, "rejuv audit: note: " + launch_path->string() + " names the policy " + graph->policy_path.string() +
-                        ", not " + policy_path + "\n");
-    }
-  }
+  const auto graph = load_audit_graph(r);
+  if (!graph) return graph.error();
   // With a graph, its policy fragments (`policy_include`) are part of the policy audited.
-  const auto pol = policy::load_policy(policy_path, graph ? std::span<const ExtraFragment>(graph->policy_includes)
-                                                          : std::span<const ExtraFragment>());
-  if (!pol) {
-    return bad_input(format, policy_path, pol.error());
-  }
-  const auto findings = graph ? policy::audit(*pol, *graph) : policy::audit(*pol);
-
-  switch (format) {
-    case Format::Text: {
-      std::string out = "policy \"" + pol->name() + "\" (" + policy_path +
-                        "): " + std::to_string(pol->services().size()) + " services, " +
-                        std::to_string(pol->objects().size()) + " objects, " +
-                        std::to_string(pol->grants().size()) + " grants, " +
-                        std::to_string(pol->deny_rules().size()) + " deny rules\n\n";
-      out += text_matrix(*pol);
-      if (!findings.empty()) {
-        out += "\n";
-        for (const auto& f : findings) {
-          out += f.to_string() + "\n";
-        }
-      }
-      out += "\n" + verdict(*pol, findings, graph ? &*graph : nullptr);
-      print(stdout, out);
-      break;
-    }
-    case Format::Json: {
-      std::string out = "{\"policy\":" + json_string(policy_path) + ",\"name\":" + json_string(pol->name()) +
-                        ",\"launch\":" + (graph ? json_string(launch_path->string()) : std::string("null")) +
-                        ",\"ok\":" + (findings.empty() ? "true" : "false") + ",\"findings\":[";
-      for (std::size_t i = 0; i < findings.size(); ++i) {
-        const auto& f = findings[i];
-        out += (i == 0 ? "" : ",") + std::string("{\"invariant\":") + json_string(f.id()) +
-               ",\"message\":" + json_string(f.message) + "," + json_location(f.where) + "}";
-      }
-      out += "],\"matrix\":" + json_matrix(*pol) + "}\n";
-      print(stdout, out);
-      break;
-    }
+  const auto pol = policy::load_policy(r.policy_path, *graph ? std::span<const ExtraFragment>((*graph)->policy_includes)
+                                                             : std::span<const ExtraFragment>());
+  if (!pol) return bad_input(r.format, r.policy_path, pol.error());
+  const auto findings = *graph ? policy::audit(*pol, **graph) : policy::audit(*pol);
+  switch (r.format) {
+    case Format::Text: print(stdout, text_report(*pol, r.policy_path, findings, *graph ? &**graph : nullptr)); break;
+    case Format::Json: print(stdout, json_report(*pol, r, findings)); break;
   }
   return static_cast<int>(findings.empty() ? Exit::Ok : Exit::Findings);
 }

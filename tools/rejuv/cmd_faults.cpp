@@ -3,7 +3,7 @@
 // outcomes, prints the table by fault kind and phase and writes it with every injection as JSON.
 // Exit 0 when every injection was recovered by a designed path with nothing unsafe, leaked or hung; 1 when
 // not; 2 on bad input.
-#include <unistd.h>
+#include <signal.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -16,10 +16,10 @@
 
 #include "args.hpp"
 #include "common_options.hpp"
-#include "rejuv/sys/lease.hpp"
-#include "rejuv/sys/process.hpp"
+#include "rejuv/sys/event.hpp"
 #include "commands.hpp"
 #include "fault_campaign.hpp"
+#include "job_pool.hpp"
 #include "faults.pb.h"
 #include "report.hpp"
 #include "rejuv/flight/sr_sim.hpp"
@@ -104,50 +104,26 @@ struct JobsDone {
   std::size_t missing = 0;  // planned faults no job reported (its job died): counted as hung
 };
 
-// One process per job, forked while this one is still single-threaded; each flies every jobs-th mission and
-// writes its outcomes to DIR/job-N.tsv, read back here.
-JobsDone run_jobs(const CampaignRequest& r, const std::vector<faults::Mission>& missions,
-                  const std::vector<sys::DdsDomainLease>& leases) {
-  const long cpus = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
-  std::vector<std::optional<sys::ChildProcess>> workers;
-  for (std::uint64_t j = 0; j < r.jobs; ++j) {
-    auto worker = sys::fork_worker([&] {
-      std::vector<faults::Mission> mine;
-      for (std::size_t m = j; m < missions.size(); m += r.jobs) mine.push_back(missions[m]);
-      const faults::JobConfig config{.graph = r.graph_path,
-                                     .dds_domain = r.domain ? static_cast<std::uint32_t>(*r.domain + j) : leases[j].slot(),
-                                     .cpu = static_cast<int>(j % static_cast<std::uint64_t>(cpus)),
-                                     .mission_wall_bound = std::chrono::seconds{r.bound},
-                                     .log = r.out_dir / ("job-" + std::to_string(j) + ".log"),
-                                     .charge = r.charge};
-      const std::vector<Outcome> outcomes = faults::run_job(config, mine);
-      std::ofstream f(r.out_dir / ("job-" + std::to_string(j) + ".tsv"));
-      for (const Outcome& o : outcomes) f << faults::encode(o);
-      return f.good() ? 0 : 1;
-    });
-    if (!worker) std::fprintf(stderr, "rejuv faults: job %llu: %s\n", static_cast<unsigned long long>(j),
-                              worker.error().to_string().c_str());
-    workers.push_back(worker ? std::optional(std::move(*worker)) : std::nullopt);
-  }
-  JobsDone done;
-  for (std::size_t j = 0; j < workers.size(); ++j) {
-    if (!workers[j]) {
-      done.job_failed = true;  // not started (reported above): its missions count as hung
-      continue;
-    }
-    const auto status = workers[j]->wait();
-    if (!status || !status->success()) {
-      done.job_failed = true;
-      std::fprintf(stderr, "rejuv faults: job %zu ended abnormally (%s): its missions count as hung\n", j,
-                   status ? status->to_string().c_str() : status.error().to_string().c_str());
-    }
-    std::ifstream f(r.out_dir / ("job-" + std::to_string(j) + ".tsv"));
-    for (std::string line; std::getline(f, line);) {
-      Outcome o;
-      if (faults::decode(line, o)) done.outcomes.push_back(std::move(o));
-    }
-  }
-  // A job that died takes its missions' outcomes with it: they are hung.
+// Job j's process: flies every jobs-th mission from the j-th in its slot (DDS domain, CPU) and writes its
+// outcomes to DIR/job-j.tsv.
+int fly_job(const CampaignRequest& r, const std::vector<faults::Mission>& missions, std::size_t j,
+            const WorkerSlot& slot) {
+  std::vector<faults::Mission> mine;
+  for (std::size_t m = j; m < missions.size(); m += r.jobs) mine.push_back(missions[m]);
+  const faults::JobConfig config{.graph = r.graph_path,
+                                 .dds_domain = slot.dds_domain,
+                                 .cpu = slot.cpu,
+                                 .mission_wall_bound = std::chrono::seconds{r.bound},
+                                 .log = r.out_dir / ("job-" + std::to_string(j) + ".log"),
+                                 .charge = r.charge};
+  const std::vector<Outcome> outcomes = faults::run_job(config, mine);
+  std::ofstream f(r.out_dir / ("job-" + std::to_string(j) + ".tsv"));
+  for (const Outcome& o : outcomes) f << faults::encode(o);
+  return f.good() ? 0 : 1;
+}
+
+// Every planned fault no job reported (its job died) as a hung outcome.
+void count_missing(const std::vector<faults::Mission>& missions, JobsDone& done) {
   for (const faults::Mission& m : missions) {
     for (const faults::Planned& p : m.faults) {
       const bool found = std::any_of(done.outcomes.begin(), done.outcomes.end(), [&](const Outcome& o) {
@@ -159,6 +135,35 @@ JobsDone run_jobs(const CampaignRequest& r, const std::vector<faults::Mission>& 
       }
     }
   }
+}
+
+// One worker per job in the pool (all at once, forked while this process is still single-threaded); the
+// outcomes read back from the jobs' DIR/job-N.tsv. An error when the campaign was interrupted.
+Result<JobsDone, std::string> run_jobs(const CampaignRequest& r, const std::vector<faults::Mission>& missions,
+                                       JobPool& pool) {
+  JobsDone done;
+  const auto ended = [&](const TaskEnd& end) -> Result<void, std::string> {
+    if (!end.status.success()) {
+      done.job_failed = true;
+      std::fprintf(stderr, "rejuv faults: job %zu ended abnormally (%s): its missions count as hung\n", end.task,
+                   end.status.to_string().c_str());
+    }
+    return {};
+  };
+  const auto job = [&](std::size_t j, const WorkerSlot& slot) { return fly_job(r, missions, j, slot); };
+  const auto outcome = pool.run(r.jobs, forked(job), PoolHooks{.ended = ended});
+  if (!outcome) return fail(outcome.error());
+  if (*outcome == PoolOutcome::Interrupted) {
+    return fail("interrupted: no table (the kernels' logs are in " + r.out_dir.string() + "/job-N.log)");
+  }
+  for (std::uint64_t j = 0; j < r.jobs; ++j) {
+    std::ifstream f(r.out_dir / ("job-" + std::to_string(j) + ".tsv"));
+    for (std::string line; std::getline(f, line);) {
+      Outcome o;
+      if (faults::decode(line, o)) done.outcomes.push_back(std::move(o));
+    }
+  }
+  count_missing(missions, done);  // a job that died takes its missions' outcomes with it: they are hung
   return done;
 }
 
@@ -261,24 +266,28 @@ int run_faults(std::span<const std::string_view> args) {
     return bad_input("rejuv faults: --domain " + std::to_string(*r.domain) + " + --jobs " + std::to_string(r.jobs) +
                      " - 1 is above the highest DDS domain " + std::to_string(launch::defaults::kMaxDdsDomainId));
   }
-  // Without --domain each job holds a leased domain (sys/lease.hpp) for the campaign: two campaigns, a
-  // campaign and the tests, or two checkouts' test suites on one machine never share a DDS domain.
-  std::vector<sys::DdsDomainLease> leases;
-  for (std::uint64_t j = 0; !r.domain && j < r.jobs; ++j) {
-    auto lease = sys::lease_dds_domain(static_cast<std::uint32_t>(::getpid() + j));
-    if (!lease) return bad_input("rejuv faults: no free DDS domain (" + lease.error().to_string() + "): give --domain");
-    leases.push_back(std::move(*lease));
-  }
   const auto missions = plan_campaign(r);
   if (!missions) return bad_input("rejuv faults: " + missions.error());
   std::error_code ec;
   fs::create_directories(r.out_dir, ec);
   if (ec) return bad_input("rejuv faults: --out: cannot create '" + r.out_dir.string() + "': " + ec.message());
+  // The jobs' DDS domains (job_pool.hpp) held for the campaign, and SIGINT/SIGTERM to stop it.
+  auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
+  if (!signals) return bad_input("rejuv faults: signalfd: " + signals.error().to_string());
+  auto pool = JobPool::create(PoolConfig{.workers = static_cast<unsigned>(r.jobs),
+                                         .first_domain = r.domain ? std::optional(static_cast<std::uint32_t>(*r.domain))
+                                                                  : std::nullopt,
+                                         .signals = &*signals});
+  if (!pool) return bad_input("rejuv faults: no free DDS domain (" + pool.error() + "): give --domain");
   std::fprintf(stderr, "rejuv faults: %llu faults in %zu missions, %llu job%s, seed %llu\n",
                static_cast<unsigned long long>(r.injections), missions->size(), static_cast<unsigned long long>(r.jobs),
                r.jobs == 1 ? "" : "s", static_cast<unsigned long long>(r.seed));
-  const JobsDone done = run_jobs(r, *missions, leases);
-  const proto::FaultCampaign campaign = tally(r, done.outcomes);
+  const auto done = run_jobs(r, *missions, *pool);
+  if (!done) {
+    std::fprintf(stderr, "rejuv faults: %s\n", done.error().c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  const proto::FaultCampaign campaign = tally(r, done->outcomes);
   print_campaign(campaign);
   std::ofstream json(r.out_dir / "faults.json");
   json << to_json(campaign) << "\n";
@@ -289,7 +298,7 @@ int run_faults(std::span<const std::string_view> args) {
   }
   std::printf("wrote %s\n", (r.out_dir / "faults.json").c_str());
   const proto::FaultRow& total = campaign.total();
-  const bool good = !done.job_failed && done.missing == 0 && total.recovered() == total.injections() &&
+  const bool good = !done->job_failed && done->missing == 0 && total.recovered() == total.injections() &&
                     total.unsafe() == 0 && total.leaked() == 0 && total.hung() == 0;
   return static_cast<int>(good ? Exit::Ok : Exit::Findings);
 }

@@ -113,9 +113,8 @@ Result<mavlink::SigningKey, std::string> key_of_file(const std::filesystem::path
   return *key;
 }
 
-}  // namespace
-
-int run_gcs(std::span<const std::string_view> args) {
+// What `rejuv gcs` was asked for.
+struct GcsRequest {
   std::optional<std::uint64_t> port;
   std::string host = "127.0.0.1";
   std::optional<std::filesystem::path> upload_path, key_path;
@@ -125,6 +124,265 @@ int run_gcs(std::span<const std::string_view> args) {
   std::optional<std::uint64_t> link_id;
   double timeout_s = 60;
   bool all = false;
+};
+
+Result<mavlink::SigningKey, std::string> parse_key(std::string_view hex) {
+  auto k = mavlink::SigningKey::from_hex(hex);
+  if (!k) return fail("--key: " + k.error());
+  return *k;
+}
+
+void declare_gcs_options(Options& opts, GcsRequest& r) {
+  opts.integer("--port", "P", r.port, {1, 0xFFFF}, "the kernel's network gate port; required")
+      .text("--host", "IP", r.host, "the kernel's address")
+      .path("--upload", "LAUNCH_FILE", r.upload_path, "upload the mission of this launch graph")
+      .custom<Upload>("--waypoints", "N,E,D[,YAW];...", r.waypoints, parse_waypoints,
+                      "upload these waypoints (local NED [m], yaw [rad])")
+      .real("--acceptance-radius", "M", r.radius, {.min = 0, .open_min = true},
+            "acceptance radius of the uploaded mission [m]")
+      .real("--watch", "SECONDS", r.watch_s, {.min = 0, .max = 1e6},
+            "print telemetry for this long (after the upload is acknowledged)", "0 with an upload, 10 without")
+      .real("--timeout", "SECONDS", r.timeout_s, {.min = 0.1, .max = 1e6}, "give up on the acknowledgement after this long")
+      .custom<mavlink::SigningKey>("--key", "HEX", r.key, parse_key, "sign every frame with this 32-byte key (64 hex digits)")
+      .path("--key-file", "PATH", r.key_path, "sign with the key in this file (64 hex digits)")
+      .integer("--link-id", "N", r.link_id, {0, 255}, "the signing link id", "1")
+      .flag("--all", r.all, "print every telemetry message (default: at most two lines a second)");
+}
+
+// The session the request asks for, every flag checked against the others.
+struct GcsPlan {
+  sys::UdpAddress kernel;
+  std::optional<Upload> upload;
+  std::optional<mavlink::SigningKey> key;
+  std::uint8_t link_id = 1;
+  Nanos watch{0}, timeout{0};
+  bool all = false;
+};
+
+// The mission to upload: --upload's launch file, --waypoints, or none; --acceptance-radius applied.
+Result<std::optional<Upload>, std::string> upload_of(const GcsRequest& r) {
+  Upload up;
+  if (r.upload_path) {
+    auto m = mission_of_launch(*r.upload_path);
+    if (!m) return fail(m.error());
+    up = std::move(*m);
+  } else if (r.waypoints) {
+    up = *r.waypoints;
+  } else {
+    return std::optional<Upload>{};
+  }
+  if (r.radius) up.acceptance_radius_m = *r.radius;
+  return std::optional<Upload>(std::move(up));
+}
+
+Result<GcsPlan, std::string> plan_gcs(const GcsRequest& r) {
+  if (!r.port) return fail(std::string("--port is required (the kernel's network gate port)"));
+  auto kernel = sys::UdpAddress::parse(r.host, static_cast<std::uint16_t>(*r.port));
+  if (!kernel) return fail("--host: " + kernel.error());
+  if (r.upload_path && r.waypoints) return fail(std::string("give --upload or --waypoints, not both"));
+  if (r.key && r.key_path) return fail(std::string("give --key or --key-file, not both"));
+  if (r.radius && !r.upload_path && !r.waypoints) return fail(std::string("--acceptance-radius needs --upload or --waypoints"));
+  std::optional<mavlink::SigningKey> key = r.key;
+  if (r.key_path) {
+    auto k = key_of_file(*r.key_path);
+    if (!k) return fail(k.error());
+    key = *k;
+  }
+  auto upload = upload_of(r);
+  if (!upload) return fail(upload.error());
+  const Nanos watch = to_nanos(Seconds{r.watch_s.value_or(*upload ? 0.0 : 10.0)});
+  return GcsPlan{.kernel = *kernel,
+                 .upload = std::move(*upload),
+                 .key = key,
+                 .link_id = static_cast<std::uint8_t>(r.link_id.value_or(1)),
+                 .watch = watch,
+                 .timeout = to_nanos(Seconds{r.timeout_s}),
+                 .all = r.all};
+}
+
+// One ground-station session over UDP: the upload (retransmitted until answered), the heartbeat, and the
+// vehicle's telemetry and STATUSTEXT printed. run() returns the exit code.
+class GroundStation {
+ public:
+  GroundStation(const GcsPlan& plan, sys::UdpSocket socket)
+      : plan_(plan), socket_(std::move(socket)), start_(sys::monotonic_now()), next_upload_(start_),
+        next_heartbeat_(start_) {
+    if (plan_.upload) uploader_.emplace(plan_.upload->waypoints, plan_.upload->acceptance_radius_m);
+    if (!plan_.upload) acked_at_ = start_;
+  }
+
+  int run() {
+    announce();
+    for (;;) {
+      const Nanos now = sys::monotonic_now();
+      if (!acked_at_) {
+        if (now - start_ >= plan_.timeout) {
+          std::printf("rejuv gcs: no acknowledgement after %.1f s and %llu transmissions; giving up\n", elapsed(),
+                      static_cast<unsigned long long>(transmissions_));
+          return static_cast<int>(Exit::Findings);
+        }
+        if (now >= next_upload_) transmit(transmissions_ == 0 ? uploader_->start() : uploader_->last_sent());
+      } else if (now - *acked_at_ >= plan_.watch) {
+        break;
+      }
+      if (now >= next_heartbeat_) heartbeat(now);
+      const Nanos wake = acked_at_ ? std::min(next_heartbeat_, *acked_at_ + plan_.watch) : std::min(next_heartbeat_, next_upload_);
+      if (auto ready = sys::wait_fd(socket_.fd(), sys::WaitFor::Readable, std::max(Nanos{0}, wake - now)); !ready) {
+        return bad_input("rejuv gcs: " + ready.error().to_string());
+      }
+      if (auto exit = drain()) return *exit;
+    }
+    std::printf("rejuv gcs: %llu telemetry message(s)%s\n", static_cast<unsigned long long>(telemetry_),
+                malformed_ > 0 ? (", " + std::to_string(malformed_) + " malformed datagram(s) ignored").c_str() : "");
+    const bool good = plan_.upload ? acked_at_.has_value() : telemetry_ > 0;
+    return static_cast<int>(good ? Exit::Ok : Exit::Findings);
+  }
+
+ private:
+  double elapsed() const { return to_seconds(sys::monotonic_now() - start_).count(); }
+
+  void announce() const {
+    if (plan_.upload) {
+      std::printf("rejuv gcs: uploading %zu waypoints to %s%s (MAVLink mission protocol; retransmitted every 200 ms until "
+                  "answered)\n",
+                  plan_.upload->waypoints.size(), plan_.kernel.to_string().c_str(), plan_.key ? ", signed" : "");
+    } else {
+      std::printf("rejuv gcs: watching telemetry from %s\n", plan_.kernel.to_string().c_str());
+    }
+    std::fflush(stdout);
+  }
+
+  void send(const mavlink::Message& m) {
+    std::optional<mavlink::Signer> signer;
+    if (plan_.key) {
+      // Strictly increasing per stream (the receiver refuses a repeated timestamp as a replay).
+      last_timestamp_ = std::max(mavlink::signing_timestamp_now(), last_timestamp_ + 1);
+      signer = mavlink::Signer{.key = *plan_.key, .link_id = plan_.link_id, .timestamp = last_timestamp_};
+    }
+    const mavlink::Frame f =
+        mavlink::encode(m, mavlink::Envelope{.seq = seq_++, .sysid = kGcsSystem, .compid = kGcsComponent}, signer);
+    if (auto ok = socket_.send_to(f.view(), plan_.kernel); !ok) {
+      std::fprintf(stderr, "rejuv gcs: %s\n", ok.error().to_string().c_str());
+    }
+  }
+
+  void transmit(const mavlink::Message& m) {
+    send(m);
+    ++transmissions_;
+    next_upload_ = sys::monotonic_now() + std::chrono::milliseconds{200};
+  }
+
+  // A ground station's HEARTBEAT: keeps telemetry coming (says where to send it).
+  void heartbeat(Nanos now) {
+    send(mavlink::Heartbeat{.custom_mode = 0, .type = mavlink::kMavTypeGcs, .autopilot = mavlink::kMavAutopilotInvalid,
+                            .base_mode = 0, .system_status = mavlink::kMavStateActive, .mavlink_version = 3});
+    next_heartbeat_ = now + kHeartbeatPeriod;
+  }
+
+  // Everything the socket holds; an exit code when the upload was refused.
+  std::optional<int> drain() {
+    for (;;) {
+      auto r = socket_.receive(buf_);
+      if (!r) return std::nullopt;  // EAGAIN: drained
+      if (!(r->from == plan_.kernel)) continue;  // not from the vehicle
+      auto p = mavlink::decode(std::span<const std::byte>(buf_.data(), r->size));
+      if (!p || r->truncated) {
+        ++malformed_;
+        continue;
+      }
+      if (const auto* text = std::get_if<mavlink::StatusText>(&p->message)) {
+        on_status_text(*text);
+        continue;
+      }
+      if (uploader_ && !acked_at_) {
+        if (auto exit = on_upload_reply(p->message)) return exit;
+      }
+      on_telemetry(p->message);
+    }
+  }
+
+  void on_status_text(const mavlink::StatusText& text) {
+    const std::string t = mavlink::text_of(text);
+    if (t.starts_with("mission refused: ")) refusal_text_ = t.substr(17);
+    std::printf("STATUSTEXT [%u] %s\n", text.severity, t.c_str());
+    std::fflush(stdout);
+  }
+
+  // The mission protocol's next step; an exit code when the vehicle refused the upload.
+  std::optional<int> on_upload_reply(const mavlink::Message& m) {
+    if (auto reply = uploader_->on_message(m)) transmit(*reply);
+    if (uploader_->status() == mavlink::MissionUploader::Status::Refused) {
+      print_refusal();
+      return static_cast<int>(Exit::Findings);
+    }
+    if (uploader_->status() == mavlink::MissionUploader::Status::Accepted) {
+      acked_at_ = sys::monotonic_now();
+      std::printf("rejuv gcs: upload acknowledged by ext_link after %.1f s and %llu transmission(s)%s\n", elapsed(),
+                  static_cast<unsigned long long>(transmissions_),
+                  uploader_->restarts() > 0 ? (", " + std::to_string(uploader_->restarts()) + " restart(s)").c_str() : "");
+      std::fflush(stdout);
+    }
+    return std::nullopt;
+  }
+
+  // A negative acknowledgement: the upload is not a mission commander would keep; nothing changed.
+  void print_refusal() const {
+    std::printf("rejuv gcs: upload refused by ext_link after %.1f s and %llu transmission(s): %s", elapsed(),
+                static_cast<unsigned long long>(transmissions_), std::string(mavlink::to_string(uploader_->result())).c_str());
+    if (!refusal_text_.empty()) {
+      // "outside the geofence (item I)": name the waypoint counting from 1, as the launch file does.
+      const auto item = refusal_text_.rfind("(item ");
+      const std::string reason = refusal_text_.substr(0, item == std::string::npos ? refusal_text_.size() : item);
+      std::printf(": %s", reason.c_str());
+      if (item != std::string::npos) {
+        const std::size_t i = std::strtoul(refusal_text_.c_str() + item + 6, nullptr, 10);
+        if (i < plan_.upload->waypoints.size()) {
+          const mavlink::LocalWaypoint& w = plan_.upload->waypoints[i];
+          std::printf("(waypoint %zu: N %.2f E %.2f D %.2f m)", i + 1, w.north_m, w.east_m, w.down_m);
+        }
+      }
+    }
+    std::printf("; the vehicle flies on unchanged\n");
+    std::fflush(stdout);
+  }
+
+  // HEARTBEATs each, LOCAL_POSITION_NED at most two lines a second (every one with --all).
+  void on_telemetry(const mavlink::Message& m) {
+    const bool is_telemetry =
+        std::holds_alternative<mavlink::LocalPositionNed>(m) || std::holds_alternative<mavlink::Heartbeat>(m);
+    if (!is_telemetry) return;
+    ++telemetry_;
+    const Nanos at = sys::monotonic_now();
+    if (const auto* hb = std::get_if<mavlink::Heartbeat>(&m)) {
+      std::printf("HEARTBEAT  mode %s  epoch %u\n", mode_text(hb->custom_mode), hb->custom_mode >> 8U);
+      std::fflush(stdout);
+      return;
+    }
+    if (!plan_.all && at - last_print_ < std::chrono::milliseconds{500}) return;
+    last_print_ = at;
+    const auto& lp = std::get<mavlink::LocalPositionNed>(m);
+    std::printf("t=%8.3f s  p=(%6.2f, %6.2f, %6.2f) m  v=(%5.2f, %5.2f, %5.2f) m/s\n", lp.time_boot_ms * 1e-3,
+                static_cast<double>(lp.x), static_cast<double>(lp.y), static_cast<double>(lp.z),
+                static_cast<double>(lp.vx), static_cast<double>(lp.vy), static_cast<double>(lp.vz));
+    std::fflush(stdout);
+  }
+
+  const GcsPlan& plan_;
+  sys::UdpSocket socket_;
+  std::optional<mavlink::MissionUploader> uploader_;
+  Nanos start_, next_upload_, next_heartbeat_, last_print_{0};
+  std::optional<Nanos> acked_at_;  // set once the upload was acknowledged (at once when there is none)
+  std::uint8_t seq_ = 0;
+  std::uint64_t last_timestamp_ = 0;
+  std::uint64_t transmissions_ = 0, telemetry_ = 0, malformed_ = 0;
+  std::string refusal_text_;  // the vehicle's STATUSTEXT about a refused mission
+  std::array<std::byte, mavlink::kMaxFrameBytes + 1> buf_{};
+};
+
+}  // namespace
+
+int run_gcs(std::span<const std::string_view> args) {
+  GcsRequest r;
   Options opts("gcs",
                "A minimal MAVLink 2 ground control station for the kernel's network gate (UDP, docs/mavlink.md).\n"
                "Uploads a mission with the MAVLink mission protocol, retransmitting its last message every 200 ms\n"
@@ -135,185 +393,14 @@ int run_gcs(std::span<const std::string_view> args) {
                "Exit 0 when the upload was acknowledged (watching only: when telemetry arrived), 1 when it\n"
                "was refused (the MAV_MISSION_RESULT and the vehicle's reason are printed: outside the geofence,\n"
                "below the altitude floor, too many waypoints) or not acknowledged in time, 2 on bad flags.");
-  opts.integer("--port", "P", port, {1, 0xFFFF}, "the kernel's network gate port; required")
-      .text("--host", "IP", host, "the kernel's address")
-      .path("--upload", "LAUNCH_FILE", upload_path, "upload the mission of this launch graph")
-      .custom<Upload>("--waypoints", "N,E,D[,YAW];...", waypoints, parse_waypoints,
-                      "upload these waypoints (local NED [m], yaw [rad])")
-      .real("--acceptance-radius", "M", radius, {.min = 0, .open_min = true},
-            "acceptance radius of the uploaded mission [m]")
-      .real("--watch", "SECONDS", watch_s, {.min = 0, .max = 1e6},
-            "print telemetry for this long (after the upload is acknowledged)", "0 with an upload, 10 without")
-      .real("--timeout", "SECONDS", timeout_s, {.min = 0.1, .max = 1e6}, "give up on the acknowledgement after this long")
-      .custom<mavlink::SigningKey>("--key", "HEX", key,
-                                   [](std::string_view hex) -> Result<mavlink::SigningKey, std::string> {
-                                     auto k = mavlink::SigningKey::from_hex(hex);
-                                     if (!k) return fail("--key: " + k.error());
-                                     return *k;
-                                   },
-                                   "sign every frame with this 32-byte key (64 hex digits)")
-      .path("--key-file", "PATH", key_path, "sign with the key in this file (64 hex digits)")
-      .integer("--link-id", "N", link_id, {0, 255}, "the signing link id", "1")
-      .flag("--all", all, "print every telemetry message (default: at most two lines a second)");
+  declare_gcs_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (!port) return bad_input("rejuv gcs: --port is required (the kernel's network gate port)");
-  auto kernel = sys::UdpAddress::parse(host, static_cast<std::uint16_t>(*port));
-  if (!kernel) return bad_input("rejuv gcs: --host: " + kernel.error());
-  if (upload_path && waypoints) return bad_input("rejuv gcs: give --upload or --waypoints, not both");
-  if (key && key_path) return bad_input("rejuv gcs: give --key or --key-file, not both");
-  if (radius && !upload_path && !waypoints) {
-    return bad_input("rejuv gcs: --acceptance-radius needs --upload or --waypoints");
-  }
-  if (key_path) {
-    auto k = key_of_file(*key_path);
-    if (!k) return bad_input("rejuv gcs: " + k.error());
-    key = *k;
-  }
-
-  std::optional<Upload> upload = waypoints;
-  if (upload_path) {
-    auto m = mission_of_launch(*upload_path);
-    if (!m) return bad_input("rejuv gcs: " + m.error());
-    upload = *m;
-  }
-  if (upload && radius) upload->acceptance_radius_m = *radius;
-  const Nanos watch = to_nanos(Seconds{watch_s.value_or(upload ? 0.0 : 10.0)});
-  const Nanos timeout = to_nanos(Seconds{timeout_s});
-
+  const auto plan = plan_gcs(r);
+  if (!plan) return bad_input("rejuv gcs: " + plan.error());
   auto socket = sys::UdpSocket::bind(sys::UdpAddress::loopback(0), sys::Blocking::No);
   if (!socket) return bad_input("rejuv gcs: " + socket.error().to_string());
-  const Nanos start = sys::monotonic_now();
-  const auto elapsed = [&] { return to_seconds(sys::monotonic_now() - start).count(); };
-  std::uint8_t seq = 0;
-  std::uint64_t last_timestamp = 0;
-  const auto send = [&](const mavlink::Message& m) {
-    std::optional<mavlink::Signer> signer;
-    if (key) {
-      // Strictly increasing per stream (the receiver refuses a repeated timestamp as a replay).
-      last_timestamp = std::max(mavlink::signing_timestamp_now(), last_timestamp + 1);
-      signer = mavlink::Signer{.key = *key, .link_id = static_cast<std::uint8_t>(link_id.value_or(1)), .timestamp = last_timestamp};
-    }
-    const mavlink::Frame f =
-        mavlink::encode(m, mavlink::Envelope{.seq = seq++, .sysid = kGcsSystem, .compid = kGcsComponent}, signer);
-    if (auto ok = socket->send_to(f.view(), *kernel); !ok) {
-      std::fprintf(stderr, "rejuv gcs: %s\n", ok.error().to_string().c_str());
-    }
-  };
-
-  std::optional<mavlink::MissionUploader> uploader;
-  if (upload) {
-    uploader.emplace(upload->waypoints, upload->acceptance_radius_m);
-    std::printf("rejuv gcs: uploading %zu waypoints to %s%s (MAVLink mission protocol; retransmitted every 200 ms until "
-                "answered)\n",
-                upload->waypoints.size(), kernel->to_string().c_str(), key ? ", signed" : "");
-  } else {
-    std::printf("rejuv gcs: watching telemetry from %s\n", kernel->to_string().c_str());
-  }
-  std::fflush(stdout);
-  bool acked = !upload.has_value();
-  std::optional<Nanos> acked_at = acked ? std::optional<Nanos>(start) : std::nullopt;
-  std::uint64_t transmissions = 0, telemetry = 0, malformed = 0;
-  Nanos next_upload = start, next_heartbeat = start, last_print{0};
-  std::string refusal_text;  // the vehicle's STATUSTEXT about a refused mission
-  std::array<std::byte, mavlink::kMaxFrameBytes + 1> buf{};
-  const auto transmit = [&](const mavlink::Message& m) {
-    send(m);
-    ++transmissions;
-    next_upload = sys::monotonic_now() + std::chrono::milliseconds{200};
-  };
-  for (;;) {
-    const Nanos now = sys::monotonic_now();
-    if (!acked) {
-      if (now - start >= timeout) {
-        std::printf("rejuv gcs: no acknowledgement after %.1f s and %llu transmissions; giving up\n", elapsed(),
-                    static_cast<unsigned long long>(transmissions));
-        return static_cast<int>(Exit::Findings);
-      }
-      if (now >= next_upload) transmit(transmissions == 0 ? uploader->start() : uploader->last_sent());
-    } else if (now - *acked_at >= watch) {
-      break;
-    }
-    if (now >= next_heartbeat) {  // a ground station's HEARTBEAT: keeps telemetry coming (says where to send it)
-      send(mavlink::Heartbeat{.custom_mode = 0, .type = mavlink::kMavTypeGcs, .autopilot = mavlink::kMavAutopilotInvalid,
-                              .base_mode = 0, .system_status = mavlink::kMavStateActive, .mavlink_version = 3});
-      next_heartbeat = now + kHeartbeatPeriod;
-    }
-    const Nanos wake = acked ? std::min(next_heartbeat, *acked_at + watch) : std::min(next_heartbeat, next_upload);
-    if (auto ready = sys::wait_fd(socket->fd(), sys::WaitFor::Readable, std::max(Nanos{0}, wake - now)); !ready) {
-      return bad_input("rejuv gcs: " + ready.error().to_string());
-    }
-    for (;;) {
-      auto r = socket->receive(buf);
-      if (!r) break;  // EAGAIN: drained
-      if (!(r->from == *kernel)) continue;  // not from the vehicle
-      auto p = mavlink::decode(std::span<const std::byte>(buf.data(), r->size));
-      if (!p || r->truncated) {
-        ++malformed;
-        continue;
-      }
-      if (const auto* text = std::get_if<mavlink::StatusText>(&p->message)) {
-        const std::string t = mavlink::text_of(*text);
-        if (t.starts_with("mission refused: ")) refusal_text = t.substr(17);
-        std::printf("STATUSTEXT [%u] %s\n", text->severity, t.c_str());
-        std::fflush(stdout);
-        continue;
-      }
-      if (uploader && !acked) {
-        if (auto reply = uploader->on_message(p->message)) transmit(*reply);
-        if (uploader->status() == mavlink::MissionUploader::Status::Refused) {
-          // A negative acknowledgement: the upload is not a mission commander would keep; nothing changed.
-          std::printf("rejuv gcs: upload refused by ext_link after %.1f s and %llu transmission(s): %s",
-                      elapsed(), static_cast<unsigned long long>(transmissions),
-                      std::string(mavlink::to_string(uploader->result())).c_str());
-          if (!refusal_text.empty()) {
-            // "outside the geofence (item I)": name the waypoint counting from 1, as the launch file does.
-            const auto item = refusal_text.rfind("(item ");
-            const std::string reason = refusal_text.substr(0, item == std::string::npos ? refusal_text.size() : item);
-            std::printf(": %s", reason.c_str());
-            if (item != std::string::npos) {
-              const std::size_t i = std::strtoul(refusal_text.c_str() + item + 6, nullptr, 10);
-              if (i < upload->waypoints.size()) {
-                const mavlink::LocalWaypoint& w = upload->waypoints[i];
-                std::printf("(waypoint %zu: N %.2f E %.2f D %.2f m)", i + 1, w.north_m, w.east_m, w.down_m);
-              }
-            }
-          }
-          std::printf("; the vehicle flies on unchanged\n");
-          std::fflush(stdout);
-          return static_cast<int>(Exit::Findings);
-        }
-        if (uploader->status() == mavlink::MissionUploader::Status::Accepted) {
-          acked = true;
-          acked_at = sys::monotonic_now();
-          std::printf("rejuv gcs: upload acknowledged by ext_link after %.1f s and %llu transmission(s)%s\n", elapsed(),
-                      static_cast<unsigned long long>(transmissions),
-                      uploader->restarts() > 0 ? (", " + std::to_string(uploader->restarts()) + " restart(s)").c_str() : "");
-          std::fflush(stdout);
-        }
-      }
-      const bool is_telemetry = std::holds_alternative<mavlink::LocalPositionNed>(p->message) ||
-                                std::holds_alternative<mavlink::Heartbeat>(p->message);
-      if (!is_telemetry) continue;
-      ++telemetry;
-      const Nanos at = sys::monotonic_now();
-      if (const auto* hb = std::get_if<mavlink::Heartbeat>(&p->message)) {
-        std::printf("HEARTBEAT  mode %s  epoch %u\n", mode_text(hb->custom_mode), hb->custom_mode >> 8U);
-        std::fflush(stdout);
-        continue;
-      }
-      if (!all && at - last_print < std::chrono::milliseconds{500}) continue;
-      last_print = at;
-      const auto& lp = std::get<mavlink::LocalPositionNed>(p->message);
-      std::printf("t=%8.3f s  p=(%6.2f, %6.2f, %6.2f) m  v=(%5.2f, %5.2f, %5.2f) m/s\n", lp.time_boot_ms * 1e-3,
-                  static_cast<double>(lp.x), static_cast<double>(lp.y), static_cast<double>(lp.z),
-                  static_cast<double>(lp.vx), static_cast<double>(lp.vy), static_cast<double>(lp.vz));
-      std::fflush(stdout);
-    }
-  }
-  std::printf("rejuv gcs: %llu telemetry message(s)%s\n", static_cast<unsigned long long>(telemetry),
-              malformed > 0 ? (", " + std::to_string(malformed) + " malformed datagram(s) ignored").c_str() : "");
-  const bool good = upload ? acked : telemetry > 0;
-  return static_cast<int>(good ? Exit::Ok : Exit::Findings);
+  GroundStation station(*plan, std::move(*socket));
+  return station.run();
 }
 
 }  // namespace rejuv::cli

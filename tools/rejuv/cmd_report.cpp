@@ -156,13 +156,124 @@ int report_figures(const fs::path& dir) {
   return static_cast<int>(Exit::Ok);
 }
 
-}  // namespace
-
-int run_report(std::span<const std::string_view> args) {
+// What `rejuv report` was asked for.
+struct ReportRequest {
   std::string what, graph_path;
   std::optional<std::uint64_t> seed_flag, domain;
   std::optional<std::filesystem::path> out_dir, reuse_path;
   std::optional<flight::AttackLaw> attack_law;
+};
+
+void declare_report_options(Options& opts, ReportRequest& r) {
+  opts.positional("WHAT", r.what, "what to report: table or figures")
+      .positional("GRAPH|DIR", r.graph_path, "table: the launch graph (*.launch.pbtxt); figures: a run's --out DIR");
+  seed_option(opts, r.seed_flag, "seed of every run")
+      .path("--out", "DIR", r.out_dir, "where the runs' files go", "out/table");
+  domain_option(opts, r.domain, "DDS domain id of the runtime missions", "the graph's");
+  attack_option(opts, r.attack_law)
+      .path("--sr-attack-json", "FILE", r.reuse_path,
+            "the runtime's 'SR, attack' row from this `rejuv run --summary-json` (same graph and seed) instead of\n"
+            "flying it again (e.g. the demo's main mission)");
+}
+
+// --sr-attack-json's summary, checked to be `rejuv run` of this graph and seed with SR and attacks.
+Result<std::optional<proto::RunSummary>, std::string> reused_row(const ReportRequest& r, const flight::SimConfig& config) {
+  if (!r.reuse_path) return std::optional<proto::RunSummary>{};
+  auto reused = read_summary(*r.reuse_path);
+  if (!reused) return fail("--sr-attack-json: cannot read a run summary from '" + r.reuse_path->string() + "'");
+  if (reused->runner() != "run" || !reused->sr() || !reused->attack() || reused->seed() != config.seed ||
+      reused->graph() != config.graph_name || reused->attack_kind() != std::string(flight::to_string(config.attack.law))) {
+    return fail("--sr-attack-json: '" + r.reuse_path->string() + "' is not `rejuv run` of " + config.graph_name +
+                " with SR and attacks, seed " + std::to_string(config.seed));
+  }
+  return reused;
+}
+
+// Everything the rows of the table share.
+struct TableJob {
+  const ReportRequest& request;
+  const flight::SimConfig& config;
+  const std::optional<proto::RunSummary>& reused;
+  fs::path out;
+  const sys::SignalFd& signals;
+  bool tty = false;
+};
+
+struct RowResult {
+  proto::RunSummary run, sim;
+};
+
+// Row i: the model first (it takes a second), then the runtime, flown or --sr-attack-json's. The error is the
+// exit code, its reason already on stderr.
+Result<RowResult, int> fly_row(const TableJob& job, std::size_t i) {
+  const Row& row = kRows[i];
+  flight::SimConfig c = job.config;
+  c.sr = row.sr ? flight::SrSwitch::On : flight::SrSwitch::Off;
+  c.attack.enabled = row.attack ? flight::AttackSwitch::On : flight::AttackSwitch::Off;
+  const auto model = flight::run_simulation(c);
+  if (!model) return fail(bad_input("rejuv report: " + model.error().to_string()));
+  if (row.sr && row.attack && job.reused) {
+    std::fprintf(stderr, "rejuv report: [%zu/4] %s: runtime row from %s\n", i + 1, row.label,
+                 job.request.reuse_path->c_str());
+    return RowResult{.run = *job.reused, .sim = *model};
+  }
+  std::fprintf(stderr, "rejuv report: [%zu/4] %s: rejuv run (log: %s)\n", i + 1, row.label,
+               (job.out / ("run_" + std::string(row.key) + ".log")).c_str());
+  const auto mission_start = std::chrono::steady_clock::now();
+  Mission m = fly(row, job.request.graph_path, job.config.seed, job.request.domain, job.request.attack_law, job.out,
+                  job.signals, job.tty);
+  if (!m.summary) {
+    std::fprintf(stderr, "rejuv report: %s: %s\n", row.label, m.problem.c_str());
+    return fail(static_cast<int>(Exit::Findings));
+  }
+  std::fprintf(stderr, "rejuv report: [%zu/4] %s: %s, max V %.4f, %llu rollbacks, %.1f s flight in %.0f s wall\n", i + 1,
+               row.label, outcome_text(*m.summary).c_str(), m.summary->max_v(),
+               static_cast<unsigned long long>(m.summary->rollbacks()), m.summary->mission_time_s(),
+               seconds_since(mission_start));
+  return RowResult{.run = *m.summary, .sim = *model};
+}
+
+// `rejuv report table GRAPH`: the four rows, the table on stdout and in DIR/table.txt.
+int report_table(const ReportRequest& r) {
+  flight::SimOverrides overrides;
+  overrides.seed = r.seed_flag;
+  auto loaded = load_with_attack(r.graph_path, r.attack_law, "rejuv report");
+  if (!loaded) return bad_input(loaded.error());
+  auto config = flight::config_from_launch(*loaded, overrides);
+  if (!config) return bad_input(config.error().to_string());
+  const auto reused = reused_row(r, *config);
+  if (!reused) return bad_input("rejuv report: " + reused.error());
+  const fs::path out = r.out_dir.value_or("out/table");
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) return bad_input("rejuv report: --out: cannot create '" + out.string() + "': " + ec.message());
+  // SIGINT/SIGTERM stop the mission in flight cleanly (forwarded to it), then the report.
+  auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
+  if (!signals) {
+    std::fprintf(stderr, "rejuv report: signalfd: %s\n", signals.error().to_string().c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  const TableJob job{.request = r, .config = *config, .reused = *reused, .out = out, .signals = *signals,
+                     .tty = isatty(STDERR_FILENO) == 1};
+  std::vector<proto::RunSummary> run, sim;
+  const auto start = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < std::size(kRows); ++i) {
+    const auto row = fly_row(job, i);
+    if (!row) return row.error();
+    run.push_back(row->run);
+    sim.push_back(row->sim);
+  }
+  const std::string table = table_text(config->graph_name, config->seed, run, sim);
+  std::fputs(table.c_str(), stdout);
+  std::fprintf(stderr, "rejuv report: Table I in %.0f s wall; files in %s\n", seconds_since(start), out.c_str());
+  if (UniqueFile f(std::fopen((out / "table.txt").c_str(), "w")); f) std::fputs(table.c_str(), f.get());
+  return static_cast<int>(Exit::Ok);
+}
+
+}  // namespace
+
+int run_report(std::span<const std::string_view> args) {
+  ReportRequest r;
   Options opts("report",
                "Reports that compare the runtime with the model.\n"
                "  table GRAPH  Table I (§VI-D): SR on/off x attack on/off, each row a mission flown by the\n"
@@ -174,92 +285,17 @@ int run_report(std::span<const std::string_view> args) {
                "               earlier `rejuv run ... --out DIR` or `rejuv sim ... --out DIR` wrote there.\n"
                "Exit 0 once every row ran (a row may be a failed mission: that is what Table I shows), 1 when a\n"
                "runtime mission could not be run, 2 on bad input.");
-  opts.positional("WHAT", what, "what to report: table or figures")
-      .positional("GRAPH|DIR", graph_path, "table: the launch graph (*.launch.pbtxt); figures: a run's --out DIR");
-  seed_option(opts, seed_flag, "seed of every run")
-      .path("--out", "DIR", out_dir, "where the runs' files go", "out/table");
-  domain_option(opts, domain, "DDS domain id of the runtime missions", "the graph's");
-  attack_option(opts, attack_law)
-      .path("--sr-attack-json", "FILE", reuse_path,
-            "the runtime's 'SR, attack' row from this `rejuv run --summary-json` (same graph and seed) instead of\n"
-            "flying it again (e.g. the demo's main mission)");
+  declare_report_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (what == "figures") {
-    if (seed_flag || out_dir || domain || reuse_path || attack_law) {
+  if (r.what == "figures") {
+    if (r.seed_flag || r.out_dir || r.domain || r.reuse_path || r.attack_law) {
       return bad_input("rejuv report figures: takes only DIR (--seed, --out, --domain, --attack, --sr-attack-json are "
                        "for table)");
     }
-    return report_figures(graph_path);
+    return report_figures(r.graph_path);
   }
-  if (what != "table") return bad_input("rejuv report: unknown report '" + what + "' (expected: table or figures)");
-  flight::SimOverrides overrides;
-  overrides.seed = seed_flag;
-  auto loaded = load_with_attack(graph_path, attack_law, "rejuv report");
-  if (!loaded) return bad_input(loaded.error());
-  auto config = flight::config_from_launch(*loaded, overrides);
-  if (!config) return bad_input(config.error().to_string());
-  const std::uint64_t seed = config->seed;
-
-  std::optional<proto::RunSummary> reused;
-  if (reuse_path) {
-    reused = read_summary(*reuse_path);
-    if (!reused) {
-      return bad_input("rejuv report: --sr-attack-json: cannot read a run summary from '" + reuse_path->string() + "'");
-    }
-    if (reused->runner() != "run" || !reused->sr() || !reused->attack() || reused->seed() != seed ||
-        reused->graph() != config->graph_name ||
-        reused->attack_kind() != std::string(flight::to_string(config->attack.law))) {
-      return bad_input("rejuv report: --sr-attack-json: '" + reuse_path->string() + "' is not `rejuv run` of " +
-                       config->graph_name + " with SR and attacks, seed " + std::to_string(seed));
-    }
-  }
-  const fs::path out = out_dir.value_or("out/table");
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  if (ec) return bad_input("rejuv report: --out: cannot create '" + out.string() + "': " + ec.message());
-  // SIGINT/SIGTERM stop the mission in flight cleanly (forwarded to it), then the report.
-  auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
-  if (!signals) {
-    std::fprintf(stderr, "rejuv report: signalfd: %s\n", signals.error().to_string().c_str());
-    return static_cast<int>(Exit::Findings);
-  }
-  const bool tty = isatty(STDERR_FILENO) == 1;
-
-  std::vector<proto::RunSummary> run, sim;
-  const auto start = std::chrono::steady_clock::now();
-  for (std::size_t i = 0; i < std::size(kRows); ++i) {
-    const Row& row = kRows[i];
-    // The model first: it takes a second.
-    flight::SimConfig c = *config;
-    c.sr = row.sr ? flight::SrSwitch::On : flight::SrSwitch::Off;
-    c.attack.enabled = row.attack ? flight::AttackSwitch::On : flight::AttackSwitch::Off;
-    const auto model = flight::run_simulation(c);
-    if (!model) return bad_input("rejuv report: " + model.error().to_string());
-    sim.push_back(*model);
-    if (row.sr && row.attack && reused) {
-      std::fprintf(stderr, "rejuv report: [%zu/4] %s: runtime row from %s\n", i + 1, row.label, reuse_path->c_str());
-      run.push_back(*reused);
-      continue;
-    }
-    std::fprintf(stderr, "rejuv report: [%zu/4] %s: rejuv run (log: %s)\n", i + 1, row.label,
-                 (out / ("run_" + std::string(row.key) + ".log")).c_str());
-    const auto mission_start = std::chrono::steady_clock::now();
-    Mission m = fly(row, graph_path, seed, domain, attack_law, out, *signals, tty);
-    if (!m.summary) {
-      std::fprintf(stderr, "rejuv report: %s: %s\n", row.label, m.problem.c_str());
-      return static_cast<int>(Exit::Findings);
-    }
-    std::fprintf(stderr, "rejuv report: [%zu/4] %s: %s, max V %.4f, %llu rollbacks, %.1f s flight in %.0f s wall\n",
-                 i + 1, row.label, outcome_text(*m.summary).c_str(), m.summary->max_v(),
-                 static_cast<unsigned long long>(m.summary->rollbacks()), m.summary->mission_time_s(),
-                 seconds_since(mission_start));
-    run.push_back(*m.summary);
-  }
-  const std::string table = table_text(config->graph_name, seed, run, sim);
-  std::fputs(table.c_str(), stdout);
-  std::fprintf(stderr, "rejuv report: Table I in %.0f s wall; files in %s\n", seconds_since(start), out.c_str());
-  if (UniqueFile f(std::fopen((out / "table.txt").c_str(), "w")); f) std::fputs(table.c_str(), f.get());
-  return static_cast<int>(Exit::Ok);
+  if (r.what != "table") return bad_input("rejuv report: unknown report '" + r.what + "' (expected: table or figures)");
+  return report_table(r);
 }
 
 }  // namespace rejuv::cli

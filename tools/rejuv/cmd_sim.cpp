@@ -61,96 +61,81 @@ bool run_is_good(const proto::RunSummary& s) {
   return (s.mission_completed() || s.stopped_after_attacks()) && !s.left_safety_set();
 }
 
-}  // namespace
-
-int run_sim(std::span<const std::string_view> args) {
+// What `rejuv sim` was asked for.
+struct SimRequest {
   std::string graph_path;
   std::optional<std::uint64_t> seed;
   FlightSwitches switches;
   std::optional<std::filesystem::path> json_path, csv_path;
   OutFlags files_out;
   bool table = false;
-  Options opts("sim",
-               "Model-level simulation of the CPS SR scheme (paper §II, §IV–§VI) in one process: plant at 1 kHz,\n"
-               "sensors, EKF, LQR controllers, the modes MC/RB/SC/update/CP and the worst-case attack of §VI-D.\n"
-               "Exit 0 when the mission completes inside the safety set, 1 when it fails or leaves it\n"
-               "(--table: 0 once all four configurations ran), 2 on bad flags or a bad launch file.");
-  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt): sr, mission, plant, attack");
-  flight_options(opts, switches, "no rejuvenation: the same tracking algorithm in MC for the whole mission");
-  seed_option(opts, seed, "seed of sensor noise and wind")
-      .path("--summary-json", "FILE", json_path, "write the RunSummary as JSON (--table: an array of four)")
-      .path("--csv", "FILE", csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V every control period");
-  out_options(opts, files_out).flag("--table", table, "run Table I: SR on/off x attack on/off, and print the comparison");
-  if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (table && (switches.no_sr || switches.no_attack || csv_path || files_out.dir)) {
-    return bad_input("rejuv sim: --table runs all four configurations; it cannot be combined with --no-sr, "
-                     "--no-attack, --csv or --out");
-  }
-  if (auto ok = check_out_options(opts, files_out); !ok) return bad_input("rejuv sim: " + ok.error());
-  flight::SimOverrides overrides;
-  overrides.seed = seed;
-  if (switches.no_sr) overrides.sr = flight::SrSwitch::Off;
-  if (switches.no_attack) overrides.attack = flight::AttackSwitch::Off;
+};
 
-  auto loaded = load_with_attack(graph_path, switches.attack, "rejuv sim");
-  if (!loaded) return bad_input(loaded.error());
-  auto config = flight::config_from_launch(*loaded, overrides);
-  if (!config) return bad_input(config.error().to_string());
+void declare_sim_options(Options& opts, SimRequest& r) {
+  opts.positional("GRAPH", r.graph_path, "the launch graph (*.launch.pbtxt): sr, mission, plant, attack");
+  flight_options(opts, r.switches, "no rejuvenation: the same tracking algorithm in MC for the whole mission");
+  seed_option(opts, r.seed, "seed of sensor noise and wind")
+      .path("--summary-json", "FILE", r.json_path, "write the RunSummary as JSON (--table: an array of four)")
+      .path("--csv", "FILE", r.csv_path, "write a trace: t, x, x_hat, x_sp, mode, u, V every control period");
+  out_options(opts, r.files_out).flag("--table", r.table, "run Table I: SR on/off x attack on/off, and print the comparison");
+}
 
-  // Open every output before the (long) run, so a bad path fails fast.
-  UniqueFile json_file, csv_file;
-  if (auto opened = open_outputs("rejuv sim", json_path, csv_path, json_file, csv_file); !opened) {
-    return bad_input(opened.error());
-  }
-  std::optional<RunFiles> files;
-  if (files_out.dir) {
-    auto opened = RunFiles::open(*files_out.dir, files_out.trace);
-    if (!opened) return bad_input("rejuv sim: " + opened.error());
-    files.emplace(std::move(*opened));
-  }
-  const bool tty = isatty(STDERR_FILENO) == 1;
+// Where the run's results go, every file opened before the (long) run so that a bad path fails fast.
+struct SimOutputs {
+  UniqueFile json, csv;
+  std::optional<RunFiles> files;  // --out DIR
+};
 
-  if (!table) {
-    flight::SimObservers obs = progress_observers(config->graph_name, tty);
-    if (csv_file) write_trace_header(csv_file.get());
-    if (csv_file || files) {
-      obs.trace = [f = csv_file.get(), out = files ? &*files : nullptr](const flight::TraceRow& r) {
-        if (f != nullptr) write_trace_row(f, r);
-        if (out != nullptr) out->trace(r);
-      };
-    }
-    if (files) {
-      obs.control_update = [out = &*files](Nanos t, Nanos wall) { out->control_update(t, wall); };
-      obs.sr_event = [out = &*files](const SrEvent& e) { out->sr_event(e); };
-    }
-    auto summary = flight::run_simulation(*config, obs);
-    if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
-    const bool out_ok = !files || finish_out_dir(*files, *summary, "rejuv sim", files_out.no_figures ? Figures::Skip : Figures::Draw);
-    print(stdout, describe(*summary));
-    if (json_file) print(json_file.get(), to_json(*summary) + "\n");
-    return static_cast<int>(run_is_good(*summary) && out_ok ? Exit::Ok : Exit::Findings);
+Result<SimOutputs, std::string> open_sim_outputs(const SimRequest& r) {
+  SimOutputs out;
+  if (auto opened = open_outputs("rejuv sim", r.json_path, r.csv_path, out.json, out.csv); !opened) {
+    return fail(opened.error());
   }
+  if (r.files_out.dir) {
+    auto opened = RunFiles::open(*r.files_out.dir, r.files_out.trace);
+    if (!opened) return fail("rejuv sim: " + opened.error());
+    out.files.emplace(std::move(*opened));
+  }
+  return out;
+}
 
-  // Table I (§VI-D): the four configurations, same seed, same tracking algorithm.
-  struct Row {
-    const char* label;
-    flight::SrSwitch sr;
-    flight::AttackSwitch attack;
-  };
-  const Row rows[] = {{"no SR, no attack", flight::SrSwitch::Off, flight::AttackSwitch::Off},
-                      {"SR, no attack", flight::SrSwitch::On, flight::AttackSwitch::Off},
-                      {"no SR, attack", flight::SrSwitch::Off, flight::AttackSwitch::On},
-                      {"SR, attack", flight::SrSwitch::On, flight::AttackSwitch::On}};
-  std::vector<proto::RunSummary> results;
-  for (const Row& row : rows) {
-    flight::SimConfig c = *config;
-    c.sr = row.sr;
-    c.attack.enabled = row.attack;
-    const auto summary = flight::run_simulation(c, progress_observers(row.label, tty));
-    if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
-    results.push_back(*summary);
+// One flight: progress, the trace to --csv and --out, the summary printed and written.
+int fly_one(const SimRequest& r, const flight::SimConfig& config, SimOutputs& out, bool tty) {
+  flight::SimObservers obs = progress_observers(config.graph_name, tty);
+  if (out.csv) write_trace_header(out.csv.get());
+  RunFiles* files = out.files ? &*out.files : nullptr;
+  if (out.csv || files != nullptr) {
+    obs.trace = [f = out.csv.get(), files](const flight::TraceRow& row) {
+      if (f != nullptr) write_trace_row(f, row);
+      if (files != nullptr) files->trace(row);
+    };
   }
-  std::string out = "Table I (" + config->graph_name + ", seed " + std::to_string(config->seed) + ")\n";
+  if (files != nullptr) {
+    obs.control_update = [files](Nanos t, Nanos wall) { files->control_update(t, wall); };
+    obs.sr_event = [files](const SrEvent& e) { files->sr_event(e); };
+  }
+  auto summary = flight::run_simulation(config, obs);
+  if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
+  const bool out_ok = files == nullptr ||
+                      finish_out_dir(*files, *summary, "rejuv sim", r.files_out.no_figures ? Figures::Skip : Figures::Draw);
+  print(stdout, describe(*summary));
+  if (out.json) print(out.json.get(), to_json(*summary) + "\n");
+  return static_cast<int>(run_is_good(*summary) && out_ok ? Exit::Ok : Exit::Findings);
+}
+
+// Table I (§VI-D): the four configurations, same seed, same tracking algorithm.
+struct TableRow {
+  const char* label;
+  flight::SrSwitch sr;
+  flight::AttackSwitch attack;
+};
+constexpr TableRow kTableRows[] = {{"no SR, no attack", flight::SrSwitch::Off, flight::AttackSwitch::Off},
+                                   {"SR, no attack", flight::SrSwitch::On, flight::AttackSwitch::Off},
+                                   {"no SR, attack", flight::SrSwitch::Off, flight::AttackSwitch::On},
+                                   {"SR, attack", flight::SrSwitch::On, flight::AttackSwitch::On}};
+
+std::string table_text(const flight::SimConfig& config, const std::vector<proto::RunSummary>& results) {
+  std::string out = "Table I (" + config.graph_name + ", seed " + std::to_string(config.seed) + ")\n";
   char line[512];
   std::snprintf(line, sizeof line, "%-18s %9s %10s %9s %9s %10s %8s  %s\n", "configuration", "d_mean", "d_max",
                 "T", "max V", "rollbacks", "attacks", "outcome");
@@ -159,19 +144,63 @@ int run_sim(std::span<const std::string_view> args) {
     const proto::RunSummary& s = results[i];
     std::string outcome = s.mission_completed() ? "completed" : "NOT COMPLETED";
     if (s.left_safety_set()) outcome += ", LEFT SAFETY SET";
-    std::snprintf(line, sizeof line, "%-18s %6.2f cm %7.2f cm %7.1f s %9.4f %10llu %8llu  %s\n", rows[i].label,
+    std::snprintf(line, sizeof line, "%-18s %6.2f cm %7.2f cm %7.1f s %9.4f %10llu %8llu  %s\n", kTableRows[i].label,
                   100.0 * s.d_mean_m(), 100.0 * s.d_max_m(), s.mission_time_s(), s.max_v(),
                   static_cast<unsigned long long>(s.rollbacks()), static_cast<unsigned long long>(s.attacks()),
                   outcome.c_str());
     out += line;
   }
-  print(stdout, out);
-  if (json_file) {
+  return out;
+}
+
+// The four flights of Table I, printed side by side (and written as a JSON array).
+int fly_table(const flight::SimConfig& config, const SimOutputs& out, bool tty) {
+  std::vector<proto::RunSummary> results;
+  for (const TableRow& row : kTableRows) {
+    flight::SimConfig c = config;
+    c.sr = row.sr;
+    c.attack.enabled = row.attack;
+    const auto summary = flight::run_simulation(c, progress_observers(row.label, tty));
+    if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
+    results.push_back(*summary);
+  }
+  print(stdout, table_text(config, results));
+  if (out.json) {
     std::string array = "[\n";
     for (std::size_t i = 0; i < results.size(); ++i) array += (i > 0 ? ",\n" : "") + to_json(results[i]);
-    print(json_file.get(), array + "]\n");
+    print(out.json.get(), array + "]\n");
   }
   return static_cast<int>(Exit::Ok);
+}
+
+}  // namespace
+
+int run_sim(std::span<const std::string_view> args) {
+  SimRequest r;
+  Options opts("sim",
+               "Model-level simulation of the CPS SR scheme (paper §II, §IV–§VI) in one process: plant at 1 kHz,\n"
+               "sensors, EKF, LQR controllers, the modes MC/RB/SC/update/CP and the worst-case attack of §VI-D.\n"
+               "Exit 0 when the mission completes inside the safety set, 1 when it fails or leaves it\n"
+               "(--table: 0 once all four configurations ran), 2 on bad flags or a bad launch file.");
+  declare_sim_options(opts, r);
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (r.table && (r.switches.no_sr || r.switches.no_attack || r.csv_path || r.files_out.dir)) {
+    return bad_input("rejuv sim: --table runs all four configurations; it cannot be combined with --no-sr, "
+                     "--no-attack, --csv or --out");
+  }
+  if (auto ok = check_out_options(opts, r.files_out); !ok) return bad_input("rejuv sim: " + ok.error());
+  flight::SimOverrides overrides;
+  overrides.seed = r.seed;
+  if (r.switches.no_sr) overrides.sr = flight::SrSwitch::Off;
+  if (r.switches.no_attack) overrides.attack = flight::AttackSwitch::Off;
+  auto loaded = load_with_attack(r.graph_path, r.switches.attack, "rejuv sim");
+  if (!loaded) return bad_input(loaded.error());
+  auto config = flight::config_from_launch(*loaded, overrides);
+  if (!config) return bad_input(config.error().to_string());
+  auto out = open_sim_outputs(r);
+  if (!out) return bad_input(out.error());
+  const bool tty = isatty(STDERR_FILENO) == 1;
+  return r.table ? fly_table(*config, *out, tty) : fly_one(r, *config, *out, tty);
 }
 
 }  // namespace rejuv::cli

@@ -394,156 +394,140 @@ Result<launch::LoadedLaunch, std::string> soak_graph(const std::string& path) {
   return std::move(*loaded);
 }
 
-}  // namespace
-
-int run_soak(std::span<const std::string_view> args) {
+// What `rejuv soak` was asked for.
+struct SoakRequest {
   std::string graph_path;
   std::uint64_t cycles = 1000, every = 10, maps_slack = 2;
   double kernel_rss = 512, service_rss = 256;
   std::filesystem::path out = "out/soak";
   bool one_kernel = false;
   KernelFlags flags{.net_port = 0};
-  Options opts("soak",
-               "Soak a launch graph (DESIGN §11): kernels in this process fly the mission with SR and its attacks\n"
-               "(the closed waypoint loop repeated as often as a mission holds), one mission after the other, until\n"
-               "--cycles rollbacks in all, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
-               "the plant and every service, the kernel's threads and children, the processes under it and in\n"
-               "each service's session. Writes DIR/soak.csv (and DIR/soak.png with gnuplot). Compares the median\n"
-               "of the last 20 % of the samples with that of the 20 % after a 10 % warm-up: RSS may grow by the\n"
-               "bounds below, counts not beyond the baseline's jitter. Exit 0 when flat, 1 when a series grew or\n"
-               "the run failed (the series are named), 2 on bad input.");
-  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt)")
-      .integer("--cycles", "N", cycles, {1, 10'000'000}, "SR cycles (rollbacks) to fly")
-      .integer("--sample-every", "C", every, {1, 10'000'000}, "cycles between samples, at most --cycles");
-  seed_option(opts, flags.seed, "seed of the plant and the services")
-      .path("--out", "DIR", out, "where soak.csv and soak.png go")
-      .real("--kernel-rss-kb", "K", kernel_rss, {.min = 0}, "allowed growth of the kernel's RSS [kB]")
-      .real("--service-rss-kb", "K", service_rss, {.min = 0}, "allowed growth of a service's or the plant's RSS [kB]")
-      .integer("--maps-slack", "M", maps_slack, {},
+};
+
+void declare_soak_options(Options& opts, SoakRequest& r) {
+  opts.positional("GRAPH", r.graph_path, "the launch graph (*.launch.pbtxt)")
+      .integer("--cycles", "N", r.cycles, {1, 10'000'000}, "SR cycles (rollbacks) to fly")
+      .integer("--sample-every", "C", r.every, {1, 10'000'000}, "cycles between samples, at most --cycles");
+  seed_option(opts, r.flags.seed, "seed of the plant and the services")
+      .path("--out", "DIR", r.out, "where soak.csv and soak.png go")
+      .real("--kernel-rss-kb", "K", r.kernel_rss, {.min = 0}, "allowed growth of the kernel's RSS [kB]")
+      .real("--service-rss-kb", "K", r.service_rss, {.min = 0}, "allowed growth of a service's or the plant's RSS [kB]")
+      .integer("--maps-slack", "M", r.maps_slack, {},
                "mappings a process may gain beyond the baseline's jitter (2: a new process of each\n"
                "mission may get one more malloc arena or thread stack than the first; a leak keeps growing)");
-  domain_option(opts, flags.domain, "DDS domain id", "the graph's");
-  charge_option(opts, flags.charge);
-  net_port_option(opts, flags.net_port, "UDP port of the network gate", "0, any free port")
-      .flag("--one-kernel", one_kernel,
+  domain_option(opts, r.flags.domain, "DDS domain id", "the graph's");
+  charge_option(opts, r.flags.charge);
+  net_port_option(opts, r.flags.net_port, "UDP port of the network gate", "0, any free port")
+      .flag("--one-kernel", r.one_kernel,
             "one kernel for the whole soak (the mission, then a hover at its last waypoint) instead of a new\n"
             "kernel in this process for each mission")
-      .flag("--insecure-sandbox", flags.insecure_sandbox, "as `rejuv run --insecure-sandbox`");
-  if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (every > cycles) {
-    return bad_input("rejuv soak: --sample-every: expected 1..--cycles (" + std::to_string(cycles) + "), got " +
-                     std::to_string(every));
-  }
-  kernel::KernelOptions options = kernel_options(flags);
+      .flag("--insecure-sandbox", r.flags.insecure_sandbox, "as `rejuv run --insecure-sandbox`");
+}
 
-  auto loaded = soak_graph(graph_path);
-  if (!loaded) return bad_input(loaded.error());
-  std::error_code ec;
-  fs::create_directories(out, ec);
-  const fs::path csv_path = out / "soak.csv";
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> csv(std::fopen(csv_path.c_str(), "w"), &std::fclose);
-  if (!csv) return bad_input("rejuv soak: cannot write " + csv_path.string());
-
-  // One mission per kernel (default) or one kernel for the whole soak (--one-kernel: the mission, then a hover).
-  if (one_kernel) {
-    options.stop_on_mission_done = false;
-  }
-  Soak soak(cycles, every);
-  const std::string graph_name = loaded->graph.name();
-  std::fprintf(stderr, "rejuv soak: %s, %llu SR cycles, a sample every %llu, seed %llu, %s\n", graph_name.c_str(),
-               static_cast<unsigned long long>(cycles), static_cast<unsigned long long>(every),
-               static_cast<unsigned long long>(options.seed.value_or(loaded->graph.seed())),
-               one_kernel ? "one kernel" : "a new kernel for each mission");
-  std::uint64_t cycles_done = 0, missions = 0, checkpoints = 0, fallbacks = 0, cold = 0, attacked = 0;
+// What the soak's missions add up to.
+struct SoakTotals {
+  std::uint64_t missions = 0, cycles_done = 0, checkpoints = 0, fallbacks = 0, cold = 0, attacked = 0;
   double max_v = 0, sim_s = 0, wall_s = 0;
   bool left = false, failed = false;
-  std::string stopped;
-  while (!soak.done() && !failed) {
-    auto graph = soak_graph(graph_path);
-    if (!graph) return bad_input(graph.error());
-    auto reference = run_reference(*graph, options.seed);
-    if (!reference) return bad_input(reference.error());
-    kernel::KernelOptions o = options;
-    if (one_kernel) o.duration = to_nanos(Seconds{kLimitS}) + reference->alignment;
-    RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
-    soak.record_with(recorder);
-    auto k = kernel::Kernel::create(std::move(*graph), o, &soak);
-    if (!k) {
-      std::fprintf(stderr, "rejuv soak: %s\n", k.error().to_string().c_str());
-      return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
-    }
-    recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });
-    if (auto booted = (*k)->boot(); !booted) {
-      std::fprintf(stderr, "rejuv soak: %s\n", booted.error().to_string().c_str());
-      soak.stop_recording();
-      failed = true;
-      stopped = booted.error().to_string();
-      break;
-    }
-    soak.attach(**k, cycles_done);
-    auto outcome = (*k)->run();
-    (*k)->shutdown();
-    soak.detach();
-    if (!outcome) {
-      failed = true;
-      stopped = outcome.error().to_string();
-      break;
-    }
-    const kernel::SrStats& sr = (*k)->sr_stats();
-    proto::RunSummary s;
-    recorder.fill(s, outcome->sim_time);
+  std::string stopped;  // how the last mission stopped
+
+  void add(const kernel::SrStats& sr, const proto::RunSummary& s, const kernel::RunOutcome& outcome, std::uint64_t attacked_windows) {
     ++missions;
     cycles_done += sr.rollbacks;
     checkpoints += sr.checkpoints;
     fallbacks += sr.fallbacks;
     cold += sr.cold_restarts;
-    attacked += recorder.attacked_windows();
+    attacked += attacked_windows;
     max_v = std::max(max_v, s.max_v());
     left = left || s.left_safety_set();
-    sim_s += to_seconds(outcome->sim_time).count();
-    wall_s += to_seconds(outcome->wall_time).count();
-    stopped = std::string(kernel::to_string(outcome->reason)) + (outcome->detail.empty() ? "" : ": ") + outcome->detail;
-    const bool mission_done = outcome->reason == kernel::StopReason::MissionDone && !one_kernel;
-    const bool soak_done = outcome->reason == kernel::StopReason::Requested && soak.done();
-    if (recorder.lost() || !(mission_done || soak_done)) failed = true;
-    std::fprintf(stderr, "rejuv soak: mission %llu: %s (%llu rollbacks, %llu in all)\n",
-                 static_cast<unsigned long long>(missions), stopped.c_str(),
-                 static_cast<unsigned long long>(sr.rollbacks), static_cast<unsigned long long>(cycles_done));
-    soak.stop_recording();  // before this mission's recorder goes; the next mission gets its own
+    sim_s += to_seconds(outcome.sim_time).count();
+    wall_s += to_seconds(outcome.wall_time).count();
+    stopped = std::string(kernel::to_string(outcome.reason)) + (outcome.detail.empty() ? "" : ": ") + outcome.detail;
   }
+};
+
+// One mission in a new kernel, sampled by `soak`, added to `t` (t.failed when it did not end as a soak's
+// mission should). An exit code when the soak cannot go on (said on stderr).
+std::optional<int> fly_mission(const SoakRequest& r, const kernel::KernelOptions& options, Soak& soak, SoakTotals& t) {
+  auto graph = soak_graph(r.graph_path);
+  if (!graph) return bad_input(graph.error());
+  auto reference = run_reference(*graph, options.seed);
+  if (!reference) return bad_input(reference.error());
+  kernel::KernelOptions o = options;
+  if (r.one_kernel) o.duration = to_nanos(Seconds{kLimitS}) + reference->alignment;
+  RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
+  soak.record_with(recorder);
+  auto k = kernel::Kernel::create(std::move(*graph), o, &soak);
+  if (!k) {
+    std::fprintf(stderr, "rejuv soak: %s\n", k.error().to_string().c_str());
+    return static_cast<int>(k.error().is_bad_input() ? Exit::BadInput : Exit::Findings);
+  }
+  recorder.on_vehicle_lost([kernel = k->get()] { kernel->request_stop(); });
+  if (auto booted = (*k)->boot(); !booted) {
+    std::fprintf(stderr, "rejuv soak: %s\n", booted.error().to_string().c_str());
+    soak.stop_recording();
+    t.failed = true;
+    t.stopped = booted.error().to_string();
+    return std::nullopt;
+  }
+  soak.attach(**k, t.cycles_done);
+  auto outcome = (*k)->run();
+  (*k)->shutdown();
+  soak.detach();
+  soak.stop_recording();  // before this mission's recorder goes; the next mission gets its own
+  if (!outcome) {
+    t.failed = true;
+    t.stopped = outcome.error().to_string();
+    return std::nullopt;
+  }
+  const kernel::SrStats& sr = (*k)->sr_stats();
+  proto::RunSummary s;
+  recorder.fill(s, outcome->sim_time);
+  t.add(sr, s, *outcome, recorder.attacked_windows());
+  const bool mission_done = outcome->reason == kernel::StopReason::MissionDone && !r.one_kernel;
+  const bool soak_done = outcome->reason == kernel::StopReason::Requested && soak.done();
+  if (recorder.lost() || !(mission_done || soak_done)) t.failed = true;
+  std::fprintf(stderr, "rejuv soak: mission %llu: %s (%llu rollbacks, %llu in all)\n",
+               static_cast<unsigned long long>(t.missions), t.stopped.c_str(),
+               static_cast<unsigned long long>(sr.rollbacks), static_cast<unsigned long long>(t.cycles_done));
+  return std::nullopt;
+}
+
+void print_totals(const std::string& graph_name, const SoakTotals& t) {
   std::printf("%s (soak): %llu missions, the last stopped with: %s\n", graph_name.c_str(),
-              static_cast<unsigned long long>(missions), stopped.c_str());
-  std::printf("  flight      %.1f s simulated in %.1f s wall, max V = %.4f (%s)\n", sim_s, wall_s, max_v,
-              left ? "LEFT THE SAFETY SET" : "safe");
+              static_cast<unsigned long long>(t.missions), t.stopped.c_str());
+  std::printf("  flight      %.1f s simulated in %.1f s wall, max V = %.4f (%s)\n", t.sim_s, t.wall_s, t.max_v,
+              t.left ? "LEFT THE SAFETY SET" : "safe");
   std::printf("  images      %llu checkpoints, %llu rollbacks (%llu fallbacks, %llu cold restarts), %llu attacked MC windows\n",
-              static_cast<unsigned long long>(checkpoints), static_cast<unsigned long long>(cycles_done),
-              static_cast<unsigned long long>(fallbacks), static_cast<unsigned long long>(cold),
-              static_cast<unsigned long long>(attacked));
+              static_cast<unsigned long long>(t.checkpoints), static_cast<unsigned long long>(t.cycles_done),
+              static_cast<unsigned long long>(t.fallbacks), static_cast<unsigned long long>(t.cold),
+              static_cast<unsigned long long>(t.attacked));
+}
 
-  soak.write_csv(csv.get());
-  csv.reset();
-  std::printf("  samples     %zu, written to %s\n", soak.samples(), csv_path.c_str());
+// DIR/soak.png through tools/plots/soak.gp, when gnuplot is there.
+void plot(const Soak& soak, const fs::path& out, const fs::path& csv_path) {
   const std::string gp = std::string(REJUV_SOURCE_DIR) + "/tools/plots/soak.gp";
-  if (soak.samples() >= 2 && std::system("command -v gnuplot >/dev/null 2>&1") == 0 && fs::exists(gp)) {
-    std::size_t rss = 0, fds = 0, maps = 0;
-    for (const Series& x : soak.series()) {
-      rss += x.name.ends_with("_kb") ? 1 : 0;  // the RSS and the kernel's heap: one memory panel
-      fds += x.name.ends_with("_fds") ? 1 : 0;
-      maps += x.name.ends_with("_maps") ? 1 : 0;
-    }
-    const fs::path png = out / "soak.png";
-    const std::string cmd = "gnuplot -e \"csv='" + csv_path.string() + "'; png='" + png.string() +
-                            "'; nrss=" + std::to_string(rss) + "; nfds=" + std::to_string(fds) +
-                            "; nmaps=" + std::to_string(maps) + "; ncols=" + std::to_string(3 + soak.series().size()) +
-                            "\" '" + gp + "'";
-    if (std::system(cmd.c_str()) == 0) std::printf("  plot        %s\n", png.c_str());
+  if (soak.samples() < 2 || std::system("command -v gnuplot >/dev/null 2>&1") != 0 || !fs::exists(gp)) return;
+  std::size_t rss = 0, fds = 0, maps = 0;
+  for (const Series& x : soak.series()) {
+    rss += x.name.ends_with("_kb") ? 1 : 0;  // the RSS and the kernel's heap: one memory panel
+    fds += x.name.ends_with("_fds") ? 1 : 0;
+    maps += x.name.ends_with("_maps") ? 1 : 0;
   }
+  const fs::path png = out / "soak.png";
+  const std::string cmd = "gnuplot -e \"csv='" + csv_path.string() + "'; png='" + png.string() +
+                          "'; nrss=" + std::to_string(rss) + "; nfds=" + std::to_string(fds) +
+                          "; nmaps=" + std::to_string(maps) + "; ncols=" + std::to_string(3 + soak.series().size()) +
+                          "\" '" + gp + "'";
+  if (std::system(cmd.c_str()) == 0) std::printf("  plot        %s\n", png.c_str());
+}
 
-  // The verdict, one line per series.
+// The verdict, one line per series; whether every judged series stayed in its bound.
+bool print_verdict(const Soak& soak, const SoakRequest& r) {
   bool flat = true;
   std::printf("  %-26s %12s %12s %10s %10s\n", "series", "baseline", "last 20 %", "growth", "bound");
   for (const Series& x : soak.series()) {
-    const Verdict v = judge(x, kernel_rss, service_rss, static_cast<double>(maps_slack), one_kernel);
+    const Verdict v = judge(x, r.kernel_rss, r.service_rss, static_cast<double>(r.maps_slack), r.one_kernel);
     if (!v.readable) {
       std::printf("  %-26s %12s\n", v.name.c_str(), "unreadable");
       continue;
@@ -565,13 +549,67 @@ int run_soak(std::span<const std::string_view> args) {
                 v.ok ? "" : "  GREW");
     flat = flat && v.ok;
   }
-  const bool reached = soak.done() && !failed;
-  const bool safe = !left;
-  if (!reached) std::printf("rejuv soak: FAILED: the run stopped before %llu cycles\n", static_cast<unsigned long long>(cycles));
+  return flat;
+}
+
+// The totals, the samples (CSV, plot) and the verdict; the exit code.
+int report_soak(const SoakRequest& r, const std::string& graph_name, const SoakTotals& t, const Soak& soak,
+                UniqueFile csv, const fs::path& csv_path) {
+  print_totals(graph_name, t);
+  soak.write_csv(csv.get());
+  csv.reset();
+  std::printf("  samples     %zu, written to %s\n", soak.samples(), csv_path.c_str());
+  plot(soak, r.out, csv_path);
+  const bool flat = print_verdict(soak, r);
+  const bool reached = soak.done() && !t.failed;
+  const bool safe = !t.left;
+  if (!reached) std::printf("rejuv soak: FAILED: the run stopped before %llu cycles\n", static_cast<unsigned long long>(r.cycles));
   if (!safe) std::printf("rejuv soak: FAILED: the vehicle left the safety set\n");
   if (!flat) std::printf("rejuv soak: FAILED: a series grew beyond its bound (GREW above)\n");
-  if (reached && safe && flat) std::printf("rejuv soak: flat over %llu cycles\n", static_cast<unsigned long long>(cycles));
+  if (reached && safe && flat) std::printf("rejuv soak: flat over %llu cycles\n", static_cast<unsigned long long>(r.cycles));
   return static_cast<int>(reached && safe && flat ? Exit::Ok : Exit::Findings);
+}
+
+}  // namespace
+
+int run_soak(std::span<const std::string_view> args) {
+  SoakRequest r;
+  Options opts("soak",
+               "Soak a launch graph (DESIGN §11): kernels in this process fly the mission with SR and its attacks\n"
+               "(the closed waypoint loop repeated as often as a mission holds), one mission after the other, until\n"
+               "--cycles rollbacks in all, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
+               "the plant and every service, the kernel's threads and children, the processes under it and in\n"
+               "each service's session. Writes DIR/soak.csv (and DIR/soak.png with gnuplot). Compares the median\n"
+               "of the last 20 % of the samples with that of the 20 % after a 10 % warm-up: RSS may grow by the\n"
+               "bounds below, counts not beyond the baseline's jitter. Exit 0 when flat, 1 when a series grew or\n"
+               "the run failed (the series are named), 2 on bad input.");
+  declare_soak_options(opts, r);
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (r.every > r.cycles) {
+    return bad_input("rejuv soak: --sample-every: expected 1..--cycles (" + std::to_string(r.cycles) + "), got " +
+                     std::to_string(r.every));
+  }
+  kernel::KernelOptions options = kernel_options(r.flags);
+  auto loaded = soak_graph(r.graph_path);
+  if (!loaded) return bad_input(loaded.error());
+  std::error_code ec;
+  fs::create_directories(r.out, ec);
+  const fs::path csv_path = r.out / "soak.csv";
+  UniqueFile csv(std::fopen(csv_path.c_str(), "w"));
+  if (!csv) return bad_input("rejuv soak: cannot write " + csv_path.string());
+  // One mission per kernel (default) or one kernel for the whole soak (--one-kernel: the mission, then a hover).
+  if (r.one_kernel) options.stop_on_mission_done = false;
+  Soak soak(r.cycles, r.every);
+  const std::string graph_name = loaded->graph.name();
+  std::fprintf(stderr, "rejuv soak: %s, %llu SR cycles, a sample every %llu, seed %llu, %s\n", graph_name.c_str(),
+               static_cast<unsigned long long>(r.cycles), static_cast<unsigned long long>(r.every),
+               static_cast<unsigned long long>(options.seed.value_or(loaded->graph.seed())),
+               r.one_kernel ? "one kernel" : "a new kernel for each mission");
+  SoakTotals totals;
+  while (!soak.done() && !totals.failed) {
+    if (auto exit = fly_mission(r, options, soak, totals)) return *exit;
+  }
+  return report_soak(r, graph_name, totals, soak, std::move(csv), csv_path);
 }
 
 }  // namespace rejuv::cli

@@ -191,18 +191,148 @@ Result<std::vector<sweep::CellLaunch>, std::string> write_cell_launches(const fs
   return cells;
 }
 
-int run_sweep(std::span<const std::string_view> args) {
-  if (!args.empty() && args.front() == "merge") return run_merge(args.subspan(1));
+namespace {
+
+enum class Runners : std::uint8_t { Sim, Run, Both };
+enum class Charges : std::uint8_t { Own, Paper, Runtime };
+
+// What `rejuv sweep` was asked for.
+struct SweepRequest {
   std::string graph_path;
   std::vector<std::string> params;
   std::optional<std::vector<std::uint64_t>> seeds;
   std::optional<sweep::Shard> shard;
   std::uint64_t attacks = 45, jobs = 1;
-  enum class Runners : std::uint8_t { Sim, Run, Both } runner = Runners::Sim;
+  Runners runner = Runners::Sim;
   fs::path dir = "out/sweep";
   bool resume = false;
   bool allow_unsafe = false;
-  enum class Charges : std::uint8_t { Own, Paper, Runtime } charges = Charges::Own;
+  Charges charges = Charges::Own;
+};
+
+void declare_sweep_options(Options& opts, SweepRequest& r) {
+  opts.positional("GRAPH", r.graph_path, "the launch graph (*.launch.pbtxt) the sweep varies")
+      .repeated("--param", "PATH=VALUES", r.params,
+                "a launch field by path and its values: a:b:step (inclusive), v1,v2,... or one value;\n"
+                "e.g. sr.t_mc_s=0.2:0.3:0.025, sr.restricted_limit_fraction=0.1,0.2,\n"
+                "attack.attacks[0].kind=WORST_CASE_CONTROL (one or two --param)")
+      .custom<std::vector<std::uint64_t>>("--seeds", "LIST", r.seeds, sweep::parse_seeds,
+                                          "seeds of each cell: a-b, a,b,c or one", "the graph's seed and the next two")
+      .integer("--attacks", "N", r.attacks, {0, 100000}, "end each mission after N attacked MC windows (0 = fly it)")
+      .choice<Runners>("--runner", {{"sim", Runners::Sim}, {"run", Runners::Run}, {"both", Runners::Both}}, r.runner,
+                       "the model, the runtime or both")
+      .integer("--jobs", "N", r.jobs, {1, 256}, "cells flown in parallel")
+      .path("--out", "DIR", r.dir, "output folder")
+      .flag("--resume", r.resume, "continue the sweep kept in DIR: fly only the tasks without a record")
+      .flag("--allow-unsafe", r.allow_unsafe, "exit 0 even when a cell left the safety set (studying the boundary)")
+      .choice<Charges>("--charges", {{"paper", Charges::Paper}, {"runtime", Charges::Runtime}}, r.charges,
+                       "charge both runners alike per checkpoint/rollback: the paper's 20/15 ms (§VI-B) or the\n"
+                       "launch file's lockstep charges; unset: the model the paper's, the runtime its own\n"
+                       "(sweep.csv and the figures say which)")
+      .custom<sweep::Shard>("--shard", "i/n", r.shard, sweep::parse_shard,
+                            "fly only every n-th cell, from the i-th (1-based); see `merge`");
+}
+
+// The sweep's plan (DIR/plan.json): the graph, its axes, seeds, attacks, charges and runners.
+Result<proto::SweepPlan, std::string> plan_sweep(const SweepRequest& r, const proto::Launch& graph) {
+  proto::SweepPlan plan;
+  std::error_code ec;
+  plan.set_graph(fs::absolute(r.graph_path, ec).lexically_normal().string());
+  std::set<std::string> paths;
+  for (const std::string& p : r.params) {
+    auto axis = sweep::make_axis(graph, p);
+    if (!axis) return fail(axis.error());
+    if (!paths.insert(axis->path()).second) return fail("--param " + axis->path() + " given twice");
+    *plan.add_axes() = *axis;
+  }
+  if (r.seeds) {
+    for (const std::uint64_t s : *r.seeds) plan.add_seeds(s);
+  } else {
+    // One seed is one sample of the sensor noise and the wind: a cell's max V over three is the least a figure
+    // should rest on (docs/sweep.md).
+    for (std::uint64_t k = 0; k < kDefaultSeeds; ++k) plan.add_seeds(graph.seed() + k);
+  }
+  plan.set_attacks(static_cast<std::uint32_t>(r.attacks));
+  if (r.charges == Charges::Paper) plan.set_charges(std::string(sweep::kChargesPaper));
+  if (r.charges == Charges::Runtime) plan.set_charges(std::string(sweep::kChargesRuntime));
+  if (r.runner != Runners::Run) plan.add_runners("sim");
+  if (r.runner != Runners::Sim) plan.add_runners("run");
+  if (sweep::cell_count(plan) > 100000) return fail(std::string("more than 100000 cells"));
+  return plan;
+}
+
+// The folder: a new sweep, or (--resume) the same sweep continued; its plan written.
+Result<void, std::string> prepare_folder(const SweepRequest& r, const proto::SweepPlan& plan) {
+  std::error_code ec;
+  if (fs::exists(r.dir / "plan.json", ec)) {
+    if (!r.resume) return fail(r.dir.string() + " holds a sweep already: --resume to continue it, or another --out");
+    const auto kept = sweep::read_plan(r.dir);
+    if (!kept) return fail(kept.error());
+    if (!sweep::same_plan(*kept, plan)) {
+      return fail("--resume: " + r.dir.string() + " holds another sweep (its plan.json differs in graph, "
+                  "parameters, seeds, attacks, runners or charges)");
+    }
+  }
+  fs::create_directories(r.dir / "cells", ec);
+  if (!ec) fs::create_directories(r.dir / "launch", ec);
+  if (ec) return fail("--out: cannot create '" + r.dir.string() + "': " + ec.message());
+  return sweep::write_plan(r.dir, plan);
+}
+
+// The tasks of this sweep (or shard) still to fly, and how many --resume found kept.
+struct Todo {
+  std::vector<Task> tasks;
+  std::size_t kept = 0;
+};
+Todo tasks_to_fly(const SweepRequest& r, const proto::SweepPlan& plan) {
+  Todo todo;
+  for (const Task& t : sweep::tasks_of(plan, r.shard.value_or(sweep::Shard{}))) {
+    if (r.resume && sweep::kept_record(r.dir, plan, t)) {
+      ++todo.kept;
+    } else {
+      todo.tasks.push_back(t);
+    }
+  }
+  return todo;
+}
+
+void announce(const SweepRequest& r, const proto::SweepPlan& plan, const Todo& todo,
+              const std::vector<sweep::CellLaunch>& cells) {
+  const auto refused = static_cast<std::size_t>(
+      std::count_if(cells.begin(), cells.end(), [](const sweep::CellLaunch& c) { return !c.refused.empty(); }));
+  std::fprintf(stderr, "rejuv sweep: %u cells x %d seeds x %d runners%s: %zu tasks to fly, %zu kept, %llu jobs%s\n",
+               sweep::cell_count(plan), plan.seeds_size(), plan.runners_size(),
+               r.shard ? (" (shard " + std::to_string(r.shard->index + 1) + "/" + std::to_string(r.shard->count) + ")").c_str() : "",
+               todo.tasks.size(), todo.kept, static_cast<unsigned long long>(r.jobs),
+               refused > 0 ? (", " + std::to_string(refused) + " cells refused by the launch loader").c_str() : "");
+}
+
+// The outputs of what DIR holds and the exit code: 1 when interrupted, a task refused or failed, or a cell
+// left the safety set (unless --allow-unsafe).
+int finish_sweep(const SweepRequest& r, const proto::SweepPlan& plan, sweep::ExecOutcome outcome) {
+  const auto bad = write_outputs(r.dir, plan);
+  if (!bad) {
+    std::fprintf(stderr, "rejuv sweep: %s\n", bad.error().c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  if (outcome == sweep::ExecOutcome::Interrupted) {
+    std::fprintf(stderr, "rejuv sweep: interrupted; the finished missions are kept in %s/cells: "
+                 "add --resume to continue\n", r.dir.c_str());
+    return static_cast<int>(Exit::Findings);
+  }
+  if (bad->bad > 0) {
+    std::fprintf(stderr, "rejuv sweep: %zu tasks refused or failed (sweep.csv, column error)\n", bad->bad);
+    return static_cast<int>(Exit::Findings);
+  }
+  if (unsafe_is_finding(*bad, r.allow_unsafe, "rejuv sweep")) return static_cast<int>(Exit::Findings);
+  return static_cast<int>(Exit::Ok);
+}
+
+}  // namespace
+
+int run_sweep(std::span<const std::string_view> args) {
+  if (!args.empty() && args.front() == "merge") return run_merge(args.subspan(1));
+  SweepRequest r;
   Options opts("sweep",
       "Fly a grid of launch parameters (§VI-D, Fig. 11: T_MC x T_est with 45 consecutive worst-case attacks per\n"
       "cell) on the model (`sim`: in this process, --jobs threads), the runtime (`run`: one `rejuv run` per cell\n"
@@ -215,121 +345,32 @@ int run_sweep(std::span<const std::string_view> args) {
       "DIR...` combines the folders of --shard i/n runs (docs/sweep.md). Exit 0 once every task flew inside the\n"
       "safety set, 1 when a cell left it (unless --allow-unsafe), was refused, a mission failed to run or the\n"
       "sweep was interrupted, 2 on bad input.");
-  opts.positional("GRAPH", graph_path, "the launch graph (*.launch.pbtxt) the sweep varies")
-      .repeated("--param", "PATH=VALUES", params,
-                "a launch field by path and its values: a:b:step (inclusive), v1,v2,... or one value;\n"
-                "e.g. sr.t_mc_s=0.2:0.3:0.025, sr.restricted_limit_fraction=0.1,0.2,\n"
-                "attack.attacks[0].kind=WORST_CASE_CONTROL (one or two --param)")
-      .custom<std::vector<std::uint64_t>>("--seeds", "LIST", seeds, sweep::parse_seeds,
-                                          "seeds of each cell: a-b, a,b,c or one", "the graph's seed and the next two")
-      .integer("--attacks", "N", attacks, {0, 100000}, "end each mission after N attacked MC windows (0 = fly it)")
-      .choice<Runners>("--runner", {{"sim", Runners::Sim}, {"run", Runners::Run}, {"both", Runners::Both}}, runner,
-                       "the model, the runtime or both")
-      .integer("--jobs", "N", jobs, {1, 256}, "cells flown in parallel")
-      .path("--out", "DIR", dir, "output folder")
-      .flag("--resume", resume, "continue the sweep kept in DIR: fly only the tasks without a record")
-      .flag("--allow-unsafe", allow_unsafe, "exit 0 even when a cell left the safety set (studying the boundary)")
-      .choice<Charges>("--charges", {{"paper", Charges::Paper}, {"runtime", Charges::Runtime}}, charges,
-                       "charge both runners alike per checkpoint/rollback: the paper's 20/15 ms (§VI-B) or the\n"
-                       "launch file's lockstep charges; unset: the model the paper's, the runtime its own\n"
-                       "(sweep.csv and the figures say which)")
-      .custom<sweep::Shard>("--shard", "i/n", shard, sweep::parse_shard,
-                            "fly only every n-th cell, from the i-th (1-based); see `merge`");
+  declare_sweep_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (params.empty() || params.size() > 2) {
-    return bad_input("rejuv sweep: expected one or two --param PATH=VALUES, got " + std::to_string(params.size()));
+  if (r.params.empty() || r.params.size() > 2) {
+    return bad_input("rejuv sweep: expected one or two --param PATH=VALUES, got " + std::to_string(r.params.size()));
   }
-
-  auto loaded = launch::load_launch(graph_path);
+  auto loaded = launch::load_launch(r.graph_path);
   if (!loaded) return bad_input(loaded.error().to_string());
-  proto::SweepPlan plan;
-  std::error_code ec;
-  plan.set_graph(fs::absolute(graph_path, ec).lexically_normal().string());
-  std::set<std::string> paths;
-  for (const std::string& p : params) {
-    auto axis = sweep::make_axis(loaded->graph, p);
-    if (!axis) return bad_input("rejuv sweep: " + axis.error());
-    if (!paths.insert(axis->path()).second) return bad_input("rejuv sweep: --param " + axis->path() + " given twice");
-    *plan.add_axes() = *axis;
-  }
-  if (seeds) {
-    for (const std::uint64_t s : *seeds) plan.add_seeds(s);
-  } else {
-    // One seed is one sample of the sensor noise and the wind: a cell's max V over three is the least a figure
-    // should rest on (docs/sweep.md).
-    for (std::uint64_t k = 0; k < kDefaultSeeds; ++k) plan.add_seeds(loaded->graph.seed() + k);
-  }
-  plan.set_attacks(static_cast<std::uint32_t>(attacks));
-  if (charges == Charges::Paper) plan.set_charges(std::string(sweep::kChargesPaper));
-  if (charges == Charges::Runtime) plan.set_charges(std::string(sweep::kChargesRuntime));
-  if (runner != Runners::Run) plan.add_runners("sim");
-  if (runner != Runners::Sim) plan.add_runners("run");
-  if (sweep::cell_count(plan) > 100000) return bad_input("rejuv sweep: more than 100000 cells");
-
-  // The folder: a new sweep, or (--resume) the same sweep continued.
-  if (fs::exists(dir / "plan.json", ec)) {
-    if (!resume) {
-      return bad_input("rejuv sweep: " + dir.string() + " holds a sweep already: --resume to continue it, or another --out");
-    }
-    const auto kept = sweep::read_plan(dir);
-    if (!kept) return bad_input("rejuv sweep: " + kept.error());
-    if (!sweep::same_plan(*kept, plan)) {
-      return bad_input("rejuv sweep: --resume: " + dir.string() + " holds another sweep (its plan.json differs in graph, "
-                       "parameters, seeds, attacks, runners or charges)");
-    }
-  }
-  fs::create_directories(dir / "cells", ec);
-  if (!ec) fs::create_directories(dir / "launch", ec);
-  if (ec) return bad_input("rejuv sweep: --out: cannot create '" + dir.string() + "': " + ec.message());
-  if (auto w = sweep::write_plan(dir, plan); !w) return bad_input("rejuv sweep: " + w.error());
-
-  auto cells = write_cell_launches(dir, loaded->graph, plan);
+  const auto plan = plan_sweep(r, loaded->graph);
+  if (!plan) return bad_input("rejuv sweep: " + plan.error());
+  if (auto ready = prepare_folder(r, *plan); !ready) return bad_input("rejuv sweep: " + ready.error());
+  auto cells = write_cell_launches(r.dir, loaded->graph, *plan);
   if (!cells) return bad_input("rejuv sweep: " + cells.error());
-  const auto refused = static_cast<std::size_t>(
-      std::count_if(cells->begin(), cells->end(), [](const sweep::CellLaunch& c) { return !c.refused.empty(); }));
-
-  std::vector<Task> todo;
-  std::size_t kept = 0;
-  for (const Task& t : sweep::tasks_of(plan, shard.value_or(sweep::Shard{}))) {
-    if (resume && sweep::kept_record(dir, plan, t)) {
-      ++kept;
-    } else {
-      todo.push_back(t);
-    }
-  }
-  const bool tty = isatty(STDERR_FILENO) == 1;
-  std::fprintf(stderr, "rejuv sweep: %u cells x %d seeds x %d runners%s: %zu tasks to fly, %zu kept, %llu jobs%s\n",
-               sweep::cell_count(plan), plan.seeds_size(), plan.runners_size(),
-               shard ? (" (shard " + std::to_string(shard->index + 1) + "/" + std::to_string(shard->count) + ")").c_str() : "",
-               todo.size(), kept, static_cast<unsigned long long>(jobs),
-               refused > 0 ? (", " + std::to_string(refused) + " cells refused by the launch loader").c_str() : "");
+  const Todo todo = tasks_to_fly(r, *plan);
+  announce(r, *plan, todo, *cells);
   auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
   if (!signals) return bad_input("rejuv sweep: signalfd: " + signals.error().to_string());
-  const auto outcome = sweep::execute(plan, *cells, todo, kept,
-                                      sweep::ExecConfig{.dir = dir,
-                                                        .jobs = static_cast<unsigned>(jobs),
-                                                        .tty = tty,
+  const auto outcome = sweep::execute(*plan, *cells, todo.tasks, todo.kept,
+                                      sweep::ExecConfig{.dir = r.dir,
+                                                        .jobs = static_cast<unsigned>(r.jobs),
+                                                        .tty = isatty(STDERR_FILENO) == 1,
                                                         .signals = &*signals});
   if (!outcome) {
     std::fprintf(stderr, "rejuv sweep: %s\n", outcome.error().c_str());
     return static_cast<int>(Exit::Findings);
   }
-  const auto bad = write_outputs(dir, plan);
-  if (!bad) {
-    std::fprintf(stderr, "rejuv sweep: %s\n", bad.error().c_str());
-    return static_cast<int>(Exit::Findings);
-  }
-  if (*outcome == sweep::ExecOutcome::Interrupted) {
-    std::fprintf(stderr, "rejuv sweep: interrupted; the finished missions are kept in %s/cells: "
-                 "add --resume to continue\n", dir.c_str());
-    return static_cast<int>(Exit::Findings);
-  }
-  if (bad->bad > 0) {
-    std::fprintf(stderr, "rejuv sweep: %zu tasks refused or failed (sweep.csv, column error)\n", bad->bad);
-    return static_cast<int>(Exit::Findings);
-  }
-  if (unsafe_is_finding(*bad, allow_unsafe, "rejuv sweep")) return static_cast<int>(Exit::Findings);
-  return static_cast<int>(Exit::Ok);
+  return finish_sweep(r, *plan, *outcome);
 }
 
 }  // namespace rejuv::cli

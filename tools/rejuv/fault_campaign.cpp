@@ -21,6 +21,7 @@
 #include <utility>
 
 #include "common_options.hpp"
+#include "rejuv/core/result.hpp"
 #include "run_recorder.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
@@ -394,69 +395,15 @@ class Injector final : public kernel::Observer {
   Nanos fired_at_{0};
 };
 
-}  // namespace
+// What the job's missions leave behind, against the baseline its first mission sets (libraries' one-time
+// state): no child of this process (the kernel is a subreaper: whatever it started and lost would be ours
+// now), no fd above the baseline, RSS (a sanitizer build: heap) within 64 MiB of it.
+class LeakCheck {
+ public:
+  LeakCheck() : fds_before_(count_fds()) {}
 
-std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>& missions) {
-  std::vector<Outcome> all;
-  std::FILE* log = config.log.empty() ? nullptr : std::fopen(config.log.c_str(), "w");
-  Helper helper;
-  std::optional<std::size_t> fd_baseline;
-  long rss_baseline = 0;
-  const std::size_t fds_before = count_fds();
-  for (const Mission& mission : missions) {
-    const auto fail_all = [&](const std::string& why) {
-      for (const Planned& p : mission.faults) {
-        all.push_back(Outcome{.mission = mission.index, .fault = p, .note = why});
-      }
-    };
-    auto graph = launch::load_launch(config.graph);
-    if (!graph) {
-      fail_all(graph.error().to_string());
-      continue;
-    }
-    auto reference = run_reference(*graph, std::nullopt);
-    if (!reference) {
-      fail_all(reference.error());
-      continue;
-    }
-    kernel::KernelOptions options;
-    options.time_master = kernel::TimeMaster::Plant;
-    options.service_dir = service_dir();
-    options.repo_root = REJUV_SOURCE_DIR;
-    options.dds_domain = config.dds_domain;
-    options.network_port = 0;
-    options.idle_deadline = std::chrono::seconds{3};
-    options.placement = kernel::KernelOptions::Placement::Cpu;
-    options.cpu = config.cpu;
-    options.log = log;
-    options.verbose = std::getenv("REJUV_FAULTS_VERBOSE") != nullptr;  // every checkpoint and rollback in the job log
-    options.charge = config.charge;
-    const Nanos alignment = reference->alignment;
-    const std::uint32_t keep = launch::keep_generations(graph->graph.sr());
-    RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
-    Injector injector(recorder, mission, alignment, helper, keep);
-    auto k = kernel::Kernel::create(std::move(*graph), options, &injector);
-    if (!k) {
-      fail_all("kernel: " + k.error().to_string());
-      continue;
-    }
-    injector.attach(k->get());
-    recorder.on_vehicle_lost([kp = k->get()] { kp->request_stop(); });
-    if (log != nullptr) std::fprintf(log, "---- mission %u ----\n", mission.index), std::fflush(log);
-    helper.arm_watchdog(config.mission_wall_bound);
-    auto out = (*k)->run();
-    helper.disarm_watchdog();
-    const bool hung = helper.expired();
-    kernel::RunOutcome outcome = out ? *out : kernel::RunOutcome{.reason = kernel::StopReason::ServiceFailed,
-                                                                  .detail = out.error().to_string()};
-    proto::RunSummary summary;
-    recorder.fill(summary, outcome.sim_time);
-    std::vector<Outcome> done = injector.finish(outcome, summary, recorder.lost().has_value(), hung);
-    k->reset();
-    helper.clear_conts();
-    if (log != nullptr) std::fflush(log);
-    // Nothing left: no child of this process (the kernel is a subreaper: whatever it started and lost would
-    // be ours now), no fd above the baseline, RSS (a sanitizer build: heap) within 64 MiB of it.
+  // After a mission: "" or what it left (children left are killed now).
+  std::string after_mission() {
     std::string leak;
     std::vector<int> left = children();
     for (int i = 0; i < 20 && !left.empty(); ++i) {  // zombies being reaped: give them 1 s
@@ -469,31 +416,119 @@ std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>
     }
     const std::size_t fds = count_fds();
     const long rss = memory_kb();
-    if (!fd_baseline) {
-      // The first mission sets the baseline (libraries' one-time state); said if it grew.
-      fd_baseline = fds;
-      rss_baseline = rss;
-      if (fds > fds_before) {
-        std::fprintf(stderr, "rejuv faults: fds %zu before the first mission, %zu after (baseline)\n", fds_before, fds);
+    if (!has_baseline_) {
+      // The first mission sets the baseline; said if it grew.
+      has_baseline_ = true;
+      fd_baseline_ = fds;
+      rss_baseline_ = rss;
+      if (fds > fds_before_) {
+        std::fprintf(stderr, "rejuv faults: fds %zu before the first mission, %zu after (baseline)\n", fds_before_, fds);
       }
-    } else if (fds > *fd_baseline) {
-      leak += (leak.empty() ? "" : ", ") + std::to_string(fds - *fd_baseline) + " fds above the baseline";
+    } else if (fds > fd_baseline_) {
+      leak += (leak.empty() ? "" : ", ") + std::to_string(fds - fd_baseline_) + " fds above the baseline";
     }
-    if (rss > rss_baseline + 64 * 1024) {
-      leak += (leak.empty() ? "" : ", ") + std::string(kMemoryName) + " " + std::to_string(rss / 1024) + " MiB (baseline " +
-              std::to_string(rss_baseline / 1024) + " MiB)";
+    if (rss > rss_baseline_ + 64 * 1024) {
+      leak += (leak.empty() ? "" : ", ") + std::string(kMemoryName) + " " + std::to_string(rss / 1024) +
+              " MiB (baseline " + std::to_string(rss_baseline_ / 1024) + " MiB)";
     }
-    for (Outcome& o : done) {
+    return leak;
+  }
+
+ private:
+  std::size_t fds_before_;
+  bool has_baseline_ = false;  // not an optional: g++ 12 -Wmaybe-uninitialized misreads one in this class
+  std::size_t fd_baseline_ = 0;
+  long rss_baseline_ = 0;
+};
+
+// The kernel of a job's mission: the plant's clock, no network port, the job's DDS domain and CPU, its log.
+kernel::KernelOptions mission_options(const JobConfig& config, std::FILE* log) {
+  kernel::KernelOptions options;
+  options.time_master = kernel::TimeMaster::Plant;
+  options.service_dir = service_dir();
+  options.repo_root = REJUV_SOURCE_DIR;
+  options.dds_domain = config.dds_domain;
+  options.network_port = 0;
+  options.idle_deadline = std::chrono::seconds{3};
+  options.placement = kernel::KernelOptions::Placement::Cpu;
+  options.cpu = config.cpu;
+  options.log = log;
+  options.verbose = std::getenv("REJUV_FAULTS_VERBOSE") != nullptr;  // every checkpoint and rollback in the job log
+  options.charge = config.charge;
+  return options;
+}
+
+// One mission flown with its faults.
+struct Flown {
+  std::vector<Outcome> outcomes;
+  kernel::RunOutcome run;
+  bool hung = false;  // the watchdog stopped it
+};
+
+// Flies `mission` in a new kernel under the watchdog; an error (the graph, its reference run or the kernel
+// could not be made) fails all its faults.
+Result<Flown, std::string> fly_mission(const JobConfig& config, const Mission& mission, Helper& helper,
+                                       std::FILE* log) {
+  auto graph = launch::load_launch(config.graph);
+  if (!graph) return fail(graph.error().to_string());
+  auto reference = run_reference(*graph, std::nullopt);
+  if (!reference) return fail(reference.error());
+  const Nanos alignment = reference->alignment;
+  const std::uint32_t keep = launch::keep_generations(graph->graph.sr());
+  RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
+  Injector injector(recorder, mission, alignment, helper, keep);
+  auto k = kernel::Kernel::create(std::move(*graph), mission_options(config, log), &injector);
+  if (!k) return fail("kernel: " + k.error().to_string());
+  injector.attach(k->get());
+  recorder.on_vehicle_lost([kp = k->get()] { kp->request_stop(); });
+  if (log != nullptr) std::fprintf(log, "---- mission %u ----\n", mission.index), std::fflush(log);
+  helper.arm_watchdog(config.mission_wall_bound);
+  auto out = (*k)->run();
+  helper.disarm_watchdog();
+  Flown flown{.outcomes = {},
+              .run = out ? *out
+                         : kernel::RunOutcome{.reason = kernel::StopReason::ServiceFailed, .detail = out.error().to_string()},
+              .hung = helper.expired()};
+  proto::RunSummary summary;
+  recorder.fill(summary, flown.run.sim_time);
+  flown.outcomes = injector.finish(flown.run, summary, recorder.lost().has_value(), flown.hung);
+  k->reset();
+  helper.clear_conts();
+  if (log != nullptr) std::fflush(log);
+  return flown;
+}
+
+void print_mission(const Mission& mission, const Flown& flown, const std::string& leak) {
+  std::fprintf(stderr, "rejuv faults: mission %u: %s%s%s (%.1f s wall)%s%s\n", mission.index,
+               std::string(kernel::to_string(flown.run.reason)).c_str(), flown.run.detail.empty() ? "" : ": ",
+               flown.run.detail.c_str(), to_seconds(flown.run.wall_time).count(), flown.hung ? " HUNG" : "",
+               leak.empty() ? "" : (" LEAK: " + leak).c_str());
+}
+
+}  // namespace
+
+std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>& missions) {
+  std::vector<Outcome> all;
+  std::FILE* log = config.log.empty() ? nullptr : std::fopen(config.log.c_str(), "w");
+  Helper helper;
+  LeakCheck leaks;
+  for (const Mission& mission : missions) {
+    auto flown = fly_mission(config, mission, helper, log);
+    if (!flown) {
+      for (const Planned& p : mission.faults) all.push_back(Outcome{.mission = mission.index, .fault = p, .note = flown.error()});
+      continue;
+    }
+    const std::string leak = leaks.after_mission();
+    for (Outcome& o : flown->outcomes) {
       if (!leak.empty() && o.fired) {
         o.leaked = true;
         o.note += "; mission leak: " + leak;
       }
       all.push_back(std::move(o));
     }
-    std::fprintf(stderr, "rejuv faults: mission %u: %s%s%s (%.1f s wall)%s%s\n", mission.index,
-                 std::string(kernel::to_string(outcome.reason)).c_str(), outcome.detail.empty() ? "" : ": ",
-                 outcome.detail.c_str(), to_seconds(outcome.wall_time).count(), hung ? " HUNG" : "",
-                 leak.empty() ? "" : (" LEAK: " + leak).c_str());
+    print_mission(mission, *flown, leak);
+    // SIGINT or SIGTERM from outside (not the watchdog's): the campaign is being stopped, no more missions.
+    if (flown->run.reason == kernel::StopReason::Signal && !flown->hung) break;
   }
   if (log != nullptr) std::fclose(log);
   return all;

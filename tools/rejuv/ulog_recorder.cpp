@@ -203,17 +203,9 @@ std::pair<Px4LocalPosition, Px4Attitude> px4_of(const Pose& s, std::uint64_t t_u
 
 std::string with(std::string_view what, ulog::UlogError e) { return std::string(what) + ": " + std::string(ulog::to_string(e)); }
 
-}  // namespace
-
-Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const std::filesystem::path& path,
-                                                                        const kernel::Kernel& kernel,
-                                                                        const RunInfo& info) {
-  auto file = ulog::FileWriter::create(path, 0);
-  if (!file) return fail("cannot write the ULog file '" + path.string() + "'");
-  std::unique_ptr<UlogRecorder> rec(new UlogRecorder(std::move(*file)));
-  ulog::Encoder& enc = rec->writer_.encoder();
+// The file's information (PX4's keys where they exist: sys_name, ver_sw).
+Result<void, std::string> write_info(ulog::Encoder& enc, const kernel::Kernel& kernel, const UlogRecorder::RunInfo& info) {
   const proto::Launch& graph = kernel.graph().graph;
-  // Information (PX4's keys where they exist: sys_name, ver_sw).
   for (const auto& [key, value] : {std::pair<std::string, std::string>{"sys_name", "Rejuv"},
                                    {"ver_sw", version_of_sources()},
                                    {"graph", graph.name()},
@@ -224,7 +216,11 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
     if (auto ok = enc.info_string(key, value); !ok) return fail(with("info " + key, ok.error()));
   }
   if (auto ok = enc.info_u64("seed", info.seed); !ok) return fail(with("info seed", ok.error()));
-  // Parameters: the SR parameters, the plant's, every service's.
+  return {};
+}
+
+// Parameters: the SR parameters, the plant's, every service's.
+Result<void, std::string> write_parameters(ulog::Encoder& enc, const proto::Launch& graph) {
   if (auto ok = parameters_of(enc, graph.sr(), "sr"); !ok) return fail(with("sr parameters", ok.error()));
   if (auto ok = effective_parameters(enc, graph); !ok) return fail(with("launch parameters", ok.error()));
   for (const proto::Param& p : graph.plant().params()) {
@@ -235,8 +231,11 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
       if (auto ok = param(enc, s.name(), p); !ok) return fail(with(s.name() + " parameter " + p.name(), ok.error()));
     }
   }
-  // A format per topic (named after the policy object), then a subscription to each.
-  const std::vector<kernel::Kernel::TopicInfo> topics = kernel.topics();
+  return {};
+}
+
+// A format per topic (named after the policy object), and rejuv_sr_event's.
+Result<void, std::string> define_topic_formats(ulog::Encoder& enc, const std::vector<kernel::Kernel::TopicInfo>& topics) {
   for (const kernel::Kernel::TopicInfo& t : topics) {
     const ulog::TopicLayout* layout = ulog::find_layout(t.type);
     // A type a service author declared in the policy (docs/writing_a_service.md "A new topic type"): the
@@ -251,7 +250,29 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
     if (auto ok = enc.format(format); !ok) return fail(with("format " + std::string(t.name), ok.error()));
   }
   if (auto ok = enc.format(kSrEventFormat); !ok) return fail(with("format rejuv_sr_event", ok.error()));
-  // PX4's topics from the estimate and the ground truth, when the graph has them (and no topic of these names).
+  return {};
+}
+
+}  // namespace
+
+Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const std::filesystem::path& path,
+                                                                        const kernel::Kernel& kernel,
+                                                                        const RunInfo& info) {
+  auto file = ulog::FileWriter::create(path, 0);
+  if (!file) return fail("cannot write the ULog file '" + path.string() + "'");
+  std::unique_ptr<UlogRecorder> rec(new UlogRecorder(std::move(*file)));
+  ulog::Encoder& enc = rec->writer_.encoder();
+  const std::vector<kernel::Kernel::TopicInfo> topics = kernel.topics();
+  if (auto ok = write_info(enc, kernel, info); !ok) return fail(ok.error());
+  if (auto ok = write_parameters(enc, kernel.graph().graph); !ok) return fail(ok.error());
+  if (auto ok = define_topic_formats(enc, topics); !ok) return fail(ok.error());
+  if (auto ok = rec->define_px4_formats(topics); !ok) return fail(ok.error());
+  if (auto ok = rec->subscribe(topics); !ok) return fail(ok.error());
+  return rec;
+}
+
+Result<void, std::string> UlogRecorder::define_px4_formats(const std::vector<kernel::Kernel::TopicInfo>& topics) {
+  ulog::Encoder& enc = writer_.encoder();
   const auto taken = [&](std::string_view name) {
     return std::any_of(topics.begin(), topics.end(), [&](const kernel::Kernel::TopicInfo& t) { return t.name == name; });
   };
@@ -267,23 +288,28 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
       return fail(with("format " + x.local_position_name(), ok.error()));
     }
     if (auto ok = enc.format(px4_attitude_format(x.attitude_name())); !ok) return fail(with("format " + x.attitude_name(), ok.error()));
-    rec->px4_.push_back(x);
+    px4_.push_back(x);
   }
+  return {};
+}
+
+Result<void, std::string> UlogRecorder::subscribe(const std::vector<kernel::Kernel::TopicInfo>& topics) {
+  ulog::Encoder& enc = writer_.encoder();
   for (const kernel::Kernel::TopicInfo& t : topics) {
     const auto id = enc.add_logged(t.name);
     if (!id) return fail(with("subscription " + std::string(t.name), id.error()));
-    if (rec->by_object_.size() <= t.id.value()) {
-      rec->by_object_.resize(t.id.value() + 1);
-      rec->names_.resize(t.id.value() + 1);
-      rec->routed_.resize(t.id.value() + 1);
+    if (by_object_.size() <= t.id.value()) {
+      by_object_.resize(t.id.value() + 1);
+      names_.resize(t.id.value() + 1);
+      routed_.resize(t.id.value() + 1);
     }
-    rec->by_object_[t.id.value()] = *id;
-    rec->names_[t.id.value()] = std::string(t.name);
+    by_object_[t.id.value()] = *id;
+    names_[t.id.value()] = std::string(t.name);
   }
   const auto sr_id = enc.add_logged(kSrEventFormat.name);
   if (!sr_id) return fail(with("subscription rejuv_sr_event", sr_id.error()));
-  rec->sr_event_id_ = *sr_id;
-  for (Px4Topics& x : rec->px4_) {
+  sr_event_id_ = *sr_id;
+  for (Px4Topics& x : px4_) {
     const auto lp = enc.add_logged(x.local_position_name());
     if (!lp) return fail(with("subscription " + x.local_position_name(), lp.error()));
     const auto att = enc.add_logged(x.attitude_name());
@@ -291,7 +317,7 @@ Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const st
     x.local_position = *lp;
     x.attitude = *att;
   }
-  return rec;
+  return {};
 }
 
 void UlogRecorder::on_publication(const kernel::Publication& p) {

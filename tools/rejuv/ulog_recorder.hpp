@@ -56,6 +56,10 @@ class UlogRecorder final : public kernel::Observer {
     [[nodiscard]] std::string attitude_name() const { return truth ? "vehicle_attitude_groundtruth" : "vehicle_attitude"; }
   };
   void write_px4(Px4Topics& x, const kernel::Publication& p);
+  // The formats of PX4's topics the graph's estimate and ground truth give (when no topic has their names).
+  [[nodiscard]] Result<void, std::string> define_px4_formats(const std::vector<kernel::Kernel::TopicInfo>& topics);
+  // A subscription to every topic, rejuv_sr_event and PX4's topics: their msg ids.
+  [[nodiscard]] Result<void, std::string> subscribe(const std::vector<kernel::Kernel::TopicInfo>& topics);
 
   ulog::FileWriter writer_;
   std::vector<std::optional<ulog::MsgId>> by_object_;  // msg_id of each topic, by ObjectId

@@ -1,7 +1,5 @@
 #include "sweep/execute.hpp"
 
-#include <signal.h>
-#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -12,8 +10,8 @@
 
 #include "rejuv/flight/sr_sim.hpp"
 #include "rejuv/launch/launch.hpp"
+#include "job_pool.hpp"
 #include "rejuv/sys/lease.hpp"
-#include "rejuv/sys/process.hpp"
 #include "run_child.hpp"
 
 namespace rejuv::cli::sweep {
@@ -221,112 +219,86 @@ Result<ExecOutcome, std::string> fly_models(const proto::SweepPlan& plan, const 
   return interrupted ? ExecOutcome::Interrupted : ExecOutcome::Done;
 }
 
-// One `rejuv run` mission in flight on a slot.
-struct Flight {
-  Task task;
-  sys::ChildProcess child;
+// Where a `rejuv run` mission's summary and log go: DIR/logs/<the record's name>.{summary.json,log}.
+struct MissionFiles {
   fs::path summary, log;
-  Clock::time_point start;
 };
+MissionFiles files_of(const fs::path& dir, const Task& task) {
+  const std::string stem = record_path(dir, task).stem().string();
+  return {.summary = dir / "logs" / (stem + ".summary.json"), .log = dir / "logs" / (stem + ".log")};
+}
 
-struct Slot {
-  sys::DdsDomainLease lease;
-  int cpu = 0;
-  std::optional<Flight> flight;
-};
-
-proto::SweepRecord landed(const proto::SweepPlan& plan, const Flight& f, const sys::ExitStatus& status) {
-  proto::SweepRecord r = new_record(plan, f.task);
-  if (const auto s = read_summary(f.summary)) {
+proto::SweepRecord landed(const proto::SweepPlan& plan, const Task& task, const MissionFiles& files,
+                          const sys::ExitStatus& status) {
+  proto::SweepRecord r = new_record(plan, task);
+  if (const auto s = read_summary(files.summary)) {
     r.set_status("ok");  // exit 1 with a summary is a mission that failed: a result all the same
     *r.mutable_summary() = *s;
     return r;
   }
   const bool refused = status.how == sys::ExitStatus::How::Exited && status.value == 2;
   r.set_status(refused ? "invalid" : "failed");
-  r.set_error("rejuv run " + status.to_string() + " without a summary (" + f.log.string() + "): " + log_tail(f.log, 3));
+  r.set_error("rejuv run " + status.to_string() + " without a summary (" + files.log.string() + "): " +
+              log_tail(files.log, 3));
   return r;
 }
 
+// Records the tasks whose cell the launch loader (the same as `rejuv run`'s) refused: no mission to fly.
+// Returns the others.
+Result<std::vector<Task>, std::string> record_refused(const proto::SweepPlan& plan, const std::vector<CellLaunch>& cells,
+                                                      const std::vector<Task>& tasks, const ExecConfig& config,
+                                                      Progress& progress) {
+  std::vector<Task> flyable;
+  for (const Task& task : tasks) {
+    const CellLaunch& cell = cells[task.cell];
+    if (cell.refused.empty()) {
+      flyable.push_back(task);
+      continue;
+    }
+    proto::SweepRecord r = new_record(plan, task);
+    r.set_status("invalid");
+    r.set_error(cell.refused);
+    if (auto w = write_record(config.dir, r); !w) return fail("cannot keep a record: " + w.error());
+    progress.finished(task, 0.0, r);
+  }
+  return flyable;
+}
+
+// The runtime: one `rejuv run` per task in the job pool's slots (each its own DDS domain and CPU). The
+// mission is spawned, not forked, so that it is exactly what a user gets from `rejuv run` (run_child.hpp: its
+// own process group; Ctrl-C reaches this process, whose pool stops each mission cleanly and keeps no record).
 Result<ExecOutcome, std::string> fly_runtime(const proto::SweepPlan& plan, const std::vector<CellLaunch>& cells,
                                              const std::vector<Task>& tasks, const ExecConfig& config,
                                              Progress& progress) {
-  const long cpus = std::max(1L, ::sysconf(_SC_NPROCESSORS_ONLN));
-  std::vector<Slot> slots;
-  const unsigned n = std::max(1U, std::min<unsigned>(config.jobs, static_cast<unsigned>(tasks.size())));
-  for (unsigned j = 0; j < n; ++j) {
-    auto lease = sys::lease_dds_domain((static_cast<std::uint32_t>(::getpid()) + 41 * j) % sys::kLeasedDdsDomains);
-    if (!lease) return fail("no free DDS domain (" + std::string(sys::kDdsDomainLockFile) + "): " + lease.error().to_string());
-    slots.push_back(Slot{.lease = std::move(*lease), .cpu = static_cast<int>(j % static_cast<unsigned long>(cpus)), .flight = std::nullopt});
-  }
+  const auto flyable = record_refused(plan, cells, tasks, config, progress);
+  if (!flyable) return fail(flyable.error());
+  if (flyable->empty()) return ExecOutcome::Done;
+  auto pool = JobPool::create(
+      PoolConfig{.workers = std::min<unsigned>(config.jobs, static_cast<unsigned>(flyable->size())), .signals = config.signals});
+  if (!pool) return fail("no free DDS domain (" + std::string(sys::kDdsDomainLockFile) + "): " + pool.error());
   std::error_code ec;
   fs::create_directories(config.dir / "logs", ec);
   if (ec) return fail("cannot create " + (config.dir / "logs").string() + ": " + ec.message());
-  std::size_t next = 0, running = 0;
-  bool interrupted = false;
-  Clock::time_point interrupted_at{};
-  while ((next < tasks.size() && !interrupted) || running > 0) {
-    for (Slot& slot : slots) {
-      if (slot.flight || next >= tasks.size() || interrupted) continue;
-      const Task& task = tasks[next++];
-      const CellLaunch& cell = cells[task.cell];
-      if (!cell.refused.empty()) {  // the same loader as `rejuv run`'s refused it: no mission to fly
-        proto::SweepRecord r = new_record(plan, task);
-        r.set_status("invalid");
-        r.set_error(cell.refused);
-        if (auto w = write_record(config.dir, r); !w) return fail("cannot keep a record: " + w.error());
-        progress.finished(task, 0.0, r);
-        continue;
-      }
-      const std::string stem = record_path(config.dir, task).stem().string();
-      Flight f{.task = task,
-               .child = {},
-               .summary = config.dir / "logs" / (stem + ".summary.json"),
-               .log = config.dir / "logs" / (stem + ".log"),
-               .start = Clock::now()};
-      fs::remove(f.summary, ec);
-      auto child = start_rejuv_run({cell.file.string(), "--seed", std::to_string(task.seed), "--domain",
-                                    std::to_string(slot.lease.slot()), "--net-port", "0", "--cpu",
-                                    std::to_string(slot.cpu), "--summary-json", f.summary.string()},
-                                   f.log);
-      if (!child) return fail(child.error());
-      f.child = std::move(*child);
-      slot.flight.emplace(std::move(f));
-      ++running;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds{100});
-    if (!interrupted && interrupted_by(config.signals)) {
-      interrupted = true;  // stop each mission cleanly (its kernel shuts its processes down), keep no record
-      interrupted_at = Clock::now();
-      for (Slot& slot : slots) {
-        if (slot.flight) (void)slot.flight->child.signal(SIGTERM);
-      }
-    }
-    for (Slot& slot : slots) {
-      if (!slot.flight) continue;
-      auto status = slot.flight->child.try_wait();
-      if (!status) return fail("waiting for rejuv run: " + status.error().to_string());
-      if (!*status) {
-        // Interrupted: a mission that does not stop within 20 s is killed (the handle kills and reaps).
-        if (interrupted && Clock::now() - interrupted_at > std::chrono::seconds{20}) {
-          slot.flight->child.kill_and_reap();
-          slot.flight.reset();
-          --running;
-        }
-        continue;
-      }
-      if (!interrupted) {
-        const proto::SweepRecord r = landed(plan, *slot.flight, **status);
-        if (auto w = write_record(config.dir, r); !w) return fail("cannot keep a record: " + w.error());
-        progress.finished(slot.flight->task,
-                          std::chrono::duration<double>(Clock::now() - slot.flight->start).count(), r);
-      }
-      slot.flight.reset();
-      --running;
-    }
-    progress.draw();
-  }
-  return interrupted ? ExecOutcome::Interrupted : ExecOutcome::Done;
+  const auto start = [&](std::size_t i, const WorkerSlot& slot) {
+    const Task& task = (*flyable)[i];
+    const MissionFiles files = files_of(config.dir, task);
+    std::error_code ignored;
+    fs::remove(files.summary, ignored);
+    return start_rejuv_run({cells[task.cell].file.string(), "--seed", std::to_string(task.seed), "--domain",
+                            std::to_string(slot.dds_domain), "--net-port", "0", "--cpu", std::to_string(slot.cpu),
+                            "--summary-json", files.summary.string()},
+                           files.log);
+  };
+  const auto ended = [&](const TaskEnd& end) -> Result<void, std::string> {
+    const Task& task = (*flyable)[end.task];
+    const proto::SweepRecord r = landed(plan, task, files_of(config.dir, task), end.status);
+    if (auto w = write_record(config.dir, r); !w) return fail("cannot keep a record: " + w.error());
+    progress.finished(task, end.wall.count(), r);
+    return {};
+  };
+  const auto outcome = pool->run(flyable->size(), start, PoolHooks{.ended = ended, .tick = [&] { progress.draw(); }});
+  if (!outcome) return fail(outcome.error());
+  return *outcome == PoolOutcome::Interrupted ? ExecOutcome::Interrupted : ExecOutcome::Done;
 }
 
 }  // namespace
