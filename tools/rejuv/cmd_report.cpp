@@ -169,7 +169,7 @@ void declare_report_options(Options& opts, ReportRequest& r) {
       .positional("GRAPH|DIR", r.graph_path, "table: the launch graph (*.launch.pbtxt); figures: a run's --out DIR");
   seed_option(opts, r.seed_flag, "seed of every run")
       .path("--out", "DIR", r.out_dir, "where the runs' files go", "out/table");
-  domain_option(opts, r.domain, "DDS domain id of the runtime missions", "the graph's");
+  domain_option(opts, r.domain, "DDS domain id of the runtime missions", "each mission leases a free one");
   attack_option(opts, r.attack_law)
       .path("--sr-attack-json", "FILE", r.reuse_path,
             "the runtime's 'SR, attack' row from this `rejuv run --summary-json` (same graph and seed) instead of\n"

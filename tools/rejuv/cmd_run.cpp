@@ -288,7 +288,7 @@ void declare_run_options(Options& opts, RunRequest& r) {
             "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
             "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)",
             "DIR/run.ulg with --out");
-  domain_option(opts, r.flags.domain, "DDS domain id", "the graph's")
+  domain_option(opts, r.flags.domain, "DDS domain id", kLeasedDomainHelp)
       .custom<std::vector<std::string>>("--skip", "NAMES", r.skip, service_names_of,
                                         "comma-separated services not to start (e.g. not built yet)");
   net_port_option(opts, r.flags.net_port, "UDP port of the network gate; 0: any free port",
@@ -425,6 +425,11 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
   if (auto ok = check_out_options(opts, r.out); !ok) return bad_input("rejuv run: " + ok.error());
   auto options = kernel_options_for(r);
   if (!options) return bad_input("rejuv run: " + options.error());
+  auto domain = lease_domain(*options);  // held until the run has ended
+  if (!domain) {
+    std::fprintf(stderr, "rejuv run: %s\n", domain.error().c_str());
+    return 1;
+  }
 
   auto loaded = load_with_attack(r.graph_path, r.switches.attack, "rejuv run");
   if (!loaded) return bad_input(loaded.error());

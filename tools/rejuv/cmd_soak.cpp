@@ -415,7 +415,7 @@ void declare_soak_options(Options& opts, SoakRequest& r) {
       .integer("--maps-slack", "M", r.maps_slack, {},
                "mappings a process may gain beyond the baseline's jitter (2: a new process of each\n"
                "mission may get one more malloc arena or thread stack than the first; a leak keeps growing)");
-  domain_option(opts, r.flags.domain, "DDS domain id", "the graph's");
+  domain_option(opts, r.flags.domain, "DDS domain id", kLeasedDomainHelp);
   charge_option(opts, r.flags.charge);
   net_port_option(opts, r.flags.net_port, "UDP port of the network gate", "0, any free port")
       .flag("--one-kernel", r.one_kernel,
@@ -590,6 +590,11 @@ int run_soak(std::span<const std::string_view> args) {
                      std::to_string(r.every));
   }
   kernel::KernelOptions options = kernel_options(r.flags);
+  auto domain = lease_domain(options);  // held until the soak has ended
+  if (!domain) {
+    std::fprintf(stderr, "rejuv soak: %s\n", domain.error().c_str());
+    return 1;
+  }
   auto loaded = soak_graph(r.graph_path);
   if (!loaded) return bad_input(loaded.error());
   std::error_code ec;

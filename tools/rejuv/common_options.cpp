@@ -1,6 +1,8 @@
 // The options shared by several `rejuv` commands (common_options.hpp).
 #include "common_options.hpp"
 
+#include <unistd.h>
+
 #include <cstdlib>
 #include <tuple>
 
@@ -72,6 +74,14 @@ kernel::KernelOptions kernel_options(const KernelFlags& flags) {
   if (flags.domain) options.dds_domain = static_cast<std::uint32_t>(*flags.domain);
   if (flags.net_port) options.network_port = static_cast<std::uint16_t>(*flags.net_port);
   return options;
+}
+
+Result<std::optional<sys::DdsDomainLease>, std::string> lease_domain(kernel::KernelOptions& options) {
+  if (options.dds_domain) return std::optional<sys::DdsDomainLease>{};
+  auto lease = sys::lease_dds_domain(static_cast<std::uint32_t>(::getpid()));
+  if (!lease) return fail("no free DDS domain to lease (" + lease.error().to_string() + "): give --domain N");
+  options.dds_domain = static_cast<std::uint32_t>(lease->slot());
+  return std::optional<sys::DdsDomainLease>(std::move(*lease));
 }
 
 Result<void, std::string> open_outputs(std::string_view command, const std::optional<std::filesystem::path>& json_path,
