@@ -1,5 +1,5 @@
 // When in the vehicle's control period image work disturbs it least (docs/realtime.md "Image work in the
-// slack"; issue 27). In real time with a plant the control chain runs once per sample (sensors → ekf2 →
+// slack"). In real time with a plant the control chain runs once per sample (sensors → ekf2 →
 // controllers → output_driver) and is idle for most of the period after its actuator output. A checkpoint
 // (≈ 1 ms timed) that starts just before a sample arrives holds that sample's update back by its whole
 // duration; one that starts just after an update ends long before the next sample. So:
