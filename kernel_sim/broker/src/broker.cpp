@@ -372,19 +372,8 @@ void Broker::snapshot_into(BrokerSnapshot& out) const {
 }
 
 Result<RestoreReport, BrokerError> Broker::restore(const BrokerSnapshot& snap) {
-  // Decode: the snapshot must come from a broker with this exact layout, and every saved subscription must
-  // be coherent with it. Nothing changes unless all of it holds.
-  if (snap.layout_ != layout_ || snap.rings_.size() != arena_.size() ||
-      snap.heads_.size() != topics_.size()) {
+  if (!fits(snap)) {
     return fail(BrokerError::SnapshotMismatch);
-  }
-  for (std::size_t i = 0; i < snap.subscribers_.size(); ++i) {
-    const BrokerSnapshot::Subscription& s = snap.subscribers_[i];
-    const auto idx = topic_index(s.topic);
-    if (!idx || s.cursor > snap.heads_[*idx] || s.id.value() >= next_subscriber_ ||
-        (i > 0 && !(snap.subscribers_[i - 1].id < s.id))) {
-      return fail(BrokerError::SnapshotMismatch);
-    }
   }
 
   // Invoke: rings and generation counters back to the checkpoint (§IV-A: the queued messages are state).
@@ -394,40 +383,44 @@ Result<RestoreReport, BrokerError> Broker::restore(const BrokerSnapshot& snap) {
   for (std::size_t i = 0; i < topics_.size(); ++i) {
     topics_[i].head = snap.heads_[i];
   }
+  const RestoreReport report = merge_subscriptions(snap);
+  rebuild_routes();
+  return report;
+}
 
-  // Subscriptions: merge, by id, the snapshot's Rejuvenated ones with the live Driver ones.
+bool Broker::fits(const BrokerSnapshot& snap) const {
+  // Decode: the snapshot must come from a broker with this exact layout, and every saved subscription must
+  // be coherent with it. Nothing changes unless all of it holds.
+  if (snap.layout_ != layout_ || snap.rings_.size() != arena_.size() ||
+      snap.heads_.size() != topics_.size()) {
+    return false;
+  }
+  for (std::size_t i = 0; i < snap.subscribers_.size(); ++i) {
+    const BrokerSnapshot::Subscription& s = snap.subscribers_[i];
+    const auto idx = topic_index(s.topic);
+    if (!idx || s.cursor > snap.heads_[*idx] || s.id.value() >= next_subscriber_ ||
+        (i > 0 && !(snap.subscribers_[i - 1].id < s.id))) {
+      return false;
+    }
+  }
+  return true;
+}
+
+RestoreReport Broker::merge_subscriptions(const BrokerSnapshot& snap) {
+  // Subscriptions: merge, by id, the snapshot's Rejuvenated ones with the live Driver ones (both tables are
+  // ordered by id).
   RestoreReport report;
-  const auto clashes_with_snapshot = [&](const Subscriber& d) {
-    const ObjectId object = topics_[d.topic].object;
-    return std::any_of(snap.subscribers_.begin(), snap.subscribers_.end(),
-                       [&](const auto& r) { return r.service == d.service && r.topic == object; });
-  };
   scratch_.clear();
   auto saved = snap.subscribers_.begin();
-  const auto take_saved = [&] {
-    const std::uint32_t idx = *topic_index(saved->topic);
-    const Subscriber* live = find(saved->id);
-    if (live == nullptr) {
-      ++report.rejuvenated_recreated;
-    }
-    scratch_.push_back(Subscriber{.id = saved->id,
-                                  .service = saved->service,
-                                  .topic = idx,
-                                  .kind = SubscriberKind::Rejuvenated,
-                                  .cursor = saved->cursor,
-                                  .stats = live != nullptr ? live->stats : SubscriberStats{}});
-    ++report.rejuvenated_restored;
-    ++saved;
-  };
   for (const Subscriber& s : subscribers_) {
     while (saved != snap.subscribers_.end() && saved->id < s.id) {
-      take_saved();
+      take_saved(*saved++, report);
     }
     const bool also_saved = saved != snap.subscribers_.end() && saved->id == s.id;
     switch (s.kind) {
       case SubscriberKind::Rejuvenated:
         if (also_saved) {
-          take_saved();
+          take_saved(*saved++, report);
         } else {
           ++report.rejuvenated_dropped;  // created after the checkpoint: its service's image predates it
         }
@@ -435,26 +428,46 @@ Result<RestoreReport, BrokerError> Broker::restore(const BrokerSnapshot& snap) {
       case SubscriberKind::Driver:
         // Ids are never reused and the snapshot holds only Rejuvenated ids, so a Driver id is never saved.
         REJUV_ASSERT(!also_saved, "a driver subscription id appears in a snapshot");
-        if (clashes_with_snapshot(s)) {
-          ++report.drivers_dropped;
-          break;
-        }
-        scratch_.push_back(s);
-        // Only what is published after the rollback: never the checkpoint's backlog again, never a
-        // generation that the rollback erased (DESIGN §7 rollback step 3).
-        scratch_.back().cursor = topics_[s.topic].head;
-        ++report.drivers_rebased;
+        keep_driver(s, snap, report);
         break;
     }
   }
   while (saved != snap.subscribers_.end()) {
-    take_saved();
+    take_saved(*saved++, report);
   }
   subscribers_.swap(scratch_);
   scratch_.clear();
   scratch_.reserve(subscribers_.capacity());
-  rebuild_routes();
   return report;
+}
+
+void Broker::take_saved(const BrokerSnapshot::Subscription& saved, RestoreReport& report) {
+  const std::uint32_t idx = *topic_index(saved.topic);
+  const Subscriber* live = find(saved.id);
+  if (live == nullptr) {
+    ++report.rejuvenated_recreated;
+  }
+  scratch_.push_back(Subscriber{.id = saved.id,
+                                .service = saved.service,
+                                .topic = idx,
+                                .kind = SubscriberKind::Rejuvenated,
+                                .cursor = saved.cursor,
+                                .stats = live != nullptr ? live->stats : SubscriberStats{}});
+  ++report.rejuvenated_restored;
+}
+
+void Broker::keep_driver(const Subscriber& driver, const BrokerSnapshot& snap, RestoreReport& report) {
+  const ObjectId object = topics_[driver.topic].object;
+  if (std::any_of(snap.subscribers_.begin(), snap.subscribers_.end(),
+                  [&](const auto& r) { return r.service == driver.service && r.topic == object; })) {
+    ++report.drivers_dropped;
+    return;
+  }
+  scratch_.push_back(driver);
+  // Only what is published after the rollback: never the checkpoint's backlog again, never a generation
+  // that the rollback erased (DESIGN §7 rollback step 3).
+  scratch_.back().cursor = topics_[driver.topic].head;
+  ++report.drivers_rebased;
 }
 
 }  // namespace rejuv::broker

@@ -373,13 +373,19 @@ class Validator {
       return {};  // parameters of a disabled scheme are not used (rejuv run --no-sr)
     }
     const proto::SrParams& sr = g_.sr();
-    const auto loc = [&](std::string_view field) { return at({{"sr", -1}}, field); };
-    const auto finite = [&](double v, std::string_view field) -> Check {
-      if (!std::isfinite(v)) {
-        return fail(error(loc(field), "sr." + std::string(field) + " must be a finite number"));
+    for (Check c : {check_sr_finite(sr), check_sr_intervals(sr), check_sr_levels(sr), check_sr_check_period(sr),
+                    check_sr_duration_bounds(sr), check_sr_keep_generations(sr), check_sr_box(sr),
+                    check_sr_restricted_limits(sr), check_sr_ekf_rearm(sr)}) {
+      if (!c) {
+        return c;
       }
-      return {};
-    };
+    }
+    return {};
+  }
+
+  [[nodiscard]] SourceLocation sr_at(std::string_view field) const { return at({{"sr", -1}}, field); }
+
+  Check check_sr_finite(const proto::SrParams& sr) const {
     for (const auto& [v, f] : {std::pair{sr.t_mc_s(), "t_mc_s"},
                                {sr.t_est_s(), "t_est_s"},
                                {sr.rho_m(), "rho_m"},
@@ -387,61 +393,87 @@ class Validator {
                                {sr.t_min_s(), "t_min_s"},
                                {sr.check_period_s(), "check_period_s"},
                                {sr.restricted_limit_fraction(), "restricted_limit_fraction"}}) {
-      if (Check c = finite(v, f); !c) {
-        return c;
+      if (!std::isfinite(v)) {
+        return fail(error(sr_at(f), "sr." + std::string(f) + " must be a finite number"));
       }
     }
+    return {};
+  }
+
+  // T_MC, T_est and t_min (§II).
+  Check check_sr_intervals(const proto::SrParams& sr) const {
     // §II: MC must last a positive T_MC before RB, or the vehicle never flies its mission.
     if (sr.t_mc_s() <= 0.0) {
-      return fail(error(loc("t_mc_s"), "sr.t_mc_s (T_MC) must be > 0 s, got " + num(sr.t_mc_s())));
+      return fail(error(sr_at("t_mc_s"), "sr.t_mc_s (T_MC) must be > 0 s, got " + num(sr.t_mc_s())));
     }
     // §II: the safety controller needs a positive T_est to bring x̂ back into E(ρ_s) before (1) is checked.
     if (sr.t_est_s() <= 0.0) {
-      return fail(error(loc("t_est_s"), "sr.t_est_s (T_est) must be > 0 s, got " + num(sr.t_est_s())));
+      return fail(error(sr_at("t_est_s"), "sr.t_est_s (T_est) must be > 0 s, got " + num(sr.t_est_s())));
     }
     if (sr.t_min_s() < 0.0) {
-      return fail(error(loc("t_min_s"), "sr.t_min_s (t_min) must be >= 0 s, got " + num(sr.t_min_s())));
+      return fail(error(sr_at("t_min_s"), "sr.t_min_s (t_min) must be >= 0 s, got " + num(sr.t_min_s())));
     }
-    // §IV-A: E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set ‖e‖_P ≤ 1 (P scaled to the state box, DESIGN §9).
+    return {};
+  }
+
+  // §IV-A: E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set ‖e‖_P ≤ 1 (P scaled to the state box, DESIGN §9).
+  Check check_sr_levels(const proto::SrParams& sr) const {
     if (!(sr.rho_s() > 0.0 && sr.rho_s() < sr.rho_m())) {
       return fail(
-          error(loc("rho_s"), "sr.rho_s and sr.rho_m must satisfy 0 < rho_s < rho_m (§IV-A), got rho_s = " +
-                                  num(sr.rho_s()) + ", rho_m = " + num(sr.rho_m())));
+          error(sr_at("rho_s"), "sr.rho_s and sr.rho_m must satisfy 0 < rho_s < rho_m (§IV-A), got rho_s = " +
+                                    num(sr.rho_s()) + ", rho_m = " + num(sr.rho_m())));
     }
     if (sr.rho_m() > 1.0) {
       return fail(error(
-          loc("rho_m"),
+          sr_at("rho_m"),
           "sr.rho_m must be <= 1: E(rho_M) lies inside the safety set ||e||_P <= 1, got " + num(sr.rho_m())));
     }
+    return {};
+  }
+
+  Check check_sr_check_period(const proto::SrParams& sr) const {
     if (sr.has_check_period_s() && sr.check_period_s() <= 0.0) {
-      return fail(error(loc("check_period_s"),
+      return fail(error(sr_at("check_period_s"),
                         "sr.check_period_s must be > 0 s (omit it for the default 0.002 s), got " +
                             num(sr.check_period_s())));
     }
     if (sr.has_check_period_s() && sr.check_period_s() < defaults::kMinPeriodS) {
-      return fail(error(loc("check_period_s"), "sr.check_period_s must be at least " + num(defaults::kMinPeriodS) +
-                                                   " s (the kernel's timers count ns), got " +
-                                                   num(sr.check_period_s())));
+      return fail(error(sr_at("check_period_s"), "sr.check_period_s must be at least " +
+                                                     num(defaults::kMinPeriodS) +
+                                                     " s (the kernel's timers count ns), got " +
+                                                     num(sr.check_period_s())));
     }
-    // Durations beyond the bound overflow the kernel's ns clock or never elapse.
+    return {};
+  }
+
+  // Durations beyond the bound overflow the kernel's ns clock or never elapse.
+  Check check_sr_duration_bounds(const proto::SrParams& sr) const {
     for (const auto& [v, f] : {std::pair{sr.t_mc_s(), "t_mc_s"},
                                {sr.t_est_s(), "t_est_s"},
                                {sr.t_min_s(), "t_min_s"},
                                {sr.check_period_s(), "check_period_s"}}) {
       if (v > defaults::kMaxDurationS) {
-        return fail(error(loc(f), "sr." + std::string(f) + " must be at most " + num(defaults::kMaxDurationS) +
-                                      " s, got " + num(v)));
+        return fail(error(sr_at(f), "sr." + std::string(f) + " must be at most " + num(defaults::kMaxDurationS) +
+                                        " s, got " + num(v)));
       }
     }
+    return {};
+  }
+
+  Check check_sr_keep_generations(const proto::SrParams& sr) const {
     if (sr.has_keep_generations() &&
         (sr.keep_generations() < 1 || sr.keep_generations() > defaults::kMaxKeepGenerations)) {
-      return fail(error(loc("keep_generations"),
+      return fail(error(sr_at("keep_generations"),
                         "sr.keep_generations must be 1 to " + std::to_string(defaults::kMaxKeepGenerations) +
                             " (each generation keeps a frozen process of every rejuvenated service; omit it "
                             "for the default " +
                             std::to_string(defaults::kKeepGenerations) + "), got " +
                             std::to_string(sr.keep_generations())));
     }
+    return {};
+  }
+
+  Check check_sr_box(const proto::SrParams& sr) const {
     const proto::StateBox& box = sr.box();
     for (const auto& [v, f] : {std::pair{box.position_m(), "position_m"},
                                {box.velocity_m_s(), "velocity_m_s"},
@@ -453,12 +485,20 @@ class Validator {
                               " must be a finite half-width > 0 (it scales P, DESIGN §9), got " + num(v)));
       }
     }
+    return {};
+  }
+
+  Check check_sr_restricted_limits(const proto::SrParams& sr) const {
     const double frac = sr.restricted_limit_fraction();
     if (!(frac > 0.0 && frac <= 1.0)) {
       return fail(error(
-          loc("restricted_limit_fraction"),
+          sr_at("restricted_limit_fraction"),
           "sr.restricted_limit_fraction (Ū as a fraction of U, §III) must be in (0, 1], got " + num(frac)));
     }
+    return {};
+  }
+
+  Check check_sr_ekf_rearm(const proto::SrParams& sr) const {
     for (const RearmField& f : ekf_rearm_fields(sr.ekf_rearm())) {
       if (!f.is_switch && !(std::isfinite(f.value) && f.value > 0.0)) {
         return fail(error(at({{"sr", -1}, {"ekf_rearm", -1}}, f.name),

@@ -257,88 +257,108 @@ class PolicyBuilder {
 
   Check objects() {
     for (int i = 0; i < pb_.objects_size(); ++i) {
-      const proto::Object& o = pb_.objects(i);
-      const auto field = [&](std::string_view f) { return at({{"objects", i}}, f); };
-      if (!is_plain_name(o.name()) || o.name() == "*") {
-        return fail(error(field("name"), o.name().empty()
-                                             ? std::string("object without a `name`")
-                                             : "object name \"" + o.name() +
-                                                   "\" must use only letters, digits, '_', '-', '.'"));
+      auto obj = declared_object(i);
+      if (!obj) {
+        return fail(std::move(obj.error()));
       }
-      if (const auto dup = p_.find_object(o.name())) {
-        return fail(error(field("name"), "duplicate object \"" + o.name() + "\": already declared at " +
-                                             line_of(p_.object(*dup).where)));
+      p_.objects_.push_back(std::move(*obj));
+    }
+    return {};
+  }
+
+  [[nodiscard]] SourceLocation object_at(int i, std::string_view field) const { return at({{"objects", i}}, field); }
+
+  // Object i of the file: its name, kind, role and kernel endpoint, then the fields its kind takes.
+  Result<Object, LoadError> declared_object(int i) const {
+    const proto::Object& o = pb_.objects(i);
+    if (!is_plain_name(o.name()) || o.name() == "*") {
+      return fail(error(object_at(i, "name"), o.name().empty()
+                                                  ? std::string("object without a `name`")
+                                                  : "object name \"" + o.name() +
+                                                        "\" must use only letters, digits, '_', '-', '.'"));
+    }
+    if (const auto dup = p_.find_object(o.name())) {
+      return fail(error(object_at(i, "name"), "duplicate object \"" + o.name() + "\": already declared at " +
+                                                  line_of(p_.object(*dup).where)));
+    }
+    const auto kind = to_kind(o.kind());
+    if (!kind) {
+      return fail(
+          error(object_at(i, o.kind() == proto::OBJECT_KIND_UNSPECIFIED ? "name" : "kind"),
+                "object \"" + o.name() +
+                    "\" needs a `kind`: expected TOPIC, CHECKPOINT, NETWORK, LIMITS, PERSISTENT or MODE"));
+    }
+    const auto role = to_role(o.role());
+    const auto endpoint = to_endpoint(o.kernel());
+    if (!role || !endpoint) {
+      return fail(
+          error(object_at(i, !role ? "role" : "kernel"), "object \"" + o.name() + "\": unknown enum value"));
+    }
+    Object obj{ObjectId(static_cast<std::uint32_t>(i)),
+               o.name(),
+               *kind,
+               o.type(),
+               *role,
+               *endpoint,
+               0,
+               0,
+               at({}, "objects", i)};
+    const std::string kind_name(to_string(*kind));
+    if (Check c = *kind == ObjectKind::Topic ? topic_fields(i, obj) : no_topic_fields(i, kind_name); !c) {
+      return fail(std::move(c.error()));
+    }
+    if (Check c = size_field(i, obj, kind_name); !c) {
+      return fail(std::move(c.error()));
+    }
+    return obj;
+  }
+
+  // A topic's type and its ring's depth.
+  Check topic_fields(int i, Object& obj) const {
+    const proto::Object& o = pb_.objects(i);
+    if (o.type().empty()) {
+      return fail(error(object_at(i, "name"),
+                        "topic \"" + o.name() +
+                            "\" needs a `type`: the IDL type name, e.g. type: \"rejuv::msg::Setpoint\""));
+    }
+    // DESIGN §5: uORB ring of depth Q, a power of two (cursor arithmetic by masking).
+    obj.queue_depth = o.queue_depth() == 0 ? kDefaultQueueDepth : o.queue_depth();
+    if (!std::has_single_bit(obj.queue_depth) || obj.queue_depth > kMaxQueueDepth) {
+      return fail(error(object_at(i, "queue_depth"),
+                        "queue_depth " + std::to_string(o.queue_depth()) + " of topic \"" + o.name() +
+                            "\" must be a power of two in 1.." + std::to_string(kMaxQueueDepth)));
+    }
+    return {};
+  }
+
+  // Fields of a topic on an object of another kind are a sign the user meant something else: say so rather
+  // than ignore them.
+  Check no_topic_fields(int i, std::string_view kind_name) const {
+    const proto::Object& o = pb_.objects(i);
+    const auto misplaced = [&](std::string_view field) {
+      return fail(error(object_at(i, field), "`" + std::string(field) + "` applies to topics only; \"" + o.name() +
+                                                 "\" is a " + std::string(kind_name)));
+    };
+    if (o.role() != proto::DATA) return misplaced("role");
+    if (!o.type().empty()) return misplaced("type");
+    if (o.queue_depth() != 0) return misplaced("queue_depth");
+    if (o.kernel() != proto::KERNEL_NONE) return misplaced("kernel");
+    return {};
+  }
+
+  // A persistent cell's size; no other kind takes one.
+  Check size_field(int i, Object& obj, std::string_view kind_name) const {
+    const proto::Object& o = pb_.objects(i);
+    if (obj.kind == ObjectKind::Persistent) {
+      if (o.size_bytes() < 1 || o.size_bytes() > kMaxPersistentBytes) {
+        return fail(error(object_at(i, o.size_bytes() == 0 ? "name" : "size_bytes"),
+                          "persistent cell \"" + o.name() + "\" needs size_bytes in 1.." +
+                              std::to_string(kMaxPersistentBytes) + ", got " + std::to_string(o.size_bytes())));
       }
-      const auto kind = to_kind(o.kind());
-      if (!kind) {
-        return fail(
-            error(field(o.kind() == proto::OBJECT_KIND_UNSPECIFIED ? "name" : "kind"),
-                  "object \"" + o.name() +
-                      "\" needs a `kind`: expected TOPIC, CHECKPOINT, NETWORK, LIMITS, PERSISTENT or MODE"));
-      }
-      const auto role = to_role(o.role());
-      const auto endpoint = to_endpoint(o.kernel());
-      if (!role || !endpoint) {
-        return fail(
-            error(field(!role ? "role" : "kernel"), "object \"" + o.name() + "\": unknown enum value"));
-      }
-      Object obj{ObjectId(static_cast<std::uint32_t>(i)),
-                 o.name(),
-                 *kind,
-                 o.type(),
-                 *role,
-                 *endpoint,
-                 0,
-                 0,
-                 at({}, "objects", i)};
-      const bool topic = *kind == ObjectKind::Topic;
-      const bool persistent = *kind == ObjectKind::Persistent;
-      const std::string kind_name(to_string(*kind));
-      if (topic) {
-        if (o.type().empty()) {
-          return fail(error(field("name"),
-                            "topic \"" + o.name() +
-                                "\" needs a `type`: the IDL type name, e.g. type: \"rejuv::msg::Setpoint\""));
-        }
-        // DESIGN §5: uORB ring of depth Q, a power of two (cursor arithmetic by masking).
-        obj.queue_depth = o.queue_depth() == 0 ? kDefaultQueueDepth : o.queue_depth();
-        if (!std::has_single_bit(obj.queue_depth) || obj.queue_depth > kMaxQueueDepth) {
-          return fail(error(field("queue_depth"),
-                            "queue_depth " + std::to_string(o.queue_depth()) + " of topic \"" + o.name() +
-                                "\" must be a power of two in 1.." + std::to_string(kMaxQueueDepth)));
-        }
-      } else {
-        // Fields of another kind are a sign the user meant something else: say so rather than ignore them.
-        if (o.role() != proto::DATA) {
-          return fail(
-              error(field("role"), "`role` applies to topics only; \"" + o.name() + "\" is a " + kind_name));
-        }
-        if (!o.type().empty()) {
-          return fail(
-              error(field("type"), "`type` applies to topics only; \"" + o.name() + "\" is a " + kind_name));
-        }
-        if (o.queue_depth() != 0) {
-          return fail(error(field("queue_depth"),
-                            "`queue_depth` applies to topics only; \"" + o.name() + "\" is a " + kind_name));
-        }
-        if (o.kernel() != proto::KERNEL_NONE) {
-          return fail(error(field("kernel"),
-                            "`kernel` applies to topics only; \"" + o.name() + "\" is a " + kind_name));
-        }
-      }
-      if (persistent) {
-        if (o.size_bytes() < 1 || o.size_bytes() > kMaxPersistentBytes) {
-          return fail(error(field(o.size_bytes() == 0 ? "name" : "size_bytes"),
-                            "persistent cell \"" + o.name() + "\" needs size_bytes in 1.." +
-                                std::to_string(kMaxPersistentBytes) + ", got " +
-                                std::to_string(o.size_bytes())));
-        }
-        obj.size_bytes = o.size_bytes();
-      } else if (o.size_bytes() != 0) {
-        return fail(error(field("size_bytes"), "`size_bytes` applies to PERSISTENT objects only; \"" +
-                                                   o.name() + "\" is a " + kind_name));
-      }
-      p_.objects_.push_back(std::move(obj));
+      obj.size_bytes = o.size_bytes();
+    } else if (o.size_bytes() != 0) {
+      return fail(error(object_at(i, "size_bytes"), "`size_bytes` applies to PERSISTENT objects only; \"" +
+                                                        o.name() + "\" is a " + std::string(kind_name)));
     }
     return {};
   }

@@ -163,6 +163,7 @@ struct Prepared {
   std::vector<char*> argv;
   std::vector<char*> envp;
   std::vector<sock_filter> seccomp_scratch;
+  int max_target = 2;  // the highest fd of the child's layout (stderr at least)
 };
 
 // The stages a child reports a failure at (its index into kStage) and the listener hand-over.
@@ -242,6 +243,123 @@ void limit_in_child(int wfd, const ResourceLimits& limits) {
   set(RLIMIT_RTTIME, limits.rt_time_us);
 }
 
+// The child's steps between fork and exec, in the order run_child takes them. Each is async-signal-safe: raw
+// system calls on what was prepared before fork, no allocation; a failed step reports and exits.
+
+// Killed when its parent (the kernel) dies, also if that happened before the prctl.
+void die_with_parent_in_child(int wfd, pid_t parent) {
+  if (::prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0) child_fail(wfd, kStagePdeathsig, errno);
+  if (::getppid() != parent) ::_exit(127);  // the kernel died before the prctl took effect
+}
+
+// Into the service's cgroups first ("0": the writer itself), while still privileged and before anything it
+// runs can fork: every process it ever makes is born in them. Then its process group or session.
+void join_cgroups_and_session_in_child(int wfd, const SpawnSpec& spec) {
+  for (const int procs : spec.cgroup_procs) {
+    if (::write(procs, "0", 1) != 1) child_fail(wfd, kStageCgroup, errno);
+  }
+  switch (spec.session) {
+    case Session::OwnProcessGroup:
+      if (::setpgid(0, 0) != 0) child_fail(wfd, kStageSession, errno);
+      break;
+    case Session::NewSession:
+      if (::setsid() < 0) child_fail(wfd, kStageSession, errno);
+      break;
+  }
+}
+
+// Puts every source fd at its target: moved out of the way first (they may collide with targets), then
+// placed (dup2 clears CLOEXEC).
+void place_fds_in_child(int wfd, const std::vector<std::pair<int, int>>& fds, int max_target) {
+  std::array<int, 16> staged{};
+  if (fds.size() > staged.size()) child_fail(wfd, kStageDupfd, EMFILE);
+  for (std::size_t i = 0; i < fds.size(); ++i) {
+    staged[i] = ::fcntl(fds[i].second, F_DUPFD_CLOEXEC, max_target + 1 + 16);
+    if (staged[i] < 0) child_fail(wfd, kStageDupfd, errno);
+  }
+  for (std::size_t i = 0; i < fds.size(); ++i) {
+    if (::dup2(staged[i], fds[i].first) < 0) child_fail(wfd, kStageDup2, errno);
+  }
+}
+
+// Every other fd (above stderr) closes, except the report socket, which closes at exec.
+void close_other_fds_in_child(int wfd, const std::vector<std::pair<int, int>>& fds, int max_target) {
+  for (int fd = 3; fd <= max_target; ++fd) {
+    bool wanted = false;
+    for (const auto& [target, source] : fds) wanted = wanted || target == fd;
+    if (!wanted) ::close(fd);
+  }
+  // Closed now, not at exec: the fds the child makes before exec (the seccomp listener) must fit under its
+  // RLIMIT_NOFILE, which a graph may set below the kernel's highest fd (max_open_files: 64 failed every
+  // spawn with EMFILE once the kernel held more than 64 fds). The report socket stays open until exec.
+  if ((wfd > max_target + 1 && ::syscall(SYS_close_range, max_target + 1, wfd - 1, 0) != 0) ||
+      ::syscall(SYS_close_range, std::max(wfd + 1, max_target + 1), ~0U, 0) != 0) {
+    child_fail(wfd, kStageCloseRange, errno);
+  }
+}
+
+void drop_uid_in_child(int wfd, const std::optional<uid_t>& uid) {
+  if (!uid) return;
+  const gid_t gid = *uid;
+  if (::setgroups(0, nullptr) != 0 || ::setresgid(gid, gid, gid) != 0 || ::setresuid(*uid, *uid, *uid) != 0) {
+    child_fail(wfd, kStageSetuid, errno);
+  }
+}
+
+// The filter last before exec; a supervised filter's listener goes to the parent on the report socket.
+void install_seccomp_in_child(int wfd, const SpawnSpec& spec, Prepared& prep) {
+  if (spec.seccomp == nullptr) return;
+  int listener = -1;
+  if (const int err = spec.seccomp->install_in_child(prep.seccomp_scratch.data(), ::getpid(), &listener);
+      err != 0) {
+    child_fail(wfd, kStageSeccomp, err);
+  }
+  if (listener >= 0) {
+    child_report(wfd, kStageListener, 0, listener);
+    ::close(listener);
+  }
+}
+
+// The child from fork to exec.
+[[noreturn]] void run_child(const SpawnSpec& spec, Prepared& prep, int report_write, pid_t parent) {
+  // The report socket moves above the fd layout first, so that placing the fds cannot clobber it.
+  int wfd = ::fcntl(report_write, F_DUPFD_CLOEXEC, prep.max_target + 1);
+  if (wfd < 0) wfd = report_write;
+  die_with_parent_in_child(wfd, parent);
+  join_cgroups_and_session_in_child(wfd, spec);
+  place_fds_in_child(wfd, spec.fds, prep.max_target);
+  close_other_fds_in_child(wfd, spec.fds, prep.max_target);
+  if (spec.isolation == Isolation::Namespaces) isolate_in_child(wfd);
+  drop_uid_in_child(wfd, spec.uid);
+  limit_in_child(wfd, spec.limits);  // after the uid: RLIMIT_NPROC counts the service uid's processes
+  sigset_t none;
+  sigemptyset(&none);
+  ::sigprocmask(SIG_SETMASK, &none, nullptr);
+  install_seccomp_in_child(wfd, spec, prep);
+  ::execve(spec.executable.c_str(), prep.argv.data(), prep.envp.data());
+  child_fail(wfd, kStageExec, errno);
+}
+
+// Everything the child needs, made before fork; refuses an fd layout the child could not place.
+SysResult<Prepared> prepare(const SpawnSpec& spec) {
+  Prepared prep;
+  prep.argv.push_back(const_cast<char*>(spec.executable.c_str()));  // NOLINT: execve's signature
+  for (const std::string& a : spec.args) prep.argv.push_back(const_cast<char*>(a.c_str()));  // NOLINT
+  prep.argv.push_back(nullptr);
+  for (const std::string& e : spec.env) prep.envp.push_back(const_cast<char*>(e.c_str()));  // NOLINT
+  prep.envp.push_back(nullptr);
+  if (spec.seccomp != nullptr) {
+    prep.seccomp_scratch.resize(spec.seccomp->scratch_size());
+  }
+  for (const auto& [target, source] : spec.fds) {
+    if (target < 0 || source < 0 || target > 1000) {
+      return std::unexpected(SysError{"spawn: fd layout", EBADF});
+    }
+    prep.max_target = std::max(prep.max_target, target);
+  }
+  return prep;
+}
+
 // Reads the child's reports until exec closes the socket. A supervised child's exec is a boot call: it is let
 // through here (the child's only one before exec).
 SysResult<SeccompListener> await_exec(ChildProcess& child, int report_fd) {
@@ -292,22 +410,8 @@ SysResult<SeccompListener> await_exec(ChildProcess& child, int report_fd) {
 }  // namespace
 
 SysResult<Spawned> spawn_supervised(const SpawnSpec& spec) {
-  Prepared prep;
-  prep.argv.push_back(const_cast<char*>(spec.executable.c_str()));  // NOLINT: execve's signature
-  for (const std::string& a : spec.args) prep.argv.push_back(const_cast<char*>(a.c_str()));  // NOLINT
-  prep.argv.push_back(nullptr);
-  for (const std::string& e : spec.env) prep.envp.push_back(const_cast<char*>(e.c_str()));  // NOLINT
-  prep.envp.push_back(nullptr);
-  if (spec.seccomp != nullptr) {
-    prep.seccomp_scratch.resize(spec.seccomp->scratch_size());
-  }
-  int max_target = 2;
-  for (const auto& [target, source] : spec.fds) {
-    if (target < 0 || source < 0 || target > 1000) {
-      return std::unexpected(SysError{"spawn: fd layout", EBADF});
-    }
-    max_target = std::max(max_target, target);
-  }
+  auto prep = prepare(spec);
+  if (!prep) return std::unexpected(prep.error());
 
   // The child's reports (a failed step, the seccomp listener) come back on a socket closed at exec.
   std::array<int, 2> report_pair{-1, -1};
@@ -322,75 +426,7 @@ SysResult<Spawned> spawn_supervised(const SpawnSpec& spec) {
   if (pid < 0) {
     return last_error("fork");
   }
-  if (pid == 0) {
-    // ---- child: async-signal-safe calls only ----
-    // The report socket moves above the fd layout first, so that placing the fds cannot clobber it.
-    int wfd = ::fcntl(report_write.get(), F_DUPFD_CLOEXEC, max_target + 1);
-    if (wfd < 0) wfd = report_write.get();
-    if (::prctl(PR_SET_PDEATHSIG, SIGKILL, 0, 0, 0) != 0) child_fail(wfd, kStagePdeathsig, errno);
-    if (::getppid() != parent) ::_exit(127);  // the kernel died before the prctl took effect
-    // Into the service's cgroups first ("0": the writer itself), while still privileged and before anything
-    // it runs can fork: every process it ever makes is born in them.
-    for (const int procs : spec.cgroup_procs) {
-      if (::write(procs, "0", 1) != 1) child_fail(wfd, kStageCgroup, errno);
-    }
-    switch (spec.session) {
-      case Session::OwnProcessGroup:
-        if (::setpgid(0, 0) != 0) child_fail(wfd, kStageSession, errno);
-        break;
-      case Session::NewSession:
-        if (::setsid() < 0) child_fail(wfd, kStageSession, errno);
-        break;
-    }
-    // Move the sources out of the way first (they may collide with targets), then place them.
-    std::array<int, 16> staged{};
-    if (spec.fds.size() > staged.size()) child_fail(wfd, kStageDupfd, EMFILE);
-    for (std::size_t i = 0; i < spec.fds.size(); ++i) {
-      staged[i] = ::fcntl(spec.fds[i].second, F_DUPFD_CLOEXEC, max_target + 1 + 16);
-      if (staged[i] < 0) child_fail(wfd, kStageDupfd, errno);
-    }
-    for (std::size_t i = 0; i < spec.fds.size(); ++i) {
-      if (::dup2(staged[i], spec.fds[i].first) < 0) child_fail(wfd, kStageDup2, errno);  // dup2 clears CLOEXEC
-    }
-    // Every other fd (above stderr) closes at exec, the report socket included.
-    for (int fd = 3; fd <= max_target; ++fd) {
-      bool wanted = false;
-      for (const auto& [target, source] : spec.fds) wanted = wanted || target == fd;
-      if (!wanted) ::close(fd);
-    }
-    // Closed now, not at exec: the fds the child makes before exec (the seccomp listener) must fit under its
-    // RLIMIT_NOFILE, which a graph may set below the kernel's highest fd (max_open_files: 64 failed every
-    // spawn with EMFILE once the kernel held more than 64 fds). The report socket stays open until exec.
-    if ((wfd > max_target + 1 && ::syscall(SYS_close_range, max_target + 1, wfd - 1, 0) != 0) ||
-        ::syscall(SYS_close_range, std::max(wfd + 1, max_target + 1), ~0U, 0) != 0) {
-      child_fail(wfd, kStageCloseRange, errno);
-    }
-    if (spec.isolation == Isolation::Namespaces) isolate_in_child(wfd);
-    if (spec.uid) {
-      const gid_t gid = *spec.uid;
-      if (::setgroups(0, nullptr) != 0 || ::setresgid(gid, gid, gid) != 0 ||
-          ::setresuid(*spec.uid, *spec.uid, *spec.uid) != 0) {
-        child_fail(wfd, kStageSetuid, errno);
-      }
-    }
-    limit_in_child(wfd, spec.limits);  // after the uid: RLIMIT_NPROC counts the service uid's processes
-    sigset_t none;
-    sigemptyset(&none);
-    ::sigprocmask(SIG_SETMASK, &none, nullptr);
-    if (spec.seccomp != nullptr) {
-      int listener = -1;
-      if (const int err = spec.seccomp->install_in_child(prep.seccomp_scratch.data(), ::getpid(), &listener);
-          err != 0) {
-        child_fail(wfd, kStageSeccomp, err);
-      }
-      if (listener >= 0) {
-        child_report(wfd, kStageListener, 0, listener);
-        ::close(listener);
-      }
-    }
-    ::execve(spec.executable.c_str(), prep.argv.data(), prep.envp.data());
-    child_fail(wfd, kStageExec, errno);
-  }
+  if (pid == 0) run_child(spec, *prep, report_write.get(), parent);  // async-signal-safe calls only
   // ---- parent ----
   report_write.reset();
   auto child = ChildProcess::adopt(pid);

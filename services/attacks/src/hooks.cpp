@@ -156,45 +156,10 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
       // A periodic 10 ms rejuvenation timer: the attacker would roll the vehicle back forever.
       invoke_all(kind, ObjectKind::Checkpoint, cap::Operation::TimerArm, 10'000'000, 1, {});
       break;
-    case AttackKind::WriteLimits: {
-      const std::array<double, 16> full{kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit,
-                                        kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit,
-                                        kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit,
-                                        kForgedLimit};
-      invoke_all(kind, ObjectKind::Limits, cap::Operation::LimitsWrite, 0, 0, std::as_bytes(std::span(full)));
-      break;
-    }
-    case AttackKind::PublishActuatorOutputs: {
-      const auto payload = actuator_outputs_payload();
-      for (const sdk::CapInfo& c : svc_.caps()) {
-        if (c.kind == ObjectKind::Topic) publish_to(kind, c.slot, payload);
-      }
-      for (const Slot s : never_held()) publish_to(kind, s, payload);
-      break;
-    }
-    case AttackKind::WritePersistent: {
-      std::array<std::byte, 8> bytes{};
-      bytes.fill(kForgedPersistentByte);
-      invoke_all(kind, ObjectKind::Persistent, cap::Operation::PersistentWrite, 0, 0, bytes);
-      break;
-    }
-    case AttackKind::ForgedSlot: {
-      const auto payload = actuator_outputs_payload();
-      const std::array<std::byte, 8> bytes{};
-      for (const Slot s : never_held()) {
-        publish_to(kind, s, payload);
-        for (const auto& [op, arg0, data] :
-             {std::tuple{cap::Operation::CheckpointCreate, std::uint64_t{0}, std::span<const std::byte>{}},
-              std::tuple{cap::Operation::LimitsWrite, std::uint64_t{0}, std::span<const std::byte>(bytes)},
-              std::tuple{cap::Operation::NetSend, std::uint64_t{0}, std::span<const std::byte>(bytes)},
-              std::tuple{cap::Operation::ModeRequest, std::uint64_t{index_of(SrMode::MC)}, std::span<const std::byte>{}},
-              std::tuple{cap::Operation::Copy, std::uint64_t{s.value() + 1U}, std::span<const std::byte>{}}}) {
-          auto r = sdk::testing::invoke_slot(svc_, s, op, arg0, op == cap::Operation::Copy ? 0x7U : 0U, data);
-          report(kind, std::string(cap::to_string(op)), s.value(), r ? 0 : std::max<std::int64_t>(r.error().wire_error, 1));
-        }
-      }
-      break;
-    }
+    case AttackKind::WriteLimits: write_limits(kind); break;
+    case AttackKind::PublishActuatorOutputs: publish_actuator_outputs(kind); break;
+    case AttackKind::WritePersistent: write_persistent(kind); break;
+    case AttackKind::ForgedSlot: forged_slots(kind); break;
     case AttackKind::NetworkInSei: {
       static constexpr std::string_view kText = "rejuv attack: exfiltrate in the secure interval";
       invoke_all(kind, ObjectKind::Network, cap::Operation::NetSend, 0, 0,
@@ -214,20 +179,60 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
     case AttackKind::RetiredWorker:
     case AttackKind::WorkerRaise:
     case AttackKind::ForgedLog:
-    case AttackKind::PagemapFrames: {
-      std::uint32_t count = 0;
-      for (const RuntimeAttack& a : plan_.attacks) {
-        if (a.kind == kind) count = a.count;
-      }
-      against_rollback(kind, variant, count);
-      break;
-    }
+    case AttackKind::PagemapFrames: against_rollback(kind, variant, planned_count(kind)); break;
   }
   if (!reporter_) {
     svc_.logf(sdk::LogLevel::Warn, "attack %.*s (epoch %u, %s): %u attempts, %u accepted",
               static_cast<int>(to_string(kind).size()), to_string(kind).data(),
               static_cast<unsigned>(svc_.epoch().value()), std::string(to_string(svc_.mode())).c_str(), attempts_,
               accepted_);
+  }
+}
+
+std::uint32_t AttackHooks::planned_count(AttackKind kind) const {
+  std::uint32_t count = 0;
+  for (const RuntimeAttack& a : plan_.attacks) {
+    if (a.kind == kind) count = a.count;
+  }
+  return count;
+}
+
+void AttackHooks::write_limits(AttackKind kind) {
+  const std::array<double, 16> full{kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit,
+                                    kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit,
+                                    kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit, kForgedLimit,
+                                    kForgedLimit};
+  invoke_all(kind, ObjectKind::Limits, cap::Operation::LimitsWrite, 0, 0, std::as_bytes(std::span(full)));
+}
+
+void AttackHooks::publish_actuator_outputs(AttackKind kind) {
+  const auto payload = actuator_outputs_payload();
+  for (const sdk::CapInfo& c : svc_.caps()) {
+    if (c.kind == ObjectKind::Topic) publish_to(kind, c.slot, payload);
+  }
+  for (const Slot s : never_held()) publish_to(kind, s, payload);
+}
+
+void AttackHooks::write_persistent(AttackKind kind) {
+  std::array<std::byte, 8> bytes{};
+  bytes.fill(kForgedPersistentByte);
+  invoke_all(kind, ObjectKind::Persistent, cap::Operation::PersistentWrite, 0, 0, bytes);
+}
+
+void AttackHooks::forged_slots(AttackKind kind) {
+  const auto payload = actuator_outputs_payload();
+  const std::array<std::byte, 8> bytes{};
+  for (const Slot s : never_held()) {
+    publish_to(kind, s, payload);
+    for (const auto& [op, arg0, data] :
+         {std::tuple{cap::Operation::CheckpointCreate, std::uint64_t{0}, std::span<const std::byte>{}},
+          std::tuple{cap::Operation::LimitsWrite, std::uint64_t{0}, std::span<const std::byte>(bytes)},
+          std::tuple{cap::Operation::NetSend, std::uint64_t{0}, std::span<const std::byte>(bytes)},
+          std::tuple{cap::Operation::ModeRequest, std::uint64_t{index_of(SrMode::MC)}, std::span<const std::byte>{}},
+          std::tuple{cap::Operation::Copy, std::uint64_t{s.value() + 1U}, std::span<const std::byte>{}}}) {
+      auto r = sdk::testing::invoke_slot(svc_, s, op, arg0, op == cap::Operation::Copy ? 0x7U : 0U, data);
+      report(kind, std::string(cap::to_string(op)), s.value(), r ? 0 : std::max<std::int64_t>(r.error().wire_error, 1));
+    }
   }
 }
 

@@ -396,10 +396,6 @@ int Service::run() {
     if (!s.tx.build(wire::FrameKind::Ready, 0, 0, 0) || !s.send_built()) return 1;
     s.ready_sent = true;
   }
-  const auto leave = [&](int code) {
-    (void)s.flush();
-    return code;
-  };
   std::vector<std::byte> held;  // a queued frame being handled (rx may be reused meanwhile)
   while (!s.stopping) {
     std::span<const std::byte> bytes;
@@ -408,127 +404,153 @@ int Service::run() {
       s.queued.pop_front();
       bytes = held;
     } else {
-      auto got = s.receive(false);
-      if (got && !*got) {
-        // Drained: everything received has been handled (docs/protocol.md "Idle").
-        if ((s.lockstep || s.sync_asked) && s.frames_received != s.idle_reported) {
-          if (!s.tx.build(wire::FrameKind::Idle, 0, 0, s.frames_received) || !s.send_built()) return 1;
-          s.idle_reported = s.frames_received;
-        }
-        s.sync_asked = false;
-        if (!s.flush()) return 1;
-        got = s.receive(true);  // sleeps in recvmmsg until the next frame: the wait is the read
-        s.prepare_pages_fd();   // if no Committed came (a kernel that does not send it): not inside a checkpoint
-      }
-      if (!got) {
-        if (got.error().code == SdkError::ChannelClosed) return 1;
-        std::fprintf(stderr, "[%s] channel: %s\n", s.name.c_str(), got.error().to_string().c_str());
-        return 1;
-      }
+      const auto got = s.read_frame();
+      if (!got) return got.error();
       if (!*got) continue;
       bytes = std::span<const std::byte>(s.rx.data(), **got);
     }
     if (s.restored_pending) {
-      // A rollback resumed this process (take_image returned true, here or inside a call's request) and this
-      // is the first frame of the new incarnation: the kernel has finished the rollback, so the time page
-      // shows the new epoch. The author's hook runs before the frame is handled (kept in `queued`, its fds
-      // aside: the hook may make requests of its own, which read the channel).
-      s.restored_pending = false;
-      s.queued.emplace_front(bytes.begin(), bytes.end());
-      std::vector<sys::UniqueFd> fds = std::move(s.rx_fds);
-      if (s.on_restored) s.on_restored(s.restored->epoch);
-      s.rx_fds = std::move(fds);
+      s.resume_incarnation(bytes);
       continue;
     }
-    auto frame = wire::decode(bytes, wire::Direction::ToService);
-    if (!frame) {
-      ++s.bad_frames;
-      continue;
-    }
-    switch (frame->kind) {
-      case wire::FrameKind::Deliver: {
-        const std::uint32_t slot = frame->header.slot;
-        detail::SubscriptionBase* sub = slot < s.subscription_by_slot.size() ? s.subscription_by_slot[slot] : nullptr;
-        if (sub == nullptr || frame->payload.size() != sub->size()) {
-          ++s.bad_frames;
-          break;
-        }
-        sub->deliver(frame->header.aux, frame->payload);
-        break;
-      }
-      case wire::FrameKind::TimerFired: {
-        TimerSlot* slot = s.timer_slot(frame->header.aux);
-        if (slot == nullptr) break;  // cancelled meanwhile, or no id of ours
-        TimerSlot& t = *slot;
-        if (!t.periodic) {
-          t.armed = false;
-          const std::function<void()> fn = std::move(t.on_fire);
-          t.on_fire = nullptr;
-          if (fn) fn();
-        } else if (t.on_fire) {
-          t.on_fire();
-        }
-        break;
-      }
-      case wire::FrameKind::Shutdown:
-        if (s.on_shutdown) s.on_shutdown();
-        return leave(0);
-      case wire::FrameKind::Snapshot: {
-        auto resumed = s.take_image(frame->header.aux, wire::payload_as<wire::SnapshotBody>(*frame).base);
-        if (!resumed) {
-          std::fprintf(stderr, "[%s] checkpoint: %s\n", s.name.c_str(), resumed.error().to_string().c_str());
-          return 1;
-        }
-        break;  // live or restored: the loop goes on (a restored image on its new channel)
-      }
-      case wire::FrameKind::Committed:  // DESIGN §7: the next image's record file, in the slack after the commit
-        s.prepare_pages_fd();
-        break;
-      case wire::FrameKind::Sync:  // docs/protocol.md "Idle": the Idle once drained, in real time too
-        s.sync_asked = true;
-        break;
-      case wire::FrameKind::Reply:           // a reply nobody waits for
-      case wire::FrameKind::Boot:
-      case wire::FrameKind::BootCap:
-      case wire::FrameKind::BootParam:
-      case wire::FrameKind::BootEnd:
-      case wire::FrameKind::Resume:       // only ever on an image's resume socket
-      case wire::FrameKind::Fork:
-      case wire::FrameKind::Patch:
-        ++s.bad_frames;
-        break;
-      case wire::FrameKind::NetDatagram: {  // network gate (docs/protocol.md): slot = our Network cap
-        const auto handler = std::find_if(s.datagram_handlers.begin(), s.datagram_handlers.end(),
-                                          [&](const auto& h) { return h.first == frame->header.slot; });
-        if (handler == s.datagram_handlers.end() || frame->payload.size() > s.datagram.size()) {
-          ++s.bad_frames;
-          break;
-        }
-        const std::size_t n = frame->payload.size();
-        std::memcpy(s.datagram.data(), frame->payload.data(), n);
-        s.datagram_id = frame->header.aux;
-        handler->second(std::span<const std::byte>(s.datagram.data(), n));
-        s.datagram_id = 0;
-        break;
-      }
-      case wire::FrameKind::Hello:
-      case wire::FrameKind::Publish:
-      case wire::FrameKind::Subscribe:
-      case wire::FrameKind::Invoke:
-      case wire::FrameKind::TimerArm:
-      case wire::FrameKind::TimerCancel:
-      case wire::FrameKind::Log:
-      case wire::FrameKind::Idle:
-      case wire::FrameKind::Ready:
-      case wire::FrameKind::Taken:
-      case wire::FrameKind::TakenPages:
-      case wire::FrameKind::Resumed:
-      case wire::FrameKind::Copied:
-        ++s.bad_frames;  // decode() refuses service → kernel kinds here; unreachable
-        break;
-    }
+    if (const std::optional<int> code = s.handle(bytes)) return *code;
   }
-  return leave(s.exit_code);
+  (void)s.flush();
+  return s.exit_code;
+}
+
+std::expected<std::optional<std::size_t>, int> Service::Impl::read_frame() {
+  auto got = receive(false);
+  if (got && !*got) {
+    // Drained: everything received has been handled.
+    if (!report_idle()) return std::unexpected(1);
+    if (!flush()) return std::unexpected(1);
+    got = receive(true);  // sleeps in recvmmsg until the next frame: the wait is the read
+    prepare_pages_fd();   // if no Committed came (a kernel that does not send it): not inside a checkpoint
+  }
+  if (!got) {
+    if (got.error().code == SdkError::ChannelClosed) return std::unexpected(1);
+    std::fprintf(stderr, "[%s] channel: %s\n", name.c_str(), got.error().to_string().c_str());
+    return std::unexpected(1);
+  }
+  return *got;
+}
+
+bool Service::Impl::report_idle() {
+  if ((lockstep || sync_asked) && frames_received != idle_reported) {
+    if (!tx.build(wire::FrameKind::Idle, 0, 0, frames_received) || !send_built()) return false;
+    idle_reported = frames_received;
+  }
+  sync_asked = false;
+  return true;
+}
+
+void Service::Impl::resume_incarnation(std::span<const std::byte> frame) {
+  // A rollback resumed this process (take_image returned true, here or inside a call's request) and this
+  // is the first frame of the new incarnation: the kernel has finished the rollback, so the time page
+  // shows the new epoch. The author's hook runs before the frame is handled (kept in `queued`, its fds
+  // aside: the hook may make requests of its own, which read the channel).
+  restored_pending = false;
+  queued.emplace_front(frame.begin(), frame.end());
+  std::vector<sys::UniqueFd> fds = std::move(rx_fds);
+  if (on_restored) on_restored(restored->epoch);
+  rx_fds = std::move(fds);
+}
+
+std::optional<int> Service::Impl::handle(std::span<const std::byte> bytes) {
+  auto frame = wire::decode(bytes, wire::Direction::ToService);
+  if (!frame) {
+    ++bad_frames;
+    return std::nullopt;
+  }
+  switch (frame->kind) {
+    case wire::FrameKind::Deliver: handle_deliver(*frame); break;
+    case wire::FrameKind::TimerFired: handle_timer_fired(*frame); break;
+    case wire::FrameKind::Shutdown:
+      if (on_shutdown) on_shutdown();
+      (void)flush();
+      return 0;
+    case wire::FrameKind::Snapshot: {
+      auto resumed = take_image(frame->header.aux, wire::payload_as<wire::SnapshotBody>(*frame).base);
+      if (!resumed) {
+        std::fprintf(stderr, "[%s] checkpoint: %s\n", name.c_str(), resumed.error().to_string().c_str());
+        return 1;
+      }
+      break;  // live or restored: the loop goes on (a restored image on its new channel)
+    }
+    case wire::FrameKind::Committed:  // DESIGN §7: the next image's record file, in the slack after the commit
+      prepare_pages_fd();
+      break;
+    case wire::FrameKind::Sync:  // docs/protocol.md "Idle": the Idle once drained, in real time too
+      sync_asked = true;
+      break;
+    case wire::FrameKind::NetDatagram: handle_datagram(*frame); break;
+    case wire::FrameKind::Reply:           // a reply nobody waits for
+    case wire::FrameKind::Boot:
+    case wire::FrameKind::BootCap:
+    case wire::FrameKind::BootParam:
+    case wire::FrameKind::BootEnd:
+    case wire::FrameKind::Resume:       // only ever on an image's resume socket
+    case wire::FrameKind::Fork:
+    case wire::FrameKind::Patch:
+      ++bad_frames;
+      break;
+    case wire::FrameKind::Hello:
+    case wire::FrameKind::Publish:
+    case wire::FrameKind::Subscribe:
+    case wire::FrameKind::Invoke:
+    case wire::FrameKind::TimerArm:
+    case wire::FrameKind::TimerCancel:
+    case wire::FrameKind::Log:
+    case wire::FrameKind::Idle:
+    case wire::FrameKind::Ready:
+    case wire::FrameKind::Taken:
+    case wire::FrameKind::TakenPages:
+    case wire::FrameKind::Resumed:
+    case wire::FrameKind::Copied:
+      ++bad_frames;  // decode() refuses service → kernel kinds here; unreachable
+      break;
+  }
+  return std::nullopt;
+}
+
+void Service::Impl::handle_deliver(const wire::FrameView& frame) {
+  const std::uint32_t slot = frame.header.slot;
+  detail::SubscriptionBase* sub = slot < subscription_by_slot.size() ? subscription_by_slot[slot] : nullptr;
+  if (sub == nullptr || frame.payload.size() != sub->size()) {
+    ++bad_frames;
+    return;
+  }
+  sub->deliver(frame.header.aux, frame.payload);
+}
+
+void Service::Impl::handle_timer_fired(const wire::FrameView& frame) {
+  TimerSlot* slot = timer_slot(frame.header.aux);
+  if (slot == nullptr) return;  // cancelled meanwhile, or no id of ours
+  TimerSlot& t = *slot;
+  if (!t.periodic) {
+    t.armed = false;
+    const std::function<void()> fn = std::move(t.on_fire);
+    t.on_fire = nullptr;
+    if (fn) fn();
+  } else if (t.on_fire) {
+    t.on_fire();
+  }
+}
+
+// The network gate (docs/protocol.md): slot = our Network cap.
+void Service::Impl::handle_datagram(const wire::FrameView& frame) {
+  const auto handler = std::find_if(datagram_handlers.begin(), datagram_handlers.end(),
+                                    [&](const auto& h) { return h.first == frame.header.slot; });
+  if (handler == datagram_handlers.end() || frame.payload.size() > datagram.size()) {
+    ++bad_frames;
+    return;
+  }
+  const std::size_t n = frame.payload.size();
+  std::memcpy(datagram.data(), frame.payload.data(), n);
+  datagram_id = frame.header.aux;
+  handler->second(std::span<const std::byte>(datagram.data(), n));
+  datagram_id = 0;
 }
 
 }  // namespace rejuv::sdk

@@ -13,6 +13,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <deque>
+#include <expected>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -137,6 +138,23 @@ struct Service::Impl {
   SdkResult<std::optional<std::size_t>> receive(bool wait);
   // Sends the request in tx and waits for its Reply, queueing every other frame (handled later, in order).
   SdkResult<InvokeReply> request(std::span<std::byte> reply_data, std::string_view what);
+
+  // ---- the event loop (service.cpp) ----
+
+  // Reads the next frame into rx (its size), first reporting Idle and flushing when everything received has
+  // been handled; nullopt when a wait ended without a frame. The error is run()'s exit code (1: the channel
+  // failed, or an Idle could not be sent).
+  std::expected<std::optional<std::size_t>, int> read_frame();
+  // docs/protocol.md "Idle": tells the kernel everything received is handled (lockstep, or asked by a
+  // Sync). False when the Idle could not be sent.
+  [[nodiscard]] bool report_idle();
+  // The first frame of a restored incarnation: runs the author's on_restored hook before it is handled.
+  void resume_incarnation(std::span<const std::byte> frame);
+  // Hands one frame to the handler of its kind; an exit code when run() must return it.
+  std::optional<int> handle(std::span<const std::byte> bytes);
+  void handle_deliver(const wire::FrameView& frame);
+  void handle_timer_fired(const wire::FrameView& frame);
+  void handle_datagram(const wire::FrameView& frame);
 
   // ---- images (image.cpp, DESIGN §7) ----
 

@@ -250,6 +250,12 @@ class Broker {
   [[nodiscard]] Subscriber* find(SubscriberId id);
   [[nodiscard]] const Subscriber* find(SubscriberId id) const;
   void rebuild_routes();
+  // restore's steps: whether the snapshot matches this broker's layout and is coherent (decode), then the
+  // subscription table rebuilt from the snapshot's Rejuvenated entries and the live Driver ones.
+  [[nodiscard]] bool fits(const BrokerSnapshot& snap) const;
+  RestoreReport merge_subscriptions(const BrokerSnapshot& snap);
+  void take_saved(const BrokerSnapshot::Subscription& saved, RestoreReport& report);
+  void keep_driver(const Subscriber& driver, const BrokerSnapshot& snap, RestoreReport& report);
 
   std::vector<Topic> topics_{};
   std::vector<std::uint32_t> topic_of_object_{};  // ObjectId value → index into topics_, or kNoTopic

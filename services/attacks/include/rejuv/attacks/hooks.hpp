@@ -106,6 +106,13 @@ class AttackHooks {
                   std::span<const std::byte> data);
   void publish_to(AttackKind kind, Slot slot, std::span<const std::byte> payload);
   [[nodiscard]] std::vector<Slot> never_held() const;
+  // The attacks on the capability interface, one per kind that needs more than one call.
+  void write_limits(AttackKind kind);
+  void publish_actuator_outputs(AttackKind kind);
+  void write_persistent(AttackKind kind);
+  void forged_slots(AttackKind kind);  // every operation on slots it never held
+  // The plan's `count` for `kind` (its last attack of that kind), 0 when none.
+  [[nodiscard]] std::uint32_t planned_count(AttackKind kind) const;
   void kill_image(std::uint32_t variant);
   void open_socket(std::uint32_t variant);
   void flood();
