@@ -195,25 +195,24 @@ SdkResult<Slot> Service::object_slot(std::string_view object, ObjectKind kind) c
   return (*found)->slot;
 }
 
-SdkResult<ModeControl> Service::mode_control(std::string_view object) {
-  auto slot = object_slot(object, ObjectKind::Mode);
+template <class Handle>
+SdkResult<Handle> Service::object_handle(std::string_view object, ObjectKind kind) {
+  auto slot = object_slot(object, kind);
   if (!slot) return std::unexpected(slot.error());
-  return ModeControl(this, *slot);
+  return Handle(this, *slot);
+}
+
+SdkResult<ModeControl> Service::mode_control(std::string_view object) {
+  return object_handle<ModeControl>(object, ObjectKind::Mode);
 }
 SdkResult<LimitsCell> Service::limits(std::string_view object) {
-  auto slot = object_slot(object, ObjectKind::Limits);
-  if (!slot) return std::unexpected(slot.error());
-  return LimitsCell(this, *slot);
+  return object_handle<LimitsCell>(object, ObjectKind::Limits);
 }
 SdkResult<PersistentCell> Service::persistent(std::string_view object) {
-  auto slot = object_slot(object, ObjectKind::Persistent);
-  if (!slot) return std::unexpected(slot.error());
-  return PersistentCell(this, *slot);
+  return object_handle<PersistentCell>(object, ObjectKind::Persistent);
 }
 SdkResult<Rejuvenation> Service::rejuvenation(std::string_view object) {
-  auto slot = object_slot(object, ObjectKind::Checkpoint);
-  if (!slot) return std::unexpected(slot.error());
-  return Rejuvenation(this, *slot);
+  return object_handle<Rejuvenation>(object, ObjectKind::Checkpoint);
 }
 
 // The handles' calls, in the wire's conventions (docs/protocol.md "Invoke": arg0, arg1, data, reply data).

@@ -516,6 +516,8 @@ class Service {
   explicit Service(std::unique_ptr<Impl> impl);
   // The slot of `object`'s cap, if it is of `kind` (NoSuchObject, WrongObjectKind).
   [[nodiscard]] SdkResult<Slot> object_slot(std::string_view object, ObjectKind kind) const;
+  template <class Handle>
+  [[nodiscard]] SdkResult<Handle> object_handle(std::string_view object, ObjectKind kind);  // service.cpp
   // Invoke on a slot: the wire's raw conventions (docs/protocol.md "Invoke"); blocks for the Reply (frames
   // that arrive meanwhile are queued and handled afterwards, in order). Reply data is copied into `out`.
   [[nodiscard]] SdkResult<InvokeReply> invoke_slot(Slot slot, cap::Operation op, std::uint64_t arg0 = 0,
