@@ -1,8 +1,6 @@
 // The options shared by several `rejuv` commands (common_options.hpp).
 #include "common_options.hpp"
 
-#include <unistd.h>
-
 #include <cstdlib>
 #include <tuple>
 
@@ -78,7 +76,7 @@ kernel::KernelOptions kernel_options(const KernelFlags& flags) {
 
 Result<std::optional<sys::DdsDomainLease>, std::string> lease_domain(kernel::KernelOptions& options) {
   if (options.dds_domain) return std::optional<sys::DdsDomainLease>{};
-  auto lease = sys::lease_dds_domain(static_cast<std::uint32_t>(::getpid()));
+  auto lease = sys::lease_dds_domain_for_worker(0);
   if (!lease) return fail("no free DDS domain to lease (" + lease.error().to_string() + "): give --domain N");
   options.dds_domain = static_cast<std::uint32_t>(lease->slot());
   return std::optional<sys::DdsDomainLease>(std::move(*lease));

@@ -36,8 +36,7 @@ Result<JobPool, std::string> JobPool::create(const PoolConfig& config) {
     if (config.first_domain) {
       domain = *config.first_domain + j;
     } else {
-      // From the pid, slots 41 apart: pools started together look for free domains in different places.
-      auto lease = sys::lease_dds_domain(static_cast<std::uint32_t>(::getpid()) + 41 * j);
+      auto lease = sys::lease_dds_domain_for_worker(j);
       if (!lease) return fail(lease.error().to_string());
       domain = lease->slot();
       leases.push_back(std::move(*lease));

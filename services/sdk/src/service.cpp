@@ -243,7 +243,6 @@ SdkResult<void> PersistentCell::write(std::span<const std::byte> data) const {
   return done(service_->invoke_slot(slot_, cap::Operation::PersistentWrite, 0, 0, data));
 }
 SdkResult<Nanos> Rejuvenation::arm_timer(Nanos after, Nanos period) const {
-  if (after <= Nanos{0} || period < Nanos{0}) return error(SdkError::BadArgument, "the rejuvenation timer needs after > 0, period >= 0");
   auto reply = service_->invoke_slot(slot_, cap::Operation::TimerArm, static_cast<std::uint64_t>(after.count()),
                                      static_cast<std::uint64_t>(period.count()));
   if (!reply) return std::unexpected(reply.error());

@@ -17,6 +17,8 @@
 // open file, not the process: two leases of one process exclude each other too.
 #pragma once
 
+#include <unistd.h>
+
 #include <cstdint>
 
 #include "rejuv/sys/fd.hpp"
@@ -58,6 +60,11 @@ inline constexpr const char* kDdsDomainLockFile = "/tmp/rejuv-test-dds-domains.l
 using DdsDomainLease = Lease;  // slot() is the domain
 [[nodiscard]] inline SysResult<DdsDomainLease> lease_dds_domain(std::uint32_t hint) {
   return lease_slot(kDdsDomainLockFile, 1, kLeasedDdsDomains, hint);
+}
+// The rule of the `rejuv` commands (a run, a soak, a job pool's worker `index`): searched from the process's pid,
+// workers 41 apart, so that commands started together look for free domains in different places.
+[[nodiscard]] inline SysResult<DdsDomainLease> lease_dds_domain_for_worker(std::uint32_t index) {
+  return lease_dds_domain(static_cast<std::uint32_t>(::getpid()) + 41 * index);
 }
 
 // Blocks of service uids for kernels running as root: block b is kServiceUidBase + b·kUidsPerBlock onwards,

@@ -331,8 +331,9 @@ class PersistentCell {
 // do_timer) and a rollback asked for now. Checkpoints are taken with Service::checkpoint.
 class Rejuvenation {
  public:
-  // Fires `after` from now, then every `period` (0: once); at most one arm per epoch (a second is Denied by
-  // the kernel as Refused). Returns when it is due (kernel clock).
+  // Fires `after` (> 0) from now, then every `period` (0: once); at most one arm per epoch. The kernel checks
+  // both: a second arm is OperationFailed (Refused), a bad argument OperationFailed (BadArgument). Returns when
+  // it is due (kernel clock).
   SdkResult<Nanos> arm_timer(Nanos after, Nanos period = Nanos{0}) const;
   // A rollback at the kernel's next safe point (this process is then retired: no answer comes back to it).
   SdkResult<void> roll_back() const;
