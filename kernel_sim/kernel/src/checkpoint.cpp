@@ -14,25 +14,25 @@
 
 namespace rejuv::kernel {
 
-bool Kernel::Impl::quiescent_for_checkpoint() const {
+bool Rejuvenator::quiescent_for_checkpoint() const {
   const std::optional<ServiceId> caller = coordinator.asked_by();
-  return std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
+  return std::all_of(k.services.begin(), k.services.end(), [&](const ServiceRuntime& s) {
     if (!s.live()) return true;
     if (s.proc.phase() != Phase::Ready || !s.flow.drained()) return false;
-    return clock_mode == ClockMode::Realtime || s.id == caller || s.idle();
+    return k.clock_mode == ClockMode::Realtime || s.id == caller || s.idle();
   });
 }
 
 // ---- checkpoint ----
 
-bool Kernel::Impl::lost_during(CheckpointRun& run) const {
+bool Rejuvenator::lost_during(CheckpointRun& run) const {
   // A service of the checkpoint that died before the commit — before its Taken (it will never answer) or after
   // it — has left the broker and the timer table (on_child_exit): the generation would lack its kernel objects
   // and an image restored from it would receive nothing (the fault campaign: ekf2 killed right after its Taken,
   // restored deaf, the vehicle lost). Not a generation.
   if (!run.failure.empty()) return true;
   for (const image::Image& im : run.record.images) {
-    const ServiceRuntime& s = services[im.service.value()];
+    const ServiceRuntime& s = k.services[im.service.value()];
     if (!s.live()) {
       run.failure = "'" + s.name + "' was lost during the checkpoint";
       return true;
@@ -43,15 +43,15 @@ bool Kernel::Impl::lost_during(CheckpointRun& run) const {
 
 // The checkpoint asked for, from the cut to the caller's answer: Snapshots out, every image awaited, then
 // the generation committed or abandoned.
-void Kernel::Impl::run_checkpoint() {
+void Rejuvenator::run_checkpoint() {
   if (coordinator.work_left()) run_image_work();  // the last checkpoint's or rollback's, if the vehicle has not had its update yet
-  CheckpointTimes times{.start = wall()};
-  CheckpointRun& run = coordinator.begin_checkpoint(images.next_generation(), now());
+  CheckpointTimes times{.start = k.wall()};
+  CheckpointRun& run = coordinator.begin_checkpoint(images.next_generation(), k.now());
   routing.freeze();
-  flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
+  k.router.flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   send_snapshots(run);
-  times.sent = wall();
-  if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointSnapshotsSent, run.record.g);
+  times.sent = k.wall();
+  if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::CheckpointSnapshotsSent, run.record.g);
   const bool late = await_images(run);
   CheckpointRun done = coordinator.end_checkpoint();
   if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
@@ -64,9 +64,9 @@ void Kernel::Impl::run_checkpoint() {
 }
 
 // A Snapshot with a fresh resume socket to every live rejuvenated service (the first failure stops them).
-void Kernel::Impl::send_snapshots(CheckpointRun& run) {
+void Rejuvenator::send_snapshots(CheckpointRun& run) {
   const Generation g = run.record.g;
-  for (ServiceRuntime& s : services) {
+  for (ServiceRuntime& s : k.services) {
     if (!s.config.rejuvenate || s.proc.phase() != Phase::Ready) continue;
     auto pair = channel_pool.take();
     if (!pair) {
@@ -78,8 +78,8 @@ void Kernel::Impl::send_snapshots(CheckpointRun& run) {
     const bool with_pagemap = base.value() != 0 && !s.pages.pagemap_sent;
     const std::array<int, 2> fds{pair->second.fd(), s.pages.pagemap.get()};
     const wire::SnapshotBody body{.base = base.value()};
-    if (!tx.build_with(wire::FrameKind::Snapshot, 0, 0, g.value(), body)) break;
-    if (auto sent = s.proc.channel.send(tx.bytes(), std::span(fds).first(with_pagemap ? 2 : 1)); !sent) {
+    if (!k.tx.build_with(wire::FrameKind::Snapshot, 0, 0, g.value(), body)) break;
+    if (auto sent = s.proc.channel.send(k.tx.bytes(), std::span(fds).first(with_pagemap ? 2 : 1)); !sent) {
       run.failure = "Snapshot to '" + s.name + "': " + sent.error().to_string();
       break;
     }
@@ -96,38 +96,40 @@ void Kernel::Impl::send_snapshots(CheckpointRun& run) {
 // Handles every other event meanwhile (pump) until each service has answered, one is lost, or the snapshot
 // deadline passes (true: late). Taken frames come through handle_frame → on_taken, TakenPages (with its fd)
 // through read_channel → on_taken_pages.
-bool Kernel::Impl::await_images(CheckpointRun& run) {
-  const Nanos deadline = wall() + options.snapshot_deadline;
-  while (run.failure.empty() && !run.waiting.empty() && !stopping) {
+bool Rejuvenator::await_images(CheckpointRun& run) {
+  const Nanos deadline = k.wall() + k.options.snapshot_deadline;
+  while (run.failure.empty() && !run.waiting.empty() && !k.stopping) {
     if (lost_during(run)) break;  // abandoned now rather than at the deadline
-    const Nanos left = deadline - wall();
+    const Nanos left = deadline - k.wall();
     if (left <= Nanos{0}) {
-      run.failure = "no Taken from '" + services[run.waiting.front().value()].name + "' within the snapshot deadline";
+      run.failure =
+          "no Taken from '" + k.services[run.waiting.front().value()].name + "' within the snapshot deadline";
       return true;
     }
-    if (!pump(left)) break;
+    if (!k.pump(left)) break;
   }
   return false;
 }
 
-void Kernel::Impl::answer_checkpoint(const CheckpointRun& run, std::int32_t error, std::uint64_t value) {
-  if (run.caller) reply(services[run.caller->value()], run.seq, error, value);
+void Rejuvenator::answer_checkpoint(const CheckpointRun& run, std::int32_t error, std::uint64_t value) {
+  if (run.caller) k.input.reply(k.services[run.caller->value()], run.seq, error, value);
 }
 
 // Not a generation: its images destroyed, a late service killed, routing resumed and the caller refused.
-void Kernel::Impl::abandon_checkpoint(CheckpointRun done, bool late, const CheckpointTimes& times) {
+void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const CheckpointTimes& times) {
   const Generation g = done.record.g;
   if (!done.priming) {
     ++sr_stats.checkpoint_failures;
-    sr_event(SrEventKind::CheckpointFailed, g, wall() - times.start, done.caller);
+    sr_event(SrEventKind::CheckpointFailed, g, k.wall() - times.start, done.caller);
   }
-  log("%s %llu abandoned: %s", done.priming ? "the alignment's checkpoint" : "checkpoint", num(g),
-      done.failure.c_str());
+  k.log("%s %llu abandoned: %s", done.priming ? "the alignment's checkpoint" : "checkpoint", num(g),
+        done.failure.c_str());
   coordinator.abandoned(g, done.waiting);
   images.abandon(g);
   image::destroy(done.record);
   if (late) {
-    for (const ServiceId id : done.waiting) kill_hung(services[id.value()], "no Taken within the snapshot deadline");
+    for (const ServiceId id : done.waiting)
+      k.supervisor.kill_hung(k.services[id.value()], "no Taken within the snapshot deadline");
   }
   resume_routing();
   answer_checkpoint(done, op_code(wire::OpError::Refused), 0);
@@ -135,26 +137,28 @@ void Kernel::Impl::abandon_checkpoint(CheckpointRun done, bool late, const Check
 
 // The generation committed with the kernel state beside it (DESIGN §7 step 3), the caller answered, and what
 // is left to do (patches, evicted generations, the sweep, the spares) left for after the vehicle's next update.
-void Kernel::Impl::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
+void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
   const Generation g = done.record.g;
-  times.taken = wall();
-  if (observer != nullptr) observer->on_image_phase(ImagePhase::CheckpointTaken, g);
-  flush_staged();  // publications that reached the kernel before their sender's Taken: before the cut
-  done.record.state = save_state(done.t_cp, done.record.images, services, broker, timers);
+  times.taken = k.wall();
+  if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::CheckpointTaken, g);
+  // Publications that reached the kernel before their sender's Taken: before the cut.
+  k.router.flush_staged();
+  done.record.state = save_state(done.t_cp, done.record.images, k.services, k.broker, k.timers);
   catch_up.cut(g);  // every plant sample kept so far is in the queue state just saved
-  if (observer != nullptr) observer->on_checkpoint(g, broker);
+  if (k.observer != nullptr) k.observer->on_checkpoint(g, k.broker);
   for (const image::Image& im : done.record.images) {
-    services[im.service.value()].pages.base = g;
-    ++services[im.service.value()].stats.images;
+    k.services[im.service.value()].pages.base = g;
+    ++k.services[im.service.value()].stats.images;
   }
   std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
-  times.saved = wall();  // committed: the caller may go on (what follows is not on its path)
+  times.saved = k.wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();
   answer_checkpoint(done, 0, g.value());  // its record is the store's now: caller and seq only
   // Each service of g prepares its next image now, in the slack the checkpoint started in (vehicle_pace.hpp),
   // instead of when the next sample wakes it: there it cost the control chain ≈ 0.4 ms in real time.
   for (const image::Image& im : images.newest()->images) {
-    if (tx.build(wire::FrameKind::Committed, 0, 0, g.value())) send_control(services[im.service.value()], tx.bytes());
+    if (k.tx.build(wire::FrameKind::Committed, 0, 0, g.value()))
+      k.router.send_control(k.services[im.service.value()], k.tx.bytes());
   }
   const std::uint64_t forks_before = sr_stats.images_by_fork;
   coordinator.forget_abandoned();  // an image still owed to an abandoned checkpoint is a stray from now on
@@ -169,15 +173,16 @@ void Kernel::Impl::commit_checkpoint(CheckpointRun done, CheckpointTimes times) 
     // DESIGN §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
     sr_stats.priming_images += sr_stats.images_by_fork - forks_before;
     sr_stats.images_by_fork = forks_before;
-    log("the alignment's checkpoint: %zu images by fork in %.3f ms (untimed, not charged)",
-        images.newest()->images.size(), to_ms(times.saved - times.start));
+    k.log("the alignment's checkpoint: %zu images by fork in %.3f ms (untimed, not charged)",
+          images.newest()->images.size(), to_ms(times.saved - times.start));
     return;
   }
   count_checkpoint(g, done.caller, times);
 }
 
 // A timed checkpoint in the run's statistics, its SR event and its charge in simulated time (DESIGN §6).
-void Kernel::Impl::count_checkpoint(Generation g, std::optional<ServiceId> caller, const CheckpointTimes& times) {
+void Rejuvenator::count_checkpoint(Generation g, std::optional<ServiceId> caller,
+                                   const CheckpointTimes& times) {
   const Nanos took = times.saved - times.start;
   sr_stats.checkpoint_phases.a.add(to_ms(times.sent - times.start));
   sr_stats.checkpoint_phases.b.add(to_ms(times.taken - times.sent));
@@ -187,10 +192,11 @@ void Kernel::Impl::count_checkpoint(Generation g, std::optional<ServiceId> calle
   sr_stats.checkpoint_ms.add(to_ms(took));
   if (!sr_stats.first_checkpoint_ms) sr_stats.first_checkpoint_ms = to_ms(took);
   image_charge.checkpoint(took, sr_stats);
-  if (options.verbose) log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
+  if (k.options.verbose)
+    k.log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }
 
-bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
+bool Rejuvenator::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
   if (!coordinator.settle_owed(Generation(frame.header.aux), s.id)) return false;
   // TakenPages: its pages fd closes with the frame. Taken: the image is a process of the service's session
   // that the kernel made it fork and no longer wants. Anything else the pid could name is left alone.
@@ -204,17 +210,17 @@ bool Kernel::Impl::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
   return true;
 }
 
-bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& frame) {
+bool Rejuvenator::expecting_image(ServiceRuntime& s, const wire::FrameView& frame) {
   if (late_image(s, frame)) return false;  // the answer of an abandoned checkpoint: not a protocol error
   CheckpointRun* running = coordinator.running();
   if (running == nullptr) {
-    refuse(s, std::string(wire::to_string(frame.kind)) + " without a checkpoint in progress");
+    k.refuse(s, std::string(wire::to_string(frame.kind)) + " without a checkpoint in progress");
     return false;
   }
   CheckpointRun& run = *running;
   const auto waiting = std::find(run.waiting.begin(), run.waiting.end(), s.id);
   if (waiting == run.waiting.end()) {
-    refuse(s, std::string(wire::to_string(frame.kind)) + " it was not asked for");
+    k.refuse(s, std::string(wire::to_string(frame.kind)) + " it was not asked for");
     return false;
   }
   run.waiting.erase(waiting);
@@ -226,9 +232,9 @@ bool Kernel::Impl::expecting_image(ServiceRuntime& s, const wire::FrameView& fra
   return true;
 }
 
-Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
+Generation Rejuvenator::pages_base_for(const ServiceRuntime& s) {
   const Generation base = s.pages.base;
-  if (!options.images_by_pages || base.value() == 0 || images.keep() < 2) return Generation{};
+  if (!k.options.images_by_pages || base.value() == 0 || images.keep() < 2) return Generation{};
   if (!s.pages.pagemap.valid()) return Generation{};
   // The base must outlive this checkpoint's commit, which keeps the newest keep − 1 generations and the new one.
   const std::vector<Generation> kept = images.generations();
@@ -242,7 +248,7 @@ Generation Kernel::Impl::pages_base_for(const ServiceRuntime& s) {
   return base;
 }
 
-void Kernel::Impl::on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages) {
+void Rejuvenator::on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages) {
   if (!expecting_image(s, frame)) return;
   CheckpointRun& run = *coordinator.running();
   image::Image* im = run.record.image_of(s.id);
@@ -264,7 +270,7 @@ void Kernel::Impl::on_taken_pages(ServiceRuntime& s, const wire::FrameView& fram
   }
 }
 
-void Kernel::Impl::send_patches(image::GenerationRecord& record) {
+void Rejuvenator::send_patches(image::GenerationRecord& record) {
   for (image::Image& im : record.images) {
     if (!im.pages.valid()) {  // by fork: the image is its own process
       ++sr_stats.images_by_fork;
@@ -276,30 +282,31 @@ void Kernel::Impl::send_patches(image::GenerationRecord& record) {
     image::Image* from = base != nullptr ? base->image_of(im.service) : nullptr;
     const wire::PatchBody body{.generation = record.g.value(), .pages = im.page_count};
     const std::array<int, 2> fds{im.pages.get(), im.image_end.get()};
-    if (from != nullptr && tx.build_with(wire::FrameKind::Patch, 0, 0, im.base.value(), body) &&
-        from->resume.send(tx.bytes(), fds)) {
+    if (from != nullptr && k.tx.build_with(wire::FrameKind::Patch, 0, 0, im.base.value(), body) &&
+        from->resume.send(k.tx.bytes(), fds)) {
       im.patch_pending = true;
     } else {  // no image: a rollback to this generation falls back (image::GenerationRecord::dead_image)
-      log("generation %llu: no copy of generation %llu's image of '%s' to make its image from",
-          num(record.g), num(im.base), services[im.service.value()].name.c_str());
+      k.log("generation %llu: no copy of generation %llu's image of '%s' to make its image from",
+            num(record.g), num(im.base), k.services[im.service.value()].name.c_str());
     }
     channel_pool.close_later(std::move(im.pages));
     channel_pool.close_later(std::move(im.image_end));
   }
 }
 
-bool Kernel::Impl::knows_process(pid_t pid, const image::GenerationRecord* taking) const {
+bool Rejuvenator::knows_process(pid_t pid, const image::GenerationRecord* taking) const {
   const auto in = [&](const image::GenerationRecord& r) {
     return std::any_of(r.images.begin(), r.images.end(), [&](const image::Image& i) {
       return std::any_of(i.copies.begin(), i.copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
     });
   };
-  return images.owns(pid) || (plant_started && plant.pid() == pid) ||
-         std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& o) { return o.proc.process.pid() == pid; }) ||
+  return images.owns(pid) || (k.supervisor.plant_started && k.supervisor.plant.pid() == pid) ||
+         std::any_of(k.services.begin(), k.services.end(),
+                     [&](const ServiceRuntime& o) { return o.proc.process.pid() == pid; }) ||
          (taking != nullptr && in(*taking));
 }
 
-void Kernel::Impl::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
+void Rejuvenator::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
   if (!expecting_image(s, frame)) return;
   CheckpointRun& run = *coordinator.running();
   const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;

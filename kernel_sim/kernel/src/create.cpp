@@ -174,16 +174,17 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys
   k.uid_block = std::move(uid_block);
   k.clock_mode = clock_mode;
   k.sr = sr;
-  k.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
+  k.rejuvenator.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
   k.seed = k.options.seed.value_or(k.graph.graph.seed());
   const proto::LockstepTiming& timing = k.graph.graph.lockstep();
-  k.image_charge = ImageCharge(clock_mode, k.options.charge, std::chrono::round<Nanos>(launch::checkpoint_charge(timing)),
-                               std::chrono::round<Nanos>(launch::rollback_charge(timing)),
-                               std::chrono::round<Nanos>(launch::catch_up_charge_per_sample(timing)));
-  k.pace = VehiclePace(clock_mode == ClockMode::Realtime && k.graph.graph.has_plant());
+  k.rejuvenator.image_charge =
+      ImageCharge(clock_mode, k.options.charge, std::chrono::round<Nanos>(launch::checkpoint_charge(timing)),
+                  std::chrono::round<Nanos>(launch::rollback_charge(timing)),
+                  std::chrono::round<Nanos>(launch::catch_up_charge_per_sample(timing)));
+  k.rejuvenator.pace = VehiclePace(clock_mode == ClockMode::Realtime && k.graph.graph.has_plant());
   // The plant aligns (held at rest) before the mission's t = 0; without a plant there is no alignment.
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
-    k.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));
+    k.rejuvenator.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));
   }
   k.domain = k.options.dds_domain.value_or(k.graph.graph.dds().domain_id());
   k.caps.set_time(Nanos{0});
@@ -299,7 +300,7 @@ Result<void, KernelError> plan_catch_up(Kernel::Impl& k) {
     plan.cut_off[o.id.value()] = true;
   }
   // 32768 samples: ≈ 1 min of the plant's sensors (≈ 550 a second), far more than the generations a store keeps span.
-  k.catch_up = CatchUp(std::move(plan), 32768, slot_bytes);
+  k.rejuvenator.catch_up = CatchUp(std::move(plan), 32768, slot_bytes);
   return {};
 }
 
@@ -367,12 +368,12 @@ Result<void, KernelError> watch_event_sources(Kernel::Impl& k) {
     k.timerfd = std::move(*tfd);
     if (auto ok = add(k.timerfd->fd(), token(Source::Timer, 0)); !ok) return fail(ok.error());
   }
-  k.samples_on_step = plant_lockstep(k);
+  k.lockstep.samples_on_step = plant_lockstep(k);
   if (!k.bridge) return {};
   for (std::size_t i = 0; i < k.bridge->readers().size(); ++i) {
     // Lockstep with the plant: the samples of a step are taken when its SimStep arrives (they were published
     // before it), so only the step input wakes the kernel — one wakeup per step, not per sample.
-    if (k.samples_on_step && !k.bridge->is_step_input(i)) {
+    if (k.lockstep.samples_on_step && !k.bridge->is_step_input(i)) {
       k.bridge->readers()[i].reader.set_signalling(false);  // until a step is short of samples
       continue;
     }
@@ -415,7 +416,8 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   for (const Step step : {&add_services, &plan_catch_up, &check_plant_executable, &place, &open_bridge, &watch_event_sources}) {
     if (auto ok = step(k); !ok) return fail(ok.error());
   }
-  k.reaper.set_slack(k.processes_to_spare());  // the services' limits are known now (add_services)
+  k.rejuvenator.reaper.set_slack(
+      k.rejuvenator.processes_to_spare());  // the services' limits are known now (add_services)
   if (auto ok = k.net_open(); !ok) return fail(ok.error());  // the network gate (netgate.cpp)
   return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));
 }

@@ -1,6 +1,6 @@
-// The image coordinator (DESIGN §7; the paper's §V create_checkpoint / rollback, which took ≈20 ms and ≈15 ms
-// in the PX4 kernel module): checkpoint and rollback of the rejuvenated services with the queue state beside
-// them. Its files:
+// The image coordinator, the Rejuvenator of rejuvenator.hpp (DESIGN §7; the paper's §V create_checkpoint /
+// rollback, which took ≈20 ms and ≈15 ms in the PX4 kernel module): checkpoint and rollback of the rejuvenated
+// services with the queue state beside them. Its files:
 //   images.cpp              safe points (where a checkpoint or rollback runs), socket pairs made ahead,
 //                           retired generations and reaping, the rejuvenation timer, modes and SR events
 //   checkpoint.cpp          checkpoint g: Snapshot, Taken / TakenPages, the commit, images by written pages
@@ -41,39 +41,47 @@
 
 namespace rejuv::kernel {
 
-bool Kernel::Impl::enter_mode(SrMode mode) {
-  if (auto changed = caps.apply_mode(mode); !changed) {
-    log("mode %s: %s", std::string(to_string(mode)).c_str(), std::string(cap::to_string(changed.error())).c_str());
+bool Rejuvenator::enter_mode(SrMode mode) {
+  if (auto changed = k.caps.apply_mode(mode); !changed) {
+    k.log("mode %s: %s", std::string(to_string(mode)).c_str(),
+          std::string(cap::to_string(changed.error())).c_str());
     return false;
   }
-  kernel_clock.show_mode(caps.mode());
+  k.kernel_clock.show_mode(k.caps.mode());
   return true;
 }
 
-void Kernel::Impl::set_mode(SrMode mode, std::optional<ServiceId> by) {
+void Rejuvenator::set_mode(SrMode mode, std::optional<ServiceId> by) {
   if (!enter_mode(mode)) return;
-  publish_sr_mode();
+  k.router.publish_sr_mode();
   sr_event(SrEventKind::Mode, {}, {}, by);
 }
 
-void Kernel::Impl::sr_event(SrEventKind kind, Generation g, Nanos span, std::optional<ServiceId> by) {
-  if (observer == nullptr) return;
-  observer->on_sr_event(SrEvent{.kind = kind, .t = now(), .wall = wall(), .epoch = kernel_clock.epoch(),
-                                .g = g, .mode = caps.mode(), .span = span, .by = by});
+void Rejuvenator::sr_event(SrEventKind kind, Generation g, Nanos span, std::optional<ServiceId> by) {
+  if (k.observer == nullptr) return;
+  k.observer->on_sr_event(SrEvent{.kind = kind,
+                                  .t = k.now(),
+                                  .wall = k.wall(),
+                                  .epoch = k.kernel_clock.epoch(),
+                                  .g = g,
+                                  .mode = k.caps.mode(),
+                                  .span = span,
+                                  .by = by});
 }
 
 // ---- socket pairs made ahead ----
 
-void Kernel::Impl::refill_pairs() {
+void Rejuvenator::refill_pairs() {
   const std::size_t want = static_cast<std::size_t>(
-      std::count_if(services.begin(), services.end(),
+      std::count_if(k.services.begin(), k.services.end(),
                     [](const ServiceRuntime& s) { return s.config.rejuvenate && !s.config.skip; }));
-  if (const auto shortage = channel_pool.refill(want)) log("socket pairs made ahead: %s", shortage->to_string().c_str());
+  if (const auto shortage = channel_pool.refill(want))
+    k.log("socket pairs made ahead: %s", shortage->to_string().c_str());
 }
 
-void Kernel::Impl::open_pagemaps() {
-  if (!options.images_by_pages) return;
-  for (ServiceRuntime& s : services) {
+void Rejuvenator::open_pagemaps() {
+  if (!k.options.images_by_pages) return;
+  for (ServiceRuntime& s : k.services) {
     if (!s.config.rejuvenate || !s.live() || s.pages.base.value() == 0 || s.pages.pagemap.valid()) continue;
     if (auto opened = sys::open_pagemap_without_frames(s.proc.process.pid())) s.pages.pagemap = std::move(*opened);
   }
@@ -83,20 +91,20 @@ void Kernel::Impl::open_pagemaps() {
 
 // The generation kept beyond K while the newest are not confirmed (ImageStore::trim) goes once they are: looked
 // at every kTrimPeriod of wall time while there is one (a receive and a wait per copy), or at once (`now`).
-void Kernel::Impl::trim_images(bool now) {
-  if (images.size() <= images.keep() || (!now && wall() < next_trim)) return;
-  next_trim = wall() + kTrimPeriod;
+void Rejuvenator::trim_images(bool now) {
+  if (images.size() <= images.keep() || (!now && k.wall() < next_trim)) return;
+  next_trim = k.wall() + kTrimPeriod;
   images.refresh_all();
   for (image::GenerationRecord& r : images.trim()) retire(std::move(r));
 }
 
-void Kernel::Impl::retire(image::GenerationRecord record) {
+void Rejuvenator::retire(image::GenerationRecord record) {
   retiring.push_back(std::move(record));
   finish_retiring(false);
 }
 
-void Kernel::Impl::finish_retiring(bool final) {
-  const Nanos deadline = wall() + std::chrono::milliseconds{final ? 200 : 0};
+void Rejuvenator::finish_retiring(bool final) {
+  const Nanos deadline = k.wall() + std::chrono::milliseconds{final ? 200 : 0};
   do {
     std::erase_if(retiring, [&](image::GenerationRecord& r) {
       bool settled = true;
@@ -111,7 +119,7 @@ void Kernel::Impl::finish_retiring(bool final) {
       }
       return true;
     });
-  } while (final && !retiring.empty() && wall() < deadline);
+  } while (final && !retiring.empty() && k.wall() < deadline);
   if (final) {
     for (image::GenerationRecord& r : retiring) image::destroy(r);
     retiring.clear();
@@ -121,28 +129,30 @@ void Kernel::Impl::finish_retiring(bool final) {
 // Routing resumes after a cut, a restore or an abandoned checkpoint: what was published meanwhile was not
 // pushed (DESIGN §7). The kernel's held DDS bridge writes go out, then every live service's pending ring
 // messages, in ring order.
-void Kernel::Impl::resume_routing() {
-  routing.thaw([&](ObjectId topic, std::span<const std::byte> payload) { return bridge && write_to_bridge(topic, payload); });
-  for (ServiceRuntime& s : services) {
+void Rejuvenator::resume_routing() {
+  routing.thaw([&](ObjectId topic, std::span<const std::byte> payload) {
+    return k.bridge && k.router.write_to_bridge(topic, payload);
+  });
+  for (ServiceRuntime& s : k.services) {
     if (!s.live()) continue;
     s.flow.request_sweep();
-    drain(s);
+    k.router.drain(s);
   }
 }
 
 // ---- safe points ----
 
-void Kernel::Impl::leave_image_work(ImageWork work) {
-  coordinator.leave_work(std::move(work), wall() + ImageCoordinator::kImageWorkWait);
+void Rejuvenator::leave_image_work(ImageWork work) {
+  coordinator.leave_work(std::move(work), k.wall() + ImageCoordinator::kImageWorkWait);
   // Without a vehicle no control update comes: at once, as before (benchmarks, tests of the image store).
-  if (!graph.graph.has_plant()) run_image_work();
+  if (!k.graph.graph.has_plant()) run_image_work();
 }
 
-void Kernel::Impl::image_work_if_due() {
-  if (coordinator.work_due(wall())) run_image_work();
+void Rejuvenator::image_work_if_due() {
+  if (coordinator.work_due(k.wall())) run_image_work();
 }
 
-void Kernel::Impl::run_image_work() {
+void Rejuvenator::run_image_work() {
   std::optional<ImageWork> left = coordinator.take_work();
   if (!left) return;
   ImageWork& work = *left;
@@ -153,9 +163,9 @@ void Kernel::Impl::run_image_work() {
   // In real time with a vehicle the sweep never waits for copies on their way (a service with one is swept
   // at the next safe point after it has reported, sweep_due); elsewhere, briefly, so that no stray outlives a
   // rollback.
-  const bool vehicle_waits = clock_mode == ClockMode::Realtime && graph.graph.has_plant();
+  const bool vehicle_waits = k.clock_mode == ClockMode::Realtime && k.graph.graph.has_plant();
   if (!work.sweep.empty()) {
-    sweep_strays(work.sweep, false, vehicle_waits ? SweepWait::No : work.sweep_wait);
+    k.warden.sweep_strays(work.sweep, false, vehicle_waits ? SweepWait::No : work.sweep_wait);
   }
   if (work.spares) {
     if (image::GenerationRecord* record = images.find(*work.spares)) {
@@ -165,7 +175,7 @@ void Kernel::Impl::run_image_work() {
   reaper.kill_retired();
 }
 
-bool Kernel::Impl::service_images() {
+bool Rejuvenator::service_images() {
   image_work_if_due();
   // Incarnations retired by a rollback killed (with the image work: after the vehicle's next update), then the
   // killed ones reaped (Reaper::reap), all off the rollback's critical path. In this order: a SIGKILL's victim
@@ -175,8 +185,9 @@ bool Kernel::Impl::service_images() {
   if (!retiring.empty()) finish_retiring(false);
   reaper.reap();
   using enum ImageCoordinator::Checkpoint;
-  if (!stopping && coordinator.checkpoint() == None && !coordinator.rollback_asked()) sweep_if_due();  // sandbox.cpp
-  if (!sr || stopping || coordinator.checkpoint() == Running) return false;
+  if (!k.stopping && coordinator.checkpoint() == None && !coordinator.rollback_asked())
+    k.warden.sweep_if_due();  // sandbox.cpp
+  if (!k.sr || k.stopping || coordinator.checkpoint() == Running) return false;
   if (!coordinator.asked()) {  // off the critical paths
     refill_pairs();
     open_pagemaps();
@@ -195,7 +206,7 @@ bool Kernel::Impl::service_images() {
   }
   // In real time with a vehicle, in the slack after a control update (vehicle_pace.hpp); never during an estimate
   // catch-up (its cut would fall inside the replay, with live samples still waiting behind it: catch_up.hpp).
-  if (!catch_up.replaying() && quiescent_for_checkpoint() && pace.may_start(wall())) {
+  if (!catch_up.replaying() && quiescent_for_checkpoint() && pace.may_start(k.wall())) {
     pace.started();
     settle_dying();
     run_checkpoint();
@@ -204,8 +215,8 @@ bool Kernel::Impl::service_images() {
   return false;
 }
 
-Nanos Kernel::Impl::image_wait_bound() const {
-  return image_charge.vehicle_sees_work() ? options.resume_deadline : options.unseen_resume_deadline;
+Nanos Rejuvenator::image_wait_bound() const {
+  return image_charge.vehicle_sees_work() ? k.options.resume_deadline : k.options.unseen_resume_deadline;
 }
 
 // Backpressure before a checkpoint or a rollback, which both need new processes (images, spares): the killed
@@ -213,65 +224,69 @@ Nanos Kernel::Impl::image_wait_bound() const {
 // they die slowly — every process of a service shares its session's CPU share. Without this, 1000 SR cycles
 // in 2 s of wall time on 2 cores shared with six other multiproc tests left a copy unable to fork (the
 // generation then unusable). Waits, within image_wait_bound(), until few enough are dying (processes_to_spare).
-void Kernel::Impl::settle_dying() { reaper.settle(wall() + image_wait_bound()); }
+void Rejuvenator::settle_dying() {
+  reaper.settle(k.wall() + image_wait_bound());
+}
 
 // What every rejuvenated service can spare: half of what its max_processes leaves beside 1 + 2(K + 1), the
 // live one and an image and a spare per generation (no limit: any number).
-std::uint64_t Kernel::Impl::processes_to_spare() const {
+std::uint64_t Rejuvenator::processes_to_spare() const {
   std::uint64_t least = std::numeric_limits<std::uint64_t>::max();
-  const std::uint64_t needed = 1 + 2 * (std::uint64_t{launch::keep_generations(graph.graph.sr())} + 1);
-  for (const ServiceRuntime& s : services) {
+  const std::uint64_t needed = 1 + 2 * (std::uint64_t{launch::keep_generations(k.graph.graph.sr())} + 1);
+  for (const ServiceRuntime& s : k.services) {
     if (!s.config.rejuvenate || s.config.skip) continue;
-    if (const auto limit = limits_for(s).processes) least = std::min(least, *limit > needed ? *limit - needed : 0);
+    if (const auto limit = k.warden.limits_for(s).processes)
+      least = std::min(least, *limit > needed ? *limit - needed : 0);
   }
   return least == std::numeric_limits<std::uint64_t>::max() ? least : least / 2;
 }
 
-Result<void, KernelError> Kernel::Impl::finish_image_requests() {
-  while (!stopping && coordinator.asked()) {
+Result<void, KernelError> Rejuvenator::finish_image_requests() {
+  while (!k.stopping && coordinator.asked()) {
     if (service_images()) continue;
-    if (auto ok = pump(std::chrono::milliseconds{100}); !ok) return ok;
+    if (auto ok = k.pump(std::chrono::milliseconds{100}); !ok) return ok;
   }
   return {};
 }
 
 // ---- the rejuvenation timer ----
 
-void Kernel::Impl::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period) {
-  const Epoch epoch = kernel_clock.epoch();
+void Rejuvenator::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period) {
+  const Epoch epoch = k.kernel_clock.epoch();
   if (coordinator.armed_in(epoch)) {
     // DESIGN §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
     ++sr_stats.timer_arm_refused;
-    log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(), epoch.value());
+    k.log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(),
+          epoch.value());
     sr_event(SrEventKind::TimerRefused, {}, after, s.id);
-    reply(s, seq, op_code(wire::OpError::Refused));
+    k.input.reply(s, seq, op_code(wire::OpError::Refused));
     return;
   }
   if (after <= Nanos{0} || period < Nanos{0}) {
-    reply(s, seq, op_code(wire::OpError::BadArgument));
+    k.input.reply(s, seq, op_code(wire::OpError::BadArgument));
     return;
   }
-  coordinator.arm_timer(epoch, now() + after, period);
+  coordinator.arm_timer(epoch, k.now() + after, period);
   ++sr_stats.timer_arms;
   sr_event(SrEventKind::TimerArmed, {}, after, s.id);
-  arm_timerfd();
-  reply(s, seq, 0, static_cast<std::uint64_t>(coordinator.timer_due()->count()));
+  k.arm_timerfd();
+  k.input.reply(s, seq, 0, static_cast<std::uint64_t>(coordinator.timer_due()->count()));
 }
 
 // In real time with a vehicle: a timer due before the next control update fires now, in the slack after this
 // one (vehicle_pace.hpp) — up to one period early, never late — so that the rollback does not run across the
 // next sample's update. The next safe point carries it out.
-void Kernel::Impl::fire_rejuvenation_early() {
+void Rejuvenator::fire_rejuvenation_early() {
   const std::optional<Nanos> due = coordinator.timer_due();
-  if (!due || coordinator.rollback_asked() || !pace.fire_early(wall(), *due - now())) return;
+  if (!due || coordinator.rollback_asked() || !pace.fire_early(k.wall(), *due - k.now())) return;
   coordinator.timer_fired();
   ++sr_stats.timer_rollbacks;
   request_rollback("the rejuvenation timer fired (in the slack before it was due)");
 }
 
-void Kernel::Impl::fire_rejuvenation() {
+void Rejuvenator::fire_rejuvenation() {
   const std::optional<Nanos> due = coordinator.timer_due();
-  if (!due || *due > now()) return;
+  if (!due || *due > k.now()) return;
   coordinator.timer_fired();
   ++sr_stats.timer_rollbacks;
   request_rollback("the rejuvenation timer fired");

@@ -23,8 +23,8 @@ Result<void, KernelError> Kernel::boot() {
   for (const ServiceRuntime& s : k.services) {
     if (s.config.skip) k.log("not starting '%s': %s", s.name.c_str(), s.config.skip_reason.c_str());
   }
-  if (auto ok = k.spawn_all(); !ok) {
-    k.shutdown_all();
+  if (auto ok = k.supervisor.spawn_all(); !ok) {
+    k.supervisor.shutdown_all();
     return ok;
   }
   // Bounded in every path: a service that is not Ready by its boot deadline is killed (check_deadlines) and
@@ -43,13 +43,13 @@ Result<void, KernelError> Kernel::boot() {
       break;
     }
     if (auto ok = k.pump(boot_limit - k.wall()); !ok) {
-      k.shutdown_all();
+      k.supervisor.shutdown_all();
       return ok;
     }
   }
   if (k.stop) {
     KernelError e = kernel_error(KernelError::Kind::Boot, k.stop_detail.empty() ? std::string(to_string(*k.stop)) : k.stop_detail);
-    k.shutdown_all();
+    k.supervisor.shutdown_all();
     return fail(std::move(e));
   }
   k.booted = true;
@@ -59,8 +59,8 @@ Result<void, KernelError> Kernel::boot() {
                                                  [](const ServiceRuntime& s) { return !s.config.skip; })),
         std::string(to_string(k.clock_mode)).c_str(), k.sr ? ", SR on" : ", SR off", where.c_str());
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
-    if (auto ok = k.spawn_plant(); !ok) {
-      k.shutdown_all();
+    if (auto ok = k.supervisor.spawn_plant(); !ok) {
+      k.supervisor.shutdown_all();
       return ok;
     }
   }
@@ -73,21 +73,21 @@ Result<StepReport, KernelError> Kernel::step(Nanos t) {
     return fail(kernel_error(KernelError::Kind::Config, "step() is for TimeMaster::Manual"));
   }
   if (!k.booted || k.shut_down) return fail(kernel_error(KernelError::Kind::Boot, "not booted"));
-  const std::uint64_t target = k.steps.steps_done() + 1;
-  k.steps.offer_manual(t);
+  const std::uint64_t target = k.lockstep.steps.steps_done() + 1;
+  k.lockstep.steps.offer_manual(t);
   StepReport report;
   std::uint32_t rounds = 0;
-  while (k.steps.steps_done() < target) {
-    if (k.stop && !graceful(*k.stop) && !k.steps.active()) break;
-    if (const auto next = k.steps.begin_next(k.wall())) {
-      k.begin_step(*next);
+  while (k.lockstep.steps.steps_done() < target) {
+    if (k.stop && !graceful(*k.stop) && !k.lockstep.steps.active()) break;
+    if (const auto next = k.lockstep.steps.begin_next(k.wall())) {
+      k.lockstep.begin_step(*next);
       report.step = next->step;
       report.t = next->t;
     }
-    if (k.steps.active() && k.advance_step()) {
-      rounds = k.steps.rounds();
-      report.hung = k.steps.hung();
-      k.finish_step();
+    if (k.lockstep.steps.active() && k.lockstep.advance_step()) {
+      rounds = k.lockstep.steps.rounds();
+      report.hung = k.lockstep.steps.hung();
+      k.lockstep.finish_step();
       break;
     }
     if (auto ok = k.pump(std::nullopt); !ok) return fail(ok.error());
@@ -107,23 +107,25 @@ Result<RunOutcome, KernelError> Kernel::run() {
   k.last_progress = Nanos{0};
   Result<void, KernelError> ran;
   switch (k.clock_mode) {
-    case ClockMode::Lockstep: ran = k.run_lockstep(); break;   // lockstep.cpp
+    case ClockMode::Lockstep: ran = k.lockstep.run_lockstep(); break;  // lockstep.cpp
     case ClockMode::Realtime: ran = k.run_realtime(); break;   // loop.cpp
   }
   if (!ran) {
-    k.shutdown_all();
+    k.supervisor.shutdown_all();
     return fail(ran.error());
   }
   RunOutcome outcome{.reason = k.stop.value_or(StopReason::Requested),
                      .detail = k.stop_detail,
-                     .steps = k.steps.steps_done(),
+                     .steps = k.lockstep.steps.steps_done(),
                      .sim_time = k.now(),
                      .wall_time = k.wall() - k.wall_start};
   shutdown();
   return outcome;
 }
 
-void Kernel::shutdown() { impl_->shutdown_all(); }
+void Kernel::shutdown() {
+  impl_->supervisor.shutdown_all();
+}
 
 void Kernel::request_stop() { impl_->stop_run(StopReason::Requested, "requested"); }
 
@@ -136,7 +138,7 @@ Result<void, KernelError> Kernel::inject(std::string_view topic, std::span<const
   if (payload.size() != k.objects[object->value()].type->size) {
     return fail(kernel_error(KernelError::Kind::Config, "payload size differs from the topic's"));
   }
-  k.publish_as_kernel(*object, payload, Impl::From::Bridge);
+  k.router.publish_as_kernel(*object, payload, Router::From::Bridge);
   return {};
 }
 
@@ -146,7 +148,9 @@ Nanos Kernel::now() const { return impl_->now(); }
 SrMode Kernel::mode() const { return impl_->caps.mode(); }
 ClockMode Kernel::clock_mode() const { return impl_->clock_mode; }
 bool Kernel::sr_enabled() const { return impl_->sr; }
-bool Kernel::image_work_pending() const { return impl_->coordinator.work_left(); }
+bool Kernel::image_work_pending() const {
+  return impl_->rejuvenator.coordinator.work_left();
+}
 const cap::CapSystem& Kernel::caps() const { return impl_->caps; }
 const broker::Broker& Kernel::broker() const { return impl_->broker; }
 std::size_t Kernel::service_count() const { return impl_->services.size(); }
@@ -160,62 +164,72 @@ std::vector<Kernel::TopicInfo> Kernel::topics() const {
   return out;
 }
 std::uint64_t Kernel::bad_frames_total() const { return impl_->kernel_bad_frames; }
-const SrStats& Kernel::sr_stats() const { return impl_->sr_stats; }
-const CatchUpStats& Kernel::catch_up_stats() const { return impl_->catch_up.stats(); }
+const SrStats& Kernel::sr_stats() const {
+  return impl_->rejuvenator.sr_stats;
+}
+const CatchUpStats& Kernel::catch_up_stats() const {
+  return impl_->rejuvenator.catch_up.stats();
+}
 
 Result<Generation, KernelError> Kernel::checkpoint_now() {
   Impl& k = *impl_;
-  if (!k.sr || !k.booted || k.steps.active() || k.coordinator.checkpoint() != ImageCoordinator::Checkpoint::None) {
+  if (!k.sr || !k.booted || k.lockstep.steps.active() ||
+      k.rejuvenator.coordinator.checkpoint() != ImageCoordinator::Checkpoint::None) {
     return fail(kernel_error(KernelError::Kind::Config, "checkpoint_now: needs SR on, a booted kernel and no step in progress"));
   }
-  const std::uint64_t before = k.sr_stats.checkpoints;
-  (void)k.coordinator.ask_checkpoint(std::nullopt, 0);
-  if (auto ok = k.finish_image_requests(); !ok) return fail(ok.error());
-  if (k.sr_stats.checkpoints == before) return fail(kernel_error(KernelError::Kind::Boot, "the checkpoint was abandoned"));
-  return k.images.newest()->g;
+  const std::uint64_t before = k.rejuvenator.sr_stats.checkpoints;
+  (void)k.rejuvenator.coordinator.ask_checkpoint(std::nullopt, 0);
+  if (auto ok = k.rejuvenator.finish_image_requests(); !ok) return fail(ok.error());
+  if (k.rejuvenator.sr_stats.checkpoints == before)
+    return fail(kernel_error(KernelError::Kind::Boot, "the checkpoint was abandoned"));
+  return k.rejuvenator.images.newest()->g;
 }
 
 Result<void, KernelError> Kernel::rollback_now(bool cold) {
   Impl& k = *impl_;
-  if (!k.sr || !k.booted || k.steps.active()) {
+  if (!k.sr || !k.booted || k.lockstep.steps.active()) {
     return fail(kernel_error(KernelError::Kind::Config, "rollback_now: needs SR on, a booted kernel and no step in progress"));
   }
   if (cold) {
-    k.cold_restart("requested");
+    k.rejuvenator.cold_restart("requested");
     return {};
   }
-  k.request_rollback("requested");
-  return k.finish_image_requests();
+  k.rejuvenator.request_rollback("requested");
+  return k.rejuvenator.finish_image_requests();
 }
 Epoch Kernel::epoch() const { return impl_->kernel_clock.epoch(); }
-Nanos Kernel::flight_start() const { return impl_->flight_start; }
+Nanos Kernel::flight_start() const {
+  return impl_->rejuvenator.flight_start;
+}
 void Kernel::settle_images() {
   Impl& k = *impl_;
   const Nanos deadline = k.wall() + std::chrono::milliseconds{500};
   for (;;) {
-    k.images.refresh_all();
-    k.trim_images(true);
-    k.finish_retiring(false);
-    bool pending = !k.retiring.empty();
-    if (k.images.spares_pending() > 0) pending = true;
+    k.rejuvenator.images.refresh_all();
+    k.rejuvenator.trim_images(true);
+    k.rejuvenator.finish_retiring(false);
+    bool pending = !k.rejuvenator.retiring.empty();
+    if (k.rejuvenator.images.spares_pending() > 0) pending = true;
     if (!pending || k.wall() > deadline) break;
     (void)sys::wait_fd(k.epoll.fd(), sys::WaitFor::Readable, std::chrono::milliseconds{1});
   }
-  k.reaper.kill_all_and_reap();
+  k.rejuvenator.reaper.kill_all_and_reap();
 }
 
 std::vector<int> Kernel::image_pids(ServiceId service) {
-  impl_->images.refresh_all();
-  return impl_->images.image_pids(service);
+  impl_->rejuvenator.images.refresh_all();
+  return impl_->rejuvenator.images.image_pids(service);
 }
 std::vector<int> Kernel::image_pids(ServiceId service, Generation g) {
-  impl_->images.refresh_all();
-  return impl_->images.image_pids(service, g);
+  impl_->rejuvenator.images.refresh_all();
+  return impl_->rejuvenator.images.image_pids(service, g);
 }
-std::vector<Generation> Kernel::generations() const { return impl_->images.generations(); }
+std::vector<Generation> Kernel::generations() const {
+  return impl_->rejuvenator.images.generations();
+}
 std::optional<int> Kernel::plant_pid() const {
-  if (!impl_->plant_started || impl_->plant.pid() <= 0) return std::nullopt;
-  return impl_->plant.pid();
+  if (!impl_->supervisor.plant_started || impl_->supervisor.plant.pid() <= 0) return std::nullopt;
+  return impl_->supervisor.plant.pid();
 }
 
 std::optional<ServiceId> Kernel::find_service(std::string_view name) const {
@@ -241,8 +255,8 @@ ServiceStats Kernel::stats(ServiceId service) const {
   // Messages routed to it that it will never get: skipped by the broker, or overrun while it stays blocked.
   // s.stats.lost has what next() already skipped; add what is overrun but not yet skipped.
   for (const SubscriptionRecord& r : s.subscriptions) {
-    if (r.id.value() >= impl_->subscribers.size()) continue;
-    const std::uint64_t routed = impl_->subscribers[r.id.value()].routed;
+    if (r.id.value() >= impl_->router.subscribers.size()) continue;
+    const std::uint64_t routed = impl_->router.subscribers[r.id.value()].routed;
     const auto st = impl_->broker.subscriber_stats(r.id);
     const auto pending = impl_->broker.pending(r.id);
     if (!st || !pending) {

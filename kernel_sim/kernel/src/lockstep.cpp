@@ -13,7 +13,7 @@ namespace rejuv::kernel {
 // ---- samples ----
 
 // Lockstep: a sample is held for the step that covers it, then routed in canonical order (route_samples).
-void Kernel::Impl::stage_sample(std::size_t reader, std::span<const std::byte> bytes) {
+void Lockstep::stage_sample(std::size_t reader, std::span<const std::byte> bytes) {
   const std::uint64_t stamp = dds::plant_topics::stamp_of(bytes).value_or(0);
   samples.add(std::pair(stamp, static_cast<std::uint32_t>(reader)), std::monostate{}, bytes);
 }
@@ -21,43 +21,44 @@ void Kernel::Impl::stage_sample(std::size_t reader, std::span<const std::byte> b
 // SimSteps from the plant (the step input woke the loop): each becomes a pending step, and the samples it
 // carries are staged as if the input that bridges their topic had taken them (the same canonical order as
 // samples that came on their own topics, and the same routes).
-void Kernel::Impl::take_steps() {
-  dds::PlantLockstep* adapter = bridge->lockstep();
+void Lockstep::take_steps() {
+  dds::PlantLockstep* adapter = k.bridge->lockstep();
   REJUV_ASSERT(adapter != nullptr, "only the lockstep adapter has a step input");
   auto n = adapter->take_steps(
-      bridge->bridge(),
+      k.bridge->bridge(),
       [&](const dds::PlantLockstep::Step& step) {
         auto offered = steps.offer(PendingStep{.step = step.step, .t = step.t, .samples_needed = step.samples_needed});
         if (!offered) {
-          stop_run(StopReason::PlantProtocol, "the plant's steps: " + offered.error() + " (a second plant on DDS domain " +
-                                                  std::to_string(domain) + "?)");
+          k.stop_run(StopReason::PlantProtocol, "the plant's steps: " + offered.error() +
+                                                    " (a second plant on DDS domain " +
+                                                    std::to_string(k.domain) + "?)");
         }
       },
       [&](std::size_t input, std::span<const std::byte> bytes) {
-        if (!stopping) stage_sample(input, bytes);
+        if (!k.stopping) stage_sample(input, bytes);
       });
-  if (!n) log("DDS take sim_step: %s", n.error().to_string().c_str());
+  if (!n) k.log("DDS take sim_step: %s", n.error().to_string().c_str());
   if (samples_on_step && n && *n > 0) collect_samples();
 }
 
-void Kernel::Impl::collect_samples() {
-  if (!bridge) return;
-  for (std::size_t i = 0; i < bridge->readers().size(); ++i) {
-    if (!bridge->is_step_input(i)) on_dds_ready(i);
+void Lockstep::collect_samples() {
+  if (!k.bridge) return;
+  for (std::size_t i = 0; i < k.bridge->readers().size(); ++i) {
+    if (!k.bridge->is_step_input(i)) k.on_dds_ready(i);
   }
 }
 
-void Kernel::Impl::watch_sample_readers(bool watch) {
-  if (!bridge || !samples_on_step || watch == watching_samples) return;
+void Lockstep::watch_sample_readers(bool watch) {
+  if (!k.bridge || !samples_on_step || watch == watching_samples) return;
   watching_samples = watch;
-  for (std::size_t i = 0; i < bridge->readers().size(); ++i) {
-    if (bridge->is_step_input(i)) continue;
-    dds::Reader& reader = bridge->readers()[i].reader;
+  for (std::size_t i = 0; i < k.bridge->readers().size(); ++i) {
+    if (k.bridge->is_step_input(i)) continue;
+    dds::Reader& reader = k.bridge->readers()[i].reader;
     reader.set_signalling(watch);  // on before the fd is watched; the collect_samples below takes the rest
     if (watch) {
-      (void)epoll.add(reader.ready_fd(), token(Source::Dds, i));
+      (void)k.epoll.add(reader.ready_fd(), token(Source::Dds, i));
     } else {
-      (void)epoll.remove(reader.ready_fd());
+      (void)k.epoll.remove(reader.ready_fd());
     }
   }
   if (watch) collect_samples();
@@ -66,70 +67,76 @@ void Kernel::Impl::watch_sample_readers(bool watch) {
 // ---- steps ----
 
 // The step StepClock::begin_next made active.
-void Kernel::Impl::begin_step(const PendingStep& step) {
-  for (ServiceRuntime& s : services) s.flow.new_step();
-  set_now(step.t);
-  if (!sr_mode_announced) publish_sr_mode();
+void Lockstep::begin_step(const PendingStep& step) {
+  for (ServiceRuntime& s : k.services) s.flow.new_step();
+  k.set_now(step.t);
+  if (!k.rejuvenator.sr_mode_announced) k.router.publish_sr_mode();
   request_priming();
-  fire_rejuvenation();  // DESIGN §7: a due rejuvenation timer rolls back before anything else of the step
-  (void)service_images();
+  k.rejuvenator.fire_rejuvenation();  // DESIGN §7: a due rejuvenation timer rolls back before anything else
+                                      // of the step
+  (void)k.rejuvenator.service_images();
   // DESIGN §6: set the clock, fire due timers, route the step's samples; then rounds until idle. Each
   // service gets the round's frames in one batch (router.cpp, cork).
-  cork();
-  fire_timers();
-  route_samples();
-  uncork();
-  net_poll();  // datagrams that arrived before the step: handed over at its start (netgate.cpp)
+  k.router.cork();
+  k.fire_timers();
+  k.router.route_samples();
+  k.router.uncork();
+  k.net_poll();  // datagrams that arrived before the step: handed over at its start (netgate.cpp)
 }
 
 // The catch-up's next sampling instant (catch_up.hpp), once the graph is idle: routed as a batch of its own.
-void Kernel::Impl::replay_next_instant() {
-  if (!catch_up.replaying()) return;
-  steps.next_batch(wall());  // its rounds and idle deadline count from here
-  cork();
+void Lockstep::replay_next_instant() {
+  if (!k.rejuvenator.catch_up.replaying()) return;
+  steps.next_batch(k.wall());  // its rounds and idle deadline count from here
+  k.router.cork();
   (void)replay_instant();  // the last call ends the replay (advance_step then sees it over)
-  uncork();
+  k.router.uncork();
 }
 
-bool Kernel::Impl::replay_instant() {
-  const bool more = catch_up.replay_instant(
-      [&](ObjectId topic, std::span<const std::byte> bytes) { publish_as_kernel(topic, bytes, From::Replay); },
-      [&](ObjectId topic, std::span<const std::byte> bytes) { publish_as_kernel(topic, bytes, From::Held); });
+bool Lockstep::replay_instant() {
+  const bool more = k.rejuvenator.catch_up.replay_instant(
+      [&](ObjectId topic, std::span<const std::byte> bytes) {
+        k.router.publish_as_kernel(topic, bytes, Router::From::Replay);
+      },
+      [&](ObjectId topic, std::span<const std::byte> bytes) {
+        k.router.publish_as_kernel(topic, bytes, Router::From::Held);
+      });
   if (!more) {
-    const Nanos took = wall() - catch_up.began_at();
-    sr_stats.catch_up_ms.add(to_ms(took));
-    image_charge.catch_up(took, catch_up.replayed(), sr_stats);
+    const Nanos took = k.wall() - k.rejuvenator.catch_up.began_at();
+    k.rejuvenator.sr_stats.catch_up_ms.add(to_ms(took));
+    k.rejuvenator.image_charge.catch_up(took, k.rejuvenator.catch_up.replayed(), k.rejuvenator.sr_stats);
   }
   return more;
 }
 
-bool Kernel::Impl::advance_step() {
+bool Lockstep::advance_step() {
   for (;;) {
-    if (service_images()) continue;  // a pending rollback, or a checkpoint once quiescent (images.cpp)
-    if (!all_idle()) return false;
+    if (k.rejuvenator.service_images())
+      continue;  // a pending rollback, or a checkpoint once quiescent (images.cpp)
+    if (!k.all_idle()) return false;
     if (steps.rounds_exhausted()) {
-      log("step %llu did not settle after %u routing rounds; ending it",
-          static_cast<unsigned long long>(steps.active()->step), steps.rounds());
+      k.log("step %llu did not settle after %u routing rounds; ending it",
+            static_cast<unsigned long long>(steps.active()->step), steps.rounds());
       return true;
     }
     if (!staged.empty()) {
       steps.next_round();
-      cork();
-      flush_staged();
-      uncork();
+      k.router.cork();
+      k.router.flush_staged();
+      k.router.uncork();
       continue;
     }
     // Timers armed during this step that are already due (e.g. after(0)).
-    if (timers.next_due() && *timers.next_due() <= now()) {
+    if (k.timers.next_due() && *k.timers.next_due() <= k.now()) {
       steps.next_round();
-      cork();
-      fire_timers();
-      uncork();
+      k.router.cork();
+      k.fire_timers();
+      k.router.uncork();
       continue;
     }
     // After a rollback the restored estimator chain catches up before the step goes on (the world is stopped,
     // the replay charged).
-    if (catch_up.replaying()) {
+    if (k.rejuvenator.catch_up.replaying()) {
       replay_next_instant();
       continue;
     }
@@ -137,70 +144,73 @@ bool Kernel::Impl::advance_step() {
   }
 }
 
-void Kernel::Impl::finish_step() {
-  const PendingStep step = steps.finish(wall());
-  const Nanos charged = image_charge.take_step_charge();
-  if (dds::PlantLockstep* adapter = bridge ? bridge->lockstep() : nullptr; adapter != nullptr) {
+void Lockstep::finish_step() {
+  const PendingStep step = steps.finish(k.wall());
+  const Nanos charged = k.rejuvenator.image_charge.take_step_charge();
+  if (dds::PlantLockstep* adapter = k.bridge ? k.bridge->lockstep() : nullptr; adapter != nullptr) {
     if (auto ok = adapter->write_ack(step.step, step.t, charged); !ok) {  // DESIGN §6: charge, in simulated time
       const std::string error = ok.error().to_string();
-      log("%s", error.c_str());
-      stop_run(StopReason::PlantExited, error);
+      k.log("%s", error.c_str());
+      k.stop_run(StopReason::PlantExited, error);
     }
   }
-  if (observer != nullptr) observer->on_step(step.step, step.t, caps.mode());
+  if (k.observer != nullptr) k.observer->on_step(step.step, step.t, k.caps.mode());
   check_stop_conditions();
 }
 
-Nanos Kernel::Impl::pace_wait() {
-  if (!options.speed || !(*options.speed > 0.0)) return Nanos{0};
+Nanos Lockstep::pace_wait() {
+  if (!k.options.speed || !(*k.options.speed > 0.0)) return Nanos{0};
   if (!pace_origin) {
-    pace_origin = std::pair(now(), wall());
+    pace_origin = std::pair(k.now(), k.wall());
     return Nanos{0};
   }
-  const auto simulated = static_cast<double>((now() - pace_origin->first).count());
-  const Nanos due = pace_origin->second + Nanos{static_cast<std::int64_t>(simulated / *options.speed)};
-  return std::max(Nanos{0}, due - wall());
+  const auto simulated = static_cast<double>((k.now() - pace_origin->first).count());
+  const Nanos due = pace_origin->second + Nanos{static_cast<std::int64_t>(simulated / *k.options.speed)};
+  return std::max(Nanos{0}, due - k.wall());
 }
 
 // DESIGN §6: the first images of every service are forked during the alignment, untimed, so that the
 // checkpoints of the flight all take theirs by written pages. Once, at the first step of a run with a plant
 // (lockstep or realtime); never in manual stepping, whose tests count their generations.
-void Kernel::Impl::request_priming() {
-  if (!sr || options.time_master != TimeMaster::Plant || !graph.graph.has_plant()) return;
-  (void)coordinator.ask_priming();  // once per run, while nothing else is asked
+void Lockstep::request_priming() {
+  if (!k.sr || k.options.time_master != TimeMaster::Plant || !k.graph.graph.has_plant()) return;
+  (void)k.rejuvenator.coordinator.ask_priming();  // once per run, while nothing else is asked
 }
 
-void Kernel::Impl::check_stop_conditions() {
-  if (options.duration && now() >= *options.duration) {
-    stop_run(StopReason::Duration, "t = " + std::to_string(to_seconds(now()).count()) + " s");
+void Lockstep::check_stop_conditions() {
+  if (k.options.duration && k.now() >= *k.options.duration) {
+    k.stop_run(StopReason::Duration, "t = " + std::to_string(to_seconds(k.now()).count()) + " s");
   }
-  const Seconds timeout = launch::mission_timeout(graph.graph.mission());  // of the flight, after the alignment
-  if (timeout.count() > 0 && now() >= flight_start + to_nanos(timeout)) {
-    const proto::Mission& path = graph.graph.mission();
-    stop_run(StopReason::MissionTimeout,
-             "mission not completed within " + std::to_string(timeout.count()) + " s" +
-                 (path.has_timeout_s() ? std::string()
-                                          : " (derived from the path's " + std::to_string(launch::path_length_m(path)) +
-                                                " m: set mission.timeout_s for a slower scheme)"));
+  const Seconds timeout =
+      launch::mission_timeout(k.graph.graph.mission());  // of the flight, after the alignment
+  if (timeout.count() > 0 && k.now() >= k.rejuvenator.flight_start + to_nanos(timeout)) {
+    const proto::Mission& path = k.graph.graph.mission();
+    k.stop_run(StopReason::MissionTimeout,
+               "mission not completed within " + std::to_string(timeout.count()) + " s" +
+                   (path.has_timeout_s()
+                        ? std::string()
+                        : " (derived from the path's " + std::to_string(launch::path_length_m(path)) +
+                              " m: set mission.timeout_s for a slower scheme)"));
   }
 }
 
 // Kernel::run in lockstep with the plant: a step begins once every sample it counts has arrived, runs its
 // rounds until the graph is idle, and is acknowledged; the loop sleeps in between.
-Result<void, KernelError> Kernel::Impl::run_lockstep() {
+Result<void, KernelError> Lockstep::run_lockstep() {
   for (;;) {
-    if (stop && (!graceful(*stop) || !steps.active())) break;
+    if (k.stop && (!graceful(*k.stop) || !steps.active())) break;
     // A sample DDS never delivers must not stall the run: after a second the step goes on without it.
-    if (const auto gave_up = steps.give_up_on_samples(wall(), std::chrono::seconds{1})) {
-      log("step %llu: %llu sensor sample(s) never arrived; the step goes on without them",
-          static_cast<unsigned long long>(gave_up->step), static_cast<unsigned long long>(gave_up->missing));
+    if (const auto gave_up = steps.give_up_on_samples(k.wall(), std::chrono::seconds{1})) {
+      k.log("step %llu: %llu sensor sample(s) never arrived; the step goes on without them",
+            static_cast<unsigned long long>(gave_up->step),
+            static_cast<unsigned long long>(gave_up->missing));
     }
-    if (!stop) {
+    if (!k.stop) {
       if (const Nanos wait = pace_wait(); wait > Nanos{0}) {  // --speed: events are handled meanwhile
-        if (auto ok = pump(wait); !ok) return ok;
+        if (auto ok = k.pump(wait); !ok) return ok;
         continue;
       }
-      if (const auto next = steps.begin_next(wall())) begin_step(*next);
+      if (const auto next = steps.begin_next(k.wall())) begin_step(*next);
     }
     if (steps.active() && advance_step()) {
       finish_step();
@@ -210,7 +220,9 @@ Result<void, KernelError> Kernel::Impl::run_lockstep() {
     // until they are.
     const bool short_of_samples = steps.short_of_samples();
     watch_sample_readers(short_of_samples);
-    if (auto ok = pump(short_of_samples ? std::optional<Nanos>(std::chrono::milliseconds{100}) : std::nullopt); !ok) {
+    if (auto ok =
+            k.pump(short_of_samples ? std::optional<Nanos>(std::chrono::milliseconds{100}) : std::nullopt);
+        !ok) {
       return ok;
     }
   }

@@ -133,12 +133,12 @@ Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
       case Source::Channel: {
         ServiceRuntime& s = services[index];
         if (!s.live() || !s.proc.channel.valid()) break;
-        if (e.writable) drain(s);
-        if (e.readable || e.hangup || e.error) read_channel(s);
+        if (e.writable) router.drain(s);
+        if (e.readable || e.hangup || e.error) input.read_channel(s);
         break;
       }
-      case Source::Pidfd: on_child_exit(services[index]); break;
-      case Source::Plant: on_plant_exit(); break;
+      case Source::Pidfd: supervisor.on_child_exit(services[index]); break;
+      case Source::Plant: supervisor.on_plant_exit(); break;
       case Source::Signal: {
         auto sig = signals->read();
         if (sig && *sig) stop_run(StopReason::Signal, *sig == SIGINT ? "SIGINT" : "SIGTERM");
@@ -146,7 +146,7 @@ Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
       }
       case Source::Timer:
         (void)timerfd->consume();
-        fire_rejuvenation();
+        rejuvenator.fire_rejuvenation();
         fire_timers();
         arm_timerfd();
         break;
@@ -154,7 +154,7 @@ Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
       case Source::Net: net_poll(); break;  // realtime only; lockstep polls at the start of a step
       case Source::Seccomp: {
         ServiceRuntime& s = services[index];
-        on_seccomp_notice(s);
+        warden.on_seccomp_notice(s);
         // No process uses the filter any more (the service and its images are gone): nothing more can come.
         if (e.hangup && !e.readable && s.sandbox.seccomp.valid()) {
           (void)epoll.remove(s.sandbox.seccomp.fd());
@@ -162,18 +162,18 @@ Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
         }
         break;
       }
-      case Source::Output: on_service_output(services[index]); break;
+      case Source::Output: warden.on_service_output(services[index]); break;
     }
   }
-  drain_denials();
-  check_deadlines();
+  router.drain_denials();
+  supervisor.check_deadlines();
   return {};
 }
 
 void Kernel::Impl::on_dds_ready(std::size_t index) {
   if (!bridge) return;
   if (bridge->is_step_input(index)) {
-    take_steps();  // lockstep.cpp
+    lockstep.take_steps();  // lockstep.cpp
     return;
   }
   dds::Bridge::Input& in = bridge->readers()[index];
@@ -181,20 +181,20 @@ void Kernel::Impl::on_dds_ready(std::size_t index) {
     // The lockstep adapter's count-only reader: samples that did not fit their SimStep on a topic the graph
     // does not bridge in, dropped but counted toward SimStep.samples_published.
     auto n = in.reader.take([](std::span<const std::byte>) {});
-    if (n) steps.count_samples(*n);
+    if (n) lockstep.steps.count_samples(*n);
     return;
   }
   const ObjectId topic = *in.topic;
   auto n = in.reader.take([&](std::span<const std::byte> bytes) {
-    steps.count_samples(1);
+    lockstep.steps.count_samples(1);
     if (stopping) return;
     if (clock_mode == ClockMode::Realtime) {
       if (!booted) return;
       if (!clock_synced) sync_realtime_clock(bytes);
-      publish_as_kernel(topic, bytes, From::Bridge);
+      router.publish_as_kernel(topic, bytes, Router::From::Bridge);
       return;
     }
-    stage_sample(index, bytes);
+    lockstep.stage_sample(index, bytes);
   });
   if (!n) log("DDS take %s: %s", in.reader.topic_name().c_str(), n.error().to_string().c_str());
 }
@@ -218,14 +218,14 @@ void Kernel::Impl::fire_timers() {
   timers.fire_due(now(), [&](const clock::KernelTimer& t) {
     ServiceRuntime& s = services[t.service.value()];
     if (!s.live()) return;
-    if (tx.build(wire::FrameKind::TimerFired, 0, 0, t.id)) send_control(s, tx.bytes());
+    if (tx.build(wire::FrameKind::TimerFired, 0, 0, t.id)) router.send_control(s, tx.bytes());
   });
 }
 
 void Kernel::Impl::arm_timerfd() {
   if (!timerfd || !clock_synced) return;
   auto due = timers.next_due();
-  if (const auto timer = coordinator.timer_due()) due = due ? std::min(*due, *timer) : *timer;
+  if (const auto timer = rejuvenator.coordinator.timer_due()) due = due ? std::min(*due, *timer) : *timer;
   (void)timerfd->arm_at(due ? std::optional<Nanos>(*due + run_start_mono) : std::nullopt);
 }
 
@@ -245,10 +245,10 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
     if (s.proc.booting()) consider(s.proc.spawned_at + options.boot_deadline);
     if (s.live() && s.proc.channel_closed_at) consider(*s.proc.channel_closed_at + kChannelCloseGrace);
   }
-  if (const auto at = steps.idle_deadline(options.idle_deadline)) consider(*at);
-  if (const auto at = steps.stall_deadline(); plant_started && at) consider(*at);
-  if (const auto at = coordinator.work_deadline()) consider(*at);
-  if (const auto at = pace.wait_deadline()) consider(*at);
+  if (const auto at = lockstep.steps.idle_deadline(options.idle_deadline)) consider(*at);
+  if (const auto at = lockstep.steps.stall_deadline(); supervisor.plant_started && at) consider(*at);
+  if (const auto at = rejuvenator.coordinator.work_deadline()) consider(*at);
+  if (const auto at = rejuvenator.pace.wait_deadline()) consider(*at);
   return best;
 }
 
@@ -258,36 +258,39 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
 // ends when the chain has handled all of it: each of its services is sent a Sync after its last frame and
 // answers Idle. Live samples wait behind the replay and are released at its end.
 void Kernel::Impl::pace_catch_up() {
-  if (!catch_up.replaying()) return;
+  if (!rejuvenator.catch_up.replaying()) return;
   static constexpr int kInstantsPerRound = 4;
   // A reader that does not keep up (hung, or starved of the CPU) must not hold the controllers' estimates back:
   // past five control periods the replay stops where it is and the live samples go out.
   static constexpr Nanos kBound{std::chrono::milliseconds{20}};
-  if (const Nanos took = wall() - catch_up.began_at(); took > kBound) {
+  if (const Nanos took = wall() - rejuvenator.catch_up.began_at(); took > kBound) {
     log("estimate catch-up cut short after %.1f ms: the chain did not keep up", to_seconds(took).count() * 1e3);
-    catch_up.cut_short(
-        [&](ObjectId topic, std::span<const std::byte> bytes) { publish_as_kernel(topic, bytes, From::Held); });
+    rejuvenator.catch_up.cut_short([&](ObjectId topic, std::span<const std::byte> bytes) {
+      router.publish_as_kernel(topic, bytes, Router::From::Held);
+    });
     return;
   }
-  if (catch_up.replay_pending()) {
+  if (rejuvenator.catch_up.replay_pending()) {
     const bool keeping_up = std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
-      return !catch_up.in_chain(s.id) || !s.live() || s.flow.drained();
+      return !rejuvenator.catch_up.in_chain(s.id) || !s.live() || s.flow.drained();
     });
     if (!keeping_up) return;
-    cork();
-    for (int i = 0; i < kInstantsPerRound && catch_up.replay_pending(); ++i) (void)replay_instant();
-    uncork();
+    router.cork();
+    for (int i = 0; i < kInstantsPerRound && rejuvenator.catch_up.replay_pending(); ++i)
+      (void)lockstep.replay_instant();
+    router.uncork();
     return;
   }
   bool handled = true;
   for (ServiceRuntime& s : services) {
-    if (!catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
+    if (!rejuvenator.catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
     handled = false;
-    if (catch_up.sync_due(s.id, s.flow.frames_issued()) && tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
-      send_control(s, tx.bytes());
+    if (rejuvenator.catch_up.sync_due(s.id, s.flow.frames_issued()) &&
+        tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
+      router.send_control(s, tx.bytes());
     }
   }
-  if (handled) (void)replay_instant();  // nothing left: the replay ends, the live samples go out
+  if (handled) (void)lockstep.replay_instant();  // nothing left: the replay ends, the live samples go out
 }
 
 // The realtime clock (DESIGN §6): the kernel clock is CLOCK_MONOTONIC since the run started (or the plant's,
@@ -296,23 +299,25 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
   run_start_mono = sys::monotonic_now();
   clock_synced = !graph.graph.has_plant() || options.time_master != TimeMaster::Plant;
   set_now(Nanos{0});
-  publish_sr_mode();
-  flush_staged();  // anything published during boot
-  request_priming();
+  router.publish_sr_mode();
+  router.flush_staged();  // anything published during boot
+  lockstep.request_priming();
   arm_timerfd();
-  start_realtime_plan();  // realtime.cpp
+  supervisor.start_realtime_plan();  // realtime.cpp
   while (!stop) {
     // While the estimate catches up the loop only looks for events: the replay goes on as soon as it can.
-    if (auto ok = pump(catch_up.replaying() ? Nanos{0} : Nanos{std::chrono::milliseconds{100}}); !ok) return ok;
-    while (service_images()) {
+    if (auto ok = pump(rejuvenator.catch_up.replaying() ? Nanos{0} : Nanos{std::chrono::milliseconds{100}});
+        !ok)
+      return ok;
+    while (rejuvenator.service_images()) {
     }
     pace_catch_up();
     if (now() - last_progress >= std::chrono::milliseconds{100}) {
       last_progress = now();
-      if (observer != nullptr) observer->on_step(steps.steps_done(), now(), caps.mode());
-      steps.tick();
+      if (observer != nullptr) observer->on_step(lockstep.steps.steps_done(), now(), caps.mode());
+      lockstep.steps.tick();
     }
-    check_stop_conditions();
+    lockstep.check_stop_conditions();
   }
   return {};
 }

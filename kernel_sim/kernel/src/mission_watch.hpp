@@ -1,5 +1,5 @@
 // The kernel's observers of what it routes, kept out of the routing core (router.cpp only routes). One hook
-// feeds them each publication, Kernel::Impl::watch_publication; denials come through drain_denials. Code in
+// feeds them each publication, Router::watch_publication (router.hpp); denials come through drain_denials. Code in
 // watch.cpp:
 //   - the run's Observer (Observer::on_publication, on_control_update for Fig. 7);
 //   - MissionWatch: the mission's end, the first Setpoint a service publishes with mission_done = 1

@@ -174,7 +174,7 @@ void Kernel::Impl::net_poll() {
       // them would be its fault (docs/protocol.md "flow control") — a flood must not make it one.
       if (!s.flow.drained()) continue;
       if (!tx.build(wire::FrameKind::NetDatagram, reader.slot.value(), 0, id, bytes)) continue;
-      send_control(s, tx.bytes());
+      router.send_control(s, tx.bytes());
       sent = true;
     }
     if (!held) {
@@ -204,7 +204,7 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::I
     // before anything changes: a datagram relayed to this gate lately, not judged yet.
     NetGate::Relayed& d = net.recent[verdict->datagram % kRecentDatagrams];
     if (d.id != verdict->datagram || d.judged) {
-      reply(s, seq, static_cast<std::int32_t>(wire::OpError::BadArgument));
+      input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::BadArgument));
       return;
     }
     d.judged = true;
@@ -215,13 +215,13 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::I
       ++net.stats.judged_refused;
       ++net.stats.refused_by_reason[verdict->reason];
     }
-    reply(s, seq, 0);
+    input.reply(s, seq, 0);
     return;
   }
   const std::span<const std::byte> data = std::get<NetInvocation::Send>(what.what).datagram;  // 1 … kMaxDatagramBytes
   // The gate is off (disabled, bind failed, another NETWORK object).
   if (!net.socket.valid() || !net.object || authority.object() != *net.object) {
-    refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
+    input.refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
   // No ground station has spoken yet: nowhere to send. Not a fault of the sender (its telemetry may start
@@ -229,16 +229,16 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::I
   // rollbacks that wipe whatever ext_link learned in MC.
   if (!net.peer) {
     ++net.stats.unsent_no_ground;
-    reply(s, seq, static_cast<std::int32_t>(wire::OpError::Refused));
+    input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
   if (auto ok = net.socket.send_to(data, *net.peer); !ok) {
     if (allow_log(net, wall())) log("network gate: send to %s: %s", net.peer->to_string().c_str(), ok.error().to_string().c_str());
-    refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
+    input.refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
   ++net.stats.sent;
-  reply(s, seq, 0, data.size());
+  input.reply(s, seq, 0, data.size());
 }
 
 NetStats Kernel::net_stats() const { return impl_->net.stats; }

@@ -11,14 +11,15 @@
 
 namespace rejuv::kernel {
 
-void Kernel::Impl::start_realtime_plan() {
-  const proto::RealtimePlan& plan = graph.graph.realtime();
-  if (!plan.enabled() || clock_mode != ClockMode::Realtime) return;
+void Supervisor::start_realtime_plan() {
+  const proto::RealtimePlan& plan = k.graph.graph.realtime();
+  if (!plan.enabled() || k.clock_mode != ClockMode::Realtime) return;
   const launch::RealtimeValues v = launch::realtime_values(plan);
   const auto kernel = static_cast<int>(v.kernel_priority);
   const auto plant_priority = static_cast<int>(v.plant_priority);
   if (auto ok = sys::set_fifo_all_threads(kernel); !ok) {
-    log("real-time plan not applied: the kernel cannot have SCHED_FIFO %d (%s; it needs CAP_SYS_NICE or "
+    k.log(
+        "real-time plan not applied: the kernel cannot have SCHED_FIFO %d (%s; it needs CAP_SYS_NICE or "
         "RLIMIT_RTPRIO): every process runs SCHED_OTHER",
         kernel, ok.error().to_string().c_str());
     return;
@@ -48,7 +49,7 @@ void Kernel::Impl::start_realtime_plan() {
     }
   }
   int chain = 0;
-  for (ServiceRuntime& s : services) {
+  for (ServiceRuntime& s : k.services) {
     if (s.config.spec != nullptr && s.config.spec->has_cpu() && s.live()) {
       if (auto ok = sys::pin_to_cpu(s.proc.process.pid(), s.config.spec->cpu()); !ok) {
         notes += "; '" + s.name + "' not pinned to CPU " + std::to_string(s.config.spec->cpu()) + " (" +
@@ -58,11 +59,13 @@ void Kernel::Impl::start_realtime_plan() {
     if (s.live() && s.proc.phase() == Phase::Ready) apply_realtime(s);
     if (s.config.spec != nullptr && s.config.spec->rt_priority() > 0) ++chain;
   }
-  log("real-time plan: kernel SCHED_FIFO %d, plant %d, %d services at their rt_priority (RLIMIT_RTTIME %u ms)%s",
+  k.log(
+      "real-time plan: kernel SCHED_FIFO %d, plant %d, %d services at their rt_priority (RLIMIT_RTTIME %u "
+      "ms)%s",
       kernel, plant_priority, chain, v.max_rt_time_ms, notes.c_str());
 }
 
-void Kernel::Impl::apply_realtime(ServiceRuntime& s) {
+void Supervisor::apply_realtime(ServiceRuntime& s) {
   if (!realtime_active || s.config.spec == nullptr || !s.live()) return;
   const proto::ServiceSpec& spec = *s.config.spec;
   // Its CPU first (a copy inherits its image's, which is the incarnation's it was taken from: set again for
@@ -74,7 +77,8 @@ void Kernel::Impl::apply_realtime(ServiceRuntime& s) {
   // RLIMIT_RTTIME was set at spawn (limits_for) and is inherited by every image; the policy is reset on fork
   // and given back here to whichever process is the live service.
   auto ok = sys::set_fifo(s.proc.process.pid(), static_cast<int>(spec.rt_priority()));
-  if (!ok) log("real-time plan: '%s' stays SCHED_OTHER (%s)", s.name.c_str(), ok.error().to_string().c_str());
+  if (!ok)
+    k.log("real-time plan: '%s' stays SCHED_OTHER (%s)", s.name.c_str(), ok.error().to_string().c_str());
 }
 
 }  // namespace rejuv::kernel

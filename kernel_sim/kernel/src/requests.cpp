@@ -13,7 +13,7 @@
 
 namespace rejuv::kernel {
 
-void Kernel::Impl::read_channel(ServiceRuntime& s) {
+void ChannelInput::read_channel(ServiceRuntime& s) {
   // A burst of datagrams per recvmmsg (channel::BatchReader); no new burst once kFramesPerWakeup frames were
   // read in this wakeup (a packed datagram holds many).
   std::array<sys::Received, sys::kMaxReceiveBatch> receipts{};
@@ -22,9 +22,9 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
   const auto lose_channel = [&] {
     // The service closed fd 3, or is exiting (its pidfd tells which, soon). A live service without a
     // channel cannot be driven: check_deadlines loses it if it is still running after a grace period.
-    (void)epoll.remove(s.proc.channel.fd());
+    (void)k.epoll.remove(s.proc.channel.fd());
     s.proc.channel.close();
-    s.proc.channel_closed_at = wall();
+    s.proc.channel_closed_at = k.wall();
   };
   for (;;) {
     if (!s.live() || !s.proc.channel.valid()) return;  // a frame before this one lost the service
@@ -32,7 +32,8 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
     // One fd at most per datagram: TakenPages carries its pages; on any other frame an fd is refused.
     auto got = reader.next_datagram(s.proc.channel, 1, sys::Wait::No);
     if (!got) {
-      if (got.error().error != ECONNRESET) log("channel of '%s': %s", s.name.c_str(), got.error().to_string().c_str());
+      if (got.error().error != ECONNRESET)
+        k.log("channel of '%s': %s", s.name.c_str(), got.error().to_string().c_str());
       lose_channel();
       return;
     }
@@ -43,11 +44,12 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
       lose_channel();
       return;
     }
-    if (CheckpointRun* const running = coordinator.running(); !r.truncated && r.fds_truncated && running != nullptr) {
+    if (CheckpointRun* const running = k.rejuvenator.coordinator.running();
+        !r.truncated && r.fds_truncated && running != nullptr) {
       // A TakenPages whose pages fd the kernel could not install (out of fds: MSG_CTRUNC) is its answer all
       // the same: the checkpoint is abandoned now, instead of killing every service at the snapshot deadline.
       auto frame = wire::decode(datagram, wire::Direction::ToKernel);
-      if (frame && frame->kind == wire::FrameKind::TakenPages && expecting_image(s, *frame)) {
+      if (frame && frame->kind == wire::FrameKind::TakenPages && k.rejuvenator.expecting_image(s, *frame)) {
         ++s.stats.frames_in;
         running->failure = "the written pages of '" + s.name + "' could not be received (is the kernel out of fds?)";
         continue;
@@ -55,17 +57,18 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
     }
     if (r.truncated || r.fds_truncated) {
       ++s.stats.frames_in;
-      refuse(s, r.truncated ? "datagram longer than the maximum frame size" : "frame carried file descriptors (closed)");
+      k.refuse(s, r.truncated ? "datagram longer than the maximum frame size"
+                              : "frame carried file descriptors (closed)");
       continue;
     }
     if (!r.fds.empty()) {  // a datagram with an fd is one TakenPages frame (docs/protocol.md "Framing")
       ++s.stats.frames_in;
       auto frame = wire::decode(datagram, wire::Direction::ToKernel);
       if (!frame || frame->kind != wire::FrameKind::TakenPages) {
-        refuse(s, "frame carried file descriptors (closed)");
+        k.refuse(s, "frame carried file descriptors (closed)");
         continue;
       }
-      on_taken_pages(s, *frame, std::move(r.fds.front()));  // checkpoint.cpp
+      k.rejuvenator.on_taken_pages(s, *frame, std::move(r.fds.front()));  // checkpoint.cpp
       continue;
     }
     // One frame or several back to back (wire::next_frame). A frame that does not decode ends its
@@ -74,13 +77,13 @@ void Kernel::Impl::read_channel(ServiceRuntime& s) {
   }
 }
 
-void Kernel::Impl::receive_datagram(ServiceRuntime& s, std::span<const std::byte> datagram) {
+void ChannelInput::receive_datagram(ServiceRuntime& s, std::span<const std::byte> datagram) {
   std::size_t offset = 0;
   do {
     ++s.stats.frames_in;
     auto frame = wire::decode(wire::next_frame(datagram, offset), wire::Direction::ToKernel);
     if (!frame) {
-      refuse(s, wire::to_string(frame.error()));
+      k.refuse(s, wire::to_string(frame.error()));
       break;
     }
     handle_frame(s, *frame);
@@ -96,56 +99,56 @@ constexpr bool needs_boot(wire::FrameKind kind) {
 }
 }  // namespace
 
-void Kernel::Impl::handle_hello(ServiceRuntime& s, const wire::FrameView& f) {
+void ChannelInput::handle_hello(ServiceRuntime& s, const wire::FrameView& f) {
   if (s.proc.phase() != Phase::Spawned) {
-    refuse(s, "Hello after boot");
+    k.refuse(s, "Hello after boot");
     return;
   }
   if (f.header.aux != wire::kProtocolVersion) {
-    log("'%s' speaks protocol version %llu, the kernel %u", s.name.c_str(),
-        static_cast<unsigned long long>(f.header.aux), static_cast<unsigned>(wire::kProtocolVersion));
+    k.log("'%s' speaks protocol version %llu, the kernel %u", s.name.c_str(),
+          static_cast<unsigned long long>(f.header.aux), static_cast<unsigned>(wire::kProtocolVersion));
   }
-  send_boot(s);
+  k.supervisor.send_boot(s);
   s.proc.booted();
 }
 
-void Kernel::Impl::handle_ready(ServiceRuntime& s) {
+void ChannelInput::handle_ready(ServiceRuntime& s) {
   if (s.proc.phase() != Phase::Booted) {
-    refuse(s, "Ready outside boot");
+    k.refuse(s, "Ready outside boot");
     return;
   }
   s.proc.became_ready();
-  apply_realtime(s);  // realtime.cpp: a (re)started service joins the real-time plan
+  k.supervisor.apply_realtime(s);  // realtime.cpp: a (re)started service joins the real-time plan
 }
 
-void Kernel::Impl::handle_timer_arm(ServiceRuntime& s, const wire::FrameView& f) {
+void ChannelInput::handle_timer_arm(ServiceRuntime& s, const wire::FrameView& f) {
   const auto spec = wire::payload_as<wire::TimerSpec>(f);
   constexpr std::uint64_t kMaxNs = std::uint64_t{1} << 62U;
   if (spec.first_ns >= kMaxNs || spec.period_ns >= kMaxNs) {
-    refuse(s, "TimerArm: time out of range");
+    k.refuse(s, "TimerArm: time out of range");
     return;
   }
-  if (auto ok = timers.arm(s.id, spec.id, Nanos{static_cast<std::int64_t>(spec.first_ns)},
-                           Nanos{static_cast<std::int64_t>(spec.period_ns)});
+  if (auto ok = k.timers.arm(s.id, spec.id, Nanos{static_cast<std::int64_t>(spec.first_ns)},
+                             Nanos{static_cast<std::int64_t>(spec.period_ns)});
       !ok) {
-    refuse(s, std::string("TimerArm: ") + std::string(clock::to_string(ok.error())));
+    k.refuse(s, std::string("TimerArm: ") + std::string(clock::to_string(ok.error())));
     return;
   }
-  if (clock_mode == ClockMode::Realtime) arm_timerfd();
+  if (k.clock_mode == ClockMode::Realtime) k.arm_timerfd();
 }
 
-void Kernel::Impl::handle_log(ServiceRuntime& s, const wire::FrameView& f) {
+void ChannelInput::handle_log(ServiceRuntime& s, const wire::FrameView& f) {
   const auto head = wire::payload_as<wire::LogHeader>(f);
   const auto text = f.payload.subspan(sizeof(wire::LogHeader));
   const auto level = head.level <= static_cast<std::uint8_t>(wire::LogLevel::Error)
                          ? static_cast<wire::LogLevel>(head.level)
                          : wire::LogLevel::Info;
-  service_log(s, level, std::string_view(reinterpret_cast<const char*>(text.data()), text.size()));
+  k.service_log(s, level, std::string_view(reinterpret_cast<const char*>(text.data()), text.size()));
 }
 
-void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
+void ChannelInput::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
   if (needs_boot(f.kind) && s.proc.phase() != Phase::Booted && s.proc.phase() != Phase::Ready) {
-    refuse(s, std::string(wire::to_string(f.kind)) + " before boot");
+    k.refuse(s, std::string(wire::to_string(f.kind)) + " before boot");
     return;
   }
   switch (f.kind) {
@@ -155,9 +158,7 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Ready:
       handle_ready(s);
       return;
-    case wire::FrameKind::Publish:
-      ingest_publish(s, f.header.slot, f.payload);
-      return;
+    case wire::FrameKind::Publish: k.router.ingest_publish(s, f.header.slot, f.payload); return;
     case wire::FrameKind::Subscribe:
       handle_subscribe(s, f);
       return;
@@ -169,7 +170,7 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       return;
     case wire::FrameKind::TimerCancel:
       // A one-shot timer that fired while the cancel was in flight is gone already: not an error.
-      (void)timers.cancel(s.id, f.header.aux);
+      (void)k.timers.cancel(s.id, f.header.aux);
       return;
     case wire::FrameKind::Log:
       handle_log(s, f);
@@ -178,17 +179,17 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       s.flow.on_idle(f.header.aux);
       return;
     case wire::FrameKind::Taken:
-      on_taken(s, f);  // checkpoint.cpp
+      k.rejuvenator.on_taken(s, f);  // checkpoint.cpp
       return;
     case wire::FrameKind::TakenPages:
-      refuse(s, "TakenPages without its pages (an fd)");  // with them it is read in read_channel
+      k.refuse(s, "TakenPages without its pages (an fd)");  // with them it is read in read_channel
       return;
     case wire::FrameKind::Resumed:
     case wire::FrameKind::Copied:
       // Read by the image store itself (Resumed on a new channel, rollback.cpp; Copied on a resume socket,
       // kernel_sim/image);
       // on a service's channel it is a lie.
-      refuse(s, std::string(wire::to_string(f.kind)) + " on a service channel");
+      k.refuse(s, std::string(wire::to_string(f.kind)) + " on a service channel");
       return;
     case wire::FrameKind::Boot:
     case wire::FrameKind::BootCap:
@@ -205,43 +206,45 @@ void Kernel::Impl::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
     case wire::FrameKind::Patch:
     case wire::FrameKind::Committed:
     case wire::FrameKind::Sync:
-      refuse(s, "kernel-to-service frame kind");  // decode(ToKernel) already refuses these
+      k.refuse(s, "kernel-to-service frame kind");  // decode(ToKernel) already refuses these
       return;
   }
 }
 
-void Kernel::Impl::reply(ServiceRuntime& s, std::uint32_t seq, std::int32_t error, std::uint64_t value,
+void ChannelInput::reply(ServiceRuntime& s, std::uint32_t seq, std::int32_t error, std::uint64_t value,
                          std::span<const std::byte> data) {
   const wire::ReplyHeader head{.error = error, .reserved = 0, .value = value};
-  if (tx.build_with(wire::FrameKind::Reply, 0, seq, 0, head, data)) send_control(s, tx.bytes());
+  if (k.tx.build_with(wire::FrameKind::Reply, 0, seq, 0, head, data)) k.router.send_control(s, k.tx.bytes());
 }
 
 // The reply codes and rights bits of the wire (rejuv/channel/codes.hpp), one definition for kernel and SDK.
 using channel::denial_code;
 using channel::rights_from_bits;
 
-void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f) {
+void ChannelInput::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f) {
   if ((f.header.aux & ~wire::kSubscribePolled) != 0) {
     reply(s, f.header.seq, op_code(wire::OpError::BadArgument));
     return;
   }
   const bool polled = f.header.aux == wire::kSubscribePolled;
-  auto inv = caps.decode(s.id, Slot(f.header.slot), cap::Operation::Subscribe);
+  auto inv = k.caps.decode(s.id, Slot(f.header.slot), cap::Operation::Subscribe);
   if (!inv) {
     reply(s, f.header.seq, denial_code(inv.error()));
     return;
   }
   const auto kind = s.config.rejuvenate ? broker::SubscriberKind::Rejuvenated : broker::SubscriberKind::Driver;
-  auto sub = broker.subscribe(s.id, inv->object(), kind);
+  auto sub = k.broker.subscribe(s.id, inv->object(), kind);
   if (!sub) {
     reply(s, f.header.seq,
           op_code(sub.error() == broker::BrokerError::AlreadySubscribed ? wire::OpError::AlreadySubscribed
                                                                         : wire::OpError::NoSuchTopic));
     return;
   }
-  if (subscribers.size() <= sub->value()) subscribers.resize(sub->value() + 1);
-  subscribers[sub->value()] = SubscriberInfo{.service = s.id, .slot = Slot(f.header.slot),
-                                             .routed = broker.pending(*sub).value_or(0), .polled = polled};
+  if (k.router.subscribers.size() <= sub->value()) k.router.subscribers.resize(sub->value() + 1);
+  k.router.subscribers[sub->value()] = Router::SubscriberInfo{.service = s.id,
+                                                              .slot = Slot(f.header.slot),
+                                                              .routed = k.broker.pending(*sub).value_or(0),
+                                                              .polled = polled};
   s.subscriptions.push_back(SubscriptionRecord{.slot = Slot(f.header.slot), .topic = inv->object(), .id = *sub});
   reply(s, f.header.seq, 0);
   // uORB: a new subscriber first gets the latest message already published, if any (a polled one with its
@@ -249,7 +252,7 @@ void Kernel::Impl::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f)
   if (polled) {
     s.flow.note_polled();
   } else {
-    push_ring(s, *sub);
+    k.router.push_ring(s, *sub);
   }
 }
 
@@ -312,14 +315,16 @@ Result<ObjectInvocation, BadInvoke> decode_invocation(cap::Operation op, const w
   return bad(true);  // unreachable: every kind is handled above
 }
 
-bool Kernel::Impl::provides(ObjectKind kind) const { return kind != ObjectKind::Checkpoint || sr; }
+bool ChannelInput::provides(ObjectKind kind) const {
+  return kind != ObjectKind::Checkpoint || k.sr;
+}
 
-void Kernel::Impl::refuse_invoke(ServiceRuntime& s, std::uint32_t seq, cap::Operation op, std::int32_t code) {
-  if (op == cap::Operation::NetSend) ++net.stats.send_refused;  // the gate counts every NetSend it refuses
+void ChannelInput::refuse_invoke(ServiceRuntime& s, std::uint32_t seq, cap::Operation op, std::int32_t code) {
+  if (op == cap::Operation::NetSend) ++k.net.stats.send_refused;  // the gate counts every NetSend it refuses
   reply(s, seq, code);
 }
 
-void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
+void ChannelInput::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
   const auto head = wire::payload_as<wire::InvokeHeader>(f);
   const auto data = f.payload.subspan(sizeof(wire::InvokeHeader));
   const std::uint32_t seq = f.header.seq;
@@ -327,7 +332,7 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
   const auto op = cap::operation_from_wire(head.operation);
   if (!op) {
     // Out-of-range operation values go to the cap system too: it refuses and counts them (invalid_operation).
-    auto inv = caps.decode(s.id, slot, static_cast<cap::Operation>(head.operation));
+    auto inv = k.caps.decode(s.id, slot, static_cast<cap::Operation>(head.operation));
     reply(s, seq, inv ? op_code(wire::OpError::BadArgument) : denial_code(inv.error()));
     return;
   }
@@ -339,7 +344,7 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
   if (decoded && std::holds_alternative<CapInvocation>(*decoded)) {
     // The cap system checks the authority with the arguments and carries the operation out (a denial leaves
     // no trace but the audit).
-    auto done = caps.decode_and_invoke(s.id, slot, *op, std::get<CapInvocation>(*decoded).args);
+    auto done = k.caps.decode_and_invoke(s.id, slot, *op, std::get<CapInvocation>(*decoded).args);
     if (!done) {
       reply(s, seq, denial_code(done.error()));
       return;
@@ -349,7 +354,7 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
   }
   // The authority first (a denial answers before the arguments and leaves no trace but the audit), then
   // whether this kernel provides the kind, then the arguments.
-  auto authority = caps.decode(s.id, slot, *op);
+  auto authority = k.caps.decode(s.id, slot, *op);
   if (!authority) {
     refuse_invoke(s, seq, *op, denial_code(authority.error()));
     return;
@@ -362,53 +367,55 @@ void Kernel::Impl::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
     refuse_invoke(s, seq, *op, op_code(decoded.error().error));
     return;
   }
-  ObjectInfo& o = objects[authority->object().value()];
+  ObjectInfo& o = k.objects[authority->object().value()];
   std::visit(Overloaded{
                  [&](const CapInvocation&) {},  // carried out above
                  [&](const CheckpointInvocation& c) { invoke_checkpoint(s, seq, c); },
-                 [&](const NetInvocation& n) { net_invoke(s, seq, *authority, n); },  // netgate.cpp
+                 [&](const NetInvocation& n) { k.net_invoke(s, seq, *authority, n); },  // netgate.cpp
                  [&](const LimitsInvocation& l) { invoke_limits(s, seq, o, l); },
                  [&](const PersistentInvocation& p) { invoke_persistent(s, seq, o, p); },
                  [&](const ModeInvocation& m) {
                    reply(s, seq, 0, index_of(m.mode));
-                   set_mode(m.mode, s.id);  // images.cpp: caps, time page, sr_mode
+                   k.rejuvenator.set_mode(m.mode, s.id);  // images.cpp: caps, time page, sr_mode
                  },
              },
              *decoded);
 }
 
-void Kernel::Impl::invoke_checkpoint(ServiceRuntime& s, std::uint32_t seq, const CheckpointInvocation& c) {
+void ChannelInput::invoke_checkpoint(ServiceRuntime& s, std::uint32_t seq, const CheckpointInvocation& c) {
   std::visit(Overloaded{
                  [&](const CheckpointInvocation::Create&) {
                    // DESIGN §7: answered when generation g is committed (checkpoint.cpp); in a restored image never.
-                   if (!coordinator.ask_checkpoint(s.id, seq)) reply(s, seq, op_code(wire::OpError::Refused));
+                   if (!k.rejuvenator.coordinator.ask_checkpoint(s.id, seq))
+                     reply(s, seq, op_code(wire::OpError::Refused));
                  },
                  [&](const CheckpointInvocation::Rollback&) {
-                   if (images.size() == 0) {
+                   if (k.rejuvenator.images.size() == 0) {
                      reply(s, seq, op_code(wire::OpError::Refused));
                      return;
                    }
                    reply(s, seq, 0);
-                   request_rollback("'" + s.name + "' requested a rollback");
+                   k.rejuvenator.request_rollback("'" + s.name + "' requested a rollback");
                  },
                  [&](const CheckpointInvocation::ArmTimer& t) {  // §V-A do_timer
-                   arm_rejuvenation(s, seq, t.delay, t.periodic ? t.delay : Nanos{0});
+                   k.rejuvenator.arm_rejuvenation(s, seq, t.delay, t.periodic ? t.delay : Nanos{0});
                  },
              },
              c.what);
 }
 
-void Kernel::Impl::invoke_limits(ServiceRuntime& s, std::uint32_t seq, ObjectInfo& o, const LimitsInvocation& l) {
+void ChannelInput::invoke_limits(ServiceRuntime& s, std::uint32_t seq, ObjectInfo& o,
+                                 const LimitsInvocation& l) {
   if (const auto* w = std::get_if<LimitsInvocation::Write>(&l.what)) {
     o.limits.assign(w->data.begin(), w->data.end());
-    sr_event(SrEventKind::LimitsWritten, {}, {}, s.id);
+    k.rejuvenator.sr_event(SrEventKind::LimitsWritten, {}, {}, s.id);
   }
   reply(s, seq, 0, o.limits.size(), std::holds_alternative<LimitsInvocation::Read>(l.what)
                                         ? std::span<const std::byte>(o.limits)
                                         : std::span<const std::byte>{});
 }
 
-void Kernel::Impl::invoke_persistent(ServiceRuntime& s, std::uint32_t seq, ObjectInfo& o,
+void ChannelInput::invoke_persistent(ServiceRuntime& s, std::uint32_t seq, ObjectInfo& o,
                                      const PersistentInvocation& p) {
   const std::span<std::byte> cell(o.persistent);
   std::visit(Overloaded{

@@ -14,28 +14,31 @@ namespace rejuv::kernel {
 
 // ---- rollback ----
 
-void Kernel::Impl::request_rollback(std::string reason) { coordinator.ask_rollback(std::move(reason)); }
+void Rejuvenator::request_rollback(std::string reason) {
+  coordinator.ask_rollback(std::move(reason));
+}
 
-void Kernel::Impl::retire_live_rejuvenated() {
-  staged.erase_if([&](std::uint32_t origin, std::uint32_t /*slot*/) { return services[origin].config.rejuvenate; });
-  for (ServiceRuntime& s : services) {
+void Rejuvenator::retire_live_rejuvenated() {
+  k.lockstep.staged.erase_if(
+      [&](std::uint32_t origin, std::uint32_t /*slot*/) { return k.services[origin].config.rejuvenate; });
+  for (ServiceRuntime& s : k.services) {
     if (!s.config.rejuvenate || s.config.skip || s.proc.phase() == Phase::NotStarted) continue;
     if (s.live()) {
       // Out of the rollback's way (Reaper::retire: SIGSTOP, every thread stopped before any image is resumed
       // and before the epoch changes), with its channel out of the loop, no signal to another process and no
       // socket (seccomp): it cannot slow the rollback down or reach anything. Killed after the rollback, at a
       // safe point (Reaper::kill_retired).
-      (void)epoll.remove(s.proc.process.pidfd());
+      (void)k.epoll.remove(s.proc.process.pidfd());
       reaper.retire(std::move(s.proc.process));
       s.proc.process = sys::ChildProcess{};
     }
     if (s.proc.channel.valid()) {
-      (void)epoll.remove(s.proc.channel.fd());
+      (void)k.epoll.remove(s.proc.channel.fd());
       channel_pool.close_later(s.proc.channel.take_fd());  // closed off the critical path (refill_pairs)
     }
     s.proc.ended();
-    broker.remove_service(s.id);
-    timers.remove_service(s.id);
+    k.broker.remove_service(s.id);
+    k.timers.remove_service(s.id);
     s.flow.reset();
     s.proc.channel_closed_at.reset();
     s.proc.loss_reason.clear();
@@ -65,9 +68,9 @@ std::expected<pid_t, std::string> read_resumed(const sys::SeqPacket& channel, Ge
 }
 }  // namespace
 
-bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
-                                     Nanos& resumed_at) {
-  const Epoch next = kernel_clock.next_epoch();
+bool Rejuvenator::resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
+                                    Nanos& resumed_at) {
+  const Epoch next = k.kernel_clock.next_epoch();
   struct Pending {
     ServiceRuntime* service = nullptr;
     image::Image* image = nullptr;
@@ -78,7 +81,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
   pending.reserve(record.images.size());
   // All Resumes first: the images wake in parallel. No fork here: a spare copy takes the Resume.
   for (image::Image& im : record.images) {
-    ServiceRuntime& s = services[im.service.value()];
+    ServiceRuntime& s = k.services[im.service.value()];
     auto channel = channel_pool.take();
     if (!channel) {
       failure = "channel for a restored image: " + channel.error().to_string();
@@ -92,9 +95,9 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
       break;
     }
     const wire::ResumeBody body{.epoch = next.value(), .reserved = 0};
-    if (!tx.build_with(wire::FrameKind::Resume, 0, 0, record.g.value(), body)) break;
+    if (!k.tx.build_with(wire::FrameKind::Resume, 0, 0, record.g.value(), body)) break;
     const std::array<int, 2> service_ends{channel->second.fd(), output->write.get()};
-    if (auto sent = im.resume.send(tx.bytes(), service_ends); !sent) {
+    if (auto sent = im.resume.send(k.tx.bytes(), service_ends); !sent) {
       failure = "Resume to the image of '" + s.name + "': " + sent.error().to_string();
       break;
     }
@@ -105,7 +108,7 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     pending.push_back(Pending{.service = &s, .image = &im, .channel = std::move(channel->first),
                               .output = std::move(output->read)});
   }
-  if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
+  if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
   // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
   // (on a failure the caller retires it again).
   for (Pending& p : pending) {
@@ -129,15 +132,16 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
                   (im.patch_pending ? "its patch" : "no patch") + " on their way" +
                   (im.last_death.empty() ? "" : "; " + im.last_death) + ")";
       }
-      record_violation(s, Violation::ImageLost,
-                       "generation " + std::to_string(record.g.value()) + ": no Resumed (" +
-                           (answer ? "pid " + std::to_string(pid) + " is no copy" : answer.error()) + ")");
+      k.warden.record_violation(s, Violation::ImageLost,
+                                "generation " + std::to_string(record.g.value()) + ": no Resumed (" +
+                                    (answer ? "pid " + std::to_string(pid) + " is no copy" : answer.error()) +
+                                    ")");
       continue;  // its copies are killed with the generation
     }
     p.image->resumed.push_back(pid);
     s.pages.start_incarnation(record.g);
     s.proc.channel = std::move(p.channel);
-    if (auto watched = replace_output(s, std::move(p.output)); !watched && failure.empty()) {
+    if (auto watched = k.warden.replace_output(s, std::move(p.output)); !watched && failure.empty()) {
       failure = "watching the restored '" + s.name + "' output: " + watched.error().to_string();
     }
     s.proc.resumed();
@@ -148,37 +152,37 @@ bool Kernel::Impl::resume_generation(image::GenerationRecord& record, Nanos dead
     // generation is unusable rather than half-installed.
     for (const auto& [fd, source] :
          {std::pair{s.proc.channel.fd(), Source::Channel}, std::pair{s.proc.process.pidfd(), Source::Pidfd}}) {
-      if (auto added = epoll.add(fd, token(source, s.id.value())); !added && failure.empty()) {
+      if (auto added = k.epoll.add(fd, token(source, s.id.value())); !added && failure.empty()) {
         failure = "watching the restored '" + s.name + "': " + added.error().to_string();
       }
     }
   }
   if (pending.size() != record.images.size() && failure.empty()) failure = "not every image could be resumed";
   if (!failure.empty()) return false;
-  resumed_at = wall();
-  if (auto restored = restore_state(record.state, now(), services, broker, timers); !restored) {
+  resumed_at = k.wall();
+  if (auto restored = restore_state(record.state, k.now(), k.services, k.broker, k.timers); !restored) {
     failure = "queue state: " + std::string(broker::to_string(restored.error()));
     return false;
   }
-  if (observer != nullptr) observer->on_restore(record.g, broker);
-  kernel_clock.begin_epoch();  // = next, told to the images in their Resume
+  if (k.observer != nullptr) k.observer->on_restore(record.g, k.broker);
+  k.kernel_clock.begin_epoch();  // = next, told to the images in their Resume
   return true;
 }
 
-void Kernel::Impl::run_rollback(const std::string& reason) {
+void Rejuvenator::run_rollback(const std::string& reason) {
   if (coordinator.work_left()) run_image_work();  // the newest generation's patches first: the rollback resumes them
-  const Nanos t0 = wall();
+  const Nanos t0 = k.wall();
   // A checkpoint asked for by an incarnation that is about to die is void: nobody waits for its answer.
   if (coordinator.checkpoint() == ImageCoordinator::Checkpoint::Asked) {
     const std::optional<ServiceId> by = coordinator.asked_by();
-    if (by && services[by->value()].config.rejuvenate) coordinator.void_ask();
+    if (by && k.services[by->value()].config.rejuvenate) coordinator.void_ask();
   }
   // The network is revoked before anything else happens; sr_mode is published once the services are back
   // (the ones about to die need not be woken for it).
   (void)enter_mode(SrMode::RB);
   sr_event(SrEventKind::Mode);
   retire_live_rejuvenated();
-  const Nanos t_killed = wall();
+  const Nanos t_killed = k.wall();
   Nanos t_resumed = t_killed;
   // The whole rollback has image_wait_bound() (resume_deadline where the vehicle waits with us,
   // unseen_resume_deadline otherwise), and a fallback at least resume_deadline: below the plant's ack timeout
@@ -187,18 +191,19 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   image::GenerationRecord* restored = nullptr;
   while (image::GenerationRecord* record = images.newest()) {
     std::string failure;
-    if (observer != nullptr) observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
+    if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
     if (const auto dead = images.dead_image(*record)) {
       const image::Image* im = record->image_of(*dead);
-      failure = "the image of '" + services[dead->value()].name + "' is gone" +
+      failure = "the image of '" + k.services[dead->value()].name + "' is gone" +
                 (im != nullptr && !im->last_death.empty() ? " (" + im->last_death + ")" : "");
-      record_violation(services[dead->value()], Violation::ImageLost,
-                       "generation " + std::to_string(record->g.value()) + ": " + failure);
-    } else if (resume_generation(*record, std::max(rollback_by, wall() + options.resume_deadline), failure, t_resumed)) {
+      k.warden.record_violation(k.services[dead->value()], Violation::ImageLost,
+                                "generation " + std::to_string(record->g.value()) + ": " + failure);
+    } else if (resume_generation(*record, std::max(rollback_by, k.wall() + k.options.resume_deadline),
+                                 failure, t_resumed)) {
       restored = record;
       break;
     }
-    log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
+    k.log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
     ++sr_stats.fallbacks;
     retire_live_rejuvenated();  // whatever of it was resumed
     if (auto taken = images.take(record->g)) retire(std::move(*taken));
@@ -208,26 +213,29 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
     return;
   }
   // The rollback is the rejuvenation: a pending once-timer is spent; a periodic one runs on.
-  coordinator.rejuvenated(now());
-  arm_timerfd();
-  const Epoch epoch = kernel_clock.epoch();
+  coordinator.rejuvenated(k.now());
+  k.arm_timerfd();
+  const Epoch epoch = k.kernel_clock.epoch();
   // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
   // woken by a delivery, or the plant's thread woken by a DDS write, may take the CPU at once.
   routing.freeze();
-  publish_kernel_message(rejuv_msg_RollbackSignal{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
-                                                   .generation = restored->g.value(),
-                                                   .epoch = epoch.value()});
-  publish_sr_mode();
-  const Nanos took = wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
+  KernelMessage<rejuv_msg_RollbackSignal> signal;
+  signal.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
+  signal.fields.generation = restored->g.value();
+  signal.fields.epoch = epoch.value();
+  k.router.publish_kernel_message(signal);
+  k.router.publish_sr_mode();
+  const Nanos took =
+      k.wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
   resume_routing();
   // The restored estimator chain is fed the plant's samples since g's cut before the step goes on (lockstep.cpp).
-  if (catch_up.begin(restored->g, wall()) == CatchUp::Begin::NoLog) {
-    log("rollback to generation %llu: its samples are no longer all kept; the estimator is not caught up",
-        num(restored->g));
+  if (catch_up.begin(restored->g, k.wall()) == CatchUp::Begin::NoLog) {
+    k.log("rollback to generation %llu: its samples are no longer all kept; the estimator is not caught up",
+          num(restored->g));
   }
   // The restored copies ran SCHED_OTHER (reset on fork) until now: the real-time plan back, after the timed
   // part (realtime.cpp; a system call per service).
-  for (const image::Image& im : restored->images) apply_realtime(services[im.service.value()]);
+  for (const image::Image& im : restored->images) k.supervisor.apply_realtime(k.services[im.service.value()]);
   sr_stats.rollback_phases.a.add(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.add(to_ms(t_resumed - t_killed));
   sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
@@ -239,14 +247,14 @@ void Kernel::Impl::run_rollback(const std::string& reason) {
   ++sr_stats.rollbacks;
   sr_stats.rollback_ms.add(to_ms(took));
   image_charge.rollback(took, sr_stats);
-  if (options.verbose) {
-    log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(), to_ms(took),
-        reason.c_str());
+  if (k.options.verbose) {
+    k.log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(),
+          to_ms(took), reason.c_str());
   }
 }
 
-void Kernel::Impl::cold_restart(const std::string& reason) {
-  log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
+void Rejuvenator::cold_restart(const std::string& reason) {
+  k.log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats.cold_restarts;
   sr_event(SrEventKind::ColdRestart);
   if (std::optional<ImageWork> left = coordinator.take_work()) {  // for generations that go now: only the evicted matter
@@ -257,32 +265,32 @@ void Kernel::Impl::cold_restart(const std::string& reason) {
   reaper.kill_retired();
   catch_up.forget();  // the services start from their binaries: no generation to catch up to
   coordinator.reset_timer();
-  arm_timerfd();
-  kernel_clock.begin_epoch();
+  k.arm_timerfd();
+  k.kernel_clock.begin_epoch();
   set_mode(SrMode::SC);  // safe, network off
-  for (ServiceRuntime& s : services) {
+  for (ServiceRuntime& s : k.services) {
     if (!s.config.rejuvenate || s.config.skip) continue;
     s.subscriptions.clear();
-    s.config.params = build_params(*this, s);  // boot.cold_restarts: the estimator starts from the sensors
+    s.config.params = build_params(k, s);  // boot.cold_restarts: the estimator starts from the sensors
     s.flow.new_channel();
-    if (auto ok = spawn_one(s); !ok) {
-      stop_run(StopReason::ServiceFailed, "cold restart: " + ok.error().message);
+    if (auto ok = k.supervisor.spawn_one(s); !ok) {
+      k.stop_run(StopReason::ServiceFailed, "cold restart: " + ok.error().message);
       return;
     }
   }
   // Booted here, like at start (Kernel::boot), so that no step runs with half a graph. A service that does
   // not come up ends the run: there is nothing left to fall back to.
   const auto restarted = [&](const auto& pred) {
-    return std::any_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
+    return std::any_of(k.services.begin(), k.services.end(), [&](const ServiceRuntime& s) {
       return s.config.rejuvenate && !s.config.skip && pred(s);
     });
   };
-  while (!stopping && restarted([](const ServiceRuntime& s) { return s.proc.booting(); })) {
-    if (!pump(options.boot_deadline)) break;
+  while (!k.stopping && restarted([](const ServiceRuntime& s) { return s.proc.booting(); })) {
+    if (!k.pump(k.options.boot_deadline)) break;
   }
   coordinator.drop_rollback();
   if (restarted([](const ServiceRuntime& s) { return s.proc.phase() != Phase::Ready; })) {
-    stop_run(StopReason::ServiceFailed, "cold restart: a rejuvenated service did not boot");
+    k.stop_run(StopReason::ServiceFailed, "cold restart: a rejuvenated service did not boot");
   }
 }
 

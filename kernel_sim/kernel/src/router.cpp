@@ -17,57 +17,61 @@
 
 namespace rejuv::kernel {
 
-void Kernel::Impl::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload) {
-  if (stopping) return;
-  if (clock_mode == ClockMode::Realtime) {
+void Router::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload) {
+  if (k.stopping) return;
+  if (k.clock_mode == ClockMode::Realtime) {
     route_publish(s, slot, payload);
     return;
   }
   if (!s.flow.admit_publication()) {
-    if (s.stats.flood_dropped++ == 0) log("'%s' publishes more than %zu messages in one step; dropping the excess",
-                                          s.name.c_str(), kMaxStagedPerStep);
+    if (s.stats.flood_dropped++ == 0)
+      k.log("'%s' publishes more than %zu messages in one step; dropping the excess", s.name.c_str(),
+            kMaxStagedPerStep);
     return;
   }
-  staged.add(s.id.value(), slot, payload);
+  k.lockstep.staged.add(s.id.value(), slot, payload);
 }
 
-void Kernel::Impl::flush_staged() {
-  staged.drain([&](std::uint32_t origin, std::uint32_t slot, std::span<const std::byte> payload) {
-    ServiceRuntime& s = services[origin];
+void Router::flush_staged() {
+  k.lockstep.staged.drain([&](std::uint32_t origin, std::uint32_t slot, std::span<const std::byte> payload) {
+    ServiceRuntime& s = k.services[origin];
     if (s.proc.phase() == Phase::Dead) return;  // output of a service that died since: discarded
     route_publish(s, slot, payload);
   });
 }
 
-void Kernel::Impl::route_samples() {
-  samples.drain([&](const std::pair<std::uint64_t, std::uint32_t>& key, std::monostate, std::span<const std::byte> bytes) {
+void Router::route_samples() {
+  k.lockstep.samples.drain([&](const std::pair<std::uint64_t, std::uint32_t>& key, std::monostate,
+                               std::span<const std::byte> bytes) {
     const std::uint32_t reader = key.second;
-    if (const auto topic = bridge->readers()[reader].topic) publish_as_kernel(*topic, bytes, From::Bridge);
+    if (const auto topic = k.bridge->readers()[reader].topic) publish_as_kernel(*topic, bytes, From::Bridge);
   });
 }
 
-void Kernel::Impl::route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload) {
-  auto inv = caps.decode(s.id, Slot(slot), cap::Operation::Publish);
+void Router::route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload) {
+  auto inv = k.caps.decode(s.id, Slot(slot), cap::Operation::Publish);
   if (!inv) {
     drain_denials();  // counted, logged, published as a SecurityEvent (watch.cpp)
     return;
   }
-  const ObjectInfo& o = objects[inv->object().value()];
+  const ObjectInfo& o = k.objects[inv->object().value()];
   REJUV_ASSERT(o.type != nullptr, "decode checked that the cap names a topic");
   if (payload.size() != o.type->size) {
     ++s.stats.wrong_size;
-    refuse(s, "publish on '" + o.name + "': " + std::to_string(payload.size()) + " bytes, the topic's type needs " +
-                  std::to_string(o.type->size));
+    k.refuse(s, "publish on '" + o.name + "': " + std::to_string(payload.size()) +
+                    " bytes, the topic's type needs " + std::to_string(o.type->size));
     return;
   }
   if (o.kernel == policy::KernelEndpoint::Publishes) {
-    refuse(s, "publish on '" + o.name + "', which only the kernel publishes");  // the audit forbids the grant
+    k.refuse(s,
+             "publish on '" + o.name + "', which only the kernel publishes");  // the audit forbids the grant
     return;
   }
-  if (catch_up.drops(s.id, o.id)) return;  // the chain catching up: its estimate is not the controllers' yet
-  auto g = broker.publish(o.id, payload, now());
+  if (k.rejuvenator.catch_up.drops(s.id, o.id))
+    return;  // the chain catching up: its estimate is not the controllers' yet
+  auto g = k.broker.publish(o.id, payload, k.now());
   if (!g) {
-    refuse(s, "broker: " + std::string(broker::to_string(g.error())));
+    k.refuse(s, "broker: " + std::string(broker::to_string(g.error())));
     return;
   }
   ++s.stats.publishes;
@@ -75,43 +79,67 @@ void Kernel::Impl::route_publish(ServiceRuntime& s, std::uint32_t slot, std::spa
   after_publish(o.id, payload, *g, s.id, From::Service);
 }
 
-void Kernel::Impl::publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from) {
-  if (from == From::Bridge && catch_up.logs(topic) &&
-      catch_up.keep(topic, payload, dds::plant_topics::stamp_of(payload).value_or(0))) {
+void Router::publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from) {
+  if (from == From::Bridge && k.rejuvenator.catch_up.logs(topic) &&
+      k.rejuvenator.catch_up.keep(topic, payload, dds::plant_topics::stamp_of(payload).value_or(0))) {
     return;  // behind the replay in progress, which hands it on in its turn
   }
-  auto g = broker.publish(topic, payload, now());
+  auto g = k.broker.publish(topic, payload, k.now());
   if (!g) {
-    log("kernel publish on '%s' refused: %s", objects[topic.value()].name.c_str(),
-        std::string(broker::to_string(g.error())).c_str());
+    k.log("kernel publish on '%s' refused: %s", k.objects[topic.value()].name.c_str(),
+          std::string(broker::to_string(g.error())).c_str());
     return;
   }
   after_publish(topic, payload, *g, std::nullopt, from);
 }
 
-void Kernel::Impl::publish_sr_mode() {
-  sr_mode_announced = true;
-  publish_kernel_message(rejuv_msg_SrMode{.timestamp_ns = static_cast<std::uint64_t>(now().count()),
-                                           .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
-                                           .epoch = kernel_clock.epoch().value(),
-                                           .generation = 0});
+void Router::publish_kernel_bytes(std::string_view type_name, std::span<const std::byte> message) {
+  for (const ObjectInfo& o : k.objects) {
+    if (o.type != nullptr && o.type->name == type_name && o.kernel == policy::KernelEndpoint::Publishes) {
+      publish_as_kernel(o.id, message);
+    }
+  }
 }
 
-bool Kernel::Impl::write_to_bridge(ObjectId topic, std::span<const std::byte> payload) {
-  if (auto ok = bridge->write_out(topic, payload); !ok) {
-    log("%s", ok.error().to_string().c_str());
-    stop_run(StopReason::PlantExited, ok.error().to_string());
+void Router::publish_sr_mode() {
+  KernelMessage<rejuv_msg_SrMode> m;
+  m.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
+  m.fields.mode = static_cast<rejuv_msg_SrModeKind>(index_of(k.caps.mode()));
+  m.fields.epoch = k.kernel_clock.epoch().value();
+  m.fields.generation = 0;
+  publish_kernel_message(m);
+}
+
+void Router::publish_security_event(Nanos at, ServiceId service, std::uint32_t slot, rejuv_msg_SecurityEventKind kind,
+                                    SrMode mode, std::uint8_t operation, std::uint8_t error) {
+  KernelMessage<rejuv_msg_SecurityEvent> m;
+  m.fields.timestamp_ns = static_cast<std::uint64_t>(at.count());
+  m.fields.service_id = service.value();
+  m.fields.slot = slot;
+  m.fields.operation = operation;
+  m.fields.error = error;
+  m.fields.mode = static_cast<rejuv_msg_SrModeKind>(index_of(mode));
+  m.fields.kind = kind;
+  publish_kernel_message(m);
+}
+
+bool Router::write_to_bridge(ObjectId topic, std::span<const std::byte> payload) {
+  if (auto ok = k.bridge->write_out(topic, payload); !ok) {
+    k.log("%s", ok.error().to_string().c_str());
+    k.stop_run(StopReason::PlantExited, ok.error().to_string());
     return false;
   }
   return true;
 }
 
-void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
-                                 std::optional<ServiceId> publisher, From from) {
-  if (from != From::Replay) watch_publication(objects[topic.value()], payload, g, publisher);  // observers (watch.cpp)
-  if (bridge && (from == From::Service || from == From::Kernel)) {  // what came in from the plant does not go back out
-    if (routing.frozen()) {  // a checkpoint or rollback is timed: written by resume_routing
-      routing.hold(topic, payload);
+void Router::after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
+                           std::optional<ServiceId> publisher, From from) {
+  if (from != From::Replay)
+    watch_publication(k.objects[topic.value()], payload, g, publisher);  // observers (watch.cpp)
+  if (k.bridge &&
+      (from == From::Service || from == From::Kernel)) {  // what came in from the plant does not go back out
+    if (k.rejuvenator.routing.frozen()) {  // a checkpoint or rollback is timed: written by resume_routing
+      k.rejuvenator.routing.hold(topic, payload);
     } else {
       (void)write_to_bridge(topic, payload);
     }
@@ -119,11 +147,11 @@ void Kernel::Impl::after_publish(ObjectId topic, std::span<const std::byte> payl
   finish_routes(topic);
 }
 
-void Kernel::Impl::finish_routes(ObjectId topic) {
-  auto routes = broker.subscribers_of(topic);
+void Router::finish_routes(ObjectId topic) {
+  auto routes = k.broker.subscribers_of(topic);
   if (!routes) return;
   for (const broker::Route& r : *routes) {
-    ServiceRuntime& s = services[r.service.value()];
+    ServiceRuntime& s = k.services[r.service.value()];
     if (r.subscriber.value() < subscribers.size()) {
       SubscriberInfo& info = subscribers[r.subscriber.value()];
       ++info.routed;
@@ -136,23 +164,24 @@ void Kernel::Impl::finish_routes(ObjectId topic) {
   }
 }
 
-void Kernel::Impl::hand_over_polled(ServiceRuntime& s) {
-  if (routing.frozen() || !s.flow.take_polled()) return;  // taken first: push_ring below comes back here
+void Router::hand_over_polled(ServiceRuntime& s) {
+  if (k.rejuvenator.routing.frozen() || !s.flow.take_polled())
+    return;  // taken first: push_ring below comes back here
   for (const SubscriptionRecord& r : s.subscriptions) {
     if (!subscribers[r.id.value()].polled) continue;
-    for (std::size_t n = broker.pending(r.id).value_or(0); n > 0; --n) push_ring(s, r.id);
+    for (std::size_t n = k.broker.pending(r.id).value_or(0); n > 0; --n) push_ring(s, r.id);
   }
 }
 
 // ---- output to a service ----
 
-void Kernel::Impl::set_writable_interest(ServiceRuntime& s, bool want) {
+void Router::set_writable_interest(ServiceRuntime& s, bool want) {
   if (!s.proc.channel.valid() || !s.flow.set_want_writable(want)) return;
-  (void)epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
-                     sys::Interest{.readable = true, .writable = want});
+  (void)k.epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
+                       sys::Interest{.readable = true, .writable = want});
 }
 
-Kernel::Impl::SendResult Kernel::Impl::send_now(ServiceRuntime& s, std::span<const std::byte> frame) {
+Router::SendResult Router::send_now(ServiceRuntime& s, std::span<const std::byte> frame) {
   if (!s.proc.channel.valid()) return SendResult::Failed;
   if (batch.is_open()) {
     if (batch.add(s.id, s.flow, frame)) uncork_service(s);  // full
@@ -171,8 +200,8 @@ Kernel::Impl::SendResult Kernel::Impl::send_now(ServiceRuntime& s, std::span<con
   return SendResult::Failed;  // EPIPE: the service is gone; its pidfd will say so
 }
 
-bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber) {
-  auto next = broker.next(subscriber);
+bool Router::deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber) {
+  auto next = k.broker.next(subscriber);
   if (!next || !*next) return false;
   const broker::Delivery& d = **next;
   const SubscriberInfo& info = subscribers[subscriber.value()];
@@ -185,9 +214,10 @@ bool Kernel::Impl::deliver_one(ServiceRuntime& s, broker::SubscriberId subscribe
   return send_now(s, deliver_tx.bytes()) == SendResult::Sent;
 }
 
-void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
+void Router::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
   if (s.proc.phase() != Phase::Booted && s.proc.phase() != Phase::Ready) return;
-  if (routing.frozen()) return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
+  if (k.rejuvenator.routing.frozen())
+    return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
   hand_over_polled(s);         // the service is about to wake: its polled news goes first
   if (!s.flow.drained()) {
     s.flow.queue_ring(subscriber);  // keep publish order: behind what is already waiting
@@ -196,7 +226,7 @@ void Kernel::Impl::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber)
   (void)deliver_one(s, subscriber);
 }
 
-void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> frame) {
+void Router::send_control(ServiceRuntime& s, std::span<const std::byte> frame) {
   if (!s.live() || !s.proc.channel.valid()) return;
   hand_over_polled(s);  // the service is about to wake: its polled news goes first
   if (s.flow.drained()) {
@@ -205,23 +235,29 @@ void Kernel::Impl::send_control(ServiceRuntime& s, std::span<const std::byte> fr
   }
   switch (s.flow.queue_control(frame)) {
     case FlowControl::Queued::Yes: return;
-    case FlowControl::Queued::PoolFull: kill_hung(s, "does not read its channel (control queue full)"); return;
-    case FlowControl::Queued::QueueFull: kill_hung(s, "does not read its channel (out-queue full)"); return;
+    case FlowControl::Queued::PoolFull:
+      k.supervisor.kill_hung(s, "does not read its channel (control queue full)");
+      return;
+    case FlowControl::Queued::QueueFull:
+      k.supervisor.kill_hung(s, "does not read its channel (out-queue full)");
+      return;
   }
 }
 
 // ---- output batching (lockstep rounds: output_batch.hpp) ----
 
-void Kernel::Impl::cork() { batch.open(services.size()); }
+void Router::cork() {
+  batch.open(k.services.size());
+}
 
-void Kernel::Impl::uncork() {
+void Router::uncork() {
   batch.close();
-  for (ServiceRuntime& s : services) {
+  for (ServiceRuntime& s : k.services) {
     if (batch.has_frames(s.id)) uncork_service(s);
   }
 }
 
-void Kernel::Impl::uncork_service(ServiceRuntime& s) {
+void Router::uncork_service(ServiceRuntime& s) {
   batch.flush(s.id, s.proc.channel, s.flow, [&](std::span<const std::byte> refused) {
     // In order: the first is held, the rest wait behind it as control frames (each counted when it leaves).
     std::size_t offset = 0;
@@ -231,7 +267,7 @@ void Kernel::Impl::uncork_service(ServiceRuntime& s) {
   });
 }
 
-void Kernel::Impl::drain(ServiceRuntime& s) {
+void Router::drain(ServiceRuntime& s) {
   for (;;) {
     if (!s.proc.channel.valid()) return;
     if (s.flow.has_held()) {

@@ -33,12 +33,13 @@ constexpr std::uint64_t kRtBudgetUs = 100000;
 
 }  // namespace
 
-sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
-  const launch::SandboxLimitValues v = launch::sandbox_limits(graph.graph, *s.config.spec);
+sys::ResourceLimits Warden::limits_for(const ServiceRuntime& s) const {
+  const launch::SandboxLimitValues v = launch::sandbox_limits(k.graph.graph, *s.config.spec);
   sys::ResourceLimits limits;
   // RLIMIT_NPROC counts the processes of a uid in a user namespace: meaningful when each service has its
   // own uid (root) or its own user namespace (the strict sandbox without root, process.cpp isolate_in_child).
-  if (sys::running_as_root() || options.sandbox == KernelOptions::Sandbox::Strict) limits.processes = v.max_processes;
+  if (sys::running_as_root() || k.options.sandbox == KernelOptions::Sandbox::Strict)
+    limits.processes = v.max_processes;
   limits.open_files = v.max_open_files;
 #if !defined(REJUV_TSAN)
   // On top of what a sanitizer's runtime reserves at start (its shadow memory): the limit still bounds what
@@ -52,25 +53,26 @@ sys::ResourceLimits Kernel::Impl::limits_for(const ServiceRuntime& s) const {
   limits.file_size = 2 * wire::kMaxImagePages * 4096 + (1U << 20U);
   // The real-time plan (realtime.cpp): a service the plan may put at SCHED_FIFO gets its RLIMIT_RTTIME from
   // birth (the kernel cannot set it later: prlimit on a service of another uid is refused).
-  const proto::RealtimePlan& rt = graph.graph.realtime();
+  const proto::RealtimePlan& rt = k.graph.graph.realtime();
   if (rt.enabled() && s.config.spec->rt_priority() > 0) {
     limits.rt_time_us = std::uint64_t{launch::realtime_values(rt).max_rt_time_ms} * 1000U;
   }
   return limits;
 }
 
-void Kernel::Impl::join_cgroup(ServiceRuntime& s) {
+void Warden::join_cgroup(ServiceRuntime& s) {
   if (s.sandbox.cgroup.valid() || !s.sandbox.cgroup_note.empty()) return;  // made once, at the first spawn
-  const launch::SandboxLimitValues v = launch::sandbox_limits(graph.graph, *s.config.spec);
+  const launch::SandboxLimitValues v = launch::sandbox_limits(k.graph.graph, *s.config.spec);
   sys::CgroupLimits limits;
   limits.pids = v.max_processes;
   if (v.max_group_memory_mb > 0) limits.memory_bytes = std::uint64_t{v.max_group_memory_mb} << 20U;
   if (v.max_cpu_percent > 0) limits.cpu_percent = v.max_cpu_percent;
   // The real-time plan (realtime.cpp): where real-time tasks are grouped, a SCHED_FIFO service needs a budget
   // in its group, which also bounds what it can take of each second at SCHED_FIFO (kRtBudgetUs).
-  if (graph.graph.realtime().enabled() && s.config.spec->rt_priority() > 0) limits.rt_runtime_us = kRtBudgetUs;
+  if (k.graph.graph.realtime().enabled() && s.config.spec->rt_priority() > 0)
+    limits.rt_runtime_us = kRtBudgetUs;
   // This kernel's scope: its address, unique among the kernels alive in this process.
-  const std::string scope = std::to_string(reinterpret_cast<std::uintptr_t>(this));  // NOLINT: an identity
+  const std::string scope = std::to_string(reinterpret_cast<std::uintptr_t>(&k));  // NOLINT: an identity
   if (auto made = sys::ServiceCgroup::create(scope, s.name, limits)) {
     s.sandbox.cgroup = std::move(*made);
     s.sandbox.cgroup_note = s.sandbox.cgroup.description();
@@ -78,10 +80,10 @@ void Kernel::Impl::join_cgroup(ServiceRuntime& s) {
     // Common without root: the rlimits, the filter and the sweeps hold without it (docs/sandbox.md).
     s.sandbox.cgroup_note = "no cgroup (" + made.error().to_string() + ")";
   }
-  if (options.verbose) log("sandbox of '%s': %s", s.name.c_str(), s.sandbox.cgroup_note.c_str());
+  if (k.options.verbose) k.log("sandbox of '%s': %s", s.name.c_str(), s.sandbox.cgroup_note.c_str());
 }
 
-void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::string_view what) {
+void Warden::record_violation(ServiceRuntime& s, Violation kind, std::string_view what) {
   if (kind != Violation::ImageLost) ++s.stats.sandbox_violations;  // a loss may be a fault as well: counted apart
   std::uint32_t detail = 0;
   switch (kind) {
@@ -96,21 +98,21 @@ void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::stri
       }
       if (const auto nr = sys::syscall_number(what)) detail = static_cast<std::uint32_t>(*nr);
       // Not rate-limited: each one ends a process (and a stray sweep is bounded by the process limit).
-      log("sandbox violation: '%s' made a forbidden system call: %.*s (mode %s)", s.name.c_str(),
-          static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
+      k.log("sandbox violation: '%s' made a forbidden system call: %.*s (mode %s)", s.name.c_str(),
+            static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
       break;
     }
     case Violation::StrayProcess:
       ++s.stats.stray_processes;
-      log("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
-          static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
+      k.log("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
+            static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
       break;
     case Violation::ImageLost:
       // Nothing a service can reach signals an image (no signal to another process, no SIGIO owner): an image
       // gone from the store is a fault of the machine or an escape, reported as such, never silent.
       ++s.stats.images_lost;
-      log("security: an image of '%s' was lost in the store: %.*s (mode %s)", s.name.c_str(),
-          static_cast<int>(what.size()), what.data(), std::string(to_string(caps.mode())).c_str());
+      k.log("security: an image of '%s' was lost in the store: %.*s (mode %s)", s.name.c_str(),
+            static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
       break;
   }
   rejuv_msg_SecurityEventKind event = rejuv_msg_SECURITY_FORBIDDEN_CALL;
@@ -119,25 +121,18 @@ void Kernel::Impl::record_violation(ServiceRuntime& s, Violation kind, std::stri
     case Violation::StrayProcess: event = rejuv_msg_SECURITY_STRAY_PROCESS; break;
     case Violation::ImageLost: event = rejuv_msg_SECURITY_IMAGE_LOST; break;
   }
-  publish_kernel_message(rejuv_msg_SecurityEvent{
-      .timestamp_ns = static_cast<std::uint64_t>(now().count()),
-      .service_id = s.id.value(),
-      .slot = detail,
-      .operation = 0,
-      .error = 0,
-      .mode = static_cast<rejuv_msg_SrModeKind>(index_of(caps.mode())),
-      .kind = event});
+  k.router.publish_security_event(k.now(), s.id, detail, event, k.caps.mode());
   // In MC the attacker has the service now: roll back at once rather than at the end of T_MC.
-  if (sr && caps.mode() == SrMode::MC && !stopping) {
-    request_rollback("sandbox violation by '" + s.name + "': " + std::string(what));
+  if (k.sr && k.caps.mode() == SrMode::MC && !k.stopping) {
+    k.rejuvenator.request_rollback("sandbox violation by '" + s.name + "': " + std::string(what));
   }
 }
 
-void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
+void Warden::on_seccomp_notice(ServiceRuntime& s) {
   for (std::size_t i = 0; i < kNoticesPerWakeup && s.sandbox.seccomp.valid(); ++i) {
     auto got = s.sandbox.seccomp.receive();
     if (!got) {
-      log("'%s': seccomp listener: %s", s.name.c_str(), got.error().to_string().c_str());
+      k.log("'%s': seccomp listener: %s", s.name.c_str(), got.error().to_string().c_str());
       close_sandbox(s);
       return;
     }
@@ -166,7 +161,7 @@ void Kernel::Impl::on_seccomp_notice(ServiceRuntime& s) {
   }
 }
 
-void Kernel::Impl::on_service_output(ServiceRuntime& s, bool final) {
+void Warden::on_service_output(ServiceRuntime& s, bool final) {
   if (!s.sandbox.output.valid()) return;
   std::array<char, 4096> buf{};
   bool closed = false;
@@ -185,7 +180,8 @@ void Kernel::Impl::on_service_output(ServiceRuntime& s, bool final) {
       if (nl == std::string::npos && !cut) break;
       const std::size_t end = cut ? start + kMaxOutputLine : nl;
       ++s.stats.output_lines;
-      service_log(s, wire::LogLevel::Info, std::string_view(s.sandbox.output_partial).substr(start, end - start));
+      k.service_log(s, wire::LogLevel::Info,
+                    std::string_view(s.sandbox.output_partial).substr(start, end - start));
       start = cut ? end : nl + 1;
     }
     s.sandbox.output_partial.erase(0, start);
@@ -193,107 +189,109 @@ void Kernel::Impl::on_service_output(ServiceRuntime& s, bool final) {
   if (closed || final) {
     if (!s.sandbox.output_partial.empty()) {
       ++s.stats.output_lines;
-      service_log(s, wire::LogLevel::Info, s.sandbox.output_partial);
+      k.service_log(s, wire::LogLevel::Info, s.sandbox.output_partial);
       s.sandbox.output_partial.clear();
     }
   }
   if (closed) {
-    (void)epoll.remove(s.sandbox.output.get());
+    (void)k.epoll.remove(s.sandbox.output.get());
     s.sandbox.output.reset();
   }
 }
 
-sys::SysResult<void> Kernel::Impl::replace_output(ServiceRuntime& s, sys::UniqueFd read_end) {
+sys::SysResult<void> Warden::replace_output(ServiceRuntime& s, sys::UniqueFd read_end) {
   if (s.sandbox.output.valid()) {
     on_service_output(s, true);  // what the previous incarnation wrote, to its last partial line
-    if (s.sandbox.output.valid()) (void)epoll.remove(s.sandbox.output.get());
+    if (s.sandbox.output.valid()) (void)k.epoll.remove(s.sandbox.output.get());
   }
   s.sandbox.output = std::move(read_end);
-  return epoll.add(s.sandbox.output.get(), token(Source::Output, s.id.value()));
+  return k.epoll.add(s.sandbox.output.get(), token(Source::Output, s.id.value()));
 }
 
-void Kernel::Impl::close_sandbox(ServiceRuntime& s) {
+void Warden::close_sandbox(ServiceRuntime& s) {
   if (s.sandbox.seccomp.valid()) {
-    (void)epoll.remove(s.sandbox.seccomp.fd());
+    (void)k.epoll.remove(s.sandbox.seccomp.fd());
     s.sandbox.seccomp.close();
   }
   if (s.sandbox.output.valid()) {
     on_service_output(s, true);
-    if (s.sandbox.output.valid()) (void)epoll.remove(s.sandbox.output.get());
+    if (s.sandbox.output.valid()) (void)k.epoll.remove(s.sandbox.output.get());
     s.sandbox.output.reset();
   }
 }
 
-void Kernel::Impl::sweep_if_due() {
+void Warden::sweep_if_due() {
   if (sweep_due) {
     sweep_strays(*sweep_due);
-  } else if (now() - last_sweep >= kSweepPeriod) {
+  } else if (k.now() - last_sweep >= kSweepPeriod) {
     sweep_strays("the periodic sweep");
   }
 }
 
-void Kernel::Impl::sweep_strays(std::string_view when, bool final, SweepWait wait) {
+void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
   // A copy the kernel asked for (a spare, a Patch's image, an image at a checkpoint) is the kernel's child
   // before its pid is reported: a service with such a copy on its way is swept once it has reported. The
   // answers that have arrived are read first, so that only copies really on their way defer a sweep.
-  std::vector<bool> pending(services.size(), false);
-  const Nanos wait_until = wall() + (wait == SweepWait::ForCopies ? kCopiesWait : Nanos{0});
+  std::vector<bool> pending(k.services.size(), false);
+  const Nanos wait_until = k.wall() + (wait == SweepWait::ForCopies ? kCopiesWait : Nanos{0});
   for (;;) {
-    images.refresh_all();
-    if (!retiring.empty()) finish_retiring(false);
-    std::fill(pending.begin(), pending.end(), coordinator.running() != nullptr && !final);
+    k.rejuvenator.images.refresh_all();
+    if (!k.rejuvenator.retiring.empty()) k.rejuvenator.finish_retiring(false);
+    std::fill(pending.begin(), pending.end(), k.rejuvenator.coordinator.running() != nullptr && !final);
     int answer_fd = -1;  // where the next Copied of a copy on its way arrives
     const auto note = [&](const image::Image& im) {
       if (im.spares_pending == 0 && !im.patch_pending) return;
       pending[im.service.value()] = !final;
       if (answer_fd < 0 && im.resume.valid()) answer_fd = im.resume.fd();
     };
-    for (const Generation g : images.generations()) {
-      for (const image::Image& im : images.find(g)->images) note(im);
+    for (const Generation g : k.rejuvenator.images.generations()) {
+      for (const image::Image& im : k.rejuvenator.images.find(g)->images) note(im);
     }
-    for (const image::GenerationRecord& r : retiring) {
+    for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
       for (const image::Image& im : r.images) note(im);
     }
-    if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || wall() >= wait_until) break;
+    if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || k.wall() >= wait_until)
+      break;
     // On that copy's answer, not on epoll: the kernel's other fds may well be readable now (a spin).
     if (answer_fd < 0) break;
-    (void)sys::wait_fd(answer_fd, sys::WaitFor::Readable, std::max(Nanos{0}, wait_until - wall()));
+    (void)sys::wait_fd(answer_fd, sys::WaitFor::Readable, std::max(Nanos{0}, wait_until - k.wall()));
   }
   if (std::any_of(pending.begin(), pending.end(), [](bool p) { return p; })) {
     if (!sweep_due) sweep_due = when;
   } else {
     sweep_due.reset();
   }
-  last_sweep = now();
+  last_sweep = k.now();
   auto children = sys::own_children();
   if (!children) return;
   const auto known = [&](pid_t pid) {
-    if (knows_process(pid, nullptr)) return true;  // the plant, a live service, an image of a kept generation
-    for (const image::GenerationRecord& r : retiring) {
+    if (k.rejuvenator.knows_process(pid, nullptr))
+      return true;  // the plant, a live service, an image of a kept generation
+    for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
       for (const image::Image& im : r.images) {
         for (const sys::ChildProcess& c : im.copies) {
           if (c.pid() == pid) return true;
         }
       }
     }
-    return reaper.knows(pid);
+    return k.rejuvenator.reaper.knows(pid);
   };
   for (const pid_t pid : *children) {
     if (!final && known(pid)) continue;
     const auto sid = sys::session_of(pid);
     if (!sid) continue;
-    for (ServiceRuntime& s : services) {
+    for (ServiceRuntime& s : k.services) {
       if (std::find(s.sandbox.sessions.begin(), s.sandbox.sessions.end(), *sid) == s.sandbox.sessions.end()) continue;
       if (pending[s.id.value()]) break;  // one of its copies is on its way: next time
       if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
       // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,
       // not counted. Until the next commit (images.cpp), then a stray like any other.
-      const bool owed = coordinator.owes(s.id);
+      const bool owed = k.rejuvenator.coordinator.owes(s.id);
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
       if (auto stray = sys::ChildProcess::adopt_child(pid)) {
-        reaper.kill(std::move(*stray));
+        k.rejuvenator.reaper.kill(std::move(*stray));
       } else {
         (void)sys::kill_and_reap_own_child(pid);
       }

@@ -39,8 +39,9 @@ void Kernel::inject_datagram(ServiceId service, std::span<const std::byte> datag
   if (service.value() >= k.services.size()) return;
   ServiceRuntime& s = k.services[service.value()];
   if (!s.proc.scripted || !s.live() || !s.proc.channel.valid() || k.shut_down) return;
-  k.receive_datagram(s, datagram.size() > wire::kMaxFrameBytes ? datagram.first(wire::kMaxFrameBytes) : datagram);
-  k.drain_denials();
+  k.input.receive_datagram(
+      s, datagram.size() > wire::kMaxFrameBytes ? datagram.first(wire::kMaxFrameBytes) : datagram);
+  k.router.drain_denials();
 }
 
 }  // namespace rejuv::kernel

@@ -87,7 +87,7 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
     text(prefix + "kind", attack_kind_name(a.kind()));
     // The launch file's start_s is flight time, as in `rejuv sim` (its t = 0 ends the alignment); a service reads
     // kernel time, so the alignment is added here, once for every attack hook: no window before take-off.
-    number(prefix + "start_s", a.start_s() + to_seconds(k.flight_start).count());
+    number(prefix + "start_s", a.start_s() + to_seconds(k.rejuvenator.flight_start).count());
     number(prefix + "max_windows", a.max_windows());
     number(prefix + "magnitude", a.magnitude());  // the attack library's size (docs/control.md "Attack library")
     ++attacks;
@@ -95,24 +95,24 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   number("attack.enabled", attacks > 0 ? 1 : 0);
   number("attack.count", attacks);
   // > 0: this incarnation was started by a cold restart (DESIGN §7): the vehicle is not at its take-off point.
-  number("boot.cold_restarts", static_cast<double>(k.sr_stats.cold_restarts));
+  number("boot.cold_restarts", static_cast<double>(k.rejuvenator.sr_stats.cold_restarts));
   // The mission's t = 0 on the kernel clock (the end of the plant's alignment): SR starts there (DESIGN §6).
-  number("flight.start_s", to_seconds(k.flight_start).count());
+  number("flight.start_s", to_seconds(k.rejuvenator.flight_start).count());
   return out;
 }
 
-Result<void, KernelError> Kernel::Impl::spawn_all() {
+Result<void, KernelError> Supervisor::spawn_all() {
   if (auto ok = sys::become_subreaper(); !ok) {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
   }
-  for (ServiceRuntime& s : services) {
+  for (ServiceRuntime& s : k.services) {
     if (s.config.skip) continue;
     if (auto ok = spawn_one(s); !ok) return ok;
   }
   return {};
 }
 
-Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
+Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   const auto system_error = [](const sys::SysError& e) {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = e.to_string(), .findings = {}});
   };
@@ -132,14 +132,18 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   for (const char* keep : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "TSAN_OPTIONS", "LSAN_OPTIONS"}) {
     if (const char* v = std::getenv(keep); v != nullptr) spec.env.push_back(std::string(keep) + "=" + v);
   }
-  spec.fds = {{0, null->get()}, {1, out->write.get()}, {2, out->write.get()},
-              {wire::kChannelFd, service_end.fd()}, {wire::kTimePageFd, kernel_clock.read_only_fd().get()}};
-  spec.seccomp = &*seccomp;
+  spec.fds = {{0, null->get()},
+              {1, out->write.get()},
+              {2, out->write.get()},
+              {wire::kChannelFd, service_end.fd()},
+              {wire::kTimePageFd, k.kernel_clock.read_only_fd().get()}};
+  spec.seccomp = &*k.seccomp;
   spec.session = sys::Session::NewSession;
-  spec.isolation = options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
-  spec.limits = limits_for(s);
-  if (uid_block) spec.uid = sys::service_uid(*uid_block, s.id.value());
-  join_cgroup(s);
+  spec.isolation =
+      k.options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
+  spec.limits = k.warden.limits_for(s);
+  if (k.uid_block) spec.uid = sys::service_uid(*k.uid_block, s.id.value());
+  k.warden.join_cgroup(s);
   spec.cgroup_procs = s.sandbox.cgroup.join_fds();
   auto spawned = sys::spawn_supervised(spec);
   if (!spawned) {
@@ -152,12 +156,12 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
     }
     return fail(KernelError{.kind = KernelError::Kind::Boot, .message = std::move(message), .findings = {}});
   }
-  close_sandbox(s);  // a cold restart: the previous incarnations' listener and pipe
+  k.warden.close_sandbox(s);  // a cold restart: the previous incarnations' listener and pipe
   auto* child = &spawned->process;
   s.sandbox.seccomp = std::move(spawned->listener);
   s.sandbox.output = std::move(out->read);
   s.sandbox.sessions.push_back(child->pid());
-  const auto watch = [&](int fd, Source source) { return epoll.add(fd, token(source, s.id.value())); };
+  const auto watch = [&](int fd, Source source) { return k.epoll.add(fd, token(source, s.id.value())); };
   if (s.sandbox.seccomp.valid()) {
     if (auto ok = watch(s.sandbox.seccomp.fd(), Source::Seccomp); !ok) return system_error(ok.error());
   }
@@ -167,17 +171,17 @@ Result<void, KernelError> Kernel::Impl::spawn_one(ServiceRuntime& s) {
   s.proc.spawned();
   ++s.stats.spawns;
   s.pages.start_incarnation(Generation{});  // a fresh process: its first image is by fork
-  s.proc.spawned_at = wall();
+  s.proc.spawned_at = k.wall();
   s.sandbox.limiter.last = s.proc.spawned_at;
   if (auto ok = watch(s.proc.channel.fd(), Source::Channel); !ok) return system_error(ok.error());
   if (auto ok = watch(s.proc.process.pidfd(), Source::Pidfd); !ok) return system_error(ok.error());
   return {};
 }
 
-Result<void, KernelError> Kernel::Impl::spawn_plant() {
-  const proto::Launch& g = graph.graph;
+Result<void, KernelError> Supervisor::spawn_plant() {
+  const proto::Launch& g = k.graph.graph;
   sys::SpawnSpec spec;
-  spec.executable = launch::resolve_executable(g.plant().executable(), options.service_dir).string();
+  spec.executable = launch::resolve_executable(g.plant().executable(), k.options.service_dir).string();
   double north = 0;
   double east = 0;
   double down = -3;
@@ -186,9 +190,12 @@ Result<void, KernelError> Kernel::Impl::spawn_plant() {
     east = g.mission().waypoints(0).east_m();
     down = g.mission().waypoints(0).down_m();
   }
-  spec.args = {"--domain", std::to_string(domain), "--seed", std::to_string(seed), "--clock",
-               std::string(to_string(clock_mode)), "--start-north", format_double(north), "--start-east",
-               format_double(east), "--start-down", format_double(down)};
+  spec.args = {"--domain",      std::to_string(k.domain),
+               "--seed",        std::to_string(k.seed),
+               "--clock",       std::string(to_string(k.clock_mode)),
+               "--start-north", format_double(north),
+               "--start-east",  format_double(east),
+               "--start-down",  format_double(down)};
   if (g.plant().wind_mean_m_s() != 0) {
     spec.args.insert(spec.args.end(), {"--wind-mean", format_double(g.plant().wind_mean_m_s())});
   }
@@ -199,8 +206,9 @@ Result<void, KernelError> Kernel::Impl::spawn_plant() {
     spec.args.insert(spec.args.end(), {"--wind-gust", format_double(g.plant().wind_gust_m_s())});
   }
   // The pre-flight alignment of the launch file (DESIGN §6), as long as `rejuv sim`'s (SimConfig::alignment).
-  spec.args.insert(spec.args.end(), {"--align-s", format_double(to_seconds(flight_start).count())});
-  spec.args.insert(spec.args.end(), options.plant_args.begin(), options.plant_args.end());
+  spec.args.insert(spec.args.end(),
+                   {"--align-s", format_double(to_seconds(k.rejuvenator.flight_start).count())});
+  spec.args.insert(spec.args.end(), k.options.plant_args.begin(), k.options.plant_args.end());
   for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
   auto child = sys::spawn(spec);
   if (!child) {
@@ -210,18 +218,18 @@ Result<void, KernelError> Kernel::Impl::spawn_plant() {
   }
   plant = std::move(*child);
   plant_started = true;
-  if (auto ok = epoll.add(plant.pidfd(), token(Source::Plant, 0)); !ok) {
+  if (auto ok = k.epoll.add(plant.pidfd(), token(Source::Plant, 0)); !ok) {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
   }
   return {};
 }
 
 // The boot script (docs/protocol.md "Boot"), by the channel's one encoder (rejuv/channel/boot.hpp).
-void Kernel::Impl::send_boot(ServiceRuntime& s) {
+void Supervisor::send_boot(ServiceRuntime& s) {
   std::vector<wire::BootCap> boot_caps;
   boot_caps.reserve(s.config.boot.caps.size());
   for (const cap::BootCap& c : s.config.boot.caps) {
-    const ObjectInfo& o = objects[c.object.value()];
+    const ObjectInfo& o = k.objects[c.object.value()];
     channel::BootCapEntry entry{.slot = c.slot, .kind = c.kind, .rights = c.rights, .payload_size = 0,
                                 .object = c.name, .type = {}};
     if (o.type != nullptr) {
@@ -232,12 +240,12 @@ void Kernel::Impl::send_boot(ServiceRuntime& s) {
     }
     boot_caps.push_back(channel::encode_boot_cap(entry));
   }
-  const channel::BootIdentity who{.service = s.id, .epoch = kernel_clock.epoch(), .name = s.name};
-  channel::write_boot_script(tx, who, boot_caps, s.config.params,
-                             [&](std::span<const std::byte> frame) { send_control(s, frame); });
+  const channel::BootIdentity who{.service = s.id, .epoch = k.kernel_clock.epoch(), .name = s.name};
+  channel::write_boot_script(k.tx, who, boot_caps, s.config.params,
+                             [&](std::span<const std::byte> frame) { k.router.send_control(s, frame); });
 }
 
-void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
+void Supervisor::on_child_exit(ServiceRuntime& s) {
   if (s.proc.phase() == Phase::Dead || s.proc.phase() == Phase::NotStarted) return;
   auto status = s.proc.process.try_wait();
   if (status && !*status) return;  // not yet (spurious wakeup)
@@ -245,91 +253,93 @@ void Kernel::Impl::on_child_exit(ServiceRuntime& s) {
     // Its pidfd said it ended but it cannot be waited for (reaped elsewhere?): it is gone all the same. Lost
     // with the error, never ignored: an unnoticed death leaves the graph without the service and SR without
     // its rollback (the fault campaign's one unexplained unsafe case had neither a loss nor a rollback).
-    log("service '%s': its end cannot be read (%s): counted as lost", s.name.c_str(), status.error().to_string().c_str());
+    k.log("service '%s': its end cannot be read (%s): counted as lost", s.name.c_str(),
+          status.error().to_string().c_str());
     status = std::optional<sys::ExitStatus>{sys::ExitStatus{.how = sys::ExitStatus::How::Signaled, .value = SIGKILL}};
   }
-  if (!booted) {
+  if (!k.booted) {
     // Its last words may still be in the channel (the pidfd can be handled first): read them, so that a
     // boot failure is reported with the service's own error (lose_service).
     for (std::uint64_t before = ~std::uint64_t{0}; s.live() && s.proc.channel.valid() && before != s.stats.frames_in;) {
       before = s.stats.frames_in;
-      read_channel(s);
+      k.input.read_channel(s);
     }
   }
-  (void)epoll.remove(s.proc.process.pidfd());
+  (void)k.epoll.remove(s.proc.process.pidfd());
   if (s.proc.channel.valid()) {
-    (void)epoll.remove(s.proc.channel.fd());
+    (void)k.epoll.remove(s.proc.channel.fd());
     s.proc.channel.close();
   }
   s.proc.ended();
   s.stats.exit = **status;
-  broker.remove_service(s.id);
-  timers.remove_service(s.id);
+  k.broker.remove_service(s.id);
+  k.timers.remove_service(s.id);
   s.flow.reset();
   // What it wrote last (often why it ended) before the kernel's own line about it.
-  on_service_output(s);
+  k.warden.on_service_output(s);
   // A forbidden call is killed by the kernel itself (sandbox.cpp, loss_reason set). A death by SIGSYS is a
   // filter of the service's own that refused a call: the kernel never sends SIGSYS, so it counts the same.
   const bool sigsys = s.proc.loss_reason.empty() && (**status).how == sys::ExitStatus::How::Signaled &&
                       (**status).value == SIGSYS;
   if (sigsys) {
     s.proc.loss_reason = "sandbox violation (killed by SIGSYS)";
-    record_violation(s, Violation::ForbiddenCall, "unknown (SIGSYS)");
+    k.warden.record_violation(s, Violation::ForbiddenCall, "unknown (SIGSYS)");
   }
-  if (stopping) return;
+  if (k.stopping) return;
   std::string reason = s.proc.loss_reason.empty() ? (**status).to_string()
                                                   : s.proc.loss_reason + " (" + (**status).to_string() + ")";
   lose_service(s, std::move(reason));
 }
 
-void Kernel::Impl::lose_service(ServiceRuntime& s, std::string reason) {
-  log("service '%s' lost at t = %.3f s: %s", s.name.c_str(), to_seconds(now()).count(), reason.c_str());
+void Supervisor::lose_service(ServiceRuntime& s, std::string reason) {
+  k.log("service '%s' lost at t = %.3f s: %s", s.name.c_str(), to_seconds(k.now()).count(), reason.c_str());
   // Before the graph has booted (every service Ready once) no checkpoint exists: there is no image to roll
   // back to, and a restart from the binary would fail the same way (a refused parameter, a wrong
   // executable). The run stops with the service's own error, SR on or off.
-  if (!booted) {
+  if (!k.booted) {
     std::string detail = "service '" + s.name + "' (" + s.config.executable + ") failed at boot: " + reason;
     if (!s.proc.last_error.empty()) detail += "; its last error: " + s.proc.last_error;
-    stop_run(StopReason::ServiceFailed, std::move(detail));
+    k.stop_run(StopReason::ServiceFailed, std::move(detail));
     return;
   }
   // DESIGN §7: a rejuvenated service dying is one of the three rollback triggers (images.cpp). Without SR,
   // or for a driver-level service (never rolled back), the run cannot continue safely.
-  if (sr && s.config.rejuvenate) {
-    request_rollback("service '" + s.name + "' lost: " + reason);
+  if (k.sr && s.config.rejuvenate) {
+    k.rejuvenator.request_rollback("service '" + s.name + "' lost: " + reason);
     return;
   }
-  stop_run(StopReason::ServiceFailed, "service '" + s.name + "': " + reason);
+  k.stop_run(StopReason::ServiceFailed, "service '" + s.name + "': " + reason);
 }
 
-void Kernel::Impl::kill_hung(ServiceRuntime& s, std::string reason) {
+void Supervisor::kill_hung(ServiceRuntime& s, std::string reason) {
   if (!s.live() || !s.proc.loss_reason.empty()) return;
   s.proc.loss_reason = std::move(reason);
   s.stats.hung = true;
-  steps.note_hung(s.id);
-  log("killing '%s': %s", s.name.c_str(), s.proc.loss_reason.c_str());
+  k.lockstep.steps.note_hung(s.id);
+  k.log("killing '%s': %s", s.name.c_str(), s.proc.loss_reason.c_str());
   (void)s.proc.process.signal(SIGKILL);  // the pidfd reports the death; on_child_exit does the rest
 }
 
-void Kernel::Impl::on_plant_exit() {
+void Supervisor::on_plant_exit() {
   auto status = plant.try_wait();
   if (!status || !*status) return;
-  (void)epoll.remove(plant.pidfd());
-  if (stopping) return;
-  log("the plant exited: %s", (**status).to_string().c_str());
-  stop_run(StopReason::PlantExited, "the plant " + (**status).to_string());
+  (void)k.epoll.remove(plant.pidfd());
+  if (k.stopping) return;
+  k.log("the plant exited: %s", (**status).to_string().c_str());
+  k.stop_run(StopReason::PlantExited, "the plant " + (**status).to_string());
 }
 
 // Lockstep with the plant: no step has completed for a while. Says what the kernel is waiting for (a step's
 // samples, an idle service, a checkpoint's quiescence) once per stall, so that a hang is never silent.
-void Kernel::Impl::report_stall() {
-  steps.stall_reported();
+void Supervisor::report_stall() {
+  k.lockstep.steps.stall_reported();
   std::string what;
-  if (!steps.active()) {
-    what = steps.waiting_for();
+  if (!k.lockstep.steps.active()) {
+    what = k.lockstep.steps.waiting_for();
   } else {
-    what = "step " + std::to_string(steps.active()->step) + " in round " + std::to_string(steps.rounds());
-    for (const ServiceRuntime& s : services) {
+    what = "step " + std::to_string(k.lockstep.steps.active()->step) + " in round " +
+           std::to_string(k.lockstep.steps.rounds());
+    for (const ServiceRuntime& s : k.services) {
       if (!s.live() || s.idle()) continue;
       what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.proc.phase())) + ", idle " +
               std::to_string(s.flow.reported()) + "/" + std::to_string(s.flow.frames_out()) +
@@ -337,99 +347,107 @@ void Kernel::Impl::report_stall() {
               (s.flow.queued() == 0 ? "" : ", queued " + std::to_string(s.flow.queued())) +
               (s.flow.sweeping() ? ", sweep" : "") + ")";
     }
-    if (coordinator.checkpoint() == ImageCoordinator::Checkpoint::Asked) what += "; a checkpoint waits for quiescence";
-    if (coordinator.rollback_asked()) what += "; a rollback is pending";
-    if (!staged.empty()) what += "; " + std::to_string(staged.size()) + " staged";
+    if (k.rejuvenator.coordinator.checkpoint() == ImageCoordinator::Checkpoint::Asked)
+      what += "; a checkpoint waits for quiescence";
+    if (k.rejuvenator.coordinator.rollback_asked()) what += "; a rollback is pending";
+    if (!k.lockstep.staged.empty()) what += "; " + std::to_string(k.lockstep.staged.size()) + " staged";
   }
-  log("no lockstep step completed for %.1f s: %s", to_seconds(wall() - steps.last_done()).count(), what.c_str());
+  k.log("no lockstep step completed for %.1f s: %s",
+        to_seconds(k.wall() - k.lockstep.steps.last_done()).count(), what.c_str());
 }
 
-void Kernel::Impl::check_deadlines() {
-  const Nanos t = wall();
-  if (const auto at = steps.stall_deadline(); plant_started && clock_mode == ClockMode::Lockstep && at && t > *at) {
+void Supervisor::check_deadlines() {
+  const Nanos t = k.wall();
+  if (const auto at = k.lockstep.steps.stall_deadline();
+      plant_started && k.clock_mode == ClockMode::Lockstep && at && t > *at) {
     report_stall();
   }
-  for (ServiceRuntime& s : services) {
-    if (s.proc.booting() && t - s.proc.spawned_at > options.boot_deadline) {
-      kill_hung(s, "not Ready within the boot deadline (" + std::to_string(to_seconds(options.boot_deadline).count()) + " s)");
+  for (ServiceRuntime& s : k.services) {
+    if (s.proc.booting() && t - s.proc.spawned_at > k.options.boot_deadline) {
+      kill_hung(s, "not Ready within the boot deadline (" +
+                       std::to_string(to_seconds(k.options.boot_deadline).count()) + " s)");
     }
   }
-  for (ServiceRuntime& s : services) {
+  for (ServiceRuntime& s : k.services) {
     // After a Shutdown a closed channel is the service on its way out (under LeakSanitizer its exit check
     // can take longer than kChannelCloseGrace): the shutdown's own grace period bounds it.
-    if (!shut_down && s.live() && s.proc.channel_closed_at && t - *s.proc.channel_closed_at > kChannelCloseGrace) {
+    if (!k.shut_down && s.live() && s.proc.channel_closed_at &&
+        t - *s.proc.channel_closed_at > kChannelCloseGrace) {
       kill_hung(s, "closed its channel");
     }
   }
-  if (const auto at = steps.idle_deadline(options.idle_deadline); at && t > *at) {
+  if (const auto at = k.lockstep.steps.idle_deadline(k.options.idle_deadline); at && t > *at) {
     bool killed = false;
-    for (ServiceRuntime& s : services) {
+    for (ServiceRuntime& s : k.services) {
       if (!s.live() || s.idle()) continue;
       // Its Idle may be waiting in the channel: read what is there before judging.
-      if (s.proc.channel.valid()) read_channel(s);
+      if (s.proc.channel.valid()) k.input.read_channel(s);
       if (s.live() && !s.idle()) {
-        kill_hung(s, "not idle within the idle deadline (" + std::to_string(to_seconds(options.idle_deadline).count()) +
-                         " s) of step " + std::to_string(steps.active()->step));
+        kill_hung(s, "not idle within the idle deadline (" +
+                         std::to_string(to_seconds(k.options.idle_deadline).count()) + " s) of step " +
+                         std::to_string(k.lockstep.steps.active()->step));
         killed = true;
       }
     }
     // The others get a full deadline again for what the step still has to do.
-    if (killed) steps.restart_idle_deadline(t);
+    if (killed) k.lockstep.steps.restart_idle_deadline(t);
   }
 }
 
-void Kernel::Impl::shutdown_all() {
-  if (shut_down) return;
-  shut_down = true;
-  stopping = true;
-  const bool any_live = std::any_of(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.live(); });
+void Supervisor::shutdown_all() {
+  if (k.shut_down) return;
+  k.shut_down = true;
+  k.stopping = true;
+  const bool any_live =
+      std::any_of(k.services.begin(), k.services.end(), [](const ServiceRuntime& s) { return s.live(); });
   if (any_live) {
-    for (ServiceRuntime& s : services) {
-      if (s.live() && tx.build(wire::FrameKind::Shutdown, 0, 0, 0)) send_control(s, tx.bytes());
+    for (ServiceRuntime& s : k.services) {
+      if (s.live() && k.tx.build(wire::FrameKind::Shutdown, 0, 0, 0)) k.router.send_control(s, k.tx.bytes());
     }
     // Grace: keep the loop running (reading channels, draining queued Shutdowns, reaping).
-    const Nanos deadline = wall() + options.shutdown_grace;
-    steps.abandon();
-    while (wall() < deadline &&
-           std::any_of(services.begin(), services.end(), [](const ServiceRuntime& s) { return s.live(); })) {
-      if (!pump(std::min<Nanos>(deadline - wall(), std::chrono::milliseconds{50}))) break;
+    const Nanos deadline = k.wall() + k.options.shutdown_grace;
+    k.lockstep.steps.abandon();
+    while (k.wall() < deadline && std::any_of(k.services.begin(), k.services.end(),
+                                              [](const ServiceRuntime& s) { return s.live(); })) {
+      if (!k.pump(std::min<Nanos>(deadline - k.wall(), std::chrono::milliseconds{50}))) break;
     }
   }
-  for (ServiceRuntime& s : services) {
+  for (ServiceRuntime& s : k.services) {
     if (!s.live()) continue;
-    log("'%s' did not exit within the grace period: killed", s.name.c_str());
+    k.log("'%s' did not exit within the grace period: killed", s.name.c_str());
     s.proc.process.kill_and_reap();
-    if (s.proc.channel.valid()) (void)epoll.remove(s.proc.channel.fd());
-    (void)epoll.remove(s.proc.process.pidfd());
+    if (s.proc.channel.valid()) (void)k.epoll.remove(s.proc.channel.fd());
+    (void)k.epoll.remove(s.proc.process.pidfd());
     s.proc.channel.close();
     s.stats.exit = s.proc.process.status();
     s.proc.ended();
   }
   if (plant_started && plant.running()) {
     (void)plant.signal(SIGTERM);
-    (void)sys::wait_fd(plant.pidfd(), sys::WaitFor::Readable, options.shutdown_grace);
+    (void)sys::wait_fd(plant.pidfd(), sys::WaitFor::Readable, k.options.shutdown_grace);
     if (auto st = plant.try_wait(); !st || !*st) {
-      log("the plant did not exit within the grace period: killed");
+      k.log("the plant did not exit within the grace period: killed");
     }
     plant.kill_and_reap();
   }
   // Every image and every killed incarnation (DESIGN §7): killed and reaped.
-  if (std::optional<ImageWork> left = coordinator.take_work()) {
-    for (image::GenerationRecord& r : left->evicted) retiring.push_back(std::move(r));
+  if (std::optional<ImageWork> left = k.rejuvenator.coordinator.take_work()) {
+    for (image::GenerationRecord& r : left->evicted) k.rejuvenator.retiring.push_back(std::move(r));
   }
-  for (image::GenerationRecord& r : images.take_all()) retiring.push_back(std::move(r));
-  finish_retiring(true);
-  reaper.kill_all_and_reap();
+  for (image::GenerationRecord& r : k.rejuvenator.images.take_all())
+    k.rejuvenator.retiring.push_back(std::move(r));
+  k.rejuvenator.finish_retiring(true);
+  k.rejuvenator.reaper.kill_all_and_reap();
   // And whatever else a service left (DESIGN §7 "Protection"): nothing outlives the run. The cgroup, where
   // there is one, ends all of a service in one call; the sweep then names, counts and reaps what was left in
   // a service's session (a zombie is still its session's).
-  for (ServiceRuntime& s : services) s.sandbox.cgroup.kill_all();
-  sweep_strays("shutdown", true);
-  reaper.kill_all_and_reap();
-  for (ServiceRuntime& s : services) close_sandbox(s);
+  for (ServiceRuntime& s : k.services) s.sandbox.cgroup.kill_all();
+  k.warden.sweep_strays("shutdown", true);
+  k.rejuvenator.reaper.kill_all_and_reap();
+  for (ServiceRuntime& s : k.services) k.warden.close_sandbox(s);
   // Close every fd the run opened: DDS (participant, sockets, threads), the timerfd.
-  bridge.reset();
-  timerfd.reset();
+  k.bridge.reset();
+  k.timerfd.reset();
 }
 
 }  // namespace rejuv::kernel

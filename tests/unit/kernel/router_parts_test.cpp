@@ -1,15 +1,18 @@
 // The router's parts as owners of their state (kernel_sim/kernel/src; DESIGN §5, §6; docs/protocol.md
 // "Delivery and flow control", "Idle"): FlowControl, one service's delivery order, control pool, held frame
 // and frame count; OutputBatch, the router's cork, over a real socket pair; CanonicalStage, the lockstep
-// staging that hands messages out in canonical order.
+// staging that hands messages out in canonical order; KernelMessage, the kernel's own messages with their
+// padding zeroed.
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <new>
 #include <string>
 #include <vector>
 
 #include "canonical_stage.hpp"
 #include "output_batch.hpp"
+#include "router.hpp"
 #include "rejuv/channel/transport.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/sys/channel.hpp"
@@ -316,6 +319,44 @@ TEST(CanonicalStageDeathTest, AddWhileDraining_BreaksTheInvariant) {
   stage.add(1, 'a', text("a"));
   EXPECT_DEATH(stage.drain([&](int, char, std::span<const std::byte>) { stage.add(2, 'b', text("b")); }),
                "nothing is staged while the stage is handed out");
+}
+
+// The kernel's own messages are published as their bytes, padding included: built over memory that held
+// other bytes (0xAA here, a stack address in a run), a SecurityEvent and a RollbackSignal still publish zeros
+// in their padding, so two runs with one seed publish the same bytes and no service reads the kernel's memory.
+template <typename T>
+std::vector<std::byte> built_over_dirty_memory(void (*set)(T&)) {
+  alignas(KernelMessage<T>) std::byte storage[sizeof(KernelMessage<T>)];
+  std::memset(storage, 0xAA, sizeof storage);
+  auto* message = ::new (storage) KernelMessage<T>;  // default-initialised, as a kernel's local is
+  set(message->fields);
+  const auto bytes = std::as_bytes(std::span(&message->fields, 1));
+  return {bytes.begin(), bytes.end()};
+}
+
+TEST(KernelMessage, PaddingIsZero_WhateverTheMemoryHeldBefore) {
+  static_assert(sizeof(rejuv_msg_SecurityEvent) == 32 && offsetof(rejuv_msg_SecurityEvent, kind) == 24);
+  const auto event = built_over_dirty_memory<rejuv_msg_SecurityEvent>([](rejuv_msg_SecurityEvent& e) {
+    e.timestamp_ns = 1;
+    e.service_id = 2;
+    e.slot = 3;
+    e.operation = 4;
+    e.error = 5;
+    e.mode = rejuv_msg_SR_MODE_MC;
+    e.kind = rejuv_msg_SECURITY_CAPABILITY_DENIAL;
+  });
+  for (const std::size_t padding : {18U, 19U, 28U, 29U, 30U, 31U}) {
+    EXPECT_EQ(event[padding], std::byte{0}) << "SecurityEvent byte " << padding;
+  }
+  static_assert(sizeof(rejuv_msg_RollbackSignal) == 24 && offsetof(rejuv_msg_RollbackSignal, epoch) == 16);
+  const auto signal = built_over_dirty_memory<rejuv_msg_RollbackSignal>([](rejuv_msg_RollbackSignal& r) {
+    r.timestamp_ns = 1;
+    r.generation = 2;
+    r.epoch = 3;
+  });
+  for (const std::size_t padding : {20U, 21U, 22U, 23U}) {
+    EXPECT_EQ(signal[padding], std::byte{0}) << "RollbackSignal byte " << padding;
+  }
 }
 
 }  // namespace

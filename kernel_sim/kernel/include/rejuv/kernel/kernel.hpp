@@ -13,20 +13,22 @@
 //
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 //
-// The implementation (kernel_sim/kernel/src; Kernel::Impl in impl.hpp composes the parts; a service's record,
-// by concern, in service_runtime.hpp): kernel.cpp this API; create.cpp Kernel::create in named steps; loop.cpp
-// the event loop, timers, deadlines and the realtime clock; lockstep.cpp the lockstep steps and the samples that
-// ride on them; vocabulary.cpp the enums' names and KernelError; bridge.cpp the DDS bridge with the plant's
-// lockstep adapter (kernel_sim/dds: bridge.hpp, plant_lockstep.hpp); router.cpp routing and flow control
-// (output_batch.hpp a round's batched output); requests.cpp channel requests, invoked per object kind
-// (invocation.hpp); watch.cpp the observers of the routed traffic (mission_watch.hpp); supervisor.cpp
-// processes; the image coordinator images.cpp (overview, safe points), checkpoint.cpp, rollback.cpp and
-// checkpointed_state.cpp; sandbox.cpp containment; netgate.cpp the network gate; scripted.cpp the fuzzer's
-// seam. Parts that own their state behind a small interface: kernel_clock.hpp (the time page's one writer),
-// step_clock.hpp (the lockstep step queue and its deadlines), reaper.hpp (retired and dying processes),
-// channel_pool.hpp (socket pairs made ahead), routing_freeze.hpp (routing held while image work is timed),
-// image_charge.hpp (its simulated-time charge), canonical_stage.hpp (lockstep staging), output_batch.hpp,
-// netgate.hpp, mission_watch.hpp.
+// The implementation (kernel_sim/kernel/src): Kernel::Impl (impl.hpp) holds the configuration, the shared
+// components and the services (a service's record, by concern, in service_runtime.hpp), and composes the owners,
+// each a class with its state and its procedures: Supervisor (supervisor.hpp: supervisor.cpp processes,
+// realtime.cpp the real-time plan), ChannelInput (channel_input.hpp: requests.cpp channel requests, invoked per
+// object kind, invocation.hpp), Router (router.hpp: router.cpp routing and flow control, watch.cpp the observers
+// of the routed traffic), Lockstep (lockstep.hpp: lockstep.cpp the steps and the samples that ride on them),
+// Rejuvenator (rejuvenator.hpp: the image coordinator, images.cpp with its overview, checkpoint.cpp,
+// rollback.cpp, checkpointed_state.cpp) and Warden (warden.hpp: sandbox.cpp containment). Impl's own: kernel.cpp
+// this API; create.cpp Kernel::create in named steps; loop.cpp the event loop, timers, deadlines and the realtime
+// clock; netgate.cpp the network gate; vocabulary.cpp the enums' names and KernelError; bridge.cpp the DDS bridge
+// with the plant's lockstep adapter (kernel_sim/dds); scripted.cpp the fuzzer's seam. Smaller parts that own
+// their state, unit-tested: kernel_clock.hpp (the time page's one writer), step_clock.hpp (the lockstep step
+// queue and its deadlines), image_coordinator.hpp (the checkpoint and rollback requests, the work left, the
+// rejuvenation timer), reaper.hpp (retired and dying processes), channel_pool.hpp (socket pairs made ahead),
+// routing_freeze.hpp (routing held while image work is timed), image_charge.hpp (its simulated-time charge),
+// canonical_stage.hpp (lockstep staging), output_batch.hpp, netgate.hpp, mission_watch.hpp.
 #pragma once
 
 #include <algorithm>

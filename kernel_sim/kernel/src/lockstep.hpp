@@ -1,0 +1,58 @@
+// Lockstep with the plant (lockstep.cpp; DESIGN §6): the steps, their rounds, the samples held for their
+// step, the pace, and the run's stop conditions. Owns the step clock and the two canonical stages.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <utility>
+#include <variant>
+
+#include "canonical_stage.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "step_clock.hpp"
+
+namespace rejuv::kernel {
+
+// Lockstep: a publication read from a service during a routing round, routed at the end of the round in
+// canonical order (publisher id, then arrival); a DDS sample held for its step, routed by (timestamp,
+// reader). Publications: key the publisher's ServiceId value, tag the slot. Samples: key (timestamp, reader),
+// no tag.
+using PublicationStage = CanonicalStage<std::uint32_t, std::uint32_t>;
+using SampleStage = CanonicalStage<std::pair<std::uint64_t, std::uint32_t>, std::monostate>;
+
+class Lockstep {
+ public:
+  explicit Lockstep(Kernel::Impl& kernel) : k(kernel) {}
+
+  [[nodiscard]] Result<void, KernelError> run_lockstep();  // Kernel::run in lockstep with the plant
+  void take_steps();       // the SimSteps that arrived, through the bridge's lockstep adapter
+  void collect_samples();  // takes every sample reader (lockstep with the plant: on each SimStep)
+  void stage_sample(std::size_t reader, std::span<const std::byte> bytes);
+  void watch_sample_readers(bool watch);  // lockstep: also wake on samples while a step waits for them
+  void begin_step(const PendingStep& step);
+  // Advances the active lockstep step by one round when every service is idle; true when it is complete.
+  bool advance_step();
+  void finish_step();
+  [[nodiscard]] Nanos pace_wait();  // how long the next lockstep step must wait for options.speed (0: none)
+  void check_stop_conditions();
+  // The untimed checkpoint of the alignment that forks every service's first image (DESIGN §6): asked for at
+  // the first step, carried out as any checkpoint but neither timed, counted nor charged.
+  void request_priming();
+  // The graph idle: the catch-up's next sampling instant routed as a round of its own; at its end, what it
+  // cost charged (catch_up.hpp).
+  void replay_next_instant();
+  bool replay_instant();  // the next instant, or the end of the replay (false): measured and charged
+
+  StepClock steps;               // the queue, the active step, its rounds and deadlines (step_clock.hpp)
+  bool samples_on_step = false;  // sample readers are not in epoll: taken when a SimStep arrives (create.cpp)
+  PublicationStage staged;       // a round's publications (router.cpp stages and flushes them)
+  SampleStage samples;           // the samples of the step (staged here, routed by router.cpp)
+
+ private:
+  Kernel::Impl& k;
+  bool watching_samples = false;
+  std::optional<std::pair<Nanos, Nanos>> pace_origin{};  // (kernel clock, wall) at the first paced step
+};
+
+}  // namespace rejuv::kernel

@@ -1,0 +1,126 @@
+// The image coordinator of DESIGN §7 as one owner (images.cpp, checkpoint.cpp, rollback.cpp; the overview is
+// at the top of images.cpp): checkpoints, rollbacks, cold restarts, the image work they leave behind and the
+// rejuvenation timer, carried out over the image store, the coordinator's state machine
+// (image_coordinator.hpp), the routing freeze, the catch-up, the charge, the reaper and the channel pool —
+// all of which it owns.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "catch_up.hpp"
+#include "channel_pool.hpp"
+#include "image_charge.hpp"
+#include "image_coordinator.hpp"
+#include "reaper.hpp"
+#include "rejuv/channel/wire.hpp"
+#include "rejuv/image/image_store.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "rejuv/sys/fd.hpp"
+#include "routing_freeze.hpp"
+#include "service_runtime.hpp"
+#include "vehicle_pace.hpp"
+
+namespace rejuv::kernel {
+
+class Rejuvenator {
+ public:
+  explicit Rejuvenator(Kernel::Impl& kernel) : k(kernel) {}
+
+  // Runs what is pending at a safe point (between routing rounds): a requested rollback, else a requested
+  // checkpoint once the graph is quiescent. True when it did something.
+  bool service_images();
+  void request_rollback(std::string reason);
+  void cold_restart(const std::string& reason);
+  // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
+  [[nodiscard]] Result<void, KernelError> finish_image_requests();
+  void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
+  void fire_rejuvenation();  // the timer is due: roll back
+  void
+  image_work_if_due();  // the work a checkpoint or rollback left, after the vehicle's next control update
+  // Taken or TakenPages from `s`: whether the checkpoint in progress waits for it (no longer, once true).
+  bool expecting_image(ServiceRuntime& s, const wire::FrameView& frame);
+  void on_taken(ServiceRuntime& s, const wire::FrameView& frame);
+  void on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages);
+  [[nodiscard]] bool knows_process(pid_t pid, const image::GenerationRecord* taking) const;
+  void trim_images(bool now);  // the generation kept beyond K, once the newest K are confirmed
+  void finish_retiring(bool final);
+  [[nodiscard]] std::uint64_t processes_to_spare() const;                  // the reaper's slack
+  void set_mode(SrMode mode, std::optional<ServiceId> by = std::nullopt);  // enter_mode, sr_mode published
+  // Observer::on_sr_event, stamped with now, the wall clock, the epoch and the mode (Figs. 7 and 8).
+  void sr_event(SrEventKind kind, Generation g = {}, Nanos span = {},
+                std::optional<ServiceId> by = std::nullopt);
+
+  // Read by the other owners; written here, and set up by create.cpp.
+  image::ImageStore images{2};
+  ImageCoordinator coordinator;  // the requests, the run, the work left, the timer (image_coordinator.hpp)
+  RoutingFreeze routing;         // frozen while a checkpoint or rollback is timed (routing_freeze.hpp)
+  CatchUp catch_up;  // the plant's samples since each cut, replayed after a rollback (catch_up.hpp)
+  SrStats sr_stats{};
+  ImageCharge image_charge;        // simulated time charged for image work (image_charge.hpp)
+  VehiclePace pace;                // where in the control period image work may start (vehicle_pace.hpp)
+  Nanos flight_start{0};           // the end of the plant's alignment: the mission's t = 0
+  Reaper reaper;                   // retired incarnations, killed processes not reaped yet (reaper.hpp)
+  bool sr_mode_announced = false;  // the first SrMode published (router.cpp)
+
+ private:
+  ChannelPool channel_pool;  // socket pairs made ahead, fds closed after the timed part (channel_pool.hpp)
+
+ public:
+  // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
+  // be unknown children): destroyed once they have (service_images).
+  std::vector<image::GenerationRecord> retiring;
+
+ private:
+  // ---- images.cpp ----
+  static constexpr Nanos kTrimPeriod{std::chrono::milliseconds{2}};
+  bool enter_mode(SrMode mode);  // the capability system's mode, on the time page; false (logged) if refused
+  void retire(image::GenerationRecord record);
+  void refill_pairs();  // channel_pool, for one checkpoint or rollback of every rejuvenated service
+  // Opens the pagemap of every live incarnation that may take its next image by written pages (a service is
+  // not dumpable and cannot open its own; the Snapshot hands it over). Off the critical paths, like
+  // refill_pairs.
+  void open_pagemaps();
+  void resume_routing();
+  void leave_image_work(ImageWork work);
+  void run_image_work();           // now, whatever the trigger (also before a checkpoint or rollback)
+  void fire_rejuvenation_early();  // real time: due before the next control update, fired in this slack
+  // How long the kernel waits for images: resume_deadline where the vehicle waits with it (real time,
+  // measured charge), unseen_resume_deadline otherwise (KernelOptions).
+  [[nodiscard]] Nanos image_wait_bound() const;
+  void settle_dying();  // backpressure on killed processes before a checkpoint or rollback
+
+  // ---- checkpoint.cpp: the run's steps, the wall times of its timed part, the images ----
+  struct CheckpointTimes {
+    Nanos start{0}, sent{0}, taken{0}, saved{0};
+  };
+  [[nodiscard]] bool quiescent_for_checkpoint() const;
+  void run_checkpoint();
+  void send_snapshots(CheckpointRun& run);
+  bool await_images(CheckpointRun& run);  // true: the deadline passed
+  void answer_checkpoint(const CheckpointRun& run, std::int32_t error, std::uint64_t value);
+  void abandon_checkpoint(CheckpointRun done, bool late, const CheckpointTimes& times);
+  void commit_checkpoint(CheckpointRun done, CheckpointTimes times);
+  void count_checkpoint(Generation g, std::optional<ServiceId> caller, const CheckpointTimes& times);
+  // Whether a service of the checkpoint in progress died (sets its failure): the generation is abandoned.
+  [[nodiscard]] bool lost_during(CheckpointRun& run) const;
+  bool late_image(ServiceRuntime& s, const wire::FrameView& frame);
+  // The base generation a Snapshot to `s` offers for an image by written pages (0: by fork).
+  [[nodiscard]] Generation pages_base_for(const ServiceRuntime& s);
+  // After a commit: has a copy of each base image make the new generation's images by written pages.
+  void send_patches(image::GenerationRecord& record);
+
+  // ---- rollback.cpp ----
+  void run_rollback(const std::string& reason);
+  // Resumes every image of `record`; false (and everything resumed killed again) if one fails.
+  bool resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
+                         Nanos& resumed_at);
+  void retire_live_rejuvenated();
+
+  Kernel::Impl& k;
+  Nanos next_trim{0};  // wall clock: when trim_images looks again
+};
+
+}  // namespace rejuv::kernel

@@ -1,0 +1,50 @@
+// Boot and supervision (supervisor.cpp) and the real-time plan (realtime.cpp; idl/launch.proto RealtimePlan;
+// docs/realtime.md): spawning the services and the plant, the Boot, losing a service, the deadlines, the
+// shutdown. Owns the plant's process.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "rejuv/channel/wire.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "rejuv/sys/process.hpp"
+#include "service_runtime.hpp"
+
+namespace rejuv::kernel {
+
+// The boot params of a service: its own launch params, then the graph-wide ones (services/sdk service.hpp).
+[[nodiscard]] std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRuntime& s);
+
+class Supervisor {
+ public:
+  explicit Supervisor(Kernel::Impl& kernel) : k(kernel) {}
+
+  [[nodiscard]] Result<void, KernelError> spawn_all();
+  [[nodiscard]] Result<void, KernelError> spawn_one(ServiceRuntime& s);
+  [[nodiscard]] Result<void, KernelError> spawn_plant();
+  void send_boot(ServiceRuntime& s);
+  void on_child_exit(ServiceRuntime& s);
+  void on_plant_exit();
+  // The one place a service is lost (death, hang, protocol fault). With SR a rejuvenated service's loss asks
+  // for a rollback (DESIGN §7); before the graph has booted, without SR, or for a driver-level service the
+  // run ends.
+  void lose_service(ServiceRuntime& s, std::string reason);
+  void kill_hung(ServiceRuntime& s, std::string reason);
+  void check_deadlines();
+  void shutdown_all();
+  void report_stall();  // no step completed for kStallReportAfter
+
+  void start_realtime_plan();  // run_realtime: the kernel's threads and memory, the plant, the Ready
+  void apply_realtime(
+      ServiceRuntime& s);  // a service that became Ready (spawned, cold-restarted or restored)
+
+  sys::ChildProcess plant;     // written here and by create.cpp (its executable checked)
+  bool plant_started = false;  // written here
+
+ private:
+  Kernel::Impl& k;
+  bool realtime_active = false;  // the plan is on and the kernel was granted SCHED_FIFO
+};
+
+}  // namespace rejuv::kernel

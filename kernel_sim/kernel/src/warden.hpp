@@ -1,0 +1,50 @@
+// The warden (sandbox.cpp, DESIGN §7 "Protection"): the calls the seccomp filter refers to the kernel, the
+// services' output, the strays of a service's session and the violations counted. Owns the sweep's schedule.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string_view>
+
+#include "image_coordinator.hpp"
+#include "rejuv/kernel/kernel.hpp"
+#include "rejuv/sys/fd.hpp"
+#include "rejuv/sys/process.hpp"
+#include "service_runtime.hpp"
+
+namespace rejuv::kernel {
+
+enum class Violation : std::uint8_t { ForbiddenCall, StrayProcess, ImageLost };
+
+class Warden {
+ public:
+  explicit Warden(Kernel::Impl& kernel) : k(kernel) {}
+
+  // Calls the filter referred to the kernel: boot calls continue while the service boots; anything else
+  // kills the caller and counts a violation.
+  void on_seccomp_notice(ServiceRuntime& s);
+  // Lines the service wrote on fds 1-2, logged under its name (rate-limited, control characters escaped).
+  void on_service_output(ServiceRuntime& s, bool final = false);
+  // Kills every process of a service's session that is neither its live incarnation nor an image the kernel
+  // knows (strays): at every commit, after every rollback, about once a simulated second, and at shutdown.
+  // Deferred while copies the kernel asked for are on their way (their pids are not known yet).
+  // After a rollback it first waits (briefly, off the critical path) for copies asked for earlier, so that no
+  // stray outlives the rollback (ForCopies); elsewhere a service with a copy on its way is swept next time.
+  void sweep_strays(std::string_view when, bool final = false, SweepWait wait = SweepWait::No);
+  void sweep_if_due();  // at a safe point off the critical paths: a sweep asked for, or a simulated second
+                        // since the last
+  void record_violation(ServiceRuntime& s, Violation kind, std::string_view what);
+  void close_sandbox(ServiceRuntime& s);  // listener and output pipe, out of epoll
+  void join_cgroup(ServiceRuntime& s);    // makes the service's cgroup at its first spawn (or notes why not)
+  // A restored incarnation's new stdout/stderr pipe: what the old one still holds is logged, then it is
+  // closed and the new one watched.
+  [[nodiscard]] sys::SysResult<void> replace_output(ServiceRuntime& s, sys::UniqueFd read_end);
+  [[nodiscard]] sys::ResourceLimits limits_for(const ServiceRuntime& s) const;
+
+ private:
+  Kernel::Impl& k;
+  std::optional<std::string_view> sweep_due;  // why a sweep is wanted
+  Nanos last_sweep{0};                        // kernel clock
+};
+
+}  // namespace rejuv::kernel
