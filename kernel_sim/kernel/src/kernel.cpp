@@ -255,8 +255,9 @@ ServiceStats Kernel::stats(ServiceId service) const {
   // Messages routed to it that it will never get: skipped by the broker, or overrun while it stays blocked.
   // s.stats.lost has what next() already skipped; add what is overrun but not yet skipped.
   for (const SubscriptionRecord& r : s.subscriptions) {
-    if (r.id.value() >= impl_->router.subscribers.size()) continue;
-    const std::uint64_t routed = impl_->router.subscribers[r.id.value()].routed;
+    const std::optional<std::uint64_t> routed_to = impl_->router.routed_to(r.id);
+    if (!routed_to) continue;
+    const std::uint64_t routed = *routed_to;
     const auto st = impl_->broker.subscriber_stats(r.id);
     const auto pending = impl_->broker.pending(r.id);
     if (!st || !pending) {

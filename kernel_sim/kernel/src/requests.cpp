@@ -240,11 +240,10 @@ void ChannelInput::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f)
                                                                         : wire::OpError::NoSuchTopic));
     return;
   }
-  if (k.router.subscribers.size() <= sub->value()) k.router.subscribers.resize(sub->value() + 1);
-  k.router.subscribers[sub->value()] = Router::SubscriberInfo{.service = s.id,
-                                                              .slot = Slot(f.header.slot),
-                                                              .routed = k.broker.pending(*sub).value_or(0),
-                                                              .polled = polled};
+  k.router.add_subscriber(*sub, Router::SubscriberInfo{.service = s.id,
+                                                       .slot = Slot(f.header.slot),
+                                                       .routed = k.broker.pending(*sub).value_or(0),
+                                                       .polled = polled});
   s.subscriptions.push_back(SubscriptionRecord{.slot = Slot(f.header.slot), .topic = inv->object(), .id = *sub});
   reply(s, f.header.seq, 0);
   // uORB: a new subscriber first gets the latest message already published, if any (a polled one with its

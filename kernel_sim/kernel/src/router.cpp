@@ -93,6 +93,16 @@ void Router::publish_as_kernel(ObjectId topic, std::span<const std::byte> payloa
   after_publish(topic, payload, *g, std::nullopt, from);
 }
 
+void Router::add_subscriber(broker::SubscriberId id, SubscriberInfo info) {
+  if (subscribers.size() <= id.value()) subscribers.resize(id.value() + 1);
+  subscribers[id.value()] = info;
+}
+
+std::optional<std::uint64_t> Router::routed_to(broker::SubscriberId id) const {
+  if (id.value() >= subscribers.size()) return std::nullopt;
+  return subscribers[id.value()].routed;
+}
+
 void Router::publish_kernel_bytes(std::string_view type_name, std::span<const std::byte> message) {
   for (const ObjectInfo& o : k.objects) {
     if (o.type != nullptr && o.type->name == type_name && o.kernel == policy::KernelEndpoint::Publishes) {

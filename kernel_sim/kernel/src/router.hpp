@@ -45,8 +45,8 @@ class Router {
     std::uint64_t routed = 0;
     bool polled = false;  // wire::kSubscribePolled
   };
-  std::vector<SubscriberInfo> subscribers;  // written by requests.cpp (Subscribe) and here
-  MissionWatch mission;                     // watch.cpp
+  void add_subscriber(broker::SubscriberId id, SubscriberInfo info);  // a Subscribe the broker accepted
+  [[nodiscard]] std::optional<std::uint64_t> routed_to(broker::SubscriberId id) const;
 
   void ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload);
   void route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<const std::byte> payload);
@@ -96,6 +96,8 @@ class Router {
   bool deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber);  // false: nothing pending or blocked
 
   Kernel::Impl& k;
+  std::vector<SubscriberInfo> subscribers;  // by SubscriberId value
+  MissionWatch mission;                     // watch.cpp
   OutputBatch batch;  // a routing round's output (cork/uncork)
   wire::FrameBuffer
       deliver_tx;  // Deliver frames (deliver_one), which may go out while a control frame is in tx
