@@ -300,7 +300,7 @@ bool Rejuvenator::knows_process(pid_t pid, const image::GenerationRecord* taking
       return std::any_of(i.copies.begin(), i.copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
     });
   };
-  return images.owns(pid) || (k.supervisor.plant_started && k.supervisor.plant.pid() == pid) ||
+  return images.owns(pid) || k.supervisor.plant_pid() == pid ||
          std::any_of(k.services.begin(), k.services.end(),
                      [&](const ServiceRuntime& o) { return o.proc.process.pid() == pid; }) ||
          (taking != nullptr && in(*taking));

@@ -228,8 +228,7 @@ std::vector<Generation> Kernel::generations() const {
   return impl_->rejuvenator.images.generations();
 }
 std::optional<int> Kernel::plant_pid() const {
-  if (!impl_->supervisor.plant_started || impl_->supervisor.plant.pid() <= 0) return std::nullopt;
-  return impl_->supervisor.plant.pid();
+  return impl_->supervisor.plant_pid();
 }
 
 std::optional<ServiceId> Kernel::find_service(std::string_view name) const {

@@ -36,13 +36,13 @@ void Supervisor::start_realtime_plan() {
       notes += "; kernel on CPU " + std::to_string(plan.kernel_cpu());
     }
   }
-  if (plant_started && plant_priority > 0) {
-    if (auto ok = sys::set_fifo(plant.pid(), plant_priority); !ok) {
+  if (plant_started_ && plant_priority > 0) {
+    if (auto ok = sys::set_fifo(plant_.pid(), plant_priority); !ok) {
       notes += "; the plant stays SCHED_OTHER (" + ok.error().to_string() + ")";
     }
   }
-  if (plant_started && plan.has_plant_cpu()) {
-    if (auto ok = sys::pin_to_cpu(plant.pid(), plan.plant_cpu()); !ok) {
+  if (plant_started_ && plan.has_plant_cpu()) {
+    if (auto ok = sys::pin_to_cpu(plant_.pid(), plan.plant_cpu()); !ok) {
       notes += "; the plant not pinned to CPU " + std::to_string(plan.plant_cpu()) + " (" + ok.error().to_string() + ")";
     } else {
       notes += "; plant on CPU " + std::to_string(plan.plant_cpu());

@@ -178,6 +178,11 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   return {};
 }
 
+std::optional<pid_t> Supervisor::plant_pid() const {
+  if (!plant_started_ || plant_.pid() <= 0) return std::nullopt;
+  return plant_.pid();
+}
+
 Result<void, KernelError> Supervisor::spawn_plant() {
   const proto::Launch& g = k.graph.graph;
   sys::SpawnSpec spec;
@@ -216,9 +221,9 @@ Result<void, KernelError> Supervisor::spawn_plant() {
                             .message = "spawn the plant (" + spec.executable + "): " + child.error().to_string(),
                             .findings = {}});
   }
-  plant = std::move(*child);
-  plant_started = true;
-  if (auto ok = k.epoll.add(plant.pidfd(), token(Source::Plant, 0)); !ok) {
+  plant_ = std::move(*child);
+  plant_started_ = true;
+  if (auto ok = k.epoll.add(plant_.pidfd(), token(Source::Plant, 0)); !ok) {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
   }
   return {};
@@ -321,9 +326,9 @@ void Supervisor::kill_hung(ServiceRuntime& s, std::string reason) {
 }
 
 void Supervisor::on_plant_exit() {
-  auto status = plant.try_wait();
+  auto status = plant_.try_wait();
   if (!status || !*status) return;
-  (void)k.epoll.remove(plant.pidfd());
+  (void)k.epoll.remove(plant_.pidfd());
   if (k.stopping) return;
   k.log("the plant exited: %s", (**status).to_string().c_str());
   k.stop_run(StopReason::PlantExited, "the plant " + (**status).to_string());
@@ -359,7 +364,7 @@ void Supervisor::report_stall() {
 void Supervisor::check_deadlines() {
   const Nanos t = k.wall();
   if (const auto at = k.lockstep.steps.stall_deadline();
-      plant_started && k.clock_mode == ClockMode::Lockstep && at && t > *at) {
+      plant_started_ && k.clock_mode == ClockMode::Lockstep && at && t > *at) {
     report_stall();
   }
   for (ServiceRuntime& s : k.services) {
@@ -422,13 +427,13 @@ void Supervisor::shutdown_all() {
     s.stats.exit = s.proc.process.status();
     s.proc.ended();
   }
-  if (plant_started && plant.running()) {
-    (void)plant.signal(SIGTERM);
-    (void)sys::wait_fd(plant.pidfd(), sys::WaitFor::Readable, k.options.shutdown_grace);
-    if (auto st = plant.try_wait(); !st || !*st) {
+  if (plant_started_ && plant_.running()) {
+    (void)plant_.signal(SIGTERM);
+    (void)sys::wait_fd(plant_.pidfd(), sys::WaitFor::Readable, k.options.shutdown_grace);
+    if (auto st = plant_.try_wait(); !st || !*st) {
       k.log("the plant did not exit within the grace period: killed");
     }
-    plant.kill_and_reap();
+    plant_.kill_and_reap();
   }
   // Every image and every killed incarnation (DESIGN §7): killed and reaped.
   if (std::optional<ImageWork> left = k.rejuvenator.coordinator.take_work()) {

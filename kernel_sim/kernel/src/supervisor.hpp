@@ -3,6 +3,7 @@
 // shutdown. Owns the plant's process.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,11 +40,13 @@ class Supervisor {
   void apply_realtime(
       ServiceRuntime& s);  // a service that became Ready (spawned, cold-restarted or restored)
 
-  sys::ChildProcess plant;     // written here and by create.cpp (its executable checked)
-  bool plant_started = false;  // written here
+  [[nodiscard]] bool plant_started() const { return plant_started_; }
+  [[nodiscard]] std::optional<pid_t> plant_pid() const;  // started and not yet reaped
 
  private:
   Kernel::Impl& k;
+  sys::ChildProcess plant_;
+  bool plant_started_ = false;
   bool realtime_active = false;  // the plan is on and the kernel was granted SCHED_FIFO
 };
 
