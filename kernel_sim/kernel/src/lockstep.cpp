@@ -70,7 +70,7 @@ void Lockstep::watch_sample_readers(bool watch) {
 void Lockstep::begin_step(const PendingStep& step) {
   for (ServiceRuntime& s : k.services) s.flow.new_step();
   k.set_now(step.t);
-  if (!k.rejuvenator.sr_mode_announced) k.router.publish_sr_mode();
+  if (!k.router.sr_mode_announced()) k.router.publish_sr_mode();
   request_priming();
   k.rejuvenator.fire_rejuvenation();  // DESIGN §7: a due rejuvenation timer rolls back before anything else
                                       // of the step

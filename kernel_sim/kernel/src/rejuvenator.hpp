@@ -63,7 +63,6 @@ class Rejuvenator {
   VehiclePace pace;                // where in the control period image work may start (vehicle_pace.hpp)
   Nanos flight_start{0};           // the end of the plant's alignment: the mission's t = 0
   Reaper reaper;                   // retired incarnations, killed processes not reaped yet (reaper.hpp)
-  bool sr_mode_announced = false;  // the first SrMode published (router.cpp)
 
  private:
   ChannelPool channel_pool;  // socket pairs made ahead, fds closed after the timed part (channel_pool.hpp)

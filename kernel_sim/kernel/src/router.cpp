@@ -112,6 +112,7 @@ void Router::publish_kernel_bytes(std::string_view type_name, std::span<const st
 }
 
 void Router::publish_sr_mode() {
+  mode_announced = true;
   KernelMessage<rejuv_msg_SrMode> m;
   m.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
   m.fields.mode = static_cast<rejuv_msg_SrModeKind>(index_of(k.caps.mode()));

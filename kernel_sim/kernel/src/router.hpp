@@ -68,6 +68,7 @@ class Router {
   void flush_staged();
   void route_samples();
   void publish_sr_mode();
+  [[nodiscard]] bool sr_mode_announced() const { return mode_announced; }  // an SrMode published this run
   bool write_to_bridge(ObjectId topic, std::span<const std::byte> payload);  // false: the run stops
   // Output to a service (flow control: FlowControl, service_runtime.hpp, keeps the order, the pool, the
   // count).
@@ -102,6 +103,7 @@ class Router {
   wire::FrameBuffer
       deliver_tx;  // Deliver frames (deliver_one), which may go out while a control frame is in tx
   std::uint64_t denials_drained = 0;
+  bool mode_announced = false;
 };
 
 }  // namespace rejuv::kernel
