@@ -117,6 +117,7 @@ class Rejuvenator {
   bool resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
                          Nanos& resumed_at);
   void retire_live_rejuvenated();
+  void announce_rollback(Generation g, Epoch epoch);  // the RollbackSignal and the SrMode, routing frozen
 
   Kernel::Impl& k;
   Nanos next_trim{0};  // wall clock: when trim_images looks again

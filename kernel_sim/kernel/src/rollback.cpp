@@ -169,6 +169,19 @@ bool Rejuvenator::resume_generation(image::GenerationRecord& record, Nanos deadl
   return true;
 }
 
+// The RollbackSignal and the SrMode, published into frozen rings and delivered after the timed part (as after a
+// checkpoint's commit): a service woken by a delivery, or the plant's thread woken by a DDS write, may take the
+// CPU at once.
+void Rejuvenator::announce_rollback(Generation g, Epoch epoch) {
+  routing.freeze();
+  KernelMessage<rejuv_msg_RollbackSignal> signal;
+  signal.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
+  signal.fields.generation = g.value();
+  signal.fields.epoch = epoch.value();
+  k.router.publish_kernel_message(signal);
+  k.router.publish_sr_mode();
+}
+
 void Rejuvenator::run_rollback(const std::string& reason) {
   if (coordinator.work_left()) run_image_work();  // the newest generation's patches first: the rollback resumes them
   const Nanos t0 = k.wall();
@@ -216,17 +229,8 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   coordinator.rejuvenated(k.now());
   k.arm_timerfd();
   const Epoch epoch = k.kernel_clock.epoch();
-  // Published into the rings, delivered after the timed part (as after a checkpoint's commit): a service
-  // woken by a delivery, or the plant's thread woken by a DDS write, may take the CPU at once.
-  routing.freeze();
-  KernelMessage<rejuv_msg_RollbackSignal> signal;
-  signal.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
-  signal.fields.generation = restored->g.value();
-  signal.fields.epoch = epoch.value();
-  k.router.publish_kernel_message(signal);
-  k.router.publish_sr_mode();
-  const Nanos took =
-      k.wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
+  announce_rollback(restored->g, epoch);
+  const Nanos took = k.wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
   resume_routing();
   // The restored estimator chain is fed the plant's samples since g's cut before the step goes on (lockstep.cpp).
   if (catch_up.begin(restored->g, k.wall()) == CatchUp::Begin::NoLog) {
