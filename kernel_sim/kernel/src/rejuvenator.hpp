@@ -38,8 +38,6 @@ class Rejuvenator {
   [[nodiscard]] Result<void, KernelError> finish_image_requests();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
   void fire_rejuvenation();  // the timer is due: roll back
-  void
-  image_work_if_due();  // the work a checkpoint or rollback left, after the vehicle's next control update
   // Taken or TakenPages from `s`: whether the checkpoint in progress waits for it (no longer, once true).
   bool expecting_image(ServiceRuntime& s, const wire::FrameView& frame);
   void on_taken(ServiceRuntime& s, const wire::FrameView& frame);
@@ -85,6 +83,7 @@ class Rejuvenator {
   void resume_routing();
   void leave_image_work(ImageWork work);
   void run_image_work();           // now, whatever the trigger (also before a checkpoint or rollback)
+  void image_work_if_due();        // the work left, after the vehicle's next control update
   void fire_rejuvenation_early();  // real time: due before the next control update, fired in this slack
   // How long the kernel waits for images: resume_deadline where the vehicle waits with it (real time,
   // measured charge), unseen_resume_deadline otherwise (KernelOptions).

@@ -82,12 +82,12 @@ class Router {
   void set_writable_interest(ServiceRuntime& s, bool want);
 
   // ---- observers of the routed traffic (watch.cpp, mission_watch.hpp) ----
-  // The one hook of the routing core: every publication routed, the service's or the kernel's own.
-  void watch_publication(const ObjectInfo& o, std::span<const std::byte> payload, broker::TopicGeneration g,
-                         std::optional<ServiceId> publisher);
   void drain_denials();  // the capability system's new denials: counted, logged, published as SecurityEvents
 
  private:
+  // The one hook of the routing core (watch.cpp): every publication routed, the service's or the kernel's own.
+  void watch_publication(const ObjectInfo& o, std::span<const std::byte> payload, broker::TopicGeneration g,
+                         std::optional<ServiceId> publisher);
   void publish_kernel_bytes(std::string_view type_name, std::span<const std::byte> message);
   void after_publish(ObjectId topic, std::span<const std::byte> payload, broker::TopicGeneration g,
                      std::optional<ServiceId> publisher, From from);

@@ -34,7 +34,6 @@ class Supervisor {
   void kill_hung(ServiceRuntime& s, std::string reason);
   void check_deadlines();
   void shutdown_all();
-  void report_stall();  // no step completed for kStallReportAfter
 
   void start_realtime_plan();  // run_realtime: the kernel's threads and memory, the plant, the Ready
   void apply_realtime(
@@ -44,6 +43,7 @@ class Supervisor {
   [[nodiscard]] std::optional<pid_t> plant_pid() const;  // started and not yet reaped
 
  private:
+  void report_stall();  // no step completed for kStallReportAfter
   Kernel::Impl& k;
   sys::ChildProcess plant_;
   bool plant_started_ = false;
