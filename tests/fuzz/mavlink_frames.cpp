@@ -32,7 +32,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!back || !same_bytes(back->message, p->message)) std::abort();
   }
   rejuv::mavlink::SignatureChecker checker(rejuv::mavlink::SigningKey{});
-  (void)checker.check(bytes);
+  (void)checker.check(bytes, rejuv::mavlink::SigningTime{});  // the clock at the epoch: any timestamp is recent
   // home at the square's start, 3 m up; the default bounds (the geofence commander also applies)
   rejuv::services::ExtLink link(rejuv::services::ExtLink::UploadGuard{.home = {.p_N_m = Eigen::Vector3d(0.0, 0.0, -3.0), .yaw_rad = 0.0}, .bounds = {}});
   (void)link.on_datagram(bytes, rejuv::Nanos{0});

@@ -2,8 +2,9 @@
 // by tests/multiproc/mavlink_client_test.cpp. It talks to the kernel's network gate over UDP and, within
 // --timeout seconds of wall-clock time:
 //   1. sends HEARTBEATs (MAV_TYPE_GCS) and waits for the vehicle's HEARTBEAT (MAV_TYPE_QUADROTOR);
-//   2. with --wrong-key, sends an unsigned and a wrongly signed MISSION_COUNT every 100 ms and on the vehicle's
-//      messages (the gate must refuse both: the test checks its counters in the run summary);
+//   2. with --wrong-key, sends an unsigned, a wrongly signed and a recorded MISSION_COUNT (signed with --key
+//      but stamped in January 2015) every 100 ms and on the vehicle's messages (the gate must refuse all three:
+//      the test checks its counters in the run summary);
 //   3. from the start, uploads a one-waypoint mission (MAV_FRAME_LOCAL_NED) with the mission protocol, retransmitting its
 //      last message every --retry-ms without an answer (the gate drops everything in the secure execution
 //      interval) and starting again on MAV_MISSION_INVALID_SEQUENCE (a rollback ended the transaction);
@@ -54,6 +55,16 @@ function frame(msg, signKey) {
   }
   return b;
 }
+// A frame of a recording: signed with the key, stamped from 2015-01-01 00:00 UTC on (the signing epoch), one
+// millisecond more each time, as a flight recorded then and played back now.
+let recordedMs = Date.UTC(2015, 0, 1);
+function recordedFrame(msg) {
+  const protocol = new MavLinkProtocolV2(GCS_SYSID, GCS_COMPID, MavLinkProtocolV2.IFLAG_SIGNED);
+  const b = protocol.serialize(msg, seq);
+  seq = (seq + 1) & 255;
+  recordedMs += 1;
+  return protocol.sign(b, LINK_ID, key, recordedMs);
+}
 function send(msg, signKey = key) {
   socket.send(frame(msg, signKey), port, '127.0.0.1');
 }
@@ -97,13 +108,17 @@ function startUpload() {
   uploadSend(missionCount());
 }
 
-// The refusal probes: an unsigned and a wrongly signed MISSION_COUNT.
+// The refusal probes: an unsigned, a wrongly signed and a recorded MISSION_COUNT.
 let lastProbeAt = 0;
 function probe() {
   lastProbeAt = Date.now();
   send(missionCount(), null);
   send(missionCount(), wrongKey);
   report.refusal_probes_sent += 2;
+  if (key) {
+    socket.send(recordedFrame(missionCount()), port, '127.0.0.1');
+    report.refusal_probes_sent += 1;
+  }
 }
 
 const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
@@ -176,7 +191,7 @@ socket.bind(0, '127.0.0.1', () => {
     if (!report.heartbeat || now % 1000 < 20) send(heartbeat());
     if (phase === 'upload' && lastUpload && now - lastUploadAt >= retryMs) uploadSend(lastUpload);
     // With --wrong-key, all along (so that some arrive in MC, where the gate checks rather than drops): an
-    // unsigned and a wrongly signed MISSION_COUNT. The gate refuses both; ext_link never sees them.
+    // unsigned, a wrongly signed and a recorded MISSION_COUNT. The gate refuses them; ext_link never sees them.
     if (wrongKey && report.heartbeat && now % 100 < 20) probe();
   }, 20);
 });

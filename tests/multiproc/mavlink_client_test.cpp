@@ -3,7 +3,8 @@
 // in lockstep, with SR, and MAVLink signing on (a key in the launch file's network block): the client
 // exchanges heartbeats, uploads a mission through the secure execution interval (acknowledged
 // MAV_MISSION_ACCEPTED), sees the vehicle reach the uploaded waypoint in LOCAL_POSITION_NED and a rollback in
-// STATUSTEXT; its unsigned and wrongly signed uploads are refused by the kernel's gate (the run summary).
+// STATUSTEXT; its unsigned, wrongly signed and recorded (stamped 2015) uploads are refused by the kernel's gate
+// (the run summary).
 #include <gtest/gtest.h>
 #include <google/protobuf/struct.pb.h>
 #include <google/protobuf/util/json_util.h>
@@ -132,17 +133,20 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   EXPECT_TRUE(json_at(report, "reached_target").bool_value()) << client_text;
   EXPECT_GT(json_at(report, "distance_at_ack_m").number_value(), json_at(report, "min_distance_after_ack_m").number_value() + 0.3);
   EXPECT_TRUE(json_at(report, "rollback_statustext").has_string_value()) << client_text;
-  // The kernel's gate refused the unsigned and the wrongly signed frames before ext_link saw them.
+  // The kernel's gate refused the unsigned, the wrongly signed and the recorded (stamped 2015) frames before
+  // ext_link saw them (the client's own stream, stamped from its wall clock, got its upload through: above).
   proto::RunSummary summary;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json), &summary).ok());
   EXPECT_TRUE(summary.network().signing());
-  std::uint64_t unsigned_refused = 0, bad_signature = 0;
+  std::uint64_t unsigned_refused = 0, bad_signature = 0, stale = 0;
   for (const proto::LinkRefusals& r : summary.network().signing_refused_by_reason()) {
     if (r.reason() == "unsigned") unsigned_refused = r.count();
     if (r.reason() == "bad_signature") bad_signature = r.count();
+    if (r.reason() == "stale") stale = r.count();
   }
   EXPECT_GE(unsigned_refused, 1U) << summary.network().DebugString();
   EXPECT_GE(bad_signature, 1U) << summary.network().DebugString();
+  EXPECT_GE(stale, 1U) << summary.network().DebugString();
   EXPECT_GT(summary.rollbacks(), 0U);
   EXPECT_GT(summary.network().dropped_secure_interval(), 0U);
 }

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
 #include <csignal>
 #include <filesystem>
 #include <fstream>
@@ -84,7 +85,13 @@ class Ground {
   void send(const mav::Message& m) { send(frame(m).view()); }
   [[nodiscard]] mav::Frame frame(const mav::Message& m) {
     std::optional<mav::Signer> signer;
-    if (key) signer = mav::Signer{.key = *key, .link_id = 1, .timestamp = ++timestamp};
+    if (key) {
+      // Stamped as a ground station does, from the wall clock (the gate refuses a timestamp more than a minute
+      // behind its own), strictly increasing; or, replaying a recording, from where the recording started.
+      constexpr mav::SigningClock::duration kTick{1};
+      timestamp = recorded_at ? std::max(*recorded_at, timestamp + kTick) : std::max(mav::SigningClock::now(), timestamp + kTick);
+      signer = mav::Signer{.key = *key, .link_id = 1, .timestamp = timestamp};
+    }
     return mav::encode(m, mav::Envelope{.seq = seq_++, .sysid = 255, .compid = 190}, signer);
   }
   // Everything the vehicle sent so far (non-blocking), decoded; undecodable ones kept in `raw`.
@@ -127,7 +134,8 @@ class Ground {
   std::vector<mav::Message> received;
   std::vector<std::vector<std::byte>> raw;
   std::optional<mav::SigningKey> key;
-  std::uint64_t timestamp = 400'000'000'000ULL;  // [10 µs since 2015]: any start, strictly increasing
+  mav::SigningTime timestamp{};                   // the last one stamped
+  std::optional<mav::SigningTime> recorded_at{};  // set: frames of a recording made then (signed with the key)
 
  private:
   sys::UdpAddress kernel_;
@@ -441,6 +449,57 @@ TEST_F(NetGateSigned, ReplayedFrame_Refused) {
   const kernel::NetStats st = kernel_->net_stats();
   EXPECT_EQ(st.relayed, 1U);
   EXPECT_EQ(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Replayed)], 1U);
+}
+
+// The replay attack on the signing check: another socket sends frames signed with the right key but stamped
+// 2015-01-01 (a recorded flight played back: a heartbeat and an upload, retransmitted), then the ground
+// station's own heartbeat, captured moments ago, byte for byte. The gate compares timestamps with the wall clock
+// from its first frame: none is relayed, each is counted by its reason, and the vehicle's telemetry stays with
+// the ground station — the replaying socket hears nothing.
+TEST_F(NetGateSigned, RecordedAndReplayedFrames_RefusedTelemetryStaysWithTheGround) {
+  const mav::Frame captured = ground_->frame(ground_heartbeat());
+  ground_->send(captured.view());
+  step_until([&] {
+    ground_->collect();
+    return !ground_->all<mav::LocalPositionNed>().empty();
+  });
+  const kernel::NetStats before = kernel_->net_stats();
+  ASSERT_EQ(before.relayed, 1U);
+  ASSERT_EQ(before.judged_valid, 1U);
+  ASSERT_EQ(before.signing_refused, 0U);
+
+  // When the replayer plays back the recording (the ground station's stream, signed with the key) ...
+  Ground replayer(*kernel_->network_port());
+  replayer.key = ground_->key;
+  replayer.recorded_at = mav::SigningClock::from_sys(std::chrono::sys_days{std::chrono::year{2015} / 1 / 1});
+  constexpr std::size_t kRecorded = 12;
+  mav::MissionUploader up(waypoints_of(2), 0.2);
+  replayer.send(ground_heartbeat());
+  replayer.send(up.start());
+  for (std::size_t i = 2; i < kRecorded; ++i) replayer.send(i % 2 == 0 ? up.last_sent() : ground_heartbeat());
+  // ... and replays the captured frame.
+  constexpr std::size_t kReplays = 3;
+  for (std::size_t i = 0; i < kReplays; ++i) replayer.send(captured.view());
+  step_until([&] { return kernel_->net_stats().received == before.received + kRecorded + kReplays; });
+  step(50);  // 0.2 s: 10 telemetry periods
+
+  // Then nothing was relayed, each refusal is counted by its reason ...
+  const kernel::NetStats st = kernel_->net_stats();
+  EXPECT_EQ(st.relayed, before.relayed) << "a refused frame reached ext_link";
+  EXPECT_EQ(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Stale)], kRecorded);
+  EXPECT_EQ(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Replayed)], kReplays);
+  EXPECT_EQ(st.signing_refused, kRecorded + kReplays);
+  EXPECT_EQ(st.judged_valid, before.judged_valid);
+  EXPECT_EQ(st.judged_refused, 0U);
+  EXPECT_EQ(uploads_seen(), 0U);
+  // ... the replayer heard nothing (no mission request, no telemetry), and the ground station still hears the
+  // vehicle.
+  ground_->clear();
+  step(50);
+  replayer.collect();
+  ground_->collect();
+  EXPECT_TRUE(replayer.received.empty() && replayer.raw.empty()) << "telemetry followed the replayed frames";
+  EXPECT_FALSE(ground_->all<mav::LocalPositionNed>().empty()) << "telemetry still goes to the ground station";
 }
 
 // network.ground_address (PX4's `-o 14550`): the vehicle's telemetry goes there before any ground station has

@@ -255,8 +255,9 @@ class GroundStation {
   void send(const mavlink::Message& m) {
     std::optional<mavlink::Signer> signer;
     if (plan_.key) {
-      // Strictly increasing per stream (the receiver refuses a repeated timestamp as a replay).
-      last_timestamp_ = std::max(mavlink::signing_timestamp_now(), last_timestamp_ + 1);
+      // From the wall clock (the receiver refuses a timestamp more than a minute behind its own), strictly
+      // increasing per stream (it refuses a repeated one as a replay).
+      last_timestamp_ = std::max(mavlink::SigningClock::now(), last_timestamp_ + mavlink::SigningClock::duration{1});
       signer = mavlink::Signer{.key = *plan_.key, .link_id = plan_.link_id, .timestamp = last_timestamp_};
     }
     const mavlink::Frame f =
@@ -373,7 +374,7 @@ class GroundStation {
   Nanos start_, next_upload_, next_heartbeat_, last_print_{0};
   std::optional<Nanos> acked_at_;  // set once the upload was acknowledged (at once when there is none)
   std::uint8_t seq_ = 0;
-  std::uint64_t last_timestamp_ = 0;
+  mavlink::SigningTime last_timestamp_{};
   std::uint64_t transmissions_ = 0, telemetry_ = 0, malformed_ = 0;
   std::string refusal_text_;  // the vehicle's STATUSTEXT about a refused mission
   std::array<std::byte, mavlink::kMaxFrameBytes + 1> buf_{};

@@ -7,9 +7,10 @@
 // other. The ground station is the source of the last datagram the receiver judged valid (NetReceive with
 // its verdict): the kernel does not interpret the bytes, ext_link does, and garbage must not steer telemetry.
 // With a signing key in the launch file the gate checks one thing more, before relaying: that the datagram is
-// a MAVLink 2 frame signed with the key, its timestamp after the last of its stream (kernel_sim/mavlink
-// SignatureChecker: the envelope and the signature only, never the payload). A compromised ext_link then
-// cannot act on an unsigned command: it never receives one.
+// a MAVLink 2 frame signed with the key, its timestamp no more than a minute behind the wall clock and after
+// the last of its stream (kernel_sim/mavlink SignatureChecker: the envelope and the signature only, never the
+// payload). A compromised ext_link then cannot act on an unsigned, a recorded or a replayed command: it never
+// receives one; and since only a relayed datagram can be judged valid, none of them moves the telemetry.
 #include <algorithm>
 #include <cerrno>
 #include <string>
@@ -35,6 +36,33 @@ bool allow_log(NetGate& net, Nanos wall_now) {
   return false;
 }
 }  // namespace
+
+GroundLink::GroundLink(std::optional<mavlink::SigningKey> key, std::optional<sys::UdpAddress> ground)
+    : ground_(std::move(ground)) {
+  if (key) signing_.emplace(*key);
+}
+
+Result<void, mavlink::SigningRefusal> GroundLink::admit(std::span<const std::byte> datagram,
+                                                        mavlink::SigningTime local_clock) {
+  if (!signing_) return {};
+  return signing_->check(datagram, local_clock);
+}
+
+void GroundLink::relayed(const sys::UdpAddress& from) {
+  recent_[next_id_ % kRecentDatagrams] = Relayed{.id = next_id_, .from = from, .judged = false};
+  ++next_id_;
+}
+
+Result<void, GroundLink::JudgeError> GroundLink::judge(std::uint64_t id, Verdict verdict) {
+  Relayed& d = recent_[id % kRecentDatagrams];
+  if (d.id != id || d.judged || id == 0) return fail(JudgeError::NotRelayed);
+  d.judged = true;
+  switch (verdict) {
+    case Verdict::Valid: ground_ = d.from; break;
+    case Verdict::Refused: break;
+  }
+  return {};
+}
 
 Result<void, KernelError> Kernel::Impl::net_open() {
   const proto::NetworkSpec& spec = graph.graph.network();
@@ -92,28 +120,27 @@ Result<void, KernelError> Kernel::Impl::net_open() {
   }
   auto bound = socket->local_address();
   if (!bound) return fail(KernelError{.kind = KernelError::Kind::System, .message = bound.error().to_string(), .findings = {}});
+  // A ground station to send to before any has spoken (validated: launch::ground_address); the source of
+  // the first valid message replaces it.
+  std::optional<sys::UdpAddress> ground;
+  if (const auto given = launch::ground_address(spec.ground_address())) {
+    auto to = sys::UdpAddress::parse(given->ip, given->port);
+    if (!to) return fail(config_error(where + ".ground_address: " + to.error()));
+    ground = *to;
+  }
   net.socket = std::move(*socket);
   net.object = object;
   net.port = bound->port;
-  if (*key) {
-    net.signing.emplace(**key);
-    net.stats.signing = true;
-  }
-  // A ground station to send to before any has spoken (validated: launch::ground_address); the source of
-  // the first valid message replaces it.
-  if (const auto ground = launch::ground_address(spec.ground_address())) {
-    auto to = sys::UdpAddress::parse(ground->ip, ground->port);
-    if (!to) return fail(config_error(where + ".ground_address: " + to.error()));
-    net.peer = *to;
-  }
+  net.link = GroundLink(*key, ground);
+  net.stats.signing = net.link.signing();
   if (clock_mode == ClockMode::Realtime) {
     if (auto ok = epoll.add(net.socket.fd(), token(Source::Net, 0)); !ok) {
       return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
     }
   }
   log("network gate: udp %s for '%s' (%s)%s%s", bound->to_string().c_str(), objects[object->value()].name.c_str(),
-      names.empty() ? "no service may receive" : names.c_str(), net.signing ? ", MAVLink 2 signing required" : "",
-      net.peer ? (", sending to " + net.peer->to_string() + " until a ground station speaks").c_str() : "");
+      names.empty() ? "no service may receive" : names.c_str(), net.link.signing() ? ", MAVLink 2 signing required" : "",
+      net.link.ground() ? (", sending to " + net.link.ground()->to_string() + " until a ground station speaks").c_str() : "");
   return {};
 }
 
@@ -148,9 +175,10 @@ void Kernel::Impl::net_poll() {
       return c && c->kind == ObjectKind::Network && c->object == *net.object && c->rights.has(Right::Read);
     };
     // Signing: checked only for a datagram that could be relayed now (in the SEI everything is dropped
-    // unread, so a frame retransmitted there costs the stream nothing), before any service sees it.
-    if (net.signing && std::any_of(net.readers.begin(), net.readers.end(), holds)) {
-      if (auto signed_ok = net.signing->check(bytes); !signed_ok) {
+    // unread, so a frame retransmitted there costs the stream nothing), before any service sees it, against
+    // the wall clock (CLOCK_REALTIME) in every clock mode: the ground station stamps from its own.
+    if (net.link.signing() && std::any_of(net.readers.begin(), net.readers.end(), holds)) {
+      if (auto signed_ok = net.link.admit(bytes, mavlink::SigningClock::now()); !signed_ok) {
         ++st.signing_refused;
         ++st.signing_refused_by_reason[static_cast<std::size_t>(signed_ok.error())];
         if (allow_log(net, wall())) {
@@ -163,7 +191,7 @@ void Kernel::Impl::net_poll() {
     bool held = false;
     bool running = false;
     bool sent = false;
-    const std::uint64_t id = net.next_id;
+    const std::uint64_t id = net.link.next_id();
     for (const NetGate::Reader& reader : net.readers) {
       if (!holds(reader)) continue;
       held = true;
@@ -190,8 +218,7 @@ void Kernel::Impl::net_poll() {
     } else {
       ++st.relayed;
       // Its source becomes the ground station only once the receiver judges it valid (net_invoke).
-      net.recent[id % kRecentDatagrams] = NetGate::Relayed{.id = id, .from = r->from, .judged = false};
-      ++net.next_id;
+      net.link.relayed(r->from);
     }
   }
 }
@@ -202,15 +229,14 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::I
     // NetReceive: delivery is pushed (NetDatagram frames); what the receiver sends back is its verdict on
     // one of them: its id and 0 valid, else its refusal reason (a known code: decode_invocation). Checked
     // before anything changes: a datagram relayed to this gate lately, not judged yet.
-    NetGate::Relayed& d = net.recent[verdict->datagram % kRecentDatagrams];
-    if (d.id != verdict->datagram || d.judged) {
+    const auto judged = net.link.judge(verdict->datagram, verdict->reason == 0 ? GroundLink::Verdict::Valid
+                                                                                : GroundLink::Verdict::Refused);
+    if (!judged) {
       input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::BadArgument));
       return;
     }
-    d.judged = true;
     if (verdict->reason == 0) {
       ++net.stats.judged_valid;
-      net.peer = d.from;
     } else {
       ++net.stats.judged_refused;
       ++net.stats.refused_by_reason[verdict->reason];
@@ -227,13 +253,14 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::I
   // No ground station has spoken yet: nowhere to send. Not a fault of the sender (its telemetry may start
   // before anyone listens), so counted apart. The address lives here, in the kernel, so that it survives the
   // rollbacks that wipe whatever ext_link learned in MC.
-  if (!net.peer) {
+  const std::optional<sys::UdpAddress>& ground = net.link.ground();
+  if (!ground) {
     ++net.stats.unsent_no_ground;
     input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
-  if (auto ok = net.socket.send_to(data, *net.peer); !ok) {
-    if (allow_log(net, wall())) log("network gate: send to %s: %s", net.peer->to_string().c_str(), ok.error().to_string().c_str());
+  if (auto ok = net.socket.send_to(data, *ground); !ok) {
+    if (allow_log(net, wall())) log("network gate: send to %s: %s", ground->to_string().c_str(), ok.error().to_string().c_str());
     input.refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }

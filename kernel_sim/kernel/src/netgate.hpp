@@ -1,16 +1,20 @@
 // The network gate's state (DESIGN §2; docs/protocol.md "Network gate"): the kernel's UDP socket of the
-// external link, who may receive from it, where replies go, and its counters. Code in netgate.cpp.
+// external link, who may receive from it, its GroundLink (the signing check and where replies go), and its
+// counters. Code in netgate.cpp.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <vector>
 
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/kernel/kernel.hpp"
+#include "rejuv/mavlink/frame.hpp"
 #include "rejuv/sys/udp.hpp"
 
 namespace rejuv::kernel {
@@ -19,6 +23,49 @@ inline constexpr std::uint16_t kDefaultNetworkPort = 14555;  // launch `network.
 inline constexpr std::size_t kDatagramsPerPoll = 64;         // fairness: datagrams read per wakeup / step
 // Relayed datagrams a verdict may still name (the receiver judges each as it handles it, so within a step).
 inline constexpr std::size_t kRecentDatagrams = 256;
+
+// Who the ground station is, and what admits a datagram from the network (DESIGN §2; docs/mavlink.md
+// "Signing", "Where the vehicle sends"). The ground address changes in one place only: judge() with a valid
+// verdict on a datagram that admit() passed and relayed() recorded. A datagram refused by the signing check is
+// never recorded, so it has no id that a verdict could name: nothing it carries can move the telemetry.
+class GroundLink {
+ public:
+  GroundLink() = default;
+  // `key`: the launch file's signing key (none: no signing check); `ground`: where the vehicle's datagrams go
+  // before any ground station has spoken (launch network.ground_address).
+  GroundLink(std::optional<mavlink::SigningKey> key, std::optional<sys::UdpAddress> ground);
+  [[nodiscard]] bool signing() const { return signing_.has_value(); }
+  // The signing check (mavlink::SignatureChecker; without a key everything passes) against the local signing
+  // clock: the gate gives the wall clock (mavlink::SigningClock::now(), also in lockstep: the ground station
+  // stamps from its own wall clock), a unit test any time it likes.
+  [[nodiscard]] Result<void, mavlink::SigningRefusal> admit(std::span<const std::byte> datagram,
+                                                            mavlink::SigningTime local_clock);
+  // The id the next relayed datagram gets (the NetDatagram frame's aux).
+  [[nodiscard]] std::uint64_t next_id() const { return next_id_; }
+  // The datagram next_id() named was relayed from `from`: a verdict may now name it, once.
+  void relayed(const sys::UdpAddress& from);
+  enum class Verdict : std::uint8_t { Valid, Refused };
+  enum class JudgeError : std::uint8_t { NotRelayed };  // not relayed lately (unknown or too old), or judged already
+  // The receiver's verdict on a relayed datagram: a valid one makes its source the ground station.
+  [[nodiscard]] Result<void, JudgeError> judge(std::uint64_t id, Verdict verdict);
+  [[nodiscard]] const std::optional<sys::UdpAddress>& ground() const { return ground_; }
+
+ private:
+  // A datagram relayed lately, by id, judged at most once.
+  struct Relayed {
+    std::uint64_t id = 0;
+    std::optional<sys::UdpAddress> from{};
+    bool judged = false;
+  };
+  // With a signing key: the MAVLink 2 signature check every datagram must pass before it is relayed (the key
+  // stays here, in the kernel; ext_link never holds it).
+  std::optional<mavlink::SignatureChecker> signing_{};
+  std::array<Relayed, kRecentDatagrams> recent_{};
+  std::uint64_t next_id_ = 1;
+  // The ground station: the source of the last datagram its receiver judged valid (NetReceive verdict 0), not
+  // simply the last relayed one: anyone can send garbage, and telemetry must not follow it.
+  std::optional<sys::UdpAddress> ground_{};
+};
 
 struct NetGate {
   // A policy slot that may hold the gate's object with Read in some mode (checked in the current mode
@@ -31,21 +78,8 @@ struct NetGate {
   std::optional<ObjectId> object{};       // the NETWORK object it serves
   std::uint16_t port = 0;                 // bound port
   std::vector<Reader> readers{};
-  // The ground station: the source of the last datagram its receiver judged valid (NetReceive verdict 0).
-  // Not simply the last relayed one: anyone can send garbage, and telemetry must not follow it.
-  std::optional<sys::UdpAddress> peer{};
-  // The datagrams relayed lately, by id (NetDatagram aux), each judged at most once.
-  struct Relayed {
-    std::uint64_t id = 0;
-    std::optional<sys::UdpAddress> from{};
-    bool judged = false;
-  };
-  std::array<Relayed, kRecentDatagrams> recent{};
-  std::uint64_t next_id = 1;
+  GroundLink link{};                      // the signing check, the datagrams relayed lately, the ground station
   NetStats stats{};
-  // Set when the launch file gives a signing key: the MAVLink 2 signature check every datagram must pass
-  // before it is relayed (the key stays here, in the kernel; ext_link never holds it).
-  std::optional<mavlink::SignatureChecker> signing{};
   // Drop and refusal log lines: 10 of burst, 1 per second sustained (a flood must not flood the log).
   double log_tokens = 10;
   Nanos log_last{0};

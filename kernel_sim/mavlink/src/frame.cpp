@@ -1,5 +1,6 @@
 #include "rejuv/mavlink/frame.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "rejuv/mavlink/sha256.hpp"
@@ -31,12 +32,13 @@ Result<SigningKey, std::string> SigningKey::from_hex(std::string_view hex) {
   return key;
 }
 
-std::uint64_t signing_timestamp_now() {
-  const auto since_unix = std::chrono::duration_cast<std::chrono::microseconds>(
-      std::chrono::system_clock::now().time_since_epoch());
-  const std::int64_t us = since_unix.count() - static_cast<std::int64_t>(kUnixSecondsAtSigningEpoch) * 1'000'000;
-  return us <= 0 ? 0 : static_cast<std::uint64_t>(us) / 10U;
+SigningTime SigningClock::from_sys(std::chrono::system_clock::time_point t) {
+  const auto since_unix = std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count();
+  const std::int64_t us = since_unix - static_cast<std::int64_t>(kUnixSecondsAtSigningEpoch) * 1'000'000;
+  return SigningTime{duration{us <= 0 ? 0 : static_cast<std::uint64_t>(us) / 10U}};
 }
+
+SigningTime SigningClock::now() { return from_sys(std::chrono::system_clock::now()); }
 
 std::string_view to_string(FrameError error) {
   switch (error) {
@@ -83,7 +85,9 @@ Result<FrameView, FrameError> split_frame(std::span<const std::byte> d) {
     const std::size_t s = kHeaderBytes + n + kChecksumBytes;
     Signature sig;
     sig.link_id = at(d, s);
-    for (std::size_t i = 0; i < 6; ++i) sig.timestamp |= std::uint64_t{at(d, s + 1 + i)} << (8U * i);
+    std::uint64_t ticks = 0;
+    for (std::size_t i = 0; i < 6; ++i) ticks |= std::uint64_t{at(d, s + 1 + i)} << (8U * i);
+    sig.timestamp = SigningTime{SigningClock::duration{ticks}};
     for (std::size_t i = 0; i < 6; ++i) sig.value[i] = at(d, s + 7 + i);
     f.signature = sig;
     f.signed_bytes = d.first(d.size() - 6);
@@ -109,27 +113,32 @@ bool signature_matches(const SigningKey& key, const FrameView& frame) {
   return diff == 0;
 }
 
-Result<void, SigningRefusal> SignatureChecker::check(std::span<const std::byte> datagram) {
+Result<void, SigningRefusal> SignatureChecker::check(std::span<const std::byte> datagram, SigningTime local_clock) {
   auto frame = split_frame(datagram);
   if (!frame) return fail(SigningRefusal::NotMavlink);
   if (!frame->signature) return fail(SigningRefusal::Unsigned);
   if (!signature_matches(key_, *frame)) return fail(SigningRefusal::BadSignature);
   const Signature& sig = *frame->signature;
-  Stream* stream = nullptr;
-  for (std::size_t i = 0; i < stream_count_; ++i) {
-    Stream& s = streams_[i];
-    if (s.sysid == frame->header.sysid && s.compid == frame->header.compid && s.link_id == sig.link_id) stream = &s;
-  }
-  if (stream != nullptr) {
+  const SigningTime local = std::max(local_, local_clock);
+  // Timestamps are 48 bits on the wire: adding a minute cannot overflow.
+  if (sig.timestamp + kWindow < local) return fail(SigningRefusal::Stale);
+  const auto same = [&](const Stream& s) {
+    return s.sysid == frame->header.sysid && s.compid == frame->header.compid && s.link_id == sig.link_id;
+  };
+  const std::span<Stream> all(streams_);
+  const std::span<Stream> kept = all.first(stream_count_);
+  auto stream = std::find_if(kept.begin(), kept.end(), same);
+  if (stream != kept.end()) {
     if (sig.timestamp <= stream->last) return fail(SigningRefusal::Replayed);
+  } else if (stream_count_ < streams_.size()) {
+    stream = all.begin() + static_cast<std::ptrdiff_t>(stream_count_++);
   } else {
-    if (sig.timestamp + kNewStreamWindow < newest_) return fail(SigningRefusal::Stale);
-    if (stream_count_ == streams_.size()) return fail(SigningRefusal::TooManyStreams);
-    stream = &streams_[stream_count_++];
-    *stream = Stream{.sysid = frame->header.sysid, .compid = frame->header.compid, .link_id = sig.link_id, .last = 0};
+    // Full: reuse the entry of a stream already more than a minute behind (its replays are refused as stale).
+    stream = std::find_if(kept.begin(), kept.end(), [&](const Stream& s) { return s.last + kWindow < local; });
+    if (stream == kept.end()) return fail(SigningRefusal::TooManyStreams);
   }
-  stream->last = sig.timestamp;
-  if (sig.timestamp > newest_) newest_ = sig.timestamp;
+  *stream = Stream{.sysid = frame->header.sysid, .compid = frame->header.compid, .link_id = sig.link_id, .last = sig.timestamp};
+  local_ = std::max(local, sig.timestamp);
   return {};
 }
 

@@ -167,7 +167,8 @@ Frame encode(const Message& message, const Envelope& envelope, const std::option
   f.size = kHeaderBytes + n + kChecksumBytes;
   if (signer) {
     f.bytes[f.size] = std::byte{signer->link_id};
-    for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 1 + i] = std::byte{static_cast<std::uint8_t>(signer->timestamp >> (8U * i))};
+    const std::uint64_t ticks = signer->timestamp.time_since_epoch().count();  // its low 48 bits go on the wire
+    for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 1 + i] = std::byte{static_cast<std::uint8_t>(ticks >> (8U * i))};
     const auto sig = signature_of(signer->key, std::span<const std::byte>(f.bytes.data(), f.size + 7));
     for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 7 + i] = std::byte{sig[i]};
     f.size += kSignatureBytes;

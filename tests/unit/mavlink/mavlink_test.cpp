@@ -3,6 +3,7 @@
 // make_vectors.js) — encode must produce them byte for byte and decode must read them back.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,9 @@ constexpr std::string_view k_mission_item_reached_zero = "fd0000001101012e000036
 constexpr std::string_view k_mission_count_signed = "fd04010012ffbe2c000003000101cd9303e8e33cd6921f05a71a4407e3";
 constexpr std::string_view k_mission_request_list = "fd02000013ffbe2b000001013bb9";
 constexpr std::string_view kKeyHex = "00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff";
+// k_mission_count_signed's timestamp: 2026-01-01 00:00:00.010 UTC.
+const SigningTime kVectorTime = SigningClock::from_sys(std::chrono::sys_days{std::chrono::year{2026} / 1 / 1} +
+                                                       std::chrono::milliseconds{10});
 
 std::vector<std::byte> from_hex(std::string_view hex) {
   std::vector<std::byte> out;
@@ -138,7 +142,9 @@ TEST(Signing, NodeMavlinkSignature_Verifies) {
   ASSERT_TRUE(f->signature.has_value());
   EXPECT_EQ(f->signature->link_id, 3);
   // 2026-01-01 00:00:00.010 UTC in 10 µs units since 2015-01-01.
-  EXPECT_EQ(f->signature->timestamp, (1767225600ULL - kUnixSecondsAtSigningEpoch) * 100'000ULL + 1000ULL);
+  EXPECT_EQ(f->signature->timestamp.time_since_epoch().count(),
+            (1767225600ULL - kUnixSecondsAtSigningEpoch) * 100'000ULL + 1000ULL);
+  EXPECT_EQ(f->signature->timestamp, kVectorTime);
   EXPECT_TRUE(signature_matches(*key, *f));
   SigningKey other = *key;
   other.bytes[0] ^= 1U;
@@ -149,7 +155,7 @@ TEST(Signing, Encode_EqualsNodeMavlinkSignedFrame) {
   const auto key = SigningKey::from_hex(kKeyHex);
   ASSERT_TRUE(key.has_value());
   const MissionCount mc = decoded_as<MissionCount>(k_mission_count);
-  const Signer signer{.key = *key, .link_id = 3, .timestamp = (1767225600ULL - kUnixSecondsAtSigningEpoch) * 100'000ULL + 1000ULL};
+  const Signer signer{.key = *key, .link_id = 3, .timestamp = kVectorTime};
   EXPECT_EQ(to_hex(encode(mc, Envelope{.seq = 18, .sysid = 255, .compid = 190}, signer).view()), k_mission_count_signed);
   auto p = decode(from_hex(k_mission_count_signed));
   ASSERT_TRUE(p.has_value());
@@ -203,41 +209,127 @@ TEST(Decode, FlippedPayloadBit_BadChecksum) {
   EXPECT_EQ(decode(bytes).error(), DecodeError::BadChecksum);
 }
 
-TEST(SignatureChecker, Unsigned_Refused) {
-  SignatureChecker c(*SigningKey::from_hex(kKeyHex));
-  EXPECT_EQ(c.check(from_hex(k_mission_count)).error(), SigningRefusal::Unsigned);
+TEST(SigningClock, FromSys_TenMicrosecondTicksSinceTwentyFifteen) {
+  using namespace std::chrono;
+  const sys_days epoch{year{2015} / 1 / 1};
+  EXPECT_EQ(SigningClock::from_sys(epoch).time_since_epoch().count(), 0U);
+  EXPECT_EQ(SigningClock::from_sys(epoch + seconds{1} + microseconds{25}).time_since_epoch().count(), 100'002U);
+  EXPECT_EQ(SigningClock::from_sys(sys_days{year{2014} / 6 / 1}).time_since_epoch().count(), 0U) << "before the epoch";
 }
-TEST(SignatureChecker, NotMavlink_Refused) {
-  SignatureChecker c(*SigningKey::from_hex(kKeyHex));
-  EXPECT_EQ(c.check(from_hex("524a4c4b0100000000000000")).error(), SigningRefusal::NotMavlink);
+TEST(SigningClock, Now_IsTheWallClock) {
+  const SigningTime before = SigningClock::from_sys(std::chrono::system_clock::now());
+  const SigningTime now = SigningClock::now();
+  const SigningTime after = SigningClock::from_sys(std::chrono::system_clock::now());
+  EXPECT_LE(before, now);
+  EXPECT_LE(now, after);
 }
-TEST(SignatureChecker, OtherKey_Refused) {
-  SignatureChecker c(*SigningKey::from_hex(std::string(64, '1')));
-  EXPECT_EQ(c.check(from_hex(k_mission_count_signed)).error(), SigningRefusal::BadSignature);
-}
-TEST(SignatureChecker, Replay_RefusedAfterFirstAccepted) {
-  SignatureChecker c(*SigningKey::from_hex(kKeyHex));
-  EXPECT_TRUE(c.check(from_hex(k_mission_count_signed)).has_value());
-  EXPECT_EQ(c.check(from_hex(k_mission_count_signed)).error(), SigningRefusal::Replayed);
-}
-TEST(SignatureChecker, NewStreamMoreThanAMinuteOld_RefusedAsStale) {
-  const SigningKey key = *SigningKey::from_hex(kKeyHex);
-  SignatureChecker c(key);
-  const std::uint64_t now = 400'000'000'000ULL;
-  EXPECT_TRUE(c.check(encode(Heartbeat{}, Envelope{.sysid = 1}, Signer{.key = key, .link_id = 0, .timestamp = now}).view()));
-  const Frame old = encode(Heartbeat{}, Envelope{.sysid = 2}, Signer{.key = key, .link_id = 0, .timestamp = now - 7'000'000});
-  EXPECT_EQ(c.check(old.view()).error(), SigningRefusal::Stale);
-  const Frame recent = encode(Heartbeat{}, Envelope{.sysid = 3}, Signer{.key = key, .link_id = 0, .timestamp = now - 100});
-  EXPECT_TRUE(c.check(recent.view()).has_value());
-}
-TEST(SignatureChecker, SeventeenthStream_Refused) {
-  const SigningKey key = *SigningKey::from_hex(kKeyHex);
-  SignatureChecker c(key);
-  for (std::uint8_t link = 0; link < SignatureChecker::kMaxStreams; ++link) {
-    EXPECT_TRUE(c.check(encode(Heartbeat{}, Envelope{}, Signer{.key = key, .link_id = link, .timestamp = 10}).view()));
+
+// The checker against a clock the test sets (the gate gives it the wall clock).
+class SignatureCheckerTest : public ::testing::Test {
+ protected:
+  static constexpr SigningClock::duration kTick{1};
+  // A signed HEARTBEAT of the stream (sysid, compid 1, link_id), stamped `t`.
+  [[nodiscard]] Frame frame(SigningTime t, std::uint8_t sysid = 255, std::uint8_t link_id = 1) const {
+    return encode(Heartbeat{}, Envelope{.sysid = sysid}, Signer{.key = key_, .link_id = link_id, .timestamp = t});
   }
-  EXPECT_EQ(c.check(encode(Heartbeat{}, Envelope{}, Signer{.key = key, .link_id = 200, .timestamp = 11}).view()).error(),
-            SigningRefusal::TooManyStreams);
+  [[nodiscard]] Result<void, SigningRefusal> check(const Frame& f) { return checker_.check(f.view(), clock_); }
+  const SigningKey key_ = *SigningKey::from_hex(kKeyHex);
+  SignatureChecker checker_{key_};
+  SigningTime clock_ = kVectorTime;
+};
+
+TEST_F(SignatureCheckerTest, Unsigned_Refused) {
+  EXPECT_EQ(checker_.check(from_hex(k_mission_count), clock_).error(), SigningRefusal::Unsigned);
+}
+TEST_F(SignatureCheckerTest, NotMavlink_Refused) {
+  EXPECT_EQ(checker_.check(from_hex("524a4c4b0100000000000000"), clock_).error(), SigningRefusal::NotMavlink);
+}
+TEST_F(SignatureCheckerTest, OtherKey_Refused) {
+  SignatureChecker other(*SigningKey::from_hex(std::string(64, '1')));
+  EXPECT_EQ(other.check(from_hex(k_mission_count_signed), clock_).error(), SigningRefusal::BadSignature);
+}
+TEST_F(SignatureCheckerTest, NodeMavlinkFrame_AcceptedThenItsReplayRefused) {
+  EXPECT_TRUE(checker_.check(from_hex(k_mission_count_signed), clock_).has_value());
+  EXPECT_EQ(checker_.check(from_hex(k_mission_count_signed), clock_).error(), SigningRefusal::Replayed);
+}
+
+// The attack the local clock stops: a frame signed with the right key but recorded long ago (here stamped at the
+// signing epoch, 2015-01-01) is refused by a checker that has accepted nothing yet.
+TEST_F(SignatureCheckerTest, FirstFrameStampedTwentyFifteen_RefusedAsStale) {
+  EXPECT_EQ(check(frame(SigningTime{})).error(), SigningRefusal::Stale);
+  EXPECT_EQ(check(frame(clock_ - std::chrono::hours{24})).error(), SigningRefusal::Stale);
+  EXPECT_EQ(checker_.stream_count(), 0U);
+}
+TEST_F(SignatureCheckerTest, NewStreamMoreThanAMinuteBehindTheClock_RefusedAsStale) {
+  EXPECT_EQ(check(frame(clock_ - SignatureChecker::kWindow - kTick)).error(), SigningRefusal::Stale);
+}
+TEST_F(SignatureCheckerTest, NewStreamWithinAMinuteOfTheClock_Accepted) {
+  EXPECT_TRUE(check(frame(clock_ - SignatureChecker::kWindow, 1)).has_value()) << "one minute behind: not more";
+  EXPECT_TRUE(check(frame(clock_ - std::chrono::seconds{59}, 2)).has_value());
+  EXPECT_TRUE(check(frame(clock_, 3)).has_value());
+  EXPECT_TRUE(check(frame(clock_ + std::chrono::seconds{5}, 4)).has_value()) << "a clock a little ahead";
+}
+TEST_F(SignatureCheckerTest, KnownStreamFallenMoreThanAMinuteBehind_RefusedAsStale) {
+  ASSERT_TRUE(check(frame(clock_)).has_value());
+  clock_ += std::chrono::minutes{2};
+  EXPECT_EQ(check(frame(clock_ - std::chrono::minutes{2} + kTick)).error(), SigningRefusal::Stale);
+}
+TEST_F(SignatureCheckerTest, SameStream_StrictlyIncreasing) {
+  ASSERT_TRUE(check(frame(clock_)).has_value());
+  EXPECT_EQ(check(frame(clock_)).error(), SigningRefusal::Replayed) << "an equal timestamp";
+  EXPECT_EQ(check(frame(clock_ - kTick)).error(), SigningRefusal::Replayed);
+  EXPECT_TRUE(check(frame(clock_ + kTick)).has_value());
+  EXPECT_EQ(check(frame(clock_ + kTick)).error(), SigningRefusal::Replayed);
+}
+TEST_F(SignatureCheckerTest, SeparateStreams_Independent) {
+  // Three streams: another system id, another link id. Each is judged against its own last timestamp only.
+  ASSERT_TRUE(check(frame(clock_ + std::chrono::seconds{1}, 255, 1)).has_value());
+  EXPECT_TRUE(check(frame(clock_, 254, 1)).has_value()) << "older than stream 255's last, but its own first";
+  EXPECT_TRUE(check(frame(clock_, 255, 2)).has_value()) << "another link";
+  EXPECT_EQ(check(frame(clock_ + std::chrono::milliseconds{500}, 255, 1)).error(), SigningRefusal::Replayed);
+  EXPECT_TRUE(check(frame(clock_ + kTick, 254, 1)).has_value());
+  EXPECT_TRUE(check(frame(clock_ + kTick, 255, 2)).has_value());
+  EXPECT_EQ(checker_.stream_count(), 3U);
+}
+TEST_F(SignatureCheckerTest, RefusedFrame_ChangesNothing) {
+  ASSERT_TRUE(check(frame(clock_)).has_value());
+  const SigningTime local = checker_.local_time();
+  EXPECT_EQ(check(frame(SigningTime{}, 7)).error(), SigningRefusal::Stale);
+  Frame forged = frame(clock_ + std::chrono::hours{1}, 8);
+  forged.bytes[forged.size - 1] ^= std::byte{1};
+  EXPECT_EQ(check(forged).error(), SigningRefusal::BadSignature);
+  EXPECT_EQ(checker_.stream_count(), 1U);
+  EXPECT_EQ(checker_.local_time(), local) << "a forged timestamp an hour ahead moved nothing";
+}
+// The spec's local timestamp follows the newest accepted one and never goes back, also when the clock does.
+TEST_F(SignatureCheckerTest, LocalTime_FollowsAcceptedTimestampsNeverGoesBack) {
+  ASSERT_TRUE(check(frame(clock_ + std::chrono::seconds{30})).has_value());
+  EXPECT_EQ(checker_.local_time(), clock_ + std::chrono::seconds{30});
+  clock_ -= std::chrono::minutes{10};  // the wall clock stepped back
+  EXPECT_EQ(check(frame(clock_, 2)).error(), SigningRefusal::Stale);
+  EXPECT_EQ(checker_.local_time(), kVectorTime + std::chrono::seconds{30});
+}
+// The table is bounded: with every entry live a new stream is refused and the kept ones go on; an entry whose
+// stream has fallen more than a minute behind is reused, and that stream's old frames stay refused (as stale).
+TEST_F(SignatureCheckerTest, StreamTable_BoundedLiveStreamsKept) {
+  for (std::uint8_t link = 0; link < SignatureChecker::kMaxStreams; ++link) {
+    ASSERT_TRUE(check(frame(clock_, 255, link)).has_value()) << int{link};
+  }
+  EXPECT_EQ(check(frame(clock_, 255, 200)).error(), SigningRefusal::TooManyStreams);
+  EXPECT_EQ(checker_.stream_count(), SignatureChecker::kMaxStreams);
+  EXPECT_TRUE(check(frame(clock_ + kTick, 255, 0)).has_value()) << "a kept stream goes on";
+}
+TEST_F(SignatureCheckerTest, StreamTable_FullOfStaleStreams_ReusesAnEntry) {
+  const Frame first = frame(clock_, 255, 0);
+  ASSERT_TRUE(check(first).has_value());
+  for (std::uint8_t link = 1; link < SignatureChecker::kMaxStreams; ++link) {
+    ASSERT_TRUE(check(frame(clock_ + std::chrono::minutes{2}, 255, link)).has_value()) << int{link};
+  }
+  clock_ += std::chrono::minutes{2};  // stream 0 is now two minutes behind, the others are live
+  EXPECT_TRUE(check(frame(clock_, 255, 200)).has_value()) << "takes stream 0's entry";
+  EXPECT_EQ(checker_.stream_count(), SignatureChecker::kMaxStreams);
+  EXPECT_EQ(check(first).error(), SigningRefusal::Stale) << "the forgotten stream's frame is still refused";
+  EXPECT_EQ(check(frame(clock_, 255, 201)).error(), SigningRefusal::TooManyStreams);
 }
 
 }  // namespace

@@ -20,9 +20,11 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
+#include <ratio>
 #include <span>
 #include <string>
 #include <string_view>
@@ -65,16 +67,31 @@ struct SigningKey {
   friend bool operator==(const SigningKey&, const SigningKey&) = default;
 };
 
+// The signing clock (MAVLink spec "Message Signing", "Timestamp Handling"): UTC since 2015-01-01 00:00:00 in
+// 10 µs ticks, 48 bits on the wire. now() reads the wall clock (CLOCK_REALTIME, std::chrono::system_clock): a
+// ground station stamps its frames from its own wall clock, so the receiver compares them with real time, also
+// when the flight itself runs in lockstep.
+struct SigningClock {
+  using rep = std::uint64_t;
+  using period = std::ratio<1, 100'000>;
+  using duration = std::chrono::duration<rep, period>;
+  using time_point = std::chrono::time_point<SigningClock>;
+  static constexpr bool is_steady = false;
+  [[nodiscard]] static time_point now();
+  // A Unix time as a signing time (the epoch itself for any time before it).
+  [[nodiscard]] static time_point from_sys(std::chrono::system_clock::time_point t);
+};
+using SigningTime = SigningClock::time_point;
+inline constexpr std::uint64_t kUnixSecondsAtSigningEpoch = 1420070400;  // 2015-01-01 00:00:00 UTC
+inline constexpr std::uint64_t kMaxSigningTicks = (std::uint64_t{1} << 48U) - 1;  // the wire's 48 bits
+
 // The signature block of a signed frame.
 struct Signature {
   std::uint8_t link_id = 0;
-  std::uint64_t timestamp = 0;  // [10 µs] since 2015-01-01 00:00:00 UTC (48 bits)
+  SigningTime timestamp{};  // 48 bits on the wire
   std::array<std::uint8_t, 6> value{};
   friend bool operator==(const Signature&, const Signature&) = default;
 };
-// The signing timestamp for a Unix time [10 µs units since the MAVLink epoch 2015-01-01].
-inline constexpr std::uint64_t kUnixSecondsAtSigningEpoch = 1420070400;
-[[nodiscard]] std::uint64_t signing_timestamp_now();
 
 struct FrameHeader {
   std::uint8_t payload_length = 0;
@@ -119,35 +136,50 @@ enum class SigningRefusal : std::uint8_t {
   NotMavlink,     // not a MAVLink 2 frame (split_frame refused it)
   Unsigned,       // no signature
   BadSignature,   // signed with another key (or altered)
-  Replayed,       // timestamp not after the last one of its stream (sysid, compid, link id)
-  Stale,          // a new stream whose timestamp is more than a minute behind the newest seen
-  TooManyStreams, // more streams than the receiver tracks
+  Replayed,       // timestamp not after the last accepted one of its stream (sysid, compid, link id)
+  Stale,          // timestamp more than a minute behind the local signing time (a recording, an old capture)
+  TooManyStreams, // a new stream while the receiver tracks as many live streams as it keeps
 };
 inline constexpr std::size_t kSigningRefusalCount = 6;
 [[nodiscard]] std::string_view to_string(SigningRefusal refusal);
 
-// The receiving side of message signing (spec "Accepting signed packets", as the reference C library's
-// mavlink_signature_check): the signature must match, and the timestamp must be after the last one of its
-// stream — a stream is (sysid, compid, link id) — and, for a stream not seen before, no more than one minute
-// behind the newest timestamp seen. State changes only for an accepted frame.
+// The receiving side of message signing (spec "Message Signing": "Accepting Signed Packets", "Timestamp
+// Handling"). A signed frame is accepted when
+//   - its signature is the key's;
+//   - its timestamp is no more than one minute behind the local signing time: the newest of the local clock
+//     (the `local_clock` each check is given; the gate's is the wall clock) and the timestamps accepted so far.
+//     The local time starts at the clock, never at 0, so a frame recorded long ago is refused from the first;
+//   - its timestamp is strictly after the last accepted one of its stream (sysid, compid, link id; the spec
+//     says "must monotonically increase", and the reference C library refuses an equal one too). A stream not
+//     seen before has only the one-minute bound.
+// At most kMaxStreams streams are kept. A new stream takes a free entry, else the entry of a stream whose last
+// timestamp is itself more than a minute behind the local time: everything that stream could replay is stale
+// already, so forgetting it loses no protection (the local time never goes back). With every entry live the
+// new stream is refused (TooManyStreams); the streams kept are not disturbed. Only a key holder can open a
+// stream (the signature is checked first), so the table is no memory an outsider can grow.
+// Nothing changes for a refused frame.
 class SignatureChecker {
  public:
   static constexpr std::size_t kMaxStreams = 16;
-  static constexpr std::uint64_t kNewStreamWindow = 6'000'000;  // [10 µs] = 60 s
+  static constexpr SigningClock::duration kWindow{6'000'000};  // one minute
+  static_assert(kWindow == std::chrono::minutes{1});
   explicit SignatureChecker(SigningKey key) : key_(key) {}
-  [[nodiscard]] Result<void, SigningRefusal> check(std::span<const std::byte> datagram);
+  [[nodiscard]] Result<void, SigningRefusal> check(std::span<const std::byte> datagram, SigningTime local_clock);
+  // The local signing time as of the last accepted frame (the spec's "local system timestamp").
+  [[nodiscard]] SigningTime local_time() const { return local_; }
+  [[nodiscard]] std::size_t stream_count() const { return stream_count_; }
 
  private:
   struct Stream {
     std::uint8_t sysid = 0;
     std::uint8_t compid = 0;
     std::uint8_t link_id = 0;
-    std::uint64_t last = 0;
+    SigningTime last{};
   };
   SigningKey key_;
   std::array<Stream, kMaxStreams> streams_{};
   std::size_t stream_count_ = 0;
-  std::uint64_t newest_ = 0;
+  SigningTime local_{};
 };
 
 }  // namespace rejuv::mavlink

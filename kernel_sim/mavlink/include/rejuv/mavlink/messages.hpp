@@ -465,11 +465,12 @@ struct Envelope {
   std::uint8_t sysid = 1;
   std::uint8_t compid = 1;
 };
-// What signs a frame: the key, the link id and the timestamp [10 µs since 2015-01-01].
+// What signs a frame: the key, the link id and the timestamp (a sender stamps from its wall clock,
+// SigningClock::now(), one tick more than its last frame when that is later: strictly increasing per stream).
 struct Signer {
   SigningKey key{};
   std::uint8_t link_id = 0;
-  std::uint64_t timestamp = 0;
+  SigningTime timestamp{};
 };
 
 [[nodiscard]] Frame encode(const Message& message, const Envelope& envelope,
