@@ -10,7 +10,12 @@
 
 namespace rejuv::sys {
 
-std::string SysError::to_string() const { return std::string(call) + ": " + std::strerror(error); }
+std::string SysError::to_string() const {
+  std::string out(call);
+  if (error != 0) out += std::string(": ") + std::strerror(error);
+  if (!detail.empty()) out += ": " + detail;
+  return out;
+}
 
 std::unexpected<SysError> last_error(std::string_view call) { return std::unexpected(SysError{call, errno}); }
 

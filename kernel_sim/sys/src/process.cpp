@@ -170,11 +170,13 @@ struct Prepared {
 enum ChildStage : int {
   kStageSpawn, kStagePdeathsig, kStageSession, kStageDupfd, kStageDup2, kStageCloseRange, kStageSetuid,
   kStageSeccomp, kStageExec, kStageUserns, kStageUnshare, kStageMount, kStageRlimit, kStageListener, kStageCgroup,
+  kStageIdMap,
 };
-constexpr std::array<std::string_view, 15> kStage{
+constexpr std::array<std::string_view, 16> kStage{
     "spawn", "prctl(PR_SET_PDEATHSIG)", "setsid/setpgid", "fcntl(F_DUPFD)", "dup2", "close_range", "setuid",
     "seccomp", "execve", "unshare(CLONE_NEWUSER)", "unshare(CLONE_NEWNET|CLONE_NEWNS|CLONE_NEWIPC)",
-    "read-only mounts (mount_setattr)", "setrlimit", "seccomp listener", "joining its cgroup (cgroup.procs)"};
+    "read-only mounts (mount_setattr)", "setrlimit", "seccomp listener", "joining its cgroup (cgroup.procs)",
+    "waiting for its uid/gid maps"};
 
 void child_report(int socket_fd, int stage, int err, int fd_to_pass) {
   const std::array<int, 2> report{stage, err};
@@ -217,9 +219,26 @@ constexpr int AT_RECURSIVE = 0x8000;  // NOLINT(readability-identifier-naming): 
 constexpr long SYS_mount_setattr = 442;  // NOLINT(readability-identifier-naming): the kernel's name
 #endif
 
-// The child's isolation (async-signal-safe: raw system calls only).
-void isolate_in_child(int wfd) {
-  if (::geteuid() != 0 && ::unshare(CLONE_NEWUSER) != 0) child_fail(wfd, kStageUserns, errno);
+// Tells the spawner that its user namespace is made and waits (blocked in read) until the spawner has written
+// its uid and gid maps (await_exec): a zero back means they are written. Anything else — the spawner failed and
+// kills it — ends it.
+void await_id_maps_in_child(int wfd) {
+  child_report(wfd, kStageIdMap, 0, -1);
+  int answer = -1;
+  ssize_t n = -1;
+  do {
+    n = ::read(wfd, &answer, sizeof(answer));
+  } while (n < 0 && errno == EINTR);
+  if (n != static_cast<ssize_t>(sizeof(answer)) || answer != 0) child_fail(wfd, kStageIdMap, n < 0 ? errno : EIO);
+}
+
+// The child's isolation (async-signal-safe: raw system calls only). Without root: a user namespace of its own,
+// mapped to its subordinate ids when it has them (otherwise unmapped: it stays the spawner's uid outside).
+void isolate_in_child(int wfd, const SpawnSpec& spec) {
+  if (::geteuid() != 0) {
+    if (::unshare(CLONE_NEWUSER) != 0) child_fail(wfd, kStageUserns, errno);
+    if (spec.mapped_ids) await_id_maps_in_child(wfd);
+  }
   if (::unshare(CLONE_NEWNET | CLONE_NEWNS | CLONE_NEWIPC) != 0) child_fail(wfd, kStageUnshare, errno);
   // Nothing it mounts or remounts propagates back, and every mount it sees is read-only.
   if (::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) child_fail(wfd, kStageMount, errno);
@@ -298,12 +317,26 @@ void close_other_fds_in_child(int wfd, const std::vector<std::pair<int, int>>& f
   }
 }
 
-void drop_uid_in_child(int wfd, const std::optional<uid_t>& uid) {
-  if (!uid) return;
-  const gid_t gid = *uid;
-  if (::setgroups(0, nullptr) != 0 || ::setresgid(gid, gid, gid) != 0 || ::setresuid(*uid, *uid, *uid) != 0) {
+// Its own uid and gid, no supplementary group: as root the service uid (gid = uid); without root its mapped
+// subordinate ids, which it may take because it holds CAP_SETUID/CAP_SETGID in the user namespace it made
+// (and loses every capability at exec: they are not 0 there). A change of credentials clears the parent-death
+// signal, so it is set again.
+void drop_uid_in_child(int wfd, const SpawnSpec& spec, pid_t parent) {
+  uid_t uid = 0;
+  gid_t gid = 0;
+  if (spec.uid) {
+    uid = *spec.uid;
+    gid = *spec.uid;
+  } else if (spec.mapped_ids && spec.isolation == Isolation::Namespaces) {
+    uid = spec.mapped_ids->uid;
+    gid = spec.mapped_ids->gid;
+  } else {
+    return;
+  }
+  if (::setgroups(0, nullptr) != 0 || ::setresgid(gid, gid, gid) != 0 || ::setresuid(uid, uid, uid) != 0) {
     child_fail(wfd, kStageSetuid, errno);
   }
+  die_with_parent_in_child(wfd, parent);
 }
 
 // The filter last before exec; a supervised filter's listener goes to the parent on the report socket.
@@ -329,8 +362,8 @@ void install_seccomp_in_child(int wfd, const SpawnSpec& spec, Prepared& prep) {
   join_cgroups_and_session_in_child(wfd, spec);
   place_fds_in_child(wfd, spec.fds, prep.max_target);
   close_other_fds_in_child(wfd, spec.fds, prep.max_target);
-  if (spec.isolation == Isolation::Namespaces) isolate_in_child(wfd);
-  drop_uid_in_child(wfd, spec.uid);
+  if (spec.isolation == Isolation::Namespaces) isolate_in_child(wfd, spec);
+  drop_uid_in_child(wfd, spec, parent);
   limit_in_child(wfd, spec.limits);  // after the uid: RLIMIT_NPROC counts the service uid's processes
   sigset_t none;
   sigemptyset(&none);
@@ -357,12 +390,17 @@ SysResult<Prepared> prepare(const SpawnSpec& spec) {
     }
     prep.max_target = std::max(prep.max_target, target);
   }
+  // Mapped ids are made in the user namespace of a spawner without root: with root (or without namespaces)
+  // there would be none to map them in, and the child would silently keep the spawner's uid.
+  if (spec.mapped_ids && (spec.isolation != Isolation::Namespaces || ::geteuid() == 0 || spec.uid)) {
+    return std::unexpected(SysError{"spawn: mapped ids need Isolation::Namespaces and a spawner without root", EINVAL});
+  }
   return prep;
 }
 
 // Reads the child's reports until exec closes the socket. A supervised child's exec is a boot call: it is let
 // through here (the child's only one before exec).
-SysResult<SeccompListener> await_exec(ChildProcess& child, int report_fd) {
+SysResult<SeccompListener> await_exec(ChildProcess& child, int report_fd, const SpawnSpec& spec) {
   SeccompListener listener;
   bool exec_let_through = false;  // from then on the program runs: its notices are the supervisor's
   for (;;) {
@@ -400,6 +438,19 @@ SysResult<SeccompListener> await_exec(ChildProcess& child, int report_fd) {
       listener = SeccompListener(UniqueFd(passed));
       continue;
     }
+    // Its user namespace is made: its maps are written before it goes on (it waits in read), so that it never
+    // runs anything as an unmapped id. On failure it is killed (the caller drops `child`).
+    if (n == static_cast<ssize_t>(sizeof(report)) && report[0] == kStageIdMap && report[1] == 0 && spec.mapped_ids) {
+      if (passed >= 0) ::close(passed);
+      if (auto mapped = write_id_maps(child.pid(), *spec.mapped_ids, spec.id_helpers); !mapped) {
+        return std::unexpected(std::move(mapped.error()));
+      }
+      const int go = 0;
+      if (::send(report_fd, &go, sizeof(go), MSG_NOSIGNAL) != static_cast<ssize_t>(sizeof(go))) {
+        return last_error("send(spawn: maps written)");
+      }
+      continue;
+    }
     if (passed >= 0) ::close(passed);
     const auto stage = static_cast<std::size_t>(report[0]);
     (void)child.wait();
@@ -435,7 +486,7 @@ SysResult<Spawned> spawn_supervised(const SpawnSpec& spec) {
     ::waitpid(pid, nullptr, 0);
     return std::unexpected(child.error());
   }
-  auto listener = await_exec(*child, report_read.get());
+  auto listener = await_exec(*child, report_read.get(), spec);
   if (!listener) return std::unexpected(listener.error());
   return Spawned{.process = std::move(*child), .listener = std::move(*listener)};
 }

@@ -11,10 +11,12 @@
 
 namespace rejuv::sys {
 
-// A failed system call: which call and errno.
+// A failed system call: which call and errno. A helper program that failed (newuidmap) has errno 0 and says
+// what it wrote to stderr in `detail`.
 struct SysError {
   std::string_view call;
   int error = 0;
+  std::string detail{};
   [[nodiscard]] std::string to_string() const;  // "socketpair: Too many open files"
 };
 

@@ -16,6 +16,7 @@
 
 #include "rejuv/sys/fd.hpp"
 #include "rejuv/sys/seccomp.hpp"
+#include "rejuv/sys/subid.hpp"
 
 namespace rejuv::sys {
 
@@ -96,6 +97,11 @@ struct SpawnSpec {
   std::vector<std::pair<int, int>> fds{};        // {fd in the child, fd in the parent}: the only fds it keeps
   const SeccompProgram* seccomp = nullptr;       // the service filter, or none
   std::optional<uid_t> uid{};                    // drop to this uid/gid (kernel runs as root)
+  // Without root, with Isolation::Namespaces: the ids it runs as outside its user namespace (subordinate ids
+  // of the spawner's user, subid.hpp). The child waits after unshare(CLONE_NEWUSER) until the spawner has
+  // written its maps with `id_helpers`' newuidmap/newgidmap, then becomes them; never the spawner's uid.
+  std::optional<MappedIds> mapped_ids{};
+  SubidSources id_helpers{};
   Session session = Session::OwnProcessGroup;
   Isolation isolation = Isolation::None;
   ResourceLimits limits{};
