@@ -5,6 +5,7 @@
 
 #include "rejuv/cap/capability.hpp"
 #include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/event.hpp"
 #include "attack_option.hpp"
 #include "report.hpp"
 
@@ -13,7 +14,11 @@ namespace rejuv::cli {
 namespace {
 
 void fill_sandbox(proto::SandboxViolations& out, const kernel::Kernel& k, bool insecure) {
-  out.set_isolation(insecure ? "none (--insecure-sandbox)" : "namespaces");
+  // Without root the insecure sandbox also has no uid of its own per service (docs/sandbox.md): said here too.
+  out.set_isolation(!insecure                 ? "namespaces, a uid per service"
+                    : sys::running_as_root() ? "none (--insecure-sandbox); a uid per service"
+                                             : "none (--insecure-sandbox): every service runs as the kernel's uid, "
+                                               "which can read the kernel user's files and signal the kernel");
   for (std::size_t i = 0; i < k.service_count(); ++i) {
     const kernel::ServiceStats st = k.stats(ServiceId{static_cast<std::uint32_t>(i)});
     out.set_total(out.total() + st.sandbox_violations);

@@ -153,25 +153,52 @@ Result<void, KernelError> ensure_fd_limit(const launch::LoadedLaunch& graph, std
   return {};
 }
 
-// Service uids of their own (docs/sandbox.md), not shared with another kernel of this machine: as root, a
-// block leased for this kernel's lifetime; otherwise none (the services run as the kernel's user).
-Result<std::optional<sys::Lease>, KernelError> lease_service_uids(std::size_t service_count) {
-  if (!sys::running_as_root()) return std::optional<sys::Lease>{};
+// Service uids of their own (docs/sandbox.md), never the kernel's, not shared with another kernel of this
+// machine: as root, a block leased for this kernel's lifetime; without root, a block of the user's subordinate
+// ids (rejuv/sys/subid.hpp), which the strict sandbox refuses to start without. Only --insecure-sandbox without
+// root runs the services as the kernel's uid.
+struct ServiceUids {
+  std::optional<sys::Lease> root_block;
+  std::optional<sys::SubordinateBlock> subordinate;
+};
+Result<ServiceUids, KernelError> lease_service_uids(std::size_t service_count, KernelOptions::Sandbox sandbox) {
+  if (!sys::running_as_root() && sandbox == KernelOptions::Sandbox::Insecure) return ServiceUids{};
   if (service_count > sys::kUidsPerBlock) {
     return fail(kernel_error(K::Config, std::to_string(service_count) + " services: a kernel runs at most " +
                                             std::to_string(sys::kUidsPerBlock) + " (one uid each)"));
   }
-  auto block = sys::lease_uid_block(static_cast<std::uint32_t>(::getpid()));
+  const auto hint = static_cast<std::uint32_t>(::getpid());
+  if (!sys::running_as_root()) {
+    auto block = sys::SubordinateBlock::lease(::getuid(), hint);
+    if (!block) {
+      // No range or no helper: refused as a configuration the operator fixes (exit 2), like missing namespaces.
+      const bool config = block.error().kind != sys::SubidError::Kind::System;
+      return fail(kernel_error(config ? K::Config : K::System,
+                               "the sandbox gives each service a uid of its own: " + block.error().to_string()));
+    }
+    return ServiceUids{.root_block = std::nullopt, .subordinate = std::move(*block)};
+  }
+  auto block = sys::lease_uid_block(hint);
   if (!block) return fail(kernel_error(K::System, "a block of service uids: " + block.error().to_string()));
-  return std::optional<sys::Lease>(std::move(*block));
+  return ServiceUids{.root_block = std::move(*block), .subordinate = std::nullopt};
 }
 
 // ---- on the kernel ----
 
 // The run's configuration from the graph and the options: clock, SR, images, seed, charges, alignment, domain;
 // the capability system's time at 0 (the time page is at 0 since the kernel clock was made).
-void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, std::optional<sys::Lease> uid_block) {
-  k.uid_block = std::move(uid_block);
+void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, ServiceUids uids) {
+  k.uid_block = std::move(uids.root_block);
+  k.subordinate_ids = std::move(uids.subordinate);
+  if (!k.uid_block && !k.subordinate_ids) {
+    k.log("INSECURE SANDBOX (--insecure-sandbox, not root): no namespaces, and every service runs as this kernel's "
+          "uid %u: a compromised service can read this user's files and signal the kernel",
+          static_cast<unsigned>(::getuid()));
+  } else if (k.subordinate_ids && k.options.verbose) {
+    const sys::MappedIds first = k.subordinate_ids->ids_of(0);
+    k.log("service uids: subordinate ids of uid %u from %u (gids from %u), block %u", static_cast<unsigned>(::getuid()),
+          static_cast<unsigned>(first.uid), static_cast<unsigned>(first.gid), k.subordinate_ids->block());
+  }
   k.clock_mode = clock_mode;
   k.sr = sr;
   k.rejuvenator.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
@@ -400,7 +427,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   if (!fds) return fail(fds.error());
   const std::size_t service_count = policy->services().size();
   if (auto ok = ensure_fd_limit(graph, service_count); !ok) return fail(ok.error());
-  auto uid_block = lease_service_uids(service_count);
+  auto uid_block = lease_service_uids(service_count, options.sandbox);
   if (!uid_block) return fail(uid_block.error());
 
   auto impl = std::make_unique<Impl>(std::move(graph), std::move(options), observer, std::move(*policy),

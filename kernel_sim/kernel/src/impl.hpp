@@ -33,6 +33,7 @@
 #include "rejuv/policy/policy.hpp"
 #include "rejuv/sys/event.hpp"
 #include "rejuv/sys/lease.hpp"
+#include "rejuv/sys/subid.hpp"
 #include "rejuv/sys/seccomp.hpp"
 #include "rejuvenator.hpp"
 #include "router.hpp"
@@ -54,8 +55,10 @@ struct Kernel::Impl {
   std::uint64_t seed = 1;
   std::uint32_t domain = 0;
   std::optional<int> pinned_cpu;  // KernelOptions::placement: the CPU of the whole run, if pinned
-  // As root, service i runs as sys::service_uid(*uid_block, i), from a block this kernel alone holds.
+  // As root, service i runs as sys::service_uid(*uid_block, i), from a block this kernel alone holds; without
+  // root (strict sandbox), as subordinate_ids->ids_of(i), from a block of the user's subordinate ids.
   std::optional<sys::Lease> uid_block;
+  std::optional<sys::SubordinateBlock> subordinate_ids;
   std::vector<msgs::TopicType> declared_types;  // the policy's own (`types`), pointed to by objects
   // By ObjectId. Persistent cells and Limits data written by ChannelInput (their invocations).
   std::vector<ObjectInfo> objects;

@@ -142,7 +142,15 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   spec.isolation =
       k.options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
   spec.limits = k.warden.limits_for(s);
+  // What it may open while it boots (rejuv/sys/landlock.hpp): the libraries, its binary, its own /proc/<pid>.
+  static const int landlock_abi = sys::landlock_abi();
+  spec.landlock = sys::service_landlock_rules(spec.executable);
+  spec.landlock_abi = landlock_abi;
   if (k.uid_block) spec.uid = sys::service_uid(*k.uid_block, s.id.value());
+  if (k.subordinate_ids && spec.isolation == sys::Isolation::Namespaces) {
+    spec.mapped_ids = k.subordinate_ids->ids_of(s.id.value());
+    spec.id_helpers = k.subordinate_ids->sources();
+  }
   k.warden.join_cgroup(s);
   spec.cgroup_procs = s.sandbox.cgroup.join_fds();
   auto spawned = sys::spawn_supervised(spec);
@@ -153,6 +161,9 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
       message += " — the sandbox runs each service in an empty network namespace and a read-only mount namespace,"
                  " which takes root or unprivileged user namespaces; `rejuv run --insecure-sandbox` runs without"
                  " them (and says so in the summary)";
+    } else if (spec.mapped_ids && call == "execve" && spawned.error().error == EACCES) {
+      message += " — the service runs as its own subordinate uid " + std::to_string(spec.mapped_ids->uid) +
+                 ", which must be able to reach and execute it: every directory on the way searchable by others";
     }
     return fail(KernelError{.kind = KernelError::Kind::Boot, .message = std::move(message), .findings = {}});
   }
