@@ -2,15 +2,18 @@
 
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/io/tokenizer.h>
+#include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <google/protobuf/message.h>
 #include <google/protobuf/text_format.h>
 
 #include <algorithm>
 #include <array>
-#include <fstream>
+#include <cctype>
 #include <map>
 #include <optional>
 #include <system_error>
+
+#include "rejuv/sys/file.hpp"
 
 namespace rejuv {
 
@@ -236,11 +239,142 @@ void point_at_named_token(std::string_view text, std::string_view message, Sourc
 
 }  // namespace
 
-Result<TextLocations, LoadError> parse_textproto(std::string_view text, std::string name, pb::Message& out) {
+// ---- Gates: what is not a text file of the expected kind is refused by name, without its content ----
+
+namespace {
+
+// Where a file stops being UTF-8 text (1-based line and column, in characters), and why; nullopt when it is.
+// Text is UTF-8 without NUL or another control character but tab, line feed and carriage return.
+struct NotText {
+  int line = 0;
+  int column = 0;
+  std::string_view what;
+};
+
+std::optional<NotText> find_non_text(std::string_view text) {
+  int line = 1;
+  int column = 1;
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c == '\n') {
+      ++line;
+      column = 1;
+      ++i;
+      continue;
+    }
+    if (c == 0) return NotText{line, column, "a NUL byte"};
+    if (c < 0x80) {
+      if ((c < 0x20 && c != '\t' && c != '\r') || c == 0x7F) return NotText{line, column, "a control character"};
+      ++column;
+      ++i;
+      continue;
+    }
+    // A multi-byte sequence (RFC 3629 §4): lead byte, continuation bytes, no overlong form, no surrogate,
+    // nothing past U+10FFFF.
+    const std::size_t length = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    if (length == 0 || i + length > text.size()) return NotText{line, column, "a byte that is not UTF-8"};
+    std::uint32_t code = c & (0x7FU >> length);
+    for (std::size_t k = 1; k < length; ++k) {
+      const auto cont = static_cast<unsigned char>(text[i + k]);
+      if ((cont & 0xC0U) != 0x80U) return NotText{line, column, "a byte that is not UTF-8"};
+      code = (code << 6U) | (cont & 0x3FU);
+    }
+    constexpr std::array<std::uint32_t, 5> kLeast{0, 0, 0x80, 0x800, 0x10000};
+    if (code < kLeast[length] || code > 0x10FFFF || (code >= 0xD800 && code <= 0xDFFF)) {
+      return NotText{line, column, "a byte that is not UTF-8"};
+    }
+    if (code >= 0x80 && code <= 0x9F) return NotText{line, column, "a control character"};
+    ++column;
+    i += length;
+  }
+  return std::nullopt;
+}
+
+class IgnoreErrors final : public pb::io::ErrorCollector {
+ public:
+  void AddError(int /*line*/, pb::io::ColumnNumber /*column*/, const std::string& /*message*/) override {}
+};
+
+// Whether the file's first word (after comments and blanks) is a field of `type`, or the file has no word at
+// all; if not, where that word is (0-based, as protobuf's tokenizer counts).
+std::optional<std::pair<int, int>> first_word_not_a_field(std::string_view text, const pb::Descriptor& type) {
+  pb::io::ArrayInputStream in(text.data(), static_cast<int>(text.size()));
+  IgnoreErrors ignore;
+  pb::io::Tokenizer tokenizer(&in, &ignore);
+  tokenizer.set_comment_style(pb::io::Tokenizer::SH_COMMENT_STYLE);  // text format's `#` comments
+  if (!tokenizer.Next()) {
+    return std::nullopt;  // empty, or comments only
+  }
+  const pb::io::Tokenizer::Token& first = tokenizer.current();
+  if (first.type == pb::io::Tokenizer::TYPE_IDENTIFIER && type.FindFieldByName(first.text) != nullptr) {
+    return std::nullopt;
+  }
+  return std::make_pair(first.line, static_cast<int>(first.column));
+}
+
+// The two gates every file passes before its text is parsed: UTF-8 text, and a first word that is a field of
+// the expected message. The refusal says where, never what the file holds there.
+std::optional<std::pair<SourceLocation, std::string>> refuse_by_kind(std::string_view text, const std::string& name,
+                                                                     const pb::Descriptor& type) {
+  if (const auto bad = find_non_text(text)) {
+    return std::make_pair(SourceLocation{name, bad->line, bad->column},
+                          "not a text file (" + std::string(bad->what) + " at line " + std::to_string(bad->line) +
+                              ", column " + std::to_string(bad->column) + ")");
+  }
+  if (const auto at = first_word_not_a_field(text, type)) {
+    const int line = at->first + 1;
+    const int column = at->second + 1;
+    return std::make_pair(SourceLocation{name, line, column},
+                          "not a " + type.name() + " file (its first word, at line " + std::to_string(line) +
+                              ", column " + std::to_string(column) + ", is no field of " + type.full_name() + ")");
+  }
+  return std::nullopt;
+}
+
+// protobuf's message for a syntax error, without the text of the file it was found in: what the parser
+// expected when it names a token class or one punctuation mark, else only the class of error. Every word kept
+// comes from the schema or from this table, none from the file.
+std::string without_file_text(std::string_view message) {
+  constexpr std::string_view kNote = " (an included file's text is not quoted)";
+  const auto starts = [&](std::string_view prefix) { return message.rfind(prefix, 0) == 0; };
+  if (starts("Message type \"") && message.find("\" has no field named") != std::string_view::npos) {
+    const std::size_t end = message.find('"', 14);
+    return "no such field in " + std::string(message.substr(14, end - 14)) + std::string(kNote);
+  }
+  if (starts("Unknown enumeration value")) return "unknown enumeration value" + std::string(kNote);
+  if (starts("Expected ")) {
+    const std::size_t end = message.find(", ");
+    const std::string_view expected = message.substr(9, end == std::string_view::npos ? 0 : end - 9);
+    constexpr std::array<std::string_view, 6> kClasses{"identifier", "integer", "double", "string", "value",
+                                                       "bool"};
+    const bool punctuation = expected.size() == 3 && expected.front() == '"' && expected.back() == '"' &&
+                             std::ispunct(static_cast<unsigned char>(expected[1])) != 0;
+    if (punctuation || std::find(kClasses.begin(), kClasses.end(), expected) != kClasses.end()) {
+      return "expected " + std::string(expected) + std::string(kNote);
+    }
+    return "unexpected text" + std::string(kNote);
+  }
+  if (message.find("specified multiple times") != std::string_view::npos) {
+    return "a singular field is set twice" + std::string(kNote);
+  }
+  if (message.find("oneof") != std::string_view::npos) return "two members of one oneof are set" + std::string(kNote);
+  if (message.find("out of range") != std::string_view::npos) return "a number out of range" + std::string(kNote);
+  return "not valid text format here" + std::string(kNote);
+}
+
+// Whether a syntax error may quote the file's text: yes for the file the user named, no for a file it includes
+// (its path was written by whoever wrote the including file, and may name a file that user could not read).
+enum class Quoting : std::uint8_t { FileText, NothingFromTheFile };
+
+Result<TextLocations, LoadError> parse_one(std::string_view text, std::string name, pb::Message& out,
+                                           Quoting quoting) {
   out.Clear();
   if (text.size() > kMaxTextprotoBytes) {
-    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0},
+    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 1, 1},
                           "file is larger than " + std::to_string(kMaxTextprotoBytes) + " bytes"});
+  }
+  if (auto refused = refuse_by_kind(text, name, *out.GetDescriptor())) {
+    return fail(LoadError{LoadErrorKind::Syntax, std::move(refused->first), std::move(refused->second)});
   }
   FirstErrorCollector errors;
   auto impl = std::make_unique<TextLocations::Impl>();
@@ -261,6 +395,9 @@ Result<TextLocations, LoadError> parse_textproto(std::string_view text, std::str
     }
     out.Clear();
     point_at_named_token(text, message, where);
+    if (quoting == Quoting::NothingFromTheFile) {
+      message = without_file_text(message);
+    }
     return fail(LoadError{LoadErrorKind::Syntax, std::move(where), std::move(message)});
   }
   collect_ranges(out, "", part);
@@ -268,49 +405,22 @@ Result<TextLocations, LoadError> parse_textproto(std::string_view text, std::str
   return TextLocations(std::move(name), std::move(impl));
 }
 
-namespace {
-
-// The text of a file, or why it cannot be read.
+// The text of a file, or why it cannot be read (sys::read_regular_file: no FIFO, device or directory is opened).
 Result<std::string, LoadError> read_text(const std::filesystem::path& path) {
-  const std::string name = path.string();
-  std::error_code ec;
-  const auto status = std::filesystem::status(path, ec);
-  if (ec || !std::filesystem::exists(status)) {
-    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0}, "no such file"});
+  auto text = sys::read_regular_file(path, kMaxTextprotoBytes);
+  if (!text) {
+    // At 1:1: the refusal is of the whole file, and every error has a file:line:column (README, exit 2).
+    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{path.string(), 1, 1},
+                          text.error().to_string(kMaxTextprotoBytes)});
   }
-  if (!std::filesystem::is_regular_file(status)) {
-    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0}, "not a regular file"});
-  }
-  const auto size = std::filesystem::file_size(path, ec);
-  if (ec || size > kMaxTextprotoBytes) {
-    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0},
-                          ec ? "cannot read: " + ec.message()
-                             : "file is larger than " + std::to_string(kMaxTextprotoBytes) + " bytes"});
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0}, "cannot open for reading"});
-  }
-  // Read in chunks up to just past the bound: a file whose reported size is 0 (/proc, sysfs) may be endless.
-  // (A chunk is a multiple of 8 bytes: /proc/<pid>/pagemap refuses other sizes.)
-  std::string text;
-  std::array<char, 64 * 1024> chunk{};
-  while (text.size() <= kMaxTextprotoBytes) {
-    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
-    text.append(chunk.data(), static_cast<std::size_t>(in.gcount()));
-    if (in.bad()) {
-      return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0}, "cannot read"});
-    }
-    if (in.eof()) break;
-  }
-  if (text.size() > kMaxTextprotoBytes) {
-    return fail(LoadError{LoadErrorKind::CannotRead, SourceLocation{name, 0, 0},
-                          "file is larger than " + std::to_string(kMaxTextprotoBytes) + " bytes"});
-  }
-  return text;
+  return std::move(*text);
 }
 
 }  // namespace
+
+Result<TextLocations, LoadError> parse_textproto(std::string_view text, std::string name, pb::Message& out) {
+  return parse_one(text, std::move(name), out, Quoting::FileText);
+}
 
 Result<TextLocations, LoadError> load_textproto(const std::filesystem::path& path, pb::Message& out) {
   auto text = read_text(path);
@@ -320,7 +430,6 @@ Result<TextLocations, LoadError> load_textproto(const std::filesystem::path& pat
   }
   return parse_textproto(*text, path.string(), out);
 }
-
 
 
 // ---- Composition ----
@@ -397,7 +506,8 @@ class Composer {
                                            pb::Message& out, std::span<const ExtraFragment> extra, int depth) {
     ++files_;
     std::unique_ptr<pb::Message> own(out.New());
-    auto own_locs = parse_textproto(text, file.string(), *own);
+    // An included file's syntax errors never quote its text (textproto.hpp "What is refused").
+    auto own_locs = parse_one(text, file.string(), *own, depth == 0 ? Quoting::FileText : Quoting::NothingFromTheFile);
     if (!own_locs) {
       out.Clear();
       return fail(std::move(own_locs.error()));
@@ -465,6 +575,9 @@ class Composer {
     auto text = read_text(fragment.path);
     if (!text) {
       return fail(semantic_error(at, "cannot include \"" + shown + "\": " + text.error().message));
+    }
+    if (auto refused = refuse_by_kind(*text, shown, *like.GetDescriptor())) {
+      return fail(semantic_error(at, "cannot include \"" + shown + "\": " + refused->second));
     }
     seen_.emplace(canonical, at.to_string());
     stack_.push_back(canonical);

@@ -3,7 +3,11 @@
 // location in the fragment that wrote the field, and each bad include refused at its own line.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 
 #include <filesystem>
 #include <fstream>
@@ -173,6 +177,158 @@ TEST_F(Compose, ExtraFragments_MergedAsIfIncludedFirst) {
   const auto r = load_composed_textproto(root, p, missing);
   ASSERT_FALSE(r.has_value());
   EXPECT_EQ(r.error().where.to_string(), "graph.launch.pbtxt:9:3") << "refused where the launch graph named it";
+}
+
+// ---- What is not a text file of the expected kind (textproto.hpp "What is refused") ----
+
+// A file a user may not read, named by a fragment they wrote (the loader runs as root): the refusal names the
+// path and says why, and quotes none of the file.
+constexpr std::string_view kShadowLike = "root:$y$j9T$secret:19000:0:99999:7:::\nbin:*:19000:0:99999:7:::\n";
+
+void expect_nothing_quoted(const LoadError& e) {
+  const std::string shown = e.to_string();
+  EXPECT_EQ(shown.find("root"), std::string::npos) << shown;
+  EXPECT_EQ(shown.find("secret"), std::string::npos) << shown;
+  EXPECT_EQ(shown.find("j9T"), std::string::npos) << shown;
+}
+
+TEST_F(Compose, ShadowLikeInclude_RefusedAtTheIncludeLineByName_NothingQuoted) {
+  const auto shadow = write("shadow", std::string(kShadowLike));
+  const auto graph = write("graph.pbtxt", "name: \"g\"\ninclude: \"" + shadow.string() + "\"\n");
+  proto::Launch g;
+  const auto r = load_composed_textproto(graph, g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("graph.pbtxt", 2, 1));
+  EXPECT_NE(r.error().message.find("cannot include \"" + shadow.string() + "\""), std::string::npos)
+      << r.error().message;
+  EXPECT_NE(r.error().message.find("not a Launch file"), std::string::npos) << r.error().message;
+  expect_nothing_quoted(r.error());
+  EXPECT_EQ(g.ByteSizeLong(), 0U) << "nothing is half-loaded";
+
+  proto::Policy p;  // the same through a policy's include
+  const auto policy = write("policy.pbtxt", "name: \"p\"\ninclude: \"shadow\"\n");
+  const auto rp = load_composed_textproto(policy, p);
+  ASSERT_FALSE(rp.has_value());
+  EXPECT_NE(rp.error().message.find("not a Policy file"), std::string::npos) << rp.error().message;
+  expect_nothing_quoted(rp.error());
+}
+
+TEST_F(Compose, ShadowLikeFileNamedByTheUser_RefusedAsNotOfTheKind_NothingQuoted) {
+  const auto shadow = write("shadow", std::string(kShadowLike));
+  proto::Launch g;
+  const auto r = load_composed_textproto(shadow, g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("shadow", 1, 1));
+  EXPECT_NE(r.error().message.find("not a Launch file"), std::string::npos) << r.error().message;
+  expect_nothing_quoted(r.error());
+}
+
+// Past its first word an included file may still hold anything: its syntax errors are located, never quoted.
+TEST_F(Compose, IncludedFileSyntaxError_LocatedButItsTextNotQuoted) {
+  write("frag.pbtxt", "name: \"x\"\npassword: \"hunter2\"\n");
+  const auto graph = write("graph.pbtxt", "include: \"frag.pbtxt\"\n");
+  proto::Launch g;
+  auto r = load_composed_textproto(graph, g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Syntax);
+  EXPECT_EQ(r.error().where.to_string(), at("frag.pbtxt", 2, 1));
+  EXPECT_NE(r.error().message.find("no such field in rejuv.proto.Launch"), std::string::npos) << r.error().message;
+  EXPECT_EQ(r.error().message.find("password"), std::string::npos) << r.error().message;
+
+  write("frag.pbtxt", "name: \"x\"\nsr { t_mc_s: hunter2 }\n");
+  r = load_composed_textproto(graph, g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.line, 2);
+  EXPECT_EQ(r.error().message.find("hunter2"), std::string::npos) << r.error().message;
+
+  // The file the user named is theirs: its errors still quote the word at fault.
+  const auto own = write("own.pbtxt", "name: \"x\"\npassword: \"hunter2\"\n");
+  r = load_composed_textproto(own, g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().message.find("password"), std::string::npos) << r.error().message;
+}
+
+TEST_F(Compose, FifoIncludedOrNamed_RefusedWithoutWaitingForAWriter) {
+  const auto fifo = dir_ / "fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
+  const auto graph = write("graph.pbtxt", "name: \"g\"\ninclude: \"fifo\"\n");
+  proto::Launch g;
+  auto r = load_composed_textproto(graph, g);  // would block for ever in open(2) were the FIFO opened
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("graph.pbtxt", 2, 1));
+  EXPECT_NE(r.error().message.find("not a regular file (a FIFO)"), std::string::npos) << r.error().message;
+
+  r = load_composed_textproto(fifo, g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::CannotRead);
+  EXPECT_EQ(r.error().to_string(), fifo.string() + ":1:1: error: not a regular file (a FIFO)");
+}
+
+TEST_F(Compose, DirectoryOrDeviceIncluded_RefusedNamingWhatItIs) {
+  proto::Policy p;
+  auto r = load_composed_textproto(write("dir.pbtxt", "include: \"frag\"\n"), p);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("dir.pbtxt", 1, 1));
+  EXPECT_NE(r.error().message.find("not a regular file (a directory)"), std::string::npos) << r.error().message;
+
+  r = load_composed_textproto(write("dev.pbtxt", "include: \"/dev/zero\"\n"), p);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().message.find("not a regular file (a character device)"), std::string::npos)
+      << r.error().message;
+}
+
+TEST_F(Compose, BinaryFileIncludedOrNamed_RefusedAsNotText_NothingQuoted) {
+  constexpr char kElf[] = "\x7f" "ELF\x02\x01\x01\x00secret\x00\x00";
+  const std::string elf(kElf, sizeof kElf - 1);
+  write("prog", elf);
+  proto::Launch g;
+  auto r = load_composed_textproto(write("graph.pbtxt", "include: \"prog\"\n"), g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("graph.pbtxt", 1, 1));
+  EXPECT_NE(r.error().message.find("not a text file (a control character at line 1, column 1)"), std::string::npos)
+      << r.error().message;
+  expect_nothing_quoted(r.error());
+
+  r = load_composed_textproto(dir_ / "prog", g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("prog", 1, 1));
+  EXPECT_NE(r.error().message.find("not a text file"), std::string::npos) << r.error().message;
+
+  constexpr char kNul[] = "name: \"g\"\nservices { name: \"a\0\" }\n";
+  write("nul.pbtxt", std::string(kNul, sizeof kNul - 1));
+  r = load_composed_textproto(dir_ / "nul.pbtxt", g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("nul.pbtxt", 2, 20));
+  EXPECT_NE(r.error().message.find("a NUL byte"), std::string::npos) << r.error().message;
+
+  write("latin1.pbtxt", "name: \"caf\xe9\"\n");  // ISO 8859-1, not UTF-8
+  r = load_composed_textproto(dir_ / "latin1.pbtxt", g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("latin1.pbtxt", 1, 11));
+  EXPECT_NE(r.error().message.find("not UTF-8"), std::string::npos) << r.error().message;
+
+  write("utf8.pbtxt", "name: \"caf\xc3\xa9\"  # \xe2\x9c\x93\n");  // UTF-8 text is text
+  EXPECT_TRUE(load_composed_textproto(dir_ / "utf8.pbtxt", g).has_value());
+}
+
+TEST_F(Compose, FileOverTheBound_RefusedBeforeItIsRead) {
+  write("big.pbtxt", "name: \"g\"\n" + std::string(kMaxTextprotoBytes, ' '));
+  proto::Launch g;
+  auto r = load_composed_textproto(write("graph.pbtxt", "include: \"big.pbtxt\"\n"), g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().where.to_string(), at("graph.pbtxt", 1, 1));
+  EXPECT_NE(r.error().message.find("larger than " + std::to_string(kMaxTextprotoBytes)), std::string::npos)
+      << r.error().message;
+}
+
+TEST_F(Compose, EmptyOrCommentOnlyFragment_IsAFragmentOfAnyKind) {
+  write("empty.pbtxt", "");
+  write("comment.pbtxt", "# nothing yet\n\n");
+  proto::Launch g;
+  const auto r = load_composed_textproto(
+      write("graph.pbtxt", "include: \"empty.pbtxt\"\ninclude: \"comment.pbtxt\"\nname: \"g\"\n"), g);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_EQ(g.name(), "g");
 }
 
 }  // namespace

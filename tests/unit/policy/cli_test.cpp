@@ -2,6 +2,7 @@
 // 1 violations, 2 bad input), its compiler-style lines and a JSON document that a JSON parser accepts.
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -152,6 +153,25 @@ TEST_F(RejuvCli, BadLaunchFile_Exit2) {
   const Outcome r = rejuv({"audit", kQuadSr, "--launch", graph.string()});
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find(graph.string() + ":2:"), std::string::npos) << r.err;
+}
+
+// A policy fragment that names a file its author could not read (`rejuv audit` as root): refused by name, exit 2,
+// nothing of the file on the terminal; a FIFO as the policy neither blocks nor passes.
+TEST_F(RejuvCli, PolicyIncludingAShadowLikeFileOrAFifo_Exit2NamingItWithoutItsText) {
+  const auto shadow = write("shadow", "root:$y$j9T$secret:19000:0:99999:7:::\n");
+  const auto policy = write("p.policy.pbtxt", "name: \"p\"\ninclude: \"shadow\"\n");
+  Outcome r = rejuv({"audit", policy.string()});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(policy.string() + ":2:1: error: cannot include \"" + shadow.string() + "\""), std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("secret"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out.find("secret"), std::string::npos) << r.out;
+
+  const auto fifo = dir_ / "fifo.policy.pbtxt";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  r = rejuv({"audit", fifo.string()});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(fifo.string() + ":1:1: error: not a regular file (a FIFO)"), std::string::npos) << r.err;
 }
 
 TEST_F(RejuvCli, UnknownFlag_Exit2) {

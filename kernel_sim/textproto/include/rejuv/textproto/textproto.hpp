@@ -28,7 +28,8 @@ struct SourceLocation {
 
 enum class LoadErrorKind : std::uint8_t {
   CannotRead,  // missing, unreadable, not a regular file or too large
-  Syntax,      // not valid text format for the schema: unknown field, bad value, duplicate field
+  Syntax,      // not UTF-8 text, not of the schema's kind, or not valid text format for the schema: unknown
+               // field, bad value, duplicate field
   Semantic,    // parsed, but the content is wrong (unknown name, duplicate, bad rights, ...)
 };
 
@@ -81,6 +82,25 @@ class TextLocations {
 
 // Largest text file accepted (a policy or launch graph is a few KiB; this bounds memory on bad input).
 inline constexpr std::size_t kMaxTextprotoBytes = 4U << 20U;
+
+// ---- What is refused (every file: the one loaded and each it includes) ----
+//
+// The loader may run as root and a fragment's `include` may name any path, so a file that is not a text file
+// of the expected kind is refused by its path and the reason, never by what it holds:
+//   - CannotRead at file:1:1 when it is not a regular file (a FIFO, a directory, a device or a socket: refused
+//     from its stat(2) and never opened; opened O_NONBLOCK and checked again with fstat(2)), is larger than
+//     kMaxTextprotoBytes, or cannot be read;
+//   - Syntax at the first offending character when it is not UTF-8 text: a NUL byte, another control
+//     character than tab, LF and CR (C0, DEL, C1), or a malformed UTF-8 sequence;
+//   - Syntax at its first word when that word (after `#` comments) is not a field of the expected message: "not
+//     a Launch file (its first word, at line 1, column 1, is no field of rejuv.proto.Launch)". An empty file,
+//     or one of comments only, is a fragment of any kind.
+// An included file (and an ExtraFragment) is refused at the `include` line that names it, `cannot include
+// "path": …`. A syntax error further into an included file is reported at its own file:line:column with the
+// class of error and what the parser expected (`no such field in rejuv.proto.ServiceSpec`, `expected ":"`),
+// never with a word of the file; only the file the caller names (load_*, parse_*) has the word at fault
+// quoted, as protobuf words it (`… has no field named "bogus"`). What such an error still tells is where the
+// first difference from the schema is, and whether a file exists and is a regular file.
 
 // Reads and parses `path` into `out` (cleared first). On success returns where every field was written.
 [[nodiscard]] Result<TextLocations, LoadError> load_textproto(const std::filesystem::path& path,
