@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <pwd.h>
 #include <signal.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -287,10 +288,63 @@ void expect_rollback_held(const Flight& f) {
   EXPECT_EQ(f.image_fifo, 0) << "an image of lqr_control ran at SCHED_FIFO";
 }
 
+// The lines of the log that contain `needle`.
+std::vector<std::string> lines_with(const std::string& log, std::string_view needle) {
+  std::vector<std::string> out;
+  std::istringstream in(log);
+  for (std::string line; std::getline(in, line);) {
+    if (line.find(needle) != std::string::npos) out.push_back(line);
+  }
+  return out;
+}
+
+// A binary hostile from its first instruction (AttackKind 29…31, services/attacks/src/boot_attacks.cpp): what
+// it tried at boot was refused by the kernel (EPERM), counted against ext_link by call, and achieved nothing.
+void expect_boot_attack_refused(AttackKind kind, const Flight& f) {
+  const auto& s = f.ext_link;
+  const std::string calls = ::testing::PrintToString(s.calls_refused);
+  if (kind == AttackKind::BootTimePage) {
+    // The magic link's O_RDWR reopen refused by its flags; a writable mapping of the read-only fd refused by
+    // the kernel; in every MC window nothing written (the page sealed, the fd read-only) — the page stayed
+    // the kernel's, which the flight shows: every service read its clock and the vehicle flew.
+    EXPECT_GE(refused(s, "openat"), 1U) << calls;
+    const auto boot = lines_with(f.log, "attack BOOT_TIME_PAGE: at boot");
+    ASSERT_EQ(boot.size(), 1U) << "ext_link's boot step not logged once";
+    EXPECT_NE(boot[0].find("writable fd refused"), std::string::npos) << boot[0];
+    EXPECT_NE(boot[0].find("writable mapping refused"), std::string::npos) << boot[0];
+    const auto windows = lines_with(f.log, "attack BOOT_TIME_PAGE: odd sequence");
+    EXPECT_GE(windows.size(), 2U) << "too few attacked windows for the attack to matter";
+    for (const std::string& w : windows) {
+      EXPECT_NE(w.find("odd sequence refused"), std::string::npos) << w;
+      EXPECT_NE(w.find("not stored by the mapping"), std::string::npos) << w;
+    }
+    EXPECT_TRUE(lines_with(f.log, "time page: ").empty()) << "a reader of the time page gave up";
+  } else if (kind == AttackKind::BootPrlimitKernel) {
+    // The kernel is this process: alive, or the test would not be here. Refused by the kernel, not run.
+    EXPECT_GE(refused(s, "prlimit64"), 1U) << calls;
+    const auto tried = lines_with(f.log, "attack BOOT_PRLIMIT_KERNEL: prlimit64(");
+    ASSERT_EQ(tried.size(), 1U);
+    EXPECT_NE(tried[0].find("errno 1"), std::string::npos) << tried[0];  // EPERM
+    rlimit cpu{};
+    ASSERT_EQ(::getrlimit(RLIMIT_CPU, &cpu), 0);
+    EXPECT_EQ(cpu.rlim_cur, RLIM_INFINITY) << "the kernel's CPU limit was changed";
+  } else if (kind == AttackKind::BootReadSecrets) {
+    // The kernel's command line (here the test's; `rejuv run` names the launch file there: boot_secret_test.cpp)
+    // is another process's /proc: refused at boot and counted.
+    EXPECT_GE(refused(s, "openat"), 1U) << calls;
+    const auto tried = lines_with(f.log, "attack BOOT_READ_SECRETS: ");
+    ASSERT_EQ(tried.size(), 1U);
+    EXPECT_NE(tried[0].find("kernel cmdline unread"), std::string::npos) << tried[0];
+    EXPECT_FALSE(lines_with(f.log, "outside what a start-up reads").empty()) << "the refused open was not named";
+  }
+}
+
 // What each kind must leave in the counters (the kernel saw it, by kind; or saw nothing where nothing was wrong).
 void expect_counted(AttackKind kind, const Flight& f) {
   const auto& s = f.ext_link;
-  if (kind == AttackKind::SigioImages || kind == AttackKind::SigioKernel || kind == AttackKind::SigioLogTrap) {
+  if (std::ranges::find(attacks::kBootAttackKinds, kind) != attacks::kBootAttackKinds.end()) {
+    expect_boot_attack_refused(kind, f);
+  } else if (kind == AttackKind::SigioImages || kind == AttackKind::SigioKernel || kind == AttackKind::SigioLogTrap) {
     EXPECT_GE(refused(s, "fcntl"), 1U) << "calls refused: " << ::testing::PrintToString(s.calls_refused);
   } else if (kind == AttackKind::StraySpinners || kind == AttackKind::StrayMemory) {
     EXPECT_GE(s.stray_processes, 1U);
@@ -344,6 +398,7 @@ std::vector<Case> all_cases() {
   std::vector<Case> out;
   for (const bool realtime : {true, false}) {
     for (const AttackKind k : attacks::kRollbackAttackKinds) out.push_back(Case{k, realtime});
+    for (const AttackKind k : attacks::kBootAttackKinds) out.push_back(Case{k, realtime});
   }
   return out;
 }
@@ -360,21 +415,32 @@ INSTANTIATE_TEST_SUITE_P(Containment, RollbackAttack, ::testing::ValuesIn(all_ca
 
 constexpr const char* kInnerEnv = "REJUV_TEST_UNPRIVILEGED_KERNEL";
 
-// The inner run (this binary re-executed as the unprivileged user): the flight and its assertions.
+// The inner run (this binary re-executed as the unprivileged user): the flight and its assertions. The
+// variable says "<realtime|lockstep>:<ATTACK_KIND>".
 TEST(RollbackAttackWithoutRoot, Inner) {
-  const char* clock = std::getenv(kInnerEnv);
-  if (clock == nullptr) GTEST_SKIP() << "run by SigioKernel_KernelAlive (re-executed without root)";
+  const char* inner = std::getenv(kInnerEnv);
+  if (inner == nullptr) GTEST_SKIP() << "run by RollbackAttackWithoutRoot.* (re-executed without root)";
   ASSERT_NE(::geteuid(), 0U);
+  const std::string_view spec(inner);
+  const std::size_t colon = spec.find(':');
+  ASSERT_NE(colon, std::string_view::npos) << spec;
+  const auto kind = attacks::attack_kind_from_name(spec.substr(colon + 1));
+  ASSERT_TRUE(kind.has_value()) << spec;
   Flight f;
-  fly(AttackKind::SigioKernel, std::string_view(clock) == "realtime", f);
+  fly(*kind, spec.substr(0, colon) == "realtime", f);
   if (HasFatalFailure() || IsSkipped()) return;
   expect_rollback_held(f);
-  expect_counted(AttackKind::SigioKernel, f);
+  expect_counted(*kind, f);
 }
 
-class RollbackAttackWithoutRoot : public ::testing::TestWithParam<bool> {};
+struct UnprivilegedCase {
+  AttackKind kind;
+  bool realtime;
+};
 
-TEST_P(RollbackAttackWithoutRoot, SigioKernel_KernelAlive) {
+class RollbackAttackWithoutRoot : public ::testing::TestWithParam<UnprivilegedCase> {};
+
+TEST_P(RollbackAttackWithoutRoot, KernelAlive_AttackRefused) {
   if (::geteuid() != 0) GTEST_SKIP() << "needs root to become the unprivileged user";
   const passwd* nobody = ::getpwnam("nobody");
   ASSERT_NE(nobody, nullptr);
@@ -393,7 +459,8 @@ TEST_P(RollbackAttackWithoutRoot, SigioKernel_KernelAlive) {
     if (std::string_view(*e).starts_with("HOME=")) continue;
     env_text.emplace_back(*e);
   }
-  env_text.push_back(std::string(kInnerEnv) + "=" + (GetParam() ? "realtime" : "lockstep"));
+  env_text.push_back(std::string(kInnerEnv) + "=" + (GetParam().realtime ? "realtime" : "lockstep") + ":" +
+                     std::string(attacks::to_string(GetParam().kind)));
   env_text.emplace_back("HOME=/tmp");
   std::vector<char*> env;
   for (std::string& e : env_text) env.push_back(e.data());
@@ -418,8 +485,23 @@ TEST_P(RollbackAttackWithoutRoot, SigioKernel_KernelAlive) {
   EXPECT_EQ(WEXITSTATUS(status), 0) << "the flight without root failed (its output is above)";
 }
 
-INSTANTIATE_TEST_SUITE_P(Containment, RollbackAttackWithoutRoot, ::testing::Values(true, false),
-                         [](const ::testing::TestParamInfo<bool>& i) { return i.param ? "RealTime" : "Lockstep"; });
+// SIGIO with SIGKILL at the kernel (it shares no uid with a service: no signal reaches it), and each attack of
+// a binary hostile from boot, where the services once had the kernel's uid (prlimit64 on it, its /proc).
+std::vector<UnprivilegedCase> unprivileged_cases() {
+  std::vector<UnprivilegedCase> out;
+  for (const bool realtime : {true, false}) {
+    out.push_back(UnprivilegedCase{AttackKind::SigioKernel, realtime});
+    for (const AttackKind k : attacks::kBootAttackKinds) out.push_back(UnprivilegedCase{k, realtime});
+  }
+  return out;
+}
+
+INSTANTIATE_TEST_SUITE_P(Containment, RollbackAttackWithoutRoot, ::testing::ValuesIn(unprivileged_cases()),
+                         [](const ::testing::TestParamInfo<UnprivilegedCase>& i) {
+                           std::string name(attacks::to_string(i.param.kind));
+                           std::erase(name, '_');
+                           return name + (i.param.realtime ? "_RealTime" : "_Lockstep");
+                         });
 
 }  // namespace
 }  // namespace rejuv::testing

@@ -128,6 +128,24 @@ void Warden::record_violation(ServiceRuntime& s, Violation kind, std::string_vie
   }
 }
 
+// An open while booting (open, openat): the kernel reads the path the call names and checks it against the
+// service's Landlock rules (sys::path_within). Outside them: false, and `shown` the path as the log may show it
+// (printable, bounded). Landlock enforces the same rules on the object opened, so a path changed after this
+// read (TOCTOU) or reached by a symbolic link is still refused; this look is what names and counts the attempt.
+bool Warden::boot_open_within_reach(const ServiceRuntime& s, const sys::SeccompNotice& notice, std::string& shown) {
+  static const int open_nr = sys::syscall_number("open").value_or(-1);
+  static const int openat_nr = sys::syscall_number("openat").value_or(-1);
+  if (notice.nr != open_nr && notice.nr != openat_nr) return true;
+  const std::uint64_t address = notice.nr == open_nr ? notice.args[0] : notice.args[1];
+  auto path = sys::read_string_of(notice.pid, address, kMaxBootPath);
+  if (!s.sandbox.seccomp.still_waiting(notice.id)) return true;  // gone meanwhile: nothing to decide
+  const std::string text = path ? *path : std::string("(unreadable: ") + path.error().to_string() + ")";
+  if (path && sys::path_within(sys::service_landlock_rules(s.config.executable), text, notice.tgid)) return true;
+  shown.clear();
+  for (const char c : text.substr(0, 160)) shown += (c >= 0x20 && c < 0x7f) ? c : '?';
+  return false;
+}
+
 void Warden::on_seccomp_notice(ServiceRuntime& s) {
   for (std::size_t i = 0; i < kNoticesPerWakeup && s.sandbox.seccomp.valid(); ++i) {
     auto got = s.sandbox.seccomp.receive();
@@ -141,12 +159,32 @@ void Warden::on_seccomp_notice(ServiceRuntime& s) {
     // Only the live incarnation boots; images and anything else it made never run the loader or the SDK's
     // start-up, so their boot calls are violations too.
     const bool booting = s.proc.booting() && s.proc.process.pid() == notice.tgid;
-    const sys::NoticeKind kind = sys::classify(notice);
+    sys::NoticeKind kind = sys::classify(notice);
+    std::string refused_path;
+    if (booting && kind == sys::NoticeKind::BootCall && !boot_open_within_reach(s, notice, refused_path)) {
+      kind = sys::NoticeKind::RefusedAtBoot;
+    }
     if ((booting && kind == sys::NoticeKind::BootCall) || kind == sys::NoticeKind::SignalToSelf) {
       (void)s.sandbox.seccomp.allow(notice.id);  // decided on register values and the kernel's own state: no TOCTOU
       continue;
     }
     const std::string call = sys::syscall_name(notice.nr);
+    if (booting && kind == sys::NoticeKind::RefusedAtBoot) {
+      // No trusted boot phase (issue 45): a boot call with arguments no start-up needs (an open for writing,
+      // prlimit64 of another process or a new limit, an exec of its own, a prctl other than the SDK's) fails
+      // with EPERM and is counted against the service; the call never ran, so it boots on.
+      (void)s.sandbox.seccomp.refuse(notice.id, EPERM);
+      if (!refused_path.empty()) {
+        k.log("sandbox: '%s' at boot: %s of %s refused (EPERM): outside what a start-up reads (its binary, the "
+              "libraries, its own /proc)", s.name.c_str(), call.c_str(), refused_path.c_str());
+      } else {
+        k.log("sandbox: '%s' at boot: %s(0x%llx, 0x%llx, 0x%llx) refused (EPERM): arguments no start-up needs",
+              s.name.c_str(), call.c_str(), static_cast<unsigned long long>(notice.args[0]),
+              static_cast<unsigned long long>(notice.args[1]), static_cast<unsigned long long>(notice.args[2]));
+      }
+      record_violation(s, Violation::ForbiddenCall, call);
+      continue;
+    }
     const bool live = s.live() && s.proc.process.pid() == notice.tgid;
     if (live && s.proc.loss_reason.empty()) {
       s.proc.loss_reason = "sandbox violation (forbidden system call " + call + ")";

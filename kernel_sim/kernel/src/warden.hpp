@@ -4,12 +4,15 @@
 
 #include <cstdint>
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include "image_coordinator.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/sys/fd.hpp"
+#include "rejuv/sys/landlock.hpp"
 #include "rejuv/sys/process.hpp"
+#include "rejuv/sys/seccomp.hpp"
 #include "service_runtime.hpp"
 
 namespace rejuv::kernel {
@@ -42,6 +45,12 @@ class Warden {
   [[nodiscard]] sys::ResourceLimits limits_for(const ServiceRuntime& s) const;
 
  private:
+  // The longest path the kernel reads from a booting service's open (PATH_MAX).
+  static constexpr std::size_t kMaxBootPath = 4096;
+  // Whether an open while booting names a path within the service's Landlock rules; `shown` the path if not.
+  [[nodiscard]] static bool boot_open_within_reach(const ServiceRuntime& s, const sys::SeccompNotice& notice,
+                                                   std::string& shown);
+
   Kernel::Impl& k;
   std::optional<std::string_view> sweep_due;  // why a sweep is wanted
   Nanos last_sweep{0};                        // kernel clock

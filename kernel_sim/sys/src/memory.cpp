@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/mman.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -52,10 +53,18 @@ SysResult<UniqueFd> make_memfd(std::string_view name, std::size_t size) {
   if (::ftruncate(fd.get(), static_cast<off_t>(size)) != 0) {
     return last_error("ftruncate");
   }
-  if (::fcntl(fd.get(), F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW | F_SEAL_SEAL) != 0) {
+  if (::fcntl(fd.get(), F_ADD_SEALS, F_SEAL_SHRINK | F_SEAL_GROW) != 0) {
     return last_error("fcntl(F_ADD_SEALS)");
   }
   return fd;
+}
+
+SysResult<void> seal_against_writes(const UniqueFd& fd) {
+  if (::fcntl(fd.get(), F_ADD_SEALS, F_SEAL_FUTURE_WRITE | F_SEAL_SEAL) != 0) {
+    return last_error("fcntl(F_ADD_SEALS, F_SEAL_FUTURE_WRITE)");
+  }
+  if (::fchmod(fd.get(), 0444) != 0) return last_error("fchmod(0444)");
+  return {};
 }
 
 SysResult<UniqueFd> reopen_read_only(const UniqueFd& fd) {

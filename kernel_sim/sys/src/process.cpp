@@ -170,13 +170,13 @@ struct Prepared {
 enum ChildStage : int {
   kStageSpawn, kStagePdeathsig, kStageSession, kStageDupfd, kStageDup2, kStageCloseRange, kStageSetuid,
   kStageSeccomp, kStageExec, kStageUserns, kStageUnshare, kStageMount, kStageRlimit, kStageListener, kStageCgroup,
-  kStageIdMap,
+  kStageIdMap, kStageLandlock,
 };
-constexpr std::array<std::string_view, 16> kStage{
+constexpr std::array<std::string_view, 17> kStage{
     "spawn", "prctl(PR_SET_PDEATHSIG)", "setsid/setpgid", "fcntl(F_DUPFD)", "dup2", "close_range", "setuid",
     "seccomp", "execve", "unshare(CLONE_NEWUSER)", "unshare(CLONE_NEWNET|CLONE_NEWNS|CLONE_NEWIPC)",
     "read-only mounts (mount_setattr)", "setrlimit", "seccomp listener", "joining its cgroup (cgroup.procs)",
-    "waiting for its uid/gid maps"};
+    "waiting for its uid/gid maps", "Landlock (landlock_restrict_self)"};
 
 void child_report(int socket_fd, int stage, int err, int fd_to_pass) {
   const std::array<int, 2> report{stage, err};
@@ -365,6 +365,9 @@ void install_seccomp_in_child(int wfd, const SpawnSpec& spec, Prepared& prep) {
   if (spec.isolation == Isolation::Namespaces) isolate_in_child(wfd, spec);
   drop_uid_in_child(wfd, spec, parent);
   limit_in_child(wfd, spec.limits);  // after the uid: RLIMIT_NPROC counts the service uid's processes
+  if (const int err = restrict_in_child(spec.landlock, spec.landlock_abi); err != 0) {
+    child_fail(wfd, kStageLandlock, err);
+  }
   sigset_t none;
   sigemptyset(&none);
   ::sigprocmask(SIG_SETMASK, &none, nullptr);

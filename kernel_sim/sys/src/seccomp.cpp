@@ -141,16 +141,20 @@ constexpr std::array kServiceRules{
     SyscallRule{"sched_getaffinity", Allowance::Always, ArgCheck::None, "hardware_concurrency(); never set"},
     SyscallRule{"getcpu", Allowance::Always, ArgCheck::None, "sched_getcpu() (when the vDSO cannot answer)"},
     SyscallRule{"prctl", Allowance::Always, ArgCheck::PrctlOptions,
-                "thread names and the dumpable flag; the SDK's non-dumpable switch only while booting"},
+                "thread names and the dumpable flag; while booting also PR_SET_DUMPABLE 0 (the SDK's "
+                "non-dumpable switch), nothing else"},
     SyscallRule{"restart_syscall", Allowance::Always, ArgCheck::None, "a call interrupted by a stop"},
     SyscallRule{"exit", Allowance::Always, ArgCheck::None, "a thread ends"},
     SyscallRule{"exit_group", Allowance::Always, ArgCheck::None, "the process ends"},
     // ---- exec and start-up: only until the service is ready ----
-    SyscallRule{"execve", Allowance::WhileBooting, ArgCheck::None, "the kernel execs the service's binary"},
-    SyscallRule{"execveat", Allowance::WhileBooting, ArgCheck::None, "as execve"},
-    SyscallRule{"open", Allowance::WhileBooting, ArgCheck::None, "the dynamic loader opens libraries"},
-    SyscallRule{"openat", Allowance::WhileBooting, ArgCheck::None,
-                "the loader's libraries; the SDK reads /proc/self/maps once (memory_image::prepare_self)"},
+    SyscallRule{"execve", Allowance::WhileBooting, ArgCheck::SpawnerOnly,
+                "the kernel execs the service's binary (let through by the spawner); no exec of the service's own"},
+    SyscallRule{"execveat", Allowance::WhileBooting, ArgCheck::SpawnerOnly, "as execve"},
+    SyscallRule{"open", Allowance::WhileBooting, ArgCheck::ReadOnlyOpen,
+                "the dynamic loader opens libraries; what it may read is bounded by Landlock (sys/landlock.hpp)"},
+    SyscallRule{"openat", Allowance::WhileBooting, ArgCheck::ReadOnlyOpen,
+                "the loader's libraries; the SDK reads /proc/self/maps once (memory_image::prepare_self); "
+                "Landlock bounds what (the libraries, the binary, /proc/self)"},
     SyscallRule{"access", Allowance::WhileBooting, ArgCheck::None, "the loader"},
     SyscallRule{"faccessat", Allowance::WhileBooting, ArgCheck::None, "the loader"},
     SyscallRule{"faccessat2", Allowance::WhileBooting, ArgCheck::None, "the loader"},
@@ -165,7 +169,8 @@ constexpr std::array kServiceRules{
     SyscallRule{"getcwd", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
     SyscallRule{"arch_prctl", Allowance::WhileBooting, ArgCheck::None, "thread-local storage of the main thread"},
     SyscallRule{"set_tid_address", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
-    SyscallRule{"prlimit64", Allowance::WhileBooting, ArgCheck::None, "the C library reads its stack limit"},
+    SyscallRule{"prlimit64", Allowance::WhileBooting, ArgCheck::OwnLimitsRead,
+                "the C library reads its stack limit"},
     SyscallRule{"getrlimit", Allowance::WhileBooting, ArgCheck::None, "as prlimit64 (reading only)"},
     SyscallRule{"uname", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
     SyscallRule{"sysinfo", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
@@ -249,8 +254,41 @@ int add_rule(scmp_filter_ctx ctx, const SyscallRule& rule, int nr, Enforcement e
       rc |= seccomp_rule_add(ctx, allow, nr, 2, SCMP_A1(SCMP_CMP_EQ, static_cast<scmp_datum_t>(F_SETFL)),
                              SCMP_A2(SCMP_CMP_MASKED_EQ, static_cast<scmp_datum_t>(O_ASYNC), 0));
       return rc;
+    case ArgCheck::ReadOnlyOpen:
+    case ArgCheck::OwnLimitsRead:
+    case ArgCheck::SpawnerOnly: return -EINVAL;  // boot calls' checks: the kernel's (classify), never an Always entry
   }
   return -EINVAL;
+}
+
+// The open flags a boot may use: reading (O_RDONLY, with any of these); everything else — O_WRONLY, O_RDWR,
+// O_CREAT, O_TRUNC, O_APPEND, O_TMPFILE — writes or makes something, which no loader or start-up needs.
+constexpr std::uint64_t kReadOnlyOpenFlags = O_RDONLY | O_CLOEXEC | O_DIRECTORY | O_NOFOLLOW | O_NONBLOCK |
+                                             O_NOCTTY | O_LARGEFILE | O_NOATIME | O_PATH;
+
+// Whether a WhileBooting call's register arguments are what a start-up needs (ArgCheck of the boot calls).
+bool boot_arguments_pass(const SyscallRule& rule, const SeccompNotice& notice) {
+  if (rule.check == ArgCheck::ReadOnlyOpen) {
+    const std::uint64_t flags = rule.name == "open" ? notice.args[1] : notice.args[2];
+    return (flags & ~kReadOnlyOpenFlags) == 0;
+  }
+  if (rule.check == ArgCheck::OwnLimitsRead) {
+    // pid_t is 32 bits; the new limit is a pointer (arg 2) that must be NULL: reading only.
+    const auto pid = static_cast<std::int32_t>(static_cast<std::uint32_t>(notice.args[0]));
+    return (pid == 0 || (notice.tgid > 0 && pid == notice.tgid)) && notice.args[2] == 0;
+  }
+  return rule.check != ArgCheck::SpawnerOnly;
+}
+
+// A prctl outside the running service's options (kPrctlOptions) while booting: only the SDK's non-dumpable
+// switch (PR_SET_DUMPABLE 0). In a sanitizer build, whatever the runtime asks at start.
+bool boot_prctl(const SeccompNotice& notice) {
+#if defined(REJUV_SANITIZER)
+  (void)notice;
+  return true;
+#else
+  return notice.args[0] == PR_SET_DUMPABLE && notice.args[1] == 0;
+#endif
 }
 
 const SyscallRule* rule_of(int nr) {
@@ -283,15 +321,15 @@ NoticeKind classify(const SeccompNotice& notice) {
   const SyscallRule* rule = rule_of(notice.nr);
   if (rule == nullptr) return NoticeKind::Forbidden;
   switch (rule->allowance) {
-    case Allowance::WhileBooting: return NoticeKind::BootCall;
+    case Allowance::WhileBooting: return boot_arguments_pass(*rule, notice) ? NoticeKind::BootCall : NoticeKind::RefusedAtBoot;
     case Allowance::Enosys: return NoticeKind::Forbidden;  // never notified
     case Allowance::Always: break;
   }
   // An Always entry whose argument check failed: some fail only after boot.
   switch (rule->check) {
     case ArgCheck::ExecOnlyBooting:
-    case ArgCheck::PrctlOptions:
     case ArgCheck::EmptyPathStat: return NoticeKind::BootCall;
+    case ArgCheck::PrctlOptions: return boot_prctl(notice) ? NoticeKind::BootCall : NoticeKind::RefusedAtBoot;
     case ArgCheck::SelfPid:  // kill(pid, …), tgkill(tgid, tid, …): the caller's own process
       // The notice names the calling thread; the target is a process (kill) or a thread group (tgkill, which
       // the kernel delivers only to a thread of that group). So the caller's thread group is compared, and a
@@ -303,7 +341,10 @@ NoticeKind classify(const SeccompNotice& notice) {
     case ArgCheck::None:
     case ArgCheck::CloneFlags:
     case ArgCheck::IoctlCodes:
-    case ArgCheck::FcntlCommands: return NoticeKind::Forbidden;
+    case ArgCheck::FcntlCommands:
+    case ArgCheck::ReadOnlyOpen:
+    case ArgCheck::OwnLimitsRead:
+    case ArgCheck::SpawnerOnly: return NoticeKind::Forbidden;
   }
   return NoticeKind::Forbidden;
 }

@@ -180,6 +180,9 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
     case AttackKind::WorkerRaise:
     case AttackKind::ForgedLog:
     case AttackKind::PagemapFrames: against_rollback(kind, variant, planned_count(kind)); break;
+    case AttackKind::BootTimePage:
+    case AttackKind::BootPrlimitKernel:
+    case AttackKind::BootReadSecrets: hostile_from_boot(kind, variant); break;
   }
   if (!reporter_) {
     svc_.logf(sdk::LogLevel::Warn, "attack %.*s (epoch %u, %s): %u attempts, %u accepted",
@@ -370,6 +373,7 @@ Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc) {
       kinds += " at boot";
       continue;
     }
+    if (occasion_of(a.kind) == Occasion::AtBootThenEveryWindow) kinds += " at boot and";
     windowed = true;
     if (a.start.count() > 0) kinds += " from t = " + std::to_string(a.start.count()) + " s";
     if (a.max_windows > 0) kinds += " in " + std::to_string(a.max_windows) + " window(s)";
@@ -382,7 +386,7 @@ Result<std::unique_ptr<AttackHooks>, PlanError> install(sdk::Service& svc) {
     }
   }
   for (const RuntimeAttack& a : raw->plan().attacks) {
-    if (occasion_of(a.kind) == Occasion::OnceAtBoot) raw->carry_out(a.kind, 0);
+    if (occasion_of(a.kind) != Occasion::EveryWindow) raw->carry_out(a.kind, kAtBoot);
   }
   return hooks;
 }

@@ -31,6 +31,9 @@ std::string_view to_string(AttackKind kind) {
     case AttackKind::WorkerRaise: return "WORKER_RAISE";
     case AttackKind::ForgedLog: return "FORGED_LOG";
     case AttackKind::PagemapFrames: return "PAGEMAP_FRAMES";
+    case AttackKind::BootTimePage: return "BOOT_TIME_PAGE";
+    case AttackKind::BootPrlimitKernel: return "BOOT_PRLIMIT_KERNEL";
+    case AttackKind::BootReadSecrets: return "BOOT_READ_SECRETS";
   }
   return "?";
 }
@@ -47,7 +50,11 @@ WindowKind window_kind_of(AttackKind kind) {
 }
 
 Occasion occasion_of(AttackKind kind) {
-  return kind == AttackKind::EscapeHelper ? Occasion::OnceAtBoot : Occasion::EveryWindow;
+  if (kind == AttackKind::EscapeHelper || kind == AttackKind::BootPrlimitKernel ||
+      kind == AttackKind::BootReadSecrets) {
+    return Occasion::OnceAtBoot;
+  }
+  return kind == AttackKind::BootTimePage ? Occasion::AtBootThenEveryWindow : Occasion::EveryWindow;
 }
 
 namespace {

@@ -192,7 +192,10 @@ void AttackHooks::against_rollback(AttackKind kind, std::uint32_t variant, std::
     case AttackKind::KillImage:
     case AttackKind::OpenSocket:
     case AttackKind::FloodBroker:
-    case AttackKind::EscapeHelper: break;
+    case AttackKind::EscapeHelper:
+    case AttackKind::BootTimePage:  // a binary hostile from boot: boot_attacks.cpp
+    case AttackKind::BootPrlimitKernel:
+    case AttackKind::BootReadSecrets: break;
   }
 }
 

@@ -412,6 +412,7 @@ int Service::run() {
       continue;
     }
     if (const std::optional<int> code = s.handle(bytes)) return *code;
+    s.report_time_stalls();
   }
   (void)s.flush();
   return s.exit_code;
@@ -432,6 +433,15 @@ std::expected<std::optional<std::size_t>, int> Service::Impl::read_frame() {
     return std::unexpected(1);
   }
   return *got;
+}
+
+// A read of the time page that found no consistent sample in its bound (clock::kTimePageTries) used the last
+// one instead; said once per new stall on stderr, which the kernel logs under this service's name.
+void Service::Impl::report_time_stalls() {
+  if (time.stalls() == time_stalls_reported) return;
+  std::fprintf(stderr, "[%s] time page: %llu read(s) found no consistent sample in the bound; used the last one\n",
+               name.c_str(), static_cast<unsigned long long>(time.stalls() - time_stalls_reported));
+  time_stalls_reported = time.stalls();
 }
 
 bool Service::Impl::report_idle() {

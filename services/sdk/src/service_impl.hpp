@@ -85,6 +85,7 @@ struct Service::Impl {
   std::uint64_t frames_received = 0;  // every frame read from the channel since boot (docs/protocol.md Idle)
   std::uint64_t idle_reported = 0;
   std::uint64_t bad_frames = 0;
+  std::uint64_t time_stalls_reported = 0;  // time.stalls() already said (report_time_stalls)
   bool ready_sent = false;
   bool stopping = false;
   int exit_code = 0;
@@ -148,6 +149,8 @@ struct Service::Impl {
   // docs/protocol.md "Idle": tells the kernel everything received is handled (lockstep, or asked by a
   // Sync). False when the Idle could not be sent.
   [[nodiscard]] bool report_idle();
+  // Says on stderr (logged by the kernel under the service's name) each new bounded time-page read that gave up.
+  void report_time_stalls();
   // The first frame of a restored incarnation: runs the author's on_restored hook before it is handled.
   void resume_incarnation(std::span<const std::byte> frame);
   // Hands one frame to the handler of its kind; an exit code when run() must return it.

@@ -1,6 +1,14 @@
 // The kernel clock (DESIGN §6): the time page seqlock and the timer table's deterministic firing.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
+#include <new>
+#include <string>
 #include <vector>
 
 #include "rejuv/clock/time_page.hpp"
@@ -38,6 +46,58 @@ TEST(TimePage, ServiceFd_CannotBeMappedWritable) {
   ASSERT_TRUE(writer.has_value());
   auto rw = sys::Mapping::map(writer->read_only_fd(), kTimePageBytes, sys::Access::ReadWrite);
   EXPECT_FALSE(rw.has_value());
+}
+
+// Issue 45: a service reopened its read-only fd writable through the magic link /proc/self/fd/4 and made the
+// sequence odd. The page is sealed (F_SEAL_FUTURE_WRITE) and 0444: whatever fd a process gets of it — even
+// root's O_RDWR reopen, which the mode does not stop — cannot write it or map it writable.
+TEST(TimePage, MagicLinkReopen_CannotWriteNorMapWritable) {
+  auto writer = TimePageWriter::create();
+  ASSERT_TRUE(writer.has_value()) << writer.error().to_string();
+  writer->write(TimeSample{.now = milliseconds{5}, .mode = SrMode::MC, .epoch = Epoch{1}});
+  struct stat st {};
+  ASSERT_EQ(::fstat(writer->read_only_fd().get(), &st), 0);
+  EXPECT_EQ(st.st_mode & 0777U, 0444U);
+  const std::string link = "/proc/self/fd/" + std::to_string(writer->read_only_fd().get());
+  const int rw = ::open(link.c_str(), O_RDWR | O_CLOEXEC);
+  const int fd = rw >= 0 ? rw : writer->read_only_fd().get();  // as root the mode lets the open through
+  const std::uint64_t odd = 1;
+  errno = 0;
+  EXPECT_EQ(::pwrite(fd, &odd, sizeof(odd), 0), -1);
+  EXPECT_TRUE(errno == EPERM || errno == EBADF) << std::strerror(errno);
+  void* map = ::mmap(nullptr, kTimePageBytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  EXPECT_EQ(map, MAP_FAILED) << "a writable shared mapping of the time page";
+  if (map != MAP_FAILED) ::munmap(map, kTimePageBytes);
+  if (rw >= 0) ::close(rw);
+  auto reader = TimePageReader::map(writer->read_only_fd().get());
+  ASSERT_TRUE(reader.has_value());
+  EXPECT_EQ(reader->read().now, milliseconds{5});
+  EXPECT_EQ(reader->stalls(), 0U);
+}
+
+// A page whose sequence stays odd (no writer finishes) does not hang its reader: try_read gives up after its
+// bound, read() keeps the last consistent sample and counts the stall. The page here is a plain memfd the test
+// writes itself (the kernel's is sealed against that).
+TEST(TimePage, OddSequence_ReaderGivesUpAndCounts) {
+  auto memfd = sys::make_memfd("odd-page", kTimePageBytes);
+  ASSERT_TRUE(memfd.has_value());
+  auto mapping = sys::Mapping::map(*memfd, kTimePageBytes, sys::Access::ReadWrite);
+  ASSERT_TRUE(mapping.has_value());
+  auto* page = new (mapping->data()) wire::TimePage{};
+  page->sequence.store(2);
+  page->now_ns.store(3'000'000);
+  page->mode.store(static_cast<std::uint32_t>(SrMode::SC));
+  auto reader = TimePageReader::map(memfd->get());
+  ASSERT_TRUE(reader.has_value());
+  EXPECT_EQ(reader->read().now, milliseconds{3});
+  page->sequence.store(3);  // odd, and it stays so
+  page->now_ns.store(9'000'000);
+  EXPECT_FALSE(reader->try_read().has_value());
+  EXPECT_EQ(reader->read().now, milliseconds{3}) << "not the last consistent sample";
+  EXPECT_EQ(reader->stalls(), 1U);
+  page->sequence.store(4);  // a writer finishes: readable again
+  EXPECT_EQ(reader->read().now, milliseconds{9});
+  EXPECT_EQ(reader->stalls(), 1U);
 }
 
 TEST(TimerTable, DueTimers_FireInDueServiceIdOrder) {

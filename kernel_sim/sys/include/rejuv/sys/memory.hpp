@@ -42,8 +42,16 @@ class Mapping {
 };
 
 // An anonymous memory file of `size` bytes (zero-filled, close-on-exec), sealed against shrinking and
-// growing so that no holder of an fd can make a mapping of it fault (SIGBUS) in another process.
+// growing so that no holder of an fd can make a mapping of it fault (SIGBUS) in another process. Further
+// seals may still be added (seal_against_writes).
 [[nodiscard]] SysResult<UniqueFd> make_memfd(std::string_view name, std::size_t size);
+
+// Seals a memfd from make_memfd against every write that is not already mapped (F_SEAL_FUTURE_WRITE: the
+// caller's own read-write mapping, made before, keeps writing; a write(), a pwrite() or a new writable mapping
+// through ANY fd of it — including one reopened O_RDWR through /proc/<pid>/fd — fails with EPERM), then
+// against any further seal change (F_SEAL_SEAL), and sets its mode to 0444. For the pages the kernel shares
+// with services (the time page): a service given a read-only fd must not get a writable one by a magic link.
+[[nodiscard]] SysResult<void> seal_against_writes(const UniqueFd& fd);
 
 // A new, independent open file description of the same file, read-only (through /proc/self/fd): what a
 // service receives, so that it can neither write the file nor map it writable.

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "rejuv/sys/fd.hpp"
+#include "rejuv/sys/landlock.hpp"
 #include "rejuv/sys/seccomp.hpp"
 #include "rejuv/sys/subid.hpp"
 
@@ -106,6 +107,10 @@ struct SpawnSpec {
   Isolation isolation = Isolation::None;
   ResourceLimits limits{};
   std::span<const int> cgroup_procs{};           // cgroup.procs files (ServiceCgroup::join_fds): joined before exec
+  // Landlock (rejuv/sys/landlock.hpp): what the process may open, applied after the limits and before the
+  // filter; none when landlock_abi is 0.
+  std::vector<LandlockRule> landlock{};
+  int landlock_abi = 0;
 };
 
 // A spawned process and, when its filter is supervised, the listener for the calls it refers to the spawner.

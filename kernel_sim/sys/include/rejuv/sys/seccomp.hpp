@@ -53,6 +53,14 @@ enum class ArgCheck : std::uint8_t {
   EmptyPathStat,   // newfstatat on an fd (AT_EMPTY_PATH); a path only while booting
   FcntlCommands,   // arg 1 is a command that aims no signal: no F_SETOWN(_EX), F_SETSIG, F_SETLEASE, F_NOTIFY, and
                    // F_SETFL only without O_ASYNC (SIGIO reaches every process of a uid or a process group)
+  // Boot calls whose arguments the kernel checks too (issue 45: no trusted boot phase). A failed check while
+  // booting is NoticeKind::RefusedAtBoot; after Ready every such call is a violation anyway.
+  ReadOnlyOpen,    // open (flags arg 1) / openat (flags arg 2): read-only, nothing created, truncated or appended
+                   // (the time page's fd reopened O_RDWR through /proc/self/fd/4 was the attack)
+  OwnLimitsRead,   // prlimit64: pid 0 or the caller's own, new limit NULL (reading its own limits only;
+                   // prlimit64(kernel, RLIMIT_CPU, {1, 1}) killed the kernel)
+  SpawnerOnly,     // execve/execveat: the kernel's own exec of the service's binary is let through by the spawner
+                   // (process.cpp await_exec); any exec the service makes is refused
 };
 
 struct SyscallRule {
@@ -109,6 +117,9 @@ struct SeccompNotice {
 enum class NoticeKind : std::uint8_t {
   BootCall,      // a WhileBooting call (or the boot-only form of an Always call): fine until the service is ready
   SignalToSelf,  // kill/tgkill whose target is the caller's own process (any of its threads): fine at any time
+  RefusedAtBoot, // a boot call with arguments no start-up needs (ArgCheck ReadOnlyOpen, OwnLimitsRead,
+                 // SpawnerOnly, a prctl other than PR_SET_DUMPABLE 0): while booting refused with EPERM and counted
+                 // as a violation of the service (it runs on: nothing was done); after Ready, Forbidden
   Forbidden,     // outside the allow-list: a sandbox violation
 };
 [[nodiscard]] NoticeKind classify(const SeccompNotice& notice);

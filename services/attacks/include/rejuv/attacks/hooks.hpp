@@ -34,6 +34,11 @@
 //   WORKER_RAISE       a worker thread raise()s SIGURG (ignored): a signal to its own process
 //   FORGED_LOG         a Log line that forges a kernel line, with \r, \n, ANSI and OSC escapes
 //   PAGEMAP_FRAMES     finds the pagemap fd the kernel handed it and counts the frame numbers it shows
+// a binary hostile from its first instruction (boot_attacks.cpp; docs/sandbox.md "No trusted boot phase"):
+//   BOOT_TIME_PAGE     at boot open("/proc/self/fd/4", O_RDWR) and mmap(fd 4 | that fd, PROT_WRITE,
+//                      MAP_SHARED); in each MC window pwrite/store an odd sequence into the page
+//   BOOT_PRLIMIT_KERNEL  at boot prlimit64(getppid(), RLIMIT_CPU, {1, 1})
+//   BOOT_READ_SECRETS  at boot /proc/<kernel>/cmdline → the launch file → its signing_key_file; logs the bytes
 // and, once, at install (boot):
 //   ESCAPE_HELPER      makes a helper process the only way the sandbox lets it (clone(CLONE_PARENT|SIGCHLD):
 //                      the kernel's child, in the service's session) that, for as long as it lives, every
@@ -66,6 +71,7 @@ inline constexpr double kForgedLimit = 1.0e6;              // every value of a f
 inline constexpr std::byte kForgedPersistentByte{0xA7};    // every byte of a forged PersistentWrite
 inline constexpr Nanos kTickPeriod{std::chrono::milliseconds{2}};  // the hook's kernel timer
 inline constexpr std::chrono::milliseconds kEscapePeriod{100};       // between an escaped helper's tries (real time)
+inline constexpr std::uint32_t kAtBoot = 0xFFFFFFFFU;  // carry_out's variant at install (before Ready)
 
 // One thing the attacker tried and what came back.
 struct Attempt {
@@ -121,6 +127,10 @@ class AttackHooks {
   void against_rollback(AttackKind kind, std::uint32_t variant, std::uint32_t count);
   void sigio(AttackKind kind, int fd, long owner, int signal);
   void pagemap_frames();
+  // A binary hostile from its first instruction (29…31; boot_attacks.cpp): `variant` kAtBoot at install.
+  void hostile_from_boot(AttackKind kind, std::uint32_t variant);
+  void time_page_write(bool at_boot);
+  void read_secrets();
 
   sdk::Service& svc_;
   RuntimeAttackPlan plan_;
@@ -135,6 +145,8 @@ class AttackHooks {
   // service the leader of its own session). A restored incarnation is in that group, with its images and
   // spares.
   long pgrp_ = 0;
+  int time_page_writable_ = -1;  // BOOT_TIME_PAGE: the writable fd it got at boot, if any
+  void* time_page_mapping_ = nullptr;  // BOOT_TIME_PAGE: the writable mapping it got at boot, if any
   std::uint32_t attempts_ = 0;  // in the current attack: for the default log line
   std::uint32_t accepted_ = 0;
 };

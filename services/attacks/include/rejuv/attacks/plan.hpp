@@ -50,6 +50,10 @@ enum class AttackKind : std::uint8_t {
   WorkerRaise = 25,            // raise() from a worker thread (not a violation: the kernel must not kill it)
   ForgedLog = 26,              // a Log frame forging a kernel line, with control characters and escapes
   PagemapFrames = 27,          // reads the pagemap it was handed: the physical frame numbers it can see
+  // A binary hostile from its first instruction (boot_attacks.cpp): 29…31.
+  BootTimePage = 29,           // at boot a writable handle on the time page; in MC an odd sequence written
+  BootPrlimitKernel = 30,      // at boot prlimit64(kernel, RLIMIT_CPU, {1, 1})
+  BootReadSecrets = 31,        // at boot /proc/<kernel>/cmdline → the launch file → the signing key
 };
 inline constexpr std::array kAllAttackKinds{
     AttackKind::InvokeCheckpoint, AttackKind::ArmTimer,     AttackKind::WriteLimits,
@@ -58,12 +62,16 @@ inline constexpr std::array kAllAttackKinds{
     AttackKind::FloodBroker,      AttackKind::EscapeHelper, AttackKind::SigioImages,
     AttackKind::SigioKernel,      AttackKind::SigioLogTrap, AttackKind::StraySpinners,
     AttackKind::StrayMemory,      AttackKind::SpinningThreads, AttackKind::RetiredWorker,
-    AttackKind::WorkerRaise,      AttackKind::ForgedLog,    AttackKind::PagemapFrames};
+    AttackKind::WorkerRaise,      AttackKind::ForgedLog,    AttackKind::PagemapFrames,
+    AttackKind::BootTimePage,     AttackKind::BootPrlimitKernel, AttackKind::BootReadSecrets};
 // The kinds that attack rollback itself (18…27), in the order of docs/sandbox.md's threat table.
 inline constexpr std::array kRollbackAttackKinds{
     AttackKind::SigioImages,   AttackKind::SigioKernel,     AttackKind::SigioLogTrap, AttackKind::StraySpinners,
     AttackKind::StrayMemory,   AttackKind::SpinningThreads, AttackKind::RetiredWorker, AttackKind::WorkerRaise,
     AttackKind::ForgedLog,     AttackKind::PagemapFrames};
+// The kinds of a binary hostile from its first instruction (29…31), in the order of docs/sandbox.md's table.
+inline constexpr std::array kBootAttackKinds{AttackKind::BootTimePage, AttackKind::BootPrlimitKernel,
+                                             AttackKind::BootReadSecrets};
 // The AttackKind enum name of idl/launch.proto, e.g. "INVOKE_CHECKPOINT".
 [[nodiscard]] std::string_view to_string(AttackKind kind);
 // The kind named `name` (the proto enum name); nullopt for anything that is not a runtime attack.
@@ -75,7 +83,9 @@ using WindowKind = rejuv::AttackWindowKind;  // rejuv/core/attack_window.hpp
 
 // When an attack is carried out: at the start of its windows (WindowClock), or once when the hooks are
 // installed, at boot (ESCAPE_HELPER: what it leaves behind must outlive the boot to matter).
-enum class Occasion : std::uint8_t { EveryWindow, OnceAtBoot };
+// EveryWindow: at the first tick of each attacked window. OnceAtBoot: once, at install (before Ready).
+// AtBootThenEveryWindow: both (a boot step that prepares what each window uses: BOOT_TIME_PAGE).
+enum class Occasion : std::uint8_t { EveryWindow, OnceAtBoot, AtBootThenEveryWindow };
 [[nodiscard]] Occasion occasion_of(AttackKind kind);
 
 // The largest count an attack on rollback takes (attack.<j>.magnitude; the launch loader checks it too).
