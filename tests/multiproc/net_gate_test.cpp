@@ -451,12 +451,32 @@ TEST_F(NetGateSigned, ReplayedFrame_Refused) {
   EXPECT_EQ(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Replayed)], 1U);
 }
 
-// The replay attack on the signing check: another socket sends frames signed with the right key but stamped
-// 2015-01-01 (a recorded flight played back: a heartbeat and an upload, retransmitted), then the ground
-// station's own heartbeat, captured moments ago, byte for byte. The gate compares timestamps with the wall clock
-// from its first frame: none is relayed, each is counted by its reason, and the vehicle's telemetry stays with
-// the ground station — the replaying socket hears nothing.
+// The replay attack on the signing check. A socket plays back a recording — frames signed with the right key
+// but stamped 2015-01-01: a heartbeat and an upload, retransmitted — before the ground station has spoken, when
+// the gate has accepted nothing yet; then the ground station speaks; then the socket replays the ground
+// station's heartbeat, captured moments ago, byte for byte. The gate compares timestamps with the wall clock
+// from its first frame: nothing of the socket's is relayed, each frame is counted by its reason, and the
+// vehicle's telemetry goes to the ground station — the replaying socket hears nothing.
 TEST_F(NetGateSigned, RecordedAndReplayedFrames_RefusedTelemetryStaysWithTheGround) {
+  Ground replayer(*kernel_->network_port());
+  replayer.key = ground_->key;
+  replayer.recorded_at = mav::SigningClock::from_sys(std::chrono::sys_days{std::chrono::year{2015} / 1 / 1});
+  // When the recording is played back (the ground station's stream, signed with the key) ...
+  constexpr std::size_t kRecorded = 12;
+  mav::MissionUploader up(waypoints_of(2), 0.2);
+  replayer.send(ground_heartbeat());
+  replayer.send(up.start());
+  for (std::size_t i = 2; i < kRecorded; ++i) replayer.send(i % 2 == 0 ? up.last_sent() : ground_heartbeat());
+  step_until([&] { return kernel_->net_stats().received == kRecorded; });
+  step(50);  // 0.2 s: 10 telemetry periods
+  // ... then none of it was relayed: refused as stale, and nobody hears the vehicle yet.
+  EXPECT_EQ(kernel_->net_stats().relayed, 0U) << "a recorded frame reached ext_link";
+  EXPECT_EQ(kernel_->net_stats().signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Stale)], kRecorded);
+  EXPECT_EQ(kernel_->net_stats().judged_valid, 0U);
+  replayer.collect();
+  EXPECT_TRUE(replayer.received.empty() && replayer.raw.empty()) << "telemetry followed the recording";
+
+  // When the ground station speaks, its frame stamped from the wall clock is accepted and telemetry flows ...
   const mav::Frame captured = ground_->frame(ground_heartbeat());
   ground_->send(captured.view());
   step_until([&] {
@@ -464,38 +484,21 @@ TEST_F(NetGateSigned, RecordedAndReplayedFrames_RefusedTelemetryStaysWithTheGrou
     return !ground_->all<mav::LocalPositionNed>().empty();
   });
   const kernel::NetStats before = kernel_->net_stats();
-  ASSERT_EQ(before.relayed, 1U);
-  ASSERT_EQ(before.judged_valid, 1U);
-  ASSERT_EQ(before.signing_refused, 0U);
-
-  // When the replayer plays back the recording (the ground station's stream, signed with the key) ...
-  Ground replayer(*kernel_->network_port());
-  replayer.key = ground_->key;
-  replayer.recorded_at = mav::SigningClock::from_sys(std::chrono::sys_days{std::chrono::year{2015} / 1 / 1});
-  constexpr std::size_t kRecorded = 12;
-  mav::MissionUploader up(waypoints_of(2), 0.2);
-  replayer.send(ground_heartbeat());
-  replayer.send(up.start());
-  for (std::size_t i = 2; i < kRecorded; ++i) replayer.send(i % 2 == 0 ? up.last_sent() : ground_heartbeat());
-  // ... and replays the captured frame.
+  EXPECT_EQ(before.relayed, 1U);
+  EXPECT_EQ(before.judged_valid, 1U);
+  // ... and when the socket replays that frame, the replays are refused and the telemetry stays.
   constexpr std::size_t kReplays = 3;
   for (std::size_t i = 0; i < kReplays; ++i) replayer.send(captured.view());
-  step_until([&] { return kernel_->net_stats().received == before.received + kRecorded + kReplays; });
-  step(50);  // 0.2 s: 10 telemetry periods
-
-  // Then nothing was relayed, each refusal is counted by its reason ...
+  step_until([&] { return kernel_->net_stats().received == before.received + kReplays; });
+  ground_->clear();
+  step(50);
   const kernel::NetStats st = kernel_->net_stats();
-  EXPECT_EQ(st.relayed, before.relayed) << "a refused frame reached ext_link";
-  EXPECT_EQ(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Stale)], kRecorded);
+  EXPECT_EQ(st.relayed, before.relayed) << "a replayed frame reached ext_link";
   EXPECT_EQ(st.signing_refused_by_reason[static_cast<std::size_t>(mav::SigningRefusal::Replayed)], kReplays);
   EXPECT_EQ(st.signing_refused, kRecorded + kReplays);
   EXPECT_EQ(st.judged_valid, before.judged_valid);
   EXPECT_EQ(st.judged_refused, 0U);
   EXPECT_EQ(uploads_seen(), 0U);
-  // ... the replayer heard nothing (no mission request, no telemetry), and the ground station still hears the
-  // vehicle.
-  ground_->clear();
-  step(50);
   replayer.collect();
   ground_->collect();
   EXPECT_TRUE(replayer.received.empty() && replayer.raw.empty()) << "telemetry followed the replayed frames";
