@@ -37,6 +37,7 @@ namespace {
 
 namespace verdicts = test_services::verdicts;
 constexpr double kNotTried = -1000;  // escapes::kNotTried
+constexpr std::string_view escapes_mark = "FAKE-KERNEL-ULOG";  // escapes::kForgedMark
 constexpr std::uint64_t kCanaryValue = 0x5AFE'5AFE'5AFE'5AFEULL;
 volatile std::uint64_t g_canary = kCanaryValue;  // NOLINT: process_vm_writev's target in the kernel (this process)
 
@@ -148,6 +149,13 @@ class CapturedLog {
   std::FILE* file_;
 };
 
+// The log lines the kernel hands its observers (the ULog recorder writes each as "<source>: <text>", docs/ulog.md).
+class LogLines final : public kernel::Observer {
+ public:
+  void on_log(const kernel::LogLine& line) override { lines.emplace_back(std::string(line.source), std::string(line.text)); }
+  std::vector<std::pair<std::string, std::string>> lines;  // source, text
+};
+
 struct Escape {
   std::string name;          // escapes.cpp's table
   std::string at = "mc";     // "boot" | "mc"
@@ -186,7 +194,7 @@ class Hostile : public ::testing::Test {
     kernel::KernelOptions o = test_options();
     o.log = log_.file();
     o.verbose = false;
-    auto k = kernel::Kernel::create(std::move(*loaded), o, &recorder_);
+    auto k = kernel::Kernel::create(std::move(*loaded), o, &observers_);
     ASSERT_TRUE(k.has_value()) << k.error().to_string() << "\n" << ::testing::PrintToString(k.error().findings);
     k_ = std::move(*k);
     auto booted = k_->boot();
@@ -266,6 +274,8 @@ class Hostile : public ::testing::Test {
   std::vector<std::string> files_;
   pid_t worker_sid_ = -1;
   Recorder recorder_;
+  LogLines log_lines_;
+  kernel::ObserverFanout observers_{{&recorder_, &log_lines_}};
   std::unique_ptr<kernel::Kernel> k_;
 };
 
@@ -335,19 +345,23 @@ INSTANTIATE_TEST_SUITE_P(
         forbidden("Keyctl", "keyctl", "keyctl")),
     [](const ::testing::TestParamInfo<ForbiddenCase>& p) { return p.param.label; });
 
-// ---- at boot: open still passes, so the read-only mounts and the uid must hold ----
+// ---- at boot: open passes only for reading what a start-up reads (docs/sandbox.md "No trusted boot phase");
+// the read-only mounts, Landlock and the uid hold behind it ----
 
 class CreateFileAtBoot : public Hostile, public ::testing::WithParamInterface<std::string> {};
 
-TEST_P(CreateFileAtBoot, RefusedByTheReadOnlyMount_NoFile_RunGoesOn) {
+// open(O_CREAT) at boot: refused by the kernel on its flags (EPERM), counted against the worker, which boots on;
+// no file exists (the read-only mount and Landlock would refuse it too).
+TEST_P(CreateFileAtBoot, RefusedAndCountedAtBoot_NoFile_RunGoesOn) {
   escape_.name = "create_file";
   ASSERT_NO_FATAL_FAILURE(
       start({.name = "create_file", .at = "boot", .params = file_param(GetParam()), .limits = ""}));
   ASSERT_TRUE(step_until_rollbacks(1));
   const auto o = outcomes();
   ASSERT_FALSE(o.empty()) << "no report from the worker";
-  EXPECT_EQ(o.front().value, -EROFS) << "open(O_CREAT) in " << GetParam();
-  EXPECT_EQ(k_->stats(id("worker")).forbidden_calls, 0U) << "a boot call counted: " << refused_calls();
+  EXPECT_EQ(o.front().value, -EPERM) << "open(O_CREAT) in " << GetParam();
+  EXPECT_GE(k_->stats(id("worker")).forbidden_calls, 1U) << "the refused boot call was not counted";
+  EXPECT_NE(refused_calls().find("openat"), std::string::npos) << refused_calls();
   expect_nothing_escaped();
 }
 
@@ -531,6 +545,69 @@ TEST_F(Hostile, FakeKernelLines_EveryLineSignedByTheWorker) {
   EXPECT_GE(fakes, 2 * 5) << "the kernel did not log the worker's output";
   EXPECT_GE(k_->stats(id("worker")).output_lines, 2U * 5U);
   expect_nothing_escaped();
+}
+
+// ---- the log and the channel, as a hostile service writes them ----
+
+// Log frames and a publication whose bytes look like kernel log lines and ULog messages: every such line is the
+// worker's (its name first, its control characters escaped), none the kernel's, so that the ULog's logged
+// strings ("<source>: <text>") hold none that starts "kernel:"; the payload of the right size is routed as
+// data, the one a byte too long is refused as a wrong size.
+TEST_F(Hostile, ForgedKernelLinesAndUlogBytes_AllSignedByTheWorker_NoneAttributedToTheKernel) {
+  ASSERT_NO_FATAL_FAILURE(start({.name = "forge_log", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(2));
+  const auto o = outcomes();
+  ASSERT_FALSE(o.empty()) << "no report from the worker";
+  EXPECT_EQ(o.front().value, 7) << "frames and lines the worker wrote";
+  int forged = 0;
+  for (const auto& [source, text] : log_lines_.lines) {
+    if (text.find(escapes_mark) == std::string::npos) continue;
+    ++forged;
+    EXPECT_EQ(source, "worker") << text;
+    for (const char ch : text) EXPECT_FALSE(static_cast<unsigned char>(ch) < 0x20 && ch != '\t') << text;
+  }
+  EXPECT_GE(forged, 5) << "the kernel did not log the worker's lines";
+  for (const auto& line : log_.lines()) {
+    EXPECT_TRUE(line.find(escapes_mark) == std::string::npos || line.rfind("[worker] ", 0) == 0) << line;
+  }
+  EXPECT_GE(k_->stats(id("worker")).wrong_size, 1U);
+  EXPECT_EQ(k_->stats(id("worker")).bad_frames, k_->stats(id("worker")).wrong_size)
+      << "a frame refused other than the publication of the wrong size";
+  expect_nothing_escaped();
+}
+
+// Every field of the header broken, one datagram each: refused one by one, counted against the worker, the
+// kernel reads on and the run goes on (the worker too: a bad frame is counted, not punished).
+TEST_F(Hostile, BrokenFrames_EachRefusedAndCountedAgainstTheWorker_RunGoesOn) {
+  ASSERT_NO_FATAL_FAILURE(start({.name = "bad_frames", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(3));
+  const auto o = outcomes();
+  ASSERT_FALSE(o.empty()) << "no report from the worker";
+  EXPECT_EQ(o.front().value, o.front().detail) << "frames the worker could not send";
+  const kernel::ServiceStats w = k_->stats(id("worker"));
+  EXPECT_GE(w.bad_frames, static_cast<std::uint64_t>(o.front().detail)) << "refused as bad frames";
+  EXPECT_GE(w.denials, 1U) << "a publication on a slot it does not hold";
+  EXPECT_GE(w.wrong_size, 1U) << "a publication of 3 bytes";
+  EXPECT_EQ(k_->bad_frames_total(), w.bad_frames) << "counted against another service";
+  EXPECT_EQ(k_->stats(id("driver")).bad_frames, 0U);
+  EXPECT_GT(k_->stats(id("driver")).delivered, 0U);
+  expect_nothing_escaped();
+}
+
+// A service that never reads its channel again (it sleeps in its MC tick): the kernel does not wait on it for
+// ever nor queue for it without bound — it is killed as hung (counted against it), the rollback brings back its
+// image, and the service that reads (the driver) loses nothing.
+TEST_F(Hostile, StopsReadingItsChannel_KilledAsHung_TheOthersLoseNothing) {
+  ASSERT_NO_FATAL_FAILURE(start({.name = "stop_reading", .at = "mc", .params = "", .limits = ""}));
+  ASSERT_TRUE(step_until_rollbacks(3));
+  const kernel::ServiceStats w = k_->stats(id("worker"));
+  EXPECT_TRUE(w.hung || w.restores >= 1) << "never killed nor replaced";
+  const kernel::ServiceStats d = k_->stats(id("driver"));
+  EXPECT_EQ(d.lost, 0U) << "the driver's subscription overran";
+  EXPECT_FALSE(d.hung);
+  EXPECT_GT(d.delivered, 0U);
+  EXPECT_FALSE(k_->stop_reason().has_value()) << k_->stop_detail();
+  EXPECT_TRUE(victim_.alive());
 }
 
 }  // namespace

@@ -105,7 +105,9 @@ int run_worker(Service& svc, const rejuv::sdk::Publisher<Record>& verdicts) {
   const std::string escape(svc.text_param("escape", ""));
   const bool at_boot = svc.text_param("escape_at", "mc") == "boot";
   escapes::Target target = escape_target(svc);
-  target.first_pid = ::getpid();  // at boot: the first incarnation (its images inherit the value)
+  target.first_pid = ::getpid();
+  target.numbers_slot = out->slot().value();
+  target.numbers_size = sizeof(Record);  // at boot: the first incarnation (its images inherit the value)
   std::optional<escapes::Outcome> outcome;  // of the escape at boot, reported at the first tick
   if (!escape.empty() && at_boot) {
     outcome = escapes::perform(escape, target);

@@ -28,6 +28,8 @@
 #include <map>
 #include <vector>
 
+#include "rejuv/channel/wire.hpp"
+
 namespace rejuv::test_services::escapes {
 
 namespace {
@@ -249,6 +251,97 @@ Outcome raise_rlimit() {
   return {as_rc, rc_of(nofile)};
 }
 
+
+// ---- the channel, written raw on fd 3 (wire.hpp): what the SDK would never send ----
+
+// One datagram on the channel: a header as given and `payload` after it (write(2): one SOCK_SEQPACKET record).
+long send_frame(wire::FrameHeader h, std::string_view payload) {
+  std::string bytes(sizeof h, '\0');
+  std::memcpy(bytes.data(), &h, sizeof h);
+  bytes += payload;
+  return ::write(wire::kChannelFd, bytes.data(), bytes.size());
+}
+
+wire::FrameHeader header(wire::FrameKind kind, std::size_t length, std::uint32_t slot = 0, std::uint64_t aux = 0) {
+  return wire::FrameHeader{.kind = static_cast<std::uint16_t>(kind), .flags = 0, .slot = slot, .seq = 0,
+                           .length = static_cast<std::uint32_t>(length), .aux = aux};
+}
+
+// A ULog logged-string message ('L', docs/ulog.md) as the writer lays it out: size, type, level, timestamp, text.
+std::string ulog_line(std::string_view text) {
+  std::string m;
+  const auto size = static_cast<std::uint16_t>(1 + 8 + text.size());
+  m.append(reinterpret_cast<const char*>(&size), 2);  // NOLINT: the wire's bytes
+  m += 'L';
+  m += '3';  // ERR
+  m.append(8, '\0');
+  m += text;
+  return m;
+}
+
+// Log lines and a publication that look like the kernel's log lines and like ULog messages: as Log frames
+// (after a newline, a carriage return, as a whole ULog 'L' message) and inside a publication's payload on
+// `numbers` (of the right size, and one byte too long).
+Outcome forge_log(const Target& t) {
+  const std::string mark(kForgedMark);
+  long sent = 0;
+  const auto log = [&](const std::string& text) {
+    wire::LogHeader lh{};
+    lh.level = static_cast<std::uint8_t>(wire::LogLevel::Error);
+    std::string body(sizeof lh, '\0');
+    std::memcpy(body.data(), &lh, sizeof lh);
+    body += text;
+    if (send_frame(header(wire::FrameKind::Log, body.size()), body) > 0) ++sent;
+  };
+  log("kernel: " + mark + " plain");
+  log("innocent\nkernel: " + mark + " after-newline");
+  log("innocent\r[kernel    1.000] " + mark + " after-cr");
+  log(ulog_line("kernel: " + mark + " ulog-message"));
+  const std::string printed = "kernel: " + mark + " stdout\n";
+  if (::write(1, printed.data(), printed.size()) > 0) ++sent;
+  std::string payload;
+  while (payload.size() < t.numbers_size) payload += ulog_line("kernel: " + mark + " data");
+  payload.resize(t.numbers_size);
+  if (send_frame(header(wire::FrameKind::Publish, payload.size(), t.numbers_slot), payload) > 0) ++sent;
+  payload += 'L';
+  if (send_frame(header(wire::FrameKind::Publish, payload.size(), t.numbers_slot), payload) > 0) ++sent;
+  return {static_cast<double>(sent), 0};
+}
+
+// Frames broken in every field the header has, each its own datagram: the kernel refuses each (counted as a
+// bad frame, a denial or a wrong size) and reads on. Returns how many of the kBadFramesSent went out.
+Outcome bad_frames(const Target& t) {
+  long sent = 0;
+  const auto count = [&](long rc) {
+    if (rc > 0) ++sent;
+  };
+  const std::string eight(8, '\0');
+  count(::write(wire::kChannelFd, eight.data(), eight.size()));                            // shorter than a header
+  count(send_frame(header(wire::FrameKind::Log, 0xFFFF'FFFFU), eight));                    // length: 4 GiB
+  count(send_frame(header(wire::FrameKind::Log, 100), eight));                             // length > datagram
+  count(send_frame(wire::FrameHeader{.kind = 0x7FFF, .flags = 0, .slot = 0, .seq = 0, .length = 0, .aux = 0}, ""));
+  count(send_frame(header(wire::FrameKind::Deliver, 0, t.numbers_slot), ""));  // a kernel → service kind
+  count(send_frame(wire::FrameHeader{.kind = static_cast<std::uint16_t>(wire::FrameKind::Idle), .flags = 0xFFFF,
+                                     .slot = 0, .seq = 0, .length = 0, .aux = 0},
+                   ""));  // reserved flags
+  count(send_frame(header(wire::FrameKind::Hello, 0, 0, wire::kProtocolVersion), ""));  // Hello after boot
+  count(send_frame(header(wire::FrameKind::Ready, 0), ""));                               // Ready after boot
+  const wire::TimerSpec never{.id = 77, .first_ns = ~std::uint64_t{0}, .period_ns = ~std::uint64_t{0}};
+  count(send_frame(header(wire::FrameKind::TimerArm, sizeof never),
+                   std::string_view(reinterpret_cast<const char*>(&never), sizeof never)));  // NOLINT: bytes
+  const std::string huge(wire::kMaxFrameBytes + 512, 'x');
+  wire::FrameHeader big = header(wire::FrameKind::Log, huge.size());
+  count(send_frame(big, huge));  // longer than the longest frame: truncated on receive
+  count(send_frame(header(wire::FrameKind::Taken, 0, 0, ~std::uint64_t{0}), ""));  // a checkpoint never asked
+  // Refused otherwise: a publication on a slot it does not hold (a denial), of the wrong size (wrong_size), and
+  // an Idle that counts more frames than the kernel ever sent.
+  const std::string one(t.numbers_size, '\0');
+  (void)send_frame(header(wire::FrameKind::Publish, one.size(), 0xFFFF'FFF0U), one);
+  (void)send_frame(header(wire::FrameKind::Publish, 3, t.numbers_slot), "abc");
+  (void)send_frame(header(wire::FrameKind::Idle, 0, 0, ~std::uint64_t{0}), "");
+  return {static_cast<double>(sent), kBadFramesSent};
+}
+
 }  // namespace
 
 std::optional<Outcome> perform(std::string_view escape, const Target& t) {
@@ -320,6 +413,9 @@ std::optional<Outcome> perform(std::string_view escape, const Target& t) {
       {"perf_event_open",
        [] { return Outcome{rc_of(::syscall(SYS_perf_event_open, nullptr, 0, -1, -1, 0)), 0}; }},
       {"keyctl", [] { return Outcome{rc_of(::syscall(SYS_keyctl, 0 /* KEYCTL_GET_KEYRING_ID */, -3, 0)), 0}; }},
+      {"forge_log", [&] { return forge_log(t); }},
+      {"bad_frames", [&] { return bad_frames(t); }},
+      {"stop_reading", [] { sleep_forever(); return Outcome{}; }},  // never reads its channel again
   };
   const auto it = table.find(escape);
   if (it == table.end()) return std::nullopt;

@@ -23,7 +23,13 @@ struct Target {
   std::uint32_t hog_mb = 0;         // how much memory to take
   pid_t first_pid = -1;             // the service's first incarnation (the pid its filter was made for)
   std::uint32_t epoch = 0;          // the rollback epoch it runs in
+  std::uint32_t numbers_slot = 0;   // its cap on `numbers` (Write) and the topic's message size, for frames
+  std::uint32_t numbers_size = 0;   // written raw on the channel
 };
+
+// What forge_log writes and bad_frames sends (the test asserts on them).
+inline constexpr std::string_view kForgedMark = "FAKE-KERNEL-ULOG";
+inline constexpr double kBadFramesSent = 11;  // bad_frames: frames the kernel must refuse as bad frames
 
 // What the escape achieved: value >= 0 the call(s) succeeded (or a count), −errno refused; detail what the
 // escape says it is (a pid, a count).
