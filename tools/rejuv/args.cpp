@@ -1,6 +1,7 @@
 // The typed option layer (args.hpp): declaration, parsing and the generated --help.
 #include "args.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -166,11 +167,13 @@ Options& Options::path(std::string name, std::string metavar, std::optional<std:
 }
 
 Options& Options::repeated(std::string name, std::string metavar, std::vector<std::string>& out, std::string help) {
-  return add_value(std::move(name), std::move(metavar), std::move(help), "", "",
-                   [&out](std::string_view text) -> Result<void, std::string> {
-                     out.emplace_back(text);
-                     return {};
-                   });
+  add_value(std::move(name), std::move(metavar), std::move(help), "", "",
+            [&out](std::string_view text) -> Result<void, std::string> {
+              out.emplace_back(text);
+              return {};
+            });
+  opts_.back().repeatable = true;
+  return *this;
 }
 
 Options& Options::positionals(std::string name, std::vector<std::string>& out, std::string help) {
@@ -256,6 +259,11 @@ Result<ParseOutcome, std::string> Options::parse(std::span<const std::string_vie
       if (found == nullptr) {
         return fail("unknown option '" + std::string(name) + "' for 'rejuv " + command_ + "'" + see);
       }
+      // Given twice, one would silently replace the other (`--seed 1 --seed 2` flew seed 2; two --attack flew
+      // the last): refused, unless the option collects its values (repeated()).
+      if (found->given && !found->repeatable) {
+        return fail("option '" + std::string(name) + "' given twice (it takes one value; give it once)" + see);
+      }
       found->given = true;
       if (found->flag_out != nullptr) {
         if (eq != std::string_view::npos) {
@@ -269,6 +277,18 @@ Result<ParseOutcome, std::string> Options::parse(std::span<const std::string_vie
         value = a.substr(eq + 1);
       } else if (i + 1 < args.size()) {
         value = args[++i];
+        // The next word is another option of this command: the value was forgotten (`--ulog --no-figures`
+        // once wrote a 65 MB log named '--no-figures'). A value that really begins so is given with '='.
+        if (value.starts_with("--")) {
+          const std::string_view other = value.substr(0, value.find('='));
+          const bool known = std::ranges::any_of(opts_, [&](const Opt& o) { return o.name == other; }) ||
+                             other == "--help";
+          if (known) {
+            return fail("option '" + std::string(name) + "' needs a value " + found->metavar + ", got the option '" +
+                        std::string(other) + "' (a value that begins with '--' is written " + std::string(name) +
+                        "=VALUE)" + see);
+          }
+        }
       } else {
         return fail("option '" + std::string(name) + "' needs a value " + found->metavar + see);
       }

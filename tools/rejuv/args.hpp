@@ -122,6 +122,7 @@ class Options {
     Setter set{};
     ErrorNames names = ErrorNames::Option;
     bool given = false;
+    bool repeatable = false;  // repeated(): each value appended; any other option may be given once
   };
   struct Pos {
     std::string name, help;

@@ -291,6 +291,8 @@ class Injector final : public kernel::Observer {
     before_ = Counters::of(k_->sr_stats());
     max_v_at_fire_ = current_max_v();
     fired_at_ = flight;
+    fired_pids_ = pids;
+    seen_back_ = false;
     evaluating_ = next_;
     ++next_;
   }
@@ -345,19 +347,34 @@ class Injector final : public kernel::Observer {
     if (!evaluating_) return;
     Outcome& o = outcomes_[*evaluating_];
     if (is_terminal(o.fault.kind)) return;  // judged by how the run ends
+    note_if_back(o);
     if (!now && flight < fired_at_ + std::chrono::seconds{10}) return;
     if (!now && k_->mode() == SrMode::RB) return;
     evaluate(*evaluating_, Counters::of(k_->sr_stats()), current_max_v(), false);
   }
 
+  // Whether the fault's target has been seen alive in a process that the fault did not hit, at any step since it
+  // fired. A verdict taken when the next fault is about to fire may fall in a rollback, when the target's live
+  // process is legitimately gone (the rollback has killed it and not yet resumed its image): what counts is
+  // that it came back after this fault, not where the next one finds it (issue 49: 3 of 20 faults were judged
+  // "not back" that way, the kernel's log showing the target back at once).
+  void note_if_back(const Outcome& o) {
+    if (seen_back_ || o.fault.kind == FaultKind::StallPlant) return;
+    const auto id = k_->find_service(o.fault.target);
+    if (!id) return;
+    const kernel::ServiceStats st = k_->stats(*id);
+    seen_back_ = st.alive && st.pid > 0 && std::ranges::find(fired_pids_, st.pid) == fired_pids_.end();
+  }
+
   void evaluate(std::size_t index, const Counters& after, double max_v, bool final) {
     Outcome& o = outcomes_[index];
     o.path = recovery_path(before_, after);
+    note_if_back(o);
     bool back = true;
     if (o.fault.kind == FaultKind::StallPlant) {
       back = k_->plant_pid().has_value();
     } else if (const auto id = k_->find_service(o.fault.target)) {
-      back = final || k_->stats(*id).alive;
+      back = final || seen_back_ || k_->stats(*id).alive;
     }
     o.recovered = back && (final || !k_->stop_reason().has_value());
     if (!back) o.note += "; '" + o.fault.target + "' not back";
@@ -393,6 +410,8 @@ class Injector final : public kernel::Observer {
   Counters before_{};
   double max_v_at_fire_ = 0;
   Nanos fired_at_{0};
+  std::vector<int> fired_pids_;  // the processes the fault in flight hit
+  bool seen_back_ = false;       // its target seen alive in another process since (note_if_back)
 };
 
 // What the job's missions leave behind, against the baseline its first mission sets (libraries' one-time

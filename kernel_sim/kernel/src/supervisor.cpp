@@ -163,7 +163,7 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
                  " them (and says so in the summary)";
     } else if (spec.mapped_ids && call == "execve" && spawned.error().error == EACCES) {
       message += " — the service runs as its own subordinate uid " + std::to_string(spec.mapped_ids->uid) +
-                 ", which must be able to reach and execute it: every directory on the way searchable by others";
+                 ", which must be allowed to execute the binary (its mode must let others execute it)";
     }
     return fail(KernelError{.kind = KernelError::Kind::Boot, .message = std::move(message), .findings = {}});
   }

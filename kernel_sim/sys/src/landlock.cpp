@@ -115,7 +115,7 @@ int landlock_abi() {
   return abi < 0 ? 0 : static_cast<int>(abi);
 }
 
-int restrict_in_child(const std::vector<LandlockRule>& rules, int abi) noexcept {
+int restrict_in_child(const std::vector<LandlockRule>& rules, int abi, int executable) noexcept {
   if (abi <= 0) return 0;
   const std::uint64_t handled = fs_rights(abi);
   RulesetAttr attr{.handled_access_fs = handled,
@@ -135,6 +135,10 @@ int restrict_in_child(const std::vector<LandlockRule>& rules, int abi) noexcept 
     if (::syscall(kSysAddRule, ruleset, kRulePathBeneath, &beneath, 0U) != 0) err = errno;
     ::close(fd);
     if (err != 0) break;
+  }
+  if (err == 0 && executable >= 0) {
+    PathBeneathAttr beneath{.allowed_access = (kReadFile | kExecute) & handled, .parent_fd = executable};
+    if (::syscall(kSysAddRule, ruleset, kRulePathBeneath, &beneath, 0U) != 0) err = errno;
   }
   if (err == 0 && ::prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0) err = errno;
   if (err == 0 && ::syscall(kSysRestrictSelf, ruleset, 0U) != 0) err = errno;

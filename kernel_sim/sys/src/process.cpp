@@ -164,6 +164,7 @@ struct Prepared {
   std::vector<char*> envp;
   std::vector<sock_filter> seccomp_scratch;
   int max_target = 2;  // the highest fd of the child's layout (stderr at least)
+  int executable = -1; // the binary, opened O_PATH by the spawner (spawn_supervised owns it)
 };
 
 // The stages a child reports a failure at (its index into kStage) and the listener hand-over.
@@ -302,7 +303,9 @@ void place_fds_in_child(int wfd, const std::vector<std::pair<int, int>>& fds, in
 }
 
 // Every other fd (above stderr) closes, except the report socket, which closes at exec.
-void close_other_fds_in_child(int wfd, const std::vector<std::pair<int, int>>& fds, int max_target) {
+// Every other fd (above stderr) closes, except the report socket `wfd` and the binary's fd `xfd` (above it),
+// which close at exec.
+void close_other_fds_in_child(int wfd, int xfd, const std::vector<std::pair<int, int>>& fds, int max_target) {
   for (int fd = 3; fd <= max_target; ++fd) {
     bool wanted = false;
     for (const auto& [target, source] : fds) wanted = wanted || target == fd;
@@ -311,8 +314,11 @@ void close_other_fds_in_child(int wfd, const std::vector<std::pair<int, int>>& f
   // Closed now, not at exec: the fds the child makes before exec (the seccomp listener) must fit under its
   // RLIMIT_NOFILE, which a graph may set below the kernel's highest fd (max_open_files: 64 failed every
   // spawn with EMFILE once the kernel held more than 64 fds). The report socket stays open until exec.
-  if ((wfd > max_target + 1 && ::syscall(SYS_close_range, max_target + 1, wfd - 1, 0) != 0) ||
-      ::syscall(SYS_close_range, std::max(wfd + 1, max_target + 1), ~0U, 0) != 0) {
+  const auto close_between = [](int first, int last) {
+    return first > last || ::syscall(SYS_close_range, first, last, 0) == 0;
+  };
+  if (!close_between(max_target + 1, wfd - 1) || !close_between(std::max(wfd + 1, max_target + 1), xfd - 1) ||
+      ::syscall(SYS_close_range, std::max(xfd + 1, max_target + 1), ~0U, 0) != 0) {
     child_fail(wfd, kStageCloseRange, errno);
   }
 }
@@ -358,21 +364,26 @@ void install_seccomp_in_child(int wfd, const SpawnSpec& spec, Prepared& prep) {
   // The report socket moves above the fd layout first, so that placing the fds cannot clobber it.
   int wfd = ::fcntl(report_write, F_DUPFD_CLOEXEC, prep.max_target + 1);
   if (wfd < 0) wfd = report_write;
+  // The binary is exec'ed by the fd the spawner opened (execveat AT_EMPTY_PATH): a service's uid then needs the
+  // binary's execute bit only, no search right on the folders above it (a build in a 0700 home, run without
+  // root by a subordinate uid), and the file exec'ed is the one the spawner named, whatever the path becomes.
+  const int xfd = ::fcntl(prep.executable, F_DUPFD_CLOEXEC, wfd + 1);
+  if (xfd < 0) child_fail(wfd, kStageDupfd, errno);
   die_with_parent_in_child(wfd, parent);
   join_cgroups_and_session_in_child(wfd, spec);
   place_fds_in_child(wfd, spec.fds, prep.max_target);
-  close_other_fds_in_child(wfd, spec.fds, prep.max_target);
+  close_other_fds_in_child(wfd, xfd, spec.fds, prep.max_target);
   if (spec.isolation == Isolation::Namespaces) isolate_in_child(wfd, spec);
   drop_uid_in_child(wfd, spec, parent);
   limit_in_child(wfd, spec.limits);  // after the uid: RLIMIT_NPROC counts the service uid's processes
-  if (const int err = restrict_in_child(spec.landlock, spec.landlock_abi); err != 0) {
+  if (const int err = restrict_in_child(spec.landlock, spec.landlock_abi, xfd); err != 0) {
     child_fail(wfd, kStageLandlock, err);
   }
   sigset_t none;
   sigemptyset(&none);
   ::sigprocmask(SIG_SETMASK, &none, nullptr);
   install_seccomp_in_child(wfd, spec, prep);
-  ::execve(spec.executable.c_str(), prep.argv.data(), prep.envp.data());
+  ::syscall(SYS_execveat, xfd, "", prep.argv.data(), prep.envp.data(), AT_EMPTY_PATH);
   child_fail(wfd, kStageExec, errno);
 }
 
@@ -416,7 +427,8 @@ SysResult<SeccompListener> await_exec(ChildProcess& child, int report_fd, const 
       auto notice = listener.receive();
       if (!notice) return std::unexpected(notice.error());
       if (*notice) {  // the child's only call between the filter and exec that the filter refers is the exec
-        exec_let_through = (*notice)->pid == child.pid() && syscall_number("execve") == (*notice)->nr;
+        exec_let_through = (*notice)->pid == child.pid() && (syscall_number("execveat") == (*notice)->nr ||
+                                                             syscall_number("execve") == (*notice)->nr);
         auto answered = exec_let_through ? listener.allow((*notice)->id) : listener.refuse((*notice)->id, EPERM);
         if (!answered) return std::unexpected(answered.error());
       }
@@ -466,6 +478,10 @@ SysResult<SeccompListener> await_exec(ChildProcess& child, int report_fd, const 
 SysResult<Spawned> spawn_supervised(const SpawnSpec& spec) {
   auto prep = prepare(spec);
   if (!prep) return std::unexpected(prep.error());
+  // The binary, opened here with the spawner's rights (the child execs this fd: run_child).
+  const UniqueFd executable(::open(spec.executable.c_str(), O_PATH | O_CLOEXEC));
+  if (!executable) return std::unexpected(SysError{"open(the executable, O_PATH)", errno, spec.executable});
+  prep->executable = executable.get();
 
   // The child's reports (a failed step, the seccomp listener) come back on a socket closed at exec.
   std::array<int, 2> report_pair{-1, -1};

@@ -111,6 +111,38 @@ TEST(Options, BadValuesGetOneErrorFormatNamingTheOption) {
   }
 }
 
+// A single-valued option given twice would silently lose one (`--seed 1 --seed 2` flew seed 2, two --attack
+// flew the last): refused, naming it; a repeated() option collects every value.
+TEST(Options, AnOptionGivenTwice_IsRefusedUnlessItCollects) {
+  Table t;
+  const auto twice = t.parse({"g", "--seed", "1", "--seed", "2"});
+  ASSERT_FALSE(twice.has_value());
+  EXPECT_NE(twice.error().find("'--seed' given twice"), std::string::npos) << twice.error();
+  Table f;
+  EXPECT_FALSE(f.parse({"g", "--loud", "--loud"}).has_value());
+  Table r;
+  ASSERT_TRUE(r.parse({"g", "--param", "a=1", "--param", "b=2"}).has_value());
+  EXPECT_EQ(r.params, (std::vector<std::string>{"a=1", "b=2"}));
+}
+
+// A value forgotten before the next option (`--ulog --no-figures` wrote a 65 MB file named '--no-figures'):
+// refused, naming both; a value that begins with '--' is given with '='.
+TEST(Options, AnotherOptionInPlaceOfAValue_IsRefused) {
+  Table t;
+  const auto r = t.parse({"g", "--out", "--loud"});
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().find("'--out' needs a value DIR, got the option '--loud'"), std::string::npos) << r.error();
+  EXPECT_FALSE(t.loud);
+  Table h;
+  EXPECT_FALSE(h.parse({"g", "--host", "--help"}).has_value());
+  Table e;
+  ASSERT_TRUE(e.parse({"g", "--out=--loud"}).has_value());
+  EXPECT_EQ(e.out, std::filesystem::path("--loud"));
+  Table n;  // a word that only looks like an option, and no option of the command: a value
+  ASSERT_TRUE(n.parse({"g", "--host", "--not-an-option"}).has_value());
+  EXPECT_EQ(n.host, "--not-an-option");
+}
+
 TEST(Options, HelpIsWrittenFromTheTable) {
   Table t;
   const auto r = t.parse({"g", "--help"});

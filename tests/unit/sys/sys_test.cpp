@@ -280,8 +280,23 @@ TEST(Spawn, ExitCode_Reported) {
 TEST(Spawn, MissingExecutable_ErrorValueWithErrno) {
   auto child = spawn(SpawnSpec{.executable = "/nonexistent/rejuv-service"});
   ASSERT_FALSE(child.has_value());
-  EXPECT_EQ(child.error().call, "execve");
+  EXPECT_EQ(child.error().call, "open(the executable, O_PATH)");  // opened by the spawner, exec'ed by fd
   EXPECT_EQ(child.error().error, ENOENT);
+  EXPECT_NE(child.error().to_string().find("/nonexistent/rejuv-service"), std::string::npos);
+}
+
+// The child execs the fd the spawner opened: a binary behind a folder its uid cannot search (a 0700 home, a
+// service run by a subordinate uid) still runs, as long as the binary itself may be executed.
+TEST(Spawn, BinaryBehindAnUnsearchableFolder_RunsByFd) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root (to spawn as another uid)";
+  char dir_template[] = "/tmp/rejuv_0700_XXXXXX";
+  ASSERT_NE(::mkdtemp(dir_template), nullptr);
+  ASSERT_EQ(::chmod(dir_template, 0700), 0);
+  const std::filesystem::path bin = std::filesystem::path(dir_template) / "true";
+  std::filesystem::copy_file("/bin/true", bin);
+  ASSERT_EQ(::chmod(bin.c_str(), 0755), 0);
+  EXPECT_EQ(exit_code_of(SpawnSpec{.executable = bin.string(), .uid = 65534}), 0);
+  std::filesystem::remove_all(dir_template);
 }
 
 TEST(Spawn, FdLayout_OnlyMappedFdsSurvive) {

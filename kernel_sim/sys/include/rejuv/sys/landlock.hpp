@@ -60,8 +60,9 @@ struct LandlockRule {
 [[nodiscard]] int landlock_abi();
 
 // In a freshly forked child (async-signal-safe: raw system calls on the prepared rules, no allocation):
-// creates the ruleset for `abi`, adds each rule whose path exists, sets no_new_privs and restricts the
-// calling process. Returns 0 or an errno. `abi` 0 does nothing.
-[[nodiscard]] int restrict_in_child(const std::vector<LandlockRule>& rules, int abi) noexcept;
+// creates the ruleset for `abi`, adds each rule whose path it can open and, when `executable` is an fd (the
+// binary the spawner opened, which the child may have no search right to reach by path), read and execute on
+// it; sets no_new_privs and restricts the calling process. Returns 0 or an errno. `abi` 0 does nothing.
+[[nodiscard]] int restrict_in_child(const std::vector<LandlockRule>& rules, int abi, int executable = -1) noexcept;
 
 }  // namespace rejuv::sys
