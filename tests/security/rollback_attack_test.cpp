@@ -1,4 +1,4 @@
-// The attacks on rollback itself (idl/launch.proto AttackKind 18…27; services/attacks
+// The attacks on rollback itself (idl/launch.proto AttackKind 18…27 and 32; services/attacks
 // rollback_attacks.cpp; docs/sandbox.md "Threats to rollback"), each carried out by a compromised ext_link in
 // every MC window of the square (launch/quad_square_paper.launch.pbtxt, with its worst-case control attack), flown
 // through the real kernel, the real flight services and the plant — in REAL TIME and in LOCKSTEP. Lockstep
@@ -7,7 +7,7 @@
 // Each is judged by its effect: the vehicle stayed in the safety set (max V < 1); every rollback restored a
 // checkpoint (no cold restart, no image lost); the kernel — this process — is alive (a SIGKILL to it would
 // end the test); the attack was counted by kind where it is a violation (the fcntl refused by name, the
-// strays counted) and not counted where it is none (raise() from a thread); no restored incarnation of
+// strays counted, the live incarnation's OOM kill counted) and not counted where it is none (raise() from a thread); no restored incarnation of
 // ext_link ever had O_ASYNC on its channel or log fds; no forged kernel line or escape reached the log; the
 // pagemap shows no frame numbers; after the run no process of ext_link's session is left and the kernel has
 // no child. The default (root) run is one test per kind and clock; SigioKernelWithoutRoot runs the kernel as
@@ -252,7 +252,7 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
   ::testing::Test::RecordProperty("rollbacks", std::to_string(f.sr.rollbacks));
   ::testing::Test::RecordProperty("sandbox_violations", std::to_string(f.ext_link.sandbox_violations));
   std::printf("[ %s %s ] max V %.3f, max control gap %.1f ms, %llu rollbacks, %llu cold restarts, ext_link: "
-              "%llu violations (%llu calls, %llu strays, %llu images lost), %zu incarnations seen; lqr_control at SCHED_FIFO "
+              "%llu violations (%llu calls, %llu strays, %llu out of memory, %llu images lost), %zu incarnations seen; lqr_control at SCHED_FIFO "
               "in %d looks, on its launch cpu in %d\n",
               std::string(attacks::to_string(kind)).c_str(), realtime ? "real time" : "lockstep", f.summary.max_v(),
               f.summary.max_control_gap_ms(), static_cast<unsigned long long>(f.sr.rollbacks),
@@ -260,6 +260,7 @@ void fly(AttackKind kind, bool realtime, Flight& f) {
               static_cast<unsigned long long>(f.ext_link.sandbox_violations),
               static_cast<unsigned long long>(f.ext_link.forbidden_calls),
               static_cast<unsigned long long>(f.ext_link.stray_processes),
+              static_cast<unsigned long long>(f.ext_link.out_of_memory),
               static_cast<unsigned long long>(f.ext_link.images_lost), f.incarnations, f.chain_fifo, f.chain_pinned);
 }
 
@@ -348,6 +349,18 @@ void expect_counted(AttackKind kind, const Flight& f) {
     EXPECT_GE(refused(s, "fcntl"), 1U) << "calls refused: " << ::testing::PrintToString(s.calls_refused);
   } else if (kind == AttackKind::StraySpinners || kind == AttackKind::StrayMemory) {
     EXPECT_GE(s.stray_processes, 1U);
+  } else if (kind == AttackKind::OomImages) {
+    // The live incarnation that ran its memory out is the one the OOM killer took (its images are in a leaf
+    // of their own: expect_rollback_held checks that none was lost), counted against ext_link by kind.
+    EXPECT_FALSE(lines_with(f.log, "attack OOM_IMAGES: its copy unmapped").empty()) << "never attacked in MC";
+    if (s.cgroup.find("memory") == std::string::npos) {
+      std::printf("no memory cgroup here (%s): no OOM to count\n", s.cgroup.c_str());
+    } else {
+      EXPECT_GE(s.out_of_memory, 1U) << "the OOM kill was not counted";
+      EXPECT_GE(s.sandbox_violations, s.out_of_memory);
+      EXPECT_EQ(f.summary.sandbox_violations().by_service().count("ext_link"), 1U);
+      EXPECT_FALSE(lines_with(f.log, "sandbox violation: 'ext_link' ran its live cgroup out of memory").empty());
+    }
   } else {
     // Not violations (threads, a signal to itself, a log line, a read of what it was handed): nothing may be
     // counted, nothing killed.

@@ -58,7 +58,8 @@ void AttackLedger::on_step(Nanos t, SrMode mode) {
 void AttackLedger::on_security_event(const rejuv_msg_SecurityEvent& event) {
   const bool denial = event.kind == rejuv_msg_SECURITY_CAPABILITY_DENIAL;
   const bool violation =
-      event.kind == rejuv_msg_SECURITY_FORBIDDEN_CALL || event.kind == rejuv_msg_SECURITY_STRAY_PROCESS;
+      event.kind == rejuv_msg_SECURITY_FORBIDDEN_CALL || event.kind == rejuv_msg_SECURITY_STRAY_PROCESS ||
+      event.kind == rejuv_msg_SECURITY_OUT_OF_MEMORY;
   if (!denial && !violation) return;
   for (Entry& e : attacks_) {
     if (!e.live || !e.service_id || e.service_id->value() != event.service_id) continue;

@@ -46,6 +46,7 @@ std::string describe_sandbox(const proto::SandboxViolations& v) {
   if (v.total() == 0) return out;
   out += " (" + std::to_string(v.forbidden_calls()) + " forbidden calls, " + std::to_string(v.stray_processes()) +
          " stray processes";
+  if (v.out_of_memory() > 0) out += ", " + std::to_string(v.out_of_memory()) + " out of memory";
   std::string calls;
   for (const auto& [name, n] : v.calls()) calls += (calls.empty() ? "" : ", ") + name + " " + std::to_string(n);
   if (!calls.empty()) out += ": " + calls;

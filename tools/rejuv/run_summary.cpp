@@ -24,6 +24,7 @@ void fill_sandbox(proto::SandboxViolations& out, const kernel::Kernel& k, bool i
     out.set_total(out.total() + st.sandbox_violations);
     out.set_forbidden_calls(out.forbidden_calls() + st.forbidden_calls);
     out.set_stray_processes(out.stray_processes() + st.stray_processes);
+    out.set_out_of_memory(out.out_of_memory() + st.out_of_memory);
     out.set_images_lost(out.images_lost() + st.images_lost);
     if (out.cgroup().empty() && !st.cgroup.empty()) out.set_cgroup(st.cgroup);
     if (st.sandbox_violations > 0) (*out.mutable_by_service())[st.name] = st.sandbox_violations;

@@ -23,13 +23,21 @@ void Rejuvenator::retire_live_rejuvenated() {
       [&](std::uint32_t origin, std::uint32_t /*slot*/) { return k.services[origin].config.rejuvenate; });
   for (ServiceRuntime& s : k.services) {
     if (!s.config.rejuvenate || s.config.skip || s.proc.phase() == Phase::NotStarted) continue;
+    // The live incarnation and everything it forked (strays are born in its leaf) ended in one call, however
+    // many the attacker made (cgroup.kill of the live leaf, docs/sandbox.md); the images are in a leaf of
+    // their own. The strays' zombies are reaped by the sweep after the rollback.
+    const bool leaf_killed = k.warden.kill_live_leaf(s);
     if (s.live()) {
-      // Out of the rollback's way (Reaper::retire: SIGSTOP, every thread stopped before any image is resumed
-      // and before the epoch changes), with its channel out of the loop, no signal to another process and no
-      // socket (seccomp): it cannot slow the rollback down or reach anything. Killed after the rollback, at a
-      // safe point (Reaper::kill_retired).
+      // Out of the rollback's way before any image is resumed and before the epoch changes: killed with its
+      // leaf, or (no cgroup.kill) stopped (Reaper::retire: SIGSTOP, every thread) and killed after the
+      // rollback at a safe point (Reaper::kill_retired). With its channel out of the loop, no signal to
+      // another process and no socket (seccomp), it cannot slow the rollback down or reach anything.
       (void)k.epoll.remove(s.proc.process.pidfd());
-      reaper.retire(std::move(s.proc.process));
+      if (leaf_killed) {
+        reaper.kill(std::move(s.proc.process));  // also where it was not yet moved into the leaf (CgroupPlacer)
+      } else {
+        reaper.retire(std::move(s.proc.process));
+      }
       s.proc.process = sys::ChildProcess{};
     }
     if (s.proc.channel.valid()) {
@@ -147,6 +155,7 @@ bool Rejuvenator::resume_generation(image::GenerationRecord& record, Nanos deadl
     s.proc.resumed();
     s.flow.new_channel();
     s.stats.pid = s.proc.process.pid();
+    k.warden.place_live(s);  // out of the images' leaf, into the one its forks and its memory are bounded in
     ++s.stats.restores;
     // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
     // generation is unusable rather than half-installed.
@@ -194,6 +203,7 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   // (the ones about to die need not be woken for it).
   (void)enter_mode(SrMode::RB);
   sr_event(SrEventKind::Mode);
+  k.warden.settle_placements();  // no image left in a live leaf that is about to be killed
   retire_live_rejuvenated();
   const Nanos t_killed = k.wall();
   Nanos t_resumed = t_killed;

@@ -30,6 +30,10 @@ constexpr Nanos kCopiesWait{std::chrono::milliseconds{50}};
 // cpu.rt_runtime_us): a control-chain service uses a few % of a CPU; one that spins is throttled here (and,
 // blocking nothing for RLIMIT_RTTIME, killed).
 constexpr std::uint64_t kRtBudgetUs = 100000;
+// How long a rollback waits for image moves still running (CgroupPlacer) before it kills the live leaves: a
+// move waits for an RCU grace period (milliseconds); almost always none is running. Wall clock.
+constexpr Nanos kPlacementWait{std::chrono::milliseconds{50}};
+
 
 }  // namespace
 
@@ -83,6 +87,47 @@ void Warden::join_cgroup(ServiceRuntime& s) {
   if (k.options.verbose) k.log("sandbox of '%s': %s", s.name.c_str(), s.sandbox.cgroup_note.c_str());
 }
 
+void Warden::place_images() {
+  std::vector<pid_t> now;
+  const auto place = [&](const image::Image& im) {
+    const ServiceRuntime& s = k.services[im.service.value()];
+    for (const sys::ChildProcess& c : im.copies) {
+      now.push_back(c.pid());
+      if (std::find(placed_images.begin(), placed_images.end(), c.pid()) != placed_images.end()) continue;
+      if (placer.place(s.sandbox.cgroup, c.pid(), sys::CgroupLeaf::Images)) placed_images.push_back(c.pid());
+    }
+  };
+  for (const Generation g : k.rejuvenator.images.generations()) {
+    for (const image::Image& im : k.rejuvenator.images.find(g)->images) place(im);
+  }
+  for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
+    for (const image::Image& im : r.images) place(im);
+  }
+  // Forgotten once gone from the store (a resumed copy is placed in `live/` by place_live).
+  std::erase_if(placed_images, [&](pid_t pid) { return std::find(now.begin(), now.end(), pid) == now.end(); });
+}
+
+void Warden::place_live(const ServiceRuntime& s) {
+  (void)placer.place(s.sandbox.cgroup, s.proc.process.pid(), sys::CgroupLeaf::Live);
+}
+
+void Warden::settle_placements() {
+  place_images();
+  (void)placer.settle(k.wall() + kPlacementWait);
+}
+
+bool Warden::count_out_of_memory(ServiceRuntime& s, bool live_killed) {
+  const std::optional<std::uint64_t> kills = s.sandbox.cgroup.live_oom_kills();
+  if (!kills || *kills <= s.sandbox.oom_kills_seen) return false;
+  const std::uint64_t n = *kills - s.sandbox.oom_kills_seen;
+  s.sandbox.oom_kills_seen = *kills;
+  if (live_killed && s.proc.loss_reason.empty()) s.proc.loss_reason = "out of memory (killed by the OOM killer)";
+  record_violation(s, Violation::OutOfMemory,
+                   std::to_string(n) + " process(es) of its live cgroup killed by the OOM killer" +
+                       (live_killed ? ", its live incarnation among them" : ""));
+  return true;
+}
+
 void Warden::record_violation(ServiceRuntime& s, Violation kind, std::string_view what) {
   if (kind != Violation::ImageLost) ++s.stats.sandbox_violations;  // a loss may be a fault as well: counted apart
   std::uint32_t detail = 0;
@@ -107,6 +152,11 @@ void Warden::record_violation(ServiceRuntime& s, Violation kind, std::string_vie
       k.log("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
             static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
       break;
+    case Violation::OutOfMemory:
+      ++s.stats.out_of_memory;
+      k.log("sandbox violation: '%s' ran its live cgroup out of memory: %.*s (mode %s)", s.name.c_str(),
+            static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
+      break;
     case Violation::ImageLost:
       // Nothing a service can reach signals an image (no signal to another process, no SIGIO owner): an image
       // gone from the store is a fault of the machine or an escape, reported as such, never silent.
@@ -120,6 +170,7 @@ void Warden::record_violation(ServiceRuntime& s, Violation kind, std::string_vie
     case Violation::ForbiddenCall: event = rejuv_msg_SECURITY_FORBIDDEN_CALL; break;
     case Violation::StrayProcess: event = rejuv_msg_SECURITY_STRAY_PROCESS; break;
     case Violation::ImageLost: event = rejuv_msg_SECURITY_IMAGE_LOST; break;
+    case Violation::OutOfMemory: event = rejuv_msg_SECURITY_OUT_OF_MEMORY; break;
   }
   k.router.publish_security_event(k.now(), s.id, detail, event, k.caps.mode());
   // In MC the attacker has the service now: roll back at once rather than at the end of T_MC.
@@ -300,6 +351,8 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
     sweep_due.reset();
   }
   last_sweep = k.now();
+  place_images();
+  for (ServiceRuntime& s : k.services) (void)count_out_of_memory(s, false);  // a stray the OOM killer took
   auto children = sys::own_children();
   if (!children) return;
   const auto known = [&](pid_t pid) {

@@ -301,6 +301,7 @@ class FlowControl {
 struct Containment {
   sys::ServiceCgroup cgroup{};
   std::string cgroup_note{};
+  std::uint64_t oom_kills_seen = 0;  // the live leaf's OOM kills already counted (Warden::count_out_of_memory)
   sys::SeccompListener seccomp{};
   sys::UniqueFd output{};
   std::string output_partial{};

@@ -293,6 +293,11 @@ void Supervisor::on_child_exit(ServiceRuntime& s) {
   s.flow.reset();
   // What it wrote last (often why it ended) before the kernel's own line about it.
   k.warden.on_service_output(s);
+  // Killed by the OOM killer of its live cgroup leaf (docs/sandbox.md "A cgroup per service"): the live
+  // incarnation that exhausts its memory is the one stopped, and that is counted like a violation.
+  if ((**status).how == sys::ExitStatus::How::Signaled && (**status).value == SIGKILL) {
+    (void)k.warden.count_out_of_memory(s, true);
+  }
   // A forbidden call is killed by the kernel itself (sandbox.cpp, loss_reason set). A death by SIGSYS is a
   // filter of the service's own that refused a call: the kernel never sends SIGSYS, so it counts the same.
   const bool sigsys = s.proc.loss_reason.empty() && (**status).how == sys::ExitStatus::How::Signaled &&

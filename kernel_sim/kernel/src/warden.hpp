@@ -7,6 +7,7 @@
 #include <string>
 #include <string_view>
 
+#include "cgroup_placer.hpp"
 #include "image_coordinator.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/sys/fd.hpp"
@@ -17,7 +18,7 @@
 
 namespace rejuv::kernel {
 
-enum class Violation : std::uint8_t { ForbiddenCall, StrayProcess, ImageLost };
+enum class Violation : std::uint8_t { ForbiddenCall, StrayProcess, ImageLost, OutOfMemory };
 
 class Warden {
  public:
@@ -39,6 +40,20 @@ class Warden {
   void record_violation(ServiceRuntime& s, Violation kind, std::string_view what);
   void close_sandbox(ServiceRuntime& s);  // listener and output pipe, out of epoll
   void join_cgroup(ServiceRuntime& s);    // makes the service's cgroup at its first spawn (or notes why not)
+  // The cgroup leaves (docs/sandbox.md "A cgroup per service"). Every image and spare the kernel knows moved
+  // to its service's `images/` leaf (each once; off the loop, CgroupPlacer): at every sweep, and before a
+  // rollback kills the live leaves.
+  void place_images();
+  void place_live(const ServiceRuntime& s);  // a restored incarnation into `live/`
+  // Before a rollback kills the live leaves: every image placed (waits only while moves are still running,
+  // bounded by kPlacementWait).
+  void settle_placements();
+  // The live leaf — the incarnation and everything it forked — killed in one call (cgroup.kill). False where
+  // the group has no cgroup.kill: the caller ends the incarnation as it does without cgroups.
+  [[nodiscard]] bool kill_live_leaf(const ServiceRuntime& s) const { return s.sandbox.cgroup.kill_live(); }
+  // Whether the OOM killer killed processes of the service's live leaf since the last look: counted as an
+  // out-of-memory violation (the live incarnation's loss_reason set when `live_killed`). True if it did.
+  bool count_out_of_memory(ServiceRuntime& s, bool live_killed);
   // A restored incarnation's new stdout/stderr pipe: what the old one still holds is logged, then it is
   // closed and the new one watched.
   [[nodiscard]] sys::SysResult<void> replace_output(ServiceRuntime& s, sys::UniqueFd read_end);
@@ -52,6 +67,8 @@ class Warden {
                                                    std::string& shown);
 
   Kernel::Impl& k;
+  CgroupPlacer placer;
+  std::vector<pid_t> placed_images;  // moved (or asked to be) to their `images/` leaf
   std::optional<std::string_view> sweep_due;  // why a sweep is wanted
   Nanos last_sweep{0};                        // kernel clock
 };

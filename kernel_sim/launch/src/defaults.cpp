@@ -23,7 +23,9 @@ std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view e
       proto::STRAY_MEMORY,      proto::SPINNING_THREADS, proto::RETIRED_WORKER, proto::WORKER_RAISE,
       proto::FORGED_LOG,        proto::PAGEMAP_FRAMES,
       // a binary hostile from its first instruction (docs/sandbox.md "No trusted boot phase")
-      proto::BOOT_TIME_PAGE,    proto::BOOT_PRLIMIT_KERNEL, proto::BOOT_READ_SECRETS};
+      proto::BOOT_TIME_PAGE,    proto::BOOT_PRLIMIT_KERNEL, proto::BOOT_READ_SECRETS,
+      // its images out of the OOM killer's reach (docs/sandbox.md "A cgroup per service")
+      proto::OOM_IMAGES};
   const std::string name = std::filesystem::path(executable).filename().string();
   if (name == "rejuv_lqr_control") {
     return std::vector<proto::AttackKind>{proto::WORST_CASE_CONTROL, proto::GAIN_OVERWRITE};

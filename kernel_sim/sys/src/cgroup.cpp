@@ -120,7 +120,9 @@ void remove_stale(const fs::path& own) {
     const long pid = std::strtol(name.c_str() + 6, nullptr, 10);
     if (pid <= 0 || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
     for (const auto& child : fs::directory_iterator(entry.path(), ec)) {
-      if (child.is_directory(ec)) (void)::rmdir(child.path().c_str());
+      if (!child.is_directory(ec)) continue;
+      for (const char* leaf : {"live", "images"}) (void)::rmdir((child.path() / leaf).c_str());
+      (void)::rmdir(child.path().c_str());
     }
     (void)::rmdir(entry.path().c_str());
   }
@@ -185,11 +187,15 @@ ServiceCgroup& ServiceCgroup::operator=(ServiceCgroup&& other) noexcept {
     remove();
     dirs_ = std::move(other.dirs_);
     unified_ = std::move(other.unified_);
+    oom_events_ = std::move(other.oom_events_);
     join_ = std::move(other.join_);
     join_fds_ = std::move(other.join_fds_);
+    images_ = std::move(other.images_);
+    images_fds_ = std::move(other.images_fds_);
     description_ = std::move(other.description_);
     other.dirs_.clear();
     other.unified_.reset();
+    other.oom_events_.reset();
   }
   return *this;
 }
@@ -231,9 +237,24 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
       notes.push_back("no cgroup in " + h.mount.string() + " (" + SysError{"mkdir", last_errno}.to_string() + ")");
       continue;
     }
-    UniqueFd procs(::open((*dir / "cgroup.procs").c_str(), O_WRONLY | O_CLOEXEC));
-    if (!procs) {
+    // The two leaves (the header says why). In v2 a controller reaches the leaves only through the service
+    // directory's subtree_control, and the directory itself then holds no process (it has none: every
+    // process joins or is moved into a leaf).
+    if (h.unified && wanted("memory", limits) && !has(served, "memory") && has(h.controllers, "memory")) {
+      (void)write_file(*dir / "cgroup.subtree_control", "+memory");
+    }
+    const fs::path live = *dir / "live";
+    const fs::path kept = *dir / "images";
+    UniqueFd procs;
+    UniqueFd images_procs;
+    if ((::mkdir(live.c_str(), 0755) == 0 || errno == EEXIST) && (::mkdir(kept.c_str(), 0755) == 0 || errno == EEXIST)) {
+      procs = UniqueFd(::open((live / "cgroup.procs").c_str(), O_WRONLY | O_CLOEXEC));
+      if (procs) images_procs = UniqueFd(::open((kept / "cgroup.procs").c_str(), O_WRONLY | O_CLOEXEC));
+    }
+    if (!procs || !images_procs) {
       last_errno = errno;
+      (void)::rmdir(live.c_str());
+      (void)::rmdir(kept.c_str());
       (void)::rmdir(dir->c_str());
       continue;
     }
@@ -261,14 +282,25 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
     }
     for (const auto c : kControllers) {
       if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
-      if (apply(*dir, c, h.unified, limits)) {
+      // Memory on the live leaf alone: the OOM killer of a group out of memory picks among that group's
+      // processes, which are then the live incarnation and its strays, never an image.
+      const bool memory = c == std::string_view("memory");
+      if (apply(memory ? live : *dir, c, h.unified, limits)) {
         served.emplace_back(c);
-        notes.push_back(describe(c, limits) + (h.unified ? " (v2)" : " (v1 " + std::string(c) + ")"));
+        notes.push_back(describe(c, limits) + (memory ? " on the live leaf" : "") +
+                        (h.unified ? " (v2)" : " (v1 " + std::string(c) + ")"));
+        if (memory) {
+          // v2: the live leaf out of memory loses all its processes together (the incarnation and its strays).
+          if (h.unified) (void)write_file(live / "memory.oom.group", "1");
+          group.oom_events_ = live / (h.unified ? "memory.events" : "memory.oom_control");
+        }
       }
     }
     group.dirs_.push_back(*dir);
     group.join_fds_.push_back(procs.get());
     group.join_.push_back(std::move(procs));
+    group.images_fds_.push_back(images_procs.get());
+    group.images_.push_back(std::move(images_procs));
   }
   if (group.dirs_.empty()) {
     return std::unexpected(SysError{"cgroup", last_errno != 0 ? last_errno : ENOENT});
@@ -281,16 +313,68 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
   return group;
 }
 
-std::vector<pid_t> ServiceCgroup::members() const {
+SysResult<void> CgroupMove::run() const {
+  const std::string text = std::to_string(pid_);
+  for (const UniqueFd& procs : procs_) {
+    if (::write(procs.get(), text.data(), text.size()) != static_cast<ssize_t>(text.size())) {
+      return std::unexpected(SysError{"cgroup.procs", errno});
+    }
+  }
+  return {};
+}
+
+SysResult<CgroupMove> ServiceCgroup::prepare_move(pid_t pid, CgroupLeaf leaf) const {
+  std::vector<UniqueFd> procs;
+  for (const int fd : procs_fds(leaf)) {
+    UniqueFd copy(::fcntl(fd, F_DUPFD_CLOEXEC, 0));
+    if (!copy) return std::unexpected(SysError{"dup cgroup.procs", errno});
+    procs.push_back(std::move(copy));
+  }
+  return CgroupMove(std::move(procs), pid);
+}
+
+SysResult<void> ServiceCgroup::move(pid_t pid, CgroupLeaf leaf) const {
+  const std::string text = std::to_string(pid);
+  for (const int fd : procs_fds(leaf)) {
+    if (::write(fd, text.data(), text.size()) != static_cast<ssize_t>(text.size())) {
+      return std::unexpected(SysError{"cgroup.procs", errno});
+    }
+  }
+  return {};
+}
+
+std::vector<pid_t> ServiceCgroup::members(CgroupLeaf leaf) const {
   std::vector<pid_t> out;
   if (dirs_.empty()) return out;
-  std::ifstream in(dirs_.front() / "cgroup.procs");
+  std::ifstream in(dirs_.front() / (leaf == CgroupLeaf::Live ? "live" : "images") / "cgroup.procs");
   for (long pid = 0; in >> pid;) out.push_back(static_cast<pid_t>(pid));
   return out;
 }
 
+std::vector<pid_t> ServiceCgroup::members() const {
+  std::vector<pid_t> out = members(CgroupLeaf::Live);
+  const std::vector<pid_t> images = members(CgroupLeaf::Images);
+  out.insert(out.end(), images.begin(), images.end());
+  return out;
+}
+
+std::optional<std::uint64_t> ServiceCgroup::live_oom_kills() const {
+  if (!oom_events_) return std::nullopt;
+  std::ifstream in(*oom_events_);
+  for (std::string key; in >> key;) {
+    std::uint64_t value = 0;
+    if (!(in >> value)) break;
+    if (key == "oom_kill") return value;
+  }
+  return std::nullopt;  // a kernel older than the counter (v1 before 4.13)
+}
+
+bool ServiceCgroup::kill_live() const {
+  return unified_ && write_file(*unified_ / "live" / "cgroup.kill", "1");
+}
+
 void ServiceCgroup::kill_all() const {
-  if (unified_ && write_file(*unified_ / "cgroup.kill", "1")) return;
+  if (unified_ && write_file(*unified_ / "cgroup.kill", "1")) return;  // the directory and both leaves
   for (const pid_t pid : members()) ::kill(pid, SIGKILL);
 }
 
@@ -299,15 +383,20 @@ void ServiceCgroup::remove() noexcept {
   kill_all();
   join_.clear();
   join_fds_.clear();
+  images_.clear();
+  images_fds_.clear();
   // A killed process leaves its cgroup when it exits, before it is reaped: wait for that briefly (its exit
   // tears down its memory), then remove the directories, then the kernel's own if this was its last.
   for (int i = 0; i < 1000 && !members().empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   for (const fs::path& dir : dirs_) {
+    (void)::rmdir((dir / "live").c_str());
+    (void)::rmdir((dir / "images").c_str());
     (void)::rmdir(dir.c_str());
     (void)::rmdir(dir.parent_path().c_str());  // fails while another service's group is there
   }
   dirs_.clear();
   unified_.reset();
+  oom_events_.reset();
 }
 
 }  // namespace rejuv::sys

@@ -79,7 +79,7 @@ AttackHooks::AttackHooks(sdk::Service& svc, RuntimeAttackPlan plan)
     : svc_(svc), plan_(std::move(plan)), under_filter_(sandboxed()), pgrp_(::getpid()) {
   clocks_.reserve(plan_.attacks.size());
   for (const RuntimeAttack& a : plan_.attacks) {
-    if (occasion_of(a.kind) == Occasion::EveryWindow) clocks_.emplace_back(a, plan_.sr);
+    if (occasion_of(a.kind) != Occasion::OnceAtBoot) clocks_.emplace_back(a, plan_.sr);  // also AtBootThenEveryWindow
   }
 }
 
@@ -179,7 +179,8 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
     case AttackKind::RetiredWorker:
     case AttackKind::WorkerRaise:
     case AttackKind::ForgedLog:
-    case AttackKind::PagemapFrames: against_rollback(kind, variant, planned_count(kind)); break;
+    case AttackKind::PagemapFrames:
+    case AttackKind::OomImages: against_rollback(kind, variant, planned_count(kind)); break;
     case AttackKind::BootTimePage:
     case AttackKind::BootPrlimitKernel:
     case AttackKind::BootReadSecrets: hostile_from_boot(kind, variant); break;

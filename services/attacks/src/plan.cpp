@@ -34,6 +34,7 @@ std::string_view to_string(AttackKind kind) {
     case AttackKind::BootTimePage: return "BOOT_TIME_PAGE";
     case AttackKind::BootPrlimitKernel: return "BOOT_PRLIMIT_KERNEL";
     case AttackKind::BootReadSecrets: return "BOOT_READ_SECRETS";
+    case AttackKind::OomImages: return "OOM_IMAGES";
   }
   return "?";
 }
@@ -54,7 +55,8 @@ Occasion occasion_of(AttackKind kind) {
       kind == AttackKind::BootReadSecrets) {
     return Occasion::OnceAtBoot;
   }
-  return kind == AttackKind::BootTimePage ? Occasion::AtBootThenEveryWindow : Occasion::EveryWindow;
+  return kind == AttackKind::BootTimePage || kind == AttackKind::OomImages ? Occasion::AtBootThenEveryWindow
+                                                                            : Occasion::EveryWindow;
 }
 
 namespace {

@@ -34,6 +34,7 @@ constexpr std::uint32_t kDefaultMemoryStrays = 6;
 constexpr std::uint32_t kDefaultThreads = 40;
 constexpr std::size_t kStrayMemory = std::size_t{512} << 20U;  // bytes each STRAY_MEMORY process touches
 constexpr std::size_t kThreadStack = std::size_t{64} << 10U;    // small stacks: 40 threads fit any RLIMIT_AS
+constexpr std::uint32_t kDefaultOomMb = 600;  // OOM_IMAGES: MiB touched at boot (1.5× that in each window)
 
 std::int64_t outcome(long rc) { return rc >= 0 ? 0 : errno; }
 
@@ -122,6 +123,7 @@ void AttackHooks::against_rollback(AttackKind kind, std::uint32_t variant, std::
   // The ones that signal or spawn: never outside a seccomp filter (a hook run outside the kernel must not
   // signal anyone nor leave a process behind).
   const bool needs_sandbox = kind == AttackKind::StraySpinners || kind == AttackKind::StrayMemory ||
+                             kind == AttackKind::OomImages ||
                              kind == AttackKind::SigioImages || kind == AttackKind::SigioKernel ||
                              kind == AttackKind::SigioLogTrap;
   if (needs_sandbox && !under_filter_) {
@@ -182,6 +184,7 @@ void AttackHooks::against_rollback(AttackKind kind, std::uint32_t variant, std::
       report(kind, "Log", 0, Attempt::kFireAndForget);
       break;
     case AttackKind::PagemapFrames: pagemap_frames(); break;
+    case AttackKind::OomImages: oom_images(variant, count); break;
     case AttackKind::InvokeCheckpoint:  // the attacks on the runtime's interface: hooks.cpp
     case AttackKind::ArmTimer:
     case AttackKind::WriteLimits:
@@ -197,6 +200,31 @@ void AttackHooks::against_rollback(AttackKind kind, std::uint32_t variant, std::
     case AttackKind::BootPrlimitKernel:
     case AttackKind::BootReadSecrets: break;
   }
+}
+
+void AttackHooks::oom_images(std::uint32_t variant, std::uint32_t count) {
+  // At boot: m MiB touched, which every image then maps (their pages are charged to the service's memory
+  // cgroup where they were first touched). In each window: its own copy unmapped — the images keep the
+  // pages, so nothing is given back — and 1.5·m MiB touched afresh. Where one memory cgroup held the live
+  // incarnation and its images, its OOM killer killed the largest process: an image.
+  const bool at_boot = variant == kAtBoot;
+  const std::size_t mb = (count != 0 ? count : kDefaultOomMb) * (at_boot ? 2U : 3U) / 2U;
+  const std::size_t bytes = mb << 20U;
+  svc_.logf(sdk::LogLevel::Warn, "attack OOM_IMAGES: %s, touching %zu MiB", at_boot ? "at boot" : "its copy unmapped", mb);
+  (void)svc_.flush();  // said first: the touch may end this process
+  if (!at_boot && oom_mapping_ != nullptr) (void)::syscall(SYS_munmap, oom_mapping_, oom_bytes_);
+  oom_mapping_ = nullptr;
+  const long addr = ::syscall(SYS_mmap, nullptr, bytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (addr == -1) {
+    report(AttackKind::OomImages, "mmap " + std::to_string(mb) + " MiB", mb, errno);
+    return;
+  }
+  auto* p = reinterpret_cast<volatile char*>(addr);  // NOLINT: the mapping just made
+  for (std::size_t off = 0; off < bytes; off += 4096) p[off] = 1;  // NOLINT: inside the mapping
+  oom_mapping_ = reinterpret_cast<void*>(addr);  // NOLINT: the mapping just made
+  oom_bytes_ = bytes;
+  report(AttackKind::OomImages, "touch " + std::to_string(mb) + " MiB", mb, 0);
+  svc_.logf(sdk::LogLevel::Warn, "attack OOM_IMAGES: %zu MiB touched and kept", mb);
 }
 
 void AttackHooks::pagemap_frames() {

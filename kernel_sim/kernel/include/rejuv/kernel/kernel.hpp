@@ -290,6 +290,7 @@ struct ServiceStats {
   std::uint64_t sandbox_violations = 0;  // all kinds below
   std::uint64_t forbidden_calls = 0;     // a call outside the allow-list (or a boot call after boot): killed
   std::uint64_t stray_processes = 0;     // a process of its session that is neither live nor an image: killed
+  std::uint64_t out_of_memory = 0;       // OOM kills in its live cgroup leaf (its live incarnation or strays)
   std::uint64_t images_lost = 0;         // an image that died, stopped or did not answer in the store (a rollback
                                          // found its generation unusable and fell back)
   std::vector<std::pair<std::string, std::uint64_t>> calls_refused{};  // forbidden calls by name

@@ -7,6 +7,13 @@
 // none) has a v2 hierarchy only for cgroup.kill and membership. ServiceCgroup makes the service's group in every
 // hierarchy that can carry one of its limits and says, in words, what it applied and what it could not (a
 // kernel without root usually cannot make cgroups at all: then the rlimits and the sweeps are what holds).
+//
+// Each service's group has two leaves (docs/sandbox.md "A cgroup per service"): `live/`, where a spawned
+// incarnation starts and where everything it forks is born (strays), bounded by the memory limit and ended in
+// one call (cgroup.kill); and `images/`, where the kernel moves each frozen image once it knows its pid, so
+// that neither the memory cgroup's OOM killer (which picks only among the processes of the cgroup that is out
+// of memory) nor a kill of the live leaf ever reaches an image. Limits on processes and CPU stay on the
+// service's directory above both leaves: they bound the service as a whole.
 #pragma once
 
 #include <cstdint>
@@ -31,6 +38,25 @@ struct CgroupLimits {
   std::optional<std::uint64_t> rt_runtime_us{};
 };
 
+// The two leaves of a service's group.
+enum class CgroupLeaf : std::uint8_t { Live, Images };
+
+// One move of a process into a leaf, prepared on the kernel's thread (the leaf's cgroup.procs files
+// duplicated, so that it outlives the group it names) and carried out anywhere: a move waits for an RCU grace
+// period when no move happened for a while (milliseconds), which the kernel does not pay on its loop.
+class CgroupMove {
+ public:
+  CgroupMove() = default;
+  CgroupMove(std::vector<UniqueFd> procs, pid_t pid) : procs_(std::move(procs)), pid_(pid) {}
+  // Writes the pid into each hierarchy's cgroup.procs; the first error (ESRCH: the process is gone).
+  [[nodiscard]] SysResult<void> run() const;
+  [[nodiscard]] pid_t pid() const { return pid_; }
+
+ private:
+  std::vector<UniqueFd> procs_{};
+  pid_t pid_ = 0;
+};
+
 class ServiceCgroup {
  public:
   ServiceCgroup() = default;
@@ -40,23 +66,36 @@ class ServiceCgroup {
   ServiceCgroup& operator=(ServiceCgroup&& other) noexcept;
   ~ServiceCgroup() { remove(); }
 
-  // Makes `<own cgroup>/rejuv-<this pid>-<scope>/<name>` in each hierarchy that can hold a limit or kill it,
+  // Makes `<own cgroup>/rejuv-<this pid>-<scope>/<name>/{live,images}` in each hierarchy that can hold a limit or kill it,
   // and applies `limits`; `scope` tells apart the kernels of one process (their services share names). An
   // error only when no hierarchy could be used at all (no cgroup file system, no right to make one); a limit
   // that could not be applied is named in description().
   [[nodiscard]] static SysResult<ServiceCgroup> create(std::string_view scope, const std::string& name,
                                                        const CgroupLimits& limits);
 
-  // The cgroup.procs files, open for writing: a spawned child writes "0" to each before exec (async-signal-
-  // safe), so that it and everything it makes are in the group from its first instruction.
+  // The live leaf's cgroup.procs files, open for writing: a spawned child writes "0" to each before exec
+  // (async-signal-safe), so that it and everything it makes are in the live leaf from its first instruction.
   [[nodiscard]] std::span<const int> join_fds() const { return join_fds_; }
 
+  // `pid` into `leaf` in every hierarchy, now (a write per hierarchy; see CgroupMove for its cost).
+  [[nodiscard]] SysResult<void> move(pid_t pid, CgroupLeaf leaf) const;
+  // The same move, to be run later or on another thread (duplicates the leaf's fds).
+  [[nodiscard]] SysResult<CgroupMove> prepare_move(pid_t pid, CgroupLeaf leaf) const;
+
+  // Every process of the live leaf — the live incarnation and whatever it forked — killed in one call
+  // (cgroup.kill of the v2 leaf). False, and nothing done, where no v2 hierarchy could be used: the caller
+  // then ends them one by one as it would without cgroups.
+  [[nodiscard]] bool kill_live() const;
   // Every process of the group killed in one call (cgroup.kill, v2); where no v2 hierarchy could be used,
-  // each process listed in cgroup.procs is sent SIGKILL. Reaping is the caller's (the processes are its
-  // children).
+  // each process listed in either leaf's cgroup.procs is sent SIGKILL. Reaping is the caller's (the processes
+  // are its children).
   void kill_all() const;
-  // The pids in the group (read from cgroup.procs of the first hierarchy).
+  // The pids in the group, or in one leaf (read from cgroup.procs of the first hierarchy).
   [[nodiscard]] std::vector<pid_t> members() const;
+  [[nodiscard]] std::vector<pid_t> members(CgroupLeaf leaf) const;
+  // How many processes the OOM killer has killed in the live leaf since it was made (v1 memory.oom_control or
+  // v2 memory.events "oom_kill"); nullopt where no memory controller bounds it.
+  [[nodiscard]] std::optional<std::uint64_t> live_oom_kills() const;
 
   // "cgroup v2 (kill), pids.max 64 (v1 pids), memory 1024 MiB (v1 memory), cpu 50 % (v1 cpu)" and what failed.
   [[nodiscard]] const std::string& description() const { return description_; }
@@ -67,10 +106,17 @@ class ServiceCgroup {
   // this was the last service's).
   void remove() noexcept;
 
-  std::vector<std::filesystem::path> dirs_{};  // one per hierarchy used
+  [[nodiscard]] std::span<const int> procs_fds(CgroupLeaf leaf) const {
+    return leaf == CgroupLeaf::Live ? join_fds_ : images_fds_;
+  }
+
+  std::vector<std::filesystem::path> dirs_{};  // the service's directory, one per hierarchy used
   std::optional<std::filesystem::path> unified_{};  // the v2 one (cgroup.kill)
-  std::vector<UniqueFd> join_{};
+  std::optional<std::filesystem::path> oom_events_{};  // the live leaf's memory.oom_control (v1) or memory.events
+  std::vector<UniqueFd> join_{};  // live/cgroup.procs, one per hierarchy
   std::vector<int> join_fds_{};
+  std::vector<UniqueFd> images_{};  // images/cgroup.procs, one per hierarchy
+  std::vector<int> images_fds_{};
   std::string description_{};
 };
 

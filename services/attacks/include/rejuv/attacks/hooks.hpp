@@ -127,6 +127,7 @@ class AttackHooks {
   void against_rollback(AttackKind kind, std::uint32_t variant, std::uint32_t count);
   void sigio(AttackKind kind, int fd, long owner, int signal);
   void pagemap_frames();
+  void oom_images(std::uint32_t variant, std::uint32_t count);
   // A binary hostile from its first instruction (29…31; boot_attacks.cpp): `variant` kAtBoot at install.
   void hostile_from_boot(AttackKind kind, std::uint32_t variant);
   void time_page_write(bool at_boot);
@@ -147,6 +148,8 @@ class AttackHooks {
   long pgrp_ = 0;
   int time_page_writable_ = -1;  // BOOT_TIME_PAGE: the writable fd it got at boot, if any
   void* time_page_mapping_ = nullptr;  // BOOT_TIME_PAGE: the writable mapping it got at boot, if any
+  void* oom_mapping_ = nullptr;        // OOM_IMAGES: what it touched (at boot, then in each window)
+  std::size_t oom_bytes_ = 0;
   std::uint32_t attempts_ = 0;  // in the current attack: for the default log line
   std::uint32_t accepted_ = 0;
 };

@@ -54,6 +54,8 @@ enum class AttackKind : std::uint8_t {
   BootTimePage = 29,           // at boot a writable handle on the time page; in MC an odd sequence written
   BootPrlimitKernel = 30,      // at boot prlimit64(kernel, RLIMIT_CPU, {1, 1})
   BootReadSecrets = 31,        // at boot /proc/<kernel>/cmdline → the launch file → the signing key
+  // Against rollback again (rollback_attacks.cpp): 32.
+  OomImages = 32,              // at boot m MiB touched (in every image); in MC unmapped and 1.5·m MiB touched
 };
 inline constexpr std::array kAllAttackKinds{
     AttackKind::InvokeCheckpoint, AttackKind::ArmTimer,     AttackKind::WriteLimits,
@@ -63,12 +65,13 @@ inline constexpr std::array kAllAttackKinds{
     AttackKind::SigioKernel,      AttackKind::SigioLogTrap, AttackKind::StraySpinners,
     AttackKind::StrayMemory,      AttackKind::SpinningThreads, AttackKind::RetiredWorker,
     AttackKind::WorkerRaise,      AttackKind::ForgedLog,    AttackKind::PagemapFrames,
-    AttackKind::BootTimePage,     AttackKind::BootPrlimitKernel, AttackKind::BootReadSecrets};
-// The kinds that attack rollback itself (18…27), in the order of docs/sandbox.md's threat table.
+    AttackKind::BootTimePage,     AttackKind::BootPrlimitKernel, AttackKind::BootReadSecrets,
+    AttackKind::OomImages};
+// The kinds that attack rollback itself (18…27, 32), in the order of docs/sandbox.md's threat table.
 inline constexpr std::array kRollbackAttackKinds{
     AttackKind::SigioImages,   AttackKind::SigioKernel,     AttackKind::SigioLogTrap, AttackKind::StraySpinners,
-    AttackKind::StrayMemory,   AttackKind::SpinningThreads, AttackKind::RetiredWorker, AttackKind::WorkerRaise,
-    AttackKind::ForgedLog,     AttackKind::PagemapFrames};
+    AttackKind::StrayMemory,   AttackKind::OomImages,       AttackKind::SpinningThreads, AttackKind::RetiredWorker,
+    AttackKind::WorkerRaise,   AttackKind::ForgedLog,       AttackKind::PagemapFrames};
 // The kinds of a binary hostile from its first instruction (29…31), in the order of docs/sandbox.md's table.
 inline constexpr std::array kBootAttackKinds{AttackKind::BootTimePage, AttackKind::BootPrlimitKernel,
                                              AttackKind::BootReadSecrets};
