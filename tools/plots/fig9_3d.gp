@@ -1,7 +1,8 @@
 # Fig. 9 of the paper (§VI-C): the trajectory in 3-D: true position (plant, blue), the estimate (ekf2, green)
 # and the setpoints of the tracking algorithm (red circles). Axes east, north, altitude (NED turned up).
-# Usage: gnuplot -e "dir='out/run'; runner='run'; title='...'" tools/plots/fig9_3d.gp
+# Usage: gnuplot -e "dir='out/run'; runner='run'; sr='on'; title='...'" tools/plots/fig9_3d.gp
 if (!exists("dir")) dir = 'out/run'
+if (!exists("sr")) sr = 'on'
 if (!exists("title")) title = 'run'
 csv = dir.'/trace.csv'
 set datafile separator ','
@@ -31,7 +32,7 @@ set ticslevel 0
 do for [fmt in 'png svg'] {
   if (fmt eq 'png') { set terminal pngcairo size 1200,1000 font 'sans,11' } else { set terminal svg size 1200,1000 font 'sans,11' }
   set output dir.'/fig9_3d.'.fmt
-  set title 'Fig. 9: 3-D behaviour under CPS SR — '.title font 'sans,13' noenhanced
+  set title (sr eq 'off' ? 'Fig. 9: 3-D behaviour, no SR in this run — ' : 'Fig. 9: 3-D behaviour under CPS SR — ').title font 'sans,13' noenhanced
   set xlabel 'east [m]' offset 0,-1; set ylabel 'north [m]' offset 4,0; set zlabel (stretch > 1 ? sprintf('altitude [m], drawn %g× taller than east/north', stretch) : 'altitude [m]') rotate by 90
   # A setpoint is drawn where it changes (the setpoint columns 26-28 hold it on every row).
   sp_prev = ''

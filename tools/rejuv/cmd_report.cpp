@@ -144,16 +144,16 @@ int report_figures(const fs::path& dir) {
     return bad_input("rejuv report figures: " + (dir / RunFiles::kSummary).string() +
                      ": error: not the RunSummary JSON of `rejuv run` or `rejuv sim`");
   }
-  const std::string title = summary->graph() + ", SR " + (summary->sr() ? "on" : "off") + ", attack " +
-                            (summary->attack() ? "on" : "off") + ", seed " + std::to_string(summary->seed()) +
-                            " (rejuv " + summary->runner() + ")";
-  const auto drawn = draw_figures(dir, plots_dir(), summary->runner(), title);
+  const auto drawn = draw_figures(dir, plots_dir(), figure_run_of(*summary));
   if (!drawn) {
     std::fprintf(stderr, "rejuv report figures: %s\n", drawn.error().c_str());
     return static_cast<int>(Exit::Findings);
   }
-  for (const fs::path& p : *drawn) std::printf("%s\n", p.c_str());
-  return static_cast<int>(Exit::Ok);
+  for (const fs::path& p : drawn->written) std::printf("%s\n", p.c_str());
+  for (const FigureFailure& f : drawn->failed) {
+    std::fprintf(stderr, "rejuv report figures: figure %s not drawn: %s\n", f.figure.c_str(), f.why.c_str());
+  }
+  return static_cast<int>(drawn->failed.empty() ? Exit::Ok : Exit::Findings);
 }
 
 // What `rejuv report` was asked for.

@@ -74,50 +74,85 @@ std::optional<fs::path> find_gnuplot() {
   return std::nullopt;
 }
 
-Result<std::vector<fs::path>, std::string> draw_figures(const fs::path& dir, const fs::path& plots,
-                                                        const std::string& runner, const std::string& title) {
-  const auto gnuplot = find_gnuplot();
-  if (!gnuplot) return fail(std::string("gnuplot not found on PATH: no figures drawn (apt-get install gnuplot-nox)"));
+FigureRun figure_run_of(const proto::RunSummary& summary) {
+  return FigureRun{.runner = summary.runner(),
+                   .sr = summary.sr() ? SrInRun::On : SrInRun::Off,
+                   .title = summary.graph() + ", SR " + (summary.sr() ? "on" : "off") + ", attack " +
+                            (summary.attack() ? "on" : "off") + ", seed " + std::to_string(summary.seed()) +
+                            " (rejuv " + summary.runner() + ")"};
+}
+
+namespace {
+
+// One figure: its script run by gnuplot, then its PNG and SVG checked. The error says what failed.
+Result<std::vector<fs::path>, std::string> draw_one(const fs::path& gnuplot, const fs::path& dir, const fs::path& plots,
+                                                    const FigureRun& run, const char* name) {
+  const fs::path script = plots / (std::string(name) + ".gp");
+  std::error_code ec;
+  if (!fs::exists(script, ec)) return fail(script.string() + ": error: the figure's script is missing");
+  const char* sr = nullptr;
+  switch (run.sr) {
+    case SrInRun::On: sr = "on"; break;
+    case SrInRun::Off: sr = "off"; break;
+  }
+  sys::SpawnSpec spec;
+  spec.executable = gnuplot.string();
+  spec.args = {"-e",
+               "dir=" + quoted(dir.string()) + "; runner=" + quoted(run.runner) + "; sr=" + quoted(sr) +
+                   "; title=" + quoted(run.title),
+               script.string()};
+  for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
+  spec.fds = {{1, STDERR_FILENO}, {2, STDERR_FILENO}};
+  auto child = sys::spawn(spec);
+  if (!child) return fail("gnuplot: " + child.error().to_string());
+  auto status = child->wait();
+  if (!status) return fail("gnuplot: " + status.error().to_string());
+  if (!status->success()) return fail(script.string() + ": gnuplot " + status->to_string());
   std::vector<fs::path> written;
-  for (const char* name : kFigures) {
-    const fs::path script = plots / (std::string(name) + ".gp");
-    std::error_code ec;
-    if (!fs::exists(script, ec)) return fail(script.string() + ": error: the figure's script is missing");
-    sys::SpawnSpec spec;
-    spec.executable = gnuplot->string();
-    spec.args = {"-e",
-                 "dir=" + quoted(dir.string()) + "; runner=" + quoted(runner) + "; title=" + quoted(title),
-                 script.string()};
-    for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
-    spec.fds = {{1, STDERR_FILENO}, {2, STDERR_FILENO}};
-    auto child = sys::spawn(spec);
-    if (!child) return fail("gnuplot: " + child.error().to_string());
-    auto status = child->wait();
-    if (!status) return fail("gnuplot: " + status.error().to_string());
-    if (!status->success()) return fail(script.string() + ": gnuplot " + status->to_string());
-    for (const char* ext : {".png", ".svg"}) {
-      const fs::path picture = dir / (std::string(name) + ext);
-      if (!fs::exists(picture, ec) || fs::file_size(picture, ec) == 0) {
-        return fail(script.string() + ": gnuplot wrote no " + picture.string());
-      }
-      written.push_back(picture);
+  for (const char* ext : {".png", ".svg"}) {
+    const fs::path picture = dir / (std::string(name) + ext);
+    if (!fs::exists(picture, ec) || fs::file_size(picture, ec) == 0) {
+      return fail(script.string() + ": gnuplot wrote no " + picture.string());
     }
+    written.push_back(picture);
   }
   return written;
 }
 
-bool draw_and_report(const fs::path& dir, const std::string& runner, const std::string& title, const char* command) {
-  const auto drawn = draw_figures(dir, plots_dir(), runner, title);
+}  // namespace
+
+Result<DrawnFigures, std::string> draw_figures(const fs::path& dir, const fs::path& plots, const FigureRun& run) {
+  const auto gnuplot = find_gnuplot();
+  if (!gnuplot) return fail(std::string("gnuplot not found on PATH: no figures drawn (apt-get install gnuplot-nox)"));
+  DrawnFigures drawn;
+  for (const char* name : kFigures) {
+    auto pictures = draw_one(*gnuplot, dir, plots, run, name);
+    if (!pictures) {
+      drawn.failed.push_back(FigureFailure{.figure = name, .why = pictures.error()});
+      continue;
+    }
+    drawn.written.insert(drawn.written.end(), pictures->begin(), pictures->end());
+  }
+  return drawn;
+}
+
+bool draw_and_report(const fs::path& dir, const FigureRun& run, const char* command) {
+  const auto drawn = draw_figures(dir, plots_dir(), run);
   if (!drawn) {
     std::fprintf(stderr, "%s: %s\n", command, drawn.error().c_str());
     return !find_gnuplot().has_value();  // no gnuplot: the CSVs are the result; a failing script is a failure
   }
-  std::fprintf(stderr, "%s: figures in %s:", command, dir.c_str());
-  for (const fs::path& p : *drawn) {
-    if (p.extension() == ".png") std::fprintf(stderr, " %s", p.stem().c_str());
+  if (!drawn->written.empty()) {
+    std::fprintf(stderr, "%s: figures in %s:", command, dir.c_str());
+    for (const fs::path& p : drawn->written) {
+      if (p.extension() == ".png") std::fprintf(stderr, " %s", p.stem().c_str());
+    }
+    std::fprintf(stderr, " (.png and .svg)\n");
   }
-  std::fprintf(stderr, " (.png and .svg)\n");
-  return true;
+  for (const FigureFailure& f : drawn->failed) {
+    std::fprintf(stderr, "%s: figure %s not drawn: %s\n", command, f.figure.c_str(), f.why.c_str());
+  }
+  return drawn->failed.empty();
 }
 
 bool finish_out_dir(RunFiles& files, proto::RunSummary& summary, const char* command, Figures figures) {
@@ -129,10 +164,7 @@ bool finish_out_dir(RunFiles& files, proto::RunSummary& summary, const char* com
   std::fprintf(stderr, "%s: wrote %s: summary.json, trace.csv (%.1f MB), control.csv, events.csv\n", command,
                files.dir().c_str(), static_cast<double>(*trace_bytes) / 1e6);
   if (figures == Figures::Skip) return true;
-  const std::string title = summary.graph() + ", SR " + (summary.sr() ? "on" : "off") + ", attack " +
-                            (summary.attack() ? "on" : "off") + ", seed " + std::to_string(summary.seed()) + " (rejuv " +
-                            summary.runner() + ")";
-  return draw_and_report(files.dir(), summary.runner(), title, command);
+  return draw_and_report(files.dir(), figure_run_of(summary), command);
 }
 
 }  // namespace rejuv::cli

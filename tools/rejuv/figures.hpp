@@ -38,17 +38,38 @@ inline constexpr const char* kFigures[] = {"fig7_control_intervals", "fig8_sr_ti
 // The gnuplot executable on PATH, if any.
 [[nodiscard]] std::optional<std::filesystem::path> find_gnuplot();
 
-// Draws every figure of `dir` with gnuplot (scripts from `plots_dir`) and returns the pictures written.
-// `runner` is "run" or "sim" (the model has no real-time intervals to draw); `title` heads every figure.
-// The error says what failed (gnuplot missing, a script that failed); the CSVs stay either way.
-[[nodiscard]] Result<std::vector<std::filesystem::path>, std::string> draw_figures(
-    const std::filesystem::path& dir, const std::filesystem::path& plots_dir, const std::string& runner,
-    const std::string& title);
+// What a figure says of the run it draws: the command that flew it ("run" or "sim": the model has no real-time
+// intervals to draw), whether SR ran (without it a panel of CP/RB marks or SR events says "no SR in this run"),
+// and the title that heads every figure.
+enum class SrInRun : std::uint8_t { On, Off };
+struct FigureRun {
+  std::string runner;
+  SrInRun sr = SrInRun::On;
+  std::string title;
+};
+[[nodiscard]] FigureRun figure_run_of(const proto::RunSummary& summary);
 
-// Draws the figures after a run and says on stderr what was written (or why not). Returns false if
-// gnuplot was there but failed.
-bool draw_and_report(const std::filesystem::path& dir, const std::string& runner, const std::string& title,
-                     const char* command);
+// One figure gnuplot did not draw, by name (a kFigures entry), and why.
+struct FigureFailure {
+  std::string figure;
+  std::string why;
+};
+// The pictures written and the figures that failed: each figure is drawn on its own, so one that fails never
+// stops the others.
+struct DrawnFigures {
+  std::vector<std::filesystem::path> written;
+  std::vector<FigureFailure> failed;
+};
+
+// Draws every figure of `dir` with gnuplot (scripts from `plots_dir`). The error is for what stops them all
+// (gnuplot missing); a figure that fails is in `failed`. The CSVs stay either way.
+[[nodiscard]] Result<DrawnFigures, std::string> draw_figures(const std::filesystem::path& dir,
+                                                             const std::filesystem::path& plots_dir,
+                                                             const FigureRun& run);
+
+// Draws the figures after a run and says on stderr what was written and which failed (or why none was drawn).
+// Returns false if gnuplot was there and a figure failed.
+bool draw_and_report(const std::filesystem::path& dir, const FigureRun& run, const char* command);
 
 // The end of an `--out` run: finishes `files` (summary.json with the control intervals), says how large the
 // trace is, and draws the figures (unless `figures` is Skip: `--no-figures`, e.g. in a sweep). False when a

@@ -2,6 +2,7 @@
 // PNG and SVG figures when gnuplot is there, and a precise error (exit 2) for a directory that is not a run's.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -30,8 +31,10 @@ void expect_figures(const fs::path& dir) {
     const fs::path png = dir / (std::string(name) + ".png");
     const fs::path svg = dir / (std::string(name) + ".svg");
     ASSERT_TRUE(fs::exists(png)) << png;
+    EXPECT_GT(fs::file_size(png), 0U) << png;
     EXPECT_EQ(slurp(png).substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << png;
     ASSERT_TRUE(fs::exists(svg)) << svg;
+    EXPECT_GT(fs::file_size(svg), 0U) << svg;
     EXPECT_NE(slurp(svg).find("<svg"), std::string::npos) << svg;
   }
 }
@@ -67,6 +70,57 @@ TEST_F(FiguresCli, SimOut_WritesTheCsvsAndTheFigures) {
   const auto again = run_rejuv(dir_, {"report", "figures", (dir_ / "sim").string()});
   ASSERT_EQ(again.exit_code, 0) << again.err;
   expect_figures(dir_ / "sim");
+}
+
+// The no-SR baseline of a runtime mission, as a researcher flies it (short): no CP, RB or SR event to draw.
+std::vector<std::string> no_sr_run(const fs::path& out) {
+  return {"run", (kRepo / "launch" / "quad_square.launch.pbtxt").string(), "--no-sr", "--no-attack", "--duration", "2",
+          "--out", out.string()};
+}
+
+TEST_F(FiguresCli, RunOutWithoutSr_Exit0AndEveryFigureSaysNoSr) {
+  const auto r = run_rejuv(dir_, no_sr_run(dir_ / "run"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  if (!rejuv::cli::find_gnuplot()) GTEST_SKIP() << "no gnuplot: the CSVs only";
+  expect_figures(dir_ / "run");
+  EXPECT_NE(slurp(dir_ / "run" / "fig7_control_intervals.svg").find("no SR in this run"), std::string::npos);
+  EXPECT_NE(slurp(dir_ / "run" / "fig8_sr_timeline.svg").find("no SR in this run"), std::string::npos);
+
+  for (const char* name : rejuv::cli::kFigures) {
+    fs::remove(dir_ / "run" / (std::string(name) + ".png"));
+    fs::remove(dir_ / "run" / (std::string(name) + ".svg"));
+  }
+  const auto again = run_rejuv(dir_, {"report", "figures", (dir_ / "run").string()});
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  expect_figures(dir_ / "run");
+}
+
+// REJUV_PLOTS_DIR for the children of one test.
+class PlotsDirOverride {
+ public:
+  explicit PlotsDirOverride(const fs::path& dir) { ::setenv("REJUV_PLOTS_DIR", dir.c_str(), 1); }
+  ~PlotsDirOverride() { ::unsetenv("REJUV_PLOTS_DIR"); }
+  PlotsDirOverride(const PlotsDirOverride&) = delete;
+  PlotsDirOverride& operator=(const PlotsDirOverride&) = delete;
+};
+
+TEST_F(FiguresCli, ReportFigures_OneScriptFails_OthersDrawnItNamed_Exit1) {
+  std::vector<std::string> args = no_sr_run(dir_ / "run");
+  args.emplace_back("--no-figures");
+  ASSERT_EQ(run_rejuv(dir_, args).exit_code, 0);
+  if (!rejuv::cli::find_gnuplot()) GTEST_SKIP() << "no gnuplot";
+  fs::copy(kRepo / "tools" / "plots", dir_ / "plots");
+  std::ofstream(dir_ / "plots" / "fig8_sr_timeline.gp", std::ios::trunc) << "this is no gnuplot\n";
+  const PlotsDirOverride plots(dir_ / "plots");
+
+  const auto r = run_rejuv(dir_, {"report", "figures", (dir_ / "run").string()});
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("figure fig8_sr_timeline not drawn"), std::string::npos) << r.err;
+  for (const char* name : rejuv::cli::kFigures) {
+    if (std::string(name) == "fig8_sr_timeline") continue;
+    EXPECT_TRUE(fs::exists(dir_ / "run" / (std::string(name) + ".png"))) << name << " (drawn after the failure too)";
+    EXPECT_TRUE(fs::exists(dir_ / "run" / (std::string(name) + ".svg"))) << name;
+  }
 }
 
 TEST_F(FiguresCli, SimOutFullTrace_IsLargerThanCompact) {
