@@ -51,9 +51,14 @@ int serve(sdk::Service& svc) {
   if (svc.cap("rollback_signal")) {
     auto rollback = svc.subscribe<rejuv_msg_RollbackSignal>(
         "rollback_signal", [&](const rejuv_msg_RollbackSignal& m) {
-          ekf2.on_rollback(rearm);
-          svc.logf(sdk::LogLevel::Debug, "rollback to g %llu (epoch %u): %s",
-                   static_cast<unsigned long long>(m.generation), m.epoch,
+          const std::uint32_t discarded = ekf2.catch_up_discarded();
+          ekf2.on_rollback_signal(m, rearm);  // with the catch-up: its state (docs/control.md §6.3)
+          if (ekf2.catch_up_discarded() != discarded) {
+            svc.logf(sdk::LogLevel::Info, "rollback to g %llu (epoch %u): the replayed estimate failed its GPS gate; "
+                     "discarded, the restored estimator re-armed", static_cast<unsigned long long>(m.generation), m.epoch);
+          }
+          svc.logf(sdk::LogLevel::Debug, "rollback to g %llu (epoch %u), catch-up %d: %s",
+                   static_cast<unsigned long long>(m.generation), m.epoch, static_cast<int>(m.catch_up),
                    rearm.enabled ? "estimator re-armed" : "held samples dropped, covariance kept (sr.ekf_rearm off)");
         });
     if (!svc.require(rollback, "subscribe")) return 1;

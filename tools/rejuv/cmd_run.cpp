@@ -127,13 +127,14 @@ std::string describe(const proto::RunSummary& s, const kernel::RunOutcome& outco
   }
   if (s.has_catch_up()) {  // appended to the charges' line group: the replay is charged with the rollback
     const proto::CatchUpSummary& c = s.catch_up();
-    char line[256];
+    char line[320];
     std::snprintf(line, sizeof line,
                   "  catch-up    %llu replays of %llu samples (p50 %.3f ms, max %.3f ms real); %llu estimates held from "
-                  "the controllers; %llu rollbacks not caught up, %llu replays cut short\n",
+                  "the controllers; %llu rollbacks not caught up, %llu replays cut short, %llu discarded (re-armed)\n",
                   static_cast<unsigned long long>(c.replays()), static_cast<unsigned long long>(c.samples()),
                   c.replay_ms().p50(), c.replay_ms().max(), static_cast<unsigned long long>(c.dropped()),
-                  static_cast<unsigned long long>(c.without_log()), static_cast<unsigned long long>(c.cut_short()));
+                  static_cast<unsigned long long>(c.without_log()), static_cast<unsigned long long>(c.cut_short()),
+                  static_cast<unsigned long long>(c.discarded()));
     std::strncat(charged, line, sizeof charged - std::strlen(charged) - 1);
   }
   char buf[4096];

@@ -38,6 +38,9 @@ void CatchUp::cut(Generation g) {
 
 CatchUp::Begin CatchUp::begin(Generation g, Nanos wall) {
   if (!enabled()) return Begin::NothingToReplay;
+  generation_ = g;
+  replayed_to_ = 0;
+  draining_ = false;
   const auto it = std::find_if(cuts_.begin(), cuts_.end(), [&](const Cut& c) { return c.g == g; });
   if (it == cuts_.end() || it->seq < first_) {
     ++stats_.without_log;
@@ -63,9 +66,18 @@ bool CatchUp::drops(ServiceId publisher, ObjectId topic) {
   return true;
 }
 
+void CatchUp::note_published(ServiceId publisher, ObjectId topic, std::span<const std::byte> bytes) {
+  if (!flag(plan_.chain, publisher.value()) || !flag(plan_.estimate, topic.value())) return;
+  rejuv_msg_VehicleStateEstimate m{};
+  if (bytes.size() != sizeof m) return;
+  std::memcpy(&m, bytes.data(), sizeof m);
+  if ((m.flags & kEstimateCatchUpDiscarded) != 0) ++stats_.discarded;
+}
+
 void CatchUp::forget() {
   cuts_.clear();
   replaying_ = false;
+  draining_ = false;
   replay_ = end_ = next_;
 }
 

@@ -12,12 +12,23 @@
 // chain publishes for services outside it (vehicle_state for the controllers) is dropped: the controllers' next
 // estimate is the live one, as fresh as a never-attacked estimator's.
 //
+// What the catch-up trusts, and how far (docs/control.md §6.3 "What the catch-up trusts"): the samples (the
+// plant's, kept here) and the restored images' code; not the chain's speed nor what the chain makes of a replay.
+// A replay ends at the kernel's own bound (kReplayBound, wall time since it began) whatever the chain does, and
+// the estimator is then told to re-arm from the live samples (the paper's scheme, §IV: CATCH_UP_REARM) — never
+// a fallback to an older generation, never a longer replay. The chain runs SCHED_OTHER from its restore until it
+// has handled everything it was handed, so its real-time budget (RLIMIT_RTTIME) never counts replay work: a slow
+// replay is no violation; slow live work is. The estimator tests the replayed estimate against the first live
+// samples and discards it for a re-arm when it is implausible (ekf2_node.hpp); the kernel counts what it sees
+// (Stats::discarded).
+//
 // One owner of the log, the cuts and the replay: the router keeps (router.cpp), the lockstep and the real-time
 // loop replay (lockstep.cpp, loop.cpp), the checkpoint cuts (checkpoint.cpp), the rollback begins (rollback.cpp),
 // a cold restart forgets (there is nothing to catch up).
 #pragma once
 
 #include <cstddef>
+#include <chrono>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -26,8 +37,13 @@
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/kernel/kernel.hpp"
+#include "rejuv/msgs/topic_types.hpp"
 
 namespace rejuv::kernel {
+
+// VehicleStateEstimate.flags bit 3 (idl/state.idl; flight_io::kStateCatchUpDiscarded): the estimator discarded
+// a replayed estimate and re-armed.
+inline constexpr std::uint32_t kEstimateCatchUpDiscarded = 1U << 3U;
 
 class CatchUp {
  public:
@@ -36,9 +52,15 @@ class CatchUp {
     std::vector<bool> logged;   // by ObjectId: bridged in from the plant and read by the chain
     std::vector<bool> cut_off;  // by ObjectId: published by the chain for services outside it
     std::vector<bool> chain;    // by ServiceId
+    std::vector<bool> estimate;  // by ObjectId: the cut-off topics of type VehicleStateEstimate (its flags)
   };
   using Stats = CatchUpStats;
   enum class Begin : std::uint8_t { Replaying, NothingToReplay, NoLog };
+  // The kernel's bound on a replay (wall time since it began). Real time: five control periods, so that the
+  // controllers' estimate is never held back longer. Lockstep: the world is stopped meanwhile, so only the
+  // plant's ack timeout (10 s) and the idle deadline (5 s, per instant) bound it; 1 s is well below both.
+  static constexpr Nanos kReplayBoundRealtime{std::chrono::milliseconds{20}};
+  static constexpr Nanos kReplayBoundLockstep{std::chrono::seconds{1}};
 
   CatchUp() = default;  // off: logs nothing, never replays
   // `capacity` samples of at most `slot_bytes` each, allocated here once.
@@ -47,6 +69,13 @@ class CatchUp {
   [[nodiscard]] bool enabled() const { return capacity_ > 0; }
   [[nodiscard]] bool logs(ObjectId topic) const { return flag(plan_.logged, topic.value()); }
   [[nodiscard]] bool replaying() const { return replaying_; }
+  // Cut short, and the chain may still be busy with the replay it was handed: it stays SCHED_OTHER until it has
+  // answered Idle (drained()).
+  [[nodiscard]] bool draining() const { return draining_; }
+  void drained() { draining_ = false; }
+  // The generation the replay in progress or the last one restored, and the stamp of its last replayed sample.
+  [[nodiscard]] Generation generation() const { return generation_; }
+  [[nodiscard]] std::uint64_t replayed_to() const { return replayed_to_; }
   // Replaying, and samples kept before the replay began are still to be handed on.
   [[nodiscard]] bool replay_pending() const { return replaying_ && replay_ != end_; }
   [[nodiscard]] bool in_chain(ServiceId service) const { return flag(plan_.chain, service.value()); }
@@ -78,6 +107,7 @@ class CatchUp {
       return false;
     }
     const std::uint64_t stamp = entry(replay_).stamp;
+    replayed_to_ = stamp;
     do {
       replay(ObjectId{entry(replay_).topic}, bytes_of(replay_));
       ++replay_;
@@ -93,8 +123,15 @@ class CatchUp {
   void cut_short(Release&& release) {
     if (!replaying_) return;
     ++stats_.cut_short;
+    draining_ = true;
     release_waiting(release);
   }
+  // Whether the replay in progress is past its bound at `wall`.
+  [[nodiscard]] bool past_bound(Nanos wall, Nanos bound) const { return replaying_ && wall - began_at_ > bound; }
+  // A publication of `publisher` on `topic` as routed: an estimate of the chain that says it discarded a replayed
+  // estimate for a re-arm (flight_io kStateCatchUpDiscarded) is counted. The restored estimator's code is the
+  // clean image's; a compromised one could only inflate a counter.
+  void note_published(ServiceId publisher, ObjectId topic, std::span<const std::byte> bytes);
   // Real time: whether `service`, with `frames_issued` frames sent or on their way to it (FlowControl), still
   // needs a Sync to answer: none was issued after its last frame. Noted as issued when it does, so that a Sync
   // still waiting in the service's out-queue is not issued again.
@@ -143,6 +180,9 @@ class CatchUp {
   std::uint64_t replay_ = 0;
   std::uint64_t end_ = 0;
   bool replaying_ = false;
+  bool draining_ = false;
+  Generation generation_{};
+  std::uint64_t replayed_to_ = 0;
   Nanos began_at_{0};
   std::uint64_t replayed_ = 0;
   std::vector<Cut> cuts_{};  // oldest first

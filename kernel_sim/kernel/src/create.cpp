@@ -292,7 +292,7 @@ Result<void, KernelError> plan_catch_up(Kernel::Impl& k) {
     });
   };
   CatchUp::Plan plan{.logged = std::vector<bool>(k.objects.size()), .cut_off = std::vector<bool>(k.objects.size()),
-                     .chain = std::vector<bool>(k.services.size())};
+                     .chain = std::vector<bool>(k.services.size()), .estimate = std::vector<bool>(k.objects.size())};
   std::size_t slot_bytes = 0;
   for (const proto::Bridge& b : g.dds().bridges()) {
     const auto topic = object(b.topic());
@@ -325,6 +325,7 @@ Result<void, KernelError> plan_catch_up(Kernel::Impl& k) {
                     inside + "') and outside it ('" + outside + "'): during a replay one of them would miss it");
     }
     plan.cut_off[o.id.value()] = true;
+    plan.estimate[o.id.value()] = o.type->name == msgs::TopicTraits<rejuv_msg_VehicleStateEstimate>::name;
   }
   // 32768 samples: ≈ 1 min of the plant's sensors (≈ 550 a second), far more than the generations a store keeps span.
   k.rejuvenator.catch_up = CatchUp(std::move(plan), 32768, slot_bytes);

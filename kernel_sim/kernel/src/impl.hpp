@@ -128,6 +128,8 @@ struct Kernel::Impl {
   // Real time: the replay handed on a few instants at a time while the chain's channels keep up, then ended
   // once the chain has handled it all (Sync → Idle; its outputs held from the others until then).
   void pace_catch_up();
+  void cut_catch_up_short();  // the replay past the kernel's bound: REARM, the live samples out (loop.cpp)
+  void drain_catch_up();      // real time, after a cut: the chain's real-time plan back once it is idle
 
   // ---- network gate (netgate.cpp) ----
   // Opens the UDP socket of the launch graph's `network` (at create; realtime: registered in epoll).

@@ -87,6 +87,14 @@ void Lockstep::begin_step(const PendingStep& step) {
 // The catch-up's next sampling instant (catch_up.hpp), once the graph is idle: routed as a batch of its own.
 void Lockstep::replay_next_instant() {
   if (!k.rejuvenator.catch_up.replaying()) return;
+  // The kernel's own bound (catch_up.hpp), checked between instants: the graph is idle here, so the chain has
+  // nothing of the replay left to handle and returns to its real-time plan at once.
+  if (k.rejuvenator.catch_up.past_bound(k.wall(), CatchUp::kReplayBoundLockstep)) {
+    k.cut_catch_up_short();
+    k.rejuvenator.catch_up.drained();
+    k.rejuvenator.chain_realtime();
+    return;
+  }
   steps.next_batch(k.wall());  // its rounds and idle deadline count from here
   k.router.cork();
   (void)replay_instant();  // the last call ends the replay (advance_step then sees it over)
@@ -94,6 +102,11 @@ void Lockstep::replay_next_instant() {
 }
 
 bool Lockstep::replay_instant() {
+  // This call ends the replay, handled whole (the chain answered Idle, or the graph was idle): DONE is published
+  // ahead of the live samples it releases, so that it reaches the estimator first.
+  if (k.rejuvenator.catch_up.replaying() && !k.rejuvenator.catch_up.replay_pending()) {
+    k.rejuvenator.signal_catch_up(rejuv_msg_CATCH_UP_DONE);
+  }
   const bool more = k.rejuvenator.catch_up.replay_instant(
       [&](ObjectId topic, std::span<const std::byte> bytes) {
         k.router.publish_as_kernel(topic, bytes, Router::From::Replay);
@@ -102,6 +115,7 @@ bool Lockstep::replay_instant() {
         k.router.publish_as_kernel(topic, bytes, Router::From::Held);
       });
   if (!more) {
+    k.rejuvenator.chain_realtime();
     const Nanos took = k.wall() - k.rejuvenator.catch_up.began_at();
     k.rejuvenator.sr_stats.catch_up_ms.add(to_ms(took));
     k.rejuvenator.image_charge.catch_up(took, k.rejuvenator.catch_up.replayed(), k.rejuvenator.sr_stats);

@@ -258,16 +258,17 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
 // ends when the chain has handled all of it: each of its services is sent a Sync after its last frame and
 // answers Idle. Live samples wait behind the replay and are released at its end.
 void Kernel::Impl::pace_catch_up() {
+  if (rejuvenator.catch_up.draining()) {
+    drain_catch_up();
+    return;
+  }
   if (!rejuvenator.catch_up.replaying()) return;
   static constexpr int kInstantsPerRound = 4;
   // A reader that does not keep up (hung, or starved of the CPU) must not hold the controllers' estimates back:
-  // past five control periods the replay stops where it is and the live samples go out.
-  static constexpr Nanos kBound{std::chrono::milliseconds{20}};
-  if (const Nanos took = wall() - rejuvenator.catch_up.began_at(); took > kBound) {
-    log("estimate catch-up cut short after %.1f ms: the chain did not keep up", to_seconds(took).count() * 1e3);
-    rejuvenator.catch_up.cut_short([&](ObjectId topic, std::span<const std::byte> bytes) {
-      router.publish_as_kernel(topic, bytes, Router::From::Held);
-    });
+  // past the kernel's bound the replay stops where it is, the estimator re-arms and the live samples go out.
+  if (rejuvenator.catch_up.past_bound(wall(), CatchUp::kReplayBoundRealtime)) {
+    cut_catch_up_short();
+    drain_catch_up();
     return;
   }
   if (rejuvenator.catch_up.replay_pending()) {
@@ -291,6 +292,36 @@ void Kernel::Impl::pace_catch_up() {
     }
   }
   if (handled) (void)lockstep.replay_instant();  // nothing left: the replay ends, the live samples go out
+}
+
+// The replay is past the kernel's bound (catch_up.hpp): the rest is skipped, the estimator told to re-arm from
+// the live samples (CATCH_UP_REARM, ahead of them), and the live samples that waited go out.
+void Kernel::Impl::cut_catch_up_short() {
+  log("estimate catch-up cut short after %.1f ms (%llu samples replayed): the chain did not keep up; the "
+      "estimator re-arms from the live samples",
+      to_seconds(wall() - rejuvenator.catch_up.began_at()).count() * 1e3,
+      static_cast<unsigned long long>(rejuvenator.catch_up.replayed()));
+  rejuvenator.signal_catch_up(rejuv_msg_CATCH_UP_REARM);
+  rejuvenator.catch_up.cut_short([&](ObjectId topic, std::span<const std::byte> bytes) {
+    router.publish_as_kernel(topic, bytes, Router::From::Held);
+  });
+}
+
+// Real time, after a cut: the chain may still be busy with the replay it was handed. It stays SCHED_OTHER (its
+// RLIMIT_RTTIME does not count replay work) until each of its services has answered a Sync sent after its last
+// frame; then its real-time plan is back, and slow live work is the violation it always is.
+void Kernel::Impl::drain_catch_up() {
+  bool handled = true;
+  for (ServiceRuntime& s : services) {
+    if (!rejuvenator.catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
+    handled = false;
+    if (rejuvenator.catch_up.sync_due(s.id, s.flow.frames_issued()) && tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
+      router.send_control(s, tx.bytes());
+    }
+  }
+  if (!handled) return;
+  rejuvenator.catch_up.drained();
+  rejuvenator.chain_realtime();
 }
 
 // The realtime clock (DESIGN §6): the kernel clock is CLOCK_MONOTONIC since the run started (or the plant's,

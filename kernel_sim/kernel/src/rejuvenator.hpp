@@ -34,6 +34,12 @@ class Rejuvenator {
   bool service_images();
   void request_rollback(std::string reason);
   void cold_restart(const std::string& reason);
+  // The estimate catch-up's end (catch_up.hpp; rollback.cpp): `how` (CATCH_UP_DONE or CATCH_UP_REARM) told to the
+  // estimator in a second rollback_signal of the epoch, ahead of the live samples.
+  void signal_catch_up(rejuv_msg_EstimateCatchUp how);
+  // The replay is over and the chain has handled what it was handed: its real-time plan back (it ran
+  // SCHED_OTHER meanwhile, so that its RLIMIT_RTTIME never counted replay work).
+  void chain_realtime();
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
   [[nodiscard]] Result<void, KernelError> finish_image_requests();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);

@@ -187,6 +187,9 @@ void Rejuvenator::announce_rollback(Generation g, Epoch epoch) {
   signal.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
   signal.fields.generation = g.value();
   signal.fields.epoch = epoch.value();
+  // With the catch-up a replay follows (or, for want of one, a CATCH_UP_REARM or CATCH_UP_DONE at once).
+  signal.fields.catch_up = catch_up.enabled() ? rejuv_msg_CATCH_UP_REPLAY : rejuv_msg_CATCH_UP_OFF;
+  signal.fields.replayed_to_ns = 0;
   k.router.publish_kernel_message(signal);
   k.router.publish_sr_mode();
 }
@@ -243,13 +246,25 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   const Nanos took = k.wall() - t0;  // restored: the timed part ends here, as a checkpoint's does at its commit
   resume_routing();
   // The restored estimator chain is fed the plant's samples since g's cut before the step goes on (lockstep.cpp).
-  if (catch_up.begin(restored->g, k.wall()) == CatchUp::Begin::NoLog) {
-    k.log("rollback to generation %llu: its samples are no longer all kept; the estimator is not caught up",
-          num(restored->g));
+  // Without them the estimator re-arms from the live samples (§IV); with none to replay it is current already.
+  switch (catch_up.begin(restored->g, k.wall())) {
+    case CatchUp::Begin::Replaying: break;
+    case CatchUp::Begin::NothingToReplay:
+      if (catch_up.enabled()) signal_catch_up(rejuv_msg_CATCH_UP_DONE);
+      break;
+    case CatchUp::Begin::NoLog:
+      k.log("rollback to generation %llu: its samples are no longer all kept; the estimator re-arms",
+            num(restored->g));
+      signal_catch_up(rejuv_msg_CATCH_UP_REARM);
+      break;
   }
   // The restored copies ran SCHED_OTHER (reset on fork) until now: the real-time plan back, after the timed
-  // part (realtime.cpp; a system call per service).
-  for (const image::Image& im : restored->images) k.supervisor.apply_realtime(k.services[im.service.value()]);
+  // part (realtime.cpp; a system call per service). The catch-up chain only once its replay is handled
+  // (chain_realtime): its real-time budget is for live work.
+  for (const image::Image& im : restored->images) {
+    if (catch_up.replaying() && catch_up.in_chain(im.service)) continue;
+    k.supervisor.apply_realtime(k.services[im.service.value()]);
+  }
   sr_stats.rollback_phases.a.add(to_ms(t_killed - t0));
   sr_stats.rollback_phases.b.add(to_ms(t_resumed - t_killed));
   sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
@@ -266,6 +281,22 @@ void Rejuvenator::run_rollback(const std::string& reason) {
           to_ms(took), reason.c_str());
   }
 }
+void Rejuvenator::signal_catch_up(rejuv_msg_EstimateCatchUp how) {
+  KernelMessage<rejuv_msg_RollbackSignal> signal;
+  signal.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
+  signal.fields.generation = catch_up.generation().value();
+  signal.fields.epoch = k.kernel_clock.epoch().value();
+  signal.fields.catch_up = how;
+  signal.fields.replayed_to_ns = catch_up.replayed_to();
+  k.router.publish_kernel_message(signal);
+}
+
+void Rejuvenator::chain_realtime() {
+  for (ServiceRuntime& s : k.services) {
+    if (catch_up.in_chain(s.id)) k.supervisor.apply_realtime(s);
+  }
+}
+
 
 void Rejuvenator::cold_restart(const std::string& reason) {
   k.log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());

@@ -67,6 +67,7 @@ void Router::route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<cons
              "publish on '" + o.name + "', which only the kernel publishes");  // the audit forbids the grant
     return;
   }
+  k.rejuvenator.catch_up.note_published(s.id, o.id, payload);  // a discarded replay, counted (catch_up.hpp)
   if (k.rejuvenator.catch_up.drops(s.id, o.id))
     return;  // the chain catching up: its estimate is not the controllers' yet
   auto g = k.broker.publish(o.id, payload, k.now());

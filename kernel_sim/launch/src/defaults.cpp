@@ -35,7 +35,9 @@ std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view e
     kinds.insert(kinds.end(), {proto::ESTIMATE_SHIFT, proto::ESTIMATE_DRIFT});
     return kinds;
   }
-  if (name == "rejuv_sensors") return std::vector<proto::AttackKind>{proto::SENSOR_BIAS};
+  if (name == "rejuv_sensors") {
+    return std::vector<proto::AttackKind>{proto::SENSOR_BIAS, proto::SLOW_REPLAY, proto::LYING_REPLAY};
+  }
   if (name == "rejuv_gen_set_point") return std::vector<proto::AttackKind>{proto::SETPOINT_SHIFT};
   if (name == "rejuv_checkpoint_p" || name == "rejuv_commander" || name == "rejuv_ext_link") {
     return runtime;

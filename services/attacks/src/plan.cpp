@@ -79,7 +79,11 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
       // The attacks on the vehicle (the worst-case control and the attack library: law.hpp), CUSTOM (the
       // service's own hook: rejuv/sdk/attack_hook.hpp) and the proto's unset value are not runtime attacks;
       // anything else is a typo.
-      if (flight::attack_law_from_name(a.kind) || a.kind == "CUSTOM" || a.kind == "ATTACK_UNSPECIFIED") continue;
+      // The replay attacks (SLOW_REPLAY, LYING_REPLAY) are carried out by sensors' own hook (replay_attack.cpp).
+      if (flight::attack_law_from_name(a.kind) || a.kind == "CUSTOM" || a.kind == "ATTACK_UNSPECIFIED" ||
+          a.kind == "SLOW_REPLAY" || a.kind == "LYING_REPLAY") {
+        continue;
+      }
       return fail(bad(a.prefix + "kind", "unknown attack kind '" + a.kind + "'"));
     }
     // A count only for the attacks on rollback (18…27); the others ignore their magnitude.

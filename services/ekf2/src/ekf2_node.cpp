@@ -60,6 +60,55 @@ void Ekf2Node::on_rollback(const flight::EkfRearm& rearm) {
   if (node_) node_->on_rollback(rearm);
 }
 
+void Ekf2Node::on_rollback_signal(const rejuv_msg_RollbackSignal& signal, const flight::EkfRearm& rearm) {
+  rearm_ = rearm;
+  rearm_.enabled = true;  // a re-arm the catch-up asks for is made whatever sr.ekf_rearm.enabled says
+  switch (signal.catch_up) {
+    case rejuv_msg_CATCH_UP_OFF:
+      catch_up_ = CatchUp::Live;
+      on_rollback(rearm);
+      return;
+    case rejuv_msg_CATCH_UP_REPLAY:
+      held_ = {};
+      stale_until_ns_ = 0;
+      restored_ = node_;
+      gps_rejected_at_restore_ = node_ ? node_->ekf().counters().gps_rejected : 0;
+      catch_up_ = node_ ? CatchUp::Replaying : CatchUp::Live;
+      return;
+    case rejuv_msg_CATCH_UP_DONE:
+      if (catch_up_ != CatchUp::Replaying) return;
+      if (replay_failed_gate()) {
+        rearm_now(rearm_, true, true);
+        return;
+      }
+      catch_up_ = CatchUp::Judging;  // the first live GPS sample decides (on_combined)
+      return;
+    case rejuv_msg_CATCH_UP_REARM:
+      stale_until_ns_ = signal.replayed_to_ns;
+      if (catch_up_ == CatchUp::Live) return;  // not after a REPLAY of this incarnation: nothing to re-arm
+      // A replay that could not be judged whole is not trusted in part: the filter as restored, re-armed (§IV);
+      // counted as discarded only where what was replayed already failed the gate.
+      rearm_now(rearm_, true, replay_failed_gate());
+      return;
+  }
+}
+
+bool Ekf2Node::replay_failed_gate() const {
+  return node_ && node_->ekf().counters().gps_rejected != gps_rejected_at_restore_;
+}
+
+void Ekf2Node::rearm_now(const flight::EkfRearm& rearm, bool from_restored, bool implausible) {
+  if (from_restored && restored_) node_ = restored_;  // the replayed estimate dropped: the filter as restored
+  if (implausible) {
+    ++discarded_;
+    announce_discard_ = true;
+  }
+  held_ = {};
+  if (node_) node_->on_rollback(rearm);
+  restored_.reset();
+  catch_up_ = CatchUp::Live;
+}
+
 Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> Ekf2Node::on_combined(
     const rejuv_msg_SensorCombined& message) {
   auto tick = flight_io::imu_tick(message);
@@ -68,6 +117,8 @@ Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> E
     held_ = {};
     return std::optional<rejuv_msg_VehicleStateEstimate>{};
   }
+  // The replay's own ticks that `sensors` publishes after the replay was cut short: late, not live.
+  if (message.timestamp_ns <= stale_until_ns_) return std::optional<rejuv_msg_VehicleStateEstimate>{};
   plant::SensorSamples samples = held_;
   samples.gyro = tick->gyro;
   samples.accel = tick->accel;
@@ -76,7 +127,20 @@ Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> E
   const bool integrated = node_->on_samples(samples);
   REJUV_ASSERT(integrated, "a sample set with a gyro sample is integrated");
   integrated_ = true;
-  rejuv_msg_VehicleStateEstimate out = flight_io::vehicle_state_message(*node_, tick->gyro.t, flags(before));
+  // The first live GPS sample after a replay handled whole: its NIS against the replayed estimate's covariance
+  // (the filter's own χ² gate) says whether the replay is plausible.
+  if (catch_up_ == CatchUp::Judging && samples.gps) {
+    if (node_->ekf().last_gps_nis() > params_.gps_gate_chi2) {
+      rearm_now(rearm_, true, true);
+    } else {
+      restored_.reset();
+      catch_up_ = CatchUp::Live;
+    }
+  }
+  std::uint32_t f = flags(before);
+  if (announce_discard_) f |= flight_io::kStateCatchUpDiscarded;
+  announce_discard_ = false;
+  rejuv_msg_VehicleStateEstimate out = flight_io::vehicle_state_message(*node_, tick->gyro.t, f);
 #if defined(REJUV_ATTACK_HOOKS)
   // ==== ATTACK HOOK POINT ====
   if (attack_hook_) attack_hook_(out);

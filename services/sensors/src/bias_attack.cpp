@@ -12,7 +12,7 @@ namespace rejuv::services {
 bool arm_library_attack(sdk::Service& svc, ImuCombiner& combiner) {
   auto plan = attacks::law_attack_of(svc, {flight::AttackLaw::SensorBias});
   if (!svc.require(plan, "bad attack params")) return false;
-  if (!*plan) return true;
+  if (!*plan) return arm_replay_attack(svc, combiner);  // one hook: SENSOR_BIAS or a replay attack
   auto window = std::make_shared<attacks::LawWindow>(**plan);
   combiner.set_attack_hook([&svc, window](rejuv_msg_SensorCombined& m) {
     if (!attacks::law_tau(*window, svc)) return;

@@ -412,7 +412,9 @@ struct CatchUpStats {
   std::uint64_t samples = 0;      // samples replayed, in all
   std::uint64_t dropped = 0;      // publications of the chain held from the services outside it meanwhile
   std::uint64_t without_log = 0;  // rollbacks to a generation whose samples were no longer all kept
-  std::uint64_t cut_short = 0;    // real time: replays ended at their bound, the chain not done
+  std::uint64_t cut_short = 0;    // replays ended at the kernel's bound, the chain not done: the estimator re-armed
+  std::uint64_t discarded = 0;    // replayed estimates the estimator found implausible against the live samples
+                                  // and discarded for a re-arm (docs/control.md §6.3)
 };
 
 // Result of one manual lockstep step.

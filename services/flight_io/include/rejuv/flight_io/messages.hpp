@@ -54,6 +54,7 @@ struct ImuTick {
 inline constexpr std::uint32_t kStateAttitudeValid = 1U << 0U;
 inline constexpr std::uint32_t kStatePositionValid = 1U << 1U;
 inline constexpr std::uint32_t kStateInnovationRejected = 1U << 2U;
+inline constexpr std::uint32_t kStateCatchUpDiscarded = 1U << 3U;  // docs/control.md §6.3
 [[nodiscard]] rejuv_msg_VehicleStateEstimate vehicle_state_message(const flight::EstimatorNode& node, Nanos t,
                                                                    std::uint32_t flags);
 // x̂ exactly as EstimatorNode::estimate() formed it: [p̂, v̂, euler(q̂), ω corrected].

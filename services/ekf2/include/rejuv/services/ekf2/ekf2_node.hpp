@@ -52,6 +52,17 @@ class Ekf2Node {
   // (EstimatorNode::on_rollback), so that the measurements pull the estimate back within T_est.
   void on_rollback(const flight::EkfRearm& rearm);
 
+  // A rollback_signal with the estimate catch-up (its `catch_up`; idl/sr.idl EstimateCatchUp; docs/control.md
+  // §6.3). REPLAY: the held samples dropped, the covariance kept, the restored filter remembered. DONE: the
+  // replayed estimate is tested against the live samples — a GPS sample of the replay that failed its χ² gate, or
+  // the first live GPS sample's NIS above the gate (p = 1e-4): implausible, so discarded for the restored filter
+  // re-armed (`rearm`'s 1σ values), the paper's scheme (§IV). REARM: the replay could not be used (cut short):
+  // the restored filter re-armed now (a replay not judged whole is not trusted in part), and the chain's late
+  // output of the replay (sensor_combined stamped up to replayed_to_ns) ignored. OFF: on_rollback(rearm).
+  void on_rollback_signal(const rejuv_msg_RollbackSignal& signal, const flight::EkfRearm& rearm);
+  // Replayed estimates discarded for a re-arm so far (this incarnation).
+  [[nodiscard]] std::uint32_t catch_up_discarded() const { return discarded_; }
+
   // Precondition: started (started()).
   [[nodiscard]] const flight::EstimatorNode& node() const { return *node_; }
   // x̂ as the controllers will read it from vehicle_state. Precondition: started().
@@ -74,8 +85,20 @@ class Ekf2Node {
 
   Ekf2Node(const flight::EkfParams& params, const Eigen::Quaterniond& attitude, Nanos imu_period);
 
+  // The catch-up's test of a replayed estimate (on_rollback_signal).
+  enum class CatchUp : std::uint8_t { Live, Replaying, Judging };
+  [[nodiscard]] bool replay_failed_gate() const;
+  void rearm_now(const flight::EkfRearm& rearm, bool from_restored, bool implausible);
+
   flight::EkfParams params_;
   Nanos imu_period_;
+  CatchUp catch_up_ = CatchUp::Live;
+  std::optional<flight::EstimatorNode> restored_;  // the filter as restored, kept while its replay is judged
+  std::uint32_t gps_rejected_at_restore_ = 0;
+  flight::EkfRearm rearm_{};                        // the 1σ values of the re-arm a discard makes
+  std::uint64_t stale_until_ns_ = 0;                // sensor_combined stamped up to this is the replay's, late
+  std::uint32_t discarded_ = 0;
+  bool announce_discard_ = false;                   // the next estimate carries kStateCatchUpDiscarded
   Eigen::Quaterniond waiting_attitude_ = Eigen::Quaterniond::Identity();  // from_first_fix, until the fix
   std::optional<flight::EstimatorNode> node_;
   plant::SensorSamples held_;  // aiding samples only (mag, baro, gps)

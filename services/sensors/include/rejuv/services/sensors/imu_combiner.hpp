@@ -70,5 +70,9 @@ class ImuCombiner {
 // erases them (and ekf2's rollback what it integrated). Armed at boot by services::arm_attack
 // (service_main.hpp), which calls this in a test build; defined in bias_attack.cpp.
 [[nodiscard]] bool arm_library_attack(sdk::Service& svc, ImuCombiner& combiner);
+// SLOW_REPLAY and LYING_REPLAY (replay_attack.cpp): a sensors service that acts only on the samples the kernel
+// replays after a rollback (docs/control.md §6.3). Called by arm_library_attack when the plan names no
+// SENSOR_BIAS. False (the error logged) on bad params.
+[[nodiscard]] bool arm_replay_attack(sdk::Service& svc, ImuCombiner& combiner);
 
 }  // namespace rejuv::services
