@@ -3,6 +3,8 @@
 // file it names. Each refusal is a semantic LoadError at the field's file:line:column with what was expected.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <optional>
 #include <set>
 #include <string>
 #include <system_error>
@@ -22,6 +24,62 @@ using Step = TextLocations::Step;
 LoadError error(SourceLocation where, std::string message) {
   return semantic_error(std::move(where), std::move(message));
 }
+
+// What a launch field's number is measured in, for the message and for the hint of a value in another unit.
+enum class Unit : std::uint8_t { Seconds, Fraction, MetresPerSecond };
+
+// The plausible range of a launch field [min, max] in its unit (min excluded when `min_open`): narrower than what
+// the kernel could represent, so that a value written in another unit (ms for s, % for a fraction, km/h for m/s)
+// is refused at load instead of flying. Each bound says where it comes from where the range is declared.
+struct Plausible {
+  std::string_view field;   // as written in the file, e.g. "sr.t_mc_s"
+  std::string_view symbol;  // as the paper names it, e.g. "T_MC"
+  Unit unit;
+  double min;
+  bool min_open;
+  double max;
+};
+
+// The refusal of `v` outside `p`, with a "did you mean" when v in the likely other unit is in range; none when in
+// range.
+std::optional<std::string> implausible(const Plausible& p, double v) {
+  const auto inside = [&](double x) { return (p.min_open ? x > p.min : x >= p.min) && x <= p.max; };
+  if (inside(v)) return std::nullopt;
+  const std::string range = num(p.min) + (p.min_open ? " < " : " ≤ ") + std::string(p.symbol) + " ≤ " + num(p.max);
+  std::string out = std::string(p.field) + ": " + num(v);
+  switch (p.unit) {
+    case Unit::Seconds:
+      out += " is " + num(v) + " s; " + std::string(p.symbol) + " is seconds (" + range + " s)";
+      if (v > p.max && inside(v / 1000.0)) out += "; did you mean " + num(v / 1000.0) + " (" + num(v) + " ms)?";
+      break;
+    case Unit::Fraction:
+      out += " is out of range; " + std::string(p.symbol) + " is a fraction (" + range + ")";
+      if (v >= 2.0 && inside(v / 100.0)) out += "; did you mean " + num(v / 100.0) + " (" + num(v) + " %)?";
+      break;
+    case Unit::MetresPerSecond:
+      out += " is " + num(v) + " m/s; " + std::string(p.symbol) + " is metres per second (" + range + " m/s)";
+      if (v > p.max && inside(v / 3.6)) out += "; did you mean " + num(v / 3.6) + " (" + num(v) + " km/h)?";
+      break;
+  }
+  return out;
+}
+
+// The SR times (§II, §V–§VI) and fractions (§IV-A, §III). T_MC: the paper flies T_MC of the order of 0.1–1 s
+// (§VI; 0.3 s in launch/quad_square, 0.2–0.3 s in Fig. 11); beyond 10 s an unchecked worst-case attack of one
+// window tilts the vehicle model out of the safety set many times over (docs/control.md §6: 0.315 s already
+// costs V ≈ 0.3), so 10 s bounds any meaningful design. T_est: 1–3 s in Fig. 11 (§VI-D), the safety controller
+// of the vehicle model brings x̂ back in ≈ 2.5 s (docs/control.md §6.1); 10 s bounds it the same way. t_min: a
+// pause after a setpoint move (§V-C, 0.02 s shipped), shorter than one MC window: at most 1 s. The check of (1)
+// runs at the control rate (2 ms, §V-B); slower than 0.1 s it overshoots ρ_s by a whole SC step: at most 0.1 s.
+// ρ_M, ρ_s and Ū are fractions: of the safety set's level ‖e‖²_P ≤ 1 (§IV-A) and of the control range (§III).
+constexpr double kMaxTmcS = 10.0;
+constexpr double kMaxTestS = 10.0;
+constexpr double kMaxTminS = 1.0;
+constexpr double kMaxCheckPeriodS = 0.1;
+// Wind on the vehicle model (plant, DESIGN §9): its thrust holds a few m/s; beyond 30 m/s (a storm) no mission of
+// a small quadrotor is flown, so a larger number is another unit (km/h).
+constexpr double kMaxWindMS = 30.0;
+constexpr double kMaxMissionS = 86400.0;
 
 // Validates one parsed graph; the first problem found is returned (the user fixes and reruns).
 class Validator {
@@ -217,6 +275,10 @@ class Validator {
           error(at({{"plant", -1}}, "wind_mean_m_s"),
                 "plant.wind_mean_m_s must be a finite speed >= 0 m/s, got " + num(p.wind_mean_m_s())));
     }
+    if (auto why = implausible({"plant.wind_mean_m_s", "wind", Unit::MetresPerSecond, 0.0, false, kMaxWindMS},
+                               p.wind_mean_m_s())) {
+      return fail(error(at({{"plant", -1}}, "wind_mean_m_s"), *why));
+    }
     if (!std::isfinite(p.wind_toward_deg()) || p.wind_toward_deg() < 0.0 || p.wind_toward_deg() >= 360.0) {
       return fail(error(at({{"plant", -1}}, "wind_toward_deg"),
                         "plant.wind_toward_deg must be in [0, 360) degrees clockwise from north (90 = toward "
@@ -226,6 +288,10 @@ class Validator {
       return fail(
           error(at({{"plant", -1}}, "wind_gust_m_s"),
                 "plant.wind_gust_m_s must be a finite intensity >= 0 m/s, got " + num(p.wind_gust_m_s())));
+    }
+    if (auto why = implausible({"plant.wind_gust_m_s", "gust", Unit::MetresPerSecond, 0.0, false, kMaxWindMS},
+                               p.wind_gust_m_s())) {
+      return fail(error(at({{"plant", -1}}, "wind_gust_m_s"), *why));
     }
     return {};
   }
@@ -247,6 +313,13 @@ class Validator {
         !std::isfinite(v) || v < 0.0 || v > defaults::kMaxCatchUpChargeUs) {
       return fail(error(loc("catch_up_charge_us_per_sample"), "lockstep.catch_up_charge_us_per_sample must be 0 to " +
                                                                   num(defaults::kMaxCatchUpChargeUs) + " µs, got " + num(v)));
+    }
+    // The plant's --align-s bound; a value in ms (20000 for 20 s) gets a hint.
+    if (std::isfinite(l.alignment_s()) && l.alignment_s() > defaults::kMaxAlignmentS) {
+      return fail(error(loc("alignment_s"),
+                        *implausible({"lockstep.alignment_s", "alignment", Unit::Seconds, 0.0, false,
+                                      defaults::kMaxAlignmentS},
+                                     l.alignment_s())));
     }
     if (!std::isfinite(l.alignment_s()) || l.alignment_s() < 0.0 || l.alignment_s() > defaults::kMaxAlignmentS) {
       return fail(error(loc("alignment_s"), "lockstep.alignment_s must be 0 to " + num(defaults::kMaxAlignmentS) +
@@ -373,7 +446,8 @@ class Validator {
       return {};  // parameters of a disabled scheme are not used (rejuv run --no-sr)
     }
     const proto::SrParams& sr = g_.sr();
-    for (Check c : {check_sr_finite(sr), check_sr_intervals(sr), check_sr_levels(sr), check_sr_check_period(sr),
+    for (Check c : {check_sr_finite(sr), check_sr_intervals(sr), check_sr_plausible(sr), check_sr_levels(sr),
+                    check_sr_check_period(sr),
                     check_sr_duration_bounds(sr), check_sr_keep_generations(sr), check_sr_box(sr),
                     check_sr_restricted_limits(sr), check_sr_ekf_rearm(sr)}) {
       if (!c) {
@@ -412,6 +486,38 @@ class Validator {
     }
     if (sr.t_min_s() < 0.0) {
       return fail(error(sr_at("t_min_s"), "sr.t_min_s (t_min) must be >= 0 s, got " + num(sr.t_min_s())));
+    }
+    return {};
+  }
+
+  // Each SR time and fraction in its plausible range (kMaxTmcS…: where the bounds come from), with a hint when
+  // the value looks like another unit (`t_mc_s: 200` meant as ms).
+  Check check_sr_plausible(const proto::SrParams& sr) const {
+    const auto check = [&](const Plausible& p, double v, std::string_view field) -> Check {
+      if (auto why = implausible(p, v)) return fail(error(sr_at(field), *why));
+      return {};
+    };
+    if (Check c = check({"sr.t_mc_s", "T_MC", Unit::Seconds, 0.0, true, kMaxTmcS}, sr.t_mc_s(), "t_mc_s"); !c) return c;
+    if (Check c = check({"sr.t_est_s", "T_est", Unit::Seconds, 0.0, true, kMaxTestS}, sr.t_est_s(), "t_est_s"); !c) {
+      return c;
+    }
+    if (Check c = check({"sr.t_min_s", "t_min", Unit::Seconds, 0.0, false, kMaxTminS}, sr.t_min_s(), "t_min_s"); !c) {
+      return c;
+    }
+    if (sr.has_check_period_s()) {
+      if (Check c = check({"sr.check_period_s", "check_period", Unit::Seconds, 0.0, true, kMaxCheckPeriodS},
+                          sr.check_period_s(), "check_period_s");
+          !c) {
+        return c;
+      }
+    }
+    // A fraction above 1 (0.1 written as 10 %); at or below 0 check_sr_levels and check_sr_restricted_limits say
+    // what the level must satisfy.
+    for (const auto& [field, symbol, v] : {std::tuple{"rho_m", "ρ_M", sr.rho_m()}, std::tuple{"rho_s", "ρ_s", sr.rho_s()},
+                                           std::tuple{"restricted_limit_fraction", "Ū", sr.restricted_limit_fraction()}}) {
+      if (v <= 1.0) continue;
+      const std::string name = "sr." + std::string(field);
+      if (Check c = check({name, symbol, Unit::Fraction, 0.0, true, 1.0}, v, field); !c) return c;
     }
     return {};
   }
@@ -552,6 +658,12 @@ class Validator {
       return fail(error(at({{"mission", -1}}, "timeout_s"),
                         "mission.timeout_s must be > 0 s and at most " + num(defaults::kMaxDurationS) +
                             " s (leave it out to derive it from the path), got " + num(m.timeout_s())));
+    }
+    // A mission of the vehicle model lasts minutes (launch/: 60–600 s); a day bounds it, and a larger number is ms.
+    if (m.has_timeout_s()) {
+      if (auto why = implausible({"mission.timeout_s", "timeout", Unit::Seconds, 0.0, true, kMaxMissionS}, m.timeout_s())) {
+        return fail(error(at({{"mission", -1}}, "timeout_s"), *why));
+      }
     }
     return {};
   }

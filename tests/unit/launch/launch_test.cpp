@@ -254,7 +254,7 @@ TEST(LaunchLoader, SrRhoSZero_Semantic) {
 }
 
 TEST(LaunchLoader, SrRhoMAboveOne_Semantic) {
-  expect_semantic_at("rho_m: 0.1", "rho_m: 1.5", "rho_m must be <= 1");
+  expect_semantic_at("rho_m: 0.1", "rho_m: 1.5", "sr.rho_m: 1.5 is out of range; ρ_M is a fraction (0 < ρ_M ≤ 1)");
 }
 
 TEST(LaunchLoader, SrNotFinite_Semantic) {
@@ -296,12 +296,37 @@ TEST(LaunchLoader, MaxOpenFilesBelowTheSdksNeed_Semantic) {
   expect_limits_refused("  limits { max_open_files: 8 }\n", "max_open_files must be at least 16");
 }
 
+TEST(LaunchLoader, MaxPublicationsPerSZero_Semantic) {
+  expect_limits_refused("  limits { max_publications_per_s: 0 }\n", "max_publications_per_s must be 1..1000000");
+}
+
+TEST(LaunchLoader, MaxPublicationsPerSAboveTheBound_Semantic) {
+  expect_limits_refused("  limits { max_publications_per_s: 1000001 }\n",
+                        "max_publications_per_s must be 1..1000000 (publications per second of kernel time)");
+}
+
+TEST(LaunchLoader, MaxPublicationsPerS_ServiceOverGraphOverDefault) {
+  const Mutated m = mutate("  executable: \"rejuv_b\"\n",
+                           "  executable: \"rejuv_b\"\n  limits { max_publications_per_s: 50 }\n");
+  auto r = parse_launch(m.text, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  proto::Launch g = r->graph;
+  for (const proto::ServiceSpec& s : g.services()) {
+    EXPECT_EQ(sandbox_limits(g, s).max_publications_per_s, s.name() == "b" ? 50U : defaults::kSandboxPublicationsPerS)
+        << s.name();
+  }
+  g.mutable_sandbox_limits()->set_max_publications_per_s(300);
+  for (const proto::ServiceSpec& s : g.services()) {
+    EXPECT_EQ(sandbox_limits(g, s).max_publications_per_s, s.name() == "b" ? 50U : 300U) << s.name();
+  }
+}
+
 TEST(LaunchLoader, SrBoxEntryZero_Semantic) {
   expect_semantic_at("angle_rad: 0.35", "angle_rad: 0", "sr.box.angle_rad");
 }
 
 TEST(LaunchLoader, SrRestrictedFractionAboveOne_Semantic) {
-  expect_semantic_at("restricted_limit_fraction: 0.3", "restricted_limit_fraction: 1.5", "(0, 1]");
+  expect_semantic_at("restricted_limit_fraction: 0.3", "restricted_limit_fraction: 1.5", "sr.restricted_limit_fraction: 1.5 is out of range; Ū is a fraction");
 }
 
 TEST(LaunchLoader, SrRestrictedFractionZero_Semantic) {
@@ -490,8 +515,66 @@ TEST(LaunchLoader, SrKeepGenerationsHuge_Semantic) {
   expect_semantic_at("keep_generations: 2", "keep_generations: 4294967295", "sr.keep_generations must be 1 to 16");
 }
 TEST(LaunchLoader, SrTmcHuge_Semantic) {
-  expect_semantic_at("t_mc_s: 0.3", "t_mc_s: 1e308", "sr.t_mc_s must be at most");
+  expect_semantic_at("t_mc_s: 0.3", "t_mc_s: 1e308", "sr.t_mc_s: 1e+308 is 1e+308 s; T_MC is seconds (0 < T_MC ≤ 10 s)");
 }
+// ---- a value in another unit than the field's (ms for s, % for a fraction, km/h for m/s): refused with a hint ----
+
+TEST(LaunchLoader, SrTmcInMilliseconds_RefusedWithTheSecondsItMeant) {
+  expect_semantic_at("t_mc_s: 0.3", "t_mc_s: 200",
+                     "sr.t_mc_s: 200 is 200 s; T_MC is seconds (0 < T_MC ≤ 10 s); did you mean 0.2 (200 ms)?");
+}
+TEST(LaunchLoader, SrTestInMilliseconds_RefusedWithTheSecondsItMeant) {
+  expect_semantic_at("t_est_s: 3", "t_est_s: 50", "T_est is seconds (0 < T_est ≤ 10 s); did you mean 0.05 (50 ms)?");
+}
+TEST(LaunchLoader, SrTminInMilliseconds_RefusedWithTheSecondsItMeant) {
+  expect_semantic_at("t_min_s: 0.02", "t_min_s: 20", "did you mean 0.02 (20 ms)?");
+}
+TEST(LaunchLoader, SrCheckPeriodInMilliseconds_RefusedWithTheSecondsItMeant) {
+  expect_semantic_at("check_period_s: 0.002", "check_period_s: 2", "did you mean 0.002 (2 ms)?");
+}
+TEST(LaunchLoader, SrTmcBeyondAnyDesignNotMs_RefusedWithoutAHint) {
+  expect_semantic_at("t_mc_s: 0.3", "t_mc_s: 20000", "T_MC is seconds (0 < T_MC ≤ 10 s)");
+  const auto r = parse_launch(mutate("t_mc_s: 0.3", "t_mc_s: 20000").text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().message.find("did you mean"), std::string::npos) << r.error().message;  // 20 s is no T_MC either
+}
+TEST(LaunchLoader, SrRhoMInPercent_RefusedWithTheFractionItMeant) {
+  expect_semantic_at("rho_m: 0.1", "rho_m: 10", "sr.rho_m: 10 is out of range; ρ_M is a fraction (0 < ρ_M ≤ 1); did you mean 0.1 (10 %)?");
+}
+TEST(LaunchLoader, WindInKmPerHour_RefusedWithTheMetresPerSecondItMeant) {
+  expect_semantic_at("physics_rate_hz: 1000", "physics_rate_hz: 1000 wind_mean_m_s: 36",
+                     "plant.wind_mean_m_s: 36 is 36 m/s; wind is metres per second (0 ≤ wind ≤ 30 m/s); did you mean 10 "
+                     "(36 km/h)?", false);
+}
+TEST(LaunchLoader, AlignmentInMilliseconds_RefusedWithTheSecondsItMeant) {
+  expect_semantic_at("mission {", "lockstep { alignment_s: 20000 }\nmission {", "did you mean 20 (20000 ms)?", false);
+}
+TEST(LaunchLoader, MissionTimeoutInMilliseconds_RefusedWithTheSecondsItMeant) {
+  expect_semantic_at("timeout_s: 60", "timeout_s: 600000", "did you mean 600 (600000 ms)?");
+}
+TEST(LaunchLoader, SrRangesAtTheirBounds_Load) {
+  std::string text = mutate("t_mc_s: 0.3", "t_mc_s: 10").text;
+  for (const auto& [from, to] : {std::pair{"t_est_s: 3", "t_est_s: 10"}, {"t_min_s: 0.02", "t_min_s: 1"},
+                                 {"check_period_s: 0.002", "check_period_s: 0.1"}, {"rho_m: 0.1", "rho_m: 1"}}) {
+    text.replace(text.find(from), std::string_view(from).size(), to);
+  }
+  const auto r = parse_launch(text, kAsPath);
+  EXPECT_TRUE(r.has_value()) << r.error().to_string();
+}
+TEST(LaunchLoader, ShippedGraphs_LoadWithinThePlausibleRanges) {
+  const std::filesystem::path dir = std::filesystem::path(REJUV_SOURCE_DIR) / "launch";
+  int n = 0;
+  for (const auto& sub : {dir, dir / "held_out"}) {
+    for (const auto& e : std::filesystem::directory_iterator(sub)) {
+      if (!e.path().string().ends_with(".launch.pbtxt")) continue;
+      const auto g = load_launch(e.path());
+      EXPECT_TRUE(g.has_value()) << g.error().to_string();
+      ++n;
+    }
+  }
+  EXPECT_GT(n, 3);
+}
+
 TEST(LaunchLoader, SrCheckPeriodBelowANanosecondTick_Semantic) {
   expect_semantic_at("check_period_s: 0.002", "check_period_s: 1e-300", "sr.check_period_s must be at least");
 }
