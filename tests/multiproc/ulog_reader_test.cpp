@@ -56,10 +56,12 @@ TEST_F(UlogReader, SquareWithSr_ReadBackByFoxgloveAsRouted) {
   const auto graph = kRepo / "launch/quad_square_paper.launch.pbtxt";
   const auto ulg = dir() / "run.ulg";
   const auto summary_json = dir() / "summary.json";
-  // Given a short flight with SR and the attack (4 s after the alignment: several SR cycles at T_MC = 0.3 s)
+  // Given a short flight with SR and the attack (4 s after the alignment: several SR cycles at T_MC = 0.3 s),
+  // every routed message logged (the full profile; the size budget leaves every topic of the square whole)
   const test_support::CliOutcome run = test_support::run_rejuv(
       dir(), {"run", graph.string(), "--duration", "4", "--domain", std::to_string(test_support::kOwnDdsDomain),
-              "--net-port", "0", "--ulog", ulg.string(), "--summary-json", summary_json.string()});
+              "--net-port", "0", "--ulog", ulg.string(), "--ulog-profile", "full", "--summary-json",
+              summary_json.string()});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   proto::RunSummary summary;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json), &summary).ok());

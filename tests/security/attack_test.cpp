@@ -30,8 +30,8 @@ constexpr double kForgedLimit = 1.0e6;       // attacks::kForgedLimit (hooks.hpp
 constexpr std::uint64_t kForgedCell = 0xA7A7'A7A7'A7A7'A7A7ULL;  // attacks::kForgedPersistentByte × 8
 constexpr std::uint32_t kFloodMessages = 10000;  // attacks::kFloodMessages
 
-std::string attack_launch(AttackKind kind, const std::string& attacker) {
-  return security_launch({.worker_extra = "", .attack = "attack {\n  enabled: true\n  attacks { kind: " +
+std::string attack_launch(AttackKind kind, const std::string& attacker, const std::string& worker_extra = "") {
+  return security_launch({.worker_extra = worker_extra, .attack = "attack {\n  enabled: true\n  attacks { kind: " +
                                     std::string(attacks::to_string(kind)) + " service: \"" + attacker + "\" }\n}\n"});
 }
 
@@ -282,7 +282,11 @@ TEST_F(Attacks, OpenSocket_TheSandboxEndsTheAttackerAndTheRollbackContainsIt) {
 }
 
 TEST_F(Attacks, FloodBroker_BoundedPerStepAndTheReaderGetsOrCountsEveryMessage) {
-  ASSERT_NO_FATAL_FAILURE(start(AttackKind::FloodBroker, "worker"));
+  // The worker's publication budget at its most (the next test has the default): the step bound alone.
+  kind_ = AttackKind::FloodBroker;
+  attacker_ = "worker";
+  ASSERT_NO_FATAL_FAILURE(start_graph(
+      attack_launch(AttackKind::FloodBroker, "worker", "  limits { max_publications_per_s: 1000000 }\n")));
   ASSERT_TRUE(step_until_rollbacks(3));
   const kernel::ServiceStats worker = k_->stats(id("worker"));
   // Each flood is cut at the per-step bound: at least kFloodMessages - 4096 dropped per attacked window.
@@ -294,6 +298,25 @@ TEST_F(Attacks, FloodBroker_BoundedPerStepAndTheReaderGetsOrCountsEveryMessage) 
   const kernel::ServiceStats driver = k_->stats(id("driver"));
   EXPECT_GE(driver.delivered + driver.lost, 2U * 4096U);
   EXPECT_FALSE(driver.hung);
+  expect_runtime_intact();
+}
+
+// (The SecurityEvent of the budget: tests/security/flood_attack_test.cpp, whose policy has the topic.)
+TEST_F(Attacks, FloodBroker_OverThePublicationBudget_DroppedAndCountedForTheFlooderOnly) {
+  ASSERT_NO_FATAL_FAILURE(start(AttackKind::FloodBroker, "worker"));
+  ASSERT_TRUE(step_until_rollbacks(3));
+  const kernel::ServiceStats worker = k_->stats(id("worker"));
+  // Of each 10000-message flood 4096 pass the step bound; the budget (2000/s, a burst of 2000) passes at most
+  // what its bucket held: what was routed stays within 2000 per second of kernel time plus the burst.
+  const double kernel_s = to_seconds(k_->now()).count();
+  EXPECT_GT(worker.publications_over_budget, 0U);
+  EXPECT_LE(worker.publishes, static_cast<std::uint64_t>(2000.0 * (kernel_s + 1.0)));
+  // Nobody else lost a publication to a budget.
+  for (const char* other : {"driver", "link", "rejuv"}) {
+    if (const auto s = k_->find_service(other)) {
+      EXPECT_EQ(k_->stats(*s).publications_over_budget, 0U) << other;
+    }
+  }
   expect_runtime_intact();
 }
 

@@ -261,6 +261,9 @@ struct RunRequest {
   FlightSwitches switches;
   std::optional<double> duration, speed;
   std::optional<std::filesystem::path> json_path, csv_path, ulog_path;
+  UlogProfile ulog_profile = UlogProfile::Default;
+  std::uint64_t ulog_interval_ms = 20;
+  std::uint64_t ulog_budget_kb_s = 2000;
   std::optional<CpuPlacement> cpu;
   std::optional<std::vector<std::string>> skip;
   OutFlags out;
@@ -289,7 +292,16 @@ void declare_run_options(Options& opts, RunRequest& r) {
       .path("--ulog", "FILE", r.ulog_path,
             "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
             "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)",
-            "DIR/run.ulg with --out");
+            "DIR/run.ulg with --out")
+      .choice<UlogProfile>("--ulog-profile", {{"default", UlogProfile::Default}, {"full", UlogProfile::Full}},
+                           r.ulog_profile,
+                           "what the ULog writes of each topic: default, at most one message per --ulog-interval-ms\n"
+                           "(bursts of 16 pass); full, every routed message (docs/ulog.md)")
+      .integer("--ulog-interval-ms", "MS", r.ulog_interval_ms, {.min = 1, .max = 10000},
+               "the default profile's interval per topic [ms of kernel time]")
+      .integer("--ulog-budget-kb-s", "KB", r.ulog_budget_kb_s, {.min = 10, .max = 1'000'000},
+               "the ULog's size budget [kB per second of kernel time]: each topic's share is KB over the\n"
+               "graph's topics; what a topic routes beyond its share is not logged, and the log says so");
   domain_option(opts, r.flags.domain, "DDS domain id", kLeasedDomainHelp)
       .custom<std::vector<std::string>>("--skip", "NAMES", r.skip, service_names_of,
                                         "comma-separated services not to start (e.g. not built yet)");
@@ -386,7 +398,11 @@ int fly(const RunRequest& r, const kernel::KernelOptions& options, launch::Loade
   std::unique_ptr<UlogRecorder> ulog;
   if (r.ulog_path || r.out.dir) {  // --out DIR writes DIR/run.ulg too, unless --ulog names another file
     auto opened = write_ulog_to(r.ulog_path ? *r.ulog_path : *r.out.dir / "run.ulg", k,
-                                {.seed = facts.seed, .sr = k.sr_enabled(), .attack = facts.attack}, observers);
+                                {.seed = facts.seed, .sr = k.sr_enabled(), .attack = facts.attack},
+                                UlogOptions{.profile = r.ulog_profile,
+                                            .interval = std::chrono::milliseconds{r.ulog_interval_ms},
+                                            .budget_bytes_per_s = r.ulog_budget_kb_s * 1000},
+                                observers);
     if (!opened) return bad_input("rejuv run: --ulog: " + opened.error());
     ulog = std::move(*opened);
   }

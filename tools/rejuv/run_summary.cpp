@@ -51,6 +51,7 @@ void fill_services(proto::RunSummary& out, const kernel::Kernel& k) {
     s.set_sandbox_violations(st.sandbox_violations);
     s.set_images_lost(st.images_lost);
     s.set_hung(st.hung);
+    s.set_publications_over_budget(st.publications_over_budget);
   }
 }
 
@@ -119,16 +120,18 @@ void fill_summary(proto::RunSummary& s, const kernel::Kernel& k, const RunRecord
   if (const std::uint64_t bad = k.bad_frames_total(); bad > 0) (*s.mutable_denials())["BadFrame"] = bad;
   // Contained below the cap check (DESIGN §11): sandbox violations (the seccomp filter ended the process),
   // publications over the per-step bound or of the wrong size, and messages overrun in the rings.
-  std::uint64_t flood = 0, wrong_size = 0, overrun = 0;
+  std::uint64_t flood = 0, over_budget = 0, wrong_size = 0, overrun = 0;
   for (std::size_t i = 0; i < k.service_count(); ++i) {
     const kernel::ServiceStats st = k.stats(ServiceId{static_cast<std::uint32_t>(i)});
     flood += st.flood_dropped;
+    over_budget += st.publications_over_budget;
     wrong_size += st.wrong_size;
     overrun += st.lost;
   }
   fill_sandbox(*s.mutable_sandbox_violations(), k, facts.insecure_sandbox);
   fill_services(s, k);
   for (const auto& [kind, n] : {std::pair{"SandboxViolation", s.sandbox_violations().total()}, std::pair{"FloodDropped", flood},
+                                std::pair{"PublicationsOverBudget", over_budget},
                                 std::pair{"WrongSize", wrong_size}, std::pair{"RingOverrun", overrun}}) {
     if (n > 0) (*s.mutable_denials())[kind] = n;
   }

@@ -114,6 +114,7 @@ Result<void, ulog::UlogError> effective_parameters(ulog::Encoder& enc, const pro
     done.push_back(integer(at + "max_open_files", v.max_open_files));
     done.push_back(integer(at + "max_cpu_percent", v.max_cpu_percent));
     done.push_back(integer(at + "max_group_memory_mb", v.max_group_memory_mb));
+    done.push_back(integer(at + "max_publications_per_s", v.max_publications_per_s));
     done.push_back(integer(s.name() + ".rt_priority", s.rt_priority()));
   }
   for (auto& d : done) {
@@ -255,15 +256,33 @@ Result<void, std::string> define_topic_formats(ulog::Encoder& enc, const std::ve
 
 }  // namespace
 
+std::string_view to_string(UlogProfile profile) {
+  switch (profile) {
+    case UlogProfile::Default: return "default";
+    case UlogProfile::Full: return "full";
+  }
+  return "?";
+}
+
 Result<std::unique_ptr<UlogRecorder>, std::string> UlogRecorder::create(const std::filesystem::path& path,
                                                                         const kernel::Kernel& kernel,
-                                                                        const RunInfo& info) {
+                                                                        const RunInfo& info,
+                                                                        const UlogOptions& options) {
   auto file = ulog::FileWriter::create(path, 0);
   if (!file) return fail("cannot write the ULog file '" + path.string() + "'");
-  std::unique_ptr<UlogRecorder> rec(new UlogRecorder(std::move(*file)));
+  std::unique_ptr<UlogRecorder> rec(new UlogRecorder(std::move(*file), options));
   ulog::Encoder& enc = rec->writer_.encoder();
   const std::vector<kernel::Kernel::TopicInfo> topics = kernel.topics();
+  for (std::size_t i = 0; i < kernel.service_count(); ++i) {
+    rec->service_names_.push_back(kernel.stats(ServiceId{static_cast<std::uint32_t>(i)}).name);
+  }
   if (auto ok = write_info(enc, kernel, info); !ok) return fail(ok.error());
+  for (const auto& [key, value] :
+       {std::pair<std::string, std::string>{"ulog_profile", std::string(to_string(options.profile))},
+        {"ulog_interval_ms", std::to_string(options.interval.count())},
+        {"ulog_budget_kb_s", std::to_string(options.budget_bytes_per_s / 1000)}}) {
+    if (auto ok = enc.info_string(key, value); !ok) return fail(with("info " + key, ok.error()));
+  }
   if (auto ok = write_parameters(enc, kernel.graph().graph); !ok) return fail(ok.error());
   if (auto ok = define_topic_formats(enc, topics); !ok) return fail(ok.error());
   if (auto ok = rec->define_px4_formats(topics); !ok) return fail(ok.error());
@@ -306,6 +325,14 @@ Result<void, std::string> UlogRecorder::subscribe(const std::vector<kernel::Kern
     by_object_[t.id.value()] = *id;
     names_[t.id.value()] = std::string(t.name);
   }
+  // Each topic's share of the size budget: the budget over the topics (docs/ulog.md "Size budget").
+  const std::uint64_t share = std::max<std::uint64_t>(1, options_.budget_bytes_per_s / std::max<std::size_t>(1, topics.size()));
+  const auto per_s = static_cast<std::uint64_t>(std::chrono::milliseconds{std::chrono::seconds{1}} / options_.interval);
+  topic_log_.resize(by_object_.size());
+  for (TopicLog& t : topic_log_) {
+    t.profile = RateBudget(std::max<std::uint64_t>(per_s, 1), UlogOptions::kProfileBurst);
+    t.budget = RateBudget(share, share * static_cast<std::uint64_t>(UlogOptions::kBudgetBurst.count()));
+  }
   const auto sr_id = enc.add_logged(kSrEventFormat.name);
   if (!sr_id) return fail(with("subscription rejuv_sr_event", sr_id.error()));
   sr_event_id_ = *sr_id;
@@ -320,9 +347,67 @@ Result<void, std::string> UlogRecorder::subscribe(const std::vector<kernel::Kern
   return {};
 }
 
+// A 'D' message: its header (msg_size, msg_type), msg_id, then the payload [bytes].
+constexpr std::uint64_t kDataOverhead = 3 + 2;
+
+UlogRecorder::Admit UlogRecorder::admit(std::size_t i, const kernel::Publication& p, std::uint64_t bytes) {
+  TopicLog& topic = topic_log_[i];
+  if (options_.profile == UlogProfile::Default && !topic.profile.take(p.t)) return Admit::Sampled;
+  if (topic.over && topic.budget.refilled(p.t, 50)) {  // back under its share, with room: the episode ends
+    say_over_budget(i, p.t, Episode::Ends);
+    topic.over = false;
+  }
+  if (!topic.over && topic.budget.take(p.t, bytes)) return Admit::Write;
+  const std::string who = p.publisher && p.publisher->value() < service_names_.size()
+                              ? "'" + service_names_[p.publisher->value()] + "'"
+                              : std::string("the kernel");
+  if (topic.publishers.find(who) == std::string::npos) topic.publishers += (topic.publishers.empty() ? "" : ", ") + who;
+  if (!topic.over) {
+    topic.over = true;
+    topic.over_since = p.t;
+    topic.over_messages = 0;
+    topic.over_bytes = 0;
+    say_over_budget(i, p.t, Episode::Begins);
+  }
+  ++topic.over_messages;
+  ++topic.over_total;
+  topic.over_bytes += bytes;
+  return Admit::OverBudget;
+}
+
+// One logged string when a topic's episode over its share begins, one when it ends (or at close): what was
+// not written, and who published it. At most one pair per topic per half a budget burst.
+void UlogRecorder::say_over_budget(std::size_t i, Nanos t, Episode episode) {
+  const TopicLog& topic = topic_log_[i];
+  const unsigned long long share_kb_s = topic.budget.per_second() / 1000;
+  char text[400];
+  if (episode == Episode::Begins) {
+    std::snprintf(text, sizeof text,
+                  "ulog: topic '%s' over its share of the log's size budget (%llu kB/s): its messages are not "
+                  "logged until it is back under it (published by %s)",
+                  names_[i].c_str(), share_kb_s, topic.publishers.c_str());
+  } else {
+    std::snprintf(text, sizeof text,
+                  "ulog: topic '%s': %llu message(s), %llu bytes, published by %s from t = %.3f s were not logged "
+                  "(over its share of the log's size budget, %llu kB/s)",
+                  names_[i].c_str(), static_cast<unsigned long long>(topic.over_messages),
+                  static_cast<unsigned long long>(topic.over_bytes), topic.publishers.c_str(),
+                  to_seconds(topic.over_since).count(), share_kb_s);
+  }
+  log(ulog::LogLevel::Warning, t, text);
+}
+
 void UlogRecorder::on_publication(const kernel::Publication& p) {
   if (p.topic.value() >= by_object_.size() || !by_object_[p.topic.value()]) return;
-  ++routed_[p.topic.value()];
+  const std::size_t i = p.topic.value();
+  ++routed_[i];
+  last_t_ = std::max(last_t_, p.t);
+  std::uint64_t bytes = kDataOverhead + sizeof(std::uint64_t) + p.payload.size();
+  for (const Px4Topics& x : px4_) {
+    if (x.source == p.topic) bytes += 2 * kDataOverhead + sizeof(Px4LocalPosition) + sizeof(Px4Attitude);
+  }
+  if (admit(i, p, bytes) != Admit::Write) return;
+  ++topic_log_[i].logged;
   const std::uint64_t t = micros(p.t);
   scratch_.resize(sizeof t + p.payload.size());
   std::memcpy(scratch_.data(), &t, sizeof t);
@@ -442,11 +527,20 @@ void UlogRecorder::fill(proto::UlogSummary& s, std::uint64_t bytes) const {
     (*s.mutable_px4_by_topic())[x.attitude_name()] = x.written;
   }
   for (std::size_t i = 0; i < names_.size(); ++i) {
-    if (by_object_[i]) (*s.mutable_routed_by_topic())[names_[i]] = routed_[i];
+    if (!by_object_[i]) continue;
+    (*s.mutable_routed_by_topic())[names_[i]] = routed_[i];
+    (*s.mutable_logged_by_topic())[names_[i]] = topic_log_[i].logged;
+    if (topic_log_[i].over_total > 0) (*s.mutable_over_budget_by_topic())[names_[i]] = topic_log_[i].over_total;
   }
+  s.set_profile(std::string(to_string(options_.profile)));
+  s.set_interval_ms(static_cast<double>(options_.interval.count()));
+  s.set_budget_kb_s(static_cast<double>(options_.budget_bytes_per_s) / 1000.0);
 }
 
 Result<std::uint64_t, std::string> UlogRecorder::close() {
+  for (std::size_t i = 0; i < topic_log_.size(); ++i) {  // an episode still going: what it left out, said last
+    if (topic_log_[i].over) say_over_budget(i, last_t_, Episode::Ends);
+  }
   auto size = writer_.close();
   if (!error_.empty()) return fail("ULog file '" + writer_.path().string() + "': " + error_);
   if (!size) return fail("ULog file '" + writer_.path().string() + "': " + std::string(ulog::to_string(size.error())));
@@ -456,8 +550,9 @@ Result<std::uint64_t, std::string> UlogRecorder::close() {
 Result<std::unique_ptr<UlogRecorder>, std::string> write_ulog_to(const std::filesystem::path& path,
                                                                  const kernel::Kernel& kernel,
                                                                  const UlogRecorder::RunInfo& info,
+                                                                 const UlogOptions& options,
                                                                  kernel::ObserverFanout& observers) {
-  auto recorder = UlogRecorder::create(path, kernel, info);
+  auto recorder = UlogRecorder::create(path, kernel, info, options);
   if (recorder) observers.add(recorder->get());
   return recorder;
 }

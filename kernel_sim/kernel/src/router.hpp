@@ -16,6 +16,7 @@
 #include "output_batch.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/channel/wire.hpp"
+#include "rejuv/core/rate_budget.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/msgs/topic_types.hpp"
 #include "service_runtime.hpp"
@@ -95,9 +96,19 @@ class Router {
   enum class SendResult : std::uint8_t { Sent, Blocked, Failed };
   SendResult send_now(ServiceRuntime& s, std::span<const std::byte> frame);
   bool deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber);  // false: nothing pending or blocked
+  // A service's publication budget (docs/sandbox.md "Floods cost only the flooder"): false = over it, the
+  // publication dropped and counted; reported (log line, SecurityEvent) at most once per kReportEvery.
+  bool within_budget(ServiceRuntime& s, std::uint32_t slot);
+  struct PublicationBudget {
+    RateBudget rate{};
+    Nanos next_report{0};
+    std::uint64_t reported = 0;  // drops already said in a report
+  };
+  static constexpr Nanos kReportEvery{std::chrono::seconds{1}};
 
   Kernel::Impl& k;
   std::vector<SubscriberInfo> subscribers;  // by SubscriberId value
+  std::vector<std::optional<PublicationBudget>> budgets;  // by ServiceId value, made at its first publication
   MissionWatch mission;                     // watch.cpp
   OutputBatch batch;  // a routing round's output (cork/uncork)
   wire::FrameBuffer

@@ -157,6 +157,7 @@ SandboxLimitValues sandbox_limits(const proto::Launch& graph, const proto::Servi
     if (l->has_max_open_files()) v.max_open_files = l->max_open_files();
     if (l->has_max_cpu_percent()) v.max_cpu_percent = l->max_cpu_percent();
     if (l->has_max_group_memory_mb()) v.max_group_memory_mb = l->max_group_memory_mb();
+    if (l->has_max_publications_per_s()) v.max_publications_per_s = l->max_publications_per_s();
   }
   return v;
 }

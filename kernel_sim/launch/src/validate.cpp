@@ -416,6 +416,12 @@ class Validator {
                           "max_cpu_percent must be 0 (no limit) or 10..6400 (% of one CPU; the kernel's smallest quota is "
                           "1 ms per 10 ms), got " + std::to_string(l.max_cpu_percent())));
       }
+      if (l.has_max_publications_per_s() &&
+          (l.max_publications_per_s() < 1 || l.max_publications_per_s() > defaults::kMaxSandboxPublicationsPerS)) {
+        return fail(error(where(i, "max_publications_per_s"),
+                          "max_publications_per_s must be 1..1000000 (publications per second of kernel time), got " +
+                              std::to_string(l.max_publications_per_s())));
+      }
       if (l.has_max_open_files() && l.max_open_files() < defaults::kMinSandboxOpenFiles) {
         return fail(error(where(i, "max_open_files"), "max_open_files must be at least " +
                                                           std::to_string(defaults::kMinSandboxOpenFiles) +
@@ -708,6 +714,12 @@ class Validator {
       if (!std::isfinite(a.magnitude()) || a.magnitude() < 0.0 || a.magnitude() > 1e6) {
         return fail(error(at({{"attack", -1}, {"attacks", i}}, "magnitude"),
                           "attack magnitude must be in [0, 1e6] (0 = the kind's default), got " + num(a.magnitude())));
+      }
+      // FLOOD_BROKER's magnitude: publications per tick of a sustained flood (0 = one burst per window).
+      if (a.kind() == proto::FLOOD_BROKER && (a.magnitude() != std::floor(a.magnitude()) || a.magnitude() > 100000.0)) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "magnitude"),
+                          "FLOOD_BROKER takes a whole count in [0, 100000] as its magnitude (publications per "
+                          "tick; 0 = one burst of 10000 per window), got " + num(a.magnitude())));
       }
       // The attacks on rollback itself (18…27) take a count of processes or threads.
       const bool counted = a.kind() >= proto::SIGIO_IMAGES && a.kind() <= proto::PAGEMAP_FRAMES;

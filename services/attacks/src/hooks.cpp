@@ -94,6 +94,14 @@ void AttackHooks::tick() {
     carry_out(c.attack().kind, c.ordinal());
   }
   if (any) ++windows_attacked_;
+  // A sustained flood goes on at every tick of the window it began in (a rollback ends it: this memory too).
+  if (flood_epoch_ && !any) {
+    if (mode == SrMode::MC && epoch == *flood_epoch_) {
+      flood(planned_count(AttackKind::FloodBroker));
+    } else {
+      flood_epoch_.reset();
+    }
+  }
 }
 
 void AttackHooks::report(AttackKind kind, std::string action, std::uint64_t target, std::int64_t code) {
@@ -168,7 +176,16 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
     }
     case AttackKind::KillImage: kill_image(variant); break;
     case AttackKind::OpenSocket: open_socket(variant); break;
-    case AttackKind::FloodBroker: flood(); break;
+    case AttackKind::FloodBroker: {
+      const std::uint32_t per_tick = planned_count(kind);
+      if (per_tick > 0) flood_epoch_ = svc_.epoch();
+      if (const auto slot = flood(per_tick > 0 ? per_tick : kFloodMessages)) {
+        report(AttackKind::FloodBroker,
+               "Publish x" + std::to_string(per_tick > 0 ? per_tick : kFloodMessages) + (per_tick > 0 ? " per tick" : ""),
+               slot->value(), Attempt::kFireAndForget);
+      }
+      break;
+    }
     case AttackKind::EscapeHelper: escape_helper(); break;
     case AttackKind::SigioImages:
     case AttackKind::SigioKernel:
@@ -309,7 +326,7 @@ void AttackHooks::open_socket(std::uint32_t variant) {
   }
 }
 
-void AttackHooks::flood() {
+std::optional<Slot> AttackHooks::flood(std::uint32_t messages) {
   // A topic it may write now (the broker's bounds are what is tested), else every topic it holds.
   std::vector<const sdk::CapInfo*> topics;
   for (const sdk::CapInfo& c : svc_.caps()) {
@@ -323,15 +340,14 @@ void AttackHooks::flood() {
       if (c.kind == ObjectKind::Topic) topics.push_back(&c);
     }
   }
-  if (topics.empty()) return;
+  if (topics.empty()) return std::nullopt;
   std::vector<std::byte> payload;
-  for (std::uint32_t i = 0; i < kFloodMessages; ++i) {
+  for (std::uint32_t i = 0; i < messages; ++i) {
     const sdk::CapInfo& c = *topics[i % topics.size()];
     payload.assign(std::max<std::size_t>(c.payload_size, 1), std::byte{0});
     (void)sdk::testing::publish_unchecked(svc_, c, payload);
   }
-  report(AttackKind::FloodBroker, "Publish x" + std::to_string(kFloodMessages), topics.front()->slot.value(),
-         Attempt::kFireAndForget);
+  return topics.front()->slot;
 }
 
 void AttackHooks::escape_helper() {

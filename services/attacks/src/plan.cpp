@@ -87,9 +87,11 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
       return fail(bad(a.prefix + "kind", "unknown attack kind '" + a.kind + "'"));
     }
     // A count only for the attacks on rollback (18…27); the others ignore their magnitude.
-    const bool counted = std::ranges::find(kRollbackAttackKinds, *kind) != kRollbackAttackKinds.end();
-    auto processes =
-        counted ? whole_param(number, a.prefix + "magnitude", kMaxAttackCount) : Result<std::uint32_t, PlanError>{0U};
+    // FLOOD_BROKER's: publications per tick of a sustained flood.
+    const bool flood = *kind == AttackKind::FloodBroker;
+    const bool counted = flood || std::ranges::find(kRollbackAttackKinds, *kind) != kRollbackAttackKinds.end();
+    auto processes = counted ? whole_param(number, a.prefix + "magnitude", flood ? kMaxFloodPerTick : kMaxAttackCount)
+                             : Result<std::uint32_t, PlanError>{0U};
     if (!processes) return fail(std::move(processes.error()));
     plan.attacks.push_back(
         RuntimeAttack{.kind = *kind, .start = a.start, .max_windows = a.max_windows, .count = *processes});

@@ -57,6 +57,7 @@ mav::Severity severity_of(rejuv_msg_SecurityEventKind kind) {
     case rejuv_msg_SECURITY_STRAY_PROCESS: return mav::Severity::Critical;
     case rejuv_msg_SECURITY_IMAGE_LOST: return mav::Severity::Alert;
     case rejuv_msg_SECURITY_OUT_OF_MEMORY: return mav::Severity::Critical;
+    case rejuv_msg_SECURITY_PUBLICATION_BUDGET: return mav::Severity::Warning;
   }
   return mav::Severity::Warning;
 }
@@ -68,6 +69,7 @@ const char* name_of(rejuv_msg_SecurityEventKind kind) {
     case rejuv_msg_SECURITY_STRAY_PROCESS: return "stray process";
     case rejuv_msg_SECURITY_IMAGE_LOST: return "image lost";
     case rejuv_msg_SECURITY_OUT_OF_MEMORY: return "out of memory";
+    case rejuv_msg_SECURITY_PUBLICATION_BUDGET: return "publications over budget";
   }
   return "?";
 }

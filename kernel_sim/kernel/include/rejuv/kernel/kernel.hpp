@@ -286,6 +286,7 @@ struct ServiceStats {
                                     // skips what its service slept through by design and is not counted)
   std::uint64_t log_suppressed = 0; // log lines dropped by the rate limit
   std::uint64_t flood_dropped = 0;  // publications dropped over the per-step bound (lockstep)
+  std::uint64_t publications_over_budget = 0;  // dropped over its publication budget (max_publications_per_s)
   // Containment (DESIGN §7 "Protection", docs/sandbox.md): every violation is proof of compromise.
   std::uint64_t sandbox_violations = 0;  // all kinds below
   std::uint64_t forbidden_calls = 0;     // a call outside the allow-list (or a boot call after boot): killed

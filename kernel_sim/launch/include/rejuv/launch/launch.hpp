@@ -89,6 +89,11 @@ inline constexpr std::uint32_t kSandboxOpenFiles = 256;
 // a graph that fears spinning strays more than that sets max_cpu_percent (100 = one CPU).
 inline constexpr std::uint32_t kSandboxCpuPercent = 0;
 inline constexpr std::uint32_t kSandboxGroupMemoryMb = 1024;
+// A service's publication budget [1/s of kernel time] (docs/sandbox.md "Floods cost only the flooder"): the
+// busiest honest service of the shipped graphs publishes ≈ 280/s (docs/performance.md "Publication rates"), so
+// 2000/s is seven times that and never touches one; a burst of one second's worth passes.
+inline constexpr std::uint32_t kSandboxPublicationsPerS = 2000;
+inline constexpr std::uint32_t kMaxSandboxPublicationsPerS = 1'000'000;
 inline constexpr std::uint32_t kMinSandboxOpenFiles = 16;  // below it the SDK cannot boot
 // Bounds of what a graph may ask for (refused at load, file:line:column):
 inline constexpr double kMaxDurationS = 1e6;           // any duration [s]: ~11 days, far inside int64 ns
@@ -162,6 +167,7 @@ struct SandboxLimitValues {
   std::uint32_t max_open_files = defaults::kSandboxOpenFiles;
   std::uint32_t max_cpu_percent = defaults::kSandboxCpuPercent;            // 0 = no limit
   std::uint32_t max_group_memory_mb = defaults::kSandboxGroupMemoryMb;    // 0 = no limit
+  std::uint32_t max_publications_per_s = defaults::kSandboxPublicationsPerS;  // [1/s of kernel time]
 };
 [[nodiscard]] SandboxLimitValues sandbox_limits(const proto::Launch& graph, const proto::ServiceSpec& service);
 

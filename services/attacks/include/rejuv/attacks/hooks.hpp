@@ -21,7 +21,8 @@
 //   NETWORK_IN_SEI     NetSend on its Network caps and never-held slots, at the start of each secure interval
 //   KILL_IMAGE         kill(parent, SIGKILL), kill(pid guesses, 0), ptrace(ATTACH), process_vm_readv, pidfd_open
 //   OPEN_SOCKET        socket(AF_INET), socketpair(AF_UNIX), socket(AF_UNIX, SEQPACKET)
-//   FLOOD_BROKER       kFloodMessages publishes in one callback on a topic it may write (else on every topic)
+//   FLOOD_BROKER       kFloodMessages publishes in one callback on a topic it may write (else on every topic);
+//                      with a magnitude m > 0 a sustained flood instead: m publishes at every tick of the window
 // the attacks on rollback itself (rollback_attacks.cpp, docs/sandbox.md "Threats that used rollback itself"):
 //   SIGIO_IMAGES       fcntl(fd 3, F_SETOWN, −pgrp), F_SETSIG(SIGSTOP; SIGUSR1 in odd windows), F_SETFL O_ASYNC
 //   SIGIO_KERNEL       the same aimed at the kernel (F_SETOWN, getppid()) with SIGKILL
@@ -57,6 +58,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -121,7 +123,8 @@ class AttackHooks {
   [[nodiscard]] std::uint32_t planned_count(AttackKind kind) const;
   void kill_image(std::uint32_t variant);
   void open_socket(std::uint32_t variant);
-  void flood();
+  // `messages` publishes on a topic it may write (else on each it holds): the first one's slot, if any.
+  std::optional<Slot> flood(std::uint32_t messages);
   void escape_helper();
   // The attacks on rollback itself (18…27; rollback_attacks.cpp). `count`: the plan's, 0 = the kind's default.
   void against_rollback(AttackKind kind, std::uint32_t variant, std::uint32_t count);
@@ -150,6 +153,7 @@ class AttackHooks {
   void* time_page_mapping_ = nullptr;  // BOOT_TIME_PAGE: the writable mapping it got at boot, if any
   void* oom_mapping_ = nullptr;        // OOM_IMAGES: what it touched (at boot, then in each window)
   std::size_t oom_bytes_ = 0;
+  std::optional<Epoch> flood_epoch_{};  // FLOOD_BROKER with a magnitude: the window it floods at every tick
   std::uint32_t attempts_ = 0;  // in the current attack: for the default log line
   std::uint32_t accepted_ = 0;
 };

@@ -93,6 +93,8 @@ enum class Occasion : std::uint8_t { EveryWindow, OnceAtBoot, AtBootThenEveryWin
 
 // The largest count an attack on rollback takes (attack.<j>.magnitude; the launch loader checks it too).
 inline constexpr double kMaxAttackCount = 1000.0;
+// The largest FLOOD_BROKER magnitude: publications per tick of a sustained flood (the launch loader checks it too).
+inline constexpr double kMaxFloodPerTick = 100000.0;
 
 // ESCAPE_HELPER's UDP target port on 127.0.0.1 when the service has no escape_port param (discard).
 inline constexpr std::uint16_t kDefaultEscapePort = 9;
