@@ -742,7 +742,10 @@ class Validator {
     p = p.lexically_normal();
     std::error_code ec;
     if (!std::filesystem::is_regular_file(p, ec)) {
-      return fail(error(at({}, "policy"), "policy file \"" + g_.policy() + "\" (resolved to " + p.string() +
+      // Absolute: a copied launch file's relative path is read from where the copy is, which the message shows.
+      const std::filesystem::path shown = std::filesystem::absolute(p, ec).lexically_normal();
+      return fail(error(at({}, "policy"), "policy file \"" + g_.policy() + "\" (resolved to " +
+                                              (shown.empty() ? p : shown).string() +
                                               ") does not exist or is not a regular file"));
     }
     if (g_.has_dds() && !g_.dds().config().empty()) {

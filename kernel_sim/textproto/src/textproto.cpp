@@ -12,7 +12,9 @@
 #include <map>
 #include <optional>
 #include <system_error>
+#include <vector>
 
+#include "rejuv/core/did_you_mean.hpp"
 #include "rejuv/sys/file.hpp"
 
 namespace rejuv {
@@ -362,6 +364,68 @@ std::string without_file_text(std::string_view message) {
   return "not valid text format here" + std::string(kNote);
 }
 
+// protobuf's "Message type \"T\" has no field named \"x\"." with the field of T that x most likely meant (the
+// schema knows every field: rejuv/core/did_you_mean.hpp). Unchanged for any other message.
+std::string with_field_suggestion(std::string message, const pb::Descriptor& root) {
+  constexpr std::string_view kType = "Message type \"";
+  constexpr std::string_view kField = "\" has no field named \"";
+  if (message.rfind(kType, 0) != 0) return message;
+  const std::size_t type_end = message.find(kField);
+  if (type_end == std::string::npos) return message;
+  const std::size_t name_start = type_end + kField.size();
+  const std::size_t name_end = message.find('"', name_start);
+  if (name_end == std::string::npos) return message;
+  const std::string type = message.substr(kType.size(), type_end - kType.size());
+  const pb::Descriptor* d = root.file()->pool()->FindMessageTypeByName(type);
+  if (d == nullptr) return message;
+  std::vector<std::string> fields;
+  for (int i = 0; i < d->field_count(); ++i) fields.push_back(d->field(i)->name());
+  const std::string hint = did_you_mean(std::string_view(message).substr(name_start, name_end - name_start), fields);
+  if (hint.empty()) return message;
+  if (message.ends_with(".")) message.pop_back();
+  return message + hint;
+}
+
+// The innermost block still open at the end of the text (`name {` or `name <` without its closing mark), as
+// protobuf's tokenizer reads it (comments and strings skipped): its field name and 1-based position.
+struct OpenBlock {
+  std::string field;
+  int line = 0;
+  int column = 0;
+  char close = '}';
+};
+std::optional<OpenBlock> unclosed_block(std::string_view text) {
+  pb::io::ArrayInputStream in(text.data(), static_cast<int>(text.size()));
+  IgnoreErrors ignore;
+  pb::io::Tokenizer tokenizer(&in, &ignore);
+  tokenizer.set_comment_style(pb::io::Tokenizer::SH_COMMENT_STYLE);
+  std::vector<OpenBlock> open;
+  std::string previous;
+  while (tokenizer.Next()) {
+    const pb::io::Tokenizer::Token& t = tokenizer.current();
+    if (t.type == pb::io::Tokenizer::TYPE_SYMBOL && (t.text == "{" || t.text == "<")) {
+      open.push_back(OpenBlock{previous, t.line + 1, static_cast<int>(t.column) + 1, t.text == "{" ? '}' : '>'});
+    } else if (t.type == pb::io::Tokenizer::TYPE_SYMBOL && (t.text == "}" || t.text == ">") && !open.empty()) {
+      open.pop_back();
+    }
+    previous = t.type == pb::io::Tokenizer::TYPE_IDENTIFIER ? t.text : std::string();
+  }
+  if (open.empty()) return std::nullopt;
+  return open.back();
+}
+
+// protobuf's "Expected identifier, got: " at the end of the text, said as what it is: a block never closed, and
+// where it began. `name_it`: whether the block's field name may be quoted (not from an included file's text).
+std::optional<std::string> missing_close(std::string_view text, std::string_view message, bool name_it) {
+  if (!message.starts_with("Expected identifier, got: ") || message.size() != 26) return std::nullopt;
+  const auto block = unclosed_block(text);
+  if (!block) return std::nullopt;
+  std::string out = std::string("missing '") + block->close + "' at the end of the file: the block ";
+  if (name_it && !block->field.empty()) out += "`" + block->field + " " + (block->close == '}' ? "{" : "<") + "` ";
+  return out + "opened at line " + std::to_string(block->line) + ", column " + std::to_string(block->column) +
+         " is never closed";
+}
+
 // Whether a syntax error may quote the file's text: yes for the file the user named, no for a file it includes
 // (its path was written by whoever wrote the including file, and may name a file that user could not read).
 enum class Quoting : std::uint8_t { FileText, NothingFromTheFile };
@@ -395,8 +459,12 @@ Result<TextLocations, LoadError> parse_one(std::string_view text, std::string na
     }
     out.Clear();
     point_at_named_token(text, message, where);
-    if (quoting == Quoting::NothingFromTheFile) {
+    if (auto unclosed = missing_close(text, message, quoting == Quoting::FileText)) {
+      message = std::move(*unclosed);
+    } else if (quoting == Quoting::NothingFromTheFile) {
       message = without_file_text(message);
+    } else {
+      message = with_field_suggestion(std::move(message), *out.GetDescriptor());
     }
     return fail(LoadError{LoadErrorKind::Syntax, std::move(where), std::move(message)});
   }

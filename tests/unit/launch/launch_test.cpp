@@ -190,6 +190,48 @@ TEST(LaunchLoader, UnknownField_SyntaxError) {
   EXPECT_EQ(r.error().where.line, bad.line + 1);
 }
 
+TEST(LaunchLoader, MisspeltField_SyntaxErrorSuggestsTheField) {
+  const Mutated bad = mutate("t_mc_s: 0.3", "t_mcs: 0.3");
+  const auto r = parse_launch(bad.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Syntax);
+  EXPECT_EQ(r.error().where.line, bad.line);
+  EXPECT_EQ(r.error().where.column, bad.column);
+  EXPECT_NE(r.error().message.find("has no field named \"t_mcs\" (did you mean \"t_mc_s\"?)"), std::string::npos)
+      << r.error().message;
+}
+
+TEST(LaunchLoader, FieldFarFromAnyName_NoSuggestion) {
+  const auto r = parse_launch(mutate("t_mc_s: 0.3", "completely_else: 0.3").text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().message.find("has no field named"), std::string::npos) << r.error().message;
+  EXPECT_EQ(r.error().message.find("did you mean"), std::string::npos) << r.error().message;
+}
+
+TEST(LaunchLoader, MissingClosingBrace_SaysWhatAndWhereTheBlockBegan) {
+  std::string text(kGood);
+  text.erase(text.rfind('}'));  // the attack block's closing brace, the last of the file
+  const std::size_t open = text.find("attack {");
+  const int line = static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(open), '\n')) + 1;
+  const auto r = parse_launch(text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Syntax);
+  EXPECT_NE(r.error().message.find("missing '}' at the end of the file: the block `attack {` opened at line " +
+                                   std::to_string(line) + ", column 8 is never closed"),
+            std::string::npos)
+      << r.error().message;
+}
+
+TEST(LaunchLoader, PolicyMissingOfACopiedFile_NamedByItsAbsolutePath) {
+  // A relative path, as a user gives it, to a copy where ../policies does not exist.
+  const std::filesystem::path copy = std::filesystem::path("no_such_dir_of_a_copy") / "deeper" / "g.launch.pbtxt";
+  const auto r = parse_launch(kGood, copy);
+  ASSERT_FALSE(r.has_value());
+  const std::string resolved =
+      (std::filesystem::current_path() / "no_such_dir_of_a_copy" / "policies" / "quad_sr.policy.pbtxt").string();
+  EXPECT_NE(r.error().message.find("(resolved to " + resolved + ")"), std::string::npos) << r.error().message;
+}
+
 TEST(LaunchLoader, MissingName_SemanticAtStartOfFile) {
   const Mutated m = mutate("name: \"unit\"\n", "");
   const auto r = parse_launch(m.text, kAsPath);
