@@ -2,6 +2,8 @@
 
 #include <algorithm>
 
+#include "rejuv/policy/audit.hpp"
+
 namespace rejuv::cli {
 
 Result<flight::AttackLaw, std::string> parse_attack_kind(std::string_view text) {
@@ -36,6 +38,11 @@ Result<launch::LoadedLaunch, std::string> load_with_attack(const std::string& pa
                                                            std::string_view command) {
   auto loaded = launch::load_launch(path);
   if (!loaded) return fail(loaded.error().to_string());
+  // An object a service `uses` that its policy does not declare is an unknown name: refused here (exit 2), before
+  // the kernel's audit would report it as a finding.
+  const auto policy = policy::load_policy(loaded->policy_path, loaded->policy_includes);
+  if (!policy) return fail(policy.error().to_string());
+  if (auto ok = policy::check_used_objects(*policy, *loaded); !ok) return fail(ok.error().to_string());
   if (law) {
     if (auto ok = override_attack(*loaded, *law); !ok) return fail(std::string(command) + ": " + ok.error());
   }

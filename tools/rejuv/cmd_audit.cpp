@@ -240,6 +240,9 @@ int run_audit(std::span<const std::string_view> args) {
   const auto pol = policy::load_policy(r.policy_path, *graph ? std::span<const ExtraFragment>((*graph)->policy_includes)
                                                              : std::span<const ExtraFragment>());
   if (!pol) return bad_input(r.format, r.policy_path, pol.error());
+  if (*graph) {
+    if (auto ok = policy::check_used_objects(*pol, **graph); !ok) return bad_input(r.format, r.policy_path, ok.error());
+  }
   const auto findings = *graph ? policy::audit(*pol, **graph) : policy::audit(*pol);
   switch (r.format) {
     case Format::Text: print(stdout, text_report(*pol, r.policy_path, findings, *graph ? &**graph : nullptr)); break;

@@ -1,5 +1,7 @@
 #include "rejuv/policy/audit.hpp"
 
+#include "rejuv/core/did_you_mean.hpp"
+
 #include <algorithm>
 #include <map>
 #include <optional>
@@ -563,6 +565,23 @@ std::vector<MatrixRow> matrix(const Policy& policy) {
     }
   }
   return rows;
+}
+
+Result<void, LoadError> check_used_objects(const Policy& policy, const launch::LoadedLaunch& graph) {
+  std::vector<std::string> names;
+  for (const Object& o : policy.objects()) names.push_back(o.name);
+  const proto::Launch& g = graph.graph;
+  for (int i = 0; i < g.services_size(); ++i) {
+    const proto::ServiceSpec& s = g.services(i);
+    for (int u = 0; u < s.uses_size(); ++u) {
+      const std::string& object = s.uses(u).object();
+      if (policy.find_object(object)) continue;
+      return fail(semantic_error(graph.locations.locate({{"services", i}, {"uses", u}}, "object"),
+                                 "service \"" + s.name() + "\" uses \"" + object + "\", which is no object of the policy " +
+                                     policy.file() + did_you_mean(object, names)));
+    }
+  }
+  return {};
 }
 
 }  // namespace rejuv::policy

@@ -442,6 +442,28 @@ TEST(AuditGraph, UseOfUnknownObject_Finding) {
   expect_one_coverage(f, "unit_graph", 14, "not an object of the policy");
 }
 
+TEST(CheckUsedObjects, MisspeltObject_LoadErrorAtTheUseWithSuggestion) {
+  const Policy p = must_parse(kGraphPolicy);
+  const auto g = launch::parse_launch(
+      replaced(kGraph, "uses { object: \"controls\" rights: \"W\" }", "uses { object: \"control\" rights: \"W\" }"),
+      kRepo / "launch" / "unit_graph.launch.pbtxt");
+  ASSERT_TRUE(g.has_value()) << g.error().to_string();
+  const auto r = check_used_objects(p, *g);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Semantic);
+  EXPECT_EQ(r.error().where.line, 13) << r.error().to_string();
+  EXPECT_NE(r.error().message.find("uses \"control\", which is no object of the policy"), std::string::npos)
+      << r.error().message;
+  EXPECT_NE(r.error().message.find("(did you mean \"controls\"?)"), std::string::npos) << r.error().message;
+}
+
+TEST(CheckUsedObjects, EveryObjectDeclared_Accepted) {
+  const Policy p = must_parse(kGraphPolicy);
+  const auto g = launch::parse_launch(kGraph, kRepo / "launch" / "unit_graph.launch.pbtxt");
+  ASSERT_TRUE(g.has_value()) << g.error().to_string();
+  EXPECT_TRUE(check_used_objects(p, *g).has_value());
+}
+
 TEST(AuditGraph, GrantNotUsed_DeadGrantFinding) {
   const auto f = audit_graph(
       replaced(kGraphPolicy, "rights: \"W\" modes: [MC] }\ngrants { service: \"drv\"",

@@ -155,6 +155,25 @@ TEST_F(RejuvCli, BadLaunchFile_Exit2) {
   EXPECT_NE(r.err.find(graph.string() + ":2:"), std::string::npos) << r.err;
 }
 
+// An object a service `uses` that the policy does not declare is an unknown name: refused at the launch file's
+// line with the object meant, exit 2 in `rejuv audit --launch` and in `rejuv run` (README "Exit codes").
+TEST_F(RejuvCli, LaunchUsingAMisspeltObject_Exit2WithDidYouMean) {
+  std::string text = slurp(kRepo / "launch" / "quad_square_paper.launch.pbtxt");
+  const std::string rel = "\"../policies/quad_sr.policy.pbtxt\"";
+  text.replace(text.find(rel), rel.size(), "\"" + kQuadSr + "\"");
+  const std::string used = "object: \"vehicle_state\"";
+  text.replace(text.find(used), used.size(), "object: \"vehicle_sate\"");
+  const auto graph = write("typo.launch.pbtxt", text);
+  for (const std::vector<std::string>& args : {std::vector<std::string>{"audit", "--launch", graph.string()},
+                                               std::vector<std::string>{"run", graph.string()}}) {
+    const Outcome r = rejuv(args);
+    EXPECT_EQ(r.exit_code, 2) << args[0] << ": " << r.err;
+    EXPECT_NE(r.err.find(graph.string() + ":"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("uses \"vehicle_sate\", which is no object of the policy"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("(did you mean \"vehicle_state\"?)"), std::string::npos) << r.err;
+  }
+}
+
 // A policy fragment that names a file its author could not read (`rejuv audit` as root): refused by name, exit 2,
 // nothing of the file on the terminal; a FIFO as the policy neither blocks nor passes.
 TEST_F(RejuvCli, PolicyIncludingAShadowLikeFileOrAFifo_Exit2NamingItWithoutItsText) {

@@ -55,6 +55,11 @@ struct Finding {
 // Also checks it against a launch graph: names on both sides, uses vs grants, readers vs writers.
 [[nodiscard]] std::vector<Finding> audit(const Policy& policy, const launch::LoadedLaunch& graph);
 
+// Every object a launch graph's service `uses` is an object of the policy. An unknown name is refused as a load
+// error at the launch file's line, with the object it most likely meant (README "Exit codes": an unknown name is
+// refused, exit 2, not an audit finding); run it before `audit`, which reports the same as a finding.
+[[nodiscard]] Result<void, LoadError> check_used_objects(const Policy& policy, const launch::LoadedLaunch& graph);
+
 // One row of the service × object × mode matrix: a pair with a grant in at least one mode.
 struct MatrixRow {
   ServiceId service;
