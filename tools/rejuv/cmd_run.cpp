@@ -290,8 +290,8 @@ void declare_run_options(Options& opts, RunRequest& r) {
   charge_option(opts, r.flags.charge);
   out_options(opts, r.out)
       .path("--ulog", "FILE", r.ulog_path,
-            "write the run as a PX4 ULog file (every routed topic, parameters, log lines, SR events;\n"
-            "PlotJuggler, Flight Review, Foxglove: docs/ulog.md)",
+            "write the run as a PX4 ULog file (every routed topic through --ulog-profile, parameters, log\n"
+            "lines, SR events; PlotJuggler, Flight Review, Foxglove: docs/ulog.md)",
             "DIR/run.ulg with --out")
       .choice<UlogProfile>("--ulog-profile", {{"default", UlogProfile::Default}, {"full", UlogProfile::Full}},
                            r.ulog_profile,
