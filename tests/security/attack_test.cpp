@@ -30,9 +30,12 @@ constexpr double kForgedLimit = 1.0e6;       // attacks::kForgedLimit (hooks.hpp
 constexpr std::uint64_t kForgedCell = 0xA7A7'A7A7'A7A7'A7A7ULL;  // attacks::kForgedPersistentByte × 8
 constexpr std::uint32_t kFloodMessages = 10000;  // attacks::kFloodMessages
 
-std::string attack_launch(AttackKind kind, const std::string& attacker, const std::string& worker_extra = "") {
-  return security_launch({.worker_extra = worker_extra, .attack = "attack {\n  enabled: true\n  attacks { kind: " +
-                                    std::string(attacks::to_string(kind)) + " service: \"" + attacker + "\" }\n}\n"});
+std::string attack_launch(AttackKind kind, const std::string& attacker,
+                          const std::string& worker_extra = "") {
+  return security_launch(
+      {.worker_extra = worker_extra,
+       .attack = "attack {\n  enabled: true\n  attacks { kind: " + std::string(attacks::to_string(kind)) +
+                 " service: \"" + attacker + "\" }\n}\n"});
 }
 
 class Attacks : public ::testing::Test {

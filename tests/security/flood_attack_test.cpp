@@ -6,10 +6,11 @@
 // without the flood (the default profile and, in lockstep, `--ulog-profile full`, where the size budget cuts
 // the topic and the log says so); ext_link's excess is dropped by its publication budget, counted and
 // attributed to it, its accepted publications within its budget; no other service has a publication dropped,
-// and in lockstep every other service publishes exactly what it publishes without the flood; the kernel reports
-// it at most once per second as a SecurityEvent; the vehicle stays safe (max V < 1). No timing is asserted.
-#include <gtest/gtest.h>
+// and in lockstep every other service publishes exactly what it publishes without the flood; the kernel
+// reports it at most once per second as a SecurityEvent; the vehicle stays safe (max V < 1). No timing is
+// asserted.
 #include <google/protobuf/util/json_util.h>
+#include <gtest/gtest.h>
 
 #include <cstdint>
 #include <filesystem>
@@ -40,8 +41,8 @@ class FloodAttack : public test_support::ScratchDirTest {
   FloodAttack() : ScratchDirTest("rejuv_flood_") {}
   [[nodiscard]] bool keep_on_failure() const override { return true; }
 
-  // launch/quad_square in the scratch folder, over an edited copy of the paper's square: the policy by absolute
-  // path, a short alignment and, with the flood, ext_link flooding from the first MC window on.
+  // launch/quad_square in the scratch folder, over an edited copy of the paper's square: the policy by
+  // absolute path, a short alignment and, with the flood, ext_link flooding from the first MC window on.
   void write_graph(Flood flood, const fs::path& to) {
     std::string t = slurp(kRepo / "launch/quad_square_paper.launch.pbtxt");
     const auto replace = [&](const std::string& from, const std::string& with) {
@@ -65,15 +66,26 @@ class FloodAttack : public test_support::ScratchDirTest {
   proto::RunSummary fly(Clock clock, Flood flood, const std::string& profile, const std::string& name) {
     const fs::path graph = dir_ / (name + ".launch.pbtxt");
     write_graph(flood, graph);
-    std::vector<std::string> args{"run", graph.string(), "--duration", std::to_string(kFlightS),
-                                  "--domain", std::to_string(test_support::kOwnDdsDomain), "--net-port", "0",
-                                  "--ulog", (dir_ / (name + ".ulg")).string(), "--ulog-profile", profile,
-                                  "--summary-json", (dir_ / (name + ".json")).string()};
+    std::vector<std::string> args{"run",
+                                  graph.string(),
+                                  "--duration",
+                                  std::to_string(kFlightS),
+                                  "--domain",
+                                  std::to_string(test_support::kOwnDdsDomain),
+                                  "--net-port",
+                                  "0",
+                                  "--ulog",
+                                  (dir_ / (name + ".ulg")).string(),
+                                  "--ulog-profile",
+                                  profile,
+                                  "--summary-json",
+                                  (dir_ / (name + ".json")).string()};
     if (clock == Clock::Realtime) args.emplace_back("--realtime");
     const test_support::CliOutcome run = test_support::run_rejuv(dir_ / "", args);
     EXPECT_EQ(run.exit_code, 0) << name << ": " << run.err;
     proto::RunSummary summary;
-    EXPECT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(dir_ / (name + ".json")), &summary).ok()) << name;
+    EXPECT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(dir_ / (name + ".json")), &summary).ok())
+        << name;
     return summary;
   }
 
@@ -84,13 +96,14 @@ class FloodAttack : public test_support::ScratchDirTest {
   }
 
   // What holds in either clock, for a flooded flight next to its flight without the flood.
-  void expect_only_the_flooder_pays(Clock clock, const proto::RunSummary& base, const proto::RunSummary& flood) {
+  void expect_only_the_flooder_pays(Clock clock, const proto::RunSummary& base,
+                                    const proto::RunSummary& flood) {
     // The ULog within 2× of the flight without the flood.
     ASSERT_GT(base.ulog().bytes(), 0U);
     EXPECT_LE(flood.ulog().bytes(), 2 * base.ulog().bytes())
         << "flood " << flood.ulog().bytes() << " B, without " << base.ulog().bytes() << " B";
-    // ext_link's excess dropped, counted and attributed to it; what it got through within its budget (2000/s of
-    // kernel time, the alignment included, with a burst of one second's worth).
+    // ext_link's excess dropped, counted and attributed to it; what it got through within its budget (2000/s
+    // of kernel time, the alignment included, with a burst of one second's worth).
     const auto services = by_name(flood);
     ASSERT_TRUE(services.contains("ext_link"));
     const proto::ServiceSummary& flooder = *services.at("ext_link");
@@ -104,7 +117,8 @@ class FloodAttack : public test_support::ScratchDirTest {
       EXPECT_EQ(sv->publications_over_budget(), 0U) << name;
       ASSERT_TRUE(honest.contains(name)) << name;
       EXPECT_EQ(honest.at(name)->publications_over_budget(), 0U) << name;
-      // In lockstep the flight is the same: every other service publishes what it publishes without the flood.
+      // In lockstep the flight is the same: every other service publishes what it publishes without the
+      // flood.
       if (clock == Clock::Lockstep) {
         EXPECT_EQ(sv->publishes(), honest.at(name)->publishes()) << name;
       }
@@ -127,7 +141,8 @@ TEST_F(FloodAttack, Lockstep_FlooderDroppedAndCounted_LogWithinTwiceAndOthersUna
   ASSERT_FALSE(HasFailure());
   expect_only_the_flooder_pays(Clock::Lockstep, base, flood);
   // The default profile writes mission_upload at its interval, not at the flood's rate.
-  EXPECT_LT(flood.ulog().logged_by_topic().at("mission_upload"), flood.ulog().routed_by_topic().at("mission_upload"));
+  EXPECT_LT(flood.ulog().logged_by_topic().at("mission_upload"),
+            flood.ulog().routed_by_topic().at("mission_upload"));
 }
 
 TEST_F(FloodAttack, LockstepFullProfile_SizeBudgetCutsTheTopic_LogSaysSo) {
@@ -141,7 +156,8 @@ TEST_F(FloodAttack, LockstepFullProfile_SizeBudgetCutsTheTopic_LogSaysSo) {
   EXPECT_GT(flood.ulog().over_budget_by_topic().at("mission_upload"), 0U);
   // … and the log says what was not written, and whose it was.
   const std::string ulg = slurp(dir_ / "flood_full.ulg");
-  EXPECT_NE(ulg.find("ulog: topic 'mission_upload' over its share of the log's size budget"), std::string::npos);
+  EXPECT_NE(ulg.find("ulog: topic 'mission_upload' over its share of the log's size budget"),
+            std::string::npos);
   EXPECT_NE(ulg.find("published by 'ext_link' from t = "), std::string::npos);
 }
 

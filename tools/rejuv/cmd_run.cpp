@@ -293,10 +293,10 @@ void declare_run_options(Options& opts, RunRequest& r) {
             "write the run as a PX4 ULog file (every routed topic through --ulog-profile, parameters, log\n"
             "lines, SR events; PlotJuggler, Flight Review, Foxglove: docs/ulog.md)",
             "DIR/run.ulg with --out")
-      .choice<UlogProfile>("--ulog-profile", {{"default", UlogProfile::Default}, {"full", UlogProfile::Full}},
-                           r.ulog_profile,
-                           "what the ULog writes of each topic: default, at most one message per --ulog-interval-ms\n"
-                           "(bursts of 16 pass); full, every routed message (docs/ulog.md)")
+      .choice<UlogProfile>(
+          "--ulog-profile", {{"default", UlogProfile::Default}, {"full", UlogProfile::Full}}, r.ulog_profile,
+          "what the ULog writes of each topic: default, at most one message per --ulog-interval-ms\n"
+          "(bursts of 16 pass); full, every routed message (docs/ulog.md)")
       .integer("--ulog-interval-ms", "MS", r.ulog_interval_ms, {.min = 1, .max = 10000},
                "the default profile's interval per topic [ms of kernel time]")
       .integer("--ulog-budget-kb-s", "KB", r.ulog_budget_kb_s, {.min = 10, .max = 1'000'000},

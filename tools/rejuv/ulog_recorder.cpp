@@ -326,8 +326,10 @@ Result<void, std::string> UlogRecorder::subscribe(const std::vector<kernel::Kern
     names_[t.id.value()] = std::string(t.name);
   }
   // Each topic's share of the size budget: the budget over the topics (docs/ulog.md "Size budget").
-  const std::uint64_t share = std::max<std::uint64_t>(1, options_.budget_bytes_per_s / std::max<std::size_t>(1, topics.size()));
-  const auto per_s = static_cast<std::uint64_t>(std::chrono::milliseconds{std::chrono::seconds{1}} / options_.interval);
+  const std::uint64_t share =
+      std::max<std::uint64_t>(1, options_.budget_bytes_per_s / std::max<std::size_t>(1, topics.size()));
+  const auto per_s =
+      static_cast<std::uint64_t>(std::chrono::milliseconds{std::chrono::seconds{1}} / options_.interval);
   topic_log_.resize(by_object_.size());
   for (TopicLog& t : topic_log_) {
     t.profile = RateBudget(std::max<std::uint64_t>(per_s, 1), UlogOptions::kProfileBurst);
@@ -361,7 +363,8 @@ UlogRecorder::Admit UlogRecorder::admit(std::size_t i, const kernel::Publication
   const std::string who = p.publisher && p.publisher->value() < service_names_.size()
                               ? "'" + service_names_[p.publisher->value()] + "'"
                               : std::string("the kernel");
-  if (topic.publishers.find(who) == std::string::npos) topic.publishers += (topic.publishers.empty() ? "" : ", ") + who;
+  if (topic.publishers.find(who) == std::string::npos)
+    topic.publishers += (topic.publishers.empty() ? "" : ", ") + who;
   if (!topic.over) {
     topic.over = true;
     topic.over_since = p.t;
@@ -382,17 +385,19 @@ void UlogRecorder::say_over_budget(std::size_t i, Nanos t, Episode episode) {
   const unsigned long long share_kb_s = topic.budget.per_second() / 1000;
   char text[400];
   if (episode == Episode::Begins) {
-    std::snprintf(text, sizeof text,
-                  "ulog: topic '%s' over its share of the log's size budget (%llu kB/s): its messages are not "
-                  "logged until it is back under it (published by %s)",
-                  names_[i].c_str(), share_kb_s, topic.publishers.c_str());
+    std::snprintf(
+        text, sizeof text,
+        "ulog: topic '%s' over its share of the log's size budget (%llu kB/s): its messages are not "
+        "logged until it is back under it (published by %s)",
+        names_[i].c_str(), share_kb_s, topic.publishers.c_str());
   } else {
-    std::snprintf(text, sizeof text,
-                  "ulog: topic '%s': %llu message(s), %llu bytes, published by %s from t = %.3f s were not logged "
-                  "(over its share of the log's size budget, %llu kB/s)",
-                  names_[i].c_str(), static_cast<unsigned long long>(topic.over_messages),
-                  static_cast<unsigned long long>(topic.over_bytes), topic.publishers.c_str(),
-                  to_seconds(topic.over_since).count(), share_kb_s);
+    std::snprintf(
+        text, sizeof text,
+        "ulog: topic '%s': %llu message(s), %llu bytes, published by %s from t = %.3f s were not logged "
+        "(over its share of the log's size budget, %llu kB/s)",
+        names_[i].c_str(), static_cast<unsigned long long>(topic.over_messages),
+        static_cast<unsigned long long>(topic.over_bytes), topic.publishers.c_str(),
+        to_seconds(topic.over_since).count(), share_kb_s);
   }
   log(ulog::LogLevel::Warning, t, text);
 }
@@ -530,7 +535,8 @@ void UlogRecorder::fill(proto::UlogSummary& s, std::uint64_t bytes) const {
     if (!by_object_[i]) continue;
     (*s.mutable_routed_by_topic())[names_[i]] = routed_[i];
     (*s.mutable_logged_by_topic())[names_[i]] = topic_log_[i].logged;
-    if (topic_log_[i].over_total > 0) (*s.mutable_over_budget_by_topic())[names_[i]] = topic_log_[i].over_total;
+    if (topic_log_[i].over_total > 0)
+      (*s.mutable_over_budget_by_topic())[names_[i]] = topic_log_[i].over_total;
   }
   s.set_profile(std::string(to_string(options_.profile)));
   s.set_interval_ms(static_cast<double>(options_.interval.count()));
@@ -538,7 +544,8 @@ void UlogRecorder::fill(proto::UlogSummary& s, std::uint64_t bytes) const {
 }
 
 Result<std::uint64_t, std::string> UlogRecorder::close() {
-  for (std::size_t i = 0; i < topic_log_.size(); ++i) {  // an episode still going: what it left out, said last
+  for (std::size_t i = 0; i < topic_log_.size();
+       ++i) {  // an episode still going: what it left out, said last
     if (topic_log_[i].over) say_over_budget(i, last_t_, Episode::Ends);
   }
   auto size = writer_.close();

@@ -31,9 +31,9 @@ enum class UlogProfile : std::uint8_t { Default, Full };
 [[nodiscard]] std::string_view to_string(UlogProfile profile);
 struct UlogOptions {
   UlogProfile profile = UlogProfile::Default;
-  std::chrono::milliseconds interval{20};    // Default: a topic's messages at most this often [ms]
-  std::uint64_t budget_bytes_per_s = 2'000'000;  // the topics' data together [B/s of kernel time]
-  static constexpr std::uint64_t kProfileBurst = 16;    // messages of a topic that pass the interval at once
+  std::chrono::milliseconds interval{20};             // Default: a topic's messages at most this often [ms]
+  std::uint64_t budget_bytes_per_s = 2'000'000;       // the topics' data together [B/s of kernel time]
+  static constexpr std::uint64_t kProfileBurst = 16;  // messages of a topic that pass the interval at once
   static constexpr std::chrono::seconds kBudgetBurst{5};  // a topic's share may run this far ahead
 };
 
@@ -46,10 +46,9 @@ class UlogRecorder final : public kernel::Observer {
   };
   // Opens `path` and writes the definitions (info, parameters, a format and a subscription per topic of
   // the kernel's graph, rejuv_sr_event). The error is a message for the user.
-  [[nodiscard]] static Result<std::unique_ptr<UlogRecorder>, std::string> create(const std::filesystem::path& path,
-                                                                                 const kernel::Kernel& kernel,
-                                                                                 const RunInfo& info,
-                                                                                 const UlogOptions& options = {});
+  [[nodiscard]] static Result<std::unique_ptr<UlogRecorder>, std::string> create(
+      const std::filesystem::path& path, const kernel::Kernel& kernel, const RunInfo& info,
+      const UlogOptions& options = {});
 
   void on_publication(const kernel::Publication& p) override;
   void on_log(const kernel::LogLine& line) override;
@@ -62,22 +61,23 @@ class UlogRecorder final : public kernel::Observer {
   void fill(proto::UlogSummary& s, std::uint64_t bytes) const;
 
  private:
-  UlogRecorder(ulog::FileWriter writer, const UlogOptions& options) : writer_(std::move(writer)), options_(options) {}
+  UlogRecorder(ulog::FileWriter writer, const UlogOptions& options)
+      : writer_(std::move(writer)), options_(options) {}
   void log(ulog::LogLevel level, Nanos t, std::string_view text);
   // What the profile and the budget let through of one routed message of topic `i` costing `bytes`.
   enum class Admit : std::uint8_t { Write, Sampled, OverBudget };
   Admit admit(std::size_t i, const kernel::Publication& p, std::uint64_t bytes);
   // One topic's profile and budget state (by ObjectId value).
   struct TopicLog {
-    RateBudget profile{};       // messages (Default profile)
-    RateBudget budget{};        // bytes: its share of the size budget
-    bool over = false;          // in an episode over its share
+    RateBudget profile{};  // messages (Default profile)
+    RateBudget budget{};   // bytes: its share of the size budget
+    bool over = false;     // in an episode over its share
     Nanos over_since{0};
     std::uint64_t over_messages = 0;  // not written in the current episode
     std::uint64_t over_bytes = 0;
-    std::uint64_t over_total = 0;     // in the whole run
-    std::uint64_t logged = 0;         // 'D' messages of the topic itself
-    std::string publishers{};         // who published what was not written ("ext_link", "the kernel")
+    std::uint64_t over_total = 0;  // in the whole run
+    std::uint64_t logged = 0;      // 'D' messages of the topic itself
+    std::string publishers{};      // who published what was not written ("ext_link", "the kernel")
   };
   enum class Episode : std::uint8_t { Begins, Ends };
   void say_over_budget(std::size_t i, Nanos t, Episode episode);
@@ -102,8 +102,8 @@ class UlogRecorder final : public kernel::Observer {
   std::vector<std::string> names_;                     // policy name of each topic, by ObjectId
   std::vector<std::uint64_t> routed_;                  // publications seen, by ObjectId
   UlogOptions options_;
-  std::vector<TopicLog> topic_log_;                    // by ObjectId
-  std::vector<std::string> service_names_;             // by ServiceId value
+  std::vector<TopicLog> topic_log_;         // by ObjectId
+  std::vector<std::string> service_names_;  // by ServiceId value
   Nanos last_t_{0};
   ulog::MsgId sr_event_id_ = 0;
   std::vector<Px4Topics> px4_;
@@ -117,11 +117,9 @@ class UlogRecorder final : public kernel::Observer {
 // The ULog of one run, for `rejuv run --ulog FILE` and `--out DIR` (DIR/run.ulg): opens a recorder on `path`
 // and adds it to `observers` (the fanout the kernel was created with; call after Kernel::create, before the
 // run). After the run, finish_ulog closes the file and fills the summary's `ulog` section.
-[[nodiscard]] Result<std::unique_ptr<UlogRecorder>, std::string> write_ulog_to(const std::filesystem::path& path,
-                                                                               const kernel::Kernel& kernel,
-                                                                               const UlogRecorder::RunInfo& info,
-                                                                               const UlogOptions& options,
-                                                                               kernel::ObserverFanout& observers);
+[[nodiscard]] Result<std::unique_ptr<UlogRecorder>, std::string> write_ulog_to(
+    const std::filesystem::path& path, const kernel::Kernel& kernel, const UlogRecorder::RunInfo& info,
+    const UlogOptions& options, kernel::ObserverFanout& observers);
 // Closes the file, fills `summary.ulog` and says on stderr what was written. The error is a message.
 [[nodiscard]] Result<void, std::string> finish_ulog(UlogRecorder& recorder, proto::RunSummary& summary);
 

@@ -82,15 +82,16 @@ void Router::route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<cons
 }
 
 // Over budget is not a violation and rolls nothing back (docs/sandbox.md "Floods cost only the flooder"): the
-// rate of ext_link follows the ground station's datagrams, so an outsider could otherwise force rollbacks; the
-// flood is cut here and its service's next rollback ends it.
+// rate of ext_link follows the ground station's datagrams, so an outsider could otherwise force rollbacks;
+// the flood is cut here and its service's next rollback ends it.
 bool Router::within_budget(ServiceRuntime& s, std::uint32_t slot) {
   if (budgets.size() <= s.id.value()) budgets.resize(k.services.size());
   std::optional<PublicationBudget>& b = budgets[s.id.value()];
   if (!b) {
-    const std::uint32_t per_s = s.config.spec != nullptr
-                                    ? launch::sandbox_limits(k.graph.graph, *s.config.spec).max_publications_per_s
-                                    : launch::defaults::kSandboxPublicationsPerS;
+    const std::uint32_t per_s =
+        s.config.spec != nullptr
+            ? launch::sandbox_limits(k.graph.graph, *s.config.spec).max_publications_per_s
+            : launch::defaults::kSandboxPublicationsPerS;
     b = PublicationBudget{.rate = RateBudget(per_s, per_s)};  // a burst of one second's worth
   }
   const Nanos now = k.now();
@@ -98,8 +99,8 @@ bool Router::within_budget(ServiceRuntime& s, std::uint32_t slot) {
   const std::uint64_t over = ++s.stats.publications_over_budget;
   if (now >= b->next_report) {
     b->next_report = now + kReportEvery;
-    k.log("'%s' publishes over its budget of %llu/s: %llu publication(s) dropped (%llu in all)", s.name.c_str(),
-          static_cast<unsigned long long>(b->rate.per_second()),
+    k.log("'%s' publishes over its budget of %llu/s: %llu publication(s) dropped (%llu in all)",
+          s.name.c_str(), static_cast<unsigned long long>(b->rate.per_second()),
           static_cast<unsigned long long>(over - b->reported), static_cast<unsigned long long>(over));
     b->reported = over;
     publish_security_event(now, s.id, slot, rejuv_msg_SECURITY_PUBLICATION_BUDGET, k.caps.mode(),

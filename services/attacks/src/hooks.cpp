@@ -181,7 +181,8 @@ void AttackHooks::carry_out(AttackKind kind, std::uint32_t variant) {
       if (per_tick > 0) flood_epoch_ = svc_.epoch();
       if (const auto slot = flood(per_tick > 0 ? per_tick : kFloodMessages)) {
         report(AttackKind::FloodBroker,
-               "Publish x" + std::to_string(per_tick > 0 ? per_tick : kFloodMessages) + (per_tick > 0 ? " per tick" : ""),
+               "Publish x" + std::to_string(per_tick > 0 ? per_tick : kFloodMessages) +
+                   (per_tick > 0 ? " per tick" : ""),
                slot->value(), Attempt::kFireAndForget);
       }
       break;

@@ -89,9 +89,11 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
     // A count only for the attacks on rollback (18…27); the others ignore their magnitude.
     // FLOOD_BROKER's: publications per tick of a sustained flood.
     const bool flood = *kind == AttackKind::FloodBroker;
-    const bool counted = flood || std::ranges::find(kRollbackAttackKinds, *kind) != kRollbackAttackKinds.end();
-    auto processes = counted ? whole_param(number, a.prefix + "magnitude", flood ? kMaxFloodPerTick : kMaxAttackCount)
-                             : Result<std::uint32_t, PlanError>{0U};
+    const bool counted =
+        flood || std::ranges::find(kRollbackAttackKinds, *kind) != kRollbackAttackKinds.end();
+    auto processes =
+        counted ? whole_param(number, a.prefix + "magnitude", flood ? kMaxFloodPerTick : kMaxAttackCount)
+                : Result<std::uint32_t, PlanError>{0U};
     if (!processes) return fail(std::move(processes.error()));
     plan.attacks.push_back(
         RuntimeAttack{.kind = *kind, .start = a.start, .max_windows = a.max_windows, .count = *processes});

@@ -1,5 +1,5 @@
-// A rate budget over a clock of the caller's (the kernel clock: simulated time in lockstep, CLOCK_MONOTONIC in
-// real time): a token bucket that refills at `rate` units per second up to `burst` units. The kernel's
+// A rate budget over a clock of the caller's (the kernel clock: simulated time in lockstep, CLOCK_MONOTONIC
+// in real time): a token bucket that refills at `rate` units per second up to `burst` units. The kernel's
 // per-service publication budget counts publications with it, the ULog recorder each topic's bytes
 // (docs/sandbox.md "Floods cost only the flooder", docs/ulog.md "Size budget"). Integer arithmetic only, so
 // that a lockstep run takes the same decisions for a seed.
