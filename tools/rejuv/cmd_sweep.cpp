@@ -57,13 +57,20 @@ std::string table(const proto::SweepReport& report) {
       std::snprintf(line, sizeof line, "%-6s %5u  %s\n", c.runner().c_str(), c.seeds(), c.error().c_str());
     } else {
       std::snprintf(line, sizeof line,
-                    "%-6s %2u/%-2u %8.3f/%-8.3f %8.3f/%-8.3f %5.1f cm %5.1f cm %9.1f %8.1f %6u/%-2u %4u/%-2u %9.1f%s\n",
+                    "%-6s %2u/%-2u %8.3f/%-8.3f %8.3f/%-8.3f %5.1f cm %5.1f cm %9.1f %7.1f%s %6u/%-2u %4u/%-2u %9.1f%s\n",
                     c.runner().c_str(), c.ok(), c.seeds(), c.max_v().max(), c.max_v().mean(), c.max_est_err_p().max(),
                     c.max_est_err_p().mean(), 100 * c.d_mean_m().mean(), 100 * c.d_max_m().max(), c.rollbacks().mean(),
-                    c.attacks().mean(), c.completed(), c.ok(), c.safe(), c.ok(), c.mission_time_s().mean(),
-                    c.safe() < c.ok() ? "  LEFT THE SAFETY SET" : "");
+                    c.attacks().mean(), c.short_of_attacks() > 0 ? "*" : " ", c.completed(), c.ok(), c.safe(), c.ok(),
+                    c.mission_time_s().mean(), c.safe() < c.ok() ? "  LEFT THE SAFETY SET" : "");
     }
     out += line;
+  }
+  const auto short_cells = std::count_if(report.cells().begin(), report.cells().end(),
+                                         [](const proto::SweepCellResult& c) { return c.short_of_attacks() > 0; });
+  if (short_cells > 0) {
+    out += "*: " + std::to_string(short_cells) + " of " + std::to_string(report.cells_size()) +
+           " cells had a mission that ended before " + std::to_string(report.plan().attacks()) +
+           " attacks (sweep.csv short_of_attacks, attacks_min)\n";
   }
   const std::string charged = sweep::charges_text(report);
   if (!charged.empty()) {

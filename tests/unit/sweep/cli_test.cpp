@@ -178,8 +178,8 @@ TEST_F(SweepCli, MergeOfDifferentSweeps_Refused) {
 TEST_F(SweepCli, OneParameter_LinePlot) {
   const fs::path out = dir_ / "s";
   // Ū of 10–20 % of the way to each limit loses the vehicle (max V ≈ 100): studied here, so --allow-unsafe.
-  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--seeds", "1", "--param", "sr.restricted_limit_fraction=0.1,0.2", "--attacks",
-                                  "2", "--seeds", "1-2", "--allow-unsafe", "--out", out.string()});
+  const auto r = run_rejuv(dir_, {"sweep", kGraph, "--param", "sr.restricted_limit_fraction=0.1,0.2", "--attacks", "2",
+                                  "--seeds", "1-2", "--allow-unsafe", "--out", out.string()});
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const proto::SweepReport report = report_of(out);
   ASSERT_EQ(report.cells_size(), 2);

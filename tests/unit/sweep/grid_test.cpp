@@ -5,7 +5,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
+#include <string>
 
+#include "sweep/figures.hpp"
 #include "sweep/grid.hpp"
 
 namespace rejuv::cli::sweep {
@@ -198,6 +201,77 @@ TEST(Aggregate, Seeds_MaxAndMeanAndMissing) {
   const std::string csv = to_csv(r);
   EXPECT_NE(csv.find("sr.t_mc_s,sr.t_est_s,runner,"), std::string::npos) << csv;
   EXPECT_NE(csv.find("0.2,1,sim,2,2,2,2,0.4,0.3,"), std::string::npos) << csv;
+}
+
+
+// A mission that completed before the plan's N attacks: the cell is flagged (how many seeds, the fewest attacks),
+// in the report and the CSV.
+TEST(Aggregate, MissionEndedBeforeTheAttacks_CellFlaggedShort) {
+  const proto::SweepPlan p = plan_2x3();
+  proto::SweepRecord ended = ok_record(p, 0, 2, "sim", 0.1);
+  ended.mutable_summary()->set_attacks(40);
+  ended.mutable_summary()->set_stopped_after_attacks(false);
+  ended.mutable_summary()->set_mission_completed(true);
+  const proto::SweepReport r = aggregate(p, {ok_record(p, 0, 1, "sim", 0.2), ended, ok_record(p, 1, 1, "sim", 0.2)});
+  ASSERT_EQ(r.cells_size(), 2);
+  EXPECT_EQ(r.cells(0).short_of_attacks(), 1U);
+  EXPECT_EQ(r.cells(0).attacks_min(), 40U);
+  EXPECT_EQ(r.cells(1).short_of_attacks(), 0U);
+  EXPECT_EQ(r.cells(1).attacks_min(), 45U);
+  const std::string csv = to_csv(r);
+  EXPECT_NE(csv.find(",attacks_min,attacks_mean,short_of_attacks,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",40,42.5,1,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find(",45,45,0,"), std::string::npos) << csv;
+}
+
+// The variables `rejuv sweep` hands gnuplot for Fig. 11(a) (DIR/plot/fig11a.vars.gp, written before gnuplot runs).
+std::string fig11a_vars(const fs::path& dir, const proto::SweepReport& report) {
+  (void)draw_figures(dir, report, fs::path(REJUV_SOURCE_DIR) / "tools" / "plots" / "sweep.gp");
+  std::ifstream in(dir / "plot" / "fig11a.vars.gp");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+proto::SweepPlan plan_kind_by_test() {
+  proto::SweepPlan p = plan_2x3();
+  proto::SweepAxis* kind = p.mutable_axes(0);
+  kind->set_path("attack.attacks[0].kind");
+  kind->clear_values();
+  for (const char* v : {"WORST_CASE_CONTROL", "SENSOR_BIAS"}) kind->add_values(v);
+  p.clear_runners();
+  p.add_runners("sim");
+  return p;
+}
+
+TEST_F(GridTest, EnumAxis_DrawnAsCategories) {
+  const proto::SweepPlan p = plan_kind_by_test();
+  const std::string vars = fig11a_vars(dir_, aggregate(p, {ok_record(p, 0, 1, "sim", 0.2)}));
+  EXPECT_NE(vars.find("categorical=1"), std::string::npos) << vars;
+  EXPECT_NE(vars.find("xtics_text='(\"WORST_CASE_CONTROL\" 0, \"SENSOR_BIAS\" 1)'"), std::string::npos) << vars;
+  const std::string numeric = fig11a_vars(dir_, aggregate(plan_2x3(), {ok_record(plan_2x3(), 0, 1, "sim", 0.2)}));
+  EXPECT_NE(numeric.find("categorical=0"), std::string::npos) << numeric;
+}
+
+TEST_F(GridTest, CellsShortOfTheAttacks_TitleSaysUpToAndTheDataMarksThem) {
+  const proto::SweepPlan p = plan_kind_by_test();
+  proto::SweepRecord ended = ok_record(p, 1, 1, "sim", 0.1);
+  ended.mutable_summary()->set_attacks(38);
+  const proto::SweepReport r = aggregate(p, {ok_record(p, 0, 1, "sim", 0.2), ended});
+  const std::string vars = fig11a_vars(dir_, r);
+  EXPECT_NE(vars.find("subtitle='up to 45 attacks per cell (1 of 2 cells fewer: marked *)"), std::string::npos) << vars;
+  EXPECT_EQ(vars.find("'45 attacks per cell"), std::string::npos) << vars;
+  std::ifstream dat(dir_ / "plot" / "sim.dat");
+  std::string line, all;
+  while (std::getline(dat, line)) all += line + "\n";
+  EXPECT_NE(all.find("0 1 0.2 0 0.2 0 0 45\n"), std::string::npos) << all;  // cell 0: 45 attacks
+  EXPECT_NE(all.find("0 2 0.1 0 0.1 0 1 38\n"), std::string::npos) << all;  // cell 1: short, 38
+}
+
+TEST_F(GridTest, EveryCellFlewItsAttacks_TitleSaysSo) {
+  const proto::SweepPlan p = plan_kind_by_test();
+  const std::string vars = fig11a_vars(dir_, aggregate(p, {ok_record(p, 0, 1, "sim", 0.2)}));
+  EXPECT_NE(vars.find("subtitle='45 attacks per cell"), std::string::npos) << vars;
 }
 
 }  // namespace

@@ -90,7 +90,8 @@ Result<void, std::string> write_plot_data(const fs::path& dir, const proto::Swee
     }
     std::ofstream out(dir / "plot" / (runner + ".dat"));
     if (!out) return fail("cannot write " + (dir / "plot" / (runner + ".dat")).string());
-    out << "# x y max_V_max max_est_err_P_max max_V_mean max_est_err_P_mean (over the seeds flown)\n";
+    out << "# x y max_V_max max_est_err_P_max max_V_mean max_est_err_P_mean (over the seeds flown) short attacks_min"
+           " (short: 1 when a seed's mission ended before the plan's attacks)\n";
     const int inner = plan.axes_size() > 1 ? plan.axes(1).values_size() : 1;
     for (std::uint32_t c = 0; c < cell_count(plan); ++c) {
       const int i0 = static_cast<int>(c) / inner, i1 = static_cast<int>(c) % inner;
@@ -100,11 +101,12 @@ Result<void, std::string> write_plot_data(const fs::path& dir, const proto::Swee
       const double y = plan.axes_size() > 1 ? coordinate(plan.axes(1), i1) : 0.0;
       const auto it = cells.find(c);
       if (it == cells.end() || it->second->ok() == 0) {
-        std::snprintf(line, sizeof line, "%.12g %.12g NaN NaN NaN NaN\n", x, y);
+        std::snprintf(line, sizeof line, "%.12g %.12g NaN NaN NaN NaN 0 0\n", x, y);
       } else {
         const proto::SweepCellResult& r = *it->second;
-        std::snprintf(line, sizeof line, "%.12g %.12g %.6g %.6g %.6g %.6g\n", x, y, r.max_v().max(),
-                      r.max_est_err_p().max(), r.max_v().mean(), r.max_est_err_p().mean());
+        std::snprintf(line, sizeof line, "%.12g %.12g %.6g %.6g %.6g %.6g %d %u\n", x, y, r.max_v().max(),
+                      r.max_est_err_p().max(), r.max_v().mean(), r.max_est_err_p().mean(),
+                      r.short_of_attacks() > 0 ? 1 : 0, r.attacks_min());
       }
       out << line;
     }
@@ -131,6 +133,23 @@ Result<std::vector<fs::path>, std::string> draw_figures(const fs::path& dir, con
   }
   std::string runners;
   for (const std::string& r : plan.runners()) runners += (runners.empty() ? "" : " ") + r;
+  // An axis of names (an enum) has no order between its values: no level line or boundary is interpolated across.
+  const bool categorical = std::any_of(plan.axes().begin(), plan.axes().end(),
+                                       [](const proto::SweepAxis& a) { return !numeric(a); });
+  const auto cells_short = std::count_if(report.cells().begin(), report.cells().end(),
+                                         [](const proto::SweepCellResult& c) { return c.ok() > 0 && c.short_of_attacks() > 0; });
+  const auto cells_flown = std::count_if(report.cells().begin(), report.cells().end(),
+                                         [](const proto::SweepCellResult& c) { return c.ok() > 0; });
+  // What the cells flew: N attacks each, or fewer in some (a mission that completed first) and the title says so.
+  char attacks_text[160];
+  if (plan.attacks() == 0) {
+    std::snprintf(attacks_text, sizeof attacks_text, "each mission flown to its end");
+  } else if (cells_short == 0) {
+    std::snprintf(attacks_text, sizeof attacks_text, "%u attacks per cell", plan.attacks());
+  } else {
+    std::snprintf(attacks_text, sizeof attacks_text, "up to %u attacks per cell (%ld of %ld cells fewer: marked *)",
+                  plan.attacks(), static_cast<long>(cells_short), static_cast<long>(cells_flown));
+  }
   const std::string charged = charges_text(report);
   const std::string charges = charged.empty() ? "" : "; CP/RB charged: " + charged;
   std::vector<fs::path> written;
@@ -144,13 +163,17 @@ Result<std::vector<fs::path>, std::string> draw_figures(const fs::path& dir, con
                             {"fig11b", 4, "max ||x - x_hat||^2_P", "||x - x_hat||^2_P = 1"}};
   for (std::size_t f = 0; f < 2; ++f) {
     const Figure& fig = figures[f];
+    // Two lines: what is drawn, then what each cell flew (one line would be clipped at the figure's width).
     char title[512];
-    std::snprintf(title, sizeof title, "Fig. 11(%c): %s, max over %d seed%s, %u attacks per cell%s", fig.name[5],
-                  fig.metric, plan.seeds_size(), plan.seeds_size() == 1 ? "" : "s", plan.attacks(), charges.c_str());
+    std::snprintf(title, sizeof title, "Fig. 11(%c): %s, max over %d seed%s", fig.name[5], fig.metric,
+                  plan.seeds_size(), plan.seeds_size() == 1 ? "" : "s");
+    const std::string subtitle = std::string(attacks_text) + charges;
     std::string vars = "dir=" + gp_quoted((dir / "plot").string()) + "; out=" + gp_quoted((dir / fig.name).string()) +
                        "; runners=" + gp_quoted(runners) + "; col=" + std::to_string(fig.column) +
                        "; dims=" + std::to_string(plan.axes_size()) + "; reached=" + (beyond[f] ? "1" : "0") + "; zmax=" + std::to_string(zmax[f] * 1.05) +
-                       "; title=" + gp_quoted(title) + "; zlabel=" + gp_quoted(fig.metric) + "; level_title=" + gp_quoted(fig.level) +
+                       "; title=" + gp_quoted(title) + "; subtitle=" + gp_quoted(subtitle) +
+                       "; categorical=" + (categorical ? "1" : "0") + "; attacks=" + std::to_string(plan.attacks()) +
+                       "; zlabel=" + gp_quoted(fig.metric) + "; level_title=" + gp_quoted(fig.level) +
                        "; xlabel=" + gp_quoted(label(plan.axes(0))) + "; xtics_text=" + gp_quoted(tics(plan.axes(0)));
     if (plan.axes_size() > 1) {
       vars += "; ylabel=" + gp_quoted(label(plan.axes(1))) + "; ytics_text=" + gp_quoted(tics(plan.axes(1)));

@@ -327,6 +327,9 @@ proto::SweepReport aggregate(const proto::SweepPlan& plan, const std::vector<pro
         rb.push_back(static_cast<double>(s.rollbacks()));
         at.push_back(static_cast<double>(s.attacks()));
         mt.push_back(s.mission_time_s());
+        const auto attacks = static_cast<std::uint32_t>(s.attacks());
+        cell.set_attacks_min(cell.ok() == 1 ? attacks : std::min(cell.attacks_min(), attacks));
+        if (plan.attacks() > 0 && attacks < plan.attacks()) cell.set_short_of_attacks(cell.short_of_attacks() + 1);
       }
       *cell.mutable_max_v() = stat(v);
       *cell.mutable_max_est_err_p() = stat(e);
@@ -364,26 +367,21 @@ std::string to_csv(const proto::SweepReport& report) {
   std::string out;
   for (const proto::SweepAxis& a : report.plan().axes()) out += a.path() + ",";
   out += "runner,seeds,ok,completed,safe,max_V_max,max_V_mean,max_est_err_P_max,max_est_err_P_mean,d_mean_m_mean,"
-         "d_max_m_max,rollbacks_mean,attacks_min,attacks_mean,mission_time_s_mean,mission_time_s_max,"
+         "d_max_m_max,rollbacks_mean,attacks_min,attacks_mean,short_of_attacks,mission_time_s_mean,mission_time_s_max,"
          "checkpoint_charge_ms,rollback_charge_ms,error\n";
   for (const proto::SweepCellResult& c : report.cells()) {
     for (const proto::SweepParamValue& p : c.params()) out += p.value() + ",";
-    double attacks_min = 0;
-    bool first = true;
     const proto::Charging* charged = nullptr;  // what the cell's missions were charged (one launch: all alike)
     for (const proto::SweepRecord& r : c.records()) {
       if (r.status() != "ok") continue;
-      const auto a = static_cast<double>(r.summary().attacks());
-      attacks_min = first ? a : std::min(attacks_min, a);
-      first = false;
       charged = &r.summary().charging();
     }
     char line[512];
-    std::snprintf(line, sizeof line, "%s,%u,%u,%u,%u,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,",
+    std::snprintf(line, sizeof line, "%s,%u,%u,%u,%u,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%u,%.6g,%u,%.6g,%.6g,",
                   c.runner().c_str(), c.seeds(), c.ok(), c.completed(), c.safe(), c.max_v().max(), c.max_v().mean(),
                   c.max_est_err_p().max(), c.max_est_err_p().mean(), c.d_mean_m().mean(), c.d_max_m().max(),
-                  c.rollbacks().mean(), attacks_min, c.attacks().mean(), c.mission_time_s().mean(),
-                  c.mission_time_s().max());
+                  c.rollbacks().mean(), c.attacks_min(), c.attacks().mean(), c.short_of_attacks(),
+                  c.mission_time_s().mean(), c.mission_time_s().max());
     out += line;
     if (charged != nullptr) {
       std::snprintf(line, sizeof line, "%.6g,%.6g,", charged->checkpoint_charge_ms(), charged->rollback_charge_ms());
