@@ -213,7 +213,10 @@ class FirstErrorCollector final : public pb::io::ErrorCollector {
 // message names in quotes ("... has no field named \"bogus\"").
 void point_at_named_token(std::string_view text, std::string_view message, SourceLocation& where) {
   const std::size_t open = message.rfind("named \"");
-  const std::size_t quote = open == std::string_view::npos ? message.rfind("value \"") : open;
+  const std::size_t enum_value = message.find("value of \"");  // "Unknown enumeration value of \"X\" for field …"
+  const std::size_t quote = open != std::string_view::npos         ? open
+                            : enum_value != std::string_view::npos ? enum_value
+                                                                   : message.rfind("value \"");
   if (quote == std::string_view::npos || where.line <= 0) {
     return;
   }
@@ -223,19 +226,25 @@ void point_at_named_token(std::string_view text, std::string_view message, Sourc
     return;
   }
   const std::string_view token = message.substr(start, end - start);
-  std::size_t line_start = 0;
-  for (int line = 1; line < where.line && line_start != std::string_view::npos; ++line) {
-    line_start = text.find('\n', line_start);
-    line_start = line_start == std::string_view::npos ? line_start : line_start + 1;
-  }
-  if (line_start == std::string_view::npos) {
-    return;
-  }
-  const std::string_view line = text.substr(line_start, text.find('\n', line_start) - line_start);
-  const std::size_t before = std::min<std::size_t>(line.size(), static_cast<std::size_t>(where.column));
-  const std::size_t at = line.substr(0, before).rfind(token);
-  if (at != std::string_view::npos && !token.empty()) {
-    where.column = static_cast<int>(at) + 1;
+  if (token.empty()) return;
+  // The line protobuf reported, then the lines before it (an enum value at the end of a line is reported at the
+  // next token, which may be lines further on).
+  for (int line_no = where.line; line_no >= 1 && line_no >= where.line - 8; --line_no) {
+    std::size_t line_start = 0;
+    for (int line = 1; line < line_no && line_start != std::string_view::npos; ++line) {
+      line_start = text.find('\n', line_start);
+      line_start = line_start == std::string_view::npos ? line_start : line_start + 1;
+    }
+    if (line_start == std::string_view::npos) continue;
+    const std::string_view line = text.substr(line_start, text.find('\n', line_start) - line_start);
+    const std::size_t before =
+        line_no == where.line ? std::min<std::size_t>(line.size(), static_cast<std::size_t>(where.column)) : line.size();
+    const std::size_t at = line.substr(0, before).rfind(token);
+    if (at != std::string_view::npos) {
+      where.line = line_no;
+      where.column = static_cast<int>(at) + 1;
+      return;
+    }
   }
 }
 
@@ -386,6 +395,39 @@ std::string with_field_suggestion(std::string message, const pb::Descriptor& roo
   return message + hint;
 }
 
+// protobuf's "Unknown enumeration value of \"X\" for field \"f\"." with the value X most likely meant: the values of
+// every enum field named f in the messages reachable from `root`. Unchanged for any other message.
+std::string with_enum_suggestion(std::string message, const pb::Descriptor& root) {
+  constexpr std::string_view kValue = "Unknown enumeration value of \"";
+  constexpr std::string_view kField = "\" for field \"";
+  if (message.rfind(kValue, 0) != 0) return message;
+  const std::size_t value_end = message.find(kField, kValue.size());
+  if (value_end == std::string::npos) return message;
+  const std::size_t field_end = message.find('"', value_end + kField.size());
+  if (field_end == std::string::npos) return message;
+  const std::string value = message.substr(kValue.size(), value_end - kValue.size());
+  const std::string field = message.substr(value_end + kField.size(), field_end - value_end - kField.size());
+  std::vector<std::string> names;
+  std::vector<const pb::Descriptor*> todo{&root};
+  std::vector<const pb::Descriptor*> seen;
+  while (!todo.empty()) {
+    const pb::Descriptor* d = todo.back();
+    todo.pop_back();
+    if (std::find(seen.begin(), seen.end(), d) != seen.end()) continue;
+    seen.push_back(d);
+    for (int i = 0; i < d->field_count(); ++i) {
+      const pb::FieldDescriptor* f = d->field(i);
+      if (f->message_type() != nullptr) todo.push_back(f->message_type());
+      if (f->enum_type() == nullptr || f->name() != field) continue;
+      for (int v = 0; v < f->enum_type()->value_count(); ++v) names.push_back(f->enum_type()->value(v)->name());
+    }
+  }
+  const std::string hint = did_you_mean(value, names);
+  if (hint.empty()) return message;
+  if (message.ends_with(".")) message.pop_back();
+  return message + hint;
+}
+
 // The innermost block still open at the end of the text (`name {` or `name <` without its closing mark), as
 // protobuf's tokenizer reads it (comments and strings skipped): its field name and 1-based position.
 struct OpenBlock {
@@ -464,7 +506,8 @@ Result<TextLocations, LoadError> parse_one(std::string_view text, std::string na
     } else if (quoting == Quoting::NothingFromTheFile) {
       message = without_file_text(message);
     } else {
-      message = with_field_suggestion(std::move(message), *out.GetDescriptor());
+      message = with_enum_suggestion(with_field_suggestion(std::move(message), *out.GetDescriptor()),
+                                     *out.GetDescriptor());
     }
     return fail(LoadError{LoadErrorKind::Syntax, std::move(where), std::move(message)});
   }

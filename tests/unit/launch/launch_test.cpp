@@ -201,6 +201,16 @@ TEST(LaunchLoader, MisspeltField_SyntaxErrorSuggestsTheField) {
       << r.error().message;
 }
 
+TEST(LaunchLoader, MisspeltEnumValue_SyntaxErrorAtTheValueSuggestsIt) {
+  const Mutated bad = mutate("kind: WORST_CASE_CONTROL", "kind: WORST_CASE_CONTRL");
+  const auto r = parse_launch(bad.text, kAsPath);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_EQ(r.error().kind, LoadErrorKind::Syntax);
+  EXPECT_EQ(r.error().where.line, bad.line) << r.error().to_string();
+  EXPECT_EQ(r.error().where.column, bad.column + 6) << r.error().to_string();  // at the value, after "kind: "
+  EXPECT_NE(r.error().message.find("(did you mean \"WORST_CASE_CONTROL\"?)"), std::string::npos) << r.error().message;
+}
+
 TEST(LaunchLoader, FieldFarFromAnyName_NoSuggestion) {
   const auto r = parse_launch(mutate("t_mc_s: 0.3", "completely_else: 0.3").text, kAsPath);
   ASSERT_FALSE(r.has_value());
