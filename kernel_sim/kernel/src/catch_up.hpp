@@ -27,8 +27,9 @@
 // a cold restart forgets (there is nothing to catch up).
 #pragma once
 
-#include <cstddef>
+#include <algorithm>
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -107,7 +108,8 @@ class CatchUp {
       return false;
     }
     const std::uint64_t stamp = entry(replay_).stamp;
-    replayed_to_ = stamp;
+    // The latest stamp replayed (a GPS sample is stamped when measured, gps_delay before it arrives).
+    replayed_to_ = std::max(replayed_to_, stamp);
     do {
       replay(ObjectId{entry(replay_).topic}, bytes_of(replay_));
       ++replay_;

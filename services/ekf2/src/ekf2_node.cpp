@@ -1,5 +1,7 @@
 #include "rejuv/services/ekf2/ekf2_node.hpp"
 
+#include <algorithm>
+#include <chrono>
 #include <utility>
 
 namespace rejuv::services {
@@ -23,6 +25,12 @@ void Ekf2Node::flush_held() {
 Result<void, flight_io::InputFailure> Ekf2Node::on_mag(const rejuv_msg_SensorMag& message) {
   auto s = flight_io::mag_sample(message);
   if (!s) return fail(std::move(s.error()));
+  if (catch_up_ == CatchUp::Replaying || catch_up_ == CatchUp::Replayed) {
+    plant::SensorSamples one;
+    one.mag = *s;
+    on_replayed_aiding(s->t, std::move(one));
+    return {};
+  }
   if (held_.mag) flush_held();
   held_.mag = *s;
   return {};
@@ -31,6 +39,12 @@ Result<void, flight_io::InputFailure> Ekf2Node::on_mag(const rejuv_msg_SensorMag
 Result<void, flight_io::InputFailure> Ekf2Node::on_baro(const rejuv_msg_SensorBaro& message) {
   auto s = flight_io::baro_sample(message);
   if (!s) return fail(std::move(s.error()));
+  if (catch_up_ == CatchUp::Replaying || catch_up_ == CatchUp::Replayed) {
+    plant::SensorSamples one;
+    one.baro = *s;
+    on_replayed_aiding(s->t, std::move(one));
+    return {};
+  }
   if (held_.baro) flush_held();
   held_.baro = *s;
   return {};
@@ -50,9 +64,43 @@ Result<void, flight_io::InputFailure> Ekf2Node::on_gps(const rejuv_msg_SensorGps
     held_ = {};
     return {};
   }
+  if (catch_up_ == CatchUp::Replaying || catch_up_ == CatchUp::Replayed) {
+    plant::SensorSamples one;
+    one.gps = *s;
+    on_replayed_aiding(s->t + std::chrono::round<Nanos>(params_.gps_delay), std::move(one));
+    return {};
+  }
   if (held_.gps) flush_held();
   held_.gps = *s;
   return {};
+}
+
+void Ekf2Node::on_replayed_aiding(Nanos due, plant::SensorSamples sample) {
+  const auto at = std::upper_bound(replayed_aiding_.begin(), replayed_aiding_.end(), due,
+                                   [](Nanos d, const ReplayedAiding& a) { return d < a.due; });
+  replayed_aiding_.insert(at, ReplayedAiding{.due = due, .sample = std::move(sample)});
+}
+
+void Ekf2Node::take_replayed_aiding(Nanos t) {
+  auto it = replayed_aiding_.begin();
+  for (; it != replayed_aiding_.end() && it->due <= t + imu_period_ / 2; ++it) {
+    const plant::SensorSamples& one = it->sample;
+    if ((one.mag && held_.mag) || (one.baro && held_.baro) || (one.gps && held_.gps)) flush_held();
+    if (one.mag) held_.mag = one.mag;
+    if (one.baro) held_.baro = one.baro;
+    if (one.gps) held_.gps = one.gps;
+  }
+  replayed_aiding_.erase(replayed_aiding_.begin(), it);
+}
+
+void Ekf2Node::finish_replay() {
+  // What is left arrived after the replay's last tick (live): held for the next tick, as live samples are.
+  take_replayed_aiding(Nanos::max() - imu_period_);
+  if (replay_failed_gate()) {
+    rearm_now(rearm_, true, true);
+    return;
+  }
+  catch_up_ = CatchUp::Judging;  // the first live GPS sample decides (on_combined)
 }
 
 void Ekf2Node::on_rollback(const flight::EkfRearm& rearm) {
@@ -66,10 +114,12 @@ void Ekf2Node::on_rollback_signal(const rejuv_msg_RollbackSignal& signal, const 
   switch (signal.catch_up) {
     case rejuv_msg_CATCH_UP_OFF:
       catch_up_ = CatchUp::Live;
+      replayed_aiding_.clear();
       on_rollback(rearm);
       return;
     case rejuv_msg_CATCH_UP_REPLAY:
       held_ = {};
+      replayed_aiding_.clear();
       stale_until_ns_ = 0;
       restored_ = node_;
       gps_rejected_at_restore_ = node_ ? node_->ekf().counters().gps_rejected : 0;
@@ -77,11 +127,10 @@ void Ekf2Node::on_rollback_signal(const rejuv_msg_RollbackSignal& signal, const 
       return;
     case rejuv_msg_CATCH_UP_DONE:
       if (catch_up_ != CatchUp::Replaying) return;
-      if (replay_failed_gate()) {
-        rearm_now(rearm_, true, true);
-        return;
-      }
-      catch_up_ = CatchUp::Judging;  // the first live GPS sample decides (on_combined)
+      // The replay's last ticks may still be on their way through `sensors`: judged once they are integrated.
+      replay_end_ns_ = signal.replayed_to_ns;
+      catch_up_ = CatchUp::Replayed;
+      if (last_tick_ns_ >= replay_end_ns_) finish_replay();
       return;
     case rejuv_msg_CATCH_UP_REARM:
       stale_until_ns_ = signal.replayed_to_ns;
@@ -104,6 +153,7 @@ void Ekf2Node::rearm_now(const flight::EkfRearm& rearm, bool from_restored, bool
     announce_discard_ = true;
   }
   held_ = {};
+  replayed_aiding_.clear();
   if (node_) node_->on_rollback(rearm);
   restored_.reset();
   catch_up_ = CatchUp::Live;
@@ -119,6 +169,11 @@ Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> E
   }
   // The replay's own ticks that `sensors` publishes after the replay was cut short: late, not live.
   if (message.timestamp_ns <= stale_until_ns_) return std::optional<rejuv_msg_VehicleStateEstimate>{};
+  // A live tick while the replay's last one never came: the replay is over all the same.
+  if (catch_up_ == CatchUp::Replayed && message.timestamp_ns > replay_end_ns_) finish_replay();
+  // A replayed tick: the replayed aiding samples of its instant, by stamp (on_rollback_signal).
+  const bool replayed = catch_up_ == CatchUp::Replaying || catch_up_ == CatchUp::Replayed;
+  if (replayed) take_replayed_aiding(tick->gyro.t);
   plant::SensorSamples samples = held_;
   samples.gyro = tick->gyro;
   samples.accel = tick->accel;
@@ -127,6 +182,11 @@ Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> E
   const bool integrated = node_->on_samples(samples);
   REJUV_ASSERT(integrated, "a sample set with a gyro sample is integrated");
   integrated_ = true;
+  last_tick_ns_ = message.timestamp_ns;
+  // After DONE a replayed tick's estimate is never published (the kernel drops it only until DONE); the last
+  // one ends the replay.
+  const bool withheld = catch_up_ == CatchUp::Replayed;
+  if (withheld && message.timestamp_ns >= replay_end_ns_) finish_replay();
   // The first live GPS sample after a replay handled whole: its NIS against the replayed estimate's covariance
   // (the filter's own χ² gate) says whether the replay is plausible.
   if (catch_up_ == CatchUp::Judging && samples.gps) {
@@ -137,6 +197,7 @@ Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> E
       catch_up_ = CatchUp::Live;
     }
   }
+  if (withheld) return std::optional<rejuv_msg_VehicleStateEstimate>{};
   std::uint32_t f = flags(before);
   if (announce_discard_) f |= flight_io::kStateCatchUpDiscarded;
   announce_discard_ = false;

@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <vector>
 
 #include "rejuv/flight/estimator_node.hpp"
 #include "rejuv/flight_io/messages.hpp"
@@ -53,12 +54,17 @@ class Ekf2Node {
   void on_rollback(const flight::EkfRearm& rearm);
 
   // A rollback_signal with the estimate catch-up (its `catch_up`; idl/sr.idl EstimateCatchUp; docs/control.md
-  // §6.3). REPLAY: the held samples dropped, the covariance kept, the restored filter remembered. DONE: the
-  // replayed estimate is tested against the live samples — a GPS sample of the replay that failed its χ² gate, or
-  // the first live GPS sample's NIS above the gate (p = 1e-4): implausible, so discarded for the restored filter
-  // re-armed (`rearm`'s 1σ values), the paper's scheme (§IV). REARM: the replay could not be used (cut short):
-  // the restored filter re-armed now (a replay not judged whole is not trusted in part), and the chain's late
-  // output of the replay (sensor_combined stamped up to replayed_to_ns) ignored. OFF: on_rollback(rearm).
+  // §6.3). REPLAY: the held samples dropped, the covariance kept, the restored filter remembered; the replay's
+  // aiding samples are then fused with the IMU tick of their own instant, by stamp (on_replayed_aiding), not with
+  // whichever tick comes next: in real time the kernel's samples reach ekf2 ahead of the ticks that take the
+  // detour through `sensors`, and a GPS sample fused before the replayed IMU would test the restored state, not
+  // the replayed one. DONE: the replay is over once its last tick (replayed_to_ns) is integrated — no estimate is
+  // published in between; then a GPS sample of the replay that failed its χ² gate discards the replayed
+  // estimate, and otherwise the first live GPS sample's NIS above the gate (p = 1e-4) does: discarded for the
+  // restored filter re-armed (`rearm`'s 1σ values), the paper's scheme (§IV). REARM: the replay could not be
+  // used (cut short): the restored filter re-armed now (a replay not judged whole is not trusted in part), and
+  // the chain's late output of the replay (sensor_combined stamped up to replayed_to_ns) ignored. OFF:
+  // on_rollback(rearm).
   void on_rollback_signal(const rejuv_msg_RollbackSignal& signal, const flight::EkfRearm& rearm);
   // Replayed estimates discarded for a re-arm so far (this incarnation).
   [[nodiscard]] std::uint32_t catch_up_discarded() const { return discarded_; }
@@ -85,8 +91,22 @@ class Ekf2Node {
 
   Ekf2Node(const flight::EkfParams& params, const Eigen::Quaterniond& attitude, Nanos imu_period);
 
-  // The catch-up's test of a replayed estimate (on_rollback_signal).
-  enum class CatchUp : std::uint8_t { Live, Replaying, Judging };
+  // The catch-up's test of a replayed estimate (on_rollback_signal). Replaying: REPLAY seen; Replayed: DONE
+  // seen, the replay's last ticks still to come; Judging: the replayed GPS samples all passed, the first live
+  // one decides.
+  enum class CatchUp : std::uint8_t { Live, Replaying, Replayed, Judging };
+  // An aiding sample of the replay (one of mag, baro, gps set), fused with the first tick stamped at or after
+  // `due` (a GPS sample is gps_delay old when it arrives: due at its stamp + gps_delay).
+  struct ReplayedAiding {
+    Nanos due{0};
+    plant::SensorSamples sample;
+  };
+  void on_replayed_aiding(Nanos due, plant::SensorSamples sample);
+  // The replayed aiding samples due by the tick stamped `t`, in the held set (a second one of a sensor flushes
+  // the set first, as live).
+  void take_replayed_aiding(Nanos t);
+  // DONE seen and the replay's last tick integrated: the replayed estimate judged (or left to the first live GPS).
+  void finish_replay();
   [[nodiscard]] bool replay_failed_gate() const;
   void rearm_now(const flight::EkfRearm& rearm, bool from_restored, bool implausible);
 
@@ -97,6 +117,9 @@ class Ekf2Node {
   std::uint32_t gps_rejected_at_restore_ = 0;
   flight::EkfRearm rearm_{};                        // the 1σ values of the re-arm a discard makes
   std::uint64_t stale_until_ns_ = 0;                // sensor_combined stamped up to this is the replay's, late
+  std::uint64_t replay_end_ns_ = 0;                 // DONE: the stamp of the replay's last sample
+  std::uint64_t last_tick_ns_ = 0;                  // the stamp of the last tick integrated
+  std::vector<ReplayedAiding> replayed_aiding_;     // Replaying: aiding samples not due yet, in stamp order
   std::uint32_t discarded_ = 0;
   bool announce_discard_ = false;                   // the next estimate carries kStateCatchUpDiscarded
   Eigen::Quaterniond waiting_attitude_ = Eigen::Quaterniond::Identity();  // from_first_fix, until the fix
