@@ -1,7 +1,5 @@
 #include "cgroup_placer.hpp"
 
-#include "rejuv/sys/event.hpp"
-
 namespace rejuv::kernel {
 
 CgroupPlacer::~CgroupPlacer() {
@@ -26,14 +24,9 @@ bool CgroupPlacer::place(const sys::ServiceCgroup& group, pid_t pid, sys::Cgroup
   return true;
 }
 
-bool CgroupPlacer::settle(Nanos until) {
-  std::unique_lock lock(mutex_);
-  while (!queue_.empty() || running_ > 0) {
-    const Nanos left = until - sys::monotonic_now();
-    if (left <= Nanos{0}) return false;
-    settled_.wait_for(lock, left);
-  }
-  return true;
+bool CgroupPlacer::idle() const {
+  const std::lock_guard lock(mutex_);
+  return queue_.empty() && running_ == 0;
 }
 
 std::uint64_t CgroupPlacer::failed() const {
@@ -54,7 +47,6 @@ void CgroupPlacer::run() {
     lock.lock();
     --running_;
     failed_ += ok ? 0 : 1;
-    if (queue_.empty()) settled_.notify_all();
   }
 }
 

@@ -11,7 +11,6 @@
 #include <mutex>
 #include <thread>
 
-#include "rejuv/core/time.hpp"
 #include "rejuv/sys/cgroup.hpp"
 
 namespace rejuv::kernel {
@@ -26,8 +25,7 @@ class CgroupPlacer {
   // Queued (the thread starts at the first); nothing where the group has no leaves (no cgroup). False if the
   // move could not be prepared (out of fds).
   bool place(const sys::ServiceCgroup& group, pid_t pid, sys::CgroupLeaf leaf);
-  // Waits until every move asked for has run, at most until `until` (wall clock); true if none is left.
-  bool settle(Nanos until);
+  [[nodiscard]] bool idle() const;  // no move queued or running
   [[nodiscard]] std::uint64_t failed() const;  // moves refused (a process gone meanwhile: ESRCH)
 
  private:
@@ -35,7 +33,6 @@ class CgroupPlacer {
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;
-  std::condition_variable settled_;
   std::deque<sys::CgroupMove> queue_;
   std::size_t running_ = 0;
   std::uint64_t failed_ = 0;

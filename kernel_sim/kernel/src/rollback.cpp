@@ -206,7 +206,6 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   // (the ones about to die need not be woken for it).
   (void)enter_mode(SrMode::RB);
   sr_event(SrEventKind::Mode);
-  k.warden.settle_placements();  // no image left in a live leaf that is about to be killed
   retire_live_rejuvenated();
   const Nanos t_killed = k.wall();
   Nanos t_resumed = t_killed;
@@ -281,6 +280,7 @@ void Rejuvenator::run_rollback(const std::string& reason) {
           to_ms(took), reason.c_str());
   }
 }
+
 void Rejuvenator::signal_catch_up(rejuv_msg_EstimateCatchUp how) {
   KernelMessage<rejuv_msg_RollbackSignal> signal;
   signal.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
@@ -296,7 +296,6 @@ void Rejuvenator::chain_realtime() {
     if (catch_up.in_chain(s.id)) k.supervisor.apply_realtime(s);
   }
 }
-
 
 void Rejuvenator::cold_restart(const std::string& reason) {
   k.log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());

@@ -30,10 +30,6 @@ constexpr Nanos kCopiesWait{std::chrono::milliseconds{50}};
 // cpu.rt_runtime_us): a control-chain service uses a few % of a CPU; one that spins is throttled here (and,
 // blocking nothing for RLIMIT_RTTIME, killed).
 constexpr std::uint64_t kRtBudgetUs = 100000;
-// How long a rollback waits for image moves still running (CgroupPlacer) before it kills the live leaves: a
-// move waits for an RCU grace period (milliseconds); almost always none is running. Wall clock.
-constexpr Nanos kPlacementWait{std::chrono::milliseconds{50}};
-
 
 }  // namespace
 
@@ -87,22 +83,34 @@ void Warden::join_cgroup(ServiceRuntime& s) {
   if (k.options.verbose) k.log("sandbox of '%s': %s", s.name.c_str(), s.sandbox.cgroup_note.c_str());
 }
 
-void Warden::place_images() {
-  std::vector<pid_t> now;
-  const auto place = [&](const image::Image& im) {
-    const ServiceRuntime& s = k.services[im.service.value()];
-    for (const sys::ChildProcess& c : im.copies) {
-      now.push_back(c.pid());
-      if (std::find(placed_images.begin(), placed_images.end(), c.pid()) != placed_images.end()) continue;
-      if (placer.place(s.sandbox.cgroup, c.pid(), sys::CgroupLeaf::Images)) placed_images.push_back(c.pid());
-    }
+namespace {
+// Calls `f` with each copy (image or spare) of `service` the kernel knows, or of every service (nullopt).
+template <class F>
+void for_each_copy(Kernel::Impl& k, std::optional<ServiceId> service, F f) {
+  const auto each = [&](const image::Image& im) {
+    if (service && im.service != *service) return;
+    for (const sys::ChildProcess& c : im.copies) f(k.services[im.service.value()], c.pid());
   };
   for (const Generation g : k.rejuvenator.images.generations()) {
-    for (const image::Image& im : k.rejuvenator.images.find(g)->images) place(im);
+    for (const image::Image& im : k.rejuvenator.images.find(g)->images) each(im);
   }
   for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
-    for (const image::Image& im : r.images) place(im);
+    for (const image::Image& im : r.images) each(im);
   }
+}
+}  // namespace
+
+void Warden::place_images() {
+  std::vector<pid_t> now;
+  for_each_copy(k, std::nullopt, [&](const ServiceRuntime& s, pid_t pid) {
+    now.push_back(pid);
+    if (std::find(placed_images.begin(), placed_images.end(), pid) != placed_images.end()) return;
+    // A spare forked by an image already in `images/` is born there: no move (each costs a grace period).
+    if (s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images) ||
+        placer.place(s.sandbox.cgroup, pid, sys::CgroupLeaf::Images)) {
+      placed_images.push_back(pid);
+    }
+  });
   // Forgotten once gone from the store (a resumed copy is placed in `live/` by place_live).
   std::erase_if(placed_images, [&](pid_t pid) { return std::find(now.begin(), now.end(), pid) == now.end(); });
 }
@@ -111,9 +119,27 @@ void Warden::place_live(const ServiceRuntime& s) {
   (void)placer.place(s.sandbox.cgroup, s.proc.process.pid(), sys::CgroupLeaf::Live);
 }
 
-void Warden::settle_placements() {
-  place_images();
-  (void)placer.settle(k.wall() + kPlacementWait);
+bool Warden::kill_live_leaf(const ServiceRuntime& s) {
+  if (!s.sandbox.cgroup.valid() || !placer.idle()) return false;
+  bool placed = true;
+  for_each_copy(k, s.id, [&](const ServiceRuntime& owner, pid_t pid) {
+    if (!placed) return;
+    // Reported since the last sweep (a spare): asked where it is (one read of /proc/<pid>/cgroup).
+    if (std::find(placed_images.begin(), placed_images.end(), pid) != placed_images.end()) return;
+    placed = owner.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images);
+  });
+  if (!placed) {
+    if (k.options.verbose) k.log("rollback: an image of '%s' is not in its images leaf yet: no cgroup.kill", s.name.c_str());
+    return false;
+  }
+  // Who is in it, for the count (one read of cgroup.procs): each one other than the live incarnation is a
+  // stray, counted by the sweep after the rollback (recording a violation logs a line: not here).
+  const std::vector<pid_t> members = s.sandbox.cgroup.members(sys::CgroupLeaf::Live);
+  if (!s.sandbox.cgroup.kill_live()) return false;
+  for (const pid_t pid : members) {
+    if (pid != s.proc.process.pid()) killed_with_leaf.emplace_back(s.id, pid);
+  }
+  return true;
 }
 
 bool Warden::count_out_of_memory(ServiceRuntime& s, bool live_killed) {
@@ -367,8 +393,15 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
     }
     return k.rejuvenator.reaper.knows(pid);
   };
+  const auto killed_with_its_leaf = [&](pid_t pid) {
+    return std::any_of(killed_with_leaf.begin(), killed_with_leaf.end(), [&](const auto& e) { return e.second == pid; });
+  };
   for (const pid_t pid : *children) {
     if (!final && known(pid)) continue;
+    if (killed_with_its_leaf(pid)) {  // killed with its live leaf at a rollback: reaped here, counted below
+      if (auto stray = sys::ChildProcess::adopt_child(pid)) k.rejuvenator.reaper.kill(std::move(*stray));
+      continue;
+    }
     const auto sid = sys::session_of(pid);
     if (!sid) continue;
     for (ServiceRuntime& s : k.services) {
@@ -392,6 +425,11 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       break;
     }
   }
+  for (const auto& [id, pid] : killed_with_leaf) {
+    record_violation(k.services[id.value()], Violation::StrayProcess,
+                     "pid " + std::to_string(pid) + ", killed with its live cgroup at a rollback");
+  }
+  killed_with_leaf.clear();
 }
 
 }  // namespace rejuv::kernel

@@ -45,12 +45,12 @@ class Warden {
   // rollback kills the live leaves.
   void place_images();
   void place_live(const ServiceRuntime& s);  // a restored incarnation into `live/`
-  // Before a rollback kills the live leaves: every image placed (waits only while moves are still running,
-  // bounded by kPlacementWait).
-  void settle_placements();
-  // The live leaf — the incarnation and everything it forked — killed in one call (cgroup.kill). False where
-  // the group has no cgroup.kill: the caller ends the incarnation as it does without cgroups.
-  [[nodiscard]] bool kill_live_leaf(const ServiceRuntime& s) const { return s.sandbox.cgroup.kill_live(); }
+  // At a rollback: the live leaf — the incarnation and everything it forked — killed in one call
+  // (cgroup.kill), if every image and spare of the service the kernel knows is in `images/` (a move still
+  // running, or a copy born in `live/` and not moved yet, would die with it). False, and nothing killed,
+  // otherwise or where the group has no cgroup.kill: the caller then ends the incarnation as without
+  // cgroups (stopped now, its strays swept after the rollback). Never waits.
+  [[nodiscard]] bool kill_live_leaf(const ServiceRuntime& s);
   // Whether the OOM killer killed processes of the service's live leaf since the last look: counted as an
   // out-of-memory violation (the live incarnation's loss_reason set when `live_killed`). True if it did.
   bool count_out_of_memory(ServiceRuntime& s, bool live_killed);
@@ -69,6 +69,8 @@ class Warden {
   Kernel::Impl& k;
   CgroupPlacer placer;
   std::vector<pid_t> placed_images;  // moved (or asked to be) to their `images/` leaf
+  std::vector<std::pair<ServiceId, pid_t>> killed_with_leaf;  // strays a rollback's cgroup.kill ended: counted
+                                                              // by the next sweep
   std::optional<std::string_view> sweep_due;  // why a sweep is wanted
   Nanos last_sweep{0};                        // kernel clock
 };

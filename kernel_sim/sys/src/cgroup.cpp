@@ -28,6 +28,7 @@ constexpr std::uint64_t kCpuMinQuotaUs = 1'000;
 // A mounted cgroup hierarchy and this process's cgroup in it.
 struct Hierarchy {
   fs::path mount;                        // where it is mounted
+  std::string path;                      // this process's cgroup as /proc/self/cgroup names it
   bool unified = false;                  // cgroup2
   std::vector<std::string> controllers;  // v1: the controllers it carries; v2: those its root offers
   fs::path own;                          // this process's cgroup, as a directory
@@ -81,7 +82,7 @@ std::vector<Hierarchy> hierarchies() {
     const std::string& type = *(dash + 1);
     if (type != "cgroup" && type != "cgroup2") continue;
     const std::string& root = fields[3];
-    Hierarchy h{.mount = fields[4], .unified = type == "cgroup2", .controllers = {}, .own = {}};
+    Hierarchy h{.mount = fields[4], .path = {}, .unified = type == "cgroup2", .controllers = {}, .own = {}};
     std::optional<std::string> path;
     if (h.unified) {
       for (const auto& [controllers, p] : own) {
@@ -103,6 +104,7 @@ std::vector<Hierarchy> hierarchies() {
     if (root != "/" && relative.rfind(root, 0) == 0) relative = relative.substr(root.size());
     if (root != "/" && path->rfind(root, 0) != 0) continue;  // our cgroup is outside this mount
     h.own = h.mount / fs::path(relative).relative_path();
+    h.path = *path;
     if (h.unified) h.controllers = split(read_file(h.own / "cgroup.controllers"), ' ');
     for (std::string& c : h.controllers) std::erase(c, '\n');
     out.push_back(std::move(h));
@@ -188,6 +190,7 @@ ServiceCgroup& ServiceCgroup::operator=(ServiceCgroup&& other) noexcept {
     dirs_ = std::move(other.dirs_);
     unified_ = std::move(other.unified_);
     oom_events_ = std::move(other.oom_events_);
+    unified_name_ = std::move(other.unified_name_);
     join_ = std::move(other.join_);
     join_fds_ = std::move(other.join_fds_);
     images_ = std::move(other.images_);
@@ -260,6 +263,7 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
     }
     if (h.unified) {
       group.unified_ = *dir;
+      group.unified_name_ = (fs::path(h.path) / kernel_dir / name).string();
       const fs::path parent = dir->parent_path();
       for (const auto c : kControllers) {
         if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
@@ -367,6 +371,16 @@ std::optional<std::uint64_t> ServiceCgroup::live_oom_kills() const {
     if (key == "oom_kill") return value;
   }
   return std::nullopt;  // a kernel older than the counter (v1 before 4.13)
+}
+
+bool ServiceCgroup::in_leaf(pid_t pid, CgroupLeaf leaf) const {
+  if (!unified_name_) return false;
+  const std::string want = "0::" + *unified_name_ + (leaf == CgroupLeaf::Live ? "/live" : "/images");
+  std::ifstream in("/proc/" + std::to_string(pid) + "/cgroup");
+  for (std::string line; std::getline(in, line);) {
+    if (line == want) return true;
+  }
+  return false;
 }
 
 bool ServiceCgroup::kill_live() const {

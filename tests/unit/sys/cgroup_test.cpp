@@ -107,6 +107,17 @@ TEST_F(CgroupLeaves, Move_ToImages_LeavesTheLiveLeaf) {
   EXPECT_FALSE(contains(group.members(CgroupLeaf::Live), pid));
 }
 
+TEST_F(CgroupLeaves, InLeaf_AfterMove_SaysWhere) {
+  const pid_t pid = child();
+  ASSERT_TRUE(listed_in(group, CgroupLeaf::Live, pid));
+  if (group.description().find("cgroup v2") == std::string::npos) GTEST_SKIP() << "no cgroup v2 hierarchy here";
+  EXPECT_TRUE(group.in_leaf(pid, CgroupLeaf::Live));
+  EXPECT_FALSE(group.in_leaf(pid, CgroupLeaf::Images));
+  ASSERT_TRUE(group.move(pid, CgroupLeaf::Images).has_value());
+  EXPECT_TRUE(group.in_leaf(pid, CgroupLeaf::Images));
+  EXPECT_FALSE(group.in_leaf(::getpid(), CgroupLeaf::Images));
+}
+
 TEST_F(CgroupLeaves, PrepareMove_RunLater_MovesBack) {
   const pid_t pid = child();
   ASSERT_TRUE(listed_in(group, CgroupLeaf::Live, pid));

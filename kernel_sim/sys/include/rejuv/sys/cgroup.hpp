@@ -86,6 +86,8 @@ class ServiceCgroup {
   // (cgroup.kill of the v2 leaf). False, and nothing done, where no v2 hierarchy could be used: the caller
   // then ends them one by one as it would without cgroups.
   [[nodiscard]] bool kill_live() const;
+  // Whether `pid` is in `leaf` of the v2 hierarchy (/proc/<pid>/cgroup); false where there is none.
+  [[nodiscard]] bool in_leaf(pid_t pid, CgroupLeaf leaf) const;
   // Every process of the group killed in one call (cgroup.kill, v2); where no v2 hierarchy could be used,
   // each process listed in either leaf's cgroup.procs is sent SIGKILL. Reaping is the caller's (the processes
   // are its children).
@@ -112,6 +114,7 @@ class ServiceCgroup {
 
   std::vector<std::filesystem::path> dirs_{};  // the service's directory, one per hierarchy used
   std::optional<std::filesystem::path> unified_{};  // the v2 one (cgroup.kill)
+  std::optional<std::string> unified_name_{};  // the service's directory as /proc/<pid>/cgroup names it (v2)
   std::optional<std::filesystem::path> oom_events_{};  // the live leaf's memory.oom_control (v1) or memory.events
   std::vector<UniqueFd> join_{};  // live/cgroup.procs, one per hierarchy
   std::vector<int> join_fds_{};
