@@ -1,10 +1,13 @@
 // Channel input (requests.cpp): the frames each service sends on its channel, decoded and handled — the boot
 // sequence, timers, logs, subscriptions and invocations (decoded per object kind, the authority checked, then
-// invoked on the object's owner: invocation.hpp). Owns the receive buffer.
+// invoked on the object's owner: invocation.hpp). Owns the receive buffer and the pauses of the channels of
+// services over their publication budget.
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string_view>
 
@@ -23,6 +26,16 @@ class ChannelInput {
   explicit ChannelInput(Kernel::Impl& kernel) : k(kernel) {}
 
   void read_channel(ServiceRuntime& s);
+  // Real time: the channel of a service over its publication budget is not read for kBudgetPause of wall time
+  // after a wakeup (docs/sandbox.md "Floods cost only the flooder"): its channel fills and its sends wait, so
+  // a flood costs the flooder's time, not the kernel's. resume_paused reads them again once their pause is over;
+  // next_resume is the earliest (the event loop's timeout).
+  static constexpr std::chrono::milliseconds kBudgetPause{10};
+  void resume_paused(Nanos wall_now);
+  [[nodiscard]] std::optional<Nanos> next_resume() const;
+  [[nodiscard]] bool paused(const ServiceRuntime& s) const {
+    return s.id.value() < paused_until.size() && paused_until[s.id.value()].has_value();
+  }
   // The frames of one datagram read from the service's channel (no fd): handled one by one until one does
   // not decode (the rest of its datagram is refused with it) or the service is lost.
   void receive_datagram(ServiceRuntime& s, std::span<const std::byte> datagram);
@@ -32,6 +45,8 @@ class ChannelInput {
              std::span<const std::byte> data = {});
 
  private:
+  void read_frames(ServiceRuntime& s);  // up to kFramesPerWakeup frames (and what a datagram holds past them)
+  void pause(ServiceRuntime& s);
   void handle_frame(ServiceRuntime& s, const wire::FrameView& frame);
   void handle_hello(ServiceRuntime& s, const wire::FrameView& frame);  // Boot sent; Phase::Booted
   void handle_ready(ServiceRuntime& s);                                // Phase::Ready, the real-time plan
@@ -48,6 +63,7 @@ class ChannelInput {
   Kernel::Impl& k;
   // read_channel: one frame slot per recvmmsg entry (8-byte aligned slots: the wire layouts need it).
   alignas(8) std::array<std::byte, wire::kMaxFrameBytes * sys::kMaxReceiveBatch> rx_batch{};
+  std::vector<std::optional<Nanos>> paused_until;  // wall time, by ServiceId value
 };
 
 }  // namespace rejuv::kernel

@@ -117,6 +117,7 @@ void Kernel::Impl::stop_run(StopReason reason, std::string detail) {
 
 Result<void, KernelError> Kernel::Impl::pump(std::optional<Nanos> max_wait) {
   std::optional<Nanos> timeout = max_wait;
+  input.resume_paused(wall());  // channels of services over their publication budget (real time)
   if (const auto deadline = next_wall_deadline()) {
     const Nanos left = std::max(Nanos{0}, *deadline - wall());
     timeout = timeout ? std::min(*timeout, left) : left;
@@ -249,6 +250,7 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
   if (const auto at = lockstep.steps.stall_deadline(); supervisor.plant_started() && at) consider(*at);
   if (const auto at = rejuvenator.coordinator.work_deadline()) consider(*at);
   if (const auto at = rejuvenator.pace.wait_deadline()) consider(*at);
+  if (const auto at = input.next_resume()) consider(*at);
   return best;
 }
 

@@ -14,6 +14,38 @@
 namespace rejuv::kernel {
 
 void ChannelInput::read_channel(ServiceRuntime& s) {
+  read_frames(s);
+  if (k.clock_mode == ClockMode::Realtime && k.router.dropping(s)) pause(s);
+}
+
+void ChannelInput::pause(ServiceRuntime& s) {
+  if (!s.live() || !s.proc.channel.valid() || paused(s)) return;
+  if (paused_until.size() <= s.id.value()) paused_until.resize(k.services.size());
+  paused_until[s.id.value()] = k.wall() + kBudgetPause;
+  (void)k.epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
+                       sys::Interest{.readable = false, .writable = s.flow.want_writable()});
+}
+
+void ChannelInput::resume_paused(Nanos wall_now) {
+  for (std::size_t i = 0; i < paused_until.size(); ++i) {
+    if (!paused_until[i] || *paused_until[i] > wall_now) continue;
+    paused_until[i].reset();
+    ServiceRuntime& s = k.services[i];
+    if (!s.proc.channel.valid()) continue;  // gone meanwhile; a restored incarnation's channel is read anyway
+    (void)k.epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
+                         sys::Interest{.readable = true, .writable = s.flow.want_writable()});
+  }
+}
+
+std::optional<Nanos> ChannelInput::next_resume() const {
+  std::optional<Nanos> first;
+  for (const std::optional<Nanos>& t : paused_until) {
+    if (t && (!first || *t < *first)) first = t;
+  }
+  return first;
+}
+
+void ChannelInput::read_frames(ServiceRuntime& s) {
   // A burst of datagrams per recvmmsg (channel::BatchReader); no new burst once kFramesPerWakeup frames were
   // read in this wakeup (a packed datagram holds many).
   std::array<sys::Received, sys::kMaxReceiveBatch> receipts{};

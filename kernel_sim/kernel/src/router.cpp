@@ -95,7 +95,8 @@ bool Router::within_budget(ServiceRuntime& s, std::uint32_t slot) {
     b = PublicationBudget{.rate = RateBudget(per_s, per_s)};  // a burst of one second's worth
   }
   const Nanos now = k.now();
-  if (b->rate.take(now)) return true;
+  b->dropping = !b->rate.take(now);
+  if (!b->dropping) return true;
   const std::uint64_t over = ++s.stats.publications_over_budget;
   if (now >= b->next_report) {
     b->next_report = now + kReportEvery;
@@ -107,6 +108,13 @@ bool Router::within_budget(ServiceRuntime& s, std::uint32_t slot) {
                            static_cast<std::uint8_t>(cap::Operation::Publish));
   }
   return false;
+}
+
+bool Router::dropping(const ServiceRuntime& s) {
+  if (s.id.value() >= budgets.size() || !budgets[s.id.value()]) return false;
+  PublicationBudget& b = *budgets[s.id.value()];
+  if (b.dropping && b.rate.refilled(k.now(), 1)) b.dropping = false;
+  return b.dropping;
 }
 
 void Router::publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from) {
@@ -219,7 +227,7 @@ void Router::hand_over_polled(ServiceRuntime& s) {
 void Router::set_writable_interest(ServiceRuntime& s, bool want) {
   if (!s.proc.channel.valid() || !s.flow.set_want_writable(want)) return;
   (void)k.epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
-                       sys::Interest{.readable = true, .writable = want});
+                       sys::Interest{.readable = !k.input.paused(s), .writable = want});
 }
 
 Router::SendResult Router::send_now(ServiceRuntime& s, std::span<const std::byte> frame) {

@@ -78,6 +78,9 @@ class Router {
   void hand_over_polled(ServiceRuntime& s);
   void send_control(ServiceRuntime& s, std::span<const std::byte> frame);
   void drain(ServiceRuntime& s);
+  // Whether `s` is over its publication budget now (docs/sandbox.md "Floods cost only the flooder"): its last
+  // publication was dropped and its bucket has not refilled 1 % of its burst since.
+  [[nodiscard]] bool dropping(const ServiceRuntime& s);
   void cork();    // opens the output batch (output_batch.hpp) for a routing round
   void uncork();  // closes it and flushes every service's frames
   void set_writable_interest(ServiceRuntime& s, bool want);
@@ -103,6 +106,7 @@ class Router {
     RateBudget rate{};
     Nanos next_report{0};
     std::uint64_t reported = 0;  // drops already said in a report
+    bool dropping = false;       // its last publication was over budget
   };
   static constexpr Nanos kReportEvery{std::chrono::seconds{1}};
 

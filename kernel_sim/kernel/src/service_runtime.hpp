@@ -236,6 +236,7 @@ class FlowControl {
   }
 
   // Whether the kernel waits for the channel to drain (epoll writable interest). True when `want` changes it.
+  [[nodiscard]] bool want_writable() const { return want_writable_; }
   [[nodiscard]] bool set_want_writable(bool want) {
     if (want_writable_ == want) return false;
     want_writable_ = want;
