@@ -2,6 +2,8 @@
 // the hooks attack (DESIGN §9, §11).
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <map>
 #include <string>
 
@@ -46,10 +48,17 @@ TEST(AttackKindNames, SameNamesAndNumbersAsTheLaunchProto) {
     EXPECT_EQ(attack_kind_from_name(to_string(k)), k);
   }
   // Every runtime kind of the proto is here: all but the unset value, the attacks on the vehicle (the
-  // controller's worst case and the attack library, flight::AttackLaw) and CUSTOM (the service's own hook,
-  // rejuv/sdk/attack_hook.hpp), which are not runtime attacks.
-  EXPECT_EQ(kAllAttackKinds.size(),
-            static_cast<std::size_t>(proto::AttackKind_MAX) - flight::kAllAttackLaws.size() - 1);
+  // controller's worst case and the attack library, flight::AttackLaw), CUSTOM (the service's own hook,
+  // rejuv/sdk/attack_hook.hpp) and the replay attacks that sensors carries out itself
+  // (services/sensors/src/replay_attack.cpp), which are not runtime attacks.
+  constexpr std::array kSensorsOwn{"SLOW_REPLAY", "LYING_REPLAY"};
+  EXPECT_EQ(kAllAttackKinds.size(), static_cast<std::size_t>(proto::AttackKind_MAX) - flight::kAllAttackLaws.size() -
+                                        1 - kSensorsOwn.size());
+  for (const char* own : kSensorsOwn) {
+    proto::AttackKind number{};
+    EXPECT_TRUE(proto::AttackKind_Parse(own, &number)) << own;
+    EXPECT_EQ(attack_kind_from_name(own), std::nullopt) << own;
+  }
   EXPECT_EQ(attack_kind_from_name("CUSTOM"), std::nullopt);
   for (const flight::AttackLaw law : flight::kAllAttackLaws) {
     EXPECT_EQ(attack_kind_from_name(flight::to_string(law)), std::nullopt) << flight::to_string(law);

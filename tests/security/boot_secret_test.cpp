@@ -5,7 +5,11 @@
 // as root and as an unprivileged user (where the services once shared the kernel's uid and read the key), in
 // lockstep and in real time. Judged by its effect: the key's bytes appear nowhere a service could have put
 // them (the run's output and log, where the hostile binary prints what it read); the kernel refused the
-// open at boot and said so, naming ext_link; the run completed (the kernel alive, exit 0). No timing.
+// open at boot and said so, naming ext_link; the run completed (the kernel alive, exit 0).
+//
+// In the same flight, the ground side of issue 45: a socket plays back frames signed with the right key but
+// stamped 2015-01-01 (a recorded flight). Judged by the run's summary: every one refused as stale by the gate,
+// none relayed to ext_link, and no telemetry sent to the replaying socket. No timing.
 #include <fcntl.h>
 #include <grp.h>
 #include <gtest/gtest.h>
@@ -21,7 +25,15 @@
 #include <string>
 #include <vector>
 
+#include <google/protobuf/util/json_util.h>
+
+#include <chrono>
+#include <thread>
+
+#include "rejuv/mavlink/messages.hpp"
+#include "rejuv/sys/udp.hpp"
 #include "rejuv_cli.hpp"
+#include "summary.pb.h"
 
 namespace rejuv::testing {
 namespace {
@@ -60,9 +72,75 @@ void write_graph(const fs::path& dir) {
   fs::permissions(dir / "key.hex", fs::perms::owner_read | fs::perms::owner_write);
 }
 
-// `rejuv run` of the graph in `dir`, as the user `uid`/`gid` (the kernel's user: it owns dir and the key).
-CliOutcome fly_as(const fs::path& dir, uid_t uid, gid_t gid, bool realtime) {
-  std::vector<std::string> args{kRejuv.string(), "run", (dir / "hostile.launch.pbtxt").string(), "--duration", "4"};
+namespace mav = rejuv::mavlink;
+
+// Frames played back from a recording: a ground station's heartbeats signed with the gate's key, stamped from
+// 2015-01-01 on (the signing epoch), strictly increasing — correct but for their age.
+struct Replayer {
+  explicit Replayer(std::uint16_t kernel_port) : kernel(sys::UdpAddress::loopback(kernel_port)) {
+    auto s = sys::UdpSocket::bind(sys::UdpAddress::loopback(0));
+    EXPECT_TRUE(s.has_value());
+    if (s) socket = std::move(*s);
+  }
+  // The next `n` frames of the recording.
+  void send_recorded(std::size_t n) {
+    const auto key = mav::SigningKey::from_hex(kKeyHex);
+    ASSERT_TRUE(key.has_value());
+    for (std::size_t i = 0; i < n; ++i) {
+      at += mav::SigningClock::duration{100'000};  // a second apart in the recording
+      ++sent;
+      const mav::Message hb = mav::Heartbeat{.custom_mode = 0, .type = mav::kMavTypeGcs,
+                                             .autopilot = mav::kMavAutopilotInvalid, .base_mode = 0,
+                                             .system_status = mav::kMavStateActive, .mavlink_version = 3};
+      const mav::Frame f = mav::encode(hb, mav::Envelope{.seq = static_cast<std::uint8_t>(i), .sysid = 255, .compid = 190},
+                                       mav::Signer{.key = *key, .link_id = 1, .timestamp = at});
+      ASSERT_TRUE(socket.send_to(f.view(), kernel).has_value());
+    }
+  }
+  // Datagrams the vehicle sent to this socket (non-blocking).
+  std::size_t heard() {
+    std::array<std::byte, 2048> buf{};
+    std::size_t n = 0;
+    while (socket.receive(buf).has_value()) ++n;
+    return n;
+  }
+  sys::UdpAddress kernel;
+  sys::UdpSocket socket;
+  mav::SigningTime at = mav::SigningClock::from_sys(std::chrono::sys_days{std::chrono::year{2015} / 1 / 1});
+  std::uint64_t sent = 0;
+};
+
+// The gate's port, from `rejuv run`'s log ("network gate: udp 127.0.0.1:PORT"), or 0 if it ended first.
+std::uint16_t bound_port(const fs::path& dir, pid_t run) {
+  constexpr std::string_view kLine = "network gate: udp 127.0.0.1:";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds{60};
+  while (std::chrono::steady_clock::now() < deadline) {
+    const std::string err = slurp(dir / "stderr");
+    if (const auto at = err.find(kLine); at != std::string::npos) {
+      const auto end = err.find_first_not_of("0123456789", at + kLine.size());
+      if (end != std::string::npos) return static_cast<std::uint16_t>(std::stoul(err.substr(at + kLine.size())));
+    }
+    siginfo_t ended{};
+    if (::waitid(P_PID, static_cast<id_t>(run), &ended, WEXITED | WNOHANG | WNOWAIT) == 0 && ended.si_pid == run) {
+      return 0;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds{10});
+  }
+  return 0;
+}
+
+// What the replaying socket did during a flight.
+struct Playback {
+  std::uint64_t sent = 0;   // recorded frames sent to the gate
+  std::size_t heard = 0;    // datagrams the vehicle sent to the replaying socket
+};
+
+// `rejuv run` of the graph in `dir`, as the user `uid`/`gid` (the kernel's user: it owns dir and the key),
+// with the recording played back to its gate for the whole flight (a frame every 5 ms: the gate drops what
+// comes in the secure interval unread, so the recording must also arrive in MC windows).
+CliOutcome fly_as(const fs::path& dir, uid_t uid, gid_t gid, bool realtime, Playback& playback) {
+  std::vector<std::string> args{kRejuv.string(), "run", (dir / "hostile.launch.pbtxt").string(), "--duration", "4",
+                                "--summary-json", (dir / "summary.json").string()};
   if (realtime) args.emplace_back("--realtime");
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
@@ -82,6 +160,27 @@ CliOutcome fly_as(const fs::path& dir, uid_t uid, gid_t gid, bool realtime) {
     ::_exit(92);
   }
   CliOutcome r;
+  if (child > 0) {
+    if (const std::uint16_t port = bound_port(dir, child); port != 0) {
+      Replayer replayer(port);
+      for (;;) {
+        siginfo_t ended{};
+        if (::waitid(P_PID, static_cast<id_t>(child), &ended, WEXITED | WNOHANG | WNOWAIT) == 0 && ended.si_pid == child) {
+          break;
+        }
+        replayer.send_recorded(1);
+        playback.heard += replayer.heard();
+        std::this_thread::sleep_for(std::chrono::milliseconds{5});
+      }
+      int status = 0;
+      if (::waitpid(child, &status, 0) == child) r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+      playback.heard += replayer.heard();
+      playback.sent = replayer.sent;
+      r.out = slurp(dir / "stdout");
+      r.err = slurp(dir / "stderr");
+      return r;
+    }
+  }
   int status = 0;
   if (child > 0 && ::waitpid(child, &status, 0) == child) {
     r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -107,7 +206,7 @@ class BootSecrets : public ::testing::TestWithParam<Runner> {
   fs::path dir_;
 };
 
-TEST_P(BootSecrets, KeyNeverRead_OpenRefusedAndNamed_RunCompletes) {
+TEST_P(BootSecrets, KeyNeverRead_OpenRefusedAndNamed_RecordingRefused_RunCompletes) {
   uid_t uid = 0;
   gid_t gid = 0;
   if (GetParam().unprivileged) {
@@ -127,7 +226,8 @@ TEST_P(BootSecrets, KeyNeverRead_OpenRefusedAndNamed_RunCompletes) {
     ASSERT_EQ(::chown(p.c_str(), uid, gid), 0) << p;
   }
   ::chmod(dir_.c_str(), 0700);
-  const CliOutcome r = fly_as(dir_, uid, gid, GetParam().realtime);
+  Playback playback;
+  const CliOutcome r = fly_as(dir_, uid, gid, GetParam().realtime, playback);
   const std::string all = r.out + r.err;
   ASSERT_NE(r.exit_code, 90) << "could not become the unprivileged user";
   EXPECT_EQ(r.exit_code, 0) << all;
@@ -139,6 +239,26 @@ TEST_P(BootSecrets, KeyNeverRead_OpenRefusedAndNamed_RunCompletes) {
   EXPECT_NE(all.find("'ext_link' at boot: openat of /proc/"), std::string::npos) << all;
   EXPECT_NE(all.find("outside what a start-up reads"), std::string::npos) << all;
   ::testing::Test::RecordProperty("output_bytes", std::to_string(all.size()));
+  // The recording: refused as stale, every frame, before ext_link; nothing relayed; no telemetry to it.
+  proto::RunSummary summary;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(dir_ / "summary.json"), &summary).ok()) << all;
+  std::uint64_t stale = 0;
+  for (const auto& refusal : summary.network().signing_refused_by_reason()) {
+    if (refusal.reason() == "stale") stale = refusal.count();
+  }
+  const auto& net = summary.network();
+  EXPECT_GT(playback.sent, 0U);
+  // (what was sent while the kernel shut down is never read)
+  EXPECT_LE(net.received(), playback.sent) << net.DebugString();
+  EXPECT_GT(net.received(), 0U) << net.DebugString();
+  EXPECT_GE(stale, 1U) << "no recorded frame reached the signing check (all in the secure interval?) "
+                       << net.DebugString();
+  EXPECT_EQ(stale + net.dropped_secure_interval(), net.received()) << net.DebugString();
+  EXPECT_EQ(net.signing_refused(), stale) << net.DebugString();
+  EXPECT_EQ(net.relayed(), 0U) << net.DebugString();
+  EXPECT_EQ(net.link_valid(), 0U) << net.DebugString();
+  EXPECT_EQ(playback.heard, 0U) << "the vehicle's telemetry went to the replaying socket";
+  ::testing::Test::RecordProperty("recorded_frames_refused_stale", std::to_string(stale));
 }
 
 INSTANTIATE_TEST_SUITE_P(Containment, BootSecrets,

@@ -63,8 +63,8 @@ void fill_catch_up(proto::CatchUpSummary& out, const kernel::Kernel& k) {
   out.set_dropped(c.dropped);
   out.set_without_log(c.without_log);
   out.set_cut_short(c.cut_short);
-  fill_percentiles(*out.mutable_replay_ms(), k.sr_stats().catch_up_ms);
   out.set_discarded(c.discarded);
+  fill_percentiles(*out.mutable_replay_ms(), k.sr_stats().catch_up_ms);
 }
 
 // DESIGN §6: what was charged to simulated time, and the real durations beside it (wall-clock fields).

@@ -23,7 +23,8 @@ constexpr ServiceId kController{1};
 CatchUp make(std::size_t capacity) {
   CatchUp::Plan plan{.logged = {false, true, true, false, false},
                      .cut_off = {false, false, false, false, true},
-                     .chain = {true, false}};
+                     .chain = {true, false},
+                     .estimate = {false, false, false, false, false}};
   return CatchUp(std::move(plan), capacity, 8);
 }
 

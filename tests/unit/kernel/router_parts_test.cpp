@@ -348,14 +348,20 @@ TEST(KernelMessage, PaddingIsZero_WhateverTheMemoryHeldBefore) {
   for (const std::size_t padding : {18U, 19U, 28U, 29U, 30U, 31U}) {
     EXPECT_EQ(event[padding], std::byte{0}) << "SecurityEvent byte " << padding;
   }
-  static_assert(sizeof(rejuv_msg_RollbackSignal) == 24 && offsetof(rejuv_msg_RollbackSignal, epoch) == 16);
+  // RollbackSignal has no padding since it carries the catch-up's state (epoch, catch_up, replayed_to_ns
+  // packed): every byte is a field the kernel sets.
+  static_assert(sizeof(rejuv_msg_RollbackSignal) == 32 && offsetof(rejuv_msg_RollbackSignal, epoch) == 16 &&
+                offsetof(rejuv_msg_RollbackSignal, catch_up) == 20 &&
+                offsetof(rejuv_msg_RollbackSignal, replayed_to_ns) == 24);
   const auto signal = built_over_dirty_memory<rejuv_msg_RollbackSignal>([](rejuv_msg_RollbackSignal& r) {
     r.timestamp_ns = 1;
     r.generation = 2;
     r.epoch = 3;
+    r.catch_up = rejuv_msg_CATCH_UP_OFF;
+    r.replayed_to_ns = 0;
   });
-  for (const std::size_t padding : {20U, 21U, 22U, 23U}) {
-    EXPECT_EQ(signal[padding], std::byte{0}) << "RollbackSignal byte " << padding;
+  for (const std::size_t at : {20U, 21U, 22U, 23U, 24U, 31U}) {
+    EXPECT_EQ(signal[at], std::byte{0}) << "RollbackSignal byte " << at;
   }
 }
 
