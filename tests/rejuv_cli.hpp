@@ -9,10 +9,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <string_view>
+#include <thread>
 #include <system_error>
 #include <vector>
 
@@ -96,6 +100,26 @@ inline CliOutcome run_program(const std::filesystem::path& dir, const std::files
 // Runs `rejuv <args>` (run_program).
 inline CliOutcome run_rejuv(const std::filesystem::path& dir, std::vector<std::string> args) {
   return run_program(dir, kRejuv, std::move(args));
+}
+
+// The UDP port of the network gate of a `rejuv run` started by start_program in `dir` (its log line
+// "network gate: udp 127.0.0.1:PORT"), or 0 if the run ended first or `limit` passed.
+inline std::uint16_t bound_gate_port(const std::filesystem::path& dir, pid_t run, std::chrono::seconds limit) {
+  constexpr std::string_view kLine = "network gate: udp 127.0.0.1:";
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (std::chrono::steady_clock::now() < deadline) {
+    const std::string err = slurp(dir / "stderr");
+    if (const auto at = err.find(kLine); at != std::string::npos) {
+      const auto end = err.find_first_not_of("0123456789", at + kLine.size());
+      if (end != std::string::npos) return static_cast<std::uint16_t>(std::stoul(err.substr(at + kLine.size())));
+    }
+    siginfo_t ended{};
+    if (::waitid(P_PID, static_cast<id_t>(run), &ended, WEXITED | WNOHANG | WNOWAIT) == 0 && ended.si_pid == run) {
+      return 0;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds{10});
+  }
+  return 0;
 }
 
 // A fixture with a scratch folder per test (`<prefix><pid>_<test name>` in the temp directory), removed after

@@ -59,26 +59,6 @@ int wait_client(pid_t pid, std::chrono::seconds limit) {
 
 using test_support::json_at;
 
-// The port `rejuv run --net-port 0` bound, from its log line "network gate: udp 127.0.0.1:<port> …" in
-// `dir`/stderr; 0 when the run ended or did not say within `limit`. The client is told this port only after the
-// kernel holds it: a port picked by the test (bound, released) could meanwhile be handed to another test's
-// socket — a listener that must see no datagram, or another run's gate — which would get the client's frames.
-std::uint16_t bound_port(const std::filesystem::path& dir, pid_t run, std::chrono::seconds limit) {
-  constexpr std::string_view kLine = "network gate: udp 127.0.0.1:";
-  const auto deadline = std::chrono::steady_clock::now() + limit;
-  while (std::chrono::steady_clock::now() < deadline) {
-    const std::string err = slurp(dir / "stderr");
-    if (const auto at = err.find(kLine); at != std::string::npos) {
-      const auto end = err.find_first_not_of("0123456789", at + kLine.size());
-      if (end != std::string::npos) return static_cast<std::uint16_t>(std::stoul(err.substr(at + kLine.size())));
-    }
-    siginfo_t ended{};
-    if (::waitid(P_PID, static_cast<id_t>(run), &ended, WEXITED | WNOHANG | WNOWAIT) == 0 && ended.si_pid == run) return 0;
-    std::this_thread::sleep_for(std::chrono::milliseconds{20});
-  }
-  return 0;
-}
-
 class MavlinkClient : public test_support::ScratchDirTest {
  protected:
   MavlinkClient() : ScratchDirTest("rejuv_mavlink_") {}
@@ -106,7 +86,7 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
       {"run", graph.string(), "--duration", "240", "--net-port", "0", "--domain",
        std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json.string()});
   ASSERT_GT(rejuv_run, 0) << "cannot start rejuv run";
-  const std::uint16_t port = bound_port(dir(), rejuv_run, std::chrono::seconds{60});
+  const std::uint16_t port = test_support::bound_gate_port(dir(), rejuv_run, std::chrono::seconds{60});
   if (port == 0) {
     const test_support::CliOutcome ended = test_support::wait_program(dir(), rejuv_run);
     FAIL() << "rejuv run did not report its network gate's port:\n" << ended.err;

@@ -110,25 +110,6 @@ struct Replayer {
   std::uint64_t sent = 0;
 };
 
-// The gate's port, from `rejuv run`'s log ("network gate: udp 127.0.0.1:PORT"), or 0 if it ended first.
-std::uint16_t bound_port(const fs::path& dir, pid_t run) {
-  constexpr std::string_view kLine = "network gate: udp 127.0.0.1:";
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds{60};
-  while (std::chrono::steady_clock::now() < deadline) {
-    const std::string err = slurp(dir / "stderr");
-    if (const auto at = err.find(kLine); at != std::string::npos) {
-      const auto end = err.find_first_not_of("0123456789", at + kLine.size());
-      if (end != std::string::npos) return static_cast<std::uint16_t>(std::stoul(err.substr(at + kLine.size())));
-    }
-    siginfo_t ended{};
-    if (::waitid(P_PID, static_cast<id_t>(run), &ended, WEXITED | WNOHANG | WNOWAIT) == 0 && ended.si_pid == run) {
-      return 0;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds{10});
-  }
-  return 0;
-}
-
 // What the replaying socket did during a flight.
 struct Playback {
   std::uint64_t sent = 0;   // recorded frames sent to the gate
@@ -161,7 +142,7 @@ CliOutcome fly_as(const fs::path& dir, uid_t uid, gid_t gid, bool realtime, Play
   }
   CliOutcome r;
   if (child > 0) {
-    if (const std::uint16_t port = bound_port(dir, child); port != 0) {
+    if (const std::uint16_t port = test_support::bound_gate_port(dir, child, std::chrono::seconds{60}); port != 0) {
       Replayer replayer(port);
       for (;;) {
         siginfo_t ended{};

@@ -98,6 +98,21 @@ void for_each_copy(Kernel::Impl& k, std::optional<ServiceId> service, F f) {
     for (const image::Image& im : r.images) each(im);
   }
 }
+
+// Whether a copy of `service` was forked whose pid the kernel does not know yet (a spare whose Copied has not
+// been read): it was born where its parent was — for a spare forked by the restored incarnation, the live
+// leaf — and no one can tell it apart from a stray there.
+bool copies_pending(Kernel::Impl& k, ServiceId service) {
+  bool pending = false;
+  const auto each = [&](const image::Image& im) { pending = pending || (im.service == service && im.spares_pending > 0); };
+  for (const Generation g : k.rejuvenator.images.generations()) {
+    for (const image::Image& im : k.rejuvenator.images.find(g)->images) each(im);
+  }
+  for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
+    for (const image::Image& im : r.images) each(im);
+  }
+  return pending;
+}
 }  // namespace
 
 void Warden::place_images() {
@@ -121,6 +136,12 @@ void Warden::place_live(const ServiceRuntime& s) {
 
 bool Warden::kill_live_leaf(const ServiceRuntime& s) {
   if (!s.sandbox.cgroup.valid() || !placer.idle()) return false;
+  // A copy on its way (its pid unknown) may still be in the live leaf: the kill would take it with the strays
+  // (a restored generation's spare, lost in the store: seen as a fallback and a cold restart).
+  if (copies_pending(k, s.id)) {
+    if (k.options.verbose) k.log("rollback: a copy of '%s' is on its way: no cgroup.kill", s.name.c_str());
+    return false;
+  }
   bool placed = true;
   for_each_copy(k, s.id, [&](const ServiceRuntime& owner, pid_t pid) {
     if (!placed) return;
