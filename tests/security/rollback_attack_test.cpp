@@ -355,6 +355,12 @@ void expect_counted(AttackKind kind, const Flight& f) {
     EXPECT_FALSE(lines_with(f.log, "attack OOM_IMAGES: its copy unmapped").empty()) << "never attacked in MC";
     if (s.cgroup.find("memory") == std::string::npos) {
       std::printf("no memory cgroup here (%s): no OOM to count\n", s.cgroup.c_str());
+    } else if (f.realtime && s.out_of_memory == 0) {
+      // In real time the window's rollback may come before the touch reaches the limit (a loaded machine
+      // touches slower than T_MC): then nothing ran out, and what must hold is expect_rollback_held's (no image
+      // lost, no cold restart). Lockstep waits for the touch, so there the OOM always happens and is counted.
+      std::printf("OOM_IMAGES real time: every window's rollback came before its touch reached the limit\n");
+      EXPECT_EQ(s.sandbox_violations, 0U);
     } else {
       EXPECT_GE(s.out_of_memory, 1U) << "the OOM kill was not counted";
       EXPECT_GE(s.sandbox_violations, s.out_of_memory);
@@ -498,12 +504,16 @@ TEST_P(RollbackAttackWithoutRoot, KernelAlive_AttackRefused) {
   EXPECT_EQ(WEXITSTATUS(status), 0) << "the flight without root failed (its output is above)";
 }
 
-// SIGIO with SIGKILL at the kernel (it shares no uid with a service: no signal reaches it), and each attack of
-// a binary hostile from boot, where the services once had the kernel's uid (prlimit64 on it, its /proc).
+// SIGIO with SIGKILL at the kernel (it shares no uid with a service: no signal reaches it), 40 spinning strays
+// per window (no cgroup without root), and each attack of a binary hostile from boot, where the services once
+// had the kernel's uid (prlimit64 on it, its /proc).
 std::vector<UnprivilegedCase> unprivileged_cases() {
   std::vector<UnprivilegedCase> out;
   for (const bool realtime : {true, false}) {
     out.push_back(UnprivilegedCase{AttackKind::SigioKernel, realtime});
+    // 40 spinning strays per window where no cgroup can be made: swept one by one (sandbox.cpp), their cost
+    // bounded by the pids rlimit of the service's own subordinate uid.
+    out.push_back(UnprivilegedCase{AttackKind::StraySpinners, realtime});
     for (const AttackKind k : attacks::kBootAttackKinds) out.push_back(UnprivilegedCase{k, realtime});
   }
   return out;

@@ -176,6 +176,11 @@ Options& Options::repeated(std::string name, std::string metavar, std::vector<st
   return *this;
 }
 
+Options& Options::required() {
+  if (!opts_.empty()) opts_.back().required = true;
+  return *this;
+}
+
 Options& Options::positionals(std::string name, std::vector<std::string>& out, std::string help) {
   rest_ = &out;
   rest_name_ = std::move(name);
@@ -210,7 +215,8 @@ std::string Options::help() const {
   std::ostringstream s;
   s << "usage: rejuv " << command_;
   for (const Opt& o : opts_) {
-    s << " [" << o.name << (o.metavar.empty() ? "" : " " + o.metavar) << "]";
+    const std::string word = o.name + (o.metavar.empty() ? "" : " " + o.metavar) + (o.repeatable ? " ..." : "");
+    s << (o.required ? " " + word : " [" + word + "]");
   }
   for (const Pos& p : pos_) {
     s << (p.required ? " " : " [") << p.name << (p.required ? "" : "]");
@@ -313,6 +319,9 @@ Result<ParseOutcome, std::string> Options::parse(std::span<const std::string_vie
     if (pos_[p].required) {
       return fail("missing argument " + pos_[p].name + see);
     }
+  }
+  for (const Opt& o : opts_) {
+    if (o.required && !o.given) return fail("missing option " + o.name + " " + o.metavar + see);
   }
   if (rest_ != nullptr && rest_->empty()) return fail("missing argument " + rest_name_ + see);
   return ParseOutcome::Run;

@@ -95,6 +95,8 @@ class Options {
                   std::string unset = "");
   // --name VALUE that may be given several times (each value appended).
   Options& repeated(std::string name, std::string metavar, std::vector<std::string>& out, std::string help);
+  // The option declared last must be given (the usage line shows it without brackets; parse refuses its absence).
+  Options& required();
   // A positional argument; required ones must be present.
   Options& positional(std::string name, std::string& out, std::string help, bool required = true);
   // Every positional argument after the named ones (at least one), e.g. `merge DIR...`.
@@ -123,6 +125,7 @@ class Options {
     ErrorNames names = ErrorNames::Option;
     bool given = false;
     bool repeatable = false;  // repeated(): each value appended; any other option may be given once
+    bool required = false;    // required(): parse refuses its absence
   };
   struct Pos {
     std::string name, help;

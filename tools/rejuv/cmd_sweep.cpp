@@ -222,7 +222,8 @@ void declare_sweep_options(Options& opts, SweepRequest& r) {
       .repeated("--param", "PATH=VALUES", r.params,
                 "a launch field by path and its values: a:b:step (inclusive), v1,v2,... or one value;\n"
                 "e.g. sr.t_mc_s=0.2:0.3:0.025, sr.restricted_limit_fraction=0.1,0.2,\n"
-                "attack.attacks[0].kind=WORST_CASE_CONTROL (required: one or two --param)")
+                "attack.attacks[0].kind=WORST_CASE_CONTROL (one or two --param)")
+      .required()
       .custom<std::vector<std::uint64_t>>("--seeds", "LIST", r.seeds, sweep::parse_seeds,
                                           "seeds of each cell: a-b, a,b,c or one", "the graph's seed and the next two")
       .integer("--attacks", "N", r.attacks, {0, 100000}, "end each mission after N attacked MC windows (0 = fly it)")

@@ -143,6 +143,19 @@ TEST(Options, AnotherOptionInPlaceOfAValue_IsRefused) {
   EXPECT_EQ(n.host, "--not-an-option");
 }
 
+// A required option: the usage line shows it without brackets, and its absence is refused by name.
+TEST(Options, RequiredOption_ShownWithoutBracketsAndItsAbsenceRefused) {
+  std::string graph;
+  std::vector<std::string> params;
+  Options o("demo", "A demo.");
+  o.positional("GRAPH", graph, "the graph").repeated("--param", "P", params, "a parameter").required();
+  const std::vector<std::string_view> none{"g"};
+  const auto r = o.parse(none);
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().find("missing option --param P"), std::string::npos) << r.error();
+  EXPECT_NE(o.help().find("usage: rejuv demo --param P ..."), std::string::npos) << o.help();
+}
+
 TEST(Options, HelpIsWrittenFromTheTable) {
   Table t;
   const auto r = t.parse({"g", "--help"});

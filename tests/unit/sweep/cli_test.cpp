@@ -238,7 +238,7 @@ TEST_F(SweepCli, BadInput_PreciseErrorExit2) {
       {{"--param", "sr.t_mc_s=0.2", "--jobs", "0"}, "--jobs"},
       {{"--param", "sr.t_mc_s=0.2", "--seeds", "5-1"}, "inverted"},
       {{"--param", "sr.t_mc_s=0.2", "--shard", "3/2"}, "--shard"},
-      {{}, "one or two --param"},
+      {{}, "missing option --param PATH=VALUES"},
   };
   for (const auto& [extra, expected] : cases) {
     std::vector<std::string> args = {"sweep", kGraph, "--out", (dir_ / "never").string()};
