@@ -168,7 +168,11 @@ TEST_F(Determinism, EstimateCatchUp_InRealTime_EveryRollbackCaughtUp) {
   EXPECT_EQ(a.summary.catch_up().replays(), a.summary.rollbacks()) << a.outcome.out;
   EXPECT_EQ(a.summary.catch_up().without_log(), 0U);
   EXPECT_GT(a.summary.catch_up().samples(), 50 * a.summary.catch_up().replays());
-  EXPECT_GT(a.summary.catch_up().dropped(), 0U);
+  // What the chain publishes for the controllers during a replay is dropped by the kernel (catch_up.hpp); ekf2
+  // itself now holds its estimate until the replay is judged (ekf2_node.cpp), so whether anything is left to drop
+  // depends on when the replay's last tick and the kernel's DONE meet: counted, not required. The property is
+  // that every rollback was caught up (above) and the vehicle stayed inside the safety set (below).
+  ::testing::Test::RecordProperty("catch_up_dropped", std::to_string(a.summary.catch_up().dropped()));
   EXPECT_EQ(a.summary.charging().charge(), "none");
   EXPECT_LT(a.summary.max_v(), 1.0);
 }
