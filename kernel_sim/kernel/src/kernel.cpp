@@ -210,6 +210,7 @@ void Kernel::settle_images() {
     k.rejuvenator.finish_retiring(false);
     bool pending = !k.rejuvenator.retiring.empty();
     if (k.rejuvenator.images.spares_pending() > 0) pending = true;
+    if (!k.warden.placements_idle()) pending = true;  // a move holds its cgroup.procs fds until it is done
     if (!pending || k.wall() > deadline) break;
     (void)sys::wait_fd(k.epoll.fd(), sys::WaitFor::Readable, std::chrono::milliseconds{1});
   }

@@ -44,6 +44,8 @@ class Warden {
   // to its service's `images/` leaf (each once; off the loop, CgroupPlacer): at every sweep, and before a
   // rollback kills the live leaves.
   void place_images();
+  // No cgroup move queued or running (each holds the cgroup.procs fds it writes to until it is done).
+  [[nodiscard]] bool placements_idle() const { return placer.idle(); }
   void place_live(const ServiceRuntime& s);  // a restored incarnation into `live/`
   // At a rollback: the live leaf — the incarnation and everything it forked — killed in one call
   // (cgroup.kill), if every image and spare of the service the kernel knows is in `images/` (a move still

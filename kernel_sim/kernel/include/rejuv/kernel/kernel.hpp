@@ -502,7 +502,7 @@ class Kernel {
   // The plant process's pid (nullopt: not started or already reaped): fault injection.
   [[nodiscard]] std::optional<int> plant_pid() const;
   // Waits (briefly) until the asynchronous image work is done: requested spares reported, retired
-  // generations destroyed, killed incarnations reaped. Tests count processes and fds after it.
+  // generations destroyed, killed incarnations reaped, cgroup moves done. Tests count processes and fds after it.
   void settle_images();
   // The network gate (netgate.cpp): its counters, and the UDP port it is bound to (nullopt: no gate).
   [[nodiscard]] NetStats net_stats() const;
