@@ -1,4 +1,4 @@
-// A service binary hostile from its first instruction reads the user's secrets (issue 45, BOOT_READ_SECRETS,
+// A service binary hostile from its first instruction reads the user's secrets (BOOT_READ_SECRETS,
 // services/attacks/src/boot_attacks.cpp): at boot, before Ready, it reads the kernel's command line, which
 // names the launch file, then the launch file, which names the MAVLink signing key's file, then the key.
 // Flown as a user flies it — `rejuv run` on a launch file with a signing key file (mode 0600, the user's) —
@@ -7,7 +7,7 @@
 // them (the run's output and log, where the hostile binary prints what it read); the kernel refused the
 // open at boot and said so, naming ext_link; the run completed (the kernel alive, exit 0).
 //
-// In the same flight, the ground side of issue 45: a socket plays back frames signed with the right key but
+// In the same flight, the ground side of the threat: a socket plays back frames signed with the right key but
 // stamped 2015-01-01 (a recorded flight). Judged by the run's summary: every one refused as stale by the gate,
 // none relayed to ext_link, and no telemetry sent to the replaying socket. No timing.
 #include <fcntl.h>

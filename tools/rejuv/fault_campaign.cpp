@@ -356,8 +356,7 @@ class Injector final : public kernel::Observer {
   // Whether the fault's target has been seen alive in a process that the fault did not hit, at any step since it
   // fired. A verdict taken when the next fault is about to fire may fall in a rollback, when the target's live
   // process is legitimately gone (the rollback has killed it and not yet resumed its image): what counts is
-  // that it came back after this fault, not where the next one finds it (issue 49: 3 of 20 faults were judged
-  // "not back" that way, the kernel's log showing the target back at once).
+  // that it came back after this fault, not where the next one finds it.
   void note_if_back(const Outcome& o) {
     if (seen_back_ || o.fault.kind == FaultKind::StallPlant) return;
     const auto id = k_->find_service(o.fault.target);

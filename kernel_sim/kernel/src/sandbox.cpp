@@ -84,19 +84,24 @@ void Warden::join_cgroup(ServiceRuntime& s) {
 }
 
 namespace {
+// Calls `f` with every image the kernel holds: those of the kept generations and those being retired.
+template <class F>
+void for_each_image(Kernel::Impl& k, F f) {
+  for (const Generation g : k.rejuvenator.images.generations()) {
+    for (const image::Image& im : k.rejuvenator.images.find(g)->images) f(im);
+  }
+  for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
+    for (const image::Image& im : r.images) f(im);
+  }
+}
+
 // Calls `f` with each copy (image or spare) of `service` the kernel knows, or of every service (nullopt).
 template <class F>
 void for_each_copy(Kernel::Impl& k, std::optional<ServiceId> service, F f) {
-  const auto each = [&](const image::Image& im) {
+  for_each_image(k, [&](const image::Image& im) {
     if (service && im.service != *service) return;
     for (const sys::ChildProcess& c : im.copies) f(k.services[im.service.value()], c.pid());
-  };
-  for (const Generation g : k.rejuvenator.images.generations()) {
-    for (const image::Image& im : k.rejuvenator.images.find(g)->images) each(im);
-  }
-  for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
-    for (const image::Image& im : r.images) each(im);
-  }
+  });
 }
 
 // Whether a copy of `service` was forked whose pid the kernel does not know yet (a spare whose Copied has not
@@ -104,13 +109,7 @@ void for_each_copy(Kernel::Impl& k, std::optional<ServiceId> service, F f) {
 // leaf — and no one can tell it apart from a stray there.
 bool copies_pending(Kernel::Impl& k, ServiceId service) {
   bool pending = false;
-  const auto each = [&](const image::Image& im) { pending = pending || (im.service == service && im.spares_pending > 0); };
-  for (const Generation g : k.rejuvenator.images.generations()) {
-    for (const image::Image& im : k.rejuvenator.images.find(g)->images) each(im);
-  }
-  for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
-    for (const image::Image& im : r.images) each(im);
-  }
+  for_each_image(k, [&](const image::Image& im) { pending = pending || (im.service == service && im.spares_pending > 0); });
   return pending;
 }
 }  // namespace
@@ -273,7 +272,7 @@ void Warden::on_seccomp_notice(ServiceRuntime& s) {
     }
     const std::string call = sys::syscall_name(notice.nr);
     if (booting && kind == sys::NoticeKind::RefusedAtBoot) {
-      // No trusted boot phase (issue 45): a boot call with arguments no start-up needs (an open for writing,
+      // No trusted boot phase: a boot call with arguments no start-up needs (an open for writing,
       // prlimit64 of another process or a new limit, an exec of its own, a prctl other than the SDK's) fails
       // with EPERM and is counted against the service; the call never ran, so it boots on.
       (void)s.sandbox.seccomp.refuse(notice.id, EPERM);
@@ -385,12 +384,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       pending[im.service.value()] = !final;
       if (answer_fd < 0 && im.resume.valid()) answer_fd = im.resume.fd();
     };
-    for (const Generation g : k.rejuvenator.images.generations()) {
-      for (const image::Image& im : k.rejuvenator.images.find(g)->images) note(im);
-    }
-    for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
-      for (const image::Image& im : r.images) note(im);
-    }
+    for_each_image(k, note);
     if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || k.wall() >= wait_until)
       break;
     // On that copy's answer, not on epoll: the kernel's other fds may well be readable now (a spin).

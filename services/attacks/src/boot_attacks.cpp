@@ -1,4 +1,4 @@
-// A service binary hostile from its first instruction (idl/launch.proto AttackKind 29…31; issue 45;
+// A service binary hostile from its first instruction (idl/launch.proto AttackKind 29…31;
 // docs/sandbox.md "No trusted boot phase"): what it tries before it says Ready, while the kernel still lets
 // boot calls (open, prlimit64, prctl …) through. Carried out by install() before svc.run() — the service's
 // code is not trusted from the start (DESIGN §7), so rollback to a clean image cannot help: the kernel's own

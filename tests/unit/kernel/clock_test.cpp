@@ -48,8 +48,8 @@ TEST(TimePage, ServiceFd_CannotBeMappedWritable) {
   EXPECT_FALSE(rw.has_value());
 }
 
-// Issue 45: a service reopened its read-only fd writable through the magic link /proc/self/fd/4 and made the
-// sequence odd. The page is sealed (F_SEAL_FUTURE_WRITE) and 0444: whatever fd a process gets of it — even
+// A service that reopens its read-only fd writable through the magic link /proc/self/fd/4 to make the
+// sequence odd: the page is sealed (F_SEAL_FUTURE_WRITE) and 0444, so whatever fd a process gets of it — even
 // root's O_RDWR reopen, which the mode does not stop — cannot write it or map it writable.
 TEST(TimePage, MagicLinkReopen_CannotWriteNorMapWritable) {
   auto writer = TimePageWriter::create();

@@ -430,7 +430,7 @@ TEST(SeccompTable, EveryEntryNamesACallAndAReason) {
   }
 }
 
-// No trusted boot phase (issue 45): the boot calls' arguments are checked by the kernel too — an open only
+// No trusted boot phase: the boot calls' arguments are checked by the kernel too — an open only
 // for reading, prlimit64 only to read its own limits, prctl only the SDK's non-dumpable switch. A failed check
 // is RefusedAtBoot (EPERM, counted), not a boot call.
 TEST(SeccompTable, Classify_BootCallArguments) {

@@ -3,9 +3,9 @@
 // to every service read-only at fd 4, wire::kTimePageFd). The page is not part of any service image, so
 // time stays monotonic across a rollback. Layout: wire::TimePage (a seqlock).
 //
-// No service can write it or stall its readers (issue 45: a service reopened fd 4 O_RDWR through
-// /proc/self/fd/4 and made the sequence odd; the writer kept the parity it found, every reader spun forever
-// and the vehicle was lost): the memfd is sealed against every write but the kernel's own mapping
+// No service can write it or stall its readers (a writable reopen of fd 4 through /proc/self/fd/4 that made
+// the sequence odd would otherwise hang every reader, restored images included): the memfd is sealed against
+// every write but the kernel's own mapping
 // (F_SEAL_FUTURE_WRITE, mode 0444: sys::seal_against_writes); the writer keeps its own sequence and never
 // reads it back from the page, so whatever the page holds, the next write makes it consistent again; and a
 // reader gives up after a bounded number of tries, counts it and keeps its last consistent sample.

@@ -1,10 +1,10 @@
 // Landlock (Linux 5.13+; ABI 6 in 6.12+): what a service may open while it boots, enforced by the kernel on the
 // object opened, not on a path string the caller could change (no TOCTOU), for any executable a graph names.
 //
-// Issue 45: before Ready the filter let `openat` through without looking at its path (seccomp cannot read
-// memory), so a hostile binary read /proc/<kernel>/cmdline, then the launch file, then the MAVLink signing
-// key. The kernel's spawn now restricts every service process, between fork and exec, to a ruleset that
-// grants only what the dynamic loader and the SDK's start-up read:
+// Seccomp cannot read an open's path (it is in memory), and a path read by the kernel could be changed after
+// the read; without this a booting binary could read /proc/<kernel>/cmdline, the launch file it names and the
+// MAVLink signing key that names. The kernel's spawn restricts every service process, between fork and exec,
+// to a ruleset that grants only what the dynamic loader and the SDK's start-up read:
 //   - the system's library folders and the loader's cache (read, execute): /lib, /lib64, /usr/lib, /usr/lib64,
 //     /usr/local/lib, /etc/ld.so.cache;
 //   - the service's own binary (read, execute);

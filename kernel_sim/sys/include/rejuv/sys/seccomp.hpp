@@ -53,7 +53,7 @@ enum class ArgCheck : std::uint8_t {
   EmptyPathStat,   // newfstatat on an fd (AT_EMPTY_PATH); a path only while booting
   FcntlCommands,   // arg 1 is a command that aims no signal: no F_SETOWN(_EX), F_SETSIG, F_SETLEASE, F_NOTIFY, and
                    // F_SETFL only without O_ASYNC (SIGIO reaches every process of a uid or a process group)
-  // Boot calls whose arguments the kernel checks too (issue 45: no trusted boot phase). A failed check while
+  // Boot calls whose arguments the kernel checks too (no trusted boot phase). A failed check while
   // booting is NoticeKind::RefusedAtBoot; after Ready every such call is a violation anyway.
   ReadOnlyOpen,    // open (flags arg 1) / openat (flags arg 2): read-only, nothing created, truncated or appended
                    // (the time page's fd reopened O_RDWR through /proc/self/fd/4 was the attack)
