@@ -104,6 +104,9 @@ Result<launch::LoadedLaunch, std::string> pingpong_graph(const fs::path& dir, co
   };
   std::ofstream(dir / "bench.launch.pbtxt")
       << "name: \"bench_pingpong\"\npolicy: \"bench.policy.pbtxt\"\nclock: REALTIME\n"
+      // A ping-pong publishes as fast as the kernel routes: above the default publication budget, which is
+      // sized for a flight (docs/sandbox.md "Floods cost only the flooder").
+      << "sandbox_limits { max_publications_per_s: 1000000 }\n"
       << service("ping", "uses { object: \"ping\" rights: \"W\" } uses { object: \"pong\" rights: \"R\" } "
                          "uses { object: \"results\" rights: \"W\" }")
       << service("pong", "uses { object: \"ping\" rights: \"R\" } uses { object: \"pong\" rights: \"W\" }")
