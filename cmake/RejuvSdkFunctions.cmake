@@ -10,7 +10,7 @@ if(CMAKE_SCRIPT_MODE_FILE)
 endif()
 
 # rejuv_add_service(NAME SOURCES ... [LIBRARIES ...] [PARAMS file.params.pbtxt]): a service executable linked
-# against Rejuv::sdk the way the project's own services are (DESIGN §7 images: statically linked unless the SDK
+# against Rejuv::sdk the way the project's own services are (docs/design.md §7 images: statically linked unless the SDK
 # was built without REJUV_STATIC_SERVICES, so that fork() copies few mappings; no
 # Cyclone DDS, no protobuf: a service reaches nothing but its channel to the kernel). The kernel starts it
 # by the path a launch graph names in `executable:` (absolute, or relative to the kernel's service folder).

@@ -1,4 +1,4 @@
-# Helpers that give every project target the same rules (CONVENTIONS "Tooling").
+# Helpers that give every project target the same rules (docs/conventions.md "Tooling").
 
 # Warnings are errors on project code; generated code (protobuf, idlc) is built without these flags.
 function(rejuv_warnings target)
@@ -15,7 +15,7 @@ function(rejuv_warnings target)
 endfunction()
 
 # rejuv_library(NAME DIR [DEPS ...]): a component library with public headers under DIR/include and
-# sources under DIR/src (DESIGN §1: one target per component).
+# sources under DIR/src (docs/design.md §1: one target per component).
 function(rejuv_library name)
   cmake_parse_arguments(ARG "HEADER_ONLY" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
   if(ARG_HEADER_ONLY)

@@ -1,4 +1,4 @@
-// The DDS domain of a test process (DESIGN §11: tests run side by side under ctest -j): a lease of
+// The DDS domain of a test process (docs/design.md §11: tests run side by side under ctest -j): a lease of
 // rejuv/sys/lease.hpp (the lock file shared with `rejuv sweep`), held for the test process's whole life.
 #pragma once
 

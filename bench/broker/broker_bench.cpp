@@ -1,8 +1,8 @@
-// Broker benchmarks (DESIGN §5, §7, §11). Timings live here, never in tests.
+// Broker benchmarks (docs/design.md §5, §7, §11). Timings live here, never in tests.
 //  - BM_PublishFanout: the routing hot path — publish one 96-byte message on a topic with 3 subscribers and
 //    read it out for each of them (what the kernel does per publication before pushing to the channels).
 //  - BM_Snapshot / BM_Restore / BM_CheckpointRollback: the queue state's share of the checkpoint and
-//    rollback latency (DESIGN §7 step 3; target for the whole checkpoint ≤ 0.5 ms), on a broker shaped like
+//    rollback latency (docs/design.md §7 step 3; target for the whole checkpoint ≤ 0.5 ms), on a broker shaped like
 //    launch/quad_square_paper: 18 topics, depth 4–8, payloads 40–600 bytes, 35 subscriptions.
 #include <benchmark/benchmark.h>
 

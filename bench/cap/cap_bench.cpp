@@ -1,4 +1,4 @@
-// Capability kernel benchmarks (DESIGN §3, §11): the broker's hot path (decode of a Publish, target
+// Capability kernel benchmarks (docs/design.md §3, §11): the broker's hot path (decode of a Publish, target
 // ≤ 50 ns on a 256-slot CSpace), the denial path with its audit-log append, and a full Fig. 1 cycle of
 // apply_mode on a table the size of the real policy. Timings live here, never in tests.
 #include <benchmark/benchmark.h>

@@ -1,4 +1,4 @@
-// Raw Cyclone DDS latency between two processes (DESIGN §11): the baseline for the kernel's publish→deliver
+// Raw Cyclone DDS latency between two processes (docs/design.md §11): the baseline for the kernel's publish→deliver
 // path. Ping-pong with rejuv_dds_echo over loopback; one-way latency = RTT/2, reported as p50/p99 counters
 // in µs. Two receive paths side by side (dds_ping_pong.hpp): Cyclone alone (waitset) and the kernel's DDS
 // bridge (listener → eventfd → poll → take); payloads are real topic types of 48, 112 and 216 bytes.

@@ -1,4 +1,4 @@
-// Fork images vs copy images vs images by written pages, side by side in one run (DESIGN §11): 8
+// Fork images vs copy images vs images by written pages, side by side in one run (docs/design.md §11): 8
 // service-sized processes (the rejuvenated part of quad_square) checkpointed and rolled back `cycles` times
 // each way, pinned to one CPU like a lockstep run. Every rollback is checked: each service answers with the
 // counter it had at the checkpoint. Prints p50 / max of each and the ratios; the paper's module took ≈20 ms /

@@ -1,4 +1,4 @@
-// A full CPS SR mode cycle on the capability kernel compiled from the reference policy (DESIGN §3: a mode
+// A full CPS SR mode cycle on the capability kernel compiled from the reference policy (docs/design.md §3: a mode
 // transition is revoke + mint, applied atomically): MC → RB → SC → UPDATE → CP → MC on quad_sr.
 #include <benchmark/benchmark.h>
 

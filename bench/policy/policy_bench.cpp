@@ -1,4 +1,4 @@
-// Cost of loading and auditing the reference policy (DESIGN §4): `rejuv run` audits before it starts a
+// Cost of loading and auditing the reference policy (docs/design.md §4): `rejuv run` audits before it starts a
 // graph, so this is start-up latency. Side by side: parse only, parse + validate, audit alone, audit with
 // the launch graph, and compilation to the kernel's ModeTable.
 #include <benchmark/benchmark.h>

@@ -1,4 +1,4 @@
-// Whole-system benchmarks of the runtime (DESIGN §11), each beside its baseline in the same run.
+// Whole-system benchmarks of the runtime (docs/design.md §11), each beside its baseline in the same run.
 //
 // 1. Publish→deliver latency through the kernel: two services (rejuv_bench_pingpong: ping, pong) exchange
 //    one message at a time through the kernel in realtime mode — Unix SOCK_SEQPACKET channel in, capability

@@ -1,4 +1,4 @@
-// The allow-list filter's cost per system call (DESIGN §7 "Protection": the filter is on the hot
+// The allow-list filter's cost per system call (docs/design.md §7 "Protection": the filter is on the hot
 // path of every frame a service sends or reads). Side by side in one run: the same calls in a thread without a
 // filter (the baseline) and in a thread with the service filter (seccomp filters are per thread unless
 // synchronised, so the benchmark process itself stays unfiltered). The filtered thread uses the standalone form

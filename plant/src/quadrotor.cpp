@@ -1,4 +1,4 @@
-// 6-DOF quadrotor with the "+" mixer of §IV-B (DESIGN §9).
+// 6-DOF quadrotor with the "+" mixer of §IV-B (docs/design.md §9).
 #include "rejuv/plant/quadrotor.hpp"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Sensor models (DESIGN §9; jMAVSim's SimpleSensors, §VI-A): truth + bias + white noise, sampled at each
+// Sensor models (docs/design.md §9; jMAVSim's SimpleSensors, §VI-A): truth + bias + white noise, sampled at each
 // sensor's rate and delivered after its delay.
 #include "rejuv/plant/sensors.hpp"
 

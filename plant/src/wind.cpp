@@ -1,4 +1,4 @@
-// Wind: mean + first-order Gauss–Markov gusts (DESIGN §9).
+// Wind: mean + first-order Gauss–Markov gusts (docs/design.md §9).
 #include "rejuv/plant/wind.hpp"
 
 #include <cmath>

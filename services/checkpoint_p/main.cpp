@@ -119,7 +119,7 @@ int serve(sdk::Service& svc) {
   // The check of (1) every check_period (§V-B: "after every 2 ms"); the handler ignores ticks outside a run.
   auto ticks = svc.every(to_nanos(cycle->tracking.check_period), [&] { manager.tick(); });
   if (!svc.require(ticks, "timer")) return 1;
-  // The first cycle at the mission's t = 0, as the simulation boots (DESIGN §6: SR starts with the flight; the
+  // The first cycle at the mission's t = 0, as the simulation boots (docs/design.md §6: SR starts with the flight; the
   // kernel passes the end of the plant's alignment on its clock). Never before the clock starts (every service
   // is Ready then).
   const Nanos flight_start = std::chrono::round<Nanos>(Seconds{svc.param("flight.start_s", 0.0)});

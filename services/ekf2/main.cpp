@@ -15,7 +15,7 @@ int serve(sdk::Service& svc) {
   if (!svc.require(mission, "bad params")) return 1;
   // At the first boot the vehicle rests at its take-off point, the mission's first waypoint. After a cold
   // restart (the kernel counts them in boot.cold_restarts) it is wherever the mission had taken it: the filter
-  // starts from the first GPS fix instead (DESIGN §7 "Cold restart"), level, with the mission's first heading
+  // starts from the first GPS fix instead (docs/design.md §7 "Cold restart"), level, with the mission's first heading
   // (the magnetometer corrects it).
   const bool cold_restart = svc.param("boot.cold_restarts", 0.0) > 0.0;
   const flight::EkfState take_off = flight_io::ekf_initial_state(*mission);

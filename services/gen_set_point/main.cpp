@@ -11,7 +11,7 @@ namespace {
 
 using namespace rejuv;
 
-// The mission state the kernel keeps (paper §III "Persistent data"; DESIGN §7 "Cold restart") and the
+// The mission state the kernel keeps (paper §III "Persistent data"; docs/design.md §7 "Cold restart") and the
 // mission commander validated and wrote in MC, as persistent cells.
 constexpr std::string_view kState = "mission_state";
 constexpr std::string_view kUpload = "uploaded_mission";

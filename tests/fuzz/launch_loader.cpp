@@ -1,5 +1,5 @@
 // Fuzz target: the launch loader and the audit of a policy against the graph (kernel_sim/launch,
-// kernel_sim/policy, DESIGN §4). Text → parse_launch (as if it were launch/fuzz.launch.pbtxt, so that the
+// kernel_sim/policy, docs/design.md §4). Text → parse_launch (as if it were launch/fuzz.launch.pbtxt, so that the
 // repository's policies resolve) → the policy it names → audit(policy, graph) and the graph-derived values
 // the kernel reads. Bad text must give a LoadError with a location, never a crash or an abort.
 #include <cstddef>

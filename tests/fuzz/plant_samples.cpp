@@ -1,4 +1,4 @@
-// Fuzz target: the plant process's input (plant/app, DESIGN §6, §9): the DDS samples it takes from the
+// Fuzz target: the plant process's input (plant/app, docs/design.md §6, §9): the DDS samples it takes from the
 // kernel — actuator_outputs and sim_step_ack, handed over as take_as does, a fixed-size struct copied from
 // the sample's bytes — and the lockstep step they drive: the ack's charge bound and its outputs, the motor
 // command held, PlantSim::advance and pack_step. Whatever the kernel sends, the plant must take no NaN

@@ -1,4 +1,4 @@
-// Fuzz target: the policy loader and its audit (kernel_sim/policy, DESIGN §4). Text → parse_policy → (if it
+// Fuzz target: the policy loader and its audit (kernel_sim/policy, docs/design.md §4). Text → parse_policy → (if it
 // loads) audit, compile to the kernel's per-mode table and build the capability system from it. Bad text
 // must give a LoadError with a location, never a crash or an abort.
 #include <cstddef>

@@ -1,5 +1,5 @@
 // Experiments a researcher can trust: `rejuv run` in lockstep is deterministic for a seed, and SR
-// starts with the flight (DESIGN §6). The real binary on the real flight graph (launch/quad_square_paper) with a
+// starts with the flight (docs/design.md §6). The real binary on the real flight graph (launch/quad_square_paper) with a
 // short alignment and a short T_est, so that a few seconds of flight hold several SR cycles: flown twice with
 // one seed, the traces (--csv) are byte-identical and the summaries equal but for their wall-clock fields; a
 // flight shorter than T_est has no checkpoint, rollback or rejuvenation timer at all, and its setpoint has not

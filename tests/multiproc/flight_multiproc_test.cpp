@@ -1,4 +1,4 @@
-// Multi-process tests with the real flight services and the plant process (DESIGN §2, §6, §9): the hover
+// Multi-process tests with the real flight services and the plant process (docs/design.md §2, §6, §9): the hover
 // graph in lockstep with the plant as time master. A flight binary that is not built fails the test.
 #include <gtest/gtest.h>
 

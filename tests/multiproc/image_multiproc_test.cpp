@@ -1,4 +1,4 @@
-// The image store end to end (DESIGN §7): real kernels, real service processes forking
+// The image store end to end (docs/design.md §7): real kernels, real service processes forking
 // real images, lockstep driven by the test (TimeMaster::Manual). Graph: graphs/images.policy.pbtxt and the
 // purpose-built services/image_service.cpp (counter, listener, driver, worker). No timing is asserted.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Multi-process tests of the kernel (DESIGN §2, §5, §6, §11; docs/protocol.md): a real kernel spawns the
+// Multi-process tests of the kernel (docs/design.md §2, §5, §6, §11; docs/protocol.md): a real kernel spawns the
 // test services (tests/multiproc/services) over real channels, in lockstep driven by the test.
 #include <gtest/gtest.h>
 
@@ -120,7 +120,7 @@ TEST(KernelMultiproc, ServiceNeverReady_FailsBootAndLeavesNothing) {
   EXPECT_EQ(Resources::now().fds, before.fds);
 }
 
-// ---- the sandbox (DESIGN §7 "Protection", docs/sandbox.md) ----
+// ---- the sandbox (docs/design.md §7 "Protection", docs/sandbox.md) ----
 
 // Where namespaces cannot be made, the kernel refuses to start and names --insecure-sandbox; with it the graph
 // runs. Run in a child process whose own filter makes unshare fail (EPERM), as it does for a user without root

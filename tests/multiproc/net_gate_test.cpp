@@ -1,4 +1,4 @@
-// The network gate (DESIGN §2, §3; docs/protocol.md "Network gate") with the real ext_link, in lockstep
+// The network gate (docs/design.md §2, §3; docs/protocol.md "Network gate") with the real ext_link, in lockstep
 // driven by the test: the test is the ground station on a UDP socket; a test service (`vehicle`,
 // tests/multiproc/services/net_test_service.cpp) switches modes when the test injects a mode_command.
 // Network traffic sent during the secure interval never reaches ext_link; in MC it does (MAVLink 2, the mission

@@ -1,4 +1,4 @@
-// `rejuv soak` (DESIGN §11): the real binary flies the shipped square with SR and attacks and samples
+// `rejuv soak` (docs/design.md §11): the real binary flies the shipped square with SR and attacks and samples
 // the kernel's, the plant's and every service's memory, fds, mappings and processes. The short form (30 cycles)
 // runs in the default suite: it checks that the soak reaches its cycles, writes every series readable and
 // judges them flat. The 1000-cycle soak is DISABLED_ here and run only as the ctest label `soak`

@@ -1,4 +1,4 @@
-// End-to-end tests of software rejuvenation on the multi-process runtime (DESIGN §7–§9, §11; paper §VI-D):
+// End-to-end tests of software rejuvenation on the multi-process runtime (docs/design.md §7–§9, §11; paper §VI-D):
 // the real kernel, the real flight services, checkpoint_p and the image store, the plant process over DDS, in
 // lockstep with the plant as time master (Kernel::run, TimeMaster::Plant). The metrics are `rejuv run`'s own
 // (its RunRecorder, rejuv_run_metrics), against the same path and safety ellipsoid as `rejuv sim`.
@@ -76,7 +76,7 @@ enum class Path : std::uint8_t { Square, FirstLeg };  // FirstLeg: only the firs
 
 // A fault: at the first lockstep step at or after `after` (flight time, past the alignment) every process of
 // `service` — the live one and every frozen image — is killed. No generation is left to roll back to, so the
-// kernel must cold-restart the graph (DESIGN §7 "Faults", "Cold restart").
+// kernel must cold-restart the graph (docs/design.md §7 "Faults", "Cold restart").
 struct KillGroup {
   std::string service;
   Nanos after{0};

@@ -1,5 +1,5 @@
 // The runtime attack plan (services/attacks/plan.hpp): parsing the attack.* boot params, and which windows
-// the hooks attack (DESIGN §9, §11).
+// the hooks attack (docs/design.md §9, §11).
 #include <gtest/gtest.h>
 
 #include <array>
@@ -169,7 +169,7 @@ TEST(RuntimeAttackPlan, BadCount_Error) {
   EXPECT_EQ(plan.error().param, "attack.count");
 }
 
-// One SR cycle per epoch: a secure interval, then an MC window (DESIGN §8).
+// One SR cycle per epoch: a secure interval, then an MC window (docs/design.md §8).
 struct Tick {
   Nanos t;
   SrMode mode;

@@ -1,4 +1,4 @@
-// Every runtime attack of the catalogue (idl/launch.proto AttackKind 2…11; DESIGN §11) carried
+// Every runtime attack of the catalogue (idl/launch.proto AttackKind 2…11; docs/design.md §11) carried
 // out by a compromised service of a real graph, and denied or contained: real kernel, real service processes
 // (tests/security/services/attack_service.cpp with the hooks of services/attacks), real channels and seccomp
 // filters, lockstep driven by the test (TimeMaster::Manual), SR on. The attack plan is the launch text's
@@ -89,7 +89,7 @@ class Attacks : public ::testing::Test {
     return n;
   }
 
-  // What no attack may change (DESIGN §3, §7, §8): only the honest SR cycle checkpointed and armed the timer,
+  // What no attack may change (docs/design.md §3, §7, §8): only the honest SR cycle checkpointed and armed the timer,
   // the limits and the cell hold what `rejuv` wrote, motor outputs come from the driver alone, the network
   // sent nothing, every image is alive and the run goes on.
   void expect_runtime_intact() const {

@@ -1,4 +1,4 @@
-// Containment in a whole mission (DESIGN §7 "Protection (containment)", §11): the square of
+// Containment in a whole mission (docs/design.md §7 "Protection (containment)", §11): the square of
 // launch/quad_square_paper.launch.pbtxt flown through the real kernel, the real flight services and the plant, with
 // the worst-case control attack of §VI-D and, on top of it, a compromised ekf2 that forks a helper at boot
 // (attack ESCAPE_HELPER, services/attacks) which tries, for as long as it lives, to send UDP to a listener

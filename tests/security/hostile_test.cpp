@@ -1,4 +1,4 @@
-// The hostile-service suite (DESIGN §7 "Protection (containment)"): the worker of the security
+// The hostile-service suite (docs/design.md §7 "Protection (containment)"): the worker of the security
 // graph (security_launch.hpp) is compromised and tries one escape (services/escapes.cpp), at boot (after
 // connect, before Ready: boot calls such as open still pass, so the namespaces and limits must hold) or at its
 // first tick of each MC window. The service is spawned by the real kernel spawn path (allow-list filter with

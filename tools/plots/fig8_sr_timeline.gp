@@ -1,7 +1,7 @@
 # Fig. 8 of the paper (§V-C, §VI-B: the rollback handler's log) as a timeline of the SR events a run recorded
 # (events.csv, from the kernel or the model; no --verbose needed): the mode (MC, RB, SC, update, CP) as a step
 # line, and on their own rows each handler run (the model's; the runtime's handler shows as its SC request
-# after each rollback), each arm of the rejuvenation timer (one per epoch), any refused second arm (DESIGN §7:
+# after each rollback), each arm of the rejuvenation timer (one per epoch), any refused second arm (docs/design.md §7:
 # the recursive do_timer of §V-C), the restricted limits, checkpoints and rollbacks. Top: the whole run (the
 # runtime's SR cycles during the plant's pre-flight alignment at negative times); bottom: the first SR cycles
 # after the first rollback, labelled by epoch.

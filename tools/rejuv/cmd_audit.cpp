@@ -1,4 +1,4 @@
-// `rejuv audit POLICY [--launch GRAPH] [--format text|json]` (DESIGN §4, §10): prints the service ×
+// `rejuv audit POLICY [--launch GRAPH] [--format text|json]` (docs/design.md §4, §10): prints the service ×
 // object × mode matrix and every violation of the SR invariants, in the file:line:column format of a
 // compiler (text) or as one JSON document (CI). Exit 0 clean, 1 on violations, 2 on bad input.
 #include <algorithm>
@@ -224,7 +224,7 @@ std::string json_report(const policy::Policy& pol, const AuditRequest& r, const 
 int run_audit(std::span<const std::string_view> args) {
   AuditRequest r;
   Options opts("audit",
-               "Checks a capability policy against the CPS SR invariants of DESIGN §4 (timer, sei, limits,\n"
+               "Checks a capability policy against the CPS SR invariants of docs/design.md §4 (timer, sei, limits,\n"
                "persistent, lateral, coverage) and its own deny rules, and prints the service x object x\n"
                "mode matrix. Exit 0 when clean, 1 on violations, 2 when a file cannot be read or parsed.\n"
                "With --launch and no POLICY, the policy the graph names (with its policy fragments).");

@@ -1,5 +1,5 @@
 // `rejuv bench images [GRAPH]`: checkpoint and rollback of a whole service graph — every rejuvenated
-// service plus the queue state (DESIGN §7) — side by side in one run with the restart-based baseline: a cold
+// service plus the queue state (docs/design.md §7) — side by side in one run with the restart-based baseline: a cold
 // restart of the same services from their binaries (spawn, exec, boot protocol, Ready). Prints p50 and max
 // of each and the ratios; the paper's PX4 kernel module took ≈20 ms to checkpoint and ≈15 ms to roll back.
 //

@@ -1,5 +1,5 @@
 // `rejuv gcs`: a minimal MAVLink 2 ground control station on the other side of the kernel's network gate
-// (DESIGN §2, §10; docs/mavlink.md). It uploads a mission with the MAVLink mission protocol
+// (docs/design.md §2, §10; docs/mavlink.md). It uploads a mission with the MAVLink mission protocol
 // (MISSION_COUNT → MISSION_REQUEST_INT → MISSION_ITEM_INT … → MISSION_ACK), retransmitting its last message
 // every 200 ms until the vehicle answers — so an upload made during the secure execution interval, where the
 // gate drops everything, simply waits for MC — and prints the telemetry and STATUSTEXT the vehicle sends (MC

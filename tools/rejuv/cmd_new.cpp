@@ -125,7 +125,7 @@ int main() {
     auto state = svc.subscribe<rejuv_msg_VehicleStateEstimate>(
         "vehicle_state", [&](const rejuv_msg_VehicleStateEstimate& m) { altitude_m = -m.p_N_m[2]; });  // NED
     if (!svc.require(state, "vehicle_state")) return 1;
-    // After a rollback this process is a restored image (DESIGN §7): said once per rollback, before any handler.
+    // After a rollback this process is a restored image (docs/design.md §7): said once per rollback, before any handler.
     svc.on_restored([&](rejuv::Epoch epoch) { svc.logf(LogLevel::Info, "@NAME@: restored into epoch %u", epoch.value()); });
 
     std::uint64_t published = 0;

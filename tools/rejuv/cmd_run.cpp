@@ -1,4 +1,4 @@
-// `rejuv run GRAPH`: the multi-process runtime (DESIGN §2, §10). Starts the kernel, which spawns every
+// `rejuv run GRAPH`: the multi-process runtime (docs/design.md §2, §10). Starts the kernel, which spawns every
 // service of the graph and the plant as its children, runs the mission (lockstep by default: the plant is the
 // time master; --realtime for wall-clock time), prints progress to stderr and the run summary at the end
 // (proto::RunSummary, runner "run"). The metrics come from what the kernel routes — ground truth from the
@@ -431,7 +431,7 @@ routes every message through the capability check and the broker, and keeps time
 the plant as time master unless --realtime). Without --duration the run ends at mission end or
 the mission timeout; with it, the run lasts exactly that long (e.g. a hover).
 With the graph's sr.enabled (and without --no-sr) the services are checkpointed and rolled back
-by the image store (DESIGN §7) on the rejuvenation timer; checkpoint_p drives the SR cycle.
+by the image store (docs/design.md §7) on the rejuvenation timer; checkpoint_p drives the SR cycle.
 The run stops when the vehicle is lost (V = ||x - x_sp||^2_P > 100, as `rejuv sim`).
 Exit 0 when the mission completes inside the safety set (or the duration passes cleanly), 1 when
 it fails, a service fails at boot or the graph's policy fails its audit (as `rejuv audit`), 2 on

@@ -1,4 +1,4 @@
-// `rejuv sim GRAPH`: the model-level SR simulation (DESIGN §8–§9) in one process, no runtime. Prints a
+// `rejuv sim GRAPH`: the model-level SR simulation (docs/design.md §8–§9) in one process, no runtime. Prints a
 // summary (or, with --table, the four configurations of Table I, §VI-D), writes the RunSummary as JSON and a
 // CSV trace on request. Exit 0 when the mission completes inside the safety set, 1 when it fails or leaves the
 // safety set (under --table: 0 once all four ran), 2 on bad flags or a bad launch file.

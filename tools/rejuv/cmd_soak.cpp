@@ -1,4 +1,4 @@
-// `rejuv soak GRAPH`: a soak of a flight graph (DESIGN §11). Kernels in this process (as `rejuv run`)
+// `rejuv soak GRAPH`: a soak of a flight graph (docs/design.md §11). Kernels in this process (as `rejuv run`)
 // fly the graph's mission with SR and its attacks — the closed waypoint loop repeated as often as a mission
 // holds (16 waypoints: three laps of the square, ≈ 240 SR cycles) — one mission after the other, each in a new
 // kernel, until N rollbacks (SR cycles) in all; with --one-kernel a single kernel flies the mission and then
@@ -575,7 +575,7 @@ int report_soak(const SoakRequest& r, const std::string& graph_name, const SoakT
 int run_soak(std::span<const std::string_view> args) {
   SoakRequest r;
   Options opts("soak",
-               "Soak a launch graph (DESIGN §11): kernels in this process fly the mission with SR and its attacks\n"
+               "Soak a launch graph (docs/design.md §11): kernels in this process fly the mission with SR and its attacks\n"
                "(the closed waypoint loop repeated as often as a mission holds), one mission after the other, until\n"
                "--cycles rollbacks in all, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
                "the plant and every service, the kernel's threads and children, the processes under it and in\n"

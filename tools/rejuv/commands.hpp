@@ -1,4 +1,4 @@
-// The subcommands of `rejuv` (DESIGN §10). Each takes its arguments after the command name and returns
+// The subcommands of `rejuv` (docs/design.md §10). Each takes its arguments after the command name and returns
 // the process exit code (cli::Exit).
 #pragma once
 

@@ -29,7 +29,7 @@ Options& seed_option(Options& o, std::optional<std::uint64_t>& out, std::string 
 Options& domain_option(Options& o, std::optional<std::uint64_t>& out, std::string help, std::string unset);
 // --net-port P: the network gate's UDP port, 0..65535 (0: any free port).
 Options& net_port_option(Options& o, std::optional<std::uint64_t>& out, std::string help, std::string unset);
-// --charge model|measured (DESIGN §6): what a lockstep run charges to simulated time per checkpoint and rollback.
+// --charge model|measured (docs/design.md §6): what a lockstep run charges to simulated time per checkpoint and rollback.
 Options& charge_option(Options& o, Charge& out, std::string_view why = "");
 // --attack KIND (attack_option.hpp): the kind of the plan's first attack.
 Options& attack_option(Options& o, std::optional<flight::AttackLaw>& out);

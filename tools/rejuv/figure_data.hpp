@@ -43,7 +43,7 @@ struct ControlInterval {
 // In real time that is the interval in which the operation happened. In simulated time it is the first
 // interval that ends after the operation's time: in lockstep the kernel's clock stands still during a
 // checkpoint or rollback, the step's own update follows it at the same time, and the real duration is charged
-// to the plant's next step (DESIGN §6), so the gap shows one interval later; in realtime and in the model the
+// to the plant's next step (docs/design.md §6), so the gap shows one interval later; in realtime and in the model the
 // two rules pick the same interval.
 class ControlIntervals {
  public:

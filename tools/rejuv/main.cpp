@@ -1,4 +1,4 @@
-// `rejuv`: the command-line program (DESIGN §10). Dispatches to one subcommand.
+// `rejuv`: the command-line program (docs/design.md §10). Dispatches to one subcommand.
 #include <cstdio>
 #include <span>
 #include <string_view>
@@ -24,7 +24,7 @@ constexpr Command kCommands[] = {
     {"sim", "model-level simulation of the SR scheme in one process (no runtime)", rejuv::cli::run_sim},
     {"report", "`report table`: Table I, runtime beside model; `report figures DIR`: a --out run's Figs. 7-10 again",
      rejuv::cli::run_report},
-    {"faults", "fault campaign: kill or stop any process at any SR phase; recovery, safety, leaks (DESIGN §11)",
+    {"faults", "fault campaign: kill or stop any process at any SR phase; recovery, safety, leaks (docs/design.md §11)",
      rejuv::cli::run_faults},
     {"soak", "fly a graph with SR and attacks for N cycles; fail if memory, fds or processes grow",
      rejuv::cli::run_soak},

@@ -71,7 +71,7 @@ void RunRecorder::on_publication(const kernel::Publication& p) {
     const auto m = payload_as<rejuv_msg_ActuatorControls>(p.payload);
     if (auto u = flight_io::controls_from_message(m)) {
       u_ = *u;
-      // In MC only the mission controller holds the right to publish controls (the policy, DESIGN §8).
+      // In MC only the mission controller holds the right to publish controls (the policy, docs/design.md §8).
       if (mode_ == SrMode::MC) on_mc_controls(*u, Nanos{static_cast<std::int64_t>(m.timestamp_ns)}, m.epoch);
     }
   } else if (carries<rejuv_msg_ActuatorOutputs>(p)) {

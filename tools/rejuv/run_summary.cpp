@@ -67,7 +67,7 @@ void fill_catch_up(proto::CatchUpSummary& out, const kernel::Kernel& k) {
   fill_percentiles(*out.mutable_replay_ms(), k.sr_stats().catch_up_ms);
 }
 
-// DESIGN §6: what was charged to simulated time, and the real durations beside it (wall-clock fields).
+// docs/design.md §6: what was charged to simulated time, and the real durations beside it (wall-clock fields).
 void fill_charging(proto::Charging& out, const kernel::Kernel& k, kernel::KernelOptions::Charge charge) {
   const kernel::SrStats& sr = k.sr_stats();
   const bool lockstep = k.clock_mode() == kernel::ClockMode::Lockstep;
@@ -111,14 +111,14 @@ void fill_summary(proto::RunSummary& s, const kernel::Kernel& k, const RunRecord
   s.set_attack_kind(facts.attack_kind);
   s.set_seed(facts.seed);
   recorder.fill(s, outcome.sim_time);
-  // Denials by kind, from the capability kernel's counters (DESIGN §3); frames refused before any cap
+  // Denials by kind, from the capability kernel's counters (docs/design.md §3); frames refused before any cap
   // check (framing, protocol) as "BadFrame".
   const cap::DenialCounters& counters = k.caps().denials();
   for (const cap::CapError e : cap::kAllCapErrors) {
     if (const std::uint64_t n = counters.by_error(e); n > 0) (*s.mutable_denials())[std::string(cap::to_string(e))] = n;
   }
   if (const std::uint64_t bad = k.bad_frames_total(); bad > 0) (*s.mutable_denials())["BadFrame"] = bad;
-  // Contained below the cap check (DESIGN §11): sandbox violations (the seccomp filter ended the process),
+  // Contained below the cap check (docs/design.md §11): sandbox violations (the seccomp filter ended the process),
   // publications over the per-step bound or of the wrong size, and messages overrun in the rings.
   std::uint64_t flood = 0, over_budget = 0, wrong_size = 0, overrun = 0;
   for (std::size_t i = 0; i < k.service_count(); ++i) {
@@ -141,7 +141,7 @@ void fill_summary(proto::RunSummary& s, const kernel::Kernel& k, const RunRecord
   s.set_wall_time_s(wall_s);
   s.set_realtime_factor(wall_s > 0 ? sim_s / wall_s : 0.0);
   fill_network(*s.mutable_network(), k.net_stats(), k.network_port());
-  // The image store (DESIGN §7): counts and the real duration of every checkpoint and rollback.
+  // The image store (docs/design.md §7): counts and the real duration of every checkpoint and rollback.
   const kernel::SrStats& sr = k.sr_stats();
   s.set_checkpoints(sr.checkpoints);
   s.set_rollbacks(sr.rollbacks);

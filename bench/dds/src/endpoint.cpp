@@ -153,7 +153,7 @@ class BridgeEndpoint final : public PingEndpoint {
   Result<std::size_t, std::string> wait_take_erased(Nanos timeout, SampleFn fn, void* context) override {
     auto n = take(fn, context);
     if (!n || *n > 0) return n;
-    // The event loop's view of DDS: the reader's eventfd (DESIGN §5).
+    // The event loop's view of DDS: the reader's eventfd (docs/design.md §5).
     if (auto ready = sys::wait_fd(reader_.ready_fd(), sys::WaitFor::Readable, timeout); !ready) {
       return fail(ready.error().to_string());
     }

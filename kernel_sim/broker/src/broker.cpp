@@ -1,4 +1,4 @@
-// uORB queues and their checkpoint state (DESIGN §5, §7; paper §IV-A, §IV-C). See broker.hpp.
+// uORB queues and their checkpoint state (docs/design.md §5, §7; paper §IV-A, §IV-C). See broker.hpp.
 #include "rejuv/broker/broker.hpp"
 
 #include <algorithm>
@@ -465,7 +465,7 @@ void Broker::keep_driver(const Subscriber& driver, const BrokerSnapshot& snap, R
   }
   scratch_.push_back(driver);
   // Only what is published after the rollback: never the checkpoint's backlog again, never a generation
-  // that the rollback erased (DESIGN §7 rollback step 3).
+  // that the rollback erased (docs/design.md §7 rollback step 3).
   scratch_.back().cursor = topics_[driver.topic].head;
   ++report.drivers_rebased;
 }

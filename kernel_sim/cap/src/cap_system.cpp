@@ -132,7 +132,7 @@ CapSystem::CapSystem(const ModeTable& table, const CapSystemConfig& config)
   entries_.resize(flat);
   links_.assign(flat, Links{.parent = kNone, .first_child = kNone, .next_sibling = kNone, .prev_sibling = kNone});
   reserved_.assign(flat, 0);
-  // The kernel creates every object and keeps its original with all rights (DESIGN §3).
+  // The kernel creates every object and keeps its original with all rights (docs/design.md §3).
   for (const ObjectSpec& o : objects_) {
     entries_[o.id.value()] =
         Entry{.object = o.id, .kind = o.kind, .rights = Rights::all(), .occupied = true, .badge = kNoBadge};
@@ -161,7 +161,7 @@ Result<Invocation, CapError> CapSystem::decode(ServiceId caller, Slot slot, Oper
   if (slot.value() >= slots_per_space_) [[unlikely]] {
     return deny(caller, slot, op, CapError::SlotOutOfRange);
   }
-  // The caller's identity selects its CSpace; the slot indexes only inside it (DESIGN §2).
+  // The caller's identity selects its CSpace; the slot indexes only inside it (docs/design.md §2).
   const Entry& e = entries_[index_of_slot(caller, slot)];
   if (!e.occupied) [[unlikely]] {
     return deny(caller, slot, op, CapError::EmptySlot);
@@ -212,7 +212,7 @@ Result<Invocation, CapError> CapSystem::decode_management(Invocation inv, const 
       if (copy == nullptr) {
         return fail(CapError::BadArgument);
       }
-      // seL4 Copy: the derived cap holds parent.rights & mask, never more (DESIGN §3).
+      // seL4 Copy: the derived cap holds parent.rights & mask, never more (docs/design.md §3).
       const Rights rights = source.rights & copy->mask;
       if (rights.empty()) {
         return fail(CapError::BadArgument);  // a cap with no right is only clutter in a CSpace
@@ -417,7 +417,7 @@ Result<ModeChange, ModeError> CapSystem::apply_mode(SrMode mode) {
     REJUV_ASSERT(reserved_[p.index] != 0, "policy slot not reserved");
     REJUV_ASSERT(entries_[p.object.value()].occupied, "original of a policy object missing");
   }
-  // Phase 2, revoke + delete every changed slot (its copies go with it, DESIGN §3), then mint.
+  // Phase 2, revoke + delete every changed slot (its copies go with it, docs/design.md §3), then mint.
   ModeChange change{.from = mode_, .to = mode, .slots_changed = plan_.size()};
   for (const std::uint32_t i : plan_) {
     if (entries_[policy_[i].index].occupied) {

@@ -65,7 +65,7 @@ struct QosDeleter {
 };
 using QosPtr = std::unique_ptr<dds_qos_t, QosDeleter>;
 
-// Reliable, keep-last depth, volatile, with the ignorelocal policy (DESIGN §5).
+// Reliable, keep-last depth, volatile, with the ignorelocal policy (docs/design.md §5).
 QosPtr endpoint_qos(const EndpointQos& q) {
   QosPtr qos(dds_create_qos());
   dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, kMaxBlocking);
@@ -287,7 +287,7 @@ struct Reader::State {
   std::vector<dds_sample_info_t> infos;
   std::atomic<bool> signalling{true};     // Reader::set_signalling
 
-  // Runs on a Cyclone thread: signal the event loop and touch nothing else (DESIGN §5; the kernel is
+  // Runs on a Cyclone thread: signal the event loop and touch nothing else (docs/design.md §5; the kernel is
   // single-threaded).
   static void on_data_available(dds_entity_t /*reader*/, void* arg) {
     const State& s = *static_cast<const State*>(arg);

@@ -78,7 +78,7 @@ BridgeResult<void> PlantLockstep::write_ack(std::uint64_t step, Nanos t, Nanos c
   rejuv_msg_SimStepAck ack = held_;
   ack.step = step;
   ack.time_ns = static_cast<std::uint64_t>(t.count());
-  ack.charged_ns = static_cast<std::uint64_t>(charged.count());  // DESIGN §6
+  ack.charged_ns = static_cast<std::uint64_t>(charged.count());  // docs/design.md §6
   ack.outputs_published = outputs_published_;
   held_.outputs_count = 0;
   // The plant matched our writer before it sent its first step; make sure our side sees it too, or the first

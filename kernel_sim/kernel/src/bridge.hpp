@@ -1,4 +1,4 @@
-// The kernel's DDS component (DESIGN §5): the generic bridge of the launch graph's `dds.bridges` table
+// The kernel's DDS component (docs/design.md §5): the generic bridge of the launch graph's `dds.bridges` table
 // (rejuv/dds/bridge.hpp) and, in lockstep with a plant, the plant-lockstep adapter on it
 // (rejuv/dds/plant_lockstep.hpp: the SimStep reader, the ack writer, the count-only sample readers and the
 // actuator outputs held for the ack). The kernel's loop (loop.cpp, lockstep.cpp) takes the inputs; routing

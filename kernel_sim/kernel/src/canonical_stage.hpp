@@ -1,4 +1,4 @@
-// Messages held for lockstep determinism (DESIGN §6; router.cpp): a service's publications read during a
+// Messages held for lockstep determinism (docs/design.md §6; router.cpp): a service's publications read during a
 // routing round, and the DDS samples a step covers, handed out at the end of the round in canonical order —
 // sorted by their key, ties in arrival order — whatever the scheduling that brought them in. The bytes are
 // copied in as they arrive; the buffers keep their capacity from round to round.

@@ -1,4 +1,4 @@
-// Checkpoint g (DESIGN §7 "Checkpoint g"; the overview is at the top of images.cpp): at a quiescent point
+// Checkpoint g (docs/design.md §7 "Checkpoint g"; the overview is at the top of images.cpp): at a quiescent point
 // routing freezes, every live rejuvenated service gets a Snapshot and answers Taken (an image by fork) or
 // TakenPages (its written pages, made into an image off the critical path by a copy of the base image:
 // send_patches); publications that arrive before their sender's Taken are applied to the rings; then the
@@ -135,7 +135,7 @@ void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const Checkp
   answer_checkpoint(done, op_code(wire::OpError::Refused), 0);
 }
 
-// The generation committed with the kernel state beside it (DESIGN §7 step 3), the caller answered, and what
+// The generation committed with the kernel state beside it (docs/design.md §7 step 3), the caller answered, and what
 // is left to do (patches, evicted generations, the sweep, the spares) left for after the vehicle's next update.
 void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
   const Generation g = done.record.g;
@@ -170,7 +170,7 @@ void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
                 .sweep_wait = SweepWait::No, .spares = g});
   if (done.priming) {
     run_image_work();  // before the flight: nothing to wait for, and the count below needs it
-    // DESIGN §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
+    // docs/design.md §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
     sr_stats.priming_images += sr_stats.images_by_fork - forks_before;
     sr_stats.images_by_fork = forks_before;
     k.log("the alignment's checkpoint: %zu images by fork in %.3f ms (untimed, not charged)",
@@ -180,7 +180,7 @@ void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
   count_checkpoint(g, done.caller, times);
 }
 
-// A timed checkpoint in the run's statistics, its SR event and its charge in simulated time (DESIGN §6).
+// A timed checkpoint in the run's statistics, its SR event and its charge in simulated time (docs/design.md §6).
 void Rejuvenator::count_checkpoint(Generation g, std::optional<ServiceId> caller,
                                    const CheckpointTimes& times) {
   const Nanos took = times.saved - times.start;

@@ -1,4 +1,4 @@
-// The kernel state saved beside a generation's images, one value (image::CheckpointedState; DESIGN §7 step 3):
+// The kernel state saved beside a generation's images, one value (image::CheckpointedState; docs/design.md §7 step 3):
 // saved whole at a checkpoint's commit (checkpoint.cpp) and restored whole by a rollback (rollback.cpp).
 #include "images.hpp"
 
@@ -28,7 +28,7 @@ Result<void, broker::BrokerError> restore_state(const image::CheckpointedState& 
   for (const image::SavedService& saved : state.services) {
     ServiceRuntime& s = services[saved.service.value()];
     s.subscriptions = saved.subscriptions;
-    // DESIGN §7 step 3: periodic timers realign to now (their phase within the period is kept), one-shot
+    // docs/design.md §7 step 3: periodic timers realign to now (their phase within the period is kept), one-shot
     // timers shift by now − t_cp: both are the saved expiry moved by now − t_cp.
     for (const clock::KernelTimer& t : saved.timers) {
       (void)timers.arm(s.id, t.id, now + (t.due - state.t_cp), t.period);

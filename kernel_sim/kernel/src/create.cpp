@@ -1,4 +1,4 @@
-// Kernel::create (DESIGN §2, §4–§6): a launch graph becomes a kernel ready to boot, in named steps — the
+// Kernel::create (docs/design.md §2, §4–§6): a launch graph becomes a kernel ready to boot, in named steps — the
 // services' params against their declarations, the audited policy, the clock, the capability system, the objects
 // and the broker, the kernel's own descriptors, the descriptor limit, the service uid block, then on the kernel:
 // its configuration, the services, the plant's executable, the CPU placement, the DDS bridge, the event sources
@@ -21,7 +21,7 @@ using K = KernelError::Kind;
 
 // ---- before the kernel exists ----
 
-// DESIGN §4: the kernel refuses to start a graph whose policy fails the audit.
+// docs/design.md §4: the kernel refuses to start a graph whose policy fails the audit.
 Result<policy::Policy, KernelError> load_audited_policy(const launch::LoadedLaunch& graph) {
   auto policy = policy::load_policy(graph.policy_path, graph.policy_includes);
   if (!policy) return fail(kernel_error(K::Policy, policy.error().to_string()));
@@ -59,7 +59,7 @@ Result<ClockMode, KernelError> choose_clock(const launch::LoadedLaunch& graph, c
   return clock_mode;
 }
 
-// Capabilities: start in MC without SR (the mode never changes), in SC (safe) with it (DESIGN §7 Faults).
+// Capabilities: start in MC without SR (the mode never changes), in SC (safe) with it (docs/design.md §7 Faults).
 Result<cap::CapSystem, KernelError> make_caps(const policy::Policy& policy, bool sr) {
   const cap::ModeTable table = policy::compile(policy);
   auto caps = cap::CapSystem::create(table, cap::CapSystemConfig{.cspace_slots = wire::kCSpaceSlots,
@@ -69,7 +69,7 @@ Result<cap::CapSystem, KernelError> make_caps(const policy::Policy& policy, bool
   return std::move(*caps);
 }
 
-// Objects and topics: one broker topic per policy Topic object (DESIGN §5), of an IDL type compiled in or
+// Objects and topics: one broker topic per policy Topic object (docs/design.md §5), of an IDL type compiled in or
 // one the policy declares (`types`, SDK rejuv_add_topics: no DDS descriptor).
 struct Objects {
   std::vector<ObjectInfo> objects;  // by ObjectId
@@ -353,7 +353,7 @@ bool plant_lockstep(const Kernel::Impl& k) {
   return k.options.time_master == TimeMaster::Plant && k.clock_mode == ClockMode::Lockstep;
 }
 
-// The DDS bridge (DESIGN §5) of the graph's `dds.bridges` table, with the lockstep adapter when the plant keeps
+// The DDS bridge (docs/design.md §5) of the graph's `dds.bridges` table, with the lockstep adapter when the plant keeps
 // time. Cyclone reads CYCLONEDDS_URI; it defaults to the graph's config file.
 Result<void, KernelError> open_bridge(Kernel::Impl& k) {
   std::vector<dds::BridgeEntry> table;

@@ -1,4 +1,4 @@
-// What a checkpoint or a rollback costs the plant's world in simulated time (DESIGN §6; the paper's Table I
+// What a checkpoint or a rollback costs the plant's world in simulated time (docs/design.md §6; the paper's Table I
 // times its checkpoint and rollback as time the controls are held). In lockstep with the model's charge (the
 // default) it is the launch file's model, so that a run with one seed is deterministic; with --charge measured
 // it is the real duration, and in real time the world simply went on meanwhile. The charge accumulates over

@@ -1,10 +1,10 @@
-// The image coordinator's state (DESIGN §7): what it has been asked to do, what it is doing, what the last
+// The image coordinator's state (docs/design.md §7): what it has been asked to do, what it is doing, what the last
 // checkpoint or rollback left behind, and the rejuvenation timer. One owner: every change is a transition
 // below, which asserts that it is legal; the procedures that carry them out (images.cpp, checkpoint.cpp,
 // rollback.cpp) and the files that ask for them (requests.cpp, lockstep.cpp, kernel.cpp) go through it.
 //
 //   checkpoint   None ─ask→ Asked ─begin→ Running ─end→ None     Asked ─void_ask→ None (its caller is rolled back)
-//                the alignment's untimed checkpoint (DESIGN §6) is asked at most once per run (ask_priming)
+//                the alignment's untimed checkpoint (docs/design.md §6) is asked at most once per run (ask_priming)
 //   rollback     None ─ask→ Asked ─take→ None                     a second ask keeps the first reason
 //   abandoned    the last abandoned checkpoint and the services whose answer it had not read, until a commit
 //   image work   None ─leave→ Left ─take→ None                    what a checkpoint or rollback left to do
@@ -26,12 +26,12 @@
 
 namespace rejuv::kernel {
 
-// A checkpoint in progress (DESIGN §7 "Checkpoint g"): the caller waits for its Reply; every rejuvenated
+// A checkpoint in progress (docs/design.md §7 "Checkpoint g"): the caller waits for its Reply; every rejuvenated
 // service is asked for an image and answers Taken.
 struct CheckpointRun {
   std::optional<ServiceId> caller{};  // none: the kernel's own (Kernel::checkpoint_now, the alignment's)
   std::uint32_t seq = 0;              // the caller's Invoke, answered when the generation is committed
-  bool priming = false;               // the alignment's: neither timed, counted nor charged (DESIGN §6)
+  bool priming = false;               // the alignment's: neither timed, counted nor charged (docs/design.md §6)
   Nanos t_cp{0};                      // the cut (kernel clock): saved with the generation's state at the commit
   image::GenerationRecord record{};
   std::vector<ServiceId> waiting{};   // Snapshot sent, no Taken yet
@@ -165,7 +165,7 @@ class ImageCoordinator {
   // Left → None: the work, to be run (or, at a cold restart or shutdown, its evicted generations retired).
   [[nodiscard]] std::optional<ImageWork> take_work() { return std::exchange(work_, std::nullopt); }
 
-  // ---- the rejuvenation timer (DESIGN §7–8): a kernel object, not part of any image ----
+  // ---- the rejuvenation timer (docs/design.md §7–8): a kernel object, not part of any image ----
   [[nodiscard]] std::optional<Nanos> timer_due() const { return timer_.due; }
   [[nodiscard]] bool armed_in(Epoch epoch) const { return timer_.armed_in == epoch; }
   // Armed to fire at `due` and every `period` after it (0: once), at most once in `epoch`.

@@ -1,4 +1,4 @@
-// The image coordinator's internal header (DESIGN §7; the overview is at the top of images.cpp): what
+// The image coordinator's internal header (docs/design.md §7; the overview is at the top of images.cpp): what
 // images.cpp, checkpoint.cpp, rollback.cpp and checkpointed_state.cpp share.
 #pragma once
 
@@ -12,7 +12,7 @@ namespace rejuv::kernel {
 [[nodiscard]] inline double to_ms(Nanos d) { return static_cast<double>(d.count()) / 1e6; }
 [[nodiscard]] inline unsigned long long num(Generation g) { return static_cast<unsigned long long>(g.value()); }
 
-// The kernel state of a generation (DESIGN §7 step 3), saved whole at the cut: t_cp, the broker's queue state
+// The kernel state of a generation (docs/design.md §7 step 3), saved whole at the cut: t_cp, the broker's queue state
 // and, for each service imaged, its subscriptions and armed timers. Reads the parts; changes nothing.
 [[nodiscard]] image::CheckpointedState save_state(Nanos t_cp, std::span<const image::Image> imaged,
                                                   const std::vector<ServiceRuntime>& services,

@@ -6,7 +6,7 @@
 //   ChannelInput channel_input.hpp the frames of the services' channels, decoded and handled
 //   Router       router.hpp        routing, output under flow control, the mission watch, the denials
 //   Lockstep     lockstep.hpp      the steps, their rounds and samples, the pace, the stop conditions
-//   Rejuvenator  rejuvenator.hpp   checkpoints, rollbacks, the image work, the rejuvenation timer (DESIGN §7)
+//   Rejuvenator  rejuvenator.hpp   checkpoints, rollbacks, the image work, the rejuvenation timer (docs/design.md §7)
 //   Warden       warden.hpp        seccomp notices, the services' output, the strays, violations
 //
 // What stays here: the loop (loop.cpp), the network gate (netgate.cpp) and the logging and time every owner

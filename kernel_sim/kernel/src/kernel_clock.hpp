@@ -1,4 +1,4 @@
-// The kernel clock (DESIGN §6; the paper's §IV-B: time must not go back with a rollback): the one writer of
+// The kernel clock (docs/design.md §6; the paper's §IV-B: time must not go back with a rollback): the one writer of
 // the time page from which every service reads now(), the SR mode and the rollback epoch
 // (rejuv/clock/time_page.hpp). The page changes on three events, each written here and nowhere else:
 //   advance      time moves on (a lockstep step's t, the realtime clock, the realtime clock's sync);

@@ -1,4 +1,4 @@
-// Lockstep (DESIGN §6; docs/protocol.md "Lockstep with the plant"): the steps of the simulated clock — from
+// Lockstep (docs/design.md §6; docs/protocol.md "Lockstep with the plant"): the steps of the simulated clock — from
 // the plant through the DDS bridge's lockstep adapter (rejuv/dds/plant_lockstep.hpp), or manual
 // (Kernel::step) — and what rides on them: the samples a step carries or that came on their own topics, held
 // for the step that covers them and routed in canonical order (router.cpp, route_samples); a step's rounds
@@ -72,10 +72,10 @@ void Lockstep::begin_step(const PendingStep& step) {
   k.set_now(step.t);
   if (!k.router.sr_mode_announced()) k.router.publish_sr_mode();
   request_priming();
-  k.rejuvenator.fire_rejuvenation();  // DESIGN §7: a due rejuvenation timer rolls back before anything else
+  k.rejuvenator.fire_rejuvenation();  // docs/design.md §7: a due rejuvenation timer rolls back before anything else
                                       // of the step
   (void)k.rejuvenator.service_images();
-  // DESIGN §6: set the clock, fire due timers, route the step's samples; then rounds until idle. Each
+  // docs/design.md §6: set the clock, fire due timers, route the step's samples; then rounds until idle. Each
   // service gets the round's frames in one batch (router.cpp, cork).
   k.router.cork();
   k.fire_timers();
@@ -162,7 +162,7 @@ void Lockstep::finish_step() {
   const PendingStep step = steps.finish(k.wall());
   const Nanos charged = k.rejuvenator.image_charge.take_step_charge();
   if (dds::PlantLockstep* adapter = k.bridge ? k.bridge->lockstep() : nullptr; adapter != nullptr) {
-    if (auto ok = adapter->write_ack(step.step, step.t, charged); !ok) {  // DESIGN §6: charge, in simulated time
+    if (auto ok = adapter->write_ack(step.step, step.t, charged); !ok) {  // docs/design.md §6: charge, in simulated time
       const std::string error = ok.error().to_string();
       k.log("%s", error.c_str());
       k.stop_run(StopReason::PlantExited, error);
@@ -183,7 +183,7 @@ Nanos Lockstep::pace_wait() {
   return std::max(Nanos{0}, due - k.wall());
 }
 
-// DESIGN §6: the first images of every service are forked during the alignment, untimed, so that the
+// docs/design.md §6: the first images of every service are forked during the alignment, untimed, so that the
 // checkpoints of the flight all take theirs by written pages. Once, at the first step of a run with a plant
 // (lockstep or realtime); never in manual stepping, whose tests count their generations.
 void Lockstep::request_priming() {

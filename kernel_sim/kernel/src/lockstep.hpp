@@ -1,4 +1,4 @@
-// Lockstep with the plant (lockstep.cpp; DESIGN §6): the steps, their rounds, the samples held for their
+// Lockstep with the plant (lockstep.cpp; docs/design.md §6): the steps, their rounds, the samples held for their
 // step, the pace, and the run's stop conditions. Owns the step clock and the two canonical stages.
 #pragma once
 
@@ -36,7 +36,7 @@ class Lockstep {
   void finish_step();
   [[nodiscard]] Nanos pace_wait();  // how long the next lockstep step must wait for options.speed (0: none)
   void check_stop_conditions();
-  // The untimed checkpoint of the alignment that forks every service's first image (DESIGN §6): asked for at
+  // The untimed checkpoint of the alignment that forks every service's first image (docs/design.md §6): asked for at
   // the first step, carried out as any checkpoint but neither timed, counted nor charged.
   void request_priming();
   // The graph idle: the catch-up's next sampling instant routed as a round of its own; at its end, what it

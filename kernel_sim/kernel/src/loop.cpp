@@ -1,4 +1,4 @@
-// The kernel's event loop (DESIGN §5, §6): one epoll set for every source — service channels, pidfds, the
+// The kernel's event loop (docs/design.md §5, §6): one epoll set for every source — service channels, pidfds, the
 // signal fd, the realtime timerfd, the DDS bridge's readers, the network gate, seccomp listeners and service
 // output — dispatched by pump(); the wall-clock deadlines it sleeps until; kernel timers; the realtime clock;
 // and the kernel's logging. The lockstep steps that run on top of it are in lockstep.cpp.
@@ -326,7 +326,7 @@ void Kernel::Impl::drain_catch_up() {
   rejuvenator.chain_realtime();
 }
 
-// The realtime clock (DESIGN §6): the kernel clock is CLOCK_MONOTONIC since the run started (or the plant's,
+// The realtime clock (docs/design.md §6): the kernel clock is CLOCK_MONOTONIC since the run started (or the plant's,
 // from its first sample); timers fire from the timerfd; progress is reported every 100 ms of it.
 Result<void, KernelError> Kernel::Impl::run_realtime() {
   run_start_mono = sys::monotonic_now();

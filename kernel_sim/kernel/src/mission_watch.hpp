@@ -4,7 +4,7 @@
 //   - the run's Observer (Observer::on_publication, on_control_update for Fig. 7);
 //   - MissionWatch: the mission's end, the first Setpoint a service publishes with mission_done = 1
 //     (KernelOptions::stop_on_mission_done ends the run there, else it is logged and the run goes on);
-//   - the security events: every capability denial counted, logged and published as a SecurityEvent (DESIGN §3).
+//   - the security events: every capability denial counted, logged and published as a SecurityEvent (docs/design.md §3).
 #pragma once
 
 #include <cstddef>

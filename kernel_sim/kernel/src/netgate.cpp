@@ -1,4 +1,4 @@
-// The network gate (DESIGN §2, §3; docs/protocol.md "Network gate"): the kernel owns the external link's UDP
+// The network gate (docs/design.md §2, §3; docs/protocol.md "Network gate"): the kernel owns the external link's UDP
 // socket. A datagram is relayed to the service whose policy slot holds the NETWORK object with Read in the
 // current mode (ext_link, in MC only) as one NetDatagram frame; otherwise it is dropped and counted — in
 // RB/SC/UPDATE/CP no service holds Network (the secure execution interval, §III), so nothing from the

@@ -1,4 +1,4 @@
-// The network gate's state (DESIGN §2; docs/protocol.md "Network gate"): the kernel's UDP socket of the
+// The network gate's state (docs/design.md §2; docs/protocol.md "Network gate"): the kernel's UDP socket of the
 // external link, who may receive from it, its GroundLink (the signing check and where replies go), and its
 // counters. Code in netgate.cpp.
 #pragma once
@@ -24,7 +24,7 @@ inline constexpr std::size_t kDatagramsPerPoll = 64;         // fairness: datagr
 // Relayed datagrams a verdict may still name (the receiver judges each as it handles it, so within a step).
 inline constexpr std::size_t kRecentDatagrams = 256;
 
-// Who the ground station is, and what admits a datagram from the network (DESIGN §2; docs/mavlink.md
+// Who the ground station is, and what admits a datagram from the network (docs/design.md §2; docs/mavlink.md
 // "Signing", "Where the vehicle sends"). The ground address changes in one place only: judge() with a valid
 // verdict on a datagram that admit() passed and relayed() recorded. A datagram refused by the signing check is
 // never recorded, so it has no id that a verdict could name: nothing it carries can move the telemetry.

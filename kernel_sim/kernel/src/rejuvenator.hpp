@@ -1,4 +1,4 @@
-// The image coordinator of DESIGN §7 as one owner (images.cpp, checkpoint.cpp, rollback.cpp; the overview is
+// The image coordinator of docs/design.md §7 as one owner (images.cpp, checkpoint.cpp, rollback.cpp; the overview is
 // at the top of images.cpp): checkpoints, rollbacks, cold restarts, the image work they leave behind and the
 // rejuvenation timer, carried out over the image store, the coordinator's state machine
 // (image_coordinator.hpp), the routing freeze, the catch-up, the charge, the reaper and the channel pool —

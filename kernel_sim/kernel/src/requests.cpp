@@ -416,7 +416,7 @@ void ChannelInput::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
 void ChannelInput::invoke_checkpoint(ServiceRuntime& s, std::uint32_t seq, const CheckpointInvocation& c) {
   std::visit(Overloaded{
                  [&](const CheckpointInvocation::Create&) {
-                   // DESIGN §7: answered when generation g is committed (checkpoint.cpp); in a restored image never.
+                   // docs/design.md §7: answered when generation g is committed (checkpoint.cpp); in a restored image never.
                    if (!k.rejuvenator.coordinator.ask_checkpoint(s.id, seq))
                      reply(s, seq, op_code(wire::OpError::Refused));
                  },

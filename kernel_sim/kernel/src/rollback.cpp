@@ -1,4 +1,4 @@
-// Rollback (DESIGN §7 "Rollback"; the overview is at the top of images.cpp), on the rejuvenation timer, a
+// Rollback (docs/design.md §7 "Rollback"; the overview is at the top of images.cpp), on the rejuvenation timer, a
 // CheckpointRollback or a rejuvenated service lost: mode RB, every live rejuvenated incarnation retired (cut
 // off, SCHED_IDLE, killed after the timed part), the images of the newest intact generation resumed on new
 // channels and the kernel state restored whole (restore_state); a dead image or a failed resume falls back
@@ -95,7 +95,7 @@ bool Rejuvenator::resume_generation(image::GenerationRecord& record, Nanos deadl
       failure = "channel for a restored image: " + channel.error().to_string();
       break;
     }
-    // A new pipe for fds 1-2 as well (DESIGN §7 "Nothing outlives an incarnation"): the image's were opened
+    // A new pipe for fds 1-2 as well (docs/design.md §7 "Nothing outlives an incarnation"): the image's were opened
     // before it and shared with the incarnation it was taken from, which may have armed them.
     auto output = sys::make_pipe();
     if (!output) {

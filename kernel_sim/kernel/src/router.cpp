@@ -1,4 +1,4 @@
-// Routing (DESIGN §5; docs/protocol.md "Delivery and flow control"): every publication is decoded through
+// Routing (docs/design.md §5; docs/protocol.md "Delivery and flow control"): every publication is decoded through
 // the capability system (Topic + Write in the current mode) and size-checked against its topic, written to
 // the broker's ring, then pushed to each subscriber's channel in publish order. A full channel leaves the
 // message in the ring (the subscriber's entry waits in its out-queue; the broker clamps and counts what

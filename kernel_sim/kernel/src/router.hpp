@@ -62,7 +62,7 @@ class Router {
   void publish_kernel_message(const KernelMessage<T>& message) {
     publish_kernel_bytes(msgs::TopicTraits<T>::name, std::as_bytes(std::span(&message.fields, 1)));
   }
-  // A SecurityEvent (DESIGN §3): every capability denial, forbidden call, stray process and lost image.
+  // A SecurityEvent (docs/design.md §3): every capability denial, forbidden call, stray process and lost image.
   void publish_security_event(Nanos at, ServiceId service, std::uint32_t slot, rejuv_msg_SecurityEventKind kind,
                               SrMode mode, std::uint8_t operation = 0, std::uint8_t error = 0);
   void finish_routes(ObjectId topic);  // pushes the topic's newest message to every subscriber

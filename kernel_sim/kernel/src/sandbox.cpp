@@ -1,4 +1,4 @@
-// Containment (DESIGN §7 "Protection (containment)", docs/sandbox.md). A rollback erases only what is inside
+// Containment (docs/design.md §7 "Protection (containment)", docs/sandbox.md). A rollback erases only what is inside
 // the image, so nothing a service does may escape it:
 //   - the allow-list filter (kernel_sim/sys seccomp.hpp) refers boot calls and forbidden calls to the kernel
 //     (on_seccomp_notice): boot calls continue until the service is ready, a forbidden call kills its caller;

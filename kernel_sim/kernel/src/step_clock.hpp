@@ -1,4 +1,4 @@
-// The steps of the lockstep clock (DESIGN §6; docs/protocol.md "Lockstep with the plant"): the queue of steps
+// The steps of the lockstep clock (docs/design.md §6; docs/protocol.md "Lockstep with the plant"): the queue of steps
 // offered by the plant (SimStep, through the bridge's lockstep adapter) or by Kernel::step (manual), the count
 // of the samples they wait for, the active step and its routing rounds, and the wall-clock references of its
 // deadlines. One owner: the kernel's lockstep (lockstep.cpp) drives it. Besides reading its deadlines, the loop

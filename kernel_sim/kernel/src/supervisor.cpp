@@ -1,4 +1,4 @@
-// Supervision (DESIGN §2, §7): the kernel is the parent (and subreaper) of every service and of the plant.
+// Supervision (docs/design.md §2, §7): the kernel is the parent (and subreaper) of every service and of the plant.
 // Services are spawned with their channel at fd 3 and the read-only time page at fd 4, the BeforeExec
 // seccomp stage and, when the kernel runs as root, their own uid. A child's death is learnt from its pidfd
 // and handled in one place (lose_service); shutdown sends Shutdown, waits a grace period, then kills and
@@ -94,9 +94,9 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   }
   number("attack.enabled", attacks > 0 ? 1 : 0);
   number("attack.count", attacks);
-  // > 0: this incarnation was started by a cold restart (DESIGN §7): the vehicle is not at its take-off point.
+  // > 0: this incarnation was started by a cold restart (docs/design.md §7): the vehicle is not at its take-off point.
   number("boot.cold_restarts", static_cast<double>(k.rejuvenator.sr_stats.cold_restarts));
-  // The mission's t = 0 on the kernel clock (the end of the plant's alignment): SR starts there (DESIGN §6).
+  // The mission's t = 0 on the kernel clock (the end of the plant's alignment): SR starts there (docs/design.md §6).
   number("flight.start_s", to_seconds(k.rejuvenator.flight_start).count());
   return out;
 }
@@ -120,7 +120,7 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   if (!pair) return system_error(pair.error());
   auto& [kernel_end, service_end] = *pair;
   if (auto ok = sys::set_nonblocking(kernel_end.fd(), true); !ok) return system_error(ok.error());
-  // No terminal (DESIGN §7 "Protection"): /dev/null to read, a pipe the kernel logs under the service's name
+  // No terminal (docs/design.md §7 "Protection"): /dev/null to read, a pipe the kernel logs under the service's name
   // to write, and a session of its own with no controlling terminal.
   auto null = sys::open_null();
   if (!null) return system_error(null.error());
@@ -221,7 +221,7 @@ Result<void, KernelError> Supervisor::spawn_plant() {
   if (g.plant().wind_gust_m_s() != 0) {
     spec.args.insert(spec.args.end(), {"--wind-gust", format_double(g.plant().wind_gust_m_s())});
   }
-  // The pre-flight alignment of the launch file (DESIGN §6), as long as `rejuv sim`'s (SimConfig::alignment).
+  // The pre-flight alignment of the launch file (docs/design.md §6), as long as `rejuv sim`'s (SimConfig::alignment).
   spec.args.insert(spec.args.end(),
                    {"--align-s", format_double(to_seconds(k.rejuvenator.flight_start).count())});
   spec.args.insert(spec.args.end(), k.options.plant_args.begin(), k.options.plant_args.end());
@@ -323,7 +323,7 @@ void Supervisor::lose_service(ServiceRuntime& s, std::string reason) {
     k.stop_run(StopReason::ServiceFailed, std::move(detail));
     return;
   }
-  // DESIGN §7: a rejuvenated service dying is one of the three rollback triggers (images.cpp). Without SR,
+  // docs/design.md §7: a rejuvenated service dying is one of the three rollback triggers (images.cpp). Without SR,
   // or for a driver-level service (never rolled back), the run cannot continue safely.
   if (k.sr && s.config.rejuvenate) {
     k.rejuvenator.request_rollback("service '" + s.name + "' lost: " + reason);
@@ -451,7 +451,7 @@ void Supervisor::shutdown_all() {
     }
     plant_.kill_and_reap();
   }
-  // Every image and every killed incarnation (DESIGN §7): killed and reaped.
+  // Every image and every killed incarnation (docs/design.md §7): killed and reaped.
   if (std::optional<ImageWork> left = k.rejuvenator.coordinator.take_work()) {
     for (image::GenerationRecord& r : left->evicted) k.rejuvenator.retiring.push_back(std::move(r));
   }
@@ -459,7 +459,7 @@ void Supervisor::shutdown_all() {
     k.rejuvenator.retiring.push_back(std::move(r));
   k.rejuvenator.finish_retiring(true);
   k.rejuvenator.reaper.kill_all_and_reap();
-  // And whatever else a service left (DESIGN §7 "Protection"): nothing outlives the run. The cgroup, where
+  // And whatever else a service left (docs/design.md §7 "Protection"): nothing outlives the run. The cgroup, where
   // there is one, ends all of a service in one call; the sweep then names, counts and reaps what was left in
   // a service's session (a zombie is still its session's).
   for (ServiceRuntime& s : k.services) s.sandbox.cgroup.kill_all();

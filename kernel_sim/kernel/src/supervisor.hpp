@@ -28,7 +28,7 @@ class Supervisor {
   void on_child_exit(ServiceRuntime& s);
   void on_plant_exit();
   // The one place a service is lost (death, hang, protocol fault). With SR a rejuvenated service's loss asks
-  // for a rollback (DESIGN §7); before the graph has booted, without SR, or for a driver-level service the
+  // for a rollback (docs/design.md §7); before the graph has booted, without SR, or for a driver-level service the
   // run ends.
   void lose_service(ServiceRuntime& s, std::string reason);
   void kill_hung(ServiceRuntime& s, std::string reason);

@@ -28,7 +28,7 @@ struct ObjectInfo {
   policy::KernelEndpoint kernel = policy::KernelEndpoint::None;
   bool is_setpoint = false;             // watched for mission_done (rejuv::msg::Setpoint)
   bool is_actuator_outputs = false;     // a control update (Fig. 7): Observer::on_control_update
-  std::vector<std::byte> persistent{};  // Persistent cells (survive rollback, DESIGN §3)
+  std::vector<std::byte> persistent{};  // Persistent cells (survive rollback, docs/design.md §3)
   std::vector<std::byte> limits{};      // Limits: the last LimitsWrite data
 };
 

@@ -59,7 +59,7 @@ void Router::drain_denials() {
         ++s.stats.log_suppressed;
       }
     }
-    // DESIGN §3: every denial is also published as a SecurityEvent.
+    // docs/design.md §3: every denial is also published as a SecurityEvent.
     publish_security_event(d.at, d.service, d.slot.value(), rejuv_msg_SECURITY_CAPABILITY_DENIAL, d.mode,
                            static_cast<std::uint8_t>(d.operation), static_cast<std::uint8_t>(d.error));
   }

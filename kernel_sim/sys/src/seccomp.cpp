@@ -64,7 +64,7 @@ constexpr std::array<int, 3> kPrctlOptions{PR_GET_DUMPABLE, PR_SET_NAME, PR_GET_
 constexpr std::array<int, 7> kFcntlCommands{F_DUPFD, F_DUPFD_CLOEXEC, F_GETFD, F_SETFD, F_GETFL, F_ADD_SEALS,
                                             F_GET_SEALS};
 
-// The allow-list (DESIGN §7 "Protection"; docs/sandbox.md prints it). x86-64 names, as libseccomp spells
+// The allow-list (docs/design.md §7 "Protection"; docs/sandbox.md prints it). x86-64 names, as libseccomp spells
 // them; a name this architecture lacks is skipped.
 constexpr std::array kServiceRules{
     // ---- the channel to the kernel (a Unix SOCK_SEQPACKET pair it was given; no socket can be made) ----
@@ -102,7 +102,7 @@ constexpr std::array kServiceRules{
     SyscallRule{"mremap", Allowance::Always, ArgCheck::None, "the allocator grows a mapping"},
     SyscallRule{"madvise", Allowance::Always, ArgCheck::None, "the allocator returns pages"},
     SyscallRule{"brk", Allowance::Always, ArgCheck::None, "the heap (images restore its end)"},
-    // ---- images (DESIGN §7) ----
+    // ---- images (docs/design.md §7) ----
     SyscallRule{"clone", Allowance::Always, ArgCheck::CloneFlags,
                 "an image is forked as the kernel's child (CLONE_PARENT|SIGCHLD); registered worker threads. "
                 "No other process can be made: every process of a service is the kernel's child"},

@@ -1,4 +1,4 @@
-// rejuv_plant: the outside world of a Rejuv run (DESIGN §2, §9) — the quadrotor, its sensors and wind in
+// rejuv_plant: the outside world of a Rejuv run (docs/design.md §2, §9) — the quadrotor, its sensors and wind in
 // their own process, talking DDS to the kernel the way jMAVSim talks to PX4 over sockets in paper §VI-A. The
 // kernel sees only DDS samples; it cannot reach into the physics. Protocol: rejuv/dds/plant_topics.hpp and
 // docs/protocol.md ("Lockstep with the plant").
@@ -52,7 +52,7 @@ struct Endpoints {
   static dds::DdsResult<Endpoints> open(dds::DomainId domain, ClockMode clock);
 };
 
-// A step that the kernel charged for a checkpoint or rollback (DESIGN §6) covers more than one sensor period:
+// A step that the kernel charged for a checkpoint or rollback (docs/design.md §6) covers more than one sensor period:
 // the writers keep enough history that a reliable reader loses none of a long step's samples.
 constexpr std::int32_t kSensorDepth = 256;
 template <class T>
@@ -189,7 +189,7 @@ class PlantProcess {
     return {};
   }
 
-  // The last command applied is held until the next (DESIGN §6).
+  // The last command applied is held until the next (docs/design.md §6).
   void apply(const rejuv_msg_ActuatorOutputs& u) {
     if (!sim_.set_motor_command(u) && !warned_non_finite_) {
       log("ignoring actuator outputs with a non-finite motor command (holding the previous one)");
@@ -207,7 +207,7 @@ class PlantProcess {
     return {};
   }
 
-  // ---- lockstep (DESIGN §6; protocol in plant_topics.hpp) ----
+  // ---- lockstep (docs/design.md §6; protocol in plant_topics.hpp) ----
 
   ExitCode run_lockstep() {
     if (auto connected = connect(); !connected) return connected.error();
@@ -232,7 +232,7 @@ class PlantProcess {
             " ns, more than the " + seconds_text(kMaxChargePerStep) + " one step may charge");
         return kExitFailure;
       }
-      // Real time spent in checkpoint/rollback passes in the world too, with the motors held (DESIGN §6).
+      // Real time spent in checkpoint/rollback passes in the world too, with the motors held (docs/design.md §6).
       charged = Nanos{static_cast<std::int64_t>(ack->charged_ns)};
       if (done()) {
         log("duration reached after step " + std::to_string(k) + " (t = " + seconds_text(sim_.now()) + ")");
@@ -315,7 +315,7 @@ class PlantProcess {
     }
   }
 
-  // ---- realtime (DESIGN §6): physics follows CLOCK_MONOTONIC in 1 ms ticks, outputs applied on arrival,
+  // ---- realtime (docs/design.md §6): physics follows CLOCK_MONOTONIC in 1 ms ticks, outputs applied on arrival,
   // ground truth every --step-ms ----
 
   ExitCode run_realtime() {

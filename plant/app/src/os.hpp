@@ -1,5 +1,5 @@
 // The one OS call of the plant process that kernel_sim/sys does not offer: an absolute sleep on
-// CLOCK_MONOTONIC (clock_nanosleep, TIMER_ABSTIME), the realtime clock mode's pacing (DESIGN §6).
+// CLOCK_MONOTONIC (clock_nanosleep, TIMER_ABSTIME), the realtime clock mode's pacing (docs/design.md §6).
 #pragma once
 
 #include "rejuv/core/time.hpp"

@@ -1,7 +1,7 @@
 // A service binary hostile from its first instruction (idl/launch.proto AttackKind 29…31;
 // docs/sandbox.md "No trusted boot phase"): what it tries before it says Ready, while the kernel still lets
 // boot calls (open, prlimit64, prctl …) through. Carried out by install() before svc.run() — the service's
-// code is not trusted from the start (DESIGN §7), so rollback to a clean image cannot help: the kernel's own
+// code is not trusted from the start (docs/design.md §7), so rollback to a clean image cannot help: the kernel's own
 // state and the user's secrets must be out of reach from the first call. Each step says what it achieved in
 // one log line (`attack KIND: …`), which tests/security/rollback_attack_test.cpp reads.
 //

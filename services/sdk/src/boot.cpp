@@ -1,4 +1,4 @@
-// Connecting to the kernel (DESIGN §2; docs/protocol.md "Boot"): the process made ready for images, the
+// Connecting to the kernel (docs/design.md §2; docs/protocol.md "Boot"): the process made ready for images, the
 // time page mapped, Hello sent and the boot script read through the channel's one decoder
 // (rejuv/channel/boot.hpp); and the Service's end, which sends what is still queued, once.
 #include <algorithm>
@@ -36,7 +36,7 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
   if (!sys::fd_is_open(options.channel_fd) || !sys::fd_is_open(options.time_page_fd)) {
     return error(SdkError::NotAService, "fd 3 (channel) and fd 4 (time page) must be open: run under the kernel");
   }
-  // The sandbox is the kernel's (installed before exec, DESIGN §7 "Protection"): from the first Ready on,
+  // The sandbox is the kernel's (installed before exec, docs/design.md §7 "Protection"): from the first Ready on,
   // this process opens nothing and maps nothing executable.
   memory_image::opens_done();
   // Not dumpable: no process of its uid (its own images, say) can open its /proc/<pid>/mem or ptrace it.

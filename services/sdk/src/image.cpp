@@ -1,4 +1,4 @@
-// The image protocol of a service (DESIGN §7; docs/protocol.md "Checkpoint and rollback"): take_image
+// The image protocol of a service (docs/design.md §7; docs/protocol.md "Checkpoint and rollback"): take_image
 // answers a Snapshot by written pages or by fork; a frozen copy (frozen_image) waits on the standby stack for
 // Fork, Patch or Resume; resumed_image makes a woken copy the live service on its new channel.
 // The standby-stack rule (memory_image.hpp): a frozen copy writes nothing but its standby stack and
@@ -57,7 +57,7 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, const sys::SysResu
   if (out.build_with(wire::FrameKind::Copied, 0, 0, g, body)) (void)to.send(out.bytes());
 }
 
-// A frozen image of generation handoff.generation (DESIGN §7), on the standby stack: blocks on its resume
+// A frozen image of generation handoff.generation (docs/design.md §7), on the standby stack: blocks on its resume
 // socket, which every frozen copy of the generation shares.
 //   Fork: one copy forks a spare (g stays restorable after it is resumed) and answers Copied{pid}.
 //   Patch{g', pages} with the sealed pages and g''s resume socket: one copy forks a copy that applies the
@@ -130,7 +130,7 @@ void answer_copied(const sys::SeqPacket& to, std::uint64_t g, const sys::SysResu
 
 }  // namespace
 
-// Snapshot{g, base} (DESIGN §7, docs/protocol.md "Checkpoint and rollback"): everything received before it
+// Snapshot{g, base} (docs/design.md §7, docs/protocol.md "Checkpoint and rollback"): everything received before it
 // has been handled (channels are FIFO). Sends what is queued (so that nothing sent before the cut is sent
 // again by a restored image) and takes the image in one of two ways:
 //   - by written pages, when the kernel offers a base generation this process's memory derives from and

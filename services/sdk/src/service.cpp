@@ -33,7 +33,7 @@ bool CapInfo::ever(Right r) const {
 
 void detail::SubscriptionBase::deliver(std::uint64_t generation, std::span<const std::byte> payload) {
   // Generations of a topic are consecutive; a gap means the kernel clamped our cursor (ring overrun).
-  // A rollback may send generations back (DESIGN §7): that is not a loss.
+  // A rollback may send generations back (docs/design.md §7): that is not a loss.
   if (received_ > 0 && generation > generation_ + 1) {
     lost_ += generation - generation_ - 1;
   }
@@ -486,7 +486,7 @@ std::optional<int> Service::Impl::handle(std::span<const std::byte> bytes) {
       }
       break;  // live or restored: the loop goes on (a restored image on its new channel)
     }
-    case wire::FrameKind::Committed:  // DESIGN §7: the next image's record file, in the slack after the commit
+    case wire::FrameKind::Committed:  // docs/design.md §7: the next image's record file, in the slack after the commit
       prepare_pages_fd();
       break;
     case wire::FrameKind::Sync:  // docs/protocol.md "Idle": the Idle once drained, in real time too

@@ -2,7 +2,7 @@
 // implement the SDK along its seams:
 //   errors.cpp     SdkError and Error as text, the Reply error field as an Error
 //   transport.cpp  the channel I/O: frames queued and packed, bursts read, a request and its Reply
-//   image.cpp      the image protocol (DESIGN §7): take_image, the frozen copies, the resumed image
+//   image.cpp      the image protocol (docs/design.md §7): take_image, the frozen copies, the resumed image
 //   boot.cpp       connect: Hello and the boot script, the Service's birth and end
 //   service.cpp    the API of service.hpp and the event loop
 // Not installed: nothing outside services/sdk/src includes it.
@@ -119,7 +119,7 @@ struct Service::Impl {
   // Frames read ahead: one recvmmsg takes a burst (channel::BatchReader), receive() hands them out one by
   // one through rx (copied: rx stays the home of the frame being handled until the next receive, the rule
   // the datagram and request() paths are written against). A restored image drops what is left (forget):
-  // nothing sent to the old incarnation is read by the restored one (DESIGN §7).
+  // nothing sent to the old incarnation is read by the restored one (docs/design.md §7).
   static constexpr std::size_t kBatch = 4;
   alignas(8) std::array<std::byte, wire::kMaxFrameBytes * kBatch> batch_bytes{};
   std::array<sys::Received, kBatch> batch{};
@@ -159,7 +159,7 @@ struct Service::Impl {
   void handle_timer_fired(const wire::FrameView& frame);
   void handle_datagram(const wire::FrameView& frame);
 
-  // ---- images (image.cpp, DESIGN §7) ----
+  // ---- images (image.cpp, docs/design.md §7) ----
 
   // Set in a restored image: the answer of the checkpoint() call it was taken in.
   std::optional<CheckpointOutcome> restored;

@@ -68,7 +68,7 @@ SdkResult<InvokeReply> Service::Impl::request(std::span<std::byte> reply_data, s
     auto frame = wire::decode(bytes, wire::Direction::ToService);
     if (frame && frame->kind == wire::FrameKind::Snapshot) {
       // A checkpoint while this process waits (the caller of checkpoint() always does): the image is
-      // taken inside the call and, once restored, returns from it with RolledBack (DESIGN §7).
+      // taken inside the call and, once restored, returns from it with RolledBack (docs/design.md §7).
       auto resumed = take_image(frame->header.aux, wire::payload_as<wire::SnapshotBody>(*frame).base);
       if (!resumed) return std::unexpected(resumed.error());
       if (*resumed) return error(SdkError::RolledBack, std::string(what));

@@ -1,4 +1,4 @@
-// A service's registered worker threads (DESIGN §7 "Threads"): parked before the fork that takes an image,
+// A service's registered worker threads (docs/design.md §7 "Threads"): parked before the fork that takes an image,
 // resumed in the live process, re-spawned exactly once from their entry function in a restored image.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The test service of the image-store tests (tests/multiproc/image_multiproc_test.cpp, DESIGN §7): one
+// The test service of the image-store tests (tests/multiproc/image_multiproc_test.cpp, docs/design.md §7): one
 // binary, its behaviour chosen by the text param `role`. Graph: tests/multiproc/graphs/images.policy.pbtxt.
 //
 // Records are SensorBaro used as a generic numbered record: pressure_pa = sequence number, altitude_m =
@@ -126,7 +126,7 @@ int run_worker(Service& svc) {
   if (!spawned) return fail(svc, "spawn_worker: " + spawned.error().to_string());
   auto timer = svc.every(period(svc), [&] {
     // How many worker threads run is counted from outside (the test reads /proc/<pid>/task): a service may
-    // open nothing once booted (DESIGN §7 "Protection"), and its own bookkeeping is copied into its images.
+    // open nothing once booted (docs/design.md §7 "Protection"), and its own bookkeeping is copied into its images.
     (void)verdicts->publish(record(svc, -1, 0, g_incarnation.load()));
   });
   if (!timer) return fail(svc, "timer: " + timer.error().to_string());

@@ -1,5 +1,5 @@
 // The escapes of the hostile-service suite (tests/security/hostile_test.cpp): what a compromised
-// service tries in order to leave its sandbox (DESIGN §7 "Protection (containment)"), one named escape per
+// service tries in order to leave its sandbox (docs/design.md §7 "Protection (containment)"), one named escape per
 // run, made with raw system calls where the C library would hide the call the filter sees. Each returns what
 // it achieved if the process survives; the sandbox is expected to kill it inside the first forbidden call.
 #pragma once

@@ -1,5 +1,5 @@
-// "Publish and delivery never allocate" (DESIGN §5), and a checkpoint after the first one reuses its storage
-// (DESIGN §7 latency budget). Counted by replacing the global allocation functions in this test binary: the
+// "Publish and delivery never allocate" (docs/design.md §5), and a checkpoint after the first one reuses its storage
+// (docs/design.md §7 latency budget). Counted by replacing the global allocation functions in this test binary: the
 // one place where a mutable global is the point — it is the allocator itself.
 #include <gtest/gtest.h>
 

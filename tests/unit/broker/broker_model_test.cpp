@@ -137,7 +137,7 @@ class Model {
     return snap;
   }
 
-  // DESIGN §7 as the broker documents it: rejuvenated subscriptions exactly as saved (stats kept when the
+  // docs/design.md §7 as the broker documents it: rejuvenated subscriptions exactly as saved (stats kept when the
   // subscription lived on, zero when recreated); drivers kept at the new head unless they clash.
   RestoreReport restore(const ModelSnapshot& snap) {
     RestoreReport report;
@@ -209,7 +209,7 @@ void run_model(std::uint32_t seed, int steps) {
   const auto config = model_config();
   Broker broker = make_broker(config);
   Model model(config);
-  std::array<std::optional<std::pair<BrokerSnapshot, ModelSnapshot>>, 2> kept;  // the last K = 2 (DESIGN §7)
+  std::array<std::optional<std::pair<BrokerSnapshot, ModelSnapshot>>, 2> kept;  // the last K = 2 (docs/design.md §7)
   std::uint64_t issued = 0;  // subscriber ids handed out so far (valid and stale ones get picked)
   const auto pick = [&](std::uint32_t n) {
     return std::uniform_int_distribution<std::uint32_t>(0, n - 1)(rng);

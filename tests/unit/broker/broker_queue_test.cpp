@@ -1,4 +1,4 @@
-// uORB queue semantics (DESIGN §5): publish order, generations, overrun clamping with exact loss counts,
+// uORB queue semantics (docs/design.md §5): publish order, generations, overrun clamping with exact loss counts,
 // isolation between subscribers, initial generation, routing lists and stats.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Checkpoint state of the queues (DESIGN §7; paper §IV-A: queued messages are global state; §IV-C: the
+// Checkpoint state of the queues (docs/design.md §7; paper §IV-A: queued messages are global state; §IV-C: the
 // driver level is never rolled back). Given a snapshot, When more happens and the snapshot is restored,
 // Then rings, generations and rejuvenated cursors are exactly as at the snapshot and drivers go on.
 #include <gtest/gtest.h>

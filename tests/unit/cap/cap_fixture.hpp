@@ -1,4 +1,4 @@
-// A small synthetic mode table shaped like the real policy (DESIGN §4, §8), shared by the cap tests.
+// A small synthetic mode table shaped like the real policy (docs/design.md §4, §8), shared by the cap tests.
 #pragma once
 
 #include <initializer_list>

@@ -1,5 +1,5 @@
 // Decode-then-invoke, derivation (Copy/Mint never gain rights), Revoke/Delete, isolation between CSpaces
-// and the denial record (DESIGN §3).
+// and the denial record (docs/design.md §3).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -30,7 +30,7 @@ TEST(Decode, PublishOnWritableTopic_ReturnsValidatedToken) {
 }
 
 // Every operation against a cap of every kind, with every single right and with all rights: decode
-// succeeds exactly when requirement(op) holds (DESIGN §3 kind + right table).
+// succeeds exactly when requirement(op) holds (docs/design.md §3 kind + right table).
 TEST(Decode, EveryOperationKindAndRight_SucceedsIffRequirementHolds) {
   ModeTable t;
   t.services = {"svc"};

@@ -1,4 +1,4 @@
-// Building CSpaces from a ModeTable, apply_mode (revoke + mint, DESIGN §3) and boot info.
+// Building CSpaces from a ModeTable, apply_mode (revoke + mint, docs/design.md §3) and boot info.
 #include <gtest/gtest.h>
 
 #include "cap_fixture.hpp"

@@ -3,7 +3,7 @@
 // the whole capability state is checked against
 //   - an independent oracle of what decode must answer (error, or the exact cap and where it goes), and
 //     the exact state difference a successful step may cause (nothing else changes);
-//   - the structural invariants of DESIGN §3: no cap holds a right its parent lacks, no descendant survives
+//   - the structural invariants of docs/design.md §3: no cap holds a right its parent lacks, no descendant survives
 //     a revoke or delete, every cap lies inside its own CSpace, the derivation tree is consistent (every
 //     child's parent exists, links agree both ways, no cycle, every chain ends at an original), and every
 //     policy slot holds exactly what the table grants in the mode in force, or nothing.

@@ -1,4 +1,4 @@
-// The full control design (DESIGN §9): both LQRs stabilise the discrete hover model, P > 0 and its scaled
+// The full control design (docs/design.md §9): both LQRs stabilise the discrete hover model, P > 0 and its scaled
 // ellipsoid touches the state box, Ū is a motor-feasible box around hover inside U.
 #include <gtest/gtest.h>
 

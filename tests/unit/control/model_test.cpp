@@ -1,4 +1,4 @@
-// Hover model, discretisation and angle helpers (DESIGN §9).
+// Hover model, discretisation and angle helpers (docs/design.md §9).
 #include <gtest/gtest.h>
 
 #include <cmath>

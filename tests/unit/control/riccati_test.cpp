@@ -1,4 +1,4 @@
-// DARE and discrete Lyapunov solvers (DESIGN §9): residuals are checked, bad input is refused as a value.
+// DARE and discrete Lyapunov solvers (docs/design.md §9): residuals are checked, bad input is refused as a value.
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>

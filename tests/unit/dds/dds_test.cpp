@@ -1,4 +1,4 @@
-// The DDS bridge in one process (DESIGN §5): two participants (or ignorelocal off) on a private domain.
+// The DDS bridge in one process (docs/design.md §5): two participants (or ignorelocal off) on a private domain.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -290,7 +290,7 @@ TEST_F(DdsTest, IgnoreLocalParticipant_SameParticipant_NotMatched) {
   ASSERT_EQ(take_gyros(*remote, 1).size(), 1U);  // the remote copy has arrived ...
   auto n = local->take([](std::span<const std::byte>) {});
   ASSERT_TRUE(n.has_value());
-  EXPECT_EQ(*n, 0U);  // ... and the kernel does not hear itself (DESIGN §5)
+  EXPECT_EQ(*n, 0U);  // ... and the kernel does not hear itself (docs/design.md §5)
 }
 
 TEST_F(DdsTest, IgnoreLocalNone_SameParticipant_RoundTrip) {

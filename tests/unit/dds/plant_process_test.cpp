@@ -1,4 +1,4 @@
-// The real rejuv_plant process (DESIGN §2, §6; jMAVSim over sockets in paper §VI-A) driven by this test
+// The real rejuv_plant process (docs/design.md §2, §6; jMAVSim over sockets in paper §VI-A) driven by this test
 // acting as a minimal kernel over DDS. Every plant is a sys::ChildProcess: killed and reaped on every path
 // out of a test, failures included.
 #include <gtest/gtest.h>
@@ -307,7 +307,7 @@ TEST_F(PlantProcessTest, Lockstep_OutputsOnTheirTopic_WaitedForAndApplied) {
   expect_climb_at_full_throttle(MinimalKernel::Outputs::OnTopic);
 }
 
-// Real time charged for a checkpoint or rollback passes in the world too (DESIGN §6), and a step it stretches
+// Real time charged for a checkpoint or rollback passes in the world too (docs/design.md §6), and a step it stretches
 // has more samples than its SimStep holds: the rest come on their own topics, the step waits for them, and
 // none is lost or doubled.
 TEST_F(PlantProcessTest, Lockstep_ChargedTime_AddedToSimulatedTimeExtraSamplesOnTheirTopics) {

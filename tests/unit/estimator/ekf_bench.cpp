@@ -1,4 +1,4 @@
-// Cost of the estimator and plant steps that the model-level SR simulation runs (DESIGN §9, §11): it must run
+// Cost of the estimator and plant steps that the model-level SR simulation runs (docs/design.md §9, §11): it must run
 // ≥ 1000× real time with the plant at 1 kHz and predict at 250 Hz, i.e. one simulated second in < 1 ms.
 #include <benchmark/benchmark.h>
 

@@ -1,4 +1,4 @@
-// Error-state EKF (DESIGN §9) flown against the plant: true quadrotor → noisy sensors → estimator.
+// Error-state EKF (docs/design.md §9) flown against the plant: true quadrotor → noisy sensors → estimator.
 #include "rejuv/flight/ekf.hpp"
 
 #include <algorithm>

@@ -87,7 +87,7 @@ TEST(ImageStore, AnAbandonedGenerationsNumberIsNeverReused) {
   EXPECT_EQ(store.next_generation().value(), next.value() + 1);
 }
 
-// DESIGN §7 "Faults": while an image of the newest K is not confirmed (its Patch unanswered), one older
+// docs/design.md §7 "Faults": while an image of the newest K is not confirmed (its Patch unanswered), one older
 // generation stays, so that losing the base it is made from leaves an intact one to fall back to; never more
 // than K + 1; once confirmed, trim() lets the extra one go.
 TEST(ImageStore, KeepsOneMoreGenerationWhileTheNewestIsNotConfirmed) {

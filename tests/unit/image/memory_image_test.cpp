@@ -1,4 +1,4 @@
-// memory_image's help for the critical paths of images by written pages (DESIGN §7; memory_image.hpp):
+// memory_image's help for the critical paths of images by written pages (docs/design.md §7; memory_image.hpp):
 // the record file made ahead, and a copy making its working set its own after a fork. Each test runs in a
 // forked child, since prepare_self and write tracking change the whole process (malloc, the stack, uffd).
 #include <fcntl.h>

@@ -1,4 +1,4 @@
-// The kernel clock (DESIGN §6): the time page seqlock and the timer table's deterministic firing.
+// The kernel clock (docs/design.md §6): the time page seqlock and the timer table's deterministic firing.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <sys/mman.h>

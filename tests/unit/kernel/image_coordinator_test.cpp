@@ -1,4 +1,4 @@
-// The image coordinator's state as one owner (image_coordinator.hpp, DESIGN §7): the checkpoint's
+// The image coordinator's state as one owner (image_coordinator.hpp, docs/design.md §7): the checkpoint's
 // None → Asked → Running → None, the rollback asked once with its first reason, the alignment's checkpoint once
 // per run, the abandoned checkpoint's owed answers, the image work left behind and the rejuvenation timer's
 // once-per-epoch arm. Illegal transitions break the invariant (death tests).

@@ -1,4 +1,4 @@
-// The image coordinator's parts as owners of their state (kernel_sim/kernel/src; DESIGN §6, §7): Reaper, the
+// The image coordinator's parts as owners of their state (kernel_sim/kernel/src; docs/design.md §6, §7): Reaper, the
 // processes the kernel is done with, on real child processes; ChannelPool, socket pairs made ahead, on real
 // fds; RoutingFreeze, the bridge writes held while image work is timed; ImageCharge, the simulated time a
 // checkpoint or a rollback costs the plant's world. Conditions are waited for (waitid, the reaper's own

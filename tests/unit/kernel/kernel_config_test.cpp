@@ -1,4 +1,4 @@
-// The kernel's refusals at creation (DESIGN §4: it refuses to start a graph whose policy fails the audit;
+// The kernel's refusals at creation (docs/design.md §4: it refuses to start a graph whose policy fails the audit;
 // §7: no SR without the image store; bad configuration). Nothing is spawned.
 #include <gtest/gtest.h>
 
@@ -106,7 +106,7 @@ TEST_F(KernelConfig, SrRequested_StartsInSafeControl_NoSrStartsInMissionControl)
   auto k = create(sr_policy, sr_launch);
   ASSERT_TRUE(k.has_value()) << k.error().to_string() << ::testing::PrintToString(k.error().findings);
   EXPECT_TRUE((*k)->sr_enabled());
-  EXPECT_EQ((*k)->mode(), SrMode::SC);  // DESIGN §7 Faults: the safe mode, network off
+  EXPECT_EQ((*k)->mode(), SrMode::SC);  // docs/design.md §7 Faults: the safe mode, network off
   KernelOptions o = manual();
   o.no_sr = true;
   auto without = create(sr_policy, sr_launch, o);

@@ -1,4 +1,4 @@
-// The network gate's GroundLink (kernel_sim/kernel/src/netgate.hpp; DESIGN §2; docs/mavlink.md "Signing",
+// The network gate's GroundLink (kernel_sim/kernel/src/netgate.hpp; docs/design.md §2; docs/mavlink.md "Signing",
 // "Where the vehicle sends"): the signing check against the clock it is given, and the ground address, which
 // only a valid verdict on a relayed datagram moves. The gate relays a datagram only after admit() passed it
 // (netgate.cpp net_poll), so a refused one never gets an id a verdict could name; the multi-process test

@@ -1,4 +1,4 @@
-// The router's parts as owners of their state (kernel_sim/kernel/src; DESIGN §5, §6; docs/protocol.md
+// The router's parts as owners of their state (kernel_sim/kernel/src; docs/design.md §5, §6; docs/protocol.md
 // "Delivery and flow control", "Idle"): FlowControl, one service's delivery order, control pool, held frame
 // and frame count; OutputBatch, the router's cork, over a real socket pair; CanonicalStage, the lockstep
 // staging that hands messages out in canonical order; KernelMessage, the kernel's own messages with their

@@ -1,6 +1,6 @@
 // The kernel's clocks as owners of their state (kernel_sim/kernel/src): KernelClock, the time page's one
 // writer, seen by a service's reader; StepClock, the lockstep step queue with its sample count, rounds and
-// deadlines (DESIGN §6).
+// deadlines (docs/design.md §6).
 #include <gtest/gtest.h>
 
 #include "kernel_clock.hpp"

@@ -1,5 +1,5 @@
-// Launch-graph loader (DESIGN §1, §10): the shipped graph loads, and each class of semantic error is
-// refused with the file:line:column of the offending field (CONVENTIONS "Errors are values").
+// Launch-graph loader (docs/design.md §1, §10): the shipped graph loads, and each class of semantic error is
+// refused with the file:line:column of the offending field (docs/conventions.md "Errors are values").
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -665,7 +665,7 @@ TEST(LaunchLoader, ParamTextValidUtf8_Loads) {
   EXPECT_TRUE(r.has_value()) << r.error().to_string();
 }
 
-// DESIGN §9: a plan naming a kind the service has no hook for is refused at load, naming what it supports.
+// docs/design.md §9: a plan naming a kind the service has no hook for is refused at load, naming what it supports.
 TEST(LaunchLoader, AttackKindWithoutHookInTheService_SemanticNamesSupportedKinds) {
   const Mutated m = mutate("executable: \"rejuv_a\"", "executable: \"rejuv_safety_control\"");
   const auto r = parse_launch(m.text, kAsPath);

@@ -1,4 +1,4 @@
-// Quadrotor rigid body and mixer (DESIGN §9, paper §IV-B).
+// Quadrotor rigid body and mixer (docs/design.md §9, paper §IV-B).
 #include "rejuv/plant/quadrotor.hpp"
 #include "rejuv/plant/wind.hpp"
 

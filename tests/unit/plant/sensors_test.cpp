@@ -1,4 +1,4 @@
-// Sensor models and wind (DESIGN §9; jMAVSim SimpleSensors, §VI-A).
+// Sensor models and wind (docs/design.md §9; jMAVSim SimpleSensors, §VI-A).
 #include "rejuv/plant/sensors.hpp"
 
 #include <cmath>

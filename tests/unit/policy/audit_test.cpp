@@ -1,4 +1,4 @@
-// The policy audit (DESIGN §4): each invariant of §III is caught on a minimal grant and not raised on
+// The policy audit (docs/design.md §4): each invariant of §III is caught on a minimal grant and not raised on
 // its legitimate neighbour; the shipped policies audit clean and every shipped *_broken example fails
 // exactly the invariant its name announces, at the lines its author marked.
 #include <gtest/gtest.h>
@@ -163,7 +163,7 @@ TEST(AuditPersistent, NetworkFacingReadsInMc_Clean) {
   expect_clean("grants { service: \"link\" object: \"cell\" rights: \"R\" modes: [MC] }\n");
 }
 
-// ---- lateral (DESIGN §4) ----
+// ---- lateral (docs/design.md §4) ----
 TEST(AuditLateral, NetworkFacingPublishesActuator_Finding) {
   expect_only("grants { service: \"link\" object: \"controls\" rights: \"W\" modes: [MC] }\n", "lateral");
 }

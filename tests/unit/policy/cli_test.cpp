@@ -1,4 +1,4 @@
-// `rejuv audit` as a user runs it (DESIGN §4, §10): the real binary, its exit codes (0 clean,
+// `rejuv audit` as a user runs it (docs/design.md §4, §10): the real binary, its exit codes (0 clean,
 // 1 violations, 2 bad input), its compiler-style lines and a JSON document that a JSON parser accepts.
 #include <fcntl.h>
 #include <spawn.h>

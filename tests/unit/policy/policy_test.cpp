@@ -1,4 +1,4 @@
-// Policy loader, model and compilation to cap::ModeTable (DESIGN §3–§4).
+// Policy loader, model and compilation to cap::ModeTable (docs/design.md §3–§4).
 #include <gtest/gtest.h>
 
 #include <filesystem>

@@ -218,7 +218,7 @@ TEST_F(SetpointNodeTest, SetpointNode_MissionWithTooManyWaypoints_Refused) {
   EXPECT_EQ(node.generator(), nullptr);
 }
 
-// Cold restart (DESIGN §7): the record kept by one incarnation restores x_sp and the waypoint in the next,
+// Cold restart (docs/design.md §7): the record kept by one incarnation restores x_sp and the waypoint in the next,
 // through the cell's bytes, and the launch mission commander publishes at boot does not send it back to 0.
 TEST_F(SetpointNodeTest, SetpointNode_RestoredFromItsRecord_ContinuesWhereItWasNotAtWaypointZero) {
   SetpointNode before = make(flight::SrSwitch::On);

@@ -1,4 +1,4 @@
-// The pieces of the model-level SR engine (DESIGN §7–§8): the kernel's rejuvenation timer and image store, the
+// The pieces of the model-level SR engine (docs/design.md §7–§8): the kernel's rejuvenation timer and image store, the
 // rollback handler of §V-B/Fig. 6 with Taken/Restored, the output driver's limits, the estimator node's rollback.
 #include <gtest/gtest.h>
 
@@ -65,7 +65,7 @@ TEST(ImageStore, Save_MoreThanK_KeepsNewestK) {
   EXPECT_EQ(g3.value(), 3U);
 }
 
-// ---- RollbackHandler (§V-B Fig. 5/6 with DESIGN §7–§8) ----
+// ---- RollbackHandler (§V-B Fig. 5/6 with docs/design.md §7–§8) ----
 
 class HandlerTest : public ::testing::Test {
  protected:

@@ -695,7 +695,7 @@ TEST(Subreaper, CountChildren_SeesSpawnedProcess) {
 }
 
 
-// ---- CPU placement (KernelOptions::placement, DESIGN §6) ----
+// ---- CPU placement (KernelOptions::placement, docs/design.md §6) ----
 
 // Runs `body` in a thread of its own, so that pinning it leaves the test process's mask alone.
 template <class F>

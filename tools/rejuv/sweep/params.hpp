@@ -30,7 +30,7 @@ inline constexpr std::size_t kMaxValues = 10000;
 // names a value field, and every value is one the field takes.
 [[nodiscard]] Result<proto::SweepAxis, std::string> make_axis(const proto::Launch& base, std::string_view param);
 
-// The unit of a field from its name's suffix (CONVENTIONS: units in identifiers): "t_mc_s" → "s".
+// The unit of a field from its name's suffix (docs/conventions.md: units in identifiers): "t_mc_s" → "s".
 [[nodiscard]] std::string unit_of(std::string_view path);
 
 // An axis as the paper names it, for a figure: "T_MC [s] (sr.t_mc_s)" for the SR parameters of §IV–§VI, the

@@ -1,5 +1,5 @@
 // The topic types of the whole system (idl/*.idl, compiled by idlc) as one table: name, size and Cyclone
-// type descriptor of each fixed-size struct. The broker checks payload sizes against it (DESIGN §5), the
+// type descriptor of each fixed-size struct. The broker checks payload sizes against it (docs/design.md §5), the
 // DDS bridge creates topics from it, and the SDK maps a C++ type to its name with TopicTraits.
 #pragma once
 

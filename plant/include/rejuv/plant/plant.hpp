@@ -1,4 +1,4 @@
-// The plant library in one include: quadrotor + mixer, sensor models and wind (DESIGN §9).
+// The plant library in one include: quadrotor + mixer, sensor models and wind (docs/design.md §9).
 #pragma once
 
 #include "rejuv/plant/quadrotor.hpp"

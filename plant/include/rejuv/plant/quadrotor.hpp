@@ -1,4 +1,4 @@
-// The quadrotor of the plant (DESIGN §9): parameters, state, the "+" mixer of §IV-B and a 6-DOF rigid body
+// The quadrotor of the plant (docs/design.md §9): parameters, state, the "+" mixer of §IV-B and a 6-DOF rigid body
 // integrated with RK4. Frames: N = local NED (z down, so 3 m altitude is p_z = -3), B = body FRD; q_NB is the
 // Hamilton quaternion that rotates B-frame vectors into N.
 #pragma once

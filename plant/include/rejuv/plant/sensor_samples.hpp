@@ -1,4 +1,4 @@
-// Sensor samples as the plant's sensor models produce them and the estimator consumes them (DESIGN §9). Kept
+// Sensor samples as the plant's sensor models produce them and the estimator consumes them (docs/design.md §9). Kept
 // apart from the sensor models so that the estimator depends on the data, not on how it is simulated.
 // Frames: N = local NED, B = body FRD. `t` is when the quantity was measured (the sample's timestamp), which
 // is earlier than when it is delivered when the sensor has a delay.

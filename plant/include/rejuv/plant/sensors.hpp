@@ -1,4 +1,4 @@
-// Sensor models of the plant (DESIGN §9; the SimpleSensors of jMAVSim used in §VI-A): gyro, accelerometer,
+// Sensor models of the plant (docs/design.md §9; the SimpleSensors of jMAVSim used in §VI-A): gyro, accelerometer,
 // magnetometer, barometer and GPS, each with white noise, a bias random walk, its own rate and a delay.
 #pragma once
 

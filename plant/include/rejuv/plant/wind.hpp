@@ -1,4 +1,4 @@
-// Wind of the plant (DESIGN §9, "optional wind"): a mean plus first-order Gauss–Markov gusts per axis.
+// Wind of the plant (docs/design.md §9, "optional wind"): a mean plus first-order Gauss–Markov gusts per axis.
 #pragma once
 
 #include <cstdint>

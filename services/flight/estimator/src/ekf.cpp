@@ -1,4 +1,4 @@
-// Error-state EKF (DESIGN §9; the ekf2 whose estimate x̂ drives the SR switching condition (1), §III-A).
+// Error-state EKF (docs/design.md §9; the ekf2 whose estimate x̂ drives the SR switching condition (1), §III-A).
 #include "rejuv/flight/ekf.hpp"
 
 #include <algorithm>

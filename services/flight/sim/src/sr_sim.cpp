@@ -228,7 +228,7 @@ struct SrSimulation::Impl {
         return;
       case HandlerRequest::Checkpoint: {
         // The image is the software as it is now, its handler inside checkpoint(): restored later, that call
-        // returns Restored (DESIGN §7). The software then stops for T_CP; controls from SC are held (§II).
+        // returns Restored (docs/design.md §7). The software then stops for T_CP; controls from SC are held (§II).
         mode = SrMode::CP;
         event(SrEventKind::Mode, now);
         const Generation g = images.save(sw, now);
@@ -371,7 +371,7 @@ struct SrSimulation::Impl {
       since_checkpoint.clear();
       logged_this_step = false;
     } else {
-      // RollbackSignal to the services that asked for it (DESIGN §7 step 3): ekf2 and checkpoint_p.
+      // RollbackSignal to the services that asked for it (docs/design.md §7 step 3): ekf2 and checkpoint_p.
       sw.estimator.on_rollback(cfg.ekf_rearm);
     }
     begin_handler_run(now);

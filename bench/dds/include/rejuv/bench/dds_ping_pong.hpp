@@ -1,4 +1,4 @@
-// The raw Cyclone DDS latency baseline (DESIGN §11): ping-pong between this process and an echo process
+// The raw Cyclone DDS latency baseline (docs/design.md §11): ping-pong between this process and an echo process
 // (rejuv_dds_echo) over loopback, on a real topic type. Two receive paths:
 //   RawWaitset     — Cyclone's C API alone: waitset on a read condition, dds_take. The baseline.
 //   BridgeEventFd  — rejuv::dds (the kernel's DDS bridge): listener → eventfd → poll → Reader::take.

@@ -1,4 +1,4 @@
-// Latency measurement shared by the benchmarks that compare message paths side by side (DESIGN §11): a
+// Latency measurement shared by the benchmarks that compare message paths side by side (docs/design.md §11): a
 // timed round-trip loop, one-way latency as RTT/2, percentiles, and Google Benchmark counters in µs. The raw
 // DDS baseline (dds_ping_pong.hpp) and the kernel's publish→deliver path report through the same functions,
 // so their numbers mean the same thing.

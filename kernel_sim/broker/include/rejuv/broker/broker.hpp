@@ -1,5 +1,5 @@
-// The kernel's message broker (DESIGN §5): PX4 uORB queues (uORBDeviceNode semantics) as a pure in-process
-// data structure, and their checkpoint state (DESIGN §7). The paper (§IV-A) names the μORB queues as global
+// The kernel's message broker (docs/design.md §5): PX4 uORB queues (uORBDeviceNode semantics) as a pure in-process
+// data structure, and their checkpoint state (docs/design.md §7). The paper (§IV-A) names the μORB queues as global
 // state that a checkpoint must capture: messages queued but not yet read at the checkpoint are delivered
 // again after a rollback, and nothing is lost or duplicated for a rolled-back service.
 //
@@ -23,7 +23,7 @@
 namespace rejuv::broker {
 
 // Position of a message in its topic's stream: the n-th publication on a topic has generation n (from 0).
-// Not the checkpoint generation g of DESIGN §7 (rejuv::Generation), hence its own type. A rollback sets a
+// Not the checkpoint generation g of docs/design.md §7 (rejuv::Generation), hence its own type. A rollback sets a
 // topic's counter back to its value at the checkpoint, so after a rollback a generation number is reused;
 // pair it with the rollback epoch where uniqueness across rollbacks matters.
 using TopicGeneration = StrongId<struct TopicGenerationTag, std::uint64_t>;
@@ -50,7 +50,7 @@ enum class BrokerError : std::uint8_t {
 };
 [[nodiscard]] std::string_view to_string(BrokerError error);
 
-// How a subscription behaves across a rollback (DESIGN §7, paper §IV-C).
+// How a subscription behaves across a rollback (docs/design.md §7, paper §IV-C).
 enum class SubscriberKind : std::uint8_t {
   Rejuvenated,  // its service is rolled back: the subscription and its cursor go back to the checkpoint
   Driver,       // driver level (output_driver), never rolled back: after a rollback it reads only what is
@@ -113,11 +113,11 @@ struct RestoreReport {
   std::size_t drivers_dropped = 0;        // driver subscriptions clashing with a restored one (restore)
 };
 
-// The broker's checkpoint state (DESIGN §7 step 3): every ring's bytes (payloads and publish times), every
+// The broker's checkpoint state (docs/design.md §7 step 3): every ring's bytes (payloads and publish times), every
 // topic's generation counter and every Rejuvenated subscription with its cursor. Driver subscriptions are
 // not part of it: they are never rolled back (§IV-C). A value type, copyable, comparable; its storage is
 // reused by Broker::snapshot_into, so a checkpoint after the first allocates nothing.
-// The consistent cut of DESIGN §7 needs nothing more: the kernel publishes the in-flight messages that
+// The consistent cut of docs/design.md §7 needs nothing more: the kernel publishes the in-flight messages that
 // belong before the cut (they land in the rings, undelivered) and then takes the snapshot, which is exact.
 class BrokerSnapshot {
  public:
@@ -201,7 +201,7 @@ class Broker {
   [[nodiscard]] std::size_t topic_count() const { return topics_.size(); }
   [[nodiscard]] std::size_t subscriber_count() const { return subscribers_.size(); }
 
-  // ---- Checkpoint state (DESIGN §7) ----
+  // ---- Checkpoint state (docs/design.md §7) ----
 
   [[nodiscard]] BrokerSnapshot snapshot() const;
   // The same into existing storage: one memcpy for all rings; no allocation once `out` has held a

@@ -1,4 +1,4 @@
-// The record of denied invocations (DESIGN §3: "every denial is counted and written to the audit log with
+// The record of denied invocations (docs/design.md §3: "every denial is counted and written to the audit log with
 // service, slot, operation and mode"). The kernel drains it into SecurityEvent topics (idl/sr.idl) and the
 // run summary's `denials` by kind. Recording never allocates: both structures are sized once.
 #pragma once

@@ -1,4 +1,4 @@
-// The capability kernel (DESIGN §3): one CSpace per service, the kernel's originals, the derivation tree,
+// The capability kernel (docs/design.md §3): one CSpace per service, the kernel's originals, the derivation tree,
 // decode-then-invoke, per-mode policy application and the denial record.
 //
 // Trust: every ServiceId passed to `decode` is the identity of the channel the request arrived on (the
@@ -37,7 +37,7 @@ struct OwnSlot {
   Slot slot;
 };
 // Destination of a Copy/Mint in another service's CSpace (a delegation). The caller cannot name a slot
-// there (DESIGN §2: a service cannot name another's caps); the kernel places the cap in the receiver's
+// there (docs/design.md §2: a service cannot name another's caps); the kernel places the cap in the receiver's
 // lowest free slot that the mode table does not reserve and reports it in Performed::placed.
 struct Transfer {
   ServiceId to;
@@ -114,7 +114,7 @@ enum class ModeError : std::uint8_t {
 };
 [[nodiscard]] std::string_view to_string(ModeError error);
 
-// What a mode transition changed (DESIGN §3: "a mode transition is revoke + mint").
+// What a mode transition changed (docs/design.md §3: "a mode transition is revoke + mint").
 struct ModeChange {
   SrMode from = SrMode::SC;
   SrMode to = SrMode::SC;
@@ -142,7 +142,7 @@ struct TableError {
 };
 [[nodiscard]] std::string_view to_string(TableError::Kind kind);
 
-// One cap a service may ever hold, as its boot info describes it (DESIGN §3): the name it knows the
+// One cap a service may ever hold, as its boot info describes it (docs/design.md §3): the name it knows the
 // object by, the fixed slot, the kind, and the rights it holds in each mode (none = slot empty).
 struct BootCap {
   std::string name;
@@ -181,7 +181,7 @@ struct CapState {
 struct CapSystemConfig {
   std::size_t cspace_slots = 256;     // slots per service CSpace
   std::size_t audit_capacity = 4096;  // denials retained in the ring
-  SrMode initial_mode = SrMode::SC;   // a safe mode, network off (DESIGN §7 "Faults": start safe)
+  SrMode initial_mode = SrMode::SC;   // a safe mode, network off (docs/design.md §7 "Faults": start safe)
 };
 
 // The capability kernel. Holds, in one flat array, the kernel's original cap of every object followed by
@@ -229,7 +229,7 @@ class CapSystem {
   // by Fig. 1: that is the mode manager's job (fault handling may jump to SC from anywhere).
   [[nodiscard]] Result<ModeChange, ModeError> apply_mode(SrMode mode);
   [[nodiscard]] SrMode mode() const { return mode_; }
-  // The kernel clock, stamped on denials (DESIGN §6: the kernel owns time).
+  // The kernel clock, stamped on denials (docs/design.md §6: the kernel owns time).
   void set_time(Nanos now) { now_ = now; }
 
   // ---- Read access ----

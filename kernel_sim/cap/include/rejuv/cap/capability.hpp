@@ -1,5 +1,5 @@
 // Capabilities as values, the operations a service can invoke through them and the one error enum of
-// every capability invocation (DESIGN §3; seL4 style: a cap is {object, rights, badge} in a CSpace slot).
+// every capability invocation (docs/design.md §3; seL4 style: a cap is {object, rights, badge} in a CSpace slot).
 #pragma once
 
 #include <array>
@@ -21,7 +21,7 @@ inline constexpr Badge kNoBadge{0};
 
 // A capability: the authority to invoke `object` (of kind `kind`) with `rights`, tagged with `badge`.
 // A small value; it lives in a slot of a CSpace and is only ever read or written by the kernel. Derived
-// caps never hold a right their parent lacks (DESIGN §3).
+// caps never hold a right their parent lacks (docs/design.md §3).
 struct Capability {
   ObjectId object;
   ObjectKind kind = ObjectKind::Topic;
@@ -79,14 +79,14 @@ inline constexpr std::size_t kOperationCount = kAllOperations.size();
 [[nodiscard]] std::optional<Operation> operation_from_wire(std::uint8_t value);
 
 // What the invoked capability must be for an operation: its object kind (any kind when `any_kind`) and
-// the rights it must hold. Derived from DESIGN §3; `decode` checks exactly this.
+// the rights it must hold. Derived from docs/design.md §3; `decode` checks exactly this.
 struct Requirement {
   bool any_kind = false;
   ObjectKind kind = ObjectKind::Topic;
   Rights rights;
 };
 
-// The one table of operations (DESIGN §3), in wire order: which object kind each acts on (any kind: the
+// The one table of operations (docs/design.md §3), in wire order: which object kind each acts on (any kind: the
 // capability management of seL4's CNode, carried out by CapSystem::invoke) and the rights it needs.
 // CapSystem::decode checks the requirement; the kernel decodes an Invoke's arguments per the row's kind
 // and invokes it on the part of the kernel that owns that kind (kernel_sim/kernel/src/invocation.hpp).
@@ -149,7 +149,7 @@ static_assert([] {
 }(), "every operation of any kind has its CapManagement");
 
 // Why a capability invocation (or a kernel-side lookup) was refused. One enum for the whole family
-// (CONVENTIONS "Errors are values"); the numeric values travel in SecurityEvent.error.
+// (docs/conventions.md "Errors are values"); the numeric values travel in SecurityEvent.error.
 enum class CapError : std::uint8_t {
   NoSuchService,       // the caller (or a Transfer's receiver) is not a service of the graph
   SlotOutOfRange,      // a slot index ≥ the CSpace size

@@ -1,5 +1,5 @@
 // The per-mode capability table: what the policy compiles to and what a mode transition applies
-// (DESIGN §3–§4). Every capability a service may ever hold has one fixed slot; in a mode where the policy
+// (docs/design.md §3–§4). Every capability a service may ever hold has one fixed slot; in a mode where the policy
 // grants nothing for it, the slot is empty. A mode transition is revoke + mint of the slots that change.
 #pragma once
 

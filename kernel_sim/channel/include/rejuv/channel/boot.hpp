@@ -1,7 +1,7 @@
-// The boot script (DESIGN §3; docs/protocol.md "Boot"): what the kernel tells a service after its Hello —
+// The boot script (docs/design.md §3; docs/protocol.md "Boot"): what the kernel tells a service after its Hello —
 // Boot{BootHeader}, BootCap × cap_count (every cap the service may ever hold, with its rights per mode),
 // BootParam × param_count, BootEnd. Its one encoder (the kernel's supervisor) and its one decoder (the SDK's
-// connect), so that the two ends cannot drift (CONVENTIONS "One protocol, one codec").
+// connect), so that the two ends cannot drift (docs/conventions.md "One protocol, one codec").
 #pragma once
 
 #include <array>

@@ -1,6 +1,6 @@
 // The codes both ends of a channel put in the fixed fields of a payload (docs/protocol.md "Requests"): the
 // error field of a Reply and the rights bits of a BootCap or of a Copy/Mint Invoke. One definition for the
-// kernel, which writes them, and the SDK, which reads them (CONVENTIONS "One protocol, one codec").
+// kernel, which writes them, and the SDK, which reads them (docs/conventions.md "One protocol, one codec").
 #pragma once
 
 #include <cstdint>

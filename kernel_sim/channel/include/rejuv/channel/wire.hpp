@@ -1,4 +1,4 @@
-// The kernel ↔ service wire protocol (DESIGN §2, §3, §6, §7): the kernel's ABI. A frame = a fixed 24-byte
+// The kernel ↔ service wire protocol (docs/design.md §2, §3, §6, §7): the kernel's ABI. A frame = a fixed 24-byte
 // header + a payload whose size the header states exactly; a SOCK_SEQPACKET datagram carries one frame or
 // several back to back (next_frame, below).
 // The kernel never parses attacker-controlled bytes beyond this fixed framing: decode() checks the
@@ -42,17 +42,17 @@ enum class FrameKind : std::uint16_t {
   Publish = 2,      // slot = Topic cap (Write); payload = the topic struct, exactly its size
   Subscribe = 3,    // slot = Topic cap (Read); aux = 0 or kSubscribePolled; deliveries follow as Deliver frames
   Invoke = 4,       // slot = a non-topic cap; payload = InvokeHeader + data; answered by Reply(seq)
-  TimerArm = 5,     // payload = TimerSpec: a service timer (kernel object, DESIGN §6)
+  TimerArm = 5,     // payload = TimerSpec: a service timer (kernel object, docs/design.md §6)
   TimerCancel = 6,  // aux = timer id
   Log = 7,          // payload = LogHeader + text
   Idle = 8,         // aux = number of frames the service has received so far: all of them are handled
   Ready = 9,        // boot done (subscriptions and timers made): the graph may start
-  Taken = 10,       // checkpoint (DESIGN §7): aux = generation; payload = TakenBody
+  Taken = 10,       // checkpoint (docs/design.md §7): aux = generation; payload = TakenBody
   Resumed = 11,     // a restored image is live on its new channel: aux = generation; payload = TakenBody
                     // (its own pid: which of g's frozen copies took the Resume)
   Copied = 12,      // on a resume socket: a frozen image forked a spare copy (Fork), or a copy of a base image
                     // made generation g's image from written pages (Patch): aux = g; payload = TakenBody
-  TakenPages = 13,  // checkpoint by written pages (DESIGN §7): aux = generation; payload = TakenPagesBody;
+  TakenPages = 13,  // checkpoint by written pages (docs/design.md §7): aux = generation; payload = TakenPagesBody;
                     // carries one fd: a sealed memfd of the pages written since the base image
   // ---- kernel → service ----
   Boot = 100,       // payload = BootHeader; then BootCap × cap_count, BootParam × param_count, BootEnd
@@ -63,18 +63,18 @@ enum class FrameKind : std::uint16_t {
   Reply = 111,      // seq = the request's seq; payload = ReplyHeader + data
   TimerFired = 112, // aux = timer id
   Snapshot = 113,   // aux = generation g; payload = SnapshotBody; carries one fd: the image's resume socket
-                    // (DESIGN §7)
-  // 114 was RollbackSignal: the kernel publishes the rollback_signal topic instead (DESIGN §7 step 3).
+                    // (docs/design.md §7)
+  // 114 was RollbackSignal: the kernel publishes the rollback_signal topic instead (docs/design.md §7 step 3).
   Shutdown = 115,
-  Resume = 116,     // on an image's resume socket (DESIGN §7): aux = generation; payload = ResumeBody;
+  Resume = 116,     // on an image's resume socket (docs/design.md §7): aux = generation; payload = ResumeBody;
                     // carries one fd: the new channel
-  NetDatagram = 117,  // network gate (DESIGN §2): slot = the Network cap; payload = one datagram as received
+  NetDatagram = 117,  // network gate (docs/design.md §2): slot = the Network cap; payload = one datagram as received
   Fork = 118,       // on a resume socket: one of g's frozen copies forks a spare and answers Copied
   Patch = 119,      // on a base image's resume socket: aux = the base generation; payload = PatchBody; carries
                     // two fds: the sealed pages (TakenPages) and the new image's resume socket. One copy forks
                     // a copy that applies the pages and answers Copied on the new socket as the new image
   Committed = 120,  // aux = generation g: the checkpoint this service answered (Taken, TakenPages) is committed
-                    // (DESIGN §7): the service prepares its next image's record file now, in the vehicle's
+                    // (docs/design.md §7): the service prepares its next image's record file now, in the vehicle's
                     // slack after the checkpoint, not when the next sample wakes it (on the control chain's path)
   Sync = 121,       // answer Idle once every frame before this one is handled, also in real time (where a service
                     // sends no Idle otherwise): the kernel paces the estimate catch-up's replay by it (catch_up.hpp)
@@ -156,7 +156,7 @@ struct BootParam {
   char text[128] = {};
 };
 struct TakenBody {
-  std::int32_t image_pid = 0;  // the frozen image (DESIGN §7)
+  std::int32_t image_pid = 0;  // the frozen image (docs/design.md §7)
   std::uint32_t reserved = 0;  // Copied with image_pid 0: the errno of the copy's failed fork
 };
 // Snapshot: the generation whose image the kernel holds and keeps past this checkpoint and which the service
@@ -184,7 +184,7 @@ inline constexpr std::size_t kMaxDatagramBytes = 1400;  // network gate: larger 
 // receiver's refusal reasons. One number for the kernel that counts them and the SDK that sends them.
 inline constexpr std::uint32_t kNetVerdictCodes = 32;
 
-// The time page (DESIGN §6): written only by the kernel, mapped read-only by services; a seqlock.
+// The time page (docs/design.md §6): written only by the kernel, mapped read-only by services; a seqlock.
 struct TimePage {
   std::atomic<std::uint64_t> sequence{0};  // odd while the kernel writes
   std::atomic<std::uint64_t> now_ns{0};    // kernel clock [ns]

@@ -1,4 +1,4 @@
-// The kernel's time page (DESIGN §6): services never read an OS clock; now(), the SR mode and the rollback
+// The kernel's time page (docs/design.md §6): services never read an OS clock; now(), the SR mode and the rollback
 // epoch come from one page that only the kernel writes (a memfd mapped read-write by the kernel and handed
 // to every service read-only at fd 4, wire::kTimePageFd). The page is not part of any service image, so
 // time stays monotonic across a rollback. Layout: wire::TimePage (a seqlock).

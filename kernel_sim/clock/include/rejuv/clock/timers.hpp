@@ -1,6 +1,6 @@
-// Kernel timer objects (DESIGN §6): services arm timers through their channel (wire::TimerSpec), the kernel
+// Kernel timer objects (docs/design.md §6): services arm timers through their channel (wire::TimerSpec), the kernel
 // fires them against its own clock — simulated time in lockstep, CLOCK_MONOTONIC in realtime. Because they
-// are kernel objects they are part of the kernel state a checkpoint saves (DESIGN §7 step 3: periodic
+// are kernel objects they are part of the kernel state a checkpoint saves (docs/design.md §7 step 3: periodic
 // timers realign to now, one-shot timers shift by now − t_cp after a rollback).
 #pragma once
 

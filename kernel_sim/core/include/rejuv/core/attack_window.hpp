@@ -1,4 +1,4 @@
-// When a windowed attack of the launch plan acts (DESIGN §9; idl/launch.proto Attack: start_s, max_windows),
+// When a windowed attack of the launch plan acts (docs/design.md §9; idl/launch.proto Attack: start_s, max_windows),
 // decided from what the kernel's time page shows (the time, the SR mode, the rollback epoch). One rule for
 // every hook that carries an attack out (services/attacks, the SDK's CUSTOM hook rejuv/sdk/attack_hook.hpp)
 // and for the run summary that counts them by kind (tools/rejuv), so that what is counted is what was meant.
@@ -99,7 +99,7 @@ struct BootAttackPlan {
                                                                    double max);
 
 // The plan of the boot params. An attack count or a max_windows that is not a whole number, or a negative or
-// non-finite start, is an error (bad input never aborts, CONVENTIONS).
+// non-finite start, is an error (bad input never aborts, docs/conventions.md).
 [[nodiscard]] Result<BootAttackPlan, AttackParamError> boot_attack_plan(const NumberLookup& number,
                                                                         const TextLookup& text);
 

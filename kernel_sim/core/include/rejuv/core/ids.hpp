@@ -1,4 +1,4 @@
-// Strong types for identifiers (CONVENTIONS "Types say what they mean"): a ServiceId is not a Slot.
+// Strong types for identifiers (docs/conventions.md "Types say what they mean"): a ServiceId is not a Slot.
 #pragma once
 
 #include <compare>

@@ -1,4 +1,4 @@
-// Errors are values (CONVENTIONS): every fallible call returns Result<T, E> = std::expected<T, E>.
+// Errors are values (docs/conventions.md): every fallible call returns Result<T, E> = std::expected<T, E>.
 #pragma once
 
 #include <cstdio>

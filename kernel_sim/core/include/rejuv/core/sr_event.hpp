@@ -18,7 +18,7 @@ enum class SrEventKind : std::uint8_t {
   HandlerRun,        // the rollback handler (Fig. 6) starts a run of epoch `epoch` (model only: the runtime's
                      // handler is a service; its runs show as its SC request after each rollback)
   TimerArmed,        // the rejuvenation timer armed for `span` (do_timer, §V-A): once per epoch
-  TimerRefused,      // a second arm in the same epoch, refused (DESIGN §7: the recursive do_timer of §V-C)
+  TimerRefused,      // a second arm in the same epoch, refused (docs/design.md §7: the recursive do_timer of §V-C)
   LimitsWritten,     // the restricted limits Ū written before MC (§IV-C)
   Checkpoint,        // generation `g` committed; `span` = how long the software was stopped [real time]
   CheckpointFailed,  // generation `g` abandoned

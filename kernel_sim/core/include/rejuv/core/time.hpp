@@ -1,4 +1,4 @@
-// Durations are std::chrono types end to end (CONVENTIONS): no bare `double seconds` in an API.
+// Durations are std::chrono types end to end (docs/conventions.md): no bare `double seconds` in an API.
 #pragma once
 
 #include <chrono>

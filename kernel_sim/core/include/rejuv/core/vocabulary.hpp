@@ -1,4 +1,4 @@
-// The words every component shares: object kinds, rights and CPS SR modes (DESIGN §3, §8; paper Fig. 1).
+// The words every component shares: object kinds, rights and CPS SR modes (docs/design.md §3, §8; paper Fig. 1).
 #pragma once
 
 #include <array>
@@ -9,7 +9,7 @@
 
 namespace rejuv {
 
-// Kinds of kernel object a capability can name (DESIGN §3).
+// Kinds of kernel object a capability can name (docs/design.md §3).
 enum class ObjectKind : std::uint8_t { Topic, Checkpoint, Network, Limits, Persistent, Mode };
 inline constexpr std::array kAllObjectKinds{ObjectKind::Topic,  ObjectKind::Checkpoint,
                                             ObjectKind::Network, ObjectKind::Limits,

@@ -1,4 +1,4 @@
-// The generic DDS bridge (DESIGN §5): one participant, and one endpoint per row of a table — a kernel topic,
+// The generic DDS bridge (docs/design.md §5): one participant, and one endpoint per row of a table — a kernel topic,
 // its DDS name, its compiled-in type (idl/, msgs::TopicType) and a direction. In: a reader whose samples the
 // kernel routes to the topic. Out: a writer the kernel's publications on the topic go to. The launch graph's
 // `dds.bridges` is the table (idl/launch.proto, Bridge); nothing here knows a particular topic.

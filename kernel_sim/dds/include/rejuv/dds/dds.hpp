@@ -1,4 +1,4 @@
-// The DDS bridge (DESIGN §5): thin, type-erased, move-only handles over the Cyclone DDS C API, so that the
+// The DDS bridge (docs/design.md §5): thin, type-erased, move-only handles over the Cyclone DDS C API, so that the
 // kernel can bridge any topic of the launch graph by name, and the plant (the jMAVSim of paper §VI-A, a
 // separate process) can talk to it. Every topic is a fixed-size IDL struct (idl/, msgs::TopicType): a sample
 // is exactly `type.size` bytes, checked on every write.
@@ -57,7 +57,7 @@ template <class T>
 using DdsResult = Result<T, DdsError>;
 
 // Which matching endpoints a reader/writer ignores (Cyclone's ignorelocal QoS, a reader/writer policy: a pair
-// is not matched when either side ignores the other). DESIGN §5: the kernel uses Participant so that it does
+// is not matched when either side ignores the other). docs/design.md §5: the kernel uses Participant so that it does
 // not hear its own writes on a bridged topic.
 enum class IgnoreLocal : std::uint8_t { None, Participant, Process };
 

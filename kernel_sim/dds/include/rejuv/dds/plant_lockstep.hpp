@@ -1,4 +1,4 @@
-// The kernel's end of the lockstep protocol with the plant (DESIGN §6; the protocol: plant_topics.hpp,
+// The kernel's end of the lockstep protocol with the plant (docs/design.md §6; the protocol: plant_topics.hpp,
 // docs/protocol.md "Lockstep with the plant"), an adapter on the generic bridge (bridge.hpp). It owns what the
 // protocol adds to the bridge: the SimStep reader and the SimStepAck writer; a count-only reader for each
 // sample topic a step may overflow onto that the graph does not bridge in (what the plant publishes there

@@ -1,8 +1,8 @@
-// The DDS interface between the plant process and the kernel (DESIGN §2, §5, §6; the plant plays jMAVSim,
+// The DDS interface between the plant process and the kernel (docs/design.md §2, §5, §6; the plant plays jMAVSim,
 // a separate process over sockets, paper §VI-A). DDS topic names are "rejuv/<policy topic name>", the
 // default of the launch graph's `dds.bridges` (idl/launch.proto, Bridge.dds_name).
 //
-// Lockstep protocol (DESIGN §6, docs/protocol.md "Lockstep with the plant"; the plant is the time master, as
+// Lockstep protocol (docs/design.md §6, docs/protocol.md "Lockstep with the plant"; the plant is the time master, as
 // in PX4 lockstep):
 //   1. Connect. The plant creates its readers, then its writers with sim_step last; the kernel creates its
 //      bridged readers with sim_step last and its writers with sim_step_ack last. Each side then waits until
@@ -25,7 +25,7 @@
 //      ack's own outputs. Nothing within its
 //      --ack-timeout-ms means the kernel died: it exits with status 3, never hangs.
 //
-// Both ends pack and unpack a step's samples through one table, kStepSamples below (CONVENTIONS: one protocol,
+// Both ends pack and unpack a step's samples through one table, kStepSamples below (docs/conventions.md: one protocol,
 // one codec): the plant (plant_app pack_step) and the kernel (plant_lockstep.hpp) name no sensor themselves.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The image store (DESIGN §7; the paper's §V checkpoint of the controller's code and data): generations of
+// The image store (docs/design.md §7; the paper's §V checkpoint of the controller's code and data): generations of
 // frozen service images with the kernel state saved beside them.
 //
 // A generation g is what one checkpoint produced: for every rejuvenated service its image — a process the
@@ -8,7 +8,7 @@
 // (launch `sr.keep_generations`, default 2; one more until the newest K are confirmed: trim()); an older
 // one is discarded: its images are killed and reaped
 // and their resume sockets closed. A generation whose image died (killed, crashed) is broken: a rollback
-// falls back to the previous one (DESIGN §7 "Faults").
+// falls back to the previous one (docs/design.md §7 "Faults").
 //
 // The store owns processes and fds but runs no protocol: the kernel's image coordinator (images.cpp) sends
 // Snapshot/Resume and decides when to commit, roll back and fall back.
@@ -39,7 +39,7 @@ struct SavedSubscription {
   friend bool operator==(const SavedSubscription&, const SavedSubscription&) = default;
 };
 
-// A service's kernel objects at the cut (DESIGN §7 step 3).
+// A service's kernel objects at the cut (docs/design.md §7 step 3).
 struct SavedService {
   ServiceId service{};
   std::vector<SavedSubscription> subscriptions{};
@@ -76,7 +76,7 @@ struct Image {
   bool request_spare(Generation g);
 };
 
-// The kernel state a generation saves beside its images, as one value (DESIGN §7 step 3; like Drake's
+// The kernel state a generation saves beside its images, as one value (docs/design.md §7 step 3; like Drake's
 // Context): saved whole at the commit and restored whole by a rollback (the kernel's images.hpp,
 // save_state / restore_state), so that nothing of it is assembled or restored field by field elsewhere.
 struct CheckpointedState {
@@ -119,7 +119,7 @@ class ImageStore {
   // The oldest generations beyond K leave the store once the newest K are confirmed (every image has a copy
   // to resume; one by written pages has none until its Patch is answered): until then one more is kept, so
   // that the loss of a base image while its successor is being made from it — both generations then lack
-  // that service — leaves an intact generation to fall back to instead of a cold restart (DESIGN §7
+  // that service — leaves an intact generation to fall back to instead of a cold restart (docs/design.md §7
   // "Faults"). Never more than K + 1. The caller refreshes first (refresh_all).
   [[nodiscard]] std::vector<GenerationRecord> trim();
   // The newest generation, or nullptr.

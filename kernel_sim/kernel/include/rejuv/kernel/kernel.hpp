@@ -1,4 +1,4 @@
-// The kernel process (DESIGN §2, §5, §6; docs/protocol.md): the trusted parent of every service. From a
+// The kernel process (docs/design.md §2, §5, §6; docs/protocol.md): the trusted parent of every service. From a
 // launch graph it loads and audits the policy (refusing to start on any finding), builds the capability
 // system and the broker, opens the DDS bridge, spawns every service as an isolated child with its channel
 // (fd 3) and the read-only time page (fd 4), runs the boot protocol and then one event loop that routes
@@ -6,7 +6,7 @@
 // clock (lockstep with the plant as time master, or realtime), supervises every child through its pidfd and
 // shuts everything down cleanly (SIGINT/SIGTERM, mission end, a duration limit, or a failure).
 //
-// With SR (DESIGN §7) the image store checkpoints every rejuvenated service by written pages or fork, with
+// With SR (docs/design.md §7) the image store checkpoints every rejuvenated service by written pages or fork, with
 // the broker's queue state, and rolls them back on the rejuvenation timer, on a lost service or on a sandbox
 // violation in MC (images.cpp); a lost driver-level service, or any loss without SR, ends the run
 // (supervisor.cpp). Containment: sandbox.cpp and docs/sandbox.md.
@@ -59,7 +59,7 @@
 
 namespace rejuv::kernel {
 
-// Who keeps time (DESIGN §6).
+// Who keeps time (docs/design.md §6).
 enum class ClockMode : std::uint8_t {
   Lockstep,  // simulated time, advanced by the time master one step at a time; deterministic for a seed
   Realtime,  // CLOCK_MONOTONIC since the start of the run; timers through a timerfd
@@ -92,7 +92,7 @@ struct KernelOptions {
   TimeMaster time_master = TimeMaster::Plant;   // Plant: the graph's plant is spawned (lockstep and realtime)
   std::optional<std::uint64_t> seed{};          // default: the graph's seed
   std::optional<std::uint32_t> dds_domain{};    // default: the graph's dds.domain_id
-  // Rejuvenation (DESIGN §7–8): the graph's `sr.enabled` unless disabled here.
+  // Rejuvenation (docs/design.md §7–8): the graph's `sr.enabled` unless disabled here.
   bool no_sr = false;
   bool no_attack = false;                       // attack.enabled = 0 for every service
   std::optional<Nanos> duration{};              // stop when the kernel clock reaches this
@@ -107,9 +107,9 @@ struct KernelOptions {
   // found (and, with SR, rolled back) before the plant gives up.
   Nanos idle_deadline{std::chrono::seconds{5}};
   Nanos shutdown_grace{std::chrono::seconds{2}};      // Shutdown → exit, before SIGKILL
-  Nanos snapshot_deadline{std::chrono::seconds{2}};   // Snapshot → Taken from every service (DESIGN §7 Faults)
+  Nanos snapshot_deadline{std::chrono::seconds{2}};   // Snapshot → Taken from every service (docs/design.md §7 Faults)
   // Resume → Resumed from every image. The rollback waits for it without routing, and in lockstep its real
-  // duration is charged to simulated time with the controls held (DESIGN §6): a frozen image (SIGSTOP) that
+  // duration is charged to simulated time with the controls held (docs/design.md §6): a frozen image (SIGSTOP) that
   // cost 2 s here lost the vehicle in 13 of 13 fallbacks of the fault campaign. A resume takes well under a
   // millisecond (docs/performance.md), so 100 ms leaves a wide margin and falls back in time.
   Nanos resume_deadline{std::chrono::milliseconds{100}};
@@ -120,11 +120,11 @@ struct KernelOptions {
   // then not repeat. Still bounded: a frozen image costs this much wall time, never simulated time, and the
   // bound is the whole rollback's (a fallback gets at least resume_deadline), below the plant's ack timeout.
   Nanos unseen_resume_deadline{std::chrono::seconds{2}};
-  // Images by written pages (DESIGN §7, docs/protocol.md "Checkpoint and rollback"): a Snapshot offers the
+  // Images by written pages (docs/design.md §7, docs/protocol.md "Checkpoint and rollback"): a Snapshot offers the
   // base generation a service's memory derives from, so that it need not fork. false: every image by fork
   // (tests compare the two ways).
   bool images_by_pages = true;
-  // Lockstep charges (DESIGN §6): Model charges the simulated time the launch file gives a checkpoint and a
+  // Lockstep charges (docs/design.md §6): Model charges the simulated time the launch file gives a checkpoint and a
   // rollback (lockstep.*_charge_ms), so that two runs with one seed are identical; Measured charges their real
   // durations (timing studies: the gaps of Fig. 7 as this machine makes them). Both are reported (SrStats).
   enum class Charge : std::uint8_t { Model, Measured };
@@ -134,10 +134,10 @@ struct KernelOptions {
   // than its simulated time divided by the speed after the run's first step. Unset: as fast as it can. Pacing
   // waits only, so the run stays deterministic for a seed.
   std::optional<double> speed{};
-  // Network gate (DESIGN §2): the UDP port of the external link, overriding the graph's `network.bind_port`
+  // Network gate (docs/design.md §2): the UDP port of the external link, overriding the graph's `network.bind_port`
   // (0 = ephemeral: Kernel::network_port() tells which; tests use it).
   std::optional<std::uint16_t> network_port{};
-  // CPU placement (DESIGN §6). A lockstep step is one chain of wake-ups (plant → kernel → services → kernel →
+  // CPU placement (docs/design.md §6). A lockstep step is one chain of wake-ups (plant → kernel → services → kernel →
   // plant) with nothing to run in parallel: on one CPU each hop is a context switch; across CPUs it is an
   // inter-processor interrupt that, on a virtual machine whose idle vCPU halts, costs tens of µs (the square
   // without SR: 3.1× real time spread over 2 vCPUs, 9.7× on one; docs/performance.md). Auto pins a lockstep
@@ -145,7 +145,7 @@ struct KernelOptions {
   enum class Placement : std::uint8_t { Auto, Cpu, Spread };
   Placement placement = Placement::Auto;
   int cpu = 0;                                  // with Placement::Cpu
-  // Containment (DESIGN §7 "Protection"): Strict runs every service in an empty network namespace and a
+  // Containment (docs/design.md §7 "Protection"): Strict runs every service in an empty network namespace and a
   // read-only mount namespace, and refuses to start where they cannot be made; Insecure (rejuv run
   // --insecure-sandbox) runs without them and says so in the summary. The allow-list filter, the resource
   // limits, the sweeps and the logged output hold in both.
@@ -185,8 +185,8 @@ struct Publication {
   std::optional<ServiceId> publisher{};  // nullopt: the kernel itself or the DDS bridge
 };
 
-// The phase boundaries inside a checkpoint and a rollback (DESIGN §7), for fault injection (`rejuv faults`,
-// DESIGN §11): a fault placed exactly there tests the paths that a fault at a step boundary cannot reach.
+// The phase boundaries inside a checkpoint and a rollback (docs/design.md §7), for fault injection (`rejuv faults`,
+// docs/design.md §11): a fault placed exactly there tests the paths that a fault at a step boundary cannot reach.
 enum class ImagePhase : std::uint8_t {
   CheckpointSnapshotsSent,  // routing frozen, every Snapshot sent, no Taken read yet
   CheckpointTaken,          // every Taken read, the generation not yet saved nor committed
@@ -219,7 +219,7 @@ class Observer {
   virtual void on_publication(const Publication& /*publication*/) {}
   // After every completed lockstep step (or, in realtime, about every 100 ms of kernel time).
   virtual void on_step(std::uint64_t /*step*/, Nanos /*t*/, SrMode /*mode*/) {}
-  // DESIGN §7: generation g has just been saved / the queues have just been restored to g (nothing has
+  // docs/design.md §7: generation g has just been saved / the queues have just been restored to g (nothing has
   // run since). Tests compare the broker's state at both points.
   virtual void on_checkpoint(Generation /*g*/, const broker::Broker& /*queues*/) {}
   virtual void on_restore(Generation /*g*/, const broker::Broker& /*queues*/) {}
@@ -274,7 +274,7 @@ struct ServiceStats {
   std::uint64_t bad_frames = 0;     // refused at framing or protocol level
   std::uint64_t publishes = 0;      // accepted publications
   std::vector<std::pair<std::string, std::uint64_t>> publishes_by_topic{};  // the same by topic (those it published on)
-  // Its part in SR (DESIGN §7): started from its binary (at boot and at each cold restart), images of it in
+  // Its part in SR (docs/design.md §7): started from its binary (at boot and at each cold restart), images of it in
   // committed generations (the checkpoints it was part of) and incarnations resumed from one of them (rollbacks).
   std::uint64_t spawns = 0;
   std::uint64_t images = 0;
@@ -287,7 +287,7 @@ struct ServiceStats {
   std::uint64_t log_suppressed = 0; // log lines dropped by the rate limit
   std::uint64_t flood_dropped = 0;  // publications dropped over the per-step bound (lockstep)
   std::uint64_t publications_over_budget = 0;  // dropped over its publication budget (max_publications_per_s)
-  // Containment (DESIGN §7 "Protection", docs/sandbox.md): every violation is proof of compromise.
+  // Containment (docs/design.md §7 "Protection", docs/sandbox.md): every violation is proof of compromise.
   std::uint64_t sandbox_violations = 0;  // all kinds below
   std::uint64_t forbidden_calls = 0;     // a call outside the allow-list (or a boot call after boot): killed
   std::uint64_t stray_processes = 0;     // a process of its session that is neither live nor an image: killed
@@ -302,7 +302,7 @@ struct ServiceStats {
 // NetReceive verdict codes: 0 = valid, 1 … kNetVerdictCodes − 1 = the receiver's refusal reasons (the wire's).
 inline constexpr std::size_t kNetVerdictCodes = wire::kNetVerdictCodes;
 
-// Counters of the network gate (DESIGN §2; docs/protocol.md "Network gate"). Every datagram read is
+// Counters of the network gate (docs/design.md §2; docs/protocol.md "Network gate"). Every datagram read is
 // received = relayed + the dropped_* counters.
 struct NetStats {
   std::uint64_t received = 0;                 // datagrams read from the kernel's UDP socket
@@ -373,7 +373,7 @@ class DurationSamples {
   std::uint64_t state_ = 0;
 };
 
-// What the image store did (DESIGN §7): counts, and the real duration of every checkpoint and rollback
+// What the image store did (docs/design.md §7): counts, and the real duration of every checkpoint and rollback
 // (the Fig. 7 analogue; in lockstep also charged to simulated time).
 struct SrStats {
   std::uint64_t checkpoints = 0;          // generations committed
@@ -382,21 +382,21 @@ struct SrStats {
   std::uint64_t fallbacks = 0;            // generations skipped as broken during a rollback
   std::uint64_t cold_restarts = 0;        // no usable generation: the graph restarted from its binaries
   std::uint64_t timer_arms = 0;           // rejuvenation timer arms accepted
-  std::uint64_t timer_arm_refused = 0;    // a second arm in one epoch (DESIGN §7)
+  std::uint64_t timer_arm_refused = 0;    // a second arm in one epoch (docs/design.md §7)
   std::uint64_t timer_rollbacks = 0;      // rollbacks the rejuvenation timer fired
   std::uint64_t images_by_fork = 0;       // service images taken by fork (Taken)
   std::uint64_t images_by_pages = 0;      // service images taken by written pages (TakenPages)
-  // Charges (DESIGN §6): the simulated time charged for checkpoints and rollbacks (lockstep with a plant;
+  // Charges (docs/design.md §6): the simulated time charged for checkpoints and rollbacks (lockstep with a plant;
   // KernelOptions::charge) and their real durations, in all.
   Nanos charged{0};
   Nanos measured{0};
   std::optional<double> first_checkpoint_ms{};  // the real duration of the first checkpoint of the flight [ms]
-  // The untimed checkpoint of the alignment (DESIGN §6: SR starts with the flight) that makes every service's
+  // The untimed checkpoint of the alignment (docs/design.md §6: SR starts with the flight) that makes every service's
   // first image by fork, so that no checkpoint in flight pays for one; counted here only.
   std::uint64_t priming_images = 0;
   DurationSamples checkpoint_ms{};        // Snapshot sent → generation committed, per checkpoint
   DurationSamples rollback_ms{};          // trigger → routing resumed, per rollback
-  // Phases (DESIGN §7 "durations of every phase"): checkpoint = freeze + Snapshots sent, Taken awaited,
+  // Phases (docs/design.md §7 "durations of every phase"): checkpoint = freeze + Snapshots sent, Taken awaited,
   // state saved + committed; rollback = mode RB + services killed, images resumed, state restored.
   struct Phases {
     DurationSamples a{}, b{}, c{};
@@ -465,7 +465,7 @@ class Kernel {
 
   // The kernel's own checkpoint / rollback (benchmarks, tools; TimeMaster::Manual between steps): the same
   // protocol as a service's CheckpointCreate / CheckpointRollback. `cold`: the restart-based baseline (every
-  // rejuvenated service killed and started again from its binary, DESIGN §7 Faults).
+  // rejuvenated service killed and started again from its binary, docs/design.md §7 Faults).
   [[nodiscard]] Result<Generation, KernelError> checkpoint_now();
   [[nodiscard]] Result<void, KernelError> rollback_now(bool cold = false);
 
@@ -492,7 +492,7 @@ class Kernel {
   [[nodiscard]] const CatchUpStats& catch_up_stats() const;
   [[nodiscard]] Epoch epoch() const;
   // The kernel time of the mission's t = 0: the end of the plant's pre-flight alignment (launch lockstep.
-  // alignment_s). SR starts there (DESIGN §6).
+  // alignment_s). SR starts there (docs/design.md §6).
   [[nodiscard]] Nanos flight_start() const;
   // pids of the frozen images of a service, oldest generation first (tests and fault injection).
   // Reads the spare copies' reports first, so that every frozen copy is listed.

@@ -1,4 +1,4 @@
-// A cgroup per service (DESIGN §7 "A cgroup per service"): every process a service makes — its live
+// A cgroup per service (docs/design.md §7 "A cgroup per service"): every process a service makes — its live
 // incarnation, its images and spares, and whatever a compromised incarnation forks — is in it from before
 // exec, so the group is bounded as a whole (pids, memory, CPU) and can be ended in one call (cgroup.kill).
 //

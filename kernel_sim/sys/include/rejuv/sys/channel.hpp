@@ -1,4 +1,4 @@
-// One end of a private kernel ↔ service channel: a Unix SOCK_SEQPACKET socket (DESIGN §2). Message
+// One end of a private kernel ↔ service channel: a Unix SOCK_SEQPACKET socket (docs/design.md §2). Message
 // boundaries are kept, so a frame is one send and one receive; fds travel with SCM_RIGHTS.
 #pragma once
 

@@ -1,4 +1,4 @@
-// Event sources of the kernel's event loop (DESIGN §2, §6): epoll, signalfd, timerfd, and the fd flags
+// Event sources of the kernel's event loop (docs/design.md §2, §6): epoll, signalfd, timerfd, and the fd flags
 // and waits the service SDK needs. Thin RAII over the system calls; everything above is typed C++.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The system-call layer (CONVENTIONS: the system calls live in kernel_sim/sys, the way Rust confines
+// The system-call layer (docs/conventions.md: the system calls live in kernel_sim/sys, the way Rust confines
 // `unsafe`; everything above it is typed C++). This header: errors from system calls and owned fds.
 #pragma once
 
@@ -56,7 +56,7 @@ class UniqueFd {
 
 // Number of open fds of this process (counts /proc/self/fd), for leak checks.
 // Moves `fd` to the number `target` (dup2, then closes the original): a restored image takes its new
-// channel at fd 3 (DESIGN §7). Whatever was open at `target` is closed.
+// channel at fd 3 (docs/design.md §7). Whatever was open at `target` is closed.
 [[nodiscard]] SysResult<void> install_fd(UniqueFd fd, int target);
 [[nodiscard]] SysResult<int> count_open_fds();
 

@@ -1,4 +1,4 @@
-// Numbered slots leased between the processes of one machine (DESIGN §11): DDS domains and the blocks of
+// Numbered slots leased between the processes of one machine (docs/design.md §11): DDS domains and the blocks of
 // service uids. The test processes under ctest -j, every `rejuv sweep` mission (docs/sweep.md) and every
 // kernel running as root each take a slot no other process of this machine holds.
 //   - DDS domains: no two runs hear each other's plant. A domain from the pid alone collided: two test

@@ -1,5 +1,5 @@
-// Shared memory for the kernel's time page (DESIGN §6): a memfd the kernel maps read-write and hands to
-// services as a read-only fd, which they map read-only. Move-only RAII over mmap (CONVENTIONS `Mapping`).
+// Shared memory for the kernel's time page (docs/design.md §6): a memfd the kernel maps read-write and hands to
+// services as a read-only fd, which they map read-only. Move-only RAII over mmap (docs/conventions.md `Mapping`).
 #pragma once
 
 #include <cstddef>

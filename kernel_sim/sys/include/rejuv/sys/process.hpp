@@ -1,4 +1,4 @@
-// Child processes owned by the kernel (DESIGN §2, §7): spawned with a fixed fd layout, their own process
+// Child processes owned by the kernel (docs/design.md §2, §7): spawned with a fixed fd layout, their own process
 // group, a parent-death signal and an optional seccomp filter and uid; watched through a pidfd; killed and
 // reaped when their handle goes away, so that no process is ever left behind.
 #pragma once
@@ -37,7 +37,7 @@ class ChildProcess {
   // Takes charge of an existing child (or, with the kernel as subreaper, an adopted descendant).
   [[nodiscard]] static SysResult<ChildProcess> adopt(pid_t pid);
   // The same, but only if `pid` is this process's own child (ECHILD otherwise): the kernel takes charge of
-  // an image a service reports only if it really is the kernel's child (DESIGN §7).
+  // an image a service reports only if it really is the kernel's child (docs/design.md §7).
   [[nodiscard]] static SysResult<ChildProcess> adopt_child(pid_t pid);
   ChildProcess(const ChildProcess&) = delete;
   ChildProcess& operator=(const ChildProcess&) = delete;
@@ -76,7 +76,7 @@ struct ResourceLimits {
   std::optional<std::uint64_t> rt_time_us{};      // RLIMIT_RTTIME, µs at a real-time policy without blocking
 };
 
-// What a spawned process is cut off from (DESIGN §7 "Protection").
+// What a spawned process is cut off from (docs/design.md §7 "Protection").
 enum class Isolation : std::uint8_t {
   None,
   // An empty network namespace (no interface up: no address, loopback included, reaches anything), an IPC
@@ -135,25 +135,25 @@ struct Spawned {
 [[nodiscard]] SysResult<ChildProcess> fork_worker(const std::function<int()>& body);
 
 // Makes this process the reaper of its orphaned descendants (PR_SET_CHILD_SUBREAPER), so that images
-// double-forked by services become the kernel's children (DESIGN §7).
+// double-forked by services become the kernel's children (docs/design.md §7).
 [[nodiscard]] SysResult<void> become_subreaper();
 
-// ---- images (DESIGN §7) ----
+// ---- images (docs/design.md §7) ----
 // Forks the calling process with clone(CLONE_PARENT): the child's parent is the caller's parent, so a
-// service's image is the kernel's child at once (one fork instead of DESIGN §7's double fork, and nothing
+// service's image is the kernel's child at once (one fork instead of docs/design.md §7's double fork, and nothing
 // for the service to reap). Returns the child's pid in the caller and 0 in the child. Only for a process
 // whose other threads are parked (the child has the calling thread only; no atfork handlers run).
 [[nodiscard]] SysResult<pid_t> fork_sibling();
 // PR_SET_DUMPABLE 0: no core dump, no ptrace or /proc/<pid>/mem access by other processes of its uid.
 [[nodiscard]] SysResult<void> make_non_dumpable();
 
-// ---- CPU placement (DESIGN §6) ----
+// ---- CPU placement (docs/design.md §6) ----
 // Pins the calling thread to one CPU: `cpu`, or the one it runs on now. Threads and processes it creates
 // afterwards inherit the mask. Returns the CPU. EINVAL: `cpu` is not one this process may use (out of
 // range, offline, or outside its cpuset).
 [[nodiscard]] SysResult<int> pin_to_one_cpu(std::optional<int> cpu);
 // Puts `pid` under SCHED_IDLE: it then runs only when no other task on its CPU can. Unlike a signal, this
-// does not wake it (a rollback's retired incarnations, DESIGN §7). A SIGKILL makes its victim run its exit —
+// does not wake it (a rollback's retired incarnations, docs/design.md §7). A SIGKILL makes its victim run its exit —
 // tearing down its address space, ≈ 0.09 ms here — at once, whatever its priority (measured: 8 kills
 // 0.68 ms, 0.69 ms at nice 19), so a rollback kills its victims only after, at a safe point.
 [[nodiscard]] SysResult<void> idle_priority(pid_t pid);

@@ -1,4 +1,4 @@
-// The services' system-call allow-list (DESIGN §7 "Protection (containment)", docs/sandbox.md).
+// The services' system-call allow-list (docs/design.md §7 "Protection (containment)", docs/sandbox.md).
 //
 // One table (service_syscalls(), seccomp.cpp) is the source of truth: every call a service may make, with the
 // argument checks that matter and the reason it is needed. Everything else is refused. The kernel installs

@@ -1,4 +1,4 @@
-// A UDP socket (IPv4) for the kernel's network gate (DESIGN §2: the kernel owns the external link's socket;
+// A UDP socket (IPv4) for the kernel's network gate (docs/design.md §2: the kernel owns the external link's socket;
 // services have none, seccomp denies them) and for the `rejuv gcs` tool on the other side of the link.
 // Thin RAII over socket/bind/sendto/recvfrom; everything above it is typed C++.
 #pragma once

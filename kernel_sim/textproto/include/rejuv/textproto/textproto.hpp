@@ -1,4 +1,4 @@
-// Loading protobuf text-format files (policy, launch graph) with precise errors (CONVENTIONS: bad user
+// Loading protobuf text-format files (policy, launch graph) with precise errors (docs/conventions.md: bad user
 // input gives file:line:column and what was expected; it never aborts).
 #pragma once
 

@@ -1,4 +1,4 @@
-// Command line of the plant process `rejuv_plant` (DESIGN §2, §6, §9): strict parsing — every flag known,
+// Command line of the plant process `rejuv_plant` (docs/design.md §2, §6, §9): strict parsing — every flag known,
 // every value in range, nothing left over — with a message that names the flag and what it expects.
 #pragma once
 
@@ -15,7 +15,7 @@
 
 namespace rejuv::plant_app {
 
-// Who keeps time (DESIGN §6).
+// Who keeps time (docs/design.md §6).
 enum class ClockMode : std::uint8_t {
   Lockstep,  // the plant is the time master: step, publish SimStep, wait for the kernel's SimStepAck
   Realtime,  // physics follows CLOCK_MONOTONIC; no acks

@@ -1,4 +1,4 @@
-// The simulated world of the plant process, without any I/O (DESIGN §9): the quadrotor (RK4, 1 kHz ticks),
+// The simulated world of the plant process, without any I/O (docs/design.md §9): the quadrotor (RK4, 1 kHz ticks),
 // its sensor suite and the wind, advanced by whole intervals with the last motor command held, producing the
 // DDS messages of the sensor samples due in each interval. Deterministic for a seed.
 #pragma once
@@ -20,7 +20,7 @@ struct PlantSimConfig {
   std::uint64_t seed = 1;
   Eigen::Vector3d start_N_m = Eigen::Vector3d(0, 0, -3);  // trimmed hover here (QuadState hover_at)
   plant::WindParams wind{};
-  Nanos physics_period{std::chrono::milliseconds{1}};  // 1 kHz (DESIGN §9)
+  Nanos physics_period{std::chrono::milliseconds{1}};  // 1 kHz (docs/design.md §9)
   // Pre-flight alignment (docs/control.md): for [0, alignment) the vehicle rests at its start pose (no
   // physics, no wind, motor commands stored but not applied) while the sensors keep sampling it, so that the
   // estimator converges before the flight starts, as `rejuv sim` aligns before its t = 0.

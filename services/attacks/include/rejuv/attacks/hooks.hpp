@@ -1,4 +1,4 @@
-// The runtime attack hooks (DESIGN §9, §11; idl/launch.proto AttackKind 2…12): a compromised service
+// The runtime attack hooks (docs/design.md §9, §11; idl/launch.proto AttackKind 2…12): a compromised service
 // carrying out the launch plan's attacks against the runtime, through its real channel and real system
 // calls — nothing is simulated, the kernel and the sandbox decide. Test builds only (REJUV_ATTACK_HOOKS).
 //

@@ -1,4 +1,4 @@
-// The runtime part of the launch graph's attack plan (idl/launch.proto AttackKind 2…12, 18…27; DESIGN §9, §11):
+// The runtime part of the launch graph's attack plan (idl/launch.proto AttackKind 2…12, 18…27; docs/design.md §9, §11):
 // which attacks a compromised service carries out against the runtime, from when, in how many windows, and
 // when a window starts. Built from the service's boot params (attack.enabled, attack.count,
 // attack.<j>.kind (text), attack.<j>.start_s, attack.<j>.max_windows; docs/protocol.md "Boot params"), and
@@ -122,7 +122,7 @@ using ::rejuv::TextLookup;
 // The runtime attacks of the boot params, in plan order; empty when attacks are off or none is a runtime
 // attack. An unknown kind name, a negative or non-finite start, a count/max_windows that is not a whole
 // number, or an escape_port that is not a whole number in [1, 65535] is an error (bad input never aborts,
-// CONVENTIONS).
+// docs/conventions.md).
 [[nodiscard]] Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& number,
                                                                        const TextLookup& text);
 

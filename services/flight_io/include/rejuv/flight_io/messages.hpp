@@ -72,7 +72,7 @@ inline constexpr std::uint32_t kStateCatchUpDiscarded = 1U << 3U;  // docs/contr
 [[nodiscard]] Result<flight::InputVec, InputFailure> controls_from_message(
     const rejuv_msg_ActuatorControls& m);
 
-// ---- actuator_limits (checkpoint_p → the kernel's Limits object → output_driver; DESIGN §3, §IV-C) ----
+// ---- actuator_limits (checkpoint_p → the kernel's Limits object → output_driver; docs/design.md §3, §IV-C) ----
 // The bytes of a LimitsWrite (and what LimitsRead returns): one fixed-size record in the host's layout (the
 // kernel stores the bytes, it never interprets them). u = [F N, τφ N·m, τθ N·m, τψ N·m].
 inline constexpr std::uint32_t kLimitsRecordVersion = 1;

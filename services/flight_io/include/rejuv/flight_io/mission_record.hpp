@@ -1,4 +1,4 @@
-// The mission state the kernel keeps for the flight services (paper §III "Persistent data"; DESIGN §7 "Cold
+// The mission state the kernel keeps for the flight services (paper §III "Persistent data"; docs/design.md §7 "Cold
 // restart"): the mission being flown, where the setpoint is on it (x_sp follows from the path cursor) and
 // whether it is done. It lives in the Persistent cell `mission_state`, which survives rollbacks and cold
 // restarts; gen_set_point writes it after each setpoint update — only in UPDATE, inside the secure execution

@@ -1,4 +1,4 @@
-// The launch-graph parameters of the flight services (DESIGN §10), read into the configuration types of the
+// The launch-graph parameters of the flight services (docs/design.md §10), read into the configuration types of the
 // flight libraries. Every default comes from flight::SimConfig::defaults() and every derived number is formed
 // the way flight::SrSimulation::create forms it, so that `rejuv run` flies exactly like `rejuv sim` for the
 // same graph. The services read only graph-wide params that the kernel passes to every service
@@ -90,7 +90,7 @@ struct SrCycleParams {
 // The control design spec of the simulation: the plant's quad (jMAVSim default) as the vehicle, the IMU
 // period as the control period, sr.box.* and sr.restricted_limit_fraction.
 [[nodiscard]] Result<flight::ControlDesignSpec, InputFailure> control_spec(const Params& params);
-// design_control(control_spec(params)): gains, P and both limit boxes (DESIGN §9).
+// design_control(control_spec(params)): gains, P and both limit boxes (docs/design.md §9).
 [[nodiscard]] Result<flight::ControlDesign, InputFailure> control_design(const Params& params);
 
 // The actuator limits alone (output_driver needs no gains): U, Ū and u_hover exactly as design_control

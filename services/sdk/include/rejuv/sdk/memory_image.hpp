@@ -1,4 +1,4 @@
-// Images by memory instead of by fork alone (DESIGN §7, the paper's §V-B create_checkpoint and §V-C rollback,
+// Images by memory instead of by fork alone (docs/design.md §7, the paper's §V-B create_checkpoint and §V-C rollback,
 // which copy the task's memory inside the kernel module).
 //
 // A static, single-threaded service keeps all of its private writable memory in three regions: data+bss, the
@@ -97,7 +97,7 @@ using Context = void* [5];
 // again there, e.g. in a holder after load_self). The error where the kernel lacks either.
 [[nodiscard]] sys::SysResult<void> track_writes_self();
 // From here on track_writes_self opens nothing (its pagemap comes from the kernel): a service's sandbox
-// allows no open once it is booted (DESIGN §7 "Protection"). Called by the SDK at the end of its boot.
+// allows no open once it is booted (docs/design.md §7 "Protection"). Called by the SDK at the end of its boot.
 void opens_done();
 // Whether track_writes_self() succeeded in this process.
 [[nodiscard]] bool tracking_writes();

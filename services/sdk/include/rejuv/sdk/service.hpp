@@ -1,4 +1,4 @@
-// The service SDK (DESIGN §2, §5, §6; docs/protocol.md): what a service links to talk to the kernel.
+// The service SDK (docs/design.md §2, §5, §6; docs/protocol.md): what a service links to talk to the kernel.
 //
 // A service is an untrusted, isolated process. It reaches nothing except through its channel to the
 // kernel (fd 3) and the kernel's read-only time page (fd 4). This library speaks the wire protocol of
@@ -28,7 +28,7 @@
 // Kernel objects other than topics have typed handles (mode_control, limits, persistent, rejuvenation); the raw
 // surface that security tests and the attack library need is in rejuv/sdk/testing.hpp, not here.
 //
-// Every fallible call returns Result<T, Error> (CONVENTIONS "Errors are values"). Handles (Publisher,
+// Every fallible call returns Result<T, Error> (docs/conventions.md "Errors are values"). Handles (Publisher,
 // Subscription, Timer) are small views into the Service and are valid as long as the Service lives; the
 // Service is pinned in memory (returned by unique_ptr, neither copyable nor movable).
 //
@@ -64,7 +64,7 @@ namespace rejuv::sdk {
 
 // ---- Errors ----
 
-// What went wrong in an SDK call. One enum for the SDK (CONVENTIONS); Error adds the detail.
+// What went wrong in an SDK call. One enum for the SDK (docs/conventions.md); Error adds the detail.
 enum class SdkError : std::uint8_t {
   NotAService,       // fd 3 is not a channel, fd 4 not a time page, or REJUV_SERVICE is unset
   ChannelIo,         // a send or receive on fd 3 failed (errno in Error::detail)
@@ -82,7 +82,7 @@ enum class SdkError : std::uint8_t {
   BadArgument,       // a local argument error (oversize data, zero period, ...)
   Denied,            // the kernel refused the request: Error::cap_error says why
   OperationFailed,   // the kernel accepted the cap but the operation failed: Error::wire_error ≥ 100
-  RolledBack,        // this process is a restored image: the call it was in never gets an answer (DESIGN §7)
+  RolledBack,        // this process is a restored image: the call it was in never gets an answer (docs/design.md §7)
   Resources,         // the process could not get a thread (its max_processes, memory): errno text in detail
 };
 [[nodiscard]] std::string_view to_string(SdkError error);
@@ -110,7 +110,7 @@ class RawAccess;  // rejuv/sdk/testing.hpp: the raw surface for security tests a
 
 // ---- Capabilities ----
 
-// One cap of the service's boot info (DESIGN §3): every cap it may ever hold, with its rights per mode.
+// One cap of the service's boot info (docs/design.md §3): every cap it may ever hold, with its rights per mode.
 struct CapInfo {
   std::string object;          // policy object name, e.g. "actuator_controls"
   Slot slot;                   // fixed CSpace slot (CPtr)
@@ -128,7 +128,7 @@ struct InvokeReply {
   std::size_t data_size = 0;
 };
 
-// What checkpoint() returned in this process (DESIGN §7 "Return value, not a semaphore").
+// What checkpoint() returned in this process (docs/design.md §7 "Return value, not a semaphore").
 struct CheckpointOutcome {
   enum class Kind : std::uint8_t {
     Taken,     // the live process: the image of generation g exists and is frozen
@@ -194,7 +194,7 @@ class TypedSubscription final : public SubscriptionBase {
 
 }  // namespace detail
 
-// ---- Workers (DESIGN §7 "Threads") ----
+// ---- Workers (docs/design.md §7 "Threads") ----
 
 class WorkerSet;
 
@@ -267,7 +267,7 @@ class Subscription {
   detail::TypedSubscription<T>* state_;
 };
 
-// A kernel timer (DESIGN §6: timers are kernel objects armed through the channel). A small handle; it
+// A kernel timer (docs/design.md §6: timers are kernel objects armed through the channel). A small handle; it
 // does not cancel on destruction (timers usually live as long as the service): call cancel().
 class Timer {
  public:
@@ -281,7 +281,7 @@ class Timer {
   std::uint64_t id_;
 };
 
-// ---- Kernel objects other than topics (DESIGN §3) ----
+// ---- Kernel objects other than topics (docs/design.md §3) ----
 // Typed handles, each resolved once by name and checked to be of its kind (Service::mode_control, limits,
 // persistent, rejuvenation); small views, valid as long as the Service lives. Each call blocks for the
 // kernel's Reply: a refusal comes back as Denied with the CapError, an operation failure as OperationFailed.
@@ -313,7 +313,7 @@ class LimitsCell {
   Slot slot_;
 };
 
-// A Persistent object: bytes that survive rollback (DESIGN §3), read and written from its start.
+// A Persistent object: bytes that survive rollback (docs/design.md §3), read and written from its start.
 class PersistentCell {
  public:
   // Up to out.size() bytes into `out`; how many were copied.
@@ -327,7 +327,7 @@ class PersistentCell {
   Slot slot_;
 };
 
-// The Checkpoint object's rejuvenation side (DESIGN §7–8): the timer that rolls the images back (§V-A
+// The Checkpoint object's rejuvenation side (docs/design.md §7–8): the timer that rolls the images back (§V-A
 // do_timer) and a rollback asked for now. Checkpoints are taken with Service::checkpoint.
 class Rejuvenation {
  public:
@@ -428,7 +428,7 @@ class Service {
   [[nodiscard]] SdkResult<PersistentCell> persistent(std::string_view object);
   [[nodiscard]] SdkResult<Rejuvenation> rejuvenation(std::string_view object = "checkpoint");
 
-  // ---- network (DESIGN §2: the kernel's network gate, through a Network cap) ----
+  // ---- network (docs/design.md §2: the kernel's network gate, through a Network cap) ----
   // Runs `handler` for every datagram the kernel relays on the Network cap of `object` (NetDatagram frames:
   // only while the mode grants Read; the kernel drops the others). The bytes are untrusted and valid only
   // during the call. One handler per object; the cap must grant Read in some mode.
@@ -448,7 +448,7 @@ class Service {
   static constexpr std::uint32_t kernel_net_verdict_codes = wire::kNetVerdictCodes;
   [[nodiscard]] SdkResult<void> judge_datagram(std::string_view object, std::uint32_t verdict);
 
-  // ---- images (DESIGN §7) ----
+  // ---- images (docs/design.md §7) ----
   // Takes checkpoint g through the Checkpoint cap of `object` (§V create_checkpoint). Like fork(), it
   // returns twice: `Taken{g}` in the live process, and `Restored{g, epoch}` when the image taken here is
   // resumed by a rollback (the rollback handler of §V-B runs on that return value, not on a semaphore).
@@ -490,7 +490,7 @@ class Service {
   void stop(int exit_code);
   // Runs `fn` when Shutdown arrives, before run() returns.
   void on_shutdown(std::function<void()> fn);
-  // Runs `fn` once in every restored incarnation (DESIGN §7: a rollback resumed this process from one of its
+  // Runs `fn` once in every restored incarnation (docs/design.md §7: a rollback resumed this process from one of its
   // images), with the epoch it was restored into — epoch() at that moment: the kernel has finished the
   // rollback — when the first frame of that incarnation arrives, before it is handled (a delivery, a timer):
   // so before any handler of the new epoch runs. (An

@@ -1,4 +1,4 @@
-// The `checkpoint_p` service (paper §V-B Fig. 5, §V-C Fig. 6; DESIGN §7–§8): the rollback handler of the
+// The `checkpoint_p` service (paper §V-B Fig. 5, §V-C Fig. 6; docs/design.md §7–§8): the rollback handler of the
 // SR scheme, the one service that switches modes, takes checkpoints, arms the rejuvenation timer and writes
 // the actuator limits (the policy grants it all of that in the SEI only).
 //
@@ -10,7 +10,7 @@
 // The timing and the check are the simulation's own flight::RollbackHandler (flight/sim), so that the
 // process flies the reference's cycle; SrManager turns its requests into kernel calls through SrEffects
 // (main.cpp: the SDK; tests: a recorder) and adds what a process needs:
-//   * checkpoint() returns twice, like fork (DESIGN §7): Taken in the live process, Restored in a resumed
+//   * checkpoint() returns twice, like fork (docs/design.md §7): Taken in the live process, Restored in a resumed
 //     image. No persistent semaphore (Fig. 6) is needed: the kernel refuses a second timer arm per epoch.
 //   * rollback_signal (the kernel, after a rollback) also starts a run, unless the Restored return of the
 //     same epoch has already started one (normally the case: every image of checkpoint_p is taken inside

@@ -1,4 +1,4 @@
-// The `commander` service (paper §IV-B: "we upload the mission ... through the PX4 commander"; DESIGN §4
+// The `commander` service (paper §IV-B: "we upload the mission ... through the PX4 commander"; docs/design.md §4
 // `lateral`): the only path from the ground to the mission.
 //
 // Topics: out mission (MissionWaypoints), published once at start from the launch graph's mission; in

@@ -1,4 +1,4 @@
-// The `ekf2` service (DESIGN §9, paper §IV-B): sensor_combined + sensor_mag + sensor_baro + sensor_gps →
+// The `ekf2` service (docs/design.md §9, paper §IV-B): sensor_combined + sensor_mag + sensor_baro + sensor_gps →
 // the simulation's estimator node (flight::EstimatorNode, the EKF) → vehicle_state.
 //
 // Topics: in sensor_combined (250 Hz, from sensors), sensor_mag and sensor_baro (50 Hz), sensor_gps (10 Hz,
@@ -32,7 +32,7 @@ namespace rejuv::services {
 class Ekf2Node {
  public:
   Ekf2Node(const flight::EkfParams& params, const flight::EkfState& initial, Nanos imu_period);
-  // After a cold restart (DESIGN §7) the vehicle is wherever the mission had taken it, not at its take-off
+  // After a cold restart (docs/design.md §7) the vehicle is wherever the mission had taken it, not at its take-off
   // point: the filter starts from the first GPS fix (position predicted over the fix's delay, its velocity)
   // with `attitude` (the hover is level; the heading the kept x_sp says) and publishes nothing before it.
   [[nodiscard]] static Ekf2Node from_first_fix(const flight::EkfParams& params, const Eigen::Quaterniond& attitude,
@@ -48,7 +48,7 @@ class Ekf2Node {
   [[nodiscard]] Result<std::optional<rejuv_msg_VehicleStateEstimate>, flight_io::InputFailure> on_combined(
       const rejuv_msg_SensorCombined& message);
 
-  // RollbackSignal (DESIGN §7 step 3): this image was just restored; its estimate is T_MC + T_RB old. As the
+  // RollbackSignal (docs/design.md §7 step 3): this image was just restored; its estimate is T_MC + T_RB old. As the
   // simulation does: the held samples (from before the cut) are dropped and the filter's uncertainty re-armed
   // (EstimatorNode::on_rollback), so that the measurements pull the estimate back within T_est.
   void on_rollback(const flight::EkfRearm& rearm);

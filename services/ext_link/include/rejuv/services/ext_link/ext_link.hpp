@@ -1,4 +1,4 @@
-// The `ext_link` service (DESIGN §2, §4 `lateral`; paper §IV-D): the vehicle's end of the ground link, the
+// The `ext_link` service (docs/design.md §2, §4 `lateral`; paper §IV-D): the vehicle's end of the ground link, the
 // only network-facing service. It holds the Network cap `ext_net` (RW, in MC only: the kernel's network
 // gate relays nothing to it and refuses its sends in the secure execution interval) and speaks MAVLink 2
 // (kernel_sim/mavlink; docs/mavlink.md) as system 1, component 1 (MAV_COMP_ID_AUTOPILOT1).

@@ -1,4 +1,4 @@
-// Everything the SR scheme computes once at start from the vehicle and the SR parameters (DESIGN §9):
+// Everything the SR scheme computes once at start from the vehicle and the SR parameters (docs/design.md §9):
 // the discrete hover model at the control rate, the mission LQR (clamped to Ū), the safety LQR (full limits U),
 // the safety ellipsoid P and both limit boxes. Design choices and their reasons are in docs/control.md.
 #pragma once

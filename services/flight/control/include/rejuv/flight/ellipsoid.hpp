@@ -1,6 +1,6 @@
 // The safety set of the SR scheme (§IV-A): the ellipsoid E(ρ, x_sp) = {x : (x − x_sp)ᵀ P (x − x_sp) ≤ ρ²}.
 // P solves the closed-loop discrete Lyapunov equation A_clᵀ P A_cl − P = −Q of the safety controller
-// (DESIGN §9), so ‖e‖_P decreases along every step of safety control; it is then scaled so that E(1, ·) is the
+// (docs/design.md §9), so ‖e‖_P decreases along every step of safety control; it is then scaled so that E(1, ·) is the
 // largest ellipsoid of that shape inside a state box |e_i| ≤ b_i. The extent of E(1, ·) along axis i is
 // sqrt((P⁻¹)_ii), so the scale makes max_i (P⁻¹)_ii / b_i² = 1: the ellipsoid touches the box on at least one
 // axis and stays inside it on all. "Safe" means V = ‖x − x_sp‖²_P < 1 for the true state.

@@ -1,4 +1,4 @@
-// The linear hover model of the quadrotor that every controller of the SR scheme is designed on (DESIGN §9,
+// The linear hover model of the quadrotor that every controller of the SR scheme is designed on (docs/design.md §9,
 // paper §IV-B), and the 12-state vocabulary shared by the controllers, the safety ellipsoid, the attack law
 // and the setpoint generator.
 //

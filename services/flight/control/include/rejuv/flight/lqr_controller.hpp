@@ -1,4 +1,4 @@
-// A discrete LQR state-feedback controller about hover, saturated to an input box (DESIGN §9; §IV-B: the
+// A discrete LQR state-feedback controller about hover, saturated to an input box (docs/design.md §9; §IV-B: the
 // paper replaced PX4's attitude and rate controllers by `lqr_control`). The same type serves as the mission
 // controller (gentle, clamped to Ū in MC) and the safety controller (aggressive, full limits U in SC).
 // Stateless by design: all the memory the SR scheme must checkpoint lives in the estimator and the setpoint

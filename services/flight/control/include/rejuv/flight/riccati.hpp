@@ -1,4 +1,4 @@
-// Discrete-time Riccati and Lyapunov equations, solved with Eigen at start-up (DESIGN §9): the gains of the
+// Discrete-time Riccati and Lyapunov equations, solved with Eigen at start-up (docs/design.md §9): the gains of the
 // mission and safety LQRs and the matrix P of the safety ellipsoid. Every solution comes with its residual so
 // that a caller (and the tests) can check it instead of trusting the iteration.
 #pragma once

@@ -1,4 +1,4 @@
-// The mission path and the setpoint generator of `gen_set_point` (§IV-A, §IV-B, DESIGN §8).
+// The mission path and the setpoint generator of `gen_set_point` (§IV-A, §IV-B, docs/design.md §8).
 //
 // The mission is an ordered list of waypoints; the desired path is the polyline through them. The setpoint
 // x_sp is a hover state on that path (position and yaw, everything else 0). The update rule of §IV-A: when the
@@ -77,7 +77,7 @@ class SetpointGenerator {
  public:
   // Starts at the first waypoint.
   explicit SetpointGenerator(std::shared_ptr<const WaypointPath> path);
-  // Starts where a kept record says the setpoint was (a cold restart, DESIGN §7; §III "Persistent data"):
+  // Starts where a kept record says the setpoint was (a cold restart, docs/design.md §7; §III "Persistent data"):
   // nullopt unless the cursor lies on the path (segment < segment_count, τ ∈ [0, 1]; a one-waypoint path: 0, 0).
   [[nodiscard]] static std::optional<SetpointGenerator> resume_at(std::shared_ptr<const WaypointPath> path,
                                                                   PathCursor cursor);

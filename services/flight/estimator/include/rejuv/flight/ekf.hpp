@@ -1,4 +1,4 @@
-// The state estimator of the flight stack (DESIGN §9, the `ekf2` of §III-A): an error-state extended Kalman
+// The state estimator of the flight stack (docs/design.md §9, the `ekf2` of §III-A): an error-state extended Kalman
 // filter that integrates the IMU and fuses GPS position + velocity, barometric altitude, magnetic heading and
 // the multirotor drag constraint on the horizontal specific force; the barometer's bias is a state, so that GPS
 // height anchors the altitude over hours while the barometer smooths it.

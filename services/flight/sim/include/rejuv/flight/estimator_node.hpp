@@ -51,7 +51,7 @@ class EstimatorNode {
   // is available (the controllers run on that event, at the IMU rate, like PX4's rate loop).
   bool on_samples(const plant::SensorSamples& samples);
 
-  // The node's RollbackSignal handler (DESIGN §7: services may ask for it). The restored estimate is
+  // The node's RollbackSignal handler (docs/design.md §7: services may ask for it). The restored estimate is
   // T_MC + T_RB old while the vehicle kept moving, yet its covariance still says "converged": the first GPS
   // samples would fail their gates and a tilt error would persist for seconds. So the node keeps the restored
   // state but re-arms the filter's uncertainty, and the measurements pull it back within T_est (§IV-A).

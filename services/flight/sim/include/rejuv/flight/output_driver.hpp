@@ -1,4 +1,4 @@
-// The output driver (§IV-B, §IV-C; DESIGN §2: driver level, never rolled back): holds the mixer as read-only
+// The output driver (§IV-B, §IV-C; docs/design.md §2: driver level, never rolled back): holds the mixer as read-only
 // data, applies the actuator limits of the current mode (Ū in MC, U otherwise) and turns u = [F, τφ, τθ, τψ]
 // into rotor levels U ∈ [0, 1]⁴ through the inverse mixer. Between two publications it holds the last
 // controls, which is what the plant sees during RB and CP (§II, §VI-B).

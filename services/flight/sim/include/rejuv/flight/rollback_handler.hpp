@@ -1,5 +1,5 @@
 // The rollback handler of `checkpoint_p` (§V-B Fig. 5, §V-C Fig. 6) at the model level, with the
-// improvements of DESIGN §7–§8: checkpoint() returns Taken or Restored like fork, and the kernel refuses a
+// improvements of docs/design.md §7–§8: checkpoint() returns Taken or Restored like fork, and the kernel refuses a
 // second timer arm in one epoch, so no persistent Semaphore is needed.
 //
 //   on rollback signal: set_SC_mode → wait T_est → every check_period: if ‖x̂ − x_sp‖_P < ρ_s:

@@ -1,5 +1,5 @@
 // The configuration of the flight software and its vehicle, with the defaults of the experiment of §VI-C
-// (DESIGN §9). Without protobuf or the simulation engine: the flight services take their defaults from here
+// (docs/design.md §9). Without protobuf or the simulation engine: the flight services take their defaults from here
 // (services/flight_io), the simulation (sr_sim.hpp) fills it from a launch graph.
 #pragma once
 

@@ -1,4 +1,4 @@
-// The trusted-kernel pieces of the SR scheme at the model level (DESIGN §6–§8), as small value types the
+// The trusted-kernel pieces of the SR scheme at the model level (docs/design.md §6–§8), as small value types the
 // simulation engine composes: the rejuvenation timer (armed at most once per epoch), the image store (the last
 // K checkpoint generations) and what checkpoint() returns (like fork: Taken in the live process, Restored in a
 // resumed image). The multi-process runtime implements the same contracts with processes; this is the
@@ -18,7 +18,7 @@
 
 namespace rejuv::flight {
 
-// What checkpoint() returns (DESIGN §7 "Return value, not a semaphore").
+// What checkpoint() returns (docs/design.md §7 "Return value, not a semaphore").
 struct CheckpointTaken {
   Generation generation;
 };
@@ -29,7 +29,7 @@ struct CheckpointRestored {
 using CheckpointReturn = std::variant<CheckpointTaken, CheckpointRestored>;
 
 enum class TimerError : std::uint8_t {
-  AlreadyArmedThisEpoch,  // DESIGN §7: one arm per epoch; this removes the recursive do_timer of §V-C
+  AlreadyArmedThisEpoch,  // docs/design.md §7: one arm per epoch; this removes the recursive do_timer of §V-C
   BadDuration,            // not positive and finite
 };
 [[nodiscard]] std::string to_string(TimerError error);
@@ -52,7 +52,7 @@ class RejuvenationTimer {
   std::uint64_t refused_ = 0;
 };
 
-// The last K generations of a copyable software image (DESIGN §7: older images are dropped).
+// The last K generations of a copyable software image (docs/design.md §7: older images are dropped).
 template <class Image>
 class ImageStore {
  public:

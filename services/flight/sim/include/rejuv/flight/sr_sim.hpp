@@ -1,4 +1,4 @@
-// The model-level SR simulation behind `rejuv sim` (DESIGN §8–§9): one process, no runtime. The plant runs at
+// The model-level SR simulation behind `rejuv sim` (docs/design.md §8–§9): one process, no runtime. The plant runs at
 // 1 kHz (RK4); sensors → EKF → controller at the IMU rate → output driver (limits, inverse mixer) → rotors.
 // With SR on, the modes of Fig. 1 cycle MC (T_MC) → RB (T_RB, controls held, then the software image of the
 // last checkpoint is restored while the plant kept moving) → SC (safety controller, full limits, T_est, then

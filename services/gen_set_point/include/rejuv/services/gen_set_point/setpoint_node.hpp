@@ -1,4 +1,4 @@
-// The `gen_set_point` service (paper §IV-A, §IV-B; DESIGN §8): the simulation's setpoint generator
+// The `gen_set_point` service (paper §IV-A, §IV-B; docs/design.md §8): the simulation's setpoint generator
 // (flight::SetpointGenerator) driven by topics.
 //
 // Topics: in mission (MissionWaypoints, from commander), vehicle_state (every IMU tick),
@@ -43,7 +43,7 @@ class SetpointNode {
   // after restore(): the kept record, not the launch graph's mission that commander publishes at boot, says
   // what is being flown.
   Result<void, flight_io::InputFailure> on_mission(const rejuv_msg_MissionWaypoints& message);
-  // A cold restart (DESIGN §7): continue the kept mission where the record says x_sp was, and publish that
+  // A cold restart (docs/design.md §7): continue the kept mission where the record says x_sp was, and publish that
   // x_sp (stamped `now`) as soon as the mode allows. Refused (nothing changed) if its mission is no path.
   Result<void, flight_io::InputFailure> restore(const flight_io::MissionRecord& record, Nanos now);
   // A validated mission upload (docs/mavlink.md), applied at a setpoint update: the new path runs from

@@ -1,4 +1,4 @@
-// The `lqr_control` service (paper §IV-B: replaces PX4's mc_att_control + mc_rate_control; DESIGN §8): the
+// The `lqr_control` service (paper §IV-B: replaces PX4's mc_att_control + mc_rate_control; docs/design.md §8): the
 // mission controller of the simulation — the mission LQR of flight::ControlDesign, saturated to the
 // restricted limits Ū — run on every new estimate.
 //
@@ -9,7 +9,7 @@
 // causes a denial. Params (graph-wide, flight_io/params.hpp): sr.box.*, sr.restricted_limit_fraction (the
 // design), mission.* (the first waypoint); gains and rate are the simulation's.
 //
-// Attack hook (DESIGN §9): compiled only with REJUV_ATTACK_HOOKS. It sees x̂, x_sp and the honest u and
+// Attack hook (docs/design.md §9): compiled only with REJUV_ATTACK_HOOKS. It sees x̂, x_sp and the honest u and
 // may replace u; the attacks themselves live with the attack plan, not here.
 #pragma once
 
@@ -46,7 +46,7 @@ class MissionControl {
 #if defined(REJUV_ATTACK_HOOKS)
   // ==== ATTACK HOOK (test builds only) ====
   // Called with x̂, x_sp and the honest u on every control step; a returned value replaces u. A rollback
-  // wipes whatever the hook changed, like any other corruption of the image (DESIGN §9).
+  // wipes whatever the hook changed, like any other corruption of the image (docs/design.md §9).
   using AttackHook = std::function<std::optional<flight::InputVec>(
       const flight::StateVec& x_hat, const flight::StateVec& x_sp, const flight::InputVec& u)>;
   void set_attack_hook(AttackHook hook) {

@@ -1,5 +1,5 @@
 // The worst-case control attack of §VI-D (launch attack kind WORST_CASE_CONTROL) for lqr_control's attack
-// hook (DESIGN §9). Test builds only: everything here exists only with REJUV_ATTACK_HOOKS.
+// hook (docs/design.md §9). Test builds only: everything here exists only with REJUV_ATTACK_HOOKS.
 //
 // What it does, as the simulation's attacker (flight/sim sr_sim.cpp): from the start of every MC window at or
 // after `start`, for at most `max_windows` windows (0 = all), the compromised controller publishes the corner

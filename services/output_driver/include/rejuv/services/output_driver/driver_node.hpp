@@ -1,4 +1,4 @@
-// The `output_driver` service (paper §IV-B, §IV-C; DESIGN §2): driver level, `rejuvenate: false`, never
+// The `output_driver` service (paper §IV-B, §IV-C; docs/design.md §2): driver level, `rejuvenate: false`, never
 // rolled back. The simulation's output driver (flight::OutputDriver) behind topics: it applies the actuator
 // limits of the mode — the restricted limits Ū in MC, the full limits U otherwise — and turns
 // u = [F, τφ, τθ, τψ] into rotor levels U ∈ [0, 1]⁴ through the inverse of the §IV-B mixer, which it holds as
@@ -8,7 +8,7 @@
 // every transition); out actuator_outputs, one per accepted actuator_controls, stamped with the driver's
 // clock (the plant holds the last one, as the simulation holds the driver's output). Non-finite controls are
 // refused and the last outputs stay in force: the driver is the last line before the rotors.
-// Limits (§IV-C, DESIGN §3): on entering MC the process reads Ū through its `actuator_limits` Limits cap
+// Limits (§IV-C, docs/design.md §3): on entering MC the process reads Ū through its `actuator_limits` Limits cap
 // (Read), written by checkpoint_p before set_MC_mode (flight_io::LimitsRecord); the full limits U are the
 // vehicle's, read-only data like the mixer. Until a valid record is read, Ū from the graph's
 // sr.restricted_limit_fraction (flight_io/params.hpp) stays in force.

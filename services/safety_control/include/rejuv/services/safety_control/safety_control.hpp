@@ -1,4 +1,4 @@
-// The `safety_control` service (paper §II "safety controller", §IV; DESIGN §8): the simulation's safety
+// The `safety_control` service (paper §II "safety controller", §IV; docs/design.md §8): the simulation's safety
 // controller — the safety LQR of flight::ControlDesign on the hover linearisation, saturated to the FULL
 // actuator limits U — run on every new estimate. Its closed loop is the one the safety ellipsoid P is built
 // from, so ‖x − x_sp‖_P decreases under it (§IV-A).

@@ -1,4 +1,4 @@
-// The `sensors` service (PX4 `sensors` module, DESIGN §2): raw IMU topics from the plant → sensor_combined,
+// The `sensors` service (PX4 `sensors` module, docs/design.md §2): raw IMU topics from the plant → sensor_combined,
 // one message per IMU tick with the gyro and accelerometer samples of that tick.
 //
 // Topics: in sensor_gyro, sensor_accel (250 Hz, bridged in from the plant over DDS); out sensor_combined
