@@ -14,21 +14,25 @@
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 //
 // The implementation (kernel_sim/kernel/src): Kernel::Impl (impl.hpp) holds the configuration, the shared
-// components and the services (a service's record, by concern, in service_runtime.hpp), and composes the owners,
-// each a class with its state and its procedures: Supervisor (supervisor.hpp: supervisor.cpp processes,
-// realtime.cpp the real-time plan), ChannelInput (channel_input.hpp: requests.cpp channel requests, invoked per
-// object kind, invocation.hpp), Router (router.hpp: router.cpp routing and flow control, watch.cpp the observers
-// of the routed traffic), Lockstep (lockstep.hpp: lockstep.cpp the steps and the samples that ride on them),
-// Rejuvenator (rejuvenator.hpp: the image coordinator, images.cpp with its overview, checkpoint.cpp,
-// rollback.cpp, checkpointed_state.cpp) and Warden (warden.hpp: sandbox.cpp containment). Impl's own: kernel.cpp
-// this API; create.cpp Kernel::create in named steps; loop.cpp the event loop, timers, deadlines and the realtime
-// clock; netgate.cpp the network gate; vocabulary.cpp the enums' names and KernelError; bridge.cpp the DDS bridge
-// with the plant's lockstep adapter (kernel_sim/dds); scripted.cpp the fuzzer's seam. Smaller parts that own
-// their state, unit-tested: kernel_clock.hpp (the time page's one writer), step_clock.hpp (the lockstep step
-// queue and its deadlines), image_coordinator.hpp (the checkpoint and rollback requests, the work left, the
-// rejuvenation timer), reaper.hpp (retired and dying processes), channel_pool.hpp (socket pairs made ahead),
-// routing_freeze.hpp (routing held while image work is timed), image_charge.hpp (its simulated-time charge),
-// canonical_stage.hpp (lockstep staging), output_batch.hpp, netgate.hpp, mission_watch.hpp.
+// components and the services (a service's record, by concern, in service_runtime.hpp), and composes the
+// owners, each a class with its state and its procedures: Supervisor (supervisor.hpp: supervisor.cpp
+// processes, realtime.cpp the real-time plan), ChannelInput (channel_input.hpp: requests.cpp channel
+// requests, invoked per object kind, invocation.hpp), Router (router.hpp: router.cpp routing and flow
+// control, watch.cpp the observers of the routed traffic), Lockstep (lockstep.hpp: lockstep.cpp the steps and
+// the samples that ride on them), Rejuvenator (rejuvenator.hpp: the image coordinator; images.hpp what its
+// files share, images.cpp with its overview, checkpoint.cpp, rollback.cpp, checkpointed_state.cpp;
+// catch_up.hpp/.cpp the estimate catch-up after a rollback) and Warden (warden.hpp: sandbox.cpp containment;
+// cgroup_placer.hpp/.cpp the moves between a service's cgroup leaves, on a thread of its own). Impl's own:
+// kernel.cpp this API; create.cpp Kernel::create in named steps; loop.cpp the event loop, timers, deadlines
+// and the realtime clock; netgate.cpp the network gate; vocabulary.cpp the enums' names and KernelError;
+// bridge.hpp/.cpp the DDS bridge with the plant's lockstep adapter (kernel_sim/dds); scripted.cpp the
+// fuzzer's seam. Smaller parts that own their state, unit-tested: kernel_clock.hpp (the time page's one
+// writer), step_clock.hpp (the lockstep step queue and its deadlines), image_coordinator.hpp (the checkpoint
+// and rollback requests, the work left, the rejuvenation timer), vehicle_pace.hpp (when in the control period
+// image work disturbs the vehicle least), reaper.hpp (retired and dying processes), channel_pool.hpp (socket
+// pairs made ahead), routing_freeze.hpp (routing held while image work is timed), image_charge.hpp (its
+// simulated-time charge), canonical_stage.hpp (lockstep staging), fixed_ring.hpp (a bounded FIFO allocated
+// once), output_batch.hpp, netgate.hpp, mission_watch.hpp.
 #pragma once
 
 #include <algorithm>

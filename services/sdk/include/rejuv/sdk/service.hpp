@@ -286,7 +286,9 @@ class Timer {
 // persistent, rejuvenation); small views, valid as long as the Service lives. Each call blocks for the
 // kernel's Reply: a refusal comes back as Denied with the CapError, an operation failure as OperationFailed.
 
-// The Mode object: asks the kernel for an SR mode (§V; the policy's transition table decides).
+// The Mode object: asks the kernel for an SR mode (§V). The kernel enters whichever mode a holder of the
+// cap asks for (no transition is checked: the policy decides who holds the cap, in which modes), applies
+// that mode's caps, writes the time page and publishes sr_mode (docs/protocol.md "Invoke arguments").
 class ModeControl {
  public:
   SdkResult<void> request(SrMode mode) const;
