@@ -190,8 +190,8 @@ TEST_F(Determinism, SpeedPaced_NoFasterThanAsked_SameTrace) {
 }
 
 TEST_F(Determinism, FlightShorterThanTest_NoCheckpointRollbackOrTimerBeforeTheCycle) {
-  // 0.3 s of flight: less than T_est (0.5 s), so the first SR cycle has not reached its checkpoint. Before the
-  // change the runtime cycled during the alignment: `--duration 1` reported 4 rollbacks, the setpoint had moved.
+  // 0.3 s of flight: less than T_est (0.5 s), so the first SR cycle has not reached its checkpoint. SR starts
+  // with the flight (docs/design.md §6): nothing is checkpointed, rolled back or armed during the alignment.
   const Flight f = fly("short", "0.3");
   ASSERT_EQ(f.outcome.exit_code, 0) << f.outcome.err;
   EXPECT_EQ(f.summary.checkpoints(), 0U) << f.outcome.out;
