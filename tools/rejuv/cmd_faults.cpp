@@ -1,4 +1,4 @@
-// `rejuv faults GRAPH`: the fault campaign (DESIGN §11; fault_campaign.hpp). Plans the faults from the seed,
+// `rejuv faults GRAPH`: the fault campaign (docs/design.md §11; fault_campaign.hpp). Plans the faults from the seed,
 // runs the missions in --jobs processes (each its own DDS domain, --net-port 0, its own CPU), gathers the
 // outcomes, prints the table by fault kind and phase and writes it with every injection as JSON.
 // Exit 0 when every injection was recovered by a designed path with nothing unsafe, leaked or hung; 1 when
@@ -252,7 +252,7 @@ void print_campaign(const proto::FaultCampaign& c) {
 int run_faults(std::span<const std::string_view> args) {
   CampaignRequest r;
   Options opts("faults",
-               "Fault campaign (DESIGN §7 \"Faults\", §11): flies GRAPH several times and injects, at moments and\n"
+               "Fault campaign (docs/design.md §7 \"Faults\", §11): flies GRAPH several times and injects, at moments and\n"
                "phases drawn from the seed, SIGKILL/SIGSTOP of a live service, of one image, of every image of a\n"
                "service, of a whole service group, a 1 s stall of the plant, and kills of output_driver and the\n"
                "plant, in MC, in the secure interval and exactly inside checkpoints and rollbacks. After each it\n"

@@ -377,7 +377,7 @@ class Injector final : public kernel::Observer {
     }
     o.recovered = back && (final || !k_->stop_reason().has_value());
     if (!back) o.note += "; '" + o.fault.target + "' not back";
-    // The cheapest safe recovery (DESIGN §7 "Faults"): one image of one generation lost leaves another intact
+    // The cheapest safe recovery (docs/design.md §7 "Faults"): one image of one generation lost leaves another intact
     // generation when two or more are kept, so a cold restart after it is a finding, not a recovery.
     if (o.path == "cold restart" && keep_ >= 2 &&
         (o.fault.kind == FaultKind::KillImage || o.fault.kind == FaultKind::StopImage)) {

@@ -1,4 +1,4 @@
-// `rejuv faults`: the fault campaign (DESIGN §7 "Faults", §11). Missions of a launch graph
+// `rejuv faults`: the fault campaign (docs/design.md §7 "Faults", §11). Missions of a launch graph
 // fly one after another (or in --jobs parallel processes, each with its own DDS domain), each with a few
 // faults injected at moments and phases drawn from the seed; after each one the campaign records the path by
 // which the kernel recovered, whether the vehicle stayed inside the safety set, whether anything leaked and
@@ -95,7 +95,7 @@ struct JobConfig {
   int cpu = 0;
   Nanos mission_wall_bound{std::chrono::seconds{300}};
   std::filesystem::path log{};  // the kernels' log lines
-  // What a checkpoint or rollback costs the flight (DESIGN §6). Measured by default here: a fault that stalls a
+  // What a checkpoint or rollback costs the flight (docs/design.md §6). Measured by default here: a fault that stalls a
   // resume or forces a fallback costs the vehicle its real duration, which is what the campaign judges.
   kernel::KernelOptions::Charge charge = kernel::KernelOptions::Charge::Measured;
 };

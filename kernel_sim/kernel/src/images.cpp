@@ -1,4 +1,4 @@
-// The image coordinator, the Rejuvenator of rejuvenator.hpp (DESIGN §7; the paper's §V create_checkpoint /
+// The image coordinator, the Rejuvenator of rejuvenator.hpp (docs/design.md §7; the paper's §V create_checkpoint /
 // rollback, which took ≈20 ms and ≈15 ms in the PX4 kernel module): checkpoint and rollback of the rejuvenated
 // services with the queue state beside them. Its files:
 //   images.cpp              safe points (where a checkpoint or rollback runs), socket pairs made ahead,
@@ -127,7 +127,7 @@ void Rejuvenator::finish_retiring(bool final) {
 }
 
 // Routing resumes after a cut, a restore or an abandoned checkpoint: what was published meanwhile was not
-// pushed (DESIGN §7). The kernel's held DDS bridge writes go out, then every live service's pending ring
+// pushed (docs/design.md §7). The kernel's held DDS bridge writes go out, then every live service's pending ring
 // messages, in ring order.
 void Rejuvenator::resume_routing() {
   routing.thaw([&](ObjectId topic, std::span<const std::byte> payload) {
@@ -254,7 +254,7 @@ Result<void, KernelError> Rejuvenator::finish_image_requests() {
 void Rejuvenator::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period) {
   const Epoch epoch = k.kernel_clock.epoch();
   if (coordinator.armed_in(epoch)) {
-    // DESIGN §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
+    // docs/design.md §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
     ++sr_stats.timer_arm_refused;
     k.log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(),
           epoch.value());

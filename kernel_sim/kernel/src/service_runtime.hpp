@@ -1,4 +1,4 @@
-// What the kernel knows about one service, by concern: each part names the file that writes it and the DESIGN
+// What the kernel knows about one service, by concern: each part names the file that writes it and the docs/design.md
 // section it implements. Kernel::Impl::services holds one ServiceRuntime per service (impl.hpp), by ServiceId.
 //
 //   config         fixed at create (create.cpp): spec, driver level or rejuvenated, skipped, boot info, params
@@ -46,7 +46,7 @@ enum class Phase : std::uint8_t {
   Dead,        // exited, killed or lost: reaped, channel closed
 };
 
-using SubscriptionRecord = image::SavedSubscription;  // saved with the images (DESIGN §7 step 3)
+using SubscriptionRecord = image::SavedSubscription;  // saved with the images (docs/design.md §7 step 3)
 
 // Token bucket for a service's log lines (docs/protocol.md: rate-limited per service).
 struct LogLimiter {
@@ -56,11 +56,11 @@ struct LogLimiter {
   [[nodiscard]] bool allow(Nanos wall_now);
 };
 
-// Fixed at create (create.cpp, from the launch graph and the policy; DESIGN §2, §4). cold_restart (rollback.cpp)
+// Fixed at create (create.cpp, from the launch graph and the policy; docs/design.md §2, §4). cold_restart (rollback.cpp)
 // rebuilds `params` only.
 struct ServiceConfig {
   const proto::ServiceSpec* spec = nullptr;
-  bool rejuvenate = true;   // false = driver level (DESIGN §2)
+  bool rejuvenate = true;   // false = driver level (docs/design.md §2)
   bool skip = false;        // not started (KernelOptions::skip_services, or SR-only with SR off)
   std::string skip_reason{};
   std::string executable{};
@@ -68,9 +68,9 @@ struct ServiceConfig {
   std::vector<wire::BootParam> params{};
 };
 
-// The live incarnation (DESIGN §2 "Processes and trust"). Its phase changes only through the transitions below,
+// The live incarnation (docs/design.md §2 "Processes and trust"). Its phase changes only through the transitions below,
 // each of which asserts that it is legal: spawned by supervisor.cpp (or attached by scripted.cpp), booted and
-// ready by requests.cpp (Hello, Ready), resumed from an image by rollback.cpp (DESIGN §7 "Rollback"), ended by
+// ready by requests.cpp (Hello, Ready), resumed from an image by rollback.cpp (docs/design.md §7 "Rollback"), ended by
 // supervisor.cpp (lost, shut down) or rollback.cpp (retired).
 //
 //   NotStarted ─spawned→ Spawned ─booted→ Booted ─became_ready→ Ready
@@ -114,7 +114,7 @@ struct Incarnation {
   Phase phase_ = Phase::NotStarted;
 };
 
-// Images by written pages (DESIGN §7; checkpoint.cpp): the generation the live incarnation's memory derives
+// Images by written pages (docs/design.md §7; checkpoint.cpp): the generation the live incarnation's memory derives
 // from (0: a fresh start), its /proc/<pid>/pagemap (open_pagemaps, images.cpp) and whether a Snapshot has
 // handed it over. Reset whenever a new process becomes the service (spawn_one, resume_generation).
 struct WrittenPages {
@@ -139,7 +139,7 @@ struct OutEntry {
   std::uint32_t control = 0;  // index into the control pool
 };
 
-// Delivery and flow control on one service's channel (DESIGN §5; docs/protocol.md "Delivery and flow control"
+// Delivery and flow control on one service's channel (docs/design.md §5; docs/protocol.md "Delivery and flow control"
 // and "Idle"). Written by router.cpp (and the output batch, output_batch.hpp); the channel itself is proc's.
 // It keeps its own invariants:
 // - order: a frame goes out at once only when nothing is held, queued or to sweep (drained()); otherwise it
@@ -247,7 +247,7 @@ class FlowControl {
   void count_sent() { ++frames_out_; }
   void uncount(std::uint64_t frames) { frames_out_ -= frames; }
   void on_idle(std::uint64_t frames_received) { idle_count_ = frames_received; }
-  // A new channel (a spawn, a restored image: DESIGN §7): the service's count restarts at 0.
+  // A new channel (a spawn, a restored image: docs/design.md §7): the service's count restarts at 0.
   void new_channel() {
     idle_count_ = 0;
     frames_base_ = frames_out_;
@@ -295,7 +295,7 @@ class FlowControl {
   std::uint64_t staged_this_step_ = 0;
 };
 
-// Containment (sandbox.cpp, DESIGN §7 "Protection"; docs/sandbox.md): the listener of its seccomp filter (shared
+// Containment (sandbox.cpp, docs/design.md §7 "Protection"; docs/sandbox.md): the listener of its seccomp filter (shared
 // by every process of the service), the read end of the pipe on its fds 1-2 and its unfinished last line, the
 // session ids of its incarnations spawned so far, the rate limit of what it may log (loop.cpp), and its
 // cgroup (made at its first spawn; empty where the machine refuses one — cgroup_note says why).

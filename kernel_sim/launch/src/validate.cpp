@@ -1,4 +1,4 @@
-// The checks of a parsed launch graph (DESIGN §1, §10; every rule idl/launch.proto states): texts, header,
+// The checks of a parsed launch graph (docs/design.md §1, §10; every rule idl/launch.proto states): texts, header,
 // services, plant, DDS, SR parameters, sandbox limits, lockstep timing, mission and attack plan, and the policy
 // file it names. Each refusal is a semantic LoadError at the field's file:line:column with what was expected.
 #include <algorithm>
@@ -76,7 +76,7 @@ constexpr double kMaxTmcS = 10.0;
 constexpr double kMaxTestS = 10.0;
 constexpr double kMaxTminS = 1.0;
 constexpr double kMaxCheckPeriodS = 0.1;
-// Wind on the vehicle model (plant, DESIGN §9): its thrust holds a few m/s; beyond 30 m/s (a storm) no mission of
+// Wind on the vehicle model (plant, docs/design.md §9): its thrust holds a few m/s; beyond 30 m/s (a storm) no mission of
 // a small quadrotor is flown, so a larger number is another unit (km/h).
 constexpr double kMaxWindMS = 30.0;
 constexpr double kMaxMissionS = 86400.0;
@@ -402,7 +402,7 @@ class Validator {
     return {};
   }
 
-  // Sandbox limits (DESIGN §7 "Protection") that SR can live with: every process of a rejuvenated service —
+  // Sandbox limits (docs/design.md §7 "Protection") that SR can live with: every process of a rejuvenated service —
   // the live one, an image and a spare per kept generation, and the generation being taken — counts against
   // its max_processes (RLIMIT_NPROC); below that its image fork fails at a checkpoint, so it is refused at load.
   Check check_limits() const {
@@ -528,7 +528,7 @@ class Validator {
     return {};
   }
 
-  // §IV-A: E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set ‖e‖_P ≤ 1 (P scaled to the state box, DESIGN §9).
+  // §IV-A: E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set ‖e‖_P ≤ 1 (P scaled to the state box, docs/design.md §9).
   Check check_sr_levels(const proto::SrParams& sr) const {
     if (!(sr.rho_s() > 0.0 && sr.rho_s() < sr.rho_m())) {
       return fail(
@@ -594,7 +594,7 @@ class Validator {
       if (!std::isfinite(v) || v <= 0.0) {
         return fail(error(at({{"sr", -1}, {"box", -1}}, f),
                           "sr.box." + std::string(f) +
-                              " must be a finite half-width > 0 (it scales P, DESIGN §9), got " + num(v)));
+                              " must be a finite half-width > 0 (it scales P, docs/design.md §9), got " + num(v)));
       }
     }
     return {};
@@ -694,7 +694,7 @@ class Validator {
                               ? std::string("attack without a `service` to compromise")
                               : "attack names service \"" + a.service() + "\", which is not in the graph"));
       }
-      // DESIGN §9: a kind the service has no hook for would do nothing at run time, while `rejuv sim`
+      // docs/design.md §9: a kind the service has no hook for would do nothing at run time, while `rejuv sim`
       // models it anyway: refused, so that model and runtime never disagree without a word.
       if (const auto hooks = attack_hooks_of(target->executable()); hooks) {
         if (std::find(hooks->begin(), hooks->end(), a.kind()) == hooks->end()) {

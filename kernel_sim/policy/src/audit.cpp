@@ -141,7 +141,7 @@ void check_persistent(const Context& c, Findings& out) {
   }
 }
 
-// DESIGN §4 `lateral`: a compromised network-facing service must not steer or move the vehicle directly;
+// docs/design.md §4 `lateral`: a compromised network-facing service must not steer or move the vehicle directly;
 // commands from outside go through a validating service (mission_upload → commander → mission).
 void check_lateral(const Context& c, Findings& out) {
   for (const Grant& g : c.policy.grants()) {
@@ -253,7 +253,7 @@ void check_restricted(const Context& c, Findings& out) {
   }
 }
 
-// Fig. 1, DESIGN §8: in the secure interval only the safety controller drives. The mission controller (a
+// Fig. 1, docs/design.md §8: in the secure interval only the safety controller drives. The mission controller (a
 // rolled-back service that publishes an ACTUATOR topic in MC, where it may be compromised) publishes none
 // there. Driver-level services are trusted and never rolled back.
 void check_controls(const Context& c, Findings& out) {
@@ -280,7 +280,7 @@ void check_controls(const Context& c, Findings& out) {
   }
 }
 
-// ---- coverage: every name resolves, uses and grants agree, topics have both ends (DESIGN §4) ----
+// ---- coverage: every name resolves, uses and grants agree, topics have both ends (docs/design.md §4) ----
 
 void coverage_policy_only(const Context& c, Findings& out) {
   const Policy& p = c.policy;
@@ -410,7 +410,7 @@ void coverage_uses(const Context& c, Findings& out) {
   }
 }
 
-// Every topic read has a writer and every topic written has a reader (DESIGN §4, §5): a service with the
+// Every topic read has a writer and every topic written has a reader (docs/design.md §4, §5): a service with the
 // right in some mode, a DDS bridge (IN writes into the kernel, OUT reads out of it) or the kernel itself.
 void coverage_topics(const Context& c, Findings& out) {
   const Policy& p = c.policy;
@@ -490,7 +490,7 @@ bool matches(const Policy& p, const DenyRule& r, const Grant& g) {
          (r.rights.empty() || r.rights.intersects(g.rights)) && r.modes.intersects(g.modes);
 }
 
-// The policy's own rules (DESIGN §4): intent that must keep holding as grants are edited.
+// The policy's own rules (docs/design.md §4): intent that must keep holding as grants are edited.
 void check_deny(const Context& c, Findings& out) {
   for (const DenyRule& r : c.policy.deny_rules()) {
     for (const Grant& g : c.policy.grants()) {
@@ -507,7 +507,7 @@ void check_deny(const Context& c, Findings& out) {
   }
 }
 
-// One small function per invariant, in the order of DESIGN §4.
+// One small function per invariant, in the order of docs/design.md §4.
 struct InvariantCheck {
   Invariant invariant;
   void (*run)(const Context&, Findings&);

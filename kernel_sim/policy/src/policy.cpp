@@ -1,4 +1,4 @@
-// The policy loader (DESIGN §3–§4): text → proto::Policy → a validated Policy, and its compilation to the
+// The policy loader (docs/design.md §3–§4): text → proto::Policy → a validated Policy, and its compilation to the
 // kernel's per-mode table. Above 600 lines on purpose: the checks are one builder (PolicyBuilder) whose
 // order is part of the contract (the first problem in file order is the one reported, with its location);
 // the audit (audit.cpp) is the other half of the policy's verdicts.
@@ -321,7 +321,7 @@ class PolicyBuilder {
                         "topic \"" + o.name() +
                             "\" needs a `type`: the IDL type name, e.g. type: \"rejuv::msg::Setpoint\""));
     }
-    // DESIGN §5: uORB ring of depth Q, a power of two (cursor arithmetic by masking).
+    // docs/design.md §5: uORB ring of depth Q, a power of two (cursor arithmetic by masking).
     obj.queue_depth = o.queue_depth() == 0 ? kDefaultQueueDepth : o.queue_depth();
     if (!std::has_single_bit(obj.queue_depth) || obj.queue_depth > kMaxQueueDepth) {
       return fail(error(object_at(i, "queue_depth"),

@@ -1,6 +1,6 @@
-// The launch graph (DESIGN §1, §10): what runs, wired how, with which SR parameters, mission and attack
+// The launch graph (docs/design.md §1, §10): what runs, wired how, with which SR parameters, mission and attack
 // plan. `load_launch` parses a *.launch.pbtxt and validates everything that a later stage would otherwise
-// discover mid-flight; every refusal names file:line:column and what was expected (CONVENTIONS "Errors are
+// discover mid-flight; every refusal names file:line:column and what was expected (docs/conventions.md "Errors are
 // values"). Fields whose default is not the proto's zero are read through the accessors below, so the
 // defaults live in one place and the parsed proto stays exactly what the user wrote.
 #pragma once
@@ -22,7 +22,7 @@
 namespace rejuv::launch {
 
 // A validated launch graph with the location of every field (for later semantic findings, e.g. the
-// `coverage` audit of DESIGN §4) and the policy file it names, resolved against the launch file's folder.
+// `coverage` audit of docs/design.md §4) and the policy file it names, resolved against the launch file's folder.
 struct LoadedLaunch {
   proto::Launch graph;
   TextLocations locations;
@@ -62,10 +62,10 @@ struct HostPort {
 
 // ---- defaults (one place; the proto keeps what the user wrote) ----
 namespace defaults {
-inline constexpr std::uint32_t kKeepGenerations = 2;   // DESIGN §7: the last K generations are kept
-inline constexpr double kPhysicsRateHz = 1000.0;       // DESIGN §9: RK4 at 1 kHz
+inline constexpr std::uint32_t kKeepGenerations = 2;   // docs/design.md §7: the last K generations are kept
+inline constexpr double kPhysicsRateHz = 1000.0;       // docs/design.md §9: RK4 at 1 kHz
 inline constexpr Seconds kCheckPeriod{0.002};          // §V-B: condition (1) is checked every 2 ms
-// Lockstep charges (DESIGN §6, idl/launch.proto LockstepTiming): what `rejuv bench realtime` measured the
+// Lockstep charges (docs/design.md §6, idl/launch.proto LockstepTiming): what `rejuv bench realtime` measured the
 // vehicle lose at a checkpoint and at a rollback in real time on the project's 2-vCPU machines (docs/
 // performance.md "Deterministic lockstep"), for a graph that sets none.
 inline constexpr Seconds kCheckpointCharge{0.0003};
@@ -79,7 +79,7 @@ inline constexpr std::size_t kMaxWaypoints = 16;       // idl/control.idl Missio
 inline constexpr std::uint32_t kMaxDdsDomainId = 232;  // DDSI-RTPS port mapping limit
 inline constexpr std::string_view kDdsNamePrefix = "rejuv/";
 inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // relative to the repository
-// Sandbox limits of a service's processes (DESIGN §7 "Protection"): a live incarnation, K generations of
+// Sandbox limits of a service's processes (docs/design.md §7 "Protection"): a live incarnation, K generations of
 // images with a spare each, workers; a few hundred fds; the address space of a service with room to spare.
 inline constexpr std::uint32_t kSandboxProcesses = 64;
 inline constexpr std::uint32_t kSandboxMemoryMb = 4096;
@@ -109,12 +109,12 @@ inline constexpr double kDerivedTimeoutPerMetreS = 150.0;
 inline constexpr double kMinDerivedTimeoutS = 600.0;
 }  // namespace defaults
 
-// The attack kinds (idl/launch.proto AttackKind) that an in-tree service has a hook for (DESIGN §9: a plan
+// The attack kinds (idl/launch.proto AttackKind) that an in-tree service has a hook for (docs/design.md §9: a plan
 // naming a kind that service has no hook for is refused at load), by executable file name; nullopt for an
 // executable this table does not know (a service outside the tree, a test service): not checked.
 [[nodiscard]] std::optional<std::vector<proto::AttackKind>> attack_hooks_of(std::string_view executable);
 
-// K, the number of checkpoint generations kept (DESIGN §7).
+// K, the number of checkpoint generations kept (docs/design.md §7).
 [[nodiscard]] std::uint32_t keep_generations(const proto::SrParams& sr);
 // Period of the check of condition (1) (§V-B).
 [[nodiscard]] Seconds check_period(const proto::SrParams& sr);
@@ -152,7 +152,7 @@ struct RealtimeValues {
 // Physics rate of the plant [Hz]; 0 in the file means the default.
 [[nodiscard]] double physics_rate_hz(const proto::PlantSpec& plant);
 [[nodiscard]] Seconds physics_step(const proto::PlantSpec& plant);
-// false = driver level, never rolled back (DESIGN §2); default true.
+// false = driver level, never rolled back (docs/design.md §2); default true.
 [[nodiscard]] bool rejuvenate(const proto::ServiceSpec& service);
 // DDS topic name of a bridge: as written, else "rejuv/<topic>".
 [[nodiscard]] std::string dds_name(const proto::Bridge& bridge);

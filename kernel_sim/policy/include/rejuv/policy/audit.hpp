@@ -1,4 +1,4 @@
-// The policy audit (DESIGN §4): checks a policy against the run-time requirements of §III of the paper
+// The policy audit (docs/design.md §4): checks a policy against the run-time requirements of §III of the paper
 // and against its own `deny` rules, optionally together with the launch graph that will run under it.
 // Each finding names the invariant, says what is wrong in the user's terms and points at the grant (or
 // launch entry) to change. The kernel refuses to start a graph whose policy has any finding.
@@ -17,7 +17,7 @@
 
 namespace rejuv::policy {
 
-// The invariants of DESIGN §4 (ids as printed: timer, sei, limits, persistent, lateral, checkpoint, mode,
+// The invariants of docs/design.md §4 (ids as printed: timer, sei, limits, persistent, lateral, checkpoint, mode,
 // restricted, controls, coverage) plus the policy's own deny rules (printed as deny:<rule id>).
 enum class Invariant : std::uint8_t {
   Timer,

@@ -1,4 +1,4 @@
-// The capability policy (DESIGN §3–§4): which service holds which rights on which kernel object in each
+// The capability policy (docs/design.md §3–§4): which service holds which rights on which kernel object in each
 // CPS SR mode. `load_policy` parses a *.policy.pbtxt and refuses, with file:line:column and what was
 // expected, anything that cannot mean what the user intended (unknown names, duplicates, bad rights,
 // grants without modes). The result is an immutable in-memory model that the audit (audit.hpp) checks
@@ -76,7 +76,7 @@ struct Grant {
   SourceLocation where;  // the `grants` entry (what audit findings point at)
 };
 
-// A `deny` rule: no grant may match it (DESIGN §4). Empty optionals and sets mean "any".
+// A `deny` rule: no grant may match it (docs/design.md §4). Empty optionals and sets mean "any".
 struct DenyRule {
   std::string id;
   std::optional<ServiceId> service;  // nullopt = "*"
@@ -128,7 +128,7 @@ class Policy {
   // Union of the rights over every mode.
   [[nodiscard]] Rights rights_any_mode(ServiceId service, ObjectId object) const;
 
-  // Network-facing (DESIGN §4 `persistent`, `lateral`): declared so, or holding any Network right in any
+  // Network-facing (docs/design.md §4 `persistent`, `lateral`): declared so, or holding any Network right in any
   // mode — a service that can receive from the network can be compromised from it.
   [[nodiscard]] bool is_network_facing(ServiceId service) const;
 
@@ -153,7 +153,7 @@ class Policy {
 // The same from text; `name` stands for the file in messages and anchors its includes (tests, fuzzing).
 [[nodiscard]] Result<Policy, LoadError> parse_policy(std::string_view text, std::string name);
 
-// The kernel's per-mode table (DESIGN §3): ServiceId and ObjectId are declaration order; each service
+// The kernel's per-mode table (docs/design.md §3): ServiceId and ObjectId are declaration order; each service
 // gets one fixed slot per object it is granted in any mode, in object declaration order from slot 1
 // (slot 0 stays empty: the null CPtr).
 [[nodiscard]] cap::ModeTable compile(const Policy& policy);
