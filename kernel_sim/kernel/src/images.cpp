@@ -144,7 +144,7 @@ void Rejuvenator::resume_routing() {
 
 void Rejuvenator::leave_image_work(ImageWork work) {
   coordinator.leave_work(std::move(work), k.wall() + ImageCoordinator::kImageWorkWait);
-  // Without a vehicle no control update comes: at once, as before (benchmarks, tests of the image store).
+  // Without a vehicle no control update comes: the work runs at once (benchmarks, tests of the image store).
   if (!k.graph.graph.has_plant()) run_image_work();
 }
 
