@@ -139,7 +139,7 @@ std::string verdict(const policy::Policy& p, const std::vector<policy::Finding>&
   const std::string subject = "policy \"" + (p.name().empty() ? p.file() : p.name()) + "\"" +
                               (graph != nullptr ? " with graph \"" + graph->graph.name() + "\"" : "");
   if (findings.empty()) {
-    return "audit: OK: " + subject + " satisfies timer, sei, limits, persistent, lateral, coverage, checkpoint, mode, restricted, controls and " +
+    return "audit: OK: " + subject + " satisfies timer, sei, limits, persistent, lateral, coverage, checkpoint, mode, restricted, controls" + std::string(graph != nullptr ? ", hosts" : "") + " and " +
            std::to_string(p.deny_rules().size()) + " deny rule(s)\n";
   }
   // Count per id, in first-seen order.

@@ -21,6 +21,9 @@ namespace rejuv::launch::detail {
 // "INVOKE_CHECKPOINT, ARM_TIMER" or "none".
 [[nodiscard]] std::string kind_list(const std::vector<proto::AttackKind>& kinds);
 
+// The graph's `hosts` and each service's `host` (hosts.cpp): names, addresses, every host named is declared.
+[[nodiscard]] Result<void, LoadError> check_hosts(const proto::Launch& graph, const TextLocations& locs);
+
 // Checks a parsed graph (every rule of idl/launch.proto); the first problem found is returned, at its
 // file:line:column. On success the graph with its policy file resolved against the launch file's folder.
 [[nodiscard]] Result<LoadedLaunch, LoadError> validate(proto::Launch graph, TextLocations locs,

@@ -1,6 +1,7 @@
 #include "rejuv/policy/audit.hpp"
 
 #include "rejuv/core/did_you_mean.hpp"
+#include "rejuv/policy/hosts.hpp"
 
 #include <algorithm>
 #include <map>
@@ -21,13 +22,16 @@ std::string_view to_string(Invariant invariant) {
     case Invariant::Restricted: return "restricted";
     case Invariant::Controls: return "controls";
     case Invariant::Coverage: return "coverage";
+    case Invariant::Hosts: return "hosts";
     case Invariant::Deny: return "deny";
   }
   return "?";
 }
 
 std::string Finding::id() const {
-  return invariant == Invariant::Deny ? "deny:" + rule : std::string(policy::to_string(invariant));
+  if (invariant == Invariant::Deny) return "deny:" + rule;
+  if (invariant == Invariant::Hosts) return "hosts:" + rule;
+  return std::string(policy::to_string(invariant));
 }
 
 std::string Finding::to_string() const {
@@ -507,6 +511,72 @@ void check_deny(const Context& c, Findings& out) {
   }
 }
 
+// The graph across hosts (docs/across_hosts.md, hosts.hpp); graph-side only. Three rules, each its own id:
+//   hosts:mc-only        a topic crosses between hosts only in MC: the secure interval closes every link (§III)
+//   hosts:vehicle        a service that acts in the secure interval runs on the vehicle's host
+//   hosts:remote-writer  an ACTUATOR or SETPOINT topic is written from another host only by a service the
+//                        topic's `remote_writers` names
+void add_hosts(Findings& out, std::string rule, std::string message, SourceLocation where) {
+  out.push_back(Finding{Invariant::Hosts, std::move(rule), std::move(message), std::move(where)});
+}
+
+void check_hosts(const Context& c, Findings& out) {
+  if (c.graph == nullptr) return;
+  const Policy& p = c.policy;
+  const Placement place = placement(p, *c.graph);
+  if (place.hosts.size() < 2) return;
+  const auto host = [&](std::size_t h) { return "host \"" + place.hosts[h] + "\""; };
+  for (const Crossing& x : crossings(p, place)) {
+    ModeSet outside;
+    for (const SrMode m : kAllModes) {
+      if (m != SrMode::MC && x.modes.has(m)) outside.add(m);
+    }
+    if (outside.empty()) continue;
+    const Grant& w = p.grants()[x.grant_writer];
+    const Grant& r = p.grants()[x.grant_reader];
+    // The grant to change is the one off the vehicle (the reader's when both are).
+    const Grant& at = x.reader_host != 0 ? r : w;
+    add_hosts(out, "mc-only",
+              "topic \"" + p.object(x.topic).name + "\" crosses from " + host(x.writer_host) + " (\"" +
+                  p.service(w.service).name + "\" writes it) to " + host(x.reader_host) + " (\"" +
+                  p.service(r.service).name + "\" reads it) in " + outside.to_string() +
+                  ": a cross-host topic may be granted only in MC (every link is closed in the secure interval); "
+                  "grant \"" + p.service(at.service).name + "\" this topic in MC only",
+              at.where);
+  }
+  const proto::Launch& g = c.graph->graph;
+  for (int i = 0; i < g.services_size(); ++i) {
+    const auto id = p.find_service(g.services(i).name());
+    if (!id) continue;
+    const auto h = place.of(*id);
+    if (!h || *h == 0) continue;
+    const Service& s = p.service(*id);
+    const SourceLocation where = c.graph->locations.locate({{"services", i}}, "host");
+    if (acts_in_secure_interval(p, *id)) {
+      const std::string why = s.rejuvenation                     ? "it is the rejuvenation service"
+                              : s.level == ServiceLevel::Driver ? "it is a driver"
+                                                                 : "it writes in the secure interval";
+      add_hosts(out, "vehicle",
+                "service \"" + s.name + "\" acts in the secure interval (" + why + ") but runs on " + host(*h) +
+                    ": it must run on the vehicle's " + host(0) + ", where the secure interval closes no link it needs",
+                where);
+    }
+    for (const Grant& gr : p.grants()) {
+      const Object& o = p.object(gr.object);
+      if (gr.service != *id || !gr.rights.has(Right::Write) || o.kind != ObjectKind::Topic ||
+          o.role == TopicRole::Data) {
+        continue;
+      }
+      if (std::find(o.remote_writers.begin(), o.remote_writers.end(), *id) != o.remote_writers.end()) continue;
+      add_hosts(out, "remote-writer",
+                "service \"" + s.name + "\" on " + host(*h) + " writes the " + std::string(to_string(o.role)) +
+                    " topic \"" + o.name + "\": it steers the vehicle from another host than the vehicle's " +
+                    host(0) + "; run it there, or name it in the topic's `remote_writers`",
+                where);
+    }
+  }
+}
+
 // One small function per invariant, in the order of docs/design.md §4.
 struct InvariantCheck {
   Invariant invariant;
@@ -524,6 +594,7 @@ constexpr std::array kChecks{
     InvariantCheck{Invariant::Controls, check_controls},
     InvariantCheck{Invariant::Coverage, check_coverage},
     InvariantCheck{Invariant::Deny, check_deny},
+    InvariantCheck{Invariant::Hosts, check_hosts},
 };
 static_assert(kChecks.size() == kAllInvariants.size(), "every invariant has its check");
 

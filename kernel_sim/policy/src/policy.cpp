@@ -302,7 +302,8 @@ class PolicyBuilder {
                *endpoint,
                0,
                0,
-               at({}, "objects", i)};
+               at({}, "objects", i),
+               {}};
     const std::string kind_name(to_string(*kind));
     if (Check c = *kind == ObjectKind::Topic ? topic_fields(i, obj) : no_topic_fields(i, kind_name); !c) {
       return fail(std::move(c.error()));
@@ -328,6 +329,20 @@ class PolicyBuilder {
                         "queue_depth " + std::to_string(o.queue_depth()) + " of topic \"" + o.name() +
                             "\" must be a power of two in 1.." + std::to_string(kMaxQueueDepth)));
     }
+    // Remote writers name services allowed to steer the vehicle from another host: only a topic that
+    // steers (ACTUATOR, SETPOINT) has any use for them (the `hosts` audit, docs/across_hosts.md).
+    for (int j = 0; j < o.remote_writers_size(); ++j) {
+      const SourceLocation where = at({{"objects", i}}, "remote_writers", j);
+      if (obj.role == TopicRole::Data) {
+        return fail(error(where, "`remote_writers` applies to ACTUATOR or SETPOINT topics; \"" + o.name() +
+                                     "\" is DATA (any service may write it from another host)"));
+      }
+      auto s = known_service(o.remote_writers(j), where, "remote_writers");
+      if (!s) {
+        return fail(s.error());
+      }
+      obj.remote_writers.push_back(*s);
+    }
     return {};
   }
 
@@ -343,6 +358,7 @@ class PolicyBuilder {
     if (!o.type().empty()) return misplaced("type");
     if (o.queue_depth() != 0) return misplaced("queue_depth");
     if (o.kernel() != proto::KERNEL_NONE) return misplaced("kernel");
+    if (o.remote_writers_size() != 0) return misplaced("remote_writers");
     return {};
   }
 

@@ -171,6 +171,11 @@ struct SandboxLimitValues {
 };
 [[nodiscard]] SandboxLimitValues sandbox_limits(const proto::Launch& graph, const proto::ServiceSpec& service);
 
+// The graph's hosts (idl/launch.proto Host, docs/across_hosts.md): the vehicle's is the first listed; "" for
+// a graph without `hosts` (one host). A service's host: its `host`, else the vehicle's.
+[[nodiscard]] std::string_view vehicle_host(const proto::Launch& graph);
+[[nodiscard]] std::string_view host_of(const proto::Launch& graph, const proto::ServiceSpec& service);
+
 // The service called `name`, or nullptr.
 [[nodiscard]] const proto::ServiceSpec* find_service(const proto::Launch& graph, std::string_view name);
 

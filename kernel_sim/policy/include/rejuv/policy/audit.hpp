@@ -30,12 +30,13 @@ enum class Invariant : std::uint8_t {
   Restricted,  // the limits Ū bind in MC: a driver reads them there
   Controls,    // the mission controller does not drive in the secure interval
   Coverage,
-  Deny
+  Deny,
+  Hosts  // the graph across hosts (docs/across_hosts.md), printed as hosts:<rule>
 };
 inline constexpr std::array kAllInvariants{Invariant::Timer,      Invariant::Sei,      Invariant::Limits,
                                            Invariant::Persistent, Invariant::Lateral,  Invariant::Checkpoint,
                                            Invariant::Mode,       Invariant::Restricted, Invariant::Controls,
-                                           Invariant::Coverage,   Invariant::Deny};
+                                           Invariant::Coverage,   Invariant::Deny,     Invariant::Hosts};
 [[nodiscard]] std::string_view to_string(Invariant invariant);
 
 struct Finding {

@@ -65,6 +65,7 @@ struct Object {
   std::uint32_t queue_depth = 0;                 // Topic: ring depth Q (power of two); 0 for other kinds
   std::uint32_t size_bytes = 0;                  // Persistent: cell size; 0 for other kinds
   SourceLocation where;
+  std::vector<ServiceId> remote_writers;         // Topic: may write it from another host than the vehicle's
 };
 
 // One `grants` entry: rights of a service on an object in a set of modes.
