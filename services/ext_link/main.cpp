@@ -6,6 +6,7 @@
 #include <string_view>
 
 #include "rejuv/flight_io/messages.hpp"
+#include "rejuv/flight_io/mission_record.hpp"
 #include "rejuv/flight_io/sdk_params.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/ext_link/ext_link.hpp"
@@ -25,6 +26,9 @@ struct Topics {
   // The SR cycle's modes and epochs, turned into STATUSTEXT (ExtLink::observe).
   sdk::Subscription<rejuv_msg_SrMode> modes;
   sdk::Subscription<rejuv_msg_SecurityEvent> events;
+  // The plant's GPS samples, for GPS_RAW_INT and SYS_STATUS (optional: a graph that grants none has no GPS
+  // reported).
+  std::optional<sdk::Subscription<rejuv_msg_SensorGps>> gps;
 };
 
 std::optional<Topics> open_topics(sdk::Service& svc) {
@@ -38,7 +42,14 @@ std::optional<Topics> open_topics(sdk::Service& svc) {
   if (!svc.require(modes, "sr_mode")) return std::nullopt;
   auto events = svc.subscribe_polled<rejuv_msg_SecurityEvent>("security_event");
   if (!svc.require(events, "security_event")) return std::nullopt;
-  return Topics{.uploads = *uploads, .state = *state, .setpoint = *setpoint, .modes = *modes, .events = *events};
+  std::optional<sdk::Subscription<rejuv_msg_SensorGps>> gps;
+  if (svc.cap("sensor_gps")) {
+    auto sub = svc.subscribe_polled<rejuv_msg_SensorGps>("sensor_gps");
+    if (!svc.require(sub, "sensor_gps")) return std::nullopt;
+    gps = *sub;
+  }
+  return Topics{.uploads = *uploads, .state = *state, .setpoint = *setpoint, .modes = *modes, .events = *events,
+                .gps = gps};
 }
 
 // Home on Earth, for GLOBAL_POSITION_INT (optional: both coordinates or neither). False when the params
@@ -114,16 +125,29 @@ class GroundLink {
                                                  .security_events = events.received() + events.lost(),
                                                  .latest_event = events.valid() ? &events.latest() : nullptr});
     if (!svc_.may_send(kNet)) return;
+    read_kept_upload();
     const services::ExtLink::TelemetryInputs in{
         .now = svc_.now(),
         .state = topics_.state.valid() ? &topics_.state.latest() : nullptr,
         .setpoint = topics_.setpoint.valid() ? &topics_.setpoint.latest() : nullptr,
+        .gps = topics_.gps && topics_.gps->valid() ? &topics_.gps->latest() : nullptr,
         .mode = svc_.mode(),
         .epoch = svc_.epoch()};
     for (const mavlink::Message& m : link_.telemetry(in)) send(m);
   }
 
  private:
+  // The upload commander kept (Persistent cell uploaded_mission; read only where the policy grants it, in MC):
+  // the mission a download returns after a rollback has wiped what ext_link forwarded itself.
+  void read_kept_upload() {
+    auto kept = flight_io::read_mission_cell(svc_, "uploaded_mission");
+    if (!kept) {
+      svc_.log(sdk::LogLevel::Warn, "reading the kept upload: " + kept.error());
+      return;
+    }
+    link_.set_kept_upload(*kept ? std::optional<flight_io::MissionSpec>((**kept).mission) : std::nullopt);
+  }
+
   void log_refusal(std::size_t bytes, mavlink::DecodeError error) {
     std::uint64_t suppressed = 0;
     if (link_.should_log_refusal(svc_.now(), suppressed)) {
@@ -141,7 +165,11 @@ class GroundLink {
       link_.abandon();
       return;
     }
-    svc_.logf(sdk::LogLevel::Info, "mission upload of %u waypoints forwarded to commander", upload.upload.count);
+    if (upload.command) {
+      svc_.log(sdk::LogLevel::Info, "return to launch forwarded to commander");
+    } else {
+      svc_.logf(sdk::LogLevel::Info, "mission upload of %u waypoints forwarded to commander", upload.upload.count);
+    }
     send(link_.forwarded(upload));
   }
 
@@ -161,6 +189,7 @@ int serve(sdk::Service& svc) {
   auto made = services::ExtLink::from_params(flight_io::params_of(svc));
   if (!svc.require(made, "refusing the mission")) return 1;
   services::ExtLink& link = *made;
+  link.set_telemetry_period(period_s);
   if (!set_home_from_params(svc, link)) return 1;
   const std::optional<Topics> topics = open_topics(svc);
   if (!topics) return 1;

@@ -26,7 +26,8 @@ void put(std::byte* at, const T& v) {
     const U u = static_cast<U>(v);
     for (std::size_t i = 0; i < sizeof(T); ++i) at[i] = std::byte{static_cast<std::uint8_t>(u >> (8U * i))};
   } else {
-    std::memcpy(at, v.data(), v.size());
+    // An array: its elements in order, each little-endian.
+    for (std::size_t i = 0; i < v.size(); ++i) put(at + i * sizeof(v[0]), v[i]);
   }
 }
 
@@ -42,7 +43,7 @@ void get(const std::byte* at, T& v) {
     for (std::size_t i = 0; i < sizeof(T); ++i) u = static_cast<U>(u | (U{std::to_integer<std::uint8_t>(at[i])} << (8U * i)));
     v = static_cast<T>(u);
   } else {
-    std::memcpy(v.data(), at, v.size());
+    for (std::size_t i = 0; i < v.size(); ++i) get(at + i * sizeof(v[0]), v[i]);
   }
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 
 namespace rejuv::services {
 
@@ -31,7 +32,7 @@ Result<ExtLink, flight_io::InputFailure> ExtLink::from_params(const flight_io::P
   if (!mission) return fail(std::move(mission.error()));
   auto bounds = flight_io::upload_bounds(params);
   if (!bounds) return fail(std::move(bounds.error()));
-  return ExtLink(UploadGuard{.home = mission->waypoints.front(), .bounds = *bounds});
+  return ExtLink(UploadGuard{.home = mission->waypoints.front(), .bounds = *bounds}, *mission);
 }
 
 namespace {
@@ -99,14 +100,142 @@ mav::GlobalPositionInt global_position(const ExtLink::GeoHome& home, const rejuv
                                 .hdg = static_cast<std::uint16_t>(std::min(35999.0, std::round(heading_deg * 100)))};
 }
 
+// GPS_RAW_INT of a GPS sample (in the local frame: idl/sensors.idl) on Earth against home.
+mav::GpsRawInt gps_raw(const ExtLink::GeoHome& home, const rejuv_msg_SensorGps& gps) {
+  const mav::GeoPoint p = mav::global_of(home, gps.p_N_m[0], gps.p_N_m[1], gps.p_N_m[2]);
+  const double speed_m_s = std::hypot(gps.v_N_m_s[0], gps.v_N_m_s[1]);
+  double cog_deg = std::fmod(std::atan2(gps.v_N_m_s[1], gps.v_N_m_s[0]) * 180.0 / std::numbers::pi + 360.0, 360.0);
+  if (!std::isfinite(cog_deg)) cog_deg = 0;
+  const auto u32 = [](double v) { return static_cast<std::uint32_t>(std::clamp(std::round(v), 0.0, 4294967295.0)); };
+  mav::GpsRawInt r{};
+  r.time_usec = gps.timestamp_ns / 1000U;
+  r.lat = static_cast<std::int32_t>(std::lround(p.lat_deg * 1e7));
+  r.lon = static_cast<std::int32_t>(std::lround(p.lon_deg * 1e7));
+  r.alt = static_cast<std::int32_t>(std::lround(p.alt_m * 1e3));  // [mm] AMSL
+  r.eph = 0xFFFF;  // HDOP, DOP: not modelled (the accuracies are in h_acc, v_acc)
+  r.epv = 0xFFFF;
+  r.vel = static_cast<std::uint16_t>(std::min(65534.0, std::round(speed_m_s * 100)));  // [cm/s]
+  r.cog = speed_m_s > 0.1 ? static_cast<std::uint16_t>(std::min(35999.0, std::round(cog_deg * 100))) : 0xFFFF;  // [cdeg]
+  r.fix_type = gps.fix_type;  // GPS_FIX_TYPE: 0 none, 2 2D, 3 3D (the sample's own codes)
+  r.satellites_visible = gps.satellites_used;
+  r.alt_ellipsoid = 0;
+  r.h_acc = u32(gps.eph_m * 1e3);  // [mm]
+  r.v_acc = u32(gps.epv_m * 1e3);  // [mm]
+  r.vel_acc = 0;
+  r.hdg_acc = 0;
+  r.yaw = 0;  // no dual-antenna heading
+  return r;
+}
+
 }  // namespace
 
-mav::Message ExtLink::ack(std::uint8_t system, std::uint8_t component, mav::MissionResult result) const {
+mav::Message ExtLink::ack(std::uint8_t system, std::uint8_t component, mav::MissionResult result,
+                          std::uint8_t mission_type) const {
   return mav::MissionAck{.target_system = system,
                          .target_component = component,
                          .type = static_cast<std::uint8_t>(result),
-                         .mission_type = mav::kMissionTypeMission,
+                         .mission_type = mission_type,
                          .opaque_id = 0};
+}
+
+namespace {
+
+mav::LocalWaypoint local_of(const flight::PathWaypoint& w) {
+  return mav::LocalWaypoint{.north_m = w.p_N_m.x(), .east_m = w.p_N_m.y(), .down_m = w.p_N_m.z(), .yaw_rad = w.yaw_rad};
+}
+
+std::vector<mav::LocalWaypoint> local_of(const flight_io::MissionSpec& mission) {
+  std::vector<mav::LocalWaypoint> out;
+  for (const flight::PathWaypoint& w : mission.waypoints) out.push_back(local_of(w));
+  return out;
+}
+
+// MAV_RESULT (COMMAND_ACK.result).
+constexpr std::uint8_t kResultAccepted = 0;
+constexpr std::uint8_t kResultDenied = 2;
+constexpr std::uint8_t kResultUnsupported = 3;
+constexpr std::uint8_t kResultFailed = 4;
+
+mav::CommandAck command_ack(const mav::FrameHeader& to, std::uint16_t command, std::uint8_t result) {
+  return mav::CommandAck{.command = command, .result = result, .progress = 0, .result_param2 = 0,
+                         .target_system = to.sysid, .target_component = to.compid};
+}
+
+bool for_this_component(std::uint8_t target_component) {
+  return target_component == kVehicleComponent || target_component == 0;
+}
+
+std::array<char, 16> param_id_of(std::string_view name) {
+  std::array<char, 16> id{};
+  std::copy_n(name.begin(), std::min(name.size(), id.size()), id.begin());
+  return id;
+}
+
+std::string name_of(const std::array<char, 16>& id) {
+  return std::string(id.begin(), std::find(id.begin(), id.end(), '\0'));
+}
+
+}  // namespace
+
+void ExtLink::set_telemetry_period(double period_s) {
+  telemetry_period_s_ = period_s;
+  rebuild_params();
+}
+
+void ExtLink::rebuild_params() {
+  // docs/mavlink.md "Parameters": PX4's name where PX4 has the same quantity, RJ_ otherwise.
+  params_ = {
+      Param{.name = "NAV_ACC_RAD", .value = static_cast<float>(launch_mission_.acceptance_radius_m)},
+      Param{.name = "GF_MAX_HOR_DIST", .value = static_cast<float>(guard_.bounds.geofence_radius_m)},
+      Param{.name = "RJ_GF_MIN_ALT", .value = static_cast<float>(guard_.bounds.min_altitude_m)},
+      Param{.name = "RJ_TLM_PERIOD", .value = static_cast<float>(telemetry_period_s_)},
+  };
+  if (home_) {
+    params_.push_back(Param{.name = "RJ_HOME_LAT", .value = static_cast<float>(home_->lat_deg)});
+    params_.push_back(Param{.name = "RJ_HOME_LON", .value = static_cast<float>(home_->lon_deg)});
+    params_.push_back(Param{.name = "RJ_HOME_ALT", .value = static_cast<float>(home_->alt_m)});
+  }
+}
+
+mav::ParamValue ExtLink::param_value(std::size_t index) const {
+  const Param& p = params_[index];
+  return mav::ParamValue{.param_value = p.value,
+                         .param_count = static_cast<std::uint16_t>(params_.size()),
+                         .param_index = static_cast<std::uint16_t>(index),
+                         .param_id = param_id_of(p.name),
+                         .param_type = p.type};
+}
+
+ExtLink::Flown ExtLink::flown() const {
+  if (last_forwarded_) {
+    return Flown{.waypoints = *last_forwarded_, .acceptance_radius_m = last_forwarded_radius_m_.value_or(kDefaultAcceptanceRadius_m),
+                 .index_offset = 1};
+  }
+  if (kept_) return Flown{.waypoints = local_of(*kept_), .acceptance_radius_m = kept_->acceptance_radius_m, .index_offset = 1};
+  return Flown{.waypoints = local_of(launch_mission_), .acceptance_radius_m = launch_mission_.acceptance_radius_m,
+               .index_offset = 0};
+}
+
+mav::Message ExtLink::home_position(std::uint32_t time_boot_ms) const {
+  mav::HomePosition h{};
+  if (home_) {
+    // Home is the local frame's origin; the launch mission starts there (x, y, z: its position in NED).
+    h.latitude = static_cast<std::int32_t>(std::lround(home_->lat_deg * mav::kGlobalIntScale));
+    h.longitude = static_cast<std::int32_t>(std::lround(home_->lon_deg * mav::kGlobalIntScale));
+    h.altitude = static_cast<std::int32_t>(std::lround(home_->alt_m * 1e3));  // [mm] AMSL
+  }
+  h.q = {1, 0, 0, 0};
+  h.time_usec = std::uint64_t{time_boot_ms} * 1000U;
+  return h;
+}
+
+mav::Message ExtLink::autopilot_version() const {
+  // MAV_PROTOCOL_CAPABILITY bits of what is answered here: PARAM_FLOAT (2), MISSION_INT (4), COMMAND_INT (8),
+  // MAVLINK2 (8192). Not MISSION_FLOAT (MISSION_ITEM is not accepted), no fence or rally, no offboard control.
+  mav::AutopilotVersion v{};
+  v.capabilities = 2U | 4U | 8U | 8192U;
+  v.uid = kVehicleSystem;
+  return v;
 }
 
 Result<ExtLink::Inbound, mav::DecodeError> ExtLink::on_datagram(std::span<const std::byte> datagram, Nanos now) {
@@ -126,21 +255,141 @@ Result<ExtLink::Inbound, mav::DecodeError> ExtLink::on_datagram(std::span<const 
     return on_item(from, *item, now);
   }
   if (const auto* list = std::get_if<mav::MissionRequestList>(&packet->message)) {
-    if (!for_this_vehicle(list->target_system) || list->mission_type != mav::kMissionTypeMission) return Inbound{};
-    return Inbound{.replies = {mav::MissionCount{.count = 0, .target_system = from.sysid, .target_component = from.compid,
-                                                 .mission_type = mav::kMissionTypeMission, .opaque_id = 0}}};
+    if (!for_this_vehicle(list->target_system)) return Inbound{};
+    // Fence and rally points: the vehicle has none (an empty list is the protocol's answer).
+    const std::size_t n = list->mission_type == mav::kMissionTypeMission ? flown().waypoints.size() : 0;
+    return Inbound{.replies = {mav::MissionCount{.count = static_cast<std::uint16_t>(n), .target_system = from.sysid,
+                                                 .target_component = from.compid, .mission_type = list->mission_type,
+                                                 .opaque_id = 0}}};
+  }
+  if (const auto* request = std::get_if<mav::MissionRequestInt>(&packet->message)) {
+    if (!for_this_vehicle(request->target_system)) return Inbound{};
+    const Flown f = flown();
+    if (request->mission_type != mav::kMissionTypeMission || request->seq >= f.waypoints.size()) {
+      return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::InvalidSequence, request->mission_type)}};
+    }
+    const mav::LocalWaypoint& w = f.waypoints[request->seq];
+    return Inbound{.replies = {home_ ? mav::global_item(*home_, w, request->seq, f.acceptance_radius_m, from.sysid, from.compid)
+                                     : mav::local_item(w, request->seq, f.acceptance_radius_m, from.sysid, from.compid)}};
   }
   if (const auto* clear = std::get_if<mav::MissionClearAll>(&packet->message)) {
     if (!for_this_vehicle(clear->target_system)) return Inbound{};
-    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported)},
+    if (clear->mission_type == 1 || clear->mission_type == 2) {  // fence, rally: there are none; cleared
+      return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Accepted, clear->mission_type)}};
+    }
+    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported, clear->mission_type)},
                    .note = "MISSION_CLEAR_ALL refused: an uploaded mission can only be replaced"};
+  }
+  if (const auto* set = std::get_if<mav::MissionSetCurrent>(&packet->message)) {
+    if (!for_this_vehicle(set->target_system)) return Inbound{};
+    const Flown f = flown();
+    const std::uint32_t index = last_waypoint_.value_or(f.index_offset);
+    const auto current = static_cast<std::uint16_t>(index >= f.index_offset ? index - f.index_offset : 0);
+    return Inbound{.replies = {mav::status_text(mav::Severity::Warning, "MISSION_SET_CURRENT refused: flown in order"),
+                               mav::MissionCurrent{.seq = current, .total = static_cast<std::uint16_t>(f.waypoints.size()),
+                                                   .mission_state = 0, .mission_mode = 0, .mission_id = 0,
+                                                   .fence_id = 0, .rally_points_id = 0}}};
+  }
+  if (const auto* command = std::get_if<mav::CommandLong>(&packet->message)) {
+    if (!for_this_vehicle(command->target_system) || !for_this_component(command->target_component)) return Inbound{};
+    return on_command(from, command->command, {command->param1, command->param2}, now);
+  }
+  if (const auto* command = std::get_if<mav::CommandInt>(&packet->message)) {
+    if (!for_this_vehicle(command->target_system) || !for_this_component(command->target_component)) return Inbound{};
+    return on_command(from, command->command, {command->param1, command->param2}, now);
+  }
+  if (std::holds_alternative<mav::ParamRequestList>(packet->message) ||
+      std::holds_alternative<mav::ParamRequestRead>(packet->message) ||
+      std::holds_alternative<mav::ParamSet>(packet->message)) {
+    return on_param(packet->message);
   }
   return Inbound{};  // HEARTBEAT and the rest: valid (the sender is the ground station), nothing to answer
 }
 
+ExtLink::Inbound ExtLink::on_command(const mav::FrameHeader& from, std::uint16_t command, std::array<float, 2> param12,
+                                     Nanos now) {
+  // MAV_CMD values (common.xml).
+  constexpr std::uint16_t kReturnToLaunch = 20;
+  constexpr std::uint16_t kMissionStart = 300;
+  constexpr std::uint16_t kArmDisarm = 400;
+  constexpr std::uint16_t kRequestMessage = 512;
+  constexpr std::uint16_t kRequestAutopilotCapabilities = 520;
+  const auto time_boot_ms = static_cast<std::uint32_t>(now.count() / 1'000'000);
+  switch (command) {
+    case kRequestMessage: {
+      const float id = param12[0];
+      if (id == static_cast<float>(mav::AutopilotVersion::kId)) {
+        return Inbound{.replies = {command_ack(from, command, kResultAccepted), autopilot_version()}};
+      }
+      if (id == static_cast<float>(mav::HomePosition::kId)) {
+        if (!home_) return Inbound{.replies = {command_ack(from, command, kResultFailed)}, .note = "HOME_POSITION asked for: no home on Earth"};
+        return Inbound{.replies = {command_ack(from, command, kResultAccepted), home_position(time_boot_ms)}};
+      }
+      return Inbound{.replies = {command_ack(from, command, kResultUnsupported)}};
+    }
+    case kRequestAutopilotCapabilities:
+      return Inbound{.replies = {command_ack(from, command, kResultAccepted), autopilot_version()}};
+    case kMissionStart:
+      // The vehicle flies its mission in AUTO from take-off on; there is nothing else to start.
+      return Inbound{.replies = {command_ack(from, command, kResultAccepted)}};
+    case kArmDisarm:
+      // Armed from boot to the end of the flight: arming is a no-op, disarming in flight is refused.
+      return Inbound{.replies = {command_ack(from, command, param12[0] == 1.0F ? kResultAccepted : kResultDenied)}};
+    case kReturnToLaunch: {
+      // Back to home (the launch mission's first waypoint, at its altitude) as a one-waypoint mission on
+      // mission_upload: commander checks it as any upload, and gen_set_point flies it from the current setpoint.
+      const std::vector<mav::LocalWaypoint> home{local_of(guard_.home)};
+      rejuv_msg_MissionWaypoints upload = to_message(home, launch_mission_.acceptance_radius_m, now);
+      if (auto valid = flight_io::validate_upload(upload, guard_.home, guard_.bounds); !valid) {
+        return Inbound{.replies = {command_ack(from, command, kResultDenied)},
+                       .note = "return to launch refused: " + valid.error().message};
+      }
+      return Inbound{.replies = {},
+                     .forward = Forward{.upload = upload, .waypoints = home, .ground_system = from.sysid,
+                                        .ground_component = from.compid, .command = command},
+                     .note = std::nullopt};
+    }
+    default: return Inbound{.replies = {command_ack(from, command, kResultUnsupported)}};
+  }
+}
+
+ExtLink::Inbound ExtLink::on_param(const mav::Message& message) {
+  if (const auto* list = std::get_if<mav::ParamRequestList>(&message)) {
+    if (!for_this_vehicle(list->target_system) || !for_this_component(list->target_component)) return Inbound{};
+    Inbound in;
+    for (std::size_t i = 0; i < params_.size(); ++i) in.replies.emplace_back(param_value(i));
+    return in;
+  }
+  const auto find = [&](const std::array<char, 16>& id) -> std::optional<std::size_t> {
+    const std::string name = name_of(id);
+    for (std::size_t i = 0; i < params_.size(); ++i) {
+      if (params_[i].name == name) return i;
+    }
+    return std::nullopt;
+  };
+  if (const auto* read = std::get_if<mav::ParamRequestRead>(&message)) {
+    if (!for_this_vehicle(read->target_system) || !for_this_component(read->target_component)) return Inbound{};
+    const std::optional<std::size_t> at =
+        read->param_index >= 0 ? (static_cast<std::size_t>(read->param_index) < params_.size()
+                                      ? std::optional<std::size_t>(static_cast<std::size_t>(read->param_index))
+                                      : std::nullopt)
+                               : find(read->param_id);
+    if (!at) return Inbound{};  // the protocol's answer to an unknown param: none
+    return Inbound{.replies = {param_value(*at)}};
+  }
+  const auto& set = std::get<mav::ParamSet>(message);
+  if (!for_this_vehicle(set.target_system) || !for_this_component(set.target_component)) return Inbound{};
+  const std::optional<std::size_t> at = find(set.param_id);
+  if (!at) return Inbound{.replies = {mav::status_text(mav::Severity::Warning, "param " + name_of(set.param_id) + ": unknown")}};
+  // Launch values are fixed for the flight (the SEI's guarantees rest on them): answered with the value kept.
+  return Inbound{.replies = {mav::status_text(mav::Severity::Warning, "param " + params_[*at].name + " is read-only in flight"),
+                             param_value(*at)}};
+}
+
 ExtLink::Inbound ExtLink::on_count(const mav::FrameHeader& from, const mav::MissionCount& count) {
   if (count.mission_type != mav::kMissionTypeMission) {
-    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported)}};
+    // No fence or rally storage: refused with the type asked for, as the protocol says.
+    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported, count.mission_type)}};
   }
   if (count.count == 0) {
     return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported)},
@@ -162,7 +411,7 @@ ExtLink::Inbound ExtLink::on_item(const mav::FrameHeader& from, const mav::Missi
   if (!receiving_) {
     // The last item again after the ack (lost on the way): acknowledge again, publish nothing.
     if (last_forwarded_ && item.seq + 1U == last_forwarded_->size() &&
-        mav::waypoint_of(item) == last_forwarded_->back()) {
+        mav::waypoint_in_frame(item, home_) == last_forwarded_->back()) {
       return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Accepted)}};
     }
     // No upload in progress (a rollback ended the one this belonged to): the ground station starts again.
@@ -181,9 +430,12 @@ ExtLink::Inbound ExtLink::on_item(const mav::FrameHeader& from, const mav::Missi
     ++uploads_refused_;
     return Inbound{.replies = {ack(from.sysid, from.compid, result)}, .forward = std::nullopt, .note = std::move(why)};
   };
-  if (item.frame != mav::kMavFrameLocalNed) {
-    return refuse(mav::MissionResult::UnsupportedFrame, "item " + std::to_string(item.seq) + ": frame " +
-                                                            std::to_string(item.frame) + " (only MAV_FRAME_LOCAL_NED)");
+  const std::optional<mav::LocalWaypoint> waypoint = mav::waypoint_in_frame(item, home_);
+  if (!waypoint) {
+    return refuse(mav::MissionResult::UnsupportedFrame,
+                  "item " + std::to_string(item.seq) + ": frame " + std::to_string(item.frame) +
+                      (home_ ? " (LOCAL_NED, GLOBAL(_INT), GLOBAL_RELATIVE_ALT(_INT) accepted)"
+                             : " (only MAV_FRAME_LOCAL_NED: no home on Earth)"));
   }
   if (item.command != mav::kMavCmdNavWaypoint) {
     return refuse(mav::MissionResult::Unsupported, "item " + std::to_string(item.seq) + ": command " +
@@ -195,7 +447,7 @@ ExtLink::Inbound ExtLink::on_item(const mav::FrameHeader& from, const mav::Missi
   }
   // The mission's one acceptance radius: the first item's (0: the default).
   if (item.seq == 0 && item.param2 > 0) r.acceptance_radius_m = item.param2;
-  r.waypoints.push_back(mav::waypoint_of(item));
+  r.waypoints.push_back(*waypoint);
   if (r.waypoints.size() < r.count) {
     return Inbound{.replies = {mav::MissionRequestInt{.seq = static_cast<std::uint16_t>(r.waypoints.size()),
                                                       .target_system = from.sysid, .target_component = from.compid,
@@ -229,6 +481,11 @@ ExtLink::Inbound ExtLink::on_item(const mav::FrameHeader& from, const mav::Missi
 mav::Message ExtLink::forwarded(const Forward& forward) {
   ++uploads_forwarded_;
   last_forwarded_ = forward.waypoints;
+  last_forwarded_radius_m_ = forward.upload.acceptance_radius_m;
+  if (forward.command) {
+    return mav::CommandAck{.command = *forward.command, .result = kResultAccepted, .progress = 0, .result_param2 = 0,
+                           .target_system = forward.ground_system, .target_component = forward.ground_component};
+  }
   return ack(forward.ground_system, forward.ground_component, mav::MissionResult::Accepted);
 }
 
@@ -275,6 +532,7 @@ std::vector<mav::Message> ExtLink::telemetry(const TelemetryInputs& in) {
     pending_.pop_front();
   }
   const auto time_boot_ms = static_cast<std::uint32_t>(in.now.count() / 1'000'000);
+  const Flown mission = flown();
   if (!last_slow_ || in.now - *last_slow_ >= std::chrono::seconds{1}) {
     last_slow_ = in.now;
     out.emplace_back(mav::Heartbeat{.custom_mode = custom_mode_of(in.mode, in.epoch),
@@ -285,24 +543,40 @@ std::vector<mav::Message> ExtLink::telemetry(const TelemetryInputs& in) {
                                                                            mav::kModeFlagSafetyArmed),
                                     .system_status = mav::kMavStateActive,
                                     .mavlink_version = 3});
-    mav::SysStatus sys{};
-    sys.battery_remaining = -1;
-    sys.current_battery = -1;
-    sys.voltage_battery = 0xFFFF;
-    out.emplace_back(sys);
+    out.emplace_back(sys_status(in));
+    // MAV_LANDED_STATE: in the air above 0.2 m (the plant's ground is home's altitude).
+    const bool in_air = in.state != nullptr && -in.state->p_N_m[2] > 0.2;
+    out.emplace_back(mav::ExtendedSysState{.vtol_state = 0, .landed_state = static_cast<std::uint8_t>(in_air ? 2 : 1)});
+    if (home_) out.emplace_back(home_position(time_boot_ms));
     if (in.setpoint != nullptr) {
-      out.emplace_back(mav::MissionCurrent{.seq = static_cast<std::uint16_t>(in.setpoint->waypoint_index),
-                                           .total = 0, .mission_state = 0, .mission_mode = 0, .mission_id = 0,
-                                           .fence_id = 0, .rally_points_id = 0});
+      const std::uint32_t index = in.setpoint->waypoint_index;
+      const std::uint32_t item = index >= mission.index_offset ? index - mission.index_offset : 0;
+      // MISSION_STATE: ACTIVE (3), COMPLETE (5).
+      out.emplace_back(mav::MissionCurrent{.seq = static_cast<std::uint16_t>(item),
+                                           .total = static_cast<std::uint16_t>(mission.waypoints.size()),
+                                           .mission_state = static_cast<std::uint8_t>(in.setpoint->mission_done != 0 ? 5 : 3),
+                                           .mission_mode = 1,  // in a mission mode (AUTO)
+                                           .mission_id = 0, .fence_id = 0, .rally_points_id = 0});
     }
   }
   // The setpoint moved on to the next waypoint: the one before is reached (mission protocol "Mission
-  // progress"). A rollback may restore an older index; the one reached is then reported again.
+  // progress"); the last one when the mission is done. Path indices run ahead of the items of an uploaded
+  // mission by one (its path starts at the setpoint it was applied at, which is no item). A rollback may
+  // restore an older index; the one reached is then reported again.
   if (in.setpoint != nullptr) {
-    if (last_waypoint_ && in.setpoint->waypoint_index > *last_waypoint_) {
-      out.emplace_back(mav::MissionItemReached{.seq = static_cast<std::uint16_t>(in.setpoint->waypoint_index - 1)});
+    const std::uint32_t index = in.setpoint->waypoint_index;
+    if (last_waypoint_ && index > *last_waypoint_ && index - 1 >= mission.index_offset) {
+      out.emplace_back(mav::MissionItemReached{.seq = static_cast<std::uint16_t>(index - 1 - mission.index_offset)});
     }
-    last_waypoint_ = in.setpoint->waypoint_index;
+    if (in.setpoint->mission_done != 0 && !reported_done_ && index >= mission.index_offset) {
+      out.emplace_back(mav::MissionItemReached{.seq = static_cast<std::uint16_t>(index - mission.index_offset)});
+    }
+    reported_done_ = in.setpoint->mission_done != 0;
+    last_waypoint_ = index;
+  }
+  if (in.gps != nullptr && home_ && (!last_gps_ns_ || in.gps->timestamp_ns != *last_gps_ns_)) {
+    last_gps_ns_ = in.gps->timestamp_ns;
+    out.emplace_back(gps_raw(*home_, *in.gps));
   }
   if (in.state != nullptr) {
     const rejuv_msg_VehicleStateEstimate& s = *in.state;
@@ -326,8 +600,45 @@ std::vector<mav::Message> ExtLink::telemetry(const TelemetryInputs& in) {
                                    .rollspeed = static_cast<float>(s.omega_B_rad_s[0]),
                                    .pitchspeed = static_cast<float>(s.omega_B_rad_s[1]),
                                    .yawspeed = static_cast<float>(s.omega_B_rad_s[2])});
+    // VFR_HUD: no air data and no wind model in the estimate: airspeed is the ground speed; the throttle is not
+    // seen by ext_link (0).
+    const double ground_speed = std::hypot(s.v_N_m_s[0], s.v_N_m_s[1]);
+    double heading_deg = std::fmod(yaw * 180.0 / std::numbers::pi + 360.0, 360.0);
+    if (!std::isfinite(heading_deg)) heading_deg = 0;
+    out.emplace_back(mav::VfrHud{.airspeed = static_cast<float>(ground_speed),
+                                 .groundspeed = static_cast<float>(ground_speed),
+                                 .alt = static_cast<float>((home_ ? home_->alt_m : 0.0) - s.p_N_m[2]),
+                                 .climb = static_cast<float>(-s.v_N_m_s[2]),
+                                 .heading = static_cast<std::int16_t>(std::min(359.0, std::floor(heading_deg))),
+                                 .throttle = 0});
   }
   return out;
+}
+
+mav::SysStatus ExtLink::sys_status(const TelemetryInputs& in) {
+  // MAV_SYS_STATUS_SENSOR bits. Present and enabled: what the graph flies with (the IMU, magnetometer and
+  // barometer behind the estimate, GPS when ext_link sees its samples, the AHRS and the controllers). Healthy:
+  // what was seen working since the last report — a new estimate for the sensors behind it and the AHRS, a
+  // new GPS sample with a 3D fix, a new setpoint for the control loops.
+  constexpr std::uint32_t kGyro = 1U, kAccel = 2U, kMag = 4U, kBaro = 8U, kGps = 32U, kRate = 1024U,
+                          kAttitude = 2048U, kYaw = 4096U, kAltitude = 8192U, kPosition = 16384U, kAhrs = 0x200000U;
+  constexpr std::uint32_t kEstimate = kGyro | kAccel | kMag | kBaro | kAhrs;
+  constexpr std::uint32_t kControl = kRate | kAttitude | kYaw | kAltitude | kPosition;
+  mav::SysStatus sys{};
+  sys.onboard_control_sensors_present = kEstimate | kControl | (in.gps != nullptr ? kGps : 0U);
+  sys.onboard_control_sensors_enabled = sys.onboard_control_sensors_present;
+  std::uint32_t health = 0;
+  if (in.state != nullptr && in.state->timestamp_ns != health_seen_.state_ns) health |= kEstimate;
+  if (in.gps != nullptr && in.gps->timestamp_ns != health_seen_.gps_ns && in.gps->fix_type >= 3) health |= kGps;
+  if (in.setpoint != nullptr && in.setpoint->timestamp_ns != health_seen_.setpoint_ns) health |= kControl;
+  health_seen_ = HealthSeen{.state_ns = in.state != nullptr ? in.state->timestamp_ns : 0,
+                            .gps_ns = in.gps != nullptr ? in.gps->timestamp_ns : 0,
+                            .setpoint_ns = in.setpoint != nullptr ? in.setpoint->timestamp_ns : 0};
+  sys.onboard_control_sensors_health = health;
+  sys.battery_remaining = -1;  // no battery model
+  sys.current_battery = -1;
+  sys.voltage_battery = 0xFFFF;
+  return sys;
 }
 
 bool ExtLink::should_log_refusal(Nanos now, std::uint64_t& suppressed) {

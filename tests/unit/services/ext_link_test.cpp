@@ -28,7 +28,22 @@ std::vector<mav::LocalWaypoint> square() {
 }
 
 // Home at 3 m over the origin, the default bounds (10 m geofence, 1 m altitude floor): square() passes.
-ExtLink guarded_link() { return ExtLink({.home = {.p_N_m = Eigen::Vector3d(0, 0, -3), .yaw_rad = 0}, .bounds = {}}); }
+// The launch mission: home alone, acceptance radius 0.05 m.
+ExtLink guarded_link() {
+  const flight::PathWaypoint home{.p_N_m = Eigen::Vector3d(0, 0, -3), .yaw_rad = 0};
+  return ExtLink({.home = home, .bounds = {}},
+                 flight_io::MissionSpec{.waypoints = {home}, .acceptance_radius_m = 0.05, .from_defaults = false});
+}
+constexpr mav::GeoHome kHome = mav::kPx4SitlHome;
+
+template <class M>
+std::vector<M> all_of(const std::vector<mav::Message>& messages) {
+  std::vector<M> out;
+  for (const mav::Message& m : messages) {
+    if (const auto* x = std::get_if<M>(&m)) out.push_back(*x);
+  }
+  return out;
+}
 
 std::uint8_t g_seq = 0;
 Bytes bytes_of(const mav::Message& m) {
@@ -157,7 +172,7 @@ TEST(ExtLink, UploadOutsideTheBounds_RefusedWithTheProtocolsErrorCode) {
   }
 }
 
-TEST(ExtLink, GlobalFrameItem_UnsupportedFrame) {
+TEST(ExtLink, GlobalFrameItemWithoutHome_UnsupportedFrame) {
   ExtLink link = guarded_link();
   (void)link.on_datagram(bytes_of(mav::MissionCount{.count = 1, .target_system = 1, .target_component = 1,
                                                     .mission_type = 0, .opaque_id = 0}),
@@ -168,6 +183,267 @@ TEST(ExtLink, GlobalFrameItem_UnsupportedFrame) {
   ASSERT_TRUE(r.has_value());
   EXPECT_EQ(std::get<mav::MissionAck>(r->replies.at(0)).type, static_cast<std::uint8_t>(mav::MissionResult::UnsupportedFrame));
   EXPECT_FALSE(r->forward.has_value());
+}
+
+TEST(ExtLink, GlobalRelativeAltUpload_ConvertedOnceAgainstHome) {
+  ExtLink link = guarded_link();
+  link.set_home(kHome);
+  mav::MissionUploader ground(square(), 0.1);
+  ground.plan_in_global(kHome);
+  // Through the same run as a local upload (upload() drives `ground`'s twin): here by hand, item by item.
+  std::optional<mav::Message> next = ground.start();
+  std::optional<ExtLink::Forward> forward;
+  for (int guard = 0; next && guard < 20; ++guard) {
+    if (const auto* item = std::get_if<mav::MissionItemInt>(&*next)) {
+      EXPECT_EQ(item->frame, mav::kMavFrameGlobalRelativeAltInt);
+    }
+    auto in = link.on_datagram(bytes_of(*next), Nanos{0});
+    ASSERT_TRUE(in.has_value());
+    next.reset();
+    std::vector<mav::Message> replies = in->replies;
+    if (in->forward) {
+      forward = in->forward;
+      replies.push_back(link.forwarded(*in->forward));
+    }
+    for (const mav::Message& m : replies) {
+      if (auto r = ground.on_message(m)) next = r;
+    }
+  }
+  ASSERT_TRUE(forward.has_value());
+  EXPECT_EQ(ground.status(), mav::MissionUploader::Status::Accepted);
+  ASSERT_EQ(forward->upload.count, 4U);
+  for (std::size_t i = 0; i < 4; ++i) {
+    // 10⁻⁷ degree of latitude is 1.1 cm.
+    EXPECT_NEAR(forward->upload.waypoints[i].p_N_m[0], square()[i].north_m, 0.02) << i;
+    EXPECT_NEAR(forward->upload.waypoints[i].p_N_m[1], square()[i].east_m, 0.02) << i;
+    EXPECT_NEAR(forward->upload.waypoints[i].p_N_m[2], -3.0, 1e-4) << i;
+  }
+}
+
+TEST(ExtLink, GlobalAmslItem_AltitudeAboveHomeFromAmsl) {
+  ExtLink link = guarded_link();
+  link.set_home(kHome);
+  (void)link.on_datagram(bytes_of(mav::MissionCount{.count = 1, .target_system = 1, .target_component = 1,
+                                                    .mission_type = 0, .opaque_id = 0}),
+                         Nanos{0});
+  mav::MissionItemInt item = mav::global_item(kHome, {.north_m = 1, .east_m = 0, .down_m = -3, .yaw_rad = 0}, 0, 0.1, 1, 1);
+  item.frame = mav::kMavFrameGlobalInt;
+  item.z = 488.0F + 4.0F;  // AMSL: 4 m above home
+  auto r = link.on_datagram(bytes_of(item), Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  ASSERT_TRUE(r->forward.has_value());
+  EXPECT_NEAR(r->forward->upload.waypoints[0].p_N_m[2], -4.0, 1e-4);
+  EXPECT_NEAR(r->forward->upload.waypoints[0].p_N_m[0], 1.0, 0.02);
+}
+
+TEST(ExtLink, Download_AfterUpload_TheUploadInGlobalFrame) {
+  ExtLink link = guarded_link();
+  link.set_home(kHome);
+  ASSERT_TRUE(upload(link, square()).forward.has_value());
+  auto count = link.on_datagram(bytes_of(mav::MissionRequestList{.target_system = 1, .target_component = 1, .mission_type = 0}),
+                                Nanos{0});
+  ASSERT_TRUE(count.has_value());
+  EXPECT_EQ(std::get<mav::MissionCount>(count->replies.at(0)).count, 4U);
+  auto item = link.on_datagram(bytes_of(mav::MissionRequestInt{.seq = 2, .target_system = 1, .target_component = 1,
+                                                                 .mission_type = 0}),
+                               Nanos{0});
+  ASSERT_TRUE(item.has_value());
+  const auto& i = std::get<mav::MissionItemInt>(item->replies.at(0));
+  EXPECT_EQ(i.seq, 2U);
+  EXPECT_EQ(i.frame, mav::kMavFrameGlobalRelativeAltInt);
+  const auto back = mav::waypoint_in_frame(i, kHome);
+  ASSERT_TRUE(back.has_value());
+  EXPECT_NEAR(back->north_m, 2.0, 0.02);
+  EXPECT_NEAR(back->east_m, 2.0, 0.02);
+  EXPECT_FLOAT_EQ(i.z, 3.0F);  // [m] above home
+  auto beyond = link.on_datagram(bytes_of(mav::MissionRequestInt{.seq = 4, .target_system = 1, .target_component = 1,
+                                                                   .mission_type = 0}),
+                                 Nanos{0});
+  ASSERT_TRUE(beyond.has_value());
+  EXPECT_EQ(std::get<mav::MissionAck>(beyond->replies.at(0)).type, static_cast<std::uint8_t>(mav::MissionResult::InvalidSequence));
+}
+
+TEST(ExtLink, Download_WithoutUpload_KeptUploadElseLaunchMission) {
+  ExtLink link = guarded_link();
+  const auto count = [&] {
+    auto r = link.on_datagram(bytes_of(mav::MissionRequestList{.target_system = 1, .target_component = 1, .mission_type = 0}),
+                              Nanos{0});
+    return r ? std::get<mav::MissionCount>(r->replies.at(0)).count : 999;
+  };
+  EXPECT_EQ(count(), 1U) << "the launch mission: home";
+  flight_io::MissionSpec kept{.waypoints = {}, .acceptance_radius_m = 0.2, .from_defaults = false};
+  kept.waypoints.push_back({.p_N_m = Eigen::Vector3d(1, 0, -3), .yaw_rad = 0});
+  kept.waypoints.push_back({.p_N_m = Eigen::Vector3d(1, 1, -3), .yaw_rad = 0});
+  link.set_kept_upload(kept);
+  EXPECT_EQ(count(), 2U) << "the upload commander kept, after a rollback wiped ext_link's own memory";
+}
+
+TEST(ExtLink, FenceAndRally_AnsweredAsEmptyAndUnsupported) {
+  ExtLink link = guarded_link();
+  auto list = link.on_datagram(bytes_of(mav::MissionRequestList{.target_system = 1, .target_component = 1, .mission_type = 1}),
+                               Nanos{0});
+  ASSERT_TRUE(list.has_value());
+  const auto& c = std::get<mav::MissionCount>(list->replies.at(0));
+  EXPECT_EQ(c.count, 0U);
+  EXPECT_EQ(c.mission_type, 1U);
+  auto up = link.on_datagram(bytes_of(mav::MissionCount{.count = 2, .target_system = 1, .target_component = 1,
+                                                        .mission_type = 2, .opaque_id = 0}),
+                             Nanos{0});
+  ASSERT_TRUE(up.has_value());
+  const auto& a = std::get<mav::MissionAck>(up->replies.at(0));
+  EXPECT_EQ(a.type, static_cast<std::uint8_t>(mav::MissionResult::Unsupported));
+  EXPECT_EQ(a.mission_type, 2U);
+  EXPECT_FALSE(link.upload_in_progress());
+}
+
+mav::CommandLong command(std::uint16_t id, float param1 = 0) {
+  return mav::CommandLong{.param1 = param1, .param2 = 0, .param3 = 0, .param4 = 0, .param5 = 0, .param6 = 0, .param7 = 0,
+                          .command = id, .target_system = 1, .target_component = 1, .confirmation = 0};
+}
+
+TEST(ExtLink, RequestMessage_AutopilotVersionWithItsCapabilities) {
+  ExtLink link = guarded_link();
+  auto r = link.on_datagram(bytes_of(command(512, 148)), Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  const auto acks = all_of<mav::CommandAck>(r->replies);
+  ASSERT_EQ(acks.size(), 1U);
+  EXPECT_EQ(acks[0].command, 512U);
+  EXPECT_EQ(acks[0].result, 0U);  // MAV_RESULT_ACCEPTED
+  EXPECT_EQ(acks[0].target_system, 255U);
+  const auto versions = all_of<mav::AutopilotVersion>(r->replies);
+  ASSERT_EQ(versions.size(), 1U);
+  EXPECT_NE(versions[0].capabilities & 4U, 0U) << "MISSION_INT";
+  EXPECT_NE(versions[0].capabilities & 8U, 0U) << "COMMAND_INT";
+  EXPECT_EQ(versions[0].capabilities & 1U, 0U) << "not MISSION_FLOAT: MISSION_ITEM is not accepted";
+}
+
+TEST(ExtLink, RequestHomePosition_WithHomeAcceptedWithoutFailed) {
+  ExtLink link = guarded_link();
+  auto none = link.on_datagram(bytes_of(command(512, 242)), Nanos{0});
+  ASSERT_TRUE(none.has_value());
+  EXPECT_EQ(all_of<mav::CommandAck>(none->replies).at(0).result, 4U);  // MAV_RESULT_FAILED
+  link.set_home(kHome);
+  auto r = link.on_datagram(bytes_of(command(512, 242)), Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(all_of<mav::CommandAck>(r->replies).at(0).result, 0U);
+  const auto home = all_of<mav::HomePosition>(r->replies);
+  ASSERT_EQ(home.size(), 1U);
+  EXPECT_EQ(home[0].latitude, 473977420);
+  EXPECT_EQ(home[0].longitude, 85455940);
+  EXPECT_EQ(home[0].altitude, 488000);
+}
+
+TEST(ExtLink, UnknownCommand_Unsupported_DisarmDenied) {
+  ExtLink link = guarded_link();
+  auto r = link.on_datagram(bytes_of(command(176)), Nanos{0});  // MAV_CMD_DO_SET_MODE
+  ASSERT_TRUE(r.has_value());
+  EXPECT_EQ(all_of<mav::CommandAck>(r->replies).at(0).result, 3U);  // MAV_RESULT_UNSUPPORTED
+  auto disarm = link.on_datagram(bytes_of(command(400, 0)), Nanos{0});
+  ASSERT_TRUE(disarm.has_value());
+  EXPECT_EQ(all_of<mav::CommandAck>(disarm->replies).at(0).result, 2U);  // MAV_RESULT_DENIED
+  mav::CommandLong other = command(176);
+  other.target_system = 7;
+  auto ignored = link.on_datagram(bytes_of(other), Nanos{0});
+  ASSERT_TRUE(ignored.has_value());
+  EXPECT_TRUE(ignored->replies.empty()) << "a command for another system is not answered";
+}
+
+TEST(ExtLink, ReturnToLaunch_ForwardedAsAMissionToHomeThenAcked) {
+  ExtLink link = guarded_link();
+  auto r = link.on_datagram(bytes_of(command(20)), std::chrono::seconds{5});
+  ASSERT_TRUE(r.has_value());
+  EXPECT_TRUE(r->replies.empty()) << "acknowledged only once published";
+  ASSERT_TRUE(r->forward.has_value());
+  EXPECT_EQ(r->forward->upload.count, 1U);
+  EXPECT_DOUBLE_EQ(r->forward->upload.waypoints[0].p_N_m[2], -3.0);
+  EXPECT_DOUBLE_EQ(r->forward->upload.waypoints[0].p_N_m[0], 0.0);
+  const auto ack = std::get<mav::CommandAck>(link.forwarded(*r->forward));
+  EXPECT_EQ(ack.command, 20U);
+  EXPECT_EQ(ack.result, 0U);
+}
+
+TEST(ExtLink, Params_ListedAndNotSettable) {
+  ExtLink link = guarded_link();
+  link.set_home(kHome);
+  auto list = link.on_datagram(bytes_of(mav::ParamRequestList{.target_system = 1, .target_component = 1}), Nanos{0});
+  ASSERT_TRUE(list.has_value());
+  const auto values = all_of<mav::ParamValue>(list->replies);
+  ASSERT_EQ(values.size(), link.params().size());
+  ASSERT_GE(values.size(), 7U);
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    EXPECT_EQ(values[i].param_index, i);
+    EXPECT_EQ(values[i].param_count, values.size());
+  }
+  mav::ParamSet set{.param_value = 5, .target_system = 1, .target_component = 1, .param_id = {}, .param_type = 9};
+  const std::string_view name = "NAV_ACC_RAD";
+  std::copy(name.begin(), name.end(), set.param_id.begin());
+  auto r = link.on_datagram(bytes_of(set), Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  const auto answered = all_of<mav::ParamValue>(r->replies);
+  ASSERT_EQ(answered.size(), 1U);
+  EXPECT_FLOAT_EQ(answered[0].param_value, 0.05F) << "the unchanged value";
+  mav::ParamRequestRead read{.param_index = -1, .target_system = 1, .target_component = 1, .param_id = set.param_id};
+  auto again = link.on_datagram(bytes_of(read), Nanos{0});
+  ASSERT_TRUE(again.has_value());
+  EXPECT_FLOAT_EQ(all_of<mav::ParamValue>(again->replies).at(0).param_value, 0.05F);
+}
+
+TEST(ExtLink, TelemetryWithHomeAndGps_HomeGpsHealthAndLandedState) {
+  ExtLink link = guarded_link();
+  link.set_home(kHome);
+  rejuv_msg_VehicleStateEstimate x{};
+  x.timestamp_ns = 1;
+  x.p_N_m[2] = -3;
+  x.q_NB[0] = 1;
+  rejuv_msg_SensorGps gps{};
+  gps.timestamp_ns = 1'000'000;
+  gps.p_N_m[0] = 111.32;
+  gps.p_N_m[2] = -3;
+  gps.fix_type = 3;
+  gps.satellites_used = 10;
+  gps.eph_m = 0.5;
+  const auto out = link.telemetry({.now = std::chrono::seconds{2}, .state = &x, .setpoint = nullptr, .gps = &gps,
+                                   .mode = SrMode::MC, .epoch = Epoch{1}});
+  const auto raw = all_of<mav::GpsRawInt>(out);
+  ASSERT_EQ(raw.size(), 1U);
+  EXPECT_NEAR(raw[0].lat, 473987420, 20);
+  EXPECT_EQ(raw[0].alt, 491000);
+  EXPECT_EQ(raw[0].fix_type, 3U);
+  EXPECT_EQ(raw[0].h_acc, 500U);
+  const auto sys = all_of<mav::SysStatus>(out).at(0);
+  EXPECT_NE(sys.onboard_control_sensors_health & 32U, 0U) << "GPS healthy: a new sample with a 3D fix";
+  EXPECT_NE(sys.onboard_control_sensors_health & 1U, 0U) << "gyro healthy: a new estimate";
+  EXPECT_EQ(sys.onboard_control_sensors_health & 1024U, 0U) << "no setpoint seen: the control loops are not";
+  EXPECT_EQ(all_of<mav::ExtendedSysState>(out).at(0).landed_state, 2U);  // MAV_LANDED_STATE_IN_AIR
+  EXPECT_EQ(all_of<mav::HomePosition>(out).size(), 1U);
+  // A second later with nothing new: no longer healthy, and the same GPS sample is not sent again.
+  const auto stale = link.telemetry({.now = std::chrono::seconds{3}, .state = &x, .setpoint = nullptr, .gps = &gps,
+                                     .mode = SrMode::MC, .epoch = Epoch{1}});
+  EXPECT_TRUE(all_of<mav::GpsRawInt>(stale).empty());
+  EXPECT_EQ(all_of<mav::SysStatus>(stale).at(0).onboard_control_sensors_health, 0U);
+}
+
+TEST(ExtLink, UploadFlown_ItemReachedCountsItemsNotPathIndices) {
+  ExtLink link = guarded_link();
+  ASSERT_TRUE(upload(link, square()).forward.has_value());
+  rejuv_msg_Setpoint sp{};
+  const auto reached_at = [&](std::uint32_t index, bool done, std::chrono::milliseconds t) {
+    sp.waypoint_index = index;
+    sp.mission_done = done ? 1 : 0;
+    std::vector<std::uint16_t> seqs;
+    for (const auto& r : all_of<mav::MissionItemReached>(
+             link.telemetry({.now = t, .state = nullptr, .setpoint = &sp, .mode = SrMode::MC, .epoch = Epoch{1}}))) {
+      seqs.push_back(r.seq);
+    }
+    return seqs;
+  };
+  // The path flown is [the setpoint at the update, item 0, …, item 3]: index 1 is item 0.
+  EXPECT_TRUE(reached_at(1, false, std::chrono::milliseconds{0}).empty());
+  EXPECT_EQ(reached_at(2, false, std::chrono::milliseconds{100}), std::vector<std::uint16_t>{0});
+  EXPECT_EQ(reached_at(3, false, std::chrono::milliseconds{200}), std::vector<std::uint16_t>{1});
+  EXPECT_EQ(reached_at(4, false, std::chrono::milliseconds{300}), std::vector<std::uint16_t>{2});
+  EXPECT_EQ(reached_at(4, true, std::chrono::milliseconds{400}), std::vector<std::uint16_t>{3}) << "the last, when done";
+  EXPECT_TRUE(reached_at(4, true, std::chrono::milliseconds{500}).empty());
 }
 
 TEST(ExtLink, MalformedFrames_CountedByReasonWithoutEffect) {
@@ -205,15 +481,16 @@ TEST(ExtLink, Telemetry_HeartbeatOncePerSecondPositionEveryTime) {
   EXPECT_EQ(hb->type, mav::kMavTypeQuadrotor);
   EXPECT_EQ(hb->custom_mode, services::custom_mode_of(SrMode::MC, Epoch{3}));
   EXPECT_EQ(hb->custom_mode >> 8U, 3U);
-  const auto* lp = std::get_if<mav::LocalPositionNed>(&first.at(first.size() - 2));
+  const auto* lp = std::get_if<mav::LocalPositionNed>(&first.at(first.size() - 3));
   ASSERT_NE(lp, nullptr);
   EXPECT_EQ(lp->time_boot_ms, 1500U);
   EXPECT_FLOAT_EQ(lp->x, 0.5F);
   EXPECT_FLOAT_EQ(lp->z, -2.9F);
   EXPECT_FLOAT_EQ(lp->vy, 0.2F);
-  EXPECT_TRUE(std::holds_alternative<mav::Attitude>(first.back()));
+  EXPECT_TRUE(std::holds_alternative<mav::Attitude>(first.at(first.size() - 2)));
+  EXPECT_TRUE(std::holds_alternative<mav::VfrHud>(first.back()));
   const auto soon = at(std::chrono::milliseconds{1600});
-  EXPECT_EQ(soon.size(), 2U) << "no HEARTBEAT within the second";
+  EXPECT_EQ(soon.size(), 3U) << "no HEARTBEAT within the second";
   const auto later = at(std::chrono::milliseconds{2500});
   EXPECT_TRUE(std::holds_alternative<mav::Heartbeat>(later.at(0)));
 }

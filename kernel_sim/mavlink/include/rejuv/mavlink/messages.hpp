@@ -399,9 +399,333 @@ struct StatusText {
   }
   friend bool operator==(const StatusText&, const StatusText&) = default;
 };
-using Message = std::variant<Heartbeat, SysStatus, Attitude, LocalPositionNed, GlobalPositionInt, MissionRequestList,
-                             MissionCount, MissionClearAll, MissionItemReached, MissionAck, MissionCurrent,
-                             MissionRequestInt, MissionItemInt, StatusText>;
+struct ParamRequestRead {
+  static constexpr std::uint32_t kId = 20;
+  static constexpr std::string_view kName = "PARAM_REQUEST_READ";
+  static constexpr std::size_t kBaseFields = 4;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 214;
+  std::int16_t param_index{};
+  std::uint8_t target_system{};
+  std::uint8_t target_component{};
+  std::array<char, 16> param_id{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("param_index", m.param_index);
+    f("target_system", m.target_system);
+    f("target_component", m.target_component);
+    f("param_id", m.param_id);
+  }
+  friend bool operator==(const ParamRequestRead&, const ParamRequestRead&) = default;
+};
+struct ParamRequestList {
+  static constexpr std::uint32_t kId = 21;
+  static constexpr std::string_view kName = "PARAM_REQUEST_LIST";
+  static constexpr std::size_t kBaseFields = 2;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 159;
+  std::uint8_t target_system{};
+  std::uint8_t target_component{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("target_system", m.target_system);
+    f("target_component", m.target_component);
+  }
+  friend bool operator==(const ParamRequestList&, const ParamRequestList&) = default;
+};
+struct ParamValue {
+  static constexpr std::uint32_t kId = 22;
+  static constexpr std::string_view kName = "PARAM_VALUE";
+  static constexpr std::size_t kBaseFields = 5;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 220;
+  float param_value{};
+  std::uint16_t param_count{};
+  std::uint16_t param_index{};
+  std::array<char, 16> param_id{};
+  std::uint8_t param_type{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("param_value", m.param_value);
+    f("param_count", m.param_count);
+    f("param_index", m.param_index);
+    f("param_id", m.param_id);
+    f("param_type", m.param_type);
+  }
+  friend bool operator==(const ParamValue&, const ParamValue&) = default;
+};
+struct ParamSet {
+  static constexpr std::uint32_t kId = 23;
+  static constexpr std::string_view kName = "PARAM_SET";
+  static constexpr std::size_t kBaseFields = 5;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 168;
+  float param_value{};
+  std::uint8_t target_system{};
+  std::uint8_t target_component{};
+  std::array<char, 16> param_id{};
+  std::uint8_t param_type{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("param_value", m.param_value);
+    f("target_system", m.target_system);
+    f("target_component", m.target_component);
+    f("param_id", m.param_id);
+    f("param_type", m.param_type);
+  }
+  friend bool operator==(const ParamSet&, const ParamSet&) = default;
+};
+struct GpsRawInt {
+  static constexpr std::uint32_t kId = 24;
+  static constexpr std::string_view kName = "GPS_RAW_INT";
+  static constexpr std::size_t kBaseFields = 10;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 24;
+  std::uint64_t time_usec{};
+  std::int32_t lat{};
+  std::int32_t lon{};
+  std::int32_t alt{};
+  std::uint16_t eph{};
+  std::uint16_t epv{};
+  std::uint16_t vel{};
+  std::uint16_t cog{};
+  std::uint8_t fix_type{};
+  std::uint8_t satellites_visible{};
+  std::int32_t alt_ellipsoid{};
+  std::uint32_t h_acc{};
+  std::uint32_t v_acc{};
+  std::uint32_t vel_acc{};
+  std::uint32_t hdg_acc{};
+  std::uint16_t yaw{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("time_usec", m.time_usec);
+    f("lat", m.lat);
+    f("lon", m.lon);
+    f("alt", m.alt);
+    f("eph", m.eph);
+    f("epv", m.epv);
+    f("vel", m.vel);
+    f("cog", m.cog);
+    f("fix_type", m.fix_type);
+    f("satellites_visible", m.satellites_visible);
+    f("alt_ellipsoid", m.alt_ellipsoid);
+    f("h_acc", m.h_acc);
+    f("v_acc", m.v_acc);
+    f("vel_acc", m.vel_acc);
+    f("hdg_acc", m.hdg_acc);
+    f("yaw", m.yaw);
+  }
+  friend bool operator==(const GpsRawInt&, const GpsRawInt&) = default;
+};
+struct MissionSetCurrent {
+  static constexpr std::uint32_t kId = 41;
+  static constexpr std::string_view kName = "MISSION_SET_CURRENT";
+  static constexpr std::size_t kBaseFields = 3;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 28;
+  std::uint16_t seq{};
+  std::uint8_t target_system{};
+  std::uint8_t target_component{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("seq", m.seq);
+    f("target_system", m.target_system);
+    f("target_component", m.target_component);
+  }
+  friend bool operator==(const MissionSetCurrent&, const MissionSetCurrent&) = default;
+};
+struct VfrHud {
+  static constexpr std::uint32_t kId = 74;
+  static constexpr std::string_view kName = "VFR_HUD";
+  static constexpr std::size_t kBaseFields = 6;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 20;
+  float airspeed{};
+  float groundspeed{};
+  float alt{};
+  float climb{};
+  std::int16_t heading{};
+  std::uint16_t throttle{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("airspeed", m.airspeed);
+    f("groundspeed", m.groundspeed);
+    f("alt", m.alt);
+    f("climb", m.climb);
+    f("heading", m.heading);
+    f("throttle", m.throttle);
+  }
+  friend bool operator==(const VfrHud&, const VfrHud&) = default;
+};
+struct CommandInt {
+  static constexpr std::uint32_t kId = 75;
+  static constexpr std::string_view kName = "COMMAND_INT";
+  static constexpr std::size_t kBaseFields = 13;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 158;
+  float param1{};
+  float param2{};
+  float param3{};
+  float param4{};
+  std::int32_t x{};
+  std::int32_t y{};
+  float z{};
+  std::uint16_t command{};
+  std::uint8_t target_system{};
+  std::uint8_t target_component{};
+  std::uint8_t frame{};
+  std::uint8_t current{};
+  std::uint8_t autocontinue{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("param1", m.param1);
+    f("param2", m.param2);
+    f("param3", m.param3);
+    f("param4", m.param4);
+    f("x", m.x);
+    f("y", m.y);
+    f("z", m.z);
+    f("command", m.command);
+    f("target_system", m.target_system);
+    f("target_component", m.target_component);
+    f("frame", m.frame);
+    f("current", m.current);
+    f("autocontinue", m.autocontinue);
+  }
+  friend bool operator==(const CommandInt&, const CommandInt&) = default;
+};
+struct CommandLong {
+  static constexpr std::uint32_t kId = 76;
+  static constexpr std::string_view kName = "COMMAND_LONG";
+  static constexpr std::size_t kBaseFields = 11;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 152;
+  float param1{};
+  float param2{};
+  float param3{};
+  float param4{};
+  float param5{};
+  float param6{};
+  float param7{};
+  std::uint16_t command{};
+  std::uint8_t target_system{};
+  std::uint8_t target_component{};
+  std::uint8_t confirmation{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("param1", m.param1);
+    f("param2", m.param2);
+    f("param3", m.param3);
+    f("param4", m.param4);
+    f("param5", m.param5);
+    f("param6", m.param6);
+    f("param7", m.param7);
+    f("command", m.command);
+    f("target_system", m.target_system);
+    f("target_component", m.target_component);
+    f("confirmation", m.confirmation);
+  }
+  friend bool operator==(const CommandLong&, const CommandLong&) = default;
+};
+struct CommandAck {
+  static constexpr std::uint32_t kId = 77;
+  static constexpr std::string_view kName = "COMMAND_ACK";
+  static constexpr std::size_t kBaseFields = 2;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 143;
+  std::uint16_t command{};
+  std::uint8_t result{};
+  std::uint8_t progress{};
+  std::int32_t result_param2{};
+  std::uint8_t target_system{};
+  std::uint8_t target_component{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("command", m.command);
+    f("result", m.result);
+    f("progress", m.progress);
+    f("result_param2", m.result_param2);
+    f("target_system", m.target_system);
+    f("target_component", m.target_component);
+  }
+  friend bool operator==(const CommandAck&, const CommandAck&) = default;
+};
+struct AutopilotVersion {
+  static constexpr std::uint32_t kId = 148;
+  static constexpr std::string_view kName = "AUTOPILOT_VERSION";
+  static constexpr std::size_t kBaseFields = 11;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 178;
+  std::uint64_t capabilities{};
+  std::uint64_t uid{};
+  std::uint32_t flight_sw_version{};
+  std::uint32_t middleware_sw_version{};
+  std::uint32_t os_sw_version{};
+  std::uint32_t board_version{};
+  std::uint16_t vendor_id{};
+  std::uint16_t product_id{};
+  std::array<std::uint8_t, 8> flight_custom_version{};
+  std::array<std::uint8_t, 8> middleware_custom_version{};
+  std::array<std::uint8_t, 8> os_custom_version{};
+  std::array<std::uint8_t, 18> uid2{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("capabilities", m.capabilities);
+    f("uid", m.uid);
+    f("flight_sw_version", m.flight_sw_version);
+    f("middleware_sw_version", m.middleware_sw_version);
+    f("os_sw_version", m.os_sw_version);
+    f("board_version", m.board_version);
+    f("vendor_id", m.vendor_id);
+    f("product_id", m.product_id);
+    f("flight_custom_version", m.flight_custom_version);
+    f("middleware_custom_version", m.middleware_custom_version);
+    f("os_custom_version", m.os_custom_version);
+    f("uid2", m.uid2);
+  }
+  friend bool operator==(const AutopilotVersion&, const AutopilotVersion&) = default;
+};
+struct HomePosition {
+  static constexpr std::uint32_t kId = 242;
+  static constexpr std::string_view kName = "HOME_POSITION";
+  static constexpr std::size_t kBaseFields = 10;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 104;
+  std::int32_t latitude{};
+  std::int32_t longitude{};
+  std::int32_t altitude{};
+  float x{};
+  float y{};
+  float z{};
+  std::array<float, 4> q{};
+  float approach_x{};
+  float approach_y{};
+  float approach_z{};
+  std::uint64_t time_usec{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("latitude", m.latitude);
+    f("longitude", m.longitude);
+    f("altitude", m.altitude);
+    f("x", m.x);
+    f("y", m.y);
+    f("z", m.z);
+    f("q", m.q);
+    f("approach_x", m.approach_x);
+    f("approach_y", m.approach_y);
+    f("approach_z", m.approach_z);
+    f("time_usec", m.time_usec);
+  }
+  friend bool operator==(const HomePosition&, const HomePosition&) = default;
+};
+struct ExtendedSysState {
+  static constexpr std::uint32_t kId = 245;
+  static constexpr std::string_view kName = "EXTENDED_SYS_STATE";
+  static constexpr std::size_t kBaseFields = 2;  // the rest are extensions (not in CRC_EXTRA)
+  static constexpr std::uint8_t kSpecCrcExtra = 130;
+  std::uint8_t vtol_state{};
+  std::uint8_t landed_state{};
+  template <class Self, class F>
+  static constexpr void each(Self& m, F&& f) {
+    f("vtol_state", m.vtol_state);
+    f("landed_state", m.landed_state);
+  }
+  friend bool operator==(const ExtendedSysState&, const ExtendedSysState&) = default;
+};
+using Message =
+    std::variant<Heartbeat, SysStatus, Attitude, LocalPositionNed, GlobalPositionInt, MissionRequestList, MissionCount,
+                 MissionClearAll, MissionItemReached, MissionAck, MissionCurrent, MissionRequestInt, MissionItemInt,
+                 StatusText, ParamRequestRead, ParamRequestList, ParamValue, ParamSet, GpsRawInt, MissionSetCurrent,
+                 VfrHud, CommandInt, CommandLong, CommandAck, AutopilotVersion, HomePosition, ExtendedSysState>;
 
 namespace detail {
 template <class T>
@@ -413,7 +737,10 @@ template <> struct FieldType<std::int16_t> { static constexpr std::string_view k
 template <> struct FieldType<std::uint32_t> { static constexpr std::string_view kName = "uint32_t"; };
 template <> struct FieldType<std::int32_t> { static constexpr std::string_view kName = "int32_t"; };
 template <> struct FieldType<float> { static constexpr std::string_view kName = "float"; };
-template <std::size_t N> struct FieldType<std::array<char, N>> { static constexpr std::string_view kName = "char"; };
+template <> struct FieldType<std::uint64_t> { static constexpr std::string_view kName = "uint64_t"; };
+template <> struct FieldType<char> { static constexpr std::string_view kName = "char"; };
+// An array field is named by its element type (its length follows its name in CRC_EXTRA).
+template <class T, std::size_t N> struct FieldType<std::array<T, N>> { static constexpr std::string_view kName = FieldType<T>::kName; };
 
 constexpr void add_text(Crc16& crc, std::string_view text) {
   for (const char c : text) crc.add(static_cast<std::uint8_t>(c));

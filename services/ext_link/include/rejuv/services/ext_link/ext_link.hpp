@@ -14,8 +14,14 @@
 //                           partly received mission is never published. An item when no upload is in
 //                           progress (a rollback wiped it) is answered MAV_MISSION_INVALID_SEQUENCE, and the
 //                           ground station starts again.
-//   ground → MISSION_REQUEST_LIST       MISSION_COUNT 0 (the mission flown is commander's, not downloadable here)
+//   ground → MISSION_REQUEST_LIST … MISSION_REQUEST_INT   the download: MISSION_COUNT, then each item asked for,
+//                           of the mission flown (the upload commander kept, else the launch graph's mission),
+//                           in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT given a home on Earth, else LOCAL_NED.
 //   ground → MISSION_CLEAR_ALL          MISSION_ACK MAV_MISSION_UNSUPPORTED (an uploaded mission is only replaced)
+//   ground → MISSION_SET_CURRENT        MISSION_CURRENT unchanged (the path is flown in order) and a STATUSTEXT
+//   ground → COMMAND_LONG / COMMAND_INT COMMAND_ACK (commands()); MAV_CMD_NAV_RETURN_TO_LAUNCH is published as a
+//                           one-waypoint mission to home on mission_upload, through commander's checks.
+//   ground → PARAM_REQUEST_LIST / _READ / PARAM_SET   PARAM_VALUE from params(); every one is read-only.
 //   (timer)                 HEARTBEAT, SYS_STATUS, MISSION_CURRENT at 1 Hz; LOCAL_POSITION_NED and ATTITUDE
 //                           every telemetry_period (and GLOBAL_POSITION_INT, given a home on Earth);
 //                           MISSION_ITEM_REACHED when the setpoint moves on; STATUSTEXT for SR mode changes, rollbacks and security
@@ -61,17 +67,33 @@ class ExtLink {
     flight::PathWaypoint home{};  // the launch graph's first waypoint
     flight_io::UploadBounds bounds{};
   };
-  explicit ExtLink(UploadGuard guard) : guard_(std::move(guard)) {}
+  ExtLink(UploadGuard guard, flight_io::MissionSpec launch_mission)
+      : guard_(std::move(guard)), launch_mission_(std::move(launch_mission)) {
+    rebuild_params();
+  }
 
-  // Where home (the local frame's origin) is on Earth, for GLOBAL_POSITION_INT: ext_link's params
-  // `home_lat_deg`, `home_lon_deg` (WGS-84 [deg]) and `home_alt_m` (AMSL [m], default 0). Without them no
-  // GLOBAL_POSITION_INT is sent.
-  struct GeoHome {
-    double lat_deg = 0;
-    double lon_deg = 0;
-    double alt_m = 0;
+  // Where home (the local frame's origin) is on Earth: ext_link's params `home_lat_deg`, `home_lon_deg`
+  // (WGS-84 [deg]) and `home_alt_m` (AMSL [m], default 0); the shipped graphs give PX4 SITL's. Without them no
+  // GLOBAL_POSITION_INT, GPS_RAW_INT or HOME_POSITION is sent and items in global frames are refused.
+  using GeoHome = mavlink::GeoHome;
+  void set_home(const GeoHome& home) {
+    home_ = home;
+    rebuild_params();
+  }
+  [[nodiscard]] const std::optional<GeoHome>& home() const { return home_; }
+  // The upload commander kept (the Persistent cell uploaded_mission, read by main.cpp in MC): what the vehicle
+  // flies from the next setpoint update on, after the setpoint it had then. nullopt: none (the launch mission).
+  void set_kept_upload(std::optional<flight_io::MissionSpec> kept) { kept_ = std::move(kept); }
+
+  // One parameter of the parameter protocol: a PX4-style name (≤ 16 characters), its value as a float, and
+  // the launch param it is (docs/mavlink.md "Parameters"). None is settable in flight.
+  struct Param {
+    std::string name;
+    float value = 0;
+    std::uint8_t type = 9;  // MAV_PARAM_TYPE_REAL32
   };
-  void set_home(const GeoHome& home) { home_ = home; }
+  [[nodiscard]] const std::vector<Param>& params() const { return params_; }
+  void set_telemetry_period(double period_s);
   [[nodiscard]] static Result<ExtLink, flight_io::InputFailure> from_params(const flight_io::Params& params);
 
   // A complete upload that passed validate_upload: publish it, then acknowledge with forwarded().
@@ -80,6 +102,7 @@ class ExtLink {
     std::vector<mavlink::LocalWaypoint> waypoints{};
     std::uint8_t ground_system = 0;
     std::uint8_t ground_component = 0;
+    std::optional<std::uint16_t> command{};  // a command (RTL) rather than an upload: answered COMMAND_ACK
   };
   // What one valid datagram asks for: frames to send back, maybe a mission to publish, maybe a log line.
   struct Inbound {
@@ -111,6 +134,7 @@ class ExtLink {
     Nanos now{0};
     const rejuv_msg_VehicleStateEstimate* state = nullptr;
     const rejuv_msg_Setpoint* setpoint = nullptr;
+    const rejuv_msg_SensorGps* gps = nullptr;  // the plant's latest GPS sample (nullptr: the graph gives none)
     SrMode mode = SrMode::MC;
     Epoch epoch{};
   };
@@ -140,12 +164,44 @@ class ExtLink {
     Epoch epoch{};
     mavlink::StatusText text{};
   };
-  [[nodiscard]] mavlink::Message ack(std::uint8_t system, std::uint8_t component, mavlink::MissionResult result) const;
+  [[nodiscard]] mavlink::Message ack(std::uint8_t system, std::uint8_t component, mavlink::MissionResult result,
+                                     std::uint8_t mission_type = mavlink::kMissionTypeMission) const;
   [[nodiscard]] Inbound on_count(const mavlink::FrameHeader& from, const mavlink::MissionCount& count);
   [[nodiscard]] Inbound on_item(const mavlink::FrameHeader& from, const mavlink::MissionItemInt& item, Nanos now);
+  [[nodiscard]] Inbound on_command(const mavlink::FrameHeader& from, std::uint16_t command, std::array<float, 2> param12,
+                                   Nanos now);
+  [[nodiscard]] Inbound on_param(const mavlink::Message& message);
+  [[nodiscard]] mavlink::ParamValue param_value(std::size_t index) const;
+  // The mission a download returns and MISSION_CURRENT counts: what this window forwarded, else the kept
+  // upload, else the launch mission; and by how much the setpoint's waypoint index runs ahead of its item
+  // numbers (an upload is flown after the setpoint it started from: 1).
+  struct Flown {
+    std::vector<mavlink::LocalWaypoint> waypoints;
+    double acceptance_radius_m = kDefaultAcceptanceRadius_m;
+    std::uint32_t index_offset = 0;
+  };
+  [[nodiscard]] Flown flown() const;
+  [[nodiscard]] mavlink::Message home_position(std::uint32_t time_boot_ms) const;
+  [[nodiscard]] mavlink::Message autopilot_version() const;
+  void rebuild_params();
+  [[nodiscard]] mavlink::SysStatus sys_status(const TelemetryInputs& in);
+  // The timestamps seen at the last SYS_STATUS: a sample newer than these is a sign of health.
+  struct HealthSeen {
+    std::uint64_t state_ns = 0;
+    std::uint64_t gps_ns = 0;
+    std::uint64_t setpoint_ns = 0;
+  };
+  HealthSeen health_seen_{};
+  std::optional<std::uint64_t> last_gps_ns_{};
   void queue_text(Epoch epoch, mavlink::Severity severity, const std::string& text);
 
   UploadGuard guard_;
+  flight_io::MissionSpec launch_mission_;
+  std::optional<flight_io::MissionSpec> kept_{};
+  std::optional<double> last_forwarded_radius_m_{};
+  double telemetry_period_s_ = 0.1;
+  std::vector<Param> params_{};
+  bool reported_done_ = false;  // MISSION_ITEM_REACHED for the last item was sent
   std::uint8_t next_seq_ = 0;
   std::optional<Receiving> receiving_{};
   std::optional<std::vector<mavlink::LocalWaypoint>> last_forwarded_{};
