@@ -3,6 +3,8 @@
 // seccomp stage and, when the kernel runs as root, their own uid. A child's death is learnt from its pidfd
 // and handled in one place (lose_service); shutdown sends Shutdown, waits a grace period, then kills and
 // reaps everything and closes every fd.
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <csignal>
@@ -26,6 +28,28 @@ std::string format_double(double v) {
 }
 
 std::string_view attack_kind_name(proto::AttackKind kind) { return proto::AttackKind_Name(kind); }
+
+// Why a service's uid could not execute its binary, and what to do. The kernel execs the file it opened itself
+// (sys::spawn_supervised: execveat on its fd), so the folders above it need no search right for that uid; the
+// file's own mode must let the uid (neither its owner nor in its group) execute it.
+std::string exec_refused_why(const sys::SpawnSpec& spec) {
+  std::string who = "the kernel's uid";
+  if (spec.mapped_ids) {
+    who = "its own subordinate uid " + std::to_string(spec.mapped_ids->uid);
+  } else if (spec.uid) {
+    who = "its own uid " + std::to_string(*spec.uid);
+  }
+  std::string mode = "unknown mode";
+  struct stat st {};
+  if (::stat(spec.executable.c_str(), &st) == 0) {
+    std::array<char, 64> buf{};
+    std::snprintf(buf.data(), buf.size(), "mode %04o, owner uid %u", st.st_mode & 07777U, st.st_uid);
+    mode = buf.data();
+  }
+  return " — the service runs as " + who + ", which may not execute " + spec.executable + " (" + mode +
+         "): let others execute it (chmod o+x, or build with umask 022); the folders above it need no search "
+         "right, the kernel execs the file it opened";
+}
 
 }  // namespace
 
@@ -161,9 +185,8 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
       message += " — the sandbox runs each service in an empty network namespace and a read-only mount namespace,"
                  " which takes root or unprivileged user namespaces; `rejuv run --insecure-sandbox` runs without"
                  " them (and says so in the summary)";
-    } else if (spec.mapped_ids && call == "execve" && spawned.error().error == EACCES) {
-      message += " — the service runs as its own subordinate uid " + std::to_string(spec.mapped_ids->uid) +
-                 ", which must be allowed to execute the binary (its mode must let others execute it)";
+    } else if (call == "execve" && spawned.error().error == EACCES) {
+      message += exec_refused_why(spec);
     }
     return fail(KernelError{.kind = KernelError::Kind::Boot, .message = std::move(message), .findings = {}});
   }
