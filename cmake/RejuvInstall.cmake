@@ -37,6 +37,10 @@ install(FILES ${PROJECT_SOURCE_DIR}/policies/quad_sr.policy.pbtxt
         DESTINATION ${CMAKE_INSTALL_DATADIR}/rejuv/policies COMPONENT sdk)
 
 set(REJUV_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/Rejuv)
+# The `rejuv` program built beside this SDK (the kernel and the services of the package's graphs): a service's
+# test flies its graph with it, so the package names it (REJUV_PACKAGE_PROGRAM in RejuvConfig.cmake).
+file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/RejuvProgram.cmake
+     CONTENT "# Written by the build of the Rejuv tree this package was installed from.\nset(REJUV_PACKAGE_PROGRAM \"$<TARGET_FILE:rejuv>\")\n")
 install(EXPORT RejuvTargets NAMESPACE Rejuv:: DESTINATION ${REJUV_CMAKE_DIR} COMPONENT sdk)
 configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/RejuvConfig.cmake.in
                               ${PROJECT_BINARY_DIR}/RejuvConfig.cmake
@@ -45,5 +49,5 @@ configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/RejuvConfig.cmake.in
 write_basic_package_version_file(${PROJECT_BINARY_DIR}/RejuvConfigVersion.cmake
                                  VERSION ${PROJECT_VERSION} COMPATIBILITY SameMinorVersion)
 install(FILES ${PROJECT_BINARY_DIR}/RejuvConfig.cmake ${PROJECT_BINARY_DIR}/RejuvConfigVersion.cmake
-              ${PROJECT_SOURCE_DIR}/cmake/RejuvSdkFunctions.cmake
+              ${PROJECT_BINARY_DIR}/RejuvProgram.cmake ${PROJECT_SOURCE_DIR}/cmake/RejuvSdkFunctions.cmake
         DESTINATION ${REJUV_CMAKE_DIR} COMPONENT sdk)

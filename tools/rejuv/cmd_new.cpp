@@ -235,17 +235,24 @@ rejuv_add_service(@NAME@ SOURCES @NAME@.cpp LIBRARIES @NAME@_topics PARAMS @NAME
 configure_file(@NAME@_flight.launch.pbtxt.in @NAME@_flight.launch.pbtxt @ONLY)
 
 # A multi-process test: the real kernel flies the graph for 5 s with rejuvenation, and the service's own log
-# line must show that it received and published. It needs the `rejuv` program (on PATH, or -DREJUV_PROGRAM=).
-find_program(REJUV_PROGRAM rejuv DOC "the rejuv program, for the test")
+# line must show that it received and published. It runs the `rejuv` program built with the installed SDK (the
+# package names it); -DREJUV_PROGRAM= chooses another. Without one the test is still there, and fails saying so.
+set(REJUV_PROGRAM "${REJUV_PACKAGE_PROGRAM}" CACHE FILEPATH "the rejuv program, for the test")
 set(REJUV_DDS_DOMAIN 0 CACHE STRING "the DDS domain of the test's flight (apart from other runs on the machine)")
-if(REJUV_PROGRAM)
-  enable_testing()
+enable_testing()
+if(EXISTS "${REJUV_PROGRAM}")
   add_test(NAME @NAME@_flies
            COMMAND ${REJUV_PROGRAM} run ${CMAKE_CURRENT_BINARY_DIR}/@NAME@_flight.launch.pbtxt --duration 5
                    --net-port 0 --domain ${REJUV_DDS_DOMAIN})
   set_tests_properties(@NAME@_flies PROPERTIES
                        PASS_REGULAR_EXPRESSION "@NAME@: [1-9][0-9]* states received, [1-9][0-9]* published"
                        FAIL_REGULAR_EXPRESSION "publishing @TOPIC@|error:")
+else()
+  add_test(NAME @NAME@_flies
+           COMMAND ${CMAKE_COMMAND} -E echo "error: no rejuv program at '${REJUV_PROGRAM}' (the SDK's build tree \
+was removed or moved?): build the Rejuv tree the SDK was installed from, or configure with \
+-DREJUV_PROGRAM=/path/to/rejuv")
+  set_tests_properties(@NAME@_flies PROPERTIES FAIL_REGULAR_EXPRESSION "error:")
 endif()
 )txt";
 
