@@ -160,14 +160,27 @@ TEST_F(SdkPackage, NewServiceScaffoldBuildsAndItsOwnTestFlies) {
   auto again = rejuv::test_support::run_rejuv(dir_, {"new", "service", "geofence", "--out", source.string()});
   EXPECT_EQ(again.exit_code, 2) << again.out << again.err;
 
+  // Built in a folder others cannot search (0700, like root's home): the service's uid cannot reach the
+  // binary by its path, and flies anyway (the kernel execs the file it opened). No -DREJUV_PROGRAM: the
+  // package names the rejuv program built with it.
+  std::filesystem::permissions(dir_, std::filesystem::perms::owner_all);
   const std::filesystem::path build_dir = source / "build";
   ASSERT_NO_FATAL_FAILURE(build(source, build_dir,
-                                {"-DREJUV_PROGRAM=" + (kBuild / "tools" / "rejuv" / "rejuv").string(),
-                                 "-DREJUV_DDS_DOMAIN=" + std::to_string(rejuv::test_support::kOwnDdsDomain)}));
+                                {"-DREJUV_DDS_DOMAIN=" + std::to_string(rejuv::test_support::kOwnDdsDomain)}));
   auto tested = step("ctest", kCtest, {"--test-dir", build_dir.string(), "--output-on-failure"});
   EXPECT_EQ(tested.exit_code, 0) << tested.out << tested.err;
   EXPECT_NE(tested.out.find("geofence_flies"), std::string::npos) << tested.out;
   EXPECT_NE(tested.out.find("100% tests passed"), std::string::npos) << tested.out;
+
+  // Without a rejuv program the flight test is still there, and fails saying what to do.
+  auto reconfigured = step("reconfigure", kCmake, {"-S", source.string(), "-B", build_dir.string(),
+                                                   "-DREJUV_PROGRAM=" + (dir_ / "no_such_rejuv").string()});
+  ASSERT_EQ(reconfigured.exit_code, 0) << reconfigured.out << reconfigured.err;
+  auto without = step("ctest_without", kCtest, {"--test-dir", build_dir.string(), "--output-on-failure"});
+  EXPECT_NE(without.exit_code, 0) << without.out;
+  EXPECT_NE(without.out.find("geofence_flies"), std::string::npos) << without.out;
+  EXPECT_NE(without.out.find("no rejuv program at"), std::string::npos) << without.out;
+  EXPECT_NE(without.out.find("-DREJUV_PROGRAM="), std::string::npos) << without.out;
 
   // A misspelt parameter in the service's own fragment is refused before anything starts, at the fragment's
   // line and column, with the declared name suggested.
