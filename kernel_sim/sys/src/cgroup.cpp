@@ -277,7 +277,10 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
         const fs::path parent = dir->parent_path();
         const std::uint64_t before = std::strtoull(read_file(parent / "cpu.rt_runtime_us").c_str(), nullptr, 10);
         (void)write_file(parent / "cpu.rt_runtime_us", std::to_string(std::min<std::uint64_t>(900000, before + *limits.rt_runtime_us)));
-        if (write_file(*dir / "cpu.rt_runtime_us", std::to_string(*limits.rt_runtime_us))) {
+        // And the live leaf's, where the incarnation runs: a task in a v1 group whose budget is 0 cannot be made
+        // SCHED_FIFO at all (EPERM). The images leaf keeps 0: images run SCHED_OTHER (SCHED_RESET_ON_FORK).
+        if (write_file(*dir / "cpu.rt_runtime_us", std::to_string(*limits.rt_runtime_us)) &&
+            write_file(*dir / "live" / "cpu.rt_runtime_us", std::to_string(*limits.rt_runtime_us))) {
           notes.push_back("SCHED_FIFO " + std::to_string(*limits.rt_runtime_us / 1000) + " ms/s (v1 cpu)");
         } else {
           notes.push_back("no real-time budget (cpu.rt_runtime_us refused)");
