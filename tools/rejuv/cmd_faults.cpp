@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "args.hpp"
+#include "background_load.hpp"
 #include "common_options.hpp"
 #include "rejuv/sys/event.hpp"
 #include "commands.hpp"
@@ -58,6 +59,8 @@ struct CampaignRequest {
   std::optional<std::uint64_t> domain, only;
   std::filesystem::path out_dir = "out/faults";
   Charge charge = Charge::Measured;
+  bool realtime = false;
+  std::optional<LoadSpec> load;
 };
 
 void declare_campaign_options(Options& opts, CampaignRequest& r) {
@@ -72,7 +75,16 @@ void declare_campaign_options(Options& opts, CampaignRequest& r) {
       .path("--out", "DIR", r.out_dir, "where faults.json and the logs go");
   charge_option(opts, r.charge, "\n('measured' here: a fault's recovery costs the flight its real time)")
       .integer("--mission", "M", r.only, {},
-               "fly only mission M of the plan (the same seed, --injections and --per-mission): to reproduce one");
+               "fly only mission M of the plan (the same seed, --injections and --per-mission): to reproduce one")
+      .flag("--realtime", r.realtime,
+            "fly the missions in real time (the wall clock) with the graph's real-time plan (its `realtime`\n"
+            "section: SCHED_FIFO, pinning; docs/realtime.md), as `rejuv run --realtime`: a recovery costs the\n"
+            "vehicle what it lasts on this machine; --jobs 1 is meant (each job is a real-time graph)")
+      .custom<LoadSpec>("--load", "cpu:N", r.load, parse_load,
+                        "beside the campaign, N processes of a companion-like load (each keeps 64 MiB of memory\n"
+                        "busy, never sleeping, at SCHED_OTHER), started before the first mission and stopped after\n"
+                        "the last (on every exit, Ctrl-C too)",
+                        "none");
 }
 
 // The missions of the plan (all, or --mission's), their faults spread over the model's flight of the graph.
@@ -89,7 +101,7 @@ Result<std::vector<faults::Mission>, std::string> plan_campaign(const CampaignRe
   const auto window = fault_window(*graph);
   if (!window) return fail(r.graph_path + ": " + window.error());
   std::vector<faults::Mission> missions = faults::plan(r.seed, static_cast<std::uint32_t>(r.injections),
-                                                       static_cast<std::uint32_t>(r.per), rejuvenated, *window);
+                                                       static_cast<std::uint32_t>(r.per), rejuvenated, *window, r.realtime);
   if (r.only) {
     std::erase_if(missions, [&](const faults::Mission& m) { return m.index != *r.only; });
     if (missions.empty()) return fail("--mission: the plan has no mission " + std::to_string(*r.only));
@@ -115,7 +127,8 @@ int fly_job(const CampaignRequest& r, const std::vector<faults::Mission>& missio
                                  .cpu = slot.cpu,
                                  .mission_wall_bound = std::chrono::seconds{r.bound},
                                  .log = r.out_dir / ("job-" + std::to_string(j) + ".log"),
-                                 .charge = r.charge};
+                                 .charge = r.charge,
+                                 .realtime = r.realtime};
   const std::vector<Outcome> outcomes = faults::run_job(config, mine);
   std::ofstream f(r.out_dir / ("job-" + std::to_string(j) + ".tsv"));
   for (const Outcome& o : outcomes) f << faults::encode(o);
@@ -183,6 +196,8 @@ proto::FaultCampaign tally(const CampaignRequest& r, const std::vector<Outcome>&
   c.set_graph(r.graph_path);
   c.set_seed(r.seed);
   c.set_planned(static_cast<std::uint32_t>(r.injections));
+  c.set_realtime(r.realtime);
+  if (r.load) c.set_load(r.load->to_string());
   std::map<std::pair<std::string, std::string>, proto::FaultRow> table;
   proto::FaultRow& total = *c.mutable_total();
   for (const Outcome& o : outcomes) {
@@ -200,6 +215,7 @@ proto::FaultCampaign tally(const CampaignRequest& r, const std::vector<Outcome>&
     i.set_leaked(o.leaked);
     i.set_hung(o.hung);
     i.set_note(o.note);
+    i.set_recovery_ms(o.recovery_ms);
     if (!o.fired) {
       c.set_not_injected(c.not_injected() + 1);
       continue;
@@ -221,28 +237,49 @@ std::string paths_text(const google::protobuf::Map<std::string, std::uint32_t>& 
   return s;
 }
 
+// The real durations of the recoveries of a row's injections (all of them for the total): "p50/max ms", or "-".
+std::string recovery_text(const proto::FaultCampaign& c, const proto::FaultRow* row) {
+  std::vector<double> ms;
+  for (const proto::FaultInjection& o : c.injections()) {
+    if (!o.injected() || o.recovery_ms() < 0) continue;
+    if (row != nullptr && (o.fault() != row->fault() || o.phase() != row->phase())) continue;
+    ms.push_back(o.recovery_ms());
+  }
+  if (ms.empty()) return "-";
+  std::sort(ms.begin(), ms.end());
+  char text[48];
+  std::snprintf(text, sizeof text, "%.1f/%.1f", ms[(ms.size() - 1) / 2], ms.back());
+  return text;
+}
+
 // One row of the table: `label` for the total, the row's own fault and phase otherwise.
-void print_row(const proto::FaultRow& r, const char* label = nullptr) {
-  std::printf("%-20s %-20s %5u %5u %5u %5u %5u  %s\n", label != nullptr ? label : r.fault().c_str(),
+void print_row(const proto::FaultCampaign& c, const proto::FaultRow& r, const char* label = nullptr) {
+  std::printf("%-20s %-20s %5u %5u %5u %5u %5u %13s  %s\n", label != nullptr ? label : r.fault().c_str(),
               label != nullptr ? "" : r.phase().c_str(), r.injections(), r.recovered(), r.unsafe(), r.leaked(),
-              r.hung(), paths_text(r.paths()).c_str());
+              r.hung(), recovery_text(c, label != nullptr ? nullptr : &r).c_str(), paths_text(r.paths()).c_str());
 }
 
 // The table by kind and phase, the total, and each injection that was not survived.
 void print_campaign(const proto::FaultCampaign& c) {
-  std::printf("%-20s %-20s %5s %5s %5s %5s %5s  %s\n", "fault", "phase", "inj", "recov", "unsafe", "leak", "hung",
-              "recovery paths");
-  for (const proto::FaultRow& r : c.table()) print_row(r);
-  print_row(c.total(), "total");
+  if (c.realtime()) {
+    std::printf("flown in real time with the graph's real-time plan%s%s\n", c.load().empty() ? "" : ", beside --load ",
+                c.load().c_str());
+  }
+  std::printf("%-20s %-20s %5s %5s %5s %5s %5s %13s  %s\n", "fault", "phase", "inj", "recov", "unsafe", "leak", "hung",
+              "recovery ms", "recovery paths");
+  for (const proto::FaultRow& r : c.table()) print_row(c, r);
+  print_row(c, c.total(), "total");
+  std::printf("(recovery ms: p50/max of the real time from an injection to the first controls routed after the\n"
+              " rollback or cold restart that followed it, where one did)\n");
   if (c.not_injected() > 0) {
     std::printf("(%u planned faults found no phase or target in their window: not injected)\n", c.not_injected());
   }
   for (const proto::FaultInjection& o : c.injections()) {
     if (o.injected() && (!o.recovered() || o.unsafe() || o.leaked() || o.hung())) {
-      std::printf("  exception: mission %u, %s at %s on %s at %.1f s: %s%s%s%s — %s; %s\n", o.mission(), o.fault().c_str(),
-                  o.phase().c_str(), o.target().c_str(), o.at_s(), o.recovered() ? "" : "NOT RECOVERED ",
-                  o.unsafe() ? "UNSAFE " : "", o.leaked() ? "LEAKED " : "", o.hung() ? "HUNG" : "", o.path().c_str(),
-                  o.note().c_str());
+      std::printf("  exception: mission %u, %s at %s on %s at %.1f s: %s%s%s%s — %s (recovery %.1f ms); %s\n",
+                  o.mission(), o.fault().c_str(), o.phase().c_str(), o.target().c_str(), o.at_s(),
+                  o.recovered() ? "" : "NOT RECOVERED ", o.unsafe() ? "UNSAFE " : "", o.leaked() ? "LEAKED " : "",
+                  o.hung() ? "HUNG" : "", o.path().c_str(), o.recovery_ms(), o.note().c_str());
     }
   }
 }
@@ -266,6 +303,9 @@ int run_faults(std::span<const std::string_view> args) {
     return bad_input("rejuv faults: --domain " + std::to_string(*r.domain) + " + --jobs " + std::to_string(r.jobs) +
                      " - 1 is above the highest DDS domain " + std::to_string(launch::defaults::kMaxDdsDomainId));
   }
+  if (r.realtime && opts.given("--charge")) {
+    return bad_input("rejuv faults: --charge is lockstep's: in real time nothing is charged, a recovery lasts what it lasts");
+  }
   const auto missions = plan_campaign(r);
   if (!missions) return bad_input("rejuv faults: " + missions.error());
   std::error_code ec;
@@ -279,10 +319,25 @@ int run_faults(std::span<const std::string_view> args) {
                                                                   : std::nullopt,
                                          .signals = &*signals});
   if (!pool) return bad_input("rejuv faults: no free DDS domain (" + pool.error() + "): give --domain");
-  std::fprintf(stderr, "rejuv faults: %llu faults in %zu missions, %llu job%s, seed %llu\n",
+  std::fprintf(stderr, "rejuv faults: %llu faults in %zu missions, %llu job%s, seed %llu%s%s\n",
                static_cast<unsigned long long>(r.injections), missions->size(), static_cast<unsigned long long>(r.jobs),
-               r.jobs == 1 ? "" : "s", static_cast<unsigned long long>(r.seed));
+               r.jobs == 1 ? "" : "s", static_cast<unsigned long long>(r.seed), r.realtime ? ", real time" : "",
+               r.load ? (", load " + r.load->to_string()).c_str() : "");
+  // The background load lives from here to the table: its workers are this process's children, killed and
+  // reaped on every return below (and dying with this process if it is killed).
+  std::optional<BackgroundLoad> load;
+  if (r.load) {
+    auto started = BackgroundLoad::start(*r.load);
+    if (!started) return bad_input("rejuv faults: " + started.error());
+    load.emplace(std::move(*started));
+  }
   const auto done = run_jobs(r, *missions, *pool);
+  const std::size_t load_ended = load ? load->ended() : 0;
+  if (load) load->stop();
+  if (load_ended > 0) {
+    std::fprintf(stderr, "rejuv faults: %zu of %u load workers ended before the campaign did: the load was not there "
+                 "throughout\n", load_ended, r.load->cpu_workers);
+  }
   if (!done) {
     std::fprintf(stderr, "rejuv faults: %s\n", done.error().c_str());
     return static_cast<int>(Exit::Findings);
@@ -298,7 +353,9 @@ int run_faults(std::span<const std::string_view> args) {
   }
   std::printf("wrote %s\n", (r.out_dir / "faults.json").c_str());
   const proto::FaultRow& total = campaign.total();
-  const bool good = !done->job_failed && done->missing == 0 && total.recovered() == total.injections() &&
+  // Nothing injected is no evidence: a campaign that injected nothing fails.
+  const bool good = !done->job_failed && done->missing == 0 && load_ended == 0 && total.injections() > 0 &&
+                    total.recovered() == total.injections() &&
                     total.unsafe() == 0 && total.leaked() == 0 && total.hung() == 0;
   return static_cast<int>(good ? Exit::Ok : Exit::Findings);
 }

@@ -25,6 +25,7 @@
 #include "run_recorder.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
+#include "rejuv/sys/event.hpp"
 #include "rejuv/sys/sanitizer.hpp"
 
 #ifndef REJUV_SOURCE_DIR
@@ -186,6 +187,18 @@ class Injector final : public kernel::Observer {
   void on_publication(const kernel::Publication& p) override { rec_.on_publication(p); }
   void on_checkpoint(Generation g, const broker::Broker& q) override { rec_.on_checkpoint(g, q); }
   void on_restore(Generation g, const broker::Broker& q) override { rec_.on_restore(g, q); }
+  // A recovery's real duration: from the injection to the first control update the kernel routes after the
+  // first rollback or cold restart that followed it (the vehicle controlled again).
+  void on_control_update(Nanos t, Nanos wall) override {
+    rec_.on_control_update(t, wall);
+    if (!timing_ || !recovery_began_ || wall < fired_wall_) return;
+    outcomes_[*timing_].recovery_ms = std::chrono::duration<double, std::milli>(wall - fired_wall_).count();
+    timing_.reset();
+  }
+  void on_sr_event(const SrEvent& e) override {
+    rec_.on_sr_event(e);
+    if (timing_ && (e.kind == SrEventKind::Rollback || e.kind == SrEventKind::ColdRestart)) recovery_began_ = true;
+  }
   void on_step(std::uint64_t step, Nanos t, SrMode mode) override {
     rec_.on_step(step, t, mode);
     if (k_ == nullptr) return;
@@ -291,6 +304,9 @@ class Injector final : public kernel::Observer {
     before_ = Counters::of(k_->sr_stats());
     max_v_at_fire_ = current_max_v();
     fired_at_ = flight;
+    fired_wall_ = sys::monotonic_now();
+    timing_ = next_;
+    recovery_began_ = false;
     fired_pids_ = pids;
     seen_back_ = false;
     evaluating_ = next_;
@@ -367,6 +383,8 @@ class Injector final : public kernel::Observer {
 
   void evaluate(std::size_t index, const Counters& after, double max_v, bool final) {
     Outcome& o = outcomes_[index];
+    // No rollback or cold restart since it fired: a later one (the SR cycle's) is not this fault's recovery.
+    if (timing_ == index && !recovery_began_) timing_.reset();
     o.path = recovery_path(before_, after);
     note_if_back(o);
     bool back = true;
@@ -409,6 +427,9 @@ class Injector final : public kernel::Observer {
   Counters before_{};
   double max_v_at_fire_ = 0;
   Nanos fired_at_{0};
+  Nanos fired_wall_{0};                 // CLOCK_MONOTONIC at the injection (the clock of on_control_update)
+  std::optional<std::size_t> timing_;   // the fault whose recovery is being timed (until its next controls)
+  bool recovery_began_ = false;         // a rollback or cold restart since it fired
   std::vector<int> fired_pids_;  // the processes the fault in flight hit
   bool seen_back_ = false;       // its target seen alive in another process since (note_if_back)
 };
@@ -468,8 +489,14 @@ kernel::KernelOptions mission_options(const JobConfig& config, std::FILE* log) {
   options.dds_domain = config.dds_domain;
   options.network_port = 0;
   options.idle_deadline = std::chrono::seconds{3};
-  options.placement = kernel::KernelOptions::Placement::Cpu;
-  options.cpu = config.cpu;
+  if (config.realtime) {
+    // As `rejuv run --realtime`: the wall clock, the graph's real-time plan, no pinning of the whole graph.
+    options.clock = kernel::ClockMode::Realtime;
+    options.placement = kernel::KernelOptions::Placement::Auto;
+  } else {
+    options.placement = kernel::KernelOptions::Placement::Cpu;
+    options.cpu = config.cpu;
+  }
   options.log = log;
   options.verbose = std::getenv("REJUV_FAULTS_VERBOSE") != nullptr;  // every checkpoint and rollback in the job log
   options.charge = config.charge;
@@ -533,7 +560,11 @@ std::vector<Outcome> run_job(const JobConfig& config, const std::vector<Mission>
   for (const Mission& mission : missions) {
     auto flown = fly_mission(config, mission, helper, log);
     if (!flown) {
-      for (const Planned& p : mission.faults) all.push_back(Outcome{.mission = mission.index, .fault = p, .note = flown.error()});
+      // Counted as injected and not recovered, so that a campaign whose missions could not fly fails.
+      for (const Planned& p : mission.faults) {
+        all.push_back(Outcome{.mission = mission.index, .fault = p, .fired = true,
+                              .note = "the mission could not be flown: " + flown.error()});
+      }
       continue;
     }
     const std::string leak = leaks.after_mission();

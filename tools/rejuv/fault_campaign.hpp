@@ -71,9 +71,13 @@ struct Mission {
 };
 
 // The whole campaign from the seed: missions of up to `per_mission` faults, `injections` in all, every
-// (kind, where) pair drawn in turn from a seeded shuffle; terminal faults about one in ten.
+// (kind, where) pair drawn in turn from a seeded shuffle; terminal faults about one in ten. In real time
+// (`realtime`) StallPlant is not drawn: there the plant is the world, not a lockstep link — stopped for 1 s and
+// continued, it integrates the missed second at once with the motors held (plant/app run_realtime catches up with
+// the clock), a 1 s flight without control that no recovery of the software can prevent (flown: max V 10.4).
 [[nodiscard]] std::vector<Mission> plan(std::uint64_t seed, std::uint32_t injections, std::uint32_t per_mission,
-                                        const std::vector<std::string>& rejuvenated, Nanos flight);
+                                        const std::vector<std::string>& rejuvenated, Nanos flight,
+                                        bool realtime = false);
 
 // What became of one planned fault.
 struct Outcome {
@@ -86,6 +90,11 @@ struct Outcome {
   bool unsafe = false;       // max V >= 1, or the mission not completed where it should
   bool leaked = false;       // its mission left fds, children or RSS above the baseline
   bool hung = false;         // its mission exceeded the wall-clock bound
+  // The recovery's real duration [ms]: from the injection to the first control update routed after the first
+  // rollback or cold restart that followed it (the vehicle controlled again), on the monotonic clock; < 0 when
+  // none came (a fault that needed no rollback, a terminal one, a mission that ended first). In real time this
+  // is what the vehicle lived through.
+  double recovery_ms = -1;
   std::string note{};
 };
 
@@ -98,6 +107,10 @@ struct JobConfig {
   // What a checkpoint or rollback costs the flight (docs/design.md §6). Measured by default here: a fault that stalls a
   // resume or forces a fallback costs the vehicle its real duration, which is what the campaign judges.
   kernel::KernelOptions::Charge charge = kernel::KernelOptions::Charge::Measured;
+  // Real time (`rejuv faults --realtime`): the kernel's clock is CLOCK_MONOTONIC and the graph's real-time plan
+  // (its `realtime` section: SCHED_FIFO, pinning) applies, as in `rejuv run --realtime`; `cpu` is then not
+  // pinned to (the plan places the processes). A recovery costs the vehicle what it lasts, nothing is charged.
+  bool realtime = false;
 };
 
 // Flies `missions` in this process, one after another. Returns every outcome; the mission-level leak and

@@ -56,10 +56,11 @@ bool makes_sense(FaultKind kind, Where where) {
 }
 
 std::vector<Mission> plan(std::uint64_t seed, std::uint32_t injections, std::uint32_t per_mission,
-                          const std::vector<std::string>& rejuvenated, Nanos flight) {
+                          const std::vector<std::string>& rejuvenated, Nanos flight, bool realtime) {
   std::mt19937_64 rng(seed);
   std::vector<std::pair<FaultKind, Where>> ordinary, terminal;
   for (const FaultKind k : kAllFaultKinds) {
+    if (realtime && k == FaultKind::StallPlant) continue;  // fault_campaign.hpp: the world itself in real time
     for (const Where w : kAllWheres) {
       if (makes_sense(k, w)) (is_terminal(k) ? terminal : ordinary).emplace_back(k, w);
     }
@@ -132,7 +133,7 @@ std::string encode(const Outcome& o) {
   out << o.mission << '\t' << static_cast<int>(o.fault.kind) << '\t' << static_cast<int>(o.fault.where) << '\t'
       << clean(o.fault.target) << '\t' << o.fault.at.count() << '\t' << o.fired << '\t' << o.fired_at_s << '\t'
       << clean(o.path) << '\t' << o.recovered << '\t' << o.unsafe << '\t' << o.leaked << '\t' << o.hung << '\t'
-      << clean(o.note) << '\n';
+      << o.recovery_ms << '\t' << clean(o.note) << '\n';
   return out.str();
 }
 
@@ -148,7 +149,7 @@ bool decode(std::string_view line, Outcome& o) {
     }
   }
   f.push_back(std::move(cur));
-  if (f.size() != 13) return false;
+  if (f.size() != 14) return false;
   const auto kind = std::stoi(f[1]), where = std::stoi(f[2]);
   if (kind < 0 || kind >= static_cast<int>(kAllFaultKinds.size()) || where < 0 ||
       where >= static_cast<int>(kAllWheres.size())) {
@@ -166,7 +167,8 @@ bool decode(std::string_view line, Outcome& o) {
   o.unsafe = f[9] == "1";
   o.leaked = f[10] == "1";
   o.hung = f[11] == "1";
-  o.note = f[12];
+  o.recovery_ms = std::stod(f[12]);
+  o.note = f[13];
   return true;
 }
 }  // namespace rejuv::cli::faults
