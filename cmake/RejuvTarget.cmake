@@ -35,7 +35,9 @@ endfunction()
 
 # rejuv_gtest(NAME SOURCES ... DEPS ... [LABELS ...]): one gtest executable registered with ctest.
 function(rejuv_gtest name)
-  cmake_parse_arguments(ARG "" "TIMEOUT" "SOURCES;DEPS;LABELS" ${ARGN})
+  # RESOURCE_LOCK: what the executable's tests hold one at a time under ctest -j (e.g. `realtime`: real-time
+  # flights share the machine's real-time budget and need their CPU time, docs/realtime.md).
+  cmake_parse_arguments(ARG "" "TIMEOUT;RESOURCE_LOCK" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gmock GTest::gtest_main)
   target_compile_definitions(${name} PRIVATE REJUV_SOURCE_DIR="${REJUV_SOURCE_DIR}"
@@ -55,8 +57,12 @@ function(rejuv_gtest name)
       set(serial TRUE)
     endif()
   endif()
+  set(lock)
+  if(ARG_RESOURCE_LOCK)
+    set(lock RESOURCE_LOCK ${ARG_RESOURCE_LOCK})
+  endif()
   include(GoogleTest)
-  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} RUN_SERIAL ${serial}
+  gtest_discover_tests(${name} PROPERTIES LABELS "${ARG_LABELS}" TIMEOUT ${ARG_TIMEOUT} RUN_SERIAL ${serial} ${lock}
                        DISCOVERY_TIMEOUT 60)
 endfunction()
 

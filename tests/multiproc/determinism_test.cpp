@@ -143,6 +143,63 @@ TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {
   expect_same_flight(a, b);
 }
 
+// The messages of a ULog file (docs/ulog.md: a 16-byte header, then each message as its size (uint16), its type
+// (one byte) and its payload), or an empty list when the file is not a ULog.
+struct UlogMessage {
+  char type = 0;
+  std::string payload;
+};
+std::vector<UlogMessage> ulog_messages(const std::string& bytes) {
+  std::vector<UlogMessage> out;
+  if (bytes.size() < 16 || bytes.compare(0, 4, "ULog") != 0) return out;
+  for (std::size_t at = 16; at + 3 <= bytes.size();) {
+    const std::size_t size = static_cast<unsigned char>(bytes[at]) | (static_cast<unsigned char>(bytes[at + 1]) << 8U);
+    if (at + 3 + size > bytes.size()) break;
+    out.push_back(UlogMessage{.type = bytes[at + 2], .payload = bytes.substr(at + 3, size)});
+    at += 3 + size;
+  }
+  return out;
+}
+
+// A logged string's text ('L': level, timestamp, text) whose figures are the wall clock's: a duration the kernel
+// measured. What else differs between two runs with one seed is a finding.
+bool wall_clock_log_line(const UlogMessage& m) {
+  if (m.type != 'L' || m.payload.size() < 9) return false;
+  const std::string text = m.payload.substr(9);
+  for (const char* measured : {" ms", "wall"}) {
+    if (text.find(measured) != std::string::npos) return true;
+  }
+  return false;
+}
+
+// Two runs with one seed write the same ULog: every message byte-identical (the plant's and the kernel's messages
+// are built over zeroed bytes: no padding carries a process's stack into the log) but logged strings that
+// report a wall-clock duration, which must still be the same lines in the same order.
+TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalUlogsButForWallClockLines) {
+  const Flight a = fly("a", "6", {"--ulog", (dir_ / "a.ulg").string()});
+  const Flight b = fly("b", "6", {"--ulog", (dir_ / "b.ulg").string()});
+  ASSERT_EQ(a.outcome.exit_code, 0) << a.outcome.err;
+  ASSERT_EQ(b.outcome.exit_code, 0) << b.outcome.err;
+  const std::vector<UlogMessage> ma = ulog_messages(slurp(dir_ / "a.ulg"));
+  const std::vector<UlogMessage> mb = ulog_messages(slurp(dir_ / "b.ulg"));
+  ASSERT_GT(ma.size(), 1000U);
+  ASSERT_EQ(ma.size(), mb.size());
+  std::size_t data = 0, wall = 0;
+  for (std::size_t i = 0; i < ma.size(); ++i) {
+    ASSERT_EQ(ma[i].type, mb[i].type) << "message " << i;
+    data += ma[i].type == 'D' ? 1 : 0;
+    if (wall_clock_log_line(ma[i]) && wall_clock_log_line(mb[i])) {
+      ++wall;
+      EXPECT_EQ(ma[i].payload.substr(0, 9), mb[i].payload.substr(0, 9)) << "message " << i << " (level, timestamp)";
+      continue;
+    }
+    EXPECT_TRUE(ma[i].payload == mb[i].payload)
+        << "message " << i << " (type " << ma[i].type << ", " << ma[i].payload.size() << " bytes) differs";
+  }
+  EXPECT_GT(data, 1000U);
+  EXPECT_LT(wall, ma.size() / 10) << "most of the log exempted as wall clock";
+}
+
 // The estimate catch-up's replay (launch/quad_square) keeps the run deterministic: it is routed in the
 // lockstep's canonical order with the graph idle between its instants, and charged by the model per sample.
 TEST_F(Determinism, EstimateCatchUp_TwoFlightsWithOneSeed_IdenticalTracesAndSummaries) {

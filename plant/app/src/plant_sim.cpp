@@ -1,6 +1,7 @@
 #include "rejuv/plant_app/plant_sim.hpp"
 
 #include <algorithm>
+#include <cstring>
 
 #include "rejuv/core/result.hpp"
 #include "rejuv/dds/plant_topics.hpp"
@@ -8,6 +9,15 @@
 namespace rejuv::plant_app {
 
 namespace {
+
+// A message over zeroed bytes: its padding (SensorGps has 6 bytes after satellites_used) carries nothing of this
+// process's memory into the kernel's routes and the ULog. `T m{}` left it as the stack held it.
+template <typename T>
+T blank() {
+  T m;
+  std::memset(&m, 0, sizeof m);
+  return m;
+}
 
 // Different streams for sensors and wind from one seed (the splitmix64 increment keeps them apart).
 constexpr std::uint64_t kWindSeedOffset = 0x9E3779B97F4A7C15ULL;
@@ -35,7 +45,7 @@ plant::QuadState initial_state(const PlantSimConfig& c) {
 // and the IMU's temperature.
 template <typename Msg>
 Msg imu_message(Nanos t, double (Msg::*vector)[3], const Eigen::Vector3d& value) {
-  Msg m{};
+  auto m = blank<Msg>();
   m.timestamp_ns = stamp(t);
   copy3(m.*vector, value);
   m.temperature_c = kImuTemperature_c;
@@ -48,13 +58,13 @@ rejuv_msg_SensorAccel message_of(const plant::AccelSample& a, const plant::Senso
   return imu_message(a.t, &rejuv_msg_SensorAccel::f_B_m_s2, a.f_B_m_s2);
 }
 rejuv_msg_SensorMag message_of(const plant::MagSample& b, const plant::SensorParams& /*sp*/) {
-  rejuv_msg_SensorMag m{};
+  auto m = blank<rejuv_msg_SensorMag>();
   m.timestamp_ns = stamp(b.t);
   copy3(m.b_B_gauss, b.b_B_gauss);
   return m;
 }
 rejuv_msg_SensorBaro message_of(const plant::BaroSample& b, const plant::SensorParams& sp) {
-  rejuv_msg_SensorBaro m{};
+  auto m = blank<rejuv_msg_SensorBaro>();
   m.timestamp_ns = stamp(b.t);
   m.pressure_pa = b.pressure_pa;
   m.altitude_m = b.altitude_m;
@@ -62,7 +72,7 @@ rejuv_msg_SensorBaro message_of(const plant::BaroSample& b, const plant::SensorP
   return m;
 }
 rejuv_msg_SensorGps message_of(const plant::GpsSample& g, const plant::SensorParams& /*sp*/) {
-  rejuv_msg_SensorGps m{};
+  auto m = blank<rejuv_msg_SensorGps>();
   m.timestamp_ns = stamp(g.t);
   copy3(m.p_N_m, g.p_N_m);
   copy3(m.v_N_m_s, g.v_N_m_s);
@@ -144,7 +154,7 @@ void PlantSim::advance(Nanos interval, std::vector<SensorMessage>& out) {
 
 rejuv_msg_GroundTruth PlantSim::ground_truth() const {
   const plant::QuadState& x = quad_.state();
-  rejuv_msg_GroundTruth m{};
+  auto m = blank<rejuv_msg_GroundTruth>();
   m.timestamp_ns = stamp(now_);
   copy3(m.p_N_m, x.p_NB_N);
   copy3(m.v_N_m_s, x.v_NB_N);
