@@ -181,10 +181,11 @@ Options& Options::required() {
   return *this;
 }
 
-Options& Options::positionals(std::string name, std::vector<std::string>& out, std::string help) {
+Options& Options::positionals(std::string name, std::vector<std::string>& out, std::string help, bool required) {
   rest_ = &out;
   rest_name_ = std::move(name);
   rest_help_ = std::move(help);
+  rest_required_ = required;
   return *this;
 }
 
@@ -221,7 +222,7 @@ std::string Options::help() const {
   for (const Pos& p : pos_) {
     s << (p.required ? " " : " [") << p.name << (p.required ? "" : "]");
   }
-  if (rest_ != nullptr) s << " " << rest_name_ << "...";
+  if (rest_ != nullptr) s << (rest_required_ ? " " : " [") << rest_name_ << "..." << (rest_required_ ? "" : "]");
   s << "\n\n" << summary_ << "\n";
   if (!pos_.empty() || rest_ != nullptr) {
     s << "\narguments:\n";
@@ -323,7 +324,7 @@ Result<ParseOutcome, std::string> Options::parse(std::span<const std::string_vie
   for (const Opt& o : opts_) {
     if (o.required && !o.given) return fail("missing option " + o.name + " " + o.metavar + see);
   }
-  if (rest_ != nullptr && rest_->empty()) return fail("missing argument " + rest_name_ + see);
+  if (rest_ != nullptr && rest_required_ && rest_->empty()) return fail("missing argument " + rest_name_ + see);
   return ParseOutcome::Run;
 }
 

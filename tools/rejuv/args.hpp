@@ -99,8 +99,8 @@ class Options {
   Options& required();
   // A positional argument; required ones must be present.
   Options& positional(std::string name, std::string& out, std::string help, bool required = true);
-  // Every positional argument after the named ones (at least one), e.g. `merge DIR...`.
-  Options& positionals(std::string name, std::vector<std::string>& out, std::string help);
+  // Every positional argument after the named ones (at least one unless not `required`), e.g. `merge DIR...`.
+  Options& positionals(std::string name, std::vector<std::string>& out, std::string help, bool required = true);
 
   // Parses args (without the program and command names); nothing is printed. On error: the message.
   [[nodiscard]] Result<ParseOutcome, std::string> parse(std::span<const std::string_view> args);
@@ -151,6 +151,7 @@ class Options {
   std::vector<Pos> pos_;
   std::vector<std::string>* rest_ = nullptr;
   std::string rest_name_, rest_help_;
+  bool rest_required_ = true;
 };
 
 // Typed conversions of a value, with the option named in the error (also for values inside a custom syntax).

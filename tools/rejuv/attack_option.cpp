@@ -1,6 +1,8 @@
 #include "attack_option.hpp"
 
 #include <algorithm>
+#include <filesystem>
+#include <vector>
 
 #include "rejuv/policy/audit.hpp"
 
@@ -36,7 +38,13 @@ Result<void, std::string> override_attack(launch::LoadedLaunch& loaded, flight::
 
 Result<launch::LoadedLaunch, std::string> load_with_attack(const std::string& path, std::optional<flight::AttackLaw> law,
                                                            std::string_view command) {
-  auto loaded = launch::load_launch(path);
+  return load_with_attack(std::span<const std::string>(&path, 1), law, command);
+}
+
+Result<launch::LoadedLaunch, std::string> load_with_attack(std::span<const std::string> paths,
+                                                           std::optional<flight::AttackLaw> law, std::string_view command) {
+  const std::vector<std::filesystem::path> files(paths.begin(), paths.end());
+  auto loaded = launch::load_launch(std::span<const std::filesystem::path>(files));
   if (!loaded) return fail(loaded.error().to_string());
   // An object a service `uses` that its policy does not declare is an unknown name: refused here (exit 2), before
   // the kernel's audit would report it as a finding.

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -23,6 +24,10 @@ namespace rejuv::cli {
 // The launch graph at `path` with `law` applied when given (run, sim, report): the error is the loader's
 // (file:line:column) or "<command>: --attack …".
 [[nodiscard]] Result<launch::LoadedLaunch, std::string> load_with_attack(const std::string& path,
+                                                                       std::optional<flight::AttackLaw> law,
+                                                                       std::string_view command);
+// The same for several launch files composed into one graph (launch::load_launch of several paths).
+[[nodiscard]] Result<launch::LoadedLaunch, std::string> load_with_attack(std::span<const std::string> paths,
                                                                        std::optional<flight::AttackLaw> law,
                                                                        std::string_view command);
 // The kind of the graph's attack that acts on the vehicle (the model's: the first such one), "" if none or off.

@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -206,10 +207,13 @@ Result<std::vector<std::string>, std::string> service_names_of(std::string_view 
 // `rejuv run --help-service NAME [GRAPH]`: the parameters service NAME declares (launch.hpp "declared parameters").
 // With a graph, NAME is one of its services, found by its `executable`; without, NAME is an executable of the
 // service folder, with or without its "rejuv_" prefix (rejuv_lqr_control or lqr_control).
-int help_service(const std::string& name, const std::string& graph_path) {
+int help_service(const std::string& name, const std::vector<std::string>& graph_paths) {
   std::filesystem::path executable;
-  if (!graph_path.empty()) {
-    auto loaded = launch::load_launch(graph_path);
+  if (!graph_paths.empty()) {
+    const std::vector<std::filesystem::path> files(graph_paths.begin(), graph_paths.end());
+    auto loaded = launch::load_launch(std::span<const std::filesystem::path>(files));
+    std::string graph_path;
+    for (const std::string& p : graph_paths) graph_path += (graph_path.empty() ? "" : " + ") + p;
     if (!loaded) return bad_input(loaded.error().to_string());
     const proto::ServiceSpec* spec = launch::find_service(loaded->graph, name);
     if (spec == nullptr) {
@@ -256,7 +260,7 @@ int help_service(const std::string& name, const std::string& graph_path) {
 
 // What `rejuv run` was asked for: its options as parsed (declare_run_options).
 struct RunRequest {
-  std::string graph_path;
+  std::vector<std::string> graph_paths;  // one graph, or several composed into one
   KernelFlags flags;
   FlightSwitches switches;
   std::optional<double> duration, speed;
@@ -272,7 +276,10 @@ struct RunRequest {
 };
 
 void declare_run_options(Options& opts, RunRequest& r) {
-  opts.positional("GRAPH", r.graph_path, "the launch graph (*.launch.pbtxt)", /*required=*/false)
+  opts.positionals("GRAPH", r.graph_paths,
+                   "the launch graph (*.launch.pbtxt); several are composed into one graph in order, by the\n"
+                   "rules of `include` (a field two of them set is refused at the second one's line)",
+                   /*required=*/false)
       .text("--help-service", "NAME", r.help_service_name,
             "print the parameters service NAME declares (name, type, default, range, unit, help) and exit:\n"
             "a service of GRAPH, or without GRAPH an executable of the service folder (e.g. lqr_control)")
@@ -438,8 +445,8 @@ it fails, a service fails at boot or the graph's policy fails its audit (as `rej
 bad flags or a file the loaders refuse (README "Exit codes").)");
   declare_run_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (r.help_service_name) return help_service(*r.help_service_name, r.graph_path);
-  if (r.graph_path.empty()) return bad_input("rejuv run: missing argument GRAPH (see 'rejuv run --help')");
+  if (r.help_service_name) return help_service(*r.help_service_name, r.graph_paths);
+  if (r.graph_paths.empty()) return bad_input("rejuv run: missing argument GRAPH (see 'rejuv run --help')");
   if (auto ok = check_out_options(opts, r.out); !ok) return bad_input("rejuv run: " + ok.error());
   auto options = kernel_options_for(r);
   if (!options) return bad_input("rejuv run: " + options.error());
@@ -449,7 +456,7 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
     return 1;
   }
 
-  auto loaded = load_with_attack(r.graph_path, r.switches.attack, "rejuv run");
+  auto loaded = load_with_attack(r.graph_paths, r.switches.attack, "rejuv run");
   if (!loaded) return bad_input(loaded.error());
   for (const std::string& name : options->skip_services) {
     if (launch::find_service(loaded->graph, name) == nullptr) {

@@ -162,6 +162,24 @@ Result<LoadedLaunch, LoadError> load_launch(const std::filesystem::path& path) {
   return composed(std::move(graph), std::move(*locs), path);
 }
 
+Result<LoadedLaunch, LoadError> load_launch(std::span<const std::filesystem::path> paths) {
+  if (paths.size() == 1) return load_launch(paths.front());
+  REJUV_ASSERT(!paths.empty(), "load_launch: no launch file");
+  // A root made of nothing but the files' includes, named in messages for what it is.
+  std::string text;
+  std::string names;
+  for (const std::filesystem::path& p : paths) {
+    std::string quoted;
+    for (const char c : std::filesystem::absolute(p).lexically_normal().string()) {
+      if (c == '"' || c == '\\') quoted += '\\';
+      quoted += c;
+    }
+    text += "include: \"" + quoted + "\"\n";
+    names += (names.empty() ? "" : " + ") + p.filename().string();
+  }
+  return parse_launch(text, paths.front().parent_path() / ("(" + names + ")"));
+}
+
 Result<LoadedLaunch, LoadError> parse_launch(std::string_view text, const std::filesystem::path& as_path) {
   proto::Launch graph;
   auto locs = parse_composed_textproto(text, as_path.string(), graph);

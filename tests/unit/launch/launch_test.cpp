@@ -8,9 +8,11 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
+#include <vector>
 
 #include <google/protobuf/util/message_differencer.h>
 
@@ -152,6 +154,32 @@ TEST(LaunchLoader, ShippedQuadSquare_Loads) {
   EXPECT_TRUE(std::filesystem::is_regular_file(r->policy_path));
   EXPECT_NE(find_service(r->graph, "output_driver"), nullptr);
   EXPECT_FALSE(rejuvenate(*find_service(r->graph, "output_driver")));
+}
+
+// Several files, as `rejuv run A B` gives them: one graph composed by the rules of `include`. The hover and the
+// example service's fragment: the hover's services, the fragment's appended, each relative path from its file.
+TEST(LaunchLoader, SeveralFiles_ComposedIntoOneGraph) {
+  const std::filesystem::path src(REJUV_SOURCE_DIR);
+  const std::vector<std::filesystem::path> files{src / "launch" / "hover.launch.pbtxt",
+                                                 src / "examples" / "hello_service" / "hello_monitor.launch.pbtxt"};
+  const auto r = load_launch(std::span<const std::filesystem::path>(files));
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  const auto hover = load_launch(files[0]);
+  ASSERT_TRUE(hover.has_value()) << hover.error().to_string();
+  EXPECT_EQ(r->graph.name(), hover->graph.name());
+  EXPECT_EQ(r->graph.services_size(), hover->graph.services_size() + 1);
+  EXPECT_NE(find_service(r->graph, "hello_monitor"), nullptr);
+  EXPECT_NE(find_service(r->graph, "output_driver"), nullptr);
+  EXPECT_EQ(r->policy_path, hover->policy_path);
+}
+
+// Two whole graphs both set `name` (and more): refused at the second file's line, naming it.
+TEST(LaunchLoader, SeveralFilesSettingOneField_RefusedAtTheSecond) {
+  const std::filesystem::path launch = std::filesystem::path(REJUV_SOURCE_DIR) / "launch";
+  const std::vector<std::filesystem::path> files{launch / "hover.launch.pbtxt", launch / "quad_square_paper.launch.pbtxt"};
+  const auto r = load_launch(std::span<const std::filesystem::path>(files));
+  ASSERT_FALSE(r.has_value());
+  EXPECT_NE(r.error().to_string().find("quad_square_paper.launch.pbtxt:"), std::string::npos) << r.error().to_string();
 }
 
 TEST(LaunchLoader, GoodGraph_LoadsWithLocations) {

@@ -250,6 +250,14 @@ TEST_F(RejuvCli, RunPolicyFailingTheAudit_Exit1LikeAudit) {
   EXPECT_EQ(rejuv({"audit", policy_path.string()}).exit_code, 1);
 }
 
+// `rejuv run A B`: several graph files are one graph; two that set one field are refused (exit 2) at the second.
+TEST_F(RejuvCli, RunTwoGraphsSettingOneField_Exit2AtTheSecond) {
+  const std::string hover = (kRepo / "launch" / "hover.launch.pbtxt").string();
+  const Outcome r = rejuv({"run", hover, kQuadSquare, "--duration", "1"});
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find(kQuadSquare + ":"), std::string::npos) << r.err;
+}
+
 TEST_F(RejuvCli, RunHelp_ListsCpu) {
   const Outcome r = rejuv({"run", "--help"});
   EXPECT_EQ(r.exit_code, 0);

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -36,6 +37,11 @@ struct LoadedLaunch {
 // a path a fragment writes is made relative to this file's folder, where every reader resolves it).
 // CannotRead / Syntax / Semantic errors at the file:line:column of the fragment concerned, never an exception.
 [[nodiscard]] Result<LoadedLaunch, LoadError> load_launch(const std::filesystem::path& path);
+
+// Several launch files as one graph (as ROS 2 launch takes several): composed in order by the rules of
+// `include`, as if a file beside the first included each of them — repeated fields appended, a singular field
+// set by two of the files refused at the second one's line:column. One path: load_launch(path).
+[[nodiscard]] Result<LoadedLaunch, LoadError> load_launch(std::span<const std::filesystem::path> paths);
 
 // The same from text; `as_path` names the file in messages and anchors the relative policy path and the
 // includes (tests, fuzzing).
