@@ -349,6 +349,7 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
       last_progress = now();
       if (observer != nullptr) observer->on_step(lockstep.steps.steps_done(), now(), caps.mode());
       lockstep.steps.tick();
+      supervisor.retry_realtime();
     }
     lockstep.check_stop_conditions();
   }

@@ -76,9 +76,26 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   if (spec.rt_priority() == 0) return;
   // RLIMIT_RTTIME was set at spawn (limits_for) and is inherited by every image; the policy is reset on fork
   // and given back here to whichever process is the live service.
-  auto ok = sys::set_fifo(s.proc.process.pid(), static_cast<int>(spec.rt_priority()));
-  if (!ok)
-    k.log("real-time plan: '%s' stays SCHED_OTHER (%s)", s.name.c_str(), ok.error().to_string().c_str());
+  const pid_t pid = s.proc.process.pid();
+  auto ok = sys::set_fifo(pid, static_cast<int>(spec.rt_priority()));
+  if (ok) return;
+  // A restored copy is moved from `images/` into `live/` by the placer, after the rollback (docs/sandbox.md);
+  // in `images/`, whose real-time budget is 0 (v1 RT groups), SCHED_FIFO is refused: again once it is there.
+  if (s.sandbox.cgroup.valid() && !s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Live)) {
+    realtime_pending_.emplace_back(s.id, pid);
+    return;
+  }
+  k.log("real-time plan: '%s' stays SCHED_OTHER (%s)", s.name.c_str(), ok.error().to_string().c_str());
+}
+
+void Supervisor::retry_realtime() {
+  std::erase_if(realtime_pending_, [&](const std::pair<ServiceId, pid_t>& p) {
+    ServiceRuntime& s = k.services[p.first.value()];
+    if (!s.live() || s.proc.process.pid() != p.second) return true;  // another incarnation since: its own turn
+    if (!s.sandbox.cgroup.in_leaf(p.second, sys::CgroupLeaf::Live)) return false;  // not moved yet
+    apply_realtime(s);
+    return true;
+  });
 }
 
 }  // namespace rejuv::kernel

@@ -38,6 +38,9 @@ class Supervisor {
   void start_realtime_plan();  // run_realtime: the kernel's threads and memory, the plant, the Ready
   void apply_realtime(
       ServiceRuntime& s);  // a service that became Ready (spawned, cold-restarted or restored)
+  // run_realtime, every 100 ms: a restored copy refused SCHED_FIFO while still in its cgroup's `images/` leaf
+  // (no real-time budget there) gets the plan once the placer has moved it into `live/`.
+  void retry_realtime();
 
   [[nodiscard]] bool plant_started() const { return plant_started_; }
   [[nodiscard]] std::optional<pid_t> plant_pid() const;  // started and not yet reaped
@@ -48,6 +51,7 @@ class Supervisor {
   sys::ChildProcess plant_;
   bool plant_started_ = false;
   bool realtime_active = false;  // the plan is on and the kernel was granted SCHED_FIFO
+  std::vector<std::pair<ServiceId, pid_t>> realtime_pending_;  // refused in `images/`: retry_realtime
 };
 
 }  // namespace rejuv::kernel
