@@ -32,6 +32,8 @@ constexpr Command kCommands[] = {
      rejuv::cli::run_sweep},
     {"new", "`new service NAME`: a buildable out-of-tree service with its graph fragments and a test",
      rejuv::cli::run_new},
+    {"keys", "DDS Security for a graph across hosts: `keys init DIR` (a CA), `keys hosts DIR --launch GRAPH`",
+     rejuv::cli::run_keys},
 };
 
 void print_usage(std::FILE* to) {

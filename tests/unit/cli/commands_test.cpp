@@ -51,6 +51,8 @@ const std::vector<Command> kCommands = {
     {{"sweep"}, {kGraph, "--param", "sr.t_mc_s=0.2"}, "--runner sim|run|both", {"--attacks", "100001"},
      "--attacks: expected an integer in 0..100000, got '100001'", "--seeds"},
     {{"sweep", "merge"}, {"somewhere"}, "--out DIR", {"--out="}, "option '--out' needs a non-empty value DIR", "--out"},
+    {{"keys", "hosts"}, {"somewhere", "--launch", kGraph}, "--domain N", {"--domain", "233"},
+     "--domain: expected an integer in 0..232, got '233'", "--domain"},
 };
 
 std::string joined(const std::vector<std::string>& words) {

@@ -1,0 +1,114 @@
+// `rejuv keys init DIR` and `rejuv keys hosts DIR --launch GRAPH [--domain N]` (docs/across_hosts.md): the DDS
+// Security keystore of a graph across hosts, generated from its policy (keystore.hpp). `hosts` refuses a graph
+// that does not audit clean: what it grants is what the audit checked. Exit 0 done, 1 audit findings, 2 bad
+// input (a bad DIR, an unreadable or malformed graph, a graph without hosts).
+#include <cstdio>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "args.hpp"
+#include "commands.hpp"
+#include "keystore.hpp"
+#include "rejuv/launch/launch.hpp"
+#include "rejuv/policy/audit.hpp"
+#include "rejuv/policy/hosts.hpp"
+#include "rejuv/policy/policy.hpp"
+
+namespace rejuv::cli {
+
+namespace {
+
+void print(std::FILE* to, std::string_view s) { std::fwrite(s.data(), 1, s.size(), to); }
+
+int bad_input(const std::string& message) {
+  print(stderr, "rejuv keys: " + message + "\n");
+  return static_cast<int>(Exit::BadInput);
+}
+
+constexpr std::string_view kSummary =
+    "The DDS Security keystore of a graph across hosts (docs/across_hosts.md), in SROS2's layout:\n"
+    "  rejuv keys init DIR                      a CA (EC prime256v1) for identities and permissions\n"
+    "  rejuv keys hosts DIR --launch GRAPH      per host of GRAPH: an identity (CN = the host), permissions\n"
+    "                                           granting exactly its cross-host topics (default DENY) and the\n"
+    "                                           governance (encrypted, authenticated only), signed by the CA\n"
+    "Exit 0 done, 1 when GRAPH does not audit clean, 2 on bad input.";
+
+int keys_init(std::span<const std::string_view> args) {
+  std::string dir;
+  Options opts("keys init", "Makes the keystore's CA in DIR (public/, private/ 0700, enclaves/); refuses a DIR\n"
+                            "that holds one already.");
+  opts.positional("DIR", dir, "the keystore folder (made if missing)");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (auto r = keys::init_keystore(dir); !r) return bad_input(r.error());
+  print(stdout, "keys: CA made in " + dir + " (public/ca.cert.pem, private/ca.key.pem)\n");
+  return static_cast<int>(Exit::Ok);
+}
+
+int keys_hosts(std::span<const std::string_view> args) {
+  std::string dir;
+  std::filesystem::path launch_path;
+  std::optional<std::uint64_t> domain;
+  Options opts("keys hosts",
+               "Writes an enclave per host of GRAPH into the keystore DIR: enclaves/<host>/{cert.pem,key.pem,\n"
+               "identity_ca.cert.pem,permissions_ca.cert.pem,governance.p7s,permissions.xml,permissions.p7s}.\n"
+               "An identity already there is kept; permissions and governance are written again.");
+  opts.positional("DIR", dir, "the keystore folder (made by `rejuv keys init`)")
+      .path("--launch", "GRAPH", launch_path, "the launch graph (*.launch.pbtxt) with its `hosts`")
+      .required()
+      .integer("--domain", "N", domain, IntRange{0, launch::defaults::kMaxDdsDomainId},
+               "the DDS domain the permissions and governance cover", "the graph's dds.domain_id");
+  if (auto exit = opts.parse_or_exit(args)) return *exit;
+  if (!std::filesystem::is_directory(dir)) {
+    return bad_input(dir + ": no such keystore folder; make one with `rejuv keys init " + dir + "`");
+  }
+  auto g = launch::load_launch(launch_path);
+  if (!g) return bad_input(g.error().to_string());
+  if (g->graph.hosts_size() == 0) {
+    return bad_input(launch_path.string() + ": the graph declares no `hosts { name address }`: nothing crosses "
+                                            "between hosts, so there is nothing to secure");
+  }
+  auto pol = policy::load_policy(g->policy_path, g->policy_includes);
+  if (!pol) return bad_input(pol.error().to_string());
+  if (auto ok = policy::check_used_objects(*pol, *g); !ok) return bad_input(ok.error().to_string());
+  const auto findings = policy::audit(*pol, *g);
+  if (!findings.empty()) {
+    for (const auto& f : findings) print(stderr, f.to_string() + "\n");
+    print(stderr, "rejuv keys: " + launch_path.string() + " does not audit clean (" + std::to_string(findings.size()) +
+                      " finding(s)); no permissions written\n");
+    return static_cast<int>(Exit::Findings);
+  }
+  std::vector<keys::HostGrant> grants;
+  for (auto& t : policy::host_topics(*pol, policy::placement(*pol, *g))) {
+    grants.push_back(keys::HostGrant{std::move(t.host), std::move(t.publish), std::move(t.subscribe)});
+  }
+  const auto domain_id = static_cast<std::uint32_t>(domain.value_or(g->graph.dds().domain_id()));
+  if (auto r = keys::write_enclaves(dir, grants, domain_id); !r) return bad_input(r.error());
+  for (const auto& h : grants) {
+    const auto list = [](const std::vector<std::string>& v) {
+      std::string s;
+      for (const auto& n : v) s += (s.empty() ? "" : ", ") + n;
+      return s.empty() ? std::string("-") : s;
+    };
+    print(stdout, "keys: enclave " + h.host + " (domain " + std::to_string(domain_id) + "): publish " + list(h.publish) +
+                      "; subscribe " + list(h.subscribe) + "\n");
+  }
+  return static_cast<int>(Exit::Ok);
+}
+
+}  // namespace
+
+int run_keys(std::span<const std::string_view> args) {
+  if (args.empty() || args[0] == "--help" || args[0] == "-h") {
+    print(args.empty() ? stderr : stdout, "usage: rejuv keys init DIR | rejuv keys hosts DIR --launch GRAPH [--domain N]\n\n" +
+                                              std::string(kSummary) + "\n\n'rejuv keys init --help', 'rejuv keys hosts --help' show the options.\n");
+    return static_cast<int>(args.empty() ? Exit::BadInput : Exit::Ok);
+  }
+  if (args[0] == "init") return keys_init(args.subspan(1));
+  if (args[0] == "hosts") return keys_hosts(args.subspan(1));
+  return bad_input("unknown subcommand '" + std::string(args[0]) + "': expected init or hosts (rejuv keys --help)");
+}
+
+}  // namespace rejuv::cli
