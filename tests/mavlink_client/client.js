@@ -9,13 +9,19 @@
 //      last message every --retry-ms without an answer (the gate drops everything in the secure execution
 //      interval) and starting again on MAV_MISSION_INVALID_SEQUENCE (a rollback ended the transaction);
 //   4. watches LOCAL_POSITION_NED until the vehicle is near the uploaded waypoint, and STATUSTEXT until one
-//      reports a rollback.
+//      reports a rollback;
+//   with --qgc, as QGroundControl connects and plans: before the upload, COMMAND_LONG MAV_CMD_REQUEST_MESSAGE
+//      for AUTOPILOT_VERSION and HOME_POSITION (answered COMMAND_ACK and the message), the whole parameter list
+//      and a mission download; the upload in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT against the home learnt;
+//      MISSION_ITEM_REACHED and GLOBAL_POSITION_INT within the acceptance radius of the waypoint; the mission
+//      downloaded again (what was uploaded); then MAV_CMD_NAV_RETURN_TO_LAUNCH and the vehicle back over home.
+//   With --key, every vehicle frame's signature is checked with node-mavlink (the gate signs them).
 // Prints a JSON summary on stdout; exit 0 when every step was seen, 1 otherwise.
 //   node client.js --port P [--key HEX] [--wrong-key HEX] [--timeout S] [--retry-ms MS] [--target N,E,D]
 'use strict';
 const dgram = require('dgram');
 const { PassThrough } = require('stream');
-const { MavLinkProtocolV2, MavLinkPacketSplitter, MavLinkPacketParser, minimal, common } = require('node-mavlink');
+const { MavLinkProtocolV2, MavLinkPacketSplitter, MavLinkPacketParser, minimal, common, standard } = require('node-mavlink');
 
 const args = process.argv.slice(2);
 const opt = (name, fallback) => {
@@ -28,6 +34,8 @@ const wrongKey = opt('--wrong-key', null) ? Buffer.from(opt('--wrong-key'), 'hex
 const timeoutS = Number(opt('--timeout', '60'));
 const retryMs = Number(opt('--retry-ms', '20'));
 const target = opt('--target', '-0.6,-0.4,-3.3').split(',').map(Number);
+const qgc = args.includes('--qgc');
+const ACCEPTANCE_RADIUS_M = 0.3;
 if (!port) {
   console.error('client.js: --port P is required');
   process.exit(2);
@@ -40,7 +48,15 @@ const report = {
   heartbeat: false, vehicle_type: null, refusal_probes_sent: 0, upload_ack: null, upload_restarts: 0,
   upload_transmissions: 0, upload_unanswered: null, distance_at_ack_m: null, min_distance_after_ack_m: null, reached_target: false,
   rollback_statustext: null, statustexts: 0, local_position_ned: 0,
+  vehicle_frames: 0, vehicle_frames_verified: 0,
+  autopilot_version_capabilities: null, request_acks: {}, home: null, params: {}, param_count: null,
+  download_before: null, download_after: [], item_reached: [], min_global_distance_m: null, rtl_ack: null,
+  min_home_distance_after_rtl_m: null, returned_home: false,
 };
+const qgcSteps = ['version', 'home', 'params', 'download_before'];  // done before the upload, in order
+let qgcStep = 0;
+let downloadItems = [];
+let downloadCount = null;
 
 let seq = 0;
 let lastSignMs = 0;
@@ -79,7 +95,24 @@ function missionCount() {
   m.targetSystem = 1; m.targetComponent = 1; m.count = 1; m.missionType = 0; m.opaqueId = 0;
   return m;
 }
+const EARTH_RADIUS_M = 6378137.0;
+function latLonOf(north, east) {
+  const lat = report.home.lat + north / EARTH_RADIUS_M * 180 / Math.PI;
+  const lon = report.home.lon + east / (EARTH_RADIUS_M * Math.cos(report.home.lat * Math.PI / 180)) * 180 / Math.PI;
+  return [lat, lon];
+}
 function missionItem(seqNo) {
+  if (qgc) {
+    // As QGroundControl plans: latitude, longitude [degE7] and altitude above home [m].
+    const item = new common.MissionItemInt();
+    const [lat, lon] = latLonOf(target[0], target[1]);
+    item.targetSystem = 1; item.targetComponent = 1; item.seq = seqNo; item.frame = 6; item.command = 16;
+    item.current = seqNo === 0 ? 1 : 0; item.autocontinue = 1;
+    item.param1 = 0; item.param2 = ACCEPTANCE_RADIUS_M; item.param3 = 0; item.param4 = 0;
+    item.x = Math.round(lat * 1e7); item.y = Math.round(lon * 1e7); item.z = -target[2];
+    item.missionType = 0;
+    return item;
+  }
   const item = new common.MissionItemInt();
   item.targetSystem = 1; item.targetComponent = 1; item.seq = seqNo; item.frame = 1; item.command = 16;
   item.current = seqNo === 0 ? 1 : 0; item.autocontinue = 1;
@@ -104,8 +137,60 @@ function uploadSend(msg) {
   send(msg);
 }
 function startUpload() {
+  if (qgc && qgcStep < qgcSteps.length) {
+    phase = 'qgc';
+    uploadSend(qgcRequest());
+    return;
+  }
   phase = 'upload';
   uploadSend(missionCount());
+}
+function commandLong(command, param1) {
+  const c = new common.CommandLong();
+  c.targetSystem = 1; c.targetComponent = 1; c.command = command; c.confirmation = 0;
+  c._param1 = param1; c._param2 = 0; c._param3 = 0; c._param4 = 0; c._param5 = 0; c._param6 = 0; c._param7 = 0;
+  return c;
+}
+function requestList() {
+  const m = new common.MissionRequestList();
+  m.targetSystem = 1; m.targetComponent = 1; m.missionType = 0;
+  return m;
+}
+function requestItem(seqNo) {
+  const m = new common.MissionRequestInt();
+  m.targetSystem = 1; m.targetComponent = 1; m.seq = seqNo; m.missionType = 0;
+  return m;
+}
+// The message of the current QGC step (retransmitted, like every request, until it is answered).
+function qgcRequest() {
+  switch (qgcSteps[qgcStep]) {
+    case 'version': return commandLong(512, 148);  // MAV_CMD_REQUEST_MESSAGE AUTOPILOT_VERSION
+    case 'home': return commandLong(512, 242);     // MAV_CMD_REQUEST_MESSAGE HOME_POSITION
+    case 'params': { const m = new common.ParamRequestList(); m.targetSystem = 1; m.targetComponent = 1; return m; }
+    default: return requestList();
+  }
+}
+function nextQgcStep() {
+  qgcStep += 1;
+  downloadItems = []; downloadCount = null;
+  startUpload();
+}
+// A download (MISSION_REQUEST_LIST → MISSION_COUNT → MISSION_REQUEST_INT each → MISSION_ITEM_INT each).
+function onDownload(clazz, data, done) {
+  if (clazz === common.MissionCount && data.missionType === 0 && downloadCount === null) {
+    downloadCount = data.count;
+    if (downloadCount === 0) return done([]);
+    uploadSend(requestItem(0));
+  } else if (clazz === common.MissionItemInt && downloadCount !== null && data.seq === downloadItems.length) {
+    downloadItems.push({ seq: data.seq, frame: data.frame, x: data.x, y: data.y, z: data.z });
+    if (downloadItems.length === downloadCount) {
+      const ack = new common.MissionAck();
+      ack.targetSystem = 1; ack.targetComponent = 1; ack.type = 0; ack.missionType = 0; ack.opaqueId = 0;
+      send(ack);
+      return done(downloadItems);
+    }
+    uploadSend(requestItem(downloadItems.length));
+  }
 }
 
 // The refusal probes: an unsigned, a wrongly signed and a recorded MISSION_COUNT.
@@ -121,15 +206,18 @@ function probe() {
   }
 }
 
-const REGISTRY = { ...minimal.REGISTRY, ...common.REGISTRY };
+const REGISTRY = { ...minimal.REGISTRY, ...standard.REGISTRY, ...common.REGISTRY };
 packets.on('data', (packet) => {
   // The vehicle speaks only outside the secure execution interval, where the gate checks a frame's signature
   // instead of dropping it: a probe now reaches the check. (In lockstep at 10× real time an MC window lasts
   // tens of ms of wall-clock time: probes on a 100 ms clock alone can miss every window.)
   if (wrongKey && Date.now() - lastProbeAt >= 20) probe();
+  report.vehicle_frames += 1;
+  if (key && packet.signature && packet.signature.matches(key)) report.vehicle_frames_verified += 1;
   const clazz = REGISTRY[packet.header.msgid];
   if (!clazz) return;
   const data = packet.protocol.data(packet.payload, clazz);
+  if (qgc) onQgc(clazz, data);
   if (clazz === minimal.Heartbeat) {
     if (!report.heartbeat) {
       report.heartbeat = true;
@@ -163,7 +251,65 @@ packets.on('data', (packet) => {
   maybeFinish();
 });
 
+function onQgc(clazz, data) {
+  if (clazz === common.CommandAck) {
+    report.request_acks[data.command] = data.result;
+    if (data.command === 20 && report.rtl_ack === null) {
+      report.rtl_ack = data.result;
+      if (phase === 'rtl') phase = 'returning';
+    }
+  }
+  if (phase === 'qgc') {
+    const step = qgcSteps[qgcStep];
+    if (step === 'version' && clazz === standard.AutopilotVersion) {
+      report.autopilot_version_capabilities = Number(data.capabilities);
+      nextQgcStep();
+    } else if (step === 'home' && clazz === common.HomePosition) {
+      report.home = { lat: data.latitude / 1e7, lon: data.longitude / 1e7, alt_m: data.altitude / 1e3 };
+      nextQgcStep();
+    } else if (step === 'params' && clazz === common.ParamValue) {
+      report.param_count = data.paramCount;
+      report.params[String(data.paramId).replace(/\0.*$/, '')] = data.paramValue;
+      if (Object.keys(report.params).length === report.param_count) nextQgcStep();
+    } else if (step === 'download_before') {
+      onDownload(clazz, data, (items) => { report.download_before = items.length; nextQgcStep(); });
+    }
+    return;
+  }
+  if (clazz === common.MissionItemReached && report.upload_ack === MAV_MISSION_ACCEPTED) {
+    report.item_reached.push(data.seq);
+  }
+  if (clazz === common.GlobalPositionInt && report.home) {
+    const north = (data.lat / 1e7 - report.home.lat) * Math.PI / 180 * EARTH_RADIUS_M;
+    const east = (data.lon / 1e7 - report.home.lon) * Math.PI / 180 * EARTH_RADIUS_M * Math.cos(report.home.lat * Math.PI / 180);
+    const up = data.relativeAlt / 1e3;
+    if (phase === 'watch') {
+      const d = Math.hypot(north - target[0], east - target[1], up + target[2]);
+      report.min_global_distance_m = Math.min(report.min_global_distance_m ?? d, d);
+    }
+    if (phase === 'returning') {
+      // Home is the launch mission's first waypoint: over home at its altitude (3 m).
+      const d = Math.hypot(north, east, up - 3);
+      report.min_home_distance_after_rtl_m = Math.min(report.min_home_distance_after_rtl_m ?? d, d);
+      if (d < ACCEPTANCE_RADIUS_M) { report.returned_home = true; phase = 'done_ok'; }
+    }
+  }
+  // Once the waypoint is reached (ITEM_REACHED and within the radius): download what was uploaded, then RTL.
+  if (phase === 'watch' && report.item_reached.includes(0) && report.min_global_distance_m !== null &&
+      report.min_global_distance_m < ACCEPTANCE_RADIUS_M) {
+    phase = 'download_after';
+    uploadSend(requestList());
+  } else if (phase === 'download_after') {
+    onDownload(clazz, data, (items) => {
+      report.download_after = items;
+      phase = 'rtl';
+      uploadSend(commandLong(20, 0));
+    });
+  }
+}
+
 function complete() {
+  if (qgc && !(report.returned_home && report.rtl_ack === 0)) return false;
   return report.heartbeat && report.upload_ack === MAV_MISSION_ACCEPTED && report.reached_target &&
          report.rollback_statustext !== null && (!wrongKey || report.refusal_probes_sent >= 20);
 }
@@ -189,7 +335,9 @@ socket.bind(0, '127.0.0.1', () => {
     if (now - started > timeoutS * 1000) finish(1);
     // HEARTBEAT: fast until the vehicle answers (it only may in MC), then at 1 Hz as a ground station does.
     if (!report.heartbeat || now % 1000 < 20) send(heartbeat());
-    if (phase === 'upload' && lastUpload && now - lastUploadAt >= retryMs) uploadSend(lastUpload);
+    if (['upload', 'qgc', 'download_after', 'rtl'].includes(phase) && lastUpload && now - lastUploadAt >= retryMs) {
+      uploadSend(lastUpload);
+    }
     // With --wrong-key, all along (so that some arrive in MC, where the gate checks rather than drops): an
     // unsigned, a wrongly signed and a recorded MISSION_COUNT. The gate refuses them; ext_link never sees them.
     if (wrongKey && report.heartbeat && now % 100 < 20) probe();

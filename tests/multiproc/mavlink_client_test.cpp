@@ -131,5 +131,76 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   EXPECT_GT(summary.network().dropped_secure_interval(), 0U);
 }
 
+// As QGroundControl connects and plans (client.js --qgc), with signing on: AUTOPILOT_VERSION and HOME_POSITION
+// asked for with MAV_CMD_REQUEST_MESSAGE, the whole parameter list, a mission download; then a mission in
+// MAV_FRAME_GLOBAL_RELATIVE_ALT_INT against the home learnt, flown (MISSION_ITEM_REACHED, and GLOBAL_POSITION_INT
+// within the acceptance radius), downloaded again, and a return to launch flown — through the SEI, with
+// rollbacks. Every frame the vehicle sent verified with the key in node-mavlink (the gate signs them).
+TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames) {
+  ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
+      << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
+  std::string graph_text = slurp(kRepo / "launch/quad_square_paper.launch.pbtxt");
+  const std::string relative = "\"../policies/quad_sr.policy.pbtxt\"";
+  const auto policy_at = graph_text.find(relative);
+  ASSERT_NE(policy_at, std::string::npos);
+  graph_text.replace(policy_at, relative.size(), "\"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
+  graph_text += "\nnetwork { signing_key: \"" + std::string(kKey) + "\" }\n";
+  const auto graph = dir() / "qgc.launch.pbtxt";
+  std::ofstream(graph) << graph_text;
+  const auto summary_json = dir() / "summary.json";
+  const pid_t rejuv_run = test_support::start_program(
+      dir(), test_support::kRejuv,
+      {"run", graph.string(), "--duration", "400", "--net-port", "0", "--domain",
+       std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json.string()});
+  ASSERT_GT(rejuv_run, 0) << "cannot start rejuv run";
+  const std::uint16_t port = test_support::bound_gate_port(dir(), rejuv_run, std::chrono::seconds{60});
+  if (port == 0) {
+    const test_support::CliOutcome ended = test_support::wait_program(dir(), rejuv_run);
+    FAIL() << "rejuv run did not report its network gate's port:\n" << ended.err;
+  }
+  const auto client_out = dir() / "client.json";
+  const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--qgc", "--timeout",
+                                     "90", "--target", "1.5,-1,-3.5"},
+                                    client_out);
+  if (client <= 0) ::kill(rejuv_run, SIGTERM);
+  const test_support::CliOutcome run = test_support::wait_program(dir(), rejuv_run);
+  ASSERT_GT(client, 0) << "cannot start node";
+  const int client_exit = wait_client(client, std::chrono::seconds{120});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  const std::string client_text = slurp(client_out);
+  EXPECT_EQ(client_exit, 0) << client_text;
+  Struct report;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(client_text, &report).ok()) << client_text;
+  // The connection: capabilities say MISSION_INT and COMMAND_INT; home is PX4 SITL's; the parameters all came.
+  const auto capabilities = static_cast<std::uint64_t>(json_at(report, "autopilot_version_capabilities").number_value());
+  EXPECT_NE(capabilities & 4U, 0U) << client_text;
+  EXPECT_NE(capabilities & 8U, 0U) << client_text;
+  EXPECT_NEAR(json_at(report, "home").struct_value().fields().at("lat").number_value(), 47.397742, 1e-6) << client_text;
+  EXPECT_NEAR(json_at(report, "home").struct_value().fields().at("alt_m").number_value(), 488, 1e-3) << client_text;
+  EXPECT_GE(json_at(report, "param_count").number_value(), 7) << client_text;
+  EXPECT_EQ(json_at(report, "params").struct_value().fields_size(), json_at(report, "param_count").number_value());
+  EXPECT_GE(json_at(report, "download_before").number_value(), 1) << "the launch mission";
+  // The flight: accepted, reached as an item and by position, downloaded as uploaded, RTL flown.
+  EXPECT_EQ(json_at(report, "upload_ack").number_value(), 0) << "MAV_MISSION_ACCEPTED";
+  bool reached_item_0 = false;
+  for (const Value& v : json_at(report, "item_reached").list_value().values()) reached_item_0 |= v.number_value() == 0;
+  EXPECT_TRUE(reached_item_0) << client_text;
+  EXPECT_LT(json_at(report, "min_global_distance_m").number_value(), 0.3) << client_text;
+  const auto& after = json_at(report, "download_after").list_value();
+  ASSERT_EQ(after.values_size(), 1) << client_text;
+  EXPECT_EQ(after.values(0).struct_value().fields().at("frame").number_value(), 6) << "GLOBAL_RELATIVE_ALT_INT";
+  EXPECT_NEAR(after.values(0).struct_value().fields().at("z").number_value(), 3.5, 1e-3) << client_text;
+  EXPECT_EQ(json_at(report, "rtl_ack").number_value(), 0) << "MAV_RESULT_ACCEPTED";
+  EXPECT_TRUE(json_at(report, "returned_home").bool_value()) << client_text;
+  EXPECT_TRUE(json_at(report, "rollback_statustext").has_string_value()) << client_text;
+  // Signing both ways: every vehicle frame verified with the key.
+  EXPECT_GT(json_at(report, "vehicle_frames").number_value(), 100) << client_text;
+  EXPECT_EQ(json_at(report, "vehicle_frames_verified").number_value(), json_at(report, "vehicle_frames").number_value())
+      << client_text;
+  proto::RunSummary summary;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json), &summary).ok());
+  EXPECT_GT(summary.rollbacks(), 0U);
+}
+
 }  // namespace
 }  // namespace rejuv

@@ -39,7 +39,19 @@ bool allow_log(NetGate& net, Nanos wall_now) {
 
 GroundLink::GroundLink(std::optional<mavlink::SigningKey> key, std::optional<sys::UdpAddress> ground)
     : ground_(std::move(ground)) {
-  if (key) signing_.emplace(*key);
+  if (key) {
+    signing_.emplace(*key);
+    key_ = *key;
+  }
+}
+
+std::optional<mavlink::Frame> GroundLink::sign_outgoing(std::span<const std::byte> datagram, mavlink::SigningTime local_clock) {
+  if (!key_) return std::nullopt;
+  // Strictly increasing on the vehicle's stream (spec "Timestamp Handling"), whatever the wall clock does.
+  const mavlink::SigningTime stamp = std::max(local_clock, last_signed_ + mavlink::SigningClock::duration{1});
+  auto signed_frame = mavlink::sign_frame(datagram, mavlink::Signer{.key = *key_, .link_id = 0, .timestamp = stamp});
+  if (signed_frame) last_signed_ = stamp;
+  return signed_frame;
 }
 
 Result<void, mavlink::SigningRefusal> GroundLink::admit(std::span<const std::byte> datagram,
@@ -259,7 +271,18 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::I
     input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
-  if (auto ok = net.socket.send_to(data, *ground); !ok) {
+  // With signing on, the gate signs what the vehicle sends (the key stays in the kernel); a datagram it cannot
+  // sign (not a well-formed MAVLink 2 frame) is not sent.
+  std::optional<mavlink::Frame> signed_frame;
+  if (net.link.signing()) {
+    signed_frame = net.link.sign_outgoing(data, mavlink::SigningClock::now());
+    if (!signed_frame) {
+      if (allow_log(net, wall())) log("network gate: not sent: a datagram of %zu bytes that is no MAVLink 2 frame to sign", data.size());
+      input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::Refused));
+      return;
+    }
+  }
+  if (auto ok = net.socket.send_to(signed_frame ? signed_frame->view() : data, *ground); !ok) {
     if (allow_log(net, wall())) log("network gate: send to %s: %s", ground->to_string().c_str(), ok.error().to_string().c_str());
     input.refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
     return;

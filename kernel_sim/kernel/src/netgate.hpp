@@ -15,6 +15,7 @@
 #include "rejuv/core/time.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/mavlink/frame.hpp"
+#include "rejuv/mavlink/messages.hpp"
 #include "rejuv/sys/udp.hpp"
 
 namespace rejuv::kernel {
@@ -49,6 +50,12 @@ class GroundLink {
   // The receiver's verdict on a relayed datagram: a valid one makes its source the ground station.
   [[nodiscard]] Result<void, JudgeError> judge(std::uint64_t id, Verdict verdict);
   [[nodiscard]] const std::optional<sys::UdpAddress>& ground() const { return ground_; }
+  // With a signing key: the vehicle's frame signed with it (mavlink::sign_frame; link id 0, stamped from
+  // `local_clock`, strictly later than the last frame signed here). nullopt: not a MAVLink 2 frame the gate can
+  // sign, which it does not send (with signing on, the vehicle speaks only in frames a ground station can verify).
+  // Without a key: not called.
+  [[nodiscard]] std::optional<mavlink::Frame> sign_outgoing(std::span<const std::byte> datagram,
+                                                            mavlink::SigningTime local_clock);
 
  private:
   // A datagram relayed lately, by id, judged at most once.
@@ -60,6 +67,8 @@ class GroundLink {
   // With a signing key: the MAVLink 2 signature check every datagram must pass before it is relayed (the key
   // stays here, in the kernel; ext_link never holds it).
   std::optional<mavlink::SignatureChecker> signing_{};
+  std::optional<mavlink::SigningKey> key_{};  // the same key, for the vehicle's own frames
+  mavlink::SigningTime last_signed_{};
   std::array<Relayed, kRecentDatagrams> recent_{};
   std::uint64_t next_id_ = 1;
   // The ground station: the source of the last datagram its receiver judged valid (NetReceive verdict 0), not

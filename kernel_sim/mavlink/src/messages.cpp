@@ -200,6 +200,29 @@ Result<Packet, DecodeError> decode(std::span<const std::byte> datagram) {
   return Packet{.header = frame->header, .message = std::move(*message), .signature = frame->signature};
 }
 
+std::optional<Frame> sign_frame(std::span<const std::byte> datagram, const Signer& signer) {
+  auto frame = split_frame(datagram);
+  if (!frame || frame->signature) return std::nullopt;
+  const Known* known = find(frame->header.msgid);
+  if (known == nullptr || frame->payload.size() > known->payload_bytes) return std::nullopt;
+  const std::size_t body = kHeaderBytes + frame->payload.size();
+  if (checksum_of(datagram.first(body), known->crc_extra) != frame->checksum) return std::nullopt;
+  Frame f;
+  std::copy(datagram.begin(), datagram.begin() + static_cast<std::ptrdiff_t>(body), f.bytes.begin());
+  f.bytes[2] = std::byte{static_cast<std::uint8_t>(frame->header.incompat_flags | kIncompatSigned)};
+  const std::uint16_t crc = checksum_of(std::span<const std::byte>(f.bytes.data(), body), known->crc_extra);
+  f.bytes[body] = std::byte{static_cast<std::uint8_t>(crc)};
+  f.bytes[body + 1] = std::byte{static_cast<std::uint8_t>(crc >> 8U)};
+  f.size = body + kChecksumBytes;
+  f.bytes[f.size] = std::byte{signer.link_id};
+  const std::uint64_t ticks = signer.timestamp.time_since_epoch().count();  // its low 48 bits go on the wire
+  for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 1 + i] = std::byte{static_cast<std::uint8_t>(ticks >> (8U * i))};
+  const auto sig = signature_of(signer.key, std::span<const std::byte>(f.bytes.data(), f.size + 7));
+  for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 7 + i] = std::byte{sig[i]};
+  f.size += kSignatureBytes;
+  return f;
+}
+
 std::string text_of(const StatusText& status) {
   const auto end = std::find(status.text.begin(), status.text.end(), '\0');
   return std::string(status.text.begin(), end);

@@ -162,6 +162,24 @@ TEST(Signing, Encode_EqualsNodeMavlinkSignedFrame) {
   EXPECT_TRUE(p->signature.has_value());
 }
 
+// The gate's way of signing the vehicle's frames: an unsigned frame signed afterwards equals one encoded signed
+// (so node-mavlink verifies it: the test above), and only a well-formed unsigned frame is signed.
+TEST(Signing, SignFrame_EqualsEncodedSignedAndRefusesWhatItCannotSign) {
+  const auto key = SigningKey::from_hex(kKeyHex);
+  ASSERT_TRUE(key.has_value());
+  const MissionCount mc = decoded_as<MissionCount>(k_mission_count);
+  const Signer signer{.key = *key, .link_id = 3, .timestamp = kVectorTime};
+  const Frame plain = encode(mc, Envelope{.seq = 18, .sysid = 255, .compid = 190});
+  const auto signed_frame = sign_frame(plain.view(), signer);
+  ASSERT_TRUE(signed_frame.has_value());
+  EXPECT_EQ(to_hex(signed_frame->view()), k_mission_count_signed);
+  EXPECT_FALSE(sign_frame(signed_frame->view(), signer).has_value()) << "signed already";
+  Frame bad = plain;
+  bad.bytes[11] ^= std::byte{1};
+  EXPECT_FALSE(sign_frame(bad.view(), signer).has_value()) << "bad checksum";
+  EXPECT_FALSE(sign_frame(std::span<const std::byte>(plain.bytes.data(), 5), signer).has_value()) << "too short";
+}
+
 TEST(SigningKey, FromHex_RefusesWrongLengthAndNonHex) {
   EXPECT_FALSE(SigningKey::from_hex("0011").has_value());
   EXPECT_FALSE(SigningKey::from_hex(std::string(63, '0') + "g").has_value());

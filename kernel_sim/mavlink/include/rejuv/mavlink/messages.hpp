@@ -803,6 +803,12 @@ struct Signer {
 [[nodiscard]] Frame encode(const Message& message, const Envelope& envelope,
                            const std::optional<Signer>& signer = std::nullopt);
 
+// The signed copy of an unsigned MAVLink 2 frame of a message this codec knows, its checksum checked first:
+// the "signed" incompat flag set, the checksum recomputed over the new header, the signature appended (spec
+// "Message Signing"). The kernel's network gate signs the vehicle's frames this way, so that the key never
+// leaves the kernel. nullopt: not such a frame (malformed, signed already, unknown id, bad checksum).
+[[nodiscard]] std::optional<Frame> sign_frame(std::span<const std::byte> datagram, const Signer& signer);
+
 // Why a datagram is not a message (the first check that failed).
 enum class DecodeError : std::uint8_t {
   TooShort,          // shorter than a header and checksum
