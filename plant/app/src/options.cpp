@@ -33,7 +33,7 @@ constexpr std::string_view kUsage =
     "  --align-s S              pre-flight alignment: rest at the start pose for S seconds with the sensors\n"
     "                           publishing and actuator outputs not applied (default 20, as rejuv sim)\n"
     "  --step-ms MS             lockstep step, 1..1000 (default 4); the ground-truth period in realtime\n"
-    "  --ack-timeout-ms MS      lockstep: exit 3 when no ack arrives for this long (default 10000)\n"
+    "  --ack-timeout-ms MS      lockstep: exit 3 when no ack arrives for this long (default 60000)\n"
     "  --connect-timeout-ms MS  lockstep: exit 3 when the kernel's endpoints do not appear (default 30000)\n"
     "  --wind-mean M/S          mean wind speed (default 0)\n"
     "  --wind-toward DEG        where the mean wind blows toward, degrees clockwise from north, [0, 360)\n"

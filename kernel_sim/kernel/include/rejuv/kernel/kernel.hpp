@@ -107,7 +107,7 @@ struct KernelOptions {
   std::vector<std::string> plant_args{};        // extra arguments for the plant process
   // Real-time bounds so that a hung service cannot hang the kernel (faults, not timings).
   Nanos boot_deadline{std::chrono::seconds{20}};      // spawn → Ready
-  // A lockstep step: every service idle. Below the plant's ack timeout (10 s), so that a hung service is
+  // A lockstep step: every service idle. Below the plant's ack timeout (60 s), so that a hung service is
   // found (and, with SR, rolled back) before the plant gives up.
   Nanos idle_deadline{std::chrono::seconds{5}};
   Nanos shutdown_grace{std::chrono::seconds{2}};      // Shutdown → exit, before SIGKILL
