@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 
-#include "rejuv/mavlink/sha256.hpp"
 
 namespace rejuv::mavlink {
 
@@ -93,53 +92,6 @@ Result<FrameView, FrameError> split_frame(std::span<const std::byte> d) {
     f.signed_bytes = d.first(d.size() - 6);
   }
   return f;
-}
-
-std::array<std::uint8_t, 6> signature_of(const SigningKey& key, std::span<const std::byte> signed_bytes) {
-  Sha256 h;
-  h.update(std::span<const std::uint8_t>(key.bytes));
-  h.update(signed_bytes);
-  const Sha256Digest digest = h.finish();
-  std::array<std::uint8_t, 6> out{};
-  for (std::size_t i = 0; i < out.size(); ++i) out[i] = digest[i];
-  return out;
-}
-
-bool signature_matches(const SigningKey& key, const FrameView& frame) {
-  if (!frame.signature) return false;
-  const auto expected = signature_of(key, frame.signed_bytes);
-  std::uint8_t diff = 0;
-  for (std::size_t i = 0; i < expected.size(); ++i) diff = static_cast<std::uint8_t>(diff | (expected[i] ^ frame.signature->value[i]));
-  return diff == 0;
-}
-
-Result<void, SigningRefusal> SignatureChecker::check(std::span<const std::byte> datagram, SigningTime local_clock) {
-  auto frame = split_frame(datagram);
-  if (!frame) return fail(SigningRefusal::NotMavlink);
-  if (!frame->signature) return fail(SigningRefusal::Unsigned);
-  if (!signature_matches(key_, *frame)) return fail(SigningRefusal::BadSignature);
-  const Signature& sig = *frame->signature;
-  const SigningTime local = std::max(local_, local_clock);
-  // Timestamps are 48 bits on the wire: adding a minute cannot overflow.
-  if (sig.timestamp + kWindow < local) return fail(SigningRefusal::Stale);
-  const auto same = [&](const Stream& s) {
-    return s.sysid == frame->header.sysid && s.compid == frame->header.compid && s.link_id == sig.link_id;
-  };
-  const std::span<Stream> all(streams_);
-  const std::span<Stream> kept = all.first(stream_count_);
-  auto stream = std::find_if(kept.begin(), kept.end(), same);
-  if (stream != kept.end()) {
-    if (sig.timestamp <= stream->last) return fail(SigningRefusal::Replayed);
-  } else if (stream_count_ < streams_.size()) {
-    stream = all.begin() + static_cast<std::ptrdiff_t>(stream_count_++);
-  } else {
-    // Full: reuse the entry of a stream already more than a minute behind (its replays are refused as stale).
-    stream = std::find_if(kept.begin(), kept.end(), [&](const Stream& s) { return s.last + kWindow < local; });
-    if (stream == kept.end()) return fail(SigningRefusal::TooManyStreams);
-  }
-  *stream = Stream{.sysid = frame->header.sysid, .compid = frame->header.compid, .link_id = sig.link_id, .last = sig.timestamp};
-  local_ = std::max(local, sig.timestamp);
-  return {};
 }
 
 }  // namespace rejuv::mavlink

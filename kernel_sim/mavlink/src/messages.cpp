@@ -4,7 +4,6 @@
 #include <bit>
 #include <cstring>
 
-#include "rejuv/mavlink/sha256.hpp"
 
 namespace rejuv::mavlink {
 
@@ -138,7 +137,7 @@ std::optional<std::uint8_t> crc_extra_of(std::uint32_t msgid) {
   return k->crc_extra;
 }
 
-Frame encode(const Message& message, const Envelope& envelope, const std::optional<Signer>& signer) {
+Frame encode(const Message& message, const Envelope& envelope) {
   Frame f;
   std::size_t full = 0;
   std::uint8_t extra = 0;
@@ -159,21 +158,13 @@ Frame encode(const Message& message, const Envelope& envelope, const std::option
   while (n > 1 && f.bytes[kHeaderBytes + n - 1] == std::byte{0}) --n;
   const std::uint32_t id = id_of(message);
   const std::array<std::uint8_t, kHeaderBytes> header{
-      kStx, static_cast<std::uint8_t>(n), signer ? kIncompatSigned : std::uint8_t{0}, 0, envelope.seq, envelope.sysid,
+      kStx, static_cast<std::uint8_t>(n), 0, 0, envelope.seq, envelope.sysid,
       envelope.compid, static_cast<std::uint8_t>(id), static_cast<std::uint8_t>(id >> 8U), static_cast<std::uint8_t>(id >> 16U)};
   for (std::size_t i = 0; i < header.size(); ++i) f.bytes[i] = std::byte{header[i]};
   const std::uint16_t crc = checksum_of(std::span<const std::byte>(f.bytes.data(), kHeaderBytes + n), extra);
   f.bytes[kHeaderBytes + n] = std::byte{static_cast<std::uint8_t>(crc)};
   f.bytes[kHeaderBytes + n + 1] = std::byte{static_cast<std::uint8_t>(crc >> 8U)};
   f.size = kHeaderBytes + n + kChecksumBytes;
-  if (signer) {
-    f.bytes[f.size] = std::byte{signer->link_id};
-    const std::uint64_t ticks = signer->timestamp.time_since_epoch().count();  // its low 48 bits go on the wire
-    for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 1 + i] = std::byte{static_cast<std::uint8_t>(ticks >> (8U * i))};
-    const auto sig = signature_of(signer->key, std::span<const std::byte>(f.bytes.data(), f.size + 7));
-    for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 7 + i] = std::byte{sig[i]};
-    f.size += kSignatureBytes;
-  }
   return f;
 }
 
@@ -198,29 +189,6 @@ Result<Packet, DecodeError> decode(std::span<const std::byte> datagram) {
   auto message = known->decode(frame->payload);
   if (!message) return fail(message.error());
   return Packet{.header = frame->header, .message = std::move(*message), .signature = frame->signature};
-}
-
-std::optional<Frame> sign_frame(std::span<const std::byte> datagram, const Signer& signer) {
-  auto frame = split_frame(datagram);
-  if (!frame || frame->signature) return std::nullopt;
-  const Known* known = find(frame->header.msgid);
-  if (known == nullptr || frame->payload.size() > known->payload_bytes) return std::nullopt;
-  const std::size_t body = kHeaderBytes + frame->payload.size();
-  if (checksum_of(datagram.first(body), known->crc_extra) != frame->checksum) return std::nullopt;
-  Frame f;
-  std::copy(datagram.begin(), datagram.begin() + static_cast<std::ptrdiff_t>(body), f.bytes.begin());
-  f.bytes[2] = std::byte{static_cast<std::uint8_t>(frame->header.incompat_flags | kIncompatSigned)};
-  const std::uint16_t crc = checksum_of(std::span<const std::byte>(f.bytes.data(), body), known->crc_extra);
-  f.bytes[body] = std::byte{static_cast<std::uint8_t>(crc)};
-  f.bytes[body + 1] = std::byte{static_cast<std::uint8_t>(crc >> 8U)};
-  f.size = body + kChecksumBytes;
-  f.bytes[f.size] = std::byte{signer.link_id};
-  const std::uint64_t ticks = signer.timestamp.time_since_epoch().count();  // its low 48 bits go on the wire
-  for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 1 + i] = std::byte{static_cast<std::uint8_t>(ticks >> (8U * i))};
-  const auto sig = signature_of(signer.key, std::span<const std::byte>(f.bytes.data(), f.size + 7));
-  for (std::size_t i = 0; i < 6; ++i) f.bytes[f.size + 7 + i] = std::byte{sig[i]};
-  f.size += kSignatureBytes;
-  return f;
 }
 
 std::string text_of(const StatusText& status) {

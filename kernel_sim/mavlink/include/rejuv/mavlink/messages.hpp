@@ -800,8 +800,9 @@ struct Signer {
   SigningTime timestamp{};
 };
 
-[[nodiscard]] Frame encode(const Message& message, const Envelope& envelope,
-                           const std::optional<Signer>& signer = std::nullopt);
+[[nodiscard]] Frame encode(const Message& message, const Envelope& envelope);
+// The same, signed when `signer` is given (src/signing.cpp, with SHA-256 from libcrypto).
+[[nodiscard]] Frame encode(const Message& message, const Envelope& envelope, const std::optional<Signer>& signer);
 
 // The signed copy of an unsigned MAVLink 2 frame of a message this codec knows, its checksum checked first:
 // the "signed" incompat flag set, the checksum recomputed over the new header, the signature appended (spec
