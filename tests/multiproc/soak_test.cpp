@@ -56,6 +56,9 @@ TEST_F(Soak, ThirtyCycles_ReachesThemAndEverySeriesIsFlat) {
   const Outcome r = soak({"--cycles", "30", "--sample-every", "2"});
   EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("rejuv soak: flat over 30 cycles"), std::string::npos) << r.out;
+  // The baseline after the graph's memory has settled, by steps flown (60 s of flight reach past the middle of a
+  // 30-cycle soak): its samples from the middle on, not from 10 % of them.
+  EXPECT_NE(r.out.find("baseline    from sample 8 of 16 "), std::string::npos) << r.out;
   EXPECT_EQ(r.out.find("unreadable"), std::string::npos) << r.out;  // every /proc file this soak reads
   // Header and one row per sample: cycles 0, 2, …, 30.
   EXPECT_EQ(lines(r.csv), 1U + 16U) << r.csv;

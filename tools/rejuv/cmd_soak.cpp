@@ -10,7 +10,7 @@
 // gnuplot is present).
 //
 // The verdict compares, per series, the median of the last 20 % of the samples with the median of the 20 %
-// after a warm-up of 10 %: RSS may grow by at most --kernel-rss-kb (this process) or --service-rss-kb (each
+// after a warm-up of 10 % of the samples and at least 15 000 steps (60 s) of flight, at most half: RSS may grow by at most --kernel-rss-kb (this process) or --service-rss-kb (each
 // service and the plant); fds, threads and processes not beyond the largest value seen in the baseline window
 // (its jitter), mappings by --maps-slack more; with --one-kernel the SR cycle's length (sr_cycle_s, simulated
 // seconds per rollback between samples) within 1.25x of the baseline's (a slower cycle is a vehicle that
@@ -227,6 +227,17 @@ class Soak final : public kernel::Observer {
   [[nodiscard]] bool done() const { return done_; }
   [[nodiscard]] const std::vector<Series>& series() const { return series_; }
   [[nodiscard]] std::size_t samples() const { return cycle_.size(); }
+  // The first sample taken after `flight` of simulated time since the first sample, over every kernel of the
+  // soak (a new kernel's clock starts again: its time is added to what the ones before flew); samples() if none.
+  [[nodiscard]] std::size_t sample_after(Nanos flight) const {
+    double before = 0, offset = 0;
+    for (std::size_t i = 0; i < t_sim_.size(); ++i) {
+      if (i > 0 && t_sim_[i] < t_sim_[i - 1]) offset += t_sim_[i - 1];  // a new kernel
+      if (i == 0) before = t_sim_[0];
+      if (offset + t_sim_[i] - before >= to_seconds(flight).count()) return i;
+    }
+    return t_sim_.size();
+  }
 
   void write_csv(std::FILE* f) const {
     std::fprintf(f, "cycle,t_sim_s,wall_s");
@@ -332,11 +343,24 @@ struct Verdict {
   bool readable = true, ok = true;
 };
 
-// Baseline: samples [10 %, 30 %) (after the warm-up); last: the last 20 %.
-Verdict judge(const Series& s, double kernel_rss_kb, double service_rss_kb, double maps_slack, bool one_kernel) {
+// The warm-up before the baseline, in lockstep steps (15 000 steps of 4 ms: 60 s of flight): what the graph's
+// processes allocate once (the plant's and the services' DDS and allocator state) settles by the steps flown,
+// not by the SR cycles counted — on a loaded machine the plant's memory had not settled 10 % of a short soak's
+// cycles in, and the series "grew" from a baseline taken too early.
+constexpr Nanos kSettleFlight = 15'000 * std::chrono::milliseconds{4};
+
+// Where the baseline starts: after 10 % of the samples and after kSettleFlight, but no later than half-way.
+std::size_t baseline_start(const Soak& soak) {
+  const std::size_t n = soak.samples();
+  return std::min(n / 2, std::max(n / 10, soak.sample_after(kSettleFlight)));
+}
+
+// Baseline: 20 % of the samples from b0 (after the warm-up); last: the last 20 %.
+Verdict judge(const Series& s, std::size_t b0, double kernel_rss_kb, double service_rss_kb, double maps_slack,
+              bool one_kernel) {
   Verdict v{.name = s.name};
   const std::size_t n = s.values.size();
-  const std::size_t b0 = n / 10, b1 = std::max(b0 + 1, (n * 3) / 10), l0 = n - std::max<std::size_t>(1, n / 5);
+  const std::size_t b1 = std::max(b0 + 1, b0 + (n * 2) / 10), l0 = n - std::max<std::size_t>(1, n / 5);
   std::vector<double> base, last;
   for (std::size_t i = 0; i < n; ++i) {
     if (std::isnan(s.values[i])) continue;
@@ -525,9 +549,13 @@ void plot(const Soak& soak, const fs::path& out, const fs::path& csv_path) {
 // The verdict, one line per series; whether every judged series stayed in its bound.
 bool print_verdict(const Soak& soak, const SoakRequest& r) {
   bool flat = true;
+  const std::size_t b0 = baseline_start(soak);
+  std::printf("  baseline    from sample %zu of %zu (after 10 %% of them and %.0f s of flight, %lld steps of 4 ms)\n", b0,
+              soak.samples(), to_seconds(kSettleFlight).count(),
+              static_cast<long long>(kSettleFlight / std::chrono::milliseconds{4}));
   std::printf("  %-26s %12s %12s %10s %10s\n", "series", "baseline", "last 20 %", "growth", "bound");
   for (const Series& x : soak.series()) {
-    const Verdict v = judge(x, r.kernel_rss, r.service_rss, static_cast<double>(r.maps_slack), r.one_kernel);
+    const Verdict v = judge(x, b0, r.kernel_rss, r.service_rss, static_cast<double>(r.maps_slack), r.one_kernel);
     if (!v.readable) {
       std::printf("  %-26s %12s\n", v.name.c_str(), "unreadable");
       continue;
@@ -580,7 +608,8 @@ int run_soak(std::span<const std::string_view> args) {
                "--cycles rollbacks in all, sampling every --sample-every cycles the RSS, mappings and fds of the kernel,\n"
                "the plant and every service, the kernel's threads and children, the processes under it and in\n"
                "each service's session. Writes DIR/soak.csv (and DIR/soak.png with gnuplot). Compares the median\n"
-               "of the last 20 % of the samples with that of the 20 % after a 10 % warm-up: RSS may grow by the\n"
+               "of the last 20 % of the samples with that of the 20 % after a warm-up (10 % of the samples and\n"
+               "at least 15 000 steps, 60 s, of flight; at most half of them): RSS may grow by the\n"
                "bounds below, counts not beyond the baseline's jitter. Exit 0 when flat, 1 when a series grew or\n"
                "the run failed (the series are named), 2 on bad input.");
   declare_soak_options(opts, r);
