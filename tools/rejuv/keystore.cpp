@@ -22,6 +22,7 @@
 #include <memory>
 #include <sstream>
 #include <system_error>
+#include <set>
 
 namespace rejuv::keys {
 
@@ -443,6 +444,84 @@ Result<std::string, std::string> verify_signed(const fs::path& dir, const fs::pa
     if (c != '\r') lf += c;
   }
   return lf;
+}
+
+namespace {
+
+// The text between <tag> and </tag> from `from` on; npos-safe.
+std::string section(const std::string& text, const std::string& tag) {
+  const std::string open = "<" + tag + ">", close = "</" + tag + ">";
+  const auto a = text.find(open);
+  if (a == std::string::npos) return {};
+  const auto b = text.find(close, a);
+  return b == std::string::npos ? std::string{} : text.substr(a + open.size(), b - a - open.size());
+}
+
+std::set<std::string> topics_in(const std::string& text) {
+  std::set<std::string> out;
+  for (std::size_t at = text.find("<topic>"); at != std::string::npos; at = text.find("<topic>", at + 1)) {
+    const auto end = text.find("</topic>", at);
+    if (end == std::string::npos) break;
+    out.insert(text.substr(at + 7, end - at - 7));
+  }
+  return out;
+}
+
+std::string listed(const std::set<std::string>& s) {
+  std::string out;
+  for (const auto& t : s) out += (out.empty() ? "" : ", ") + t;
+  return out.empty() ? "nothing" : out;
+}
+
+}  // namespace
+
+Result<std::vector<std::string>, std::string> check_enclaves(const fs::path& dir, const std::vector<HostGrant>& hosts,
+                                                            std::uint32_t domain_id) {
+  auto ca = load_ca(dir);
+  if (!ca) return fail(ca.error());
+  std::vector<std::string> out;
+  for (const HostGrant& h : hosts) {
+    const fs::path e = dir / "enclaves" / h.host;
+    const auto bad = [&](const std::string& what) { out.push_back("enclave " + h.host + ": " + what); };
+    if (!fs::is_directory(e)) {
+      bad("missing (rejuv keys hosts writes it)");
+      continue;
+    }
+    auto cert = load_cert(e / "cert.pem");
+    auto key = load_key(e / "key.pem");
+    if (!cert || !key) {
+      bad(!cert ? cert.error() : key.error());
+    } else {
+      if (common_name(cert->get()) != h.host) bad("cert.pem is for CN=" + common_name(cert->get()) + ", not CN=" + h.host);
+      if (X509_verify(cert->get(), X509_get0_pubkey(ca->cert.get())) != 1) bad("cert.pem was not issued by this keystore's CA");
+      if (X509_check_private_key(cert->get(), key->get()) != 1) bad("key.pem is not the key of cert.pem");
+      struct ::stat st {};
+      if (::stat((e / "key.pem").c_str(), &st) == 0 && (st.st_mode & 077U) != 0) bad("key.pem is readable by group or others");
+    }
+    auto permissions = verify_signed(dir, e / "permissions.p7s");
+    if (!permissions) {
+      bad(permissions.error());
+    } else {
+      const std::set<std::string> want_pub(h.publish.begin(), h.publish.end());
+      const std::set<std::string> want_sub(h.subscribe.begin(), h.subscribe.end());
+      const auto got_pub = topics_in(section(*permissions, "publish"));
+      const auto got_sub = topics_in(section(*permissions, "subscribe"));
+      if (got_pub != want_pub) bad("permissions grant publishing " + listed(got_pub) + "; the policy grants " + listed(want_pub));
+      if (got_sub != want_sub) bad("permissions grant subscribing to " + listed(got_sub) + "; the policy grants " + listed(want_sub));
+      if (section(*permissions, "subject_name") != "CN=" + h.host) bad("permissions are for " + section(*permissions, "subject_name"));
+      if (section(*permissions, "default") != "DENY") bad("permissions do not deny by default");
+      if ((!want_pub.empty() || !want_sub.empty()) && section(section(*permissions, "domains"), "id") != std::to_string(domain_id)) {
+        bad("permissions are for domain " + section(section(*permissions, "domains"), "id") + ", not " + std::to_string(domain_id));
+      }
+    }
+    auto governance = verify_signed(dir, e / "governance.p7s");
+    if (!governance) {
+      bad(governance.error());
+    } else if (section(*governance, "allow_unauthenticated_participants") != "false") {
+      bad("governance admits unauthenticated participants");
+    }
+  }
+  return out;
 }
 
 }  // namespace rejuv::keys

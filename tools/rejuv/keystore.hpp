@@ -38,6 +38,14 @@ struct HostGrant {
 [[nodiscard]] Result<void, std::string> write_enclaves(const std::filesystem::path& dir,
                                                        const std::vector<HostGrant>& hosts, std::uint32_t domain_id);
 
+// Whether DIR's enclaves match what the policy grants: per host, its identity (CN = the host, issued by the CA,
+// its key secret and its own), permissions signed by the CA granting exactly `hosts`' topics in `domain_id`
+// with default DENY, and a governance signed by the CA that refuses unauthenticated participants. One message
+// per mismatch ("enclave vehicle: ..."); empty when the keystore matches. An error: DIR has no CA.
+[[nodiscard]] Result<std::vector<std::string>, std::string> check_enclaves(const std::filesystem::path& dir,
+                                                                          const std::vector<HostGrant>& hosts,
+                                                                          std::uint32_t domain_id);
+
 // The documents, as written (unsigned), for tests and `keys hosts --print`.
 [[nodiscard]] std::string governance_xml(std::uint32_t domain_id);
 [[nodiscard]] std::string permissions_xml(const HostGrant& host, std::uint32_t domain_id);

@@ -150,10 +150,45 @@ TEST_F(Keys, Hosts_GraphThatFailsTheAudit_Exit1NothingWritten) {
   EXPECT_FALSE(fs::exists(store() / "enclaves" / "companion" / "permissions.p7s"));
 }
 
+TEST_F(Keys, Check_MatchingKeystore_Exit0) {
+  ASSERT_EQ(rejuv({"keys", "init", store().string()}).exit_code, 0);
+  ASSERT_EQ(rejuv({"keys", "hosts", store().string(), "--launch", kGraph}).exit_code, 0);
+  const auto r = rejuv({"keys", "check", store().string(), "--launch", kGraph});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("keys: OK: "), std::string::npos) << r.out;
+}
+
+TEST_F(Keys, Check_PolicyChangedSinceTheKeystore_Exit1NamesTheStaleGrant) {
+  ASSERT_EQ(rejuv({"keys", "init", store().string()}).exit_code, 0);
+  ASSERT_EQ(rejuv({"keys", "hosts", store().string(), "--launch", kGraph}).exit_code, 0);
+  // The monitor is gone from the companion: the state no longer crosses, and the keystore still says it does.
+  std::string policy = slurp(kRepo / "tests" / "across_hosts" / "companion.policy.pbtxt");
+  std::string graph = slurp(kGraph);
+  for (auto [text, from] : {std::pair{&policy, std::string("grants { service: \"monitor\" object: \"state\" rights: \"R\" modes: [MC] }\n")},
+                            std::pair{&policy, std::string("services { name: \"monitor\" }\n")},
+                            std::pair{&graph, std::string("services {\n  name: \"monitor\"\n  executable: \"o\"\n  host: \"companion\"\n  uses { object: \"state\" rights: \"R\" }\n}\n")}}) {
+    const auto at = text->find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text->erase(at, from.size());
+  }
+  std::ofstream(dir_ / "companion.policy.pbtxt") << policy;
+  std::ofstream(dir_ / "companion.launch.pbtxt") << graph;
+  const auto r = rejuv({"keys", "check", store().string(), "--launch", (dir_ / "companion.launch.pbtxt").string()});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("enclave companion: permissions grant subscribing to rejuv/state; the policy grants nothing"),
+            std::string::npos)
+      << r.err;
+  // With no reader on the companion, the vehicle's permission to publish the state is stale as well.
+  EXPECT_NE(r.err.find("enclave vehicle: permissions grant publishing rejuv/state; the policy grants nothing"),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("subscribing to rejuv/waypoints"), std::string::npos) << r.err;  // the waypoints still cross
+}
+
 TEST_F(Keys, UnknownSubcommand_Exit2) {
   const auto r = rejuv({"keys", "rotate"});
   EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("unknown subcommand 'rotate': expected init or hosts"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("unknown subcommand 'rotate': expected init, hosts or check"), std::string::npos) << r.err;
 }
 
 }  // namespace
