@@ -3,7 +3,8 @@
 // tests/across_hosts/companion.launch.pbtxt; `rejuv keys` makes the keystore; one Cyclone DDS participant per
 // process (rejuv_dds_peer, `ip netns exec`) in each. A topic the policy makes cross (state: vehicle → companion)
 // is delivered; a writer on a topic the host was not granted is refused by Cyclone ("Not Allowed By Security");
-// a participant without security, beside a secure one that receives, receives nothing. Root only (network
+// a participant without security, beside a secure one that receives, receives nothing (where two participants
+// without security do exchange the topic: the control). Root only (network
 // namespaces); skipped otherwise with the reason. Namespaces and processes are removed on every exit path.
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -206,6 +207,19 @@ TEST_F(AcrossHosts, ParticipantWithoutSecurity_ReceivesNothing) {
   }
   const CliOutcome nothing = plain->stop();
   EXPECT_NE(nothing.out.find("received 0"), std::string::npos) << nothing.out << nothing.err;
+  (void)pub->stop();
+}
+
+// The control of the test above: between two participants without security the same path delivers, so the
+// plain participant's nothing is the security's doing, not the network's.
+TEST_F(AcrossHosts, WithoutSecurityOnBothSides_Delivered) {
+  auto sub = start("open_sub", companion_ns_, "subscribe", "rejuv/state", config("open_sub", kCompanionAddress, ""),
+                   {"--first", "--seconds", "60"});
+  ASSERT_TRUE(sub->printed("reading")) << slurp(dir_ / "open_sub" / "stderr");
+  auto pub = start("open_pub", vehicle_ns_, "publish", "rejuv/state", config("open_pub", kVehicleAddress, ""),
+                   {"--seconds", "60"});
+  const CliOutcome got = sub->wait();
+  EXPECT_NE(got.out.find("received 1"), std::string::npos) << got.out << got.err;
   (void)pub->stop();
 }
 
