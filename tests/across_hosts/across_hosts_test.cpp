@@ -13,6 +13,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -74,6 +75,7 @@ class AcrossHosts : public ::testing::Test {
     if (::geteuid() != 0) return;
     dir_ = fs::temp_directory_path() / ("rejuv_across_hosts_" + std::to_string(::getpid()));
     fs::create_directories(dir_ / "cmd");
+    remove_stale_namespaces();
     const std::string id = std::to_string(::getpid());
     vehicle_ns_ = "rjv_" + id;
     companion_ns_ = "rjc_" + id;
@@ -104,6 +106,21 @@ class AcrossHosts : public ::testing::Test {
       }
     }
   }
+  // Namespaces of an earlier run of this test that was killed before its tear-down (rjv_<pid>, rjc_<pid> of a
+  // process that no longer exists): removed, so that no kill leaves them behind for good.
+  static void remove_stale_namespaces() {
+    const CliOutcome list = rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "list"});
+    std::istringstream lines(list.out);
+    for (std::string line; std::getline(lines, line);) {
+      const std::string ns = line.substr(0, line.find(' '));
+      if (ns.size() < 5 || (ns.rfind("rjv_", 0) != 0 && ns.rfind("rjc_", 0) != 0)) continue;
+      const std::string pid = ns.substr(4);
+      if (pid.find_first_not_of("0123456789") != std::string::npos) continue;
+      if (fs::exists("/proc/" + pid)) continue;  // a live run's
+      (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
+    }
+  }
+
   static void TearDownTestSuite() {
     if (ns_made_) {
       // Deleting a namespace deletes the veth end in it, and with it the pair.

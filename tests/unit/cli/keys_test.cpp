@@ -113,6 +113,13 @@ TEST_F(Keys, Hosts_RerunKeepsIdentities) {
   EXPECT_EQ(slurp(store() / "enclaves" / "vehicle" / "cert.pem"), cert);
 }
 
+TEST_F(Keys, Init_DirIsAFile_Exit2) {
+  std::ofstream(store()) << "not a folder";
+  const auto r = rejuv({"keys", "init", store().string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find(store().string() + ": exists and is not a directory"), std::string::npos) << r.err;
+}
+
 TEST_F(Keys, Hosts_WithoutCa_Exit2SaysToInit) {
   fs::create_directories(store());
   const auto r = rejuv({"keys", "hosts", store().string(), "--launch", kGraph});
