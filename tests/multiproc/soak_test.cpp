@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -66,6 +67,41 @@ TEST_F(Soak, ThirtyCycles_ReachesThemAndEverySeriesIsFlat) {
                              "kernel_maps", "processes", "lqr_control_procs"}) {
     EXPECT_NE(r.csv.find(column), std::string::npos) << column;
   }
+}
+
+// `rejuv soak --realtime`: one kernel on the wall clock with the real-time plan, the square then a hover, SR and
+// attacks on; the lockstep soak's series judged as there, and per window the control intervals (p99.9, max) and
+// the estimate catch-ups reported (a value in every row after the first; none asserted: they are timings).
+TEST_F(Soak, RealTimeTwelveCycles_FlatAndEveryWindowsIntervalsSampled) {
+  const Outcome r = soak({"--realtime", "--cycles", "12", "--sample-every", "2"});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("rejuv soak: flat over 12 cycles"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("one kernel in real time"), std::string::npos) << r.err;
+  std::istringstream csv(r.csv);
+  std::string header;
+  std::getline(csv, header);
+  std::vector<std::string> columns;
+  for (std::istringstream h(header); std::getline(h, columns.emplace_back(), ',');) {
+  }
+  const auto column = [&](const std::string& name) {
+    return static_cast<std::size_t>(std::find(columns.begin(), columns.end(), name) - columns.begin());
+  };
+  const std::size_t p999 = column("interval_p999_ms"), max = column("interval_max_ms"), catch_ups = column("catch_ups");
+  ASSERT_LT(max, columns.size()) << header;
+  ASSERT_LT(p999, columns.size()) << header;
+  ASSERT_LT(catch_ups, columns.size()) << header;
+  std::size_t rows = 0;
+  for (std::string line; std::getline(csv, line);) {
+    std::vector<std::string> cells;
+    for (std::istringstream l(line); std::getline(l, cells.emplace_back(), ',');) {
+    }
+    ASSERT_GT(cells.size(), max) << line;
+    if (rows++ == 0) continue;  // the first window holds the boot
+    EXPECT_NE(cells[max], "NaN") << line;
+    EXPECT_NE(cells[p999], "NaN") << line;
+    EXPECT_NE(cells[catch_ups], "NaN") << line;
+  }
+  EXPECT_EQ(rows, 7U) << r.csv;  // cycles 0, 2, …, 12
 }
 
 // One kernel for the whole soak (the mission, then a hover), the SR cycle's length judged like

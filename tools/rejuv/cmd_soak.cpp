@@ -25,6 +25,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -145,7 +146,9 @@ struct Series {
   // where one kernel flies the whole soak (a new kernel per mission restarts the flight, so the length there is
   // reported, not judged).
   // KernelHeap: malloc's bytes in use in this process, judged like the kernel's RSS.
-  enum class Kind : std::uint8_t { KernelRss, KernelHeap, ServiceRss, Maps, Count, CycleLength } kind = Kind::Count;
+  // Timing: real time of the window since the last sample (`--realtime`: the control intervals' p99.9 and max
+  // [ms], the estimate catch-ups): reported, never judged (a timing says what this machine did, not a leak).
+  enum class Kind : std::uint8_t { KernelRss, KernelHeap, ServiceRss, Maps, Count, CycleLength, Timing } kind = Kind::Count;
   std::vector<double> values{};
 };
 
@@ -155,8 +158,10 @@ constexpr std::size_t kSampleSlack = 64;
 
 class Soak final : public kernel::Observer {
  public:
-  Soak(std::uint64_t cycles, std::uint64_t every)
-      : cycles_(cycles), every_(every), started_(std::chrono::steady_clock::now()) {}
+  Soak(std::uint64_t cycles, std::uint64_t every, bool realtime = false)
+      : cycles_(cycles), every_(every), started_(std::chrono::steady_clock::now()) {
+    realtime_ = realtime;
+  }
 
   // The recorder of the mission about to start (one per kernel).
   void record_with(RunRecorder& recorder) { recorder_ = &recorder; }
@@ -185,6 +190,12 @@ class Soak final : public kernel::Observer {
     add("kernel_children", Series::Kind::Count);
     add("processes", Series::Kind::Count);
     for (const auto& s : services_) add(s.name + "_procs", Series::Kind::Count);
+    if (realtime_) {
+      add("interval_p999_ms", Series::Kind::Timing);
+      add("interval_max_ms", Series::Kind::Timing);
+      add("catch_ups", Series::Kind::Timing);
+      add("catch_ups_cut_short", Series::Kind::Timing);
+    }
     // Room for every sample up front (one every `every_` cycles, and the first of each kernel): the soak's own
     // samples, 8 bytes per series each, would otherwise grow this process's heap and RSS by doubling vectors
     // while they measure them (≈ 60 B per cycle on the square at a sample every 10 cycles).
@@ -248,7 +259,7 @@ class Soak final : public kernel::Observer {
       for (const Series& s : series_) {
         if (std::isnan(s.values[i])) {
           std::fprintf(f, ",NaN");
-        } else if (s.kind == Series::Kind::CycleLength) {
+        } else if (s.kind == Series::Kind::CycleLength || s.kind == Series::Kind::Timing) {
           std::fprintf(f, ",%.3f", s.values[i]);
         } else {
           std::fprintf(f, ",%.0f", s.values[i]);
@@ -308,6 +319,21 @@ class Soak final : public kernel::Observer {
       }
       v[s.name + "_procs"] = in_session;
     }
+    if (realtime_) {
+      // The window's control intervals (from a histogram: nothing allocated while the soak measures) and
+      // the estimate catch-ups since the last sample.
+      if (window_count_ > 0) {
+        v["interval_p999_ms"] = intervals_->quantile(0.999);
+        v["interval_max_ms"] = intervals_->max_ms();
+      }
+      const kernel::CatchUpStats& c = k_->catch_up_stats();
+      v["catch_ups"] = static_cast<double>(c.replays - catch_ups_before_);
+      v["catch_ups_cut_short"] = static_cast<double>(c.cut_short - cut_short_before_);
+      catch_ups_before_ = c.replays;
+      cut_short_before_ = c.cut_short;
+      intervals_->clear();
+      window_count_ = 0;
+    }
     for (Series& s : series_) s.values.push_back(v.contains(s.name) ? v[s.name] : kNaN);
 
     const double done = static_cast<double>(std::min(rollbacks, cycles_)) / static_cast<double>(cycles_);
@@ -317,6 +343,55 @@ class Soak final : public kernel::Observer {
                  to_seconds(t).count(), v["kernel_rss_kb"], v["processes"], eta);
   }
 
+  // Control intervals of a window in 10 µs bins up to 100 ms (and the exact max): a fixed histogram.
+  class Intervals {
+   public:
+    void add(double ms) {
+      const auto bin = static_cast<std::size_t>(std::clamp(ms * 100.0, 0.0, static_cast<double>(kBins - 1)));
+      ++bins_[bin];
+      ++n_;
+      max_ = std::max(max_, ms);
+    }
+    [[nodiscard]] double quantile(double q) const {
+      const auto rank = static_cast<std::uint64_t>(std::ceil(q * static_cast<double>(n_)));
+      std::uint64_t seen = 0;
+      for (std::size_t i = 0; i < kBins; ++i) {
+        seen += bins_[i];
+        if (seen >= rank && seen > 0) return static_cast<double>(i + 1) / 100.0;
+      }
+      return max_;
+    }
+    [[nodiscard]] double max_ms() const { return max_; }
+    void clear() {
+      bins_.fill(0);
+      n_ = 0;
+      max_ = 0;
+    }
+
+   private:
+    static constexpr std::size_t kBins = 10'000;
+    std::array<std::uint32_t, kBins> bins_{};
+    std::uint64_t n_ = 0;
+    double max_ = 0;
+  };
+
+ public:
+  // Every control update (real time `wall`): the interval since the one before, into the window's histogram.
+  void on_control_update(Nanos t, Nanos wall) override {
+    if (recorder_ != nullptr) recorder_->on_control_update(t, wall);
+    if (!realtime_ || k_ == nullptr) return;
+    if (last_update_ && wall > *last_update_) {
+      intervals_->add(std::chrono::duration<double, std::milli>(wall - *last_update_).count());
+      ++window_count_;
+    }
+    last_update_ = wall;
+  }
+
+ private:
+  bool realtime_ = false;
+  std::unique_ptr<Intervals> intervals_ = std::make_unique<Intervals>();  // 40 kB: not on the stack of a copy
+  std::optional<Nanos> last_update_{};
+  std::uint64_t window_count_ = 0, catch_ups_before_ = 0, cut_short_before_ = 0;
   RunRecorder* recorder_ = nullptr;
   kernel::Kernel* k_ = nullptr;
   std::uint64_t cycles_, every_, next_ = 0, offset_ = 0;
@@ -387,6 +462,7 @@ Verdict judge(const Series& s, std::size_t b0, double kernel_rss_kb, double serv
     case Series::Kind::Count: v.bound = *std::max_element(base.begin(), base.end()) - v.baseline; break;  // jitter
     // The last 20 % within 1.25x of the early cycles.
     case Series::Kind::CycleLength: v.bound = one_kernel ? 0.25 * v.baseline : kNaN; break;
+    case Series::Kind::Timing: v.bound = kNaN; break;  // reported: what this machine did, not a leak
   }
   if (std::isnan(v.bound)) return v;  // reported, not judged
   v.ok = v.growth <= v.bound;
@@ -424,7 +500,7 @@ struct SoakRequest {
   std::uint64_t cycles = 1000, every = 10, maps_slack = 2;
   double kernel_rss = 512, service_rss = 256;
   std::filesystem::path out = "out/soak";
-  bool one_kernel = false;
+  bool one_kernel = false, realtime = false;
   KernelFlags flags{.net_port = 0};
 };
 
@@ -445,7 +521,11 @@ void declare_soak_options(Options& opts, SoakRequest& r) {
       .flag("--one-kernel", r.one_kernel,
             "one kernel for the whole soak (the mission, then a hover at its last waypoint) instead of a new\n"
             "kernel in this process for each mission")
-      .flag("--insecure-sandbox", r.flags.insecure_sandbox, "as `rejuv run --insecure-sandbox`");
+      .flag("--insecure-sandbox", r.flags.insecure_sandbox, "as `rejuv run --insecure-sandbox`")
+      .flag("--realtime", r.realtime,
+            "one kernel on the wall clock with the graph's real-time plan (as `rejuv run --realtime`; implies\n"
+            "--one-kernel): also samples per window the control intervals' p99.9 and max [ms] and the estimate\n"
+            "catch-ups (replays, cut short), reported and not judged");
 }
 
 // What the soak's missions add up to.
@@ -560,6 +640,10 @@ bool print_verdict(const Soak& soak, const SoakRequest& r) {
       std::printf("  %-26s %12s\n", v.name.c_str(), "unreadable");
       continue;
     }
+    if (x.kind == Series::Kind::Timing) {
+      std::printf("  %-26s %12.2f %12.2f %+10.2f %10s\n", v.name.c_str(), v.baseline, v.last, v.growth, "(reported)");
+      continue;
+    }
     if (x.kind == Series::Kind::CycleLength) {  // seconds: two decimals
       char bound[48] = "(not judged: a kernel per mission)";
       if (!std::isnan(v.bound)) std::snprintf(bound, sizeof bound, "%10.2f", v.bound);
@@ -618,7 +702,12 @@ int run_soak(std::span<const std::string_view> args) {
     return bad_input("rejuv soak: --sample-every: expected 1..--cycles (" + std::to_string(r.cycles) + "), got " +
                      std::to_string(r.every));
   }
+  if (r.realtime && opts.given("--charge")) {
+    return bad_input("rejuv soak: --charge is lockstep's: in real time nothing is charged");
+  }
+  if (r.realtime) r.one_kernel = true;
   kernel::KernelOptions options = kernel_options(r.flags);
+  if (r.realtime) options.clock = kernel::ClockMode::Realtime;
   auto domain = lease_domain(options);  // held until the soak has ended
   if (!domain) {
     std::fprintf(stderr, "rejuv soak: %s\n", domain.error().c_str());
@@ -633,12 +722,12 @@ int run_soak(std::span<const std::string_view> args) {
   if (!csv) return bad_input("rejuv soak: cannot write " + csv_path.string());
   // One mission per kernel (default) or one kernel for the whole soak (--one-kernel: the mission, then a hover).
   if (r.one_kernel) options.stop_on_mission_done = false;
-  Soak soak(r.cycles, r.every);
+  Soak soak(r.cycles, r.every, r.realtime);
   const std::string graph_name = loaded->graph.name();
   std::fprintf(stderr, "rejuv soak: %s, %llu SR cycles, a sample every %llu, seed %llu, %s\n", graph_name.c_str(),
                static_cast<unsigned long long>(r.cycles), static_cast<unsigned long long>(r.every),
                static_cast<unsigned long long>(options.seed.value_or(loaded->graph.seed())),
-               r.one_kernel ? "one kernel" : "a new kernel for each mission");
+               r.realtime ? "one kernel in real time" : r.one_kernel ? "one kernel" : "a new kernel for each mission");
   SoakTotals totals;
   while (!soak.done() && !totals.failed) {
     if (auto exit = fly_mission(r, options, soak, totals)) return *exit;
