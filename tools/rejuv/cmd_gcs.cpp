@@ -1,6 +1,8 @@
 // `rejuv gcs`: a minimal MAVLink 2 ground control station on the other side of the kernel's network gate
-// (docs/design.md §2, §10; docs/mavlink.md). It uploads a mission with the MAVLink mission protocol
-// (MISSION_COUNT → MISSION_REQUEST_INT → MISSION_ITEM_INT … → MISSION_ACK), retransmitting its last message
+// (docs/design.md §2, §10; docs/mavlink.md). It asks for the vehicle's home (MAV_CMD_REQUEST_MESSAGE
+// HOME_POSITION), uploads a mission with the MAVLink mission protocol (MISSION_COUNT → MISSION_REQUEST_INT →
+// MISSION_ITEM_INT … → MISSION_ACK) planned in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT against it (LOCAL_NED when
+// the vehicle has no home), downloads it back and says whether it is the mission uploaded, retransmitting its last message
 // every 200 ms until the vehicle answers — so an upload made during the secure execution interval, where the
 // gate drops everything, simply waits for MC — and prints the telemetry and STATUSTEXT the vehicle sends (MC
 // only). With --key (or --key-file) every frame it sends is signed (MAVLink 2 message signing), as the
@@ -11,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -207,8 +210,14 @@ class GroundStation {
   GroundStation(const GcsPlan& plan, sys::UdpSocket socket)
       : plan_(plan), socket_(std::move(socket)), start_(sys::monotonic_now()), next_upload_(start_),
         next_heartbeat_(start_) {
-    if (plan_.upload) uploader_.emplace(plan_.upload->waypoints, plan_.upload->acceptance_radius_m);
-    if (!plan_.upload) acked_at_ = start_;
+    if (plan_.upload) {
+      uploader_.emplace(plan_.upload->waypoints, plan_.upload->acceptance_radius_m);
+      // First home on Earth (HOME_POSITION), to plan in global coordinates as QGroundControl does.
+      phase_ = Phase::Home;
+      pending_ = request_home();
+    } else {
+      acked_at_ = start_;
+    }
   }
 
   int run() {
@@ -221,7 +230,7 @@ class GroundStation {
                       static_cast<unsigned long long>(transmissions_));
           return static_cast<int>(Exit::Findings);
         }
-        if (now >= next_upload_) transmit(transmissions_ == 0 ? uploader_->start() : uploader_->last_sent());
+        if (now >= next_upload_ && pending_) transmit(*pending_);
       } else if (now - *acked_at_ >= plan_.watch) {
         break;
       }
@@ -296,7 +305,7 @@ class GroundStation {
         continue;
       }
       if (uploader_ && !acked_at_) {
-        if (auto exit = on_upload_reply(p->message)) return exit;
+        if (auto exit = on_session_reply(p->message)) return exit;
       }
       on_telemetry(p->message);
     }
@@ -309,20 +318,101 @@ class GroundStation {
     std::fflush(stdout);
   }
 
+  static mavlink::Message request_home() {
+    return mavlink::CommandLong{.param1 = static_cast<float>(mavlink::HomePosition::kId), .param2 = 0, .param3 = 0,
+                                .param4 = 0, .param5 = 0, .param6 = 0, .param7 = 0, .command = kRequestMessage,
+                                .target_system = 1, .target_component = 1, .confirmation = 0};
+  }
+
+  void start_upload() {
+    phase_ = Phase::Upload;
+    if (home_) {
+      uploader_->plan_in_global(*home_);
+      std::printf("rejuv gcs: home %.7f, %.7f, %.1f m AMSL: planning in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT\n",
+                  home_->lat_deg, home_->lon_deg, home_->alt_m);
+    } else {
+      std::printf("rejuv gcs: the vehicle has no home on Earth: planning in MAV_FRAME_LOCAL_NED\n");
+    }
+    std::fflush(stdout);
+    pending_ = uploader_->start();
+    transmit(*pending_);
+  }
+
+  // The session's next step (home, upload, download); an exit code when the vehicle refused the upload or the
+  // download differs from it.
+  std::optional<int> on_session_reply(const mavlink::Message& m) {
+    switch (phase_) {
+      case Phase::Home:
+        if (const auto* h = std::get_if<mavlink::HomePosition>(&m)) {
+          home_ = mavlink::GeoHome{.lat_deg = h->latitude / mavlink::kGlobalIntScale,
+                                   .lon_deg = h->longitude / mavlink::kGlobalIntScale, .alt_m = h->altitude * 1e-3};
+          start_upload();
+        } else if (const auto* a = std::get_if<mavlink::CommandAck>(&m); a != nullptr && a->command == kRequestMessage &&
+                                                                          a->result != 0) {
+          start_upload();
+        }
+        return std::nullopt;
+      case Phase::Upload: return on_upload_reply(m);
+      case Phase::Download: return on_download_reply(m);
+    }
+    return std::nullopt;
+  }
+
   // The mission protocol's next step; an exit code when the vehicle refused the upload.
   std::optional<int> on_upload_reply(const mavlink::Message& m) {
-    if (auto reply = uploader_->on_message(m)) transmit(*reply);
+    if (auto reply = uploader_->on_message(m)) {
+      pending_ = *reply;
+      transmit(*reply);
+    }
     if (uploader_->status() == mavlink::MissionUploader::Status::Refused) {
       print_refusal();
       return static_cast<int>(Exit::Findings);
     }
     if (uploader_->status() == mavlink::MissionUploader::Status::Accepted) {
-      acked_at_ = sys::monotonic_now();
       std::printf("rejuv gcs: upload acknowledged by ext_link after %.1f s and %llu transmission(s)%s\n", elapsed(),
                   static_cast<unsigned long long>(transmissions_),
                   uploader_->restarts() > 0 ? (", " + std::to_string(uploader_->restarts()) + " restart(s)").c_str() : "");
       std::fflush(stdout);
+      // Then downloaded back (MISSION_REQUEST_LIST → MISSION_COUNT → MISSION_REQUEST_INT each).
+      phase_ = Phase::Download;
+      pending_ = mavlink::MissionRequestList{.target_system = 1, .target_component = 1, .mission_type = 0};
+      transmit(*pending_);
     }
+    return std::nullopt;
+  }
+
+  // The download after the upload: printed with whether it is the mission uploaded (it is not when a rollback
+  // wiped ext_link's memory of the upload and the graph grants it no read of commander's kept one).
+  std::optional<int> on_download_reply(const mavlink::Message& m) {
+    constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+    if (const auto* c = std::get_if<mavlink::MissionCount>(&m); c != nullptr && c->mission_type == 0 && !download_count_) {
+      download_count_ = c->count;
+    } else if (const auto* item = std::get_if<mavlink::MissionItemInt>(&m);
+               item != nullptr && download_count_ && item->seq == downloaded_.size()) {
+      const auto w = mavlink::waypoint_in_frame(*item, home_);
+      downloaded_.push_back(w.value_or(mavlink::LocalWaypoint{.north_m = kNaN, .east_m = kNaN, .down_m = kNaN, .yaw_rad = 0}));
+    } else {
+      return std::nullopt;
+    }
+    if (downloaded_.size() < *download_count_) {
+      pending_ = mavlink::MissionRequestInt{.seq = static_cast<std::uint16_t>(downloaded_.size()), .target_system = 1,
+                                            .target_component = 1, .mission_type = 0};
+      transmit(*pending_);
+      return std::nullopt;
+    }
+    send(mavlink::MissionAck{.target_system = 1, .target_component = 1, .type = 0, .mission_type = 0, .opaque_id = 0});
+    pending_.reset();
+    acked_at_ = sys::monotonic_now();
+    // What was uploaded, within the 10⁻⁷° (1.1 cm) of the global frames.
+    const auto& up = plan_.upload->waypoints;
+    bool same = downloaded_.size() == up.size();
+    for (std::size_t i = 0; same && i < up.size(); ++i) {
+      same = std::hypot(downloaded_[i].north_m - up[i].north_m, downloaded_[i].east_m - up[i].east_m,
+                        downloaded_[i].down_m - up[i].down_m) < 0.05;
+    }
+    std::printf("rejuv gcs: downloaded %zu waypoint(s): %s\n", downloaded_.size(),
+                same ? "the mission uploaded" : "NOT the mission uploaded");
+    std::fflush(stdout);
     return std::nullopt;
   }
 
@@ -370,7 +460,14 @@ class GroundStation {
 
   const GcsPlan& plan_;
   sys::UdpSocket socket_;
+  static constexpr std::uint16_t kRequestMessage = 512;  // MAV_CMD_REQUEST_MESSAGE
+  enum class Phase : std::uint8_t { Home, Upload, Download };
   std::optional<mavlink::MissionUploader> uploader_;
+  Phase phase_ = Phase::Home;
+  std::optional<mavlink::Message> pending_;  // retransmitted every 200 ms until answered
+  std::optional<mavlink::GeoHome> home_;
+  std::optional<std::size_t> download_count_;
+  std::vector<mavlink::LocalWaypoint> downloaded_;
   Nanos start_, next_upload_, next_heartbeat_, last_print_{0};
   std::optional<Nanos> acked_at_;  // set once the upload was acknowledged (at once when there is none)
   std::uint8_t seq_ = 0;
