@@ -59,14 +59,18 @@ using mission::SessionGuard;
 
 // quad_square_paper with ext_link compromised by `kind` (every MC window) next to the worst-case control attack,
 // flown in `clock`. Empty when the graph no longer reads as expected (the caller fails).
-std::string attacked_square(AttackKind kind, bool realtime) {
+// hold_mib > 0: the attack's magnitude, and a start past the flight's end (OOM_IMAGES: a service that only
+// holds that much memory from boot).
+std::string attacked_square(AttackKind kind, bool realtime, std::uint32_t hold_mib = 0) {
   std::string t = read_text(fs::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt");
   const std::string control_attack = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
   const std::size_t at = t.find(control_attack);
   const std::size_t clock = t.find("clock: LOCKSTEP");
   if (at == std::string::npos || clock == std::string::npos) return {};
   t.insert(at + control_attack.size(),
-           "\n  attacks { kind: " + std::string(attacks::to_string(kind)) + " service: \"ext_link\" }");
+           "\n  attacks { kind: " + std::string(attacks::to_string(kind)) + " service: \"ext_link\"" +
+               (hold_mib > 0 ? " magnitude: " + std::to_string(hold_mib) + " start_s: 100000" : std::string()) +
+               " }");
   if (realtime) t.replace(clock, std::string_view("clock: LOCKSTEP").size(), "clock: REALTIME");
   // A shorter alignment than the mission's 20 s (the estimate converges in less; real time pays it in full).
   const std::size_t align = t.find("alignment_s: 20");
@@ -194,8 +198,8 @@ struct Flight {
 
 // Flies the attacked square for kFlight and gathers what the assertions need. Fatal failures are reported
 // through gtest (the caller checks HasFatalFailure).
-void fly(AttackKind kind, bool realtime, Flight& f) {
-  const std::string text = attacked_square(kind, realtime);
+void fly(AttackKind kind, bool realtime, Flight& f, std::uint32_t hold_mib = 0) {
+  const std::string text = attacked_square(kind, realtime, hold_mib);
   ASSERT_FALSE(text.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has the control attack, clock or alignment";
   auto graph = launch::parse_launch(text, fs::path(REJUV_SOURCE_DIR) / "launch/quad_square_paper.launch.pbtxt");
   ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
@@ -349,6 +353,10 @@ void expect_counted(AttackKind kind, const Flight& f) {
     EXPECT_GE(refused(s, "fcntl"), 1U) << "calls refused: " << ::testing::PrintToString(s.calls_refused);
   } else if (kind == AttackKind::StraySpinners || kind == AttackKind::StrayMemory) {
     EXPECT_GE(s.stray_processes, 1U);
+    // Blamed on the service that made them, never on another.
+    for (const auto& [name, count] : f.summary.sandbox_violations().by_service()) {
+      EXPECT_EQ(name, "ext_link") << "a stray of ext_link's blamed on '" << name << "'";
+    }
   } else if (kind == AttackKind::OomImages) {
     // The live incarnation that ran its memory out is the one the OOM killer took (its images are in a leaf
     // of their own: expect_rollback_held checks that none was lost), counted against ext_link by kind.
@@ -398,6 +406,25 @@ void expect_counted(AttackKind kind, const Flight& f) {
   }
 }
 
+// OOM_IMAGES held from boot and never touched again, without root (no memory cgroup): below the group's
+// budget (1 GiB) it is bounded in cost — every image after the alignment's is by written pages, none by a
+// fork whose cost grows with the memory; above it the memory is refused (RLIMIT_AS is the group's budget).
+void expect_idle_memory_bounded(std::uint32_t hold_mib, const Flight& f) {
+  const std::string held = "attack OOM_IMAGES: " + std::to_string(hold_mib) + " MiB touched and kept";
+  if (hold_mib <= 1024 - 64) {
+    EXPECT_EQ(lines_with(f.log, held).size(), 1U) << "the memory was not held";
+    EXPECT_GT(f.sr.images_by_pages, 0U) << "no image by written pages without root";
+    // The alignment's images are by fork (one per rejuvenated service): nothing after them.
+    EXPECT_LE(f.sr.images_by_fork, 8U) << "images by fork after the alignment: their cost grows with the memory";
+  } else {
+    EXPECT_TRUE(lines_with(f.log, held).empty()) << "more than the group's budget was held without a cgroup";
+    EXPECT_EQ(lines_with(f.log, "attack OOM_IMAGES (epoch 0, SC): 1 attempts, 0 accepted").size(), 1U)
+        << "the boot touch was not tried, or not refused";
+  }
+  EXPECT_EQ(f.ext_link.sandbox_violations, 0U);
+  EXPECT_EQ(f.summary.sandbox_violations().by_service().size(), 0U) << "a violation blamed on a service";
+}
+
 struct Case {
   AttackKind kind;
   bool realtime;
@@ -443,18 +470,30 @@ TEST(RollbackAttackWithoutRoot, Inner) {
   const std::string_view spec(inner);
   const std::size_t colon = spec.find(':');
   ASSERT_NE(colon, std::string_view::npos) << spec;
-  const auto kind = attacks::attack_kind_from_name(spec.substr(colon + 1));
+  const std::string_view rest = spec.substr(colon + 1);
+  const std::size_t second = rest.find(':');
+  const auto kind = attacks::attack_kind_from_name(rest.substr(0, second));
   ASSERT_TRUE(kind.has_value()) << spec;
+  std::uint32_t hold_mib = 0;
+  if (second != std::string_view::npos) {
+    const std::string_view n = rest.substr(second + 1);
+    ASSERT_EQ(std::from_chars(n.data(), n.data() + n.size(), hold_mib).ec, std::errc{}) << spec;
+  }
   Flight f;
-  fly(*kind, spec.substr(0, colon) == "realtime", f);
+  fly(*kind, spec.substr(0, colon) == "realtime", f, hold_mib);
   if (HasFatalFailure() || IsSkipped()) return;
   expect_rollback_held(f);
-  expect_counted(*kind, f);
+  if (hold_mib > 0) {
+    expect_idle_memory_bounded(hold_mib, f);
+  } else {
+    expect_counted(*kind, f);
+  }
 }
 
 struct UnprivilegedCase {
   AttackKind kind;
   bool realtime;
+  std::uint32_t hold_mib = 0;  // OOM_IMAGES: MiB held from boot, never touched again
 };
 
 class RollbackAttackWithoutRoot : public ::testing::TestWithParam<UnprivilegedCase> {};
@@ -479,7 +518,8 @@ TEST_P(RollbackAttackWithoutRoot, KernelAlive_AttackRefused) {
     env_text.emplace_back(*e);
   }
   env_text.push_back(std::string(kInnerEnv) + "=" + (GetParam().realtime ? "realtime" : "lockstep") + ":" +
-                     std::string(attacks::to_string(GetParam().kind)));
+                     std::string(attacks::to_string(GetParam().kind)) +
+                     (GetParam().hold_mib > 0 ? ":" + std::to_string(GetParam().hold_mib) : std::string()));
   env_text.emplace_back("HOME=/tmp");
   std::vector<char*> env;
   for (std::string& e : env_text) env.push_back(e.data());
@@ -515,6 +555,10 @@ std::vector<UnprivilegedCase> unprivileged_cases() {
     // bounded by the pids rlimit of the service's own subordinate uid.
     out.push_back(UnprivilegedCase{AttackKind::StraySpinners, realtime});
     for (const AttackKind k : attacks::kBootAttackKinds) out.push_back(UnprivilegedCase{k, realtime});
+    // A service holding memory it never touches again: 900 MiB bounded in cost (images by written pages),
+    // 3 GiB refused (no memory cgroup: RLIMIT_AS is the group's budget).
+    out.push_back(UnprivilegedCase{AttackKind::OomImages, realtime, 900});
+    out.push_back(UnprivilegedCase{AttackKind::OomImages, realtime, 3072});
   }
   return out;
 }
@@ -523,6 +567,7 @@ INSTANTIATE_TEST_SUITE_P(Containment, RollbackAttackWithoutRoot, ::testing::Valu
                          [](const ::testing::TestParamInfo<UnprivilegedCase>& i) {
                            std::string name(attacks::to_string(i.param.kind));
                            std::erase(name, '_');
+                           if (i.param.hold_mib > 0) name = "HOLD" + std::to_string(i.param.hold_mib) + "MIB";
                            return name + (i.param.realtime ? "_RealTime" : "_Lockstep");
                          });
 

@@ -79,11 +79,33 @@ void Rejuvenator::refill_pairs() {
     k.log("socket pairs made ahead: %s", shortage->to_string().c_str());
 }
 
+// A service's pagemap: opened by the kernel where it may (with root, or a service of its own uid), else by the
+// agent in the service's user namespace (rejuv/sys/pagemap_agent.hpp), one per namespace: a cold restart
+// makes a new namespace, and the agent of the old one goes.
+sys::SysResult<sys::UniqueFd> Rejuvenator::open_pagemap(ServiceRuntime& s) {
+  const pid_t pid = s.proc.process.pid();
+  auto direct = sys::open_pagemap_without_frames(pid);
+  if (direct || direct.error().error != EACCES || sys::running_as_root()) return direct;
+  if (!s.pages.agent.serves(pid)) {
+    s.pages.agent = {};
+    auto agent = sys::PagemapAgent::start(pid);
+    if (!agent) return std::unexpected(agent.error());
+    s.pages.agent = std::move(*agent);
+  }
+  return s.pages.agent.open_pagemap(pid);
+}
+
 void Rejuvenator::open_pagemaps() {
   if (!k.options.images_by_pages) return;
   for (ServiceRuntime& s : k.services) {
     if (!s.config.rejuvenate || !s.live() || s.pages.base.value() == 0 || s.pages.pagemap.valid()) continue;
-    if (auto opened = sys::open_pagemap_without_frames(s.proc.process.pid())) s.pages.pagemap = std::move(*opened);
+    if (auto opened = open_pagemap(s)) {
+      s.pages.pagemap = std::move(*opened);
+    } else if (!s.pages.pagemap_refusal_said) {
+      // Without its pagemap a service's images are taken by fork: each costs time in proportion to its memory.
+      s.pages.pagemap_refusal_said = true;
+      k.log("images of '%s' by fork: %s", s.name.c_str(), opened.error().to_string().c_str());
+    }
   }
 }
 

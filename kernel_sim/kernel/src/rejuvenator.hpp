@@ -86,6 +86,7 @@ class Rejuvenator {
   // not dumpable and cannot open its own; the Snapshot hands it over). Off the critical paths, like
   // refill_pairs.
   void open_pagemaps();
+  sys::SysResult<sys::UniqueFd> open_pagemap(ServiceRuntime& s);
   void resume_routing();
   void leave_image_work(ImageWork work);
   void run_image_work();           // now, whatever the trigger (also before a checkpoint or rollback)

@@ -45,8 +45,14 @@ sys::ResourceLimits Warden::limits_for(const ServiceRuntime& s) const {
   // On top of what a sanitizer's runtime reserves at start (its shadow memory): the limit still bounds what
   // the service maps, and stays below infinity, so raising it is refused. ThreadSanitizer's reservation
   // leaves nothing to bound: no limit in a TSan build.
-  if (v.max_memory_mb > 0)
-    limits.address_space = (std::uint64_t{v.max_memory_mb} << 20U) + sys::kSanitizerAddressSpace;
+  // Where no memory cgroup bounds the service's group (without root, docs/sandbox.md "Without root"), the
+  // group's budget bounds each of its processes: a service holding more than its group may hold is refused
+  // its memory, as the cgroup would refuse it. Its images share its pages until they differ, and the stray
+  // sweep ends any other process, so the group stays near one process's bound.
+  std::uint32_t memory_mb = v.max_memory_mb;
+  if (v.max_group_memory_mb > 0 && !s.sandbox.cgroup.bounds_memory())
+    memory_mb = memory_mb == 0 ? v.max_group_memory_mb : std::min(memory_mb, v.max_group_memory_mb);
+  if (memory_mb > 0) limits.address_space = (std::uint64_t{memory_mb} << 20U) + sys::kSanitizerAddressSpace;
 #endif
   // No file can be opened after boot and every mount is read-only; what is left to write is the memfd of an
   // image by written pages (allocated ahead for twice the largest image, docs/protocol.md).

@@ -22,6 +22,7 @@
 #include "fixed_ring.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/sys/cgroup.hpp"
+#include "rejuv/sys/pagemap_agent.hpp"
 #include "rejuv/broker/broker.hpp"
 #include "rejuv/cap/cap_system.hpp"
 #include "rejuv/channel/wire.hpp"
@@ -121,6 +122,8 @@ struct WrittenPages {
   Generation base{};
   sys::UniqueFd pagemap{};
   bool pagemap_sent = false;
+  bool pagemap_refusal_said = false;  // an open refused is logged once per service, not at every checkpoint
+  sys::PagemapAgent agent{};          // without root: opens the pagemaps in the service's user namespace
 
   // A new process is this service: spawned (base 0) or resumed from generation `base`'s image.
   void start_incarnation(Generation from) {

@@ -165,6 +165,7 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   spec.session = sys::Session::NewSession;
   spec.isolation =
       k.options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
+  k.warden.join_cgroup(s);  // first: without a memory cgroup, limits_for bounds each process instead
   spec.limits = k.warden.limits_for(s);
   // What it may open while it boots (rejuv/sys/landlock.hpp): the libraries, its binary, its own /proc/<pid>.
   static const int landlock_abi = sys::landlock_abi();
@@ -175,7 +176,12 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
     spec.mapped_ids = k.subordinate_ids->ids_of(s.id.value());
     spec.id_helpers = k.subordinate_ids->sources();
   }
-  k.warden.join_cgroup(s);
+  // Without root a service's /proc/<pid>/pagemap (images by written pages, checkpoint.cpp) can be opened (by
+  // the agent in its user namespace, rejuv/sys/pagemap_agent.hpp) only while the service is dumpable: a
+  // non-dumpable process whose binary's owner (root) is not mapped in its namespace needs CAP_SYS_PTRACE in
+  // the initial one. So it stays dumpable (docs/sandbox.md "Without root"): its uid is its own, and the
+  // filter forbids ptrace, process_vm_* and every open after boot.
+  if (!sys::running_as_root()) spec.env.emplace_back(std::string(wire::kKeepDumpableEnv) + "=1");
   spec.cgroup_procs = s.sandbox.cgroup.join_fds();
   auto spawned = sys::spawn_supervised(spec);
   if (!spawned) {

@@ -721,6 +721,12 @@ class Validator {
                           "FLOOD_BROKER takes a whole count in [0, 100000] as its magnitude (publications per "
                           "tick; 0 = one burst of 10000 per window), got " + num(a.magnitude())));
       }
+      // OOM_IMAGES's magnitude: MiB touched at boot (1.5× that in each window).
+      if (a.kind() == proto::OOM_IMAGES && (a.magnitude() != std::floor(a.magnitude()) || a.magnitude() > 65536.0)) {
+        return fail(error(at({{"attack", -1}, {"attacks", i}}, "magnitude"),
+                          "OOM_IMAGES takes whole MiB in [0, 65536] as its magnitude (0 = 600 MiB), got " +
+                              num(a.magnitude())));
+      }
       // The attacks on rollback itself (18…27) take a count of processes or threads.
       const bool counted = a.kind() >= proto::SIGIO_IMAGES && a.kind() <= proto::PAGEMAP_FRAMES;
       if (counted && (a.magnitude() != std::floor(a.magnitude()) || a.magnitude() > 1000.0)) {

@@ -86,13 +86,16 @@ Result<RuntimeAttackPlan, PlanError> runtime_attack_plan(const NumberLookup& num
       }
       return fail(bad(a.prefix + "kind", "unknown attack kind '" + a.kind + "'"));
     }
-    // A count only for the attacks on rollback (18…27); the others ignore their magnitude.
+    // A count only for the attacks on rollback (18…27; OOM_IMAGES: MiB); the others ignore their magnitude.
     // FLOOD_BROKER's: publications per tick of a sustained flood.
     const bool flood = *kind == AttackKind::FloodBroker;
     const bool counted =
         flood || std::ranges::find(kRollbackAttackKinds, *kind) != kRollbackAttackKinds.end();
     auto processes =
-        counted ? whole_param(number, a.prefix + "magnitude", flood ? kMaxFloodPerTick : kMaxAttackCount)
+        counted ? whole_param(number, a.prefix + "magnitude",
+                              flood                              ? kMaxFloodPerTick
+                              : *kind == AttackKind::OomImages ? kMaxAttackMib
+                                                                 : kMaxAttackCount)
                 : Result<std::uint32_t, PlanError>{0U};
     if (!processes) return fail(std::move(processes.error()));
     plan.attacks.push_back(

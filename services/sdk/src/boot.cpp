@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include "rejuv/channel/boot.hpp"
@@ -40,8 +41,12 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
   // this process opens nothing and maps nothing executable.
   memory_image::opens_done();
   // Not dumpable: no process of its uid (its own images, say) can open its /proc/<pid>/mem or ptrace it.
-  // Its images inherit this at fork (frozen_image).
-  if (auto nd = sys::make_non_dumpable(); !nd) return error(SdkError::NotAService, nd.error().to_string());
+  // Its images inherit this at fork (frozen_image). A kernel without root asks it to stay dumpable: it could
+  // not open the pagemap of a non-dumpable service otherwise (supervisor.cpp), and every image would be by fork.
+  const char* keep = std::getenv(wire::kKeepDumpableEnv);
+  if (keep == nullptr || std::string_view(keep) != "1") {
+    if (auto nd = sys::make_non_dumpable(); !nd) return error(SdkError::NotAService, nd.error().to_string());
+  }
   auto page = clock::TimePageReader::map(options.time_page_fd);
   if (!page) return error(SdkError::NotAService, "time page: " + page.error().to_string());
   impl->time = std::move(*page);

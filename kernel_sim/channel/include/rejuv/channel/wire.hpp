@@ -22,6 +22,9 @@ namespace rejuv::wire {
 
 inline constexpr int kChannelFd = 3;     // a service's channel to the kernel is always fd 3
 inline constexpr int kTimePageFd = 4;    // the kernel's read-only time page (memfd) is always fd 4
+// The environment variable by which a kernel without root asks a service to stay dumpable ("1"): its
+// pagemap, which images by written pages need, is out of that kernel's reach otherwise (sdk boot.cpp).
+inline constexpr const char* kKeepDumpableEnv = "REJUV_KEEP_DUMPABLE";
 inline constexpr std::size_t kMaxFrameBytes = 8192;
 inline constexpr std::uint16_t kProtocolVersion = 1;
 // Slots of a service's CSpace (the kernel's CapSystemConfig::cspace_slots): a slot on the wire is below it.

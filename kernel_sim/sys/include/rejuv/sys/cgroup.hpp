@@ -98,6 +98,8 @@ class ServiceCgroup {
   // How many processes the OOM killer has killed in the live leaf since it was made (v1 memory.oom_control or
   // v2 memory.events "oom_kill"); nullopt where no memory controller bounds it.
   [[nodiscard]] std::optional<std::uint64_t> live_oom_kills() const;
+  // Whether a memory controller bounds the group (its limit applied, its OOM kills readable).
+  [[nodiscard]] bool bounds_memory() const { return oom_events_.has_value(); }
 
   // "cgroup v2 (kill), pids.max 64 (v1 pids), memory 1024 MiB (v1 memory), cpu 50 % (v1 cpu)" and what failed.
   [[nodiscard]] const std::string& description() const { return description_; }

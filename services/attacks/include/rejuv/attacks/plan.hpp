@@ -93,6 +93,8 @@ enum class Occasion : std::uint8_t { EveryWindow, OnceAtBoot, AtBootThenEveryWin
 
 // The largest count an attack on rollback takes (attack.<j>.magnitude; the launch loader checks it too).
 inline constexpr double kMaxAttackCount = 1000.0;
+// OOM_IMAGES's magnitude: MiB touched at boot, not a count.
+inline constexpr double kMaxAttackMib = 65536.0;
 // The largest FLOOD_BROKER magnitude: publications per tick of a sustained flood (the launch loader checks it too).
 inline constexpr double kMaxFloodPerTick = 100000.0;
 
