@@ -33,8 +33,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   rejuv::mavlink::SignatureChecker checker(rejuv::mavlink::SigningKey{});
   (void)checker.check(bytes, rejuv::mavlink::SigningTime{});  // the clock at the epoch: any timestamp is recent
-  // home at the square's start, 3 m up; the default bounds (the geofence commander also applies)
-  rejuv::services::ExtLink link(rejuv::services::ExtLink::UploadGuard{.home = {.p_N_m = Eigen::Vector3d(0.0, 0.0, -3.0), .yaw_rad = 0.0}, .bounds = {}});
+  // home at the square's start, 3 m up; the default bounds (the geofence commander also applies); the launch
+  // mission home alone; home on Earth PX4 SITL's (items in global frames are converted against it)
+  const rejuv::flight::PathWaypoint home{.p_N_m = Eigen::Vector3d(0.0, 0.0, -3.0), .yaw_rad = 0.0};
+  rejuv::services::ExtLink link(rejuv::services::ExtLink::UploadGuard{.home = home, .bounds = {}},
+                                rejuv::flight_io::MissionSpec{.waypoints = {home}, .acceptance_radius_m = 0.05, .from_defaults = false});
+  link.set_home(rejuv::mavlink::kPx4SitlHome);
   (void)link.on_datagram(bytes, rejuv::Nanos{0});
   (void)link.on_datagram(bytes, rejuv::Nanos{1});  // a retransmission of the same datagram
   return 0;
