@@ -559,6 +559,9 @@ std::vector<UnprivilegedCase> unprivileged_cases() {
     // 3 GiB refused (no memory cgroup: RLIMIT_AS is the group's budget).
     out.push_back(UnprivilegedCase{AttackKind::OomImages, realtime, 900});
     out.push_back(UnprivilegedCase{AttackKind::OomImages, realtime, 3072});
+    // The pagemap handed over by the agent in the service's namespace (rejuv/sys/pagemap_agent.hpp): no
+    // physical frame numbers either.
+    out.push_back(UnprivilegedCase{AttackKind::PagemapFrames, realtime});
   }
   return out;
 }
