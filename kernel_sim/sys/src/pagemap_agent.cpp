@@ -18,6 +18,7 @@
 #include <cstring>
 #include <string>
 
+#include "raw_send.hpp"
 #include "rejuv/sys/event.hpp"
 
 namespace rejuv::sys {
@@ -42,22 +43,8 @@ void pagemap_path(pid_t pid, std::array<char, 40>& out) {
 
 // Answers one request: the errno (0 on success) and, on success, the fd.
 void answer(int sock, int fd, int err) {
-  std::int32_t code = err;
-  iovec iov{.iov_base = &code, .iov_len = sizeof(code)};
-  alignas(cmsghdr) std::array<char, CMSG_SPACE(sizeof(int))> control{};
-  msghdr msg{};
-  msg.msg_iov = &iov;
-  msg.msg_iovlen = 1;
-  if (fd >= 0) {
-    msg.msg_control = control.data();
-    msg.msg_controllen = control.size();
-    cmsghdr* c = CMSG_FIRSTHDR(&msg);
-    c->cmsg_level = SOL_SOCKET;
-    c->cmsg_type = SCM_RIGHTS;
-    c->cmsg_len = CMSG_LEN(sizeof(int));
-    std::memcpy(CMSG_DATA(c), &fd, sizeof(int));
-  }
-  (void)::sendmsg(sock, &msg, MSG_NOSIGNAL);
+  const std::int32_t code = err;
+  detail::send_raw_with_fd(sock, &code, sizeof(code), fd);
 }
 
 [[noreturn]] void agent_main(int sock, int userns, pid_t parent) {

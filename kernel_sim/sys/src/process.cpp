@@ -1,5 +1,7 @@
 #include "rejuv/sys/process.hpp"
 
+#include "raw_send.hpp"
+
 #include <dirent.h>
 #include <fcntl.h>
 #include <grp.h>
@@ -181,21 +183,7 @@ constexpr std::array<std::string_view, 17> kStage{
 
 void child_report(int socket_fd, int stage, int err, int fd_to_pass) {
   const std::array<int, 2> report{stage, err};
-  iovec iov{const_cast<int*>(report.data()), sizeof(report)};  // NOLINT: sendmsg's signature
-  alignas(cmsghdr) std::array<char, CMSG_SPACE(sizeof(int))> control{};
-  msghdr msg{};
-  msg.msg_iov = &iov;
-  msg.msg_iovlen = 1;
-  if (fd_to_pass >= 0) {
-    msg.msg_control = control.data();
-    msg.msg_controllen = control.size();
-    cmsghdr* c = CMSG_FIRSTHDR(&msg);
-    c->cmsg_level = SOL_SOCKET;
-    c->cmsg_type = SCM_RIGHTS;
-    c->cmsg_len = CMSG_LEN(sizeof(int));
-    std::memcpy(CMSG_DATA(c), &fd_to_pass, sizeof(int));
-  }
-  (void)!::sendmsg(socket_fd, &msg, MSG_NOSIGNAL);
+  detail::send_raw_with_fd(socket_fd, report.data(), sizeof(report), fd_to_pass);
 }
 
 [[noreturn]] void child_fail(int socket_fd, int stage, int err) {
