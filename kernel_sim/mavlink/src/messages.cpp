@@ -78,13 +78,6 @@ const Known* find(std::uint32_t msgid) {
   return it == kKnown.end() ? nullptr : &*it;
 }
 
-std::uint16_t checksum_of(std::span<const std::byte> header_and_payload, std::uint8_t extra) {
-  Crc16 crc;
-  crc.add(header_and_payload.subspan(1));  // not the STX
-  crc.add(extra);
-  return crc.value();
-}
-
 }  // namespace
 
 std::string_view to_string(MissionResult result) {
@@ -161,14 +154,14 @@ Frame encode(const Message& message, const Envelope& envelope) {
       kStx, static_cast<std::uint8_t>(n), 0, 0, envelope.seq, envelope.sysid,
       envelope.compid, static_cast<std::uint8_t>(id), static_cast<std::uint8_t>(id >> 8U), static_cast<std::uint8_t>(id >> 16U)};
   for (std::size_t i = 0; i < header.size(); ++i) f.bytes[i] = std::byte{header[i]};
-  const std::uint16_t crc = checksum_of(std::span<const std::byte>(f.bytes.data(), kHeaderBytes + n), extra);
+  const std::uint16_t crc = frame_checksum(std::span<const std::byte>(f.bytes.data(), kHeaderBytes + n), extra);
   f.bytes[kHeaderBytes + n] = std::byte{static_cast<std::uint8_t>(crc)};
   f.bytes[kHeaderBytes + n + 1] = std::byte{static_cast<std::uint8_t>(crc >> 8U)};
   f.size = kHeaderBytes + n + kChecksumBytes;
   return f;
 }
 
-Result<Packet, DecodeError> decode(std::span<const std::byte> datagram) {
+Result<CheckedFrame, DecodeError> check_frame(std::span<const std::byte> datagram) {
   auto frame = split_frame(datagram);
   if (!frame) {
     switch (frame.error()) {
@@ -183,12 +176,19 @@ Result<Packet, DecodeError> decode(std::span<const std::byte> datagram) {
   const Known* known = find(frame->header.msgid);
   if (known == nullptr) return fail(DecodeError::UnknownMessage);
   if (frame->payload.size() > known->payload_bytes) return fail(DecodeError::PayloadTooLong);
-  if (checksum_of(datagram.first(kHeaderBytes + frame->payload.size()), known->crc_extra) != frame->checksum) {
+  if (frame_checksum(datagram.first(kHeaderBytes + frame->payload.size()), known->crc_extra) != frame->checksum) {
     return fail(DecodeError::BadChecksum);
   }
-  auto message = known->decode(frame->payload);
+  return CheckedFrame{.frame = *frame, .crc_extra = known->crc_extra};
+}
+
+Result<Packet, DecodeError> decode(std::span<const std::byte> datagram) {
+  auto checked = check_frame(datagram);
+  if (!checked) return fail(checked.error());
+  const FrameView& frame = checked->frame;
+  auto message = find(frame.header.msgid)->decode(frame.payload);
   if (!message) return fail(message.error());
-  return Packet{.header = frame->header, .message = std::move(*message), .signature = frame->signature};
+  return Packet{.header = frame.header, .message = std::move(*message), .signature = frame.signature};
 }
 
 std::string text_of(const StatusText& status) {

@@ -10,15 +10,6 @@
 
 namespace rejuv::mavlink {
 
-namespace {
-std::uint16_t checksum_of(std::span<const std::byte> header_and_payload, std::uint8_t extra) {
-  Crc16 crc;
-  crc.add(header_and_payload.subspan(1));  // not the STX
-  crc.add(extra);
-  return crc.value();
-}
-}  // namespace
-
 std::array<std::uint8_t, 6> signature_of(const SigningKey& key, std::span<const std::byte> signed_bytes) {
   const Sha256Digest digest = sha256({std::as_bytes(std::span(key.bytes)), signed_bytes});
   std::array<std::uint8_t, 6> out{};
@@ -64,16 +55,15 @@ Result<void, SigningRefusal> SignatureChecker::check(std::span<const std::byte> 
 }
 
 std::optional<Frame> sign_frame(std::span<const std::byte> datagram, const Signer& signer) {
-  auto frame = split_frame(datagram);
-  if (!frame || frame->signature) return std::nullopt;
-  // Well-formed: a known message whose checksum is right (decode() checks both).
-  if (!decode(datagram)) return std::nullopt;
-  const std::uint8_t crc_extra = *crc_extra_of(frame->header.msgid);
-  const std::size_t body = kHeaderBytes + frame->payload.size();
+  // Well-formed (a known message whose checksum is right) and unsigned; its payload is not read.
+  auto checked = check_frame(datagram);
+  if (!checked || checked->frame.signature) return std::nullopt;
+  const FrameView& frame = checked->frame;
+  const std::size_t body = kHeaderBytes + frame.payload.size();
   Frame f;
   std::copy(datagram.begin(), datagram.begin() + static_cast<std::ptrdiff_t>(body), f.bytes.begin());
-  f.bytes[2] = std::byte{static_cast<std::uint8_t>(frame->header.incompat_flags | kIncompatSigned)};
-  const std::uint16_t crc = checksum_of(std::span<const std::byte>(f.bytes.data(), body), crc_extra);
+  f.bytes[2] = std::byte{static_cast<std::uint8_t>(frame.header.incompat_flags | kIncompatSigned)};
+  const std::uint16_t crc = frame_checksum(std::span<const std::byte>(f.bytes.data(), body), checked->crc_extra);
   f.bytes[body] = std::byte{static_cast<std::uint8_t>(crc)};
   f.bytes[body + 1] = std::byte{static_cast<std::uint8_t>(crc >> 8U)};
   f.size = body + kChecksumBytes;

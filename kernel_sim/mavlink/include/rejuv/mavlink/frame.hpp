@@ -59,6 +59,14 @@ class Crc16 {
   std::uint16_t value_ = 0xFFFF;
 };
 
+// A frame's checksum: CRC-16/MCRF4XX of its header and payload without the STX, then the message's CRC_EXTRA.
+[[nodiscard]] constexpr std::uint16_t frame_checksum(std::span<const std::byte> header_and_payload, std::uint8_t crc_extra) {
+  Crc16 crc;
+  crc.add(header_and_payload.subspan(1));
+  crc.add(crc_extra);
+  return crc.value();
+}
+
 // The 32-byte secret key of message signing. Only the kernel's network gate and the ground station hold it.
 struct SigningKey {
   std::array<std::uint8_t, 32> bytes{};

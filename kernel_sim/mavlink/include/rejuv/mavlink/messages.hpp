@@ -831,6 +831,13 @@ struct Packet {
   std::optional<Signature> signature{};
 };
 [[nodiscard]] Result<Packet, DecodeError> decode(std::span<const std::byte> datagram);
+// What decode() checks before it reads the payload (the envelope, a known id, the payload's length, the
+// checksum), without reading it: the frame and its message's CRC_EXTRA.
+struct CheckedFrame {
+  FrameView frame;
+  std::uint8_t crc_extra = 0;
+};
+[[nodiscard]] Result<CheckedFrame, DecodeError> check_frame(std::span<const std::byte> datagram);
 
 // STATUSTEXT's text as a string (up to 50 characters, NUL-terminated when shorter) and back (cut at 50).
 [[nodiscard]] std::string text_of(const StatusText& status);
