@@ -117,7 +117,8 @@ struct Incarnation {
 
 // Images by written pages (docs/design.md §7; checkpoint.cpp): the generation the live incarnation's memory derives
 // from (0: a fresh start), its /proc/<pid>/pagemap (open_pagemaps, images.cpp) and whether a Snapshot has
-// handed it over. Reset whenever a new process becomes the service (spawn_one, resume_generation).
+// handed it over. Reset whenever a new process becomes the service (spawn_one, resume_generation); the agent
+// outlives incarnations (it serves every process of one user namespace: images.cpp open_pagemap).
 struct WrittenPages {
   Generation base{};
   sys::UniqueFd pagemap{};
