@@ -175,8 +175,7 @@ bool wall_clock_log_line(const UlogMessage& m) {
 // Two runs with one seed write the same ULog: every message byte-identical (the plant's and the kernel's messages
 // are built over zeroed bytes: no padding carries a process's stack into the log) but logged strings that
 // report a wall-clock duration, which must still be the same lines in the same order.
-// DISABLED: it passed once the plant built its messages over zeroed bytes, then failed again on the main tree of
-// later that day: sensor_gps's 6 bytes of tail padding (offsets 84-89 of its ULog data message) differ between two
+// DISABLED: sensor_gps's 6 bytes of tail padding (offsets 84-89 of its ULog data message) differ between two
 // runs and hold what looks like a user-space address. The plant builds the sample over zeroed bytes; copying it
 // byte for byte into its SensorMessage and into the SimStep (memcpy, a zeroed SimStep) did not remove it, so the
 // bytes are made between the plant's DDS write and the kernel's route (CDR does not carry padding: the kernel's
@@ -233,7 +232,7 @@ TEST_F(Determinism, EstimateCatchUp_InRealTime_EveryRollbackCaughtUp) {
   EXPECT_EQ(a.summary.catch_up().without_log(), 0U);
   EXPECT_GT(a.summary.catch_up().samples(), 50 * a.summary.catch_up().replays());
   // What the chain publishes for the controllers during a replay is dropped by the kernel (catch_up.hpp); ekf2
-  // itself now holds its estimate until the replay is judged (ekf2_node.cpp), so whether anything is left to drop
+  // itself holds its estimate until the replay is judged (ekf2_node.cpp), so whether anything is left to drop
   // depends on when the replay's last tick and the kernel's DONE meet: counted, not required. The property is
   // that every rollback was caught up (above) and the vehicle stayed inside the safety set (below).
   ::testing::Test::RecordProperty("catch_up_dropped", std::to_string(a.summary.catch_up().dropped()));

@@ -6,6 +6,9 @@
 // privilege the run says once what it could not apply and goes on at SCHED_OTHER. Where the plan names CPUs
 // (kernel_cpu, plant_cpu, a service's cpu), each is pinned to its own (sched_setaffinity); a CPU the machine
 // lacks is named in the log and ignored.
+#include <utility>
+#include <vector>
+
 #include "impl.hpp"
 #include "rejuv/sys/realtime.hpp"
 
@@ -89,13 +92,18 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
 }
 
 void Supervisor::retry_realtime() {
-  std::erase_if(realtime_pending_, [&](const std::pair<ServiceId, pid_t>& p) {
-    ServiceRuntime& s = k.services[p.first.value()];
-    if (!s.live() || s.proc.process.pid() != p.second) return true;  // another incarnation since: its own turn
-    if (!s.sandbox.cgroup.in_leaf(p.second, sys::CgroupLeaf::Live)) return false;  // not moved yet
+  if (realtime_pending_.empty()) return;
+  // Taken out first: apply_realtime may queue the copy again (refused and no longer found in `live/`).
+  const std::vector<std::pair<ServiceId, pid_t>> pending = std::exchange(realtime_pending_, {});
+  for (const auto& [id, pid] : pending) {
+    ServiceRuntime& s = k.services[id.value()];
+    if (!s.live() || s.proc.process.pid() != pid) continue;  // another incarnation since: its own turn
+    if (!s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Live)) {
+      realtime_pending_.emplace_back(id, pid);  // not moved yet
+      continue;
+    }
     apply_realtime(s);
-    return true;
-  });
+  }
 }
 
 }  // namespace rejuv::kernel

@@ -11,7 +11,7 @@ namespace rejuv::plant_app {
 namespace {
 
 // A message over zeroed bytes: its padding (SensorGps has 6 bytes after satellites_used) carries nothing of this
-// process's memory into the kernel's routes and the ULog. `T m{}` left it as the stack held it.
+// process's memory into the kernel's routes and the ULog (`T m{}` need not zero padding).
 template <typename T>
 T blank() {
   T m;
