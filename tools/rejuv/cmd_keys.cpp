@@ -96,19 +96,24 @@ std::optional<int> load_grants(HostsRequest& r) {
   return std::nullopt;
 }
 
+// Declares DIR, --launch and --domain on opts, parses args and loads the grants; the exit code when the command
+// stops there (help printed or input refused).
+std::optional<int> parse_hosts_request(Options& opts, std::span<const std::string_view> args, HostsRequest& r) {
+  declare_hosts_options(opts, r);
+  if (auto exit = opts.parse_or_exit(args)) return exit;
+  return load_grants(r);
+}
+
 int keys_hosts(std::span<const std::string_view> args) {
   HostsRequest req;
   Options opts("keys hosts",
                "Writes an enclave per host of GRAPH into the keystore DIR: enclaves/<host>/{cert.pem,key.pem,\n"
                "identity_ca.cert.pem,permissions_ca.cert.pem,governance.p7s,permissions.xml,permissions.p7s}.\n"
                "An identity already there is kept; permissions and governance are written again.");
-  declare_hosts_options(opts, req);
-  if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (auto exit = load_grants(req)) return *exit;
-  const auto& grants = req.grants;
+  if (auto exit = parse_hosts_request(opts, args, req)) return *exit;
   const auto domain_id = req.domain_id;
-  if (auto r = keys::write_enclaves(req.dir, grants, domain_id); !r) return bad_input(r.error());
-  for (const auto& h : grants) {
+  if (auto r = keys::write_enclaves(req.dir, req.grants, domain_id); !r) return bad_input(r.error());
+  for (const auto& h : req.grants) {
     const auto list = [](const std::vector<std::string>& v) {
       std::string s;
       for (const auto& n : v) s += (s.empty() ? "" : ", ") + n;
@@ -127,9 +132,7 @@ int keys_check(std::span<const std::string_view> args) {
                "CA, permissions signed by the CA granting exactly its cross-host topics (default DENY), and a\n"
                "governance signed by the CA that refuses unauthenticated participants. Exit 0 when it matches,\n"
                "1 on a mismatch (each one printed), 2 on bad input.");
-  declare_hosts_options(opts, req);
-  if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (auto exit = load_grants(req)) return *exit;
+  if (auto exit = parse_hosts_request(opts, args, req)) return *exit;
   auto mismatches = keys::check_enclaves(req.dir, req.grants, req.domain_id);
   if (!mismatches) return bad_input(mismatches.error());
   for (const auto& m : *mismatches) print(stderr, "keys: " + m + "\n");

@@ -21,6 +21,7 @@
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <string_view>
 #include <system_error>
 #include <set>
 
@@ -174,22 +175,22 @@ Result<std::string, std::string> pem_of(EVP_PKEY* key) {
   return bio_text(bio.get());
 }
 
-Result<Cert, std::string> load_cert(const fs::path& p) {
+// The PEM object in file p, read by `read` (PEM_read_bio_X509, PEM_read_bio_PrivateKey); `what` names it in errors.
+template <typename Owned, typename Raw>
+Result<Owned, std::string> load_pem(const fs::path& p, Raw* (*read)(BIO*, Raw**, pem_password_cb*, void*),
+                                    std::string_view what) {
   auto text = read_file(p);
   if (!text) return fail(text.error());
   Bio bio(BIO_new_mem_buf(text->data(), static_cast<int>(text->size())));
-  Cert cert(PEM_read_bio_X509(bio.get(), nullptr, nullptr, nullptr));
-  if (!cert) return fail(ssl_error(p.string() + ": not a PEM certificate"));
-  return cert;
+  Owned object(read(bio.get(), nullptr, nullptr, nullptr));
+  if (!object) return fail(ssl_error(p.string() + ": not a PEM " + std::string(what)));
+  return object;
 }
 
+Result<Cert, std::string> load_cert(const fs::path& p) { return load_pem<Cert>(p, PEM_read_bio_X509, "certificate"); }
+
 Result<Key, std::string> load_key(const fs::path& p) {
-  auto text = read_file(p);
-  if (!text) return fail(text.error());
-  Bio bio(BIO_new_mem_buf(text->data(), static_cast<int>(text->size())));
-  Key key(PEM_read_bio_PrivateKey(bio.get(), nullptr, nullptr, nullptr));
-  if (!key) return fail(ssl_error(p.string() + ": not a PEM private key"));
-  return key;
+  return load_pem<Key>(p, PEM_read_bio_PrivateKey, "private key");
 }
 
 // S/MIME, PKCS#7 detached and text (multipart/signed, the content as text/plain), the signer's certificate
