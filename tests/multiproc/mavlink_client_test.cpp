@@ -64,33 +64,42 @@ class MavlinkClient : public test_support::ScratchDirTest {
   MavlinkClient() : ScratchDirTest("rejuv_mavlink_") {}
   [[nodiscard]] bool keep_on_failure() const override { return true; }
   [[nodiscard]] const std::filesystem::path& dir() const { return dir_; }
+  [[nodiscard]] std::filesystem::path summary_json() const { return dir() / "summary.json"; }
+
+  // `rejuv run` started for `duration` seconds on the square with the key in its network block (the policy
+  // path made absolute for the copy, written as `graph_name`), its summary in summary_json(); its pid and the
+  // port its network gate bound.
+  void start_signed_square(const std::string& graph_name, const std::string& duration, pid_t& rejuv_run,
+                           std::uint16_t& port) {
+    std::string graph_text = slurp(kRepo / "launch/quad_square_paper.launch.pbtxt");
+    const std::string relative = "\"../policies/quad_sr.policy.pbtxt\"";
+    const auto policy_at = graph_text.find(relative);
+    ASSERT_NE(policy_at, std::string::npos);
+    graph_text.replace(policy_at, relative.size(), "\"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
+    graph_text += "\nnetwork { signing_key: \"" + std::string(kKey) + "\" }\n";
+    const auto graph = dir() / graph_name;
+    std::ofstream(graph) << graph_text;
+    rejuv_run = test_support::start_program(
+        dir(), test_support::kRejuv,
+        {"run", graph.string(), "--duration", duration, "--net-port", "0", "--domain",
+         std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json().string()});
+    ASSERT_GT(rejuv_run, 0) << "cannot start rejuv run";
+    port = test_support::bound_gate_port(dir(), rejuv_run, std::chrono::seconds{60});
+    if (port == 0) {
+      const test_support::CliOutcome ended = test_support::wait_program(dir(), rejuv_run);
+      FAIL() << "rejuv run did not report its network gate's port:\n" << ended.err;
+    }
+  }
 };
 
 TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
       << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
-  // Given the square with the key in its network block (the policy path made absolute for the copy) …
-  std::string graph_text = slurp(kRepo / "launch/quad_square_paper.launch.pbtxt");
-  const std::string relative = "\"../policies/quad_sr.policy.pbtxt\"";
-  const auto policy_at = graph_text.find(relative);
-  ASSERT_NE(policy_at, std::string::npos);
-  graph_text.replace(policy_at, relative.size(), "\"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
-  graph_text += "\nnetwork { signing_key: \"" + std::string(kKey) + "\" }\n";
-  const auto graph = dir() / "signed.launch.pbtxt";
-  std::ofstream(graph) << graph_text;
-  // … when node-mavlink talks to it while it flies (lockstep; the client in wall-clock time, told the port the
-  // kernel bound) …
-  const auto summary_json = dir() / "summary.json";
-  const pid_t rejuv_run = test_support::start_program(
-      dir(), test_support::kRejuv,
-      {"run", graph.string(), "--duration", "240", "--net-port", "0", "--domain",
-       std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json.string()});
-  ASSERT_GT(rejuv_run, 0) << "cannot start rejuv run";
-  const std::uint16_t port = test_support::bound_gate_port(dir(), rejuv_run, std::chrono::seconds{60});
-  if (port == 0) {
-    const test_support::CliOutcome ended = test_support::wait_program(dir(), rejuv_run);
-    FAIL() << "rejuv run did not report its network gate's port:\n" << ended.err;
-  }
+  // Given the square with the key in its network block, when node-mavlink talks to it while it flies
+  // (lockstep; the client in wall-clock time, told the port the kernel bound) …
+  pid_t rejuv_run = -1;
+  std::uint16_t port = 0;
+  ASSERT_NO_FATAL_FAILURE(start_signed_square("signed.launch.pbtxt", "240", rejuv_run, port));
   const auto client_out = dir() / "client.json";
   const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--wrong-key",
                                      std::string(kWrongKey), "--timeout", "60", "--target", "-0.6,-0.4,-3.3"},
@@ -116,7 +125,7 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   // The kernel's gate refused the unsigned, the wrongly signed and the recorded (stamped 2015) frames before
   // ext_link saw them (the client's own stream, stamped from its wall clock, got its upload through: above).
   proto::RunSummary summary;
-  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json), &summary).ok());
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &summary).ok());
   EXPECT_TRUE(summary.network().signing());
   std::uint64_t unsigned_refused = 0, bad_signature = 0, stale = 0;
   for (const proto::LinkRefusals& r : summary.network().signing_refused_by_reason()) {
@@ -139,25 +148,9 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
 TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames) {
   ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
       << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
-  std::string graph_text = slurp(kRepo / "launch/quad_square_paper.launch.pbtxt");
-  const std::string relative = "\"../policies/quad_sr.policy.pbtxt\"";
-  const auto policy_at = graph_text.find(relative);
-  ASSERT_NE(policy_at, std::string::npos);
-  graph_text.replace(policy_at, relative.size(), "\"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
-  graph_text += "\nnetwork { signing_key: \"" + std::string(kKey) + "\" }\n";
-  const auto graph = dir() / "qgc.launch.pbtxt";
-  std::ofstream(graph) << graph_text;
-  const auto summary_json = dir() / "summary.json";
-  const pid_t rejuv_run = test_support::start_program(
-      dir(), test_support::kRejuv,
-      {"run", graph.string(), "--duration", "400", "--net-port", "0", "--domain",
-       std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json.string()});
-  ASSERT_GT(rejuv_run, 0) << "cannot start rejuv run";
-  const std::uint16_t port = test_support::bound_gate_port(dir(), rejuv_run, std::chrono::seconds{60});
-  if (port == 0) {
-    const test_support::CliOutcome ended = test_support::wait_program(dir(), rejuv_run);
-    FAIL() << "rejuv run did not report its network gate's port:\n" << ended.err;
-  }
+  pid_t rejuv_run = -1;
+  std::uint16_t port = 0;
+  ASSERT_NO_FATAL_FAILURE(start_signed_square("qgc.launch.pbtxt", "400", rejuv_run, port));
   const auto client_out = dir() / "client.json";
   const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--qgc", "--timeout",
                                      "90", "--target", "1.5,-1,-3.5"},
@@ -198,7 +191,7 @@ TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames)
   EXPECT_EQ(json_at(report, "vehicle_frames_verified").number_value(), json_at(report, "vehicle_frames").number_value())
       << client_text;
   proto::RunSummary summary;
-  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json), &summary).ok());
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &summary).ok());
   EXPECT_GT(summary.rollbacks(), 0U);
 }
 
