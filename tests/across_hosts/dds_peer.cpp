@@ -85,31 +85,27 @@ int main(int argc, char** argv) {
   std::vector<std::max_align_t> buffer(type->size / sizeof(std::max_align_t) + 1);
   void* sample = buffer.data();
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  int rc = 0;
-  if (role == "publish") {
-    const dds_entity_t writer = dds_create_writer(participant, topic, qos, nullptr);
-    dds_delete_qos(qos);
-    if (writer < 0) return refused("dds_create_writer", writer);
-    std::printf("writing\n");
-    std::fflush(stdout);
+  const bool publish = role == "publish";
+  const dds_entity_t endpoint = publish ? dds_create_writer(participant, topic, qos, nullptr)
+                                        : dds_create_reader(participant, topic, qos, nullptr);
+  dds_delete_qos(qos);
+  if (endpoint < 0) return refused(publish ? "dds_create_writer" : "dds_create_reader", endpoint);
+  std::printf("%s\n", publish ? "writing" : "reading");
+  std::fflush(stdout);
+  if (publish) {
     std::uint64_t n = 0;
     while (!g_stop.load() && std::chrono::steady_clock::now() < deadline) {
       ++n;
       std::memcpy(sample, &n, sizeof n);
-      if (const dds_return_t w = dds_write(writer, sample); w < 0) std::fprintf(stderr, "dds_write: %s\n", dds_strretcode(w));
+      if (const dds_return_t w = dds_write(endpoint, sample); w < 0) std::fprintf(stderr, "dds_write: %s\n", dds_strretcode(w));
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
   } else {
-    const dds_entity_t reader = dds_create_reader(participant, topic, qos, nullptr);
-    dds_delete_qos(qos);
-    if (reader < 0) return refused("dds_create_reader", reader);
-    std::printf("reading\n");
-    std::fflush(stdout);
     std::uint64_t received = 0;
     while (!g_stop.load() && std::chrono::steady_clock::now() < deadline && !(first && received > 0)) {
       void* samples[1] = {sample};
       dds_sample_info_t info{};
-      const dds_return_t got = dds_take(reader, samples, &info, 1, 1);
+      const dds_return_t got = dds_take(endpoint, samples, &info, 1, 1);
       if (got > 0 && info.valid_data) ++received;
       if (got <= 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
@@ -117,5 +113,5 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
   }
   dds_delete(dom);
-  return rc;
+  return 0;
 }
