@@ -39,17 +39,14 @@ bool allow_log(NetGate& net, Nanos wall_now) {
 
 GroundLink::GroundLink(std::optional<mavlink::SigningKey> key, std::optional<sys::UdpAddress> ground)
     : ground_(std::move(ground)) {
-  if (key) {
-    signing_.emplace(*key);
-    key_ = *key;
-  }
+  if (key) signing_.emplace(*key);
 }
 
 std::optional<mavlink::Frame> GroundLink::sign_outgoing(std::span<const std::byte> datagram, mavlink::SigningTime local_clock) {
-  if (!key_) return std::nullopt;
+  if (!signing_) return std::nullopt;
   // Strictly increasing on the vehicle's stream (spec "Timestamp Handling"), whatever the wall clock does.
   const mavlink::SigningTime stamp = std::max(local_clock, last_signed_ + mavlink::SigningClock::duration{1});
-  auto signed_frame = mavlink::sign_frame(datagram, mavlink::Signer{.key = *key_, .link_id = 0, .timestamp = stamp});
+  auto signed_frame = mavlink::sign_frame(datagram, mavlink::Signer{.key = signing_->key(), .link_id = 0, .timestamp = stamp});
   if (signed_frame) last_signed_ = stamp;
   return signed_frame;
 }

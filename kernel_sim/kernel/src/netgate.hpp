@@ -64,10 +64,9 @@ class GroundLink {
     std::optional<sys::UdpAddress> from{};
     bool judged = false;
   };
-  // With a signing key: the MAVLink 2 signature check every datagram must pass before it is relayed (the key
-  // stays here, in the kernel; ext_link never holds it).
+  // With a signing key: the MAVLink 2 signature check every datagram must pass before it is relayed, and the
+  // key sign_outgoing() signs with (the key stays here, in the kernel; ext_link never holds it).
   std::optional<mavlink::SignatureChecker> signing_{};
-  std::optional<mavlink::SigningKey> key_{};  // the same key, for the vehicle's own frames
   mavlink::SigningTime last_signed_{};
   std::array<Relayed, kRecentDatagrams> recent_{};
   std::uint64_t next_id_ = 1;

@@ -176,6 +176,7 @@ class SignatureChecker {
   // The local signing time as of the last accepted frame (the spec's "local system timestamp").
   [[nodiscard]] SigningTime local_time() const { return local_; }
   [[nodiscard]] std::size_t stream_count() const { return stream_count_; }
+  [[nodiscard]] const SigningKey& key() const { return key_; }
 
  private:
   struct Stream {
