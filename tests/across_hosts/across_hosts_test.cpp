@@ -19,6 +19,7 @@
 
 #include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
+#include "keystore.hpp"
 
 namespace {
 
@@ -141,17 +142,18 @@ class AcrossHosts : public ::testing::Test {
   // The Cyclone XML of one participant: its own address, both hosts as unicast peers, and the enclave of
   // `enclave` ("" = no security).
   static fs::path config(const std::string& name, const char* address, const std::string& enclave) {
+    namespace enclave_file = rejuv::keys::enclave_file;
     const fs::path e = dir_ / "keystore" / "enclaves" / enclave;
     std::string security;
     if (!enclave.empty()) {
       security = "<Security><Authentication>"
-                 "<IdentityCA>file:" + (e / "identity_ca.cert.pem").string() + "</IdentityCA>"
-                 "<IdentityCertificate>file:" + (e / "cert.pem").string() + "</IdentityCertificate>"
-                 "<PrivateKey>file:" + (e / "key.pem").string() + "</PrivateKey>"
+                 "<IdentityCA>file:" + (e / enclave_file::kIdentityCa).string() + "</IdentityCA>"
+                 "<IdentityCertificate>file:" + (e / enclave_file::kCert).string() + "</IdentityCertificate>"
+                 "<PrivateKey>file:" + (e / enclave_file::kKey).string() + "</PrivateKey>"
                  "</Authentication><AccessControl>"
-                 "<PermissionsCA>file:" + (e / "permissions_ca.cert.pem").string() + "</PermissionsCA>"
-                 "<Governance>file:" + (e / "governance.p7s").string() + "</Governance>"
-                 "<Permissions>file:" + (e / "permissions.p7s").string() + "</Permissions>"
+                 "<PermissionsCA>file:" + (e / enclave_file::kPermissionsCa).string() + "</PermissionsCA>"
+                 "<Governance>file:" + (e / enclave_file::kGovernance).string() + "</Governance>"
+                 "<Permissions>file:" + (e / enclave_file::kPermissions).string() + "</Permissions>"
                  "</AccessControl></Security>";
     }
     const fs::path file = dir_ / (name + ".xml");

@@ -258,7 +258,7 @@ std::string common_name(X509* cert) {
 
 // A host's identity: kept when its enclave holds one of the right CN, issued by this CA, with its key.
 Result<void, std::string> ensure_identity(const fs::path& enclave, const std::string& cn, const Ca& ca) {
-  const fs::path cert_path = enclave / "cert.pem", key_path = enclave / "key.pem";
+  const fs::path cert_path = enclave / enclave_file::kCert, key_path = enclave / enclave_file::kKey;
   if (fs::exists(cert_path) && fs::exists(key_path)) {
     auto cert = load_cert(cert_path);
     auto key = load_key(key_path);
@@ -402,7 +402,7 @@ Result<void, std::string> write_enclaves(const fs::path& dir, const std::vector<
   auto governance_p7s = smime_sign(governance, ca->cert.get(), ca->key.get());
   if (!governance_p7s) return fail(governance_p7s.error());
   if (auto r = write_file(enclaves / "governance.xml", governance, 0644, Overwrite::Replace); !r) return r;
-  if (auto r = write_file(enclaves / "governance.p7s", *governance_p7s, 0644, Overwrite::Replace); !r) return r;
+  if (auto r = write_file(enclaves / enclave_file::kGovernance, *governance_p7s, 0644, Overwrite::Replace); !r) return r;
   for (const HostGrant& h : hosts) {
     const fs::path e = enclaves / h.host;
     if (auto r = make_dir(e, open); !r) return r;
@@ -410,11 +410,12 @@ Result<void, std::string> write_enclaves(const fs::path& dir, const std::vector<
     const std::string permissions = permissions_xml(h, domain_id);
     auto permissions_p7s = smime_sign(permissions, ca->cert.get(), ca->key.get());
     if (!permissions_p7s) return fail(permissions_p7s.error());
-    for (const auto& [name, text] : {std::pair<const char*, const std::string*>{"identity_ca.cert.pem", &*ca_pem},
-                                     {"permissions_ca.cert.pem", &*ca_pem},
-                                     {"governance.p7s", &*governance_p7s},
-                                     {"permissions.xml", &permissions},
-                                     {"permissions.p7s", &*permissions_p7s}}) {
+    for (const auto& [name, text] :
+         {std::pair<std::string_view, const std::string*>{enclave_file::kIdentityCa, &*ca_pem},
+          {enclave_file::kPermissionsCa, &*ca_pem},
+          {enclave_file::kGovernance, &*governance_p7s},
+          {"permissions.xml", &permissions},
+          {enclave_file::kPermissions, &*permissions_p7s}}) {
       if (auto r = write_file(e / name, *text, 0644, Overwrite::Replace); !r) return r;
     }
   }
@@ -488,8 +489,8 @@ Result<std::vector<std::string>, std::string> check_enclaves(const fs::path& dir
       bad("missing (rejuv keys hosts writes it)");
       continue;
     }
-    auto cert = load_cert(e / "cert.pem");
-    auto key = load_key(e / "key.pem");
+    auto cert = load_cert(e / enclave_file::kCert);
+    auto key = load_key(e / enclave_file::kKey);
     if (!cert || !key) {
       bad(!cert ? cert.error() : key.error());
     } else {
@@ -497,9 +498,9 @@ Result<std::vector<std::string>, std::string> check_enclaves(const fs::path& dir
       if (X509_verify(cert->get(), X509_get0_pubkey(ca->cert.get())) != 1) bad("cert.pem was not issued by this keystore's CA");
       if (X509_check_private_key(cert->get(), key->get()) != 1) bad("key.pem is not the key of cert.pem");
       struct ::stat st {};
-      if (::stat((e / "key.pem").c_str(), &st) == 0 && (st.st_mode & 077U) != 0) bad("key.pem is readable by group or others");
+      if (::stat((e / enclave_file::kKey).c_str(), &st) == 0 && (st.st_mode & 077U) != 0) bad("key.pem is readable by group or others");
     }
-    auto permissions = verify_signed(dir, e / "permissions.p7s");
+    auto permissions = verify_signed(dir, e / enclave_file::kPermissions);
     if (!permissions) {
       bad(permissions.error());
     } else {
@@ -515,7 +516,7 @@ Result<std::vector<std::string>, std::string> check_enclaves(const fs::path& dir
         bad("permissions are for domain " + section(section(*permissions, "domains"), "id") + ", not " + std::to_string(domain_id));
       }
     }
-    auto governance = verify_signed(dir, e / "governance.p7s");
+    auto governance = verify_signed(dir, e / enclave_file::kGovernance);
     if (!governance) {
       bad(governance.error());
     } else if (section(*governance, "allow_unauthenticated_participants") != "false") {
