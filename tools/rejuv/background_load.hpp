@@ -1,4 +1,4 @@
-// A background load the user names (`rejuv faults --load cpu:N`, `rejuv soak --load`): N worker processes that
+// A background load the user names (`rejuv faults --load cpu:N`): N worker processes that
 // each do what a companion computer's workload does to the flight computer's CPUs and memory — a working set of
 // 64 MiB written, read back and copied around (a vision or mapping pipeline's frames), with allocations freed
 // and made again — without ever sleeping, at SCHED_OTHER. They are this process's children: stopped
@@ -39,7 +39,7 @@ class BackgroundLoad {
 
   [[nodiscard]] std::vector<pid_t> pids() const;
   // Workers that have ended by themselves so far (the load was then not there throughout).
-  [[nodiscard]] std::size_t ended() ;
+  [[nodiscard]] std::size_t ended();
   // SIGKILL and reap every worker. Idempotent.
   void stop() noexcept;
 
