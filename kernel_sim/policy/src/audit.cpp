@@ -527,10 +527,7 @@ void check_hosts(const Context& c, Findings& out) {
   if (place.hosts.size() < 2) return;
   const auto host = [&](std::size_t h) { return "host \"" + place.hosts[h] + "\""; };
   for (const Crossing& x : crossings(p, place)) {
-    ModeSet outside;
-    for (const SrMode m : kAllModes) {
-      if (m != SrMode::MC && x.modes.has(m)) outside.add(m);
-    }
+    const ModeSet outside = only(x.modes, kSei);
     if (outside.empty()) continue;
     const Grant& w = p.grants()[x.grant_writer];
     const Grant& r = p.grants()[x.grant_reader];
