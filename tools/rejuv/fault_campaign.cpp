@@ -290,6 +290,14 @@ class Injector final : public kernel::Observer {
     const std::vector<int> pids = targets(o.fault, restoring ? std::optional(g) : std::nullopt);
     if (pids.empty()) return;  // e.g. no image yet after a cold restart: stays armed
     if (evaluating_) maybe_evaluate(flight, true);
+    // The generations an image fault leaves whole: all but the one it hits (the one being restored, else the
+    // newest). Inside a checkpoint by written pages the generation being made depends on the newest one's image
+    // too, so with one generation in the store (after a cold restart or a fallback) none is left.
+    const std::vector<Generation> gens = k_->generations();
+    const std::optional<Generation> hit = restoring ? std::optional(g)
+                                          : gens.empty() ? std::nullopt
+                                                         : std::optional(gens.back());
+    others_at_fire_ = static_cast<std::size_t>(std::ranges::count_if(gens, [&](Generation x) { return x != hit; }));
     const int sig = o.fault.kind == FaultKind::HangLive || o.fault.kind == FaultKind::StopImage ||
                             o.fault.kind == FaultKind::StallPlant
                         ? SIGSTOP
@@ -396,11 +404,15 @@ class Injector final : public kernel::Observer {
     o.recovered = back && (final || !k_->stop_reason().has_value());
     if (!back) o.note += "; '" + o.fault.target + "' not back";
     // The cheapest safe recovery (docs/design.md §7 "Faults"): one image of one generation lost leaves another intact
-    // generation when two or more are kept, so a cold restart after it is a finding, not a recovery.
-    if (o.path == "cold restart" && keep_ >= 2 &&
+    // generation when the store held another when it fired, so a cold restart after it is a finding, not a
+    // recovery. With only the hit generation in the store, a cold restart is the recovery.
+    if (o.path == "cold restart" && keep_ >= 2 && others_at_fire_ > 0 &&
         (o.fault.kind == FaultKind::KillImage || o.fault.kind == FaultKind::StopImage)) {
       o.recovered = false;
       o.note += "; a cold restart although an intact generation was left";
+    } else if (o.path == "cold restart" &&
+               (o.fault.kind == FaultKind::KillImage || o.fault.kind == FaultKind::StopImage)) {
+      o.note += "; no other generation was in the store";
     }
     if (max_v >= 1.0 && max_v_at_fire_ < 1.0) {
       o.unsafe = true;
@@ -426,6 +438,7 @@ class Injector final : public kernel::Observer {
   std::optional<std::size_t> evaluating_;
   Counters before_{};
   double max_v_at_fire_ = 0;
+  std::size_t others_at_fire_ = 0;  // generations in the store the fault in flight did not hit, when it fired
   Nanos fired_at_{0};
   Nanos fired_wall_{0};                 // CLOCK_MONOTONIC at the injection (the clock of on_control_update)
   std::optional<std::size_t> timing_;   // the fault whose recovery is being timed (until its next controls)
