@@ -89,7 +89,7 @@ int serve(sdk::Service& svc) {
   if (!svc.require(cycle, "bad params")) return 1;
   if (cycle->tracking.sr == flight::SrSwitch::Off) {
     // Without SR the mode is MC for ever and this service holds none of its kernel caps there.
-    svc.log(sdk::LogLevel::Info, "sr.enabled = 0: no rollback handler runs");
+    svc.log(sdk::LogLevel::Info, std::string(graph_values::kEnabled.name) + " = 0: no rollback handler runs");
     return svc.run();
   }
   auto start = flight_io::control_start(params);

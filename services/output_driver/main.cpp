@@ -36,7 +36,7 @@ int serve(sdk::Service& svc) {
   auto modes = svc.subscribe<rejuv_msg_SrMode>("sr_mode", [&](const rejuv_msg_SrMode& m) {
     auto mode = flight_io::mode_from_message(m);
     if (!mode) return refuse(mode.error());
-    if (*mode == SrMode::MC && has_limits_cap && svc.param("sr.enabled", 0) != 0) read_limits();
+    if (*mode == SrMode::MC && has_limits_cap && svc.param(graph_values::kEnabled.name, 0) != 0) read_limits();
     driver.on_mode(*mode);
   });
   auto controls = svc.subscribe<rejuv_msg_ActuatorControls>(

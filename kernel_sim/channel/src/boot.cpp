@@ -19,10 +19,29 @@ wire::BootParam encode_boot_param(const BootParamEntry& param) {
   if (param.is_text) {
     (void)wire::copy_name(out.text, param.text);
     out.is_text = 1;
+  } else if (param.is_integer) {
+    out.integer = param.integer;
+    out.is_integer = 1;
   } else {
     out.number = param.number;
   }
   return out;
+}
+
+BootParamEntry boot_param_of(std::string_view name, const graph_values::Value& value) {
+  const auto* integer = std::get_if<std::int64_t>(&value);
+  return BootParamEntry{.name = name,
+                        .number = integer != nullptr ? 0.0 : std::get<double>(value),
+                        .text = {},
+                        .is_text = false,
+                        .integer = integer != nullptr ? *integer : 0,
+                        .is_integer = integer != nullptr};
+}
+
+std::optional<graph_values::Value> value_of(const BootParamEntry& param) {
+  if (param.is_text) return std::nullopt;
+  if (param.is_integer) return graph_values::Value{param.integer};
+  return graph_values::Value{param.number};
 }
 
 BootCapEntry decode_boot_cap(const wire::BootCap& cap) {
@@ -40,7 +59,9 @@ BootParamEntry decode_boot_param(const wire::BootParam& param) {
   return BootParamEntry{.name = wire::read_name(param.name),
                         .number = param.number,
                         .text = wire::read_name(param.text),
-                        .is_text = param.is_text != 0};
+                        .is_text = param.is_text != 0,
+                        .integer = param.integer,
+                        .is_integer = param.is_text == 0 && param.is_integer != 0};
 }
 
 std::string to_string(const BootFailure& failure) {

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <string>
 
+#include "rejuv/core/graph_values.hpp"
+
 namespace rejuv {
 
 namespace {
@@ -50,7 +52,8 @@ Result<std::uint32_t, AttackParamError> whole_param(const NumberLookup& number, 
 
 Result<BootAttackPlan, AttackParamError> boot_attack_plan(const NumberLookup& number, const TextLookup& text) {
   BootAttackPlan plan;
-  plan.sr = number("sr.enabled").value_or(1.0) == 1.0 ? Rejuvenation::On : Rejuvenation::Off;
+  plan.sr = graph_values::is_on(graph_values::kEnabled, number(graph_values::kEnabled.name)) ? Rejuvenation::On
+                                                                                       : Rejuvenation::Off;
   plan.enabled = number("attack.enabled").value_or(0.0) == 1.0;
   if (!plan.enabled) return plan;
   auto count = whole_param(number, "attack.count", 64.0);

@@ -14,6 +14,7 @@
 
 #include "impl.hpp"
 #include "rejuv/channel/boot.hpp"
+#include "rejuv/core/graph_values.hpp"
 
 extern char** environ;  // NOLINT: the plant inherits the kernel's environment (CYCLONEDDS_URI, ...)
 
@@ -71,27 +72,38 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   const proto::Launch& g = k.graph.graph;
   number("seed", static_cast<double>(k.seed));
   text("clock", to_string(k.clock_mode));
+  // The SR scheme's graph-wide values, typed by their key (rejuv/core/graph_values.hpp): durations as ns.
+  namespace gv = graph_values;
+  const auto send = [&](const auto& key, auto value) {
+    out.push_back(channel::encode_boot_param(channel::boot_param_of(key.name, gv::encode(key, value))));
+  };
   const proto::SrParams& sr = g.sr();
-  number("sr.enabled", k.sr ? 1 : 0);
-  number("sr.t_mc_s", launch::t_mc(sr).count());
-  number("sr.t_est_s", launch::t_est(sr).count());
-  number("sr.rho_m", sr.rho_m());
-  number("sr.rho_s", sr.rho_s());
-  number("sr.t_min_s", launch::t_min(sr).count());
-  number("sr.check_period_s", launch::check_period(sr).count());
-  number("sr.keep_generations", launch::keep_generations(sr));
-  number("sr.restricted_limit_fraction", sr.restricted_limit_fraction());
-  // The estimator's re-arm after a rollback: only what the launch file sets (ekf2's defaults are flight::EkfRearm's).
+  send(gv::kEnabled, k.sr);
+  send(gv::kTmc, gv::nanos_of_seconds(launch::t_mc(sr).count()));
+  send(gv::kTest, gv::nanos_of_seconds(launch::t_est(sr).count()));
+  send(gv::kRhoM, sr.rho_m());
+  send(gv::kRhoS, sr.rho_s());
+  send(gv::kTmin, gv::nanos_of_seconds(launch::t_min(sr).count()));
+  send(gv::kCheckPeriod, gv::nanos_of_seconds(launch::check_period(sr).count()));
+  send(gv::kKeepGenerations, launch::keep_generations(sr));
+  send(gv::kRestrictedLimitFraction, sr.restricted_limit_fraction());
+  // The estimator's re-arm after a rollback: only what the launch file sets (ekf2's defaults are the table's).
   // With the estimate catch-up the restored estimator is fed the samples it missed instead, its covariance kept
   // (catch_up.hpp), as the model does.
   for (const launch::RearmField& f : launch::ekf_rearm_fields(sr.ekf_rearm())) {
-    if (!(f.is_switch && sr.estimate_catch_up())) number("sr.ekf_rearm." + f.name, f.value);
+    if (f.is_switch) {
+      if (!sr.estimate_catch_up()) send(gv::kRearmEnabled, f.value != 0.0);
+      continue;
+    }
+    const gv::Key<double>* key = gv::rearm_std(f.name);
+    REJUV_ASSERT(key != nullptr, "an EstimatorRearm field without a key in rejuv/core/graph_values.hpp");
+    send(*key, f.value);
   }
-  if (sr.estimate_catch_up()) number("sr.ekf_rearm.enabled", 0);
-  number("sr.box.position_m", sr.box().position_m());
-  number("sr.box.velocity_m_s", sr.box().velocity_m_s());
-  number("sr.box.angle_rad", sr.box().angle_rad());
-  number("sr.box.rate_rad_s", sr.box().rate_rad_s());
+  if (sr.estimate_catch_up()) send(gv::kRearmEnabled, false);
+  send(gv::kBoxPosition, sr.box().position_m());
+  send(gv::kBoxVelocity, sr.box().velocity_m_s());
+  send(gv::kBoxAngle, sr.box().angle_rad());
+  send(gv::kBoxRate, sr.box().rate_rad_s());
   const proto::Mission& m = g.mission();
   number("mission.count", m.waypoints_size());
   number("mission.acceptance_radius_m", m.acceptance_radius_m());

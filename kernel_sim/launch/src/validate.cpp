@@ -10,6 +10,7 @@
 #include <system_error>
 #include <tuple>
 
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/vocabulary.hpp"
 #include "validate.hpp"
 
@@ -64,18 +65,15 @@ std::optional<std::string> implausible(const Plausible& p, double v) {
   return out;
 }
 
-// The SR times (§II, §V–§VI) and fractions (§IV-A, §III). T_MC: the paper flies T_MC of the order of 0.1–1 s
-// (§VI; 0.3 s in launch/quad_square, 0.2–0.3 s in Fig. 11); beyond 10 s an unchecked worst-case attack of one
-// window tilts the vehicle model out of the safety set many times over (docs/control.md §6: 0.315 s already
-// costs V ≈ 0.3), so 10 s bounds any meaningful design. T_est: 1–3 s in Fig. 11 (§VI-D), the safety controller
-// of the vehicle model brings x̂ back in ≈ 2.5 s (docs/control.md §6.1); 10 s bounds it the same way. t_min: a
-// pause after a setpoint move (§V-C, 0.02 s shipped), shorter than one MC window: at most 1 s. The check of (1)
-// runs at the control rate (2 ms, §V-B); slower than 0.1 s it overshoots ρ_s by a whole SC step: at most 0.1 s.
-// ρ_M, ρ_s and Ū are fractions: of the safety set's level ‖e‖²_P ≤ 1 (§IV-A) and of the control range (§III).
-constexpr double kMaxTmcS = 10.0;
-constexpr double kMaxTestS = 10.0;
-constexpr double kMaxTminS = 1.0;
-constexpr double kMaxCheckPeriodS = 0.1;
+// The plausible range of an SR time or fraction is its key's range (rejuv/core/graph_values.hpp says where each
+// bound comes from), in the file's unit.
+Plausible plausible(const graph_values::Key<Nanos>& key) {
+  return Plausible{key.name, key.symbol, Unit::Seconds, to_seconds(key.range.min).count(), key.range.min_open,
+                   to_seconds(key.range.max).count()};
+}
+Plausible plausible(const graph_values::Key<double>& key) {
+  return Plausible{key.name, key.symbol, Unit::Fraction, key.range.min, key.range.min_open, key.range.max};
+}
 // Wind on the vehicle model (plant, docs/design.md §9): its thrust holds a few m/s; beyond 30 m/s (a storm) no mission of
 // a small quadrotor is flown, so a larger number is another unit (km/h).
 constexpr double kMaxWindMS = 30.0;
@@ -452,8 +450,9 @@ class Validator {
       return {};  // parameters of a disabled scheme are not used (rejuv run --no-sr)
     }
     const proto::SrParams& sr = g_.sr();
-    for (Check c : {check_sr_finite(sr), check_sr_intervals(sr), check_sr_plausible(sr), check_sr_levels(sr),
-                    check_sr_check_period(sr),
+    // The check period's own bounds (> 0, ≥ 1 µs) first: below them its range would say less.
+    for (Check c : {check_sr_finite(sr), check_sr_intervals(sr), check_sr_check_period(sr), check_sr_plausible(sr),
+                    check_sr_levels(sr),
                     check_sr_duration_bounds(sr), check_sr_keep_generations(sr), check_sr_box(sr),
                     check_sr_restricted_limits(sr), check_sr_ekf_rearm(sr)}) {
       if (!c) {
@@ -464,136 +463,149 @@ class Validator {
   }
 
   [[nodiscard]] SourceLocation sr_at(std::string_view field) const { return at({{"sr", -1}}, field); }
+  // Where the field of a graph-wide key was written: "sr.box.angle_rad" at sr { box { angle_rad } }.
+  [[nodiscard]] SourceLocation key_at(std::string_view name) const {
+    const std::string_view field = graph_values::field_of(name);
+    for (std::string_view block : {"box", "ekf_rearm"}) {
+      if (name.starts_with("sr." + std::string(block) + ".")) return at({{"sr", -1}, {block, -1}}, field);
+    }
+    return sr_at(field);
+  }
 
   Check check_sr_finite(const proto::SrParams& sr) const {
-    for (const auto& [v, f] : {std::pair{sr.t_mc_s(), "t_mc_s"},
-                               {sr.t_est_s(), "t_est_s"},
-                               {sr.rho_m(), "rho_m"},
-                               {sr.rho_s(), "rho_s"},
-                               {sr.t_min_s(), "t_min_s"},
-                               {sr.check_period_s(), "check_period_s"},
-                               {sr.restricted_limit_fraction(), "restricted_limit_fraction"}}) {
+    namespace gv = graph_values;
+    for (const auto& [v, name] : {std::pair{sr.t_mc_s(), gv::kTmc.name},
+                                  {sr.t_est_s(), gv::kTest.name},
+                                  {sr.rho_m(), gv::kRhoM.name},
+                                  {sr.rho_s(), gv::kRhoS.name},
+                                  {sr.t_min_s(), gv::kTmin.name},
+                                  {sr.check_period_s(), gv::kCheckPeriod.name},
+                                  {sr.restricted_limit_fraction(), gv::kRestrictedLimitFraction.name}}) {
       if (!std::isfinite(v)) {
-        return fail(error(sr_at(f), "sr." + std::string(f) + " must be a finite number"));
+        return fail(error(key_at(name), std::string(name) + " must be a finite number"));
       }
     }
     return {};
+  }
+
+  // "sr.t_mc_s (T_MC)": how a message names a key.
+  template <class T>
+  static std::string named(const graph_values::Key<T>& key) {
+    return std::string(key.name) + " (" + std::string(key.symbol) + ")";
   }
 
   // T_MC, T_est and t_min (§II).
   Check check_sr_intervals(const proto::SrParams& sr) const {
+    namespace gv = graph_values;
     // §II: MC must last a positive T_MC before RB, or the vehicle never flies its mission.
     if (sr.t_mc_s() <= 0.0) {
-      return fail(error(sr_at("t_mc_s"), "sr.t_mc_s (T_MC) must be > 0 s, got " + num(sr.t_mc_s())));
+      return fail(error(key_at(gv::kTmc.name), named(gv::kTmc) + " must be > 0 s, got " + num(sr.t_mc_s())));
     }
     // §II: the safety controller needs a positive T_est to bring x̂ back into E(ρ_s) before (1) is checked.
     if (sr.t_est_s() <= 0.0) {
-      return fail(error(sr_at("t_est_s"), "sr.t_est_s (T_est) must be > 0 s, got " + num(sr.t_est_s())));
+      return fail(error(key_at(gv::kTest.name), named(gv::kTest) + " must be > 0 s, got " + num(sr.t_est_s())));
     }
     if (sr.t_min_s() < 0.0) {
-      return fail(error(sr_at("t_min_s"), "sr.t_min_s (t_min) must be >= 0 s, got " + num(sr.t_min_s())));
+      return fail(error(key_at(gv::kTmin.name), named(gv::kTmin) + " must be >= 0 s, got " + num(sr.t_min_s())));
     }
     return {};
   }
 
-  // Each SR time and fraction in its plausible range (kMaxTmcS…: where the bounds come from), with a hint when
-  // the value looks like another unit (`t_mc_s: 200` meant as ms).
+  // Each SR time and fraction in its key's range, with a hint when the value looks like another unit
+  // (`t_mc_s: 200` meant as ms).
   Check check_sr_plausible(const proto::SrParams& sr) const {
-    const auto check = [&](const Plausible& p, double v, std::string_view field) -> Check {
-      if (auto why = implausible(p, v)) return fail(error(sr_at(field), *why));
+    namespace gv = graph_values;
+    const auto check = [&](const Plausible& p, double v) -> Check {
+      if (auto why = implausible(p, v)) return fail(error(key_at(p.field), *why));
       return {};
     };
-    if (Check c = check({"sr.t_mc_s", "T_MC", Unit::Seconds, 0.0, true, kMaxTmcS}, sr.t_mc_s(), "t_mc_s"); !c) return c;
-    if (Check c = check({"sr.t_est_s", "T_est", Unit::Seconds, 0.0, true, kMaxTestS}, sr.t_est_s(), "t_est_s"); !c) {
-      return c;
-    }
-    if (Check c = check({"sr.t_min_s", "t_min", Unit::Seconds, 0.0, false, kMaxTminS}, sr.t_min_s(), "t_min_s"); !c) {
-      return c;
-    }
+    if (Check c = check(plausible(gv::kTmc), sr.t_mc_s()); !c) return c;
+    if (Check c = check(plausible(gv::kTest), sr.t_est_s()); !c) return c;
+    if (Check c = check(plausible(gv::kTmin), sr.t_min_s()); !c) return c;
     if (sr.has_check_period_s()) {
-      if (Check c = check({"sr.check_period_s", "check_period", Unit::Seconds, 0.0, true, kMaxCheckPeriodS},
-                          sr.check_period_s(), "check_period_s");
-          !c) {
-        return c;
-      }
+      if (Check c = check(plausible(gv::kCheckPeriod), sr.check_period_s()); !c) return c;
     }
     // A fraction above 1 (0.1 written as 10 %); at or below 0 check_sr_levels and check_sr_restricted_limits say
     // what the level must satisfy.
-    for (const auto& [field, symbol, v] : {std::tuple{"rho_m", "ρ_M", sr.rho_m()}, std::tuple{"rho_s", "ρ_s", sr.rho_s()},
-                                           std::tuple{"restricted_limit_fraction", "Ū", sr.restricted_limit_fraction()}}) {
+    for (const auto& [key, v] : {std::pair{&gv::kRhoM, sr.rho_m()}, std::pair{&gv::kRhoS, sr.rho_s()},
+                                 std::pair{&gv::kRestrictedLimitFraction, sr.restricted_limit_fraction()}}) {
       if (v <= 1.0) continue;
-      const std::string name = "sr." + std::string(field);
-      if (Check c = check({name, symbol, Unit::Fraction, 0.0, true, 1.0}, v, field); !c) return c;
+      if (Check c = check(plausible(*key), v); !c) return c;
     }
     return {};
   }
 
   // §IV-A: E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set ‖e‖_P ≤ 1 (P scaled to the state box, docs/design.md §9).
   Check check_sr_levels(const proto::SrParams& sr) const {
+    namespace gv = graph_values;
     if (!(sr.rho_s() > 0.0 && sr.rho_s() < sr.rho_m())) {
-      return fail(
-          error(sr_at("rho_s"), "sr.rho_s and sr.rho_m must satisfy 0 < rho_s < rho_m (§IV-A), got rho_s = " +
-                                    num(sr.rho_s()) + ", rho_m = " + num(sr.rho_m())));
+      return fail(error(key_at(gv::kRhoS.name),
+                        std::string(gv::kRhoS.name) + " and " + std::string(gv::kRhoM.name) +
+                            " must satisfy 0 < rho_s < rho_m (§IV-A), got rho_s = " + num(sr.rho_s()) +
+                            ", rho_m = " + num(sr.rho_m())));
     }
-    if (sr.rho_m() > 1.0) {
-      return fail(error(
-          sr_at("rho_m"),
-          "sr.rho_m must be <= 1: E(rho_M) lies inside the safety set ||e||_P <= 1, got " + num(sr.rho_m())));
+    if (!gv::in_range(gv::kRhoM, sr.rho_m())) {
+      return fail(error(key_at(gv::kRhoM.name),
+                        std::string(gv::kRhoM.name) + " must be <= " + num(gv::kRhoM.range.max) +
+                            ": E(rho_M) lies inside the safety set ||e||_P <= 1, got " + num(sr.rho_m())));
     }
     return {};
   }
 
   Check check_sr_check_period(const proto::SrParams& sr) const {
+    namespace gv = graph_values;
+    const std::string name(gv::kCheckPeriod.name);
     if (sr.has_check_period_s() && sr.check_period_s() <= 0.0) {
-      return fail(error(sr_at("check_period_s"),
-                        "sr.check_period_s must be > 0 s (omit it for the default 0.002 s), got " +
-                            num(sr.check_period_s())));
+      return fail(error(key_at(name), name + " must be > 0 s (omit it for the default " +
+                                          num(to_seconds(gv::kCheckPeriod.fallback).count()) + " s), got " +
+                                          num(sr.check_period_s())));
     }
-    if (sr.has_check_period_s() && sr.check_period_s() < defaults::kMinPeriodS) {
-      return fail(error(sr_at("check_period_s"), "sr.check_period_s must be at least " +
-                                                     num(defaults::kMinPeriodS) +
-                                                     " s (the kernel's timers count ns), got " +
-                                                     num(sr.check_period_s())));
+    const double min_s = to_seconds(gv::kCheckPeriod.range.min).count();
+    if (sr.has_check_period_s() && sr.check_period_s() < min_s) {
+      return fail(error(key_at(name), name + " must be at least " + num(min_s) +
+                                          " s (the kernel's timers count ns), got " + num(sr.check_period_s())));
     }
     return {};
   }
 
   // Durations beyond the bound overflow the kernel's ns clock or never elapse.
   Check check_sr_duration_bounds(const proto::SrParams& sr) const {
-    for (const auto& [v, f] : {std::pair{sr.t_mc_s(), "t_mc_s"},
-                               {sr.t_est_s(), "t_est_s"},
-                               {sr.t_min_s(), "t_min_s"},
-                               {sr.check_period_s(), "check_period_s"}}) {
+    namespace gv = graph_values;
+    for (const auto& [v, name] : {std::pair{sr.t_mc_s(), gv::kTmc.name},
+                                  {sr.t_est_s(), gv::kTest.name},
+                                  {sr.t_min_s(), gv::kTmin.name},
+                                  {sr.check_period_s(), gv::kCheckPeriod.name}}) {
       if (v > defaults::kMaxDurationS) {
-        return fail(error(sr_at(f), "sr." + std::string(f) + " must be at most " + num(defaults::kMaxDurationS) +
-                                        " s, got " + num(v)));
+        return fail(error(key_at(name), std::string(name) + " must be at most " + num(defaults::kMaxDurationS) +
+                                            " s, got " + num(v)));
       }
     }
     return {};
   }
 
   Check check_sr_keep_generations(const proto::SrParams& sr) const {
-    if (sr.has_keep_generations() &&
-        (sr.keep_generations() < 1 || sr.keep_generations() > defaults::kMaxKeepGenerations)) {
-      return fail(error(sr_at("keep_generations"),
-                        "sr.keep_generations must be 1 to " + std::to_string(defaults::kMaxKeepGenerations) +
+    const auto& key = graph_values::kKeepGenerations;
+    if (sr.has_keep_generations() && !graph_values::in_range(key, sr.keep_generations())) {
+      return fail(error(key_at(key.name),
+                        std::string(key.name) + " must be " + std::to_string(key.range.min) + " to " +
+                            std::to_string(key.range.max) +
                             " (each generation keeps a frozen process of every rejuvenated service; omit it "
                             "for the default " +
-                            std::to_string(defaults::kKeepGenerations) + "), got " +
-                            std::to_string(sr.keep_generations())));
+                            std::to_string(key.fallback) + "), got " + std::to_string(sr.keep_generations())));
     }
     return {};
   }
 
   Check check_sr_box(const proto::SrParams& sr) const {
+    namespace gv = graph_values;
     const proto::StateBox& box = sr.box();
-    for (const auto& [v, f] : {std::pair{box.position_m(), "position_m"},
-                               {box.velocity_m_s(), "velocity_m_s"},
-                               {box.angle_rad(), "angle_rad"},
-                               {box.rate_rad_s(), "rate_rad_s"}}) {
-      if (!std::isfinite(v) || v <= 0.0) {
-        return fail(error(at({{"sr", -1}, {"box", -1}}, f),
-                          "sr.box." + std::string(f) +
+    for (const auto& [v, key] : {std::pair{box.position_m(), &gv::kBoxPosition},
+                                 {box.velocity_m_s(), &gv::kBoxVelocity},
+                                 {box.angle_rad(), &gv::kBoxAngle},
+                                 {box.rate_rad_s(), &gv::kBoxRate}}) {
+      if (!gv::in_range(*key, v)) {
+        return fail(error(key_at(key->name),
+                          std::string(key->name) +
                               " must be a finite half-width > 0 (it scales P, docs/design.md §9), got " + num(v)));
       }
     }
@@ -601,20 +613,23 @@ class Validator {
   }
 
   Check check_sr_restricted_limits(const proto::SrParams& sr) const {
+    const auto& key = graph_values::kRestrictedLimitFraction;
     const double frac = sr.restricted_limit_fraction();
-    if (!(frac > 0.0 && frac <= 1.0)) {
-      return fail(error(
-          sr_at("restricted_limit_fraction"),
-          "sr.restricted_limit_fraction (Ū as a fraction of U, §III) must be in (0, 1], got " + num(frac)));
+    if (!graph_values::in_range(key, frac)) {
+      return fail(error(key_at(key.name), std::string(key.name) + " (" + std::string(key.symbol) +
+                                              " as a fraction of U, §III) must be in (0, 1], got " + num(frac)));
     }
     return {};
   }
 
   Check check_sr_ekf_rearm(const proto::SrParams& sr) const {
     for (const RearmField& f : ekf_rearm_fields(sr.ekf_rearm())) {
-      if (!f.is_switch && !(std::isfinite(f.value) && f.value > 0.0)) {
-        return fail(error(at({{"sr", -1}, {"ekf_rearm", -1}}, f.name),
-                          "sr.ekf_rearm." + f.name + " must be a finite 1-sigma > 0, got " + num(f.value)));
+      if (f.is_switch) continue;
+      const graph_values::Key<double>* key = graph_values::rearm_std(f.name);
+      REJUV_ASSERT(key != nullptr, "an EstimatorRearm field without a key in rejuv/core/graph_values.hpp");
+      if (!graph_values::in_range(*key, f.value)) {
+        return fail(error(key_at(key->name),
+                          std::string(key->name) + " must be a finite 1-sigma > 0, got " + num(f.value)));
       }
     }
     return {};

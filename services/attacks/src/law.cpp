@@ -4,6 +4,8 @@
 #include <cmath>
 #include <string>
 
+#include "rejuv/core/graph_values.hpp"
+
 namespace rejuv::attacks {
 
 Result<std::optional<LawAttack>, PlanError> law_attack_plan(const NumberLookup& number, const TextLookup& text,
@@ -13,7 +15,9 @@ Result<std::optional<LawAttack>, PlanError> law_attack_plan(const NumberLookup& 
   if (!std::isfinite(count) || count < 0.0 || count > 64.0 || count != std::floor(count)) {
     return fail(PlanError{.param = "attack.count", .message = "expected a whole number in [0, 64]"});
   }
-  const Rejuvenation sr = number("sr.enabled").value_or(1.0) == 1.0 ? Rejuvenation::On : Rejuvenation::Off;
+  const Rejuvenation sr = graph_values::is_on(graph_values::kEnabled, number(graph_values::kEnabled.name))
+                               ? Rejuvenation::On
+                               : Rejuvenation::Off;
   for (int j = 0; j < static_cast<int>(count); ++j) {
     const std::string prefix = "attack." + std::to_string(j) + ".";
     const auto law = flight::attack_law_from_name(text(prefix + "kind"));

@@ -23,12 +23,29 @@ std::string InputFailure::to_string() const {
   return where + ": " + std::string(flight_io::to_string(kind)) + ": " + message;
 }
 
-Params Params::from_table(std::map<std::string, double, std::less<>> table) {
-  return Params([table = std::move(table)](std::string_view name) -> std::optional<double> {
+Params Params::from_table(std::map<std::string, graph_values::Value, std::less<>> table) {
+  return Params([table = std::move(table)](std::string_view name) -> std::optional<graph_values::Value> {
     const auto it = table.find(name);
     if (it == table.end()) return std::nullopt;
     return it->second;
   });
+}
+
+std::optional<double> Params::find(std::string_view name) const {
+  const std::optional<graph_values::Value> v = lookup_(name);
+  if (!v) return std::nullopt;
+  if (const auto* i = std::get_if<std::int64_t>(&*v)) return static_cast<double>(*i);
+  return std::get<double>(*v);
+}
+
+InputFailure failure_of(const graph_values::ValueError& error) {
+  InputError kind = InputError::OutOfRange;
+  switch (error.kind) {
+    case graph_values::ValueError::Kind::NotFinite: kind = InputError::NotFinite; break;
+    case graph_values::ValueError::Kind::WrongType:
+    case graph_values::ValueError::Kind::OutOfRange: kind = InputError::OutOfRange; break;
+  }
+  return InputFailure{.kind = kind, .where = error.key, .message = error.message};
 }
 
 namespace {
@@ -50,17 +67,6 @@ Result<std::optional<double>, InputFailure> finite_param(const Params& params, s
     return fail(failure(InputError::NotFinite, std::string(name), "expected a finite number"));
   }
   return v;
-}
-
-// A 0/1 switch if present.
-Result<std::optional<bool>, InputFailure> switch_param(const Params& params, std::string_view name) {
-  auto v = finite_param(params, name);
-  if (!v) return fail(std::move(v.error()));
-  if (!*v) return std::optional<bool>{};
-  if (**v != 0.0 && **v != 1.0) {
-    return fail(failure(InputError::OutOfRange, std::string(name), "expected 0 or 1, got " + number_text(**v)));
-  }
-  return std::optional<bool>{**v == 1.0};
 }
 
 // A finite param, or `fallback` when absent.
@@ -96,34 +102,28 @@ flight::VehicleParams vehicle_of(const plant::QuadParams& quad) {
 }  // namespace
 
 Result<TrackingParams, InputFailure> tracking_params(const Params& params) {
-  const flight::SimConfig sim = flight::SimConfig::defaults();
-  TrackingParams t{.sr = sim.sr,
-                   .rho_M = sim.rho_M,
-                   .rho_s = sim.handler.rho_s,
-                   .t_min = sim.handler.t_min,
-                   .check_period = sim.handler.check_period};
-  auto enabled = switch_param(params, "sr.enabled");
+  namespace gv = graph_values;
+  auto enabled = read(params, gv::kEnabled);
   if (!enabled) return fail(std::move(enabled.error()));
-  if (*enabled) t.sr = **enabled ? flight::SrSwitch::On : flight::SrSwitch::Off;
-  auto rho_m = number_or(params, "sr.rho_m", t.rho_M);
+  auto rho_m = read(params, gv::kRhoM);
   if (!rho_m) return fail(std::move(rho_m.error()));
-  auto rho_s = number_or(params, "sr.rho_s", t.rho_s);
+  auto rho_s = read(params, gv::kRhoS);
   if (!rho_s) return fail(std::move(rho_s.error()));
-  // config_from_launch checks the same (§IV-A): E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set.
-  if (!(*rho_s > 0.0 && *rho_s < *rho_m && *rho_m <= 1.0)) {
-    return fail(failure(InputError::OutOfRange, "sr.rho_s",
+  // The launch loader checks the same (§IV-A): E(ρ_s) ⊂ E(ρ_M) ⊆ the safety set.
+  if (!(*rho_s < *rho_m)) {
+    return fail(failure(InputError::OutOfRange, std::string(gv::kRhoS.name),
                         "the tracking algorithm needs 0 < rho_s < rho_m <= 1 (§IV-A), got rho_s = " +
                             number_text(*rho_s) + ", rho_m = " + number_text(*rho_m)));
   }
-  t.rho_M = *rho_m;
-  t.rho_s = *rho_s;
-  auto t_min = positive_or(params, "sr.t_min_s", t.t_min.count(), /*zero_ok=*/true);
+  auto t_min = read(params, gv::kTmin);
   if (!t_min) return fail(std::move(t_min.error()));
-  t.t_min = Seconds{*t_min};
-  auto check = positive_or(params, "sr.check_period_s", t.check_period.count());
+  auto check = read(params, gv::kCheckPeriod);
   if (!check) return fail(std::move(check.error()));
-  t.check_period = Seconds{*check};
-  return t;
+  return TrackingParams{.sr = *enabled ? flight::SrSwitch::On : flight::SrSwitch::Off,
+                        .rho_M = *rho_m,
+                        .rho_s = *rho_s,
+                        .t_min = to_seconds(*t_min),
+                        .check_period = to_seconds(*check)};
 }
 
 flight::HandlerTiming SrCycleParams::handler_timing() const {
@@ -134,14 +134,13 @@ flight::HandlerTiming SrCycleParams::handler_timing() const {
 }
 
 Result<SrCycleParams, InputFailure> sr_cycle_params(const Params& params) {
-  const flight::SimConfig sim = flight::SimConfig::defaults();
   auto tracking = tracking_params(params);
   if (!tracking) return fail(std::move(tracking.error()));
-  auto t_mc = positive_or(params, "sr.t_mc_s", sim.t_mc.count());
+  auto t_mc = read(params, graph_values::kTmc);
   if (!t_mc) return fail(std::move(t_mc.error()));
-  auto t_est = positive_or(params, "sr.t_est_s", sim.handler.t_est.count(), /*zero_ok=*/true);
+  auto t_est = read(params, graph_values::kTest);
   if (!t_est) return fail(std::move(t_est.error()));
-  return SrCycleParams{.tracking = *tracking, .t_mc = Seconds{*t_mc}, .t_est = Seconds{*t_est}};
+  return SrCycleParams{.tracking = *tracking, .t_mc = to_seconds(*t_mc), .t_est = to_seconds(*t_est)};
 }
 
 Result<flight::ControlDesignSpec, InputFailure> control_spec(const Params& params) {
@@ -149,23 +148,19 @@ Result<flight::ControlDesignSpec, InputFailure> control_spec(const Params& param
   flight::ControlDesignSpec spec = sim.control;
   spec.vehicle = vehicle_of(sim.quad);
   spec.control_period = to_seconds(sim.sensors.gyro_period);
-  const std::pair<std::string_view, double*> box[] = {
-      {"sr.box.position_m", &spec.box.position_m},
-      {"sr.box.velocity_m_s", &spec.box.velocity_m_s},
-      {"sr.box.angle_rad", &spec.box.angle_rad},
-      {"sr.box.rate_rad_s", &spec.box.rate_rad_s},
+  const std::pair<const graph_values::Key<double>*, double*> box[] = {
+      {&graph_values::kBoxPosition, &spec.box.position_m},
+      {&graph_values::kBoxVelocity, &spec.box.velocity_m_s},
+      {&graph_values::kBoxAngle, &spec.box.angle_rad},
+      {&graph_values::kBoxRate, &spec.box.rate_rad_s},
   };
-  for (const auto& [name, field] : box) {
-    auto v = positive_or(params, name, *field);
+  for (const auto& [key, field] : box) {
+    auto v = read(params, *key);
     if (!v) return fail(std::move(v.error()));
     *field = *v;
   }
-  auto fraction = positive_or(params, "sr.restricted_limit_fraction", spec.restricted_limit_fraction);
+  auto fraction = read(params, graph_values::kRestrictedLimitFraction);
   if (!fraction) return fail(std::move(fraction.error()));
-  if (*fraction > 1.0) {
-    return fail(failure(InputError::OutOfRange, "sr.restricted_limit_fraction",
-                        "Ū as a fraction of U must be in (0, 1], got " + number_text(*fraction)));
-  }
   spec.restricted_limit_fraction = *fraction;
   return spec;
 }
@@ -177,7 +172,7 @@ Result<flight::ControlDesign, InputFailure> control_design(const Params& params)
   if (!design) {
     std::string where = "sr";
     switch (design.error().kind) {
-      case flight::DesignError::Limits: where = "sr.restricted_limit_fraction"; break;
+      case flight::DesignError::Limits: where = graph_values::kRestrictedLimitFraction.name; break;
       case flight::DesignError::Ellipsoid: where = "sr.box"; break;
       case flight::DesignError::Vehicle:
       case flight::DesignError::Model:
@@ -197,7 +192,8 @@ Result<ActuatorLimits, InputFailure> actuator_limits(const Params& params) {
   if (!vehicle) return fail(failure(InputError::Design, "plant", vehicle.error().message));
   auto restricted = flight::restricted_limits(*vehicle, spec->restricted_limit_fraction);
   if (!restricted) {
-    return fail(failure(InputError::Design, "sr.restricted_limit_fraction", restricted.error().message));
+    return fail(failure(InputError::Design, std::string(graph_values::kRestrictedLimitFraction.name),
+                        restricted.error().message));
   }
   return ActuatorLimits{.full = flight::full_limits(*vehicle),
                         .restricted = *restricted,
@@ -274,12 +270,14 @@ flight::EkfParams ekf_params() {
 }
 
 Result<flight::EkfRearm, InputFailure> ekf_rearm(const Params& params) {
-  flight::EkfRearm r = flight::SimConfig::defaults().ekf_rearm;
-  auto on = switch_param(params, "sr.ekf_rearm.enabled");
+  flight::EkfRearm r;
+  auto on = read(params, graph_values::kRearmEnabled);
   if (!on) return fail(std::move(on.error()));
-  r.enabled = on->value_or(r.enabled);
+  r.enabled = *on;
   for (const flight::EkfRearm::StdField& f : flight::EkfRearm::kStdFields) {
-    auto v = positive_or(params, "sr.ekf_rearm." + std::string(f.name), r.*f.member);  // a 1σ: finite, > 0
+    const graph_values::Key<double>* key = graph_values::rearm_std(f.name);
+    REJUV_ASSERT(key != nullptr, "an EkfRearm 1σ without a key in rejuv/core/graph_values.hpp");
+    auto v = read(params, *key);  // a 1σ: finite, > 0
     if (!v) return fail(std::move(v.error()));
     r.*f.member = *v;
   }

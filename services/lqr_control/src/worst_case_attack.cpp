@@ -33,7 +33,7 @@ Result<std::optional<WorstCaseAttackPlan>, flight_io::InputFailure> worst_case_a
   if (numbers.find("attack.enabled").value_or(0.0) != 1.0) return std::optional<WorstCaseAttackPlan>{};
   auto count = whole(numbers, "attack.count", 64.0);
   if (!count) return fail(std::move(count.error()));
-  const bool sr_on = numbers.find("sr.enabled").value_or(1.0) == 1.0;
+  const bool sr_on = graph_values::is_on(graph_values::kEnabled, numbers.find(graph_values::kEnabled.name));
   for (std::uint32_t j = 0; j < *count; ++j) {
     const std::string prefix = "attack." + std::to_string(j) + ".";
     if (text(prefix + "kind") != "WORST_CASE_CONTROL") continue;

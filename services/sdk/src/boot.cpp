@@ -93,7 +93,7 @@ SdkResult<std::unique_ptr<Service>> Service::connect(const ConnectOptions& optio
   for (std::size_t i = 0; i < script.param_count(); ++i) {
     const channel::BootParamEntry p = script.param(i);
     impl->params.push_back(Param{.name = std::string(p.name), .number = p.number, .text = std::string(p.text),
-                                 .is_text = p.is_text});
+                                 .is_text = p.is_text, .integer = p.integer, .is_integer = p.is_integer});
   }
   impl->subscription_by_slot.assign(max_slot + 1, nullptr);
   for (const Param& p : impl->params) {

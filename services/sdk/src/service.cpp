@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cstdarg>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <utility>
 
@@ -53,9 +54,18 @@ Epoch Service::epoch() const { return impl_->time.read().epoch; }
 
 double Service::param(std::string_view name, double fallback) const {
   for (const Param& p : impl_->params) {
-    if (p.name == name && !p.is_text) return p.number;
+    if (p.name == name && !p.is_text) return p.is_integer ? static_cast<double>(p.integer) : p.number;
   }
   return fallback;
+}
+std::optional<graph_values::Value> Service::param_value(std::string_view name) const {
+  for (const Param& p : impl_->params) {
+    if (p.name != name) continue;
+    if (p.is_text) return graph_values::Value{std::numeric_limits<double>::quiet_NaN()};
+    if (p.is_integer) return graph_values::Value{p.integer};
+    return graph_values::Value{p.number};
+  }
+  return std::nullopt;
 }
 std::string_view Service::text_param(std::string_view name, std::string_view fallback) const {
   for (const Param& p : impl_->params) {

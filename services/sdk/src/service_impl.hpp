@@ -47,6 +47,8 @@ struct Param {
   double number = 0;
   std::string text;
   bool is_text = false;
+  std::int64_t integer = 0;
+  bool is_integer = false;
 };
 
 struct TimerSlot {

@@ -12,7 +12,7 @@
 namespace rejuv::services {
 namespace {
 
-using Table = std::map<std::string, double, std::less<>>;
+using Table = std::map<std::string, graph_values::Value, std::less<>>;  // as flight_io::Params::from_table
 
 Table square_params() {
   Table t{{"mission.count", 5}, {"mission.acceptance_radius_m", 0.07}};

@@ -12,7 +12,7 @@
 namespace rejuv::flight_io {
 namespace {
 
-using Table = std::map<std::string, double, std::less<>>;
+using Table = std::map<std::string, graph_values::Value, std::less<>>;  // as flight_io::Params::from_table
 
 TEST(FlightIoParams, ControlDesign_NoParams_IsTheSimulationsDesign) {
   auto sim = flight::SrSimulation::create(flight::SimConfig::defaults());

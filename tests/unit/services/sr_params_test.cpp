@@ -25,22 +25,24 @@ TEST(FlightIoSrParams, SrCycleParams_NoParams_AreTheSimulations) {
   EXPECT_DOUBLE_EQ(h.rho_s, sim.handler.rho_s);
 }
 
+// Durations cross as whole ns (rejuv/core/graph_values.hpp).
 TEST(FlightIoSrParams, SrCycleParams_LaunchValues_Used) {
-  const auto c = sr_cycle_params(Params::from_table({{"sr.t_mc_s", 0.5}, {"sr.t_est_s", 0.0}}));
+  const auto c = sr_cycle_params(
+      Params::from_table({{"sr.t_mc_s", std::int64_t{500'000'000}}, {"sr.t_est_s", std::int64_t{1'000'000'000}}}));
   ASSERT_TRUE(c) << c.error().to_string();
   EXPECT_EQ(c->t_mc, Seconds{0.5});
-  EXPECT_EQ(c->t_est, Seconds{0.0});
+  EXPECT_EQ(c->t_est, Seconds{1.0});
 }
 
 TEST(FlightIoSrParams, SrCycleParams_ZeroTmc_Refused) {
-  const auto c = sr_cycle_params(Params::from_table({{"sr.t_mc_s", 0.0}}));
+  const auto c = sr_cycle_params(Params::from_table({{"sr.t_mc_s", std::int64_t{0}}}));
   ASSERT_FALSE(c);
   EXPECT_EQ(c.error().kind, InputError::OutOfRange);
   EXPECT_EQ(c.error().where, "sr.t_mc_s");
 }
 
 TEST(FlightIoSrParams, SrCycleParams_NegativeTest_Refused) {
-  const auto c = sr_cycle_params(Params::from_table({{"sr.t_est_s", -1.0}}));
+  const auto c = sr_cycle_params(Params::from_table({{"sr.t_est_s", std::int64_t{-1'000'000'000}}}));
   ASSERT_FALSE(c);
   EXPECT_EQ(c.error().where, "sr.t_est_s");
 }

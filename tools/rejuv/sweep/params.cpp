@@ -9,6 +9,8 @@
 #include <limits>
 #include <optional>
 
+#include "rejuv/core/graph_values.hpp"
+
 namespace rejuv::cli::sweep {
 namespace {
 
@@ -309,10 +311,16 @@ Result<proto::SweepAxis, std::string> make_axis(const proto::Launch& base, std::
 }
 
 std::string axis_label(std::string_view path, std::string_view unit) {
+  namespace gv = graph_values;
   const std::pair<std::string_view, std::string_view> names[] = {
-      {"sr.t_mc_s", "T_MC"},   {"sr.t_est_s", "T_est"},        {"sr.rho_m", "ρ_M"},
-      {"sr.rho_s", "ρ_s"},     {"sr.t_min_s", "t_min"},        {"sr.restricted_limit_fraction", "Ū / U"},
-      {"sr.check_period_s", "check period of (1)"},          {"sr.ekf_rearm.enabled", "estimator re-armed after RB"}};
+      {gv::kTmc.name, "T_MC"},
+      {gv::kTest.name, "T_est"},
+      {gv::kRhoM.name, "ρ_M"},
+      {gv::kRhoS.name, "ρ_s"},
+      {gv::kTmin.name, "t_min"},
+      {gv::kRestrictedLimitFraction.name, "Ū / U"},
+      {gv::kCheckPeriod.name, "check period of (1)"},
+      {gv::kRearmEnabled.name, "estimator re-armed after RB"}};
   const std::string units = unit.empty() ? "" : " [" + std::string(unit) + "]";
   for (const auto& [p, name] : names) {
     if (p == path) return std::string(name) + units + " (" + std::string(path) + ")";

@@ -50,11 +50,15 @@ Filled sr_from_launch(SimConfig& c, const proto::Launch& g, const TextLocations&
                                                                    sr.rho_s(), sr.rho_m())));
   }
   if (c.sr == SrSwitch::On && !(c.t_mc.count() > 0.0)) {
-    return fail(semantic(sr_at(at, "t_mc_s"), "sr.t_mc_s (T_MC) must be > 0 s"));
+    const auto& key = graph_values::kTmc;
+    return fail(semantic(sr_at(at, graph_values::field_of(key.name)),
+                         std::string(key.name) + " (" + std::string(key.symbol) + ") must be > 0 s"));
   }
   if (!(c.handler.check_period.count() > 0.0) || !(c.handler.t_min.count() >= 0.0) ||
       !(c.handler.t_est.count() >= 0.0)) {
-    return fail(semantic(sr_at(at, "check_period_s"), "sr.check_period_s must be > 0 s, t_min_s and t_est_s >= 0 s"));
+    const auto& key = graph_values::kCheckPeriod;
+    return fail(semantic(sr_at(at, graph_values::field_of(key.name)),
+                         std::string(key.name) + " must be > 0 s, t_min_s and t_est_s >= 0 s"));
   }
   const proto::StateBox& box = sr.box();
   c.control.box = StateBox{.position_m = box.position_m(),

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -14,6 +15,7 @@
 
 #include "rejuv/channel/codes.hpp"
 #include "rejuv/channel/wire.hpp"
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/vocabulary.hpp"
@@ -37,19 +39,25 @@ struct BootCapEntry {
   std::string_view type{};                   // Topic: IDL type name
 };
 
-// One launch parameter of the service (a BootParam): a number or a text. Decoded, the views point into the
-// wire::BootParam it came from.
+// One launch parameter of the service (a BootParam): a number, a text or an integer (a graph-wide duration in
+// ns, a switch or a count: rejuv/core/graph_values.hpp). Decoded, the views point into the wire::BootParam it
+// came from.
 struct BootParamEntry {
   std::string_view name{};
   double number = 0;
   std::string_view text{};
   bool is_text = false;
+  std::int64_t integer = 0;
+  bool is_integer = false;
 };
 
 // ---- encoding (the kernel) ----
 
 [[nodiscard]] wire::BootCap encode_boot_cap(const BootCapEntry& cap);
 [[nodiscard]] wire::BootParam encode_boot_param(const BootParamEntry& param);
+// A graph-wide value (rejuv/core/graph_values.hpp) as the param `name`: an integer or a number. The entry views
+// `name`.
+[[nodiscard]] BootParamEntry boot_param_of(std::string_view name, const graph_values::Value& value);
 
 // The whole script, frame by frame: each is built in `tx` and handed to `emit(std::span<const std::byte>)`
 // in order. Boot's counts are the spans' sizes; aux = wire::kProtocolVersion.
@@ -115,5 +123,7 @@ class BootDecoder {
 // A BootCap or BootParam as its entry (views into the argument).
 [[nodiscard]] BootCapEntry decode_boot_cap(const wire::BootCap& cap);
 [[nodiscard]] BootParamEntry decode_boot_param(const wire::BootParam& param);
+// The value of a number or integer param; nullopt for a text.
+[[nodiscard]] std::optional<graph_values::Value> value_of(const BootParamEntry& param);
 
 }  // namespace rejuv::channel

@@ -26,7 +26,7 @@ inline constexpr int kTimePageFd = 4;    // the kernel's read-only time page (me
 // pagemap, which images by written pages need, is out of that kernel's reach otherwise (sdk boot.cpp).
 inline constexpr const char* kKeepDumpableEnv = "REJUV_KEEP_DUMPABLE";
 inline constexpr std::size_t kMaxFrameBytes = 8192;
-inline constexpr std::uint16_t kProtocolVersion = 1;
+inline constexpr std::uint16_t kProtocolVersion = 2;  // 2: BootParam carries an integer form
 // Slots of a service's CSpace (the kernel's CapSystemConfig::cspace_slots): a slot on the wire is below it.
 inline constexpr std::size_t kCSpaceSlots = 256;
 
@@ -154,9 +154,11 @@ struct BootCap {
 struct BootParam {
   double number = 0;
   std::uint8_t is_text = 0;
-  std::uint8_t reserved[7] = {};
+  std::uint8_t is_integer = 0;  // the value is `integer` (a duration in ns, a switch, a count: rejuv/core/graph_values.hpp)
+  std::uint8_t reserved[6] = {};
   char name[48] = {};
   char text[128] = {};
+  std::int64_t integer = 0;
 };
 struct TakenBody {
   std::int32_t image_pid = 0;  // the frozen image (docs/design.md §7)

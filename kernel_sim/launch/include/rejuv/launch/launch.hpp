@@ -15,6 +15,7 @@
 
 #include "launch.pb.h"
 #include "params.pb.h"
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/mavlink/frame.hpp"
 #include "rejuv/textproto/textproto.hpp"
@@ -68,9 +69,9 @@ struct HostPort {
 
 // ---- defaults (one place; the proto keeps what the user wrote) ----
 namespace defaults {
-inline constexpr std::uint32_t kKeepGenerations = 2;   // docs/design.md §7: the last K generations are kept
+inline constexpr std::uint32_t kKeepGenerations = graph_values::kKeepGenerations.fallback;  // docs/design.md §7
 inline constexpr double kPhysicsRateHz = 1000.0;       // docs/design.md §9: RK4 at 1 kHz
-inline constexpr Seconds kCheckPeriod{0.002};          // §V-B: condition (1) is checked every 2 ms
+inline constexpr Seconds kCheckPeriod = to_seconds(graph_values::kCheckPeriod.fallback);  // §V-B: every 2 ms
 // Lockstep charges (docs/design.md §6, idl/launch.proto LockstepTiming): what `rejuv bench realtime` measured the
 // vehicle lose at a checkpoint and at a rollback in real time on the project's 2-vCPU machines (docs/
 // performance.md "Deterministic lockstep"), for a graph that sets none.
@@ -104,7 +105,7 @@ inline constexpr std::uint32_t kMinSandboxOpenFiles = 16;  // below it the SDK c
 // Bounds of what a graph may ask for (refused at load, file:line:column):
 inline constexpr double kMaxDurationS = 1e6;           // any duration [s]: ~11 days, far inside int64 ns
 inline constexpr double kMinPeriodS = 1e-6;            // a period the kernel's ns clock can represent [s]
-inline constexpr std::uint32_t kMaxKeepGenerations = 16;  // each one holds a frozen process per service
+inline constexpr std::uint32_t kMaxKeepGenerations = graph_values::kKeepGenerations.range.max;
 inline constexpr double kMinPhysicsRateHz = 100.0;     // below the sensor and control rates the model breaks
 inline constexpr double kMaxPhysicsRateHz = 100000.0;  // 10 µs RK4 steps: beyond, a run never ends
 inline constexpr double kMaxWaypointOffsetM = 10000.0; // |north|, |east|, |down| of a waypoint [m]

@@ -1,15 +1,14 @@
 // The launch-graph parameters of the flight services (docs/design.md §10), read into the configuration types of the
-// flight libraries. Every default comes from flight::SimConfig::defaults() and every derived number is formed
-// the way flight::SrSimulation::create forms it, so that `rejuv run` flies exactly like `rejuv sim` for the
-// same graph. The services read only graph-wide params that the kernel passes to every service
-// (sdk/service.hpp "Params"):
+// flight libraries. Every derived number is formed the way flight::SrSimulation::create forms it, so that
+// `rejuv run` flies exactly like `rejuv sim` for the same graph. The services read only graph-wide params that
+// the kernel passes to every service (sdk/service.hpp "Params"):
 //
-//   sr.enabled (0/1), sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s, sr.restricted_limit_fraction,
-//   sr.box.position_m, sr.box.velocity_m_s, sr.box.angle_rad, sr.box.rate_rad_s,
+//   the SR scheme's keys (sr.*), each read through its typed key of rejuv/core/graph_values.hpp, which gives its
+//   default and its range (durations cross as integer ns);
 //   mission.count, mission.acceptance_radius_m,
 //   mission.<i>.north_m, mission.<i>.east_m, mission.<i>.down_m (required), mission.<i>.yaw_rad (default 0)
 //
-// A missing param takes the simulation's default; a present but wrong one is refused with its name.
+// A missing param takes its default; a present but wrong one is refused with its name.
 #pragma once
 
 #include <cstdint>
@@ -20,6 +19,7 @@
 #include <string_view>
 #include <vector>
 
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/flight/control_design.hpp"
@@ -48,30 +48,42 @@ struct InputFailure {
   [[nodiscard]] std::string to_string() const;
 };
 
-// A read-only view of a service's numeric params: sdk::Service::param in a process (sdk_params.hpp), a
-// table in tests. `find` is nullopt when the param is absent.
+// A read-only view of a service's numeric params: sdk::Service::param_value in a process (sdk_params.hpp), a
+// table in tests. `value` is the param as it crossed (a double or an integer), nullopt when absent; `find` reads
+// either as a double.
 class Params {
  public:
-  using Lookup = std::function<std::optional<double>(std::string_view name)>;
+  using Lookup = std::function<std::optional<graph_values::Value>(std::string_view name)>;
   explicit Params(Lookup lookup) : lookup_(std::move(lookup)) {}
-  [[nodiscard]] static Params from_table(std::map<std::string, double, std::less<>> table);
+  [[nodiscard]] static Params from_table(std::map<std::string, graph_values::Value, std::less<>> table);
 
-  [[nodiscard]] std::optional<double> find(std::string_view name) const { return lookup_(name); }
+  [[nodiscard]] std::optional<graph_values::Value> value(std::string_view name) const { return lookup_(name); }
+  [[nodiscard]] std::optional<double> find(std::string_view name) const;
 
  private:
   Lookup lookup_;
 };
 
+// The typed value of a graph-wide key (rejuv/core/graph_values.hpp): its default when absent; out of its range,
+// wrongly typed or not finite, a failure naming the key.
+[[nodiscard]] InputFailure failure_of(const graph_values::ValueError& error);
+template <class T>
+[[nodiscard]] Result<T, InputFailure> read(const Params& params, const graph_values::Key<T>& key) {
+  auto v = graph_values::read(key, params.value(key.name));
+  if (!v) return fail(failure_of(v.error()));
+  return *v;
+}
+
 // The tracking numbers of the SR scheme (§IV-A, §V-B). Also used without SR: Table I's configurations run
 // the same tracking algorithm (flight/sim/sr_sim.hpp).
 struct TrackingParams {
-  flight::SrSwitch sr = flight::SrSwitch::On;
-  double rho_M = 0.1;           // the update keeps x̂ ∈ E(ρ_M, x_sp')
-  double rho_s = 0.0894;        // condition (1): ‖x̂ − x_sp‖_P < ρ_s
-  Seconds t_min{0.02};          // hold after a setpoint move
-  Seconds check_period{0.002};  // how often (1) is checked
+  flight::SrSwitch sr = graph_values::kEnabled.fallback ? flight::SrSwitch::On : flight::SrSwitch::Off;
+  double rho_M = graph_values::kRhoM.fallback;  // the update keeps x̂ ∈ E(ρ_M, x_sp')
+  double rho_s = graph_values::kRhoS.fallback;  // condition (1): ‖x̂ − x_sp‖_P < ρ_s
+  Seconds t_min = to_seconds(graph_values::kTmin.fallback);                // hold after a setpoint move
+  Seconds check_period = to_seconds(graph_values::kCheckPeriod.fallback);  // how often (1) is checked
 };
-// sr.enabled, sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s; 0 < ρ_s < ρ_M ≤ 1 as config_from_launch.
+// sr.enabled, sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s; each in its key's range, and ρ_s < ρ_M (§IV-A).
 [[nodiscard]] Result<TrackingParams, InputFailure> tracking_params(const Params& params);
 
 // The timing of one SR cycle (§II Fig. 2, §V-B) for checkpoint_p's rollback handler: T_MC (the rejuvenation
@@ -79,12 +91,12 @@ struct TrackingParams {
 // numbers the handler checks and requests.
 struct SrCycleParams {
   TrackingParams tracking{};
-  Seconds t_mc{0.3};
-  Seconds t_est{3.0};
+  Seconds t_mc = to_seconds(graph_values::kTmc.fallback);
+  Seconds t_est = to_seconds(graph_values::kTest.fallback);
   // The model-level handler's timing (flight::RollbackHandler), as flight::config_from_launch forms it.
   [[nodiscard]] flight::HandlerTiming handler_timing() const;
 };
-// tracking_params, sr.t_mc_s (> 0) and sr.t_est_s (>= 0); defaults from flight::SimConfig.
+// tracking_params, sr.t_mc_s and sr.t_est_s, in their keys' ranges.
 [[nodiscard]] Result<SrCycleParams, InputFailure> sr_cycle_params(const Params& params);
 
 // The control design spec of the simulation: the plant's quad (jMAVSim default) as the vehicle, the IMU

@@ -22,10 +22,7 @@ namespace rejuv::flight_io {
 // The Service must outlive the returned Params. A text param under a numeric name reads as NaN, which the
 // readers refuse with the param's name.
 [[nodiscard]] inline Params params_of(const sdk::Service& service) {
-  return Params([&service](std::string_view name) -> std::optional<double> {
-    if (!service.has_param(name)) return std::nullopt;
-    return service.param(name, std::numeric_limits<double>::quiet_NaN());
-  });
+  return Params([&service](std::string_view name) { return service.param_value(name); });
 }
 
 // The mission record in the Persistent cell `object` (mission_record.hpp), read if the current mode grants this

@@ -54,6 +54,7 @@
 #include "rejuv/cap/capability.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/clock/timers.hpp"
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
@@ -358,9 +359,8 @@ struct ConnectOptions {
 // Params: the service's own `params` from the launch graph, plus these graph-wide ones that the kernel
 // adds for every service (numbers unless marked text):
 //   seed, clock (text: "lockstep" | "realtime"),
-//   sr.enabled (0/1), sr.t_mc_s, sr.t_est_s, sr.rho_m, sr.rho_s, sr.t_min_s, sr.check_period_s,
-//   sr.keep_generations, sr.restricted_limit_fraction,
-//   sr.box.position_m, sr.box.velocity_m_s, sr.box.angle_rad, sr.box.rate_rad_s,
+//   the SR scheme's keys of rejuv/core/graph_values.hpp (sr.*: durations as integer ns, read with
+//   graph_values::read(key, param_value(key.name))),
 //   mission.count, mission.acceptance_radius_m, mission.timeout_s,
 //   mission.<i>.north_m, mission.<i>.east_m, mission.<i>.down_m, mission.<i>.yaw_rad  (i = 0 … count-1),
 //   attack.enabled (0/1: the plan is on AND names this service), attack.count (attacks naming this
@@ -390,7 +390,10 @@ class Service {
   [[nodiscard]] Epoch epoch() const;   // rollback epoch (time page)
 
   // ---- params (launch graph) ----
+  // A number param; an integer one (rejuv/core/graph_values.hpp: a duration in ns, a switch, a count) as a double.
   [[nodiscard]] double param(std::string_view name, double fallback) const;
+  // A param as it crossed: a double or an integer; nullopt when absent, NaN for a text.
+  [[nodiscard]] std::optional<graph_values::Value> param_value(std::string_view name) const;
   [[nodiscard]] std::string_view text_param(std::string_view name, std::string_view fallback) const;
   [[nodiscard]] bool has_param(std::string_view name) const;
 

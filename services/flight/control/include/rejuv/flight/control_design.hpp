@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <string>
 
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/flight/ellipsoid.hpp"
@@ -30,7 +31,7 @@ struct ControlDesignSpec {
   // jittery one hands a spinning vehicle to MC); its closed loop defines P.
   LqrWeights safety = default_safety_weights();
   StateBox box;  // |e_i| ≤ b_i, the box the safety ellipsoid is fitted into (E(1) ⊂ box)
-  double restricted_limit_fraction = 0.003;
+  double restricted_limit_fraction = graph_values::kRestrictedLimitFraction.fallback;  // Ū / U
 
   [[nodiscard]] static StateVec default_mission_state_weights();
   [[nodiscard]] static LqrWeights default_safety_weights();

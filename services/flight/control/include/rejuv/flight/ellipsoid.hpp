@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <string>
 
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/flight/hover_model.hpp"
 #include "rejuv/flight/riccati.hpp"
@@ -17,10 +18,10 @@ namespace rejuv::flight {
 
 // Half-widths b_i of the state box, one per state component, in the units of x.
 struct StateBox {
-  double position_m = 1.0;
-  double velocity_m_s = 1.5;
-  double angle_rad = 0.5;
-  double rate_rad_s = 5.0;
+  double position_m = graph_values::kBoxPosition.fallback;  // the defaults: rejuv/core/graph_values.hpp
+  double velocity_m_s = graph_values::kBoxVelocity.fallback;
+  double angle_rad = graph_values::kBoxAngle.fallback;
+  double rate_rad_s = graph_values::kBoxRate.fallback;
   [[nodiscard]] StateVec half_widths() const;
 };
 

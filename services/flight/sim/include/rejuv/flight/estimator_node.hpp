@@ -8,6 +8,7 @@
 #include <optional>
 #include <string_view>
 
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/flight/ekf.hpp"
 #include "rejuv/flight/hover_model.hpp"
@@ -19,12 +20,13 @@ namespace rejuv::flight {
 // The launch file's sr.ekf_rearm (idl/launch.proto EstimatorRearm); `enabled` false: no re-arm, the restored
 // filter keeps its covariance (the paper's estimator).
 struct EkfRearm {
-  bool enabled = true;
-  double position_std_m = 0.1;
-  double velocity_std_m_s = 0.2;
-  double attitude_std_rad = 0.05;
-  double gyro_bias_std_rad_s = 0.002;
-  double accel_bias_std_m_s2 = 0.02;
+  // The defaults are the graph-wide keys' (rejuv/core/graph_values.hpp).
+  bool enabled = graph_values::kRearmEnabled.fallback;
+  double position_std_m = graph_values::kRearmPositionStd.fallback;
+  double velocity_std_m_s = graph_values::kRearmVelocityStd.fallback;
+  double attitude_std_rad = graph_values::kRearmAttitudeStd.fallback;
+  double gyro_bias_std_rad_s = graph_values::kRearmGyroBiasStd.fallback;
+  double accel_bias_std_m_s2 = graph_values::kRearmAccelBiasStd.fallback;
 
   // Its 1σ fields by their name in the launch file (EstimatorRearm) and in ekf2's boot params
   // (sr.ekf_rearm.<name>): the one place the names meet the members.

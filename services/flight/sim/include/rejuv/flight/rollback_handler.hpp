@@ -14,16 +14,18 @@
 #include <cstdint>
 #include <string>
 
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/flight/sr_kernel_model.hpp"
 
 namespace rejuv::flight {
 
 struct HandlerTiming {
-  Seconds t_est{3.0};          // time in SC before the first check of (1), §V-B
-  Seconds t_min{0.02};         // wait after the setpoint update before the checkpoint, §V-B
-  Seconds check_period{0.002};  // period of the check of (1), §V-B: "after every 2 ms"
-  double rho_s = 0.0894;       // the switching condition (1): ‖x̂ − x_sp‖_P < ρ_s
+  // The defaults are the graph-wide keys' (rejuv/core/graph_values.hpp).
+  Seconds t_est = to_seconds(graph_values::kTest.fallback);  // time in SC before the first check of (1), §V-B
+  Seconds t_min = to_seconds(graph_values::kTmin.fallback);  // wait after the setpoint update before the checkpoint
+  Seconds check_period = to_seconds(graph_values::kCheckPeriod.fallback);  // §V-B: "after every 2 ms"
+  double rho_s = graph_values::kRhoS.fallback;  // the switching condition (1): ‖x̂ − x_sp‖_P < ρ_s
 };
 
 // What the handler asks for, in the words of Fig. 5.

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/flight/attack_library.hpp"
 #include "rejuv/flight/control_design.hpp"
@@ -35,16 +36,16 @@ struct AttackConfig {
 // tuning; `config_from_launch` fills it from a launch graph.
 struct SimConfig {
   std::string graph_name = "quad_square";
-  SrSwitch sr = SrSwitch::On;
+  SrSwitch sr = graph_values::kEnabled.fallback ? SrSwitch::On : SrSwitch::Off;  // defaults: graph_values.hpp
   std::uint64_t seed = 1;
-  Seconds t_mc{0.3};
+  Seconds t_mc = to_seconds(graph_values::kTmc.fallback);
   // T_RB and T_CP: the times the software is stopped for a rollback and a checkpoint, controls held. The paper
   // measured ≈15 ms and ≈20 ms on PX4 (§VI-B, Fig. 7); the model charges the same to simulated time.
   Seconds t_rb{0.015};
   Seconds t_cp{0.020};
   HandlerTiming handler;
-  double rho_M = 0.1;
-  std::uint32_t keep_generations = 2;
+  double rho_M = graph_values::kRhoM.fallback;
+  std::uint32_t keep_generations = graph_values::kKeepGenerations.fallback;
   AttackConfig attack;
   ControlDesignSpec control;
   plant::QuadParams quad = plant::QuadParams::jmavsim_default();
