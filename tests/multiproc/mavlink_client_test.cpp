@@ -4,93 +4,23 @@
 // exchanges heartbeats, uploads a mission through the secure execution interval (acknowledged
 // MAV_MISSION_ACCEPTED), sees the vehicle reach the uploaded waypoint in LOCAL_POSITION_NED and a rollback in
 // STATUSTEXT; its unsigned, wrongly signed and recorded (stamped 2015) uploads are refused by the kernel's gate
-// (the run summary).
-#include <gtest/gtest.h>
-#include <google/protobuf/struct.pb.h>
-#include <google/protobuf/util/json_util.h>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <csignal>
-#include <fstream>
-#include <string>
-#include <thread>
-#include <vector>
-
-#include "../node_script.hpp"
-#include "../rejuv_cli.hpp"
-#include "../test_domain.hpp"
-#include "rejuv/sys/udp.hpp"
-#include "summary.pb.h"
+// (the run summary). The QGC-style session in real time: mavlink_client_realtime_test.cpp.
+#include "mavlink_client_session.hpp"
 
 namespace rejuv {
 namespace {
 
 using google::protobuf::Struct;
-using google::protobuf::Value;
-using test_support::kRepo;
-using test_support::slurp;
-
-const std::filesystem::path kClientDir = std::filesystem::path(REJUV_BINARY_DIR) / "mavlink_client";
-constexpr std::string_view kKey = "6c1a4e2f9b0d7c3e5a8f1b2d4c6e8a0b3d5f7a9c1e2b4d6f8a0c2e4b6d8f0a1c";
-constexpr std::string_view kWrongKey = "ffeeddccbbaa99887766554433221100ffeeddccbbaa99887766554433221100";
-
-// Starts `node client.js args…` with the client's modules; stdout to `out`. The child's pid, or -1.
-pid_t start_client(const std::vector<std::string>& client_args, const std::filesystem::path& out) {
-  return test_support::start_node_script(kRepo / "tests/mavlink_client/client.js", kClientDir / "node_modules",
-                                         client_args, out);
-}
-
-// Waits for the client to exit (it gives up by itself after its --timeout); kills it past `limit`.
-int wait_client(pid_t pid, std::chrono::seconds limit) {
-  const auto deadline = std::chrono::steady_clock::now() + limit;
-  int status = 0;
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (::waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::this_thread::sleep_for(std::chrono::milliseconds{50});
-  }
-  ::kill(pid, SIGKILL);
-  ::waitpid(pid, &status, 0);
-  ADD_FAILURE() << "the MAVLink client did not exit within " << limit.count() << " s";
-  return -1;
-}
-
 using test_support::json_at;
+using test_support::kClientDir;
+using test_support::kKey;
+using test_support::kWrongKey;
+using test_support::RunClock;
+using test_support::slurp;
+using test_support::start_client;
+using test_support::wait_client;
 
-class MavlinkClient : public test_support::ScratchDirTest {
- protected:
-  MavlinkClient() : ScratchDirTest("rejuv_mavlink_") {}
-  [[nodiscard]] bool keep_on_failure() const override { return true; }
-  [[nodiscard]] const std::filesystem::path& dir() const { return dir_; }
-  [[nodiscard]] std::filesystem::path summary_json() const { return dir() / "summary.json"; }
-
-  // `rejuv run` started for `duration` seconds on the square with the key in its network block (the policy
-  // path made absolute for the copy, written as `graph_name`), its summary in summary_json(); its pid and the
-  // port its network gate bound.
-  void start_signed_square(const std::string& graph_name, const std::string& duration, pid_t& rejuv_run,
-                           std::uint16_t& port) {
-    std::string graph_text = slurp(kRepo / "launch/quad_square_paper.launch.pbtxt");
-    const std::string relative = "\"../policies/quad_sr.policy.pbtxt\"";
-    const auto policy_at = graph_text.find(relative);
-    ASSERT_NE(policy_at, std::string::npos);
-    graph_text.replace(policy_at, relative.size(), "\"" + (kRepo / "policies/quad_sr.policy.pbtxt").string() + "\"");
-    graph_text += "\nnetwork { signing_key: \"" + std::string(kKey) + "\" }\n";
-    const auto graph = dir() / graph_name;
-    std::ofstream(graph) << graph_text;
-    rejuv_run = test_support::start_program(
-        dir(), test_support::kRejuv,
-        {"run", graph.string(), "--duration", duration, "--net-port", "0", "--domain",
-         std::to_string(test_support::kOwnDdsDomain), "--summary-json", summary_json().string()});
-    ASSERT_GT(rejuv_run, 0) << "cannot start rejuv run";
-    port = test_support::bound_gate_port(dir(), rejuv_run, std::chrono::seconds{60});
-    if (port == 0) {
-      const test_support::CliOutcome ended = test_support::wait_program(dir(), rejuv_run);
-      FAIL() << "rejuv run did not report its network gate's port:\n" << ended.err;
-    }
-  }
-};
+using MavlinkClient = test_support::MavlinkClientTest;
 
 TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
@@ -99,7 +29,7 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   // (lockstep; the client in wall-clock time, told the port the kernel bound) …
   pid_t rejuv_run = -1;
   std::uint16_t port = 0;
-  ASSERT_NO_FATAL_FAILURE(start_signed_square("signed.launch.pbtxt", "240", rejuv_run, port));
+  ASSERT_NO_FATAL_FAILURE(start_signed_square("signed.launch.pbtxt", "240", RunClock::Lockstep, rejuv_run, port));
   const auto client_out = dir() / "client.json";
   const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--wrong-key",
                                      std::string(kWrongKey), "--timeout", "60", "--target", "-0.6,-0.4,-3.3"},
@@ -150,7 +80,7 @@ TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames)
       << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
   pid_t rejuv_run = -1;
   std::uint16_t port = 0;
-  ASSERT_NO_FATAL_FAILURE(start_signed_square("qgc.launch.pbtxt", "400", rejuv_run, port));
+  ASSERT_NO_FATAL_FAILURE(start_signed_square("qgc.launch.pbtxt", "400", RunClock::Lockstep, rejuv_run, port));
   const auto client_out = dir() / "client.json";
   const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--qgc", "--timeout",
                                      "90", "--target", "1.5,-1,-3.5"},
@@ -162,37 +92,9 @@ TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames)
   EXPECT_EQ(run.exit_code, 0) << run.err;
   const std::string client_text = slurp(client_out);
   EXPECT_EQ(client_exit, 0) << client_text;
-  Struct report;
-  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(client_text, &report).ok()) << client_text;
-  // The connection: capabilities say MISSION_INT and COMMAND_INT; home is PX4 SITL's; the parameters all came.
-  const auto capabilities = static_cast<std::uint64_t>(json_at(report, "autopilot_version_capabilities").number_value());
-  EXPECT_NE(capabilities & 4U, 0U) << client_text;
-  EXPECT_NE(capabilities & 8U, 0U) << client_text;
-  EXPECT_NEAR(json_at(report, "home").struct_value().fields().at("lat").number_value(), 47.397742, 1e-6) << client_text;
-  EXPECT_NEAR(json_at(report, "home").struct_value().fields().at("alt_m").number_value(), 488, 1e-3) << client_text;
-  EXPECT_GE(json_at(report, "param_count").number_value(), 7) << client_text;
-  EXPECT_EQ(json_at(report, "params").struct_value().fields_size(), json_at(report, "param_count").number_value());
-  EXPECT_GE(json_at(report, "download_before").number_value(), 1) << "the launch mission";
-  // The flight: accepted, reached as an item and by position, downloaded as uploaded, RTL flown.
-  EXPECT_EQ(json_at(report, "upload_ack").number_value(), 0) << "MAV_MISSION_ACCEPTED";
-  bool reached_item_0 = false;
-  for (const Value& v : json_at(report, "item_reached").list_value().values()) reached_item_0 |= v.number_value() == 0;
-  EXPECT_TRUE(reached_item_0) << client_text;
-  EXPECT_LT(json_at(report, "min_global_distance_m").number_value(), 0.3) << client_text;
-  const auto& after = json_at(report, "download_after").list_value();
-  ASSERT_EQ(after.values_size(), 1) << client_text;
-  EXPECT_EQ(after.values(0).struct_value().fields().at("frame").number_value(), 6) << "GLOBAL_RELATIVE_ALT_INT";
-  EXPECT_NEAR(after.values(0).struct_value().fields().at("z").number_value(), 3.5, 1e-3) << client_text;
-  EXPECT_EQ(json_at(report, "rtl_ack").number_value(), 0) << "MAV_RESULT_ACCEPTED";
-  EXPECT_TRUE(json_at(report, "returned_home").bool_value()) << client_text;
-  EXPECT_TRUE(json_at(report, "rollback_statustext").has_string_value()) << client_text;
-  // Signing both ways: every vehicle frame verified with the key.
-  EXPECT_GT(json_at(report, "vehicle_frames").number_value(), 100) << client_text;
-  EXPECT_EQ(json_at(report, "vehicle_frames_verified").number_value(), json_at(report, "vehicle_frames").number_value())
-      << client_text;
   proto::RunSummary summary;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &summary).ok());
-  EXPECT_GT(summary.rollbacks(), 0U);
+  test_support::expect_qgc_session(client_text, summary);
 }
 
 }  // namespace
