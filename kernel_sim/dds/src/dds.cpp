@@ -26,6 +26,18 @@ namespace rejuv::dds {
 namespace {
 
 constexpr std::size_t kTakeBatch = 32;  // samples per dds_take; take() loops until the reader is empty
+
+// A unit of the take buffers: aligned for any topic struct and without padding of its own, so that a value-
+// initialised vector of them is zero in every byte. One of std::max_align_t is not: libstdc++ fills it by
+// copying one max_align_t{}, i.e. its long long and long double, not the 14 bytes of padding around them,
+// which keep what the heap held. Cyclone's deserialiser writes a sample's members, not its padding
+// (SensorGps's 6 bytes after satellites_used): that padding is what the buffer held, zero, the same in every
+// run's routes and ULog.
+struct alignas(std::max_align_t) TakeUnit {
+  std::byte bytes[alignof(std::max_align_t)];
+};
+static_assert(sizeof(TakeUnit) == alignof(std::max_align_t), "a TakeUnit has no padding");
+
 constexpr auto kMatchPollPeriod = std::chrono::milliseconds{1};
 // A reliable keep-last writer only blocks on resource limits it does not have; bound it anyway.
 constexpr dds_duration_t kMaxBlocking = DDS_MSECS(100);
@@ -282,7 +294,7 @@ struct Reader::State {
       : ready(std::move(fd)), sample_size(size), storage(stride * kTakeBatch), samples(kTakeBatch), infos(kTakeBatch) {}
   detail::EventFd ready;
   std::size_t sample_size = 0;
-  std::vector<std::max_align_t> storage;  // kTakeBatch samples, each at a multiple of max_align_t
+  std::vector<TakeUnit> storage;          // kTakeBatch samples, each aligned as max_align_t; zero at first
   std::vector<void*> samples;             // pointers into storage, handed to dds_take
   std::vector<dds_sample_info_t> infos;
   std::atomic<bool> signalling{true};     // Reader::set_signalling
@@ -305,7 +317,7 @@ DdsResult<Reader> Reader::create(const Participant& participant, std::string_vie
   if (!ready) {
     return fail(DdsError{.kind = DdsError::Kind::Os, .call = "eventfd", .code = ready.error().error});
   }
-  const std::size_t stride = (type.size + sizeof(std::max_align_t) - 1) / sizeof(std::max_align_t);
+  const std::size_t stride = (type.size + sizeof(TakeUnit) - 1) / sizeof(TakeUnit);
   auto state = std::make_unique<State>(std::move(*ready), type.size, stride);
   for (std::size_t i = 0; i < kTakeBatch; ++i) {
     state->samples[i] = &state->storage[i * stride];

@@ -3,6 +3,7 @@
 
 #include <array>
 #include <chrono>
+#include <cstddef>
 #include <cstring>
 #include <vector>
 
@@ -320,6 +321,44 @@ TEST_F(DdsTest, Write_MisalignedPayload_DeliveredIntact) {
   const auto got = take_gyros(*r, 1);
   ASSERT_EQ(got.size(), 1U);
   EXPECT_EQ(std::memcmp(&got[0], &sent, sizeof sent), 0);
+}
+
+// A sample's padding arrives as zero whatever the heap held where the reader's take buffers were allocated:
+// Cyclone writes the members, not the padding (SensorGps: 6 bytes after satellites_used), and the buffers are
+// zero in every byte. The heap is first filled with a pattern in blocks of the sizes a take buffer has, and
+// freed, so that the reader's buffers are likely made of that memory.
+TEST_F(DdsTest, Take_SampleWithPadding_PaddingZeroWhateverTheHeapHeld) {
+  Participant a = participant();
+  Participant b = participant();
+  const msgs::TopicType& gps_type = type_named(msgs::TopicTraits<rejuv_msg_SensorGps>::name);
+  auto w = Writer::create(a, "rejuv/test_gps", gps_type);
+  ASSERT_TRUE(w.has_value());
+  {
+    std::vector<std::vector<std::byte>> dirt;
+    for (std::size_t size = 512; size <= 16384; size += 32) dirt.emplace_back(size, std::byte{0xA5});
+  }
+  auto r = Reader::create(b, "rejuv/test_gps", gps_type);
+  ASSERT_TRUE(r.has_value());
+  connect(*w, *r);
+
+  rejuv_msg_SensorGps sent;
+  std::memset(&sent, 0, sizeof sent);  // zero padding too, which `sent{}` need not give
+  sent.timestamp_ns = 7;
+  sent.p_N_m[2] = -3.0;
+  sent.fix_type = 3;
+  sent.satellites_used = 10;
+  static_assert(sizeof sent > offsetof(rejuv_msg_SensorGps, satellites_used) + 1, "SensorGps has tail padding");
+  ASSERT_TRUE(w->write_value(sent).has_value());
+
+  ASSERT_TRUE(readable_within(r->ready_fd(), kLiveness));
+  std::vector<std::byte> received;
+  auto n = r->take([&](std::span<const std::byte> bytes) { received.assign(bytes.begin(), bytes.end()); });
+  ASSERT_TRUE(n.has_value());
+  ASSERT_EQ(received.size(), sizeof sent);
+  for (std::size_t i = offsetof(rejuv_msg_SensorGps, satellites_used) + 1; i < sizeof sent; ++i) {
+    EXPECT_EQ(received[i], std::byte{0}) << "padding byte " << i;
+  }
+  EXPECT_EQ(std::memcmp(received.data(), &sent, sizeof sent), 0);
 }
 
 TEST_F(DdsTest, Reader_MovedAfterCreate_ListenerStillSignals) {
