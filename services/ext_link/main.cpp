@@ -88,6 +88,7 @@ class GroundLink {
   }
 
   void on_datagram(std::span<const std::byte> datagram) {
+    if (topics_.setpoint.valid()) link_.observe_setpoint(topics_.setpoint.latest());  // where a clear holds
     auto inbound = link_.on_datagram(datagram, svc_.now());
     // The verdict goes to the kernel: a valid message makes its sender the ground station telemetry goes
     // to; a refusal is counted there by reason (the run summary), where no rollback erases it.
@@ -165,10 +166,16 @@ class GroundLink {
       link_.abandon();
       return;
     }
-    if (upload.command) {
-      svc_.log(sdk::LogLevel::Info, "return to launch forwarded to commander");
-    } else {
-      svc_.logf(sdk::LogLevel::Info, "mission upload of %u waypoints forwarded to commander", upload.upload.count);
+    switch (upload.request) {
+      case services::ExtLink::Request::ReturnToLaunch:
+        svc_.log(sdk::LogLevel::Info, "return to launch forwarded to commander");
+        break;
+      case services::ExtLink::Request::Clear:
+        svc_.log(sdk::LogLevel::Info, "mission cleared: holding at the setpoint, forwarded to commander");
+        break;
+      case services::ExtLink::Request::Upload:
+        svc_.logf(sdk::LogLevel::Info, "mission upload of %u waypoints forwarded to commander", upload.upload.count);
+        break;
     }
     send(link_.forwarded(upload));
   }

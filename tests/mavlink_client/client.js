@@ -14,7 +14,9 @@
 //      for AUTOPILOT_VERSION and HOME_POSITION (answered COMMAND_ACK and the message), the whole parameter list
 //      and a mission download; the upload in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT against the home learnt;
 //      MISSION_ITEM_REACHED and GLOBAL_POSITION_INT within the acceptance radius of the waypoint; the mission
-//      downloaded again (what was uploaded); then MAV_CMD_NAV_RETURN_TO_LAUNCH and the vehicle back over home.
+//      downloaded again (what was uploaded); MISSION_CLEAR_ALL (acknowledged; the vehicle holds at its setpoint)
+//      and the mission downloaded once more (the one hold item); then MAV_CMD_NAV_RETURN_TO_LAUNCH and the
+//      vehicle back over home.
 //   With --key, every vehicle frame's signature is checked with node-mavlink (the gate signs them).
 // Prints a JSON summary on stdout; exit 0 when every step was seen, 1 otherwise.
 //   node client.js --port P [--key HEX] [--wrong-key HEX] [--timeout S] [--retry-ms MS] [--target N,E,D]
@@ -52,6 +54,7 @@ const report = {
   autopilot_version_capabilities: null, request_acks: {}, home: null, params: {}, param_count: null,
   download_before: null, download_after: [], item_reached: [], min_global_distance_m: null, rtl_ack: null,
   min_home_distance_after_rtl_m: null, returned_home: false,
+  clear_ack: null, download_after_clear: null, hold_offset_m: null,
 };
 const qgcSteps = ['version', 'home', 'params', 'download_before'];  // done before the upload, in order
 let qgcStep = 0;
@@ -153,6 +156,11 @@ function commandLong(command, param1) {
 }
 function requestList() {
   const m = new common.MissionRequestList();
+  m.targetSystem = 1; m.targetComponent = 1; m.missionType = 0;
+  return m;
+}
+function clearAll() {
+  const m = new common.MissionClearAll();
   m.targetSystem = 1; m.targetComponent = 1; m.missionType = 0;
   return m;
 }
@@ -302,6 +310,25 @@ function onQgc(clazz, data) {
   } else if (phase === 'download_after') {
     onDownload(clazz, data, (items) => {
       report.download_after = items;
+      downloadItems = []; downloadCount = null;
+      phase = 'clear';
+      uploadSend(clearAll());
+    });
+  } else if (phase === 'clear' && clazz === common.MissionAck && data.missionType === 0) {
+    report.clear_ack = data.type;
+    if (data.type !== MAV_MISSION_ACCEPTED) { phase = 'done'; return; }
+    phase = 'download_after_clear';
+    uploadSend(requestList());
+  } else if (phase === 'download_after_clear') {
+    onDownload(clazz, data, (items) => {
+      report.download_after_clear = items;
+      if (items.length === 1) {
+        // Where the vehicle holds, against the waypoint it had reached (its setpoint was there).
+        const north = (items[0].x / 1e7 - report.home.lat) * Math.PI / 180 * EARTH_RADIUS_M;
+        const east = (items[0].y / 1e7 - report.home.lon) * Math.PI / 180 * EARTH_RADIUS_M *
+                     Math.cos(report.home.lat * Math.PI / 180);
+        report.hold_offset_m = Math.hypot(north - target[0], east - target[1], items[0].z + target[2]);
+      }
       phase = 'rtl';
       uploadSend(commandLong(20, 0));
     });
@@ -309,7 +336,7 @@ function onQgc(clazz, data) {
 }
 
 function complete() {
-  if (qgc && !(report.returned_home && report.rtl_ack === 0)) return false;
+  if (qgc && !(report.clear_ack === MAV_MISSION_ACCEPTED && report.returned_home && report.rtl_ack === 0)) return false;
   return report.heartbeat && report.upload_ack === MAV_MISSION_ACCEPTED && report.reached_target &&
          report.rollback_statustext !== null && (!wrongKey || report.refusal_probes_sent >= 20);
 }
@@ -335,7 +362,7 @@ socket.bind(0, '127.0.0.1', () => {
     if (now - started > timeoutS * 1000) finish(1);
     // HEARTBEAT: fast until the vehicle answers (it only may in MC), then at 1 Hz as a ground station does.
     if (!report.heartbeat || now % 1000 < 20) send(heartbeat());
-    if (['upload', 'qgc', 'download_after', 'rtl'].includes(phase) && lastUpload && now - lastUploadAt >= retryMs) {
+    if (['upload', 'qgc', 'download_after', 'clear', 'download_after_clear', 'rtl'].includes(phase) && lastUpload && now - lastUploadAt >= retryMs) {
       uploadSend(lastUpload);
     }
     // With --wrong-key, all along (so that some arrive in MC, where the gate checks rather than drops): an

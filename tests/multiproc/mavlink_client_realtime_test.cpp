@@ -16,7 +16,7 @@ using test_support::slurp;
 using MavlinkClientRealtime = test_support::MavlinkClientTest;
 
 // As QGroundControl connects and plans (client.js --qgc) while the vehicle flies in real time: the connection,
-// a mission in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT flown and downloaded again, RTL flown,
+// a mission in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT flown and downloaded again, the mission cleared, RTL flown,
 // rollbacks reported as STATUSTEXT, every vehicle frame verified with the key.
 TEST_F(MavlinkClientRealtime, QgcStyleSessionInRealTimeWithSignedVehicleFrames) {
   ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))

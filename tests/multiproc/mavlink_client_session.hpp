@@ -90,7 +90,7 @@ class MavlinkClientTest : public ScratchDirTest {
 // The checks of a QGC-style session (client.js --qgc, its JSON report `client_text`) and of the run's summary:
 // the connection (capabilities, home, the whole parameter list, the launch mission downloaded), the flight of
 // the mission uploaded in global coordinates (reached as an item and by position, downloaded as uploaded), the
-// RTL flown, a rollback reported in STATUSTEXT, every vehicle frame
+// mission cleared and downloaded again, RTL flown, a rollback reported in STATUSTEXT, every vehicle frame
 // verified with the key.
 inline void expect_qgc_session(const std::string& client_text, const proto::RunSummary& summary) {
   using google::protobuf::Value;
@@ -115,6 +115,13 @@ inline void expect_qgc_session(const std::string& client_text, const proto::RunS
   ASSERT_EQ(after.values_size(), 1) << client_text;
   EXPECT_EQ(after.values(0).struct_value().fields().at("frame").number_value(), 6) << "GLOBAL_RELATIVE_ALT_INT";
   EXPECT_NEAR(after.values(0).struct_value().fields().at("z").number_value(), 3.5, 1e-3) << client_text;
+  // The mission cleared: acknowledged, and the vehicle holds at its setpoint, at the waypoint it had reached
+  // (docs/mavlink.md "Clearing the mission"): a download returns that one item.
+  EXPECT_EQ(json_at(report, "clear_ack").number_value(), 0) << "MAV_MISSION_ACCEPTED";
+  const auto& cleared = json_at(report, "download_after_clear").list_value();
+  ASSERT_EQ(cleared.values_size(), 1) << client_text;
+  EXPECT_EQ(cleared.values(0).struct_value().fields().at("frame").number_value(), 6) << "GLOBAL_RELATIVE_ALT_INT";
+  EXPECT_LT(json_at(report, "hold_offset_m").number_value(), 0.5) << client_text;
   EXPECT_EQ(json_at(report, "rtl_ack").number_value(), 0) << "MAV_RESULT_ACCEPTED";
   EXPECT_TRUE(json_at(report, "returned_home").bool_value()) << client_text;
   EXPECT_TRUE(json_at(report, "rollback_statustext").has_string_value()) << client_text;

@@ -73,7 +73,8 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
 // As QGroundControl connects and plans (client.js --qgc), with signing on: AUTOPILOT_VERSION and HOME_POSITION
 // asked for with MAV_CMD_REQUEST_MESSAGE, the whole parameter list, a mission download; then a mission in
 // MAV_FRAME_GLOBAL_RELATIVE_ALT_INT against the home learnt, flown (MISSION_ITEM_REACHED, and GLOBAL_POSITION_INT
-// within the acceptance radius), downloaded again, and a return to launch flown — through the SEI, with
+// within the acceptance radius), downloaded again, cleared (the vehicle holds at its setpoint: a download returns
+// that one item), and a return to launch flown — through the SEI, with
 // rollbacks. Every frame the vehicle sent verified with the key in node-mavlink (the gate signs them).
 TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames) {
   ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))

@@ -150,6 +150,8 @@ std::vector<mav::LocalWaypoint> local_of(const flight_io::MissionSpec& mission) 
   return out;
 }
 
+constexpr std::uint16_t kCmdReturnToLaunch = 20;  // MAV_CMD_NAV_RETURN_TO_LAUNCH
+
 // MAV_RESULT (COMMAND_ACK.result).
 constexpr std::uint8_t kResultAccepted = 0;
 constexpr std::uint8_t kResultDenied = 2;
@@ -248,7 +250,7 @@ Result<ExtLink::Inbound, mav::DecodeError> ExtLink::on_datagram(std::span<const 
   const mav::FrameHeader& from = packet->header;
   if (const auto* count = std::get_if<mav::MissionCount>(&packet->message)) {
     if (!for_this_vehicle(count->target_system)) return Inbound{};
-    return on_count(from, *count);
+    return on_count(from, *count, now);
   }
   if (const auto* item = std::get_if<mav::MissionItemInt>(&packet->message)) {
     if (!for_this_vehicle(item->target_system)) return Inbound{};
@@ -274,11 +276,7 @@ Result<ExtLink::Inbound, mav::DecodeError> ExtLink::on_datagram(std::span<const 
   }
   if (const auto* clear = std::get_if<mav::MissionClearAll>(&packet->message)) {
     if (!for_this_vehicle(clear->target_system)) return Inbound{};
-    if (clear->mission_type == 1 || clear->mission_type == 2) {  // fence, rally: there are none; cleared
-      return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Accepted, clear->mission_type)}};
-    }
-    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported, clear->mission_type)},
-                   .note = "MISSION_CLEAR_ALL refused: an uploaded mission can only be replaced"};
+    return on_clear(from, clear->mission_type, now);
   }
   if (const auto* set = std::get_if<mav::MissionSetCurrent>(&packet->message)) {
     if (!for_this_vehicle(set->target_system)) return Inbound{};
@@ -309,7 +307,6 @@ Result<ExtLink::Inbound, mav::DecodeError> ExtLink::on_datagram(std::span<const 
 ExtLink::Inbound ExtLink::on_command(const mav::FrameHeader& from, std::uint16_t command, std::array<float, 2> param12,
                                      Nanos now) {
   // MAV_CMD values (common.xml).
-  constexpr std::uint16_t kReturnToLaunch = 20;
   constexpr std::uint16_t kMissionStart = 300;
   constexpr std::uint16_t kArmDisarm = 400;
   constexpr std::uint16_t kRequestMessage = 512;
@@ -335,7 +332,7 @@ ExtLink::Inbound ExtLink::on_command(const mav::FrameHeader& from, std::uint16_t
     case kArmDisarm:
       // Armed from boot to the end of the flight: arming is a no-op, disarming in flight is refused.
       return Inbound{.replies = {command_ack(from, command, param12[0] == 1.0F ? kResultAccepted : kResultDenied)}};
-    case kReturnToLaunch: {
+    case kCmdReturnToLaunch: {
       // Back to home (the launch mission's first waypoint, at its altitude) as a one-waypoint mission on
       // mission_upload: commander checks it as any upload, and gen_set_point flies it from the current setpoint.
       const std::vector<mav::LocalWaypoint> home{local_of(guard_.home)};
@@ -346,7 +343,7 @@ ExtLink::Inbound ExtLink::on_command(const mav::FrameHeader& from, std::uint16_t
       }
       return Inbound{.replies = {},
                      .forward = Forward{.upload = upload, .waypoints = home, .ground_system = from.sysid,
-                                        .ground_component = from.compid, .command = command},
+                                        .ground_component = from.compid, .request = Request::ReturnToLaunch},
                      .note = std::nullopt};
     }
     default: return Inbound{.replies = {command_ack(from, command, kResultUnsupported)}};
@@ -386,15 +383,52 @@ ExtLink::Inbound ExtLink::on_param(const mav::Message& message) {
                              param_value(*at)}};
 }
 
-ExtLink::Inbound ExtLink::on_count(const mav::FrameHeader& from, const mav::MissionCount& count) {
+void ExtLink::observe_setpoint(const rejuv_msg_Setpoint& setpoint) {
+  setpoint_ = mav::LocalWaypoint{.north_m = setpoint.p_N_m[0], .east_m = setpoint.p_N_m[1], .down_m = setpoint.p_N_m[2],
+                                 .yaw_rad = setpoint.yaw_rad};
+}
+
+ExtLink::Inbound ExtLink::on_clear(const mav::FrameHeader& from, std::uint8_t mission_type, Nanos now) {
+  // MAV_MISSION_TYPE: MISSION 0, FENCE 1, RALLY 2, ALL 255.
+  constexpr std::uint8_t kFence = 1, kRally = 2, kAll = 255;
+  if (mission_type == kFence || mission_type == kRally) {  // there are none: cleared
+    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Accepted, mission_type)}};
+  }
+  if (mission_type != mav::kMissionTypeMission && mission_type != kAll) {
+    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported, mission_type)}};
+  }
+  receiving_.reset();  // a clear ends an upload in progress
+  // The vehicle cannot stop flying: cleared, it holds where its setpoint is, PX4's Hold after a clear. That is a
+  // one-waypoint mission at x_sp, published like an upload through commander's checks; gen_set_point's path
+  // from x_sp to itself keeps x_sp where it is (paper §IV-A's update rule moves it nowhere).
+  if (!setpoint_) {
+    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Error, mission_type)},
+                   .note = "MISSION_CLEAR_ALL refused: no setpoint seen yet to hold at"};
+  }
+  const std::vector<mav::LocalWaypoint> hold{*setpoint_};
+  if (last_forwarded_ && *last_forwarded_ == hold) {
+    // The clear again (its ack lost, or cleared twice in one window): acknowledged, not republished.
+    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Accepted, mission_type)}};
+  }
+  rejuv_msg_MissionWaypoints upload = to_message(hold, flown().acceptance_radius_m, now);
+  if (auto valid = flight_io::validate_upload(upload, guard_.home, guard_.bounds); !valid) {
+    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Error, mission_type)},
+                   .note = "MISSION_CLEAR_ALL refused: holding at the setpoint fails the upload check: " +
+                           valid.error().message};
+  }
+  return Inbound{.replies = {},
+                 .forward = Forward{.upload = upload, .waypoints = hold, .ground_system = from.sysid,
+                                    .ground_component = from.compid, .request = Request::Clear,
+                                    .mission_type = mission_type},
+                 .note = std::nullopt};
+}
+
+ExtLink::Inbound ExtLink::on_count(const mav::FrameHeader& from, const mav::MissionCount& count, Nanos now) {
   if (count.mission_type != mav::kMissionTypeMission) {
     // No fence or rally storage: refused with the type asked for, as the protocol says.
     return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported, count.mission_type)}};
   }
-  if (count.count == 0) {
-    return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::Unsupported)},
-                   .note = "an empty mission (a clear) is not accepted: an uploaded mission can only be replaced"};
-  }
+  if (count.count == 0) return on_clear(from, count.mission_type, now);  // an empty mission: the protocol's clear
   if (count.count > kMaxUploadWaypoints) {
     ++uploads_refused_;
     return Inbound{.replies = {ack(from.sysid, from.compid, mav::MissionResult::NoSpace)}};
@@ -482,11 +516,14 @@ mav::Message ExtLink::forwarded(const Forward& forward) {
   ++uploads_forwarded_;
   last_forwarded_ = forward.waypoints;
   last_forwarded_radius_m_ = forward.upload.acceptance_radius_m;
-  if (forward.command) {
-    return mav::CommandAck{.command = *forward.command, .result = kResultAccepted, .progress = 0, .result_param2 = 0,
-                           .target_system = forward.ground_system, .target_component = forward.ground_component};
+  switch (forward.request) {
+    case Request::ReturnToLaunch:
+      return mav::CommandAck{.command = kCmdReturnToLaunch, .result = kResultAccepted, .progress = 0, .result_param2 = 0,
+                             .target_system = forward.ground_system, .target_component = forward.ground_component};
+    case Request::Upload:
+    case Request::Clear: break;
   }
-  return ack(forward.ground_system, forward.ground_component, mav::MissionResult::Accepted);
+  return ack(forward.ground_system, forward.ground_component, mav::MissionResult::Accepted, forward.mission_type);
 }
 
 void ExtLink::abandon() { receiving_.reset(); }
@@ -564,6 +601,7 @@ std::vector<mav::Message> ExtLink::telemetry(const TelemetryInputs& in) {
   // mission by one (its path starts at the setpoint it was applied at, which is no item). A rollback may
   // restore an older index; the one reached is then reported again.
   if (in.setpoint != nullptr) {
+    observe_setpoint(*in.setpoint);
     const std::uint32_t index = in.setpoint->waypoint_index;
     if (last_waypoint_ && index > *last_waypoint_ && index - 1 >= mission.index_offset) {
       out.emplace_back(mav::MissionItemReached{.seq = static_cast<std::uint16_t>(index - 1 - mission.index_offset)});

@@ -362,6 +362,113 @@ TEST(ExtLink, ReturnToLaunch_ForwardedAsAMissionToHomeThenAcked) {
   EXPECT_EQ(ack.result, 0U);
 }
 
+rejuv_msg_Setpoint setpoint_at(double north_m, double east_m, double down_m, double yaw_rad = 0) {
+  rejuv_msg_Setpoint sp{};
+  sp.p_N_m[0] = north_m;
+  sp.p_N_m[1] = east_m;
+  sp.p_N_m[2] = down_m;
+  sp.yaw_rad = yaw_rad;
+  sp.waypoint_index = 2;
+  return sp;
+}
+
+mav::MissionClearAll clear_all(std::uint8_t mission_type) {
+  return mav::MissionClearAll{.target_system = 1, .target_component = 1, .mission_type = mission_type};
+}
+
+std::uint16_t download_count(ExtLink& link) {
+  auto r = link.on_datagram(bytes_of(mav::MissionRequestList{.target_system = 1, .target_component = 1, .mission_type = 0}),
+                            Nanos{0});
+  return r ? std::get<mav::MissionCount>(r->replies.at(0)).count : 999;
+}
+
+TEST(ExtLink, ClearAll_HoldsAtTheSetpoint_AcceptedOncePublished) {
+  ExtLink link = guarded_link();
+  ASSERT_TRUE(upload(link, square()).forward.has_value());
+  link.observe_setpoint(setpoint_at(1.5, 0.5, -3.2, 0.25));
+  auto r = link.on_datagram(bytes_of(clear_all(0)), std::chrono::seconds{7});
+  ASSERT_TRUE(r.has_value());
+  EXPECT_TRUE(r->replies.empty()) << "acknowledged only once published";
+  ASSERT_TRUE(r->forward.has_value());
+  EXPECT_EQ(r->forward->request, ExtLink::Request::Clear);
+  const rejuv_msg_MissionWaypoints& hold = r->forward->upload;
+  ASSERT_EQ(hold.count, 1U);
+  EXPECT_DOUBLE_EQ(hold.waypoints[0].p_N_m[0], 1.5);
+  EXPECT_DOUBLE_EQ(hold.waypoints[0].p_N_m[1], 0.5);
+  EXPECT_DOUBLE_EQ(hold.waypoints[0].p_N_m[2], -3.2);
+  EXPECT_DOUBLE_EQ(hold.waypoints[0].yaw_rad, 0.25);
+  EXPECT_EQ(hold.timestamp_ns, 7'000'000'000U);
+  const auto ack = std::get<mav::MissionAck>(link.forwarded(*r->forward));
+  EXPECT_EQ(ack.type, static_cast<std::uint8_t>(mav::MissionResult::Accepted));
+  EXPECT_EQ(ack.mission_type, 0U);
+  EXPECT_EQ(ack.target_system, 255U);
+  EXPECT_EQ(download_count(link), 1U) << "the mission flown now: hold at the setpoint";
+  // The clear again (its ack lost): acknowledged, not published again.
+  auto again = link.on_datagram(bytes_of(clear_all(0)), std::chrono::seconds{8});
+  ASSERT_TRUE(again.has_value());
+  EXPECT_FALSE(again->forward.has_value());
+  EXPECT_EQ(std::get<mav::MissionAck>(again->replies.at(0)).type, static_cast<std::uint8_t>(mav::MissionResult::Accepted));
+}
+
+TEST(ExtLink, ClearAll_NoSetpointSeen_ErrorAndNothingPublished) {
+  ExtLink link = guarded_link();
+  auto r = link.on_datagram(bytes_of(clear_all(0)), Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  EXPECT_FALSE(r->forward.has_value());
+  EXPECT_EQ(std::get<mav::MissionAck>(r->replies.at(0)).type, static_cast<std::uint8_t>(mav::MissionResult::Error));
+  EXPECT_TRUE(r->note.has_value());
+}
+
+TEST(ExtLink, ClearAll_HoldOutsideTheGeofence_ErrorAndNothingPublished) {
+  ExtLink link = guarded_link();
+  link.observe_setpoint(setpoint_at(0, 12, -3));  // 12 m east of home: outside the 10 m geofence
+  auto r = link.on_datagram(bytes_of(clear_all(0)), Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  EXPECT_FALSE(r->forward.has_value());
+  EXPECT_EQ(std::get<mav::MissionAck>(r->replies.at(0)).type, static_cast<std::uint8_t>(mav::MissionResult::Error));
+}
+
+TEST(ExtLink, ClearAll_ByMissionType_FenceRallyAcceptedAllHoldsOtherUnsupported) {
+  ExtLink link = guarded_link();
+  link.observe_setpoint(setpoint_at(1, 0, -3));
+  for (const std::uint8_t type : {std::uint8_t{1}, std::uint8_t{2}}) {
+    auto r = link.on_datagram(bytes_of(clear_all(type)), Nanos{0});
+    ASSERT_TRUE(r.has_value());
+    EXPECT_FALSE(r->forward.has_value()) << "fence and rally: there are none";
+    const auto& a = std::get<mav::MissionAck>(r->replies.at(0));
+    EXPECT_EQ(a.type, static_cast<std::uint8_t>(mav::MissionResult::Accepted));
+    EXPECT_EQ(a.mission_type, type);
+  }
+  auto other = link.on_datagram(bytes_of(clear_all(7)), Nanos{0});
+  ASSERT_TRUE(other.has_value());
+  EXPECT_FALSE(other->forward.has_value());
+  EXPECT_EQ(std::get<mav::MissionAck>(other->replies.at(0)).type, static_cast<std::uint8_t>(mav::MissionResult::Unsupported));
+  auto all = link.on_datagram(bytes_of(clear_all(255)), Nanos{0});  // MAV_MISSION_TYPE_ALL: the mission too
+  ASSERT_TRUE(all.has_value());
+  ASSERT_TRUE(all->forward.has_value());
+  const auto ack = std::get<mav::MissionAck>(link.forwarded(*all->forward));
+  EXPECT_EQ(ack.type, static_cast<std::uint8_t>(mav::MissionResult::Accepted));
+  EXPECT_EQ(ack.mission_type, 255U);
+}
+
+TEST(ExtLink, EmptyUpload_ClearsAsMissionClearAll_EndingAnUploadInProgress) {
+  ExtLink link = guarded_link();
+  link.observe_setpoint(setpoint_at(1, 1, -3));
+  auto started = link.on_datagram(bytes_of(mav::MissionCount{.count = 3, .target_system = 1, .target_component = 1,
+                                                             .mission_type = 0, .opaque_id = 0}),
+                                  Nanos{0});
+  ASSERT_TRUE(started.has_value());
+  ASSERT_TRUE(link.upload_in_progress());
+  auto r = link.on_datagram(bytes_of(mav::MissionCount{.count = 0, .target_system = 1, .target_component = 1,
+                                                       .mission_type = 0, .opaque_id = 0}),
+                            Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  EXPECT_FALSE(link.upload_in_progress());
+  ASSERT_TRUE(r->forward.has_value());
+  EXPECT_EQ(r->forward->request, ExtLink::Request::Clear);
+  EXPECT_EQ(r->forward->upload.count, 1U);
+}
+
 TEST(ExtLink, Params_ListedAndNotSettable) {
   ExtLink link = guarded_link();
   link.set_home(kHome);

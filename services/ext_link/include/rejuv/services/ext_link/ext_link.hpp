@@ -17,7 +17,10 @@
 //   ground → MISSION_REQUEST_LIST … MISSION_REQUEST_INT   the download: MISSION_COUNT, then each item asked for,
 //                           of the mission flown (the upload commander kept, else the launch graph's mission),
 //                           in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT given a home on Earth, else LOCAL_NED.
-//   ground → MISSION_CLEAR_ALL          MISSION_ACK MAV_MISSION_UNSUPPORTED (an uploaded mission is only replaced)
+//   ground → MISSION_CLEAR_ALL (or MISSION_COUNT 0)   the vehicle holds: a one-waypoint mission at the current
+//                           setpoint x_sp published on mission_upload, through commander's checks, and
+//                           MAV_MISSION_ACCEPTED once published (a download then returns that one item); fence and
+//                           rally: MAV_MISSION_ACCEPTED (there are none).
 //   ground → MISSION_SET_CURRENT        MISSION_CURRENT unchanged (the path is flown in order) and a STATUSTEXT
 //   ground → COMMAND_LONG / COMMAND_INT COMMAND_ACK (commands()); MAV_CMD_NAV_RETURN_TO_LAUNCH is published as a
 //                           one-waypoint mission to home on mission_upload, through commander's checks.
@@ -84,6 +87,8 @@ class ExtLink {
   // The upload commander kept (the Persistent cell uploaded_mission, read by main.cpp in MC): what the vehicle
   // flies from the next setpoint update on, after the setpoint it had then. nullopt: none (the launch mission).
   void set_kept_upload(std::optional<flight_io::MissionSpec> kept) { kept_ = std::move(kept); }
+  // The latest setpoint x_sp (main.cpp, before each datagram; telemetry() too): where a clear holds.
+  void observe_setpoint(const rejuv_msg_Setpoint& setpoint);
 
   // One parameter of the parameter protocol: a PX4-style name (≤ 16 characters), its value as a float, and
   // the launch param it is (docs/mavlink.md "Parameters"). None is settable in flight.
@@ -96,13 +101,17 @@ class ExtLink {
   void set_telemetry_period(double period_s);
   [[nodiscard]] static Result<ExtLink, flight_io::InputFailure> from_params(const flight_io::Params& params);
 
-  // A complete upload that passed validate_upload: publish it, then acknowledge with forwarded().
+  // What a Forward carries out: a mission uploaded, a clear (hold at the setpoint), a return to launch.
+  enum class Request : std::uint8_t { Upload, Clear, ReturnToLaunch };
+  // A mission that passed validate_upload: publish it, then acknowledge with forwarded() (MISSION_ACK of
+  // `mission_type` for an upload or a clear, COMMAND_ACK for RTL).
   struct Forward {
     rejuv_msg_MissionWaypoints upload{};
     std::vector<mavlink::LocalWaypoint> waypoints{};
     std::uint8_t ground_system = 0;
     std::uint8_t ground_component = 0;
-    std::optional<std::uint16_t> command{};  // a command (RTL) rather than an upload: answered COMMAND_ACK
+    Request request = Request::Upload;
+    std::uint8_t mission_type = mavlink::kMissionTypeMission;  // a clear of MAV_MISSION_TYPE_ALL is acked as such
   };
   // What one valid datagram asks for: frames to send back, maybe a mission to publish, maybe a log line.
   struct Inbound {
@@ -166,11 +175,12 @@ class ExtLink {
   };
   [[nodiscard]] mavlink::Message ack(std::uint8_t system, std::uint8_t component, mavlink::MissionResult result,
                                      std::uint8_t mission_type = mavlink::kMissionTypeMission) const;
-  [[nodiscard]] Inbound on_count(const mavlink::FrameHeader& from, const mavlink::MissionCount& count);
+  [[nodiscard]] Inbound on_count(const mavlink::FrameHeader& from, const mavlink::MissionCount& count, Nanos now);
   [[nodiscard]] Inbound on_item(const mavlink::FrameHeader& from, const mavlink::MissionItemInt& item, Nanos now);
   [[nodiscard]] Inbound on_command(const mavlink::FrameHeader& from, std::uint16_t command, std::array<float, 2> param12,
                                    Nanos now);
   [[nodiscard]] Inbound on_param(const mavlink::Message& message);
+  [[nodiscard]] Inbound on_clear(const mavlink::FrameHeader& from, std::uint8_t mission_type, Nanos now);
   [[nodiscard]] mavlink::ParamValue param_value(std::size_t index) const;
   // The mission a download returns and MISSION_CURRENT counts: what this window forwarded, else the kept
   // upload, else the launch mission; and by how much the setpoint's waypoint index runs ahead of its item
@@ -214,6 +224,7 @@ class ExtLink {
   std::optional<Nanos> last_slow_{};  // the last 1 Hz set
   std::optional<std::uint32_t> last_waypoint_{};  // the setpoint's waypoint index at the last telemetry
   std::optional<GeoHome> home_{};
+  std::optional<mavlink::LocalWaypoint> setpoint_{};  // the latest x_sp seen (a clear's hold point)
   std::optional<SrMode> seen_mode_{};
   std::optional<Epoch> seen_epoch_{};
   std::uint64_t seen_events_ = 0;
