@@ -6,6 +6,9 @@
 // STATUSTEXT; its unsigned, wrongly signed and recorded (stamped 2015) uploads are refused by the kernel's gate
 // (the run summary). The QGC-style session in real time: mavlink_client_realtime_test.cpp.
 #include "mavlink_client_session.hpp"
+#include "rejuv/mavlink/frame.hpp"
+#include "rejuv/mavlink/messages.hpp"
+#include "rejuv/sys/udp.hpp"
 
 namespace rejuv {
 namespace {
@@ -96,6 +99,49 @@ TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames)
   proto::RunSummary summary;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &summary).ok());
   test_support::expect_qgc_session(client_text, summary);
+}
+
+// A ground station that only listens (QGroundControl on 14550; PX4's `mavlink start -o 14550`): with the
+// graph's `network.ground_address` naming its port, `rejuv run` sends it the vehicle's frames from the first MC
+// window on, before anything has come in — HEARTBEATs, signed by the gate with the graph's key.
+TEST_F(MavlinkClient, ListeningGroundStationAtGroundAddress_GetsSignedHeartbeatsWithoutSending) {
+  auto listening = sys::UdpSocket::bind(sys::UdpAddress::loopback(0), sys::Blocking::No);
+  ASSERT_TRUE(listening.has_value());
+  auto bound = listening->local_address();
+  ASSERT_TRUE(bound.has_value());
+  pid_t rejuv_run = -1;
+  std::uint16_t port = 0;
+  ASSERT_NO_FATAL_FAILURE(start_signed_square("listening.launch.pbtxt", "30", RunClock::Lockstep, rejuv_run, port,
+                                              "ground_address: \"127.0.0.1:" + std::to_string(bound->port) + "\""));
+  const auto key = mavlink::SigningKey::from_hex(kKey);
+  ASSERT_TRUE(key.has_value());
+  std::size_t heartbeats = 0, signed_heartbeats = 0;
+  std::array<std::byte, 512> buf{};
+  // Until the run has ended (30 s of flight, lockstep): everything that arrived is read.
+  bool ended = false;
+  while (!ended) {
+    siginfo_t info{};
+    ended = ::waitid(P_PID, static_cast<id_t>(rejuv_run), &info, WEXITED | WNOHANG | WNOWAIT) == 0 && info.si_pid == rejuv_run;
+    while (auto got = listening->receive(buf)) {
+      const std::span<const std::byte> datagram(buf.data(), got->size);
+      auto packet = mavlink::decode(datagram);
+      if (!packet || !std::holds_alternative<mavlink::Heartbeat>(packet->message)) continue;
+      ++heartbeats;
+      EXPECT_EQ(std::get<mavlink::Heartbeat>(packet->message).type, mavlink::kMavTypeQuadrotor);
+      auto frame = mavlink::split_frame(datagram);
+      if (frame && frame->signature && mavlink::signature_matches(*key, *frame)) ++signed_heartbeats;
+    }
+    if (!ended) std::this_thread::sleep_for(std::chrono::milliseconds{20});
+  }
+  const test_support::CliOutcome run = test_support::wait_program(dir(), rejuv_run);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_GE(heartbeats, 5U) << "HEARTBEAT at 1 Hz over 30 s of flight, in the MC windows";
+  EXPECT_EQ(signed_heartbeats, heartbeats) << "every one signed with the graph's key";
+  proto::RunSummary summary;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &summary).ok());
+  EXPECT_EQ(summary.network().received(), 0U) << "nobody sent anything";
+  EXPECT_EQ(summary.network().unsent_no_ground(), 0U) << "a ground station was known from the start";
+  EXPECT_GT(summary.network().sent(), 0U);
 }
 
 }  // namespace
