@@ -3,17 +3,21 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <optional>
 #include <set>
+#include <string>
 #include <system_error>
 
 namespace rejuv::plant_app {
 
 namespace {
 
-constexpr std::string_view kUsage =
+// The help text before and after the lockstep timeouts' lines: usage() states their defaults from PlantOptions{},
+// so that each is spelt once (options.hpp).
+constexpr std::string_view kUsageHead =
     "usage: rejuv_plant [options]\n"
     "The plant process of Rejuv: a quadrotor (6-DOF, RK4 at 1 kHz), its sensors and optional wind, talking\n"
     "DDS to the kernel like jMAVSim over sockets (paper §VI-A). Publishes "
@@ -32,9 +36,8 @@ constexpr std::string_view kUsage =
     "signal\n"
     "  --align-s S              pre-flight alignment: rest at the start pose for S seconds with the sensors\n"
     "                           publishing and actuator outputs not applied (default 20, as rejuv sim)\n"
-    "  --step-ms MS             lockstep step, 1..1000 (default 4); the ground-truth period in realtime\n"
-    "  --ack-timeout-ms MS      lockstep: exit 3 when no ack arrives for this long (default 60000)\n"
-    "  --connect-timeout-ms MS  lockstep: exit 3 when the kernel's endpoints do not appear (default 30000)\n"
+    "  --step-ms MS             lockstep step, 1..1000 (default 4); the ground-truth period in realtime\n";
+constexpr std::string_view kUsageTail =
     "  --wind-mean M/S          mean wind speed (default 0)\n"
     "  --wind-toward DEG        where the mean wind blows toward, degrees clockwise from north, [0, 360)\n"
     "                           (default 0: toward north; 90: toward east)\n"
@@ -150,7 +153,18 @@ Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::str
 }  // namespace
 
 std::string_view usage() {
-  return kUsage;
+  static const std::string text = [] {
+    const PlantOptions defaults{};
+    const auto ms = [](Nanos t) {
+      return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(t).count());
+    };
+    return std::string(kUsageHead) +
+           "  --ack-timeout-ms MS      lockstep: exit 3 when no ack arrives for this long (default " +
+           ms(defaults.ack_timeout) + ")\n" +
+           "  --connect-timeout-ms MS  lockstep: exit 3 when the kernel's endpoints do not appear (default " +
+           ms(defaults.connect_timeout) + ")\n" + std::string(kUsageTail);
+  }();
+  return text;
 }
 
 std::string_view to_string(ClockMode mode) {

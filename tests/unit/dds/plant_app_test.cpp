@@ -2,9 +2,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -98,6 +100,21 @@ TEST(PlantOptions, Help_ShowHelp) {
   ASSERT_TRUE(c.has_value());
   EXPECT_TRUE(std::holds_alternative<ShowHelp>(*c));
   EXPECT_NE(usage().find("--ack-timeout-ms"), std::string_view::npos);
+}
+
+// The help states the lockstep timeouts' defaults as PlantOptions has them (one spelling of each).
+TEST(PlantOptions, Help_StatesTheTimeoutDefaultsOfPlantOptions) {
+  const PlantOptions defaults{};
+  for (const auto& [flag, value] : {std::pair{"--ack-timeout-ms", defaults.ack_timeout},
+                                    std::pair{"--connect-timeout-ms", defaults.connect_timeout}}) {
+    const std::string_view text = usage();
+    const std::size_t at = text.find(flag);
+    ASSERT_NE(at, std::string_view::npos) << flag;
+    const std::string_view line = text.substr(at, text.find('\n', at) - at);
+    const std::string stated =
+        "(default " + std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(value).count()) + ")";
+    EXPECT_NE(line.find(stated), std::string_view::npos) << line;
+  }
 }
 
 TEST(PlantOptions, UnknownFlag_Named) {

@@ -34,7 +34,8 @@ struct PlantOptions {
   // Lockstep: no ack for this long = a kernel alive but stuck. Above the longest step the kernel may take (a cold
   // restart boots the graph inside one step: up to its 20 s boot deadline; a hung service costs its 5 s idle
   // deadline and a rollback), so that a kernel slowed by a loaded machine is waited for. A kernel that died takes
-  // the plant with it (spawned with PR_SET_PDEATHSIG, sys::spawn).
+  // the plant with it (spawned with PR_SET_PDEATHSIG, sys::spawn). The one spelling of the default: --help
+  // states it from here (options.cpp, usage).
   Nanos ack_timeout{std::chrono::seconds{60}};
   Nanos connect_timeout{std::chrono::seconds{30}};        // lockstep: waiting for the kernel's endpoints
   double wind_mean_m_s = 0;                               // mean wind, m/s, toward wind_toward_deg
