@@ -350,6 +350,7 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
       if (observer != nullptr) observer->on_step(lockstep.steps.steps_done(), now(), caps.mode());
       lockstep.steps.tick();
       supervisor.retry_realtime();
+      supervisor.watch_liveness();
     }
     lockstep.check_stop_conditions();
   }

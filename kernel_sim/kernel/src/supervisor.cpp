@@ -133,7 +133,7 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   // > 0: this incarnation was started by a cold restart (docs/design.md §7): the vehicle is not at its take-off point.
   number("boot.cold_restarts", static_cast<double>(k.rejuvenator.sr_stats.cold_restarts));
   // The mission's t = 0 on the kernel clock (the end of the plant's alignment): SR starts there (docs/design.md §6).
-  number("flight.start_s", to_seconds(k.rejuvenator.flight_start).count());
+  send(gv::kFlightStart, k.rejuvenator.flight_start);
   return out;
 }
 
@@ -453,6 +453,36 @@ void Supervisor::check_deadlines() {
     }
     // The others get a full deadline again for what the step still has to do.
     if (killed) k.lockstep.steps.restart_idle_deadline(t);
+  }
+}
+
+void Supervisor::watch_liveness() {
+  if (!k.sr) return;  // without SR a kill ends the run: a slow service is not worth that
+  probes_.resize(k.services.size());
+  const Nanos t = k.wall();
+  for (ServiceRuntime& s : k.services) {
+    std::optional<LivenessProbe>& probe = probes_[s.id.value()];
+    const bool watched = s.config.rejuvenate && s.live() && !s.proc.scripted && s.proc.phase() == Phase::Ready &&
+                         s.proc.loss_reason.empty();
+    if (!watched || (probe && probe->pid != s.proc.process.pid())) probe.reset();  // gone, or a new incarnation
+    if (!watched) continue;
+    if (probe) {
+      if (s.flow.reported() >= probe->owed) {
+        probe.reset();  // answered: alive
+      } else if (t - probe->asked_at > k.options.realtime_hang_deadline) {
+        if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
+        if (s.live() && s.flow.reported() < probe->owed) {
+          const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(k.options.realtime_hang_deadline);
+          kill_hung(s, "no Idle within " + std::to_string(bound.count()) + " ms of a Sync in real time (" + std::to_string(s.flow.reported()) + " of " +
+                           std::to_string(probe->owed) + " frames reported)");
+        }
+        probe.reset();
+      }
+      continue;
+    }
+    if (s.flow.reported() >= s.flow.frames_out() || !k.tx.build(wire::FrameKind::Sync, 0, 0, 0)) continue;
+    probe = LivenessProbe{.pid = s.proc.process.pid(), .asked_at = t, .owed = s.flow.frames_out()};
+    k.router.send_control(s, k.tx.bytes());
   }
 }
 

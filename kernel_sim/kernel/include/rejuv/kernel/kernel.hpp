@@ -111,7 +111,20 @@ struct KernelOptions {
   // found (and, with SR, rolled back) before the plant gives up.
   Nanos idle_deadline{std::chrono::seconds{5}};
   Nanos shutdown_grace{std::chrono::seconds{2}};      // Shutdown → exit, before SIGKILL
-  Nanos snapshot_deadline{std::chrono::seconds{2}};   // Snapshot → Taken from every service (docs/design.md §7 Faults)
+  // Snapshot → Taken from every service (docs/design.md §7 Faults), where the vehicle waits with the checkpoint
+  // (real time, measured charge): routing is frozen meanwhile, so the controls the vehicle flies are as old as
+  // the wait. An image takes well under a millisecond; a service that stopped (SIGSTOP) at a Snapshot and was
+  // waited for 2 s lost the vehicle (max V 481) in the real-time fault campaign under load. Past it the
+  // checkpoint is abandoned and the late service killed, which rolls back (rollback.cpp).
+  Nanos snapshot_deadline{std::chrono::milliseconds{100}};
+  // The same bound where the wait does not reach the vehicle (lockstep with the model's charge), wide so that
+  // a slow machine does not change the run (as unseen_resume_deadline).
+  Nanos unseen_snapshot_deadline{std::chrono::seconds{2}};
+  // Real time: a rejuvenated service sent a Sync (every 100 ms while it has frames it has not reported) that has
+  // not answered with its Idle within this is hung and killed (Supervisor::watch_liveness), which rolls back.
+  // A control service answers within a control period; this leaves a wide margin for one that the real-time
+  // plan could not give SCHED_FIFO and that shares a loaded CPU.
+  Nanos realtime_hang_deadline{std::chrono::milliseconds{200}};
   // Resume → Resumed from every image. The rollback waits for it without routing, and in lockstep its real
   // duration is charged to simulated time with the controls held (docs/design.md §6): a frozen image (SIGSTOP) that
   // cost 2 s here lost the vehicle in 13 of 13 fallbacks of the fault campaign. A resume takes well under a

@@ -1,0 +1,143 @@
+// A service of the control chain that hangs in flight (SIGSTOP: stopped, neither dead nor answering) is found and
+// rolled back at once, in REAL TIME as in LOCKSTEP, instead of leaving the vehicle on its last output until the
+// secure interval ends and the next timer rollback comes (docs/design.md §7 "Faults"). launch/quad_square (SR and
+// the worst-case control attack on), the real kernel, flight services and plant; `ekf2`'s live process is stopped
+// in the secure interval 4 s into the flight.
+//
+// In real time the kernel sends a Sync to a service that has frames it has not reported and kills one that does
+// not answer it with its Idle within realtime_hang_deadline (Supervisor::watch_liveness); in lockstep the idle
+// deadline does it. Judged by effect: the stopped process is gone, ekf2 lives on in another process, the kernel
+// named the hang, a rollback followed, and the vehicle stayed in the safety set. No timing is asserted.
+#include <gtest/gtest.h>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "graph_fixture.hpp"
+#include "mission_support.hpp"
+#include "run_recorder.hpp"
+#include "run_summary.hpp"
+
+namespace rejuv::testing {
+namespace {
+
+namespace fs = std::filesystem;
+using kernel::Kernel;
+using kernel::StopReason;
+
+constexpr std::chrono::seconds kFlight{14};
+constexpr std::chrono::seconds kStopAfter{4};  // into the flight (after the alignment)
+
+// launch/quad_square with an 8 s alignment and the clock asked for, in a directory of its own.
+fs::path square(bool realtime, const fs::path& dir) {
+  const fs::path launch = fs::path(REJUV_SOURCE_DIR) / "launch";
+  std::string paper = mission::read_text(launch / "quad_square_paper.launch.pbtxt");
+  const std::size_t clock = paper.find("clock: LOCKSTEP");
+  const std::size_t align = paper.find("alignment_s: 20");
+  if (clock == std::string::npos || align == std::string::npos) return {};
+  paper.replace(align, std::string_view("alignment_s: 20").size(), "alignment_s: 8");
+  if (realtime) paper.replace(clock, std::string_view("clock: LOCKSTEP").size(), "clock: REALTIME");
+  for (std::size_t up = paper.find("\"../"); up != std::string::npos; up = paper.find("\"../", up)) {
+    paper.replace(up + 1, 3, (launch.parent_path() / "").string());
+  }
+  fs::create_directories(dir);
+  std::ofstream(dir / "quad_square_paper.launch.pbtxt") << paper;
+  std::ofstream(dir / "quad_square.launch.pbtxt") << mission::read_text(launch / "quad_square.launch.pbtxt");
+  return dir / "quad_square.launch.pbtxt";
+}
+
+// Stops the target's live process once, from the kernel's own thread (on_step): at the first step in the secure
+// interval's SC `at` or later into the kernel clock. There no rejuvenation timer runs (it is armed in MC, T_MC
+// 0.2 s), so before the watch nothing would find the hang until the interval ended, and the safety controller
+// flew on the stale estimate meanwhile.
+class Stopper final : public kernel::Observer {
+ public:
+  Stopper(std::string target, Nanos at) : target_(std::move(target)), at_(at) {}
+  void attach(Kernel* k) { k_ = k; }
+  void on_step(std::uint64_t, Nanos t, SrMode mode) override {
+    if (k_ == nullptr || stopped_pid_ > 0 || t < at_ || mode != SrMode::SC) return;
+    const auto id = k_->find_service(target_);
+    if (!id) return;
+    const kernel::ServiceStats st = k_->stats(*id);
+    if (!st.alive || st.pid <= 0) return;
+    if (::kill(st.pid, SIGSTOP) == 0) {
+      stopped_pid_ = st.pid;
+      rollbacks_before_ = k_->sr_stats().rollbacks + k_->sr_stats().cold_restarts;
+    }
+  }
+  [[nodiscard]] pid_t stopped_pid() const { return stopped_pid_; }
+  [[nodiscard]] std::uint64_t rollbacks_before() const { return rollbacks_before_; }
+
+ private:
+  std::string target_;
+  Nanos at_;
+  Kernel* k_ = nullptr;
+  pid_t stopped_pid_ = -1;
+  std::uint64_t rollbacks_before_ = 0;
+};
+
+class HungService : public ::testing::TestWithParam<bool> {};
+
+TEST_P(HungService, StoppedEkf2_FoundKilledAndRolledBack_VehicleStaysSafe) {
+  if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox needs root here";
+  const bool realtime = GetParam();
+  const fs::path dir = fs::temp_directory_path() / ("rejuv_hung_" + std::to_string(::getpid()));
+  const fs::path file = square(realtime, dir);
+  ASSERT_FALSE(file.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has its clock or alignment";
+  auto graph = launch::parse_launch(mission::read_text(file), file);
+  fs::remove_all(dir);
+  ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
+  if (const auto missing = mission::missing_executable(*graph)) FAIL() << "not built: " << missing->string();
+  auto reference = cli::run_reference(*graph, std::nullopt);
+  ASSERT_TRUE(reference.has_value()) << reference.error();
+  mission::RunLog log;
+  ASSERT_NE(log.get(), nullptr);
+  kernel::KernelOptions options = mission::mission_options(log.get());
+  options.duration = reference->alignment + Nanos{kFlight};
+  const Nanos stop_at = reference->alignment + Nanos{kStopAfter};
+  mission::SessionGuard guard;
+  cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);
+  Stopper stopper("ekf2", stop_at);
+  kernel::ObserverFanout fanout({&recorder, &stopper});
+  auto k = Kernel::create(std::move(*graph), options, &fanout);
+  ASSERT_TRUE(k.has_value()) << k.error().to_string();
+  stopper.attach(k->get());
+  recorder.on_vehicle_lost([kernel = k->get()] { (*kernel).request_stop(); });
+  auto outcome = (*k)->run();
+  ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string() << "\n" << log.text();
+  proto::RunSummary summary;
+  cli::fill_summary(summary, **k, recorder, *outcome, cli::facts_of(**k, options));
+  const kernel::SrStats sr = (*k)->sr_stats();
+  const auto id = (*k)->find_service("ekf2");
+  ASSERT_TRUE(id.has_value());
+  const kernel::ServiceStats ekf2 = (*k)->stats(*id);
+  const pid_t stopped = stopper.stopped_pid();
+  const mission::ProcStat after = stopped > 0 ? mission::proc_stat(stopped) : mission::ProcStat{};
+  k->reset();
+  std::printf("[ %s ] stopped ekf2 pid %d; max V %.3f; %llu rollbacks, %llu fallbacks, %llu cold restarts\n",
+              realtime ? "real time" : "lockstep", stopped, summary.max_v(),
+              static_cast<unsigned long long>(sr.rollbacks), static_cast<unsigned long long>(sr.fallbacks),
+              static_cast<unsigned long long>(sr.cold_restarts));
+
+  ASSERT_GT(stopped, 0) << "ekf2 was never stopped: no MC step after " << to_seconds(stop_at).count() << " s";
+  EXPECT_EQ(outcome->reason, StopReason::Duration) << outcome->detail;
+  // Found and killed as hung: the process the test stopped is gone (or a zombie nobody will run again).
+  EXPECT_TRUE(after.state == '?' || after.state == 'Z' || after.parent != ::getpid())
+      << "the stopped ekf2 (pid " << stopped << ") is still there, state " << after.state;
+  const std::string named = log.lines_with("killing 'ekf2'");
+  EXPECT_NE(named.find(realtime ? "no Idle within" : "not idle within the idle deadline"), std::string::npos)
+      << log.lines_with("ekf2");
+  // Rolled back (a restored image, or a cold restart): ekf2 flew on in another process.
+  EXPECT_GT(sr.rollbacks + sr.cold_restarts, stopper.rollbacks_before());
+  EXPECT_NE(ekf2.pid, stopped);
+  EXPECT_LT(summary.max_v(), 1.0) << "the vehicle left the safety set";
+}
+
+INSTANTIATE_TEST_SUITE_P(Clocks, HungService, ::testing::Values(true, false),
+                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "RealTime" : "Lockstep"; });
+
+}  // namespace
+}  // namespace rejuv::testing
