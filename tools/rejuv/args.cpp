@@ -328,11 +328,23 @@ Result<ParseOutcome, std::string> Options::parse(std::span<const std::string_vie
   return ParseOutcome::Run;
 }
 
+void print(std::FILE* to, std::string_view text) {
+  std::fwrite(text.data(), 1, text.size(), to);
+}
+
+int refuse(std::string_view message) {
+  print(stderr, std::string(message) + "\n");
+  return static_cast<int>(Exit::BadInput);
+}
+
+int refuse(std::string_view command, std::string_view message) {
+  return refuse("rejuv " + std::string(command) + ": " + std::string(message));
+}
+
 std::optional<int> Options::parse_or_exit(std::span<const std::string_view> args) {
   const auto parsed = parse(args);
   if (!parsed) {
-    std::fprintf(stderr, "rejuv %s: %s\n", command_.c_str(), parsed.error().c_str());
-    return static_cast<int>(Exit::BadInput);
+    return refuse(command_, parsed.error());
   }
   switch (*parsed) {
     case ParseOutcome::HelpShown: std::fputs(help().c_str(), stdout); return static_cast<int>(Exit::Ok);

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <limits>
@@ -34,6 +35,14 @@ enum class Exit : int {
   Findings = 1,    // the command ran and found a problem (audit violation, mission failed, test failed)
   BadInput = 2,    // bad flag, unreadable or malformed file
 };
+
+// Text as it is (no printf formatting) on `to`.
+void print(std::FILE* to, std::string_view text);
+// A refusal of bad input (README "Exit codes"), the one every command gives: `message` and a newline on stderr;
+// returns Exit::BadInput (2).
+[[nodiscard]] int refuse(std::string_view message);
+// The same as "rejuv COMMAND: message", the form of Options' own errors (parse_or_exit).
+[[nodiscard]] int refuse(std::string_view command, std::string_view message);
 
 enum class ParseOutcome : std::uint8_t { Run, HelpShown };
 

@@ -294,12 +294,12 @@ int run_bench_realtime(const std::string& graph_arg, std::uint64_t seconds, std:
                        const std::optional<fs::path>& out_dir) {
   const std::string graph = graph_arg.empty() ? std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt" : graph_arg;
   auto loaded = launch::load_launch(graph);
-  if (!loaded) return bad_input(loaded.error().to_string());
-  if (!loaded->graph.has_plant()) return bad_input("rejuv bench realtime: " + graph + " has no plant (no vehicle to measure)");
+  if (!loaded) return refuse(loaded.error().to_string());
+  if (!loaded->graph.has_plant()) return refuse("rejuv bench realtime: " + graph + " has no plant (no vehicle to measure)");
   std::error_code ec;
   const fs::path dir = out_dir.value_or(fs::temp_directory_path(ec) / ("rejuv-bench-realtime-" + std::to_string(::getpid())));
   fs::create_directories(dir, ec);
-  if (ec) return bad_input("rejuv bench realtime: --out: cannot create '" + dir.string() + "': " + ec.message());
+  if (ec) return refuse("rejuv bench realtime: --out: cannot create '" + dir.string() + "': " + ec.message());
   const int s = static_cast<int>(seconds);
   std::fprintf(stderr, "rejuv bench realtime: %s, %d s each: the floor (cyclictest), then the flights in real time "
                "(%llu round%s); files in %s\n", graph.c_str(), s, static_cast<unsigned long long>(rounds),

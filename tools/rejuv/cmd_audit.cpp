@@ -23,10 +23,6 @@ namespace {
 
 enum class Format : std::uint8_t { Text, Json };
 
-void print(std::FILE* to, std::string_view s) {
-  std::fwrite(s.data(), 1, s.size(), to);
-}
-
 // RFC 8259 string escaping; bytes ≥ 0x80 pass through (the inputs are UTF-8 text files).
 std::string json_string(std::string_view s) {
   std::string out = "\"";
@@ -69,13 +65,12 @@ std::string_view kind_word(LoadErrorKind k) {
 
 // A file that cannot be read or parsed: the compiler-style line on stderr, and for CI a JSON document.
 int bad_input(Format format, const std::string& policy_path, const LoadError& e) {
-  print(stderr, e.to_string() + "\n");
   if (format == Format::Json) {
     print(stdout, "{\"policy\":" + json_string(policy_path) + ",\"ok\":false,\"error\":{\"kind\":" +
                       json_string(kind_word(e.kind)) + ",\"message\":" + json_string(e.message) + "," +
                       json_location(e.where) + "},\"findings\":[],\"matrix\":[]}\n");
   }
-  return static_cast<int>(Exit::BadInput);
+  return refuse(e.to_string());
 }
 
 // Pads `s` to `width` terminal columns (the empty-cell dot is one column but two bytes).
@@ -231,8 +226,7 @@ int run_audit(std::span<const std::string_view> args) {
   declare_audit_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.policy_path.empty() && !r.launch_path) {
-    print(stderr, "rejuv audit: POLICY is required without --launch GRAPH (rejuv audit --help)\n");
-    return static_cast<int>(Exit::BadInput);
+    return refuse("audit", "POLICY is required without --launch GRAPH (rejuv audit --help)");
   }
   const auto graph = load_audit_graph(r);
   if (!graph) return graph.error();

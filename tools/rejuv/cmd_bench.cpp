@@ -82,8 +82,8 @@ int bench_images(const std::string& graph_path, const ImageBench& b) {
   const std::uint64_t restarts = b.restarts;
   const std::uint64_t between = b.between;
   auto loaded = launch::load_launch(graph_path);
-  if (!loaded) return bad_input(loaded.error().to_string());
-  if (!loaded->graph.sr().enabled()) return bad_input("rejuv bench images: " + graph_path + " has sr.enabled false");
+  if (!loaded) return refuse(loaded.error().to_string());
+  if (!loaded->graph.sr().enabled()) return refuse("rejuv bench images: " + graph_path + " has sr.enabled false");
 
   kernel::KernelOptions options;
   options.time_master = kernel::TimeMaster::Manual;
@@ -180,7 +180,7 @@ int run_bench(std::span<const std::string_view> args) {
             "a new temporary folder");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (what == "realtime") return run_bench_realtime(graph_path, seconds, rounds, out);
-  if (what != "images") return bad_input("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime)");
+  if (what != "images") return refuse("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime)");
   if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt";
   return bench_images(graph_path, ImageBench{.cycles = cycles, .restarts = restarts, .between = between});
 }

@@ -300,25 +300,25 @@ int run_faults(std::span<const std::string_view> args) {
   declare_campaign_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.domain && *r.domain + r.jobs - 1 > launch::defaults::kMaxDdsDomainId) {
-    return bad_input("rejuv faults: --domain " + std::to_string(*r.domain) + " + --jobs " + std::to_string(r.jobs) +
+    return refuse("rejuv faults: --domain " + std::to_string(*r.domain) + " + --jobs " + std::to_string(r.jobs) +
                      " - 1 is above the highest DDS domain " + std::to_string(launch::defaults::kMaxDdsDomainId));
   }
   if (r.realtime && opts.given("--charge")) {
-    return bad_input("rejuv faults: --charge is lockstep's: in real time nothing is charged, a recovery lasts what it lasts");
+    return refuse("rejuv faults: --charge is lockstep's: in real time nothing is charged, a recovery lasts what it lasts");
   }
   const auto missions = plan_campaign(r);
-  if (!missions) return bad_input("rejuv faults: " + missions.error());
+  if (!missions) return refuse("rejuv faults: " + missions.error());
   std::error_code ec;
   fs::create_directories(r.out_dir, ec);
-  if (ec) return bad_input("rejuv faults: --out: cannot create '" + r.out_dir.string() + "': " + ec.message());
+  if (ec) return refuse("rejuv faults: --out: cannot create '" + r.out_dir.string() + "': " + ec.message());
   // The jobs' DDS domains (job_pool.hpp) held for the campaign, and SIGINT/SIGTERM to stop it.
   auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
-  if (!signals) return bad_input("rejuv faults: signalfd: " + signals.error().to_string());
+  if (!signals) return refuse("rejuv faults: signalfd: " + signals.error().to_string());
   auto pool = JobPool::create(PoolConfig{.workers = static_cast<unsigned>(r.jobs),
                                          .first_domain = r.domain ? std::optional(static_cast<std::uint32_t>(*r.domain))
                                                                   : std::nullopt,
                                          .signals = &*signals});
-  if (!pool) return bad_input("rejuv faults: no free DDS domain (" + pool.error() + "): give --domain");
+  if (!pool) return refuse("rejuv faults: no free DDS domain (" + pool.error() + "): give --domain");
   std::fprintf(stderr, "rejuv faults: %llu faults in %zu missions, %llu job%s, seed %llu%s%s\n",
                static_cast<unsigned long long>(r.injections), missions->size(), static_cast<unsigned long long>(r.jobs),
                r.jobs == 1 ? "" : "s", static_cast<unsigned long long>(r.seed), r.realtime ? ", real time" : "",
@@ -328,7 +328,7 @@ int run_faults(std::span<const std::string_view> args) {
   std::optional<BackgroundLoad> load;
   if (r.load) {
     auto started = BackgroundLoad::start(*r.load);
-    if (!started) return bad_input("rejuv faults: " + started.error());
+    if (!started) return refuse("rejuv faults: " + started.error());
     load.emplace(std::move(*started));
   }
   const auto done = run_jobs(r, *missions, *pool);

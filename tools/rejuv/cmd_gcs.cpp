@@ -237,7 +237,7 @@ class GroundStation {
       if (now >= next_heartbeat_) heartbeat(now);
       const Nanos wake = acked_at_ ? std::min(next_heartbeat_, *acked_at_ + plan_.watch) : std::min(next_heartbeat_, next_upload_);
       if (auto ready = sys::wait_fd(socket_.fd(), sys::WaitFor::Readable, std::max(Nanos{0}, wake - now)); !ready) {
-        return bad_input("rejuv gcs: " + ready.error().to_string());
+        return refuse("rejuv gcs: " + ready.error().to_string());
       }
       if (auto exit = drain()) return *exit;
     }
@@ -494,9 +494,9 @@ int run_gcs(std::span<const std::string_view> args) {
   declare_gcs_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   const auto plan = plan_gcs(r);
-  if (!plan) return bad_input("rejuv gcs: " + plan.error());
+  if (!plan) return refuse("rejuv gcs: " + plan.error());
   auto socket = sys::UdpSocket::bind(sys::UdpAddress::loopback(0), sys::Blocking::No);
-  if (!socket) return bad_input("rejuv gcs: " + socket.error().to_string());
+  if (!socket) return refuse("rejuv gcs: " + socket.error().to_string());
   GroundStation station(*plan, std::move(*socket));
   return station.run();
 }

@@ -22,13 +22,6 @@ namespace rejuv::cli {
 
 namespace {
 
-void print(std::FILE* to, std::string_view s) { std::fwrite(s.data(), 1, s.size(), to); }
-
-int bad_input(const std::string& message) {
-  print(stderr, "rejuv keys: " + message + "\n");
-  return static_cast<int>(Exit::BadInput);
-}
-
 constexpr std::string_view kSummary =
     "The DDS Security keystore of a graph across hosts (docs/across_hosts.md), in SROS2's layout:\n"
     "  rejuv keys init DIR                      a CA (EC prime256v1) for identities and permissions\n"
@@ -44,7 +37,7 @@ int keys_init(std::span<const std::string_view> args) {
                             "that holds one already.");
   opts.positional("DIR", dir, "the keystore folder (made if missing)");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (auto r = keys::init_keystore(dir); !r) return bad_input(r.error());
+  if (auto r = keys::init_keystore(dir); !r) return refuse("keys", r.error());
   print(stdout, "keys: CA made in " + dir + " (public/ca.cert.pem, private/ca.key.pem)\n");
   return static_cast<int>(Exit::Ok);
 }
@@ -70,18 +63,18 @@ void declare_hosts_options(Options& opts, HostsRequest& r) {
 // failure (reported).
 std::optional<int> load_grants(HostsRequest& r) {
   if (!std::filesystem::is_directory(r.dir)) {
-    return bad_input(r.dir + ": no such keystore folder; make one with `rejuv keys init " + r.dir + "`");
+    return refuse("keys", r.dir + ": no such keystore folder; make one with `rejuv keys init " + r.dir + "`");
   }
   const std::filesystem::path& launch_path = r.launch_path;
   auto g = launch::load_launch(launch_path);
-  if (!g) return bad_input(g.error().to_string());
+  if (!g) return refuse("keys", g.error().to_string());
   if (g->graph.hosts_size() == 0) {
-    return bad_input(launch_path.string() + ": the graph declares no `hosts { name address }`: nothing crosses "
+    return refuse("keys", launch_path.string() + ": the graph declares no `hosts { name address }`: nothing crosses "
                                             "between hosts, so there is nothing to secure");
   }
   auto pol = policy::load_policy(g->policy_path, g->policy_includes);
-  if (!pol) return bad_input(pol.error().to_string());
-  if (auto ok = policy::check_used_objects(*pol, *g); !ok) return bad_input(ok.error().to_string());
+  if (!pol) return refuse("keys", pol.error().to_string());
+  if (auto ok = policy::check_used_objects(*pol, *g); !ok) return refuse("keys", ok.error().to_string());
   const auto findings = policy::audit(*pol, *g);
   if (!findings.empty()) {
     for (const auto& f : findings) print(stderr, f.to_string() + "\n");
@@ -112,7 +105,7 @@ int keys_hosts(std::span<const std::string_view> args) {
                "An identity already there is kept; permissions and governance are written again.");
   if (auto exit = parse_hosts_request(opts, args, req)) return *exit;
   const auto domain_id = req.domain_id;
-  if (auto r = keys::write_enclaves(req.dir, req.grants, domain_id); !r) return bad_input(r.error());
+  if (auto r = keys::write_enclaves(req.dir, req.grants, domain_id); !r) return refuse("keys", r.error());
   for (const auto& h : req.grants) {
     const auto list = [](const std::vector<std::string>& v) {
       std::string s;
@@ -134,7 +127,7 @@ int keys_check(std::span<const std::string_view> args) {
                "1 on a mismatch (each one printed), 2 on bad input.");
   if (auto exit = parse_hosts_request(opts, args, req)) return *exit;
   auto mismatches = keys::check_enclaves(req.dir, req.grants, req.domain_id);
-  if (!mismatches) return bad_input(mismatches.error());
+  if (!mismatches) return refuse("keys", mismatches.error());
   for (const auto& m : *mismatches) print(stderr, "keys: " + m + "\n");
   if (!mismatches->empty()) {
     print(stdout, "keys: FAILED: " + req.dir + " does not match the policy of " + req.launch_path.string() + " (" +
@@ -157,7 +150,7 @@ int run_keys(std::span<const std::string_view> args) {
   if (args[0] == "init") return keys_init(args.subspan(1));
   if (args[0] == "hosts") return keys_hosts(args.subspan(1));
   if (args[0] == "check") return keys_check(args.subspan(1));
-  return bad_input("unknown subcommand '" + std::string(args[0]) + "': expected init, hosts or check (rejuv keys --help)");
+  return refuse("keys", "unknown subcommand '" + std::string(args[0]) + "': expected init, hosts or check (rejuv keys --help)");
 }
 
 }  // namespace rejuv::cli

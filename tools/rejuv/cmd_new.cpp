@@ -21,13 +21,6 @@ namespace rejuv::cli {
 
 namespace {
 
-void print(std::FILE* to, std::string_view s) { std::fwrite(s.data(), 1, s.size(), to); }
-
-int bad_input(const std::string& message) {
-  print(stderr, "rejuv new: " + message + "\n");
-  return static_cast<int>(Exit::BadInput);
-}
-
 // Services of the project's graphs: a new one of the same name would collide with them in a composed graph.
 constexpr std::array<std::string_view, 10> kProjectServices = {
     "sensors", "ekf2", "lqr_control", "safety_control", "gen_set_point", "commander", "checkpoint_p",
@@ -323,24 +316,24 @@ int run_new(std::span<const std::string_view> args) {
       .text("--topic", "TYPE", topic, "the IDL type of the topic it publishes (module::Struct)", "NAME::Status")
       .path("--out", "DIR", out, "where the files go", "./NAME");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
-  if (what != "service") return bad_input("unknown piece '" + what + "' (expected: service)");
+  if (what != "service") return refuse("new", "unknown piece '" + what + "' (expected: service)");
   Names n;
-  if (const auto error = names_of(name, topic, n)) return bad_input(*error);
+  if (const auto error = names_of(name, topic, n)) return refuse("new", *error);
 
   const std::filesystem::path dir = out ? *out : std::filesystem::path(name);
   std::error_code ec;
   if (std::filesystem::exists(dir, ec) &&
       (!std::filesystem::is_directory(dir, ec) || !std::filesystem::is_empty(dir, ec))) {
-    return bad_input(dir.string() + " exists and is not an empty folder: nothing written (choose --out DIR)");
+    return refuse("new", dir.string() + " exists and is not an empty folder: nothing written (choose --out DIR)");
   }
   std::filesystem::create_directories(dir, ec);
-  if (ec) return bad_input("cannot create " + dir.string() + ": " + ec.message());
+  if (ec) return refuse("new", "cannot create " + dir.string() + ": " + ec.message());
   for (const File& f : files_of(n)) {
     const std::filesystem::path path = dir / f.name;
     std::ofstream file(path, std::ios::binary);
     file << f.text;
     file.close();
-    if (!file) return bad_input("cannot write " + path.string());
+    if (!file) return refuse("new", "cannot write " + path.string());
   }
   print(stdout, "rejuv new: service \"" + n.name + "\" written to " + dir.string() + "/ (topic `" + n.topic +
                     "` of type " + n.scoped + ")\n"

@@ -138,10 +138,10 @@ std::string table_text(const std::string& graph, std::uint64_t seed, const std::
 
 // `rejuv report figures DIR`: the figures of an earlier `--out` run, from its files.
 int report_figures(const fs::path& dir) {
-  if (auto ok = check_run_dir(dir); !ok) return bad_input("rejuv report figures: " + ok.error());
+  if (auto ok = check_run_dir(dir); !ok) return refuse("rejuv report figures: " + ok.error());
   const auto summary = read_summary(dir / RunFiles::kSummary);
   if (!summary || (summary->runner() != "run" && summary->runner() != "sim")) {
-    return bad_input("rejuv report figures: " + (dir / RunFiles::kSummary).string() +
+    return refuse("rejuv report figures: " + (dir / RunFiles::kSummary).string() +
                      ": error: not the RunSummary JSON of `rejuv run` or `rejuv sim`");
   }
   const auto drawn = draw_figures(dir, plots_dir(), figure_run_of(*summary));
@@ -211,7 +211,7 @@ Result<RowResult, int> fly_row(const TableJob& job, std::size_t i) {
   c.sr = row.sr ? flight::SrSwitch::On : flight::SrSwitch::Off;
   c.attack.enabled = row.attack ? flight::AttackSwitch::On : flight::AttackSwitch::Off;
   const auto model = flight::run_simulation(c);
-  if (!model) return fail(bad_input("rejuv report: " + model.error().to_string()));
+  if (!model) return fail(refuse("rejuv report: " + model.error().to_string()));
   if (row.sr && row.attack && job.reused) {
     std::fprintf(stderr, "rejuv report: [%zu/4] %s: runtime row from %s\n", i + 1, row.label,
                  job.request.reuse_path->c_str());
@@ -238,15 +238,15 @@ int report_table(const ReportRequest& r) {
   flight::SimOverrides overrides;
   overrides.seed = r.seed_flag;
   auto loaded = load_with_attack(r.graph_path, r.attack_law, "rejuv report");
-  if (!loaded) return bad_input(loaded.error());
+  if (!loaded) return refuse(loaded.error());
   auto config = flight::config_from_launch(*loaded, overrides);
-  if (!config) return bad_input(config.error().to_string());
+  if (!config) return refuse(config.error().to_string());
   const auto reused = reused_row(r, *config);
-  if (!reused) return bad_input("rejuv report: " + reused.error());
+  if (!reused) return refuse("rejuv report: " + reused.error());
   const fs::path out = r.out_dir.value_or("out/table");
   std::error_code ec;
   fs::create_directories(out, ec);
-  if (ec) return bad_input("rejuv report: --out: cannot create '" + out.string() + "': " + ec.message());
+  if (ec) return refuse("rejuv report: --out: cannot create '" + out.string() + "': " + ec.message());
   // SIGINT/SIGTERM stop the mission in flight cleanly (forwarded to it), then the report.
   auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
   if (!signals) {
@@ -289,12 +289,12 @@ int run_report(std::span<const std::string_view> args) {
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.what == "figures") {
     if (r.seed_flag || r.out_dir || r.domain || r.reuse_path || r.attack_law) {
-      return bad_input("rejuv report figures: takes only DIR (--seed, --out, --domain, --attack, --sr-attack-json are "
+      return refuse("rejuv report figures: takes only DIR (--seed, --out, --domain, --attack, --sr-attack-json are "
                        "for table)");
     }
     return report_figures(r.graph_path);
   }
-  if (r.what != "table") return bad_input("rejuv report: unknown report '" + r.what + "' (expected: table or figures)");
+  if (r.what != "table") return refuse("rejuv report: unknown report '" + r.what + "' (expected: table or figures)");
   return report_table(r);
 }
 

@@ -214,14 +214,14 @@ int help_service(const std::string& name, const std::vector<std::string>& graph_
     auto loaded = launch::load_launch(std::span<const std::filesystem::path>(files));
     std::string graph_path;
     for (const std::string& p : graph_paths) graph_path += (graph_path.empty() ? "" : " + ") + p;
-    if (!loaded) return bad_input(loaded.error().to_string());
+    if (!loaded) return refuse(loaded.error().to_string());
     const proto::ServiceSpec* spec = launch::find_service(loaded->graph, name);
     if (spec == nullptr) {
       std::vector<std::string> names;
       for (const proto::ServiceSpec& s : loaded->graph.services()) names.push_back(s.name());
       std::string list;
       for (const std::string& n : names) list += (list.empty() ? "" : ", ") + n;
-      return bad_input("rejuv run: --help-service: " + graph_path + " has no service '" + name + "'" +
+      return refuse("rejuv run: --help-service: " + graph_path + " has no service '" + name + "'" +
                        did_you_mean(name, names) + "; its services: " + list);
     }
     executable = launch::resolve_executable(spec->executable(), service_dir());
@@ -235,12 +235,12 @@ int help_service(const std::string& name, const std::vector<std::string>& graph_
       executable = dir / ("rejuv_" + name);
     }
     if (!std::filesystem::exists(executable, ec)) {
-      return bad_input("rejuv run: --help-service: no service executable '" + name + "' in " + dir.string() +
+      return refuse("rejuv run: --help-service: no service executable '" + name + "' in " + dir.string() +
                        " (give a launch graph to name a service of it)");
     }
   }
   auto declared = launch::declared_params_of(executable);
-  if (!declared) return bad_input(declared.error().to_string());
+  if (!declared) return refuse(declared.error().to_string());
   if (!*declared) {
     std::printf("%s declares no parameters (no %s): its params are not checked\n", executable.string().c_str(),
                 launch::params_file_of(executable).string().c_str());
@@ -383,13 +383,13 @@ int finish_run(const RunRequest& r, kernel::Kernel& k, const kernel::KernelOptio
 int fly(const RunRequest& r, const kernel::KernelOptions& options, launch::LoadedLaunch loaded, RunReference reference) {
   RunOutputs outputs;
   if (auto opened = open_outputs("rejuv run", r.json_path, r.csv_path, outputs.json, outputs.csv); !opened) {
-    return bad_input(opened.error());
+    return refuse(opened.error());
   }
   RunRecorder recorder(std::move(reference), outputs.csv.get(),
                        isatty(STDERR_FILENO) == 1 ? RunRecorder::Progress::Every1s : RunRecorder::Progress::Every10s);
   if (r.out.dir) {
     auto opened = RunFiles::open(*r.out.dir, r.out.trace);
-    if (!opened) return bad_input("rejuv run: " + opened.error());
+    if (!opened) return refuse("rejuv run: " + opened.error());
     outputs.files.emplace(std::move(*opened));
     recorder.record_to(&*outputs.files);
   }
@@ -410,7 +410,7 @@ int fly(const RunRequest& r, const kernel::KernelOptions& options, launch::Loade
                                             .interval = std::chrono::milliseconds{r.ulog_interval_ms},
                                             .budget_bytes_per_s = r.ulog_budget_kb_s * 1000},
                                 observers);
-    if (!opened) return bad_input("rejuv run: --ulog: " + opened.error());
+    if (!opened) return refuse("rejuv run: --ulog: " + opened.error());
     ulog = std::move(*opened);
   }
   recorder.on_vehicle_lost([&k] { k.request_stop(); });  // as `rejuv sim`: V > lost_V
@@ -446,10 +446,10 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
   declare_run_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.help_service_name) return help_service(*r.help_service_name, r.graph_paths);
-  if (r.graph_paths.empty()) return bad_input("rejuv run: missing argument GRAPH (see 'rejuv run --help')");
-  if (auto ok = check_out_options(opts, r.out); !ok) return bad_input("rejuv run: " + ok.error());
+  if (r.graph_paths.empty()) return refuse("rejuv run: missing argument GRAPH (see 'rejuv run --help')");
+  if (auto ok = check_out_options(opts, r.out); !ok) return refuse("rejuv run: " + ok.error());
   auto options = kernel_options_for(r);
-  if (!options) return bad_input("rejuv run: " + options.error());
+  if (!options) return refuse("rejuv run: " + options.error());
   auto domain = lease_domain(*options);  // held until the run has ended
   if (!domain) {
     std::fprintf(stderr, "rejuv run: %s\n", domain.error().c_str());
@@ -457,15 +457,15 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
   }
 
   auto loaded = load_with_attack(r.graph_paths, r.switches.attack, "rejuv run");
-  if (!loaded) return bad_input(loaded.error());
+  if (!loaded) return refuse(loaded.error());
   for (const std::string& name : options->skip_services) {
     if (launch::find_service(loaded->graph, name) == nullptr) {
-      return bad_input("rejuv run: --skip: the graph has no service '" + name + "'");
+      return refuse("rejuv run: --skip: the graph has no service '" + name + "'");
     }
   }
   // The reference for the metrics: the same path, control design and P as `rejuv sim` (services/flight/sim).
   auto reference = run_reference(*loaded, options->seed);
-  if (!reference) return bad_input(reference.error());
+  if (!reference) return refuse(reference.error());
   if (r.switches.no_attack) reference->library_attack.reset();
   // The plant aligns as long as `rejuv sim` does (launch lockstep.alignment_s, passed by the kernel), so that both
   // fly from a converged estimate; --duration counts from the end of it.

@@ -23,8 +23,6 @@
 namespace rejuv::cli {
 namespace {
 
-void print(std::FILE* to, const std::string& text) { std::fputs(text.c_str(), to); }
-
 std::string describe(const proto::RunSummary& s) {
   char buf[1024];
   std::snprintf(buf, sizeof buf,
@@ -115,7 +113,7 @@ int fly_one(const SimRequest& r, const flight::SimConfig& config, SimOutputs& ou
     obs.sr_event = [files](const SrEvent& e) { files->sr_event(e); };
   }
   auto summary = flight::run_simulation(config, obs);
-  if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
+  if (!summary) return refuse("rejuv sim: " + summary.error().to_string());
   const bool out_ok = files == nullptr ||
                       finish_out_dir(*files, *summary, "rejuv sim", r.files_out.no_figures ? Figures::Skip : Figures::Draw);
   print(stdout, describe(*summary));
@@ -161,7 +159,7 @@ int fly_table(const flight::SimConfig& config, const SimOutputs& out, bool tty) 
     c.sr = row.sr;
     c.attack.enabled = row.attack;
     const auto summary = flight::run_simulation(c, progress_observers(row.label, tty));
-    if (!summary) return bad_input("rejuv sim: " + summary.error().to_string());
+    if (!summary) return refuse("rejuv sim: " + summary.error().to_string());
     results.push_back(*summary);
   }
   print(stdout, table_text(config, results));
@@ -185,20 +183,20 @@ int run_sim(std::span<const std::string_view> args) {
   declare_sim_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.table && (r.switches.no_sr || r.switches.no_attack || r.csv_path || r.files_out.dir)) {
-    return bad_input("rejuv sim: --table runs all four configurations; it cannot be combined with --no-sr, "
+    return refuse("rejuv sim: --table runs all four configurations; it cannot be combined with --no-sr, "
                      "--no-attack, --csv or --out");
   }
-  if (auto ok = check_out_options(opts, r.files_out); !ok) return bad_input("rejuv sim: " + ok.error());
+  if (auto ok = check_out_options(opts, r.files_out); !ok) return refuse("rejuv sim: " + ok.error());
   flight::SimOverrides overrides;
   overrides.seed = r.seed;
   if (r.switches.no_sr) overrides.sr = flight::SrSwitch::Off;
   if (r.switches.no_attack) overrides.attack = flight::AttackSwitch::Off;
   auto loaded = load_with_attack(r.graph_path, r.switches.attack, "rejuv sim");
-  if (!loaded) return bad_input(loaded.error());
+  if (!loaded) return refuse(loaded.error());
   auto config = flight::config_from_launch(*loaded, overrides);
-  if (!config) return bad_input(config.error().to_string());
+  if (!config) return refuse(config.error().to_string());
   auto out = open_sim_outputs(r);
-  if (!out) return bad_input(out.error());
+  if (!out) return refuse(out.error());
   const bool tty = isatty(STDERR_FILENO) == 1;
   return r.table ? fly_table(*config, *out, tty) : fly_one(r, *config, *out, tty);
 }

@@ -554,9 +554,9 @@ struct SoakTotals {
 // mission should). An exit code when the soak cannot go on (said on stderr).
 std::optional<int> fly_mission(const SoakRequest& r, const kernel::KernelOptions& options, Soak& soak, SoakTotals& t) {
   auto graph = soak_graph(r.graph_path);
-  if (!graph) return bad_input(graph.error());
+  if (!graph) return refuse(graph.error());
   auto reference = run_reference(*graph, options.seed);
-  if (!reference) return bad_input(reference.error());
+  if (!reference) return refuse(reference.error());
   kernel::KernelOptions o = options;
   if (r.one_kernel) o.duration = to_nanos(Seconds{kLimitS}) + reference->alignment;
   RunRecorder recorder(std::move(*reference), nullptr, RunRecorder::Progress::Off);
@@ -699,11 +699,11 @@ int run_soak(std::span<const std::string_view> args) {
   declare_soak_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.every > r.cycles) {
-    return bad_input("rejuv soak: --sample-every: expected 1..--cycles (" + std::to_string(r.cycles) + "), got " +
+    return refuse("rejuv soak: --sample-every: expected 1..--cycles (" + std::to_string(r.cycles) + "), got " +
                      std::to_string(r.every));
   }
   if (r.realtime && opts.given("--charge")) {
-    return bad_input("rejuv soak: --charge is lockstep's: in real time nothing is charged");
+    return refuse("rejuv soak: --charge is lockstep's: in real time nothing is charged");
   }
   if (r.realtime) r.one_kernel = true;
   kernel::KernelOptions options = kernel_options(r.flags);
@@ -714,12 +714,12 @@ int run_soak(std::span<const std::string_view> args) {
     return 1;
   }
   auto loaded = soak_graph(r.graph_path);
-  if (!loaded) return bad_input(loaded.error());
+  if (!loaded) return refuse(loaded.error());
   std::error_code ec;
   fs::create_directories(r.out, ec);
   const fs::path csv_path = r.out / "soak.csv";
   UniqueFile csv(std::fopen(csv_path.c_str(), "w"));
-  if (!csv) return bad_input("rejuv soak: cannot write " + csv_path.string());
+  if (!csv) return refuse("rejuv soak: cannot write " + csv_path.string());
   // One mission per kernel (default) or one kernel for the whole soak (--one-kernel: the mission, then a hover).
   if (r.one_kernel) options.stop_on_mission_done = false;
   Soak soak(r.cycles, r.every, r.realtime);

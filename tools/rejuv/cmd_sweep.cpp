@@ -139,31 +139,31 @@ int run_merge(std::span<const std::string_view> args) {
       .flag("--allow-unsafe", allow_unsafe, "exit 0 even when a cell left the safety set");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   auto plan = sweep::read_plan(dirs.front());
-  if (!plan) return bad_input("rejuv sweep merge: " + plan.error());
+  if (!plan) return refuse("rejuv sweep merge: " + plan.error());
   for (const std::string& d : dirs) {
     auto other = sweep::read_plan(d);
-    if (!other) return bad_input("rejuv sweep merge: " + other.error());
+    if (!other) return refuse("rejuv sweep merge: " + other.error());
     if (!sweep::same_plan(*plan, *other)) {
-      return bad_input("rejuv sweep merge: " + d + " holds another sweep than " + dirs.front() +
+      return refuse("rejuv sweep merge: " + d + " holds another sweep than " + dirs.front() +
                        " (graph, parameters, seeds, attacks or runners differ: compare their plan.json)");
     }
   }
   const fs::path out = out_dir.value_or(fs::path(dirs.front()));
   std::error_code ec;
   fs::create_directories(out / "cells", ec);
-  if (ec) return bad_input("rejuv sweep merge: --out: cannot create '" + out.string() + "': " + ec.message());
-  if (auto w = sweep::write_plan(out, *plan); !w) return bad_input("rejuv sweep merge: " + w.error());
+  if (ec) return refuse("rejuv sweep merge: --out: cannot create '" + out.string() + "': " + ec.message());
+  if (auto w = sweep::write_plan(out, *plan); !w) return refuse("rejuv sweep merge: " + w.error());
   std::size_t copied = 0;
   for (const std::string& d : dirs) {
     if (fs::equivalent(d, out, ec)) continue;
     for (const proto::SweepRecord& r : sweep::kept_records(d, *plan)) {
-      if (auto w = sweep::write_record(out, r); !w) return bad_input("rejuv sweep merge: " + w.error());
+      if (auto w = sweep::write_record(out, r); !w) return refuse("rejuv sweep merge: " + w.error());
       ++copied;
     }
   }
   std::fprintf(stderr, "rejuv sweep merge: %zu records from %zu folders into %s\n", copied, dirs.size(), out.c_str());
   const auto bad = write_outputs(out, *plan);
-  if (!bad) return bad_input("rejuv sweep merge: " + bad.error());
+  if (!bad) return refuse("rejuv sweep merge: " + bad.error());
   const proto::SweepReport report = sweep::aggregate(*plan, sweep::kept_records(out, *plan));
   const bool unsafe = unsafe_is_finding(*bad, allow_unsafe, "rejuv sweep merge");
   return static_cast<int>(bad->bad == 0 && report.missing() == 0 && !unsafe ? Exit::Ok : Exit::Findings);
@@ -356,19 +356,19 @@ int run_sweep(std::span<const std::string_view> args) {
   declare_sweep_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.params.empty() || r.params.size() > 2) {
-    return bad_input("rejuv sweep: expected one or two --param PATH=VALUES, got " + std::to_string(r.params.size()));
+    return refuse("rejuv sweep: expected one or two --param PATH=VALUES, got " + std::to_string(r.params.size()));
   }
   auto loaded = launch::load_launch(r.graph_path);
-  if (!loaded) return bad_input(loaded.error().to_string());
+  if (!loaded) return refuse(loaded.error().to_string());
   const auto plan = plan_sweep(r, loaded->graph);
-  if (!plan) return bad_input("rejuv sweep: " + plan.error());
-  if (auto ready = prepare_folder(r, *plan); !ready) return bad_input("rejuv sweep: " + ready.error());
+  if (!plan) return refuse("rejuv sweep: " + plan.error());
+  if (auto ready = prepare_folder(r, *plan); !ready) return refuse("rejuv sweep: " + ready.error());
   auto cells = write_cell_launches(r.dir, loaded->graph, *plan);
-  if (!cells) return bad_input("rejuv sweep: " + cells.error());
+  if (!cells) return refuse("rejuv sweep: " + cells.error());
   const Todo todo = tasks_to_fly(r, *plan);
   announce(r, *plan, todo, *cells);
   auto signals = sys::SignalFd::create({SIGINT, SIGTERM});
-  if (!signals) return bad_input("rejuv sweep: signalfd: " + signals.error().to_string());
+  if (!signals) return refuse("rejuv sweep: signalfd: " + signals.error().to_string());
   const auto outcome = sweep::execute(*plan, *cells, todo.tasks, todo.kept,
                                       sweep::ExecConfig{.dir = r.dir,
                                                         .jobs = static_cast<unsigned>(r.jobs),

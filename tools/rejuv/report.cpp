@@ -11,11 +11,6 @@
 
 namespace rejuv::cli {
 
-int bad_input(const std::string& message) {
-  std::fprintf(stderr, "%s\n", message.c_str());
-  return static_cast<int>(Exit::BadInput);
-}
-
 const char* mode_name(SrMode mode) {
   switch (mode) {
     case SrMode::MC: return "MC";

@@ -13,8 +13,6 @@
 
 namespace rejuv::cli {
 
-// Prints `message` on stderr and returns the bad-input exit code.
-int bad_input(const std::string& message);
 // p50, max and count of `values` (empty: all zero).
 void fill_percentiles(proto::Percentiles& out, std::vector<double> values);
 // The same of the kernel's bounded durations: count and max exact, p50 of the kept sample.
