@@ -51,7 +51,7 @@ const report = {
   upload_transmissions: 0, upload_unanswered: null, distance_at_ack_m: null, min_distance_after_ack_m: null, reached_target: false,
   rollback_statustext: null, statustexts: 0, local_position_ned: 0,
   vehicle_frames: 0, vehicle_frames_verified: 0,
-  autopilot_version_capabilities: null, request_acks: {}, home: null, params: {}, param_count: null,
+  autopilot_version_capabilities: null, request_acks: {}, home: null, params: {}, param_types: {}, param_count: null,
   download_before: null, download_after: [], item_reached: [], min_global_distance_m: null, rtl_ack: null,
   min_home_distance_after_rtl_m: null, returned_home: false,
   clear_ack: null, download_after_clear: null, hold_offset_m: null,
@@ -277,7 +277,16 @@ function onQgc(clazz, data) {
       nextQgcStep();
     } else if (step === 'params' && clazz === common.ParamValue) {
       report.param_count = data.paramCount;
-      report.params[String(data.paramId).replace(/\0.*$/, '')] = data.paramValue;
+      const name = String(data.paramId).replace(/\0.*$/, '');
+      report.param_types[name] = data.paramType;
+      // MAV_PARAM_TYPE_INT32 (6): its four bytes in param_value (AUTOPILOT_VERSION says PARAM_ENCODE_BYTEWISE).
+      if (data.paramType === 6) {
+        const b = Buffer.alloc(4);
+        b.writeFloatLE(data.paramValue);
+        report.params[name] = b.readInt32LE();
+      } else {
+        report.params[name] = data.paramValue;
+      }
       if (Object.keys(report.params).length === report.param_count) nextQgcStep();
     } else if (step === 'download_before') {
       onDownload(clazz, data, (items) => { report.download_before = items.length; nextQgcStep(); });

@@ -102,8 +102,17 @@ inline void expect_qgc_session(const std::string& client_text, const proto::RunS
   EXPECT_NE(capabilities & 8U, 0U) << client_text;
   EXPECT_NEAR(json_at(report, "home").struct_value().fields().at("lat").number_value(), 47.397742, 1e-6) << client_text;
   EXPECT_NEAR(json_at(report, "home").struct_value().fields().at("alt_m").number_value(), 488, 1e-3) << client_text;
-  EXPECT_GE(json_at(report, "param_count").number_value(), 7) << client_text;
+  EXPECT_GE(json_at(report, "param_count").number_value(), 20) << client_text;
   EXPECT_EQ(json_at(report, "params").struct_value().fields_size(), json_at(report, "param_count").number_value());
+  // The SR scheme's launch values (launch/quad_square_paper.launch.pbtxt's sr block), integers as INT32.
+  const auto& params = json_at(report, "params").struct_value().fields();
+  const auto& types = json_at(report, "param_types").struct_value().fields();
+  const auto param = [&](const std::string& name) { return params.contains(name) ? params.at(name).number_value() : -1.0; };
+  EXPECT_NEAR(param("RJ_SR_T_MC"), 0.3, 1e-6) << client_text;
+  EXPECT_NEAR(param("RJ_SR_RHO_S"), 0.0894, 1e-6) << client_text;
+  EXPECT_EQ(param("RJ_SR_KEEP_GEN"), 2) << client_text;
+  EXPECT_EQ(param("RJ_SR_ENABLED"), 1) << client_text;
+  EXPECT_EQ(types.contains("RJ_SR_KEEP_GEN") ? types.at("RJ_SR_KEEP_GEN").number_value() : -1, 6) << "INT32";
   EXPECT_GE(json_at(report, "download_before").number_value(), 1) << "the launch mission";
   // The flight: accepted, reached as an item and by position, downloaded as uploaded, RTL flown.
   EXPECT_EQ(json_at(report, "upload_ack").number_value(), 0) << "MAV_MISSION_ACCEPTED";

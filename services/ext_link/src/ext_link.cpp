@@ -1,9 +1,12 @@
 #include "rejuv/services/ext_link/ext_link.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
+
+#include "rejuv/core/graph_values.hpp"
 
 namespace rejuv::services {
 
@@ -32,7 +35,9 @@ Result<ExtLink, flight_io::InputFailure> ExtLink::from_params(const flight_io::P
   if (!mission) return fail(std::move(mission.error()));
   auto bounds = flight_io::upload_bounds(params);
   if (!bounds) return fail(std::move(bounds.error()));
-  return ExtLink(UploadGuard{.home = mission->waypoints.front(), .bounds = *bounds}, *mission);
+  ExtLink link(UploadGuard{.home = mission->waypoints.front(), .bounds = *bounds}, *mission);
+  if (auto sr = link.set_sr_values(params); !sr) return fail(std::move(sr.error()));
+  return link;
 }
 
 namespace {
@@ -177,7 +182,69 @@ std::string name_of(const std::array<char, 16>& id) {
   return std::string(id.begin(), std::find(id.begin(), id.end(), '\0'));
 }
 
+namespace gv = rejuv::graph_values;
+
+// The SR scheme's graph-wide keys the ground sees (docs/mavlink.md "Parameters"), each under an RJ_SR_ name: the
+// cycle (T_MC, T_est, t_min, the check's period), the sets (ρ_M, ρ_s, the box that scales P), the restricted
+// controls Ū and the images kept (K). The estimator's re-arm σs are left out: internal to ekf2's restart.
+using AnyKey = std::variant<const gv::Key<bool>*, const gv::Key<Nanos>*, const gv::Key<std::uint32_t>*,
+                            const gv::Key<double>*>;
+struct SrParamName {
+  std::string_view name;
+  AnyKey key;
+};
+constexpr std::array<SrParamName, 13> kSrParams{{
+    {"RJ_SR_ENABLED", &gv::kEnabled},
+    {"RJ_SR_T_MC", &gv::kTmc},
+    {"RJ_SR_T_EST", &gv::kTest},
+    {"RJ_SR_T_MIN", &gv::kTmin},
+    {"RJ_SR_CHK_PERIOD", &gv::kCheckPeriod},
+    {"RJ_SR_RHO_M", &gv::kRhoM},
+    {"RJ_SR_RHO_S", &gv::kRhoS},
+    {"RJ_SR_U_RESTR", &gv::kRestrictedLimitFraction},
+    {"RJ_SR_KEEP_GEN", &gv::kKeepGenerations},
+    {"RJ_SR_BOX_POS", &gv::kBoxPosition},
+    {"RJ_SR_BOX_VEL", &gv::kBoxVelocity},
+    {"RJ_SR_BOX_ANG", &gv::kBoxAngle},
+    {"RJ_SR_BOX_RATE", &gv::kBoxRate},
+}};
+static_assert(std::ranges::all_of(kSrParams, [](const SrParamName& p) { return p.name.size() <= 16; }),
+              "PARAM_VALUE.param_id holds 16 characters");
+
+// A key's value as a param's: a switch and a count as INT32, a duration in seconds, the rest in their unit.
+std::variant<float, std::int32_t> param_of(bool on) { return std::int32_t{on ? 1 : 0}; }
+std::variant<float, std::int32_t> param_of(Nanos t) { return static_cast<float>(to_seconds(t).count()); }
+std::variant<float, std::int32_t> param_of(std::uint32_t n) { return static_cast<std::int32_t>(n); }
+std::variant<float, std::int32_t> param_of(double v) { return static_cast<float>(v); }
+
 }  // namespace
+
+std::uint8_t ExtLink::Param::type() const {
+  constexpr std::uint8_t kReal32 = 9, kInt32 = 6;  // MAV_PARAM_TYPE
+  return std::holds_alternative<std::int32_t>(value) ? kInt32 : kReal32;
+}
+
+float ExtLink::Param::wire_value() const {
+  return std::visit([](auto v) { return std::bit_cast<float>(v); }, value);
+}
+
+Result<void, flight_io::InputFailure> ExtLink::set_sr_values(const flight_io::Params& params) {
+  std::vector<Param> listed;
+  for (const SrParamName& p : kSrParams) {
+    auto value = std::visit(
+        [&](const auto* key) -> Result<std::variant<float, std::int32_t>, flight_io::InputFailure> {
+          auto v = flight_io::read(params, *key);
+          if (!v) return fail(std::move(v.error()));
+          return param_of(*v);
+        },
+        p.key);
+    if (!value) return fail(std::move(value.error()));
+    listed.push_back(Param{.name = std::string(p.name), .value = *value});
+  }
+  sr_params_ = std::move(listed);
+  rebuild_params();
+  return {};
+}
 
 void ExtLink::set_telemetry_period(double period_s) {
   telemetry_period_s_ = period_s;
@@ -197,15 +264,16 @@ void ExtLink::rebuild_params() {
     params_.push_back(Param{.name = "RJ_HOME_LON", .value = static_cast<float>(home_->lon_deg)});
     params_.push_back(Param{.name = "RJ_HOME_ALT", .value = static_cast<float>(home_->alt_m)});
   }
+  params_.insert(params_.end(), sr_params_.begin(), sr_params_.end());
 }
 
 mav::ParamValue ExtLink::param_value(std::size_t index) const {
   const Param& p = params_[index];
-  return mav::ParamValue{.param_value = p.value,
+  return mav::ParamValue{.param_value = p.wire_value(),
                          .param_count = static_cast<std::uint16_t>(params_.size()),
                          .param_index = static_cast<std::uint16_t>(index),
                          .param_id = param_id_of(p.name),
-                         .param_type = p.type};
+                         .param_type = p.type()};
 }
 
 ExtLink::Flown ExtLink::flown() const {
@@ -233,9 +301,10 @@ mav::Message ExtLink::home_position(std::uint32_t time_boot_ms) const {
 
 mav::Message ExtLink::autopilot_version() const {
   // MAV_PROTOCOL_CAPABILITY bits of what is answered here: PARAM_FLOAT (2), MISSION_INT (4), COMMAND_INT (8),
-  // MAVLINK2 (8192). Not MISSION_FLOAT (MISSION_ITEM is not accepted), no fence or rally, no offboard control.
+  // PARAM_ENCODE_BYTEWISE (16: an INT32 param's bytes in param_value, as PX4), MAVLINK2 (8192). Not MISSION_FLOAT
+  // (MISSION_ITEM is not accepted), no fence or rally, no offboard control.
   mav::AutopilotVersion v{};
-  v.capabilities = 2U | 4U | 8U | 8192U;
+  v.capabilities = 2U | 4U | 8U | 16U | 8192U;
   v.uid = kVehicleSystem;
   return v;
 }

@@ -5,11 +5,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <map>
+#include <string>
 #include <numbers>
 #include <string_view>
 #include <vector>
 
+#include "rejuv/flight_io/params.hpp"
 #include "rejuv/mavlink/mission.hpp"
 #include "rejuv/services/ext_link/ext_link.hpp"
 
@@ -493,6 +497,59 @@ TEST(ExtLink, Params_ListedAndNotSettable) {
   auto again = link.on_datagram(bytes_of(read), Nanos{0});
   ASSERT_TRUE(again.has_value());
   EXPECT_FLOAT_EQ(all_of<mav::ParamValue>(again->replies).at(0).param_value, 0.05F);
+}
+
+// The whole list from the params the kernel passes: the SR scheme's values (graph_values keys) as RJ_SR_*,
+// switches and counts as INT32 (their bytes in param_value), durations in seconds; a key the kernel did not pass
+// shows its default; a value outside its key's range refuses the service, naming the key.
+TEST(ExtLink, FromParams_SrValuesListedTypedAndByteWise) {
+  auto made = ExtLink::from_params(flight_io::Params::from_table({{"sr.t_mc_s", std::int64_t{250'000'000}},
+                                                                  {"sr.keep_generations", std::int64_t{3}},
+                                                                  {"sr.rho_m", 0.2},
+                                                                  {"sr.enabled", std::int64_t{0}}}));
+  ASSERT_TRUE(made.has_value()) << made.error().to_string();
+  ExtLink link = std::move(*made);
+  auto list = link.on_datagram(bytes_of(mav::ParamRequestList{.target_system = 1, .target_component = 1}), Nanos{0});
+  ASSERT_TRUE(list.has_value());
+  std::map<std::string, mav::ParamValue> by_name;
+  for (const mav::ParamValue& v : all_of<mav::ParamValue>(list->replies)) {
+    by_name[std::string(v.param_id.begin(), std::find(v.param_id.begin(), v.param_id.end(), '\0'))] = v;
+  }
+  ASSERT_EQ(by_name.size(), link.params().size()) << "every name once";
+  ASSERT_EQ(by_name.count("RJ_SR_T_MC"), 1U);
+  EXPECT_EQ(by_name["RJ_SR_T_MC"].param_type, 9U) << "REAL32";
+  EXPECT_FLOAT_EQ(by_name["RJ_SR_T_MC"].param_value, 0.25F);
+  EXPECT_FLOAT_EQ(by_name["RJ_SR_RHO_M"].param_value, 0.2F);
+  EXPECT_FLOAT_EQ(by_name["RJ_SR_T_EST"].param_value, 3.0F) << "not passed: the key's default";
+  EXPECT_EQ(by_name["RJ_SR_KEEP_GEN"].param_type, 6U) << "INT32";
+  EXPECT_EQ(std::bit_cast<std::int32_t>(by_name["RJ_SR_KEEP_GEN"].param_value), 3);
+  EXPECT_EQ(by_name["RJ_SR_ENABLED"].param_type, 6U);
+  EXPECT_EQ(std::bit_cast<std::int32_t>(by_name["RJ_SR_ENABLED"].param_value), 0);
+  EXPECT_FLOAT_EQ(by_name["RJ_SR_CHK_PERIOD"].param_value, 0.002F);
+  EXPECT_FLOAT_EQ(by_name["NAV_ACC_RAD"].param_value, 0.05F);
+  for (const auto& [name, value] : by_name) EXPECT_LE(name.size(), 16U);
+  // PARAM_SET of an INT32 one: refused, answered with the unchanged value and its type.
+  mav::ParamSet set{.param_value = std::bit_cast<float>(std::int32_t{5}), .target_system = 1, .target_component = 1,
+                    .param_id = by_name["RJ_SR_KEEP_GEN"].param_id, .param_type = 6};
+  auto r = link.on_datagram(bytes_of(set), Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  const auto answered = all_of<mav::ParamValue>(r->replies);
+  ASSERT_EQ(answered.size(), 1U);
+  EXPECT_EQ(std::bit_cast<std::int32_t>(answered[0].param_value), 3);
+  EXPECT_EQ(answered[0].param_type, 6U);
+}
+
+TEST(ExtLink, FromParams_SrValueOutOfItsRange_RefusedNamingTheKey) {
+  auto made = ExtLink::from_params(flight_io::Params::from_table({{"sr.keep_generations", std::int64_t{40}}}));
+  ASSERT_FALSE(made.has_value());
+  EXPECT_NE(made.error().to_string().find("sr.keep_generations"), std::string::npos) << made.error().to_string();
+}
+
+TEST(ExtLink, AutopilotVersion_SaysParamsAreEncodedByteWise) {
+  ExtLink link = guarded_link();
+  auto r = link.on_datagram(bytes_of(command(512, 148)), Nanos{0});
+  ASSERT_TRUE(r.has_value());
+  EXPECT_NE(all_of<mav::AutopilotVersion>(r->replies).at(0).capabilities & 16U, 0U) << "PARAM_ENCODE_BYTEWISE";
 }
 
 TEST(ExtLink, TelemetryWithHomeAndGps_HomeGpsHealthAndLandedState) {

@@ -24,7 +24,8 @@
 //   ground → MISSION_SET_CURRENT        MISSION_CURRENT unchanged (the path is flown in order) and a STATUSTEXT
 //   ground → COMMAND_LONG / COMMAND_INT COMMAND_ACK (commands()); MAV_CMD_NAV_RETURN_TO_LAUNCH is published as a
 //                           one-waypoint mission to home on mission_upload, through commander's checks.
-//   ground → PARAM_REQUEST_LIST / _READ / PARAM_SET   PARAM_VALUE from params(); every one is read-only.
+//   ground → PARAM_REQUEST_LIST / _READ / PARAM_SET   PARAM_VALUE from params(): the launch values the ground
+//                           may want (mission, geofence, home, telemetry, the SR scheme's); every one is read-only.
 //   (timer)                 HEARTBEAT, SYS_STATUS, MISSION_CURRENT at 1 Hz; LOCAL_POSITION_NED and ATTITUDE
 //                           every telemetry_period (and GLOBAL_POSITION_INT, given a home on Earth);
 //                           MISSION_ITEM_REACHED when the setpoint moves on; STATUSTEXT for SR mode changes, rollbacks and security
@@ -41,6 +42,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "rejuv/core/ids.hpp"
@@ -90,14 +92,22 @@ class ExtLink {
   // The latest setpoint x_sp (main.cpp, before each datagram; telemetry() too): where a clear holds.
   void observe_setpoint(const rejuv_msg_Setpoint& setpoint);
 
-  // One parameter of the parameter protocol: a PX4-style name (≤ 16 characters), its value as a float, and
-  // the launch param it is (docs/mavlink.md "Parameters"). None is settable in flight.
+  // One parameter of the parameter protocol: a PX4-style name (≤ 16 characters) and the launch value it shows
+  // (docs/mavlink.md "Parameters"), a float or an integer. None is settable in flight.
   struct Param {
     std::string name;
-    float value = 0;
-    std::uint8_t type = 9;  // MAV_PARAM_TYPE_REAL32
+    std::variant<float, std::int32_t> value{0.0F};
+    // MAV_PARAM_TYPE: REAL32 (9) for a float, INT32 (6) for an integer.
+    [[nodiscard]] std::uint8_t type() const;
+    // PARAM_VALUE.param_value: a float as it is, an integer's four bytes as they are (PX4's
+    // MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE, mavlink.io "Parameter Protocol", "Parameter Encoding").
+    [[nodiscard]] float wire_value() const;
   };
   [[nodiscard]] const std::vector<Param>& params() const { return params_; }
+  // The SR scheme's graph-wide values (rejuv/core/graph_values.hpp) as the kernel passed them to ext_link (each
+  // key's default where it passed none), listed as the RJ_SR_* params; a value outside its key's range is
+  // refused, naming the key. Without this call (a unit test's ExtLink) no RJ_SR_* param is listed.
+  [[nodiscard]] Result<void, flight_io::InputFailure> set_sr_values(const flight_io::Params& params);
   void set_telemetry_period(double period_s);
   [[nodiscard]] static Result<ExtLink, flight_io::InputFailure> from_params(const flight_io::Params& params);
 
@@ -210,6 +220,7 @@ class ExtLink {
   std::optional<flight_io::MissionSpec> kept_{};
   std::optional<double> last_forwarded_radius_m_{};
   double telemetry_period_s_ = 0.1;
+  std::vector<Param> sr_params_{};  // the RJ_SR_* params (set_sr_values)
   std::vector<Param> params_{};
   bool reported_done_ = false;  // MISSION_ITEM_REACHED for the last item was sent
   std::uint8_t next_seq_ = 0;
