@@ -122,8 +122,9 @@ int serve(sdk::Service& svc) {
   // The first cycle at the mission's t = 0, as the simulation boots (docs/design.md §6: SR starts with the flight; the
   // kernel passes the end of the plant's alignment on its clock). Never before the clock starts (every service
   // is Ready then).
-  const Nanos flight_start = std::chrono::round<Nanos>(Seconds{svc.param("flight.start_s", 0.0)});
-  auto boot = svc.after(std::max(Nanos{1}, flight_start - svc.now()), [&] { manager.start(); });
+  const auto flight_start = flight_io::read(params, graph_values::kFlightStart);
+  if (!svc.require(flight_start, "bad params")) return 1;
+  auto boot = svc.after(std::max(Nanos{1}, *flight_start - svc.now()), [&] { manager.start(); });
   if (!svc.require(boot, "timer")) return 1;
   return svc.run();
 }

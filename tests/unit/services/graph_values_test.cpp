@@ -61,6 +61,7 @@ TEST(GraphValues, EveryKey_KernelToService_RoundTrips) {
   expect_round_trip(gv::kBoxRate, 3.0);
   expect_round_trip(gv::kRearmEnabled, false);
   for (const gv::Key<double>* key : gv::kRearmStds) expect_round_trip(*key, key->fallback * 3.0);
+  expect_round_trip(gv::kFlightStart, Nanos{4'000'000'003});
 }
 
 TEST(GraphValues, Duration_CrossesAsWholeNanoseconds) {
@@ -82,7 +83,7 @@ TEST(GraphValues, Duration_AsDouble_RefusedNamingTheKey) {
 }
 
 TEST(GraphValues, DurationOutOfRange_RefusedNamingKeyValueAndRange) {
-  for (const gv::Key<Nanos>* key : {&gv::kTmc, &gv::kTest, &gv::kTmin, &gv::kCheckPeriod}) {
+  for (const gv::Key<Nanos>* key : {&gv::kTmc, &gv::kTest, &gv::kTmin, &gv::kCheckPeriod, &gv::kFlightStart}) {
     const Nanos too_long = key->range.max + 1ns;
     const auto v = read(received(*key, too_long), *key);
     ASSERT_FALSE(v) << key->name;
@@ -131,6 +132,7 @@ TEST(GraphValues, MissingKey_GivesTheTablesDefault) {
   EXPECT_EQ(*read(none, gv::kTmin), 20ms);
   EXPECT_EQ(*read(none, gv::kCheckPeriod), 2ms);
   EXPECT_EQ(*read(none, gv::kKeepGenerations), 2U);
+  EXPECT_EQ(*read(none, gv::kFlightStart), Nanos{0});
   for (const gv::Key<double>* key : {&gv::kRhoM, &gv::kRhoS, &gv::kRestrictedLimitFraction, &gv::kBoxPosition,
                                      &gv::kBoxVelocity, &gv::kBoxAngle, &gv::kBoxRate}) {
     EXPECT_EQ(*read(none, *key), key->fallback) << key->name;
@@ -160,7 +162,9 @@ TEST(GraphValues, EveryDefault_IsInsideItsRange) {
 TEST(GraphValues, Table_HasNoDuplicateName) {
   const std::set<std::string_view> names(gv::kAllNames.begin(), gv::kAllNames.end());
   EXPECT_EQ(names.size(), gv::kAllNames.size());
-  for (std::string_view name : gv::kAllNames) EXPECT_TRUE(name.starts_with("sr.")) << name;
+  for (std::string_view name : gv::kAllNames) {
+    EXPECT_TRUE(name.starts_with("sr.") || name.starts_with("flight.")) << name;
+  }
 }
 
 TEST(GraphValues, RearmStd_FindsEachFieldByName) {

@@ -1,5 +1,6 @@
 // The graph-wide values of the SR scheme (§II, §IV-A, §V-B, docs/design.md §10): one table of every key the
-// launch file's `sr` block sets and the kernel passes to every service as a boot param. Each key is a typed
+// launch file's `sr` block sets and the kernel passes to every service as a boot param, and of the flight's start
+// the kernel derives. Each key is a typed
 // descriptor (Key<T>) with its name, the paper's symbol, its quantity and unit, the default a service uses when
 // the kernel passes none, and its range. The launch loader checks a file's field against the key's range, the
 // kernel sends with encode(key, value), a service reads with read(key, value), and the flight libraries take
@@ -109,6 +110,11 @@ inline constexpr Key<double> kRearmGyroBiasStd{
 inline constexpr Key<double> kRearmAccelBiasStd{
     "sr.ekf_rearm.accel_bias_std_m_s2", "σ_ba", Quantity::Acceleration, 0.02, {0.0, true, kUnbounded, true}};
 
+// The mission's t = 0 on the kernel clock: the end of the plant's alignment, where SR starts (docs/design.md §6);
+// 0 without a plant. Not a launch field: the kernel derives it. At most the launch loader's longest duration.
+inline constexpr Key<Nanos> kFlightStart{
+    "flight.start_s", "flight start", Quantity::Duration, 0ns, {0ns, false, 1'000'000s, false}};
+
 // The estimator re-arm's 1σ keys, in idl/launch.proto EstimatorRearm's order.
 inline constexpr std::array<const Key<double>*, 5> kRearmStds{&kRearmPositionStd, &kRearmVelocityStd,
                                                               &kRearmAttitudeStd, &kRearmGyroBiasStd,
@@ -117,12 +123,12 @@ inline constexpr std::array<const Key<double>*, 5> kRearmStds{&kRearmPositionStd
 [[nodiscard]] const Key<double>* rearm_std(std::string_view field);
 
 // Every key's name, for the tests that each is spelt once.
-inline constexpr std::array<std::string_view, 19> kAllNames{
+inline constexpr std::array<std::string_view, 20> kAllNames{
     kEnabled.name,          kTmc.name,          kTest.name,          kRhoM.name,         kRhoS.name,
     kTmin.name,             kCheckPeriod.name,  kKeepGenerations.name, kRestrictedLimitFraction.name,
     kBoxPosition.name,      kBoxVelocity.name,  kBoxAngle.name,      kBoxRate.name,      kRearmEnabled.name,
     kRearmPositionStd.name, kRearmVelocityStd.name, kRearmAttitudeStd.name, kRearmGyroBiasStd.name,
-    kRearmAccelBiasStd.name};
+    kRearmAccelBiasStd.name, kFlightStart.name};
 
 // The key's name less its "sr." prefix (and "box." / "ekf_rearm."): the field as the launch file's block writes it.
 [[nodiscard]] std::string_view field_of(std::string_view name);
