@@ -194,7 +194,7 @@ struct SrParamName {
   AnyKey key;
 };
 constexpr std::array<SrParamName, 13> kSrParams{{
-    {"RJ_SR_ENABLED", &gv::kEnabled},
+    {"RJ_SR_ENABLED", &gv::kEnabled},  // first: alone when SR is off
     {"RJ_SR_T_MC", &gv::kTmc},
     {"RJ_SR_T_EST", &gv::kTest},
     {"RJ_SR_T_MIN", &gv::kTmin},
@@ -229,6 +229,14 @@ float ExtLink::Param::wire_value() const {
 }
 
 Result<void, flight_io::InputFailure> ExtLink::set_sr_values(const flight_io::Params& params) {
+  auto enabled = flight_io::read(params, gv::kEnabled);
+  if (!enabled) return fail(std::move(enabled.error()));
+  if (!*enabled) {
+    // A run without SR: the scheme's other values act on nothing (a graph without an `sr` block passes zeros).
+    sr_params_ = {Param{.name = std::string(kSrParams.front().name), .value = param_of(false)}};
+    rebuild_params();
+    return {};
+  }
   std::vector<Param> listed;
   for (const SrParamName& p : kSrParams) {
     auto value = std::visit(

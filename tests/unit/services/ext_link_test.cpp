@@ -506,7 +506,7 @@ TEST(ExtLink, FromParams_SrValuesListedTypedAndByteWise) {
   auto made = ExtLink::from_params(flight_io::Params::from_table({{"sr.t_mc_s", std::int64_t{250'000'000}},
                                                                   {"sr.keep_generations", std::int64_t{3}},
                                                                   {"sr.rho_m", 0.2},
-                                                                  {"sr.enabled", std::int64_t{0}}}));
+                                                                  {"sr.enabled", std::int64_t{1}}}));
   ASSERT_TRUE(made.has_value()) << made.error().to_string();
   ExtLink link = std::move(*made);
   auto list = link.on_datagram(bytes_of(mav::ParamRequestList{.target_system = 1, .target_component = 1}), Nanos{0});
@@ -524,7 +524,7 @@ TEST(ExtLink, FromParams_SrValuesListedTypedAndByteWise) {
   EXPECT_EQ(by_name["RJ_SR_KEEP_GEN"].param_type, 6U) << "INT32";
   EXPECT_EQ(std::bit_cast<std::int32_t>(by_name["RJ_SR_KEEP_GEN"].param_value), 3);
   EXPECT_EQ(by_name["RJ_SR_ENABLED"].param_type, 6U);
-  EXPECT_EQ(std::bit_cast<std::int32_t>(by_name["RJ_SR_ENABLED"].param_value), 0);
+  EXPECT_EQ(std::bit_cast<std::int32_t>(by_name["RJ_SR_ENABLED"].param_value), 1);
   EXPECT_FLOAT_EQ(by_name["RJ_SR_CHK_PERIOD"].param_value, 0.002F);
   EXPECT_FLOAT_EQ(by_name["NAV_ACC_RAD"].param_value, 0.05F);
   for (const auto& [name, value] : by_name) EXPECT_LE(name.size(), 16U);
@@ -537,6 +537,21 @@ TEST(ExtLink, FromParams_SrValuesListedTypedAndByteWise) {
   ASSERT_EQ(answered.size(), 1U);
   EXPECT_EQ(std::bit_cast<std::int32_t>(answered[0].param_value), 3);
   EXPECT_EQ(answered[0].param_type, 6U);
+}
+
+// A run without SR (a graph without an `sr` block passes sr.enabled 0 and zero durations): only RJ_SR_ENABLED.
+TEST(ExtLink, FromParams_SrOff_OnlyTheSwitchListed) {
+  auto made = ExtLink::from_params(flight_io::Params::from_table({{"sr.enabled", std::int64_t{0}},
+                                                                  {"sr.t_mc_s", std::int64_t{0}}}));
+  ASSERT_TRUE(made.has_value()) << made.error().to_string();
+  std::size_t sr_params = 0;
+  for (const ExtLink::Param& p : made->params()) {
+    if (!p.name.starts_with("RJ_SR_")) continue;
+    ++sr_params;
+    EXPECT_EQ(p.name, "RJ_SR_ENABLED");
+    EXPECT_EQ(std::get<std::int32_t>(p.value), 0);
+  }
+  EXPECT_EQ(sr_params, 1U);
 }
 
 TEST(ExtLink, FromParams_SrValueOutOfItsRange_RefusedNamingTheKey) {

@@ -106,7 +106,8 @@ class ExtLink {
   [[nodiscard]] const std::vector<Param>& params() const { return params_; }
   // The SR scheme's graph-wide values (rejuv/core/graph_values.hpp) as the kernel passed them to ext_link (each
   // key's default where it passed none), listed as the RJ_SR_* params; a value outside its key's range is
-  // refused, naming the key. Without this call (a unit test's ExtLink) no RJ_SR_* param is listed.
+  // refused, naming the key. With SR off only RJ_SR_ENABLED (0) is listed: the others act on nothing. Without
+  // this call (a unit test's ExtLink) no RJ_SR_* param is listed.
   [[nodiscard]] Result<void, flight_io::InputFailure> set_sr_values(const flight_io::Params& params);
   void set_telemetry_period(double period_s);
   [[nodiscard]] static Result<ExtLink, flight_io::InputFailure> from_params(const flight_io::Params& params);
