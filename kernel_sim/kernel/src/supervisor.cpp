@@ -77,16 +77,21 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   const auto send = [&](const auto& key, auto value) {
     out.push_back(channel::encode_boot_param(channel::boot_param_of(key.name, gv::encode(key, value))));
   };
+  // A field the file leaves at proto3's 0 where 0 is outside its key's range is not sent, and a service takes the
+  // key's default: the loader refuses such a 0 with SR on, and a graph without SR need not set the SR block.
+  const auto send_set = [&](const auto& key, auto value, double in_file) {
+    if (in_file != 0.0) send(key, value);
+  };
   const proto::SrParams& sr = g.sr();
   send(gv::kEnabled, k.sr);
-  send(gv::kTmc, gv::nanos_of_seconds(launch::t_mc(sr).count()));
-  send(gv::kTest, gv::nanos_of_seconds(launch::t_est(sr).count()));
-  send(gv::kRhoM, sr.rho_m());
-  send(gv::kRhoS, sr.rho_s());
+  send_set(gv::kTmc, gv::nanos_of_seconds(launch::t_mc(sr).count()), sr.t_mc_s());
+  send_set(gv::kTest, gv::nanos_of_seconds(launch::t_est(sr).count()), sr.t_est_s());
+  send_set(gv::kRhoM, sr.rho_m(), sr.rho_m());
+  send_set(gv::kRhoS, sr.rho_s(), sr.rho_s());
   send(gv::kTmin, gv::nanos_of_seconds(launch::t_min(sr).count()));
   send(gv::kCheckPeriod, gv::nanos_of_seconds(launch::check_period(sr).count()));
   send(gv::kKeepGenerations, launch::keep_generations(sr));
-  send(gv::kRestrictedLimitFraction, sr.restricted_limit_fraction());
+  send_set(gv::kRestrictedLimitFraction, sr.restricted_limit_fraction(), sr.restricted_limit_fraction());
   // The estimator's re-arm after a rollback: only what the launch file sets (ekf2's defaults are the table's).
   // With the estimate catch-up the restored estimator is fed the samples it missed instead, its covariance kept
   // (catch_up.hpp), as the model does.
@@ -100,10 +105,10 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
     send(*key, f.value);
   }
   if (sr.estimate_catch_up()) send(gv::kRearmEnabled, false);
-  send(gv::kBoxPosition, sr.box().position_m());
-  send(gv::kBoxVelocity, sr.box().velocity_m_s());
-  send(gv::kBoxAngle, sr.box().angle_rad());
-  send(gv::kBoxRate, sr.box().rate_rad_s());
+  send_set(gv::kBoxPosition, sr.box().position_m(), sr.box().position_m());
+  send_set(gv::kBoxVelocity, sr.box().velocity_m_s(), sr.box().velocity_m_s());
+  send_set(gv::kBoxAngle, sr.box().angle_rad(), sr.box().angle_rad());
+  send_set(gv::kBoxRate, sr.box().rate_rad_s(), sr.box().rate_rad_s());
   const proto::Mission& m = g.mission();
   number("mission.count", m.waypoints_size());
   number("mission.acceptance_radius_m", m.acceptance_radius_m());
