@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "../proc_stat.hpp"
 #include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
 #include "faults.pb.h"
@@ -25,6 +26,7 @@ namespace {
 
 using rejuv::test_support::kRepo;
 using rejuv::test_support::kRejuv;
+using rejuv::test_support::proc_stat;
 using rejuv::test_support::slurp;
 
 // The processes named `rejuv-load` (the load's workers) whose parent is `parent`.
@@ -33,27 +35,17 @@ std::vector<pid_t> load_workers_of(pid_t parent) {
   for (const auto& e : std::filesystem::directory_iterator("/proc")) {
     const std::string name = e.path().filename().string();
     if (name.empty() || name[0] < '0' || name[0] > '9') continue;
-    std::string comm = slurp(e.path() / "comm");
-    if (comm != "rejuv-load\n") continue;
-    const std::string stat = slurp(e.path() / "stat");
-    const auto paren = stat.rfind(')');
-    if (paren == std::string::npos) continue;
-    std::istringstream rest(stat.substr(paren + 1));
-    char state = 0;
-    pid_t ppid = 0;
-    rest >> state >> ppid;
-    if (ppid == parent) out.push_back(static_cast<pid_t>(std::stoi(name)));
+    if (slurp(e.path() / "comm") != "rejuv-load\n") continue;
+    const auto pid = static_cast<pid_t>(std::stoi(name));
+    if (proc_stat(pid).parent == parent) out.push_back(pid);
   }
   return out;
 }
 
 // Whether `pid` is still a load worker (alive and not a zombie; a reused pid is another program).
 bool still_a_worker(pid_t pid) {
-  const std::filesystem::path proc = "/proc/" + std::to_string(pid);
-  if (slurp(proc / "comm") != "rejuv-load\n") return false;
-  const std::string stat = slurp(proc / "stat");
-  const auto paren = stat.rfind(')');
-  return paren != std::string::npos && stat.size() > paren + 2 && stat[paren + 2] != 'Z';
+  if (slurp("/proc/" + std::to_string(pid) + "/comm") != "rejuv-load\n") return false;
+  return proc_stat(pid).living();
 }
 
 class FaultsRealtime : public rejuv::test_support::ScratchDirTest {

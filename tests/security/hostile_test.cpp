@@ -44,13 +44,7 @@ volatile std::uint64_t g_canary = kCanaryValue;  // NOLINT: process_vm_writev's 
 using mission::session_members;  // this process's descendants only: another test's pid may reuse a sid
 
 // Whether `pid` is a living process (a zombie is dead: its parent, the kernel, reaps it at its next sweep).
-bool living(pid_t pid) {
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string line;
-  if (!std::getline(stat, line)) return false;
-  const std::size_t close = line.rfind(')');
-  return close != std::string::npos && close + 2 < line.size() && line[close + 2] != 'Z' && line[close + 2] != 'X';
-}
+bool living(pid_t pid) { return mission::proc_stat(pid).living(); }
 
 std::string status_field(pid_t pid, const std::string& field) {
   std::ifstream in(pid == 0 ? std::string("/proc/self/status") : "/proc/" + std::to_string(pid) + "/status");

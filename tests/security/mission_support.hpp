@@ -18,6 +18,7 @@
 #include <string_view>
 #include <vector>
 
+#include "../proc_stat.hpp"
 #include "graph_fixture.hpp"
 
 namespace rejuv::testing::mission {
@@ -39,20 +40,9 @@ inline std::optional<std::filesystem::path> missing_executable(const launch::Loa
   return std::nullopt;
 }
 
-// What /proc/<pid>/stat says after the command: the state letter and the parent's pid ({'?', 0}: gone).
-struct ProcStat {
-  char state = '?';
-  pid_t parent = 0;
-};
-inline ProcStat proc_stat(pid_t pid) {
-  const std::string stat = read_text("/proc/" + std::to_string(pid) + "/stat");
-  const std::size_t close = stat.rfind(')');  // "pid (command) S ppid …": the command may hold anything
-  if (close == std::string::npos || close + 4 >= stat.size()) return {};
-  ProcStat out{.state = stat[close + 2], .parent = 0};
-  const char* from = stat.data() + close + 4;
-  (void)std::from_chars(from, stat.data() + stat.size(), out.parent);
-  return out;
-}
+// /proc/<pid>/stat (tests/proc_stat.hpp), shared with the other multi-process tests.
+using test_support::proc_stat;
+using test_support::ProcStat;
 
 // Whether `pid` is this process or descends from it. A session id is a pid: once the session the test watched
 // has no process left, the number can come back as another test's service (each is a session leader), which

@@ -91,15 +91,9 @@ std::optional<int> fd_flags(pid_t pid, int fd) {
 
 // The scheduling policy of `pid` (/proc/<pid>/stat field 41: 0 SCHED_OTHER, 1 SCHED_FIFO), or nullopt.
 std::optional<int> policy_of(pid_t pid) {
-  const std::string stat = read_text("/proc/" + std::to_string(pid) + "/stat");
-  const std::size_t close = stat.rfind(')');
-  if (close == std::string::npos) return std::nullopt;
-  std::istringstream fields(stat.substr(close + 2));  // field 3 on
-  std::string f;
-  for (int i = 3; i <= 41 && fields >> f; ++i) {
-    if (i == 41) return std::atoi(f.c_str());
-  }
-  return std::nullopt;
+  const auto policy = mission::proc_stat(pid).number(41);
+  if (!policy) return std::nullopt;
+  return static_cast<int>(*policy);
 }
 
 // The CPUs `pid` may run on (/proc/<pid>/status Cpus_allowed_list, e.g. "1" or "0-1"), or "" when unreadable.
