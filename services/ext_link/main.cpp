@@ -88,7 +88,11 @@ class GroundLink {
   }
 
   void on_datagram(std::span<const std::byte> datagram) {
-    if (topics_.setpoint.valid()) link_.observe_setpoint(topics_.setpoint.latest());  // where a clear holds
+    // What a request is answered from: the latest setpoint (where a clear holds) and the upload commander kept.
+    // The kept upload is read here too, not only at the tick: a rollback restores ext_link to an image taken
+    // outside MC, where the cell is not read, and a request can come before the window's first tick.
+    if (topics_.setpoint.valid()) link_.observe_setpoint(topics_.setpoint.latest());
+    if (svc_.may_send(kNet)) read_kept_upload();
     auto inbound = link_.on_datagram(datagram, svc_.now());
     // The verdict goes to the kernel: a valid message makes its sender the ground station telemetry goes
     // to; a refusal is counted there by reason (the run summary), where no rollback erases it.
