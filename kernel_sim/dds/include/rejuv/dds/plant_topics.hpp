@@ -41,6 +41,7 @@
 #include <utility>
 #include <variant>
 
+#include "rejuv/core/dds_name.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/msgs/topic_types.hpp"
 
@@ -53,15 +54,28 @@ struct Topic {
   std::string_view name{};
 };
 
-inline constexpr Topic<rejuv_msg_SensorGyro> kSensorGyro{"rejuv/sensor_gyro"};
-inline constexpr Topic<rejuv_msg_SensorAccel> kSensorAccel{"rejuv/sensor_accel"};
-inline constexpr Topic<rejuv_msg_SensorMag> kSensorMag{"rejuv/sensor_mag"};
-inline constexpr Topic<rejuv_msg_SensorBaro> kSensorBaro{"rejuv/sensor_baro"};
-inline constexpr Topic<rejuv_msg_SensorGps> kSensorGps{"rejuv/sensor_gps"};
-inline constexpr Topic<rejuv_msg_GroundTruth> kGroundTruth{"rejuv/ground_truth"};  // evaluation only
-inline constexpr Topic<rejuv_msg_ActuatorOutputs> kActuatorOutputs{"rejuv/actuator_outputs"};
-inline constexpr Topic<rejuv_msg_SimStep> kSimStep{"rejuv/sim_step"};
-inline constexpr Topic<rejuv_msg_SimStepAck> kSimStepAck{"rejuv/sim_step_ack"};
+// Their DDS names: kDdsNamePrefix and the policy topic's name (rejuv/core/dds_name.hpp).
+namespace dds_names {
+inline constexpr DdsName kSensorGyro{"sensor_gyro"};
+inline constexpr DdsName kSensorAccel{"sensor_accel"};
+inline constexpr DdsName kSensorMag{"sensor_mag"};
+inline constexpr DdsName kSensorBaro{"sensor_baro"};
+inline constexpr DdsName kSensorGps{"sensor_gps"};
+inline constexpr DdsName kGroundTruth{"ground_truth"};
+inline constexpr DdsName kActuatorOutputs{"actuator_outputs"};
+inline constexpr DdsName kSimStep{"sim_step"};
+inline constexpr DdsName kSimStepAck{"sim_step_ack"};
+}  // namespace dds_names
+
+inline constexpr Topic<rejuv_msg_SensorGyro> kSensorGyro{dds_names::kSensorGyro.view()};
+inline constexpr Topic<rejuv_msg_SensorAccel> kSensorAccel{dds_names::kSensorAccel.view()};
+inline constexpr Topic<rejuv_msg_SensorMag> kSensorMag{dds_names::kSensorMag.view()};
+inline constexpr Topic<rejuv_msg_SensorBaro> kSensorBaro{dds_names::kSensorBaro.view()};
+inline constexpr Topic<rejuv_msg_SensorGps> kSensorGps{dds_names::kSensorGps.view()};
+inline constexpr Topic<rejuv_msg_GroundTruth> kGroundTruth{dds_names::kGroundTruth.view()};  // evaluation only
+inline constexpr Topic<rejuv_msg_ActuatorOutputs> kActuatorOutputs{dds_names::kActuatorOutputs.view()};
+inline constexpr Topic<rejuv_msg_SimStep> kSimStep{dds_names::kSimStep.view()};
+inline constexpr Topic<rejuv_msg_SimStepAck> kSimStepAck{dds_names::kSimStepAck.view()};
 
 // A sample a step may carry: a fixed-size struct whose first member is `uint64 timestamp_ns` (the kernel stages
 // bridged samples by their first 8 bytes: kernel_sim/kernel/src/lockstep.cpp, stage_sample), checked here so

@@ -15,6 +15,7 @@
 
 #include "launch.pb.h"
 #include "params.pb.h"
+#include "rejuv/core/dds_name.hpp"
 #include "rejuv/core/graph_values.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/mavlink/frame.hpp"
@@ -84,7 +85,7 @@ inline constexpr double kMaxChargeMs = 1000.0;         // the plant refuses a st
 inline constexpr double kMaxAlignmentS = 3600.0;       // the plant's --align-s bound
 inline constexpr std::size_t kMaxWaypoints = 16;       // idl/control.idl MissionWaypoints.waypoints[16]
 inline constexpr std::uint32_t kMaxDdsDomainId = 232;  // DDSI-RTPS port mapping limit
-inline constexpr std::string_view kDdsNamePrefix = "rejuv/";
+inline constexpr std::string_view kDdsNamePrefix = rejuv::kDdsNamePrefix;  // rejuv/core/dds_name.hpp
 inline constexpr std::string_view kDdsConfig = "config/cyclonedds.xml";  // relative to the repository
 // Sandbox limits of a service's processes (docs/design.md §7 "Protection"): a live incarnation, K generations of
 // images with a spare each, workers; a few hundred fds; the address space of a service with room to spare.
