@@ -359,13 +359,15 @@ struct ConnectOptions {
 // Params: the service's own `params` from the launch graph, plus these graph-wide ones that the kernel
 // adds for every service (numbers unless marked text):
 //   seed, clock (text: "lockstep" | "realtime"),
-//   the SR scheme's keys of rejuv/core/graph_values.hpp (sr.*: durations as integer ns, read with
-//   graph_values::read(key, param_value(key.name))),
+//   the keys of rejuv/core/graph_values.hpp: the SR scheme's (sr.*) and flight.start_s (the mission's t = 0 on
+//   the kernel clock); durations as integer ns, read with graph_values::read(key, param_value(key.name)), which
+//   gives the key's default for one the kernel does not send (an SR field a graph without SR leaves at 0),
 //   mission.count, mission.acceptance_radius_m, mission.timeout_s,
 //   mission.<i>.north_m, mission.<i>.east_m, mission.<i>.down_m, mission.<i>.yaw_rad  (i = 0 … count-1),
 //   attack.enabled (0/1: the plan is on AND names this service), attack.count (attacks naming this
 //   service), attack.<j>.kind (text: the AttackKind name, e.g. "WORST_CASE_CONTROL"), attack.<j>.start_s,
-//   attack.<j>.max_windows, attack.<j>.magnitude (the attack library's size; 0 = the kind's default).
+//   attack.<j>.max_windows, attack.<j>.magnitude (the attack library's size; 0 = the kind's default),
+//   boot.cold_restarts (> 0: started by a cold restart).
 class Service {
  public:
   static constexpr std::size_t kMaxTimers = clock::kMaxTimersPerService;  // the kernel's limit (docs/protocol.md)
