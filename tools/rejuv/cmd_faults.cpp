@@ -186,6 +186,7 @@ void count(proto::FaultRow& row, const Outcome& o) {
   row.set_unsafe(row.unsafe() + (o.unsafe ? 1 : 0));
   row.set_leaked(row.leaked() + (o.leaked ? 1 : 0));
   row.set_hung(row.hung() + (o.hung ? 1 : 0));
+  row.set_not_judged(row.not_judged() + (o.not_judged.empty() ? 0 : 1));
   const std::string path = o.path.rfind("clean stop", 0) == 0 ? "clean stop" : o.path;
   ++(*row.mutable_paths())[path.empty() ? "?" : path];
 }
@@ -216,6 +217,7 @@ proto::FaultCampaign tally(const CampaignRequest& r, const std::vector<Outcome>&
     i.set_hung(o.hung);
     i.set_note(o.note);
     i.set_recovery_ms(o.recovery_ms);
+    i.set_not_judged(o.not_judged);
     if (!o.fired) {
       c.set_not_injected(c.not_injected() + 1);
       continue;
@@ -254,9 +256,9 @@ std::string recovery_text(const proto::FaultCampaign& c, const proto::FaultRow* 
 
 // One row of the table: `label` for the total, the row's own fault and phase otherwise.
 void print_row(const proto::FaultCampaign& c, const proto::FaultRow& r, const char* label = nullptr) {
-  std::printf("%-20s %-20s %5u %5u %5u %5u %5u %13s  %s\n", label != nullptr ? label : r.fault().c_str(),
-              label != nullptr ? "" : r.phase().c_str(), r.injections(), r.recovered(), r.unsafe(), r.leaked(),
-              r.hung(), recovery_text(c, label != nullptr ? nullptr : &r).c_str(), paths_text(r.paths()).c_str());
+  std::printf("%-20s %-20s %5u %5u %5u %5u %5u %5u %13s  %s\n", label != nullptr ? label : r.fault().c_str(),
+              label != nullptr ? "" : r.phase().c_str(), r.injections(), r.recovered(), r.not_judged(), r.unsafe(),
+              r.leaked(), r.hung(), recovery_text(c, label != nullptr ? nullptr : &r).c_str(), paths_text(r.paths()).c_str());
 }
 
 // The table by kind and phase, the total, and each injection that was not survived.
@@ -265,8 +267,8 @@ void print_campaign(const proto::FaultCampaign& c) {
     std::printf("flown in real time with the graph's real-time plan%s%s\n", c.load().empty() ? "" : ", beside --load ",
                 c.load().c_str());
   }
-  std::printf("%-20s %-20s %5s %5s %5s %5s %5s %13s  %s\n", "fault", "phase", "inj", "recov", "unsafe", "leak", "hung",
-              "recovery ms", "recovery paths");
+  std::printf("%-20s %-20s %5s %5s %5s %5s %5s %5s %13s  %s\n", "fault", "phase", "inj", "recov", "unjdg", "unsafe",
+              "leak", "hung", "recovery ms", "recovery paths");
   for (const proto::FaultRow& r : c.table()) print_row(c, r);
   print_row(c, c.total(), "total");
   std::printf("(recovery ms: p50/max of the real time from an injection to the first controls routed after the\n"
@@ -276,9 +278,12 @@ void print_campaign(const proto::FaultCampaign& c) {
   }
   for (const proto::FaultInjection& o : c.injections()) {
     if (o.injected() && (!o.recovered() || o.unsafe() || o.leaked() || o.hung())) {
+      const std::string verdict = o.recovered()             ? ""
+                                  : o.not_judged().empty() ? "NOT RECOVERED "
+                                                           : "NOT JUDGED (" + o.not_judged() + ") ";
       std::printf("  exception: mission %u, %s at %s on %s at %.1f s: %s%s%s%s — %s (recovery %.1f ms); %s\n",
                   o.mission(), o.fault().c_str(), o.phase().c_str(), o.target().c_str(), o.at_s(),
-                  o.recovered() ? "" : "NOT RECOVERED ", o.unsafe() ? "UNSAFE " : "", o.leaked() ? "LEAKED " : "",
+                  verdict.c_str(), o.unsafe() ? "UNSAFE " : "", o.leaked() ? "LEAKED " : "",
                   o.hung() ? "HUNG" : "", o.path().c_str(), o.recovery_ms(), o.note().c_str());
     }
   }
@@ -295,8 +300,10 @@ int run_faults(std::span<const std::string_view> args) {
                "plant, in MC, in the secure interval and exactly inside checkpoints and rollbacks. After each it\n"
                "records the recovery path, safety (max V < 1, mission completed), leaks and hangs; prints the\n"
                "table by kind and phase and writes it as JSON (DIR/faults.json; kernel logs in DIR/job-N.log).\n"
+               "A fault is judged once its target is seen back (an incarnation the fault did not hit, alive); one\n"
+               "whose next fault or mission end comes first is 'not judged' (column unjdg), with the reason.\n"
                "Exit 0 when nothing is unsafe, leaked, hung or unrecovered (a cold restart after the loss of one\n"
-               "image counts as unrecovered: with two or more generations kept an intact one was left).");
+               "image counts as unrecovered when the store held another generation: that one was intact).");
   declare_campaign_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.domain && *r.domain + r.jobs - 1 > launch::defaults::kMaxDdsDomainId) {
@@ -355,7 +362,7 @@ int run_faults(std::span<const std::string_view> args) {
   const proto::FaultRow& total = campaign.total();
   // Nothing injected is no evidence: a campaign that injected nothing fails.
   const bool good = !done->job_failed && done->missing == 0 && load_ended == 0 && total.injections() > 0 &&
-                    total.recovered() == total.injections() &&
+                    total.recovered() + total.not_judged() == total.injections() &&
                     total.unsafe() == 0 && total.leaked() == 0 && total.hung() == 0;
   return static_cast<int>(good ? Exit::Ok : Exit::Findings);
 }

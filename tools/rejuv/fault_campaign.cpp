@@ -374,7 +374,7 @@ class Injector final : public kernel::Observer {
     note_if_back(o);
     if (!now && flight < fired_at_ + std::chrono::seconds{10}) return;
     if (!now && k_->mode() == SrMode::RB) return;
-    evaluate(*evaluating_, Counters::of(k_->sr_stats()), current_max_v(), false);
+    evaluate(*evaluating_, Counters::of(k_->sr_stats()), current_max_v(), false, /*next_fault=*/now);
   }
 
   // Whether the fault's target has been seen alive in a process that the fault did not hit, at any step since it
@@ -389,7 +389,10 @@ class Injector final : public kernel::Observer {
     seen_back_ = st.alive && st.pid > 0 && std::ranges::find(fired_pids_, st.pid) == fired_pids_.end();
   }
 
-  void evaluate(std::size_t index, const Counters& after, double max_v, bool final) {
+  // `final`: the mission has ended; `next_fault`: the next fault is about to fire. Either may come before the
+  // target is back, and then the fault is not judged (it may still be recovering); 10 s of flight without it
+  // back is a failure.
+  void evaluate(std::size_t index, const Counters& after, double max_v, bool final, bool next_fault = false) {
     Outcome& o = outcomes_[index];
     // No rollback or cold restart since it fired: a later one (the SR cycle's) is not this fault's recovery.
     if (timing_ == index && !recovery_began_) timing_.reset();
@@ -397,26 +400,27 @@ class Injector final : public kernel::Observer {
     note_if_back(o);
     bool back = true;
     if (o.fault.kind == FaultKind::StallPlant) {
-      back = k_->plant_pid().has_value();
+      back = final || k_->plant_pid().has_value();
     } else if (const auto id = k_->find_service(o.fault.target)) {
-      back = final || seen_back_ || k_->stats(*id).alive;
+      // After the run the services are shut down: only what was seen during it counts.
+      back = seen_back_ || (!final && k_->stats(*id).alive);
     }
-    o.recovered = back && (final || !k_->stop_reason().has_value());
-    if (!back) o.note += "; '" + o.fault.target + "' not back";
-    // The cheapest safe recovery (docs/design.md §7 "Faults"): one image of one generation lost leaves another intact
-    // generation when the store held another when it fired, so a cold restart after it is a finding, not a
-    // recovery. With only the hit generation in the store, a cold restart is the recovery.
-    if (o.path == "cold restart" && keep_ >= 2 && others_at_fire_ > 0 &&
-        (o.fault.kind == FaultKind::KillImage || o.fault.kind == FaultKind::StopImage)) {
-      o.recovered = false;
-      o.note += "; a cold restart although an intact generation was left";
-    } else if (o.path == "cold restart" &&
-               (o.fault.kind == FaultKind::KillImage || o.fault.kind == FaultKind::StopImage)) {
-      o.note += "; no other generation was in the store";
-    }
-    if (max_v >= 1.0 && max_v_at_fire_ < 1.0) {
-      o.unsafe = true;
-      o.note += "; max V " + std::to_string(max_v);
+    const Verdict v = judge(VerdictInput{.kind = o.fault.kind,
+                                         .target = o.fault.target,
+                                         .path = o.path,
+                                         .back = back,
+                                         .ended = final,
+                                         .next_fault = next_fault,
+                                         .stopped = k_->stop_reason().has_value(),
+                                         .keep = keep_,
+                                         .others_at_fire = others_at_fire_,
+                                         .max_v = max_v,
+                                         .max_v_at_fire = max_v_at_fire_});
+    o.recovered = v.recovered;
+    o.unsafe = o.unsafe || v.unsafe;
+    o.not_judged = v.not_judged;
+    o.note += v.note;
+    if (v.unsafe) {
       // What the kernel believed of the target when the vehicle was lost: the clue to an unexplained case.
       if (const auto id = k_->find_service(o.fault.target)) {
         const kernel::ServiceStats st = k_->stats(*id);

@@ -96,7 +96,37 @@ struct Outcome {
   // is what the vehicle lived through.
   double recovery_ms = -1;
   std::string note{};
+  // Why it could not be judged: the next fault or the mission's end came before its target was seen back (an
+  // incarnation the fault did not hit, alive). Empty: judged. Neither recovered nor a failure.
+  std::string not_judged{};
 };
+
+// What a fault's verdict is taken from, when its target is back, 10 s of flight after it fired, when the next
+// fault is about to fire, or when the mission has ended.
+struct VerdictInput {
+  FaultKind kind = FaultKind::KillLive;
+  std::string target{};
+  std::string path{};           // the recovery path since it fired (recovery_path)
+  bool back = false;            // its target seen back: an incarnation it did not hit, alive (StallPlant: the plant)
+  bool ended = false;           // the mission has ended
+  bool next_fault = false;      // the next fault is about to fire
+  bool stopped = false;         // the run has a stop reason (it is ending for something)
+  std::uint32_t keep = 2;       // sr.keep_generations
+  std::size_t others_at_fire = 0;  // generations in the store the fault did not hit, when it fired
+  double max_v = 0;             // the flight's max V now, and when it fired
+  double max_v_at_fire = 0;
+};
+struct Verdict {
+  bool recovered = false;
+  bool unsafe = false;
+  std::string not_judged{};  // why not (Outcome::not_judged); empty: judged
+  std::string note{};        // appended to the outcome's note
+};
+// The verdict (docs/design.md §7 "Faults"): recovered once the target is back and the run goes on; not judged when
+// the next fault or the mission's end comes before it is back; not recovered when 10 s of flight pass without it,
+// or when a cold restart followed the loss of one image although another generation was in the store; unsafe when
+// max V crossed 1 after it fired.
+[[nodiscard]] Verdict judge(const VerdictInput& in);
 
 struct JobConfig {
   std::filesystem::path graph{};

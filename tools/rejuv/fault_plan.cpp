@@ -1,5 +1,6 @@
 // The fault campaign's plan and record (fault_campaign.hpp): the fault kinds and phases, which pairs make
-// sense, the seeded plan of missions, and one outcome per line between a job process and the campaign.
+// sense, the seeded plan of missions, a fault's verdict, and one outcome per line between a job process and the
+// campaign.
 // The missions themselves fly in fault_campaign.cpp.
 #include <algorithm>
 #include <random>
@@ -118,6 +119,37 @@ std::vector<Mission> plan(std::uint64_t seed, std::uint32_t injections, std::uin
   return missions;
 }
 
+// ---- the verdict ----
+
+Verdict judge(const VerdictInput& in) {
+  Verdict v;
+  if (!in.back && (in.ended || in.next_fault)) {
+    v.not_judged = (in.ended ? "the mission ended" : "the next fault came") + std::string(" before '") + in.target +
+                   "' was seen back";
+  } else {
+    v.recovered = in.back && (in.ended || !in.stopped);
+    if (!in.back) v.note += "; '" + in.target + "' not back within 10 s of flight";
+  }
+  // The cheapest safe recovery (docs/design.md §7 "Faults"): one image of one generation lost leaves another intact
+  // generation when the store held another when it fired, so a cold restart after it is a finding, not a recovery.
+  // With only the hit generation in the store (after a cold restart or a fallback; a checkpoint by written pages in
+  // flight depends on the newest image too), a cold restart is the recovery.
+  const bool one_image = in.kind == FaultKind::KillImage || in.kind == FaultKind::StopImage;
+  if (one_image && in.path == "cold restart") {
+    if (in.keep >= 2 && in.others_at_fire > 0) {
+      v.recovered = false;
+      v.note += "; a cold restart although an intact generation was left";
+    } else {
+      v.note += "; no other generation was in the store";
+    }
+  }
+  if (in.max_v >= 1.0 && in.max_v_at_fire < 1.0) {
+    v.unsafe = true;
+    v.note += "; max V " + std::to_string(in.max_v);
+  }
+  return v;
+}
+
 // ---- encoding (job → parent) ----
 
 namespace {
@@ -133,7 +165,7 @@ std::string encode(const Outcome& o) {
   out << o.mission << '\t' << static_cast<int>(o.fault.kind) << '\t' << static_cast<int>(o.fault.where) << '\t'
       << clean(o.fault.target) << '\t' << o.fault.at.count() << '\t' << o.fired << '\t' << o.fired_at_s << '\t'
       << clean(o.path) << '\t' << o.recovered << '\t' << o.unsafe << '\t' << o.leaked << '\t' << o.hung << '\t'
-      << o.recovery_ms << '\t' << clean(o.note) << '\n';
+      << o.recovery_ms << '\t' << clean(o.note) << '\t' << clean(o.not_judged) << '\n';
   return out.str();
 }
 
@@ -149,7 +181,7 @@ bool decode(std::string_view line, Outcome& o) {
     }
   }
   f.push_back(std::move(cur));
-  if (f.size() != 14) return false;
+  if (f.size() != 15) return false;
   const auto kind = std::stoi(f[1]), where = std::stoi(f[2]);
   if (kind < 0 || kind >= static_cast<int>(kAllFaultKinds.size()) || where < 0 ||
       where >= static_cast<int>(kAllWheres.size())) {
@@ -169,6 +201,7 @@ bool decode(std::string_view line, Outcome& o) {
   o.hung = f[11] == "1";
   o.recovery_ms = std::stod(f[12]);
   o.note = f[13];
+  o.not_judged = f[14];
   return true;
 }
 }  // namespace rejuv::cli::faults
