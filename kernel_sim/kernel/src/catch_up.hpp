@@ -59,7 +59,7 @@ class CatchUp {
   enum class Begin : std::uint8_t { Replaying, NothingToReplay, NoLog };
   // The kernel's bound on a replay (wall time since it began). Real time: five control periods, so that the
   // controllers' estimate is never held back longer. Lockstep: the world is stopped meanwhile, so only the
-  // plant's ack timeout (10 s) and the idle deadline (5 s, per instant) bound it; 1 s is well below both.
+  // plant's ack timeout (60 s) and the idle deadline (5 s, per instant) bound it; 1 s is well below both.
   static constexpr Nanos kReplayBoundRealtime{std::chrono::milliseconds{20}};
   static constexpr Nanos kReplayBoundLockstep{std::chrono::seconds{1}};
 
