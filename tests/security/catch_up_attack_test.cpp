@@ -12,7 +12,6 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <string>
 
 #include "graph_fixture.hpp"
@@ -35,30 +34,6 @@ struct Case {
   double magnitude;  // SLOW_REPLAY: ms per replayed tick; LYING_REPLAY: the accelerometer's factor
 };
 
-// launch/quad_square with `sensors` compromised by the case, in a directory of its own (the square includes the
-// paper's file, which carries the attack plan). Empty when the graph no longer reads as expected.
-fs::path attacked_square(const Case& c, const fs::path& dir) {
-  const fs::path launch = fs::path(REJUV_SOURCE_DIR) / "launch";
-  std::string paper = mission::read_text(launch / "quad_square_paper.launch.pbtxt");
-  const std::string control_attack = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
-  const std::size_t at = paper.find(control_attack);
-  const std::size_t clock = paper.find("clock: LOCKSTEP");
-  const std::size_t align = paper.find("alignment_s: 20");
-  if (at == std::string::npos || clock == std::string::npos || align == std::string::npos) return {};
-  paper.replace(align, std::string_view("alignment_s: 20").size(), "alignment_s: 8");
-  paper.insert(at + control_attack.size(), "\n  attacks { kind: " + std::string(c.kind) +
-                                               " service: \"sensors\" magnitude: " + std::to_string(c.magnitude) + " }");
-  if (c.realtime) paper.replace(clock, std::string_view("clock: LOCKSTEP").size(), "clock: REALTIME");
-  // Its relative paths (the policy) as seen from launch/.
-  for (std::size_t up = paper.find("\"../"); up != std::string::npos; up = paper.find("\"../", up)) {
-    paper.replace(up + 1, 3, (launch.parent_path() / "").string());
-  }
-  fs::create_directories(dir);
-  std::ofstream(dir / "quad_square_paper.launch.pbtxt") << paper;
-  std::ofstream(dir / "quad_square.launch.pbtxt") << mission::read_text(launch / "quad_square.launch.pbtxt");
-  return dir / "quad_square.launch.pbtxt";
-}
-
 struct Flight {
   proto::RunSummary summary;
   kernel::RunOutcome outcome;
@@ -69,7 +44,9 @@ struct Flight {
 
 void fly(const Case& c, Flight& f) {
   const fs::path dir = fs::temp_directory_path() / ("rejuv_catch_up_" + std::to_string(::getpid()));
-  const fs::path file = attacked_square(c, dir);
+  const fs::path file = mission::square_in(dir, c.realtime, "attacks { kind: " + std::string(c.kind) +
+                                                               " service: \"sensors\" magnitude: " +
+                                                               std::to_string(c.magnitude) + " }");
   ASSERT_FALSE(file.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has the control attack, clock or alignment";
   auto graph = launch::parse_launch(mission::read_text(file), file);
   fs::remove_all(dir);

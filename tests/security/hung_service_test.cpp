@@ -13,7 +13,6 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <string>
 
 #include "graph_fixture.hpp"
@@ -30,24 +29,6 @@ using kernel::StopReason;
 
 constexpr std::chrono::seconds kFlight{14};
 constexpr std::chrono::seconds kStopAfter{4};  // into the flight (after the alignment)
-
-// launch/quad_square with an 8 s alignment and the clock asked for, in a directory of its own.
-fs::path square(bool realtime, const fs::path& dir) {
-  const fs::path launch = fs::path(REJUV_SOURCE_DIR) / "launch";
-  std::string paper = mission::read_text(launch / "quad_square_paper.launch.pbtxt");
-  const std::size_t clock = paper.find("clock: LOCKSTEP");
-  const std::size_t align = paper.find("alignment_s: 20");
-  if (clock == std::string::npos || align == std::string::npos) return {};
-  paper.replace(align, std::string_view("alignment_s: 20").size(), "alignment_s: 8");
-  if (realtime) paper.replace(clock, std::string_view("clock: LOCKSTEP").size(), "clock: REALTIME");
-  for (std::size_t up = paper.find("\"../"); up != std::string::npos; up = paper.find("\"../", up)) {
-    paper.replace(up + 1, 3, (launch.parent_path() / "").string());
-  }
-  fs::create_directories(dir);
-  std::ofstream(dir / "quad_square_paper.launch.pbtxt") << paper;
-  std::ofstream(dir / "quad_square.launch.pbtxt") << mission::read_text(launch / "quad_square.launch.pbtxt");
-  return dir / "quad_square.launch.pbtxt";
-}
 
 // Stops the target's live process once, from the kernel's own thread (on_step): at the first step in the secure
 // interval's SC `at` or later into the kernel clock. There no rejuvenation timer runs (it is armed in MC, T_MC
@@ -85,7 +66,7 @@ TEST_P(HungService, StoppedEkf2_FoundKilledAndRolledBack_VehicleStaysSafe) {
   if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox needs root here";
   const bool realtime = GetParam();
   const fs::path dir = fs::temp_directory_path() / ("rejuv_hung_" + std::to_string(::getpid()));
-  const fs::path file = square(realtime, dir);
+  const fs::path file = mission::square_in(dir, realtime);
   ASSERT_FALSE(file.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has its clock or alignment";
   auto graph = launch::parse_launch(mission::read_text(file), file);
   fs::remove_all(dir);

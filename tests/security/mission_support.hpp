@@ -40,6 +40,30 @@ inline std::optional<std::filesystem::path> missing_executable(const launch::Loa
   return std::nullopt;
 }
 
+// launch/quad_square in `dir` with the paper's file it includes changed for a test: the alignment 8 s instead of
+// 20, the clock REALTIME when asked, and `attacks` (more `attacks { … }` entries) after its control attack; the
+// relative paths (the policy) as seen from launch/. Empty when the paper's file no longer reads as expected.
+inline std::filesystem::path square_in(const std::filesystem::path& dir, bool realtime, std::string_view attacks = {}) {
+  namespace fs = std::filesystem;
+  const fs::path launch = fs::path(REJUV_SOURCE_DIR) / "launch";
+  std::string paper = read_text(launch / "quad_square_paper.launch.pbtxt");
+  const std::string control_attack = "attacks { kind: WORST_CASE_CONTROL service: \"lqr_control\" }";
+  const std::size_t at = paper.find(control_attack);
+  const std::size_t clock = paper.find("clock: LOCKSTEP");
+  const std::size_t align = paper.find("alignment_s: 20");
+  if (at == std::string::npos || clock == std::string::npos || align == std::string::npos) return {};
+  paper.replace(align, std::string_view("alignment_s: 20").size(), "alignment_s: 8");
+  if (!attacks.empty()) paper.insert(at + control_attack.size(), "\n  " + std::string(attacks));
+  if (realtime) paper.replace(paper.find("clock: LOCKSTEP"), std::string_view("clock: LOCKSTEP").size(), "clock: REALTIME");
+  for (std::size_t up = paper.find("\"../"); up != std::string::npos; up = paper.find("\"../", up)) {
+    paper.replace(up + 1, 3, (launch.parent_path() / "").string());
+  }
+  fs::create_directories(dir);
+  std::ofstream(dir / "quad_square_paper.launch.pbtxt") << paper;
+  std::ofstream(dir / "quad_square.launch.pbtxt") << read_text(launch / "quad_square.launch.pbtxt");
+  return dir / "quad_square.launch.pbtxt";
+}
+
 // /proc/<pid>/stat (tests/proc_stat.hpp), shared with the other multi-process tests.
 using test_support::proc_stat;
 using test_support::ProcStat;
