@@ -74,8 +74,11 @@ void Warden::join_cgroup(ServiceRuntime& s) {
   if (v.max_group_memory_mb > 0) limits.memory_bytes = std::uint64_t{v.max_group_memory_mb} << 20U;
   if (v.max_cpu_percent > 0) limits.cpu_percent = v.max_cpu_percent;
   // The real-time plan (realtime.cpp): where real-time tasks are grouped, a SCHED_FIFO service needs a budget
-  // in its group, which also bounds what it can take of each second at SCHED_FIFO (kRtBudgetUs).
-  if (k.graph.graph.realtime().enabled() && s.config.spec->rt_priority() > 0)
+  // in its group, which also bounds what it can take of each second at SCHED_FIFO (kRtBudgetUs). Only where the
+  // plan applies (a real-time run): the budgets of all groups share the machine's 950 ms/s, and a lockstep
+  // kernel that reserved its share for nothing left a real-time run beside it without (its services refused
+  // SCHED_FIFO).
+  if (k.clock_mode == ClockMode::Realtime && k.graph.graph.realtime().enabled() && s.config.spec->rt_priority() > 0)
     limits.rt_runtime_us = kRtBudgetUs;
   // This kernel's scope: its address, unique among the kernels alive in this process.
   const std::string scope = std::to_string(reinterpret_cast<std::uintptr_t>(&k));  // NOLINT: an identity
