@@ -17,7 +17,8 @@ using MavlinkClientRealtime = test_support::MavlinkClientTest;
 
 // As QGroundControl connects and plans (client.js --qgc) while the vehicle flies in real time: the connection,
 // a mission in MAV_FRAME_GLOBAL_RELATIVE_ALT_INT flown and downloaded again, the mission cleared, RTL flown,
-// rollbacks reported as STATUSTEXT, every vehicle frame verified with the key.
+// rollbacks reported as STATUSTEXT, every vehicle frame verified with the key; the client's unsigned, wrongly
+// signed and recorded frames (--wrong-key, all along) refused by the kernel's gate.
 TEST_F(MavlinkClientRealtime, QgcStyleSessionInRealTimeWithSignedVehicleFrames) {
   ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
       << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
@@ -26,9 +27,10 @@ TEST_F(MavlinkClientRealtime, QgcStyleSessionInRealTimeWithSignedVehicleFrames) 
   // 420 s of flight; the session took about 240 s of it on an idle machine.
   ASSERT_NO_FATAL_FAILURE(start_signed_square("qgc_realtime.launch.pbtxt", "420", RunClock::Realtime, rejuv_run, port));
   const auto client_out = dir() / "client.json";
-  const pid_t client = test_support::start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--qgc",
-                                                   "--timeout", "400", "--target", "1.5,-1,-3.5"},
-                                                  client_out);
+  const pid_t client = test_support::start_client(
+      {"--port", std::to_string(port), "--key", std::string(kKey), "--qgc", "--wrong-key",
+       std::string(test_support::kWrongKey), "--timeout", "400", "--target", "1.5,-1,-3.5"},
+      client_out);
   if (client <= 0) ::kill(rejuv_run, SIGTERM);
   const test_support::CliOutcome run = test_support::wait_program(dir(), rejuv_run);
   ASSERT_GT(client, 0) << "cannot start node";
@@ -40,6 +42,7 @@ TEST_F(MavlinkClientRealtime, QgcStyleSessionInRealTimeWithSignedVehicleFrames) 
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &summary).ok());
   EXPECT_EQ(summary.charging().charge(), "none") << "a real-time run";
   test_support::expect_qgc_session(client_text, summary);
+  test_support::expect_forgeries_refused(summary);
 }
 
 }  // namespace

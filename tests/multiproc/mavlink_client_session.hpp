@@ -92,6 +92,21 @@ class MavlinkClientTest : public ScratchDirTest {
 // the mission uploaded in global coordinates (reached as an item and by position, downloaded as uploaded), the
 // mission cleared and downloaded again, RTL flown, a rollback reported in STATUSTEXT, every vehicle frame
 // verified with the key.
+// The kernel's gate refused the client's unsigned, wrongly signed and recorded (stamped 2015) frames (client.js
+// --wrong-key) before ext_link saw them.
+inline void expect_forgeries_refused(const proto::RunSummary& summary) {
+  EXPECT_TRUE(summary.network().signing());
+  std::uint64_t unsigned_refused = 0, bad_signature = 0, stale = 0;
+  for (const proto::LinkRefusals& r : summary.network().signing_refused_by_reason()) {
+    if (r.reason() == "unsigned") unsigned_refused = r.count();
+    if (r.reason() == "bad_signature") bad_signature = r.count();
+    if (r.reason() == "stale") stale = r.count();
+  }
+  EXPECT_GE(unsigned_refused, 1U) << summary.network().DebugString();
+  EXPECT_GE(bad_signature, 1U) << summary.network().DebugString();
+  EXPECT_GE(stale, 1U) << summary.network().DebugString();
+}
+
 inline void expect_qgc_session(const std::string& client_text, const proto::RunSummary& summary) {
   using google::protobuf::Value;
   google::protobuf::Struct report;
