@@ -119,9 +119,20 @@ class Rejuvenator {
 
   // ---- rollback.cpp ----
   void run_rollback(const std::string& reason);
-  // Resumes every image of `record`; false (and everything resumed killed again) if one fails.
-  bool resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
-                         Nanos& resumed_at);
+  // Resumes every image of `record` and restores its kernel state: the wall time its images were all back, or why
+  // the generation is unusable (the caller retires whatever of it was resumed).
+  [[nodiscard]] Result<Nanos, std::string> resume_generation(image::GenerationRecord& record, Nanos deadline);
+  // A generation a rollback resumed: its record, and the wall time its images were all back.
+  struct ResumedGeneration {
+    image::GenerationRecord* record = nullptr;
+    Nanos resumed_at{0};
+  };
+  // The newest generation whose images all come back, resumed; each newer one that does not (an image gone, or
+  // not answering by rollback_by, a fallback having at least resume_deadline) retired on the way, counted as a
+  // fallback. Nothing if none comes back.
+  [[nodiscard]] std::optional<ResumedGeneration> resume_newest_usable(Nanos rollback_by);
+  // Why `record` cannot be resumed without trying: the image of a service is gone (recorded as its violation).
+  [[nodiscard]] std::optional<std::string> lost_image(image::GenerationRecord& record);
   void retire_live_rejuvenated();
   void announce_rollback(Generation g, Epoch epoch);  // the RollbackSignal and the SrMode, routing frozen
 

@@ -4,9 +4,11 @@
 // channels and the kernel state restored whole (restore_state); a dead image or a failed resume falls back
 // to the previous generation, then to a cold restart of the rejuvenated services from their binaries in SC.
 #include <algorithm>
-#include <cerrno>
+#include <array>
 #include <csignal>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "images.hpp"
 
@@ -74,108 +76,167 @@ std::expected<pid_t, std::string> read_resumed(const sys::SeqPacket& channel, Ge
   }
   return wire::payload_as<wire::TakenBody>(*frame).image_pid;
 }
-}  // namespace
 
-bool Rejuvenator::resume_generation(image::GenerationRecord& record, Nanos deadline, std::string& failure,
-                                    Nanos& resumed_at) {
-  const Epoch next = k.kernel_clock.next_epoch();
-  struct Pending {
-    ServiceRuntime* service = nullptr;
-    image::Image* image = nullptr;
-    sys::SeqPacket channel{};  // the kernel's end of the new channel
-    sys::UniqueFd output{};    // the read end of the restored incarnation's new stdout/stderr pipe
-  };
-  std::vector<Pending> pending;
-  pending.reserve(record.images.size());
-  // All Resumes first: the images wake in parallel. No fork here: a spare copy takes the Resume.
+// An image whose Resume went out: the kernel's ends of its new channel and of its new output pipe, until it answers.
+struct PendingResume {
+  ServiceRuntime* service = nullptr;
+  image::Image* image = nullptr;
+  sys::SeqPacket channel{};  // the kernel's end of the new channel
+  sys::UniqueFd output{};    // the read end of the restored incarnation's new stdout/stderr pipe
+};
+
+// The images a Resume went out to, and why it did not go out to the rest (empty: it went to all, or the frame
+// could not be built, which the caller finds by the count).
+struct ResumesSent {
+  std::vector<PendingResume> pending;
+  std::string failure;
+};
+
+// All Resumes first: the images wake in parallel. No fork here: a spare copy takes the Resume. Stops at the
+// first image it cannot send one to.
+ResumesSent send_resumes(Kernel::Impl& k, ChannelPool& channel_pool, image::GenerationRecord& record, Epoch next) {
+  ResumesSent sent;
+  sent.pending.reserve(record.images.size());
   for (image::Image& im : record.images) {
     ServiceRuntime& s = k.services[im.service.value()];
     auto channel = channel_pool.take();
     if (!channel) {
-      failure = "channel for a restored image: " + channel.error().to_string();
+      sent.failure = "channel for a restored image: " + channel.error().to_string();
       break;
     }
     // A new pipe for fds 1-2 as well (docs/design.md §7 "Nothing outlives an incarnation"): the image's were opened
     // before it and shared with the incarnation it was taken from, which may have armed them.
     auto output = sys::make_pipe();
     if (!output) {
-      failure = "output pipe for a restored image: " + output.error().to_string();
+      sent.failure = "output pipe for a restored image: " + output.error().to_string();
       break;
     }
     const wire::ResumeBody body{.epoch = next.value(), .reserved = 0};
     if (!k.tx.build_with(wire::FrameKind::Resume, 0, 0, record.g.value(), body)) break;
     const std::array<int, 2> service_ends{channel->second.fd(), output->write.get()};
-    if (auto sent = im.resume.send(k.tx.bytes(), service_ends); !sent) {
-      failure = "Resume to the image of '" + s.name + "': " + sent.error().to_string();
+    if (auto resumed = im.resume.send(k.tx.bytes(), service_ends); !resumed) {
+      sent.failure = "Resume to the image of '" + s.name + "': " + resumed.error().to_string();
       break;
     }
     // Closed now, not after the timed part: then the image's end is the channel's only other end, and a copy
     // that dies after taking its Resume hangs the channel up at once instead of costing the resume deadline.
     (void)channel->second.take_fd();
     output->write.reset();
-    pending.push_back(Pending{.service = &s, .image = &im, .channel = std::move(channel->first),
-                              .output = std::move(output->read)});
+    sent.pending.push_back(PendingResume{.service = &s, .image = &im, .channel = std::move(channel->first),
+                                         .output = std::move(output->read)});
   }
+  return sent;
+}
+
+// The process that answered `answer` (a copy of the image, or a spare whose Copied is still on its way), taken
+// out of the image; nothing if no such process is ours.
+std::optional<sys::ChildProcess> take_resumed_process(image::Image& im, pid_t pid) {
+  if (pid <= 0) return std::nullopt;
+  auto copy = std::find_if(im.copies.begin(), im.copies.end(),
+                           [&](const sys::ChildProcess& c) { return c.pid() == pid; });
+  if (copy != im.copies.end()) {
+    sys::ChildProcess process = std::move(*copy);
+    im.copies.erase(copy);
+    return process;
+  }
+  if (auto spare = sys::ChildProcess::adopt_child(pid)) return std::move(*spare);
+  return std::nullopt;
+}
+
+// Installs the incarnation restored from p's image as the live service as soon as it answers (on a failure the
+// caller retires it again); the first thing that went wrong, if anything did.
+Result<void, std::string> install_resumed(Kernel::Impl& k, PendingResume& p, Generation g, Nanos deadline) {
+  ServiceRuntime& s = *p.service;
+  const image::Image& im = *p.image;
+  const auto answer = read_resumed(p.channel, g, deadline);
+  const pid_t pid = answer.value_or(0);
+  std::optional<sys::ChildProcess> process = take_resumed_process(*p.image, pid);
+  if (!process) {
+    const std::string why = answer ? "pid " + std::to_string(pid) + " is no copy" : answer.error();
+    k.warden.record_violation(s, Violation::ImageLost,
+                              "generation " + std::to_string(g.value()) + ": no Resumed (" + why + ")");
+    return std::unexpected("no Resumed from the image of '" + s.name + "': " + why + " (" +
+                           std::to_string(im.copies.size()) + " copies, " + std::to_string(im.spares_pending) +
+                           " spares and " + (im.patch_pending ? "its patch" : "no patch") + " on their way" +
+                           (im.last_death.empty() ? "" : "; " + im.last_death) + ")");  // its copies die with g
+  }
+  std::string failure;
+  s.proc.process = std::move(*process);
+  p.image->resumed.push_back(pid);
+  s.pages.start_incarnation(g);
+  s.proc.channel = std::move(p.channel);
+  if (auto watched = k.warden.replace_output(s, std::move(p.output)); !watched) {
+    failure = "watching the restored '" + s.name + "' output: " + watched.error().to_string();
+  }
+  s.proc.resumed();
+  s.flow.new_channel();
+  s.stats.pid = s.proc.process.pid();
+  k.warden.place_live(s);  // out of the images' leaf, into the one its forks and its memory are bounded in
+  ++s.stats.restores;
+  // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
+  // generation is unusable rather than half-installed.
+  for (const auto& [fd, source] :
+       {std::pair{s.proc.channel.fd(), Source::Channel}, std::pair{s.proc.process.pidfd(), Source::Pidfd}}) {
+    if (auto added = k.epoll.add(fd, token(source, s.id.value())); !added && failure.empty()) {
+      failure = "watching the restored '" + s.name + "': " + added.error().to_string();
+    }
+  }
+  if (!failure.empty()) return std::unexpected(std::move(failure));
+  return {};
+}
+}  // namespace
+
+Result<Nanos, std::string> Rejuvenator::resume_generation(image::GenerationRecord& record, Nanos deadline) {
+  const Epoch next = k.kernel_clock.next_epoch();
+  ResumesSent sent = send_resumes(k, channel_pool, record, next);
+  std::string failure = std::move(sent.failure);
   if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
-  // Then every Resumed; each restored incarnation is installed as the live service as soon as it answers
-  // (on a failure the caller retires it again).
-  for (Pending& p : pending) {
-    ServiceRuntime& s = *p.service;
-    const auto answer = read_resumed(p.channel, record.g, deadline);
-    const pid_t pid = answer.value_or(0);
-    auto copy = std::find_if(p.image->copies.begin(), p.image->copies.end(),
-                             [&](const sys::ChildProcess& c) { return pid > 0 && c.pid() == pid; });
-    if (copy != p.image->copies.end()) {
-      s.proc.process = std::move(*copy);  // the copy is now the live service
-      p.image->copies.erase(copy);
-    } else if (auto spare = pid > 0 ? sys::ChildProcess::adopt_child(pid)
-                                    : sys::SysResult<sys::ChildProcess>(std::unexpected(sys::SysError{"Resumed", EPROTO}))) {
-      s.proc.process = std::move(*spare);  // a spare whose Copied is still on its way took the Resume
-    } else {
-      if (failure.empty()) {
-        const image::Image& im = *p.image;
-        failure = "no Resumed from the image of '" + s.name + "': " +
-                  (answer ? "pid " + std::to_string(pid) + " is no copy" : answer.error()) + " (" +
-                  std::to_string(im.copies.size()) + " copies, " + std::to_string(im.spares_pending) + " spares and " +
-                  (im.patch_pending ? "its patch" : "no patch") + " on their way" +
-                  (im.last_death.empty() ? "" : "; " + im.last_death) + ")";
-      }
-      k.warden.record_violation(s, Violation::ImageLost,
-                                "generation " + std::to_string(record.g.value()) + ": no Resumed (" +
-                                    (answer ? "pid " + std::to_string(pid) + " is no copy" : answer.error()) +
-                                    ")");
-      continue;  // its copies are killed with the generation
-    }
-    p.image->resumed.push_back(pid);
-    s.pages.start_incarnation(record.g);
-    s.proc.channel = std::move(p.channel);
-    if (auto watched = k.warden.replace_output(s, std::move(p.output)); !watched && failure.empty()) {
-      failure = "watching the restored '" + s.name + "' output: " + watched.error().to_string();
-    }
-    s.proc.resumed();
-    s.flow.new_channel();
-    s.stats.pid = s.proc.process.pid();
-    k.warden.place_live(s);  // out of the images' leaf, into the one its forks and its memory are bounded in
-    ++s.stats.restores;
-    // A restored incarnation the loop does not watch would die unnoticed (no rollback, no restart): the
-    // generation is unusable rather than half-installed.
-    for (const auto& [fd, source] :
-         {std::pair{s.proc.channel.fd(), Source::Channel}, std::pair{s.proc.process.pidfd(), Source::Pidfd}}) {
-      if (auto added = k.epoll.add(fd, token(source, s.id.value())); !added && failure.empty()) {
-        failure = "watching the restored '" + s.name + "': " + added.error().to_string();
-      }
+  // Then every Resumed, each installed as it answers; every image is waited for, whatever failed first.
+  for (PendingResume& p : sent.pending) {
+    if (auto installed = install_resumed(k, p, record.g, deadline); !installed && failure.empty()) {
+      failure = std::move(installed.error());
     }
   }
-  if (pending.size() != record.images.size() && failure.empty()) failure = "not every image could be resumed";
-  if (!failure.empty()) return false;
-  resumed_at = k.wall();
+  if (sent.pending.size() != record.images.size() && failure.empty()) failure = "not every image could be resumed";
+  if (!failure.empty()) return std::unexpected(std::move(failure));
+  const Nanos resumed_at = k.wall();
   if (auto restored = restore_state(record.state, k.now(), k.services, k.broker, k.timers); !restored) {
-    failure = "queue state: " + std::string(broker::to_string(restored.error()));
-    return false;
+    return std::unexpected("queue state: " + std::string(broker::to_string(restored.error())));
   }
   if (k.observer != nullptr) k.observer->on_restore(record.g, k.broker);
   k.kernel_clock.begin_epoch();  // = next, told to the images in their Resume
-  return true;
+  return resumed_at;
+}
+
+std::optional<std::string> Rejuvenator::lost_image(image::GenerationRecord& record) {
+  const std::optional<ServiceId> dead = images.dead_image(record);
+  if (!dead) return std::nullopt;
+  const image::Image* im = record.image_of(*dead);
+  std::string failure = "the image of '" + k.services[dead->value()].name + "' is gone" +
+                        (im != nullptr && !im->last_death.empty() ? " (" + im->last_death + ")" : "");
+  k.warden.record_violation(k.services[dead->value()], Violation::ImageLost,
+                            "generation " + std::to_string(record.g.value()) + ": " + failure);
+  return failure;
+}
+
+std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(Nanos rollback_by) {
+  while (image::GenerationRecord* record = images.newest()) {
+    if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
+    std::string failure;
+    if (std::optional<std::string> lost = lost_image(*record)) {
+      failure = std::move(*lost);
+    } else if (auto resumed =
+                   resume_generation(*record, std::max(rollback_by, k.wall() + k.options.resume_deadline))) {
+      return ResumedGeneration{.record = record, .resumed_at = *resumed};
+    } else {
+      failure = std::move(resumed.error());
+    }
+    k.log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
+    ++sr_stats.fallbacks;
+    retire_live_rejuvenated();  // whatever of it was resumed
+    if (auto taken = images.take(record->g)) retire(std::move(*taken));
+  }
+  return std::nullopt;
 }
 
 // The RollbackSignal and the SrMode, published into frozen rings and delivered after the timed part (as after a
@@ -208,35 +269,15 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   sr_event(SrEventKind::Mode);
   retire_live_rejuvenated();
   const Nanos t_killed = k.wall();
-  Nanos t_resumed = t_killed;
   // The whole rollback has image_wait_bound() (resume_deadline where the vehicle waits with us,
-  // unseen_resume_deadline otherwise), and a fallback at least resume_deadline: below the plant's ack timeout
-  // however many generations are kept (KernelOptions).
-  const Nanos rollback_by = t_killed + image_wait_bound();
-  image::GenerationRecord* restored = nullptr;
-  while (image::GenerationRecord* record = images.newest()) {
-    std::string failure;
-    if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
-    if (const auto dead = images.dead_image(*record)) {
-      const image::Image* im = record->image_of(*dead);
-      failure = "the image of '" + k.services[dead->value()].name + "' is gone" +
-                (im != nullptr && !im->last_death.empty() ? " (" + im->last_death + ")" : "");
-      k.warden.record_violation(k.services[dead->value()], Violation::ImageLost,
-                                "generation " + std::to_string(record->g.value()) + ": " + failure);
-    } else if (resume_generation(*record, std::max(rollback_by, k.wall() + k.options.resume_deadline),
-                                 failure, t_resumed)) {
-      restored = record;
-      break;
-    }
-    k.log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
-    ++sr_stats.fallbacks;
-    retire_live_rejuvenated();  // whatever of it was resumed
-    if (auto taken = images.take(record->g)) retire(std::move(*taken));
-  }
-  if (restored == nullptr) {
+  // unseen_resume_deadline otherwise): below the plant's ack timeout however many generations are kept.
+  const std::optional<ResumedGeneration> resumed = resume_newest_usable(t_killed + image_wait_bound());
+  if (!resumed) {
     cold_restart(reason + "; no usable generation");
     return;
   }
+  image::GenerationRecord* const restored = resumed->record;
+  const Nanos t_resumed = resumed->resumed_at;
   // The rollback is the rejuvenation: a pending once-timer is spent; a periodic one runs on.
   coordinator.rejuvenated(k.now());
   k.arm_timerfd();
