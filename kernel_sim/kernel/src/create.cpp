@@ -396,12 +396,12 @@ Result<void, KernelError> watch_event_sources(Kernel::Impl& k) {
     k.timerfd = std::move(*tfd);
     if (auto ok = add(k.timerfd->fd(), token(Source::Timer, 0)); !ok) return fail(ok.error());
   }
-  k.lockstep.samples_on_step = plant_lockstep(k);
+  k.lockstep.set_samples_on_step(plant_lockstep(k));
   if (!k.bridge) return {};
   for (std::size_t i = 0; i < k.bridge->readers().size(); ++i) {
     // Lockstep with the plant: the samples of a step are taken when its SimStep arrives (they were published
     // before it), so only the step input wakes the kernel — one wakeup per step, not per sample.
-    if (k.lockstep.samples_on_step && !k.bridge->is_step_input(i)) {
+    if (k.lockstep.samples_on_step() && !k.bridge->is_step_input(i)) {
       k.bridge->readers()[i].reader.set_signalling(false);  // until a step is short of samples
       continue;
     }

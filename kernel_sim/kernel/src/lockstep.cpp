@@ -15,7 +15,7 @@ namespace rejuv::kernel {
 // Lockstep: a sample is held for the step that covers it, then routed in canonical order (route_samples).
 void Lockstep::stage_sample(std::size_t reader, std::span<const std::byte> bytes) {
   const std::uint64_t stamp = dds::plant_topics::stamp_of(bytes).value_or(0);
-  samples.add(std::pair(stamp, static_cast<std::uint32_t>(reader)), std::monostate{}, bytes);
+  samples_.add(std::pair(stamp, static_cast<std::uint32_t>(reader)), std::monostate{}, bytes);
 }
 
 // SimSteps from the plant (the step input woke the loop): each becomes a pending step, and the samples it
@@ -38,7 +38,7 @@ void Lockstep::take_steps() {
         if (!k.stopping) stage_sample(input, bytes);
       });
   if (!n) k.log("DDS take sim_step: %s", n.error().to_string().c_str());
-  if (samples_on_step && n && *n > 0) collect_samples();
+  if (samples_on_step_ && n && *n > 0) collect_samples();
 }
 
 void Lockstep::collect_samples() {
@@ -49,7 +49,7 @@ void Lockstep::collect_samples() {
 }
 
 void Lockstep::watch_sample_readers(bool watch) {
-  if (!k.bridge || !samples_on_step || watch == watching_samples) return;
+  if (!k.bridge || !samples_on_step_ || watch == watching_samples) return;
   watching_samples = watch;
   for (std::size_t i = 0; i < k.bridge->readers().size(); ++i) {
     if (k.bridge->is_step_input(i)) continue;
@@ -133,7 +133,7 @@ bool Lockstep::advance_step() {
             static_cast<unsigned long long>(steps.active()->step), steps.rounds());
       return true;
     }
-    if (!staged.empty()) {
+    if (!staged_.empty()) {
       steps.next_round();
       k.router.cork();
       k.router.flush_staged();

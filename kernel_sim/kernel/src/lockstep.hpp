@@ -2,6 +2,7 @@
 // step, the pace, and the run's stop conditions. Owns the step clock and the two canonical stages.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -44,13 +45,44 @@ class Lockstep {
   void replay_next_instant();
   bool replay_instant();  // the next instant, or the end of the replay (false): measured and charged
 
-  StepClock steps;               // the queue, the active step, its rounds and deadlines (step_clock.hpp)
-  bool samples_on_step = false;  // sample readers are not in epoll: taken when a SimStep arrives (create.cpp)
-  PublicationStage staged;       // a round's publications (router.cpp stages and flushes them)
-  SampleStage samples;           // the samples of the step (staged here, routed by router.cpp)
+  // Lockstep with the plant: the sample readers are not in epoll, their samples are taken when a SimStep arrives.
+  // Chosen once, when the kernel's epoll set is made (create.cpp).
+  void set_samples_on_step(bool on) { samples_on_step_ = on; }
+  [[nodiscard]] bool samples_on_step() const { return samples_on_step_; }
+
+  // A round's publications (router.cpp): held while the round runs, handed out at its end in canonical order.
+  void stage_publication(ServiceId publisher, std::uint32_t slot, std::span<const std::byte> payload) {
+    staged_.add(publisher.value(), slot, payload);
+  }
+  // Calls f(publisher id value, slot, payload) for every staged publication in canonical order, then empties the stage.
+  template <typename F>
+  void drain_publications(F&& f) {
+    staged_.drain(std::forward<F>(f));
+  }
+  // Drops the staged publications of every publisher (id value) for which `gone` holds: a rollback's retired ones.
+  template <typename P>
+  void drop_publications_of(P&& gone) {
+    staged_.erase_if([&](std::uint32_t publisher, std::uint32_t /*slot*/) { return gone(publisher); });
+  }
+  [[nodiscard]] std::size_t publications_staged() const { return staged_.size(); }
+
+  // Calls f(key, tag, bytes) for every sample held for the step in canonical order (router.cpp routes them), then
+  // empties the stage.
+  template <typename F>
+  void drain_samples(F&& f) {
+    samples_.drain(std::forward<F>(f));
+  }
+
+  // The queue, the active step, its rounds and deadlines (step_clock.hpp). Still public: the kernel's manual step,
+  // the supervisor's liveness watch and the loop's deadlines ask it directly (some thirty call sites), and two of
+  // them advance it (the loop's tick, the supervisor's abandon on a hung step); behind methods in a later step.
+  StepClock steps;
 
  private:
   Kernel::Impl& k;
+  bool samples_on_step_ = false;
+  PublicationStage staged_;
+  SampleStage samples_;  // the samples of the step (staged here)
   bool watching_samples = false;
   std::optional<std::pair<Nanos, Nanos>> pace_origin{};  // (kernel clock, wall) at the first paced step
 };

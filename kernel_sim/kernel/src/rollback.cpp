@@ -21,8 +21,7 @@ void Rejuvenator::request_rollback(std::string reason) {
 }
 
 void Rejuvenator::retire_live_rejuvenated() {
-  k.lockstep.staged.erase_if(
-      [&](std::uint32_t origin, std::uint32_t /*slot*/) { return k.services[origin].config.rejuvenate; });
+  k.lockstep.drop_publications_of([&](std::uint32_t publisher) { return k.services[publisher].config.rejuvenate; });
   for (ServiceRuntime& s : k.services) {
     if (!s.config.rejuvenate || s.config.skip || s.proc.phase() == Phase::NotStarted) continue;
     // The live incarnation and everything it forked (strays are born in its leaf) ended in one call, however

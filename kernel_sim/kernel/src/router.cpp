@@ -29,11 +29,11 @@ void Router::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<con
             kMaxStagedPerStep);
     return;
   }
-  k.lockstep.staged.add(s.id.value(), slot, payload);
+  k.lockstep.stage_publication(s.id, slot, payload);
 }
 
 void Router::flush_staged() {
-  k.lockstep.staged.drain([&](std::uint32_t origin, std::uint32_t slot, std::span<const std::byte> payload) {
+  k.lockstep.drain_publications([&](std::uint32_t origin, std::uint32_t slot, std::span<const std::byte> payload) {
     ServiceRuntime& s = k.services[origin];
     if (s.proc.phase() == Phase::Dead) return;  // output of a service that died since: discarded
     route_publish(s, slot, payload);
@@ -41,7 +41,7 @@ void Router::flush_staged() {
 }
 
 void Router::route_samples() {
-  k.lockstep.samples.drain([&](const std::pair<std::uint64_t, std::uint32_t>& key, std::monostate,
+  k.lockstep.drain_samples([&](const std::pair<std::uint64_t, std::uint32_t>& key, std::monostate,
                                std::span<const std::byte> bytes) {
     const std::uint32_t reader = key.second;
     if (const auto topic = k.bridge->readers()[reader].topic) publish_as_kernel(*topic, bytes, From::Bridge);

@@ -417,7 +417,8 @@ void Supervisor::report_stall() {
     if (k.rejuvenator.coordinator.checkpoint() == ImageCoordinator::Checkpoint::Asked)
       what += "; a checkpoint waits for quiescence";
     if (k.rejuvenator.coordinator.rollback_asked()) what += "; a rollback is pending";
-    if (!k.lockstep.staged.empty()) what += "; " + std::to_string(k.lockstep.staged.size()) + " staged";
+    if (const std::size_t staged = k.lockstep.publications_staged(); staged > 0)
+      what += "; " + std::to_string(staged) + " staged";
   }
   k.log("no lockstep step completed for %.1f s: %s",
         to_seconds(k.wall() - k.lockstep.steps.last_done()).count(), what.c_str());
