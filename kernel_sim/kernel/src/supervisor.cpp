@@ -468,8 +468,12 @@ void Supervisor::watch_liveness() {
   const Nanos t = k.wall();
   for (ServiceRuntime& s : k.services) {
     std::optional<LivenessProbe>& probe = probes_[s.id.value()];
+    // The catch-up chain while it replays or drains what it was handed: a slow replay is no violation
+    // (catch_up.hpp); the catch-up's own bound ends it, and the watch resumes after.
+    const CatchUp& catch_up = k.rejuvenator.catch_up;
+    const bool replaying = catch_up.in_chain(s.id) && (catch_up.replaying() || catch_up.draining());
     const bool watched = s.config.rejuvenate && s.live() && !s.proc.scripted && s.proc.phase() == Phase::Ready &&
-                         s.proc.loss_reason.empty();
+                         s.proc.loss_reason.empty() && !replaying;
     if (!watched || (probe && probe->pid != s.proc.process.pid())) probe.reset();  // gone, or a new incarnation
     if (!watched) continue;
     if (probe) {
