@@ -649,29 +649,7 @@ std::vector<mav::Message> ExtLink::telemetry(const TelemetryInputs& in) {
   const Flown mission = flown();
   if (!last_slow_ || in.now - *last_slow_ >= std::chrono::seconds{1}) {
     last_slow_ = in.now;
-    out.emplace_back(mav::Heartbeat{.custom_mode = custom_mode_of(in.mode, in.epoch),
-                                    .type = mav::kMavTypeQuadrotor,
-                                    .autopilot = mav::kMavAutopilotGeneric,
-                                    .base_mode = static_cast<std::uint8_t>(mav::kModeFlagCustomModeEnabled |
-                                                                           mav::kModeFlagAutoEnabled |
-                                                                           mav::kModeFlagSafetyArmed),
-                                    .system_status = mav::kMavStateActive,
-                                    .mavlink_version = 3});
-    out.emplace_back(sys_status(in));
-    // MAV_LANDED_STATE: in the air above 0.2 m (the plant's ground is home's altitude).
-    const bool in_air = in.state != nullptr && -in.state->p_N_m[2] > 0.2;
-    out.emplace_back(mav::ExtendedSysState{.vtol_state = 0, .landed_state = static_cast<std::uint8_t>(in_air ? 2 : 1)});
-    if (home_) out.emplace_back(home_position(time_boot_ms));
-    if (in.setpoint != nullptr) {
-      const std::uint32_t index = in.setpoint->waypoint_index;
-      const std::uint32_t item = index >= mission.index_offset ? index - mission.index_offset : 0;
-      // MISSION_STATE: ACTIVE (3), COMPLETE (5).
-      out.emplace_back(mav::MissionCurrent{.seq = static_cast<std::uint16_t>(item),
-                                           .total = static_cast<std::uint16_t>(mission.waypoints.size()),
-                                           .mission_state = static_cast<std::uint8_t>(in.setpoint->mission_done != 0 ? 5 : 3),
-                                           .mission_mode = 1,  // in a mission mode (AUTO)
-                                           .mission_id = 0, .fence_id = 0, .rally_points_id = 0});
-    }
+    append_slow_set(in, mission, time_boot_ms, out);
   }
   // The setpoint moved on to the next waypoint: the one before is reached (mission protocol "Mission
   // progress"); the last one when the mission is done. Path indices run ahead of the items of an uploaded
@@ -693,41 +671,70 @@ std::vector<mav::Message> ExtLink::telemetry(const TelemetryInputs& in) {
     last_gps_ns_ = in.gps->timestamp_ns;
     out.emplace_back(gps_raw(*home_, *in.gps));
   }
-  if (in.state != nullptr) {
-    const rejuv_msg_VehicleStateEstimate& s = *in.state;
-    out.emplace_back(mav::LocalPositionNed{.time_boot_ms = time_boot_ms,
-                                           .x = static_cast<float>(s.p_N_m[0]),
-                                           .y = static_cast<float>(s.p_N_m[1]),
-                                           .z = static_cast<float>(s.p_N_m[2]),
-                                           .vx = static_cast<float>(s.v_N_m_s[0]),
-                                           .vy = static_cast<float>(s.v_N_m_s[1]),
-                                           .vz = static_cast<float>(s.v_N_m_s[2])});
-    // q_NB = (w, x, y, z), body to NED: Tait–Bryan ZYX angles.
-    const double w = s.q_NB[0], x = s.q_NB[1], y = s.q_NB[2], z = s.q_NB[3];
-    const double roll = std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y));
-    const double pitch = std::asin(std::clamp(2 * (w * y - z * x), -1.0, 1.0));
-    const double yaw = std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
-    if (home_) out.emplace_back(global_position(*home_, s, yaw, time_boot_ms));
-    out.emplace_back(mav::Attitude{.time_boot_ms = time_boot_ms,
-                                   .roll = static_cast<float>(roll),
-                                   .pitch = static_cast<float>(pitch),
-                                   .yaw = static_cast<float>(yaw),
-                                   .rollspeed = static_cast<float>(s.omega_B_rad_s[0]),
-                                   .pitchspeed = static_cast<float>(s.omega_B_rad_s[1]),
-                                   .yawspeed = static_cast<float>(s.omega_B_rad_s[2])});
-    // VFR_HUD: no air data and no wind model in the estimate: airspeed is the ground speed; the throttle is not
-    // seen by ext_link (0).
-    const double ground_speed = std::hypot(s.v_N_m_s[0], s.v_N_m_s[1]);
-    double heading_deg = std::fmod(yaw * 180.0 / std::numbers::pi + 360.0, 360.0);
-    if (!std::isfinite(heading_deg)) heading_deg = 0;
-    out.emplace_back(mav::VfrHud{.airspeed = static_cast<float>(ground_speed),
-                                 .groundspeed = static_cast<float>(ground_speed),
-                                 .alt = static_cast<float>((home_ ? home_->alt_m : 0.0) - s.p_N_m[2]),
-                                 .climb = static_cast<float>(-s.v_N_m_s[2]),
-                                 .heading = static_cast<std::int16_t>(std::min(359.0, std::floor(heading_deg))),
-                                 .throttle = 0});
-  }
+  if (in.state != nullptr) append_estimate(*in.state, time_boot_ms, out);
   return out;
+}
+
+void ExtLink::append_slow_set(const TelemetryInputs& in, const Flown& mission, std::uint32_t time_boot_ms,
+                              std::vector<mav::Message>& out) {
+  out.emplace_back(mav::Heartbeat{.custom_mode = custom_mode_of(in.mode, in.epoch),
+                                  .type = mav::kMavTypeQuadrotor,
+                                  .autopilot = mav::kMavAutopilotGeneric,
+                                  .base_mode = static_cast<std::uint8_t>(mav::kModeFlagCustomModeEnabled |
+                                                                         mav::kModeFlagAutoEnabled |
+                                                                         mav::kModeFlagSafetyArmed),
+                                  .system_status = mav::kMavStateActive,
+                                  .mavlink_version = 3});
+  out.emplace_back(sys_status(in));
+  // MAV_LANDED_STATE: in the air above 0.2 m (the plant's ground is home's altitude).
+  const bool in_air = in.state != nullptr && -in.state->p_N_m[2] > 0.2;
+  out.emplace_back(mav::ExtendedSysState{.vtol_state = 0, .landed_state = static_cast<std::uint8_t>(in_air ? 2 : 1)});
+  if (home_) out.emplace_back(home_position(time_boot_ms));
+  if (in.setpoint != nullptr) {
+    const std::uint32_t index = in.setpoint->waypoint_index;
+    const std::uint32_t item = index >= mission.index_offset ? index - mission.index_offset : 0;
+    // MISSION_STATE: ACTIVE (3), COMPLETE (5).
+    out.emplace_back(mav::MissionCurrent{.seq = static_cast<std::uint16_t>(item),
+                                         .total = static_cast<std::uint16_t>(mission.waypoints.size()),
+                                         .mission_state = static_cast<std::uint8_t>(in.setpoint->mission_done != 0 ? 5 : 3),
+                                         .mission_mode = 1,  // in a mission mode (AUTO)
+                                         .mission_id = 0, .fence_id = 0, .rally_points_id = 0});
+  }
+}
+
+void ExtLink::append_estimate(const rejuv_msg_VehicleStateEstimate& s, std::uint32_t time_boot_ms,
+                              std::vector<mav::Message>& out) const {
+  out.emplace_back(mav::LocalPositionNed{.time_boot_ms = time_boot_ms,
+                                         .x = static_cast<float>(s.p_N_m[0]),
+                                         .y = static_cast<float>(s.p_N_m[1]),
+                                         .z = static_cast<float>(s.p_N_m[2]),
+                                         .vx = static_cast<float>(s.v_N_m_s[0]),
+                                         .vy = static_cast<float>(s.v_N_m_s[1]),
+                                         .vz = static_cast<float>(s.v_N_m_s[2])});
+  // q_NB = (w, x, y, z), body to NED: Tait–Bryan ZYX angles.
+  const double w = s.q_NB[0], x = s.q_NB[1], y = s.q_NB[2], z = s.q_NB[3];
+  const double roll = std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y));
+  const double pitch = std::asin(std::clamp(2 * (w * y - z * x), -1.0, 1.0));
+  const double yaw = std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
+  if (home_) out.emplace_back(global_position(*home_, s, yaw, time_boot_ms));
+  out.emplace_back(mav::Attitude{.time_boot_ms = time_boot_ms,
+                                 .roll = static_cast<float>(roll),
+                                 .pitch = static_cast<float>(pitch),
+                                 .yaw = static_cast<float>(yaw),
+                                 .rollspeed = static_cast<float>(s.omega_B_rad_s[0]),
+                                 .pitchspeed = static_cast<float>(s.omega_B_rad_s[1]),
+                                 .yawspeed = static_cast<float>(s.omega_B_rad_s[2])});
+  // VFR_HUD: no air data and no wind model in the estimate: airspeed is the ground speed; the throttle is not
+  // seen by ext_link (0).
+  const double ground_speed = std::hypot(s.v_N_m_s[0], s.v_N_m_s[1]);
+  double heading_deg = std::fmod(yaw * 180.0 / std::numbers::pi + 360.0, 360.0);
+  if (!std::isfinite(heading_deg)) heading_deg = 0;
+  out.emplace_back(mav::VfrHud{.airspeed = static_cast<float>(ground_speed),
+                               .groundspeed = static_cast<float>(ground_speed),
+                               .alt = static_cast<float>((home_ ? home_->alt_m : 0.0) - s.p_N_m[2]),
+                               .climb = static_cast<float>(-s.v_N_m_s[2]),
+                               .heading = static_cast<std::int16_t>(std::min(359.0, std::floor(heading_deg))),
+                               .throttle = 0});
 }
 
 mav::SysStatus ExtLink::sys_status(const TelemetryInputs& in) {

@@ -206,6 +206,14 @@ class ExtLink {
   [[nodiscard]] mavlink::Message autopilot_version() const;
   void rebuild_params();
   [[nodiscard]] mavlink::SysStatus sys_status(const TelemetryInputs& in);
+  // telemetry()'s 1 Hz set: HEARTBEAT, SYS_STATUS, EXTENDED_SYS_STATE, HOME_POSITION (given a home) and
+  // MISSION_CURRENT (given a setpoint).
+  void append_slow_set(const TelemetryInputs& in, const Flown& mission, std::uint32_t time_boot_ms,
+                       std::vector<mavlink::Message>& out);
+  // telemetry()'s messages of one estimate: LOCAL_POSITION_NED, GLOBAL_POSITION_INT (given a home), ATTITUDE,
+  // VFR_HUD.
+  void append_estimate(const rejuv_msg_VehicleStateEstimate& s, std::uint32_t time_boot_ms,
+                       std::vector<mavlink::Message>& out) const;
   // The timestamps seen at the last SYS_STATUS: a sample newer than these is a sign of health.
   struct HealthSeen {
     std::uint64_t state_ns = 0;
