@@ -105,8 +105,6 @@ inline constexpr std::uint32_t kMaxSandboxPublicationsPerS = 1'000'000;
 inline constexpr std::uint32_t kMinSandboxOpenFiles = 16;  // below it the SDK cannot boot
 // Bounds of what a graph may ask for (refused at load, file:line:column):
 inline constexpr double kMaxDurationS = 1e6;           // any duration [s]: ~11 days, far inside int64 ns
-inline constexpr double kMinPeriodS = 1e-6;            // a period the kernel's ns clock can represent [s]
-inline constexpr std::uint32_t kMaxKeepGenerations = graph_values::kKeepGenerations.range.max;
 inline constexpr double kMinPhysicsRateHz = 100.0;     // below the sensor and control rates the model breaks
 inline constexpr double kMaxPhysicsRateHz = 100000.0;  // 10 µs RK4 steps: beyond, a run never ends
 inline constexpr double kMaxWaypointOffsetM = 10000.0; // |north|, |east|, |down| of a waypoint [m]
@@ -136,6 +134,7 @@ struct RearmField {
   std::string name;
   double value = 0.0;
   bool is_switch = false;  // `enabled`; every other field is a 1σ
+  const graph_values::Key<double>* key = nullptr;  // a 1σ's graph-wide key; nullptr for the switch
 };
 [[nodiscard]] std::vector<RearmField> ekf_rearm_fields(const proto::EstimatorRearm& rearm);
 // The mission's timeout_s, or unset, derived from the path (idl/launch.proto Mission.timeout_s):
