@@ -73,7 +73,10 @@ std::vector<RearmField> ekf_rearm_fields(const proto::EstimatorRearm& rearm) {
     const bool is_switch = f->cpp_type() == google::protobuf::FieldDescriptor::CPPTYPE_BOOL;
     const double value = is_switch ? (rearm.GetReflection()->GetBool(rearm, f) ? 1.0 : 0.0)
                                    : rearm.GetReflection()->GetDouble(rearm, f);
-    out.push_back(RearmField{.name = f->name(), .value = value, .is_switch = is_switch});
+    const graph_values::Key<double>* key = is_switch ? nullptr : graph_values::rearm_std(f->name());
+    REJUV_ASSERT(is_switch || key != nullptr,
+                 "an EstimatorRearm field without a key in rejuv/core/graph_values.hpp");
+    out.push_back(RearmField{.name = f->name(), .value = value, .is_switch = is_switch, .key = key});
   }
   return out;
 }

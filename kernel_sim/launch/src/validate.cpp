@@ -625,11 +625,9 @@ class Validator {
   Check check_sr_ekf_rearm(const proto::SrParams& sr) const {
     for (const RearmField& f : ekf_rearm_fields(sr.ekf_rearm())) {
       if (f.is_switch) continue;
-      const graph_values::Key<double>* key = graph_values::rearm_std(f.name);
-      REJUV_ASSERT(key != nullptr, "an EstimatorRearm field without a key in rejuv/core/graph_values.hpp");
-      if (!graph_values::in_range(*key, f.value)) {
-        return fail(error(key_at(key->name),
-                          std::string(key->name) + " must be a finite 1-sigma > 0, got " + num(f.value)));
+      if (!graph_values::in_range(*f.key, f.value)) {
+        return fail(error(key_at(f.key->name),
+                          std::string(f.key->name) + " must be a finite 1-sigma > 0, got " + num(f.value)));
       }
     }
     return {};
