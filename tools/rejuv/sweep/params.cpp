@@ -312,15 +312,16 @@ Result<proto::SweepAxis, std::string> make_axis(const proto::Launch& base, std::
 
 std::string axis_label(std::string_view path, std::string_view unit) {
   namespace gv = graph_values;
+  // A key's symbol names its axis; the fraction and the period read better spelt out on a plot.
   const std::pair<std::string_view, std::string_view> names[] = {
-      {gv::kTmc.name, "T_MC"},
-      {gv::kTest.name, "T_est"},
-      {gv::kRhoM.name, "ρ_M"},
-      {gv::kRhoS.name, "ρ_s"},
-      {gv::kTmin.name, "t_min"},
+      {gv::kTmc.name, gv::kTmc.symbol},
+      {gv::kTest.name, gv::kTest.symbol},
+      {gv::kRhoM.name, gv::kRhoM.symbol},
+      {gv::kRhoS.name, gv::kRhoS.symbol},
+      {gv::kTmin.name, gv::kTmin.symbol},
       {gv::kRestrictedLimitFraction.name, "Ū / U"},
       {gv::kCheckPeriod.name, "check period of (1)"},
-      {gv::kRearmEnabled.name, "estimator re-armed after RB"}};
+      {gv::kRearmEnabled.name, gv::kRearmEnabled.symbol}};
   const std::string units = unit.empty() ? "" : " [" + std::string(unit) + "]";
   for (const auto& [p, name] : names) {
     if (p == path) return std::string(name) + units + " (" + std::string(path) + ")";
