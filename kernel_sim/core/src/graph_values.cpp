@@ -24,13 +24,9 @@ ValueError refused(std::string_view name, ValueError::Kind kind, std::string mes
 
 // The range in the file's unit; `lo`/`hi` are the bounds as numbers of that unit.
 std::string range_in(std::string_view symbol, Quantity q, double lo, bool lo_open, double hi, bool hi_open) {
-  std::string out = num(lo) + (lo_open ? " < " : " ≤ ") + std::string(symbol);
-  if (std::isinf(hi)) {
-    out = std::string(symbol) + (lo_open ? " > " : " ≥ ") + num(lo);
-  } else {
-    out += (hi_open ? " < " : " ≤ ") + num(hi);
-  }
-  return with_unit(out, q);
+  if (std::isinf(hi)) return with_unit(std::string(symbol) + (lo_open ? " > " : " ≥ ") + num(lo), q);
+  return with_unit(
+      num(lo) + (lo_open ? " < " : " ≤ ") + std::string(symbol) + (hi_open ? " < " : " ≤ ") + num(hi), q);
 }
 
 template <class T>
