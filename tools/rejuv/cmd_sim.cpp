@@ -113,7 +113,7 @@ int fly_one(const SimRequest& r, const flight::SimConfig& config, SimOutputs& ou
     obs.sr_event = [files](const SrEvent& e) { files->sr_event(e); };
   }
   auto summary = flight::run_simulation(config, obs);
-  if (!summary) return refuse("rejuv sim: " + summary.error().to_string());
+  if (!summary) return refuse("sim", summary.error().to_string());
   const bool out_ok = files == nullptr ||
                       finish_out_dir(*files, *summary, "rejuv sim", r.files_out.no_figures ? Figures::Skip : Figures::Draw);
   print(stdout, describe(*summary));
@@ -159,7 +159,7 @@ int fly_table(const flight::SimConfig& config, const SimOutputs& out, bool tty) 
     c.sr = row.sr;
     c.attack.enabled = row.attack;
     const auto summary = flight::run_simulation(c, progress_observers(row.label, tty));
-    if (!summary) return refuse("rejuv sim: " + summary.error().to_string());
+    if (!summary) return refuse("sim", summary.error().to_string());
     results.push_back(*summary);
   }
   print(stdout, table_text(config, results));
@@ -183,10 +183,10 @@ int run_sim(std::span<const std::string_view> args) {
   declare_sim_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (r.table && (r.switches.no_sr || r.switches.no_attack || r.csv_path || r.files_out.dir)) {
-    return refuse("rejuv sim: --table runs all four configurations; it cannot be combined with --no-sr, "
-                     "--no-attack, --csv or --out");
+    return refuse("sim", "--table runs all four configurations; it cannot be combined with --no-sr, --no-attack, "
+                         "--csv or --out");
   }
-  if (auto ok = check_out_options(opts, r.files_out); !ok) return refuse("rejuv sim: " + ok.error());
+  if (auto ok = check_out_options(opts, r.files_out); !ok) return refuse("sim", ok.error());
   flight::SimOverrides overrides;
   overrides.seed = r.seed;
   if (r.switches.no_sr) overrides.sr = flight::SrSwitch::Off;
