@@ -100,9 +100,7 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
       if (!sr.estimate_catch_up()) send(gv::kRearmEnabled, f.value != 0.0);
       continue;
     }
-    const gv::Key<double>* key = gv::rearm_std(f.name);
-    REJUV_ASSERT(key != nullptr, "an EstimatorRearm field without a key in rejuv/core/graph_values.hpp");
-    send(*key, f.value);
+    send(*f.key, f.value);
   }
   if (sr.estimate_catch_up()) send(gv::kRearmEnabled, false);
   send_set(gv::kBoxPosition, sr.box().position_m(), sr.box().position_m());
