@@ -12,8 +12,11 @@ using namespace rejuv;
 
 // The service's set-up and event loop; main() is the start-up every service shares (services/service_main).
 int serve(sdk::Service& svc) {
-  auto limits = flight_io::actuator_limits(flight_io::params_of(svc));
+  const flight_io::Params params = flight_io::params_of(svc);
+  auto limits = flight_io::actuator_limits(params);
   if (!svc.require(limits, "bad params")) return 1;
+  auto sr = flight_io::read(params, graph_values::kEnabled);
+  if (!svc.require(sr, "bad params")) return 1;
   // The mixer of the vehicle the plant flies (flight/sim uses the same: plant.mixer().inverse()).
   const plant::Mixer mixer(flight::SimConfig::defaults().quad);
   services::DriverNode driver(mixer.inverse(), *limits, svc.mode());
@@ -21,8 +24,8 @@ int serve(sdk::Service& svc) {
   auto outputs = svc.advertise<rejuv_msg_ActuatorOutputs>("actuator_outputs");
   if (!svc.require(outputs, "actuator_outputs")) return 1;
   flight_io::FirstRefusalLog refuse(svc, "ignoring a message (the outputs in force stay)");
-  // §IV-C: entering MC, Ū as checkpoint_p wrote it (through the Limits cap, never from a topic).
-  const bool has_limits_cap = svc.cap("actuator_limits").has_value();
+  // §IV-C: entering MC with SR on, Ū as checkpoint_p wrote it (through the Limits cap, never from a topic).
+  const bool reads_limits = *sr && svc.cap("actuator_limits").has_value();
   const auto read_limits = [&] {
     std::array<std::byte, sizeof(flight_io::LimitsRecord)> record{};
     auto cell = svc.limits("actuator_limits");
@@ -36,7 +39,7 @@ int serve(sdk::Service& svc) {
   auto modes = svc.subscribe<rejuv_msg_SrMode>("sr_mode", [&](const rejuv_msg_SrMode& m) {
     auto mode = flight_io::mode_from_message(m);
     if (!mode) return refuse(mode.error());
-    if (*mode == SrMode::MC && has_limits_cap && svc.param(graph_values::kEnabled.name, 0) != 0) read_limits();
+    if (*mode == SrMode::MC && reads_limits) read_limits();
     driver.on_mode(*mode);
   });
   auto controls = svc.subscribe<rejuv_msg_ActuatorControls>(
