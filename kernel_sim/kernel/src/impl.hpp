@@ -130,6 +130,9 @@ struct Kernel::Impl {
   void pace_catch_up();
   void cut_catch_up_short();  // the replay past the kernel's bound: REARM, the live samples out (loop.cpp)
   void drain_catch_up();      // real time, after a cut: the chain's real-time plan back once it is idle
+  // A Sync to `s` (docs/protocol.md "Idle": it answers with an Idle once it has handled what came before); false
+  // when the frame could not be built.
+  bool ask_idle(ServiceRuntime& s);
 
   // ---- network gate (netgate.cpp) ----
   // Opens the UDP socket of the launch graph's `network` (at create; realtime: registered in epoll).

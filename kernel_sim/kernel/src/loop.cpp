@@ -288,10 +288,7 @@ void Kernel::Impl::pace_catch_up() {
   for (ServiceRuntime& s : services) {
     if (!rejuvenator.catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
     handled = false;
-    if (rejuvenator.catch_up.sync_due(s.id, s.flow.frames_issued()) &&
-        tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
-      router.send_control(s, tx.bytes());
-    }
+    if (rejuvenator.catch_up.sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
   }
   if (handled) (void)lockstep.replay_instant();  // nothing left: the replay ends, the live samples go out
 }
@@ -309,6 +306,12 @@ void Kernel::Impl::cut_catch_up_short() {
   });
 }
 
+bool Kernel::Impl::ask_idle(ServiceRuntime& s) {
+  if (!tx.build(wire::FrameKind::Sync, 0, 0, 0)) return false;
+  router.send_control(s, tx.bytes());
+  return true;
+}
+
 // Real time, after a cut: the chain may still be busy with the replay it was handed. It stays SCHED_OTHER (its
 // RLIMIT_RTTIME does not count replay work) until each of its services has answered a Sync sent after its last
 // frame; then its real-time plan is back, and slow live work is the violation it always is.
@@ -317,9 +320,7 @@ void Kernel::Impl::drain_catch_up() {
   for (ServiceRuntime& s : services) {
     if (!rejuvenator.catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
     handled = false;
-    if (rejuvenator.catch_up.sync_due(s.id, s.flow.frames_issued()) && tx.build(wire::FrameKind::Sync, 0, 0, 0)) {
-      router.send_control(s, tx.bytes());
-    }
+    if (rejuvenator.catch_up.sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
   }
   if (!handled) return;
   rejuvenator.catch_up.drained();

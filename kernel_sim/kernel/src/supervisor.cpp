@@ -464,33 +464,35 @@ void Supervisor::watch_liveness() {
   if (!k.sr) return;  // without SR a kill ends the run: a slow service is not worth that
   probes_.resize(k.services.size());
   const Nanos t = k.wall();
+  const CatchUp& catch_up = k.rejuvenator.catch_up;
   for (ServiceRuntime& s : k.services) {
-    std::optional<LivenessProbe>& probe = probes_[s.id.value()];
-    // The catch-up chain while it replays or drains what it was handed: a slow replay is no violation
-    // (catch_up.hpp); the catch-up's own bound ends it, and the watch resumes after.
-    const CatchUp& catch_up = k.rejuvenator.catch_up;
+    LivenessProbe& probe = probes_[s.id.value()];
+    // The catch-up chain while it replays or drains what it was handed is left alone: a slow replay is no
+    // violation (catch_up.hpp), and the catch-up's own bound ends it.
     const bool replaying = catch_up.in_chain(s.id) && (catch_up.replaying() || catch_up.draining());
     const bool watched = s.config.rejuvenate && s.live() && !s.proc.scripted && s.proc.phase() == Phase::Ready &&
                          s.proc.loss_reason.empty() && !replaying;
-    if (!watched || (probe && probe->pid != s.proc.process.pid())) probe.reset();  // gone, or a new incarnation
-    if (!watched) continue;
-    if (probe) {
-      if (s.flow.reported() >= probe->owed) {
-        probe.reset();  // answered: alive
-      } else if (t - probe->asked_at > k.options.realtime_hang_deadline) {
-        if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
-        if (s.live() && s.flow.reported() < probe->owed) {
-          const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(k.options.realtime_hang_deadline);
-          kill_hung(s, "no Idle within " + std::to_string(bound.count()) + " ms of a Sync in real time (" + std::to_string(s.flow.reported()) + " of " +
-                           std::to_string(probe->owed) + " frames reported)");
-        }
-        probe.reset();
+    if (!watched || probe.pid != s.proc.process.pid() || probe.frames_in != s.stats.frames_in) {
+      // Gone, a new incarnation, or it spoke since the last look: alive.
+      probe = LivenessProbe{.pid = s.proc.process.pid(), .frames_in = s.stats.frames_in};
+      continue;
+    }
+    if (!probe.asked_at) {
+      const std::uint64_t sent = s.flow.frames_out();  // its Idle after the Sync reports at least these
+      if (s.flow.reported() < sent && k.ask_idle(s)) {
+        probe.asked_at = t;
+        probe.owed = sent;
       }
       continue;
     }
-    if (s.flow.reported() >= s.flow.frames_out() || !k.tx.build(wire::FrameKind::Sync, 0, 0, 0)) continue;
-    probe = LivenessProbe{.pid = s.proc.process.pid(), .asked_at = t, .owed = s.flow.frames_out()};
-    k.router.send_control(s, k.tx.bytes());
+    if (t - *probe.asked_at <= k.options.realtime_hang_deadline) continue;
+    if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
+    if (s.live() && s.flow.reported() < probe.owed) {
+      const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(k.options.realtime_hang_deadline);
+      kill_hung(s, "no Idle within " + std::to_string(bound.count()) + " ms of a Sync in real time (" +
+                       std::to_string(s.flow.reported()) + " of " + std::to_string(probe.owed) + " frames reported)");
+    }
+    probe = LivenessProbe{.pid = s.proc.process.pid(), .frames_in = s.stats.frames_in};
   }
 }
 

@@ -41,11 +41,12 @@ class Supervisor {
   // run_realtime, every 100 ms: a restored copy refused SCHED_FIFO while still in its cgroup's `images/` leaf
   // (no real-time budget there) gets the plan once the placer has moved it into `live/`.
   void retry_realtime();
-  // run_realtime, every 100 ms: a rejuvenated service that has frames it has not reported is sent a Sync
-  // (docs/protocol.md "Idle"); one that has not answered it with an Idle within realtime_hang_deadline is hung
-  // (stopped, spinning, blocked) and killed, which rolls back (docs/design.md §7). Lockstep has the idle deadline
-  // for this; in real time nothing else finds a hung service before the next timer rollback, and the vehicle
-  // flies on what it last published meanwhile.
+  // run_realtime, every 100 ms: a rejuvenated service that has sent the kernel nothing since the last look while
+  // frames sent to it are unreported is sent a Sync (docs/protocol.md "Idle"); one that has not answered it with
+  // an Idle within realtime_hang_deadline is hung (stopped, spinning, blocked) and killed, which rolls back
+  // (docs/design.md §7). Lockstep has the idle deadline for this; in real time nothing else finds a hung service
+  // before the next timer rollback, and the vehicle flies on what it last published meanwhile. A service that
+  // keeps publishing is never asked: the control chain costs the channel nothing.
   void watch_liveness();
 
   [[nodiscard]] bool plant_started() const { return plant_started_; }
@@ -58,14 +59,15 @@ class Supervisor {
   bool plant_started_ = false;
   bool realtime_active = false;  // the plan is on and the kernel was granted SCHED_FIFO
   std::vector<std::pair<ServiceId, pid_t>> realtime_pending_;  // refused in `images/`: retry_realtime
-  // watch_liveness's Sync in flight per service (indexed by ServiceId): to which incarnation, when, and the frame
-  // count its Idle must reach.
+  // watch_liveness, per service (indexed by ServiceId): the incarnation looked at, its frame count then, and the
+  // Sync in flight to it (when it went, the frame count its Idle must reach).
   struct LivenessProbe {
     pid_t pid = 0;
-    Nanos asked_at{};
+    std::uint64_t frames_in = 0;
+    std::optional<Nanos> asked_at{};
     std::uint64_t owed = 0;
   };
-  std::vector<std::optional<LivenessProbe>> probes_;
+  std::vector<LivenessProbe> probes_;
 };
 
 }  // namespace rejuv::kernel
