@@ -85,13 +85,37 @@ class MavlinkClientTest : public ScratchDirTest {
       FAIL() << "rejuv run did not report its network gate's port:\n" << ended.err;
     }
   }
+
+  // What a session of client.js against `rejuv run` left: the client's JSON report and the run's summary.
+  struct Session {
+    std::string client_text;
+    proto::RunSummary summary;
+  };
+  // A session: the signed square started (start_signed_square), client.js told its port and key, then
+  // `client_args`; both waited for (the client up to `client_limit` after the run ended), each expected to exit
+  // 0, and what they left read into `session`. Use with ASSERT_NO_FATAL_FAILURE.
+  void fly_session(const std::string& graph_name, const std::string& duration, RunClock clock,
+                   const std::vector<std::string>& client_args, std::chrono::seconds client_limit, Session& session) {
+    ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
+        << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
+    pid_t rejuv_run = -1;
+    std::uint16_t port = 0;
+    ASSERT_NO_FATAL_FAILURE(start_signed_square(graph_name, duration, clock, rejuv_run, port));
+    std::vector<std::string> args{"--port", std::to_string(port), "--key", std::string(kKey)};
+    args.insert(args.end(), client_args.begin(), client_args.end());
+    const auto client_out = dir() / "client.json";
+    const pid_t client = start_client(args, client_out);
+    if (client <= 0) ::kill(rejuv_run, SIGTERM);
+    const CliOutcome run = wait_program(dir(), rejuv_run);
+    ASSERT_GT(client, 0) << "cannot start node";
+    const int client_exit = wait_client(client, client_limit);
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    session.client_text = slurp(client_out);
+    EXPECT_EQ(client_exit, 0) << session.client_text;
+    ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &session.summary).ok());
+  }
 };
 
-// The checks of a QGC-style session (client.js --qgc, its JSON report `client_text`) and of the run's summary:
-// the connection (capabilities, home, the whole parameter list, the launch mission downloaded), the flight of
-// the mission uploaded in global coordinates (reached as an item and by position, downloaded as uploaded), the
-// mission cleared and downloaded again, RTL flown, a rollback reported in STATUSTEXT, every vehicle frame
-// verified with the key.
 // The kernel's gate refused the client's unsigned, wrongly signed and recorded (stamped 2015) frames (client.js
 // --wrong-key) before ext_link saw them.
 inline void expect_forgeries_refused(const proto::RunSummary& summary) {
@@ -107,6 +131,11 @@ inline void expect_forgeries_refused(const proto::RunSummary& summary) {
   EXPECT_GE(stale, 1U) << summary.network().DebugString();
 }
 
+// The checks of a QGC-style session (client.js --qgc, its JSON report `client_text`) and of the run's summary:
+// the connection (capabilities, home, the whole parameter list, the launch mission downloaded), the flight of
+// the mission uploaded in global coordinates (reached as an item and by position, downloaded as uploaded), the
+// mission cleared and downloaded again, RTL flown, a rollback reported in STATUSTEXT, every vehicle frame
+// verified with the key.
 inline void expect_qgc_session(const std::string& client_text, const proto::RunSummary& summary) {
   using google::protobuf::Value;
   google::protobuf::Struct report;

@@ -15,35 +15,22 @@ namespace {
 
 using google::protobuf::Struct;
 using test_support::json_at;
-using test_support::kClientDir;
 using test_support::kKey;
 using test_support::kWrongKey;
 using test_support::RunClock;
 using test_support::slurp;
-using test_support::start_client;
-using test_support::wait_client;
 
 using MavlinkClient = test_support::MavlinkClientTest;
 
 TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
-  ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
-      << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
   // Given the square with the key in its network block, when node-mavlink talks to it while it flies
   // (lockstep; the client in wall-clock time, told the port the kernel bound) …
-  pid_t rejuv_run = -1;
-  std::uint16_t port = 0;
-  ASSERT_NO_FATAL_FAILURE(start_signed_square("signed.launch.pbtxt", "240", RunClock::Lockstep, rejuv_run, port));
-  const auto client_out = dir() / "client.json";
-  const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--wrong-key",
-                                     std::string(kWrongKey), "--timeout", "60", "--target", "-0.6,-0.4,-3.3"},
-                                    client_out);
-  if (client <= 0) ::kill(rejuv_run, SIGTERM);
-  const test_support::CliOutcome run = test_support::wait_program(dir(), rejuv_run);
-  ASSERT_GT(client, 0) << "cannot start node";
-  const int client_exit = wait_client(client, std::chrono::seconds{90});
-  EXPECT_EQ(run.exit_code, 0) << run.err;
-  const std::string client_text = slurp(client_out);
-  EXPECT_EQ(client_exit, 0) << client_text;
+  Session session;
+  ASSERT_NO_FATAL_FAILURE(fly_session("signed.launch.pbtxt", "240", RunClock::Lockstep,
+                                      {"--wrong-key", std::string(kWrongKey), "--timeout", "60", "--target",
+                                       "-0.6,-0.4,-3.3"},
+                                      std::chrono::seconds{90}, session));
+  const std::string& client_text = session.client_text;
   // … then the client saw the vehicle, its upload accepted and flown, and a rollback reported.
   Struct report;
   ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(client_text, &report).ok()) << client_text;
@@ -57,11 +44,9 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   EXPECT_TRUE(json_at(report, "rollback_statustext").has_string_value()) << client_text;
   // The kernel's gate refused the unsigned, the wrongly signed and the recorded (stamped 2015) frames before
   // ext_link saw them (the client's own stream, stamped from its wall clock, got its upload through: above).
-  proto::RunSummary summary;
-  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &summary).ok());
-  test_support::expect_forgeries_refused(summary);
-  EXPECT_GT(summary.rollbacks(), 0U);
-  EXPECT_GT(summary.network().dropped_secure_interval(), 0U);
+  test_support::expect_forgeries_refused(session.summary);
+  EXPECT_GT(session.summary.rollbacks(), 0U);
+  EXPECT_GT(session.summary.network().dropped_secure_interval(), 0U);
 }
 
 // As QGroundControl connects and plans (client.js --qgc), with signing on: AUTOPILOT_VERSION and HOME_POSITION
@@ -71,25 +56,11 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
 // that one item), and a return to launch flown — through the SEI, with
 // rollbacks. Every frame the vehicle sent verified with the key in node-mavlink (the gate signs them).
 TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames) {
-  ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))
-      << "the MAVLink client is not installed: ./rejuv build installs it (npm ci in " << kClientDir.string() << ")";
-  pid_t rejuv_run = -1;
-  std::uint16_t port = 0;
-  ASSERT_NO_FATAL_FAILURE(start_signed_square("qgc.launch.pbtxt", "400", RunClock::Lockstep, rejuv_run, port));
-  const auto client_out = dir() / "client.json";
-  const pid_t client = start_client({"--port", std::to_string(port), "--key", std::string(kKey), "--qgc", "--timeout",
-                                     "90", "--target", "1.5,-1,-3.5"},
-                                    client_out);
-  if (client <= 0) ::kill(rejuv_run, SIGTERM);
-  const test_support::CliOutcome run = test_support::wait_program(dir(), rejuv_run);
-  ASSERT_GT(client, 0) << "cannot start node";
-  const int client_exit = wait_client(client, std::chrono::seconds{120});
-  EXPECT_EQ(run.exit_code, 0) << run.err;
-  const std::string client_text = slurp(client_out);
-  EXPECT_EQ(client_exit, 0) << client_text;
-  proto::RunSummary summary;
-  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(slurp(summary_json()), &summary).ok());
-  test_support::expect_qgc_session(client_text, summary);
+  Session session;
+  ASSERT_NO_FATAL_FAILURE(fly_session("qgc.launch.pbtxt", "400", RunClock::Lockstep,
+                                      {"--qgc", "--timeout", "90", "--target", "1.5,-1,-3.5"}, std::chrono::seconds{120},
+                                      session));
+  test_support::expect_qgc_session(session.client_text, session.summary);
 }
 
 // A ground station that only listens (QGroundControl on 14550; PX4's `mavlink start -o 14550`): with the
