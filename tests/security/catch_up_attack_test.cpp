@@ -43,15 +43,11 @@ struct Flight {
 };
 
 void fly(const Case& c, Flight& f) {
-  const fs::path dir = fs::temp_directory_path() / ("rejuv_catch_up_" + std::to_string(::getpid()));
-  const fs::path file = mission::square_in(dir, c.realtime, "attacks { kind: " + std::string(c.kind) +
-                                                               " service: \"sensors\" magnitude: " +
-                                                               std::to_string(c.magnitude) + " }");
-  ASSERT_FALSE(file.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has the control attack, clock or alignment";
-  auto graph = launch::parse_launch(mission::read_text(file), file);
-  fs::remove_all(dir);
-  ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
-  if (const auto missing = mission::missing_executable(*graph)) FAIL() << "not built: " << missing->string();
+  std::optional<launch::LoadedLaunch> graph;
+  ASSERT_NO_FATAL_FAILURE(mission::load_square(c.realtime,
+                                               "attacks { kind: " + std::string(c.kind) + " service: \"sensors\" magnitude: " +
+                                                   std::to_string(c.magnitude) + " }",
+                                               graph));
   auto reference = cli::run_reference(*graph, std::nullopt);
   ASSERT_TRUE(reference.has_value()) << reference.error();
   mission::RunLog log;

@@ -65,13 +65,8 @@ class HungService : public ::testing::TestWithParam<bool> {};
 TEST_P(HungService, StoppedEkf2_FoundKilledAndRolledBack_VehicleStaysSafe) {
   if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox needs root here";
   const bool realtime = GetParam();
-  const fs::path dir = fs::temp_directory_path() / ("rejuv_hung_" + std::to_string(::getpid()));
-  const fs::path file = mission::square_in(dir, realtime);
-  ASSERT_FALSE(file.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has its clock or alignment";
-  auto graph = launch::parse_launch(mission::read_text(file), file);
-  fs::remove_all(dir);
-  ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
-  if (const auto missing = mission::missing_executable(*graph)) FAIL() << "not built: " << missing->string();
+  std::optional<launch::LoadedLaunch> graph;
+  ASSERT_NO_FATAL_FAILURE(mission::load_square(realtime, {}, graph));
   auto reference = cli::run_reference(*graph, std::nullopt);
   ASSERT_TRUE(reference.has_value()) << reference.error();
   mission::RunLog log;

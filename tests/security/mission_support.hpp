@@ -64,6 +64,20 @@ inline std::filesystem::path square_in(const std::filesystem::path& dir, bool re
   return dir / "quad_square.launch.pbtxt";
 }
 
+// launch/quad_square as square_in makes it, in a directory of this process that is gone afterwards, parsed, and
+// its executables checked built: `out` holds it, or the test has failed.
+inline void load_square(bool realtime, std::string_view attacks, std::optional<launch::LoadedLaunch>& out) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("rejuv_square_" + std::to_string(::getpid()));
+  const std::filesystem::path file = square_in(dir, realtime, attacks);
+  ASSERT_FALSE(file.empty()) << "launch/quad_square_paper.launch.pbtxt no longer has its control attack, clock or alignment";
+  auto graph = launch::parse_launch(read_text(file), file);
+  std::filesystem::remove_all(dir);
+  ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
+  if (const auto missing = missing_executable(*graph)) FAIL() << "not built: " << missing->string();
+  out = std::move(*graph);
+}
+
 // /proc/<pid>/stat (tests/proc_stat.hpp), shared with the other multi-process tests.
 using test_support::proc_stat;
 using test_support::ProcStat;

@@ -34,14 +34,9 @@ std::map<std::string, long> service_budgets() {
 }
 
 void boot_and_look(bool realtime, std::map<std::string, long>& budgets) {
-  const fs::path dir = fs::temp_directory_path() / ("rejuv_rt_budget_" + std::to_string(::getpid()));
-  const fs::path file = mission::square_in(dir, realtime);
-  ASSERT_FALSE(file.empty());
-  auto graph = launch::parse_launch(mission::read_text(file), file);
-  fs::remove_all(dir);
-  ASSERT_TRUE(graph.has_value()) << graph.error().to_string();
+  std::optional<launch::LoadedLaunch> graph;
+  ASSERT_NO_FATAL_FAILURE(mission::load_square(realtime, {}, graph));
   ASSERT_TRUE(graph->graph.realtime().enabled()) << "the square's real-time plan is off: nothing to test";
-  if (const auto missing = mission::missing_executable(*graph)) FAIL() << "not built: " << missing->string();
   mission::RunLog log;
   mission::SessionGuard guard;
   kernel::KernelOptions options = mission::mission_options(log.get());
