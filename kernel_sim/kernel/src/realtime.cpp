@@ -90,7 +90,7 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   }
   // v1 RT groups: the budgets of all groups under one parent add up to at most its own (the machine's 950 ms/s at
   // the top), so a kernel started while others hold theirs may find none left for this service's group.
-  const bool no_budget = s.sandbox.cgroup_note.find("no real-time budget") != std::string::npos;
+  const bool no_budget = s.sandbox.cgroup.valid() && s.sandbox.cgroup.rt_budget_refused();
   k.log("real-time plan: '%s' stays SCHED_OTHER (%s)%s", s.name.c_str(), ok.error().to_string().c_str(),
         no_budget ? ": its cgroup got no real-time budget (cpu.rt_runtime_us refused: other real-time kernels on this "
                     "machine hold the rest of its 950 ms/s)"

@@ -196,6 +196,7 @@ ServiceCgroup& ServiceCgroup::operator=(ServiceCgroup&& other) noexcept {
     images_ = std::move(other.images_);
     images_fds_ = std::move(other.images_fds_);
     description_ = std::move(other.description_);
+    rt_budget_refused_ = other.rt_budget_refused_;
     other.dirs_.clear();
     other.unified_.reset();
     other.oom_events_.reset();
@@ -284,6 +285,7 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
           notes.push_back("SCHED_FIFO " + std::to_string(*limits.rt_runtime_us / 1000) + " ms/s (v1 cpu)");
         } else {
           notes.push_back("no real-time budget (cpu.rt_runtime_us refused)");
+          group.rt_budget_refused_ = true;
         }
       }
     }

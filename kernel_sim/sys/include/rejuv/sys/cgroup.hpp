@@ -100,6 +100,9 @@ class ServiceCgroup {
   [[nodiscard]] std::optional<std::uint64_t> live_oom_kills() const;
   // Whether a memory controller bounds the group (its limit applied, its OOM kills readable).
   [[nodiscard]] bool bounds_memory() const { return oom_events_.has_value(); }
+  // Whether a real-time budget was asked for (CgroupLimits::rt_runtime_us) and refused: v1 RT groups share the
+  // machine's budget, and other groups held the rest of it. Its tasks are then refused SCHED_FIFO.
+  [[nodiscard]] bool rt_budget_refused() const { return rt_budget_refused_; }
 
   // "cgroup v2 (kill), pids.max 64 (v1 pids), memory 1024 MiB (v1 memory), cpu 50 % (v1 cpu)" and what failed.
   [[nodiscard]] const std::string& description() const { return description_; }
@@ -123,6 +126,7 @@ class ServiceCgroup {
   std::vector<UniqueFd> images_{};  // images/cgroup.procs, one per hierarchy
   std::vector<int> images_fds_{};
   std::string description_{};
+  bool rt_budget_refused_ = false;
 };
 
 }  // namespace rejuv::sys
