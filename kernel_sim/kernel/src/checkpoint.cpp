@@ -97,8 +97,7 @@ void Rejuvenator::send_snapshots(CheckpointRun& run) {
 // deadline passes (true: late). Taken frames come through handle_frame → on_taken, TakenPages (with its fd)
 // through read_channel → on_taken_pages.
 bool Rejuvenator::await_images(CheckpointRun& run) {
-  const Nanos deadline = k.wall() + (image_charge.vehicle_sees_work() ? k.options.snapshot_deadline
-                                                                      : k.options.unseen_snapshot_deadline);
+  const Nanos deadline = k.wall() + wait_bound(k.options.snapshot_deadline, k.options.unseen_snapshot_deadline);
   while (run.failure.empty() && !run.waiting.empty() && !k.stopping) {
     if (lost_during(run)) break;  // abandoned now rather than at the deadline
     const Nanos left = deadline - k.wall();

@@ -237,8 +237,12 @@ bool Rejuvenator::service_images() {
   return false;
 }
 
+Nanos Rejuvenator::wait_bound(Nanos seen, Nanos unseen) const {
+  return image_charge.vehicle_sees_work() ? seen : unseen;
+}
+
 Nanos Rejuvenator::image_wait_bound() const {
-  return image_charge.vehicle_sees_work() ? k.options.resume_deadline : k.options.unseen_resume_deadline;
+  return wait_bound(k.options.resume_deadline, k.options.unseen_resume_deadline);
 }
 
 // Backpressure before a checkpoint or a rollback, which both need new processes (images, spares): the killed

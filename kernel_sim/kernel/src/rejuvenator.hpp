@@ -95,6 +95,8 @@ class Rejuvenator {
   // How long the kernel waits for images: resume_deadline where the vehicle waits with it (real time,
   // measured charge), unseen_resume_deadline otherwise (KernelOptions).
   [[nodiscard]] Nanos image_wait_bound() const;
+  // `seen` where the vehicle waits with the kernel's image work (real time, measured charge), else `unseen`.
+  [[nodiscard]] Nanos wait_bound(Nanos seen, Nanos unseen) const;
   void settle_dying();  // backpressure on killed processes before a checkpoint or rollback
 
   // ---- checkpoint.cpp: the run's steps, the wall times of its timed part, the images ----

@@ -120,7 +120,7 @@ struct KernelOptions {
   // The same bound where the wait does not reach the vehicle (lockstep with the model's charge), wide so that
   // a slow machine does not change the run (as unseen_resume_deadline).
   Nanos unseen_snapshot_deadline{std::chrono::seconds{2}};
-  // Real time: a rejuvenated service sent a Sync (every 100 ms while it has frames it has not reported) that has
+  // Real time: a rejuvenated service that went silent with frames it has not reported is sent a Sync; one that has
   // not answered with its Idle within this is hung and killed (Supervisor::watch_liveness), which rolls back.
   // A control service answers within a control period; this leaves a wide margin for one that the real-time
   // plan could not give SCHED_FIFO and that shares a loaded CPU.
