@@ -90,6 +90,10 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   }
   // v1 RT groups: the budgets of all groups under one parent add up to at most its own (the machine's 950 ms/s at
   // the top), so a kernel started while others hold theirs may find none left for this service's group.
+  // Said once per service: every rollback and catch-up applies the plan again, and would say it again.
+  fifo_refusal_said_.resize(k.services.size());
+  if (fifo_refusal_said_[s.id.value()]) return;
+  fifo_refusal_said_[s.id.value()] = true;
   const bool no_budget = s.sandbox.cgroup.valid() && s.sandbox.cgroup.rt_budget_refused();
   k.log("real-time plan: '%s' stays SCHED_OTHER (%s)%s", s.name.c_str(), ok.error().to_string().c_str(),
         no_budget ? ": its cgroup got no real-time budget (cpu.rt_runtime_us refused: other real-time kernels on this "

@@ -58,7 +58,8 @@ class Supervisor {
   sys::ChildProcess plant_;
   bool plant_started_ = false;
   bool realtime_active = false;  // the plan is on and the kernel was granted SCHED_FIFO
-  std::vector<std::pair<ServiceId, pid_t>> realtime_pending_;  // refused in `images/`: retry_realtime
+  std::vector<std::pair<ServiceId, pid_t>> realtime_pending_;
+  std::vector<bool> fifo_refusal_said_;  // apply_realtime: a service refused SCHED_FIFO, said once  // refused in `images/`: retry_realtime
   // watch_liveness, per service (indexed by ServiceId): the incarnation looked at, its frame count then, and the
   // Sync in flight to it (when it went, the frame count its Idle must reach).
   struct LivenessProbe {
