@@ -25,6 +25,7 @@
 #include "args.hpp"
 #include "common_options.hpp"
 #include "figures.hpp"
+#include "host_part.hpp"
 #include "attack_option.hpp"
 #include "report.hpp"
 #include "commands.hpp"
@@ -273,6 +274,8 @@ struct RunRequest {
   OutFlags out;
   bool realtime = false, verbose = false;
   std::optional<std::string> help_service_name;
+  std::optional<std::string> host;                 // --host: that host's part of a graph across hosts
+  std::optional<std::filesystem::path> keys;       // --keys: the keystore its links take their enclave from
 };
 
 void declare_run_options(Options& opts, RunRequest& r) {
@@ -319,7 +322,14 @@ void declare_run_options(Options& opts, RunRequest& r) {
       .flag("--insecure-sandbox", r.flags.insecure_sandbox,
             "run the services without their network and mount namespaces (where neither root nor unprivileged\n"
             "user namespaces are available); the allow-list, limits and sweeps still hold; the summary says so")
-      .flag("--verbose", r.verbose, "also print the services' debug log lines");
+      .flag("--verbose", r.verbose, "also print the services' debug log lines")
+      .text("--host", "NAME", r.host,
+            "run host NAME's part of a graph across hosts (docs/across_hosts.md): its services and a link\n"
+            "service per peer host under this kernel; the plant and SR only on the vehicle's host; wall clock",
+            "the whole graph on this kernel")
+      .path("--keys", "DIR", r.keys,
+            "with --host: the keystore of `rejuv keys hosts DIR --launch GRAPH`; the links' DDS Security\n"
+            "identity and permissions are DIR/enclaves/<host>");
 }
 
 // The kernel's options for the request; an error names flags that contradict each other.
@@ -470,6 +480,15 @@ bad flags or a file the loaders refuse (README "Exit codes").)");
   // The plant aligns as long as `rejuv sim` does (launch lockstep.alignment_s, passed by the kernel), so that both
   // fly from a converged estimate; --duration counts from the end of it.
   if (options->duration) *options->duration += reference->alignment;
+  std::optional<HostPart> part;  // its folder (the links' policy fragment) kept until the kernel has ended
+  if (r.host) {
+    if (r.speed) return refuse("rejuv run: --speed paces lockstep; --host runs at the wall clock");
+    auto cut = host_part(*loaded, *options, *r.host, r.keys);
+    if (!cut) return refuse("rejuv run: " + cut.error());
+    part.emplace(std::move(*cut));
+  } else if (r.keys) {
+    return refuse("rejuv run: --keys is the keystore of --host's links; give --host NAME");
+  }
   // Every attack's start_s is flight time: the kernel adds the alignment to the boot param (supervisor.cpp), so the
   // attack library's laws (a drift, a moving x_sp, a gyro bias the EKF would learn) start with the flight.
   return fly(r, *options, std::move(*loaded), std::move(*reference));

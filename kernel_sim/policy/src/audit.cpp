@@ -549,7 +549,9 @@ void check_hosts(const Context& c, Findings& out) {
     if (!h || *h == 0) continue;
     const Service& s = p.service(*id);
     const SourceLocation where = c.graph->locations.locate({{"services", i}}, "host");
-    if (acts_in_secure_interval(p, *id)) {
+    // A link (hosts.hpp) is a driver on every host by construction: its rights are MC-only, which the
+    // `mc-only` rule checks for every crossing it makes.
+    if (acts_in_secure_interval(p, *id) && !is_host_link(g, g.services(i))) {
       const std::string why = s.rejuvenation                     ? "it is the rejuvenation service"
                               : s.level == ServiceLevel::Driver ? "it is a driver"
                                                                  : "it writes in the secure interval";

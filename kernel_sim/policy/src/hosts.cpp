@@ -2,7 +2,9 @@
 #include "rejuv/policy/hosts.hpp"
 
 #include <algorithm>
+#include <fstream>
 #include <set>
+#include <utility>
 
 namespace rejuv::policy {
 
@@ -78,6 +80,115 @@ bool acts_in_secure_interval(const Policy& policy, ServiceId service) {
     }
   }
   return false;
+}
+
+}  // namespace rejuv::policy
+
+namespace rejuv::policy {
+
+std::string link_service_name(std::string_view peer) { return std::string(kHostLinkPrefix) + std::string(peer); }
+
+bool is_host_link(const proto::Launch& graph, const proto::ServiceSpec& service) {
+  if (std::filesystem::path(service.executable()).filename() != kHostLinkExecutable) return false;
+  return std::any_of(graph.hosts().begin(), graph.hosts().end(),
+                     [&](const proto::Host& h) { return service.name() == link_service_name(h.name()); });
+}
+
+namespace {
+
+// A link already in the policy (link_<host>): not a writer or reader of its own.
+bool named_as_link(const Placement& placement, std::string_view name) {
+  return std::any_of(placement.hosts.begin(), placement.hosts.end(),
+                     [&](const std::string& h) { return !h.empty() && name == link_service_name(h); });
+}
+
+void add_once(std::vector<ObjectId>& ids, ObjectId id) {
+  const auto at = std::lower_bound(ids.begin(), ids.end(), id);
+  if (at == ids.end() || *at != id) ids.insert(at, id);
+}
+
+}  // namespace
+
+std::vector<HostLink> host_links(const Policy& policy, const Placement& placement, std::size_t host) {
+  std::vector<HostLink> by_peer(placement.hosts.size());
+  for (std::size_t p = 0; p < by_peer.size(); ++p) by_peer[p] = HostLink{.host = host, .peer = p, .writes = {}, .reads = {}};
+  for (const Crossing& c : crossings(policy, placement)) {
+    if (!c.modes.has(SrMode::MC)) continue;
+    const Grant& w = policy.grants()[c.grant_writer];
+    const Grant& r = policy.grants()[c.grant_reader];
+    if (named_as_link(placement, policy.service(w.service).name) ||
+        named_as_link(placement, policy.service(r.service).name)) {
+      continue;
+    }
+    if (c.reader_host == host) add_once(by_peer[c.writer_host].writes, c.topic);
+    if (c.writer_host == host) add_once(by_peer[c.reader_host].reads, c.topic);
+  }
+  std::vector<HostLink> out;
+  for (HostLink& l : by_peer) {
+    if (!l.writes.empty() || !l.reads.empty()) out.push_back(std::move(l));
+  }
+  return out;
+}
+
+std::string links_policy_fragment(const Policy& policy, const Placement& placement, std::span<const HostLink> links) {
+  std::string out =
+      "# The links between hosts (docs/across_hosts.md \"The link\"), made by `rejuv run --host` from the policy\n"
+      "# and the graph's hosts: each carries on DDS, in MC only, what crosses between its host and one peer.\n";
+  for (const HostLink& l : links) {
+    const std::string name = link_service_name(placement.hosts[l.peer]);
+    out += "services { name: \"" + name + "\" level: DRIVER network_facing: true }\n";
+    for (const ObjectId t : l.writes) {
+      out += "grants { service: \"" + name + "\" object: \"" + policy.object(t).name + "\" rights: \"W\" modes: MC }\n";
+    }
+    for (const ObjectId t : l.reads) {
+      out += "grants { service: \"" + name + "\" object: \"" + policy.object(t).name + "\" rights: \"R\" modes: MC }\n";
+    }
+  }
+  return out;
+}
+
+Result<AddedLinks, std::string> add_host_links(launch::LoadedLaunch& graph, std::string_view host,
+                                               const std::filesystem::path& dir) {
+  auto policy = load_policy(graph.policy_path, graph.policy_includes);
+  if (!policy) return fail(policy.error().to_string());
+  const Placement place = placement(*policy, graph);
+  const auto at = std::find(place.hosts.begin(), place.hosts.end(), host);
+  if (at == place.hosts.end()) return fail("the graph has no host '" + std::string(host) + "'");
+  AddedLinks added{.links = host_links(*policy, place, static_cast<std::size_t>(at - place.hosts.begin())),
+                   .hosts = place.hosts,
+                   .fragment = {}};
+  if (added.links.empty()) return added;
+  added.fragment = dir / ("links_" + std::string(host) + ".policy.pbtxt");
+  {
+    std::ofstream f(added.fragment, std::ios::trunc);
+    f << links_policy_fragment(*policy, place, added.links);
+    if (!f.flush()) return fail("cannot write " + added.fragment.string());
+  }
+  graph.policy_includes.push_back(
+      ExtraFragment{.path = added.fragment, .named_at = SourceLocation{.file = added.fragment.string(), .line = 1, .column = 1}});
+  for (const HostLink& l : added.links) {
+    proto::ServiceSpec& s = *graph.graph.add_services();
+    s.set_name(link_service_name(place.hosts[l.peer]));
+    s.set_executable(std::string(kHostLinkExecutable));
+    s.set_rejuvenate(false);
+    s.set_host(std::string(host));
+    for (const ObjectId t : l.writes) {
+      proto::Use& u = *s.add_uses();
+      u.set_object(policy->object(t).name);
+      u.set_rights("W");
+    }
+    for (const ObjectId t : l.reads) {
+      proto::Use& u = *s.add_uses();
+      u.set_object(policy->object(t).name);
+      u.set_rights("R");
+    }
+    for (const auto& [key, value] : {std::pair{"host", std::string(host)}, std::pair{"peer", place.hosts[l.peer]}}) {
+      proto::Param& p = *s.add_params();
+      p.set_name(key);
+      p.set_text(value);
+    }
+  }
+  return added;
 }
 
 }  // namespace rejuv::policy
