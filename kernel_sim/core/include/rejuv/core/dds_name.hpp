@@ -5,6 +5,8 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <string>
 #include <string_view>
 
 namespace rejuv {
@@ -23,5 +25,21 @@ struct DdsName {
   }
   [[nodiscard]] constexpr std::string_view view() const { return {text, kDdsNamePrefix.size() + N - 1}; }
 };
+
+// Whose names a topic has on DDS (docs/across_hosts.md "ROS 2 names"): Rejuv's, "rejuv/<topic>" with the IDL type
+// name, or ROS 2's, "rt/<topic>" (what ROS 2's rmw layers make of the topic /<topic>) with the type
+// "rejuv_msgs::msg::dds_::T_" in the default partition (msgs::dds_topic_type, rejuv/msgs/dds_naming.hpp).
+enum class DdsNaming : std::uint8_t { Rejuv, Ros2 };
+
+inline constexpr std::string_view kRos2TopicPrefix = "rt/";
+
+// The DDS topic name of the policy topic `topic`: the one function that maps a topic to its DDS name.
+[[nodiscard]] inline std::string dds_topic_name(std::string_view topic, DdsNaming naming) {
+  switch (naming) {
+    case DdsNaming::Rejuv: return std::string(kDdsNamePrefix) + std::string(topic);
+    case DdsNaming::Ros2: return std::string(kRos2TopicPrefix) + std::string(topic);
+  }
+  return std::string(topic);
+}
 
 }  // namespace rejuv
