@@ -182,6 +182,70 @@ bool wanted(std::string_view controller, const CgroupLimits& l) {
   return (controller == "pids" && l.pids) || (controller == "memory" && l.memory_bytes) || controller == "cpu";
 }
 
+// The two leaves of a service's directory (the header says why) and their cgroup.procs, opened for joining. The
+// errno of the failed step, the leaves and the directory removed again, when either cannot be made or opened.
+struct Leaves {
+  UniqueFd live_procs;
+  UniqueFd images_procs;
+};
+Result<Leaves, int> make_leaves(const fs::path& dir) {
+  const fs::path live = dir / "live";
+  const fs::path kept = dir / "images";
+  Leaves leaves;
+  if ((::mkdir(live.c_str(), 0755) == 0 || errno == EEXIST) && (::mkdir(kept.c_str(), 0755) == 0 || errno == EEXIST)) {
+    leaves.live_procs = UniqueFd(::open((live / "cgroup.procs").c_str(), O_WRONLY | O_CLOEXEC));
+    if (leaves.live_procs) leaves.images_procs = UniqueFd(::open((kept / "cgroup.procs").c_str(), O_WRONLY | O_CLOEXEC));
+  }
+  if (leaves.live_procs && leaves.images_procs) return leaves;
+  const int failed = errno;
+  (void)::rmdir(live.c_str());
+  (void)::rmdir(kept.c_str());
+  (void)::rmdir(dir.c_str());
+  return std::unexpected(failed);
+}
+
+// v1 cpu: `runtime_us` of SCHED_FIFO per second for the service `dir`, noted; false when refused (other real-time
+// kernels on this machine hold the rest of its budget).
+bool reserve_rt_budget(const fs::path& dir, std::uint64_t runtime_us, std::vector<std::string>& notes) {
+  // The parent first (a child's budget must fit in it), then the service's own.
+  const fs::path parent = dir.parent_path();
+  const std::uint64_t before = std::strtoull(read_file(parent / "cpu.rt_runtime_us").c_str(), nullptr, 10);
+  (void)write_file(parent / "cpu.rt_runtime_us", std::to_string(std::min<std::uint64_t>(900000, before + runtime_us)));
+  // And the live leaf's, where the incarnation runs: a task in a v1 group whose budget is 0 cannot be made
+  // SCHED_FIFO at all (EPERM). The images leaf keeps 0: images run SCHED_OTHER (SCHED_RESET_ON_FORK).
+  if (write_file(dir / "cpu.rt_runtime_us", std::to_string(runtime_us)) &&
+      write_file(dir / "live" / "cpu.rt_runtime_us", std::to_string(runtime_us))) {
+    notes.push_back("SCHED_FIFO " + std::to_string(runtime_us / 1000) + " ms/s (v1 cpu)");
+    return true;
+  }
+  notes.push_back("no real-time budget (cpu.rt_runtime_us refused)");
+  return false;
+}
+
+// The limits of the controllers hierarchy `h` offers that no earlier hierarchy served (`served`, `notes` grow).
+// The memory controller's event file when this hierarchy limits memory.
+std::optional<fs::path> apply_limits(const Hierarchy& h, const fs::path& dir, const CgroupLimits& limits,
+                                     std::vector<std::string>& served, std::vector<std::string>& notes) {
+  const fs::path live = dir / "live";
+  std::optional<fs::path> oom_events;
+  for (const auto c : kControllers) {
+    if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
+    // Memory on the live leaf alone: the OOM killer of a group out of memory picks among that group's
+    // processes, which are then the live incarnation and its strays, never an image.
+    const bool memory = c == std::string_view("memory");
+    if (!apply(memory ? live : dir, c, h.unified, limits)) continue;
+    served.emplace_back(c);
+    notes.push_back(describe(c, limits) + (memory ? " on the live leaf" : "") +
+                    (h.unified ? " (v2)" : " (v1 " + std::string(c) + ")"));
+    if (memory) {
+      // v2: the live leaf out of memory loses all its processes together (the incarnation and its strays).
+      if (h.unified) (void)write_file(live / "memory.oom.group", "1");
+      oom_events = live / (h.unified ? "memory.events" : "memory.oom_control");
+    }
+  }
+  return oom_events;
+}
+
 }  // namespace
 
 ServiceCgroup& ServiceCgroup::operator=(ServiceCgroup&& other) noexcept {
@@ -247,19 +311,9 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
     if (h.unified && wanted("memory", limits) && !has(served, "memory") && has(h.controllers, "memory")) {
       (void)write_file(*dir / "cgroup.subtree_control", "+memory");
     }
-    const fs::path live = *dir / "live";
-    const fs::path kept = *dir / "images";
-    UniqueFd procs;
-    UniqueFd images_procs;
-    if ((::mkdir(live.c_str(), 0755) == 0 || errno == EEXIST) && (::mkdir(kept.c_str(), 0755) == 0 || errno == EEXIST)) {
-      procs = UniqueFd(::open((live / "cgroup.procs").c_str(), O_WRONLY | O_CLOEXEC));
-      if (procs) images_procs = UniqueFd(::open((kept / "cgroup.procs").c_str(), O_WRONLY | O_CLOEXEC));
-    }
-    if (!procs || !images_procs) {
-      last_errno = errno;
-      (void)::rmdir(live.c_str());
-      (void)::rmdir(kept.c_str());
-      (void)::rmdir(dir->c_str());
+    auto leaves = make_leaves(*dir);
+    if (!leaves) {
+      last_errno = leaves.error();
       continue;
     }
     if (h.unified) {
@@ -273,43 +327,14 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
     }
     if (has(h.controllers, "cpu") && !has(served, "cpu")) {
       weigh_kernel_group(dir->parent_path(), h.unified);
-      if (!h.unified && limits.rt_runtime_us) {
-        // The parent first (a child's budget must fit in it), then the service's own.
-        const fs::path parent = dir->parent_path();
-        const std::uint64_t before = std::strtoull(read_file(parent / "cpu.rt_runtime_us").c_str(), nullptr, 10);
-        (void)write_file(parent / "cpu.rt_runtime_us", std::to_string(std::min<std::uint64_t>(900000, before + *limits.rt_runtime_us)));
-        // And the live leaf's, where the incarnation runs: a task in a v1 group whose budget is 0 cannot be made
-        // SCHED_FIFO at all (EPERM). The images leaf keeps 0: images run SCHED_OTHER (SCHED_RESET_ON_FORK).
-        if (write_file(*dir / "cpu.rt_runtime_us", std::to_string(*limits.rt_runtime_us)) &&
-            write_file(*dir / "live" / "cpu.rt_runtime_us", std::to_string(*limits.rt_runtime_us))) {
-          notes.push_back("SCHED_FIFO " + std::to_string(*limits.rt_runtime_us / 1000) + " ms/s (v1 cpu)");
-        } else {
-          notes.push_back("no real-time budget (cpu.rt_runtime_us refused)");
-          group.rt_budget_refused_ = true;
-        }
-      }
+      if (!h.unified && limits.rt_runtime_us) group.rt_budget_refused_ = !reserve_rt_budget(*dir, *limits.rt_runtime_us, notes);
     }
-    for (const auto c : kControllers) {
-      if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
-      // Memory on the live leaf alone: the OOM killer of a group out of memory picks among that group's
-      // processes, which are then the live incarnation and its strays, never an image.
-      const bool memory = c == std::string_view("memory");
-      if (apply(memory ? live : *dir, c, h.unified, limits)) {
-        served.emplace_back(c);
-        notes.push_back(describe(c, limits) + (memory ? " on the live leaf" : "") +
-                        (h.unified ? " (v2)" : " (v1 " + std::string(c) + ")"));
-        if (memory) {
-          // v2: the live leaf out of memory loses all its processes together (the incarnation and its strays).
-          if (h.unified) (void)write_file(live / "memory.oom.group", "1");
-          group.oom_events_ = live / (h.unified ? "memory.events" : "memory.oom_control");
-        }
-      }
-    }
+    if (auto oom_events = apply_limits(h, *dir, limits, served, notes)) group.oom_events_ = std::move(*oom_events);
     group.dirs_.push_back(*dir);
-    group.join_fds_.push_back(procs.get());
-    group.join_.push_back(std::move(procs));
-    group.images_fds_.push_back(images_procs.get());
-    group.images_.push_back(std::move(images_procs));
+    group.join_fds_.push_back(leaves->live_procs.get());
+    group.join_.push_back(std::move(leaves->live_procs));
+    group.images_fds_.push_back(leaves->images_procs.get());
+    group.images_.push_back(std::move(leaves->images_procs));
   }
   if (group.dirs_.empty()) {
     return std::unexpected(SysError{"cgroup", last_errno != 0 ? last_errno : ENOENT});

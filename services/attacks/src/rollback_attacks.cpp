@@ -137,23 +137,7 @@ void AttackHooks::against_rollback(AttackKind kind, std::uint32_t variant, std::
     case AttackKind::SigioKernel: sigio(kind, wire::kChannelFd, static_cast<long>(::getppid()), SIGKILL); break;
     case AttackKind::SigioLogTrap: sigio(kind, 1, -pgrp_, SIGUSR1); break;
     case AttackKind::StraySpinners:
-    case AttackKind::StrayMemory: {
-      const bool memory = kind == AttackKind::StrayMemory;
-      const std::uint32_t n = count != 0 ? count : (memory ? kDefaultMemoryStrays : kDefaultSpinners);
-      std::uint32_t made = 0;
-      int last_errno = 0;
-      for (std::uint32_t i = 0; i < n; ++i) {
-        const long pid = memory ? stray(touch_and_spin) : stray(spin_forever);
-        if (pid > 0) {
-          ++made;
-        } else {
-          last_errno = errno;
-        }
-      }
-      report(kind, "clone(CLONE_PARENT|SIGCHLD) x" + std::to_string(n), made, made == n ? 0 : last_errno);
-      svc_.logf(sdk::LogLevel::Warn, "attack %s: %u of %u strays made", std::string(to_string(kind)).c_str(), made, n);
-      break;
-    }
+    case AttackKind::StrayMemory: strays(kind, count); break;
     case AttackKind::SpinningThreads: {
       const std::uint32_t n = count != 0 ? count : kDefaultThreads;
       std::uint32_t made = 0;
@@ -200,6 +184,23 @@ void AttackHooks::against_rollback(AttackKind kind, std::uint32_t variant, std::
     case AttackKind::BootPrlimitKernel:
     case AttackKind::BootReadSecrets: break;
   }
+}
+
+void AttackHooks::strays(AttackKind kind, std::uint32_t count) {
+  const bool memory = kind == AttackKind::StrayMemory;
+  const std::uint32_t n = count != 0 ? count : (memory ? kDefaultMemoryStrays : kDefaultSpinners);
+  std::uint32_t made = 0;
+  int last_errno = 0;
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const long pid = memory ? stray(touch_and_spin) : stray(spin_forever);
+    if (pid > 0) {
+      ++made;
+    } else {
+      last_errno = errno;
+    }
+  }
+  report(kind, "clone(CLONE_PARENT|SIGCHLD) x" + std::to_string(n), made, made == n ? 0 : last_errno);
+  svc_.logf(sdk::LogLevel::Warn, "attack %s: %u of %u strays made", std::string(to_string(kind)).c_str(), made, n);
 }
 
 void AttackHooks::oom_images(std::uint32_t variant, std::uint32_t count) {

@@ -130,6 +130,9 @@ class AttackHooks {
   void against_rollback(AttackKind kind, std::uint32_t variant, std::uint32_t count);
   void sigio(AttackKind kind, int fd, long owner, int signal);
   void pagemap_frames();
+  // STRAY_SPINNERS / STRAY_MEMORY: `count` (or the default number of) processes cloned with CLONE_PARENT,
+  // spinning or touching memory, each reported.
+  void strays(AttackKind kind, std::uint32_t count);
   void oom_images(std::uint32_t variant, std::uint32_t count);
   // A binary hostile from its first instruction (29…31; boot_attacks.cpp): `variant` kAtBoot at install.
   void hostile_from_boot(AttackKind kind, std::uint32_t variant);
