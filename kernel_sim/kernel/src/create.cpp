@@ -446,6 +446,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   }
   k.rejuvenator.reaper.set_slack(
       k.rejuvenator.processes_to_spare());  // the services' limits are known now (add_services)
+  k.rejuvenator.links.create();  // the links to other hosts, closed in the secure interval (link_guard.hpp)
   if (auto ok = k.net_open(); !ok) return fail(ok.error());  // the network gate (netgate.cpp)
   return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));
 }

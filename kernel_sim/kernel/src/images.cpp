@@ -41,13 +41,19 @@
 
 namespace rejuv::kernel {
 
+// The links to other hosts close before the capabilities change at MC → RB and open after them at CP → MC
+// (link_guard.hpp), so that nothing crosses in the secure interval (§III, §IV-D).
 bool Rejuvenator::enter_mode(SrMode mode) {
+  const SrMode from = k.caps.mode();
+  links.before_mode(from, mode);
   if (auto changed = k.caps.apply_mode(mode); !changed) {
     k.log("mode %s: %s", std::string(to_string(mode)).c_str(),
           std::string(cap::to_string(changed.error())).c_str());
+    links.after_mode(from, mode, false);
     return false;
   }
   k.kernel_clock.show_mode(k.caps.mode());
+  links.after_mode(from, mode, true);
   return true;
 }
 

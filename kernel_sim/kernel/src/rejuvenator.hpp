@@ -14,6 +14,7 @@
 #include "channel_pool.hpp"
 #include "image_charge.hpp"
 #include "image_coordinator.hpp"
+#include "link_guard.hpp"
 #include "reaper.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/image/image_store.hpp"
@@ -140,6 +141,10 @@ class Rejuvenator {
 
   Kernel::Impl& k;
   Nanos next_trim{0};  // wall clock: when trim_images looks again
+
+ public:
+  // The links to other hosts, closed in the secure interval around each mode change (enter_mode; link_guard.hpp).
+  LinkGuard links{k};
 };
 
 }  // namespace rejuv::kernel

@@ -107,6 +107,8 @@ class ServiceCgroup {
   // "cgroup v2 (kill), pids.max 64 (v1 pids), memory 1024 MiB (v1 memory), cpu 50 % (v1 cpu)" and what failed.
   [[nodiscard]] const std::string& description() const { return description_; }
   [[nodiscard]] bool valid() const { return !dirs_.empty(); }
+  // The service's directory in the v2 hierarchy (its cgroup.freeze freezes the whole group); none without one.
+  [[nodiscard]] const std::optional<std::filesystem::path>& unified_dir() const { return unified_; }
 
  private:
   // Kills what is left, waits briefly for it to leave, and removes the directories (then their parent, if

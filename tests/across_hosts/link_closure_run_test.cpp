@@ -1,0 +1,153 @@
+// The kernel closes the vehicle's link in the secure interval (kernel_sim/kernel link_guard.hpp; docs/across_hosts.md
+// "Closing the link"): `rejuv run` flies the square with hosts whose uplinks are in network namespaces of this
+// test (joined by a veth pair), and every close and open the kernel logs is checked against the mode trace it
+// writes (events.csv): a close at each MC → secure mode, an open at each return to MC, in that order, none
+// else; the table exists during the run and is gone after it. That a closed link carries nothing is
+// sys::LinkClosure's test (tests/unit/sys/link_closure_test.cpp). Root only; skipped otherwise.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "../rejuv_cli.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using rejuv::test_support::CliOutcome;
+using rejuv::test_support::kRepo;
+using rejuv::test_support::slurp;
+
+const fs::path kIp = "/usr/sbin/ip";
+
+class LinkClosureRun : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "needs root: network namespaces, a veth pair and nftables";
+    const std::string id = std::to_string(::getpid());
+    dir_ = fs::temp_directory_path() / ("rejuv_link_closure_run_" + id);
+    fs::create_directories(dir_ / "cmd");
+    vehicle_ns_ = "rjN_rv_" + id;
+    companion_ns_ = "rjN_rc_" + id;
+    const std::string veth_v = "rjNrv" + id, veth_c = "rjNrc" + id;
+    made_ = true;
+    for (const std::vector<std::string>& cmd :
+         {std::vector<std::string>{"netns", "add", vehicle_ns_}, {"netns", "add", companion_ns_},
+          {"link", "add", veth_v, "type", "veth", "peer", "name", veth_c},
+          {"link", "set", veth_v, "netns", vehicle_ns_}, {"link", "set", veth_c, "netns", companion_ns_},
+          {"-n", vehicle_ns_, "link", "set", veth_v, "up"}, {"-n", companion_ns_, "link", "set", veth_c, "up"}}) {
+      const CliOutcome r = rejuv::test_support::run_program(dir_ / "cmd", kIp, cmd);
+      ASSERT_EQ(r.exit_code, 0) << "ip " << cmd[0] << " " << cmd[1] << ": " << r.err;
+    }
+  }
+  void TearDown() override {
+    if (made_) {
+      for (const std::string& ns : {vehicle_ns_, companion_ns_}) {
+        (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
+      }
+    }
+    std::error_code ec;
+    if (!dir_.empty()) fs::remove_all(dir_, ec);
+  }
+
+  // The square with two hosts, every service on the vehicle's; the vehicle's uplink in vehicle_ns_.
+  fs::path graph() const {
+    const fs::path g = dir_ / "square_hosts.launch.pbtxt";
+    std::ofstream(g) << "include: \"" << (kRepo / "launch" / "quad_square.launch.pbtxt").string() << "\"\n"
+                     << "name: \"square_hosts\"\n"
+                     << "hosts { name: \"vehicle\" address: \"10.78.0.1\" netns: \"" << vehicle_ns_ << "\" }\n"
+                     << "hosts { name: \"companion\" address: \"10.78.0.2\" netns: \"" << companion_ns_ << "\" }\n";
+    return g;
+  }
+
+  fs::path dir_;
+  std::string vehicle_ns_, companion_ns_;
+  bool made_ = false;
+};
+
+// The kernel's link lines, as "closed MC → RB" / "opened CP → MC" (the start's close as "closed start SC").
+std::vector<std::string> link_changes(const std::string& log) {
+  std::vector<std::string> out;
+  static const std::regex line(R"(link vehicle (closed|opened) at (?:(\w+) → (\w+)|the start in (\w+)) \()");
+  std::istringstream in(log);
+  for (std::string l; std::getline(in, l);) {
+    std::smatch m;
+    if (!std::regex_search(l, m, line)) continue;
+    out.push_back(m[4].matched ? m[1].str() + " start " + m[4].str()
+                               : m[1].str() + " " + m[2].str() + " → " + m[3].str());
+  }
+  return out;
+}
+
+// What the mode trace (events.csv: t_s,wall_s,kind,epoch,generation,mode,…) says the links must do: closed at
+// the start if it starts in the secure interval, at each MC → other; opened at each other → MC.
+std::vector<std::string> expected_changes(const std::string& events) {
+  std::vector<std::string> out;
+  std::istringstream in(events);
+  std::string line, previous;
+  std::getline(in, line);  // header
+  auto name = [](const std::string& m) { return m == "UP" ? std::string("UPDATE") : m; };
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream cells(line);
+    for (std::string c; std::getline(cells, c, ',');) f.push_back(c);
+    if (f.size() < 6 || f[2] != "mode") continue;
+    const std::string mode = name(f[5]);
+    if (previous.empty()) {
+      if (mode != "MC") out.push_back("closed start " + mode);
+    } else if (previous == "MC" && mode != "MC") {
+      out.push_back("closed MC → " + mode);
+    } else if (previous != "MC" && mode == "MC") {
+      out.push_back("opened " + previous + " → MC");
+    }
+    previous = mode;
+  }
+  return out;
+}
+
+TEST_F(LinkClosureRun, EveryCloseAndOpen_MatchesTheModeTrace) {
+  const fs::path out = dir_ / "out";
+  fs::create_directories(dir_ / "run");
+  const pid_t run = rejuv::test_support::start_program(
+      dir_ / "run", rejuv::test_support::kRejuv,
+      {"run", graph().string(), "--duration", "3", "--out", out.string(), "--no-figures"});
+  ASSERT_GT(run, 0);
+  // While it runs (the first lines name the closure), the table is in the vehicle's namespace.
+  std::string tables;
+  for (int i = 0; i < 2000 && slurp(dir_ / "run" / "stderr").find("link vehicle closed") == std::string::npos; ++i) {
+    ::usleep(5'000);
+  }
+  tables = rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", vehicle_ns_, "nft", "list", "tables"}).out;
+  const CliOutcome r = rejuv::test_support::wait_program(dir_ / "run", run);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(tables.find("rejuv_link_vehicle"), std::string::npos) << tables;
+  EXPECT_NE(r.err.find("link vehicle: closed in the secure interval by nftables table netdev rejuv_link_vehicle in netns " +
+                       vehicle_ns_),
+            std::string::npos)
+      << r.err;
+  EXPECT_EQ(r.err.find("link companion"), std::string::npos) << "the companion runs no service here:\n" << r.err;
+
+  const std::vector<std::string> got = link_changes(r.err);
+  const std::vector<std::string> want = expected_changes(slurp(out / "events.csv"));
+  ASSERT_GE(want.size(), 4U) << "the 3-s flight changed mode too rarely to check:\n" << slurp(out / "events.csv");
+  // The run stops at --duration: a mode change after the last the log shows is not in either.
+  EXPECT_EQ(got, want) << r.err;
+
+  const std::string after =
+      rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", vehicle_ns_, "nft", "list", "tables"}).out;
+  EXPECT_EQ(after.find("rejuv_link_vehicle"), std::string::npos) << after;
+}
+
+TEST_F(LinkClosureRun, NoSr_NoClosure) {
+  fs::create_directories(dir_ / "nosr");
+  const CliOutcome r = rejuv::test_support::run_rejuv(dir_ / "nosr", {"run", graph().string(), "--duration", "1", "--no-sr", "--no-attack"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find("link vehicle"), std::string::npos) << "without SR the mode never leaves MC:\n" << r.err;
+}
+
+}  // namespace
