@@ -90,6 +90,33 @@ TEST_F(Ros2Names, Package_Format3InterfacePackage) {
   }
 }
 
+// `rejuv ros2 msgs DIR` writes what the build generated: the same files, the same text.
+TEST_F(Ros2Names, CliMsgs_WritesTheBuildsPackage) {
+  const fs::path out = dir_ / "rejuv_msgs";
+  const auto r = test_support::run_rejuv(dir_, {"ros2", "msgs", out.string()});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("19 messages"), std::string::npos) << r.out;
+  std::size_t files = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(kPackage)) {
+    if (!entry.is_regular_file()) continue;
+    const fs::path rel = fs::relative(entry.path(), kPackage);
+    EXPECT_EQ(test_support::slurp(out / rel), test_support::slurp(entry.path())) << rel;
+    ++files;
+  }
+  EXPECT_EQ(files, msgs::all_topic_types().size() + 3) << "a .msg per topic type, Waypoint, package.xml, CMakeLists.txt";
+}
+
+// IDL the generator does not read: exit 2, the construct at its file:line:column, nothing written.
+TEST_F(Ros2Names, CliMsgs_UnsupportedIdl_RefusedAtItsPlace) {
+  std::ofstream(dir_ / "bad.idl") << "module m {\n  @final struct S { string name; };\n};\n";
+  const fs::path out = dir_ / "out";
+  const auto r = test_support::run_rejuv(dir_, {"ros2", "msgs", out.string(), "--idl", (dir_ / "bad.idl").string()});
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("bad.idl:2:21: error: string (a variable-length member) is not supported"), std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 // ---- (b) a Cyclone sample decoded by a ROS 2 reader ----
 
 // What a plain Cyclone reader of the ROS 2 topic received: the serialized sample and the writer as discovery

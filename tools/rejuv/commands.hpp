@@ -26,5 +26,6 @@ int run_soak(std::span<const std::string_view> args);    // cmd_soak.cpp
 int run_sweep(std::span<const std::string_view> args);   // cmd_sweep.cpp
 int run_new(std::span<const std::string_view> args);     // cmd_new.cpp
 int run_keys(std::span<const std::string_view> args);    // cmd_keys.cpp
+int run_ros2(std::span<const std::string_view> args);    // cmd_ros2.cpp
 
 }  // namespace rejuv::cli

@@ -34,6 +34,8 @@ constexpr Command kCommands[] = {
      rejuv::cli::run_new},
     {"keys", "DDS Security for a graph across hosts: `keys init DIR` (a CA), `keys hosts DIR --launch GRAPH`",
      rejuv::cli::run_keys},
+    {"ros2", "ROS 2 interop: `ros2 msgs DIR` writes the interface package rejuv_msgs generated from idl/*.idl",
+     rejuv::cli::run_ros2},
 };
 
 void print_usage(std::FILE* to) {

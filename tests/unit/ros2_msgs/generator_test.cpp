@@ -104,6 +104,7 @@ TEST(Ros2MsgsGenerator, Package_Format3InterfacePackageListingEveryMessage) {
   EXPECT_EQ((*files)[0].path, "msg/A.msg");
   EXPECT_EQ((*files)[1].path, "msg/B.msg");
   EXPECT_EQ((*files)[2].path, "package.xml");
+  EXPECT_EQ((*files)[3].path, "CMakeLists.txt");
   const std::string& xml = (*files)[2].text;
   EXPECT_NE(xml.find("<package format=\"3\">"), std::string::npos);
   EXPECT_NE(xml.find("<name>rejuv_msgs</name>"), std::string::npos);
@@ -137,6 +138,24 @@ TEST(Ros2MsgsGenerator, ProjectIdl_AMessagePerTopicType) {
     EXPECT_EQ(fields, s->members.size()) << t.name;
   }
   ASSERT_NE(defs->find_struct("rejuv::msg::Waypoint"), nullptr) << "a nested struct has its message too";
+}
+
+// The package does not depend on the order of the IDL files.
+TEST(Ros2MsgsGenerator, FileOrder_SamePackage) {
+  const std::filesystem::path idl = std::filesystem::path(REJUV_SOURCE_DIR) / "idl";
+  const std::vector<std::filesystem::path> one{idl / "sensors.idl", idl / "control.idl"};
+  const std::vector<std::filesystem::path> other{idl / "control.idl", idl / "sensors.idl"};
+  auto a = load_idl(one);
+  auto b = load_idl(other);
+  ASSERT_TRUE(a.has_value() && b.has_value());
+  auto pa = make_package(*a, "0.1.0");
+  auto pb = make_package(*b, "0.1.0");
+  ASSERT_TRUE(pa.has_value() && pb.has_value());
+  ASSERT_EQ(pa->size(), pb->size());
+  for (std::size_t i = 0; i < pa->size(); ++i) {
+    EXPECT_EQ((*pa)[i].path, (*pb)[i].path);
+    EXPECT_EQ((*pa)[i].text, (*pb)[i].text) << (*pa)[i].path;
+  }
 }
 
 // sim.idl names sensors.idl's structs: its #include is followed, relative to sim.idl, and read once.

@@ -10,6 +10,7 @@
 namespace rejuv::ros2_msgs {
 
 std::string IdlError::to_string() const {
+  if (at.line == 0) return at.file + ": error: " + message;  // a file as a whole (named on the command line)
   return at.file + ":" + std::to_string(at.line) + ":" + std::to_string(at.column) + ": error: " + message;
 }
 

@@ -1,5 +1,6 @@
 #include "rejuv/ros2_msgs/package.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <fstream>
 #include <map>
@@ -131,6 +132,8 @@ std::string cmake_lists(const std::vector<std::string>& messages) {
 
 }  // namespace
 
+std::string_view project_version() { return REJUV_PROJECT_VERSION; }
+
 Result<std::string, IdlError> make_message(const Definitions& defs, const Struct& s) {
   if (!ros2_message_name(s.name)) {
     return error_at(s.at, "struct name '" + s.name + "' is not a ROS 2 message name ([A-Z][A-Za-z0-9]*)");
@@ -193,6 +196,9 @@ Result<std::vector<PackageFile>, IdlError> make_package(const Definitions& defs,
     names.push_back(s.name);
   }
   if (names.empty()) return error_at(SourcePos{}, "the IDL declares no struct: no message to generate");
+  // The messages by name, whatever the order of the IDL files.
+  std::sort(files.begin(), files.end(), [](const PackageFile& a, const PackageFile& b) { return a.path < b.path; });
+  std::sort(names.begin(), names.end());
   files.push_back(PackageFile{.path = "package.xml", .text = package_xml(version, names)});
   files.push_back(PackageFile{.path = "CMakeLists.txt", .text = cmake_lists(names)});
   return files;

@@ -31,7 +31,8 @@ struct SourcePos {
 struct IdlError {
   SourcePos at;
   std::string message;
-  // "idl/sr.idl:12:3: error: sequence<T> is not read by the rejuv_msgs generator: …"
+  // "idl/sr.idl:12:3: error: sequence<T> (a variable-length member) is not supported: …" ("FILE: error: …"
+  // for a file as a whole).
   [[nodiscard]] std::string to_string() const;
 };
 

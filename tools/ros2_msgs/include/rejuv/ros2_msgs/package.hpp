@@ -28,10 +28,13 @@ struct PackageFile {
   std::string text;
 };
 
-// The package's files: msg/<Struct>.msg per struct, package.xml (format 3, member of
+// The package's files: msg/<Struct>.msg per struct (by name, whatever the order of the IDL), package.xml (format 3, member of
 // rosidl_interface_packages), CMakeLists.txt (rosidl_generate_interfaces over the messages). `version` is the
 // package's (the project's). An error names the IDL member or struct that has no faithful ROS 2 form.
 [[nodiscard]] Result<std::vector<PackageFile>, IdlError> make_package(const Definitions& defs, const std::string& version);
+
+// The project's version (CMake's PROJECT_VERSION): the package's.
+[[nodiscard]] std::string_view project_version();
 
 // The .msg text of one struct (make_package writes it as msg/<name>.msg).
 [[nodiscard]] Result<std::string, IdlError> make_message(const Definitions& defs, const Struct& s);
