@@ -59,21 +59,32 @@ class Determinism : public rejuv::test_support::ScratchDirTest {
   };
   void expect_same_flight(const Flight& a, const Flight& b) const;
 
-  Flight fly(const std::string& name, const std::string& duration_s, std::vector<std::string> extra = {}) const {
-    const auto csv = dir_ / (name + ".csv");
-    const auto json = dir_ / (name + ".json");
-    Flight f;
+  // A flight started, not yet waited for (start, then finish: several at once).
+  struct Started {
+    std::string name;
+    pid_t pid = -1;
+  };
+  // `rejuv run` of graph() with seed 7 on the test's own domain; duration_s empty: to the mission's end.
+  Started start(const std::string& name, const std::string& duration_s, std::vector<std::string> extra = {}) const {
     const auto logs = dir_ / name;  // its stdout and stderr (the kernel's log), kept beside the trace
     std::filesystem::create_directories(logs);
     std::vector<std::string> args{"run", graph().string(), "--domain", std::to_string(rejuv::test_support::kOwnDdsDomain),
-                                  "--net-port", "0", "--seed", "7", "--duration", duration_s, "--csv", csv.string(),
-                                  "--summary-json", json.string()};
+                                  "--net-port", "0", "--seed", "7", "--csv", (dir_ / (name + ".csv")).string(),
+                                  "--summary-json", (dir_ / (name + ".json")).string()};
+    if (!duration_s.empty()) args.insert(args.end(), {"--duration", duration_s});
     args.insert(args.end(), extra.begin(), extra.end());
-    f.outcome = rejuv::test_support::run_rejuv(logs, std::move(args));
-    f.csv = slurp(csv);
-    const auto parsed = google::protobuf::util::JsonStringToMessage(slurp(json), &f.summary);
-    EXPECT_TRUE(parsed.ok()) << name << ": " << parsed.ToString() << "\n" << f.outcome.err;
+    return Started{.name = name, .pid = rejuv::test_support::start_program(logs, rejuv::test_support::kRejuv, std::move(args))};
+  }
+  Flight finish(const Started& started) const {
+    Flight f;
+    f.outcome = rejuv::test_support::wait_program(dir_ / started.name, started.pid);
+    f.csv = slurp(dir_ / (started.name + ".csv"));
+    const auto parsed = google::protobuf::util::JsonStringToMessage(slurp(dir_ / (started.name + ".json")), &f.summary);
+    EXPECT_TRUE(parsed.ok()) << started.name << ": " << parsed.ToString() << "\n" << f.outcome.err;
     return f;
+  }
+  Flight fly(const std::string& name, const std::string& duration_s, std::vector<std::string> extra = {}) const {
+    return finish(start(name, duration_s, std::move(extra)));
   }
 };
 
@@ -173,22 +184,19 @@ bool machine_log_line(const UlogMessage& m) {
   return false;
 }
 
-// Two runs with one seed write the same ULog: every message byte-identical, padding included (the plant builds
-// its messages over zeroed bytes and the DDS readers take them into zeroed buffers: no padding carries a
-// process's heap or stack into the log), but logged strings of the machine (above), which must still be the
-// same lines in the same order.
-TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalUlogsButForMachineLines) {
-  const Flight a = fly("a", "6", {"--ulog", (dir_ / "a.ulg").string()});
-  const Flight b = fly("b", "6", {"--ulog", (dir_ / "b.ulg").string()});
-  ASSERT_EQ(a.outcome.exit_code, 0) << a.outcome.err;
-  ASSERT_EQ(b.outcome.exit_code, 0) << b.outcome.err;
-  const std::vector<UlogMessage> ma = ulog_messages(slurp(dir_ / "a.ulg"));
-  const std::vector<UlogMessage> mb = ulog_messages(slurp(dir_ / "b.ulg"));
-  ASSERT_GT(ma.size(), 1000U);
-  ASSERT_EQ(ma.size(), mb.size());
+// Two ULogs of one seed: every message byte-identical, padding included (the plant builds its messages over zeroed
+// bytes and the DDS readers take them into zeroed buffers: no padding carries a process's heap or stack into the
+// log), but logged strings of the machine (above), which must still be the same lines in the same order.
+void expect_same_ulog(const std::filesystem::path& a, const std::filesystem::path& b) {
+  const std::vector<UlogMessage> ma = ulog_messages(slurp(a));
+  const std::vector<UlogMessage> mb = ulog_messages(slurp(b));
+  EXPECT_GT(ma.size(), 1000U) << a;
+  EXPECT_EQ(ma.size(), mb.size()) << a << " " << b;
+  if (ma.size() != mb.size()) return;
   std::size_t data = 0, machine = 0;
   for (std::size_t i = 0; i < ma.size(); ++i) {
-    ASSERT_EQ(ma[i].type, mb[i].type) << "message " << i;
+    EXPECT_EQ(ma[i].type, mb[i].type) << "message " << i;
+    if (ma[i].type != mb[i].type) return;
     data += ma[i].type == 'D' ? 1 : 0;
     if (machine_log_line(ma[i]) && machine_log_line(mb[i])) {
       ++machine;
@@ -200,6 +208,58 @@ TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalUlogsButForMachineLines) {
   }
   EXPECT_GT(data, 1000U);
   EXPECT_LT(machine, ma.size() / 10) << "most of the log exempted as the machine's";
+}
+
+TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalUlogsButForMachineLines) {
+  const Flight a = fly("a", "6", {"--ulog", (dir_ / "a.ulg").string()});
+  const Flight b = fly("b", "6", {"--ulog", (dir_ / "b.ulg").string()});
+  ASSERT_EQ(a.outcome.exit_code, 0) << a.outcome.err;
+  ASSERT_EQ(b.outcome.exit_code, 0) << b.outcome.err;
+  expect_same_ulog(dir_ / "a.ulg", dir_ / "b.ulg");
+}
+
+// Two runs at once on ONE DDS domain (docs/protocol.md "One run, one partition"): each kernel puts its bridge and
+// its plant in its run's own partition, so each flies its own plant from the first step: both finish the
+// mission, and each writes the trace, summary and ULog that the seed writes in a run alone. The control: the
+// same two runs given one run id (one partition, as every run was before partitions) hear each other's plant,
+// and not both fly the lone run's flight (a kernel refuses the other plant's steps: StopReason::PlantProtocol).
+TEST_F(Determinism, TwoRunsAtOnceOnOneDomain_EachFliesItsOwnPlant) {
+  square_ = "quad_square.launch.pbtxt";
+  const auto ulog = [&](const std::string& name) { return std::vector<std::string>{"--ulog", (dir_ / (name + ".ulg")).string()}; };
+  const Flight alone = fly("alone", "", ulog("alone"));
+  ASSERT_EQ(alone.outcome.exit_code, 0) << alone.outcome.err;
+  ASSERT_TRUE(alone.summary.mission_completed()) << alone.outcome.out;
+  const Started b = start("b", "", ulog("b"));
+  const Started c = start("c", "", ulog("c"));
+  const Flight fb = finish(b);
+  const Flight fc = finish(c);
+  for (const Flight* f : {&fb, &fc}) {
+    EXPECT_EQ(f->outcome.exit_code, 0) << f->outcome.err;
+    EXPECT_TRUE(f->summary.mission_completed()) << f->outcome.out;
+    EXPECT_NE(f->outcome.err.find("DDS partition rejuv."), std::string::npos) << f->outcome.err;
+  }
+  // The summaries name their own ULog files; everything else is the seed's.
+  const auto ulog_unnamed = [](Flight f) {
+    f.summary.mutable_ulog()->clear_path();
+    return f;
+  };
+  expect_same_flight(ulog_unnamed(alone), ulog_unnamed(fb));
+  expect_same_flight(ulog_unnamed(alone), ulog_unnamed(fc));
+  expect_same_ulog(dir_ / "alone.ulg", dir_ / "b.ulg");
+  expect_same_ulog(dir_ / "alone.ulg", dir_ / "c.ulg");
+}
+
+TEST_F(Determinism, TwoRunsAtOnceOnOneDomain_OneRunIdShared_TheyHearEachOther) {
+  square_ = "quad_square.launch.pbtxt";
+  const Flight alone = fly("alone", "6");
+  ASSERT_EQ(alone.outcome.exit_code, 0) << alone.outcome.err;
+  const std::vector<std::string> shared{"--run-id", "5ea5ed00c0ffee00"};
+  const Started b = start("b", "6", shared);
+  const Started c = start("c", "6", shared);
+  const Flight fb = finish(b);
+  const Flight fc = finish(c);
+  const auto flew_alone = [&](const Flight& f) { return f.outcome.exit_code == 0 && f.csv == alone.csv; };
+  EXPECT_FALSE(flew_alone(fb) && flew_alone(fc)) << fb.outcome.err << "\n" << fc.outcome.err;
 }
 
 // The estimate catch-up's replay (launch/quad_square) keeps the run deterministic: it is routed in the

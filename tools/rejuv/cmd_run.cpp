@@ -271,6 +271,7 @@ struct RunRequest {
   std::uint64_t ulog_budget_kb_s = 2000;
   std::optional<CpuPlacement> cpu;
   std::optional<std::vector<std::string>> skip;
+  std::optional<dds::RunId> run_id;
   OutFlags out;
   bool realtime = false, verbose = false;
   std::optional<std::string> help_service_name;
@@ -314,7 +315,16 @@ void declare_run_options(Options& opts, RunRequest& r) {
                "graph's topics; what a topic routes beyond its share is not logged, and the log says so");
   domain_option(opts, r.flags.domain, "DDS domain id", kLeasedDomainHelp)
       .custom<std::vector<std::string>>("--skip", "NAMES", r.skip, service_names_of,
-                                        "comma-separated services not to start (e.g. not built yet)");
+                                        "comma-separated services not to start (e.g. not built yet)")
+      .custom<dds::RunId>(
+          "--run-id", "HEX", r.run_id,
+          [](std::string_view text) -> Result<dds::RunId, std::string> {
+            if (auto id = dds::parse_run_id(text)) return *id;
+            return fail("--run-id: expected 16 hex digits, got '" + std::string(text) + "'");
+          },
+          "the run's id: the kernel's DDS bridge and its plant use the partition rejuv.HEX, which no other run\n"
+          "on the domain hears (two runs given one id hear each other: for tests)",
+          "64 random bits");
   net_port_option(opts, r.flags.net_port, "UDP port of the network gate; 0: any free port",
                   "the graph's network.bind_port or 14555")
       .custom<CpuPlacement>("--cpu", "N|all", r.cpu, cpu_placement, "kernel, services and plant on CPU N or on all",
@@ -350,6 +360,7 @@ Result<kernel::KernelOptions, std::string> kernel_options_for(const RunRequest& 
     options.cpu = r.cpu->cpu;
   }
   if (r.skip) options.skip_services = *r.skip;
+  options.run_id = r.run_id;
   return options;
 }
 
@@ -428,9 +439,9 @@ int fly(const RunRequest& r, const kernel::KernelOptions& options, launch::Loade
                                       k.flight_start(), [&k](std::string_view name) { return k.find_service(name); }));
   if (outputs.files) outputs.files->set_service_names(service_names(k));
   if (k.sr_enabled()) recorder.stop_after_attacks(k.graph().graph.stop_after_attacks(), [&k] { k.request_stop(); });
-  std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu\n", facts.graph.c_str(),
+  std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu, DDS partition %s\n", facts.graph.c_str(),
                std::string(kernel::to_string(k.clock_mode())).c_str(), k.sr_enabled() ? "on" : "off",
-               static_cast<unsigned long long>(facts.seed));
+               static_cast<unsigned long long>(facts.seed), dds::run_partition(k.run_id()).c_str());
   auto outcome = k.run();
   if (!outcome) {
     std::fprintf(stderr, "rejuv run: %s\n", outcome.error().to_string().c_str());

@@ -61,8 +61,8 @@ struct KernelFlags {
 // KernelOptions from the flags: seed, domain, port, charge, sandbox, where the services and the repository are.
 [[nodiscard]] kernel::KernelOptions kernel_options(const KernelFlags& flags);
 // Without --domain (options.dds_domain unset): a free DDS domain leased for as long as the lease is held, set in
-// `options`, so that two runs on one machine never share a domain (a second plant's steps on a kernel's domain
-// would stop its run: StopReason::PlantProtocol). With --domain: nothing leased, that domain used.
+// `options`, so that two runs on one machine do not share a domain's discovery traffic (each run's partition keeps
+// them apart on one domain: rejuv/dds/run_partition.hpp). With --domain: nothing leased, that domain used.
 [[nodiscard]] Result<std::optional<sys::DdsDomainLease>, std::string> lease_domain(kernel::KernelOptions& options);
 inline constexpr const char* kLeasedDomainHelp = "a free one, leased for the run";
 

@@ -25,24 +25,26 @@ std::string BridgeError::to_string() const {
   return std::string(dds::to_string(kind)) + " " + topic + ": " + cause.to_string();
 }
 
-BridgeResult<Bridge> Bridge::open(DomainId domain, std::span<const BridgeEntry> table, std::size_t topic_count) {
+BridgeResult<Bridge> Bridge::open(DomainId domain, std::string partition, std::span<const BridgeEntry> table,
+                                  std::size_t topic_count) {
   auto participant = Participant::create(domain);
   if (!participant) {
     return bridge_fail(BridgeError::Kind::Participant, "domain " + std::to_string(domain.value()), participant.error());
   }
-  Bridge b(std::move(*participant));
+  Bridge b(std::move(*participant), std::move(partition));
+  const EndpointQos qos{.partition = b.partition_};
   b.output_of_topic_.assign(topic_count, -1);
   for (const BridgeEntry& e : table) {
     REJUV_ASSERT(e.type != nullptr && e.topic.value() < topic_count, "a bridge row names a typed kernel topic");
     switch (e.direction) {
       case Direction::In: {
-        auto r = Reader::create(b.participant_, e.dds_name, *e.type);
+        auto r = Reader::create(b.participant_, e.dds_name, *e.type, qos);
         if (!r) return bridge_fail(BridgeError::Kind::Reader, e.dds_name, r.error());
         b.inputs_.push_back(Input{.reader = std::move(*r), .topic = e.topic});
         break;
       }
       case Direction::Out: {
-        auto w = Writer::create(b.participant_, e.dds_name, *e.type);
+        auto w = Writer::create(b.participant_, e.dds_name, *e.type, qos);
         if (!w) return bridge_fail(BridgeError::Kind::Writer, e.dds_name, w.error());
         b.output_of_topic_[e.topic.value()] = static_cast<int>(b.outputs_.size());
         b.outputs_.push_back(Output{.writer = std::move(*w), .topic = e.topic});
@@ -55,14 +57,16 @@ BridgeResult<Bridge> Bridge::open(DomainId domain, std::span<const BridgeEntry> 
 
 BridgeResult<std::size_t> Bridge::add_input(std::string_view dds_name, const msgs::TopicType& type,
                                             const EndpointQos& qos) {
-  auto r = Reader::create(participant_, dds_name, type, qos);
+  EndpointQos in_partition = qos;
+  in_partition.partition = partition_;
+  auto r = Reader::create(participant_, dds_name, type, in_partition);
   if (!r) return bridge_fail(BridgeError::Kind::Reader, dds_name, r.error());
   inputs_.push_back(Input{.reader = std::move(*r), .topic = std::nullopt});
   return inputs_.size() - 1;
 }
 
 BridgeResult<Writer> Bridge::make_writer(std::string_view dds_name, const msgs::TopicType& type) const {
-  auto w = Writer::create(participant_, dds_name, type);
+  auto w = Writer::create(participant_, dds_name, type, EndpointQos{.partition = partition_});
   if (!w) return bridge_fail(BridgeError::Kind::Writer, dds_name, w.error());
   return std::move(*w);
 }

@@ -77,13 +77,16 @@ struct QosDeleter {
 };
 using QosPtr = std::unique_ptr<dds_qos_t, QosDeleter>;
 
-// Reliable, keep-last depth, volatile, with the ignorelocal policy (docs/design.md §5).
+// Reliable, keep-last depth, volatile, with the ignorelocal policy and the partition (docs/design.md §5).
 QosPtr endpoint_qos(const EndpointQos& q) {
   QosPtr qos(dds_create_qos());
   dds_qset_reliability(qos.get(), DDS_RELIABILITY_RELIABLE, kMaxBlocking);
   dds_qset_history(qos.get(), DDS_HISTORY_KEEP_LAST, q.history_depth);
   dds_qset_durability(qos.get(), DDS_DURABILITY_VOLATILE);
   dds_qset_ignorelocal(qos.get(), to_dds(q.ignore_local));
+  // Cyclone makes the implicit publisher (subscriber) of an endpoint created on a participant with the
+  // endpoint's QoS, so the partition set here is that publisher's (subscriber's).
+  if (!q.partition.empty()) dds_qset_partition1(qos.get(), q.partition.c_str());
   return qos;
 }
 

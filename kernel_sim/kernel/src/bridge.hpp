@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "rejuv/core/ids.hpp"
@@ -19,9 +20,11 @@ namespace rejuv::kernel {
 
 class DdsBridge {
  public:
-  // `plant_lockstep`: also the adapter's endpoints.
-  [[nodiscard]] static dds::BridgeResult<DdsBridge> open(std::uint32_t domain, std::span<const dds::BridgeEntry> table,
-                                                         bool plant_lockstep, std::size_t object_count);
+  // Every endpoint in `partition` (the run's: rejuv/dds/run_partition.hpp). `plant_lockstep`: also the adapter's
+  // endpoints.
+  [[nodiscard]] static dds::BridgeResult<DdsBridge> open(std::uint32_t domain, std::string partition,
+                                                         std::span<const dds::BridgeEntry> table, bool plant_lockstep,
+                                                         std::size_t object_count);
 
   // Every input: the table's (routed to their topic, in table order), then the adapter's (no topic).
   [[nodiscard]] std::vector<dds::Bridge::Input>& readers() { return bridge_.inputs(); }

@@ -214,6 +214,7 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, ServiceUids uids)
     k.rejuvenator.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));
   }
   k.domain = k.options.dds_domain.value_or(k.graph.graph.dds().domain_id());
+  k.run_id = k.options.run_id ? *k.options.run_id : dds::random_run_id();
   k.caps.set_time(Nanos{0});
 }
 
@@ -377,7 +378,7 @@ Result<void, KernelError> open_bridge(Kernel::Impl& k) {
     const std::string uri = "file://" + launch::dds_config(k.graph, k.options.repo_root).string();
     ::setenv("CYCLONEDDS_URI", uri.c_str(), 0);  // also what the plant inherits
   }
-  auto bridge = DdsBridge::open(k.domain, table, plant_lockstep(k), k.objects.size());
+  auto bridge = DdsBridge::open(k.domain, dds::run_partition(k.run_id), table, plant_lockstep(k), k.objects.size());
   if (!bridge) return fail(kernel_error(K::Dds, bridge.error().to_string()));
   k.bridge = std::move(*bridge);
   return {};

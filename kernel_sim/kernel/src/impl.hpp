@@ -54,6 +54,7 @@ struct Kernel::Impl {
   bool sr = false;
   std::uint64_t seed = 1;
   std::uint32_t domain = 0;
+  dds::RunId run_id{};  // the DDS partition of the bridge and the plant (KernelOptions::run_id)
   std::optional<int> pinned_cpu;  // KernelOptions::placement: the CPU of the whole run, if pinned
   // As root, service i runs as sys::service_uid(*uid_block, i), from a block this kernel alone holds; without
   // root (strict sandbox), as subordinate_ids->ids_of(i), from a block of the user's subordinate ids.

@@ -147,6 +147,7 @@ const std::string& Kernel::stop_detail() const { return impl_->stop_detail; }
 Nanos Kernel::now() const { return impl_->now(); }
 SrMode Kernel::mode() const { return impl_->caps.mode(); }
 ClockMode Kernel::clock_mode() const { return impl_->clock_mode; }
+dds::RunId Kernel::run_id() const { return impl_->run_id; }
 bool Kernel::sr_enabled() const { return impl_->sr; }
 bool Kernel::image_work_pending() const {
   return impl_->rejuvenator.coordinator.work_left();

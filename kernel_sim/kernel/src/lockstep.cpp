@@ -31,7 +31,8 @@ void Lockstep::take_steps() {
         if (!offered) {
           k.stop_run(StopReason::PlantProtocol, "the plant's steps: " + offered.error() +
                                                     " (a second plant on DDS domain " +
-                                                    std::to_string(k.domain) + "?)");
+                                                    std::to_string(k.domain) + " in this run's partition " +
+                                                    dds::run_partition(k.run_id) + "?)");
         }
       },
       [&](std::size_t input, std::span<const std::byte> bytes) {

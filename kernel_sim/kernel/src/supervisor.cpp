@@ -251,6 +251,7 @@ Result<void, KernelError> Supervisor::spawn_plant() {
     down = g.mission().waypoints(0).down_m();
   }
   spec.args = {"--domain",      std::to_string(k.domain),
+               "--run-id",      dds::to_string(k.run_id),  // the bridge's partition (rejuv/dds/run_partition.hpp)
                "--seed",        std::to_string(k.seed),
                "--clock",       std::string(to_string(k.clock_mode)),
                "--start-north", format_double(north),

@@ -49,32 +49,33 @@ struct Endpoints {
   std::vector<dds::Writer> samples;  // by row of the step table (plant_topics.hpp, kStepSamples)
   std::optional<dds::Writer> sim_step;  // lockstep only
 
-  static dds::DdsResult<Endpoints> open(dds::DomainId domain, ClockMode clock);
+  // Every endpoint in `partition` (empty: the default partition).
+  static dds::DdsResult<Endpoints> open(dds::DomainId domain, const std::string& partition, ClockMode clock);
 };
 
 // A step that the kernel charged for a checkpoint or rollback (docs/design.md §6) covers more than one sensor period:
 // the writers keep enough history that a reliable reader loses none of a long step's samples.
 constexpr std::int32_t kSensorDepth = 256;
 template <class T>
-dds::DdsResult<dds::Writer> make_writer(const dds::Participant& p, topics::Topic<T> topic) {
-  return dds::Writer::create(p, topic.name, topics::type_of(topic), dds::EndpointQos{.history_depth = kSensorDepth});
+dds::DdsResult<dds::Writer> make_writer(const dds::Participant& p, const std::string& partition, topics::Topic<T> topic) {
+  return dds::Writer::create(p, topic.name, topics::type_of(topic),
+                             dds::EndpointQos{.history_depth = kSensorDepth, .partition = partition});
 }
 template <class T>
-dds::DdsResult<dds::Reader> make_reader(const dds::Participant& p, topics::Topic<T> topic,
-                                        const dds::EndpointQos& qos = {}) {
+dds::DdsResult<dds::Reader> make_reader(const dds::Participant& p, topics::Topic<T> topic, const dds::EndpointQos& qos) {
   return dds::Reader::create(p, topic.name, topics::type_of(topic), qos);
 }
 
-dds::DdsResult<Endpoints> Endpoints::open(dds::DomainId domain, ClockMode clock) {
+dds::DdsResult<Endpoints> Endpoints::open(dds::DomainId domain, const std::string& partition, ClockMode clock) {
   const bool lockstep = clock == ClockMode::Lockstep;
   auto participant = dds::Participant::create(domain);
   if (!participant) return fail(participant.error());
-  auto actuators =
-      make_reader(*participant, topics::kActuatorOutputs, dds::EndpointQos{.history_depth = kActuatorDepth});
+  auto actuators = make_reader(*participant, topics::kActuatorOutputs,
+                               dds::EndpointQos{.history_depth = kActuatorDepth, .partition = partition});
   if (!actuators) return fail(actuators.error());
   std::optional<dds::Reader> ack;
   if (lockstep) {
-    auto r = make_reader(*participant, topics::kSimStepAck);
+    auto r = make_reader(*participant, topics::kSimStepAck, dds::EndpointQos{.partition = partition});
     if (!r) return fail(r.error());
     ack = std::move(*r);
   }
@@ -83,14 +84,14 @@ dds::DdsResult<Endpoints> Endpoints::open(dds::DomainId domain, ClockMode clock)
   dds::DdsResult<void> made;
   topics::for_each_step_kind([&](std::size_t /*row*/, const auto& kind) {
     if (!made) return;
-    auto w = make_writer(*participant, kind.topic);
+    auto w = make_writer(*participant, partition, kind.topic);
     if (!w) made = fail(w.error());
     else samples.push_back(std::move(*w));
   });
   if (!made) return fail(made.error());
   std::optional<dds::Writer> sim_step;
   if (lockstep) {
-    auto w = make_writer(*participant, topics::kSimStep);
+    auto w = make_writer(*participant, partition, topics::kSimStep);
     if (!w) return fail(w.error());
     sim_step = std::move(*w);
   }
@@ -260,7 +261,8 @@ class PlantProcess {
         if (ok.error().kind != dds::DdsError::Kind::Timeout) return fail(dds_failure(ok.error()));
         if (left <= kSlice) {
           log("no kernel: its DDS endpoints did not appear within " + seconds_text(options_.connect_timeout) +
-              " (domain " + std::to_string(options_.domain) + ")");
+              " (domain " + std::to_string(options_.domain) +
+              (options_.run_id ? ", partition " + dds::run_partition(*options_.run_id) : std::string()) + ")");
           return fail(kExitKernelLost);
         }
       }
@@ -380,7 +382,8 @@ ExitCode run(std::span<const std::string_view> args) {
     log(signals.error().to_string());
     return kExitFailure;
   }
-  auto endpoints = Endpoints::open(dds::DomainId{options.domain}, options.clock);
+  const std::string partition = options.run_id ? dds::run_partition(*options.run_id) : std::string();
+  auto endpoints = Endpoints::open(dds::DomainId{options.domain}, partition, options.clock);
   if (!endpoints) {
     log("DDS failure: " + endpoints.error().to_string());
     return kExitFailure;
@@ -399,7 +402,8 @@ ExitCode run(std::span<const std::string_view> args) {
       return kExitFailure;
     }
   }
-  log(std::string(to_string(options.clock)) + " on domain " + std::to_string(options.domain) + ", seed " +
+  log(std::string(to_string(options.clock)) + " on domain " + std::to_string(options.domain) +
+      (partition.empty() ? std::string() : ", partition " + partition) + ", seed " +
       std::to_string(options.seed) + ", hovering at (" + std::to_string(options.start_N_m.x()) + ", " +
       std::to_string(options.start_N_m.y()) + ", " + std::to_string(options.start_N_m.z()) + ") m NED after " +
       seconds_text(options.alignment) + " of alignment at rest");

@@ -27,6 +27,8 @@ constexpr std::string_view kUsageHead =
     "Reads its Cyclone DDS configuration from CYCLONEDDS_URI.\n"
     "\n"
     "  --domain N               DDS domain id, 0..232 (default 0)\n"
+    "  --run-id HEX             the run's id, 16 hex digits: every endpoint in the DDS partition rejuv.HEX,\n"
+    "                           the kernel's bridge's (default: the default partition)\n"
     "  --seed N                 seed of sensor noise and wind, unsigned 64-bit (default 1)\n"
     "  --clock lockstep|realtime  time master (default lockstep: the plant steps, the kernel acknowledges)\n"
     "  --start-north M          start position, NED metres (default 0)\n"
@@ -73,8 +75,8 @@ Nanos millis(std::int64_t ms) {
   return std::chrono::milliseconds{ms};
 }
 
-constexpr std::array<std::string_view, 14> kFlags{
-    "--domain",   "--seed",    "--clock",          "--start-north",        "--start-east", "--start-down",
+constexpr std::array<std::string_view, 15> kFlags{
+    "--domain",   "--run-id",  "--seed",    "--clock",          "--start-north",        "--start-east", "--start-down",
     "--duration", "--step-ms", "--ack-timeout-ms", "--connect-timeout-ms", "--wind-mean",  "--wind-gust",
     "--align-s",  "--wind-toward"};
 
@@ -93,6 +95,11 @@ Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::str
     return {};
   };
   if (flag == "--domain") return assign(o.domain, parse_int<std::uint32_t>(flag, value, 0, 232));
+  if (flag == "--run-id") {
+    o.run_id = dds::parse_run_id(value);
+    if (!o.run_id) return fail(std::string(flag) + ": expected 16 hex digits, got '" + std::string(value) + "'");
+    return {};
+  }
   if (flag == "--seed") {
     return assign(o.seed,
                   parse_int<std::uint64_t>(flag, value, 0, std::numeric_limits<std::uint64_t>::max()));

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <string>
 #include <string_view>
 #include <type_traits>
 #include <variant>
@@ -15,6 +16,7 @@
 #include "rejuv/dds/bridge.hpp"
 #include "rejuv/dds/plant_lockstep.hpp"
 #include "rejuv/dds/plant_topics.hpp"
+#include "rejuv/dds/run_partition.hpp"
 
 namespace rejuv::dds {
 namespace {
@@ -54,7 +56,7 @@ class BridgeTest : public ::testing::Test {
     return std::move(*p);
   }
   static Bridge open(std::span<const BridgeEntry> table) {
-    auto b = Bridge::open(test_support::test_domain(), table, kTopics);
+    auto b = Bridge::open(test_support::test_domain(), "", table, kTopics);
     REJUV_ASSERT(b.has_value(), "a bridge on the test domain");
     return std::move(*b);
   }
@@ -135,8 +137,61 @@ TEST_F(BridgeTest, WriteOut_WrongPayloadSize_WriteErrorNamingTheTopic) {
   EXPECT_EQ(wrote.error().to_string().rfind("DDS write rejuv/actuator_outputs: ", 0), 0U) << wrote.error().to_string();
 }
 
+// A run's partition (run_partition.hpp): a peer in the bridge's partition hears its outputs and is heard on its
+// inputs; a peer on the same domain and topics in another run's partition (or the default one) is matched to
+// nothing.
+TEST_F(BridgeTest, Partition_PeerOfTheSameRunMatchedPeerOfAnotherRunNot) {
+  const std::string mine = run_partition(RunId{0x1111222233334444ULL});
+  const std::string theirs = run_partition(RunId{0x5555666677778888ULL});
+  const std::vector<BridgeEntry> table = {row(2, pt::kActuatorOutputs, Direction::Out),
+                                          row(3, pt::kSensorGyro, Direction::In)};
+  auto opened = Bridge::open(test_support::test_domain(), mine, table, kTopics);
+  ASSERT_TRUE(opened.has_value()) << opened.error().to_string();
+  Bridge& b = *opened;
+  EXPECT_EQ(b.partition(), mine);
+  Participant plant = peer();
+  auto other_run = Reader::create(plant, pt::kActuatorOutputs.name, pt::type_of(pt::kActuatorOutputs),
+                                  EndpointQos{.partition = theirs});
+  auto default_partition = Reader::create(plant, pt::kActuatorOutputs.name, pt::type_of(pt::kActuatorOutputs));
+  auto same_run = Reader::create(plant, pt::kActuatorOutputs.name, pt::type_of(pt::kActuatorOutputs),
+                                 EndpointQos{.partition = mine});
+  auto other_writer = Writer::create(plant, pt::kSensorGyro.name, pt::type_of(pt::kSensorGyro),
+                                     EndpointQos{.partition = theirs});
+  ASSERT_TRUE(other_run && default_partition && same_run && other_writer);
+  // The same run's reader matches; once it has, discovery has seen every endpoint of the peer.
+  ASSERT_TRUE(b.output(ObjectId{2})->writer.wait_for_readers(1, kLiveness).has_value());
+  ASSERT_TRUE(same_run->wait_for_writers(1, kLiveness).has_value());
+  const rejuv_msg_ActuatorOutputs u = outputs(0.5);
+  ASSERT_TRUE(b.write_out(ObjectId{2}, bytes_of(u)).has_value());
+  ASSERT_EQ(take<rejuv_msg_ActuatorOutputs>(*same_run, 1).size(), 1U);
+  EXPECT_EQ(*b.output(ObjectId{2})->writer.matched_readers(), 1U);  // not the other run's, not the default's
+  EXPECT_EQ(*other_run->matched_writers(), 0U);
+  EXPECT_EQ(*default_partition->matched_writers(), 0U);
+  EXPECT_EQ(*b.inputs()[0].reader.matched_writers(), 0U);  // the other run's gyro writer
+  EXPECT_EQ(*other_writer->matched_readers(), 0U);
+  // Nothing arrives in the other partitions (a bounded look, not a timing: nothing should ever arrive).
+  EXPECT_FALSE(readable_within(other_run->ready_fd(), 200ms));
+  EXPECT_FALSE(readable_within(default_partition->ready_fd(), 10ms));
+}
+
+TEST(RunPartition, RunIdPrintedAsSixteenHexDigitsAndParsedBack) {
+  EXPECT_EQ(to_string(RunId{0xabcULL}), "0000000000000abc");
+  EXPECT_EQ(run_partition(RunId{0xabcULL}), "rejuv.0000000000000abc");
+  const RunId fresh = random_run_id();
+  EXPECT_EQ(parse_run_id(to_string(fresh)), fresh);
+  EXPECT_EQ(parse_run_id("FFFFFFFFFFFFFFFF"), RunId{~0ULL});
+  EXPECT_FALSE(parse_run_id("abc").has_value());
+  EXPECT_FALSE(parse_run_id("0x00000000000abc").has_value());
+  EXPECT_FALSE(parse_run_id("-000000000000abc").has_value());
+}
+
+TEST(RunPartition, RandomRunIds_Differ) {
+  // 64 random bits: two equal in a row would be a broken source, not bad luck (2^-64).
+  EXPECT_NE(random_run_id(), random_run_id());
+}
+
 TEST_F(BridgeTest, Open_DomainOutOfRange_ParticipantError) {
-  auto b = Bridge::open(DomainId{kMaxDomainId + 1}, {}, kTopics);
+  auto b = Bridge::open(DomainId{kMaxDomainId + 1}, "", {}, kTopics);
   ASSERT_FALSE(b.has_value());
   EXPECT_EQ(b.error().kind, BridgeError::Kind::Participant);
   EXPECT_EQ(b.error().cause.kind, DdsError::Kind::BadArgument);

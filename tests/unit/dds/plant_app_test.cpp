@@ -153,6 +153,16 @@ TEST(PlantOptions, DuplicateFlag_Refused) {
   EXPECT_NE(parse_error({"--seed", "1", "--seed=2"}).find("given twice"), std::string::npos);
 }
 
+TEST(PlantOptions, RunId_SixteenHexDigitsParsedOtherwiseRefused) {
+  EXPECT_FALSE(parse_ok({}).run_id.has_value());  // the default partition
+  const PlantOptions o = parse_ok({"--run-id", "00C0ffee12345678"});
+  ASSERT_TRUE(o.run_id.has_value());
+  EXPECT_EQ(o.run_id->value(), 0x00c0ffee12345678ULL);
+  for (const char* bad : {"c0ffee", "00c0ffee123456789", "00c0ffee1234567g", "+0c0ffee12345678", ""}) {
+    EXPECT_NE(parse_error({"--run-id", bad}).find("--run-id: expected 16 hex digits"), std::string::npos) << bad;
+  }
+}
+
 TEST(PlantOptions, Positional_Refused) {
   EXPECT_NE(parse_error({"lockstep"}).find("unexpected argument"), std::string::npos);
 }

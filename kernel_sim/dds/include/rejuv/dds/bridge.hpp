@@ -5,6 +5,9 @@
 //
 // Protocols that ride on the bridge (the plant's lockstep: plant_lockstep.hpp) add inputs of their own on its
 // participant (add_input): read by the bridge's owner, not routed to a topic.
+//
+// Every endpoint the bridge creates, the table's and the protocols', is in one DDS partition, given at open:
+// the run's (run_partition.hpp), so that two runs on one domain do not hear each other.
 #pragma once
 
 #include <cstdint>
@@ -62,15 +65,18 @@ class Bridge {
     ObjectId topic{};
   };
 
-  // Creates the participant and an endpoint per row, in table order (inputs() keeps that order).
-  // `topic_count`: kernel topics are ObjectIds below it.
-  [[nodiscard]] static BridgeResult<Bridge> open(DomainId domain, std::span<const BridgeEntry> table,
-                                                 std::size_t topic_count);
+  // Creates the participant and an endpoint per row, in table order (inputs() keeps that order), each in
+  // `partition` (empty: the default partition). `topic_count`: kernel topics are ObjectIds below it.
+  [[nodiscard]] static BridgeResult<Bridge> open(DomainId domain, std::string partition,
+                                                 std::span<const BridgeEntry> table, std::size_t topic_count);
 
-  // Adds a reader on the bridge's participant that no topic routes (returns its index in inputs()).
+  [[nodiscard]] const std::string& partition() const { return partition_; }
+
+  // Adds a reader on the bridge's participant that no topic routes (returns its index in inputs()); in the
+  // bridge's partition, whatever qos.partition says.
   [[nodiscard]] BridgeResult<std::size_t> add_input(std::string_view dds_name, const msgs::TopicType& type,
                                                     const EndpointQos& qos = {});
-  // A writer on the bridge's participant, owned by the caller (a protocol's output).
+  // A writer on the bridge's participant, owned by the caller (a protocol's output), in the bridge's partition.
   [[nodiscard]] BridgeResult<Writer> make_writer(std::string_view dds_name, const msgs::TopicType& type) const;
 
   [[nodiscard]] std::vector<Input>& inputs() { return inputs_; }
@@ -89,8 +95,10 @@ class Bridge {
   [[nodiscard]] static BridgeResult<void> write(Output& output, std::span<const std::byte> payload);
 
  private:
-  explicit Bridge(Participant participant) : participant_(std::move(participant)) {}
+  Bridge(Participant participant, std::string partition)
+      : participant_(std::move(participant)), partition_(std::move(partition)) {}
   Participant participant_;  // first: destroyed last
+  std::string partition_;
   std::vector<Input> inputs_;
   std::vector<Output> outputs_;
   std::vector<int> output_of_topic_;  // by ObjectId value: index into outputs_, or -1

@@ -63,9 +63,13 @@ enum class IgnoreLocal : std::uint8_t { None, Participant, Process };
 
 // QoS of a bridged endpoint: reliable, keep-last `history_depth`, volatile. Keep-last on the writer side
 // means that a write never blocks on a slow reader: the oldest unacknowledged sample is dropped instead.
+// `partition`: the DDS partition of the endpoint's (implicit) publisher or subscriber; a writer and a reader
+// match only within one partition. Empty: the default partition. A run's kernel and plant use the run's
+// (run_partition.hpp).
 struct EndpointQos {
   std::int32_t history_depth = 16;
   IgnoreLocal ignore_local = IgnoreLocal::Participant;
+  std::string partition{};
 };
 
 // A domain participant (RAII over dds_create_participant). Cyclone reads its configuration from

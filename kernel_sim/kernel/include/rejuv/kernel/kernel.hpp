@@ -56,6 +56,7 @@
 #include "rejuv/core/sr_event.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/core/vocabulary.hpp"
+#include "rejuv/dds/run_partition.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/mavlink/frame.hpp"
 #include "rejuv/sys/channel.hpp"
@@ -96,6 +97,9 @@ struct KernelOptions {
   TimeMaster time_master = TimeMaster::Plant;   // Plant: the graph's plant is spawned (lockstep and realtime)
   std::optional<std::uint64_t> seed{};          // default: the graph's seed
   std::optional<std::uint32_t> dds_domain{};    // default: the graph's dds.domain_id
+  // The run's DDS partition (rejuv/dds/run_partition.hpp): its bridge and its plant use `rejuv.<run_id>`, so
+  // that two runs on one domain never hear each other. Default: 64 fresh random bits (dds::random_run_id).
+  std::optional<dds::RunId> run_id{};
   // Rejuvenation (docs/design.md §7–8): the graph's `sr.enabled` unless disabled here.
   bool no_sr = false;
   bool no_attack = false;                       // attack.enabled = 0 for every service
@@ -495,6 +499,8 @@ class Kernel {
   [[nodiscard]] Nanos now() const;
   [[nodiscard]] SrMode mode() const;
   [[nodiscard]] ClockMode clock_mode() const;
+  // The run id whose partition the bridge and the plant are in (KernelOptions::run_id).
+  [[nodiscard]] dds::RunId run_id() const;
   [[nodiscard]] bool sr_enabled() const;
   // Whether the image work of the last checkpoint or rollback (patches, spares, the sweep) still waits for the
   // vehicle's next control update (images.cpp leave_image_work): what a sample of processes and fds would see.

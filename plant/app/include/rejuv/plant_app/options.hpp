@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -12,6 +13,7 @@
 
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
+#include "rejuv/dds/run_partition.hpp"
 
 namespace rejuv::plant_app {
 
@@ -23,6 +25,9 @@ enum class ClockMode : std::uint8_t {
 
 struct PlantOptions {
   std::uint32_t domain = 0;  // DDS domain id
+  // The run whose partition every endpoint is in (rejuv/dds/run_partition.hpp): the kernel that spawns the
+  // plant passes its own. Unset: the default partition (a plant driven by a test's own participant).
+  std::optional<dds::RunId> run_id{};
   std::uint64_t seed = 1;    // sensors and wind
   ClockMode clock = ClockMode::Lockstep;
   Eigen::Vector3d start_N_m = Eigen::Vector3d(0, 0, -3);  // hover position, NED (down −3 = 3 m up)
