@@ -3,6 +3,12 @@
 // what the policy allows to, is the policy audit's (kernel_sim/policy hosts.hpp); here only the names.
 #include <arpa/inet.h>
 
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -14,6 +20,31 @@ namespace rejuv::launch {
 
 namespace {
 constexpr std::size_t kMaxHostName = 64;
+// Cyclone DDS's participant lease where its config sets none (Discovery/LeaseDuration, default 10 s).
+constexpr double kCycloneDefaultLeaseS = 10.0;
+
+// A Cyclone duration ("10 s", "2.5s", "500 ms", "1 min", "inf"; a bare number is seconds) in seconds; nullopt
+// for what Cyclone would refuse. "inf" is HUGE_VAL.
+std::optional<double> cyclone_duration_s(std::string text) {
+  while (!text.empty() && std::isspace(static_cast<unsigned char>(text.back())) != 0) text.pop_back();
+  std::size_t from = 0;
+  while (from < text.size() && std::isspace(static_cast<unsigned char>(text[from])) != 0) ++from;
+  text = text.substr(from);
+  if (text == "inf") return HUGE_VAL;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end == text.c_str() || !std::isfinite(v) || v < 0) return std::nullopt;
+  std::string unit(end);
+  unit.erase(0, unit.find_first_not_of(' '));
+  if (unit.empty() || unit == "s") return v;
+  if (unit == "ns") return v * 1e-9;
+  if (unit == "us") return v * 1e-6;
+  if (unit == "ms") return v * 1e-3;
+  if (unit == "min") return v * 60;
+  if (unit == "hr") return v * 3600;
+  if (unit == "day") return v * 86400;
+  return std::nullopt;
+}
 
 // A host's name is the CN of its DDS Security identity and a folder of the keystore: letters, digits, '_', '-'.
 bool is_host_name(std::string_view s) {
@@ -36,6 +67,45 @@ std::string_view host_of(const proto::Launch& graph, const proto::ServiceSpec& s
 }
 
 namespace detail {
+
+Result<void, LoadError> check_link_lease(const proto::Launch& g, const TextLocations& locs,
+                                         const std::filesystem::path& path) {
+  bool closes = false;  // a host whose kernel closes its link (Host.netns set: kernel_sim/kernel link_guard.hpp)
+  for (const proto::Host& h : g.hosts()) closes = closes || !h.netns().empty();
+  if (g.hosts_size() < 2 || !closes || !g.sr().enabled()) return {};
+  double lease_s = kCycloneDefaultLeaseS;
+  std::string lease_from = "Cyclone's default";
+  const SourceLocation config_at = locs.locate({{"dds", -1}}, "config");
+  if (!g.dds().config().empty()) {
+    std::filesystem::path cfg(g.dds().config());
+    if (cfg.is_relative()) cfg = path.parent_path() / cfg;
+    std::stringstream text;
+    text << std::ifstream(cfg).rdbuf();
+    const std::string xml = text.str();
+    const std::string open = "<LeaseDuration>", close = "</LeaseDuration>";
+    if (const auto at = xml.find(open); at != std::string::npos) {
+      const auto end = xml.find(close, at);
+      const std::string value = xml.substr(at + open.size(), end == std::string::npos ? 0 : end - at - open.size());
+      const auto parsed = cyclone_duration_s(value);
+      if (!parsed) {
+        return fail(semantic_error(config_at, "DDS config " + cfg.lexically_normal().string() + ": <LeaseDuration>" +
+                                                  value + "</LeaseDuration> is not a duration such as \"10 s\""));
+      }
+      lease_s = *parsed;
+      lease_from = "<LeaseDuration> of " + cfg.lexically_normal().string();
+    }
+  }
+  // The secure interval lasts at least T_est (SC, before the check of (1)) and t_min (UPDATE); the check itself
+  // ends only once the vehicle is in the safe set, so this is the part the graph fixes (docs/across_hosts.md).
+  const double interval_s = g.sr().t_est_s() + g.sr().t_min_s();
+  if (lease_s > interval_s) return {};
+  return fail(semantic_error(
+      locs.locate({{"sr", -1}}, "t_est_s"),
+      "the links close for the secure interval, which lasts at least T_est " + num(g.sr().t_est_s()) + " s + t_min " +
+          num(g.sr().t_min_s()) + " s = " + num(interval_s) + " s, but the DDS lease (" + lease_from + ") is " +
+          num(lease_s) + " s: the hosts' participants would expire while the link is closed; set " +
+          "<Discovery><LeaseDuration> in the graph's `dds.config` above " + num(interval_s) + " s, or shorten T_est"));
+}
 
 Result<void, LoadError> check_hosts(const proto::Launch& g, const TextLocations& locs) {
   std::vector<std::string> names;

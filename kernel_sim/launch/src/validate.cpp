@@ -88,7 +88,7 @@ class Validator {
   Result<std::filesystem::path, LoadError> run() {
     for (Check c : {check_text(), check_header(), check_services(), check_plant(), check_dds(), check_sr(),
                     check_limits(), check_realtime(), check_lockstep(), check_mission(), check_attack(),
-                    check_network(), check_hosts(g_, locs_)}) {
+                    check_network(), check_hosts(g_, locs_), check_link_lease(g_, locs_, path_)}) {
       if (!c) {
         return fail(std::move(c.error()));
       }

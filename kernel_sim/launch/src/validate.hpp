@@ -23,6 +23,11 @@ namespace rejuv::launch::detail {
 
 // The graph's `hosts` and each service's `host` (hosts.cpp): names, addresses, every host named is declared.
 [[nodiscard]] Result<void, LoadError> check_hosts(const proto::Launch& graph, const TextLocations& locs);
+// A graph whose kernel closes a link in the secure interval (a host with `netns`, SR on): the DDS lease (the
+// config's <Discovery><LeaseDuration>, else Cyclone's 10 s) outlasts the secure interval's T_est + t_min, so that
+// the hosts' participants do not expire while it is closed. `path`: the launch file (a relative dds.config).
+[[nodiscard]] Result<void, LoadError> check_link_lease(const proto::Launch& graph, const TextLocations& locs,
+                                                       const std::filesystem::path& path);
 
 // Checks a parsed graph (every rule of idl/launch.proto); the first problem found is returned, at its
 // file:line:column. On success the graph with its policy file resolved against the launch file's folder.
