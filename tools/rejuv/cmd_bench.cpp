@@ -153,7 +153,7 @@ int bench_images(const std::string& graph_path, const ImageBench& b) {
 
 int run_bench(std::span<const std::string_view> args) {
   std::string what, graph_path;
-  std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20, rounds = 1;
+  std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20, rounds = 1, samples = 2500;
   std::optional<std::filesystem::path> out;
   Options opts("bench",
                "Benchmarks, side by side in one run.\n"
@@ -164,8 +164,11 @@ int run_bench(std::span<const std::string_view> args) {
                "                    in real time without SR, with SR, and with SR under its attacks: the intervals\n"
                "                    between actuator outputs and those holding a checkpoint or a rollback, as ratios\n"
                "                    to the floor (docs/realtime.md), and the lockstep charge they imply (what the\n"
-               "                    vehicle lost at a checkpoint and a rollback) in DIR/lockstep_charge.pbtxt.");
-  opts.positional("WHAT", what, "what to measure: images or realtime")
+               "                    vehicle lost at a checkpoint and a rollback) in DIR/lockstep_charge.pbtxt.\n"
+               "  across-hosts      publish -> deliver latency of a vehicle_state sample at 250 Hz between two network\n"
+               "                    namespaces joined by a veth pair: raw Cyclone DDS, and with DDS Security from\n"
+               "                    `rejuv keys` (tests/across_hosts/companion.launch.pbtxt), as ratios (root only).");
+  opts.positional("WHAT", what, "what to measure: images, realtime or across-hosts")
       .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square_paper.launch.pbtxt)", false)
       .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")
       .integer("--restarts", "N", restarts, {1, 1000}, "cold restarts")
@@ -175,12 +178,21 @@ int run_bench(std::span<const std::string_view> args) {
   opts.integer("--seconds", "N", seconds, {2, 3600}, "realtime: seconds of each flight and of the floor")
       .integer("--rounds", "N", rounds, {1, 100},
                "realtime: fly the configurations N times, alternated, and pool each one's intervals (a shared\n"
-               "machine's slow spells then fall on all of them alike)")
-      .path("--out", "DIR", out, "realtime: where the flights' files and cyclictest's histograms go",
-            "a new temporary folder");
+               "machine's slow spells then fall on all of them alike); across-hosts: the rows likewise")
+      .path("--out", "DIR", out,
+            "realtime: where the flights' files and cyclictest's histograms go; across-hosts: the keystore, the\n"
+            "peers' configs and logs, latency.csv",
+            "a new temporary folder")
+      .integer("--samples", "N", samples, {100, 1'000'000}, "across-hosts: samples per row and round");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (what == "realtime") return run_bench_realtime(graph_path, seconds, rounds, out);
-  if (what != "images") return refuse("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime)");
+  if (what == "across-hosts") {
+    if (!graph_path.empty()) return refuse("rejuv bench across-hosts: takes no GRAPH (its graph is tests/across_hosts')");
+    return run_bench_across_hosts(samples, rounds, out);
+  }
+  if (what != "images") {
+    return refuse("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime, across-hosts)");
+  }
   if (graph_path.empty()) graph_path = std::string(REJUV_SOURCE_DIR) + "/launch/quad_square_paper.launch.pbtxt";
   return bench_images(graph_path, ImageBench{.cycles = cycles, .restarts = restarts, .between = between});
 }

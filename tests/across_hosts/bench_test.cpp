@@ -1,0 +1,44 @@
+// `rejuv bench across-hosts` as a user runs it (docs/across_hosts.md "The baseline"): root only (network
+// namespaces; skipped otherwise). A short run: both measured rows (raw Cyclone DDS, and DDS Security from the
+// keystore `rejuv keys` made) deliver every sample they published between the two namespaces, the link's slot is
+// printed as not measured, the samples are in DIR/latency.csv, and no namespace of the run is left behind. No
+// timing is asserted: the latencies are the benchmark's output, not a pass/fail criterion.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+
+#include "../rejuv_cli.hpp"
+
+namespace {
+
+using rejuv::test_support::slurp;
+namespace fs = std::filesystem;
+
+TEST(AcrossHostsBench, RawAndSecureRows_EverySampleDeliveredLinkSlotNamed) {
+  if (::geteuid() != 0) GTEST_SKIP() << "needs root: it makes network namespaces and a veth pair (ip netns)";
+  const fs::path dir = fs::temp_directory_path() / ("rejuv_bench_across_hosts_" + std::to_string(::getpid()));
+  fs::create_directories(dir / "log");
+  const auto r = rejuv::test_support::run_rejuv(
+      dir / "log", {"bench", "across-hosts", "--samples", "200", "--rounds", "1", "--out", (dir / "out").string()});
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  // "  raw      Cyclone DDS, no security   p50 p99 max ratios 200/200", the same for secure.
+  for (const char* row : {"\n  raw ", "\n  secure "}) {
+    const auto at = r.out.find(row);
+    ASSERT_NE(at, std::string::npos) << row << "\n" << r.out;
+    const std::string line = r.out.substr(at + 1, r.out.find('\n', at + 1) - at - 1);
+    EXPECT_NE(line.find(" 200/200"), std::string::npos) << line;
+  }
+  EXPECT_NE(r.out.find("\n  link "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("not measured"), std::string::npos) << r.out;
+  const std::string csv = slurp(dir / "out" / "latency.csv");
+  EXPECT_EQ(rejuv::test_support::count_of(csv, "\nraw,"), 200U);
+  EXPECT_EQ(rejuv::test_support::count_of(csv, "\nsecure,"), 200U);
+  // The run's namespaces (rjP_v<pid>, rjP_c<pid> of the bench's process) are gone.
+  const auto ns = rejuv::test_support::run_program(dir / "log", "/usr/sbin/ip", {"netns", "list"});
+  EXPECT_EQ(ns.out.find("rjP_"), std::string::npos) << ns.out;
+  if (!HasFailure()) fs::remove_all(dir);
+}
+
+}  // namespace
