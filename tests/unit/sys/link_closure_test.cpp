@@ -2,8 +2,10 @@
 // namespaces joined by a veth pair stand for the vehicle and the companion; a UDP sender at a steady rate in
 // each, a counter in the other. While the vehicle's closure is closed no datagram arrives either way, and
 // tcpdump in the companion's namespace captures no packet (where it captured the open window's); after open()
-// they arrive again. The table is gone once the closure is destroyed, and once its process is killed. Root only
-// (namespaces, nftables); skipped otherwise. Namespaces, threads and processes are removed on every exit path.
+// they arrive again. The table is gone once the closure is destroyed, and once its process is killed. The
+// fallback without CAP_NET_ADMIN (LinkClosure::freezing) stops a process in a cgroup of its own and lets it go
+// again. Root only (namespaces, nftables, cgroups); skipped otherwise. Namespaces, cgroups, threads and processes
+// are removed on every exit path.
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
@@ -19,6 +21,7 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -327,6 +330,108 @@ TEST_F(LinkClosureTest, BadLabel_Invalid) {
   auto link = LinkClosure::create(UplinkSpec{.label = "no spaces", .netns = vehicle_ns_});
   ASSERT_FALSE(link);
   EXPECT_EQ(link.error().error, EINVAL) << link.error().to_string();
+}
+
+// The fallback without CAP_NET_ADMIN, by its effect: a process in a v2 cgroup of its own writes a byte every
+// millisecond; frozen by close(), it writes none while a process outside the group writes 50; thawed by open(),
+// it writes again. Root only (a cgroup under the v2 hierarchy at /sys/fs/cgroup/unified).
+// Bytes waiting in the pipe `fd`, read and counted.
+std::uint64_t drain_bytes(int fd) {
+  std::uint64_t n = 0;
+  std::array<char, 256> buf{};
+  for (ssize_t got; (got = ::read(fd, buf.data(), buf.size())) > 0;) n += static_cast<std::uint64_t>(got);
+  return n;
+}
+
+class LinkClosureFreeze : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (::geteuid() != 0) GTEST_SKIP() << "needs root: a cgroup of its own";
+    std::string own;
+    std::istringstream lines(slurp("/proc/self/cgroup"));
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("0::", 0) == 0) own = line.substr(3);
+    }
+    if (own.empty() || !fs::exists("/sys/fs/cgroup/unified/cgroup.procs")) GTEST_SKIP() << "no cgroup v2 hierarchy";
+    group_ = fs::path("/sys/fs/cgroup/unified" + own) / ("rjN_freeze_" + std::to_string(::getpid()));
+    std::error_code ec;
+    fs::create_directory(group_, ec);
+    ASSERT_FALSE(ec) << group_ << ": " << ec.message();
+  }
+  void TearDown() override {
+    for (pid_t& p : children_) {
+      if (p > 0) {
+        ::kill(p, SIGKILL);
+        int status = 0;
+        ::waitpid(p, &status, 0);
+      }
+    }
+    if (!group_.empty()) ::rmdir(group_.c_str());
+  }
+  // A child writing a byte to `to` every millisecond, in `group` when given (it joins before its first byte).
+  void writer(int to, const fs::path& group) {
+    const pid_t p = ::fork();
+    ASSERT_GE(p, 0);
+    if (p == 0) {
+      if (!group.empty()) {
+        const int procs = ::open((group / "cgroup.procs").c_str(), O_WRONLY);
+        if (procs < 0 || ::write(procs, "0", 1) != 1) ::_exit(3);
+        ::close(procs);
+      }
+      for (;;) {
+        if (::write(to, "x", 1) != 1) ::_exit(0);
+        ::usleep(1000);
+      }
+    }
+    children_.push_back(p);
+  }
+  // How the writers that ended ended ("pid 12: exit 3"), for a failure's message.
+  std::string ended() {
+    std::string out;
+    for (pid_t& p : children_) {
+      int status = 0;
+      if (p > 0 && ::waitpid(p, &status, WNOHANG) == p) {
+        out += "pid " + std::to_string(p) + ": " +
+               (WIFEXITED(status) ? "exit " + std::to_string(WEXITSTATUS(status)) : "signal " + std::to_string(WTERMSIG(status))) + "; ";
+        p = -1;
+      }
+    }
+    return out.empty() ? "both writers still run" : out;
+  }
+  fs::path group_;
+  std::vector<pid_t> children_;
+};
+
+TEST_F(LinkClosureFreeze, Closed_GroupWritesNothing_OpenedWritesAgain) {
+  int in_group[2], outside[2];
+  ASSERT_EQ(::pipe2(in_group, O_NONBLOCK | O_CLOEXEC), 0);
+  ASSERT_EQ(::pipe2(outside, O_NONBLOCK | O_CLOEXEC), 0);
+  UniqueFd group_read(in_group[0]), group_write(in_group[1]), out_read(outside[0]), out_write(outside[1]);
+  writer(group_write.get(), group_);
+  writer(out_write.get(), {});
+  auto link = LinkClosure::freezing(group_, "test");
+  ASSERT_TRUE(link) << link.error().to_string();
+  ASSERT_TRUE(wait_for([&] { return drain_bytes(group_read.get()) > 0; })) << "the writer in the group never wrote: " << ended();
+
+  auto closed = link->close();
+  ASSERT_TRUE(closed) << closed.error().to_string();
+  ASSERT_TRUE(wait_for([&] { return slurp(group_ / "cgroup.events").find("frozen 1") != std::string::npos; }))
+      << slurp(group_ / "cgroup.events");
+  (void)drain_bytes(group_read.get());
+  (void)drain_bytes(out_read.get());
+  std::uint64_t outside_wrote = 0;
+  ASSERT_TRUE(wait_for([&] { return (outside_wrote += drain_bytes(out_read.get())) >= 50; }));
+  EXPECT_EQ(drain_bytes(group_read.get()), 0U) << "a frozen group wrote";
+
+  auto opened = link->open();
+  ASSERT_TRUE(opened) << opened.error().to_string();
+  EXPECT_TRUE(wait_for([&] { return drain_bytes(group_read.get()) > 0; })) << "the thawed group did not write again";
+}
+
+TEST(LinkClosureFreezeErrors, NoSuchCgroup_NotFound) {
+  auto link = LinkClosure::freezing("/sys/fs/cgroup/unified/rjN_absent_" + std::to_string(::getpid()), "absent");
+  ASSERT_FALSE(link);
+  EXPECT_EQ(link.error().error, ENOENT) << link.error().to_string();
 }
 
 }  // namespace
