@@ -84,6 +84,17 @@ Result<HostPart, std::string> host_part(launch::LoadedLaunch& graph, kernel::Ker
     proto::Param& d = *s.add_params();
     d.set_name("domain");
     d.set_number(domain);
+    std::string peer;
+    for (const proto::Param& p : s.params()) {
+      if (p.name() == "peer") peer = p.text();
+    }
+    for (const auto& [key, name] : {std::pair{"address", std::string(host)}, std::pair{"peer_address", peer}}) {
+      proto::Param& a = *s.add_params();
+      a.set_name(key);
+      for (const proto::Host& h : g.hosts()) {
+        if (h.name() == name) a.set_text(h.address());
+      }
+    }
   }
   for (const std::string& other : part.others) {
     if (std::find(options.skip_services.begin(), options.skip_services.end(), other) == options.skip_services.end()) {

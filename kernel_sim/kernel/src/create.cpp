@@ -12,6 +12,7 @@
 
 #include "impl.hpp"
 #include "rejuv/policy/audit.hpp"
+#include "rejuv/policy/hosts.hpp"
 
 namespace rejuv::kernel {
 
@@ -185,6 +186,19 @@ Result<ServiceUids, KernelError> lease_service_uids(std::size_t service_count, K
 
 // ---- on the kernel ----
 
+// The links' filter (sys::SeccompProgram::network_service_policy), built before any fork when the graph has one.
+Result<void, KernelError> make_link_seccomp(Kernel::Impl& k) {
+  const proto::Launch& g = k.graph.graph;
+  if (std::none_of(g.services().begin(), g.services().end(),
+                   [&](const proto::ServiceSpec& s) { return policy::is_host_link(g, s); })) {
+    return {};
+  }
+  auto program = sys::SeccompProgram::network_service_policy(sys::Enforcement::Supervised);
+  if (!program) return fail(kernel_error(K::System, "seccomp (links): " + program.error().to_string()));
+  k.link_seccomp = std::move(*program);
+  return {};
+}
+
 // The run's configuration from the graph and the options: clock, SR, images, seed, charges, alignment, domain;
 // the capability system's time at 0 (the time page is at 0 since the kernel clock was made).
 void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, ServiceUids uids) {
@@ -223,6 +237,19 @@ std::filesystem::path executable_path(const Kernel::Impl& k, const std::string& 
   return launch::resolve_executable(executable, k.options.service_dir);
 }
 
+// A link's sandbox (service_runtime.hpp ServiceConfig::HostLink): its host's network namespace and its enclave.
+ServiceConfig::HostLink host_link_of(const Kernel::Impl& k, const proto::ServiceSpec& spec) {
+  ServiceConfig::HostLink link;
+  const std::string_view host = launch::host_of(k.graph.graph, spec);
+  for (const proto::Host& h : k.graph.graph.hosts()) {
+    if (h.name() == host) link.netns = h.netns();
+  }
+  for (const proto::Param& p : spec.params()) {
+    if (p.name() == "enclave") link.enclave = p.text();
+  }
+  return link;
+}
+
 // Services, by policy order (ServiceId = policy declaration order = CSpace index), each with its executable
 // found (unless skipped), its boot info and its boot params.
 Result<void, KernelError> add_services(Kernel::Impl& k) {
@@ -235,6 +262,7 @@ Result<void, KernelError> add_services(Kernel::Impl& k) {
     s.config.spec = launch::find_service(k.graph.graph, ps.name);
     REJUV_ASSERT(s.config.spec != nullptr, "the audit checked that every policy service is in the graph");
     s.config.rejuvenate = launch::rejuvenate(*s.config.spec);
+    if (policy::is_host_link(k.graph.graph, *s.config.spec)) s.config.link = host_link_of(k, *s.config.spec);
     if (std::find(k.options.skip_services.begin(), k.options.skip_services.end(), ps.name) != k.options.skip_services.end()) {
       s.config.skip = true;
       s.config.skip_reason = "skipped on request";
@@ -440,6 +468,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   k.objects = std::move(objects->objects);
   k.signals.emplace(std::move(fds->signals));
   k.seccomp = std::move(fds->seccomp);
+  if (auto ok = make_link_seccomp(k); !ok) return fail(ok.error());
   configure(k, *clock_mode, sr, std::move(*uid_block));
   using Step = Result<void, KernelError> (*)(Impl&);
   for (const Step step : {&add_services, &plan_catch_up, &check_plant_executable, &place, &open_bridge, &watch_event_sources}) {

@@ -70,6 +70,7 @@ struct Kernel::Impl {
   KernelClock kernel_clock;  // the time page's one writer: set_now and the Rejuvenator's epochs
   clock::TimerTable timers;
   std::optional<sys::SeccompProgram> seccomp;
+  std::optional<sys::SeccompProgram> link_seccomp;  // the links' (network_service_policy), when there is a link
   std::optional<sys::SignalFd> signals;
   sys::Epoll epoll;
   std::optional<sys::TimerFd> timerfd;

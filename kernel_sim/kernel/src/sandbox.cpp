@@ -11,6 +11,7 @@
 // for T_MC only gives the attacker time); the rejuvenation timer keeps its schedule otherwise.
 #include <algorithm>
 #include <csignal>
+#include <filesystem>
 
 #include "impl.hpp"
 #include "rejuv/sys/sanitizer.hpp"
@@ -251,7 +252,10 @@ bool Warden::boot_open_within_reach(const ServiceRuntime& s, const sys::SeccompN
   auto path = sys::read_string_of(notice.pid, address, kMaxBootPath);
   if (!s.sandbox.seccomp.still_waiting(notice.id)) return true;  // gone meanwhile: nothing to decide
   const std::string text = path ? *path : std::string("(unreadable: ") + path.error().to_string() + ")";
-  if (path && sys::path_within(sys::service_landlock_rules(s.config.executable), text, notice.tgid)) return true;
+  // A link's libraries (Cyclone's) are searched along a RUNPATH with "..": seen as the folder it names, as
+  // Landlock sees the object; every other service's path must be plain (sys::path_within).
+  const std::string seen = s.config.link && path ? std::filesystem::path(text).lexically_normal().string() : text;
+  if (path && sys::path_within(landlock_rules(s), seen, notice.tgid)) return true;
   shown.clear();
   for (const char c : text.substr(0, 160)) shown += (c >= 0x20 && c < 0x7f) ? c : '?';
   return false;

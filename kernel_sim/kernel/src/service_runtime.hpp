@@ -67,6 +67,14 @@ struct ServiceConfig {
   std::string executable{};
   cap::BootInfo boot{};
   std::vector<wire::BootParam> params{};
+  // The link between hosts (kernel_sim/policy hosts.hpp is_host_link; docs/sandbox.md "The link"): network-facing,
+  // so it runs in its host's network namespace (`netns`, empty: the kernel's own) with the network allow-list and
+  // may read its enclave; never rolled back, it is restarted from its binary when it is lost.
+  struct HostLink {
+    std::string netns;
+    std::string enclave;
+  };
+  std::optional<HostLink> link{};
 };
 
 // The live incarnation (docs/design.md §2 "Processes and trust"). Its phase changes only through the transitions below,

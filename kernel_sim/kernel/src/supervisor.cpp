@@ -3,6 +3,7 @@
 // seccomp stage and, when the kernel runs as root, their own uid. A child's death is learnt from its pidfd
 // and handled in one place (lose_service); shutdown sends Shutdown, waits a grace period, then kills and
 // reaps everything and closes every fd.
+#include <fcntl.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -151,6 +152,19 @@ Result<void, KernelError> Supervisor::spawn_all() {
   return {};
 }
 
+std::vector<sys::LandlockRule> landlock_rules(const ServiceRuntime& s) {
+  std::vector<sys::LandlockRule> rules = sys::service_landlock_rules(s.config.executable);
+  if (s.config.link) {
+    // Cyclone at boot: its enclave (the certificates, the signed governance and permissions; the key comes on an
+    // fd), OpenSSL's seed, the time zone of its log, the interfaces' wireless flags (/proc/net: its own).
+    for (const std::string& path : {s.config.link->enclave, std::string("/dev/urandom"), std::string("/etc/localtime"),
+                                   std::string("/proc/net")}) {
+      if (!path.empty()) rules.push_back(sys::LandlockRule{.path = path, .grant = sys::LandlockGrant::Read});
+    }
+  }
+  return rules;
+}
+
 Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   const auto system_error = [](const sys::SysError& e) {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = e.to_string(), .findings = {}});
@@ -176,7 +190,31 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
               {2, out->write.get()},
               {wire::kChannelFd, service_end.fd()},
               {wire::kTimePageFd, k.kernel_clock.read_only_fd().get()}};
-  spec.seccomp = &*k.seccomp;
+  spec.seccomp = s.config.link ? &*k.link_seccomp : &*k.seccomp;
+  sys::UniqueFd netns;  // the link's network namespace, joined by the child first (SpawnSpec::netns_fd)
+  if (s.config.link && !s.config.link->netns.empty()) {
+    const std::string path = "/run/netns/" + s.config.link->netns;
+    netns = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (!netns) {
+      return fail(KernelError{.kind = KernelError::Kind::Boot,
+                              .message = "spawn '" + s.name + "': its host's network namespace " + path + ": " +
+                                         std::strerror(errno),
+                              .findings = {}});
+    }
+    spec.netns_fd = netns.get();
+  }
+  sys::UniqueFd key;  // the link's private key (wire::kHostLinkKeyFd): the file is its owner's only
+  if (s.config.link && !s.config.link->enclave.empty()) {
+    const std::string path = s.config.link->enclave + "/key.pem";
+    key = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (!key) {
+      return fail(KernelError{.kind = KernelError::Kind::Boot,
+                              .message = "spawn '" + s.name + "': its DDS Security key " + path + ": " +
+                                         std::strerror(errno),
+                              .findings = {}});
+    }
+    spec.fds.emplace_back(wire::kHostLinkKeyFd, key.get());
+  }
   spec.session = sys::Session::NewSession;
   spec.isolation =
       k.options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
@@ -184,7 +222,7 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   spec.limits = k.warden.limits_for(s);
   // What it may open while it boots (rejuv/sys/landlock.hpp): the libraries, its binary, its own /proc/<pid>.
   static const int landlock_abi = sys::landlock_abi();
-  spec.landlock = sys::service_landlock_rules(spec.executable);
+  spec.landlock = landlock_rules(s);
   spec.landlock_abi = landlock_abi;
   if (k.uid_block) spec.uid = sys::service_uid(*k.uid_block, s.id.value());
   if (k.subordinate_ids && spec.isolation == sys::Isolation::Namespaces) {
@@ -372,6 +410,17 @@ void Supervisor::lose_service(ServiceRuntime& s, std::string reason) {
   // or for a driver-level service (never rolled back), the run cannot continue safely.
   if (k.sr && s.config.rejuvenate) {
     k.rejuvenator.request_rollback("service '" + s.name + "' lost: " + reason);
+    return;
+  }
+  // A link between hosts (never rolled back: it holds no state of the flight) is restarted from its binary.
+  if (s.config.link && s.stats.spawns <= kMaxLinkRestarts) {
+    s.subscriptions.clear();
+    s.flow.new_channel();
+    if (auto ok = spawn_one(s); !ok) {
+      k.stop_run(StopReason::ServiceFailed, "restarting '" + s.name + "': " + ok.error().message);
+      return;
+    }
+    k.log("service '%s' restarted from its binary (pid %d)", s.name.c_str(), static_cast<int>(s.proc.process.pid()));
     return;
   }
   k.stop_run(StopReason::ServiceFailed, "service '" + s.name + "': " + reason);

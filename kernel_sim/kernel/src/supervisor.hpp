@@ -14,6 +14,12 @@
 
 namespace rejuv::kernel {
 
+// What a service's process may open (rejuv/sys/landlock.hpp): the libraries, its binary, its own /proc/<pid>; and
+// a link's enclave (service_runtime.hpp ServiceConfig::HostLink).
+[[nodiscard]] std::vector<sys::LandlockRule> landlock_rules(const ServiceRuntime& s);
+// How many times a lost link is started again before the run stops (a link that cannot stay up is a fault).
+inline constexpr std::uint64_t kMaxLinkRestarts = 16;
+
 // The boot params of a service: its own launch params, then the graph-wide ones (services/sdk service.hpp).
 [[nodiscard]] std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRuntime& s);
 

@@ -173,13 +173,13 @@ struct Prepared {
 enum ChildStage : int {
   kStageSpawn, kStagePdeathsig, kStageSession, kStageDupfd, kStageDup2, kStageCloseRange, kStageSetuid,
   kStageSeccomp, kStageExec, kStageUserns, kStageUnshare, kStageMount, kStageRlimit, kStageListener, kStageCgroup,
-  kStageIdMap, kStageLandlock,
+  kStageIdMap, kStageLandlock, kStageSetns,
 };
-constexpr std::array<std::string_view, 17> kStage{
+constexpr std::array<std::string_view, 18> kStage{
     "spawn", "prctl(PR_SET_PDEATHSIG)", "setsid/setpgid", "fcntl(F_DUPFD)", "dup2", "close_range", "setuid",
     "seccomp", "execve", "unshare(CLONE_NEWUSER)", "unshare(CLONE_NEWNET|CLONE_NEWNS|CLONE_NEWIPC)",
     "read-only mounts (mount_setattr)", "setrlimit", "seccomp listener", "joining its cgroup (cgroup.procs)",
-    "waiting for its uid/gid maps", "Landlock (landlock_restrict_self)"};
+    "waiting for its uid/gid maps", "Landlock (landlock_restrict_self)", "setns(CLONE_NEWNET) into its network namespace"};
 
 void child_report(int socket_fd, int stage, int err, int fd_to_pass) {
   const std::array<int, 2> report{stage, err};
@@ -228,7 +228,9 @@ void isolate_in_child(int wfd, const SpawnSpec& spec) {
     if (::unshare(CLONE_NEWUSER) != 0) child_fail(wfd, kStageUserns, errno);
     if (spec.mapped_ids) await_id_maps_in_child(wfd);
   }
-  if (::unshare(CLONE_NEWNET | CLONE_NEWNS | CLONE_NEWIPC) != 0) child_fail(wfd, kStageUnshare, errno);
+  // A service given a network namespace (SpawnSpec::netns_fd) joined it first; the others get an empty one.
+  const int net = spec.netns_fd >= 0 ? 0 : CLONE_NEWNET;
+  if (::unshare(net | CLONE_NEWNS | CLONE_NEWIPC) != 0) child_fail(wfd, kStageUnshare, errno);
   // Nothing it mounts or remounts propagates back, and every mount it sees is read-only.
   if (::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) child_fail(wfd, kStageMount, errno);
   MountAttr attr{.attr_set = kMountAttrRdonly | kMountAttrNosuid | kMountAttrNodev, .attr_clr = 0,
@@ -352,6 +354,9 @@ void install_seccomp_in_child(int wfd, const SpawnSpec& spec, Prepared& prep) {
   // The report socket moves above the fd layout first, so that placing the fds cannot clobber it.
   int wfd = ::fcntl(report_write, F_DUPFD_CLOEXEC, prep.max_target + 1);
   if (wfd < 0) wfd = report_write;
+  // Its network namespace before anything else (SpawnSpec::netns_fd), while the child still has the spawner's
+  // credentials; the fd closes with the others it does not keep.
+  if (spec.netns_fd >= 0 && ::setns(spec.netns_fd, CLONE_NEWNET) != 0) child_fail(wfd, kStageSetns, errno);
   // The binary is exec'ed by the fd the spawner opened (execveat AT_EMPTY_PATH): a service's uid then needs the
   // binary's execute bit only, no search right on the folders above it (a build in a 0700 home, run without
   // root by a subordinate uid), and the file exec'ed is the one the spawner named, whatever the path becomes.

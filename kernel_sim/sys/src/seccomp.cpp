@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <linux/fs.h>
 #include <linux/seccomp.h>
+#include <linux/sockios.h>
 #include <linux/userfaultfd.h>
 #include <poll.h>
 #include <sched.h>
@@ -13,6 +14,7 @@
 #include <sys/mman.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
+#include <sys/socket.h>
 #include <sys/syscall.h>
 #include <termios.h>
 #include <unistd.h>
@@ -176,6 +178,28 @@ constexpr std::array kServiceRules{
     SyscallRule{"sysinfo", Allowance::WhileBooting, ArgCheck::None, "the C library's start-up"},
 };
 
+// What a network-facing service calls beyond the service list (network_syscalls; docs/sandbox.md "The link"): the
+// calls Cyclone DDS makes for its UDP sockets and to list the interfaces (getifaddrs: a netlink socket), read
+// from the kernel's log of the calls it refused to the link. Sending and receiving are the service list's
+// (sendto, sendmsg, recvfrom, recvmsg); a socket of any other family (AF_UNIX, AF_PACKET, AF_INET6) is refused.
+constexpr std::array kNetworkRules{
+    SyscallRule{"socket", Allowance::Always, ArgCheck::SocketDomains,
+                "Cyclone's UDP sockets (AF_INET) and getifaddrs' interface list (AF_NETLINK); no other family"},
+    SyscallRule{"bind", Allowance::Always, ArgCheck::None, "its discovery and data ports; the netlink socket"},
+    SyscallRule{"setsockopt", Allowance::Always, ArgCheck::None, "buffer sizes, address reuse, TTL of its sockets"},
+    SyscallRule{"getsockopt", Allowance::Always, ArgCheck::None, "the buffer sizes it got"},
+    SyscallRule{"getsockname", Allowance::Always, ArgCheck::None, "the port a socket was bound to"},
+    SyscallRule{"select", Allowance::Always, ArgCheck::None, "Cyclone's receive thread waits on its sockets"},
+    SyscallRule{"pselect6", Allowance::Always, ArgCheck::None, "as select"},
+    SyscallRule{"pipe2", Allowance::Always, ArgCheck::None, "Cyclone wakes its receive thread through a pipe"},
+    SyscallRule{"uname", Allowance::Always, ArgCheck::None,
+                "the host name Cyclone announces in its participant's discovery data, asked again at run time"},
+    SyscallRule{"ioctl", Allowance::Always, ArgCheck::NetworkIoctlCodes,
+                "SIOCGIFINDEX: an interface's index (if_nametoindex), beside the service list's codes"},
+};
+// The ioctl request codes of a network-facing service beyond the service list's (kIoctlCodes).
+constexpr std::array<unsigned long, 1> kNetworkIoctlCodes{SIOCGIFINDEX};
+
 // What the sanitizer's runtime in a service calls by itself, admitted only in a sanitizer build
 // (REJUV_SANITIZER: kernel_sim/sys/CMakeLists.txt sets it when CMAKE_CXX_FLAGS has -fsanitize=, as the asan
 // and tsan presets do). A release build's filter has none of these; docs/sandbox.md lists them apart.
@@ -254,6 +278,20 @@ int add_rule(scmp_filter_ctx ctx, const SyscallRule& rule, int nr, Enforcement e
       rc |= seccomp_rule_add(ctx, allow, nr, 2, SCMP_A1(SCMP_CMP_EQ, static_cast<scmp_datum_t>(F_SETFL)),
                              SCMP_A2(SCMP_CMP_MASKED_EQ, static_cast<scmp_datum_t>(O_ASYNC), 0));
       return rc;
+    case ArgCheck::SocketDomains:
+      for (const int domain : {AF_INET, AF_NETLINK}) {
+        rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A0(SCMP_CMP_EQ, static_cast<scmp_datum_t>(domain)));
+      }
+      // The C library asks for an AF_UNIX socket first where any family will do (if_nametoindex's __opensock)
+      // and falls back to AF_INET when the family is not supported: refused so, not counted as a violation.
+      rc |= seccomp_rule_add(ctx, SCMP_ACT_ERRNO(EAFNOSUPPORT), nr, 1,
+                             SCMP_A0(SCMP_CMP_EQ, static_cast<scmp_datum_t>(AF_UNIX)));
+      return rc;
+    case ArgCheck::NetworkIoctlCodes:
+      for (const unsigned long code : kNetworkIoctlCodes) {
+        rc |= seccomp_rule_add(ctx, allow, nr, 1, SCMP_A1(SCMP_CMP_EQ, static_cast<scmp_datum_t>(code)));
+      }
+      return rc;
     case ArgCheck::ReadOnlyOpen:
     case ArgCheck::OwnLimitsRead:
     case ArgCheck::SpawnerOnly: return -EINVAL;  // boot calls' checks: the kernel's (classify), never an Always entry
@@ -301,6 +339,7 @@ const SyscallRule* rule_of(int nr) {
 }  // namespace
 
 std::span<const SyscallRule> service_syscalls() { return kRules; }
+std::span<const SyscallRule> network_syscalls() { return kNetworkRules; }
 
 std::optional<int> syscall_number(std::string_view name) {
   const std::string n(name);
@@ -344,12 +383,20 @@ NoticeKind classify(const SeccompNotice& notice) {
     case ArgCheck::FcntlCommands:
     case ArgCheck::ReadOnlyOpen:
     case ArgCheck::OwnLimitsRead:
-    case ArgCheck::SpawnerOnly: return NoticeKind::Forbidden;
+    case ArgCheck::SpawnerOnly:
+    case ArgCheck::SocketDomains:
+    case ArgCheck::NetworkIoctlCodes: return NoticeKind::Forbidden;
   }
   return NoticeKind::Forbidden;
 }
 
-SysResult<SeccompProgram> SeccompProgram::service_policy(Enforcement enforcement) {
+SysResult<SeccompProgram> SeccompProgram::service_policy(Enforcement enforcement) { return build(enforcement, false); }
+
+SysResult<SeccompProgram> SeccompProgram::network_service_policy(Enforcement enforcement) {
+  return build(enforcement, true);
+}
+
+SysResult<SeccompProgram> SeccompProgram::build(Enforcement enforcement, bool network) {
   // Supervised: what the table does not allow goes to the kernel, which names it, counts it and kills the
   // process (an EPERM would leave a compromised process running that probes on). Standalone: death by SIGSYS.
   const std::uint32_t deflt = enforcement == Enforcement::Supervised ? SCMP_ACT_NOTIFY : SCMP_ACT_KILL_PROCESS;
@@ -358,11 +405,15 @@ SysResult<SeccompProgram> SeccompProgram::service_policy(Enforcement enforcement
   int rc = seccomp_attr_set(ctx.get(), SCMP_FLTATR_ACT_BADARCH, SCMP_ACT_KILL_PROCESS);  // no 32-bit ABI
   rc |= seccomp_attr_set(ctx.get(), SCMP_FLTATR_CTL_OPTIMIZE, 2);  // binary tree: O(log n) per call
   if (rc != 0) return std::unexpected(SysError{"seccomp_attr_set", -rc});
-  for (const SyscallRule& rule : kRules) {
-    const auto nr = syscall_number(rule.name);
-    if (!nr) continue;  // not on this architecture (open/stat on arm64, say)
-    if (const int erc = add_rule(ctx.get(), rule, *nr, enforcement); erc != 0) {
-      return std::unexpected(SysError{"seccomp_rule_add", -erc});
+  const std::span<const SyscallRule> network_rules = network ? std::span<const SyscallRule>(kNetworkRules)
+                                                               : std::span<const SyscallRule>{};
+  for (const std::span<const SyscallRule> rules : {std::span<const SyscallRule>(kRules), network_rules}) {
+    for (const SyscallRule& rule : rules) {
+      const auto nr = syscall_number(rule.name);
+      if (!nr) continue;  // not on this architecture (open/stat on arm64, say)
+      if (const int erc = add_rule(ctx.get(), rule, *nr, enforcement); erc != 0) {
+        return std::unexpected(SysError{"seccomp_rule_add", -erc});
+      }
     }
   }
   // libseccomp 2.5 exports to an fd only: go through a memfd.

@@ -123,6 +123,47 @@ SdkResult<void> Service::publish_bytes(const CapInfo& cap, std::span<const std::
   return impl_->send_built();
 }
 
+namespace {
+
+// A subscription to a topic of any type: its payload handed over as bytes (subscribe_untyped).
+class UntypedSubscription final : public detail::SubscriptionBase {
+ public:
+  UntypedSubscription(Slot slot, std::string object, std::size_t size,
+                      std::function<void(std::span<const std::byte>)> on_message)
+      : SubscriptionBase(slot, std::move(object)), size_(size), on_message_(std::move(on_message)) {}
+  [[nodiscard]] std::size_t size() const override { return size_; }
+
+ private:
+  void store_and_notify(std::span<const std::byte> payload) override {
+    if (on_message_) on_message_(payload);
+  }
+  std::size_t size_;
+  std::function<void(std::span<const std::byte>)> on_message_;
+};
+
+}  // namespace
+
+SdkResult<void> Service::subscribe_untyped(std::string_view object,
+                                           std::function<void(std::span<const std::byte>)> on_message) {
+  auto found = cap(object);
+  if (!found) return fail(std::move(found.error()));
+  const CapInfo& c = **found;
+  auto typed = topic_cap(object, c.type, c.payload_size, Right::Read);
+  if (!typed) return fail(std::move(typed.error()));
+  if (auto sent = request_subscribe(c, false); !sent) return fail(std::move(sent.error()));
+  add_subscription(std::make_unique<UntypedSubscription>(c.slot, c.object, c.payload_size, std::move(on_message)));
+  return {};
+}
+
+SdkResult<void> Service::publish_untyped(std::string_view object, std::span<const std::byte> payload) {
+  auto found = cap(object);
+  if (!found) return fail(std::move(found.error()));
+  const CapInfo& c = **found;
+  auto typed = topic_cap(object, c.type, payload.size(), Right::Write);
+  if (!typed) return fail(std::move(typed.error()));
+  return publish_bytes(c, payload, true);
+}
+
 SdkResult<void> Service::request_subscribe(const CapInfo& cap, bool polled) {
   if (cap.slot.value() < impl_->subscription_by_slot.size() &&
       impl_->subscription_by_slot[cap.slot.value()] != nullptr) {

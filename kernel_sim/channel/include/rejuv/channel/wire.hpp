@@ -22,6 +22,9 @@ namespace rejuv::wire {
 
 inline constexpr int kChannelFd = 3;     // a service's channel to the kernel is always fd 3
 inline constexpr int kTimePageFd = 4;    // the kernel's read-only time page (memfd) is always fd 4
+// The link between hosts (rejuv_host_link) only: its host's DDS Security private key, opened by the kernel
+// (the key file is readable by its owner only, never by a service uid) and read once at boot.
+inline constexpr int kHostLinkKeyFd = 5;
 // The environment variable by which a kernel without root asks a service to stay dumpable ("1"): its
 // pagemap, which images by written pages need, is out of that kernel's reach otherwise (sdk boot.cpp).
 inline constexpr const char* kKeepDumpableEnv = "REJUV_KEEP_DUMPABLE";

@@ -111,6 +111,10 @@ struct SpawnSpec {
   // filter; none when landlock_abi is 0.
   std::vector<LandlockRule> landlock{};
   int landlock_abi = 0;
+  // A network namespace to join (an fd of /run/netns/<name>, kept open by the spawner until spawn returns): the
+  // child's first step is setns(CLONE_NEWNET) into it, and Isolation::Namespaces then makes no network namespace
+  // of its own (a network-facing service: the link between hosts, docs/sandbox.md). -1: none. Needs root.
+  int netns_fd = -1;
 };
 
 // A spawned process and, when its filter is supervised, the listener for the calls it refers to the spawner.

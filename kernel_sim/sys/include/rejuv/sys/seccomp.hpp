@@ -61,6 +61,8 @@ enum class ArgCheck : std::uint8_t {
                    // prlimit64(kernel, RLIMIT_CPU, {1, 1}) killed the kernel)
   SpawnerOnly,     // execve/execveat: the kernel's own exec of the service's binary is let through by the spawner
                    // (process.cpp await_exec); any exec the service makes is refused
+  SocketDomains,   // socket: arg 0 is AF_INET or AF_NETLINK (a network-facing service's UDP and its interface list)
+  NetworkIoctlCodes, // ioctl: arg 1 is an interface query of a network-facing service (SIOCGIFINDEX)
 };
 
 struct SyscallRule {
@@ -72,6 +74,9 @@ struct SyscallRule {
 
 // The allow-list, in the order docs/sandbox.md shows it.
 [[nodiscard]] std::span<const SyscallRule> service_syscalls();
+// What a network-facing service (the link between hosts, docs/sandbox.md "The link") may call beyond
+// service_syscalls(): its own UDP sockets (Cyclone DDS) and the interface list, nothing else of the network.
+[[nodiscard]] std::span<const SyscallRule> network_syscalls();
 
 // How a refused call is handled.
 enum class Enforcement : std::uint8_t {
@@ -85,6 +90,8 @@ enum class Enforcement : std::uint8_t {
 class SeccompProgram {
  public:
   [[nodiscard]] static SysResult<SeccompProgram> service_policy(Enforcement enforcement);
+  // service_policy plus network_syscalls(): given only to a network-facing service (the link between hosts).
+  [[nodiscard]] static SysResult<SeccompProgram> network_service_policy(Enforcement enforcement);
 
   // Loads the filter into the calling process (not async-signal-safe). Supervised: returns the listener fd.
   [[nodiscard]] SysResult<UniqueFd> install() const;
@@ -98,6 +105,7 @@ class SeccompProgram {
   [[nodiscard]] Enforcement enforcement() const { return enforcement_; }
 
  private:
+  [[nodiscard]] static SysResult<SeccompProgram> build(Enforcement enforcement, bool network);
   std::vector<sock_filter> filter_;
   Enforcement enforcement_ = Enforcement::Standalone;
 };

@@ -421,6 +421,15 @@ class Service {
   template <class T>
   [[nodiscard]] SdkResult<Subscription<T>> subscribe_polled(std::string_view object);
 
+  // ---- topics of any type: a bridge that carries a topic as its IDL C struct's bytes (rejuv_host_link) ----
+  // Subscribes to topic `object` whatever its type (CapInfo::type, CapInfo::payload_size): `on_message` gets each
+  // delivery, exactly payload_size bytes, valid during the call. As subscribe: Read is needed in the current mode.
+  [[nodiscard]] SdkResult<void> subscribe_untyped(std::string_view object,
+                                                  std::function<void(std::span<const std::byte>)> on_message);
+  // Publishes `payload` (exactly the topic's payload_size bytes) on topic `object` if the current mode grants
+  // Write; otherwise NotHeldInMode and nothing is sent, as Publisher::publish.
+  SdkResult<void> publish_untyped(std::string_view object, std::span<const std::byte> payload);
+
   // ---- timers (kernel clock) ----
   // Fires every `period` [ns of kernel time], first at now() + `phase` (default: one period).
   [[nodiscard]] SdkResult<Timer> every(Nanos period, std::function<void()> on_fire,

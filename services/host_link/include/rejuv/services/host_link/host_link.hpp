@@ -1,0 +1,54 @@
+// rejuv_host_link (docs/across_hosts.md "The link"): a host's end of its link to one peer host. Started by the
+// host's kernel as the service link_<peer> (kernel_sim/policy hosts.hpp add_host_links), it holds in MC only
+// Write on each topic the peer's services write for this host's readers and Read on each topic this host's
+// services write for the peer's readers; it learns which from its own caps. It runs one Cyclone DDS participant
+// with DDS Security (the host's enclave of `rejuv keys hosts`): a DDS writer `rejuv/<topic>` per topic it reads
+// from its kernel and a DDS reader per topic it writes to its kernel, of the topic's compiled IDL type, whose C
+// struct's bytes are what the kernel carries. Remote bytes are deserialized here (by Cyclone, against the IDL
+// type), never in the kernel: the kernel gets a payload of the topic's size, through the capability check.
+//
+// The secure interval (§III, §IV-D): the kernel revokes the link's caps outside MC, so nothing it publishes is
+// routed and nothing is delivered to it; DDS samples that arrive meanwhile wait in its readers, and on entering
+// MC every one whose source timestamp is before MC began (written while the link was closed) is dropped.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace rejuv::services::host_link {
+
+// What the Cyclone configuration of the link says: the host's own address (its interface), the addresses of
+// both ends as unicast peers (no multicast: a link is point to point), and the enclave of `rejuv keys hosts`
+// (KEYS/enclaves/<host>: identity, permissions, governance and the CA certificates).
+struct CycloneSettings {
+  std::string address;
+  std::vector<std::string> peers;
+  std::filesystem::path enclave;
+  // The private key's PEM as the kernel handed it over (wire::kHostLinkKeyFd: the key file is its owner's only),
+  // given to Cyclone inline ("data:,"); empty: the enclave's key.pem by its path.
+  std::string private_key_pem;
+};
+// The Cyclone XML (<CycloneDDS> with <Security>), as tests/across_hosts configures its participants.
+[[nodiscard]] std::string cyclone_config(const CycloneSettings& settings);
+
+// The link's closing rule for samples from the peer: admitted only in MC, and only when written (their DDS
+// source timestamp) after the MC window began; a sample written while the link was closed is dropped.
+class McWindow {
+ public:
+  // The mode seen now; `now_ns` is the wall clock (the clock DDS stamps samples with) [ns since the epoch].
+  // Returns true when MC has just begun (the caller then drops what was queued before it).
+  bool observe(bool in_mc, std::int64_t now_ns);
+  [[nodiscard]] bool open() const { return in_mc_; }
+  // Whether a sample stamped `source_ns` may go to the kernel now.
+  [[nodiscard]] bool admits(std::int64_t source_ns) const { return in_mc_ && source_ns >= began_ns_; }
+  [[nodiscard]] std::int64_t began_ns() const { return began_ns_; }
+
+ private:
+  bool in_mc_ = false;
+  std::int64_t began_ns_ = 0;
+};
+
+}  // namespace rejuv::services::host_link
