@@ -12,6 +12,10 @@
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/wait.h>
+
+#include <csignal>
+#include <chrono>
 
 #include <array>
 #include <cstdint>
@@ -341,6 +345,101 @@ TEST_F(Ros2Names, CycloneSample_DecodedByRosmsg2Serialization_SameValues) {
   EXPECT_DOUBLE_EQ(json_at(g, "epv_m").number_value(), 2.5);
   EXPECT_EQ(json_at(g, "fix_type").number_value(), 3);
   EXPECT_EQ(json_at(g, "satellites_used").number_value(), 11);
+}
+
+// A flight with dds.ros2_names: a ROS 2 reader (a plain Cyclone reader of rt/vehicle_state and rt/sr_mode with
+// the ROS 2 type names, in the default partition, decoding with the npm reader) sees the estimate of a
+// vehicle hovering at its start, 3 m up, and the SR mode; the run, whose plant follows the same names,
+// completes.
+TEST_F(Ros2Names, FlightWithRos2Names_Ros2ReaderSeesTheVehicle) {
+  ASSERT_TRUE(fs::exists(kReaderDir / "node_modules/@foxglove/rosmsg2-serialization/package.json"))
+      << "run ./rejuv once: it installs tests/ros2_msgs' npm packages into " << kReaderDir;
+  std::ofstream(dir_ / "ros2.launch.pbtxt") << "dds { ros2_names: true }\n";
+  const std::uint32_t domain = test_support::kOwnDdsDomain;
+
+  const dds_entity_t participant = dds_create_participant(domain, nullptr, nullptr);
+  ASSERT_GT(participant, 0) << dds_strretcode(participant);
+  struct Topic {
+    const char* topic;
+    const char* type;
+    dds_entity_t reader = 0;
+    std::vector<unsigned char> cdr{};  // the newest sample taken
+    std::string type_name{};           // as discovery announced the kernel's writer
+  };
+  std::array<Topic, 2> topics{Topic{.topic = "vehicle_state", .type = "rejuv::msg::VehicleStateEstimate"},
+                              Topic{.topic = "sr_mode", .type = "rejuv::msg::SrMode"}};
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  for (Topic& t : topics) {
+    const msgs::DdsTopic ros = msgs::dds_topic(t.topic, *msgs::find_topic_type(t.type), DdsNaming::Ros2);
+    const dds_entity_t topic = dds_create_topic(participant, ros.type->descriptor, ros.name.c_str(), nullptr, nullptr);
+    ASSERT_GT(topic, 0) << dds_strretcode(topic);
+    t.reader = dds_create_reader(participant, topic, qos, nullptr);
+    ASSERT_GT(t.reader, 0) << dds_strretcode(t.reader);
+  }
+  dds_delete_qos(qos);
+
+  const pid_t run = test_support::start_program(
+      dir_, test_support::kRejuv,
+      {"run", (test_support::kRepo / "launch/quad_square.launch.pbtxt").string(), (dir_ / "ros2.launch.pbtxt").string(),
+       "--duration", "2", "--no-attack", "--domain", std::to_string(domain)});
+  ASSERT_GT(run, 0);
+  // Take what arrives until the run ends (its exit ends the wait; the bound only keeps a broken build from hanging).
+  const dds_entity_t ws = dds_create_waitset(participant);
+  for (Topic& t : topics) EXPECT_EQ(dds_waitset_attach(ws, dds_create_readcondition(t.reader, DDS_ANY_STATE), 0), 0);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::minutes{5};
+  int status = 0;
+  bool ended = false;
+  while (!ended && std::chrono::steady_clock::now() < deadline) {
+    (void)dds_waitset_wait(ws, nullptr, 0, DDS_MSECS(100));
+    for (Topic& t : topics) {
+      ddsi_serdata* serdata = nullptr;
+      dds_sample_info_t info{};
+      while (dds_takecdr(t.reader, &serdata, 1, &info, DDS_ANY_STATE) == 1) {
+        if (!info.valid_data) {  // the writer's unregistration when the run ends: no sample
+          ddsi_serdata_unref(serdata);
+          continue;
+        }
+        t.cdr.resize(ddsi_serdata_size(serdata));
+        ddsi_serdata_to_ser(serdata, 0, t.cdr.size(), t.cdr.data());
+        ddsi_serdata_unref(serdata);
+        if (!t.type_name.empty()) continue;
+        if (dds_builtintopic_endpoint_t* ep = dds_get_matched_publication_data(t.reader, info.publication_handle)) {
+          t.type_name = ep->type_name;
+          dds_builtintopic_free_endpoint(ep);
+        }
+      }
+    }
+    ended = ::waitpid(run, &status, WNOHANG) == run;
+  }
+  if (!ended) {
+    ::kill(run, SIGKILL);
+    ::waitpid(run, &status, 0);
+  }
+  dds_delete(participant);
+  ASSERT_TRUE(ended) << "the run did not end within the liveness bound";
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << test_support::slurp(dir_ / "stderr");
+  ASSERT_FALSE(topics[0].cdr.empty()) << "no vehicle_state on rt/vehicle_state";
+  ASSERT_FALSE(topics[1].cdr.empty()) << "no sr_mode on rt/sr_mode";
+  EXPECT_EQ(topics[0].type_name, "rejuv_msgs::msg::dds_::VehicleStateEstimate_");
+  EXPECT_EQ(topics[1].type_name, "rejuv_msgs::msg::dds_::SrMode_");
+
+  const Struct out = decode(dir_, {{"VehicleStateEstimate", save(dir_, "state", topics[0].cdr)},
+                                   {"SrMode", save(dir_, "mode", topics[1].cdr)}});
+  const Struct& s = json_at(out, "VehicleStateEstimate").struct_value();
+  const auto& p = json_at(s, "p_n_m").list_value();
+  ASSERT_EQ(p.values_size(), 3);
+  EXPECT_NEAR(p.values(0).number_value(), 0.0, 0.5);
+  EXPECT_NEAR(p.values(1).number_value(), 0.0, 0.5);
+  EXPECT_NEAR(p.values(2).number_value(), -3.0, 0.5) << "3 m up (NED)";
+  const auto& q = json_at(s, "q_nb").list_value();
+  ASSERT_EQ(q.values_size(), 4);
+  double norm2 = 0;
+  for (int i = 0; i < 4; ++i) norm2 += q.values(i).number_value() * q.values(i).number_value();
+  EXPECT_NEAR(norm2, 1.0, 1e-6) << "a unit quaternion";
+  const Struct& m = json_at(out, "SrMode").struct_value();
+  EXPECT_LE(json_at(m, "mode").number_value(), rejuv_msg_SR_MODE_CP) << "one of the five SR modes";
+  EXPECT_GE(std::stoull(u64(json_at(m, "timestamp_ns"))), 1u);
 }
 
 }  // namespace

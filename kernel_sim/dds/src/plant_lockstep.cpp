@@ -25,27 +25,31 @@ BridgeResult<void> ensure_matched(const Writer& writer, bool& matched) {
 
 }  // namespace
 
-BridgeResult<PlantLockstep> PlantLockstep::open(Bridge& bridge) {
+BridgeResult<PlantLockstep> PlantLockstep::open(Bridge& bridge, DdsNaming naming) {
   std::array<std::optional<std::size_t>, topics::kStepSampleKinds> carried{};
   BridgeResult<void> ok;
   topics::for_each_step_kind([&](std::size_t row, const auto& kind) {
-    carried[row] = bridge.find_input(kind.topic.name, topics::type_of(kind.topic));
+    const msgs::DdsTopic t = topics::dds_topic(kind.topic, naming);
+    carried[row] = bridge.find_input(t.name, *t.type);
     // Samples that do not fit their SimStep come on the plant's sample topics, bridged or not, and count
     // toward SimStep.samples_published.
-    if (!ok || bridge.bridges_in(kind.topic.name)) return;
-    if (auto added = bridge.add_input(kind.topic.name, topics::type_of(kind.topic)); !added) ok = fail(added.error());
+    if (!ok || bridge.bridges_in(t.name)) return;
+    if (auto added = bridge.add_input(t.name, *t.type); !added) ok = fail(added.error());
   });
   if (!ok) return fail(ok.error());
-  auto step = bridge.add_input(topics::kSimStep.name, topics::type_of(topics::kSimStep),
+  const msgs::DdsTopic step_topic = topics::dds_topic(topics::kSimStep, naming);
+  auto step = bridge.add_input(step_topic.name, *step_topic.type,
                                EndpointQos{.history_depth = 64, .ignore_local = IgnoreLocal::Participant});
   if (!step) return fail(step.error());
-  auto ack = bridge.make_writer(topics::kSimStepAck.name, topics::type_of(topics::kSimStepAck));
+  const msgs::DdsTopic ack_topic = topics::dds_topic(topics::kSimStepAck, naming);
+  auto ack = bridge.make_writer(ack_topic.name, *ack_topic.type);
   if (!ack) return fail(ack.error());
   PlantLockstep p(std::move(*ack));
   p.step_input_ = *step;
   p.carried_input_ = carried;
   // The plant's outputs reader exists even when the graph forgot to bridge actuator_outputs out.
-  p.outputs_topic_ = bridge.find_output(topics::kActuatorOutputs.name, topics::type_of(topics::kActuatorOutputs));
+  const msgs::DdsTopic outputs = topics::dds_topic(topics::kActuatorOutputs, naming);
+  p.outputs_topic_ = bridge.find_output(outputs.name, *outputs.type);
   return p;
 }
 

@@ -4,12 +4,12 @@ namespace rejuv::kernel {
 
 dds::BridgeResult<DdsBridge> DdsBridge::open(std::uint32_t domain, std::string partition,
                                              std::span<const dds::BridgeEntry> table, bool plant_lockstep,
-                                             std::size_t object_count) {
+                                             DdsNaming naming, std::size_t object_count) {
   auto bridge = dds::Bridge::open(dds::DomainId{domain}, std::move(partition), table, object_count);
   if (!bridge) return fail(bridge.error());
   DdsBridge b(std::move(*bridge));
   if (plant_lockstep) {
-    auto plant = dds::PlantLockstep::open(b.bridge_);
+    auto plant = dds::PlantLockstep::open(b.bridge_, naming);
     if (!plant) return fail(plant.error());
     b.plant_ = std::move(*plant);
   }

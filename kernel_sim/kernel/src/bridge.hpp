@@ -21,10 +21,10 @@ namespace rejuv::kernel {
 class DdsBridge {
  public:
   // Every endpoint in `partition` (the run's: rejuv/dds/run_partition.hpp). `plant_lockstep`: also the adapter's
-  // endpoints.
+  // endpoints, named as `naming` says (the graph's dds.ros2_names, as the table's rows are).
   [[nodiscard]] static dds::BridgeResult<DdsBridge> open(std::uint32_t domain, std::string partition,
                                                          std::span<const dds::BridgeEntry> table, bool plant_lockstep,
-                                                         std::size_t object_count);
+                                                         DdsNaming naming, std::size_t object_count);
 
   // Every input: the table's (routed to their topic, in table order), then the adapter's (no topic).
   [[nodiscard]] std::vector<dds::Bridge::Input>& readers() { return bridge_.inputs(); }

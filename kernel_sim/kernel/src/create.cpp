@@ -386,6 +386,7 @@ bool plant_lockstep(const Kernel::Impl& k) {
 // time. Cyclone reads CYCLONEDDS_URI; it defaults to the graph's config file.
 Result<void, KernelError> open_bridge(Kernel::Impl& k) {
   std::vector<dds::BridgeEntry> table;
+  const DdsNaming naming = launch::dds_naming(k.graph.graph.dds());
   for (int i = 0; i < k.graph.graph.dds().bridges_size(); ++i) {
     const proto::Bridge& b = k.graph.graph.dds().bridges(i);
     const auto object = k.policy.find_object(b.topic());
@@ -396,8 +397,8 @@ Result<void, KernelError> open_bridge(Kernel::Impl& k) {
                                               std::string(k.objects[object->value()].type->name) +
                                               "', which has no DDS type descriptor: such a topic is routed between services, not bridged"));
     }
-    table.push_back(dds::BridgeEntry{.topic = *object, .dds_name = launch::dds_name(b),
-                                     .type = k.objects[object->value()].type,
+    table.push_back(dds::BridgeEntry{.topic = *object, .dds_name = launch::dds_name(k.graph.graph.dds(), b),
+                                     .type = &msgs::dds_topic_type(*k.objects[object->value()].type, naming),
                                      .direction = b.direction() == proto::BRIDGE_IN ? dds::Direction::In
                                                                                      : dds::Direction::Out});
   }
@@ -406,7 +407,9 @@ Result<void, KernelError> open_bridge(Kernel::Impl& k) {
     const std::string uri = "file://" + launch::dds_config(k.graph, k.options.repo_root).string();
     ::setenv("CYCLONEDDS_URI", uri.c_str(), 0);  // also what the plant inherits
   }
-  auto bridge = DdsBridge::open(k.domain, dds::run_partition(k.run_id), table, plant_lockstep(k), k.objects.size());
+  // ROS 2 sees the default partition only: with its names the run's endpoints are there.
+  const std::string partition = naming == DdsNaming::Ros2 ? std::string() : dds::run_partition(k.run_id);
+  auto bridge = DdsBridge::open(k.domain, partition, table, plant_lockstep(k), naming, k.objects.size());
   if (!bridge) return fail(kernel_error(K::Dds, bridge.error().to_string()));
   k.bridge = std::move(*bridge);
   return {};

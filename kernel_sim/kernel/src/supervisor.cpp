@@ -289,12 +289,18 @@ Result<void, KernelError> Supervisor::spawn_plant() {
     down = g.mission().waypoints(0).down_m();
   }
   spec.args = {"--domain",      std::to_string(k.domain),
-               "--run-id",      dds::to_string(k.run_id),  // the bridge's partition (rejuv/dds/run_partition.hpp)
                "--seed",        std::to_string(k.seed),
                "--clock",       std::string(to_string(k.clock_mode)),
                "--start-north", format_double(north),
                "--start-east",  format_double(east),
                "--start-down",  format_double(down)};
+  // The bridge's partition (rejuv/dds/run_partition.hpp) and names: with ROS 2 names, the default partition
+  // and ROS 2's names for every topic of the plant interface (create.cpp, open_bridge).
+  if (launch::dds_naming(g.dds()) == DdsNaming::Ros2) {
+    spec.args.insert(spec.args.end(), {"--dds-names", "ros2"});
+  } else {
+    spec.args.insert(spec.args.end(), {"--run-id", dds::to_string(k.run_id)});
+  }
   if (g.plant().wind_mean_m_s() != 0) {
     spec.args.insert(spec.args.end(), {"--wind-mean", format_double(g.plant().wind_mean_m_s())});
   }

@@ -129,9 +129,10 @@ bool rejuvenate(const proto::ServiceSpec& service) {
   return service.has_rejuvenate() ? service.rejuvenate() : true;
 }
 
-std::string dds_name(const proto::Bridge& bridge) {
-  return bridge.dds_name().empty() ? std::string(defaults::kDdsNamePrefix) + bridge.topic()
-                                   : bridge.dds_name();
+DdsNaming dds_naming(const proto::DdsSpec& dds) { return dds.ros2_names() ? DdsNaming::Ros2 : DdsNaming::Rejuv; }
+
+std::string dds_name(const proto::DdsSpec& dds, const proto::Bridge& bridge) {
+  return bridge.dds_name().empty() ? dds_topic_name(bridge.topic(), dds_naming(dds)) : bridge.dds_name();
 }
 
 std::filesystem::path dds_config(const LoadedLaunch& launch, const std::filesystem::path& repo_root) {

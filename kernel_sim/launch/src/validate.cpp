@@ -353,9 +353,9 @@ class Validator {
         return fail(error(at({{"dds", -1}, {"bridges", i}}, "topic"),
                           "topic \"" + b.topic() + "\" is bridged twice: one bridge per topic"));
       }
-      if (!dds_names.insert(dds_name(b)).second) {
+      if (!dds_names.insert(dds_name(d, b)).second) {
         return fail(error(at({{"dds", -1}, {"bridges", i}}, "dds_name"),
-                          "DDS name \"" + dds_name(b) + "\" is used by two bridges"));
+                          "DDS name \"" + dds_name(d, b) + "\" is used by two bridges"));
       }
     }
     return {};

@@ -49,33 +49,39 @@ struct Endpoints {
   std::vector<dds::Writer> samples;  // by row of the step table (plant_topics.hpp, kStepSamples)
   std::optional<dds::Writer> sim_step;  // lockstep only
 
-  // Every endpoint in `partition` (empty: the default partition).
-  static dds::DdsResult<Endpoints> open(dds::DomainId domain, const std::string& partition, ClockMode clock);
+  // Every endpoint in `partition` (empty: the default partition), its topic named as `naming` says
+  // (plant_topics::dds_topic, as the kernel's bridge names them).
+  static dds::DdsResult<Endpoints> open(dds::DomainId domain, const std::string& partition, DdsNaming naming,
+                                        ClockMode clock);
 };
 
 // A step that the kernel charged for a checkpoint or rollback (docs/design.md §6) covers more than one sensor period:
 // the writers keep enough history that a reliable reader loses none of a long step's samples.
 constexpr std::int32_t kSensorDepth = 256;
 template <class T>
-dds::DdsResult<dds::Writer> make_writer(const dds::Participant& p, const std::string& partition, topics::Topic<T> topic) {
-  return dds::Writer::create(p, topic.name, topics::type_of(topic),
-                             dds::EndpointQos{.history_depth = kSensorDepth, .partition = partition});
+dds::DdsResult<dds::Writer> make_writer(const dds::Participant& p, const std::string& partition, DdsNaming naming,
+                                        topics::Topic<T> topic) {
+  const msgs::DdsTopic t = topics::dds_topic(topic, naming);
+  return dds::Writer::create(p, t.name, *t.type, dds::EndpointQos{.history_depth = kSensorDepth, .partition = partition});
 }
 template <class T>
-dds::DdsResult<dds::Reader> make_reader(const dds::Participant& p, topics::Topic<T> topic, const dds::EndpointQos& qos) {
-  return dds::Reader::create(p, topic.name, topics::type_of(topic), qos);
+dds::DdsResult<dds::Reader> make_reader(const dds::Participant& p, DdsNaming naming, topics::Topic<T> topic,
+                                        const dds::EndpointQos& qos) {
+  const msgs::DdsTopic t = topics::dds_topic(topic, naming);
+  return dds::Reader::create(p, t.name, *t.type, qos);
 }
 
-dds::DdsResult<Endpoints> Endpoints::open(dds::DomainId domain, const std::string& partition, ClockMode clock) {
+dds::DdsResult<Endpoints> Endpoints::open(dds::DomainId domain, const std::string& partition, DdsNaming naming,
+                                          ClockMode clock) {
   const bool lockstep = clock == ClockMode::Lockstep;
   auto participant = dds::Participant::create(domain);
   if (!participant) return fail(participant.error());
-  auto actuators = make_reader(*participant, topics::kActuatorOutputs,
+  auto actuators = make_reader(*participant, naming, topics::kActuatorOutputs,
                                dds::EndpointQos{.history_depth = kActuatorDepth, .partition = partition});
   if (!actuators) return fail(actuators.error());
   std::optional<dds::Reader> ack;
   if (lockstep) {
-    auto r = make_reader(*participant, topics::kSimStepAck, dds::EndpointQos{.partition = partition});
+    auto r = make_reader(*participant, naming, topics::kSimStepAck, dds::EndpointQos{.partition = partition});
     if (!r) return fail(r.error());
     ack = std::move(*r);
   }
@@ -84,14 +90,14 @@ dds::DdsResult<Endpoints> Endpoints::open(dds::DomainId domain, const std::strin
   dds::DdsResult<void> made;
   topics::for_each_step_kind([&](std::size_t /*row*/, const auto& kind) {
     if (!made) return;
-    auto w = make_writer(*participant, partition, kind.topic);
+    auto w = make_writer(*participant, partition, naming, kind.topic);
     if (!w) made = fail(w.error());
     else samples.push_back(std::move(*w));
   });
   if (!made) return fail(made.error());
   std::optional<dds::Writer> sim_step;
   if (lockstep) {
-    auto w = make_writer(*participant, partition, topics::kSimStep);
+    auto w = make_writer(*participant, partition, naming, topics::kSimStep);
     if (!w) return fail(w.error());
     sim_step = std::move(*w);
   }
@@ -383,7 +389,7 @@ ExitCode run(std::span<const std::string_view> args) {
     return kExitFailure;
   }
   const std::string partition = options.run_id ? dds::run_partition(*options.run_id) : std::string();
-  auto endpoints = Endpoints::open(dds::DomainId{options.domain}, partition, options.clock);
+  auto endpoints = Endpoints::open(dds::DomainId{options.domain}, partition, options.naming, options.clock);
   if (!endpoints) {
     log("DDS failure: " + endpoints.error().to_string());
     return kExitFailure;

@@ -29,6 +29,8 @@ constexpr std::string_view kUsageHead =
     "  --domain N               DDS domain id, 0..232 (default 0)\n"
     "  --run-id HEX             the run's id, 16 hex digits: every endpoint in the DDS partition rejuv.HEX,\n"
     "                           the kernel's bridge's (default: the default partition)\n"
+    "  --dds-names rejuv|ros2   the topics' DDS names: rejuv/<topic> (default) or ROS 2's rt/<topic> with the\n"
+    "                           rejuv_msgs types (docs/across_hosts.md \"ROS 2 names\")\n"
     "  --seed N                 seed of sensor noise and wind, unsigned 64-bit (default 1)\n"
     "  --clock lockstep|realtime  time master (default lockstep: the plant steps, the kernel acknowledges)\n"
     "  --start-north M          start position, NED metres (default 0)\n"
@@ -75,8 +77,8 @@ Nanos millis(std::int64_t ms) {
   return std::chrono::milliseconds{ms};
 }
 
-constexpr std::array<std::string_view, 15> kFlags{
-    "--domain",   "--run-id",  "--seed",    "--clock",          "--start-north",        "--start-east", "--start-down",
+constexpr std::array<std::string_view, 16> kFlags{
+    "--domain",   "--run-id",  "--dds-names",  "--seed",    "--clock",          "--start-north",        "--start-east", "--start-down",
     "--duration", "--step-ms", "--ack-timeout-ms", "--connect-timeout-ms", "--wind-mean",  "--wind-gust",
     "--align-s",  "--wind-toward"};
 
@@ -98,6 +100,16 @@ Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::str
   if (flag == "--run-id") {
     o.run_id = dds::parse_run_id(value);
     if (!o.run_id) return fail(std::string(flag) + ": expected 16 hex digits, got '" + std::string(value) + "'");
+    return {};
+  }
+  if (flag == "--dds-names") {
+    if (value == "rejuv") {
+      o.naming = DdsNaming::Rejuv;
+    } else if (value == "ros2") {
+      o.naming = DdsNaming::Ros2;
+    } else {
+      return fail(std::string(flag) + ": expected rejuv or ros2, got '" + std::string(value) + "'");
+    }
     return {};
   }
   if (flag == "--seed") {

@@ -209,7 +209,7 @@ TEST_F(BridgeTest, AddInput_EmptyName_ReaderError) {
 TEST_F(BridgeTest, PlantLockstepOpen_GyroBridged_CountOnlyInputForEveryOtherSampleTopicThenStepLast) {
   const std::vector<BridgeEntry> table = {row(3, pt::kSensorGyro, Direction::In)};
   Bridge b = open(table);
-  auto lockstep = PlantLockstep::open(b);
+  auto lockstep = PlantLockstep::open(b, DdsNaming::Rejuv);
   ASSERT_TRUE(lockstep.has_value()) << lockstep.error().to_string();
   // gyro (routed), then accel, mag, baro, gps, ground truth (count-only), then sim_step.
   ASSERT_EQ(b.inputs().size(), 1 + (pt::kStepSampleKinds - 1) + 1);
@@ -224,7 +224,7 @@ TEST_F(BridgeTest, PlantLockstepTakeSteps_CarriedSamples_StagedAsTheInputBridgin
   const std::vector<BridgeEntry> table = {row(3, pt::kSensorGyro, Direction::In),
                                           row(4, pt::kGroundTruth, Direction::In)};
   Bridge b = open(table);
-  auto lockstep = PlantLockstep::open(b);
+  auto lockstep = PlantLockstep::open(b, DdsNaming::Rejuv);
   ASSERT_TRUE(lockstep.has_value());
   Participant plant = peer();
   auto w = Writer::create(plant, pt::kSimStep.name, pt::type_of(pt::kSimStep));
@@ -267,7 +267,7 @@ TEST_F(BridgeTest, PlantLockstepTakeSteps_CarriedSamples_StagedAsTheInputBridgin
 TEST_F(BridgeTest, PlantLockstepWriteOut_ThreeOutputsInAStep_OldestOnTheTopicNewestTwoInTheAck) {
   const std::vector<BridgeEntry> table = {row(2, pt::kActuatorOutputs, Direction::Out)};
   Bridge b = open(table);
-  auto lockstep = PlantLockstep::open(b);
+  auto lockstep = PlantLockstep::open(b, DdsNaming::Rejuv);
   ASSERT_TRUE(lockstep.has_value());
   Participant plant = peer();
   auto outs = Reader::create(plant, pt::kActuatorOutputs.name, pt::type_of(pt::kActuatorOutputs));
@@ -299,7 +299,7 @@ TEST_F(BridgeTest, PlantLockstepWriteOut_ThreeOutputsInAStep_OldestOnTheTopicNew
 TEST_F(BridgeTest, PlantLockstepWriteOut_OtherTopic_WrittenThroughTheBridge) {
   const std::vector<BridgeEntry> table = {row(6, pt::kSensorGyro, Direction::Out)};
   Bridge b = open(table);
-  auto lockstep = PlantLockstep::open(b);
+  auto lockstep = PlantLockstep::open(b, DdsNaming::Rejuv);
   ASSERT_TRUE(lockstep.has_value());
   const rejuv_msg_SensorGyro g = gyro(5);
   auto wrote = lockstep->write_out(b, ObjectId{6}, bytes_of(g));

@@ -163,6 +163,13 @@ TEST(PlantOptions, RunId_SixteenHexDigitsParsedOtherwiseRefused) {
   }
 }
 
+TEST(PlantOptions, DdsNames_RejuvByDefaultRos2OnRequestOtherwiseRefused) {
+  EXPECT_EQ(parse_ok({}).naming, DdsNaming::Rejuv);
+  EXPECT_EQ(parse_ok({"--dds-names", "ros2"}).naming, DdsNaming::Ros2);
+  EXPECT_EQ(parse_ok({"--dds-names", "rejuv"}).naming, DdsNaming::Rejuv);
+  EXPECT_NE(parse_error({"--dds-names", "ROS2"}).find("--dds-names: expected rejuv or ros2, got 'ROS2'"), std::string::npos);
+}
+
 TEST(PlantOptions, Positional_Refused) {
   EXPECT_NE(parse_error({"lockstep"}).find("unexpected argument"), std::string::npos);
 }

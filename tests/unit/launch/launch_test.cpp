@@ -537,7 +537,18 @@ TEST(LaunchLoader, BridgeSameTopicTwice_Semantic) {
 TEST(LaunchLoader, BridgeDefaultDdsName_IsPrefixed) {
   const auto r = parse_launch(kGood, kAsPath);
   ASSERT_TRUE(r.has_value()) << r.error().to_string();
-  EXPECT_EQ(dds_name(r->graph.dds().bridges(0)), "rejuv/x");
+  EXPECT_EQ(dds_name(r->graph.dds(), r->graph.dds().bridges(0)), "rejuv/x");
+}
+
+TEST(LaunchLoader, BridgeRos2Names_RtPrefixedAndOwnNameKept) {
+  const Mutated m = mutate("dds {", "dds { ros2_names: true");
+  const auto r = parse_launch(m.text, kAsPath);
+  ASSERT_TRUE(r.has_value()) << r.error().to_string();
+  EXPECT_EQ(dds_naming(r->graph.dds()), DdsNaming::Ros2);
+  EXPECT_EQ(dds_name(r->graph.dds(), r->graph.dds().bridges(0)), "rt/x");
+  proto::Bridge own = r->graph.dds().bridges(0);
+  own.set_dds_name("rt/vehicle/x");
+  EXPECT_EQ(dds_name(r->graph.dds(), own), "rt/vehicle/x");
 }
 
 TEST(LaunchLoader, PolicyMissingFile_Semantic) {

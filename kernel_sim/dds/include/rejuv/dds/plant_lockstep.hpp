@@ -29,8 +29,9 @@ class PlantLockstep {
   };
 
   // Adds the protocol's inputs to `bridge` (the count-only readers, then the SimStep reader last: the plant's
-  // discovery sees them in that order) and creates the ack writer.
-  [[nodiscard]] static BridgeResult<PlantLockstep> open(Bridge& bridge);
+  // discovery sees them in that order) and creates the ack writer; every topic named as `naming` says
+  // (plant_topics::dds_topic), as the plant names them.
+  [[nodiscard]] static BridgeResult<PlantLockstep> open(Bridge& bridge, DdsNaming naming);
 
   [[nodiscard]] std::size_t step_input() const { return step_input_; }
 

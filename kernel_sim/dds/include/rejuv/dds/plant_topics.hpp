@@ -43,6 +43,7 @@
 
 #include "rejuv/core/dds_name.hpp"
 #include "rejuv/core/result.hpp"
+#include "rejuv/msgs/dds_naming.hpp"
 #include "rejuv/msgs/topic_types.hpp"
 
 namespace rejuv::dds::plant_topics {
@@ -207,6 +208,15 @@ template <class T>
   const msgs::TopicType* type = msgs::find_topic_type(msgs::TopicTraits<T>::name);
   REJUV_ASSERT(type != nullptr, "every TopicTraits type is in the topic table");
   return *type;
+}
+
+// A plant topic as DDS names it under `naming` (rejuv/msgs/dds_naming.hpp): "rejuv/sensor_gyro" or, with ROS 2
+// names, "rt/sensor_gyro" of type rejuv_msgs::msg::dds_::SensorGyro_. The kernel's bridge and the plant name
+// every topic of the interface this way, so that both ends agree whatever the graph's dds.ros2_names.
+template <class T>
+[[nodiscard]] msgs::DdsTopic dds_topic(Topic<T> topic, DdsNaming naming) {
+  REJUV_ASSERT(topic.name.starts_with(kDdsNamePrefix), "a plant topic's name is kDdsNamePrefix + its topic");
+  return msgs::dds_topic(topic.name.substr(kDdsNamePrefix.size()), type_of(topic), naming);
 }
 
 }  // namespace rejuv::dds::plant_topics

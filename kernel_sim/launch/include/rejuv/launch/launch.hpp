@@ -161,8 +161,11 @@ struct RealtimeValues {
 [[nodiscard]] Seconds physics_step(const proto::PlantSpec& plant);
 // false = driver level, never rolled back (docs/design.md §2); default true.
 [[nodiscard]] bool rejuvenate(const proto::ServiceSpec& service);
-// DDS topic name of a bridge: as written, else "rejuv/<topic>".
-[[nodiscard]] std::string dds_name(const proto::Bridge& bridge);
+// Whose names the graph's bridged topics have on DDS: ROS 2's with dds.ros2_names (rejuv/core/dds_name.hpp).
+[[nodiscard]] DdsNaming dds_naming(const proto::DdsSpec& dds);
+// DDS topic name of a bridge of `dds`: as written, else dds_topic_name(topic, dds_naming(dds)): "rejuv/<topic>"
+// or "rt/<topic>".
+[[nodiscard]] std::string dds_name(const proto::DdsSpec& dds, const proto::Bridge& bridge);
 // Cyclone XML config: as written (relative to the launch file), else config/cyclonedds.xml of `repo_root`.
 [[nodiscard]] std::filesystem::path dds_config(const LoadedLaunch& launch,
                                                const std::filesystem::path& repo_root);

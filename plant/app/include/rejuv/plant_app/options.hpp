@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include "rejuv/core/dds_name.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/core/time.hpp"
 #include "rejuv/dds/run_partition.hpp"
@@ -28,6 +29,9 @@ struct PlantOptions {
   // The run whose partition every endpoint is in (rejuv/dds/run_partition.hpp): the kernel that spawns the
   // plant passes its own. Unset: the default partition (a plant driven by a test's own participant).
   std::optional<dds::RunId> run_id{};
+  // Whose names the plant's topics have on DDS (rejuv/core/dds_name.hpp): the kernel passes ROS 2's when the
+  // graph's dds.ros2_names is set.
+  DdsNaming naming = DdsNaming::Rejuv;
   std::uint64_t seed = 1;    // sensors and wind
   ClockMode clock = ClockMode::Lockstep;
   Eigen::Vector3d start_N_m = Eigen::Vector3d(0, 0, -3);  // hover position, NED (down −3 = 3 m up)
