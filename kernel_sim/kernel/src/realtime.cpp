@@ -83,8 +83,11 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   auto ok = sys::set_fifo(pid, static_cast<int>(spec.rt_priority()));
   if (ok) return;
   // A restored copy is moved from `images/` into `live/` by the placer, after the rollback (docs/sandbox.md);
-  // in `images/`, whose real-time budget is 0 (v1 RT groups), SCHED_FIFO is refused: again once it is there.
-  if (s.sandbox.cgroup.valid() && !s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Live)) {
+  // in `images/`, whose real-time budget is 0 (v1 RT groups), SCHED_FIFO is refused: again once it is there —
+  // in every hierarchy, the v1 cpu one (the budget) after the v2 one. Taken for a refusal while the placer was
+  // between the two, a chain service ran the rest of its incarnation SCHED_OTHER (seen in a real-time soak
+  // beside builds: ekf2, sensors and lqr_control, each "stays SCHED_OTHER").
+  if (s.sandbox.cgroup.valid() && !s.sandbox.cgroup.settled_in(pid, sys::CgroupLeaf::Live)) {
     realtime_pending_.emplace_back(s.id, pid);
     return;
   }
@@ -108,8 +111,8 @@ void Supervisor::retry_realtime() {
   for (const auto& [id, pid] : pending) {
     ServiceRuntime& s = k.services[id.value()];
     if (!s.live() || s.proc.process.pid() != pid) continue;  // another incarnation since: its own turn
-    if (!s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Live)) {
-      realtime_pending_.emplace_back(id, pid);  // not moved yet
+    if (!s.sandbox.cgroup.settled_in(pid, sys::CgroupLeaf::Live)) {
+      realtime_pending_.emplace_back(id, pid);  // not moved yet (in every hierarchy)
       continue;
     }
     apply_realtime(s);

@@ -252,6 +252,7 @@ ServiceCgroup& ServiceCgroup::operator=(ServiceCgroup&& other) noexcept {
   if (this != &other) {
     remove();
     dirs_ = std::move(other.dirs_);
+    names_ = std::move(other.names_);
     unified_ = std::move(other.unified_);
     oom_events_ = std::move(other.oom_events_);
     unified_name_ = std::move(other.unified_name_);
@@ -262,6 +263,7 @@ ServiceCgroup& ServiceCgroup::operator=(ServiceCgroup&& other) noexcept {
     description_ = std::move(other.description_);
     rt_budget_refused_ = other.rt_budget_refused_;
     other.dirs_.clear();
+    other.names_.clear();
     other.unified_.reset();
     other.oom_events_.reset();
   }
@@ -331,6 +333,8 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
     }
     if (auto oom_events = apply_limits(h, *dir, limits, served, notes)) group.oom_events_ = std::move(*oom_events);
     group.dirs_.push_back(*dir);
+    group.names_.emplace_back(h.unified ? std::string() : h.controllers.front(),
+                              (fs::path(h.path) / kernel_dir / name).string());
     group.join_fds_.push_back(leaves->live_procs.get());
     group.join_.push_back(std::move(leaves->live_procs));
     group.images_fds_.push_back(leaves->images_procs.get());
@@ -411,6 +415,28 @@ bool ServiceCgroup::in_leaf(pid_t pid, CgroupLeaf leaf) const {
     if (line == want) return true;
   }
   return false;
+}
+
+bool ServiceCgroup::settled_in(pid_t pid, CgroupLeaf leaf) const {
+  if (names_.empty()) return false;
+  // "<id>:<controllers>:<path>", one line per hierarchy the process is in (v2: no controllers).
+  std::vector<std::pair<std::vector<std::string>, std::string>> lines;
+  std::ifstream in("/proc/" + std::to_string(pid) + "/cgroup");
+  for (std::string line; std::getline(in, line);) {
+    const auto first = line.find(':');
+    const auto second = first == std::string::npos ? first : line.find(':', first + 1);
+    if (second == std::string::npos) continue;
+    const std::string controllers = line.substr(first + 1, second - first - 1);
+    lines.emplace_back(controllers.empty() ? std::vector<std::string>{} : split(controllers, ','), line.substr(second + 1));
+  }
+  const std::string_view suffix = leaf == CgroupLeaf::Live ? "/live" : "/images";
+  return std::all_of(names_.begin(), names_.end(), [&](const auto& name) {
+    const auto& [controller, path] = name;
+    return std::any_of(lines.begin(), lines.end(), [&](const auto& l) {
+      const bool same_hierarchy = controller.empty() ? l.first.empty() : has(l.first, controller);
+      return same_hierarchy && l.second == path + std::string(suffix);
+    });
+  });
 }
 
 bool ServiceCgroup::kill_live() const {

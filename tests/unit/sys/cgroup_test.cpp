@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <thread>
 
@@ -116,6 +117,31 @@ TEST_F(CgroupLeaves, InLeaf_AfterMove_SaysWhere) {
   ASSERT_TRUE(group.move(pid, CgroupLeaf::Images).has_value());
   EXPECT_TRUE(group.in_leaf(pid, CgroupLeaf::Images));
   EXPECT_FALSE(group.in_leaf(::getpid(), CgroupLeaf::Images));
+}
+
+// A move writes one hierarchy after the other; between the writes the process is in `live/` of one and in
+// `images/` of another. settled_in says where it is in all of them (the real-time plan waits for that: the v1 cpu
+// hierarchy holds the real-time budget).
+TEST_F(CgroupLeaves, SettledIn_OnlyOnceEveryHierarchyHoldsIt) {
+  const pid_t pid = child();
+  ASSERT_TRUE(listed_in(group, CgroupLeaf::Live, pid));
+  EXPECT_TRUE(group.settled_in(pid, CgroupLeaf::Live));
+  EXPECT_FALSE(group.settled_in(pid, CgroupLeaf::Images));
+  EXPECT_FALSE(group.settled_in(::getpid(), CgroupLeaf::Live));
+  const auto& v2 = group.unified_dir();
+  if (!v2 || group.description().find("(v1 ") == std::string::npos) {
+    GTEST_SKIP() << "the group is in one hierarchy here: no move can be half done";
+  }
+  // Half a move: the v2 hierarchy only, as the placer's first write leaves it.
+  {
+    std::ofstream procs(*v2 / "images" / "cgroup.procs");
+    procs << pid;
+  }
+  ASSERT_TRUE(group.in_leaf(pid, CgroupLeaf::Images));
+  EXPECT_FALSE(group.settled_in(pid, CgroupLeaf::Images));
+  EXPECT_FALSE(group.settled_in(pid, CgroupLeaf::Live));
+  ASSERT_TRUE(group.move(pid, CgroupLeaf::Images).has_value());
+  EXPECT_TRUE(group.settled_in(pid, CgroupLeaf::Images));
 }
 
 TEST_F(CgroupLeaves, PrepareMove_RunLater_MovesBack) {

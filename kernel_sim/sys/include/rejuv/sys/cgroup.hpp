@@ -88,6 +88,11 @@ class ServiceCgroup {
   [[nodiscard]] bool kill_live() const;
   // Whether `pid` is in `leaf` of the v2 hierarchy (/proc/<pid>/cgroup); false where there is none.
   [[nodiscard]] bool in_leaf(pid_t pid, CgroupLeaf leaf) const;
+  // Whether `pid` is in `leaf` of every hierarchy the group uses. A move writes the hierarchies one after the
+  // other (the v2 one first), each write possibly waiting milliseconds: between them a process is in the v2
+  // live leaf while a v1 cpu hierarchy still holds it in `images/`, whose real-time budget is 0 (SCHED_FIFO
+  // refused there). False where the group has no hierarchy.
+  [[nodiscard]] bool settled_in(pid_t pid, CgroupLeaf leaf) const;
   // Every process of the group killed in one call (cgroup.kill, v2); where no v2 hierarchy could be used,
   // each process listed in either leaf's cgroup.procs is sent SIGKILL. Reaping is the caller's (the processes
   // are its children).
@@ -120,6 +125,9 @@ class ServiceCgroup {
   }
 
   std::vector<std::filesystem::path> dirs_{};  // the service's directory, one per hierarchy used
+  // The same as /proc/<pid>/cgroup names them, in the order of dirs_: a controller the hierarchy carries ("" for
+  // v2) and the path (one path may be in several hierarchies).
+  std::vector<std::pair<std::string, std::string>> names_{};
   std::optional<std::filesystem::path> unified_{};  // the v2 one (cgroup.kill)
   std::optional<std::string> unified_name_{};  // the service's directory as /proc/<pid>/cgroup names it (v2)
   std::optional<std::filesystem::path> oom_events_{};  // the live leaf's memory.oom_control (v1) or memory.events
