@@ -97,14 +97,17 @@ intruder=$!
 pids+=("$intruder")
 
 say "demo multihost 4/5: the two kernels, each its host's part of the graph (rejuv run --host), ${duration} s of flight"
-"$bin" run "$graph" --host companion --keys "$out/keys" --domain "$domain" >"$out/companion.log" 2>&1 &
+"$bin" run "$graph" --host companion --keys "$out/keys" --domain "$domain" --net-port 0 >"$out/companion.log" 2>&1 &
 companion=$!
 pids+=("$companion")
-set +e
-"$bin" run "$graph" --host vehicle --keys "$out/keys" --domain "$domain" --duration "$duration" \
-  --out "$out/vehicle" --no-figures >"$out/vehicle.log" 2>&1
-vehicle_rc=$?
-set -e
+# In the background and waited for, so that a signal to this script alone (not only Ctrl-C, which reaches every
+# process of the terminal's group) runs the tear-down at once: bash defers a trap until a foreground child ends.
+"$bin" run "$graph" --host vehicle --keys "$out/keys" --domain "$domain" --net-port 0 --duration "$duration" \
+  --out "$out/vehicle" --no-figures >"$out/vehicle.log" 2>&1 &
+vehicle=$!
+pids+=("$vehicle")
+vehicle_rc=0
+wait "$vehicle" || vehicle_rc=$?
 kill -INT "$companion" 2>/dev/null || true
 wait "$companion" 2>/dev/null || true
 kill -TERM "$intruder" 2>/dev/null || true  # it prints what it received as it ends
