@@ -10,6 +10,9 @@
 
 #include <cerrno>
 #include <csignal>
+#include <fstream>
+#include <sstream>
+#include <string>
 
 #include "rejuv/sys/seccomp.hpp"
 
@@ -62,6 +65,20 @@ TEST(NetworkSeccomp, NetworkListIsItsOwn) {
       if (n.name == "uname") continue;  // a boot call for services, at any time for a link
       EXPECT_NE(n.name, s.name) << n.name;
     }
+  }
+}
+
+TEST(NetworkSeccomp, DocsSandboxListsEveryEntry) {
+  std::ifstream doc(std::string(REJUV_SOURCE_DIR) + "/docs/sandbox.md");
+  ASSERT_TRUE(doc.good());
+  std::stringstream buffer;
+  buffer << doc.rdbuf();
+  const std::string text = buffer.str();
+  const std::size_t section = text.find("## The link between hosts: a network-facing service");
+  ASSERT_NE(section, std::string::npos);
+  for (const SyscallRule& r : network_syscalls()) {
+    EXPECT_NE(text.find("| `" + std::string(r.name) + "` | always |", section), std::string::npos)
+        << "docs/sandbox.md \"The link between hosts\" does not list " << r.name;
   }
 }
 
