@@ -439,9 +439,13 @@ int fly(const RunRequest& r, const kernel::KernelOptions& options, launch::Loade
                                       k.flight_start(), [&k](std::string_view name) { return k.find_service(name); }));
   if (outputs.files) outputs.files->set_service_names(service_names(k));
   if (k.sr_enabled()) recorder.stop_after_attacks(k.graph().graph.stop_after_attacks(), [&k] { k.request_stop(); });
+  // With ROS 2 names the run is in the default partition (docs/across_hosts.md "ROS 2 names").
+  const std::string partition = launch::dds_naming(k.graph().graph.dds()) == DdsNaming::Ros2
+                                    ? "the default one (ROS 2 names: rt/<topic>)"
+                                    : dds::run_partition(k.run_id());
   std::fprintf(stderr, "rejuv run: %s, %s clock, SR %s, seed %llu, DDS partition %s\n", facts.graph.c_str(),
                std::string(kernel::to_string(k.clock_mode())).c_str(), k.sr_enabled() ? "on" : "off",
-               static_cast<unsigned long long>(facts.seed), dds::run_partition(k.run_id()).c_str());
+               static_cast<unsigned long long>(facts.seed), partition.c_str());
   auto outcome = k.run();
   if (!outcome) {
     std::fprintf(stderr, "rejuv run: %s\n", outcome.error().to_string().c_str());

@@ -32,7 +32,10 @@ void Lockstep::take_steps() {
           k.stop_run(StopReason::PlantProtocol, "the plant's steps: " + offered.error() +
                                                     " (a second plant on DDS domain " +
                                                     std::to_string(k.domain) + " in this run's partition " +
-                                                    dds::run_partition(k.run_id) + "?)");
+                                                    (k.bridge->bridge().partition().empty()
+                                                         ? std::string("(the default one)")
+                                                         : k.bridge->bridge().partition()) +
+                                                    "?)");
         }
       },
       [&](std::size_t input, std::span<const std::byte> bytes) {
