@@ -137,6 +137,7 @@ class HostLink : public ::testing::Test {
     const std::string id = std::to_string(::getpid());
     dir_ = fs::temp_directory_path() / ("rejuv_host_link_test_" + id);
     fs::create_directories(dir_ / "cmd");
+    remove_stale_namespaces();
     vehicle_ns_ = "rjL_v" + id;
     companion_ns_ = "rjL_c" + id;
     const std::string veth_v = "rjLv" + id, veth_c = "rjLc" + id;  // ≤ 15 characters
@@ -168,6 +169,20 @@ class HostLink : public ::testing::Test {
       ASSERT_EQ(r.exit_code, 0) << "rejuv keys " << cmd[1] << ": " << r.err;
     }
   }
+  // Namespaces of an earlier run of this test killed before its tear-down (rjL_v<pid>, rjL_c<pid> of a process
+  // that no longer exists): removed, so that no kill leaves them behind for good.
+  void remove_stale_namespaces() {
+    const CliOutcome list = rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "list"});
+    std::istringstream lines(list.out);
+    for (std::string line; std::getline(lines, line);) {
+      const std::string ns = line.substr(0, line.find(' '));
+      if (ns.size() < 6 || (ns.rfind("rjL_v", 0) != 0 && ns.rfind("rjL_c", 0) != 0)) continue;
+      const std::string pid = ns.substr(5);
+      if (pid.find_first_not_of("0123456789") != std::string::npos || fs::exists("/proc/" + pid)) continue;
+      (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
+    }
+  }
+
   void TearDown() override {
     if (made_) {
       // Deleting a namespace deletes the veth end in it, and with it the pair.
