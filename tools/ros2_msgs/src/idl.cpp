@@ -1,5 +1,6 @@
 #include "rejuv/ros2_msgs/idl.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cctype>
 #include <fstream>
@@ -67,6 +68,13 @@ std::string trim(std::string_view s) {
   return std::string(s.substr(b, e - b));
 }
 
+// The end of the run of characters from `i` that `keep` accepts.
+template <class Keep>
+std::size_t run_end(std::string_view text, std::size_t i, Keep keep) {
+  while (i < text.size() && keep(text[i])) ++i;
+  return i;
+}
+
 Result<Lexed, IdlError> lex(std::string_view text, const std::string& file) {
   Lexed out;
   std::size_t i = 0;
@@ -100,12 +108,9 @@ Result<Lexed, IdlError> lex(std::string_view text, const std::string& file) {
       const SourcePos at = pos(i);
       const std::size_t end = text.find("*/", i + 2);
       if (end == std::string_view::npos) return error_at(at, "unterminated /* comment");
-      for (std::size_t k = i; k < end; ++k) {
-        if (text[k] == '\n') {
-          ++line;
-          line_start = k + 1;
-        }
-      }
+      const std::string_view body = text.substr(i, end - i);
+      line += static_cast<int>(std::count(body.begin(), body.end(), '\n'));
+      if (const std::size_t nl = text.rfind('\n', end); nl != std::string_view::npos && nl >= i) line_start = nl + 1;
       i = end + 2;
       continue;
     }
@@ -118,15 +123,13 @@ Result<Lexed, IdlError> lex(std::string_view text, const std::string& file) {
     }
     code_on_line = true;
     if (ident_start(c)) {
-      std::size_t e = i;
-      while (e < text.size() && ident_char(text[e])) ++e;
+      const std::size_t e = run_end(text, i, ident_char);
       out.tokens.push_back(Token{.kind = Token::Kind::Ident, .text = std::string(text.substr(i, e - i)), .at = at});
       i = e;
       continue;
     }
     if (std::isdigit(static_cast<unsigned char>(c)) != 0) {
-      std::size_t e = i;
-      while (e < text.size() && (ident_char(text[e]) || text[e] == '.')) ++e;
+      const std::size_t e = run_end(text, i, [](char d) { return ident_char(d) || d == '.'; });
       out.tokens.push_back(Token{.kind = Token::Kind::Number, .text = std::string(text.substr(i, e - i)), .at = at});
       i = e;
       continue;
@@ -138,14 +141,12 @@ Result<Lexed, IdlError> lex(std::string_view text, const std::string& file) {
       i = end + 1;
       continue;
     }
-    if (text.substr(i, 2) == "::") {
-      out.tokens.push_back(Token{.kind = Token::Kind::Punct, .text = "::", .at = at});
-      i += 2;
-      continue;
-    }
-    if (std::string_view("{}[];,<>()=@:-+*/|&^~%'").find(c) != std::string_view::npos) {
-      out.tokens.push_back(Token{.kind = Token::Kind::Punct, .text = std::string(1, c), .at = at});
-      ++i;
+    const std::size_t punct = text.substr(i, 2) == "::"                                                     ? 2
+                              : std::string_view("{}[];,<>()=@:-+*/|&^~%'").find(c) != std::string_view::npos ? 1
+                                                                                                          : 0;
+    if (punct > 0) {
+      out.tokens.push_back(Token{.kind = Token::Kind::Punct, .text = std::string(text.substr(i, punct)), .at = at});
+      i += punct;
       continue;
     }
     return error_at(at, std::string("unexpected character '") + c + "'");
