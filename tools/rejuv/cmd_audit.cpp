@@ -12,6 +12,8 @@
 
 #include "args.hpp"
 #include "commands.hpp"
+#include "host_part.hpp"
+#include "rejuv/policy/hosts.hpp"
 #include "common_options.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/policy/audit.hpp"
@@ -216,6 +218,36 @@ std::string json_report(const policy::Policy& pol, const AuditRequest& r, const 
 
 }  // namespace
 
+// A graph across hosts (docs/across_hosts.md "The link"): each host's part audited with the links `rejuv run
+// --host` adds to it (policy/hosts.hpp add_host_links), as that host's kernel audits it; their findings join the
+// graph's (each once), and `links` says what each host's links carry. An error: the links could not be made.
+Result<std::vector<policy::Finding>, std::string> audit_links(const std::string& policy_path,
+                                                              const launch::LoadedLaunch& graph, std::string& links) {
+  std::vector<policy::Finding> out;
+  if (graph.graph.hosts_size() < 2) return out;
+  auto dir = RunTempDir::create("rejuv-audit-");
+  if (!dir) return fail(dir.error());
+  for (const proto::Host& h : graph.graph.hosts()) {
+    auto loaded = launch::load_launch(graph.path);  // a graph of its own per host (a loaded graph is not copied)
+    if (!loaded) return fail(loaded.error().to_string());
+    launch::LoadedLaunch& part = *loaded;
+    auto added = policy::add_host_links(part, h.name(), dir->path());
+    if (!added) return fail("host " + h.name() + ": " + added.error());
+    auto pol = policy::load_policy(policy_path, part.policy_includes);
+    if (!pol) return fail("host " + h.name() + ": " + pol.error().to_string());
+    for (const policy::HostLink& l : added->links) {
+      std::string carried;
+      for (const auto& [ids, right] : {std::pair{&l.writes, "W"}, std::pair{&l.reads, "R"}}) {
+        for (const ObjectId t : *ids) carried += (carried.empty() ? "" : ", ") + pol->object(t).name + " " + right;
+      }
+      links += "link: host \"" + h.name() + "\" runs " + policy::link_service_name(added->hosts[l.peer]) +
+               " (rejuv_host_link, MC only): " + carried + "\n";
+    }
+    for (policy::Finding& f : policy::audit(*pol, part)) out.push_back(std::move(f));
+  }
+  return out;
+}
+
 int run_audit(std::span<const std::string_view> args) {
   AuditRequest r;
   Options opts("audit",
@@ -237,9 +269,22 @@ int run_audit(std::span<const std::string_view> args) {
   if (*graph) {
     if (auto ok = policy::check_used_objects(*pol, **graph); !ok) return bad_input(r.format, r.policy_path, ok.error());
   }
-  const auto findings = *graph ? policy::audit(*pol, **graph) : policy::audit(*pol);
+  auto findings = *graph ? policy::audit(*pol, **graph) : policy::audit(*pol);
+  std::string links;
+  if (*graph) {
+    auto with_links = audit_links(r.policy_path, **graph, links);
+    if (!with_links) return refuse("audit", "the links between hosts: " + with_links.error());
+    for (policy::Finding& f : *with_links) {
+      const std::string text = f.to_string();
+      if (std::none_of(findings.begin(), findings.end(), [&](const policy::Finding& g) { return g.to_string() == text; })) {
+        findings.push_back(std::move(f));
+      }
+    }
+  }
   switch (r.format) {
-    case Format::Text: print(stdout, text_report(*pol, r.policy_path, findings, *graph ? &**graph : nullptr)); break;
+    case Format::Text:
+      print(stdout, (links.empty() ? "" : links + "\n") + text_report(*pol, r.policy_path, findings, *graph ? &**graph : nullptr));
+      break;
     case Format::Json: print(stdout, json_report(*pol, r, findings)); break;
   }
   return static_cast<int>(findings.empty() ? Exit::Ok : Exit::Findings);

@@ -73,6 +73,40 @@ TEST_F(RejuvCli, LaunchWithoutPolicy_AuditsThePolicyTheGraphNames) {
   EXPECT_TRUE(r.err.empty()) << r.err;
 }
 
+// A graph across hosts: each host's links as `rejuv run --host` adds them, audited with the rest.
+const std::string kCompanionDir = (kRepo / "tests" / "across_hosts").string();
+
+TEST_F(RejuvCli, GraphAcrossHosts_ListsEachHostsLinksAndStaysClean) {
+  const Outcome r = rejuv({"audit", "--launch", kCompanionDir + "/companion.launch.pbtxt"});
+  EXPECT_EQ(r.exit_code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("link: host \"vehicle\" runs link_companion (rejuv_host_link, MC only): waypoints W, state R"),
+            std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("link: host \"companion\" runs link_vehicle (rejuv_host_link, MC only): state W, waypoints R"),
+            std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("audit: OK"), std::string::npos) << r.out;
+}
+
+TEST_F(RejuvCli, SetpointCarriedByALink_RefusedByLateral) {
+  // The planner may write the SETPOINT topic from the companion (remote_writers), but on the vehicle the link
+  // that carries it is network-facing: `lateral` refuses its Write.
+  std::ifstream in(kCompanionDir + "/companion.policy.pbtxt");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string policy = text.str();
+  const std::string plain = "objects { name: \"waypoints\" kind: TOPIC type: \"rejuv::msg::MissionWaypoints\" }";
+  ASSERT_NE(policy.find(plain), std::string::npos);
+  policy.replace(policy.find(plain), plain.size(),
+                 "objects { name: \"waypoints\" kind: TOPIC type: \"rejuv::msg::MissionWaypoints\" role: SETPOINT "
+                 "remote_writers: \"planner\" }");
+  write("companion.policy.pbtxt", policy);
+  const auto graph = write("companion.launch.pbtxt", slurp(kCompanionDir + "/companion.launch.pbtxt"));
+  const Outcome r = rejuv({"audit", "--launch", graph.string()});
+  EXPECT_EQ(r.exit_code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("violation [lateral]: grant of \"W\" on \"waypoints\" (Topic) to \"link_companion\" in MC"),
+            std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("has 1 violation(s) (lateral 1)"), std::string::npos) << r.out;
+}
+
 TEST_F(RejuvCli, TextMatrix_FitsIn100Columns) {
   const Outcome r = rejuv({"audit", kQuadSr});
   std::istringstream lines(r.out);
