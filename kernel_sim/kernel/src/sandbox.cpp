@@ -381,10 +381,13 @@ void Warden::sweep_if_due() {
   }
 }
 
-void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
-  // A copy the kernel asked for (a spare, a Patch's image, an image at a checkpoint) is the kernel's child
-  // before its pid is reported: a service with such a copy on its way is swept once it has reported. The
-  // answers that have arrived are read first, so that only copies really on their way defer a sweep.
+namespace {
+
+// Per service, whether a copy the kernel asked for (a spare, a Patch's image, an image at a checkpoint) is on
+// its way: it is the kernel's child before its pid is reported, so such a service is swept once it has
+// reported. The answers that have arrived are read first (waiting up to kCopiesWait for them with
+// SweepWait::ForCopies), so that only copies really on their way defer a sweep. None at the final sweep.
+std::vector<bool> copies_on_their_way(Kernel::Impl& k, bool final, SweepWait wait) {
   std::vector<bool> pending(k.services.size(), false);
   const Nanos wait_until = k.wall() + (wait == SweepWait::ForCopies ? kCopiesWait : Nanos{0});
   for (;;) {
@@ -398,12 +401,32 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       if (answer_fd < 0 && im.resume.valid()) answer_fd = im.resume.fd();
     };
     for_each_image(k, note);
-    if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || k.wall() >= wait_until)
-      break;
+    if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || k.wall() >= wait_until) break;
     // On that copy's answer, not on epoll: the kernel's other fds may well be readable now (a spin).
     if (answer_fd < 0) break;
     (void)sys::wait_fd(answer_fd, sys::WaitFor::Readable, std::max(Nanos{0}, wait_until - k.wall()));
   }
+  return pending;
+}
+
+// Whether a child of the kernel is one it knows: the plant, a live service, an image of a kept or retiring
+// generation, a process the reaper is ending.
+bool known_child(const Kernel::Impl& k, pid_t pid) {
+  if (k.rejuvenator.knows_process(pid, nullptr)) return true;
+  for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
+    for (const image::Image& im : r.images) {
+      for (const sys::ChildProcess& c : im.copies) {
+        if (c.pid() == pid) return true;
+      }
+    }
+  }
+  return k.rejuvenator.reaper.knows(pid);
+}
+
+}  // namespace
+
+void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
+  const std::vector<bool> pending = copies_on_their_way(k, final, wait);
   if (std::any_of(pending.begin(), pending.end(), [](bool p) { return p; })) {
     if (!sweep_due) sweep_due = when;
   } else {
@@ -414,18 +437,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
   for (ServiceRuntime& s : k.services) (void)count_out_of_memory(s, false);  // a stray the OOM killer took
   auto children = sys::own_children();
   if (!children) return;
-  const auto known = [&](pid_t pid) {
-    if (k.rejuvenator.knows_process(pid, nullptr))
-      return true;  // the plant, a live service, an image of a kept generation
-    for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
-      for (const image::Image& im : r.images) {
-        for (const sys::ChildProcess& c : im.copies) {
-          if (c.pid() == pid) return true;
-        }
-      }
-    }
-    return k.rejuvenator.reaper.knows(pid);
-  };
+  const auto known = [&](pid_t pid) { return known_child(k, pid); };
   const auto killed_with_its_leaf = [&](pid_t pid) {
     return std::any_of(killed_with_leaf.begin(), killed_with_leaf.end(), [&](const auto& e) { return e.second == pid; });
   };

@@ -55,14 +55,58 @@ std::string exec_refused_why(const sys::SpawnSpec& spec) {
 
 }  // namespace
 
+namespace {
+
+// Boot parameters by name, as numbers or text.
+struct ParamWriter {
+  std::vector<wire::BootParam>& out;
+  void number(std::string_view name, double v) const {
+    out.push_back(channel::encode_boot_param(channel::BootParamEntry{.name = name, .number = v, .text = {}, .is_text = false}));
+  }
+  void text(std::string_view name, std::string_view v) const {
+    out.push_back(channel::encode_boot_param(channel::BootParamEntry{.name = name, .number = 0, .text = v, .is_text = true}));
+  }
+};
+
+void mission_params(const ParamWriter& w, const proto::Mission& m) {
+  w.number("mission.count", m.waypoints_size());
+  w.number("mission.acceptance_radius_m", m.acceptance_radius_m());
+  w.number("mission.timeout_s", launch::mission_timeout(m).count());
+  for (int i = 0; i < m.waypoints_size(); ++i) {
+    const std::string prefix = "mission." + std::to_string(i) + ".";
+    w.number(prefix + "north_m", m.waypoints(i).north_m());
+    w.number(prefix + "east_m", m.waypoints(i).east_m());
+    w.number(prefix + "down_m", m.waypoints(i).down_m());
+    w.number(prefix + "yaw_rad", m.waypoints(i).yaw_rad());
+  }
+}
+
+// The graph's attacks on service `s` (none when attacks are off); their count.
+int attack_params(const ParamWriter& w, const Kernel::Impl& k, const ServiceRuntime& s) {
+  int attacks = 0;
+  const proto::Launch& g = k.graph.graph;
+  const bool attack_on = g.attack().enabled() && !k.options.no_attack;
+  for (const proto::Attack& a : g.attack().attacks()) {
+    if (a.service() != s.name || !attack_on) continue;
+    const std::string prefix = "attack." + std::to_string(attacks) + ".";
+    w.text(prefix + "kind", attack_kind_name(a.kind()));
+    // The launch file's start_s is flight time, as in `rejuv sim` (its t = 0 ends the alignment); a service reads
+    // kernel time, so the alignment is added here, once for every attack hook: no window before take-off.
+    w.number(prefix + "start_s", a.start_s() + to_seconds(k.rejuvenator.flight_start).count());
+    w.number(prefix + "max_windows", a.max_windows());
+    w.number(prefix + "magnitude", a.magnitude());  // the attack library's size (docs/control.md "Attack library")
+    ++attacks;
+  }
+  return attacks;
+}
+
+}  // namespace
+
 std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRuntime& s) {
   std::vector<wire::BootParam> out;
-  const auto number = [&](std::string_view name, double v) {
-    out.push_back(channel::encode_boot_param(channel::BootParamEntry{.name = name, .number = v, .text = {}, .is_text = false}));
-  };
-  const auto text = [&](std::string_view name, std::string_view v) {
-    out.push_back(channel::encode_boot_param(channel::BootParamEntry{.name = name, .number = 0, .text = v, .is_text = true}));
-  };
+  const ParamWriter w{out};
+  const auto number = [&](std::string_view name, double v) { w.number(name, v); };
+  const auto text = [&](std::string_view name, std::string_view v) { w.text(name, v); };
   for (const proto::Param& p : s.config.spec->params()) {
     if (p.has_text()) {
       text(p.name(), p.text());
@@ -108,30 +152,8 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   send_set(gv::kBoxVelocity, sr.box().velocity_m_s(), sr.box().velocity_m_s());
   send_set(gv::kBoxAngle, sr.box().angle_rad(), sr.box().angle_rad());
   send_set(gv::kBoxRate, sr.box().rate_rad_s(), sr.box().rate_rad_s());
-  const proto::Mission& m = g.mission();
-  number("mission.count", m.waypoints_size());
-  number("mission.acceptance_radius_m", m.acceptance_radius_m());
-  number("mission.timeout_s", launch::mission_timeout(m).count());
-  for (int i = 0; i < m.waypoints_size(); ++i) {
-    const std::string prefix = "mission." + std::to_string(i) + ".";
-    number(prefix + "north_m", m.waypoints(i).north_m());
-    number(prefix + "east_m", m.waypoints(i).east_m());
-    number(prefix + "down_m", m.waypoints(i).down_m());
-    number(prefix + "yaw_rad", m.waypoints(i).yaw_rad());
-  }
-  int attacks = 0;
-  const bool attack_on = g.attack().enabled() && !k.options.no_attack;
-  for (const proto::Attack& a : g.attack().attacks()) {
-    if (a.service() != s.name || !attack_on) continue;
-    const std::string prefix = "attack." + std::to_string(attacks) + ".";
-    text(prefix + "kind", attack_kind_name(a.kind()));
-    // The launch file's start_s is flight time, as in `rejuv sim` (its t = 0 ends the alignment); a service reads
-    // kernel time, so the alignment is added here, once for every attack hook: no window before take-off.
-    number(prefix + "start_s", a.start_s() + to_seconds(k.rejuvenator.flight_start).count());
-    number(prefix + "max_windows", a.max_windows());
-    number(prefix + "magnitude", a.magnitude());  // the attack library's size (docs/control.md "Attack library")
-    ++attacks;
-  }
+  mission_params(w, g.mission());
+  const int attacks = attack_params(w, k, s);
   number("attack.enabled", attacks > 0 ? 1 : 0);
   number("attack.count", attacks);
   // > 0: this incarnation was started by a cold restart (docs/design.md §7): the vehicle is not at its take-off point.
@@ -165,6 +187,58 @@ std::vector<sys::LandlockRule> landlock_rules(const ServiceRuntime& s) {
   return rules;
 }
 
+namespace {
+
+// A link's own (docs/across_hosts.md "The link"), added to `spec`: its host's network namespace, joined by the
+// child first (SpawnSpec::netns_fd), and its DDS Security key on wire::kHostLinkKeyFd (the file is its owner's
+// only). Held open until the spawn; nothing for any other service.
+struct LinkFds {
+  sys::UniqueFd netns;
+  sys::UniqueFd key;
+};
+Result<LinkFds, KernelError> open_link_fds(const ServiceRuntime& s, sys::SpawnSpec& spec) {
+  LinkFds fds;
+  if (!s.config.link) return fds;
+  const auto open = [&](const std::string& path, std::string_view what) -> Result<sys::UniqueFd, KernelError> {
+    sys::UniqueFd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+    if (fd) return fd;
+    return fail(KernelError{.kind = KernelError::Kind::Boot,
+                            .message = "spawn '" + s.name + "': its " + std::string(what) + " " + path + ": " +
+                                       std::strerror(errno),
+                            .findings = {}});
+  };
+  if (!s.config.link->netns.empty()) {
+    auto netns = open("/run/netns/" + s.config.link->netns, "host's network namespace");
+    if (!netns) return fail(std::move(netns.error()));
+    fds.netns = std::move(*netns);
+    spec.netns_fd = fds.netns.get();
+  }
+  if (!s.config.link->enclave.empty()) {
+    auto key = open(s.config.link->enclave + "/key.pem", "DDS Security key");
+    if (!key) return fail(std::move(key.error()));
+    fds.key = std::move(*key);
+    spec.fds.emplace_back(wire::kHostLinkKeyFd, fds.key.get());
+  }
+  return fds;
+}
+
+// Why a spawn failed, and what to do where the cause is known: the sandbox's namespaces need root or
+// unprivileged user namespaces; an executable the service's uid cannot reach (exec_refused_why).
+std::string spawn_refused(const ServiceRuntime& s, const sys::SpawnSpec& spec, const sys::SysError& error) {
+  std::string message = "spawn '" + s.name + "' (" + s.config.executable + "): " + error.to_string();
+  const std::string_view call = error.call;
+  if (call.starts_with("unshare") || call.starts_with("read-only mounts")) {
+    message += " — the sandbox runs each service in an empty network namespace and a read-only mount namespace,"
+               " which takes root or unprivileged user namespaces; `rejuv run --insecure-sandbox` runs without"
+               " them (and says so in the summary)";
+  } else if (call == "execve" && error.error == EACCES) {
+    message += exec_refused_why(spec);
+  }
+  return message;
+}
+
+}  // namespace
+
 Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   const auto system_error = [](const sys::SysError& e) {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = e.to_string(), .findings = {}});
@@ -191,30 +265,8 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
               {wire::kChannelFd, service_end.fd()},
               {wire::kTimePageFd, k.kernel_clock.read_only_fd().get()}};
   spec.seccomp = s.config.link ? &*k.link_seccomp : &*k.seccomp;
-  sys::UniqueFd netns;  // the link's network namespace, joined by the child first (SpawnSpec::netns_fd)
-  if (s.config.link && !s.config.link->netns.empty()) {
-    const std::string path = "/run/netns/" + s.config.link->netns;
-    netns = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-    if (!netns) {
-      return fail(KernelError{.kind = KernelError::Kind::Boot,
-                              .message = "spawn '" + s.name + "': its host's network namespace " + path + ": " +
-                                         std::strerror(errno),
-                              .findings = {}});
-    }
-    spec.netns_fd = netns.get();
-  }
-  sys::UniqueFd key;  // the link's private key (wire::kHostLinkKeyFd): the file is its owner's only
-  if (s.config.link && !s.config.link->enclave.empty()) {
-    const std::string path = s.config.link->enclave + "/key.pem";
-    key = sys::UniqueFd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-    if (!key) {
-      return fail(KernelError{.kind = KernelError::Kind::Boot,
-                              .message = "spawn '" + s.name + "': its DDS Security key " + path + ": " +
-                                         std::strerror(errno),
-                              .findings = {}});
-    }
-    spec.fds.emplace_back(wire::kHostLinkKeyFd, key.get());
-  }
+  auto link_fds = open_link_fds(s, spec);
+  if (!link_fds) return fail(std::move(link_fds.error()));
   spec.session = sys::Session::NewSession;
   spec.isolation =
       k.options.sandbox == KernelOptions::Sandbox::Strict ? sys::Isolation::Namespaces : sys::Isolation::None;
@@ -238,16 +290,8 @@ Result<void, KernelError> Supervisor::spawn_one(ServiceRuntime& s) {
   spec.cgroup_procs = s.sandbox.cgroup.join_fds();
   auto spawned = sys::spawn_supervised(spec);
   if (!spawned) {
-    std::string message = "spawn '" + s.name + "' (" + s.config.executable + "): " + spawned.error().to_string();
-    const std::string_view call = spawned.error().call;
-    if (call.starts_with("unshare") || call.starts_with("read-only mounts")) {
-      message += " — the sandbox runs each service in an empty network namespace and a read-only mount namespace,"
-                 " which takes root or unprivileged user namespaces; `rejuv run --insecure-sandbox` runs without"
-                 " them (and says so in the summary)";
-    } else if (call == "execve" && spawned.error().error == EACCES) {
-      message += exec_refused_why(spec);
-    }
-    return fail(KernelError{.kind = KernelError::Kind::Boot, .message = std::move(message), .findings = {}});
+    return fail(KernelError{.kind = KernelError::Kind::Boot, .message = spawn_refused(s, spec, spawned.error()),
+                            .findings = {}});
   }
   k.warden.close_sandbox(s);  // a cold restart: the previous incarnations' listener and pipe
   auto* child = &spawned->process;
