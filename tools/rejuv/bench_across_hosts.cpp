@@ -8,8 +8,11 @@
 //   raw         Cyclone DDS without security (the Cyclone XML shape of tests/across_hosts);
 //   secure      the same with DDS Security, the enclaves of a keystore made by `rejuv keys init` and
 //               `rejuv keys hosts --launch companion.launch.pbtxt` (authenticated, access-controlled, encrypted);
-//   link        kernel → link → DDS → link → kernel: a slot, measured once `rejuv run --host` carries a kernel
-//               topic over its link process (rejuv_host_link) end to end.
+//   link        service → kernel → link → DDS (secure) → link → kernel → service: the square (launch/quad_square,
+//               no SR) on the vehicle with the probe of bench/across_hosts/link_probe.cpp on both hosts, each
+//               host under its own `rejuv run --host` kernel with its link process (rejuv_host_link) in its
+//               namespace; the probe's topic `link_probe` crosses like any cross-host topic (keystore of
+//               `rejuv keys hosts` on that graph). Its first second of samples is left out (discovery).
 // Each row as p50/p99/max and as a ratio to the raw row. Root only (network namespaces): without root it says so
 // and measures nothing. The namespaces (rjP_v<pid>, rjP_c<pid>) and the veth pair are removed on every exit path.
 // Nothing here is asserted: the table says what this machine did.
@@ -30,6 +33,7 @@
 #include "common_options.hpp"
 #include "keystore.hpp"
 #include "args.hpp"
+#include "rejuv/sys/lease.hpp"
 #include "rejuv/sys/process.hpp"
 
 namespace rejuv::cli {
@@ -90,7 +94,14 @@ class Namespaces {
   Namespaces(const Namespaces&) = delete;
   Namespaces& operator=(const Namespaces&) = delete;
   ~Namespaces() {
-    for (const std::string& ns : made_) (void)run(kIp, {"netns", "delete", ns}, dir_ / "ip.log");
+    // A namespace's file can stay busy for a moment after the link runs' kernels ended (their services' mount
+    // namespaces hold a copy of the mount until their last process is gone): tried again for up to 5 s.
+    for (const std::string& ns : made_) {
+      for (int attempt = 0; attempt < 50 && fs::exists(fs::path("/run/netns") / ns); ++attempt) {
+        if (run(kIp, {"netns", "delete", ns}, dir_ / ("ip_delete_" + ns + ".log"))) break;
+        ::usleep(100'000);
+      }
+    }
   }
   Result<void, std::string> make() {
     const std::string id = std::to_string(::getpid());
@@ -196,6 +207,59 @@ void measure(Row& row, const Namespaces& ns, const fs::path& peer, const fs::pat
   for (long long ns_value = 0; in >> ns_value;) row.latencies_us.push_back(static_cast<double>(ns_value) / 1000.0);
 }
 
+// The link's row: both hosts' kernels flown once (`rejuv run --host`), the companion's probe's latencies read
+// from its kernel's log. Samples of its first second (kRateHz) are left out: they waited for discovery.
+void measure_link(Row& row, const Namespaces& ns, const fs::path& dir, const fs::path& self, std::uint64_t samples) {
+  auto lease = sys::lease_dds_domain_for_worker(1);  // the kernels and the plant talk on the machine's loopback
+  if (!lease) { row.error = "no free DDS domain: " + lease.error().to_string(); return; }
+  const std::string domain = std::to_string(lease->slot());
+  const fs::path graph = dir / "link_probe.launch.pbtxt";
+  std::ofstream(graph) << "include: \"" REJUV_SOURCE_DIR "/launch/quad_square.launch.pbtxt\"\n"
+                       << "policy_include: \"" REJUV_SOURCE_DIR "/bench/across_hosts/link_probe.policy.pbtxt\"\n"
+                       << "hosts { name: \"vehicle\" address: \"" << kVehicleAddress << "\" netns: \"" << ns.vehicle() << "\" }\n"
+                       << "hosts { name: \"companion\" address: \"" << kCompanionAddress << "\" netns: \"" << ns.companion() << "\" }\n"
+                       << "services { name: \"probe_pub\" executable: \"rejuv_link_probe_pub\" host: \"vehicle\"\n"
+                       << "  uses { object: \"link_probe\" rights: \"W\" } }\n"
+                       << "services { name: \"probe_sub\" executable: \"rejuv_link_probe_sub\" host: \"companion\"\n"
+                       << "  uses { object: \"link_probe\" rights: \"R\" } }\n";
+  const fs::path keys = dir / "link_keys";
+  for (const std::vector<std::string>& cmd :
+       {std::vector<std::string>{"keys", "init", keys.string()},
+        {"keys", "hosts", keys.string(), "--launch", graph.string(), "--domain", domain}}) {
+    if (fs::exists(keys / "enclaves" / "vehicle") && cmd[1] == "init") continue;
+    if (auto ok = run(self, cmd, dir / "link_keys.log"); !ok) { row.error = ok.error(); return; }
+  }
+  // The vehicle aligns (20 s) before its flight; the companion, without a plant, outlasts it.
+  const std::uint64_t flight_s = std::max<std::uint64_t>(5, samples / kRateHz);
+  const auto host_run = [&](const std::string& host, std::uint64_t seconds) {
+    return start(self, {"run", graph.string(), "--host", host, "--keys", keys.string(), "--domain", domain,
+                        "--duration", std::to_string(seconds), "--no-sr", "--no-attack", "--net-port", "0"},
+                 dir / ("link_" + host + ".log"));
+  };
+  auto companion = host_run("companion", flight_s + 35);
+  if (!companion) { row.error = companion.error(); return; }
+  auto vehicle = host_run("vehicle", flight_s);
+  if (!vehicle) { row.error = vehicle.error(); return; }
+  auto v = vehicle->wait();
+  auto c = companion->wait();
+  if (!v || !v->success() || !c || !c->success()) {
+    row.error = "the hosts' runs (" + (dir / "link_vehicle.log").string() + ", link_companion.log) did not end cleanly";
+    return;
+  }
+  std::istringstream log(slurp(dir / "link_companion.log"));
+  const std::string tag = "link probe latencies [ns]:";
+  std::uint64_t seen = 0;
+  for (std::string line; std::getline(log, line);) {
+    const auto at = line.find(tag);
+    if (at == std::string::npos) continue;
+    std::istringstream values(line.substr(at + tag.size()));
+    for (long long ns_value = 0; values >> ns_value;) {
+      if (++seen > static_cast<std::uint64_t>(kRateHz)) row.latencies_us.push_back(static_cast<double>(ns_value) / 1000.0);
+    }
+  }
+  row.sent = seen > static_cast<std::uint64_t>(kRateHz) ? seen - kRateHz : 0;  // received; what was sent is not counted
+}
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -215,21 +279,24 @@ void print_table(const std::vector<Row>& rows, std::uint64_t samples, std::uint6
   for (const Row& r : rows) {
     if (!r.error.empty() || r.latencies_us.empty()) {
       std::printf("  %-8s %-62s %s\n", r.name.c_str(), r.what.c_str(),
-                  r.error.empty() ? "no sample delivered" : ("failed: " + r.error).c_str());
+                  r.error.empty()                           ? "no sample delivered"
+                  : r.error.rfind("not measured", 0) == 0 ? r.error.c_str()
+                                                            : ("failed: " + r.error).c_str());
       continue;
     }
     const double p50 = percentile(r.latencies_us, 0.5), p99 = percentile(r.latencies_us, 0.99);
-    std::printf("  %-8s %-62s %9.1f %9.1f %9.1f %9.2f %9.2f %4zu/%-5llu\n", r.name.c_str(), r.what.c_str(), p50, p99,
-                percentile(r.latencies_us, 1.0), raw50 > 0 ? p50 / raw50 : 0.0, raw99 > 0 ? p99 / raw99 : 0.0,
-                r.latencies_us.size(), static_cast<unsigned long long>(r.sent));
+    char delivered[32];
+    if (r.name == "link") std::snprintf(delivered, sizeof delivered, "%zu", r.latencies_us.size());
+    else std::snprintf(delivered, sizeof delivered, "%zu/%llu", r.latencies_us.size(), static_cast<unsigned long long>(r.sent));
+    std::printf("  %-8s %-62s %9.1f %9.1f %9.1f %9.2f %9.2f %10s\n", r.name.c_str(), r.what.c_str(), p50, p99,
+                percentile(r.latencies_us, 1.0), raw50 > 0 ? p50 / raw50 : 0.0, raw99 > 0 ? p99 / raw99 : 0.0, delivered);
   }
-  std::printf("  %-8s %-62s %s\n", "link", "kernel -> link -> DDS (secure) -> link -> kernel",
-              "not measured: needs `rejuv run --host` carrying a kernel topic over rejuv_host_link end to end");
 }
 
 }  // namespace
 
-int run_bench_across_hosts(std::uint64_t samples, std::uint64_t rounds, const std::optional<fs::path>& out_dir) {
+int run_bench_across_hosts(std::uint64_t samples, std::uint64_t rounds, const std::optional<fs::path>& out_dir,
+                           LinkRow link) {
   if (::geteuid() != 0) {
     std::fprintf(stderr, "rejuv bench across-hosts: needs root: it makes two network namespaces and a veth pair "
                          "(ip netns); nothing measured\n");
@@ -276,6 +343,12 @@ int run_bench_across_hosts(std::uint64_t samples, std::uint64_t rounds, const st
       if (row.error.empty()) measure(row, ns, peer, dir, keys, samples, static_cast<int>(r));
     }
   }
+  // The link's row once (two kernels and a 20 s alignment: it is not alternated with the others).
+  rows.push_back(Row{.name = "link", .what = "service > kernel > link > DDS (secure) > link > kernel > service",
+                     .vehicle_enclave = "vehicle", .companion_enclave = "companion", .latencies_us = {}, .sent = 0,
+                     .error = ""});
+  if (link == LinkRow::Measure) measure_link(rows.back(), ns, dir, self, samples);
+  else rows.back().error = "not measured (--no-link)";
   std::ofstream csv(dir / "latency.csv");
   csv << "row,latency_us\n";
   for (const Row& row : rows) {

@@ -155,6 +155,7 @@ int run_bench(std::span<const std::string_view> args) {
   std::string what, graph_path;
   std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20, rounds = 1, samples = 2500;
   std::optional<std::filesystem::path> out;
+  bool no_link = false;
   Options opts("bench",
                "Benchmarks, side by side in one run.\n"
                "  images [GRAPH]    checkpoint and rollback of every rejuvenated service of GRAPH (default\n"
@@ -167,7 +168,9 @@ int run_bench(std::span<const std::string_view> args) {
                "                    vehicle lost at a checkpoint and a rollback) in DIR/lockstep_charge.pbtxt.\n"
                "  across-hosts      publish -> deliver latency of a vehicle_state sample at 250 Hz between two network\n"
                "                    namespaces joined by a veth pair: raw Cyclone DDS, and with DDS Security from\n"
-               "                    `rejuv keys` (tests/across_hosts/companion.launch.pbtxt), as ratios (root only).");
+               "                    `rejuv keys` (tests/across_hosts/companion.launch.pbtxt), and the link's path\n"
+               "                    (service > kernel > rejuv_host_link > DDS > link > kernel > service, two\n"
+               "                    `rejuv run --host` kernels), as ratios (root only).");
   opts.positional("WHAT", what, "what to measure: images, realtime or across-hosts")
       .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square_paper.launch.pbtxt)", false)
       .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")
@@ -183,12 +186,13 @@ int run_bench(std::span<const std::string_view> args) {
             "realtime: where the flights' files and cyclictest's histograms go; across-hosts: the keystore, the\n"
             "peers' configs and logs, latency.csv",
             "a new temporary folder")
-      .integer("--samples", "N", samples, {100, 1'000'000}, "across-hosts: samples per row and round");
+      .integer("--samples", "N", samples, {100, 1'000'000}, "across-hosts: samples per row and round")
+      .flag("--no-link", no_link, "across-hosts: leave out the link's row (two `rejuv run --host` kernels, ~1 min)");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (what == "realtime") return run_bench_realtime(graph_path, seconds, rounds, out);
   if (what == "across-hosts") {
     if (!graph_path.empty()) return refuse("rejuv bench across-hosts: takes no GRAPH (its graph is tests/across_hosts')");
-    return run_bench_across_hosts(samples, rounds, out);
+    return run_bench_across_hosts(samples, rounds, out, no_link ? LinkRow::Skip : LinkRow::Measure);
   }
   if (what != "images") {
     return refuse("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime, across-hosts)");
