@@ -15,35 +15,20 @@
 #include "rejuv/policy/audit.hpp"
 #include "rejuv/policy/hosts.hpp"
 #include "rejuv/policy/policy.hpp"
+#include "companion_files.hpp"
 
 namespace rejuv::policy {
 namespace {
 
-const std::filesystem::path kDir = std::filesystem::path(REJUV_SOURCE_DIR) / "tests" / "across_hosts";
-
-std::string read(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::string replaced(std::string text, std::string_view from, std::string_view to) {
-  const std::size_t at = text.find(from);
-  REJUV_ASSERT(at != std::string::npos, "test bug: text to replace not found");
-  return text.replace(at, from.size(), to);
-}
+using companion::all;
+using companion::read;
+using companion::replaced;
+const std::filesystem::path& kDir = companion::kCompanionDir;
 
 int line_of(const std::string& text, std::string_view what) {
   const std::size_t at = text.find(what);
   REJUV_ASSERT(at != std::string::npos, "test bug: line not found");
   return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
-}
-
-std::string all(const std::vector<Finding>& f) {
-  std::string s;
-  for (const Finding& x : f) s += x.to_string() + "\n";
-  return s;
 }
 
 const std::string kPolicy = read(kDir / "companion.policy.pbtxt");
