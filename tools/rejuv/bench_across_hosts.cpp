@@ -32,6 +32,7 @@
 #include "commands.hpp"
 #include "common_options.hpp"
 #include "keystore.hpp"
+#include "rejuv/core/cyclone_xml.hpp"
 #include "args.hpp"
 #include "rejuv/sys/lease.hpp"
 #include "rejuv/sys/process.hpp"
@@ -133,26 +134,11 @@ class Namespaces {
 // The Cyclone XML of one participant, the shape of tests/across_hosts: its own address, both hosts as unicast
 // peers, no multicast and, for a secure one, the enclave of `enclave` in `keys` ("" = no security).
 fs::path write_config(const fs::path& file, const char* address, const fs::path& keys, const std::string& enclave) {
-  namespace enclave_file = keys::enclave_file;
-  std::string security;
-  if (!enclave.empty()) {
-    const fs::path e = keys / "enclaves" / enclave;
-    security = "<Security><Authentication>"
-               "<IdentityCA>file:" + (e / enclave_file::kIdentityCa).string() + "</IdentityCA>"
-               "<IdentityCertificate>file:" + (e / enclave_file::kCert).string() + "</IdentityCertificate>"
-               "<PrivateKey>file:" + (e / enclave_file::kKey).string() + "</PrivateKey>"
-               "</Authentication><AccessControl>"
-               "<PermissionsCA>file:" + (e / enclave_file::kPermissionsCa).string() + "</PermissionsCA>"
-               "<Governance>file:" + (e / enclave_file::kGovernance).string() + "</Governance>"
-               "<Permissions>file:" + (e / enclave_file::kPermissions).string() + "</Permissions>"
-               "</AccessControl></Security>";
-  }
-  std::ofstream(file) << "<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\"><General><Interfaces>"
-                         "<NetworkInterface address=\"" << address << "\"/></Interfaces>"
-                         "<AllowMulticast>false</AllowMulticast></General><Discovery>"
-                         "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>20</MaxAutoParticipantIndex>"
-                         "<Peers><Peer address=\"" << kVehicleAddress << "\"/><Peer address=\"" << kCompanionAddress
-                      << "\"/></Peers></Discovery>" << security << "</Domain></CycloneDDS>\n";
+  std::ofstream(file) << cyclone::config_xml(cyclone::ParticipantConfig{
+                             .address = address,
+                             .peers = {kVehicleAddress, kCompanionAddress},
+                             .enclave = enclave.empty() ? fs::path() : keys / "enclaves" / enclave})
+                      << "\n";
   return file;
 }
 

@@ -18,19 +18,13 @@
 #include <string_view>
 #include <vector>
 
+#include "rejuv/core/cyclone_xml.hpp"
 #include "rejuv/core/result.hpp"
 
 namespace rejuv::keys {
 
 // The files of a host's enclave (enclaves/<host>/) that a participant's DDS Security configuration names.
-namespace enclave_file {
-inline constexpr std::string_view kIdentityCa = "identity_ca.cert.pem";
-inline constexpr std::string_view kCert = "cert.pem";
-inline constexpr std::string_view kKey = "key.pem";
-inline constexpr std::string_view kPermissionsCa = "permissions_ca.cert.pem";
-inline constexpr std::string_view kGovernance = "governance.p7s";
-inline constexpr std::string_view kPermissions = "permissions.p7s";
-}  // namespace enclave_file
+namespace enclave_file = cyclone::enclave_file;
 
 // What one host may publish and subscribe to (DDS topic names), as the policy's crossings say.
 struct HostGrant {
