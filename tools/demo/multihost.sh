@@ -6,9 +6,10 @@
 #   2. a keystore in out/multihost/keys (`rejuv keys init`, `rejuv keys hosts` from the graph's policy);
 #   3. an intruder in its namespace: a DDS participant without security that subscribes to the cross-host topic;
 #   4. the two kernels: `rejuv run --host vehicle` (the plant, SR, the link closed in each secure interval) and
-#      `rejuv run --host companion` (the monitor, fed through the links), on one DDS domain;
+#      `rejuv run --host companion` (the monitor, fed through the links, and the planner, whose mission the
+#      vehicle flies), on one DDS domain;
 #   5. what happened: the vehicle's link closures against its mode changes, what the companion's monitor and the
-#      intruder received.
+#      intruder received, and whether the vehicle flew the companion planner's waypoint (its trace.csv).
 # Everything it made (processes, namespaces, the bridge) is removed at its end, on failure and on Ctrl-C.
 set -euo pipefail
 
@@ -19,7 +20,7 @@ peer="$build/tests/across_hosts/rejuv_dds_peer"
 graph="$root/launch/quad_multihost.launch.pbtxt"
 out="$root/out/multihost"
 domain=77
-duration=15
+duration=30
 
 say() { printf '\033[1m[rejuv]\033[0m %s\n' "$*" >&2; }
 usage() { say "usage: ./rejuv demo multihost [--duration S]   (root: it makes network namespaces)"; exit 2; }
@@ -122,6 +123,21 @@ say "           ($rollbacks rollbacks in out/multihost/vehicle/events.csv); the 
 grep 'link vehicle' "$out/vehicle.log" | head -6 >&2 || true
 say "  companion: what its monitor received through the links (the last line):"
 grep 'vehicle states received' "$out/companion.log" | tail -1 >&2 || say "           (no line: see out/multihost/companion.log)"
+# The planner's mission: its one waypoint (-0.5, -0.5, -3 m NED, off the graph's square) as commander accepted it
+# and gen_set_point flew it, and how close the vehicle's true position (trace.csv n_m, e_m, d_m) came to it.
+say "  companion: its planner's mission (one waypoint at N -0.5 E -0.5 D -3 m, not on the graph's square):"
+say "           $(grep -o 'planner: wrote [0-9]* mission uploads' "$out/companion.log" | tail -1 || echo 'no planner line')"
+accepted=$(grep -c 'mission upload of 1 waypoints accepted' "$out/vehicle.log" || true)
+flying=$(grep -c 'flying the uploaded mission' "$out/vehicle.log" || true)
+closest=$(awk -F, 'NR > 1 { d = sqrt(($2 + 0.5)^2 + ($3 + 0.5)^2 + ($4 + 3)^2); if (min == "" || d < min) min = d }
+                   END { if (min == "") print "none"; else printf "%.3f", min }' "$out/vehicle/trace.csv" 2>/dev/null || echo none)
+say "  vehicle: commander accepted $accepted of its uploads, gen_set_point flew one $flying times; closest approach"
+say "           of the vehicle to the planner's waypoint: $closest m (out/multihost/vehicle/trace.csv)"
+if [[ "$closest" != none ]] && awk -v d="$closest" 'BEGIN { exit !(d < 0.15) }'; then
+  say "  the companion's waypoints were flown: the vehicle reached the planner's waypoint (within 0.15 m)"
+else
+  say "  the companion's waypoint was NOT reached in this flight (a longer --duration? see out/multihost/vehicle.log)"
+fi
 say "  intruder (no security): $(grep -o 'received [0-9]*' "$out/intruder.log" | tail -1 || echo 'nothing printed yet')"
 say "logs: out/multihost/{vehicle,companion,intruder}.log; the vehicle's run: out/multihost/vehicle/"
 exit "$vehicle_rc"
