@@ -131,8 +131,8 @@ accepted=$(grep -c 'mission upload of 1 waypoints accepted' "$out/vehicle.log" |
 flying=$(grep -c 'flying the uploaded mission' "$out/vehicle.log" || true)
 closest=$(awk -F, 'NR > 1 { d = sqrt(($2 + 0.5)^2 + ($3 + 0.5)^2 + ($4 + 3)^2); if (min == "" || d < min) min = d }
                    END { if (min == "") print "none"; else printf "%.3f", min }' "$out/vehicle/trace.csv" 2>/dev/null || echo none)
-say "  vehicle: commander accepted $accepted of its uploads, gen_set_point flew one $flying times; closest approach"
-say "           of the vehicle to the planner's waypoint: $closest m (out/multihost/vehicle/trace.csv)"
+say "  vehicle: commander logged $accepted of its uploads accepted; gen_set_point started flying one $flying time(s);"
+say "           the vehicle's closest approach to the planner's waypoint: $closest m (out/multihost/vehicle/trace.csv)"
 if [[ "$closest" != none ]] && awk -v d="$closest" 'BEGIN { exit !(d < 0.15) }'; then
   say "  the companion's waypoints were flown: the vehicle reached the planner's waypoint (within 0.15 m)"
 else
