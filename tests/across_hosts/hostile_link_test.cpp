@@ -7,7 +7,7 @@
 //     rejuv/vehicle_state for the whole flight: one with an identity signed by the project's CA whose
 //     permissions, signed by the CA too, grant nothing; one with such an identity and permissions granting the
 //     topic that are signed by a CA of its own (the project's permissions CA never signed them); and, as the
-//     control, one with the companion's own enclave. (The forged one's own Cyclone also refuses the vehicle's
+//     control, participants with the companion's own enclave, one after another until one receives. (The forged one's own Cyclone also refuses the vehicle's
 //     participant, whose permissions do not verify against its CA: an intruder cannot trust both.) Checked: the vehicle's run ends with max V < 1, the
 //     companion's monitor and the control receive vehicle states, the rule dropped packets (its counters), and
 //     the two intruders receive none. (A participant without security receives nothing: across_hosts_test.cpp.)
@@ -117,18 +117,18 @@ class HostileLink : public TwoHostsTest {
   }
 
   // rejuv_dds_peer subscribing to rejuv/vehicle_state in the companion's namespace with `enclave`, as the link's
-  // Cyclone configuration (host_link::cyclone_config) would name it; it runs until stopped.
-  std::unique_ptr<KernelRun> subscriber(const std::string& name, const fs::path& enclave) {
+  // Cyclone configuration (host_link::cyclone_config) would name it; it runs until stopped (or as `extra` says).
+  std::unique_ptr<KernelRun> subscriber(const std::string& name, const fs::path& enclave,
+                                        const std::vector<std::string>& extra = {"--seconds", "600"}) {
     const fs::path cfg = dir_ / (name + ".xml");
     std::ofstream(cfg) << rejuv::services::host_link::cyclone_config(
         {.address = kCompanionAddress, .peers = {kCompanionAddress, kVehicleAddress}, .enclave = enclave, .private_key_pem = {}});
     const fs::path d = dir_ / name;
     fs::create_directories(d);
-    return std::make_unique<KernelRun>(
-        d, rejuv::test_support::start_program(d, kIp,
-                                              {"netns", "exec", companion_ns_, kPeer.string(), "subscribe",
-                                               "rejuv/vehicle_state", "--domain", std::to_string(domain()), "--config",
-                                               cfg.string(), "--seconds", "600"}));
+    std::vector<std::string> args{"netns", "exec", companion_ns_, kPeer.string(), "subscribe", "rejuv/vehicle_state",
+                                  "--domain", std::to_string(domain()), "--config", cfg.string()};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return std::make_unique<KernelRun>(d, rejuv::test_support::start_program(d, kIp, std::move(args)));
   }
   static CliOutcome stop(std::unique_ptr<KernelRun>& peer) {
     ::kill(peer->pid(), SIGTERM);
@@ -168,18 +168,30 @@ TEST_F(HostileLink, LossyLinkAndAnIntruder_VehicleSafe_CompanionReceives_Intrude
   if (HasFatalFailure()) return;
   auto no_grant = subscriber("no_grant", stolen / "enclaves" / "intruder");
   auto forged_perms = subscriber("forged_permissions", forged / "enclaves" / "intruder");
-  auto control = subscriber("control", keys_ / "enclaves" / "companion");
-  for (const auto* p : {&no_grant, &forged_perms, &control}) ASSERT_GT((*p)->pid(), 0);
-  // The forged one and the control read (their readers exist) before the flight begins.
-  for (const auto& [name, peer] : {std::pair{"forged_permissions", forged_perms.get()}, {"control", control.get()}}) {
-    ASSERT_TRUE(until(*peer, [&] { return out_of(name).find("reading") != std::string::npos; }))
-        << name << ": " << out_of(name) << peer->err();
-  }
+  for (const auto* p : {&no_grant, &forged_perms}) ASSERT_GT((*p)->pid(), 0);
+  // The forged one reads (its reader exists) before the flight begins.
+  ASSERT_TRUE(until(*forged_perms, [&] { return out_of("forged_permissions").find("reading") != std::string::npos; }))
+      << out_of("forged_permissions") << forged_perms->err();
 
   auto companion = start("companion", 40);
   auto vehicle = start("vehicle", 30);
   ASSERT_GT(companion->pid(), 0);
   ASSERT_GT(vehicle->pid(), 0);
+  // The control, while the intruders listen: a participant with the companion's enclave, each until its first
+  // sample (or 10 s), one after another while the vehicle runs, until one receives. The first ones end with
+  // nothing while the vehicle aligns (20 s without MC: its link is closed); and one participant for the whole
+  // flight is not a reliable witness: its DDS Security handshake with the vehicle's link, through 20 % loss and a
+  // link open only in the vehicle's MC windows, did not complete in 2 runs of 5 (it received nothing while the
+  // companion's link received).
+  int controls = 0;
+  long long control_received = 0;
+  while (control_received <= 0 && !vehicle->ended()) {
+    const std::string name = "control_" + std::to_string(++controls);
+    auto control = subscriber(name, keys_ / "enclaves" / "companion", {"--first", "--seconds", "10"});
+    ASSERT_GT(control->pid(), 0);
+    const CliOutcome r = control->wait();
+    control_received = received(r.out);
+  }
   const CliOutcome v = vehicle->wait();
   const CliOutcome c = companion->wait();
 
@@ -195,10 +207,9 @@ TEST_F(HostileLink, LossyLinkAndAnIntruder_VehicleSafe_CompanionReceives_Intrude
   EXPECT_GT(drops[0], 0) << "nothing dropped coming in";
   EXPECT_GT(drops[1], 0) << "nothing dropped going out";
 
-  const CliOutcome ctl = stop(control);
   const CliOutcome forged_out = stop(forged_perms);
   const CliOutcome nogrant_out = stop(no_grant);
-  EXPECT_GT(received(ctl.out), 0) << ctl.out << ctl.err;
+  EXPECT_GT(control_received, 0) << controls << " participants with the companion's enclave received nothing";
   EXPECT_EQ(received(forged_out.out), 0) << forged_out.out << forged_out.err;
   // Without a grant, its own Cyclone refuses the participant (default DENY: "participant denied by default rule")
   // or the reader; or the reader exists and receives nothing.
@@ -206,7 +217,7 @@ TEST_F(HostileLink, LossyLinkAndAnIntruder_VehicleSafe_CompanionReceives_Intrude
                        nogrant_out.out.find("refused: dds_create_reader") != std::string::npos;
   EXPECT_TRUE(refused || received(nogrant_out.out) == 0) << nogrant_out.out << nogrant_out.err;
   std::cout << "loss: dropped in/out " << drops[0] << "/" << drops[1] << "; companion's monitor in MC "
-            << received_in_mc(c.err) << ", control " << received(ctl.out) << ", forged permissions "
+            << received_in_mc(c.err) << ", control received after " << controls << " participant(s), forged permissions "
             << received(forged_out.out) << ", no grant: " << nogrant_out.out << "max V " << v_max << "\n";
 }
 
