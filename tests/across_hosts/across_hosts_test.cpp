@@ -20,6 +20,7 @@
 #include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
 #include "keystore.hpp"
+#include "rejuv/core/cyclone_xml.hpp"
 
 namespace {
 
@@ -142,27 +143,12 @@ class AcrossHosts : public ::testing::Test {
   // The Cyclone XML of one participant: its own address, both hosts as unicast peers, and the enclave of
   // `enclave` ("" = no security).
   static fs::path config(const std::string& name, const char* address, const std::string& enclave) {
-    namespace enclave_file = rejuv::keys::enclave_file;
-    const fs::path e = dir_ / "keystore" / "enclaves" / enclave;
-    std::string security;
-    if (!enclave.empty()) {
-      security = "<Security><Authentication>"
-                 "<IdentityCA>file:" + (e / enclave_file::kIdentityCa).string() + "</IdentityCA>"
-                 "<IdentityCertificate>file:" + (e / enclave_file::kCert).string() + "</IdentityCertificate>"
-                 "<PrivateKey>file:" + (e / enclave_file::kKey).string() + "</PrivateKey>"
-                 "</Authentication><AccessControl>"
-                 "<PermissionsCA>file:" + (e / enclave_file::kPermissionsCa).string() + "</PermissionsCA>"
-                 "<Governance>file:" + (e / enclave_file::kGovernance).string() + "</Governance>"
-                 "<Permissions>file:" + (e / enclave_file::kPermissions).string() + "</Permissions>"
-                 "</AccessControl></Security>";
-    }
     const fs::path file = dir_ / (name + ".xml");
-    std::ofstream(file) << "<CycloneDDS xmlns=\"https://cdds.io/config\"><Domain id=\"any\"><General><Interfaces>"
-                           "<NetworkInterface address=\"" << address << "\"/></Interfaces>"
-                           "<AllowMulticast>false</AllowMulticast></General><Discovery>"
-                           "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>20</MaxAutoParticipantIndex>"
-                           "<Peers><Peer address=\"" << kVehicleAddress << "\"/><Peer address=\"" << kCompanionAddress
-                        << "\"/></Peers></Discovery>" << security << "</Domain></CycloneDDS>\n";
+    std::ofstream(file) << rejuv::cyclone::config_xml(rejuv::cyclone::ParticipantConfig{
+                               .address = address,
+                               .peers = {kVehicleAddress, kCompanionAddress},
+                               .enclave = enclave.empty() ? fs::path() : dir_ / "keystore" / "enclaves" / enclave})
+                        << "\n";
     return file;
   }
 
