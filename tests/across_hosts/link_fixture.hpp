@@ -204,11 +204,14 @@ class TwoHostsTest : public ::testing::Test {
   // `rejuv run GRAPH --host HOST` for `seconds` of flight, its output in a folder of the host's name. With
   // `own_session` it runs under setsid(1) (exec'ed in place: the same pid), the leader of a process group of its
   // own, which a test may then kill as a whole.
-  std::unique_ptr<KernelRun> start(const std::string& host, int seconds, bool own_session = false) {
+  // `extra`: more options of `rejuv run` (e.g. --out DIR).
+  std::unique_ptr<KernelRun> start(const std::string& host, int seconds, bool own_session = false,
+                                   const std::vector<std::string>& extra = {}) {
     const fs::path d = dir_ / host;
     fs::create_directories(d);
     std::vector<std::string> args{"run", graph_.string(), "--host", host, "--keys", keys_.string(),
                                   "--domain", std::to_string(domain()), "--duration", std::to_string(seconds)};
+    args.insert(args.end(), extra.begin(), extra.end());
     if (own_session) args.insert(args.begin(), rejuv::test_support::kRejuv.string());
     return std::make_unique<KernelRun>(
         d, rejuv::test_support::start_program(d, own_session ? fs::path("/usr/bin/setsid") : rejuv::test_support::kRejuv,

@@ -7,13 +7,60 @@
 //   - the vehicle's link is a process of its own (not the kernel) in the vehicle's network namespace;
 //   - killed, the link is started again by its kernel (a new pid), and the vehicle stays in its safety set (the
 //     run summary's max V < 1);
-//   - both runs end by themselves, and no link process is left in either namespace.
+//   - both runs end by themselves, and no link process is left in either namespace;
+//   - tcpdump in the companion's namespace captures the vehicle's packets in MC and none inside a secure interval of
+//     the vehicle's flight by its mode trace (its events.csv: CLOCK_MONOTONIC, the capture's CLOCK_REALTIME stamps brought to it).
 // No timing is asserted: the runs last as long as they last, the waits are for events.
+#include <sys/wait.h>
+#include <time.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
 #include "link_fixture.hpp"
 
 namespace {
 
 using namespace rejuv::test_support::across;
+
+const fs::path kTcpdump = "/usr/bin/tcpdump";
+
+// CLOCK_REALTIME − CLOCK_MONOTONIC [s] now: what turns a packet's capture stamp into the kernel's wall_s.
+double realtime_minus_monotonic() {
+  timespec r{}, m{};
+  ::clock_gettime(CLOCK_REALTIME, &r);
+  ::clock_gettime(CLOCK_MONOTONIC, &m);
+  return static_cast<double>(r.tv_sec - m.tv_sec) + static_cast<double>(r.tv_nsec - m.tv_nsec) * 1e-9;
+}
+
+// The vehicle's secure intervals of its flight, from its events.csv (kind "mode"; the flight's, after the
+// alignment): each [a row not MC, the next MC row). One still open when the run stops is left out: the kernel
+// then ends its link and its closure, and what the namespace sends afterwards (ICMP for the link's closed port)
+// is no longer the vehicle's. wall_s is CLOCK_MONOTONIC [s].
+std::vector<std::pair<double, double>> secure_intervals(const fs::path& events) {
+  std::vector<std::pair<double, double>> out;
+  std::ifstream in(events);
+  std::string line;
+  std::getline(in, line);  // t_s,wall_s,kind,epoch,generation,mode,...
+  bool closed = false;  // in a secure interval, which began at `began`
+  double began = 0;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::istringstream cells(line);
+    for (std::string c; std::getline(cells, c, ',');) f.push_back(c);
+    if (f.size() < 6 || f[2] != "mode") continue;
+    const double wall = std::stod(f[1]);
+    if (f[5] == "MC" && closed) {
+      out.emplace_back(began, wall);
+      closed = false;
+    } else if (f[5] != "MC" && !closed) {
+      began = wall;
+      closed = true;
+    }
+  }
+  return out;
+}
 
 class HostLink : public TwoHostsTest {
  protected:
@@ -24,7 +71,21 @@ TEST_F(HostLink, SquareWithACompanion_StatesCrossInMc_LinkRestarted_VehicleSafe)
   // The companion outlasts the vehicle: it sees the whole flight (each run also aligns for the same 20 s first).
   auto companion = start("companion", 40);
   ASSERT_GT(companion->pid(), 0);
-  auto vehicle = start("vehicle", 30);
+  // The vehicle's packets as the companion's end of the veth sees them, each with its capture stamp.
+  const fs::path capture_dir = dir_ / "tcpdump";
+  fs::create_directories(capture_dir);
+  const double offset_before = realtime_minus_monotonic();
+  pid_t capture = rejuv::test_support::start_program(
+      capture_dir, kIp, {"netns", "exec", companion_ns_, kTcpdump.string(), "-i", veth_c_, "-n", "-tt", "-l",
+                         "--immediate-mode", "src host 10.77.0.1"});
+  ASSERT_GT(capture, 0);
+  struct KillOnExit {  // a failed assertion leaves no tcpdump behind
+    pid_t& pid;
+    ~KillOnExit() {
+      if (pid > 0 && ::kill(pid, SIGKILL) == 0) (void)::waitpid(pid, nullptr, 0);
+    }
+  } stop_capture{capture};
+  auto vehicle = start("vehicle", 30, false, {"--out", (dir_ / "vehicle_out").string()});
   ASSERT_GT(vehicle->pid(), 0);
 
   // The vehicle's link: a process of its own, the kernel's child, in the vehicle's network namespace.
@@ -50,6 +111,40 @@ TEST_F(HostLink, SquareWithACompanion_StatesCrossInMc_LinkRestarted_VehicleSafe)
 
   const CliOutcome v = vehicle->wait();
   const CliOutcome c = companion->wait();
+  ::kill(capture, SIGINT);
+  const CliOutcome captured = rejuv::test_support::wait_program(capture_dir, std::exchange(capture, -1));
+  const double offset = (offset_before + realtime_minus_monotonic()) / 2;
+  const auto closed = secure_intervals(dir_ / "vehicle_out" / "events.csv");
+  ASSERT_FALSE(closed.empty());
+  // A packet stamped within 2 ms of a mode change is not judged: the closure and the mode row are a few
+  // microseconds apart, and the stamps of two clocks.
+  constexpr double kEdge = 0.002;
+  std::size_t in_mc = 0, in_secure_interval = 0;
+  std::string first_inside;
+  std::istringstream packets(captured.out);
+  for (std::string line; std::getline(packets, line);) {
+    if (line.find(" IP 10.77.0.1") == std::string::npos) continue;
+    const double t = std::stod(line) - offset;
+    const bool inside = std::any_of(closed.begin(), closed.end(), [&](const auto& w) {
+      return t > w.first + kEdge && t < w.second - kEdge;
+    });
+    const bool edge = std::any_of(closed.begin(), closed.end(), [&](const auto& w) {
+      return std::abs(t - w.first) <= kEdge || std::abs(t - w.second) <= kEdge;
+    });
+    if (inside) {
+      if (in_secure_interval++ < 5) {
+        const auto w = std::find_if(closed.begin(), closed.end(), [&](const auto& x) { return t > x.first && t < x.second; });
+        first_inside += "\n  " + line + " at " + std::to_string(t) + " in [" + std::to_string(w->first) + ", " +
+                        std::to_string(w->second) + ")";
+      }
+    } else if (!edge && t > closed.front().first && t < closed.back().second) {  // an MC window of the flight
+      ++in_mc;
+    }
+  }
+  std::printf("tcpdump in the companion's namespace: %zu of the vehicle's packets in its MC windows, %zu in its %zu "
+              "secure intervals\n", in_mc, in_secure_interval, closed.size());
+  EXPECT_GT(in_mc, 0U) << "the capture saw none of the vehicle's packets in MC: " << captured.err;
+  EXPECT_EQ(in_secure_interval, 0U) << "inside:" << first_inside << "\n" << " (" << closed.size() << " secure intervals)";
   EXPECT_NE(v.err.find("service 'link_companion' restarted from its binary"), std::string::npos) << v.err;
   // The vehicle stayed in its safety set: the run summary's max V below 1.
   std::smatch m;
