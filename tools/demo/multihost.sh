@@ -119,6 +119,10 @@ closes=$(grep -c 'link vehicle closed at' "$out/vehicle.log" || true)
 opens=$(grep -c 'link vehicle opened at' "$out/vehicle.log" || true)
 rollbacks=$(grep -c ',mode,[0-9]*,[0-9]*,RB,' "$out/vehicle/events.csv" 2>/dev/null || true)
 say "  vehicle: rejuv run exited $vehicle_rc; its link closed $closes times and opened $opens times"
+# The safety margin under the graph's attack (the run's summary line: "max V = 0.0942 (safe)"; V < 1: inside the set).
+safety=$(grep -oE 'max V = [0-9.]+ \([a-z ]+\)' "$out/vehicle.log" | tail -1 || true)
+attack=$(grep -oE 'attack=[A-Z_]+' "$out/vehicle.log" | head -1 || true)
+say "           ${safety:-max V: not in out/multihost/vehicle.log}, ${attack:-attack: none}"
 say "           ($rollbacks rollbacks in out/multihost/vehicle/events.csv); the first ones:"
 grep 'link vehicle' "$out/vehicle.log" | head -6 >&2 || true
 say "  companion: what its monitor received through the links (the last line):"
