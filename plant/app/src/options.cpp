@@ -10,6 +10,7 @@
 #include <set>
 #include <string>
 #include <system_error>
+#include <utility>
 
 namespace rejuv::plant_app {
 
@@ -87,6 +88,20 @@ constexpr double kMaxDuration_s = 1e7;  // ~115 days
 constexpr double kMaxWind_m_s = 50;
 constexpr double kMaxAlignment_s = 3600;
 
+// A flag that takes one of two names: sets `field` to the value named `value`, else the error naming both.
+template <class E>
+Result<void, std::string> choose(E& field, std::string_view flag, std::string_view value,
+                                 std::pair<std::string_view, E> first, std::pair<std::string_view, E> second) {
+  for (const auto& [name, e] : {first, second}) {
+    if (value == name) {
+      field = e;
+      return {};
+    }
+  }
+  return fail(std::string(flag) + ": expected " + std::string(first.first) + " or " + std::string(second.first) +
+              ", got '" + std::string(value) + "'");
+}
+
 // Applies one flag's value to the options.
 Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::string_view value) {
   auto assign = [](auto& field, auto parsed) -> Result<void, std::string> {
@@ -103,28 +118,14 @@ Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::str
     return {};
   }
   if (flag == "--dds-names") {
-    if (value == "rejuv") {
-      o.naming = DdsNaming::Rejuv;
-    } else if (value == "ros2") {
-      o.naming = DdsNaming::Ros2;
-    } else {
-      return fail(std::string(flag) + ": expected rejuv or ros2, got '" + std::string(value) + "'");
-    }
-    return {};
+    return choose(o.naming, flag, value, {"rejuv", DdsNaming::Rejuv}, {"ros2", DdsNaming::Ros2});
   }
   if (flag == "--seed") {
     return assign(o.seed,
                   parse_int<std::uint64_t>(flag, value, 0, std::numeric_limits<std::uint64_t>::max()));
   }
   if (flag == "--clock") {
-    if (value == "lockstep") {
-      o.clock = ClockMode::Lockstep;
-    } else if (value == "realtime") {
-      o.clock = ClockMode::Realtime;
-    } else {
-      return fail(std::string(flag) + ": expected lockstep or realtime, got '" + std::string(value) + "'");
-    }
-    return {};
+    return choose(o.clock, flag, value, {"lockstep", ClockMode::Lockstep}, {"realtime", ClockMode::Realtime});
   }
   if (flag == "--start-north")
     return assign(o.start_N_m.x(), parse_double(flag, value, -kMaxPosition_m, kMaxPosition_m));
