@@ -7,6 +7,7 @@
 #include <system_error>
 #include <utility>
 
+#include "keystore.hpp"
 #include "rejuv/core/did_you_mean.hpp"
 #include "rejuv/policy/hosts.hpp"
 
@@ -57,11 +58,11 @@ Result<HostPart, std::string> host_part(launch::LoadedLaunch& graph, kernel::Ker
   std::filesystem::path enclave;
   if (keys) {
     std::error_code ec;
-    enclave = std::filesystem::absolute(*keys / "enclaves" / std::string(host), ec);
-    if (ec || !std::filesystem::is_regular_file(enclave / "permissions.p7s", ec)) {
+    enclave = std::filesystem::absolute(keys::enclave_dir(*keys, host), ec);
+    const std::filesystem::path permissions = enclave / keys::enclave_file::kPermissions;
+    if (ec || !std::filesystem::is_regular_file(permissions, ec)) {
       return fail("--keys " + keys->string() + ": no enclave of host '" + std::string(host) + "' (" +
-                  (enclave / "permissions.p7s").string() + "); make it with `rejuv keys hosts " + keys->string() +
-                  " --launch GRAPH`");
+                  permissions.string() + "); make it with `rejuv keys hosts " + keys->string() + " --launch GRAPH`");
     }
   }
   auto dir = RunTempDir::create("rejuv-host-");

@@ -483,7 +483,7 @@ Result<std::vector<std::string>, std::string> check_enclaves(const fs::path& dir
   if (!ca) return fail(ca.error());
   std::vector<std::string> out;
   for (const HostGrant& h : hosts) {
-    const fs::path e = dir / "enclaves" / h.host;
+    const fs::path e = enclave_dir(dir, h.host);
     const auto bad = [&](const std::string& what) { out.push_back("enclave " + h.host + ": " + what); };
     if (!fs::is_directory(e)) {
       bad("missing (rejuv keys hosts writes it)");

@@ -26,6 +26,11 @@ namespace rejuv::keys {
 // The files of a host's enclave (enclaves/<host>/) that a participant's DDS Security configuration names.
 namespace enclave_file = cyclone::enclave_file;
 
+// DIR/enclaves/<host>: the enclave of host `host` that write_enclaves makes.
+[[nodiscard]] inline std::filesystem::path enclave_dir(const std::filesystem::path& dir, std::string_view host) {
+  return dir / "enclaves" / std::string(host);
+}
+
 // What one host may publish and subscribe to (DDS topic names), as the policy's crossings say.
 struct HostGrant {
   std::string host;  // CN of its identity and the name of its enclave
