@@ -13,10 +13,12 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "../netns_pair.hpp"
 #include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
 #include "keystore.hpp"
@@ -77,26 +79,9 @@ class AcrossHosts : public ::testing::Test {
     if (::geteuid() != 0) return;
     dir_ = fs::temp_directory_path() / ("rejuv_across_hosts_" + std::to_string(::getpid()));
     fs::create_directories(dir_ / "cmd");
-    remove_stale_namespaces();
-    const std::string id = std::to_string(::getpid());
-    vehicle_ns_ = "rjv_" + id;
-    companion_ns_ = "rjc_" + id;
-    const std::string veth_v = "rjv" + id, veth_c = "rjc" + id;  // ≤ 15 characters
-    ns_made_ = true;
-    for (const std::vector<std::string>& cmd :
-         {std::vector<std::string>{"netns", "add", vehicle_ns_}, {"netns", "add", companion_ns_},
-          {"link", "add", veth_v, "type", "veth", "peer", "name", veth_c},
-          {"link", "set", veth_v, "netns", vehicle_ns_}, {"link", "set", veth_c, "netns", companion_ns_},
-          {"-n", vehicle_ns_, "addr", "add", std::string(kVehicleAddress) + "/24", "dev", veth_v},
-          {"-n", companion_ns_, "addr", "add", std::string(kCompanionAddress) + "/24", "dev", veth_c},
-          {"-n", vehicle_ns_, "link", "set", veth_v, "up"}, {"-n", companion_ns_, "link", "set", veth_c, "up"},
-          {"-n", vehicle_ns_, "link", "set", "lo", "up"}, {"-n", companion_ns_, "link", "set", "lo", "up"}}) {
-      const CliOutcome r = rejuv::test_support::run_program(dir_ / "cmd", kIp, cmd);
-      if (r.exit_code != 0) {
-        setup_error_ = "ip " + cmd[0] + " " + cmd[1] + " ...: " + r.err;
-        return;
-      }
-    }
+    hosts_.emplace(dir_ / "cmd", "rj");
+    setup_error_ = hosts_->make(kVehicleAddress, kCompanionAddress);
+    if (!setup_error_.empty()) return;
     const fs::path store = dir_ / "keystore";
     for (const std::vector<std::string>& cmd :
          {std::vector<std::string>{"keys", "init", store.string()},
@@ -108,28 +93,8 @@ class AcrossHosts : public ::testing::Test {
       }
     }
   }
-  // Namespaces of an earlier run of this test that was killed before its tear-down (rjv_<pid>, rjc_<pid> of a
-  // process that no longer exists): removed, so that no kill leaves them behind for good.
-  static void remove_stale_namespaces() {
-    const CliOutcome list = rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "list"});
-    std::istringstream lines(list.out);
-    for (std::string line; std::getline(lines, line);) {
-      const std::string ns = line.substr(0, line.find(' '));
-      if (ns.size() < 5 || (ns.rfind("rjv_", 0) != 0 && ns.rfind("rjc_", 0) != 0)) continue;
-      const std::string pid = ns.substr(4);
-      if (pid.find_first_not_of("0123456789") != std::string::npos) continue;
-      if (fs::exists("/proc/" + pid)) continue;  // a live run's
-      (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
-    }
-  }
-
   static void TearDownTestSuite() {
-    if (ns_made_) {
-      // Deleting a namespace deletes the veth end in it, and with it the pair.
-      for (const std::string& ns : {vehicle_ns_, companion_ns_}) {
-        (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
-      }
-    }
+    hosts_.reset();  // before its folder goes
     std::error_code ec;
     if (!dir_.empty()) fs::remove_all(dir_, ec);
   }
@@ -164,15 +129,15 @@ class AcrossHosts : public ::testing::Test {
   }
 
   static inline fs::path dir_;
-  static inline std::string vehicle_ns_, companion_ns_, setup_error_;
-  static inline bool ns_made_ = false;
+  static inline std::optional<rejuv::test_support::NetnsPair> hosts_;
+  static inline std::string setup_error_;
 };
 
 TEST_F(AcrossHosts, GrantedCrossHostTopic_Delivered) {
-  auto sub = start("granted_sub", companion_ns_, "subscribe", "rejuv/state",
+  auto sub = start("granted_sub", hosts_->companion, "subscribe", "rejuv/state",
                    config("granted_sub", kCompanionAddress, "companion"), {"--first", "--seconds", "60"});
   ASSERT_TRUE(sub->printed("reading")) << slurp(dir_ / "granted_sub" / "stdout") << slurp(dir_ / "granted_sub" / "stderr");
-  auto pub = start("granted_pub", vehicle_ns_, "publish", "rejuv/state",
+  auto pub = start("granted_pub", hosts_->vehicle, "publish", "rejuv/state",
                    config("granted_pub", kVehicleAddress, "vehicle"), {"--seconds", "60"});
   ASSERT_TRUE(pub->printed("writing")) << slurp(dir_ / "granted_pub" / "stdout") << slurp(dir_ / "granted_pub" / "stderr");
   const CliOutcome got = sub->wait();
@@ -184,8 +149,8 @@ TEST_F(AcrossHosts, GrantedCrossHostTopic_Delivered) {
 TEST_F(AcrossHosts, WriterOnUngrantedTopic_NotAllowedBySecurity) {
   // telemetry is read on the vehicle only: no host may carry it. state is the companion's to read, not write.
   for (const auto& [name, ns, address, enclave, topic] :
-       {std::tuple{"ungranted_vehicle", vehicle_ns_, kVehicleAddress, "vehicle", "rejuv/telemetry"},
-        std::tuple{"ungranted_companion", companion_ns_, kCompanionAddress, "companion", "rejuv/state"}}) {
+       {std::tuple{"ungranted_vehicle", hosts_->vehicle, kVehicleAddress, "vehicle", "rejuv/telemetry"},
+        std::tuple{"ungranted_companion", hosts_->companion, kCompanionAddress, "companion", "rejuv/state"}}) {
     SCOPED_TRACE(name);
     auto pub = start(name, ns, "publish", topic, config(name, address, enclave), {"--seconds", "60"});
     const CliOutcome r = pub->wait();
@@ -196,16 +161,16 @@ TEST_F(AcrossHosts, WriterOnUngrantedTopic_NotAllowedBySecurity) {
 }
 
 TEST_F(AcrossHosts, ParticipantWithoutSecurity_ReceivesNothing) {
-  auto plain = start("plain_sub", companion_ns_, "subscribe", "rejuv/state",
+  auto plain = start("plain_sub", hosts_->companion, "subscribe", "rejuv/state",
                      config("plain_sub", kCompanionAddress, ""), {"--seconds", "120"});
   ASSERT_TRUE(plain->printed("reading")) << slurp(dir_ / "plain_sub" / "stderr");
-  auto pub = start("plain_pub", vehicle_ns_, "publish", "rejuv/state", config("plain_pub", kVehicleAddress, "vehicle"),
+  auto pub = start("plain_pub", hosts_->vehicle, "publish", "rejuv/state", config("plain_pub", kVehicleAddress, "vehicle"),
                    {"--seconds", "120"});
   ASSERT_TRUE(pub->printed("writing")) << slurp(dir_ / "plain_pub" / "stderr");
   // Two secure subscribers in turn, beside the plain one, each until its first sample: the vehicle's samples
   // reached the companion's namespace, twice over, while the plain participant listened there.
   for (const std::string name : {"secure_sub_1", "secure_sub_2"}) {
-    auto secure = start(name, companion_ns_, "subscribe", "rejuv/state", config(name, kCompanionAddress, "companion"),
+    auto secure = start(name, hosts_->companion, "subscribe", "rejuv/state", config(name, kCompanionAddress, "companion"),
                         {"--first", "--seconds", "60"});
     const CliOutcome got = secure->wait();
     ASSERT_NE(got.out.find("received 1"), std::string::npos) << name << ": " << got.out << got.err;
@@ -218,10 +183,10 @@ TEST_F(AcrossHosts, ParticipantWithoutSecurity_ReceivesNothing) {
 // The control of the test above: between two participants without security the same path delivers, so the
 // plain participant's nothing is the security's doing, not the network's.
 TEST_F(AcrossHosts, WithoutSecurityOnBothSides_Delivered) {
-  auto sub = start("open_sub", companion_ns_, "subscribe", "rejuv/state", config("open_sub", kCompanionAddress, ""),
+  auto sub = start("open_sub", hosts_->companion, "subscribe", "rejuv/state", config("open_sub", kCompanionAddress, ""),
                    {"--first", "--seconds", "60"});
   ASSERT_TRUE(sub->printed("reading")) << slurp(dir_ / "open_sub" / "stderr");
-  auto pub = start("open_pub", vehicle_ns_, "publish", "rejuv/state", config("open_pub", kVehicleAddress, ""),
+  auto pub = start("open_pub", hosts_->vehicle, "publish", "rejuv/state", config("open_pub", kVehicleAddress, ""),
                    {"--seconds", "60"});
   const CliOutcome got = sub->wait();
   EXPECT_NE(got.out.find("received 1"), std::string::npos) << got.out << got.err;

@@ -9,11 +9,13 @@
 
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "../netns_pair.hpp"
 #include "../rejuv_cli.hpp"
 
 namespace {
@@ -29,45 +31,30 @@ class LinkClosureRun : public ::testing::Test {
  protected:
   void SetUp() override {
     if (::geteuid() != 0) GTEST_SKIP() << "needs root: network namespaces, a veth pair and nftables";
-    const std::string id = std::to_string(::getpid());
-    dir_ = fs::temp_directory_path() / ("rejuv_link_closure_run_" + id);
+    dir_ = fs::temp_directory_path() / ("rejuv_link_closure_run_" + std::to_string(::getpid()));
     fs::create_directories(dir_ / "cmd");
-    vehicle_ns_ = "rjN_rv_" + id;
-    companion_ns_ = "rjN_rc_" + id;
-    const std::string veth_v = "rjNrv" + id, veth_c = "rjNrc" + id;
-    made_ = true;
-    for (const std::vector<std::string>& cmd :
-         {std::vector<std::string>{"netns", "add", vehicle_ns_}, {"netns", "add", companion_ns_},
-          {"link", "add", veth_v, "type", "veth", "peer", "name", veth_c},
-          {"link", "set", veth_v, "netns", vehicle_ns_}, {"link", "set", veth_c, "netns", companion_ns_},
-          {"-n", vehicle_ns_, "link", "set", veth_v, "up"}, {"-n", companion_ns_, "link", "set", veth_c, "up"}}) {
-      const CliOutcome r = rejuv::test_support::run_program(dir_ / "cmd", kIp, cmd);
-      ASSERT_EQ(r.exit_code, 0) << "ip " << cmd[0] << " " << cmd[1] << ": " << r.err;
-    }
+    hosts_.emplace(dir_ / "cmd", "rjN_r");
+    const std::string error = hosts_->make("", "");
+    ASSERT_TRUE(error.empty()) << error;
   }
   void TearDown() override {
-    if (made_) {
-      for (const std::string& ns : {vehicle_ns_, companion_ns_}) {
-        (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
-      }
-    }
+    hosts_.reset();  // before its folder goes
     std::error_code ec;
     if (!dir_.empty()) fs::remove_all(dir_, ec);
   }
 
-  // The square with two hosts, every service on the vehicle's; the vehicle's uplink in vehicle_ns_.
+  // The square with two hosts, every service on the vehicle's; the vehicle's uplink in its namespace.
   fs::path graph() const {
     const fs::path g = dir_ / "square_hosts.launch.pbtxt";
     std::ofstream(g) << "include: \"" << (kRepo / "launch" / "quad_square.launch.pbtxt").string() << "\"\n"
                      << "name: \"square_hosts\"\n"
-                     << "hosts { name: \"vehicle\" address: \"10.78.0.1\" netns: \"" << vehicle_ns_ << "\" }\n"
-                     << "hosts { name: \"companion\" address: \"10.78.0.2\" netns: \"" << companion_ns_ << "\" }\n";
+                     << "hosts { name: \"vehicle\" address: \"10.78.0.1\" netns: \"" << hosts_->vehicle << "\" }\n"
+                     << "hosts { name: \"companion\" address: \"10.78.0.2\" netns: \"" << hosts_->companion << "\" }\n";
     return g;
   }
 
   fs::path dir_;
-  std::string vehicle_ns_, companion_ns_;
-  bool made_ = false;
+  std::optional<rejuv::test_support::NetnsPair> hosts_;
 };
 
 // The kernel's link lines, as "closed MC → RB" / "opened CP → MC" (the start's close as "closed start SC").
@@ -122,12 +109,12 @@ TEST_F(LinkClosureRun, EveryCloseAndOpen_MatchesTheModeTrace) {
   for (int i = 0; i < 2000 && slurp(dir_ / "run" / "stderr").find("link vehicle closed") == std::string::npos; ++i) {
     ::usleep(5'000);
   }
-  tables = rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", vehicle_ns_, "nft", "list", "tables"}).out;
+  tables = rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", hosts_->vehicle, "nft", "list", "tables"}).out;
   const CliOutcome r = rejuv::test_support::wait_program(dir_ / "run", run);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(tables.find("rejuv_link_vehicle"), std::string::npos) << tables;
   EXPECT_NE(r.err.find("link vehicle: closed in the secure interval by nftables table netdev rejuv_link_vehicle in netns " +
-                       vehicle_ns_),
+                       hosts_->vehicle),
             std::string::npos)
       << r.err;
   EXPECT_EQ(r.err.find("link companion"), std::string::npos) << "the companion runs no service here:\n" << r.err;
@@ -139,7 +126,7 @@ TEST_F(LinkClosureRun, EveryCloseAndOpen_MatchesTheModeTrace) {
   EXPECT_EQ(got, want) << r.err;
 
   const std::string after =
-      rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", vehicle_ns_, "nft", "list", "tables"}).out;
+      rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", hosts_->vehicle, "nft", "list", "tables"}).out;
   EXPECT_EQ(after.find("rejuv_link_vehicle"), std::string::npos) << after;
 }
 

@@ -27,6 +27,7 @@
 #include <utility>
 #include <vector>
 
+#include "../netns_pair.hpp"
 #include "../rejuv_cli.hpp"
 #include "../test_domain.hpp"
 
@@ -131,8 +132,7 @@ bool until(const KernelRun& run, F done) {
 
 class TwoHostsTest : public ::testing::Test {
  protected:
-  // `prefix` (3 characters, the test's own) names the namespaces <prefix>_v<pid>, <prefix>_c<pid> and the
-  // veth ends <prefix>v<pid>, <prefix>c<pid>.
+  // `prefix` (3 characters, the test's own) names the namespaces and veth ends (NetnsPair).
   explicit TwoHostsTest(std::string prefix) : prefix_(std::move(prefix)) {}
 
   void SetUp() override {
@@ -140,23 +140,12 @@ class TwoHostsTest : public ::testing::Test {
     const std::string id = std::to_string(::getpid());
     dir_ = fs::temp_directory_path() / ("rejuv_" + prefix_ + "_test_" + id);
     fs::create_directories(dir_ / "cmd");
-    remove_stale_namespaces();
-    vehicle_ns_ = prefix_ + "_v" + id;
-    companion_ns_ = prefix_ + "_c" + id;
-    veth_v_ = prefix_ + "v" + id;
-    veth_c_ = prefix_ + "c" + id;  // ≤ 15 characters
-    made_ = true;
-    for (const std::vector<std::string>& cmd :
-         {std::vector<std::string>{"netns", "add", vehicle_ns_}, {"netns", "add", companion_ns_},
-          {"link", "add", veth_v_, "type", "veth", "peer", "name", veth_c_},
-          {"link", "set", veth_v_, "netns", vehicle_ns_}, {"link", "set", veth_c_, "netns", companion_ns_},
-          {"-n", vehicle_ns_, "addr", "add", "10.77.0.1/24", "dev", veth_v_},
-          {"-n", companion_ns_, "addr", "add", "10.77.0.2/24", "dev", veth_c_},
-          {"-n", vehicle_ns_, "link", "set", veth_v_, "up"}, {"-n", companion_ns_, "link", "set", veth_c_, "up"},
-          {"-n", vehicle_ns_, "link", "set", "lo", "up"}, {"-n", companion_ns_, "link", "set", "lo", "up"}}) {
-      const CliOutcome r = rejuv::test_support::run_program(dir_ / "cmd", kIp, cmd);
-      ASSERT_EQ(r.exit_code, 0) << "ip " << cmd[0] << " " << cmd[1] << " ...: " << r.err;
-    }
+    hosts_.emplace(dir_ / "cmd", prefix_);
+    const std::string error = hosts_->make("10.77.0.1", "10.77.0.2");
+    ASSERT_TRUE(error.empty()) << error;
+    vehicle_ns_ = hosts_->vehicle;
+    companion_ns_ = hosts_->companion;
+    veth_c_ = hosts_->companion_veth;
     // The square with SR on the vehicle, the monitor on the companion; each host's link in its namespace.
     graph_ = dir_ / "quad_companion.launch.pbtxt";
     std::ofstream(graph_) << "include: \"" << (kRepo / "launch" / "quad_square.launch.pbtxt").string() << "\"\n"
@@ -173,28 +162,8 @@ class TwoHostsTest : public ::testing::Test {
       ASSERT_EQ(r.exit_code, 0) << "rejuv keys " << cmd[1] << ": " << r.err;
     }
   }
-  // Namespaces of an earlier run of this test killed before its tear-down (<prefix>_v<pid>, <prefix>_c<pid> of a
-  // process that no longer exists): removed, so that no kill leaves them behind for good.
-  void remove_stale_namespaces() {
-    const CliOutcome list = rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "list"});
-    std::istringstream lines(list.out);
-    for (std::string line; std::getline(lines, line);) {
-      const std::string ns = line.substr(0, line.find(' '));
-      const std::size_t n = prefix_.size() + 2;
-      if (ns.size() <= n || (ns.rfind(prefix_ + "_v", 0) != 0 && ns.rfind(prefix_ + "_c", 0) != 0)) continue;
-      const std::string pid = ns.substr(n);
-      if (pid.find_first_not_of("0123456789") != std::string::npos || fs::exists("/proc/" + pid)) continue;
-      (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
-    }
-  }
-
   void TearDown() override {
-    if (made_) {
-      // Deleting a namespace deletes the veth end in it, and with it the pair.
-      for (const std::string& ns : {vehicle_ns_, companion_ns_}) {
-        (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
-      }
-    }
+    hosts_.reset();  // before its folder goes
     std::error_code ec;
     if (!dir_.empty()) fs::remove_all(dir_, ec);
   }
@@ -220,8 +189,9 @@ class TwoHostsTest : public ::testing::Test {
 
   std::string prefix_;
   fs::path dir_, graph_, keys_;
-  std::string vehicle_ns_, companion_ns_, veth_v_, veth_c_;
-  bool made_ = false;
+  std::optional<rejuv::test_support::NetnsPair> hosts_;
+  // hosts_'s names, as the tests use them: the namespaces and the companion's veth end.
+  std::string vehicle_ns_, companion_ns_, veth_c_;
 };
 
 }  // namespace rejuv::test_support::across

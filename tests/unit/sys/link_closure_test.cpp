@@ -21,11 +21,13 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "../../netns_pair.hpp"
 #include "../../rejuv_cli.hpp"
 #include "rejuv/sys/link_closure.hpp"
 
@@ -116,32 +118,11 @@ class LinkClosureTest : public ::testing::Test {
     const std::string id = std::to_string(::getpid());
     dir_ = fs::temp_directory_path() / ("rejuv_link_closure_" + id);
     fs::create_directories(dir_ / "cmd");
-    vehicle_ns_ = "rjN_v_" + id;
-    companion_ns_ = "rjN_c_" + id;
-    veth_v_ = "rjNv" + id;
-    veth_c_ = "rjNc" + id;  // ≤ 15 characters
-    made_ = true;
-    for (const std::vector<std::string>& cmd :
-         {std::vector<std::string>{"netns", "add", vehicle_ns_}, {"netns", "add", companion_ns_},
-          {"link", "add", veth_v_, "type", "veth", "peer", "name", veth_c_},
-          {"link", "set", veth_v_, "netns", vehicle_ns_}, {"link", "set", veth_c_, "netns", companion_ns_},
-          {"-n", vehicle_ns_, "addr", "add", std::string(kVehicleAddress) + "/24", "dev", veth_v_},
-          {"-n", companion_ns_, "addr", "add", std::string(kCompanionAddress) + "/24", "dev", veth_c_},
-          {"-n", vehicle_ns_, "link", "set", veth_v_, "up"}, {"-n", companion_ns_, "link", "set", veth_c_, "up"},
-          {"-n", vehicle_ns_, "link", "set", "lo", "up"}, {"-n", companion_ns_, "link", "set", "lo", "up"}}) {
-      const CliOutcome r = rejuv::test_support::run_program(dir_ / "cmd", kIp, cmd);
-      if (r.exit_code != 0) {
-        setup_error_ = "ip " + cmd[0] + " " + cmd[1] + " ...: " + r.err;
-        return;
-      }
-    }
+    hosts_.emplace(dir_ / "cmd", "rjN");
+    setup_error_ = hosts_->make(kVehicleAddress, kCompanionAddress);
   }
   static void TearDownTestSuite() {
-    if (made_) {
-      for (const std::string& ns : {vehicle_ns_, companion_ns_}) {
-        (void)rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "delete", ns});
-      }
-    }
+    hosts_.reset();  // before its folder goes
     std::error_code ec;
     if (!dir_.empty()) fs::remove_all(dir_, ec);
   }
@@ -152,17 +133,17 @@ class LinkClosureTest : public ::testing::Test {
 
   // `nft list tables` in the vehicle's namespace.
   static std::string vehicle_tables() {
-    return rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", vehicle_ns_, "nft", "list", "tables"})
+    return rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", hosts_->vehicle, "nft", "list", "tables"})
         .out;
   }
 
   static UplinkSpec vehicle_uplink(const std::string& label) {
-    return UplinkSpec{.label = label + "_" + std::to_string(::getpid()), .netns = vehicle_ns_};
+    return UplinkSpec{.label = label + "_" + std::to_string(::getpid()), .netns = hosts_->vehicle};
   }
 
   static inline fs::path dir_;
-  static inline std::string vehicle_ns_, companion_ns_, veth_v_, veth_c_, setup_error_;
-  static inline bool made_ = false;
+  static inline std::optional<rejuv::test_support::NetnsPair> hosts_;
+  static inline std::string setup_error_;
 };
 
 // tcpdump on the companion's veth: the vehicle's datagrams to it (the companion's own, which the vehicle's
@@ -205,8 +186,8 @@ TEST_F(LinkClosureTest, Closed_NothingCrossesEitherWay_OpenedCrossesAgain) {
   EXPECT_EQ(link->state(), LinkState::Open);
   EXPECT_NE(vehicle_tables().find(link->table()), std::string::npos) << vehicle_tables();
 
-  UniqueFd at_vehicle = udp_in(vehicle_ns_, kVehicleAddress);
-  UniqueFd at_companion = udp_in(companion_ns_, kCompanionAddress);
+  UniqueFd at_vehicle = udp_in(hosts_->vehicle, kVehicleAddress);
+  UniqueFd at_companion = udp_in(hosts_->companion, kCompanionAddress);
   ASSERT_TRUE(at_vehicle && at_companion);
   Sender to_companion(at_vehicle.get(), kCompanionAddress);
   Sender to_vehicle(at_companion.get(), kVehicleAddress);
@@ -221,7 +202,7 @@ TEST_F(LinkClosureTest, Closed_NothingCrossesEitherWay_OpenedCrossesAgain) {
 
   // Open: both ways deliver, and tcpdump at the companion sees the vehicle's datagrams (the capture's control).
   {
-    Capture open_window(dir_ / "tcpdump_open", companion_ns_, veth_c_);
+    Capture open_window(dir_ / "tcpdump_open", hosts_->companion, hosts_->companion_veth);
     ASSERT_TRUE(open_window.listening()) << open_window.said();
     ASSERT_TRUE(both_receive(0, 0)) << "open: vehicle got " << got_v << ", companion got " << got_c;
     EXPECT_GT(open_window.stop(), 0U) << open_window.said();
@@ -239,7 +220,7 @@ TEST_F(LinkClosureTest, Closed_NothingCrossesEitherWay_OpenedCrossesAgain) {
   (void)drain(at_vehicle.get());
   (void)drain(at_companion.get());
   {
-    Capture closed_window(dir_ / "tcpdump_closed", companion_ns_, veth_c_);
+    Capture closed_window(dir_ / "tcpdump_closed", hosts_->companion, hosts_->companion_veth);
     ASSERT_TRUE(closed_window.listening()) << closed_window.said();
     const std::uint64_t sent_c = to_companion.sent(), sent_v = to_vehicle.sent();
     ASSERT_TRUE(wait_for([&] { return to_companion.sent() >= sent_c + 100 && to_vehicle.sent() >= sent_v + 100; }));
@@ -281,7 +262,7 @@ TEST_F(LinkClosureTest, ProcessKilled_TableGone) {
   ASSERT_GE(child, 0);
   if (child == 0) {
     ::close(ready[0]);
-    auto link = LinkClosure::create(UplinkSpec{.label = label, .netns = vehicle_ns_});
+    auto link = LinkClosure::create(UplinkSpec{.label = label, .netns = hosts_->vehicle});
     const char ok = link && link->close() ? '1' : '0';
     (void)::write(ready[1], &ok, 1);
     ::pause();
@@ -327,7 +308,7 @@ TEST_F(LinkClosureTest, NoSuchDevice_NoDevice) {
 }
 
 TEST_F(LinkClosureTest, BadLabel_Invalid) {
-  auto link = LinkClosure::create(UplinkSpec{.label = "no spaces", .netns = vehicle_ns_});
+  auto link = LinkClosure::create(UplinkSpec{.label = "no spaces", .netns = hosts_->vehicle});
   ASSERT_FALSE(link);
   EXPECT_EQ(link.error().error, EINVAL) << link.error().to_string();
 }
