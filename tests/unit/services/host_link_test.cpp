@@ -17,6 +17,7 @@ TEST(HostLinkConfig, InterfacePeersAndSecurityFromTheEnclave) {
                                           .private_key_pem = "-----BEGIN PRIVATE KEY-----\nAB\n-----END PRIVATE KEY-----\n"});
   EXPECT_NE(xml.find("<NetworkInterface address=\"10.77.0.1\"/>"), std::string::npos) << xml;
   EXPECT_NE(xml.find("<AllowMulticast>false</AllowMulticast>"), std::string::npos) << xml;
+  EXPECT_NE(xml.find("<SPDPInterval>1s</SPDPInterval>"), std::string::npos) << "announced every second: " << xml;
   EXPECT_NE(xml.find("<Peer address=\"10.77.0.1\"/><Peer address=\"10.77.0.2\"/>"), std::string::npos) << xml;
   EXPECT_NE(xml.find("<IdentityCA>file:/keys/enclaves/vehicle/identity_ca.cert.pem</IdentityCA>"), std::string::npos);
   EXPECT_NE(xml.find("<IdentityCertificate>file:/keys/enclaves/vehicle/cert.pem</IdentityCertificate>"), std::string::npos);

@@ -13,26 +13,18 @@
 #pragma once
 
 #include <cstdint>
-#include <filesystem>
 #include <string>
-#include <string_view>
-#include <vector>
+
+#include "rejuv/core/cyclone_xml.hpp"
 
 namespace rejuv::services::host_link {
 
-// What the Cyclone configuration of the link says: the host's own address (its interface), the addresses of
-// both ends as unicast peers (no multicast: a link is point to point), and the enclave of `rejuv keys hosts`
-// (KEYS/enclaves/<host>: identity, permissions, governance and the CA certificates).
-struct CycloneSettings {
-  std::string address;
-  std::vector<std::string> peers;
-  std::filesystem::path enclave;
-  // The private key's PEM as the kernel handed it over (wire::kHostLinkKeyFd: the key file is its owner's only),
-  // given to Cyclone inline ("data:,"); empty: the enclave's key.pem by its path.
-  std::string private_key_pem;
-};
-// The Cyclone XML (<CycloneDDS> with <Security>), as tests/across_hosts configures its participants.
-[[nodiscard]] std::string cyclone_config(const CycloneSettings& settings);
+// The Cyclone XML of the link (<CycloneDDS> with <Security>, cyclone::config_xml): the host's own address (its
+// interface), the addresses of both ends as unicast peers (no multicast: a link is point to point), the enclave
+// of `rejuv keys hosts` (KEYS/enclaves/<host>) and the private key's PEM as the kernel handed it over
+// (wire::kHostLinkKeyFd: the key file is its owner's only; empty: the enclave's key.pem by its path). Its
+// spdp_interval is the link's own: one second.
+[[nodiscard]] std::string cyclone_config(cyclone::ParticipantConfig settings);
 
 // The link's closing rule for samples from the peer: admitted only in MC, and only when written (their DDS
 // source timestamp) after the MC window began; a sample written while the link was closed is dropped.
