@@ -110,6 +110,22 @@ void BM_BaselineBoundsCheckedLoad(benchmark::State& state) {
 }
 BENCHMARK(BM_BaselineBoundsCheckedLoad);
 
+// The router's check at every delivery (router.cpp deliver_one): the subscriber's cap looked up and its Read in
+// the current mode tested. Beside BM_BaselineBoundsCheckedLoad above.
+void BM_DeliveryReadCheck(benchmark::State& state) {
+  const ModeTable table = synthetic_policy();
+  CapSystem sys = make_system(table);
+  const CapRef cap{.space = ServiceId{1}, .slot = Slot{0}};
+  for (auto _ : state) {
+    const auto held = sys.lookup(cap);
+    const bool readable = held && held->rights.has(Right::Read);
+    benchmark::DoNotOptimize(readable);
+  }
+  const auto held = sys.lookup(cap);
+  if (!held || !held->rights.has(Right::Read)) state.SkipWithError("the subscriber holds no Read");
+}
+BENCHMARK(BM_DeliveryReadCheck);
+
 // Rotating over every policy slot of every service: the same path with cold-ish branches.
 void BM_DecodeRotating(benchmark::State& state) {
   const ModeTable table = synthetic_policy();

@@ -250,15 +250,20 @@ Router::SendResult Router::send_now(ServiceRuntime& s, std::span<const std::byte
 }
 
 bool Router::deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber) {
+  const SubscriberInfo& info = subscribers[subscriber.value()];
+  // Read is enforced in the current mode at every delivery, not only at the Subscribe: a subscriber whose mode
+  // holds no Read on the topic now (a link between hosts in the secure interval) gets nothing, and what is
+  // waiting for it is consumed unseen, so that none of it is handed over once the mode gives Read back.
+  const auto held = k.caps.lookup(cap::CapRef{.space = s.id, .slot = info.slot});
+  if (!held || !held->rights.has(Right::Read)) {
+    for (;;) {
+      const auto skipped = k.broker.next(subscriber);
+      if (!skipped || !*skipped) return false;
+    }
+  }
   auto next = k.broker.next(subscriber);
   if (!next || !*next) return false;
   const broker::Delivery& d = **next;
-  const SubscriberInfo& info = subscribers[subscriber.value()];
-  // The broker enforces Read per mode on every delivery, not only at the Subscribe: a subscriber whose mode
-  // holds no Read on the topic now (a link between hosts in the secure interval) gets nothing; the message is
-  // consumed, so it is not handed over later either.
-  const auto held = k.caps.lookup(cap::CapRef{.space = s.id, .slot = info.slot});
-  if (!held || !held->rights.has(Right::Read)) return false;
   // A polled subscription skips what its service slept through by design (uORB::Subscription reads the
   // newest): the service sees the gap in the generations; only a push subscriber that fell behind counts.
   if (!info.polled) s.stats.lost += d.lost;
