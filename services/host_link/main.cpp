@@ -89,7 +89,7 @@ class Link {
         ok = false;
         continue;
       }
-      const std::string dds_name = std::string(kDdsNamePrefix) + cap.object;
+      const std::string dds_name = dds_topic_name(cap.object, DdsNaming::Rejuv);
       const dds_entity_t topic = dds_create_topic(participant_, type->descriptor, dds_name.c_str(), nullptr, nullptr);
       if (topic < 0) {
         ok = refused("dds_create_topic " + dds_name, topic) && ok;
