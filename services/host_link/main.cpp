@@ -68,7 +68,8 @@ class Link {
     for (ssize_t n = 0; (n = ::read(wire::kHostLinkKeyFd, chunk, sizeof chunk)) > 0;) key.append(chunk, static_cast<std::size_t>(n));
     ::close(wire::kHostLinkKeyFd);
     if (key.empty()) {
-      svc_.log(sdk::LogLevel::Error, "no DDS Security private key on fd 5 (the kernel hands it over)");
+      svc_.log(sdk::LogLevel::Error, "no DDS Security private key on fd " + std::to_string(wire::kHostLinkKeyFd) +
+                                         " (the kernel hands it over)");
       return false;
     }
     const std::string xml = hl::cyclone_config(
