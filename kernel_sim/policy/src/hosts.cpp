@@ -6,6 +6,8 @@
 #include <set>
 #include <utility>
 
+#include "rejuv/core/dds_name.hpp"
+
 namespace rejuv::policy {
 
 Placement placement(const Policy& policy, const launch::LoadedLaunch& graph) {
@@ -52,7 +54,7 @@ std::vector<Crossing> crossings(const Policy& policy, const Placement& placement
 }
 
 std::string cross_host_dds_name(const Object& topic) {
-  return std::string(launch::defaults::kDdsNamePrefix) + topic.name;
+  return dds_topic_name(topic.name, DdsNaming::Rejuv);
 }
 
 std::vector<HostTopics> host_topics(const Policy& policy, const Placement& placement) {

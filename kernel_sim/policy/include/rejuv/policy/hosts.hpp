@@ -51,7 +51,8 @@ struct HostTopics {
 };
 [[nodiscard]] std::vector<HostTopics> host_topics(const Policy& policy, const Placement& placement);
 
-// The DDS name of a cross-host topic: "rejuv/<topic>" (as a bridge's default, launch::dds_name).
+// The DDS name of a cross-host topic: dds_topic_name(topic, DdsNaming::Rejuv), "rejuv/<topic>", whatever the
+// graph's dds.ros2_names (the links carry Rejuv's names; the permissions of `rejuv keys hosts` grant these).
 [[nodiscard]] std::string cross_host_dds_name(const Object& topic);
 
 // A service that acts in the secure interval (§III, Fig. 1): it holds a Write right in RB, SC, UPDATE or CP
