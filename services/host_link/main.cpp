@@ -28,9 +28,8 @@ constexpr std::int32_t kDepth = 8;  // DDS history per topic: what waits while t
 
 // A payload buffer aligned for any field of an IDL C struct (the kernel's bytes need not be).
 struct AlignedPayload {
-  explicit AlignedPayload(std::size_t size) : bytes(size), storage(size / sizeof(std::max_align_t) + 1) {}
+  explicit AlignedPayload(std::size_t size) : storage(size / sizeof(std::max_align_t) + 1) {}
   void* data() { return storage.data(); }
-  std::size_t bytes;
   std::vector<std::max_align_t> storage;
 };
 
