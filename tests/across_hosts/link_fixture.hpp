@@ -153,7 +153,8 @@ class TwoHostsTest : public ::testing::Test {
                           << "hosts { name: \"vehicle\" address: \"10.77.0.1\" netns: \"" << vehicle_ns_ << "\" }\n"
                           << "hosts { name: \"companion\" address: \"10.77.0.2\" netns: \"" << companion_ns_ << "\" }\n"
                           << "services { name: \"monitor\" executable: \"" << kMonitor.string() << "\" host: \"companion\"\n"
-                          << "  uses { object: \"vehicle_state\" rights: \"R\" } }\n";
+                          << "  uses { object: \"vehicle_state\" rights: \"R\" } }\n"
+                          << more_graph();
     keys_ = dir_ / "keys";
     for (const std::vector<std::string>& cmd :
          {std::vector<std::string>{"keys", "init", keys_.string()},
@@ -167,6 +168,9 @@ class TwoHostsTest : public ::testing::Test {
     std::error_code ec;
     if (!dir_.empty()) fs::remove_all(dir_, ec);
   }
+
+  // What a test adds to the graph (services, policy includes), written before the keystore is made from it.
+  [[nodiscard]] virtual std::string more_graph() const { return {}; }
 
   static std::uint32_t domain() { return rejuv::test_support::kOwnDdsDomain; }
 

@@ -92,34 +92,18 @@ class PlannerLink : public TwoHostsTest {
  protected:
   PlannerLink() : TwoHostsTest("rjQ") {}
 
-  // The fixture's graph with the planner added on the companion, and a keystore made again from it (its
-  // permissions now grant rejuv/mission_upload: the companion publishes it, the vehicle subscribes to it).
-  void SetUp() override {
-    TwoHostsTest::SetUp();
-    if (IsSkipped() || HasFatalFailure()) return;
-    std::ofstream(graph_, std::ios::app)
-        << "policy_include: \"" << (kRepo / "tests" / "across_hosts" / "planner.policy.pbtxt").string() << "\"\n"
-        << "services { name: \"planner\" executable: \"" << kPlanner.string() << "\" host: \"companion\"\n"
-        << "  uses { object: \"mission_upload\" rights: \"W\" } }\n";
-    keys_ = dir_ / "keys_planner";
-    for (const std::vector<std::string>& cmd :
-         {std::vector<std::string>{"keys", "init", keys_.string()},
-          {"keys", "hosts", keys_.string(), "--launch", graph_.string(), "--domain", std::to_string(domain())}}) {
-      const CliOutcome r = rejuv::test_support::run_rejuv(dir_ / "cmd", cmd);
-      ASSERT_EQ(r.exit_code, 0) << "rejuv keys " << cmd[1] << ": " << r.err;
-    }
+  // The planner on the companion (the keystore's permissions then grant rejuv/mission_upload: the companion
+  // publishes it, the vehicle subscribes to it).
+  [[nodiscard]] std::string more_graph() const override {
+    return "policy_include: \"" + (kRepo / "tests" / "across_hosts" / "planner.policy.pbtxt").string() + "\"\n" +
+           "services { name: \"planner\" executable: \"" + kPlanner.string() + "\" host: \"companion\"\n" +
+           "  uses { object: \"mission_upload\" rights: \"W\" } }\n";
   }
 
   // The vehicle's run with its outputs (trace.csv, events.csv, run.ulg of every routed message) in dir/vehicle/out.
   std::unique_ptr<KernelRun> start_vehicle(int seconds) {
-    const fs::path d = dir_ / "vehicle";
-    fs::create_directories(d);
-    return std::make_unique<KernelRun>(
-        d, rejuv::test_support::start_program(
-               d, rejuv::test_support::kRejuv,
-               {"run", graph_.string(), "--host", "vehicle", "--keys", keys_.string(), "--domain",
-                std::to_string(domain()), "--duration", std::to_string(seconds), "--out", (d / "out").string(),
-                "--no-figures", "--ulog-profile", "full"}));
+    return start("vehicle", seconds, false,
+                 {"--out", (dir_ / "vehicle" / "out").string(), "--no-figures", "--ulog-profile", "full"});
   }
 
   // The timestamp_ns of every mission_upload in the vehicle's ULog (routed_uploads.js).
