@@ -255,7 +255,6 @@ ServiceCgroup& ServiceCgroup::operator=(ServiceCgroup&& other) noexcept {
     names_ = std::move(other.names_);
     unified_ = std::move(other.unified_);
     oom_events_ = std::move(other.oom_events_);
-    unified_name_ = std::move(other.unified_name_);
     join_ = std::move(other.join_);
     join_fds_ = std::move(other.join_fds_);
     images_ = std::move(other.images_);
@@ -320,7 +319,6 @@ SysResult<ServiceCgroup> ServiceCgroup::create(std::string_view scope, const std
     }
     if (h.unified) {
       group.unified_ = *dir;
-      group.unified_name_ = (fs::path(h.path) / kernel_dir / name).string();
       const fs::path parent = dir->parent_path();
       for (const auto c : kControllers) {
         if (!wanted(c, limits) || has(served, c) || !has(h.controllers, c)) continue;
@@ -407,36 +405,45 @@ std::optional<std::uint64_t> ServiceCgroup::live_oom_kills() const {
   return std::nullopt;  // a kernel older than the counter (v1 before 4.13)
 }
 
-bool ServiceCgroup::in_leaf(pid_t pid, CgroupLeaf leaf) const {
-  if (!unified_name_) return false;
-  const std::string want = "0::" + *unified_name_ + (leaf == CgroupLeaf::Live ? "/live" : "/images");
-  std::ifstream in("/proc/" + std::to_string(pid) + "/cgroup");
-  for (std::string line; std::getline(in, line);) {
-    if (line == want) return true;
-  }
-  return false;
-}
+namespace {
 
-bool ServiceCgroup::settled_in(pid_t pid, CgroupLeaf leaf) const {
-  if (names_.empty()) return false;
-  // "<id>:<controllers>:<path>", one line per hierarchy the process is in (v2: no controllers).
-  std::vector<std::pair<std::vector<std::string>, std::string>> lines;
+// The hierarchies /proc/<pid>/cgroup lists the process in ("<id>:<controllers>:<path>"): its controllers (none
+// for v2) and its path.
+std::vector<std::pair<std::vector<std::string>, std::string>> cgroups_of(pid_t pid) {
+  std::vector<std::pair<std::vector<std::string>, std::string>> out;
   std::ifstream in("/proc/" + std::to_string(pid) + "/cgroup");
   for (std::string line; std::getline(in, line);) {
     const auto first = line.find(':');
     const auto second = first == std::string::npos ? first : line.find(':', first + 1);
     if (second == std::string::npos) continue;
     const std::string controllers = line.substr(first + 1, second - first - 1);
-    lines.emplace_back(controllers.empty() ? std::vector<std::string>{} : split(controllers, ','), line.substr(second + 1));
+    out.emplace_back(controllers.empty() ? std::vector<std::string>{} : split(controllers, ','), line.substr(second + 1));
   }
-  const std::string_view suffix = leaf == CgroupLeaf::Live ? "/live" : "/images";
-  return std::all_of(names_.begin(), names_.end(), [&](const auto& name) {
-    const auto& [controller, path] = name;
-    return std::any_of(lines.begin(), lines.end(), [&](const auto& l) {
-      const bool same_hierarchy = controller.empty() ? l.first.empty() : has(l.first, controller);
-      return same_hierarchy && l.second == path + std::string(suffix);
-    });
+  return out;
+}
+
+// Whether `cgroups` (cgroups_of) lists `name` — a controller of its hierarchy ("" for v2) and the service's
+// directory — at its `leaf`.
+bool listed(const std::vector<std::pair<std::vector<std::string>, std::string>>& cgroups,
+            const std::pair<std::string, std::string>& name, CgroupLeaf leaf) {
+  const auto& [controller, path] = name;
+  const std::string want = path + (leaf == CgroupLeaf::Live ? "/live" : "/images");
+  return std::any_of(cgroups.begin(), cgroups.end(), [&](const auto& c) {
+    return (controller.empty() ? c.first.empty() : has(c.first, controller)) && c.second == want;
   });
+}
+
+}  // namespace
+
+bool ServiceCgroup::in_leaf(pid_t pid, CgroupLeaf leaf) const {
+  const auto v2 = std::find_if(names_.begin(), names_.end(), [](const auto& n) { return n.first.empty(); });
+  return v2 != names_.end() && listed(cgroups_of(pid), *v2, leaf);
+}
+
+bool ServiceCgroup::settled_in(pid_t pid, CgroupLeaf leaf) const {
+  if (names_.empty()) return false;
+  const auto cgroups = cgroups_of(pid);
+  return std::all_of(names_.begin(), names_.end(), [&](const auto& n) { return listed(cgroups, n, leaf); });
 }
 
 bool ServiceCgroup::kill_live() const {

@@ -129,7 +129,6 @@ class ServiceCgroup {
   // v2) and the path (one path may be in several hierarchies).
   std::vector<std::pair<std::string, std::string>> names_{};
   std::optional<std::filesystem::path> unified_{};  // the v2 one (cgroup.kill)
-  std::optional<std::string> unified_name_{};  // the service's directory as /proc/<pid>/cgroup names it (v2)
   std::optional<std::filesystem::path> oom_events_{};  // the live leaf's memory.oom_control (v1) or memory.events
   std::vector<UniqueFd> join_{};  // live/cgroup.procs, one per hierarchy
   std::vector<int> join_fds_{};
