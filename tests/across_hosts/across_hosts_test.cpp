@@ -23,6 +23,7 @@
 #include "../test_domain.hpp"
 #include "keystore.hpp"
 #include "rejuv/core/cyclone_xml.hpp"
+#include "rejuv/core/dds_name.hpp"
 
 namespace {
 
@@ -36,6 +37,9 @@ const fs::path kPeer = REJUV_DDS_PEER;
 const std::string kGraph = (kRepo / "tests" / "across_hosts" / "companion.launch.pbtxt").string();
 constexpr const char* kVehicleAddress = "10.77.0.1";  // as the graph's hosts
 constexpr const char* kCompanionAddress = "10.77.0.2";
+// The graph's topics under their DDS names (the names the keystore's permissions grant).
+const std::string kState = rejuv::dds_topic_name("state", rejuv::DdsNaming::Rejuv);
+const std::string kTelemetry = rejuv::dds_topic_name("telemetry", rejuv::DdsNaming::Rejuv);
 
 // A peer process; killed and reaped if the test leaves before it ended.
 class Peer {
@@ -134,10 +138,10 @@ class AcrossHosts : public ::testing::Test {
 };
 
 TEST_F(AcrossHosts, GrantedCrossHostTopic_Delivered) {
-  auto sub = start("granted_sub", hosts_->companion, "subscribe", "rejuv/state",
+  auto sub = start("granted_sub", hosts_->companion, "subscribe", kState,
                    config("granted_sub", kCompanionAddress, "companion"), {"--first", "--seconds", "60"});
   ASSERT_TRUE(sub->printed("reading")) << slurp(dir_ / "granted_sub" / "stdout") << slurp(dir_ / "granted_sub" / "stderr");
-  auto pub = start("granted_pub", hosts_->vehicle, "publish", "rejuv/state",
+  auto pub = start("granted_pub", hosts_->vehicle, "publish", kState,
                    config("granted_pub", kVehicleAddress, "vehicle"), {"--seconds", "60"});
   ASSERT_TRUE(pub->printed("writing")) << slurp(dir_ / "granted_pub" / "stdout") << slurp(dir_ / "granted_pub" / "stderr");
   const CliOutcome got = sub->wait();
@@ -149,8 +153,8 @@ TEST_F(AcrossHosts, GrantedCrossHostTopic_Delivered) {
 TEST_F(AcrossHosts, WriterOnUngrantedTopic_NotAllowedBySecurity) {
   // telemetry is read on the vehicle only: no host may carry it. state is the companion's to read, not write.
   for (const auto& [name, ns, address, enclave, topic] :
-       {std::tuple{"ungranted_vehicle", hosts_->vehicle, kVehicleAddress, "vehicle", "rejuv/telemetry"},
-        std::tuple{"ungranted_companion", hosts_->companion, kCompanionAddress, "companion", "rejuv/state"}}) {
+       {std::tuple{"ungranted_vehicle", hosts_->vehicle, kVehicleAddress, "vehicle", kTelemetry},
+        std::tuple{"ungranted_companion", hosts_->companion, kCompanionAddress, "companion", kState}}) {
     SCOPED_TRACE(name);
     auto pub = start(name, ns, "publish", topic, config(name, address, enclave), {"--seconds", "60"});
     const CliOutcome r = pub->wait();
@@ -161,16 +165,16 @@ TEST_F(AcrossHosts, WriterOnUngrantedTopic_NotAllowedBySecurity) {
 }
 
 TEST_F(AcrossHosts, ParticipantWithoutSecurity_ReceivesNothing) {
-  auto plain = start("plain_sub", hosts_->companion, "subscribe", "rejuv/state",
+  auto plain = start("plain_sub", hosts_->companion, "subscribe", kState,
                      config("plain_sub", kCompanionAddress, ""), {"--seconds", "120"});
   ASSERT_TRUE(plain->printed("reading")) << slurp(dir_ / "plain_sub" / "stderr");
-  auto pub = start("plain_pub", hosts_->vehicle, "publish", "rejuv/state", config("plain_pub", kVehicleAddress, "vehicle"),
+  auto pub = start("plain_pub", hosts_->vehicle, "publish", kState, config("plain_pub", kVehicleAddress, "vehicle"),
                    {"--seconds", "120"});
   ASSERT_TRUE(pub->printed("writing")) << slurp(dir_ / "plain_pub" / "stderr");
   // Two secure subscribers in turn, beside the plain one, each until its first sample: the vehicle's samples
   // reached the companion's namespace, twice over, while the plain participant listened there.
   for (const std::string name : {"secure_sub_1", "secure_sub_2"}) {
-    auto secure = start(name, hosts_->companion, "subscribe", "rejuv/state", config(name, kCompanionAddress, "companion"),
+    auto secure = start(name, hosts_->companion, "subscribe", kState, config(name, kCompanionAddress, "companion"),
                         {"--first", "--seconds", "60"});
     const CliOutcome got = secure->wait();
     ASSERT_NE(got.out.find("received 1"), std::string::npos) << name << ": " << got.out << got.err;
@@ -183,10 +187,10 @@ TEST_F(AcrossHosts, ParticipantWithoutSecurity_ReceivesNothing) {
 // The control of the test above: between two participants without security the same path delivers, so the
 // plain participant's nothing is the security's doing, not the network's.
 TEST_F(AcrossHosts, WithoutSecurityOnBothSides_Delivered) {
-  auto sub = start("open_sub", hosts_->companion, "subscribe", "rejuv/state", config("open_sub", kCompanionAddress, ""),
+  auto sub = start("open_sub", hosts_->companion, "subscribe", kState, config("open_sub", kCompanionAddress, ""),
                    {"--first", "--seconds", "60"});
   ASSERT_TRUE(sub->printed("reading")) << slurp(dir_ / "open_sub" / "stderr");
-  auto pub = start("open_pub", hosts_->vehicle, "publish", "rejuv/state", config("open_pub", kVehicleAddress, ""),
+  auto pub = start("open_pub", hosts_->vehicle, "publish", kState, config("open_pub", kVehicleAddress, ""),
                    {"--seconds", "60"});
   const CliOutcome got = sub->wait();
   EXPECT_NE(got.out.find("received 1"), std::string::npos) << got.out << got.err;
