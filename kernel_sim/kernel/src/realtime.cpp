@@ -84,9 +84,8 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   if (ok) return;
   // A restored copy is moved from `images/` into `live/` by the placer, after the rollback (docs/sandbox.md);
   // in `images/`, whose real-time budget is 0 (v1 RT groups), SCHED_FIFO is refused: again once it is there —
-  // in every hierarchy, the v1 cpu one (the budget) after the v2 one. Taken for a refusal while the placer was
-  // between the two, a chain service ran the rest of its incarnation SCHED_OTHER (seen in a real-time soak
-  // beside builds: ekf2, sensors and lqr_control, each "stays SCHED_OTHER").
+  // in every hierarchy, the v1 cpu one (the budget) after the v2 one. A refusal while the placer is between the
+  // two is not final: the copy is tried again once settled (retry_realtime), else it would run SCHED_OTHER.
   if (s.sandbox.cgroup.valid() && !s.sandbox.cgroup.settled_in(pid, sys::CgroupLeaf::Live)) {
     realtime_pending_.emplace_back(s.id, pid);
     return;

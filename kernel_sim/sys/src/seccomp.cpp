@@ -179,8 +179,7 @@ constexpr std::array kServiceRules{
 };
 
 // What a network-facing service calls beyond the service list (network_syscalls; docs/sandbox.md "The link"): the
-// calls Cyclone DDS makes for its UDP sockets and to list the interfaces (getifaddrs: a netlink socket), read
-// from the kernel's log of the calls it refused to the link. Sending and receiving are the service list's
+// calls Cyclone DDS makes for its UDP sockets and to list the interfaces (getifaddrs: a netlink socket). Sending and receiving are the service list's
 // (sendto, sendmsg, recvfrom, recvmsg); a socket of any other family (AF_UNIX, AF_PACKET, AF_INET6) is refused.
 constexpr std::array kNetworkRules{
     SyscallRule{"socket", Allowance::Always, ArgCheck::SocketDomains,
