@@ -236,7 +236,7 @@ TEST_F(Determinism, TwoFlightsWithOneSeed_IdenticalUlogsButForMachineLines) {
 // Two runs at once on ONE DDS domain (docs/protocol.md "One run, one partition"): each kernel puts its bridge and
 // its plant in its run's own partition, so each flies its own plant from the first step: both finish the
 // mission, and each writes the trace, summary and ULog that the seed writes in a run alone. The control: the
-// same two runs given one run id (one partition, as every run was before partitions) hear each other's plant,
+// same two runs given one run id (so one partition, shared) hear each other's plant,
 // and not both fly the lone run's flight (a kernel refuses the other plant's steps: StopReason::PlantProtocol).
 TEST_F(Determinism, TwoRunsAtOnceOnOneDomain_EachFliesItsOwnPlant) {
   square_ = "quad_square.launch.pbtxt";
