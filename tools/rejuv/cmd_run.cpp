@@ -318,10 +318,7 @@ void declare_run_options(Options& opts, RunRequest& r) {
                                         "comma-separated services not to start (e.g. not built yet)")
       .custom<dds::RunId>(
           "--run-id", "HEX", r.run_id,
-          [](std::string_view text) -> Result<dds::RunId, std::string> {
-            if (auto id = dds::parse_run_id(text)) return *id;
-            return fail("--run-id: expected 16 hex digits, got '" + std::string(text) + "'");
-          },
+          [](std::string_view text) { return dds::parse_run_id("--run-id", text); },
           "the run's id: the kernel's DDS bridge and its plant use the partition rejuv.HEX, which no other run\n"
           "on the domain hears (two runs given one id hear each other: for tests)",
           "64 random bits");

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <random>
+#include <string>
 
 namespace rejuv::dds {
 
@@ -29,6 +30,12 @@ std::optional<RunId> parse_run_id(std::string_view text) {
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v, 16);
   if (ec != std::errc{} || end != text.data() + text.size()) return std::nullopt;
   return RunId{v};
+}
+
+Result<RunId, std::string> parse_run_id(std::string_view flag, std::string_view text) {
+  if (auto id = parse_run_id(text)) return *id;
+  return fail(std::string(flag) + ": expected " + std::to_string(kHexDigits) + " hex digits, got '" +
+              std::string(text) + "'");
 }
 
 std::string run_partition(RunId id) {

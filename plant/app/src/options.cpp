@@ -112,11 +112,7 @@ Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::str
     return {};
   };
   if (flag == "--domain") return assign(o.domain, parse_int<std::uint32_t>(flag, value, 0, 232));
-  if (flag == "--run-id") {
-    o.run_id = dds::parse_run_id(value);
-    if (!o.run_id) return fail(std::string(flag) + ": expected 16 hex digits, got '" + std::string(value) + "'");
-    return {};
-  }
+  if (flag == "--run-id") return assign(o.run_id, dds::parse_run_id(flag, value));
   if (flag == "--dds-names") {
     return choose(o.naming, flag, value, {"rejuv", DdsNaming::Rejuv}, {"ros2", DdsNaming::Ros2});
   }

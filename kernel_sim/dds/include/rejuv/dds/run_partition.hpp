@@ -16,6 +16,7 @@
 #include <string_view>
 
 #include "rejuv/core/ids.hpp"
+#include "rejuv/core/result.hpp"
 
 namespace rejuv::dds {
 
@@ -29,6 +30,8 @@ using RunId = StrongId<struct RunIdTag, std::uint64_t>;
 [[nodiscard]] std::string to_string(RunId id);
 // Exactly 16 hex digits (either case); nullopt otherwise.
 [[nodiscard]] std::optional<RunId> parse_run_id(std::string_view text);
+// The same for a flag's value: the error names the flag ("--run-id: expected 16 hex digits, got 'x'").
+[[nodiscard]] Result<RunId, std::string> parse_run_id(std::string_view flag, std::string_view text);
 
 // "rejuv.<16 hex digits>": the partition of every endpoint of the run's kernel bridge and of its plant.
 [[nodiscard]] std::string run_partition(RunId id);
