@@ -26,6 +26,7 @@
 
 #include "keystore.hpp"
 #include "link_fixture.hpp"
+#include "rejuv/core/dds_name.hpp"
 #include "rejuv/services/host_link/host_link.hpp"
 
 namespace {
@@ -35,6 +36,7 @@ using namespace rejuv::test_support::across;
 const fs::path kPeer = REJUV_DDS_PEER;
 constexpr const char* kVehicleAddress = "10.77.0.1";  // as link_fixture.hpp's hosts
 constexpr const char* kCompanionAddress = "10.77.0.2";
+const std::string kVehicleStateTopic = rejuv::dds_topic_name("vehicle_state", rejuv::DdsNaming::Rejuv);
 
 // The counters' packets of `nft list table` output, in order ("counter packets N bytes M").
 std::vector<long long> counter_packets(const std::string& listing) {
@@ -129,7 +131,7 @@ class HostileLink : public TwoHostsTest {
         {.address = kCompanionAddress, .peers = {kCompanionAddress, kVehicleAddress}, .enclave = enclave, .private_key_pem = {}});
     const fs::path d = dir_ / name;
     fs::create_directories(d);
-    std::vector<std::string> args{"netns", "exec", companion_ns_, kPeer.string(), "subscribe", "rejuv/vehicle_state",
+    std::vector<std::string> args{"netns", "exec", companion_ns_, kPeer.string(), "subscribe", kVehicleStateTopic,
                                   "--domain", std::to_string(domain()), "--config", cfg.string()};
     args.insert(args.end(), extra.begin(), extra.end());
     return std::make_unique<KernelRun>(d, rejuv::test_support::start_program(d, kIp, std::move(args)));
@@ -160,7 +162,7 @@ TEST_F(HostileLink, LossyLinkAndAnIntruder_VehicleSafe_CompanionReceives_Intrude
   auto own_ca = rejuv::keys::init_keystore(forged);
   ASSERT_TRUE(own_ca) << own_ca.error();
   auto forged_grant = rejuv::keys::write_enclaves(
-      forged, {{.host = "intruder", .publish = {}, .subscribe = {"rejuv/vehicle_state"}}}, domain());
+      forged, {{.host = "intruder", .publish = {}, .subscribe = {kVehicleStateTopic}}}, domain());
   ASSERT_TRUE(forged_grant) << forged_grant.error();
   namespace ef = rejuv::keys::enclave_file;
   for (const std::string_view f : {ef::kCert, ef::kKey, ef::kIdentityCa}) {
