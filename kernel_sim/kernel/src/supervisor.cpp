@@ -208,8 +208,13 @@ Result<LinkFds, KernelError> open_link_fds(const ServiceRuntime& s, sys::SpawnSp
                             .findings = {}});
   };
   if (!s.config.link->netns.empty()) {
-    auto netns = open("/run/netns/" + s.config.link->netns, "host's network namespace");
-    if (!netns) return fail(std::move(netns.error()));
+    auto netns = sys::open_netns(s.config.link->netns);
+    if (!netns) {
+      return fail(KernelError{.kind = KernelError::Kind::Boot,
+                              .message = "spawn '" + s.name + "': its host's network namespace: " +
+                                         netns.error().to_string(),
+                              .findings = {}});
+    }
     fds.netns = std::move(*netns);
     spec.netns_fd = fds.netns.get();
   }

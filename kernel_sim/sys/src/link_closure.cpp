@@ -21,6 +21,13 @@
 
 namespace rejuv::sys {
 
+SysResult<UniqueFd> open_netns(const std::string& name) {
+  const std::string path = "/run/netns/" + name;
+  UniqueFd fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  if (!fd) return std::unexpected(SysError{"open(/run/netns)", errno, path});
+  return fd;
+}
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -43,10 +50,9 @@ class InNetns {
   static SysResult<InNetns> enter(const std::string& name) {
     UniqueFd own(::open("/proc/thread-self/ns/net", O_RDONLY | O_CLOEXEC));
     if (!own) return last_error("open(/proc/thread-self/ns/net)");
-    const std::string path = "/run/netns/" + name;
-    UniqueFd target(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-    if (!target) return std::unexpected(SysError{"open(/run/netns)", errno, path});
-    if (::setns(target.get(), CLONE_NEWNET) != 0) return std::unexpected(SysError{"setns", errno, path});
+    auto target = open_netns(name);
+    if (!target) return std::unexpected(std::move(target.error()));
+    if (::setns(target->get(), CLONE_NEWNET) != 0) return std::unexpected(SysError{"setns", errno, name});
     return InNetns(std::move(own));
   }
   InNetns(InNetns&& other) noexcept = default;

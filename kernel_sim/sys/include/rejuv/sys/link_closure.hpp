@@ -38,6 +38,9 @@
 
 namespace rejuv::sys {
 
+// The network namespace `name` (an `ip netns` name: /run/netns/<name>), opened for setns.
+[[nodiscard]] SysResult<UniqueFd> open_netns(const std::string& name);
+
 // The uplink a LinkClosure closes.
 struct UplinkSpec {
   std::string label{};                // names the table rejuv_link_<label>; 1…64 of [A-Za-z0-9_-]
