@@ -36,6 +36,7 @@
 #include "args.hpp"
 #include "rejuv/sys/lease.hpp"
 #include "rejuv/sys/process.hpp"
+#include "run_child.hpp"
 
 namespace rejuv::cli {
 namespace {
@@ -137,9 +138,19 @@ fs::path write_config(const fs::path& file, const char* address, const fs::path&
   std::ofstream(file) << cyclone::config_xml(cyclone::ParticipantConfig{
                              .address = address,
                              .peers = {kVehicleAddress, kCompanionAddress},
-                             .enclave = enclave.empty() ? fs::path() : keys / "enclaves" / enclave})
+                             .enclave = enclave.empty() ? fs::path() : keys::enclave_dir(keys, enclave)})
                       << "\n";
   return file;
+}
+
+// The keystore as a user makes it: `rejuv keys init KEYS` (once: a second run into one --out keeps its CA), then
+// `rejuv keys hosts KEYS --launch GRAPH --domain DOMAIN`.
+Result<void, std::string> make_keystore(const fs::path& self, const fs::path& keys, const fs::path& graph,
+                                        const std::string& domain, const fs::path& log) {
+  if (!fs::exists(keys::enclave_dir(keys, "vehicle"))) {
+    if (auto ok = run(self, {"keys", "init", keys.string()}, log); !ok) return ok;
+  }
+  return run(self, {"keys", "hosts", keys.string(), "--launch", graph.string(), "--domain", domain}, log);
 }
 
 struct Row {
@@ -209,18 +220,16 @@ void measure_link(Row& row, const Namespaces& ns, const fs::path& dir, const fs:
                        << "services { name: \"probe_sub\" executable: \"rejuv_link_probe_sub\" host: \"companion\"\n"
                        << "  uses { object: \"link_probe\" rights: \"R\" } }\n";
   const fs::path keys = dir / "link_keys";
-  for (const std::vector<std::string>& cmd :
-       {std::vector<std::string>{"keys", "init", keys.string()},
-        {"keys", "hosts", keys.string(), "--launch", graph.string(), "--domain", domain}}) {
-    if (fs::exists(keys / "enclaves" / "vehicle") && cmd[1] == "init") continue;
-    if (auto ok = run(self, cmd, dir / "link_keys.log"); !ok) { row.error = ok.error(); return; }
+  if (auto ok = make_keystore(self, keys, graph, domain, dir / "link_keys.log"); !ok) {
+    row.error = ok.error();
+    return;
   }
   // The vehicle aligns (20 s) before its flight; the companion, without a plant, outlasts it.
   const std::uint64_t flight_s = std::max<std::uint64_t>(5, samples / kRateHz);
   const auto host_run = [&](const std::string& host, std::uint64_t seconds) {
-    return start(self, {"run", graph.string(), "--host", host, "--keys", keys.string(), "--domain", domain,
-                        "--duration", std::to_string(seconds), "--no-sr", "--no-attack", "--net-port", "0"},
-                 dir / ("link_" + host + ".log"));
+    return start_rejuv_run({graph.string(), "--host", host, "--keys", keys.string(), "--domain", domain, "--duration",
+                            std::to_string(seconds), "--no-sr", "--no-attack", "--net-port", "0"},
+                           dir / ("link_" + host + ".log"));
   };
   auto companion = host_run("companion", flight_s + 35);
   if (!companion) { row.error = companion.error(); return; }
@@ -302,14 +311,9 @@ int run_bench_across_hosts(std::uint64_t samples, std::uint64_t rounds, const st
   const fs::path keys = dir / "keys";
   const fs::path self = fs::read_symlink("/proc/self/exe", ec);
   const std::string graph = std::string(REJUV_SOURCE_DIR) + "/tests/across_hosts/companion.launch.pbtxt";
-  for (const std::vector<std::string>& cmd :
-       {std::vector<std::string>{"keys", "init", keys.string()},
-        {"keys", "hosts", keys.string(), "--launch", graph, "--domain", std::to_string(kDomain)}}) {
-    if (fs::exists(keys / "enclaves" / "vehicle") && cmd[1] == "init") continue;  // a second run into one --out
-    if (auto ok = run(self, cmd, dir / "keys.log"); !ok) {
-      std::fprintf(stderr, "rejuv bench across-hosts: %s\n", ok.error().c_str());
-      return static_cast<int>(Exit::Findings);
-    }
+  if (auto ok = make_keystore(self, keys, graph, std::to_string(kDomain), dir / "keys.log"); !ok) {
+    std::fprintf(stderr, "rejuv bench across-hosts: %s\n", ok.error().c_str());
+    return static_cast<int>(Exit::Findings);
   }
   Namespaces ns(dir);
   if (auto made = ns.make(); !made) {
