@@ -12,11 +12,11 @@
 
 #include "args.hpp"
 #include "commands.hpp"
-#include "host_part.hpp"
-#include "rejuv/policy/hosts.hpp"
 #include "common_options.hpp"
+#include "host_part.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/policy/audit.hpp"
+#include "rejuv/policy/hosts.hpp"
 #include "rejuv/policy/policy.hpp"
 
 namespace rejuv::cli {
@@ -216,8 +216,6 @@ std::string json_report(const policy::Policy& pol, const AuditRequest& r, const 
   return out + "],\"matrix\":" + json_matrix(pol) + "}\n";
 }
 
-}  // namespace
-
 // A graph across hosts (docs/across_hosts.md "The link"): each host's part audited with the links `rejuv run
 // --host` adds to it (policy/hosts.hpp add_host_links), as that host's kernel audits it; their findings join the
 // graph's (each once), and `links` says what each host's links carry. An error: the links could not be made.
@@ -247,6 +245,8 @@ Result<std::vector<policy::Finding>, std::string> audit_links(const std::string&
   }
   return out;
 }
+
+}  // namespace
 
 int run_audit(std::span<const std::string_view> args) {
   AuditRequest r;
