@@ -18,7 +18,7 @@ namespace rejuv::msgs {
 
 using rejuv::DdsNaming;  // Rejuv or Ros2; the topic's DDS name is rejuv::dds_topic_name (rejuv/core/dds_name.hpp)
 
-inline constexpr std::string_view kRos2Package = "rejuv_msgs";  // the generated interface package
+using rejuv::kRos2Package;  // the generated interface package (rejuv/core/dds_name.hpp)
 inline constexpr std::string_view kIdlModule = "rejuv::msg::";  // the IDL module of every topic type
 
 // A topic as DDS sees it: its DDS topic name, and its type whose descriptor carries the DDS type name.

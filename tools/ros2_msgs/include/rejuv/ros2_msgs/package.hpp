@@ -15,12 +15,13 @@
 #include <string>
 #include <vector>
 
+#include "rejuv/core/dds_name.hpp"
 #include "rejuv/core/result.hpp"
 #include "rejuv/ros2_msgs/idl.hpp"
 
 namespace rejuv::ros2_msgs {
 
-inline constexpr std::string_view kPackageName = "rejuv_msgs";
+inline constexpr std::string_view kPackageName = rejuv::kRos2Package;  // rejuv/core/dds_name.hpp
 
 // One file of the package, relative to its folder ("msg/SensorGyro.msg", "package.xml").
 struct PackageFile {
