@@ -42,6 +42,14 @@ std::string seconds_text(Nanos t) {
 
 // Every DDS endpoint of the plant. Readers first, then writers, sim_step last: the kernel's discovery sees
 // them in that order (plant_topics.hpp, step 1).
+// The DDS partition of every endpoint: the run's (--run-id), else "" (the default partition).
+std::string partition_of(const PlantOptions& o) { return o.run_id ? dds::run_partition(*o.run_id) : std::string(); }
+// ", partition rejuv.<id>" for a log line, or "" in the default partition.
+std::string in_partition(const PlantOptions& o) {
+  const std::string p = partition_of(o);
+  return p.empty() ? std::string() : ", partition " + p;
+}
+
 struct Endpoints {
   dds::Participant participant;
   dds::Reader actuator_outputs;
@@ -268,7 +276,7 @@ class PlantProcess {
         if (left <= kSlice) {
           log("no kernel: its DDS endpoints did not appear within " + seconds_text(options_.connect_timeout) +
               " (domain " + std::to_string(options_.domain) +
-              (options_.run_id ? ", partition " + dds::run_partition(*options_.run_id) : std::string()) + ")");
+              in_partition(options_) + ")");
           return fail(kExitKernelLost);
         }
       }
@@ -388,7 +396,7 @@ ExitCode run(std::span<const std::string_view> args) {
     log(signals.error().to_string());
     return kExitFailure;
   }
-  const std::string partition = options.run_id ? dds::run_partition(*options.run_id) : std::string();
+  const std::string partition = partition_of(options);
   auto endpoints = Endpoints::open(dds::DomainId{options.domain}, partition, options.naming, options.clock);
   if (!endpoints) {
     log("DDS failure: " + endpoints.error().to_string());
@@ -409,7 +417,7 @@ ExitCode run(std::span<const std::string_view> args) {
     }
   }
   log(std::string(to_string(options.clock)) + " on domain " + std::to_string(options.domain) +
-      (partition.empty() ? std::string() : ", partition " + partition) + ", seed " +
+      in_partition(options) + ", seed " +
       std::to_string(options.seed) + ", hovering at (" + std::to_string(options.start_N_m.x()) + ", " +
       std::to_string(options.start_N_m.y()) + ", " + std::to_string(options.start_N_m.z()) + ") m NED after " +
       seconds_text(options.alignment) + " of alignment at rest");
