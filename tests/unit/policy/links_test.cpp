@@ -18,6 +18,7 @@
 #include "rejuv/policy/hosts.hpp"
 #include "rejuv/policy/policy.hpp"
 #include "companion_files.hpp"
+#include "../../rejuv_cli.hpp"
 
 namespace rejuv::policy {
 namespace {
@@ -36,13 +37,16 @@ launch::LoadedLaunch graph_of(const std::string& text) {
   return std::move(*g);
 }
 
-// A folder of its own per test for the links' fragment.
-std::filesystem::path fresh_dir(std::string_view name) {
-  const std::filesystem::path d = std::filesystem::path(::testing::TempDir()) / ("links_test_" + std::string(name));
-  std::filesystem::remove_all(d);
-  std::filesystem::create_directories(d);
-  return d;
-}
+// Each test writes the links' fragment into a folder of its own (per test and process: ctest runs this file's
+// tests side by side), removed when the test ends.
+class HostLinks : public test_support::ScratchDirTest {
+ protected:
+  HostLinks() : ScratchDirTest("links_test_") {}
+  [[nodiscard]] std::filesystem::path fresh_dir(std::string_view name) const {
+    std::filesystem::create_directories(dir_ / name);
+    return dir_ / name;
+  }
+};
 
 std::vector<std::string> names(const Policy& p, const std::vector<ObjectId>& ids) {
   std::vector<std::string> out;
@@ -50,7 +54,7 @@ std::vector<std::string> names(const Policy& p, const std::vector<ObjectId>& ids
   return out;
 }
 
-TEST(HostLinks, EachHostLinksItsPeerWithExactlyTheMcCrossings) {
+TEST_F(HostLinks, EachHostLinksItsPeerWithExactlyTheMcCrossings) {
   const launch::LoadedLaunch g = graph_of(kGraph);
   auto p = load_policy(g.policy_path, g.policy_includes);
   ASSERT_TRUE(p.has_value()) << p.error().to_string();
@@ -67,7 +71,7 @@ TEST(HostLinks, EachHostLinksItsPeerWithExactlyTheMcCrossings) {
   EXPECT_EQ(names(*p, companion[0].reads), std::vector<std::string>{"waypoints"});
 }
 
-TEST(HostLinks, CrossingOnlyInTheSecureInterval_CarriesNothing) {
+TEST_F(HostLinks, CrossingOnlyInTheSecureInterval_CarriesNothing) {
   // The monitor reads `state` only in SC: the pair never meets in MC, so no link carries it (the audit's
   // `hosts:mc-only` names the grant).
   const std::string policy_text = replaced(read(kDir / "companion.policy.pbtxt"),
@@ -88,9 +92,9 @@ struct WithLinks {
   AddedLinks added;
   Policy policy;
 };
-WithLinks with_links(std::string_view host, std::string_view dir_name) {
+WithLinks with_links(std::string_view host, const std::filesystem::path& dir) {
   launch::LoadedLaunch g = graph_of(kGraph);
-  auto added = add_host_links(g, host, fresh_dir(dir_name));
+  auto added = add_host_links(g, host, dir);
   EXPECT_TRUE(added.has_value()) << added.error();
   REJUV_ASSERT(added.has_value(), "the links must be added");
   auto p = load_policy(g.policy_path, g.policy_includes);
@@ -99,8 +103,8 @@ WithLinks with_links(std::string_view host, std::string_view dir_name) {
   return WithLinks{std::move(g), std::move(*added), std::move(*p)};
 }
 
-TEST(HostLinks, AddedToGraphAndPolicy_DriverNetworkFacingMcOnly) {
-  const WithLinks w = with_links("vehicle", "vehicle");
+TEST_F(HostLinks, AddedToGraphAndPolicy_DriverNetworkFacingMcOnly) {
+  const WithLinks w = with_links("vehicle", fresh_dir("vehicle"));
   ASSERT_EQ(w.added.links.size(), 1U);
   EXPECT_TRUE(std::filesystem::is_regular_file(w.added.fragment));
   // The launch view: rejuv_host_link on the vehicle's host, never rolled back, using what it is granted.
@@ -136,9 +140,9 @@ TEST(HostLinks, AddedToGraphAndPolicy_DriverNetworkFacingMcOnly) {
   EXPECT_EQ(slots, 2);
 }
 
-TEST(HostLinks, AuditClean_OnEitherHost) {
+TEST_F(HostLinks, AuditClean_OnEitherHost) {
   for (const std::string_view host : {"vehicle", "companion"}) {
-    const WithLinks w = with_links(host, host);
+    const WithLinks w = with_links(host, fresh_dir(host));
     const auto f = audit(w.policy, w.graph);
     EXPECT_TRUE(f.empty()) << host << ":\n" << all(f);
     const std::string peer = host == "vehicle" ? "companion" : "vehicle";
@@ -146,9 +150,9 @@ TEST(HostLinks, AuditClean_OnEitherHost) {
   }
 }
 
-TEST(HostLinks, LinkGrantInTheSecureInterval_RefusedByTheAudit) {
+TEST_F(HostLinks, LinkGrantInTheSecureInterval_RefusedByTheAudit) {
   // A link is audited as any service: one that would carry `state` in SC too crosses in the secure interval.
-  WithLinks w = with_links("companion", "companion_sei");
+  WithLinks w = with_links("companion", fresh_dir("companion_sei"));
   std::string text = read(w.added.fragment);
   std::ofstream(w.added.fragment, std::ios::trunc)
       << replaced(text, "object: \"state\" rights: \"W\" modes: MC", "object: \"state\" rights: \"W\" modes: [MC, SC]");
@@ -159,14 +163,14 @@ TEST(HostLinks, LinkGrantInTheSecureInterval_RefusedByTheAudit) {
   EXPECT_NE(all(f).find("link_vehicle"), std::string::npos) << all(f);
 }
 
-TEST(HostLinks, UnknownHost_Refused) {
+TEST_F(HostLinks, UnknownHost_Refused) {
   launch::LoadedLaunch g = graph_of(kGraph);
   auto added = add_host_links(g, "companoin", fresh_dir("unknown"));
   ASSERT_FALSE(added.has_value());
   EXPECT_NE(added.error().find("no host 'companoin'"), std::string::npos) << added.error();
 }
 
-TEST(HostLinks, NothingCrossing_NoLink) {
+TEST_F(HostLinks, NothingCrossing_NoLink) {
   // Without the planner's and the monitor's MC grants nothing crosses: no link, no fragment.
   std::string text = kGraph;
   text = replaced(text, "  host: \"companion\"\n", "");
