@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "rejuv/core/host_link_params.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/core/dds_name.hpp"
 #include "rejuv/msgs/topic_types.hpp"
@@ -54,14 +55,14 @@ class Link {
 
   // The participant and one endpoint per topic of its caps; false (logged) when something is missing.
   bool open() {
-    const std::string enclave(svc_.text_param("enclave", ""));
-    const std::string address(svc_.text_param("address", ""));
-    const std::string peer_address(svc_.text_param("peer_address", ""));
-    if (enclave.empty() || address.empty() || peer_address.empty() || !svc_.has_param("domain")) {
+    const std::string enclave(svc_.text_param(host_link_param::kEnclave, ""));
+    const std::string address(svc_.text_param(host_link_param::kAddress, ""));
+    const std::string peer_address(svc_.text_param(host_link_param::kPeerAddress, ""));
+    if (enclave.empty() || address.empty() || peer_address.empty() || !svc_.has_param(host_link_param::kDomain)) {
       svc_.log(sdk::LogLevel::Error, "needs the params enclave, address, peer_address and domain (set by `rejuv run --host`)");
       return false;
     }
-    const auto domain = static_cast<dds_domainid_t>(svc_.param("domain", 0));
+    const auto domain = static_cast<dds_domainid_t>(svc_.param(host_link_param::kDomain, 0));
     std::string key;  // handed over by the kernel on wire::kHostLinkKeyFd, read once
     char chunk[1024];
     for (ssize_t n = 0; (n = ::read(wire::kHostLinkKeyFd, chunk, sizeof chunk)) > 0;) key.append(chunk, static_cast<std::size_t>(n));
@@ -115,7 +116,7 @@ class Link {
     }
     dds_delete_qos(qos);
     svc_.logf(sdk::LogLevel::Info, "link to %s: %zu topic(s) in, %zu out, DDS domain %u, DDS Security from %s",
-              std::string(svc_.text_param("peer", "?")).c_str(), inbound_.size(), outbound_.size(),
+              std::string(svc_.text_param(host_link_param::kPeer, "?")).c_str(), inbound_.size(), outbound_.size(),
               static_cast<unsigned>(domain), enclave.c_str());
     return ok;
   }

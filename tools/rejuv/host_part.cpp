@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "keystore.hpp"
+#include "rejuv/core/host_link_params.hpp"
 #include "rejuv/core/did_you_mean.hpp"
 #include "rejuv/policy/hosts.hpp"
 
@@ -80,18 +81,18 @@ Result<HostPart, std::string> host_part(launch::LoadedLaunch& graph, kernel::Ker
     if (!policy::is_host_link(g, s)) continue;
     part.links.push_back(s.name());
     proto::Param& e = *s.add_params();
-    e.set_name("enclave");
+    e.set_name(std::string(host_link_param::kEnclave));
     e.set_text(enclave.string());
     proto::Param& d = *s.add_params();
-    d.set_name("domain");
+    d.set_name(std::string(host_link_param::kDomain));
     d.set_number(domain);
     std::string peer;
     for (const proto::Param& p : s.params()) {
-      if (p.name() == "peer") peer = p.text();
+      if (p.name() == host_link_param::kPeer) peer = p.text();
     }
-    for (const auto& [key, name] : {std::pair{"address", std::string(host)}, std::pair{"peer_address", peer}}) {
+    for (const auto& [key, name] : {std::pair{host_link_param::kAddress, std::string(host)}, std::pair{host_link_param::kPeerAddress, peer}}) {
       proto::Param& a = *s.add_params();
-      a.set_name(key);
+      a.set_name(std::string(key));
       for (const proto::Host& h : g.hosts()) {
         if (h.name() == name) a.set_text(h.address());
       }

@@ -11,6 +11,7 @@
 #include <filesystem>
 
 #include "impl.hpp"
+#include "rejuv/core/host_link_params.hpp"
 #include "rejuv/policy/audit.hpp"
 #include "rejuv/policy/hosts.hpp"
 
@@ -245,7 +246,7 @@ ServiceConfig::HostLink host_link_of(const Kernel::Impl& k, const proto::Service
     if (h.name() == host) link.netns = h.netns();
   }
   for (const proto::Param& p : spec.params()) {
-    if (p.name() == "enclave") link.enclave = p.text();
+    if (p.name() == host_link_param::kEnclave) link.enclave = p.text();
   }
   return link;
 }

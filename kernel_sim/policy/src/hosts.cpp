@@ -1,4 +1,5 @@
 // The graph across hosts (hosts.hpp, docs/across_hosts.md): placement, crossings and each host's DDS topics.
+#include "rejuv/core/host_link_params.hpp"
 #include "rejuv/policy/hosts.hpp"
 
 #include <algorithm>
@@ -184,9 +185,9 @@ Result<AddedLinks, std::string> add_host_links(launch::LoadedLaunch& graph, std:
       u.set_object(policy->object(t).name);
       u.set_rights("R");
     }
-    for (const auto& [key, value] : {std::pair{"host", std::string(host)}, std::pair{"peer", place.hosts[l.peer]}}) {
+    for (const auto& [key, value] : {std::pair{host_link_param::kHost, std::string(host)}, std::pair{host_link_param::kPeer, place.hosts[l.peer]}}) {
       proto::Param& p = *s.add_params();
-      p.set_name(key);
+      p.set_name(std::string(key));
       p.set_text(value);
     }
   }
