@@ -112,8 +112,27 @@ std::vector<Hierarchy> hierarchies() {
   return out;
 }
 
+// v1 cpu: the real-time budget of the service `dir` (its live leaf, then its own) returned to its kernel's
+// directory, and that directory's to the machine's when `dir` held its last share; nothing where the
+// hierarchy has no cpu.rt_runtime_us. Before the rmdir, not left to it: a removed group is released by the
+// kernel only once nothing refers to it any more (a killed process not yet reaped, a slow release under load),
+// and until then its budget counts against the machine's 950 ms/s, so that the next kernel of this process,
+// made at once, found its chain refused SCHED_FIFO. A zero is refused only while the group holds a live
+// real-time task; by then it holds none.
+void release_rt_budget(const fs::path& dir) {
+  const fs::path own = dir / "cpu.rt_runtime_us";
+  if (!fs::exists(own)) return;
+  const std::uint64_t runtime = std::strtoull(read_file(own).c_str(), nullptr, 10);
+  if (runtime == 0) return;
+  for (const char* leaf : {"live", "images"}) (void)write_file(dir / leaf / "cpu.rt_runtime_us", "0");
+  if (!write_file(own, "0")) return;
+  const fs::path parent = dir.parent_path() / "cpu.rt_runtime_us";
+  const std::uint64_t held = std::strtoull(read_file(parent).c_str(), nullptr, 10);
+  (void)write_file(parent, std::to_string(held > runtime ? held - runtime : 0));
+}
+
 // Directories of kernels that are gone (their pid is free): left by a kernel that was killed. Empty by then
-// (their processes died with it: PR_SET_PDEATHSIG), so rmdir takes them.
+// (their processes died with it: PR_SET_PDEATHSIG), so rmdir takes them, their real-time budget returned first.
 void remove_stale(const fs::path& own) {
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator(own, ec)) {
@@ -123,6 +142,7 @@ void remove_stale(const fs::path& own) {
     if (pid <= 0 || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
     for (const auto& child : fs::directory_iterator(entry.path(), ec)) {
       if (!child.is_directory(ec)) continue;
+      release_rt_budget(child.path());
       for (const char* leaf : {"live", "images"}) (void)::rmdir((child.path() / leaf).c_str());
       (void)::rmdir(child.path().c_str());
     }
@@ -466,6 +486,7 @@ void ServiceCgroup::remove() noexcept {
   // tears down its memory), then remove the directories, then the kernel's own if this was its last.
   for (int i = 0; i < 1000 && !members().empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   for (const fs::path& dir : dirs_) {
+    release_rt_budget(dir);
     (void)::rmdir((dir / "live").c_str());
     (void)::rmdir((dir / "images").c_str());
     (void)::rmdir(dir.c_str());

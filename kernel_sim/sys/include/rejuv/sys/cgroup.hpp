@@ -116,8 +116,8 @@ class ServiceCgroup {
   [[nodiscard]] const std::optional<std::filesystem::path>& unified_dir() const { return unified_; }
 
  private:
-  // Kills what is left, waits briefly for it to leave, and removes the directories (then their parent, if
-  // this was the last service's).
+  // Kills what is left, waits briefly for it to leave, returns its real-time budget (v1 cpu) and removes the
+  // directories (then their parent, if this was the last service's).
   void remove() noexcept;
 
   [[nodiscard]] std::span<const int> procs_fds(CgroupLeaf leaf) const {
