@@ -73,20 +73,19 @@ Result<StepReport, KernelError> Kernel::step(Nanos t) {
     return fail(kernel_error(KernelError::Kind::Config, "step() is for TimeMaster::Manual"));
   }
   if (!k.booted || k.shut_down) return fail(kernel_error(KernelError::Kind::Boot, "not booted"));
-  const std::uint64_t target = k.lockstep.steps.steps_done() + 1;
-  k.lockstep.steps.offer_manual(t);
+  const std::uint64_t target = k.lockstep.steps().steps_done() + 1;
+  k.lockstep.offer_manual_step(t);
   StepReport report;
   std::uint32_t rounds = 0;
-  while (k.lockstep.steps.steps_done() < target) {
-    if (k.stop && !graceful(*k.stop) && !k.lockstep.steps.active()) break;
-    if (const auto next = k.lockstep.steps.begin_next(k.wall())) {
-      k.lockstep.begin_step(*next);
+  while (k.lockstep.steps().steps_done() < target) {
+    if (k.stop && !graceful(*k.stop) && !k.lockstep.steps().active()) break;
+    if (const auto next = k.lockstep.begin_next_step()) {
       report.step = next->step;
       report.t = next->t;
     }
-    if (k.lockstep.steps.active() && k.lockstep.advance_step()) {
-      rounds = k.lockstep.steps.rounds();
-      report.hung = k.lockstep.steps.hung();
+    if (k.lockstep.steps().active() && k.lockstep.advance_step()) {
+      rounds = k.lockstep.steps().rounds();
+      report.hung = k.lockstep.steps().hung();
       k.lockstep.finish_step();
       break;
     }
@@ -116,7 +115,7 @@ Result<RunOutcome, KernelError> Kernel::run() {
   }
   RunOutcome outcome{.reason = k.stop.value_or(StopReason::Requested),
                      .detail = k.stop_detail,
-                     .steps = k.lockstep.steps.steps_done(),
+                     .steps = k.lockstep.steps().steps_done(),
                      .sim_time = k.now(),
                      .wall_time = k.wall() - k.wall_start};
   shutdown();
@@ -174,7 +173,7 @@ const CatchUpStats& Kernel::catch_up_stats() const {
 
 Result<Generation, KernelError> Kernel::checkpoint_now() {
   Impl& k = *impl_;
-  if (!k.sr || !k.booted || k.lockstep.steps.active() ||
+  if (!k.sr || !k.booted || k.lockstep.steps().active() ||
       k.rejuvenator.coordinator.checkpoint() != ImageCoordinator::Checkpoint::None) {
     return fail(kernel_error(KernelError::Kind::Config, "checkpoint_now: needs SR on, a booted kernel and no step in progress"));
   }
@@ -188,7 +187,7 @@ Result<Generation, KernelError> Kernel::checkpoint_now() {
 
 Result<void, KernelError> Kernel::rollback_now(bool cold) {
   Impl& k = *impl_;
-  if (!k.sr || !k.booted || k.lockstep.steps.active()) {
+  if (!k.sr || !k.booted || k.lockstep.steps().active()) {
     return fail(kernel_error(KernelError::Kind::Config, "rollback_now: needs SR on, a booted kernel and no step in progress"));
   }
   if (cold) {

@@ -27,7 +27,7 @@ void Lockstep::take_steps() {
   auto n = adapter->take_steps(
       k.bridge->bridge(),
       [&](const dds::PlantLockstep::Step& step) {
-        auto offered = steps.offer(PendingStep{.step = step.step, .t = step.t, .samples_needed = step.samples_needed});
+        auto offered = steps_.offer(PendingStep{.step = step.step, .t = step.t, .samples_needed = step.samples_needed});
         if (!offered) {
           k.stop_run(StopReason::PlantProtocol, "the plant's steps: " + offered.error() +
                                                     " (a second plant on DDS domain " +
@@ -70,6 +70,12 @@ void Lockstep::watch_sample_readers(bool watch) {
 
 // ---- steps ----
 
+std::optional<PendingStep> Lockstep::begin_next_step() {
+  auto next = steps_.begin_next(k.wall());
+  if (next) begin_step(*next);
+  return next;
+}
+
 // The step StepClock::begin_next made active.
 void Lockstep::begin_step(const PendingStep& step) {
   for (ServiceRuntime& s : k.services) s.flow.new_step();
@@ -99,7 +105,7 @@ void Lockstep::replay_next_instant() {
     k.rejuvenator.chain_realtime();
     return;
   }
-  steps.next_batch(k.wall());  // its rounds and idle deadline count from here
+  steps_.next_batch(k.wall());  // its rounds and idle deadline count from here
   k.router.cork();
   (void)replay_instant();  // the last call ends the replay (advance_step then sees it over)
   k.router.uncork();
@@ -132,13 +138,13 @@ bool Lockstep::advance_step() {
     if (k.rejuvenator.service_images())
       continue;  // a pending rollback, or a checkpoint once quiescent (images.cpp)
     if (!k.all_idle()) return false;
-    if (steps.rounds_exhausted()) {
+    if (steps_.rounds_exhausted()) {
       k.log("step %llu did not settle after %u routing rounds; ending it",
-            static_cast<unsigned long long>(steps.active()->step), steps.rounds());
+            static_cast<unsigned long long>(steps_.active()->step), steps_.rounds());
       return true;
     }
     if (!staged_.empty()) {
-      steps.next_round();
+      steps_.next_round();
       k.router.cork();
       k.router.flush_staged();
       k.router.uncork();
@@ -146,7 +152,7 @@ bool Lockstep::advance_step() {
     }
     // Timers armed during this step that are already due (e.g. after(0)).
     if (k.timers.next_due() && *k.timers.next_due() <= k.now()) {
-      steps.next_round();
+      steps_.next_round();
       k.router.cork();
       k.fire_timers();
       k.router.uncork();
@@ -163,7 +169,7 @@ bool Lockstep::advance_step() {
 }
 
 void Lockstep::finish_step() {
-  const PendingStep step = steps.finish(k.wall());
+  const PendingStep step = steps_.finish(k.wall());
   const Nanos charged = k.rejuvenator.image_charge.take_step_charge();
   if (dds::PlantLockstep* adapter = k.bridge ? k.bridge->lockstep() : nullptr; adapter != nullptr) {
     if (auto ok = adapter->write_ack(step.step, step.t, charged); !ok) {  // docs/design.md §6: charge, in simulated time
@@ -216,9 +222,9 @@ void Lockstep::check_stop_conditions() {
 // rounds until the graph is idle, and is acknowledged; the loop sleeps in between.
 Result<void, KernelError> Lockstep::run_lockstep() {
   for (;;) {
-    if (k.stop && (!graceful(*k.stop) || !steps.active())) break;
+    if (k.stop && (!graceful(*k.stop) || !steps_.active())) break;
     // A sample DDS never delivers must not stall the run: after a second the step goes on without it.
-    if (const auto gave_up = steps.give_up_on_samples(k.wall(), std::chrono::seconds{1})) {
+    if (const auto gave_up = steps_.give_up_on_samples(k.wall(), std::chrono::seconds{1})) {
       k.log("step %llu: %llu sensor sample(s) never arrived; the step goes on without them",
             static_cast<unsigned long long>(gave_up->step),
             static_cast<unsigned long long>(gave_up->missing));
@@ -228,15 +234,15 @@ Result<void, KernelError> Lockstep::run_lockstep() {
         if (auto ok = k.pump(wait); !ok) return ok;
         continue;
       }
-      if (const auto next = steps.begin_next(k.wall())) begin_step(*next);
+      (void)begin_next_step();
     }
-    if (steps.active() && advance_step()) {
+    if (steps_.active() && advance_step()) {
       finish_step();
       continue;  // the next step may already be waiting
     }
     // A step whose samples are not all in yet (DDS orders per writer only): wake on the sample readers too
     // until they are.
-    const bool short_of_samples = steps.short_of_samples();
+    const bool short_of_samples = steps_.short_of_samples();
     watch_sample_readers(short_of_samples);
     if (auto ok =
             k.pump(short_of_samples ? std::optional<Nanos>(std::chrono::milliseconds{100}) : std::nullopt);

@@ -73,13 +73,28 @@ class Lockstep {
     samples_.drain(std::forward<F>(f));
   }
 
-  // The queue, the active step, its rounds and deadlines (step_clock.hpp). Still public: the kernel's manual step,
-  // the supervisor's liveness watch and the loop's deadlines ask it directly (some thirty call sites), and two of
-  // them advance it (the loop's tick, the supervisor's abandon on a hung step); behind methods in a later step.
-  StepClock steps;
+  // The queue, the active step, its rounds and deadlines (step_clock.hpp), for reading: the kernel's manual step,
+  // the supervisor's liveness watch and the loop's deadlines ask it. What the others change, they change by the
+  // methods below.
+  [[nodiscard]] const StepClock& steps() const { return steps_; }
+  // Kernel::step (TimeMaster::Manual): a step at `t` queued, as the plant's SimStep would be.
+  void offer_manual_step(Nanos t) { steps_.offer_manual(t); }
+  // The next queued step begun (begin_step), if one is waiting and none is active; the step begun.
+  std::optional<PendingStep> begin_next_step();
+  // Samples taken from the bridge's readers, toward the active step's samples_needed.
+  void count_samples(std::uint64_t n) { steps_.count_samples(n); }
+  // Real time: one more 100 ms of progress counted as a step (the observer's on_step, the stall watch).
+  void count_realtime_progress() { steps_.tick(); }
+  // The supervisor: `s` killed as hung during the active step; the stall reported once; a hung service killed,
+  // the others' idle deadline restarted from `wall_now`; at shutdown, the active step abandoned.
+  void note_hung(ServiceId s) { steps_.note_hung(s); }
+  void stall_reported() { steps_.stall_reported(); }
+  void restart_idle_deadline(Nanos wall_now) { steps_.restart_idle_deadline(wall_now); }
+  void abandon_step() { steps_.abandon(); }
 
  private:
   Kernel::Impl& k;
+  StepClock steps_;
   bool samples_on_step_ = false;
   PublicationStage staged_;
   SampleStage samples_;  // the samples of the step (staged here)

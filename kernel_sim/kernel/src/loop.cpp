@@ -182,12 +182,12 @@ void Kernel::Impl::on_dds_ready(std::size_t index) {
     // The lockstep adapter's count-only reader: samples that did not fit their SimStep on a topic the graph
     // does not bridge in, dropped but counted toward SimStep.samples_published.
     auto n = in.reader.take([](std::span<const std::byte>) {});
-    if (n) lockstep.steps.count_samples(*n);
+    if (n) lockstep.count_samples(*n);
     return;
   }
   const ObjectId topic = *in.topic;
   auto n = in.reader.take([&](std::span<const std::byte> bytes) {
-    lockstep.steps.count_samples(1);
+    lockstep.count_samples(1);
     if (stopping) return;
     if (clock_mode == ClockMode::Realtime) {
       if (!booted) return;
@@ -246,8 +246,8 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
     if (s.proc.booting()) consider(s.proc.spawned_at + options.boot_deadline);
     if (s.live() && s.proc.channel_closed_at) consider(*s.proc.channel_closed_at + kChannelCloseGrace);
   }
-  if (const auto at = lockstep.steps.idle_deadline(options.idle_deadline)) consider(*at);
-  if (const auto at = lockstep.steps.stall_deadline(); supervisor.plant_started() && at) consider(*at);
+  if (const auto at = lockstep.steps().idle_deadline(options.idle_deadline)) consider(*at);
+  if (const auto at = lockstep.steps().stall_deadline(); supervisor.plant_started() && at) consider(*at);
   if (const auto at = rejuvenator.coordinator.work_deadline()) consider(*at);
   if (const auto at = rejuvenator.pace.wait_deadline()) consider(*at);
   if (const auto at = input.next_resume()) consider(*at);
@@ -348,8 +348,8 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
     pace_catch_up();
     if (now() - last_progress >= std::chrono::milliseconds{100}) {
       last_progress = now();
-      if (observer != nullptr) observer->on_step(lockstep.steps.steps_done(), now(), caps.mode());
-      lockstep.steps.tick();
+      if (observer != nullptr) observer->on_step(lockstep.steps().steps_done(), now(), caps.mode());
+      lockstep.count_realtime_progress();
       supervisor.retry_realtime();
       supervisor.watch_liveness();
     }

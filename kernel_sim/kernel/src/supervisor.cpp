@@ -485,7 +485,7 @@ void Supervisor::kill_hung(ServiceRuntime& s, std::string reason) {
   if (!s.live() || !s.proc.loss_reason.empty()) return;
   s.proc.loss_reason = std::move(reason);
   s.stats.hung = true;
-  k.lockstep.steps.note_hung(s.id);
+  k.lockstep.note_hung(s.id);
   k.log("killing '%s': %s", s.name.c_str(), s.proc.loss_reason.c_str());
   (void)s.proc.process.signal(SIGKILL);  // the pidfd reports the death; on_child_exit does the rest
 }
@@ -502,13 +502,13 @@ void Supervisor::on_plant_exit() {
 // Lockstep with the plant: no step has completed for a while. Says what the kernel is waiting for (a step's
 // samples, an idle service, a checkpoint's quiescence) once per stall, so that a hang is never silent.
 void Supervisor::report_stall() {
-  k.lockstep.steps.stall_reported();
+  k.lockstep.stall_reported();
   std::string what;
-  if (!k.lockstep.steps.active()) {
-    what = k.lockstep.steps.waiting_for();
+  if (!k.lockstep.steps().active()) {
+    what = k.lockstep.steps().waiting_for();
   } else {
-    what = "step " + std::to_string(k.lockstep.steps.active()->step) + " in round " +
-           std::to_string(k.lockstep.steps.rounds());
+    what = "step " + std::to_string(k.lockstep.steps().active()->step) + " in round " +
+           std::to_string(k.lockstep.steps().rounds());
     for (const ServiceRuntime& s : k.services) {
       if (!s.live() || s.idle()) continue;
       what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.proc.phase())) + ", idle " +
@@ -524,12 +524,12 @@ void Supervisor::report_stall() {
       what += "; " + std::to_string(staged) + " staged";
   }
   k.log("no lockstep step completed for %.1f s: %s",
-        to_seconds(k.wall() - k.lockstep.steps.last_done()).count(), what.c_str());
+        to_seconds(k.wall() - k.lockstep.steps().last_done()).count(), what.c_str());
 }
 
 void Supervisor::check_deadlines() {
   const Nanos t = k.wall();
-  if (const auto at = k.lockstep.steps.stall_deadline();
+  if (const auto at = k.lockstep.steps().stall_deadline();
       plant_started_ && k.clock_mode == ClockMode::Lockstep && at && t > *at) {
     report_stall();
   }
@@ -547,7 +547,7 @@ void Supervisor::check_deadlines() {
       kill_hung(s, "closed its channel");
     }
   }
-  if (const auto at = k.lockstep.steps.idle_deadline(k.options.idle_deadline); at && t > *at) {
+  if (const auto at = k.lockstep.steps().idle_deadline(k.options.idle_deadline); at && t > *at) {
     bool killed = false;
     for (ServiceRuntime& s : k.services) {
       if (!s.live() || s.idle()) continue;
@@ -556,12 +556,12 @@ void Supervisor::check_deadlines() {
       if (s.live() && !s.idle()) {
         kill_hung(s, "not idle within the idle deadline (" +
                          std::to_string(to_seconds(k.options.idle_deadline).count()) + " s) of step " +
-                         std::to_string(k.lockstep.steps.active()->step));
+                         std::to_string(k.lockstep.steps().active()->step));
         killed = true;
       }
     }
     // The others get a full deadline again for what the step still has to do.
-    if (killed) k.lockstep.steps.restart_idle_deadline(t);
+    if (killed) k.lockstep.restart_idle_deadline(t);
   }
 }
 
@@ -613,7 +613,7 @@ void Supervisor::shutdown_all() {
     }
     // Grace: keep the loop running (reading channels, draining queued Shutdowns, reaping).
     const Nanos deadline = k.wall() + k.options.shutdown_grace;
-    k.lockstep.steps.abandon();
+    k.lockstep.abandon_step();
     while (k.wall() < deadline && std::any_of(k.services.begin(), k.services.end(),
                                               [](const ServiceRuntime& s) { return s.live(); })) {
       if (!k.pump(std::min<Nanos>(deadline - k.wall(), std::chrono::milliseconds{50}))) break;
