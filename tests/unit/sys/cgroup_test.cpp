@@ -124,6 +124,8 @@ TEST_F(CgroupLeaves, InLeaf_AfterMove_SaysWhere) {
 // hierarchy holds the real-time budget).
 TEST_F(CgroupLeaves, SettledIn_OnlyOnceEveryHierarchyHoldsIt) {
   const pid_t pid = child();
+  // The child joins one hierarchy after the other too: once it answers a byte it has joined them all.
+  ASSERT_TRUE(tell(pid, 'm', true));
   ASSERT_TRUE(listed_in(group, CgroupLeaf::Live, pid));
   EXPECT_TRUE(group.settled_in(pid, CgroupLeaf::Live));
   EXPECT_FALSE(group.settled_in(pid, CgroupLeaf::Images));
