@@ -119,7 +119,7 @@ void Rejuvenator::answer_checkpoint(const CheckpointRun& run, std::int32_t error
 void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const CheckpointTimes& times) {
   const Generation g = done.record.g;
   if (!done.priming) {
-    ++sr_stats.checkpoint_failures;
+    ++sr_stats_.checkpoint_failures;
     sr_event(SrEventKind::CheckpointFailed, g, k.wall() - times.start, done.caller);
   }
   k.log("%s %llu abandoned: %s", done.priming ? "the alignment's checkpoint" : "checkpoint", num(g),
@@ -160,7 +160,7 @@ void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
     if (k.tx.build(wire::FrameKind::Committed, 0, 0, g.value()))
       k.router.send_control(k.services[im.service.value()], k.tx.bytes());
   }
-  const std::uint64_t forks_before = sr_stats.images_by_fork;
+  const std::uint64_t forks_before = sr_stats_.images_by_fork;
   coordinator.forget_abandoned();  // an image still owed to an abandoned checkpoint is a stray from now on
   // The patches (before old generations go: a base may be among them), the evicted generations, the stray
   // sweep (before the new spares are on their way, so that only copies asked for earlier can defer it) and the
@@ -171,8 +171,8 @@ void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
   if (done.priming) {
     run_image_work();  // before the flight: nothing to wait for, and the count below needs it
     // docs/design.md §6: the alignment's images, by fork, are not part of the flight: neither counted nor charged.
-    sr_stats.priming_images += sr_stats.images_by_fork - forks_before;
-    sr_stats.images_by_fork = forks_before;
+    sr_stats_.priming_images += sr_stats_.images_by_fork - forks_before;
+    sr_stats_.images_by_fork = forks_before;
     k.log("the alignment's checkpoint: %zu images by fork in %.3f ms (untimed, not charged)",
           images.newest()->images.size(), to_ms(times.saved - times.start));
     return;
@@ -184,14 +184,14 @@ void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
 void Rejuvenator::count_checkpoint(Generation g, std::optional<ServiceId> caller,
                                    const CheckpointTimes& times) {
   const Nanos took = times.saved - times.start;
-  sr_stats.checkpoint_phases.a.add(to_ms(times.sent - times.start));
-  sr_stats.checkpoint_phases.b.add(to_ms(times.taken - times.sent));
-  sr_stats.checkpoint_phases.c.add(to_ms(times.saved - times.taken));
-  ++sr_stats.checkpoints;
+  sr_stats_.checkpoint_phases.a.add(to_ms(times.sent - times.start));
+  sr_stats_.checkpoint_phases.b.add(to_ms(times.taken - times.sent));
+  sr_stats_.checkpoint_phases.c.add(to_ms(times.saved - times.taken));
+  ++sr_stats_.checkpoints;
   sr_event(SrEventKind::Checkpoint, g, took, caller);
-  sr_stats.checkpoint_ms.add(to_ms(took));
-  if (!sr_stats.first_checkpoint_ms) sr_stats.first_checkpoint_ms = to_ms(took);
-  image_charge.checkpoint(took, sr_stats);
+  sr_stats_.checkpoint_ms.add(to_ms(took));
+  if (!sr_stats_.first_checkpoint_ms) sr_stats_.first_checkpoint_ms = to_ms(took);
+  image_charge.checkpoint(took, sr_stats_);
   if (k.options.verbose)
     k.log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }
@@ -273,11 +273,11 @@ void Rejuvenator::on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame
 void Rejuvenator::send_patches(image::GenerationRecord& record) {
   for (image::Image& im : record.images) {
     if (!im.pages.valid()) {  // by fork: the image is its own process
-      ++sr_stats.images_by_fork;
+      ++sr_stats_.images_by_fork;
       channel_pool.close_later(std::move(im.image_end));
       continue;
     }
-    ++sr_stats.images_by_pages;
+    ++sr_stats_.images_by_pages;
     image::GenerationRecord* base = images.find(im.base);
     image::Image* from = base != nullptr ? base->image_of(im.service) : nullptr;
     const wire::PatchBody body{.generation = record.g.value(), .pages = im.page_count};

@@ -226,7 +226,7 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, ServiceUids uids)
   k.rejuvenator.pace = VehiclePace(clock_mode == ClockMode::Realtime && k.graph.graph.has_plant());
   // The plant aligns (held at rest) before the mission's t = 0; without a plant there is no alignment.
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
-    k.rejuvenator.flight_start = std::chrono::round<Nanos>(launch::alignment(timing));
+    k.rejuvenator.set_flight_start(std::chrono::round<Nanos>(launch::alignment(timing)));
   }
   k.domain = k.options.dds_domain.value_or(k.graph.graph.dds().domain_id());
   k.run_id = k.options.run_id ? *k.options.run_id : dds::random_run_id();

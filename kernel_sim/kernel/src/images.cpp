@@ -127,14 +127,23 @@ void Rejuvenator::trim_images(bool now) {
 }
 
 void Rejuvenator::retire(image::GenerationRecord record) {
-  retiring.push_back(std::move(record));
+  retiring_.push_back(std::move(record));
   finish_retiring(false);
+}
+
+void Rejuvenator::release_all_images() {
+  if (std::optional<ImageWork> left = coordinator.take_work()) {
+    for (image::GenerationRecord& r : left->evicted) retiring_.push_back(std::move(r));
+  }
+  for (image::GenerationRecord& r : images.take_all()) retiring_.push_back(std::move(r));
+  finish_retiring(true);
+  reaper.kill_all_and_reap();
 }
 
 void Rejuvenator::finish_retiring(bool final) {
   const Nanos deadline = k.wall() + std::chrono::milliseconds{final ? 200 : 0};
   do {
-    std::erase_if(retiring, [&](image::GenerationRecord& r) {
+    std::erase_if(retiring_, [&](image::GenerationRecord& r) {
       bool settled = true;
       for (image::Image& im : r.images) {
         if (im.refresh() > 0 && im.spares_pending > 0) settled = false;
@@ -147,10 +156,10 @@ void Rejuvenator::finish_retiring(bool final) {
       }
       return true;
     });
-  } while (final && !retiring.empty() && k.wall() < deadline);
+  } while (final && !retiring_.empty() && k.wall() < deadline);
   if (final) {
-    for (image::GenerationRecord& r : retiring) image::destroy(r);
-    retiring.clear();
+    for (image::GenerationRecord& r : retiring_) image::destroy(r);
+    retiring_.clear();
   }
 }
 
@@ -210,7 +219,7 @@ bool Rejuvenator::service_images() {
   // runs its exit at once, so most are reaped here, not one safe point later (where `rejuv soak` found them as
   // one more process and fd at a sample).
   if (!coordinator.work_left()) reaper.kill_retired();
-  if (!retiring.empty()) finish_retiring(false);
+  if (!retiring_.empty()) finish_retiring(false);
   reaper.reap();
   using enum ImageCoordinator::Checkpoint;
   if (!k.stopping && coordinator.checkpoint() == None && !coordinator.rollback_asked())
@@ -287,7 +296,7 @@ void Rejuvenator::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos a
   const Epoch epoch = k.kernel_clock.epoch();
   if (coordinator.armed_in(epoch)) {
     // docs/design.md §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
-    ++sr_stats.timer_arm_refused;
+    ++sr_stats_.timer_arm_refused;
     k.log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(),
           epoch.value());
     sr_event(SrEventKind::TimerRefused, {}, after, s.id);
@@ -299,7 +308,7 @@ void Rejuvenator::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos a
     return;
   }
   coordinator.arm_timer(epoch, k.now() + after, period);
-  ++sr_stats.timer_arms;
+  ++sr_stats_.timer_arms;
   sr_event(SrEventKind::TimerArmed, {}, after, s.id);
   k.arm_timerfd();
   k.input.reply(s, seq, 0, static_cast<std::uint64_t>(coordinator.timer_due()->count()));
@@ -312,7 +321,7 @@ void Rejuvenator::fire_rejuvenation_early() {
   const std::optional<Nanos> due = coordinator.timer_due();
   if (!due || coordinator.rollback_asked() || !pace.fire_early(k.wall(), *due - k.now())) return;
   coordinator.timer_fired();
-  ++sr_stats.timer_rollbacks;
+  ++sr_stats_.timer_rollbacks;
   request_rollback("the rejuvenation timer fired (in the slack before it was due)");
 }
 
@@ -320,7 +329,7 @@ void Rejuvenator::fire_rejuvenation() {
   const std::optional<Nanos> due = coordinator.timer_due();
   if (!due || *due > k.now()) return;
   coordinator.timer_fired();
-  ++sr_stats.timer_rollbacks;
+  ++sr_stats_.timer_rollbacks;
   request_rollback("the rejuvenation timer fired");
 }
 

@@ -165,7 +165,7 @@ std::vector<Kernel::TopicInfo> Kernel::topics() const {
 }
 std::uint64_t Kernel::bad_frames_total() const { return impl_->kernel_bad_frames; }
 const SrStats& Kernel::sr_stats() const {
-  return impl_->rejuvenator.sr_stats;
+  return impl_->rejuvenator.sr_stats();
 }
 const CatchUpStats& Kernel::catch_up_stats() const {
   return impl_->rejuvenator.catch_up.stats();
@@ -177,10 +177,10 @@ Result<Generation, KernelError> Kernel::checkpoint_now() {
       k.rejuvenator.coordinator.checkpoint() != ImageCoordinator::Checkpoint::None) {
     return fail(kernel_error(KernelError::Kind::Config, "checkpoint_now: needs SR on, a booted kernel and no step in progress"));
   }
-  const std::uint64_t before = k.rejuvenator.sr_stats.checkpoints;
+  const std::uint64_t before = k.rejuvenator.sr_stats().checkpoints;
   (void)k.rejuvenator.coordinator.ask_checkpoint(std::nullopt, 0);
   if (auto ok = k.rejuvenator.finish_image_requests(); !ok) return fail(ok.error());
-  if (k.rejuvenator.sr_stats.checkpoints == before)
+  if (k.rejuvenator.sr_stats().checkpoints == before)
     return fail(kernel_error(KernelError::Kind::Boot, "the checkpoint was abandoned"));
   return k.rejuvenator.images.newest()->g;
 }
@@ -199,7 +199,7 @@ Result<void, KernelError> Kernel::rollback_now(bool cold) {
 }
 Epoch Kernel::epoch() const { return impl_->kernel_clock.epoch(); }
 Nanos Kernel::flight_start() const {
-  return impl_->rejuvenator.flight_start;
+  return impl_->rejuvenator.flight_start();
 }
 void Kernel::settle_images() {
   Impl& k = *impl_;
@@ -208,7 +208,7 @@ void Kernel::settle_images() {
     k.rejuvenator.images.refresh_all();
     k.rejuvenator.trim_images(true);
     k.rejuvenator.finish_retiring(false);
-    bool pending = !k.rejuvenator.retiring.empty();
+    bool pending = !k.rejuvenator.retiring().empty();
     if (k.rejuvenator.images.spares_pending() > 0) pending = true;
     if (!k.warden.placements_idle()) pending = true;  // a move holds its cgroup.procs fds until it is done
     if (!pending || k.wall() > deadline) break;

@@ -125,10 +125,7 @@ bool Lockstep::replay_instant() {
         k.router.publish_as_kernel(topic, bytes, Router::From::Held);
       });
   if (!more) {
-    k.rejuvenator.chain_realtime();
-    const Nanos took = k.wall() - k.rejuvenator.catch_up.began_at();
-    k.rejuvenator.sr_stats.catch_up_ms.add(to_ms(took));
-    k.rejuvenator.image_charge.catch_up(took, k.rejuvenator.catch_up.replayed(), k.rejuvenator.sr_stats);
+    k.rejuvenator.catch_up_done();
   }
   return more;
 }
@@ -207,7 +204,7 @@ void Lockstep::check_stop_conditions() {
   }
   const Seconds timeout =
       launch::mission_timeout(k.graph.graph.mission());  // of the flight, after the alignment
-  if (timeout.count() > 0 && k.now() >= k.rejuvenator.flight_start + to_nanos(timeout)) {
+  if (timeout.count() > 0 && k.now() >= k.rejuvenator.flight_start() + to_nanos(timeout)) {
     const proto::Mission& path = k.graph.graph.mission();
     k.stop_run(StopReason::MissionTimeout,
                "mission not completed within " + std::to_string(timeout.count()) + " s" +

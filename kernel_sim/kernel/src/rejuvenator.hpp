@@ -58,26 +58,36 @@ class Rejuvenator {
   void sr_event(SrEventKind kind, Generation g = {}, Nanos span = {},
                 std::optional<ServiceId> by = std::nullopt);
 
+  // What the SR scheme did (Kernel::sr_stats); the mission's t = 0, set once by create.cpp; the generations
+  // waiting for their spare copies (the sandbox's sweep knows their pids).
+  [[nodiscard]] const SrStats& sr_stats() const { return sr_stats_; }
+  [[nodiscard]] Nanos flight_start() const { return flight_start_; }
+  void set_flight_start(Nanos t) { flight_start_ = t; }
+  [[nodiscard]] const std::vector<image::GenerationRecord>& retiring() const { return retiring_; }
+  // The estimate catch-up's replay is over (Lockstep::replay_instant): the chain's real-time plan back, what it
+  // took counted and, in lockstep, charged.
+  void catch_up_done();
+  // At shutdown: every generation, kept or left to evict, killed and reaped (docs/design.md §7).
+  void release_all_images();
+
   // Read by the other owners; written here, and set up by create.cpp.
   image::ImageStore images{2};
   ImageCoordinator coordinator;  // the requests, the run, the work left, the timer (image_coordinator.hpp)
   RoutingFreeze routing;         // frozen while a checkpoint or rollback is timed (routing_freeze.hpp)
   CatchUp catch_up;  // the plant's samples since each cut, replayed after a rollback (catch_up.hpp)
-  SrStats sr_stats{};
   ImageCharge image_charge;        // simulated time charged for image work (image_charge.hpp)
   VehiclePace pace;                // where in the control period image work may start (vehicle_pace.hpp)
-  Nanos flight_start{0};           // the end of the plant's alignment: the mission's t = 0
   Reaper reaper;                   // retired incarnations, killed processes not reaped yet (reaper.hpp)
 
  private:
   ChannelPool channel_pool;  // socket pairs made ahead, fds closed after the timed part (channel_pool.hpp)
 
- public:
   // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
   // be unknown children): destroyed once they have (service_images).
-  std::vector<image::GenerationRecord> retiring;
+  std::vector<image::GenerationRecord> retiring_;
+  SrStats sr_stats_{};
+  Nanos flight_start_{0};  // the end of the plant's alignment: the mission's t = 0
 
- private:
   // ---- images.cpp ----
   static constexpr Nanos kTrimPeriod{std::chrono::milliseconds{2}};
   bool enter_mode(SrMode mode);  // the capability system's mode, on the time page; false (logged) if refused

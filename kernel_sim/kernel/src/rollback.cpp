@@ -231,7 +231,7 @@ std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(
       failure = std::move(resumed.error());
     }
     k.log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
-    ++sr_stats.fallbacks;
+    ++sr_stats_.fallbacks;
     retire_live_rejuvenated();  // whatever of it was resumed
     if (auto taken = images.take(record->g)) retire(std::move(*taken));
   }
@@ -304,17 +304,17 @@ void Rejuvenator::run_rollback(const std::string& reason) {
     if (catch_up.replaying() && catch_up.in_chain(im.service)) continue;
     k.supervisor.apply_realtime(k.services[im.service.value()]);
   }
-  sr_stats.rollback_phases.a.add(to_ms(t_killed - t0));
-  sr_stats.rollback_phases.b.add(to_ms(t_resumed - t_killed));
-  sr_stats.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
+  sr_stats_.rollback_phases.a.add(to_ms(t_killed - t0));
+  sr_stats_.rollback_phases.b.add(to_ms(t_resumed - t_killed));
+  sr_stats_.rollback_phases.c.add(to_ms(t0 + took - t_resumed));
   // As after a commit: the sweep before the new spares go out, and the spares (g restorable again) after the
   // vehicle's next control update; the retired incarnations stay stopped until then (leave_image_work).
   leave_image_work(ImageWork{.patches = {}, .evicted = {}, .sweep = "a rollback", .sweep_wait = SweepWait::ForCopies,
                              .spares = restored->g});
   sr_event(SrEventKind::Rollback, restored->g, took);
-  ++sr_stats.rollbacks;
-  sr_stats.rollback_ms.add(to_ms(took));
-  image_charge.rollback(took, sr_stats);
+  ++sr_stats_.rollbacks;
+  sr_stats_.rollback_ms.add(to_ms(took));
+  image_charge.rollback(took, sr_stats_);
   if (k.options.verbose) {
     k.log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(),
           to_ms(took), reason.c_str());
@@ -337,9 +337,16 @@ void Rejuvenator::chain_realtime() {
   }
 }
 
+void Rejuvenator::catch_up_done() {
+  chain_realtime();
+  const Nanos took = k.wall() - catch_up.began_at();
+  sr_stats_.catch_up_ms.add(to_ms(took));
+  image_charge.catch_up(took, catch_up.replayed(), sr_stats_);
+}
+
 void Rejuvenator::cold_restart(const std::string& reason) {
   k.log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
-  ++sr_stats.cold_restarts;
+  ++sr_stats_.cold_restarts;
   sr_event(SrEventKind::ColdRestart);
   if (std::optional<ImageWork> left = coordinator.take_work()) {  // for generations that go now: only the evicted matter
     for (image::GenerationRecord& r : left->evicted) retire(std::move(r));

@@ -100,7 +100,7 @@ void for_each_image(Kernel::Impl& k, F f) {
   for (const Generation g : k.rejuvenator.images.generations()) {
     for (const image::Image& im : k.rejuvenator.images.find(g)->images) f(im);
   }
-  for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
+  for (const image::GenerationRecord& r : k.rejuvenator.retiring()) {
     for (const image::Image& im : r.images) f(im);
   }
 }
@@ -392,7 +392,7 @@ std::vector<bool> copies_on_their_way(Kernel::Impl& k, bool final, SweepWait wai
   const Nanos wait_until = k.wall() + (wait == SweepWait::ForCopies ? kCopiesWait : Nanos{0});
   for (;;) {
     k.rejuvenator.images.refresh_all();
-    if (!k.rejuvenator.retiring.empty()) k.rejuvenator.finish_retiring(false);
+    if (!k.rejuvenator.retiring().empty()) k.rejuvenator.finish_retiring(false);
     std::fill(pending.begin(), pending.end(), k.rejuvenator.coordinator.running() != nullptr && !final);
     int answer_fd = -1;  // where the next Copied of a copy on its way arrives
     const auto note = [&](const image::Image& im) {
@@ -413,7 +413,7 @@ std::vector<bool> copies_on_their_way(Kernel::Impl& k, bool final, SweepWait wai
 // generation, a process the reaper is ending.
 bool known_child(const Kernel::Impl& k, pid_t pid) {
   if (k.rejuvenator.knows_process(pid, nullptr)) return true;
-  for (const image::GenerationRecord& r : k.rejuvenator.retiring) {
+  for (const image::GenerationRecord& r : k.rejuvenator.retiring()) {
     for (const image::Image& im : r.images) {
       for (const sys::ChildProcess& c : im.copies) {
         if (c.pid() == pid) return true;

@@ -92,7 +92,7 @@ int attack_params(const ParamWriter& w, const Kernel::Impl& k, const ServiceRunt
     w.text(prefix + "kind", attack_kind_name(a.kind()));
     // The launch file's start_s is flight time, as in `rejuv sim` (its t = 0 ends the alignment); a service reads
     // kernel time, so the alignment is added here, once for every attack hook: no window before take-off.
-    w.number(prefix + "start_s", a.start_s() + to_seconds(k.rejuvenator.flight_start).count());
+    w.number(prefix + "start_s", a.start_s() + to_seconds(k.rejuvenator.flight_start()).count());
     w.number(prefix + "max_windows", a.max_windows());
     w.number(prefix + "magnitude", a.magnitude());  // the attack library's size (docs/control.md "Attack library")
     ++attacks;
@@ -157,9 +157,9 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   number("attack.enabled", attacks > 0 ? 1 : 0);
   number("attack.count", attacks);
   // > 0: this incarnation was started by a cold restart (docs/design.md §7): the vehicle is not at its take-off point.
-  number("boot.cold_restarts", static_cast<double>(k.rejuvenator.sr_stats.cold_restarts));
+  number("boot.cold_restarts", static_cast<double>(k.rejuvenator.sr_stats().cold_restarts));
   // The mission's t = 0 on the kernel clock (the end of the plant's alignment): SR starts there (docs/design.md §6).
-  send(gv::kFlightStart, k.rejuvenator.flight_start);
+  send(gv::kFlightStart, k.rejuvenator.flight_start());
   return out;
 }
 
@@ -361,7 +361,7 @@ Result<void, KernelError> Supervisor::spawn_plant() {
   }
   // The pre-flight alignment of the launch file (docs/design.md §6), as long as `rejuv sim`'s (SimConfig::alignment).
   spec.args.insert(spec.args.end(),
-                   {"--align-s", format_double(to_seconds(k.rejuvenator.flight_start).count())});
+                   {"--align-s", format_double(to_seconds(k.rejuvenator.flight_start()).count())});
   spec.args.insert(spec.args.end(), k.options.plant_args.begin(), k.options.plant_args.end());
   for (char** e = environ; *e != nullptr; ++e) spec.env.emplace_back(*e);
   auto child = sys::spawn(spec);
@@ -638,13 +638,7 @@ void Supervisor::shutdown_all() {
     plant_.kill_and_reap();
   }
   // Every image and every killed incarnation (docs/design.md §7): killed and reaped.
-  if (std::optional<ImageWork> left = k.rejuvenator.coordinator.take_work()) {
-    for (image::GenerationRecord& r : left->evicted) k.rejuvenator.retiring.push_back(std::move(r));
-  }
-  for (image::GenerationRecord& r : k.rejuvenator.images.take_all())
-    k.rejuvenator.retiring.push_back(std::move(r));
-  k.rejuvenator.finish_retiring(true);
-  k.rejuvenator.reaper.kill_all_and_reap();
+  k.rejuvenator.release_all_images();
   // And whatever else a service left (docs/design.md §7 "Protection"): nothing outlives the run. The cgroup, where
   // there is one, ends all of a service in one call; the sweep then names, counts and reaps what was left in
   // a service's session (a zombie is still its session's).
