@@ -191,7 +191,7 @@ void Rejuvenator::count_checkpoint(Generation g, std::optional<ServiceId> caller
   sr_event(SrEventKind::Checkpoint, g, took, caller);
   sr_stats_.checkpoint_ms.add(to_ms(took));
   if (!sr_stats_.first_checkpoint_ms) sr_stats_.first_checkpoint_ms = to_ms(took);
-  image_charge.checkpoint(took, sr_stats_);
+  image_charge_.checkpoint(took, sr_stats_);
   if (k.options.verbose)
     k.log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
 }

@@ -219,11 +219,11 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, ServiceUids uids)
   k.rejuvenator.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
   k.seed = k.options.seed.value_or(k.graph.graph.seed());
   const proto::LockstepTiming& timing = k.graph.graph.lockstep();
-  k.rejuvenator.image_charge =
+  k.rejuvenator.set_up_image_work(
       ImageCharge(clock_mode, k.options.charge, std::chrono::round<Nanos>(launch::checkpoint_charge(timing)),
                   std::chrono::round<Nanos>(launch::rollback_charge(timing)),
-                  std::chrono::round<Nanos>(launch::catch_up_charge_per_sample(timing)));
-  k.rejuvenator.pace = VehiclePace(clock_mode == ClockMode::Realtime && k.graph.graph.has_plant());
+                  std::chrono::round<Nanos>(launch::catch_up_charge_per_sample(timing))),
+      VehiclePace(clock_mode == ClockMode::Realtime && k.graph.graph.has_plant()));
   // The plant aligns (held at rest) before the mission's t = 0; without a plant there is no alignment.
   if (k.options.time_master == TimeMaster::Plant && k.graph.graph.has_plant()) {
     k.rejuvenator.set_flight_start(std::chrono::round<Nanos>(launch::alignment(timing)));
@@ -480,7 +480,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   }
   k.rejuvenator.reaper.set_slack(
       k.rejuvenator.processes_to_spare());  // the services' limits are known now (add_services)
-  k.rejuvenator.links.create();  // the links to other hosts, closed in the secure interval (link_guard.hpp)
+  k.rejuvenator.open_links();  // the links to other hosts, closed in the secure interval (link_guard.hpp)
   if (auto ok = k.net_open(); !ok) return fail(ok.error());  // the network gate (netgate.cpp)
   return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));
 }

@@ -45,15 +45,15 @@ namespace rejuv::kernel {
 // (link_guard.hpp), so that nothing crosses in the secure interval (§III, §IV-D).
 bool Rejuvenator::enter_mode(SrMode mode) {
   const SrMode from = k.caps.mode();
-  links.before_mode(from, mode);
+  links_.before_mode(from, mode);
   if (auto changed = k.caps.apply_mode(mode); !changed) {
     k.log("mode %s: %s", std::string(to_string(mode)).c_str(),
           std::string(cap::to_string(changed.error())).c_str());
-    links.after_mode(from, mode, false);
+    links_.after_mode(from, mode, false);
     return false;
   }
   k.kernel_clock.show_mode(k.caps.mode());
-  links.after_mode(from, mode, true);
+  links_.after_mode(from, mode, true);
   return true;
 }
 
@@ -238,13 +238,13 @@ bool Rejuvenator::service_images() {
     return true;
   }
   if (coordinator.checkpoint() != Asked) {
-    pace.started();  // nothing waits (a rollback may have voided the request)
+    pace_.started();  // nothing waits (a rollback may have voided the request)
     return false;
   }
   // In real time with a vehicle, in the slack after a control update (vehicle_pace.hpp); never during an estimate
   // catch-up (its cut would fall inside the replay, with live samples still waiting behind it: catch_up.hpp).
-  if (!catch_up.replaying() && quiescent_for_checkpoint() && pace.may_start(k.wall())) {
-    pace.started();
+  if (!catch_up.replaying() && quiescent_for_checkpoint() && pace_.may_start(k.wall())) {
+    pace_.started();
     settle_dying();
     run_checkpoint();
     return true;
@@ -253,7 +253,7 @@ bool Rejuvenator::service_images() {
 }
 
 Nanos Rejuvenator::wait_bound(Nanos seen, Nanos unseen) const {
-  return image_charge.vehicle_sees_work() ? seen : unseen;
+  return image_charge_.vehicle_sees_work() ? seen : unseen;
 }
 
 Nanos Rejuvenator::image_wait_bound() const {
@@ -319,7 +319,7 @@ void Rejuvenator::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos a
 // next sample's update. The next safe point carries it out.
 void Rejuvenator::fire_rejuvenation_early() {
   const std::optional<Nanos> due = coordinator.timer_due();
-  if (!due || coordinator.rollback_asked() || !pace.fire_early(k.wall(), *due - k.now())) return;
+  if (!due || coordinator.rollback_asked() || !pace_.fire_early(k.wall(), *due - k.now())) return;
   coordinator.timer_fired();
   ++sr_stats_.timer_rollbacks;
   request_rollback("the rejuvenation timer fired (in the slack before it was due)");

@@ -167,7 +167,7 @@ bool Lockstep::advance_step() {
 
 void Lockstep::finish_step() {
   const PendingStep step = steps_.finish(k.wall());
-  const Nanos charged = k.rejuvenator.image_charge.take_step_charge();
+  const Nanos charged = k.rejuvenator.take_step_charge();
   if (dds::PlantLockstep* adapter = k.bridge ? k.bridge->lockstep() : nullptr; adapter != nullptr) {
     if (auto ok = adapter->write_ack(step.step, step.t, charged); !ok) {  // docs/design.md §6: charge, in simulated time
       const std::string error = ok.error().to_string();

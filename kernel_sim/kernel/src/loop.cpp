@@ -249,7 +249,7 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
   if (const auto at = lockstep.steps().idle_deadline(options.idle_deadline)) consider(*at);
   if (const auto at = lockstep.steps().stall_deadline(); supervisor.plant_started() && at) consider(*at);
   if (const auto at = rejuvenator.coordinator.work_deadline()) consider(*at);
-  if (const auto at = rejuvenator.pace.wait_deadline()) consider(*at);
+  if (const auto at = rejuvenator.image_work_wait_deadline()) consider(*at);
   if (const auto at = input.next_resume()) consider(*at);
   return best;
 }

@@ -69,14 +69,26 @@ class Rejuvenator {
   void catch_up_done();
   // At shutdown: every generation, kept or left to evict, killed and reaped (docs/design.md §7).
   void release_all_images();
+  // Set up by create.cpp: the simulated time image work is charged, and where in the control period it may start.
+  void set_up_image_work(ImageCharge charge, VehiclePace pace) {
+    image_charge_ = std::move(charge);
+    pace_ = std::move(pace);
+  }
+  // Lockstep: what image work cost since the last step, charged to the plant's next one (image_charge.hpp).
+  [[nodiscard]] Nanos take_step_charge() { return image_charge_.take_step_charge(); }
+  // Real time with a vehicle: image work waiting for the slack after the next control update, until when.
+  [[nodiscard]] std::optional<Nanos> image_work_wait_deadline() const { return pace_.wait_deadline(); }
+  // The vehicle's controls were just routed at `wall` (MissionWatch): the control period's slack begins
+  // (vehicle_pace.hpp).
+  void on_control_update(Nanos wall) { pace_.on_control_update(wall); }
+  // The links to other hosts of this kernel's part of the graph, made once at create (link_guard.hpp).
+  void open_links() { links_.create(); }
 
   // Read by the other owners; written here, and set up by create.cpp.
   image::ImageStore images{2};
   ImageCoordinator coordinator;  // the requests, the run, the work left, the timer (image_coordinator.hpp)
   RoutingFreeze routing;         // frozen while a checkpoint or rollback is timed (routing_freeze.hpp)
   CatchUp catch_up;  // the plant's samples since each cut, replayed after a rollback (catch_up.hpp)
-  ImageCharge image_charge;        // simulated time charged for image work (image_charge.hpp)
-  VehiclePace pace;                // where in the control period image work may start (vehicle_pace.hpp)
   Reaper reaper;                   // retired incarnations, killed processes not reaped yet (reaper.hpp)
 
  private:
@@ -152,9 +164,10 @@ class Rejuvenator {
   Kernel::Impl& k;
   Nanos next_trim{0};  // wall clock: when trim_images looks again
 
- public:
+  ImageCharge image_charge_;  // simulated time charged for image work (image_charge.hpp)
+  VehiclePace pace_;          // where in the control period image work may start (vehicle_pace.hpp)
   // The links to other hosts, closed in the secure interval around each mode change (enter_mode; link_guard.hpp).
-  LinkGuard links{k};
+  LinkGuard links_{k};
 };
 
 }  // namespace rejuv::kernel

@@ -314,7 +314,7 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   sr_event(SrEventKind::Rollback, restored->g, took);
   ++sr_stats_.rollbacks;
   sr_stats_.rollback_ms.add(to_ms(took));
-  image_charge.rollback(took, sr_stats_);
+  image_charge_.rollback(took, sr_stats_);
   if (k.options.verbose) {
     k.log("rollback to generation %llu (epoch %u) in %.3f ms: %s", num(restored->g), epoch.value(),
           to_ms(took), reason.c_str());
@@ -341,7 +341,7 @@ void Rejuvenator::catch_up_done() {
   chain_realtime();
   const Nanos took = k.wall() - catch_up.began_at();
   sr_stats_.catch_up_ms.add(to_ms(took));
-  image_charge.catch_up(took, catch_up.replayed(), sr_stats_);
+  image_charge_.catch_up(took, catch_up.replayed(), sr_stats_);
 }
 
 void Rejuvenator::cold_restart(const std::string& reason) {

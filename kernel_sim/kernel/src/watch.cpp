@@ -19,7 +19,7 @@ void Router::watch_publication(const ObjectInfo& o, std::span<const std::byte> p
                                broker::TopicGeneration g, std::optional<ServiceId> publisher) {
   if (o.is_actuator_outputs && publisher) {
     k.rejuvenator.coordinator.control_update_routed();  // the image work may run (images.cpp)
-    k.rejuvenator.pace.on_control_update(k.wall());
+    k.rejuvenator.on_control_update(k.wall());
   }
   if (k.observer != nullptr) {
     k.observer->on_publication(Publication{.topic = o.id,
