@@ -47,7 +47,7 @@ void Rejuvenator::run_checkpoint() {
   if (coordinator.work_left()) run_image_work();  // the last checkpoint's or rollback's, if the vehicle has not had its update yet
   CheckpointTimes times{.start = k.wall()};
   CheckpointRun& run = coordinator.begin_checkpoint(images.next_generation(), k.now());
-  routing.freeze();
+  routing_.freeze();
   k.router.flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   send_snapshots(run);
   times.sent = k.wall();

@@ -478,8 +478,7 @@ Result<std::unique_ptr<Kernel>, KernelError> Kernel::create(launch::LoadedLaunch
   for (const Step step : {&add_services, &plan_catch_up, &check_plant_executable, &place, &open_bridge, &watch_event_sources}) {
     if (auto ok = step(k); !ok) return fail(ok.error());
   }
-  k.rejuvenator.reaper.set_slack(
-      k.rejuvenator.processes_to_spare());  // the services' limits are known now (add_services)
+  k.rejuvenator.size_reaper();  // the services' limits are known now (add_services)
   k.rejuvenator.open_links();  // the links to other hosts, closed in the secure interval (link_guard.hpp)
   if (auto ok = k.net_open(); !ok) return fail(ok.error());  // the network gate (netgate.cpp)
   return std::unique_ptr<Kernel>(new Kernel(std::move(impl)));

@@ -137,7 +137,7 @@ void Rejuvenator::release_all_images() {
   }
   for (image::GenerationRecord& r : images.take_all()) retiring_.push_back(std::move(r));
   finish_retiring(true);
-  reaper.kill_all_and_reap();
+  reaper_.kill_all_and_reap();
 }
 
 void Rejuvenator::finish_retiring(bool final) {
@@ -152,7 +152,7 @@ void Rejuvenator::finish_retiring(bool final) {
       // Killed now (Reaper::kill) and reaped off the critical path (service_images).
       for (image::Image& im : r.images) {
         im.resume.close();
-        for (sys::ChildProcess& c : im.copies) reaper.kill(std::move(c));
+        for (sys::ChildProcess& c : im.copies) reaper_.kill(std::move(c));
       }
       return true;
     });
@@ -167,7 +167,7 @@ void Rejuvenator::finish_retiring(bool final) {
 // pushed (docs/design.md §7). The kernel's held DDS bridge writes go out, then every live service's pending ring
 // messages, in ring order.
 void Rejuvenator::resume_routing() {
-  routing.thaw([&](ObjectId topic, std::span<const std::byte> payload) {
+  routing_.thaw([&](ObjectId topic, std::span<const std::byte> payload) {
     return k.bridge && k.router.write_to_bridge(topic, payload);
   });
   for (ServiceRuntime& s : k.services) {
@@ -209,7 +209,7 @@ void Rejuvenator::run_image_work() {
       for (image::Image& im : record->images) (void)im.request_spare(*work.spares);
     }
   }
-  reaper.kill_retired();
+  reaper_.kill_retired();
 }
 
 bool Rejuvenator::service_images() {
@@ -218,9 +218,9 @@ bool Rejuvenator::service_images() {
   // killed ones reaped (Reaper::reap), all off the rollback's critical path. In this order: a SIGKILL's victim
   // runs its exit at once, so most are reaped here, not one safe point later (where `rejuv soak` found them as
   // one more process and fd at a sample).
-  if (!coordinator.work_left()) reaper.kill_retired();
+  if (!coordinator.work_left()) reaper_.kill_retired();
   if (!retiring_.empty()) finish_retiring(false);
-  reaper.reap();
+  reaper_.reap();
   using enum ImageCoordinator::Checkpoint;
   if (!k.stopping && coordinator.checkpoint() == None && !coordinator.rollback_asked())
     k.warden.sweep_if_due();  // sandbox.cpp
@@ -266,7 +266,7 @@ Nanos Rejuvenator::image_wait_bound() const {
 // in 2 s of wall time on 2 cores shared with six other multiproc tests left a copy unable to fork (the
 // generation then unusable). Waits, within image_wait_bound(), until few enough are dying (processes_to_spare).
 void Rejuvenator::settle_dying() {
-  reaper.settle(k.wall() + image_wait_bound());
+  reaper_.settle(k.wall() + image_wait_bound());
 }
 
 // What every rejuvenated service can spare: half of what its max_processes leaves beside 1 + 2(K + 1), the

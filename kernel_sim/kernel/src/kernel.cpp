@@ -214,7 +214,7 @@ void Kernel::settle_images() {
     if (!pending || k.wall() > deadline) break;
     (void)sys::wait_fd(k.epoll.fd(), sys::WaitFor::Readable, std::chrono::milliseconds{1});
   }
-  k.rejuvenator.reaper.kill_all_and_reap();
+  k.rejuvenator.kill_and_reap_all();
 }
 
 std::vector<int> Kernel::image_pids(ServiceId service) {

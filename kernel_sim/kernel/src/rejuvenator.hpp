@@ -7,7 +7,9 @@
 
 #include <cstdint>
 #include <optional>
+#include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "catch_up.hpp"
@@ -83,13 +85,21 @@ class Rejuvenator {
   void on_control_update(Nanos wall) { pace_.on_control_update(wall); }
   // The links to other hosts of this kernel's part of the graph, made once at create (link_guard.hpp).
   void open_links() { links_.create(); }
+  // Routing is frozen while a checkpoint or rollback is timed; a write to the plant meanwhile is held, and
+  // written when routing resumes (resume_routing).
+  [[nodiscard]] bool routing_frozen() const { return routing_.frozen(); }
+  void hold_bridge_write(ObjectId topic, std::span<const std::byte> payload) { routing_.hold(topic, payload); }
+  // The reaper (reaper.hpp): its slack sized once the services' limits are known (create.cpp); a stray child
+  // killed and reaped off the critical path; whether a pid is one it reaps; at shutdown, all killed and reaped.
+  void size_reaper() { reaper_.set_slack(processes_to_spare()); }
+  void kill_and_reap_later(sys::ChildProcess p) { reaper_.kill(std::move(p)); }
+  [[nodiscard]] bool reaping(pid_t pid) const { return reaper_.knows(pid); }
+  void kill_and_reap_all() { reaper_.kill_all_and_reap(); }
 
   // Read by the other owners; written here, and set up by create.cpp.
   image::ImageStore images{2};
   ImageCoordinator coordinator;  // the requests, the run, the work left, the timer (image_coordinator.hpp)
-  RoutingFreeze routing;         // frozen while a checkpoint or rollback is timed (routing_freeze.hpp)
   CatchUp catch_up;  // the plant's samples since each cut, replayed after a rollback (catch_up.hpp)
-  Reaper reaper;                   // retired incarnations, killed processes not reaped yet (reaper.hpp)
 
  private:
   ChannelPool channel_pool;  // socket pairs made ahead, fds closed after the timed part (channel_pool.hpp)
@@ -164,6 +174,8 @@ class Rejuvenator {
   Kernel::Impl& k;
   Nanos next_trim{0};  // wall clock: when trim_images looks again
 
+  RoutingFreeze routing_;     // frozen while a checkpoint or rollback is timed (routing_freeze.hpp)
+  Reaper reaper_;             // retired incarnations, killed processes not reaped yet (reaper.hpp)
   ImageCharge image_charge_;  // simulated time charged for image work (image_charge.hpp)
   VehiclePace pace_;          // where in the control period image work may start (vehicle_pace.hpp)
   // The links to other hosts, closed in the secure interval around each mode change (enter_mode; link_guard.hpp).

@@ -35,9 +35,9 @@ void Rejuvenator::retire_live_rejuvenated() {
       // another process and no socket (seccomp), it cannot slow the rollback down or reach anything.
       (void)k.epoll.remove(s.proc.process.pidfd());
       if (leaf_killed) {
-        reaper.kill(std::move(s.proc.process));  // also where it was not yet moved into the leaf (CgroupPlacer)
+        reaper_.kill(std::move(s.proc.process));  // also where it was not yet moved into the leaf (CgroupPlacer)
       } else {
-        reaper.retire(std::move(s.proc.process));
+        reaper_.retire(std::move(s.proc.process));
       }
       s.proc.process = sys::ChildProcess{};
     }
@@ -242,7 +242,7 @@ std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(
 // checkpoint's commit): a service woken by a delivery, or the plant's thread woken by a DDS write, may take the
 // CPU at once.
 void Rejuvenator::announce_rollback(Generation g, Epoch epoch) {
-  routing.freeze();
+  routing_.freeze();
   KernelMessage<rejuv_msg_RollbackSignal> signal;
   signal.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
   signal.fields.generation = g.value();
@@ -353,7 +353,7 @@ void Rejuvenator::cold_restart(const std::string& reason) {
   }
   for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
-  reaper.kill_retired();
+  reaper_.kill_retired();
   catch_up.forget();  // the services start from their binaries: no generation to catch up to
   coordinator.reset_timer();
   k.arm_timerfd();

@@ -187,8 +187,8 @@ void Router::after_publish(ObjectId topic, std::span<const std::byte> payload, b
     watch_publication(k.objects[topic.value()], payload, g, publisher);  // observers (watch.cpp)
   if (k.bridge &&
       (from == From::Service || from == From::Kernel)) {  // what came in from the plant does not go back out
-    if (k.rejuvenator.routing.frozen()) {  // a checkpoint or rollback is timed: written by resume_routing
-      k.rejuvenator.routing.hold(topic, payload);
+    if (k.rejuvenator.routing_frozen()) {  // a checkpoint or rollback is timed: written by resume_routing
+      k.rejuvenator.hold_bridge_write(topic, payload);
     } else {
       (void)write_to_bridge(topic, payload);
     }
@@ -214,7 +214,7 @@ void Router::finish_routes(ObjectId topic) {
 }
 
 void Router::hand_over_polled(ServiceRuntime& s) {
-  if (k.rejuvenator.routing.frozen() || !s.flow.take_polled())
+  if (k.rejuvenator.routing_frozen() || !s.flow.take_polled())
     return;  // taken first: push_ring below comes back here
   for (const SubscriptionRecord& r : s.subscriptions) {
     if (!subscribers[r.id.value()].polled) continue;
@@ -275,7 +275,7 @@ bool Router::deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber) {
 
 void Router::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
   if (s.proc.phase() != Phase::Booted && s.proc.phase() != Phase::Ready) return;
-  if (k.rejuvenator.routing.frozen())
+  if (k.rejuvenator.routing_frozen())
     return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
   hand_over_polled(s);         // the service is about to wake: its polled news goes first
   if (!s.flow.drained()) {

@@ -420,7 +420,7 @@ bool known_child(const Kernel::Impl& k, pid_t pid) {
       }
     }
   }
-  return k.rejuvenator.reaper.knows(pid);
+  return k.rejuvenator.reaping(pid);
 }
 
 }  // namespace
@@ -444,7 +444,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
   for (const pid_t pid : *children) {
     if (!final && known(pid)) continue;
     if (killed_with_its_leaf(pid)) {  // killed with its live leaf at a rollback: reaped here, counted below
-      if (auto stray = sys::ChildProcess::adopt_child(pid)) k.rejuvenator.reaper.kill(std::move(*stray));
+      if (auto stray = sys::ChildProcess::adopt_child(pid)) k.rejuvenator.kill_and_reap_later(std::move(*stray));
       continue;
     }
     const auto sid = sys::session_of(pid);
@@ -460,7 +460,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
       if (auto stray = sys::ChildProcess::adopt_child(pid)) {
-        k.rejuvenator.reaper.kill(std::move(*stray));
+        k.rejuvenator.kill_and_reap_later(std::move(*stray));
       } else {
         (void)sys::kill_and_reap_own_child(pid);
       }

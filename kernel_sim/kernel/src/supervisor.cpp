@@ -644,7 +644,7 @@ void Supervisor::shutdown_all() {
   // a service's session (a zombie is still its session's).
   for (ServiceRuntime& s : k.services) s.sandbox.cgroup.kill_all();
   k.warden.sweep_strays("shutdown", true);
-  k.rejuvenator.reaper.kill_all_and_reap();
+  k.rejuvenator.kill_and_reap_all();
   for (ServiceRuntime& s : k.services) k.warden.close_sandbox(s);
   // Close every fd the run opened: DDS (participant, sockets, threads), the timerfd.
   k.bridge.reset();
