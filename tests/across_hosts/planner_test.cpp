@@ -7,9 +7,12 @@
 //   - the vehicle's true position (its trace.csv) comes within 0.15 m of the planner's waypoint, which is
 //     0.5 m off the graph's own square in both north and east;
 //   - every mission_upload the vehicle's kernel routed (the ULog of --ulog-profile full: a D message per routed
-//     message, read by @foxglove/ulog) is a sample the planner wrote while the vehicle was in MC (its mode trace
-//     in events.csv), and none the planner wrote while the vehicle was in RB, SC, UPDATE or CP is among them —
-//     with at least one of each kind written, so that the check has something to refuse.
+//     message, read by @foxglove/ulog) was routed in MC (its mode trace in events.csv, on the kernel clock);
+//   - one the planner stamped while the vehicle was in RB, SC, UPDATE or CP was routed in the MC window right
+//     after its stamp, never a later one: the stamp precedes the companion's routing and the DDS write, and the
+//     vehicle's link admits only what was written after MC began — with samples stamped in both, so that the
+//     check has something to refuse. That nothing crosses in the secure interval itself is shown on the wire
+//     (HostLink.Square: every packet captured, against the secure intervals).
 // No timing is asserted: the runs last as long as they last.
 #include <sys/wait.h>
 
@@ -17,6 +20,7 @@
 #include <cmath>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -31,8 +35,13 @@ using namespace rejuv::test_support::across;
 const fs::path kPlanner = REJUV_ACROSS_PLANNER;
 const fs::path kReaderModules = fs::path(REJUV_BINARY_DIR) / "ulog_reader" / "node_modules";
 
-// The vehicle's modes from its events.csv: wall_s [s, CLOCK_MONOTONIC] → the mode entered then (MC, RB, SC, UP, CP).
-using ModeTrace = std::map<double, std::string>;
+// The vehicle's mode changes from its events.csv, in order: each at kernel time t_s and at wall_s
+// [s, CLOCK_MONOTONIC], the mode entered then (MC, RB, SC, UP, CP).
+struct ModeChange {
+  double t_s = 0, wall_s = 0;
+  std::string mode;
+};
+using ModeTrace = std::vector<ModeChange>;
 
 ModeTrace mode_trace(const fs::path& events) {
   ModeTrace out;
@@ -43,19 +52,31 @@ ModeTrace mode_trace(const fs::path& events) {
     std::vector<std::string> f;
     std::stringstream cells(line);
     for (std::string c; std::getline(cells, c, ',');) f.push_back(c);
-    if (f.size() >= 6 && f[2] == "mode") out[std::stod(f[1])] = f[5];
+    if (f.size() >= 6 && f[2] == "mode") out.push_back({std::stod(f[0]), std::stod(f[1]), f[5]});
   }
   return out;
 }
 
-// The vehicle's mode at monotonic time `ns`: that of the last change at or before it; before the first, SC (the
-// kernel starts in SC, its link closed).
-std::string mode_at(const ModeTrace& trace, std::uint64_t ns) {
-  const double t = static_cast<double>(ns) / 1e9;
-  auto it = trace.upper_bound(t);
-  if (it == trace.begin()) return "SC";
-  return std::prev(it)->second;
+// The index of the last change at or before `t` on the wall clock; on the kernel clock the last one before it
+// (both files round to the microsecond: a message routed in the microsecond before a change is routed before it,
+// and none is routed in the microsecond after MC begins, the link not having polled yet). nullopt before the first
+// (the kernel starts in SC, its link closed).
+std::optional<std::size_t> change_at(const ModeTrace& trace, double t, bool wall) {
+  std::optional<std::size_t> at;
+  for (std::size_t i = 0; i < trace.size() && (wall ? trace[i].wall_s <= t : trace[i].t_s < t); ++i) at = i;
+  return at;
 }
+std::string mode_at_wall(const ModeTrace& trace, std::uint64_t ns) {
+  const auto i = change_at(trace, static_cast<double>(ns) / 1e9, true);
+  return i ? trace[*i].mode : "SC";
+}
+
+// A mission_upload the vehicle's kernel routed: the planner's stamp [ns, CLOCK_MONOTONIC] and the flight time at
+// which it was routed [us] (events.csv's t_s clock).
+struct Routed {
+  std::uint64_t stamp_ns = 0;
+  std::int64_t routed_us = 0;  // negative: routed during the alignment
+};
 
 // Every stamp the planner logged ("… stamps [monotonic ns]: s1 s2 …").
 std::vector<std::uint64_t> planner_stamps(const std::string& log) {
@@ -106,22 +127,23 @@ class PlannerLink : public TwoHostsTest {
                  {"--out", (dir_ / "vehicle" / "out").string(), "--no-figures", "--ulog-profile", "full"});
   }
 
-  // The timestamp_ns of every mission_upload in the vehicle's ULog (routed_uploads.js).
-  std::vector<std::uint64_t> routed_uploads() {
+  // Every mission_upload in the vehicle's ULog: its timestamp_ns (the planner's stamp) and when the kernel routed
+  // it, in flight time (routed_uploads.js).
+  std::vector<Routed> routed_uploads() {
     const fs::path out = dir_ / "routed.txt";
     const pid_t pid = rejuv::test_support::start_node_script(kRepo / "tests/across_hosts/routed_uploads.js", kReaderModules,
                                                              {(dir_ / "vehicle" / "out" / "run.ulg").string()}, out);
     int status = 0;
     EXPECT_TRUE(pid > 0 && ::waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0)
         << "node routed_uploads.js failed (is @foxglove/ulog installed in " << kReaderModules << "?)";
-    std::vector<std::uint64_t> stamps;
+    std::vector<Routed> routed;
     std::istringstream words(slurp(out));
-    for (std::uint64_t s = 0; words >> s;) stamps.push_back(s);
-    return stamps;
+    for (Routed r; words >> r.stamp_ns >> r.routed_us;) routed.push_back(r);
+    return routed;
   }
 };
 
-TEST_F(PlannerLink, CompanionWaypointFlown_NothingWrittenInTheSecureIntervalRouted) {
+TEST_F(PlannerLink, CompanionWaypointFlown_RoutedOnlyInMc_NothingKeptAcrossASecureInterval) {
   ASSERT_TRUE(fs::exists(kReaderModules / "@foxglove/ulog/package.json")) << "./rejuv installs @foxglove/ulog";
   // The companion outlasts the vehicle; the vehicle flies long enough to reach the waypoint (0.7 m from home).
   auto companion = start("companion", 70);
@@ -141,28 +163,44 @@ TEST_F(PlannerLink, CompanionWaypointFlown_NothingWrittenInTheSecureIntervalRout
   EXPECT_LT(closest_approach(dir_ / "vehicle" / "out" / "trace.csv", wp), 0.15)
       << "the vehicle did not reach the planner's waypoint " << wp[0] << " " << wp[1] << " " << wp[2];
 
-  // What the planner wrote, by the vehicle's mode when it wrote it; what the vehicle's kernel routed.
+  // What the planner wrote, by the vehicle's mode when it stamped it; what the vehicle's kernel routed, and when.
   const ModeTrace trace = mode_trace(dir_ / "vehicle" / "out" / "events.csv");
   ASSERT_FALSE(trace.empty());
   const std::vector<std::uint64_t> written = planner_stamps(c.err);
   std::set<std::uint64_t> written_in_mc, written_secure;
-  for (const std::uint64_t s : written) (mode_at(trace, s) == "MC" ? written_in_mc : written_secure).insert(s);
+  for (const std::uint64_t s : written) (mode_at_wall(trace, s) == "MC" ? written_in_mc : written_secure).insert(s);
   EXPECT_FALSE(written_in_mc.empty());
   EXPECT_FALSE(written_secure.empty());
-  const std::vector<std::uint64_t> routed = routed_uploads();
+  const std::vector<Routed> routed = routed_uploads();
   ASSERT_FALSE(routed.empty()) << "no mission_upload routed on the vehicle";
-  std::size_t from_planner = 0;
-  for (const std::uint64_t s : routed) {
-    EXPECT_EQ(written_secure.count(s), 0U) << "a sample the planner wrote at " << s << " ns, in the vehicle's "
-                                           << mode_at(trace, s) << ", was routed on the vehicle";
-    EXPECT_EQ(mode_at(trace, s), "MC") << "routed: a mission_upload stamped " << s << " ns";
-    from_planner += written_in_mc.count(s);
+  std::size_t from_planner = 0, stamped_before_mc = 0;
+  double lead_max_ms = 0;
+  for (const Routed& r : routed) {
+    // Routed by the vehicle's kernel only in MC (the link's Write is MC-only, checked at each publication).
+    const auto window = change_at(trace, static_cast<double>(r.routed_us) / 1e6, false);
+    ASSERT_TRUE(window.has_value()) << "a mission_upload routed before the first mode change, at " << r.routed_us << " us";
+    EXPECT_EQ(trace[*window].mode, "MC") << "a mission_upload routed at " << r.routed_us << " us, in "
+                                         << trace[*window].mode;
+    from_planner += written_in_mc.count(r.stamp_ns) + written_secure.count(r.stamp_ns);
+    if (written_secure.count(r.stamp_ns) == 0) continue;
+    // Stamped in the secure interval: the planner stamps a sample before its kernel routes it to the link and
+    // the link writes it to DDS, and that may fall after MC began. It then crossed in MC (the vehicle's link
+    // admits only samples whose DDS source timestamp is at or after the start of MC), so it must be routed in
+    // the MC window that directly follows its stamp; one kept across a whole window is not.
+    const auto stamped = change_at(trace, static_cast<double>(r.stamp_ns) / 1e9, true);
+    const std::size_t next = stamped ? *stamped + 1 : 0;
+    EXPECT_EQ(*window, next) << "a sample the planner stamped at " << r.stamp_ns << " ns, in the vehicle's "
+                             << mode_at_wall(trace, r.stamp_ns) << ", was routed in a later MC window than the next";
+    ++stamped_before_mc;
+    if (next < trace.size())
+      lead_max_ms = std::max(lead_max_ms, (trace[next].wall_s - static_cast<double>(r.stamp_ns) / 1e9) * 1e3);
   }
   EXPECT_GT(from_planner, 0U);
-  std::printf("planner: %zu samples written in the vehicle's MC, %zu in its secure interval; %zu routed on the "
-              "vehicle, %zu of them the planner's; closest approach %.3f m\n",
-              written_in_mc.size(), written_secure.size(), routed.size(), from_planner,
-              closest_approach(dir_ / "vehicle" / "out" / "trace.csv", wp));
+  std::printf("planner: %zu samples stamped in the vehicle's MC, %zu in its secure interval; %zu routed on the "
+              "vehicle (all in MC), %zu of them the planner's, %zu stamped before the MC that carried them (at most "
+              "%.1f ms before it began); closest approach %.3f m\n",
+              written_in_mc.size(), written_secure.size(), routed.size(), from_planner, stamped_before_mc,
+              lead_max_ms, closest_approach(dir_ / "vehicle" / "out" / "trace.csv", wp));
 }
 
 }  // namespace
