@@ -73,12 +73,10 @@ TEST(RealtimeBudget, OnlyARealTimeRunReservesItForItsChain) {
   EXPECT_EQ(realtime.at("commander"), 0) << "commander is not in the real-time plan";
 }
 
-// Whether `pid` (a child not yet reaped) has exited: a zombie, state Z in /proc/<pid>/stat. Bounded.
+// Whether `pid` (a child not yet reaped) has exited: a zombie (tests/proc_stat.hpp). Bounded.
 bool became_zombie(pid_t pid) {
   for (int i = 0; i < 5000; ++i) {
-    const std::string text = mission::read_text("/proc/" + std::to_string(pid) + "/stat");
-    const auto paren = text.rfind(')');
-    if (paren != std::string::npos && paren + 2 < text.size() && text[paren + 2] == 'Z') return true;
+    if (test_support::proc_stat(pid).state == 'Z') return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   return false;
@@ -87,9 +85,8 @@ bool became_zombie(pid_t pid) {
 // One kernel's groups removed while a process of theirs is not yet reaped (as a service killed at shutdown is,
 // until its kernel's reaper waits for it): the kernel keeps such a removed group until the reap, and with it
 // the group's budget, unless it was returned before the rmdir. The next kernel of this process, made at once,
-// then needs it: here two shares of 400 ms/s, which fit in the machine's 950 only if the first kernel's share
-// came back. (A fault campaign flies one kernel after another: its next mission's control chain was refused
-// SCHED_FIFO, three services of six, and the vehicle was lost.)
+// then needs it (a fault campaign flies one kernel after another in one process): here two shares of 400 ms/s,
+// which fit in the machine's 950 only if the first kernel's share came back.
 TEST(RealtimeBudget, RemovedGroupReturnsItsShare_EvenBeforeItsLastProcessIsReaped) {
   if (::geteuid() != 0) GTEST_SKIP() << "the service groups need root";
   if (!fs::exists(kCpu / "cpu.rt_runtime_us")) GTEST_SKIP() << "real-time tasks are not grouped here (no v1 cpu.rt_runtime_us)";

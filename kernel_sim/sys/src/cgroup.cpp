@@ -112,23 +112,30 @@ std::vector<Hierarchy> hierarchies() {
   return out;
 }
 
+// v1 cpu: `dir`'s cpu.rt_runtime_us [us per second]; 0 where the hierarchy has none.
+std::uint64_t rt_runtime_of(const fs::path& dir) {
+  return std::strtoull(read_file(dir / "cpu.rt_runtime_us").c_str(), nullptr, 10);
+}
+
 // v1 cpu: the real-time budget of the service `dir` (its live leaf, then its own) returned to its kernel's
-// directory, and that directory's to the machine's when `dir` held its last share; nothing where the
-// hierarchy has no cpu.rt_runtime_us. Before the rmdir, not left to it: a removed group is released by the
-// kernel only once nothing refers to it any more (a killed process not yet reaped, a slow release under load),
-// and until then its budget counts against the machine's 950 ms/s, so that the next kernel of this process,
-// made at once, found its chain refused SCHED_FIFO. A zero is refused only while the group holds a live
-// real-time task; by then it holds none.
+// directory, before the rmdir and not left to it: Linux releases a removed group only once nothing refers to it
+// (a killed process not yet reaped, a slow release under load), and until then its budget counts against the
+// machine's 950 ms/s, where the next kernel of this process, made at once, needs it. A zero is refused only
+// while the group holds a live real-time task; by then it holds none.
 void release_rt_budget(const fs::path& dir) {
-  const fs::path own = dir / "cpu.rt_runtime_us";
-  if (!fs::exists(own)) return;
-  const std::uint64_t runtime = std::strtoull(read_file(own).c_str(), nullptr, 10);
+  const std::uint64_t runtime = rt_runtime_of(dir);
   if (runtime == 0) return;
   for (const char* leaf : {"live", "images"}) (void)write_file(dir / leaf / "cpu.rt_runtime_us", "0");
-  if (!write_file(own, "0")) return;
-  const fs::path parent = dir.parent_path() / "cpu.rt_runtime_us";
-  const std::uint64_t held = std::strtoull(read_file(parent).c_str(), nullptr, 10);
-  (void)write_file(parent, std::to_string(held > runtime ? held - runtime : 0));
+  if (!write_file(dir / "cpu.rt_runtime_us", "0")) return;
+  const std::uint64_t held = rt_runtime_of(dir.parent_path());
+  (void)write_file(dir.parent_path() / "cpu.rt_runtime_us", std::to_string(held > runtime ? held - runtime : 0));
+}
+
+// A service's directory removed: its real-time budget returned, its two leaves, then itself.
+void remove_service_dir(const fs::path& dir) {
+  release_rt_budget(dir);
+  for (const char* leaf : {"live", "images"}) (void)::rmdir((dir / leaf).c_str());
+  (void)::rmdir(dir.c_str());
 }
 
 // Directories of kernels that are gone (their pid is free): left by a kernel that was killed. Empty by then
@@ -141,10 +148,7 @@ void remove_stale(const fs::path& own) {
     const long pid = std::strtol(name.c_str() + 6, nullptr, 10);
     if (pid <= 0 || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
     for (const auto& child : fs::directory_iterator(entry.path(), ec)) {
-      if (!child.is_directory(ec)) continue;
-      release_rt_budget(child.path());
-      for (const char* leaf : {"live", "images"}) (void)::rmdir((child.path() / leaf).c_str());
-      (void)::rmdir(child.path().c_str());
+      if (child.is_directory(ec)) remove_service_dir(child.path());
     }
     (void)::rmdir(entry.path().c_str());
   }
@@ -229,7 +233,7 @@ Result<Leaves, int> make_leaves(const fs::path& dir) {
 bool reserve_rt_budget(const fs::path& dir, std::uint64_t runtime_us, std::vector<std::string>& notes) {
   // The parent first (a child's budget must fit in it), then the service's own.
   const fs::path parent = dir.parent_path();
-  const std::uint64_t before = std::strtoull(read_file(parent / "cpu.rt_runtime_us").c_str(), nullptr, 10);
+  const std::uint64_t before = rt_runtime_of(parent);
   (void)write_file(parent / "cpu.rt_runtime_us", std::to_string(std::min<std::uint64_t>(900000, before + runtime_us)));
   // And the live leaf's, where the incarnation runs: a task in a v1 group whose budget is 0 cannot be made
   // SCHED_FIFO at all (EPERM). The images leaf keeps 0: images run SCHED_OTHER (SCHED_RESET_ON_FORK).
@@ -486,10 +490,7 @@ void ServiceCgroup::remove() noexcept {
   // tears down its memory), then remove the directories, then the kernel's own if this was its last.
   for (int i = 0; i < 1000 && !members().empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
   for (const fs::path& dir : dirs_) {
-    release_rt_budget(dir);
-    (void)::rmdir((dir / "live").c_str());
-    (void)::rmdir((dir / "images").c_str());
-    (void)::rmdir(dir.c_str());
+    remove_service_dir(dir);
     (void)::rmdir(dir.parent_path().c_str());  // fails while another service's group is there
   }
   dirs_.clear();
