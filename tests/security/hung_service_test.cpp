@@ -1,18 +1,21 @@
 // A service of the control chain that hangs in flight (SIGSTOP: stopped, neither dead nor answering) is found and
 // rolled back at once, in REAL TIME as in LOCKSTEP, instead of leaving the vehicle on its last output until the
 // secure interval ends and the next timer rollback comes (docs/design.md §7 "Faults"). launch/quad_square (SR and
-// the worst-case control attack on), the real kernel, flight services and plant; `ekf2`'s live process is stopped
-// in the secure interval 4 s into the flight.
+// the worst-case control attack on), the real kernel, flight services and plant; the live process of `ekf2` (the
+// estimate the safety controller flies on) or of `safety_control` (the controller of the secure interval) is
+// stopped in the secure interval 4 s into the flight.
 //
 // In real time the kernel sends a Sync to a service that has frames it has not reported and kills one that does
-// not answer it with its Idle within realtime_hang_deadline (Supervisor::watch_liveness); in lockstep the idle
-// deadline does it. Judged by effect: the stopped process is gone, ekf2 lives on in another process, the kernel
-// named the hang, a rollback followed, and the vehicle stayed in the safety set. No timing is asserted.
+// not answer it with its Idle within its deadline (Supervisor::watch_liveness; the chain's, at SCHED_FIFO); in
+// lockstep the idle deadline does it. Judged by effect: the stopped process is gone, the service lives on in
+// another process, the kernel named the hang, a rollback followed, and the vehicle stayed in the safety set. No
+// timing is asserted.
 #include <gtest/gtest.h>
 
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <ostream>
 #include <string>
 
 #include "graph_fixture.hpp"
@@ -60,11 +63,21 @@ class Stopper final : public kernel::Observer {
   std::uint64_t rollbacks_before_ = 0;
 };
 
-class HungService : public ::testing::TestWithParam<bool> {};
+struct HungCase {
+  bool realtime;
+  const char* target;
+};
 
-TEST_P(HungService, StoppedEkf2_FoundKilledAndRolledBack_VehicleStaysSafe) {
+void PrintTo(const HungCase& c, std::ostream* os) {
+  *os << c.target << (c.realtime ? " in real time" : " in lockstep");
+}
+
+class HungService : public ::testing::TestWithParam<HungCase> {};
+
+TEST_P(HungService, StoppedInTheSecureInterval_FoundKilledAndRolledBack_VehicleStaysSafe) {
   if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox needs root here";
-  const bool realtime = GetParam();
+  const bool realtime = GetParam().realtime;
+  const std::string target = GetParam().target;
   std::optional<launch::LoadedLaunch> graph;
   ASSERT_NO_FATAL_FAILURE(mission::load_square(realtime, {}, graph));
   auto reference = cli::run_reference(*graph, std::nullopt);
@@ -76,7 +89,7 @@ TEST_P(HungService, StoppedEkf2_FoundKilledAndRolledBack_VehicleStaysSafe) {
   const Nanos stop_at = reference->alignment + Nanos{kStopAfter};
   mission::SessionGuard guard;
   cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);
-  Stopper stopper("ekf2", stop_at);
+  Stopper stopper(target, stop_at);
   kernel::ObserverFanout fanout({&recorder, &stopper});
   auto k = Kernel::create(std::move(*graph), options, &fanout);
   ASSERT_TRUE(k.has_value()) << k.error().to_string();
@@ -87,33 +100,37 @@ TEST_P(HungService, StoppedEkf2_FoundKilledAndRolledBack_VehicleStaysSafe) {
   proto::RunSummary summary;
   cli::fill_summary(summary, **k, recorder, *outcome, cli::facts_of(**k, options));
   const kernel::SrStats sr = (*k)->sr_stats();
-  const auto id = (*k)->find_service("ekf2");
+  const auto id = (*k)->find_service(target);
   ASSERT_TRUE(id.has_value());
-  const kernel::ServiceStats ekf2 = (*k)->stats(*id);
+  const kernel::ServiceStats service = (*k)->stats(*id);
   const pid_t stopped = stopper.stopped_pid();
   const mission::ProcStat after = stopped > 0 ? mission::proc_stat(stopped) : mission::ProcStat{};
   k->reset();
-  std::printf("[ %s ] stopped ekf2 pid %d; max V %.3f; %llu rollbacks, %llu fallbacks, %llu cold restarts\n",
-              realtime ? "real time" : "lockstep", stopped, summary.max_v(),
+  std::printf("[ %s ] stopped %s pid %d; max V %.3f; %llu rollbacks, %llu fallbacks, %llu cold restarts\n",
+              realtime ? "real time" : "lockstep", target.c_str(), stopped, summary.max_v(),
               static_cast<unsigned long long>(sr.rollbacks), static_cast<unsigned long long>(sr.fallbacks),
               static_cast<unsigned long long>(sr.cold_restarts));
 
-  ASSERT_GT(stopped, 0) << "ekf2 was never stopped: no MC step after " << to_seconds(stop_at).count() << " s";
+  ASSERT_GT(stopped, 0) << target << " was never stopped: no MC step after " << to_seconds(stop_at).count() << " s";
   EXPECT_EQ(outcome->reason, StopReason::Duration) << outcome->detail;
   // Found and killed as hung: the process the test stopped is gone (or a zombie nobody will run again).
   EXPECT_TRUE(after.state == '?' || after.state == 'Z' || after.parent != ::getpid())
-      << "the stopped ekf2 (pid " << stopped << ") is still there, state " << after.state;
-  const std::string named = log.lines_with("killing 'ekf2'");
+      << "the stopped " << target << " (pid " << stopped << ") is still there, state " << after.state;
+  const std::string named = log.lines_with("killing '" + target + "'");
   EXPECT_NE(named.find(realtime ? "no Idle within" : "not idle within the idle deadline"), std::string::npos)
-      << log.lines_with("ekf2");
-  // Rolled back (a restored image, or a cold restart): ekf2 flew on in another process.
+      << log.lines_with(target);
+  // Rolled back (a restored image, or a cold restart): the service flew on in another process.
   EXPECT_GT(sr.rollbacks + sr.cold_restarts, stopper.rollbacks_before());
-  EXPECT_NE(ekf2.pid, stopped);
+  EXPECT_NE(service.pid, stopped);
   EXPECT_LT(summary.max_v(), 1.0) << "the vehicle left the safety set";
 }
 
-INSTANTIATE_TEST_SUITE_P(Clocks, HungService, ::testing::Values(true, false),
-                         [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "RealTime" : "Lockstep"; });
+INSTANTIATE_TEST_SUITE_P(ClocksAndTargets, HungService,
+                         ::testing::Values(HungCase{true, "ekf2"}, HungCase{false, "ekf2"},
+                                           HungCase{true, "safety_control"}, HungCase{false, "safety_control"}),
+                         [](const ::testing::TestParamInfo<HungCase>& p) {
+                           return std::string(p.param.realtime ? "RealTime_" : "Lockstep_") + p.param.target;
+                         });
 
 }  // namespace
 }  // namespace rejuv::testing

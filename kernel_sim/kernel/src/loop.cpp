@@ -351,8 +351,8 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
       if (observer != nullptr) observer->on_step(lockstep.steps().steps_done(), now(), caps.mode());
       lockstep.count_realtime_progress();
       supervisor.retry_realtime();
-      supervisor.watch_liveness();
     }
+    supervisor.watch_liveness();  // it keeps its own pace
     lockstep.check_stop_conditions();
   }
   return {};

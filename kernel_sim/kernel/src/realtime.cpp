@@ -81,7 +81,11 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   // and given back here to whichever process is the live service.
   const pid_t pid = s.proc.process.pid();
   auto ok = sys::set_fifo(pid, static_cast<int>(spec.rt_priority()));
-  if (ok) return;
+  if (ok) {
+    fifo_pid_.resize(k.services.size());
+    fifo_pid_[s.id.value()] = pid;  // watch_liveness holds it to the chain's deadline
+    return;
+  }
   // A restored copy is moved from `images/` into `live/` by the placer, after the rollback (docs/sandbox.md);
   // in `images/`, whose real-time budget is 0 (v1 RT groups), SCHED_FIFO is refused: again once it is there —
   // in every hierarchy, the v1 cpu one (the budget) after the v2 one. A refusal while the placer is between the

@@ -565,23 +565,39 @@ void Supervisor::check_deadlines() {
   }
 }
 
+// How often watch_liveness looks at a service the plan runs at SCHED_FIFO (it publishes every control period, so
+// 10 ms of silence is already news) and at any other.
+constexpr Nanos kChainLivenessLook{std::chrono::milliseconds{10}};
+constexpr Nanos kLivenessLook{std::chrono::milliseconds{100}};
+
+bool Supervisor::runs_fifo(const ServiceRuntime& s) const {
+  return realtime_active && s.id.value() < fifo_pid_.size() && fifo_pid_[s.id.value()] == s.proc.process.pid();
+}
+
 void Supervisor::watch_liveness() {
   if (!k.sr) return;  // without SR a kill ends the run: a slow service is not worth that
-  probes_.resize(k.services.size());
   const Nanos t = k.wall();
+  if (liveness_looked_at_ != Nanos::min() && t - liveness_looked_at_ < kChainLivenessLook) return;
+  liveness_looked_at_ = t;
+  probes_.resize(k.services.size());
   const CatchUp& catch_up = k.rejuvenator.catch_up;
   for (ServiceRuntime& s : k.services) {
     LivenessProbe& probe = probes_[s.id.value()];
+    const bool chain = runs_fifo(s);
+    if (t - probe.looked_at < (chain ? kChainLivenessLook : kLivenessLook)) continue;
     // The catch-up chain while it replays or drains what it was handed is left alone: a slow replay is no
     // violation (catch_up.hpp), and the catch-up's own bound ends it.
     const bool replaying = catch_up.in_chain(s.id) && (catch_up.replaying() || catch_up.draining());
     const bool watched = s.config.rejuvenate && s.live() && !s.proc.scripted && s.proc.phase() == Phase::Ready &&
                          s.proc.loss_reason.empty() && !replaying;
+    const auto fresh = [&] {
+      probe = LivenessProbe{.pid = s.proc.process.pid(), .frames_in = s.stats.frames_in, .looked_at = t};
+    };
     if (!watched || probe.pid != s.proc.process.pid() || probe.frames_in != s.stats.frames_in) {
-      // Gone, a new incarnation, or it spoke since the last look: alive.
-      probe = LivenessProbe{.pid = s.proc.process.pid(), .frames_in = s.stats.frames_in};
+      fresh();  // gone, a new incarnation, or it spoke since the last look: alive
       continue;
     }
+    probe.looked_at = t;
     if (!probe.asked_at) {
       const std::uint64_t sent = s.flow.frames_out();  // its Idle after the Sync reports at least these
       if (s.flow.reported() < sent && k.ask_idle(s)) {
@@ -590,14 +606,16 @@ void Supervisor::watch_liveness() {
       }
       continue;
     }
-    if (t - *probe.asked_at <= k.options.realtime_hang_deadline) continue;
+    const Nanos deadline = chain ? k.options.realtime_chain_hang_deadline : k.options.realtime_hang_deadline;
+    if (t - *probe.asked_at <= deadline) continue;
     if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
     if (s.live() && s.flow.reported() < probe.owed) {
-      const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(k.options.realtime_hang_deadline);
+      const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(deadline);
       kill_hung(s, "no Idle within " + std::to_string(bound.count()) + " ms of a Sync in real time (" +
-                       std::to_string(s.flow.reported()) + " of " + std::to_string(probe.owed) + " frames reported)");
+                       std::to_string(s.flow.reported()) + " of " + std::to_string(probe.owed) + " frames reported" +
+                       (chain ? ", at SCHED_FIFO" : "") + ")");
     }
-    probe = LivenessProbe{.pid = s.proc.process.pid(), .frames_in = s.stats.frames_in};
+    fresh();
   }
 }
 

@@ -47,12 +47,14 @@ class Supervisor {
   // run_realtime, every 100 ms: a restored copy refused SCHED_FIFO while still in its cgroup's `images/` leaf
   // (no real-time budget there) gets the plan once the placer has moved it into `live/`.
   void retry_realtime();
-  // run_realtime, every 100 ms: a rejuvenated service that has sent the kernel nothing since the last look while
-  // frames sent to it are unreported is sent a Sync (docs/protocol.md "Idle"); one that has not answered it with
-  // an Idle within realtime_hang_deadline is hung (stopped, spinning, blocked) and killed, which rolls back
-  // (docs/design.md §7). Lockstep has the idle deadline for this; in real time nothing else finds a hung service
-  // before the next timer rollback, and the vehicle flies on what it last published meanwhile. A service that
-  // keeps publishing is never asked: the control chain costs the channel nothing.
+  // run_realtime, at every turn of the loop: a rejuvenated service that has sent the kernel nothing since the last
+  // look at it while frames sent to it are unreported is sent a Sync (docs/protocol.md "Idle"); one that has not
+  // answered it with an Idle within its deadline is hung (stopped, spinning, blocked) and killed, which rolls back
+  // (docs/design.md §7). A service the real-time plan runs at SCHED_FIFO (the control chain) is looked at every
+  // kChainLivenessLook and has realtime_chain_hang_deadline; any other every kLivenessLook, with
+  // realtime_hang_deadline. Lockstep has the idle deadline for this; in real time nothing else finds a hung
+  // service before the next timer rollback, and the vehicle flies on what it last published meanwhile. A service
+  // that keeps publishing is never asked: the control chain costs the channel nothing.
   void watch_liveness();
 
   [[nodiscard]] bool plant_started() const { return plant_started_; }
@@ -65,7 +67,10 @@ class Supervisor {
   bool plant_started_ = false;
   bool realtime_active = false;  // the plan is on and the kernel was granted SCHED_FIFO
   std::vector<std::pair<ServiceId, pid_t>> realtime_pending_;
-  std::vector<bool> fifo_refusal_said_;  // apply_realtime: a service refused SCHED_FIFO, said once  // refused in `images/`: retry_realtime
+  std::vector<bool> fifo_refusal_said_;  // apply_realtime: a service refused SCHED_FIFO, said once
+  std::vector<pid_t> fifo_pid_;          // per service: the process apply_realtime put at SCHED_FIFO (0: none)
+  [[nodiscard]] bool runs_fifo(const ServiceRuntime& s) const;
+  Nanos liveness_looked_at_{Nanos::min()};  // watch_liveness's last pass
   // watch_liveness, per service (indexed by ServiceId): the incarnation looked at, its frame count then, and the
   // Sync in flight to it (when it went, the frame count its Idle must reach).
   struct LivenessProbe {
@@ -73,6 +78,7 @@ class Supervisor {
     std::uint64_t frames_in = 0;
     std::optional<Nanos> asked_at{};
     std::uint64_t owed = 0;
+    Nanos looked_at{};  // the last look
   };
   std::vector<LivenessProbe> probes_;
 };

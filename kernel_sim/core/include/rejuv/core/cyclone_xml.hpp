@@ -41,7 +41,9 @@ inline std::string config_xml(const ParticipantConfig& c) {
                     "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>20</MaxAutoParticipantIndex>"
                     "<Peers>" + peers + "</Peers>";
   if (c.spdp_interval) xml += "<SPDPInterval>" + *c.spdp_interval + "</SPDPInterval>";
-  xml += "</Discovery>";
+  // The receive buffers of config/cyclonedds.xml (why they are small is said there).
+  xml += "</Discovery><Sizing><ReceiveBufferSize>128KiB</ReceiveBufferSize>"
+         "<ReceiveBufferChunkSize>32KiB</ReceiveBufferChunkSize></Sizing>";
   if (!c.enclave.empty()) {
     namespace f = enclave_file;
     xml += "<Security><Authentication>"
