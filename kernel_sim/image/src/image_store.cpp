@@ -139,9 +139,18 @@ std::vector<GenerationRecord> ImageStore::trim() {
 }
 
 GenerationRecord* ImageStore::newest() { return generations_.empty() ? nullptr : &generations_.back(); }
+const GenerationRecord* ImageStore::newest() const {
+  return generations_.empty() ? nullptr : &generations_.back();
+}
 
 GenerationRecord* ImageStore::find(Generation g) {
   for (GenerationRecord& r : generations_) {
+    if (r.g == g) return &r;
+  }
+  return nullptr;
+}
+const GenerationRecord* ImageStore::find(Generation g) const {
+  for (const GenerationRecord& r : generations_) {
     if (r.g == g) return &r;
   }
   return nullptr;

@@ -22,9 +22,10 @@
 // samples and discards it for a re-arm when it is implausible (ekf2_node.hpp); the kernel counts what it sees
 // (Stats::discarded).
 //
-// One owner of the log, the cuts and the replay: the router keeps (router.cpp), the lockstep and the real-time
-// loop replay (lockstep.cpp, loop.cpp), the checkpoint cuts (checkpoint.cpp), the rollback begins (rollback.cpp),
-// a cold restart forgets (there is nothing to catch up).
+// One owner of the log, the cuts and the replay, held by the Rejuvenator (rejuvenator.hpp): the router keeps
+// (router.cpp), the lockstep and the real-time loop replay (lockstep.cpp, loop.cpp), through the Rejuvenator's
+// methods; the checkpoint cuts (checkpoint.cpp), the rollback begins (rollback.cpp), a cold restart forgets
+// (there is nothing to catch up).
 #pragma once
 
 #include <algorithm>

@@ -15,7 +15,7 @@
 namespace rejuv::kernel {
 
 bool Rejuvenator::quiescent_for_checkpoint() const {
-  const std::optional<ServiceId> caller = coordinator.asked_by();
+  const std::optional<ServiceId> caller = coordinator_.asked_by();
   return std::all_of(k.services.begin(), k.services.end(), [&](const ServiceRuntime& s) {
     if (!s.live()) return true;
     if (s.proc.phase() != Phase::Ready || !s.flow.drained()) return false;
@@ -44,16 +44,16 @@ bool Rejuvenator::lost_during(CheckpointRun& run) const {
 // The checkpoint asked for, from the cut to the caller's answer: Snapshots out, every image awaited, then
 // the generation committed or abandoned.
 void Rejuvenator::run_checkpoint() {
-  if (coordinator.work_left()) run_image_work();  // the last checkpoint's or rollback's, if the vehicle has not had its update yet
+  if (coordinator_.work_left()) run_image_work();  // the last checkpoint's or rollback's, if the vehicle has not had its update yet
   CheckpointTimes times{.start = k.wall()};
-  CheckpointRun& run = coordinator.begin_checkpoint(images.next_generation(), k.now());
+  CheckpointRun& run = coordinator_.begin_checkpoint(images_.next_generation(), k.now());
   routing_.freeze();
   k.router.flush_staged();  // the round's publications so far: before the cut, into the rings, undelivered
   send_snapshots(run);
   times.sent = k.wall();
   if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::CheckpointSnapshotsSent, run.record.g);
   const bool late = await_images(run);
-  CheckpointRun done = coordinator.end_checkpoint();
+  CheckpointRun done = coordinator_.end_checkpoint();
   if (done.failure.empty() && !done.waiting.empty()) done.failure = "the run is stopping";
   (void)lost_during(done);  // a death read in the last pump
   if (!done.failure.empty()) {
@@ -124,8 +124,8 @@ void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const Checkp
   }
   k.log("%s %llu abandoned: %s", done.priming ? "the alignment's checkpoint" : "checkpoint", num(g),
         done.failure.c_str());
-  coordinator.abandoned(g, done.waiting);
-  images.abandon(g);
+  coordinator_.abandoned(g, done.waiting);
+  images_.abandon(g);
   image::destroy(done.record);
   if (late) {
     for (const ServiceId id : done.waiting)
@@ -144,24 +144,24 @@ void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
   // Publications that reached the kernel before their sender's Taken: before the cut.
   k.router.flush_staged();
   done.record.state = save_state(done.t_cp, done.record.images, k.services, k.broker, k.timers);
-  catch_up.cut(g);  // every plant sample kept so far is in the queue state just saved
+  catch_up_.cut(g);  // every plant sample kept so far is in the queue state just saved
   if (k.observer != nullptr) k.observer->on_checkpoint(g, k.broker);
   for (const image::Image& im : done.record.images) {
     k.services[im.service.value()].pages.base = g;
     ++k.services[im.service.value()].stats.images;
   }
-  std::vector<image::GenerationRecord> evicted = images.commit(std::move(done.record));
+  std::vector<image::GenerationRecord> evicted = images_.commit(std::move(done.record));
   times.saved = k.wall();  // committed: the caller may go on (what follows is not on its path)
   resume_routing();
   answer_checkpoint(done, 0, g.value());  // its record is the store's now: caller and seq only
   // Each service of g prepares its next image now, in the slack the checkpoint started in (vehicle_pace.hpp),
   // instead of when the next sample wakes it: there it cost the control chain ≈ 0.4 ms in real time.
-  for (const image::Image& im : images.newest()->images) {
+  for (const image::Image& im : images_.newest()->images) {
     if (k.tx.build(wire::FrameKind::Committed, 0, 0, g.value()))
       k.router.send_control(k.services[im.service.value()], k.tx.bytes());
   }
   const std::uint64_t forks_before = sr_stats_.images_by_fork;
-  coordinator.forget_abandoned();  // an image still owed to an abandoned checkpoint is a stray from now on
+  coordinator_.forget_abandoned();  // an image still owed to an abandoned checkpoint is a stray from now on
   // The patches (before old generations go: a base may be among them), the evicted generations, the stray
   // sweep (before the new spares are on their way, so that only copies asked for earlier can defer it) and the
   // spare copies: after the vehicle's next control update (leave_image_work).
@@ -174,7 +174,7 @@ void Rejuvenator::commit_checkpoint(CheckpointRun done, CheckpointTimes times) {
     sr_stats_.priming_images += sr_stats_.images_by_fork - forks_before;
     sr_stats_.images_by_fork = forks_before;
     k.log("the alignment's checkpoint: %zu images by fork in %.3f ms (untimed, not charged)",
-          images.newest()->images.size(), to_ms(times.saved - times.start));
+          images_.newest()->images.size(), to_ms(times.saved - times.start));
     return;
   }
   count_checkpoint(g, done.caller, times);
@@ -193,11 +193,11 @@ void Rejuvenator::count_checkpoint(Generation g, std::optional<ServiceId> caller
   if (!sr_stats_.first_checkpoint_ms) sr_stats_.first_checkpoint_ms = to_ms(took);
   image_charge_.checkpoint(took, sr_stats_);
   if (k.options.verbose)
-    k.log("checkpoint %llu: %zu images in %.3f ms", num(g), images.newest()->images.size(), to_ms(took));
+    k.log("checkpoint %llu: %zu images in %.3f ms", num(g), images_.newest()->images.size(), to_ms(took));
 }
 
 bool Rejuvenator::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
-  if (!coordinator.settle_owed(Generation(frame.header.aux), s.id)) return false;
+  if (!coordinator_.settle_owed(Generation(frame.header.aux), s.id)) return false;
   // TakenPages: its pages fd closes with the frame. Taken: the image is a process of the service's session
   // that the kernel made it fork and no longer wants. Anything else the pid could name is left alone.
   if (frame.kind != wire::FrameKind::Taken) return true;
@@ -212,7 +212,7 @@ bool Rejuvenator::late_image(ServiceRuntime& s, const wire::FrameView& frame) {
 
 bool Rejuvenator::expecting_image(ServiceRuntime& s, const wire::FrameView& frame) {
   if (late_image(s, frame)) return false;  // the answer of an abandoned checkpoint: not a protocol error
-  CheckpointRun* running = coordinator.running();
+  CheckpointRun* running = coordinator_.running();
   if (running == nullptr) {
     k.refuse(s, std::string(wire::to_string(frame.kind)) + " without a checkpoint in progress");
     return false;
@@ -234,13 +234,13 @@ bool Rejuvenator::expecting_image(ServiceRuntime& s, const wire::FrameView& fram
 
 Generation Rejuvenator::pages_base_for(const ServiceRuntime& s) {
   const Generation base = s.pages.base;
-  if (!k.options.images_by_pages || base.value() == 0 || images.keep() < 2) return Generation{};
+  if (!k.options.images_by_pages || base.value() == 0 || images_.keep() < 2) return Generation{};
   if (!s.pages.pagemap.valid()) return Generation{};
   // The base must outlive this checkpoint's commit, which keeps the newest keep − 1 generations and the new one.
-  const std::vector<Generation> kept = images.generations();
-  const std::size_t survivors = std::min(kept.size(), images.keep() - 1);
+  const std::vector<Generation> kept = images_.generations();
+  const std::size_t survivors = std::min(kept.size(), images_.keep() - 1);
   if (std::find(kept.end() - static_cast<std::ptrdiff_t>(survivors), kept.end(), base) == kept.end()) return Generation{};
-  image::GenerationRecord* record = images.find(base);
+  image::GenerationRecord* record = images_.find(base);
   image::Image* im = record != nullptr ? record->image_of(s.id) : nullptr;
   // No refresh() here (a receive and a wait per copy, on the critical path): a copy that died since is found
   // when the Patch goes unanswered, and a rollback to this generation falls back (dead_image).
@@ -250,7 +250,7 @@ Generation Rejuvenator::pages_base_for(const ServiceRuntime& s) {
 
 void Rejuvenator::on_taken_pages(ServiceRuntime& s, const wire::FrameView& frame, sys::UniqueFd pages) {
   if (!expecting_image(s, frame)) return;
-  CheckpointRun& run = *coordinator.running();
+  CheckpointRun& run = *coordinator_.running();
   image::Image* im = run.record.image_of(s.id);
   const auto body = wire::payload_as<wire::TakenPagesBody>(frame);
   // What the service may not choose: the base (the one offered), and pages that change after this answer
@@ -278,7 +278,7 @@ void Rejuvenator::send_patches(image::GenerationRecord& record) {
       continue;
     }
     ++sr_stats_.images_by_pages;
-    image::GenerationRecord* base = images.find(im.base);
+    image::GenerationRecord* base = images_.find(im.base);
     image::Image* from = base != nullptr ? base->image_of(im.service) : nullptr;
     const wire::PatchBody body{.generation = record.g.value(), .pages = im.page_count};
     const std::array<int, 2> fds{im.pages.get(), im.image_end.get()};
@@ -300,7 +300,7 @@ bool Rejuvenator::knows_process(pid_t pid, const image::GenerationRecord* taking
       return std::any_of(i.copies.begin(), i.copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
     });
   };
-  return images.owns(pid) || k.supervisor.plant_pid() == pid ||
+  return images_.owns(pid) || k.supervisor.plant_pid() == pid ||
          std::any_of(k.services.begin(), k.services.end(),
                      [&](const ServiceRuntime& o) { return o.proc.process.pid() == pid; }) ||
          (taking != nullptr && in(*taking));
@@ -308,7 +308,7 @@ bool Rejuvenator::knows_process(pid_t pid, const image::GenerationRecord* taking
 
 void Rejuvenator::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
   if (!expecting_image(s, frame)) return;
-  CheckpointRun& run = *coordinator.running();
+  CheckpointRun& run = *coordinator_.running();
   const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
   if (pid <= 0) {
     run.failure = "'" + s.name + "' could not take its image";

@@ -216,10 +216,10 @@ void configure(Kernel::Impl& k, ClockMode clock_mode, bool sr, ServiceUids uids)
   }
   k.clock_mode = clock_mode;
   k.sr = sr;
-  k.rejuvenator.images = image::ImageStore(launch::keep_generations(k.graph.graph.sr()));
   k.seed = k.options.seed.value_or(k.graph.graph.seed());
   const proto::LockstepTiming& timing = k.graph.graph.lockstep();
   k.rejuvenator.set_up_image_work(
+      launch::keep_generations(k.graph.graph.sr()),
       ImageCharge(clock_mode, k.options.charge, std::chrono::round<Nanos>(launch::checkpoint_charge(timing)),
                   std::chrono::round<Nanos>(launch::rollback_charge(timing)),
                   std::chrono::round<Nanos>(launch::catch_up_charge_per_sample(timing))),
@@ -358,7 +358,7 @@ Result<void, KernelError> plan_catch_up(Kernel::Impl& k) {
     plan.estimate[o.id.value()] = o.type->name == msgs::TopicTraits<rejuv_msg_VehicleStateEstimate>::name;
   }
   // 32768 samples: ≈ 1 min of the plant's sensors (≈ 550 a second), far more than the generations a store keeps span.
-  k.rejuvenator.catch_up = CatchUp(std::move(plan), 32768, slot_bytes);
+  k.rejuvenator.set_up_catch_up(CatchUp(std::move(plan), 32768, slot_bytes));
   return {};
 }
 

@@ -1,7 +1,8 @@
 // The image coordinator's state (docs/design.md §7): what it has been asked to do, what it is doing, what the last
 // checkpoint or rollback left behind, and the rejuvenation timer. One owner: every change is a transition
-// below, which asserts that it is legal; the procedures that carry them out (images.cpp, checkpoint.cpp,
-// rollback.cpp) and the files that ask for them (requests.cpp, lockstep.cpp, kernel.cpp) go through it.
+// below, which asserts that it is legal; the Rejuvenator holds it (rejuvenator.hpp), its procedures carry them
+// out (images.cpp, checkpoint.cpp, rollback.cpp), and the files that ask for them (requests.cpp, lockstep.cpp,
+// kernel.cpp) go through the Rejuvenator's methods.
 //
 //   checkpoint   None ─ask→ Asked ─begin→ Running ─end→ None     Asked ─void_ask→ None (its caller is rolled back)
 //                the alignment's untimed checkpoint (docs/design.md §6) is asked at most once per run (ask_priming)

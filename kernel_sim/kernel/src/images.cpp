@@ -120,10 +120,10 @@ void Rejuvenator::open_pagemaps() {
 // The generation kept beyond K while the newest are not confirmed (ImageStore::trim) goes once they are: looked
 // at every kTrimPeriod of wall time while there is one (a receive and a wait per copy), or at once (`now`).
 void Rejuvenator::trim_images(bool now) {
-  if (images.size() <= images.keep() || (!now && k.wall() < next_trim)) return;
+  if (images_.size() <= images_.keep() || (!now && k.wall() < next_trim)) return;
   next_trim = k.wall() + kTrimPeriod;
-  images.refresh_all();
-  for (image::GenerationRecord& r : images.trim()) retire(std::move(r));
+  images_.refresh_all();
+  for (image::GenerationRecord& r : images_.trim()) retire(std::move(r));
 }
 
 void Rejuvenator::retire(image::GenerationRecord record) {
@@ -132,10 +132,10 @@ void Rejuvenator::retire(image::GenerationRecord record) {
 }
 
 void Rejuvenator::release_all_images() {
-  if (std::optional<ImageWork> left = coordinator.take_work()) {
+  if (std::optional<ImageWork> left = coordinator_.take_work()) {
     for (image::GenerationRecord& r : left->evicted) retiring_.push_back(std::move(r));
   }
-  for (image::GenerationRecord& r : images.take_all()) retiring_.push_back(std::move(r));
+  for (image::GenerationRecord& r : images_.take_all()) retiring_.push_back(std::move(r));
   finish_retiring(true);
   reaper_.kill_all_and_reap();
 }
@@ -180,21 +180,21 @@ void Rejuvenator::resume_routing() {
 // ---- safe points ----
 
 void Rejuvenator::leave_image_work(ImageWork work) {
-  coordinator.leave_work(std::move(work), k.wall() + ImageCoordinator::kImageWorkWait);
+  coordinator_.leave_work(std::move(work), k.wall() + ImageCoordinator::kImageWorkWait);
   // Without a vehicle no control update comes: the work runs at once (benchmarks, tests of the image store).
   if (!k.graph.graph.has_plant()) run_image_work();
 }
 
 void Rejuvenator::image_work_if_due() {
-  if (coordinator.work_due(k.wall())) run_image_work();
+  if (coordinator_.work_due(k.wall())) run_image_work();
 }
 
 void Rejuvenator::run_image_work() {
-  std::optional<ImageWork> left = coordinator.take_work();
+  std::optional<ImageWork> left = coordinator_.take_work();
   if (!left) return;
   ImageWork& work = *left;
   if (work.patches) {
-    if (image::GenerationRecord* record = images.find(*work.patches)) send_patches(*record);
+    if (image::GenerationRecord* record = images_.find(*work.patches)) send_patches(*record);
   }
   for (image::GenerationRecord& old : work.evicted) retire(std::move(old));
   // In real time with a vehicle the sweep never waits for copies on their way (a service with one is swept
@@ -205,7 +205,7 @@ void Rejuvenator::run_image_work() {
     k.warden.sweep_strays(work.sweep, false, vehicle_waits ? SweepWait::No : work.sweep_wait);
   }
   if (work.spares) {
-    if (image::GenerationRecord* record = images.find(*work.spares)) {
+    if (image::GenerationRecord* record = images_.find(*work.spares)) {
       for (image::Image& im : record->images) (void)im.request_spare(*work.spares);
     }
   }
@@ -218,32 +218,32 @@ bool Rejuvenator::service_images() {
   // killed ones reaped (Reaper::reap), all off the rollback's critical path. In this order: a SIGKILL's victim
   // runs its exit at once, so most are reaped here, not one safe point later (where `rejuv soak` found them as
   // one more process and fd at a sample).
-  if (!coordinator.work_left()) reaper_.kill_retired();
+  if (!coordinator_.work_left()) reaper_.kill_retired();
   if (!retiring_.empty()) finish_retiring(false);
   reaper_.reap();
   using enum ImageCoordinator::Checkpoint;
-  if (!k.stopping && coordinator.checkpoint() == None && !coordinator.rollback_asked())
+  if (!k.stopping && coordinator_.checkpoint() == None && !coordinator_.rollback_asked())
     k.warden.sweep_if_due();  // sandbox.cpp
-  if (!k.sr || k.stopping || coordinator.checkpoint() == Running) return false;
-  if (!coordinator.asked()) {  // off the critical paths
+  if (!k.sr || k.stopping || coordinator_.checkpoint() == Running) return false;
+  if (!coordinator_.asked()) {  // off the critical paths
     refill_pairs();
     open_pagemaps();
-    if (!coordinator.work_left()) trim_images(false);
+    if (!coordinator_.work_left()) trim_images(false);
   }
-  if (coordinator.checkpoint() != Asked) fire_rejuvenation_early();
-  if (coordinator.rollback_asked()) {
-    const std::string reason = coordinator.take_rollback();
+  if (coordinator_.checkpoint() != Asked) fire_rejuvenation_early();
+  if (coordinator_.rollback_asked()) {
+    const std::string reason = coordinator_.take_rollback();
     settle_dying();
     run_rollback(reason);
     return true;
   }
-  if (coordinator.checkpoint() != Asked) {
+  if (coordinator_.checkpoint() != Asked) {
     pace_.started();  // nothing waits (a rollback may have voided the request)
     return false;
   }
   // In real time with a vehicle, in the slack after a control update (vehicle_pace.hpp); never during an estimate
   // catch-up (its cut would fall inside the replay, with live samples still waiting behind it: catch_up.hpp).
-  if (!catch_up.replaying() && quiescent_for_checkpoint() && pace_.may_start(k.wall())) {
+  if (!catch_up_.replaying() && quiescent_for_checkpoint() && pace_.may_start(k.wall())) {
     pace_.started();
     settle_dying();
     run_checkpoint();
@@ -283,7 +283,7 @@ std::uint64_t Rejuvenator::processes_to_spare() const {
 }
 
 Result<void, KernelError> Rejuvenator::finish_image_requests() {
-  while (!k.stopping && coordinator.asked()) {
+  while (!k.stopping && coordinator_.asked()) {
     if (service_images()) continue;
     if (auto ok = k.pump(std::chrono::milliseconds{100}); !ok) return ok;
   }
@@ -294,7 +294,7 @@ Result<void, KernelError> Rejuvenator::finish_image_requests() {
 
 void Rejuvenator::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period) {
   const Epoch epoch = k.kernel_clock.epoch();
-  if (coordinator.armed_in(epoch)) {
+  if (coordinator_.armed_in(epoch)) {
     // docs/design.md §7: at most one arm per epoch, so the recursive do_timer of §V-C (Fig. 8) cannot happen.
     ++sr_stats_.timer_arm_refused;
     k.log("'%s' armed the rejuvenation timer a second time in epoch %u: refused", s.name.c_str(),
@@ -307,28 +307,28 @@ void Rejuvenator::arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos a
     k.input.reply(s, seq, op_code(wire::OpError::BadArgument));
     return;
   }
-  coordinator.arm_timer(epoch, k.now() + after, period);
+  coordinator_.arm_timer(epoch, k.now() + after, period);
   ++sr_stats_.timer_arms;
   sr_event(SrEventKind::TimerArmed, {}, after, s.id);
   k.arm_timerfd();
-  k.input.reply(s, seq, 0, static_cast<std::uint64_t>(coordinator.timer_due()->count()));
+  k.input.reply(s, seq, 0, static_cast<std::uint64_t>(coordinator_.timer_due()->count()));
 }
 
 // In real time with a vehicle: a timer due before the next control update fires now, in the slack after this
 // one (vehicle_pace.hpp) — up to one period early, never late — so that the rollback does not run across the
 // next sample's update. The next safe point carries it out.
 void Rejuvenator::fire_rejuvenation_early() {
-  const std::optional<Nanos> due = coordinator.timer_due();
-  if (!due || coordinator.rollback_asked() || !pace_.fire_early(k.wall(), *due - k.now())) return;
-  coordinator.timer_fired();
+  const std::optional<Nanos> due = coordinator_.timer_due();
+  if (!due || coordinator_.rollback_asked() || !pace_.fire_early(k.wall(), *due - k.now())) return;
+  coordinator_.timer_fired();
   ++sr_stats_.timer_rollbacks;
   request_rollback("the rejuvenation timer fired (in the slack before it was due)");
 }
 
 void Rejuvenator::fire_rejuvenation() {
-  const std::optional<Nanos> due = coordinator.timer_due();
+  const std::optional<Nanos> due = coordinator_.timer_due();
   if (!due || *due > k.now()) return;
-  coordinator.timer_fired();
+  coordinator_.timer_fired();
   ++sr_stats_.timer_rollbacks;
   request_rollback("the rejuvenation timer fired");
 }

@@ -149,7 +149,7 @@ ClockMode Kernel::clock_mode() const { return impl_->clock_mode; }
 dds::RunId Kernel::run_id() const { return impl_->run_id; }
 bool Kernel::sr_enabled() const { return impl_->sr; }
 bool Kernel::image_work_pending() const {
-  return impl_->rejuvenator.coordinator.work_left();
+  return impl_->rejuvenator.coordinator().work_left();
 }
 const cap::CapSystem& Kernel::caps() const { return impl_->caps; }
 const broker::Broker& Kernel::broker() const { return impl_->broker; }
@@ -168,21 +168,21 @@ const SrStats& Kernel::sr_stats() const {
   return impl_->rejuvenator.sr_stats();
 }
 const CatchUpStats& Kernel::catch_up_stats() const {
-  return impl_->rejuvenator.catch_up.stats();
+  return impl_->rejuvenator.catch_up().stats();
 }
 
 Result<Generation, KernelError> Kernel::checkpoint_now() {
   Impl& k = *impl_;
   if (!k.sr || !k.booted || k.lockstep.steps().active() ||
-      k.rejuvenator.coordinator.checkpoint() != ImageCoordinator::Checkpoint::None) {
+      k.rejuvenator.coordinator().checkpoint() != ImageCoordinator::Checkpoint::None) {
     return fail(kernel_error(KernelError::Kind::Config, "checkpoint_now: needs SR on, a booted kernel and no step in progress"));
   }
   const std::uint64_t before = k.rejuvenator.sr_stats().checkpoints;
-  (void)k.rejuvenator.coordinator.ask_checkpoint(std::nullopt, 0);
+  (void)k.rejuvenator.request_checkpoint(std::nullopt, 0);
   if (auto ok = k.rejuvenator.finish_image_requests(); !ok) return fail(ok.error());
   if (k.rejuvenator.sr_stats().checkpoints == before)
     return fail(kernel_error(KernelError::Kind::Boot, "the checkpoint was abandoned"));
-  return k.rejuvenator.images.newest()->g;
+  return k.rejuvenator.images().newest()->g;
 }
 
 Result<void, KernelError> Kernel::rollback_now(bool cold) {
@@ -205,11 +205,11 @@ void Kernel::settle_images() {
   Impl& k = *impl_;
   const Nanos deadline = k.wall() + std::chrono::milliseconds{500};
   for (;;) {
-    k.rejuvenator.images.refresh_all();
+    k.rejuvenator.refresh_images();
     k.rejuvenator.trim_images(true);
     k.rejuvenator.finish_retiring(false);
     bool pending = !k.rejuvenator.retiring().empty();
-    if (k.rejuvenator.images.spares_pending() > 0) pending = true;
+    if (k.rejuvenator.images().spares_pending() > 0) pending = true;
     if (!k.warden.placements_idle()) pending = true;  // a move holds its cgroup.procs fds until it is done
     if (!pending || k.wall() > deadline) break;
     (void)sys::wait_fd(k.epoll.fd(), sys::WaitFor::Readable, std::chrono::milliseconds{1});
@@ -218,15 +218,15 @@ void Kernel::settle_images() {
 }
 
 std::vector<int> Kernel::image_pids(ServiceId service) {
-  impl_->rejuvenator.images.refresh_all();
-  return impl_->rejuvenator.images.image_pids(service);
+  impl_->rejuvenator.refresh_images();
+  return impl_->rejuvenator.images().image_pids(service);
 }
 std::vector<int> Kernel::image_pids(ServiceId service, Generation g) {
-  impl_->rejuvenator.images.refresh_all();
-  return impl_->rejuvenator.images.image_pids(service, g);
+  impl_->rejuvenator.refresh_images();
+  return impl_->rejuvenator.images().image_pids(service, g);
 }
 std::vector<Generation> Kernel::generations() const {
-  return impl_->rejuvenator.images.generations();
+  return impl_->rejuvenator.images().generations();
 }
 std::optional<int> Kernel::plant_pid() const {
   return impl_->supervisor.plant_pid();

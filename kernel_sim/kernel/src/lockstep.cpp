@@ -96,13 +96,12 @@ void Lockstep::begin_step(const PendingStep& step) {
 
 // The catch-up's next sampling instant (catch_up.hpp), once the graph is idle: routed as a batch of its own.
 void Lockstep::replay_next_instant() {
-  if (!k.rejuvenator.catch_up.replaying()) return;
+  if (!k.rejuvenator.catch_up().replaying()) return;
   // The kernel's own bound (catch_up.hpp), checked between instants: the graph is idle here, so the chain has
   // nothing of the replay left to handle and returns to its real-time plan at once.
-  if (k.rejuvenator.catch_up.past_bound(k.wall(), CatchUp::kReplayBoundLockstep)) {
+  if (k.rejuvenator.catch_up().past_bound(k.wall(), CatchUp::kReplayBoundLockstep)) {
     k.cut_catch_up_short();
-    k.rejuvenator.catch_up.drained();
-    k.rejuvenator.chain_realtime();
+    k.rejuvenator.catch_up_drained();
     return;
   }
   steps_.next_batch(k.wall());  // its rounds and idle deadline count from here
@@ -114,10 +113,10 @@ void Lockstep::replay_next_instant() {
 bool Lockstep::replay_instant() {
   // This call ends the replay, handled whole (the chain answered Idle, or the graph was idle): DONE is published
   // ahead of the live samples it releases, so that it reaches the estimator first.
-  if (k.rejuvenator.catch_up.replaying() && !k.rejuvenator.catch_up.replay_pending()) {
+  if (k.rejuvenator.catch_up().replaying() && !k.rejuvenator.catch_up().replay_pending()) {
     k.rejuvenator.signal_catch_up(rejuv_msg_CATCH_UP_DONE);
   }
-  const bool more = k.rejuvenator.catch_up.replay_instant(
+  const bool more = k.rejuvenator.replay_catch_up_instant(
       [&](ObjectId topic, std::span<const std::byte> bytes) {
         k.router.publish_as_kernel(topic, bytes, Router::From::Replay);
       },
@@ -157,7 +156,7 @@ bool Lockstep::advance_step() {
     }
     // After a rollback the restored estimator chain catches up before the step goes on (the world is stopped,
     // the replay charged).
-    if (k.rejuvenator.catch_up.replaying()) {
+    if (k.rejuvenator.catch_up().replaying()) {
       replay_next_instant();
       continue;
     }
@@ -195,7 +194,7 @@ Nanos Lockstep::pace_wait() {
 // (lockstep or realtime); never in manual stepping, whose tests count their generations.
 void Lockstep::request_priming() {
   if (!k.sr || k.options.time_master != TimeMaster::Plant || !k.graph.graph.has_plant()) return;
-  (void)k.rejuvenator.coordinator.ask_priming();  // once per run, while nothing else is asked
+  (void)k.rejuvenator.request_priming();  // once per run, while nothing else is asked
 }
 
 void Lockstep::check_stop_conditions() {

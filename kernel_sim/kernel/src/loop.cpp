@@ -226,7 +226,7 @@ void Kernel::Impl::fire_timers() {
 void Kernel::Impl::arm_timerfd() {
   if (!timerfd || !clock_synced) return;
   auto due = timers.next_due();
-  if (const auto timer = rejuvenator.coordinator.timer_due()) due = due ? std::min(*due, *timer) : *timer;
+  if (const auto timer = rejuvenator.coordinator().timer_due()) due = due ? std::min(*due, *timer) : *timer;
   (void)timerfd->arm_at(due ? std::optional<Nanos>(*due + run_start_mono) : std::nullopt);
 }
 
@@ -248,7 +248,7 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
   }
   if (const auto at = lockstep.steps().idle_deadline(options.idle_deadline)) consider(*at);
   if (const auto at = lockstep.steps().stall_deadline(); supervisor.plant_started() && at) consider(*at);
-  if (const auto at = rejuvenator.coordinator.work_deadline()) consider(*at);
+  if (const auto at = rejuvenator.coordinator().work_deadline()) consider(*at);
   if (const auto at = rejuvenator.image_work_wait_deadline()) consider(*at);
   if (const auto at = input.next_resume()) consider(*at);
   return best;
@@ -260,35 +260,35 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
 // ends when the chain has handled all of it: each of its services is sent a Sync after its last frame and
 // answers Idle. Live samples wait behind the replay and are released at its end.
 void Kernel::Impl::pace_catch_up() {
-  if (rejuvenator.catch_up.draining()) {
+  if (rejuvenator.catch_up().draining()) {
     drain_catch_up();
     return;
   }
-  if (!rejuvenator.catch_up.replaying()) return;
+  if (!rejuvenator.catch_up().replaying()) return;
   static constexpr int kInstantsPerRound = 4;
   // A reader that does not keep up (hung, or starved of the CPU) must not hold the controllers' estimates back:
   // past the kernel's bound the replay stops where it is, the estimator re-arms and the live samples go out.
-  if (rejuvenator.catch_up.past_bound(wall(), CatchUp::kReplayBoundRealtime)) {
+  if (rejuvenator.catch_up().past_bound(wall(), CatchUp::kReplayBoundRealtime)) {
     cut_catch_up_short();
     drain_catch_up();
     return;
   }
-  if (rejuvenator.catch_up.replay_pending()) {
+  if (rejuvenator.catch_up().replay_pending()) {
     const bool keeping_up = std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
-      return !rejuvenator.catch_up.in_chain(s.id) || !s.live() || s.flow.drained();
+      return !rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.flow.drained();
     });
     if (!keeping_up) return;
     router.cork();
-    for (int i = 0; i < kInstantsPerRound && rejuvenator.catch_up.replay_pending(); ++i)
+    for (int i = 0; i < kInstantsPerRound && rejuvenator.catch_up().replay_pending(); ++i)
       (void)lockstep.replay_instant();
     router.uncork();
     return;
   }
   bool handled = true;
   for (ServiceRuntime& s : services) {
-    if (!rejuvenator.catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
+    if (!rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.idle()) continue;
     handled = false;
-    if (rejuvenator.catch_up.sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
+    if (rejuvenator.catch_up_sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
   }
   if (handled) (void)lockstep.replay_instant();  // nothing left: the replay ends, the live samples go out
 }
@@ -298,10 +298,10 @@ void Kernel::Impl::pace_catch_up() {
 void Kernel::Impl::cut_catch_up_short() {
   log("estimate catch-up cut short after %.1f ms (%llu samples replayed): the chain did not keep up; the "
       "estimator re-arms from the live samples",
-      to_seconds(wall() - rejuvenator.catch_up.began_at()).count() * 1e3,
-      static_cast<unsigned long long>(rejuvenator.catch_up.replayed()));
+      to_seconds(wall() - rejuvenator.catch_up().began_at()).count() * 1e3,
+      static_cast<unsigned long long>(rejuvenator.catch_up().replayed()));
   rejuvenator.signal_catch_up(rejuv_msg_CATCH_UP_REARM);
-  rejuvenator.catch_up.cut_short([&](ObjectId topic, std::span<const std::byte> bytes) {
+  rejuvenator.cut_replay_short([&](ObjectId topic, std::span<const std::byte> bytes) {
     router.publish_as_kernel(topic, bytes, Router::From::Held);
   });
 }
@@ -318,13 +318,12 @@ bool Kernel::Impl::ask_idle(ServiceRuntime& s) {
 void Kernel::Impl::drain_catch_up() {
   bool handled = true;
   for (ServiceRuntime& s : services) {
-    if (!rejuvenator.catch_up.in_chain(s.id) || !s.live() || s.idle()) continue;
+    if (!rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.idle()) continue;
     handled = false;
-    if (rejuvenator.catch_up.sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
+    if (rejuvenator.catch_up_sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
   }
   if (!handled) return;
-  rejuvenator.catch_up.drained();
-  rejuvenator.chain_realtime();
+  rejuvenator.catch_up_drained();
 }
 
 // The realtime clock (docs/design.md §6): the kernel clock is CLOCK_MONOTONIC since the run started (or the plant's,
@@ -340,7 +339,7 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
   supervisor.start_realtime_plan();  // realtime.cpp
   while (!stop) {
     // While the estimate catches up the loop only looks for events: the replay goes on as soon as it can.
-    if (auto ok = pump(rejuvenator.catch_up.replaying() ? Nanos{0} : Nanos{std::chrono::milliseconds{100}});
+    if (auto ok = pump(rejuvenator.catch_up().replaying() ? Nanos{0} : Nanos{std::chrono::milliseconds{100}});
         !ok)
       return ok;
     while (rejuvenator.service_images()) {

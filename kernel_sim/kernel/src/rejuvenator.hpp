@@ -5,6 +5,7 @@
 // all of which it owns.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -40,9 +41,6 @@ class Rejuvenator {
   // The estimate catch-up's end (catch_up.hpp; rollback.cpp): `how` (CATCH_UP_DONE or CATCH_UP_REARM) told to the
   // estimator in a second rollback_signal of the epoch, ahead of the live samples.
   void signal_catch_up(rejuv_msg_EstimateCatchUp how);
-  // The replay is over and the chain has handled what it was handed: its real-time plan back (it ran
-  // SCHED_OTHER meanwhile, so that its RLIMIT_RTTIME never counted replay work).
-  void chain_realtime();
   // Runs the loop until no checkpoint or rollback is pending (Kernel::checkpoint_now / rollback_now).
   [[nodiscard]] Result<void, KernelError> finish_image_requests();
   void arm_rejuvenation(ServiceRuntime& s, std::uint32_t seq, Nanos after, Nanos period);
@@ -71,18 +69,24 @@ class Rejuvenator {
   void catch_up_done();
   // At shutdown: every generation, kept or left to evict, killed and reaped (docs/design.md §7).
   void release_all_images();
-  // Set up by create.cpp: the simulated time image work is charged, and where in the control period it may start.
-  void set_up_image_work(ImageCharge charge, VehiclePace pace) {
+  // Set up by create.cpp: the store keeping `keep_generations`, the simulated time image work is charged, and
+  // where in the control period it may start; the catch-up's plan and log (plan_catch_up).
+  void set_up_image_work(std::size_t keep_generations, ImageCharge charge, VehiclePace pace) {
+    images_ = image::ImageStore(keep_generations);
     image_charge_ = std::move(charge);
     pace_ = std::move(pace);
   }
+  void set_up_catch_up(CatchUp catch_up) { catch_up_ = std::move(catch_up); }
   // Lockstep: what image work cost since the last step, charged to the plant's next one (image_charge.hpp).
   [[nodiscard]] Nanos take_step_charge() { return image_charge_.take_step_charge(); }
   // Real time with a vehicle: image work waiting for the slack after the next control update, until when.
   [[nodiscard]] std::optional<Nanos> image_work_wait_deadline() const { return pace_.wait_deadline(); }
-  // The vehicle's controls were just routed at `wall` (MissionWatch): the control period's slack begins
-  // (vehicle_pace.hpp).
-  void on_control_update(Nanos wall) { pace_.on_control_update(wall); }
+  // The vehicle's controls were just routed at `wall` (MissionWatch): the image work left may run
+  // (image_coordinator.hpp), and the control period's slack begins (vehicle_pace.hpp).
+  void on_control_update(Nanos wall) {
+    coordinator_.control_update_routed();
+    pace_.on_control_update(wall);
+  }
   // The links to other hosts of this kernel's part of the graph, made once at create (link_guard.hpp).
   void open_links() { links_.create(); }
   // Routing is frozen while a checkpoint or rollback is timed; a write to the plant meanwhile is held, and
@@ -96,12 +100,67 @@ class Rejuvenator {
   [[nodiscard]] bool reaping(pid_t pid) const { return reaper_.knows(pid); }
   void kill_and_reap_all() { reaper_.kill_all_and_reap(); }
 
-  // Read by the other owners; written here, and set up by create.cpp.
-  image::ImageStore images{2};
-  ImageCoordinator coordinator;  // the requests, the run, the work left, the timer (image_coordinator.hpp)
-  CatchUp catch_up;  // the plant's samples since each cut, replayed after a rollback (catch_up.hpp)
+  // The image store, the coordinator's state machine and the estimate catch-up, read by the other owners;
+  // changed only by the Rejuvenator, the other owners asking through the methods below.
+  [[nodiscard]] const image::ImageStore& images() const { return images_; }
+  [[nodiscard]] const ImageCoordinator& coordinator() const { return coordinator_; }
+  [[nodiscard]] const CatchUp& catch_up() const { return catch_up_; }
+  // Reads the answers of the images' copies that have arrived, drops the dead copies (image::Image::refresh).
+  void refresh_images() { images_.refresh_all(); }
+  // A checkpoint asked by `caller` (none: the kernel) in its Invoke `seq`; false while one is asked or
+  // running.
+  bool request_checkpoint(std::optional<ServiceId> caller, std::uint32_t seq) {
+    return coordinator_.ask_checkpoint(caller, seq);
+  }
+  // The alignment's untimed checkpoint (docs/design.md §6), asked once per run while nothing else is asked.
+  bool request_priming() { return coordinator_.ask_priming(); }
+  // The checkpoint in progress cannot be committed, for `why`: it is abandoned (checkpoint.cpp).
+  void fail_checkpoint(std::string why) {
+    CheckpointRun* const running = coordinator_.running();
+    REJUV_ASSERT(running != nullptr, "no checkpoint is running");
+    running->failure = std::move(why);
+  }
+
+  // ---- the estimate catch-up (catch_up.hpp): the Router keeps, the Lockstep and the loop replay ----
+  // A plant sample on a logged topic, kept: true when it waits behind the replay in progress.
+  [[nodiscard]] bool keep_plant_sample(ObjectId topic, std::span<const std::byte> bytes,
+                                       std::uint64_t stamp) {
+    return catch_up_.keep(topic, bytes, stamp);
+  }
+  // A service's publication as routed: an estimate that says it discarded a replayed one is counted.
+  void note_publication(ServiceId publisher, ObjectId topic, std::span<const std::byte> bytes) {
+    catch_up_.note_published(publisher, topic, bytes);
+  }
+  // Replaying: whether the chain's publication is held from the services outside it (and counted).
+  [[nodiscard]] bool drops_publication(ServiceId publisher, ObjectId topic) {
+    return catch_up_.drops(publisher, topic);
+  }
+  // The replay's next sampling instant handed to replay(topic, bytes); false once it is over, the live
+  // samples that waited handed to release(topic, bytes) (CatchUp::replay_instant).
+  template <typename Replay, typename Release>
+  [[nodiscard]] bool replay_catch_up_instant(Replay&& replay, Release&& release) {
+    return catch_up_.replay_instant(std::forward<Replay>(replay), std::forward<Release>(release));
+  }
+  // The replay past its bound: the rest skipped, the live samples that waited handed to
+  // release(topic, bytes).
+  template <typename Release>
+  void cut_replay_short(Release&& release) {
+    catch_up_.cut_short(std::forward<Release>(release));
+  }
+  // Real time: whether a chain service still needs a Sync after its last frame (noted as issued if so).
+  [[nodiscard]] bool catch_up_sync_due(ServiceId service, std::uint64_t frames_issued) {
+    return catch_up_.sync_due(service, frames_issued);
+  }
+  // After a cut: the chain has handled what it was handed, and its real-time plan is back.
+  void catch_up_drained() {
+    catch_up_.drained();
+    chain_realtime();
+  }
 
  private:
+  image::ImageStore images_{2};
+  ImageCoordinator coordinator_;  // the requests, the run, the work left, the timer (image_coordinator.hpp)
+  CatchUp catch_up_;  // the plant's samples since each cut, replayed after a rollback (catch_up.hpp)
   ChannelPool channel_pool;  // socket pairs made ahead, fds closed after the timed part (channel_pool.hpp)
 
   // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
@@ -153,6 +212,9 @@ class Rejuvenator {
   void send_patches(image::GenerationRecord& record);
 
   // ---- rollback.cpp ----
+  // The replay is over and the chain has handled what it was handed: its real-time plan back (it ran
+  // SCHED_OTHER meanwhile, so that its RLIMIT_RTTIME never counted replay work).
+  void chain_realtime();
   void run_rollback(const std::string& reason);
   // Resumes every image of `record` and restores its kernel state: the wall time its images were all back, or why
   // the generation is unusable (the caller retires whatever of it was resumed).

@@ -76,14 +76,14 @@ void ChannelInput::read_frames(ServiceRuntime& s) {
       lose_channel();
       return;
     }
-    if (CheckpointRun* const running = k.rejuvenator.coordinator.running();
-        !r.truncated && r.fds_truncated && running != nullptr) {
+    if (!r.truncated && r.fds_truncated && k.rejuvenator.coordinator().running() != nullptr) {
       // A TakenPages whose pages fd the kernel could not install (out of fds: MSG_CTRUNC) is its answer all
       // the same: the checkpoint is abandoned now, instead of killing every service at the snapshot deadline.
       auto frame = wire::decode(datagram, wire::Direction::ToKernel);
       if (frame && frame->kind == wire::FrameKind::TakenPages && k.rejuvenator.expecting_image(s, *frame)) {
         ++s.stats.frames_in;
-        running->failure = "the written pages of '" + s.name + "' could not be received (is the kernel out of fds?)";
+        k.rejuvenator.fail_checkpoint("the written pages of '" + s.name +
+                                      "' could not be received (is the kernel out of fds?)");
         continue;
       }
     }
@@ -417,11 +417,11 @@ void ChannelInput::invoke_checkpoint(ServiceRuntime& s, std::uint32_t seq, const
   std::visit(Overloaded{
                  [&](const CheckpointInvocation::Create&) {
                    // docs/design.md §7: answered when generation g is committed (checkpoint.cpp); in a restored image never.
-                   if (!k.rejuvenator.coordinator.ask_checkpoint(s.id, seq))
+                   if (!k.rejuvenator.request_checkpoint(s.id, seq))
                      reply(s, seq, op_code(wire::OpError::Refused));
                  },
                  [&](const CheckpointInvocation::Rollback&) {
-                   if (k.rejuvenator.images.size() == 0) {
+                   if (k.rejuvenator.images().size() == 0) {
                      reply(s, seq, op_code(wire::OpError::Refused));
                      return;
                    }

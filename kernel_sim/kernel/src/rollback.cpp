@@ -17,7 +17,7 @@ namespace rejuv::kernel {
 // ---- rollback ----
 
 void Rejuvenator::request_rollback(std::string reason) {
-  coordinator.ask_rollback(std::move(reason));
+  coordinator_.ask_rollback(std::move(reason));
 }
 
 void Rejuvenator::retire_live_rejuvenated() {
@@ -208,7 +208,7 @@ Result<Nanos, std::string> Rejuvenator::resume_generation(image::GenerationRecor
 }
 
 std::optional<std::string> Rejuvenator::lost_image(image::GenerationRecord& record) {
-  const std::optional<ServiceId> dead = images.dead_image(record);
+  const std::optional<ServiceId> dead = images_.dead_image(record);
   if (!dead) return std::nullopt;
   const image::Image* im = record.image_of(*dead);
   std::string failure = "the image of '" + k.services[dead->value()].name + "' is gone" +
@@ -219,7 +219,7 @@ std::optional<std::string> Rejuvenator::lost_image(image::GenerationRecord& reco
 }
 
 std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(Nanos rollback_by) {
-  while (image::GenerationRecord* record = images.newest()) {
+  while (image::GenerationRecord* record = images_.newest()) {
     if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
     std::string failure;
     if (std::optional<std::string> lost = lost_image(*record)) {
@@ -233,7 +233,7 @@ std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(
     k.log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
     ++sr_stats_.fallbacks;
     retire_live_rejuvenated();  // whatever of it was resumed
-    if (auto taken = images.take(record->g)) retire(std::move(*taken));
+    if (auto taken = images_.take(record->g)) retire(std::move(*taken));
   }
   return std::nullopt;
 }
@@ -248,19 +248,19 @@ void Rejuvenator::announce_rollback(Generation g, Epoch epoch) {
   signal.fields.generation = g.value();
   signal.fields.epoch = epoch.value();
   // With the catch-up a replay follows (or, for want of one, a CATCH_UP_REARM or CATCH_UP_DONE at once).
-  signal.fields.catch_up = catch_up.enabled() ? rejuv_msg_CATCH_UP_REPLAY : rejuv_msg_CATCH_UP_OFF;
+  signal.fields.catch_up = catch_up_.enabled() ? rejuv_msg_CATCH_UP_REPLAY : rejuv_msg_CATCH_UP_OFF;
   signal.fields.replayed_to_ns = 0;
   k.router.publish_kernel_message(signal);
   k.router.publish_sr_mode();
 }
 
 void Rejuvenator::run_rollback(const std::string& reason) {
-  if (coordinator.work_left()) run_image_work();  // the newest generation's patches first: the rollback resumes them
+  if (coordinator_.work_left()) run_image_work();  // the newest generation's patches first: the rollback resumes them
   const Nanos t0 = k.wall();
   // A checkpoint asked for by an incarnation that is about to die is void: nobody waits for its answer.
-  if (coordinator.checkpoint() == ImageCoordinator::Checkpoint::Asked) {
-    const std::optional<ServiceId> by = coordinator.asked_by();
-    if (by && k.services[by->value()].config.rejuvenate) coordinator.void_ask();
+  if (coordinator_.checkpoint() == ImageCoordinator::Checkpoint::Asked) {
+    const std::optional<ServiceId> by = coordinator_.asked_by();
+    if (by && k.services[by->value()].config.rejuvenate) coordinator_.void_ask();
   }
   // The network is revoked before anything else happens; sr_mode is published once the services are back
   // (the ones about to die need not be woken for it).
@@ -278,7 +278,7 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   image::GenerationRecord* const restored = resumed->record;
   const Nanos t_resumed = resumed->resumed_at;
   // The rollback is the rejuvenation: a pending once-timer is spent; a periodic one runs on.
-  coordinator.rejuvenated(k.now());
+  coordinator_.rejuvenated(k.now());
   k.arm_timerfd();
   const Epoch epoch = k.kernel_clock.epoch();
   announce_rollback(restored->g, epoch);
@@ -286,10 +286,10 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   resume_routing();
   // The restored estimator chain is fed the plant's samples since g's cut before the step goes on (lockstep.cpp).
   // Without them the estimator re-arms from the live samples (§IV); with none to replay it is current already.
-  switch (catch_up.begin(restored->g, k.wall())) {
+  switch (catch_up_.begin(restored->g, k.wall())) {
     case CatchUp::Begin::Replaying: break;
     case CatchUp::Begin::NothingToReplay:
-      if (catch_up.enabled()) signal_catch_up(rejuv_msg_CATCH_UP_DONE);
+      if (catch_up_.enabled()) signal_catch_up(rejuv_msg_CATCH_UP_DONE);
       break;
     case CatchUp::Begin::NoLog:
       k.log("rollback to generation %llu: its samples are no longer all kept; the estimator re-arms",
@@ -301,7 +301,7 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   // part (realtime.cpp; a system call per service). The catch-up chain only once its replay is handled
   // (chain_realtime): its real-time budget is for live work.
   for (const image::Image& im : restored->images) {
-    if (catch_up.replaying() && catch_up.in_chain(im.service)) continue;
+    if (catch_up_.replaying() && catch_up_.in_chain(im.service)) continue;
     k.supervisor.apply_realtime(k.services[im.service.value()]);
   }
   sr_stats_.rollback_phases.a.add(to_ms(t_killed - t0));
@@ -324,38 +324,38 @@ void Rejuvenator::run_rollback(const std::string& reason) {
 void Rejuvenator::signal_catch_up(rejuv_msg_EstimateCatchUp how) {
   KernelMessage<rejuv_msg_RollbackSignal> signal;
   signal.fields.timestamp_ns = static_cast<std::uint64_t>(k.now().count());
-  signal.fields.generation = catch_up.generation().value();
+  signal.fields.generation = catch_up_.generation().value();
   signal.fields.epoch = k.kernel_clock.epoch().value();
   signal.fields.catch_up = how;
-  signal.fields.replayed_to_ns = catch_up.replayed_to();
+  signal.fields.replayed_to_ns = catch_up_.replayed_to();
   k.router.publish_kernel_message(signal);
 }
 
 void Rejuvenator::chain_realtime() {
   for (ServiceRuntime& s : k.services) {
-    if (catch_up.in_chain(s.id)) k.supervisor.apply_realtime(s);
+    if (catch_up_.in_chain(s.id)) k.supervisor.apply_realtime(s);
   }
 }
 
 void Rejuvenator::catch_up_done() {
   chain_realtime();
-  const Nanos took = k.wall() - catch_up.began_at();
+  const Nanos took = k.wall() - catch_up_.began_at();
   sr_stats_.catch_up_ms.add(to_ms(took));
-  image_charge_.catch_up(took, catch_up.replayed(), sr_stats_);
+  image_charge_.catch_up(took, catch_up_.replayed(), sr_stats_);
 }
 
 void Rejuvenator::cold_restart(const std::string& reason) {
   k.log("cold restart of the rejuvenated services from their binaries, in SC: %s", reason.c_str());
   ++sr_stats_.cold_restarts;
   sr_event(SrEventKind::ColdRestart);
-  if (std::optional<ImageWork> left = coordinator.take_work()) {  // for generations that go now: only the evicted matter
+  if (std::optional<ImageWork> left = coordinator_.take_work()) {  // for generations that go now: only the evicted matter
     for (image::GenerationRecord& r : left->evicted) retire(std::move(r));
   }
-  for (image::GenerationRecord& r : images.take_all()) retire(std::move(r));
+  for (image::GenerationRecord& r : images_.take_all()) retire(std::move(r));
   retire_live_rejuvenated();
   reaper_.kill_retired();
-  catch_up.forget();  // the services start from their binaries: no generation to catch up to
-  coordinator.reset_timer();
+  catch_up_.forget();  // the services start from their binaries: no generation to catch up to
+  coordinator_.reset_timer();
   k.arm_timerfd();
   k.kernel_clock.begin_epoch();
   set_mode(SrMode::SC);  // safe, network off
@@ -379,7 +379,7 @@ void Rejuvenator::cold_restart(const std::string& reason) {
   while (!k.stopping && restarted([](const ServiceRuntime& s) { return s.proc.booting(); })) {
     if (!k.pump(k.options.boot_deadline)) break;
   }
-  coordinator.drop_rollback();
+  coordinator_.drop_rollback();
   if (restarted([](const ServiceRuntime& s) { return s.proc.phase() != Phase::Ready; })) {
     k.stop_run(StopReason::ServiceFailed, "cold restart: a rejuvenated service did not boot");
   }

@@ -67,8 +67,8 @@ void Router::route_publish(ServiceRuntime& s, std::uint32_t slot, std::span<cons
              "publish on '" + o.name + "', which only the kernel publishes");  // the audit forbids the grant
     return;
   }
-  k.rejuvenator.catch_up.note_published(s.id, o.id, payload);  // a discarded replay, counted (catch_up.hpp)
-  if (k.rejuvenator.catch_up.drops(s.id, o.id))
+  k.rejuvenator.note_publication(s.id, o.id, payload);  // a discarded replay, counted (catch_up.hpp)
+  if (k.rejuvenator.drops_publication(s.id, o.id))
     return;  // the chain catching up: its estimate is not the controllers' yet
   if (!within_budget(s, slot)) return;
   auto g = k.broker.publish(o.id, payload, k.now());
@@ -118,8 +118,8 @@ bool Router::dropping(const ServiceRuntime& s) {
 }
 
 void Router::publish_as_kernel(ObjectId topic, std::span<const std::byte> payload, From from) {
-  if (from == From::Bridge && k.rejuvenator.catch_up.logs(topic) &&
-      k.rejuvenator.catch_up.keep(topic, payload, dds::plant_topics::stamp_of(payload).value_or(0))) {
+  if (from == From::Bridge && k.rejuvenator.catch_up().logs(topic) &&
+      k.rejuvenator.keep_plant_sample(topic, payload, dds::plant_topics::stamp_of(payload).value_or(0))) {
     return;  // behind the replay in progress, which hands it on in its turn
   }
   auto g = k.broker.publish(topic, payload, k.now());

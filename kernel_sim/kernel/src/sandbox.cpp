@@ -97,8 +97,8 @@ namespace {
 // Calls `f` with every image the kernel holds: those of the kept generations and those being retired.
 template <class F>
 void for_each_image(Kernel::Impl& k, F f) {
-  for (const Generation g : k.rejuvenator.images.generations()) {
-    for (const image::Image& im : k.rejuvenator.images.find(g)->images) f(im);
+  for (const Generation g : k.rejuvenator.images().generations()) {
+    for (const image::Image& im : k.rejuvenator.images().find(g)->images) f(im);
   }
   for (const image::GenerationRecord& r : k.rejuvenator.retiring()) {
     for (const image::Image& im : r.images) f(im);
@@ -391,9 +391,9 @@ std::vector<bool> copies_on_their_way(Kernel::Impl& k, bool final, SweepWait wai
   std::vector<bool> pending(k.services.size(), false);
   const Nanos wait_until = k.wall() + (wait == SweepWait::ForCopies ? kCopiesWait : Nanos{0});
   for (;;) {
-    k.rejuvenator.images.refresh_all();
+    k.rejuvenator.refresh_images();
     if (!k.rejuvenator.retiring().empty()) k.rejuvenator.finish_retiring(false);
-    std::fill(pending.begin(), pending.end(), k.rejuvenator.coordinator.running() != nullptr && !final);
+    std::fill(pending.begin(), pending.end(), k.rejuvenator.coordinator().running() != nullptr && !final);
     int answer_fd = -1;  // where the next Copied of a copy on its way arrives
     const auto note = [&](const image::Image& im) {
       if (im.spares_pending == 0 && !im.patch_pending) return;
@@ -455,7 +455,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
       // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,
       // not counted. Until the next commit (images.cpp), then a stray like any other.
-      const bool owed = k.rejuvenator.coordinator.owes(s.id);
+      const bool owed = k.rejuvenator.coordinator().owes(s.id);
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.

@@ -517,9 +517,9 @@ void Supervisor::report_stall() {
               (s.flow.queued() == 0 ? "" : ", queued " + std::to_string(s.flow.queued())) +
               (s.flow.sweeping() ? ", sweep" : "") + ")";
     }
-    if (k.rejuvenator.coordinator.checkpoint() == ImageCoordinator::Checkpoint::Asked)
+    if (k.rejuvenator.coordinator().checkpoint() == ImageCoordinator::Checkpoint::Asked)
       what += "; a checkpoint waits for quiescence";
-    if (k.rejuvenator.coordinator.rollback_asked()) what += "; a rollback is pending";
+    if (k.rejuvenator.coordinator().rollback_asked()) what += "; a rollback is pending";
     if (const std::size_t staged = k.lockstep.publications_staged(); staged > 0)
       what += "; " + std::to_string(staged) + " staged";
   }
@@ -580,7 +580,7 @@ void Supervisor::watch_liveness() {
   if (liveness_looked_at_ != Nanos::min() && t - liveness_looked_at_ < kChainLivenessLook) return;
   liveness_looked_at_ = t;
   probes_.resize(k.services.size());
-  const CatchUp& catch_up = k.rejuvenator.catch_up;
+  const CatchUp& catch_up = k.rejuvenator.catch_up();
   for (ServiceRuntime& s : k.services) {
     LivenessProbe& probe = probes_[s.id.value()];
     const bool chain = runs_fifo(s);

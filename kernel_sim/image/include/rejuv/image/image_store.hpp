@@ -124,8 +124,10 @@ class ImageStore {
   [[nodiscard]] std::vector<GenerationRecord> trim();
   // The newest generation, or nullptr.
   [[nodiscard]] GenerationRecord* newest();
+  [[nodiscard]] const GenerationRecord* newest() const;
   // Generation g, or nullptr.
   [[nodiscard]] GenerationRecord* find(Generation g);
+  [[nodiscard]] const GenerationRecord* find(Generation g) const;
   // The first service of `record` whose image cannot be resumed: none of its copies runs and none is on its way
   // (GenerationRecord::dead_image), or its Patch is on its way but every copy of the base generation's image that
   // would apply it is gone (then it never comes: the rollback falls back at once instead of waiting for it).
