@@ -1,4 +1,4 @@
-// Fuzz target: the kernel's channel input (kernel_sim/kernel requests.cpp, router.cpp; docs/protocol.md):
+// Fuzz target: the kernel's channel input (kernel_sim/kernel channel_input.cpp, router.cpp; docs/protocol.md):
 // bytes a sandboxed service sends, driven through a real Kernel — created from a small graph (the
 // multi-process tests' policy, five services, SR off) with TimeMaster::Manual — its framing, protocol phases,
 // request handlers (Subscribe, Invoke of every operation, timers, logs, Idle, image frames) and its router

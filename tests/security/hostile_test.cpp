@@ -399,7 +399,7 @@ TEST_F(Hostile, RaiseRlimitAtBoot_RefusedAndTheLimitsHold) {
 
 // ---- processes: what the filter lets it make, the sweeps must end ----
 
-// A helper made in MC is killed by the sweep of the rollback that ends the window (sandbox.cpp: after the
+// A helper made in MC is killed by the sweep of the rollback that ends the window (warden.cpp: after the
 // timed part, once the copies asked for earlier have reported) and counted as a stray.
 TEST_F(Hostile, HelperByImageFlags_GoneAfterTheNextRollbackAndCountedAsStray) {
   ASSERT_NO_FATAL_FAILURE(start({.name = "helper", .at = "mc", .params = "", .limits = ""}));

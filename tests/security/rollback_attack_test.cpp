@@ -551,7 +551,7 @@ std::vector<UnprivilegedCase> unprivileged_cases() {
   std::vector<UnprivilegedCase> out;
   for (const bool realtime : {true, false}) {
     out.push_back(UnprivilegedCase{AttackKind::SigioKernel, realtime});
-    // 40 spinning strays per window where no cgroup can be made: swept one by one (sandbox.cpp), their cost
+    // 40 spinning strays per window where no cgroup can be made: swept one by one (warden.cpp), their cost
     // bounded by the pids rlimit of the service's own subordinate uid.
     out.push_back(UnprivilegedCase{AttackKind::StraySpinners, realtime});
     for (const AttackKind k : attacks::kBootAttackKinds) out.push_back(UnprivilegedCase{k, realtime});

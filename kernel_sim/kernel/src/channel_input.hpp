@@ -1,7 +1,7 @@
-// Channel input (requests.cpp): the frames each service sends on its channel, decoded and handled — the boot
-// sequence, timers, logs, subscriptions and invocations (decoded per object kind, the authority checked, then
-// invoked on the object's owner: invocation.hpp). Owns the receive buffer and the pauses of the channels of
-// services over their publication budget.
+// ChannelInput (channel_input.cpp): the frames each service sends on its channel, decoded and handled — the
+// boot sequence, timers, logs, subscriptions and invocations (decoded per object kind, the authority checked,
+// then invoked on the object's owner: invocation.hpp). Owns the receive buffer and the pauses of the channels
+// of services over their publication budget.
 #pragma once
 
 #include <array>

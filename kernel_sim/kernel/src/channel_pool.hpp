@@ -1,6 +1,6 @@
 // Socket pairs made ahead (the kernel's end non-blocking), so that no socketpair() is on the critical path of
 // a checkpoint (resume sockets) or a rollback (channels), and the service ends those passed on, closed after
-// it. Refilled at safe points off the critical paths (images.cpp, service_images). One owner: the image
+// it. Refilled at safe points off the critical paths (rejuvenator.cpp, service_images). One owner: the image
 // coordinator.
 #pragma once
 

@@ -1,9 +1,10 @@
-// Checkpoint g (docs/design.md §7 "Checkpoint g"; the overview is at the top of images.cpp): at a quiescent point
-// routing freezes, every live rejuvenated service gets a Snapshot and answers Taken (an image by fork) or
-// TakenPages (its written pages, made into an image off the critical path by a copy of the base image:
-// send_patches); publications that arrive before their sender's Taken are applied to the rings; then the
-// kernel state is saved whole beside the images (save_state), the generation committed and the caller
-// answered. A refused or late Taken abandons the generation (a late service is killed).
+// Rejuvenator: checkpoint g (docs/design.md §7 "Checkpoint g"; the overview is at the top of
+// rejuvenator.cpp): at a quiescent point routing freezes, every live rejuvenated service gets a Snapshot and
+// answers Taken (an image by fork) or TakenPages (its written pages, made into an image off the critical path
+// by a copy of the base image: send_patches); publications that arrive before their sender's Taken are
+// applied to the rings; then the kernel state is saved whole beside the images (save_state), the generation
+// committed and the caller answered. A refused or late Taken abandons the generation (a late service is
+// killed).
 #include <fcntl.h>
 
 #include <algorithm>

@@ -1,8 +1,8 @@
-// The image coordinator's state (docs/design.md §7): what it has been asked to do, what it is doing, what the last
-// checkpoint or rollback left behind, and the rejuvenation timer. One owner: every change is a transition
-// below, which asserts that it is legal; the Rejuvenator holds it (rejuvenator.hpp), its procedures carry them
-// out (images.cpp, checkpoint.cpp, rollback.cpp), and the files that ask for them (requests.cpp, lockstep.cpp,
-// kernel.cpp) go through the Rejuvenator's methods.
+// The image coordinator's state (docs/design.md §7): what it has been asked to do, what it is doing, what the
+// last checkpoint or rollback left behind, and the rejuvenation timer. One owner: every change is a
+// transition below, which asserts that it is legal; the Rejuvenator holds it (rejuvenator.hpp), its
+// procedures carry them out (rejuvenator.cpp, checkpoint.cpp, rollback.cpp), and the files that ask for them
+// (channel_input.cpp, lockstep.cpp, kernel.cpp) go through the Rejuvenator's methods.
 //
 //   checkpoint   None ─ask→ Asked ─begin→ Running ─end→ None     Asked ─void_ask→ None (its caller is rolled back)
 //                the alignment's untimed checkpoint (docs/design.md §6) is asked at most once per run (ask_priming)
@@ -39,7 +39,7 @@ struct CheckpointRun {
   std::string failure{};              // the first reason the generation cannot be committed
 };
 
-// Why the stray sweep after a checkpoint or a rollback may wait for copies on their way (sandbox.cpp).
+// Why the stray sweep after a checkpoint or a rollback may wait for copies on their way (warden.cpp).
 enum class SweepWait : std::uint8_t { No, ForCopies };
 
 // The image work a checkpoint or a rollback leaves behind: the new generation's patches, the evicted
@@ -47,7 +47,7 @@ enum class SweepWait : std::uint8_t { No, ForCopies };
 // before the next checkpoint or rollback, and all of it takes CPU (forks, page copies, exits) that the
 // vehicle's control chain needs right then: with a vehicle it waits until the first control update after the
 // event has been routed (or kImageWorkWait of wall time), so that the chain's period holding the checkpoint or
-// rollback is not also the one the image work runs in (images.cpp, run_image_work).
+// rollback is not also the one the image work runs in (rejuvenator.cpp, run_image_work).
 struct ImageWork {
   std::optional<Generation> patches{};             // send_patches of this generation, then
   std::vector<image::GenerationRecord> evicted{};  // retire these (a base of the patches may be among them)

@@ -1,5 +1,5 @@
-// The image coordinator's internal header (docs/design.md §7; the overview is at the top of images.cpp): what
-// images.cpp, checkpoint.cpp, rollback.cpp and checkpointed_state.cpp share.
+// The Rejuvenator's internal header (docs/design.md §7; the overview is at the top of rejuvenator.cpp): what
+// rejuvenator.cpp, checkpoint.cpp, rollback.cpp and checkpointed_state.cpp share.
 #pragma once
 
 #include <span>

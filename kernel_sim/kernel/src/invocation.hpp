@@ -3,7 +3,7 @@
 // arguments (docs/protocol.md "Invoke") become the typed fields of that kind's invocation. The kernel then
 // checks the authority (CapSystem::decode, the same table) and invokes it on the part that owns the kind:
 //   any kind (Copy, Mint, Revoke, Delete)  → the capability system (CapSystem::decode_and_invoke)
-//   Checkpoint (Create, Rollback, TimerArm) → the image coordinator (images.cpp)
+//   Checkpoint (Create, Rollback, TimerArm) → the image coordinator (rejuvenator.cpp)
 //   Network (NetSend, NetReceive)           → the network gate (netgate.cpp)
 //   Limits, Persistent                      → the kernel objects' cells (ObjectInfo)
 //   Mode (ModeRequest)                      → the mode manager (set_mode)

@@ -1,8 +1,8 @@
 // The kernel's public API (kernel.hpp): boot, run, manual steps, stop, injection, the image operations of
 // tests and benchmarks, and what a run reports. The kernel itself is in its component files: creation in
 // create.cpp, the event loop in loop.cpp, lockstep steps in lockstep.cpp, routing in router.cpp, channel
-// requests in requests.cpp, processes in supervisor.cpp, images in images.cpp, the DDS bridge in bridge.cpp,
-// containment in sandbox.cpp, the network gate in netgate.cpp; vocabulary.cpp names its enums.
+// requests in channel_input.cpp, processes in supervisor.cpp, images in rejuvenator.cpp, the DDS bridge in
+// bridge.cpp, containment in warden.cpp, the network gate in netgate.cpp; vocabulary.cpp names its enums.
 #include <algorithm>
 #include <string>
 

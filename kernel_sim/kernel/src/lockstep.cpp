@@ -132,7 +132,7 @@ bool Lockstep::replay_instant() {
 bool Lockstep::advance_step() {
   for (;;) {
     if (k.rejuvenator.service_images())
-      continue;  // a pending rollback, or a checkpoint once quiescent (images.cpp)
+      continue;  // a pending rollback, or a checkpoint once quiescent (rejuvenator.cpp)
     if (!k.all_idle()) return false;
     if (steps_.rounds_exhausted()) {
       k.log("step %llu did not settle after %u routing rounds; ending it",

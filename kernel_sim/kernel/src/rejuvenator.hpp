@@ -1,8 +1,8 @@
-// The image coordinator of docs/design.md §7 as one owner (images.cpp, checkpoint.cpp, rollback.cpp; the overview is
-// at the top of images.cpp): checkpoints, rollbacks, cold restarts, the image work they leave behind and the
-// rejuvenation timer, carried out over the image store, the coordinator's state machine
-// (image_coordinator.hpp), the routing freeze, the catch-up, the charge, the reaper and the channel pool —
-// all of which it owns.
+// The image coordinator of docs/design.md §7 as one owner (rejuvenator.cpp with the overview at its top,
+// checkpoint.cpp, rollback.cpp, checkpointed_state.cpp): checkpoints, rollbacks, cold restarts, the image
+// work they leave behind and the rejuvenation timer, carried out over the image store, the coordinator's
+// state machine (image_coordinator.hpp), the routing freeze, the catch-up, the charge, the reaper and the
+// channel pool — all of which it owns.
 #pragma once
 
 #include <cstddef>
@@ -169,7 +169,7 @@ class Rejuvenator {
   SrStats sr_stats_{};
   Nanos flight_start_{0};  // the end of the plant's alignment: the mission's t = 0
 
-  // ---- images.cpp ----
+  // ---- rejuvenator.cpp ----
   static constexpr Nanos kTrimPeriod{std::chrono::milliseconds{2}};
   bool enter_mode(SrMode mode);  // the capability system's mode, on the time page; false (logged) if refused
   void retire(image::GenerationRecord record);

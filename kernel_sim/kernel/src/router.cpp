@@ -276,7 +276,7 @@ bool Router::deliver_one(ServiceRuntime& s, broker::SubscriberId subscriber) {
 void Router::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
   if (s.proc.phase() != Phase::Booted && s.proc.phase() != Phase::Ready) return;
   if (k.rejuvenator.routing_frozen())
-    return;  // a checkpoint or rollback is timed (images.cpp): it stays in the ring, swept after
+    return;  // a checkpoint or rollback is timed (rejuvenator.cpp): it stays in the ring, swept after
   hand_over_polled(s);         // the service is about to wake: its polled news goes first
   if (!s.flow.drained()) {
     s.flow.queue_ring(subscriber);  // keep publish order: behind what is already waiting

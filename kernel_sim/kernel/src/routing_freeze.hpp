@@ -1,6 +1,6 @@
 // Routing frozen while a checkpoint or a rollback is timed (docs/design.md §7): publications land in the broker's
 // rings undelivered (router.cpp: deliver_one, hand_over_polled) and the kernel's DDS bridge writes are held —
-// a woken service or plant thread would take the CPU at once. When routing resumes (images.cpp,
+// a woken service or plant thread would take the CPU at once. When routing resumes (rejuvenator.cpp,
 // resume_routing) the held writes go out in the order they were published, then the rings are swept.
 #pragma once
 

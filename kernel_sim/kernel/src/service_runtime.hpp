@@ -7,8 +7,8 @@
 //   pages          the image base of the live incarnation, for images by written pages (checkpoint.cpp)
 //   flow           delivery and flow control on its channel (router.cpp): the order of frames, the held frame,
 //                  the control pool, the frame count that Idle reports, the per-step publication bound
-//   sandbox        containment (sandbox.cpp): seccomp listener, output pipe, sessions, log rate limit
-//   subscriptions  saved and restored with the images (requests.cpp, checkpointed_state.cpp)
+//   sandbox        containment (warden.cpp): seccomp listener, output pipe, sessions, log rate limit
+//   subscriptions  saved and restored with the images (channel_input.cpp, checkpointed_state.cpp)
 //   stats          counters for Kernel::stats (every file counts its own; frames_out is flow's)
 #pragma once
 
@@ -77,10 +77,10 @@ struct ServiceConfig {
   std::optional<HostLink> link{};
 };
 
-// The live incarnation (docs/design.md §2 "Processes and trust"). Its phase changes only through the transitions below,
-// each of which asserts that it is legal: spawned by supervisor.cpp (or attached by scripted.cpp), booted and
-// ready by requests.cpp (Hello, Ready), resumed from an image by rollback.cpp (docs/design.md §7 "Rollback"), ended by
-// supervisor.cpp (lost, shut down) or rollback.cpp (retired).
+// The live incarnation (docs/design.md §2 "Processes and trust"). Its phase changes only through the
+// transitions below, each of which asserts that it is legal: spawned by supervisor.cpp (or attached by
+// scripted.cpp), booted and ready by channel_input.cpp (Hello, Ready), resumed from an image by rollback.cpp
+// (docs/design.md §7 "Rollback"), ended by supervisor.cpp (lost, shut down) or rollback.cpp (retired).
 //
 //   NotStarted ─spawned→ Spawned ─booted→ Booted ─became_ready→ Ready
 //        Dead ─spawned→ (a cold restart)         Dead ─resumed→ Ready (a rollback's restored image)
@@ -123,10 +123,11 @@ struct Incarnation {
   Phase phase_ = Phase::NotStarted;
 };
 
-// Images by written pages (docs/design.md §7; checkpoint.cpp): the generation the live incarnation's memory derives
-// from (0: a fresh start), its /proc/<pid>/pagemap (open_pagemaps, images.cpp) and whether a Snapshot has
-// handed it over. Reset whenever a new process becomes the service (spawn_one, resume_generation); the agent
-// outlives incarnations (it serves every process of one user namespace: images.cpp open_pagemap).
+// Images by written pages (docs/design.md §7; checkpoint.cpp): the generation the live incarnation's memory
+// derives from (0: a fresh start), its /proc/<pid>/pagemap (open_pagemaps, rejuvenator.cpp) and whether a
+// Snapshot has handed it over. Reset whenever a new process becomes the service (spawn_one,
+// resume_generation); the agent outlives incarnations (it serves every process of one user namespace:
+// rejuvenator.cpp open_pagemap).
 struct WrittenPages {
   Generation base{};
   sys::UniqueFd pagemap{};
@@ -307,10 +308,11 @@ class FlowControl {
   std::uint64_t staged_this_step_ = 0;
 };
 
-// Containment (sandbox.cpp, docs/design.md §7 "Protection"; docs/sandbox.md): the listener of its seccomp filter (shared
-// by every process of the service), the read end of the pipe on its fds 1-2 and its unfinished last line, the
-// session ids of its incarnations spawned so far, the rate limit of what it may log (loop.cpp), and its
-// cgroup (made at its first spawn; empty where the machine refuses one — cgroup_note says why).
+// Containment (warden.cpp, docs/design.md §7 "Protection"; docs/sandbox.md): the listener of its seccomp
+// filter (shared by every process of the service), the read end of the pipe on its fds 1-2 and its unfinished
+// last line, the session ids of its incarnations spawned so far, the rate limit of what it may log
+// (loop.cpp), and its cgroup (made at its first spawn; empty where the machine refuses one — cgroup_note says
+// why).
 struct Containment {
   sys::ServiceCgroup cgroup{};
   std::string cgroup_note{};

@@ -436,7 +436,7 @@ void Supervisor::on_child_exit(ServiceRuntime& s) {
   if ((**status).how == sys::ExitStatus::How::Signaled && (**status).value == SIGKILL) {
     (void)k.warden.count_out_of_memory(s, true);
   }
-  // A forbidden call is killed by the kernel itself (sandbox.cpp, loss_reason set). A death by SIGSYS is a
+  // A forbidden call is killed by the kernel itself (warden.cpp, loss_reason set). A death by SIGSYS is a
   // filter of the service's own that refused a call: the kernel never sends SIGSYS, so it counts the same.
   const bool sigsys = s.proc.loss_reason.empty() && (**status).how == sys::ExitStatus::How::Signaled &&
                       (**status).value == SIGSYS;
@@ -461,8 +461,8 @@ void Supervisor::lose_service(ServiceRuntime& s, std::string reason) {
     k.stop_run(StopReason::ServiceFailed, std::move(detail));
     return;
   }
-  // docs/design.md §7: a rejuvenated service dying is one of the three rollback triggers (images.cpp). Without SR,
-  // or for a driver-level service (never rolled back), the run cannot continue safely.
+  // docs/design.md §7: a rejuvenated service dying is one of the three rollback triggers (rejuvenator.cpp).
+  // Without SR, or for a driver-level service (never rolled back), the run cannot continue safely.
   if (k.sr && s.config.rejuvenate) {
     k.rejuvenator.request_rollback("service '" + s.name + "' lost: " + reason);
     return;

@@ -11,7 +11,7 @@
 //     an upper bound); a later one would lengthen it.
 // The period is the median of the last kWindow intervals between control updates, so one late update does
 // not move it. Lockstep stops the world while the kernel works and never asks (enabled = false): its runs stay
-// deterministic. One owner: the image coordinator (images.cpp); the routing core feeds it the updates
+// deterministic. One owner: the image coordinator (rejuvenator.cpp); the routing core feeds it the updates
 // (watch.cpp).
 #pragma once
 

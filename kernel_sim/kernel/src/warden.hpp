@@ -1,4 +1,4 @@
-// The warden (sandbox.cpp, docs/design.md §7 "Protection"): the calls the seccomp filter refers to the kernel, the
+// Warden (warden.cpp, docs/design.md §7 "Protection"): the calls the seccomp filter refers to the kernel, the
 // services' output, the strays of a service's session and the violations counted. Owns the sweep's schedule.
 #pragma once
 

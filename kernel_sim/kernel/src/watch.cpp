@@ -18,7 +18,7 @@ bool MissionWatch::on_setpoint(std::span<const std::byte> payload) {
 void Router::watch_publication(const ObjectInfo& o, std::span<const std::byte> payload,
                                broker::TopicGeneration g, std::optional<ServiceId> publisher) {
   if (o.is_actuator_outputs && publisher) {
-    k.rejuvenator.on_control_update(k.wall());  // the image work may run (images.cpp), the slack begins
+    k.rejuvenator.on_control_update(k.wall());  // the image work may run (rejuvenator.cpp), the slack begins
   }
   if (k.observer != nullptr) {
     k.observer->on_publication(Publication{.topic = o.id,

@@ -1,7 +1,7 @@
-// One transport for both ends of a channel (docs/design.md §2; docs/protocol.md "Framing"): frames packed into
-// datagrams on the way out, a burst of datagrams per system call on the way in. The kernel (router.cpp's
-// corked rounds, requests.cpp's read_channel) and the SDK (services/sdk/src/transport.cpp) put frames on and
-// take them off a channel with these and nothing else, so the packing rule of wire.hpp is written once.
+// One transport for both ends of a channel (docs/design.md §2; docs/protocol.md "Framing"): frames packed
+// into datagrams on the way out, a burst of datagrams per system call on the way in. The kernel (router.cpp's
+// corked rounds, channel_input.cpp's read_channel) and the SDK (services/sdk/src/transport.cpp) put frames on
+// and take them off a channel with these and nothing else, so the packing rule of wire.hpp is written once.
 #pragma once
 
 #include <cstddef>

@@ -10,8 +10,8 @@
 // and their resume sockets closed. A generation whose image died (killed, crashed) is broken: a rollback
 // falls back to the previous one (docs/design.md §7 "Faults").
 //
-// The store owns processes and fds but runs no protocol: the kernel's image coordinator (images.cpp) sends
-// Snapshot/Resume and decides when to commit, roll back and fall back.
+// The store owns processes and fds but runs no protocol: the kernel's image coordinator (rejuvenator.cpp)
+// sends Snapshot/Resume and decides when to commit, roll back and fall back.
 #pragma once
 
 #include <algorithm>

@@ -8,20 +8,20 @@
 //
 // With SR (docs/design.md §7) the image store checkpoints every rejuvenated service by written pages or fork, with
 // the broker's queue state, and rolls them back on the rejuvenation timer, on a lost service or on a sandbox
-// violation in MC (images.cpp); a lost driver-level service, or any loss without SR, ends the run
-// (supervisor.cpp). Containment: sandbox.cpp and docs/sandbox.md.
+// violation in MC (rejuvenator.cpp); a lost driver-level service, or any loss without SR, ends the run
+// (supervisor.cpp). Containment: warden.cpp and docs/sandbox.md.
 //
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 //
 // The implementation (kernel_sim/kernel/src): Kernel::Impl (impl.hpp) holds the configuration, the shared
 // components and the services (a service's record, by concern, in service_runtime.hpp), and composes the
 // owners, each a class with its state and its procedures: Supervisor (supervisor.hpp: supervisor.cpp
-// processes, realtime.cpp the real-time plan), ChannelInput (channel_input.hpp: requests.cpp channel
+// processes, realtime.cpp the real-time plan), ChannelInput (channel_input.hpp: channel_input.cpp channel
 // requests, invoked per object kind, invocation.hpp), Router (router.hpp: router.cpp routing and flow
 // control, watch.cpp the observers of the routed traffic), Lockstep (lockstep.hpp: lockstep.cpp the steps and
 // the samples that ride on them), Rejuvenator (rejuvenator.hpp: the image coordinator; images.hpp what its
-// files share, images.cpp with its overview, checkpoint.cpp, rollback.cpp, checkpointed_state.cpp;
-// catch_up.hpp/.cpp the estimate catch-up after a rollback) and Warden (warden.hpp: sandbox.cpp containment;
+// files share, rejuvenator.cpp with its overview, checkpoint.cpp, rollback.cpp, checkpointed_state.cpp;
+// catch_up.hpp/.cpp the estimate catch-up after a rollback) and Warden (warden.hpp: warden.cpp containment;
 // cgroup_placer.hpp/.cpp the moves between a service's cgroup leaves, on a thread of its own). Impl's own:
 // kernel.cpp this API; create.cpp Kernel::create in named steps; loop.cpp the event loop, timers, deadlines
 // and the realtime clock; netgate.cpp the network gate; vocabulary.cpp the enums' names and KernelError;
@@ -507,8 +507,9 @@ class Kernel {
   // The run id whose partition the bridge and the plant are in (KernelOptions::run_id).
   [[nodiscard]] dds::RunId run_id() const;
   [[nodiscard]] bool sr_enabled() const;
-  // Whether the image work of the last checkpoint or rollback (patches, spares, the sweep) still waits for the
-  // vehicle's next control update (images.cpp leave_image_work): what a sample of processes and fds would see.
+  // Whether the image work of the last checkpoint or rollback (patches, spares, the sweep) still waits for
+  // the vehicle's next control update (rejuvenator.cpp leave_image_work): what a sample of processes and fds
+  // would see.
   [[nodiscard]] bool image_work_pending() const;
   [[nodiscard]] const cap::CapSystem& caps() const;
   [[nodiscard]] const broker::Broker& broker() const;

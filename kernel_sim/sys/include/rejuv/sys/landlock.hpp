@@ -47,7 +47,7 @@ struct LandlockRule {
 
 // Whether `path`, as a boot call names it, lies within `rules` (lexically: absolute, no "." or ".." component,
 // beneath a rule's path; "/proc/self" also as "/proc/<own_pid>"). The kernel's own look at an open while a
-// service boots (kernel/src/sandbox.cpp): what it sees outside is refused and counted against the service;
+// service boots (kernel/src/warden.cpp): what it sees outside is refused and counted against the service;
 // what it cannot see (the path changed after it read it, a symbolic link) Landlock still refuses, on the
 // object. So the count is the kernel's and the enforcement Landlock's.
 [[nodiscard]] bool path_within(const std::vector<LandlockRule>& rules, std::string_view path, pid_t own_pid);

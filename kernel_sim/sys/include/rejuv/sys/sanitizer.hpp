@@ -53,7 +53,7 @@ inline std::uint64_t heap_in_use_bytes() {
 // The address space a sanitizer's runtime reserves in every process at start, which RLIMIT_AS counts (0 in a
 // build without one). AddressSanitizer on x86-64 (47-bit addresses): its shadow memory, 16 TiB from
 // 0x7fff8000, and its allocator's region, 4 TiB at 0x600000000000, all reserved before main. A service's
-// RLIMIT_AS is its own memory on top of this (kernel sandbox.cpp). ThreadSanitizer reserves nearly the whole
+// RLIMIT_AS is its own memory on top of this (kernel warden.cpp). ThreadSanitizer reserves nearly the whole
 // address space: a TSan build sets no RLIMIT_AS.
 #if defined(REJUV_ASAN)
 inline constexpr std::uint64_t kSanitizerAddressSpace = std::uint64_t{20} << 40U;

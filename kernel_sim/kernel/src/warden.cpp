@@ -1,5 +1,5 @@
-// Containment (docs/design.md §7 "Protection (containment)", docs/sandbox.md). A rollback erases only what is inside
-// the image, so nothing a service does may escape it:
+// Warden (warden.hpp): containment (docs/design.md §7 "Protection (containment)", docs/sandbox.md). A
+// rollback erases only what is inside the image, so nothing a service does may escape it:
 //   - the allow-list filter (kernel_sim/sys seccomp.hpp) refers boot calls and forbidden calls to the kernel
 //     (on_seccomp_notice): boot calls continue until the service is ready, a forbidden call kills its caller;
 //   - every process a service can make is the kernel's child in the service's session (the filter allows
@@ -454,7 +454,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       if (pending[s.id.value()]) break;  // one of its copies is on its way: next time
       if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
       // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,
-      // not counted. Until the next commit (images.cpp), then a stray like any other.
+      // not counted. Until the next commit (rejuvenator.cpp), then a stray like any other.
       const bool owed = k.rejuvenator.coordinator().owes(s.id);
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without

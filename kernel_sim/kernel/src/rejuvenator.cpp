@@ -1,7 +1,7 @@
-// The image coordinator, the Rejuvenator of rejuvenator.hpp (docs/design.md §7; the paper's §V create_checkpoint /
+// Rejuvenator (rejuvenator.hpp): the image coordinator (docs/design.md §7; the paper's §V create_checkpoint /
 // rollback, which took ≈20 ms and ≈15 ms in the PX4 kernel module): checkpoint and rollback of the rejuvenated
 // services with the queue state beside them. Its files:
-//   images.cpp              safe points (where a checkpoint or rollback runs), socket pairs made ahead,
+//   rejuvenator.cpp         safe points (where a checkpoint or rollback runs), socket pairs made ahead,
 //                           retired generations and reaping, the rejuvenation timer, modes and SR events
 //   checkpoint.cpp          checkpoint g: Snapshot, Taken / TakenPages, the commit, images by written pages
 //   rollback.cpp            rollback to the newest intact generation, falling back; the cold restart
@@ -223,7 +223,7 @@ bool Rejuvenator::service_images() {
   reaper_.reap();
   using enum ImageCoordinator::Checkpoint;
   if (!k.stopping && coordinator_.checkpoint() == None && !coordinator_.rollback_asked())
-    k.warden.sweep_if_due();  // sandbox.cpp
+    k.warden.sweep_if_due();  // warden.cpp
   if (!k.sr || k.stopping || coordinator_.checkpoint() == Running) return false;
   if (!coordinator_.asked()) {  // off the critical paths
     refill_pairs();

@@ -1,6 +1,6 @@
-// Channel input (docs/protocol.md): every frame a service sends is untrusted. The kernel checks framing
-// (wire::decode), the protocol phase, then the capability (CapSystem::decode) before anything changes;
-// a refused frame is counted and logged (rate-limited) and never stalls or crashes the kernel.
+// ChannelInput (channel_input.hpp; docs/protocol.md): every frame a service sends is untrusted. The kernel
+// checks framing (wire::decode), the protocol phase, then the capability (CapSystem::decode) before anything
+// changes; a refused frame is counted and logged (rate-limited) and never stalls or crashes the kernel.
 #include <cerrno>
 #include <csignal>
 #include <cstring>
@@ -407,7 +407,7 @@ void ChannelInput::handle_invoke(ServiceRuntime& s, const wire::FrameView& f) {
                  [&](const PersistentInvocation& p) { invoke_persistent(s, seq, o, p); },
                  [&](const ModeInvocation& m) {
                    reply(s, seq, 0, index_of(m.mode));
-                   k.rejuvenator.set_mode(m.mode, s.id);  // images.cpp: caps, time page, sr_mode
+                   k.rejuvenator.set_mode(m.mode, s.id);  // rejuvenator.cpp: caps, time page, sr_mode
                  },
              },
              *decoded);
