@@ -351,7 +351,7 @@ bool ChannelInput::provides(ObjectKind kind) const {
 }
 
 void ChannelInput::refuse_invoke(ServiceRuntime& s, std::uint32_t seq, cap::Operation op, std::int32_t code) {
-  if (op == cap::Operation::NetSend) ++k.net.stats.send_refused;  // the gate counts every NetSend it refuses
+  if (op == cap::Operation::NetSend) k.net.count_send_refused();  // the gate counts every NetSend it refuses
   reply(s, seq, code);
 }
 

@@ -75,7 +75,7 @@ struct Kernel::Impl {
   sys::Epoll epoll;
   std::optional<sys::TimerFd> timerfd;
   std::optional<DdsBridge> bridge;  // DDS, and the plant's lockstep adapter (bridge.hpp)
-  NetGate net;                      // the external link's UDP socket (netgate.cpp)
+  NetGate net;                      // the network gate, changed through its methods (netgate.hpp)
 
   // By ServiceId: each service's runtime, by concern (service_runtime.hpp); its process and phase written by
   // the Supervisor and the Rejuvenator, its flow by the Router, its channel state by the ChannelInput.

@@ -23,18 +23,6 @@ namespace {
 KernelError config_error(std::string message) {
   return KernelError{.kind = KernelError::Kind::Config, .message = std::move(message), .findings = {}};
 }
-
-// 10 lines of burst, 1 line per second sustained: a flood of datagrams must not flood the log.
-bool allow_log(NetGate& net, Nanos wall_now) {
-  net.log_tokens = std::min(10.0, net.log_tokens + to_seconds(wall_now - net.log_last).count());
-  net.log_last = wall_now;
-  if (net.log_tokens >= 1) {
-    net.log_tokens -= 1;
-    return true;
-  }
-  ++net.log_suppressed;
-  return false;
-}
 }  // namespace
 
 GroundLink::GroundLink(std::optional<mavlink::SigningKey> key, std::optional<sys::UdpAddress> ground)
@@ -73,6 +61,77 @@ Result<void, GroundLink::JudgeError> GroundLink::judge(std::uint64_t id, Verdict
   return {};
 }
 
+void NetGate::open(sys::UdpSocket socket, ObjectId object, std::uint16_t port, std::vector<Reader> readers,
+                   GroundLink link) {
+  REJUV_ASSERT(!is_open(), "the network gate is opened once");
+  socket_ = std::move(socket);
+  object_ = object;
+  port_ = port;
+  readers_ = std::move(readers);
+  link_ = std::move(link);
+  stats_.signing = link_.signing();
+}
+
+sys::SysResult<sys::UdpReceived> NetGate::receive() {
+  auto r = socket_.receive(rx_);
+  if (r) ++stats_.received;
+  return r;
+}
+
+void NetGate::count_dropped(Drop why) {
+  switch (why) {
+    case Drop::Empty: ++stats_.dropped_empty; break;
+    case Drop::Oversize: ++stats_.dropped_oversize; break;
+    case Drop::SecureInterval: ++stats_.dropped_secure_interval; break;
+    case Drop::NoReceiver: ++stats_.dropped_no_receiver; break;
+    case Drop::Busy: ++stats_.dropped_busy; break;
+  }
+}
+
+Result<void, mavlink::SigningRefusal> NetGate::admit(std::span<const std::byte> datagram,
+                                                     mavlink::SigningTime local_clock) {
+  auto admitted = link_.admit(datagram, local_clock);
+  if (!admitted) {
+    ++stats_.signing_refused;
+    ++stats_.signing_refused_by_reason[static_cast<std::size_t>(admitted.error())];
+  }
+  return admitted;
+}
+
+void NetGate::relayed(const sys::UdpAddress& from) {
+  ++stats_.relayed;
+  link_.relayed(from);
+}
+
+Result<void, GroundLink::JudgeError> NetGate::judge(std::uint64_t id, std::uint64_t reason) {
+  auto judged = link_.judge(id, reason == 0 ? GroundLink::Verdict::Valid : GroundLink::Verdict::Refused);
+  if (!judged) return judged;
+  if (reason == 0) {
+    ++stats_.judged_valid;
+  } else {
+    ++stats_.judged_refused;
+    ++stats_.refused_by_reason[reason];
+  }
+  return {};
+}
+
+sys::SysResult<void> NetGate::send(std::span<const std::byte> datagram, const sys::UdpAddress& to) {
+  auto sent = socket_.send_to(datagram, to);
+  if (sent) ++stats_.sent;
+  return sent;
+}
+
+bool NetGate::may_log(Nanos wall_now) {
+  log_tokens_ = std::min(10.0, log_tokens_ + to_seconds(wall_now - log_last_).count());
+  log_last_ = wall_now;
+  if (log_tokens_ >= 1) {
+    log_tokens_ -= 1;
+    return true;
+  }
+  ++log_suppressed_;
+  return false;
+}
+
 Result<void, KernelError> Kernel::Impl::net_open() {
   const proto::NetworkSpec& spec = graph.graph.network();
   const std::string where = graph.path.string() + ": network";
@@ -107,12 +166,13 @@ Result<void, KernelError> Kernel::Impl::net_open() {
   if (!address) return fail(config_error(where + ".bind_address: " + address.error()));
 
   // Who may ever receive: the policy slots of the object with Read in some mode.
+  std::vector<NetGate::Reader> readers;
   std::string names;
   for (const ServiceRuntime& s : services) {
     for (const cap::BootCap& c : s.config.boot.caps) {
       if (c.object != *object) continue;
       if (std::none_of(c.rights.begin(), c.rights.end(), [](Rights r) { return r.has(Right::Read); })) continue;
-      net.readers.push_back(NetGate::Reader{.service = s.id, .slot = c.slot});
+      readers.push_back(NetGate::Reader{.service = s.id, .slot = c.slot});
       names += (names.empty() ? "'" : ", '") + s.name + "'";
     }
   }
@@ -137,39 +197,33 @@ Result<void, KernelError> Kernel::Impl::net_open() {
     if (!to) return fail(config_error(where + ".ground_address: " + to.error()));
     ground = *to;
   }
-  net.socket = std::move(*socket);
-  net.object = object;
-  net.port = bound->port;
-  net.link = GroundLink(*key, ground);
-  net.stats.signing = net.link.signing();
+  net.open(std::move(*socket), *object, bound->port, std::move(readers), GroundLink(*key, ground));
   if (clock_mode == ClockMode::Realtime) {
-    if (auto ok = epoll.add(net.socket.fd(), token(Source::Net, 0)); !ok) {
+    if (auto ok = epoll.add(net.fd(), token(Source::Net, 0)); !ok) {
       return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
     }
   }
   log("network gate: udp %s for '%s' (%s)%s%s", bound->to_string().c_str(), objects[object->value()].name.c_str(),
-      names.empty() ? "no service may receive" : names.c_str(), net.link.signing() ? ", MAVLink 2 signing required" : "",
-      net.link.ground() ? (", sending to " + net.link.ground()->to_string() + " until a ground station speaks").c_str() : "");
+      names.empty() ? "no service may receive" : names.c_str(), net.signing() ? ", MAVLink 2 signing required" : "",
+      net.ground() ? (", sending to " + net.ground()->to_string() + " until a ground station speaks").c_str() : "");
   return {};
 }
 
 void Kernel::Impl::net_poll() {
-  if (!net.socket.valid()) return;
+  if (!net.is_open()) return;
   for (std::size_t i = 0; i < kDatagramsPerPoll; ++i) {
-    auto r = net.socket.receive(net.rx);
+    auto r = net.receive();
     if (!r) {
-      if (r.error().error != EAGAIN && allow_log(net, wall())) log("network gate: %s", r.error().to_string().c_str());
+      if (r.error().error != EAGAIN && net.may_log(wall())) log("network gate: %s", r.error().to_string().c_str());
       return;
     }
-    NetStats& st = net.stats;
-    ++st.received;
     if (r->datagram_size == 0) {
-      ++st.dropped_empty;
+      net.count_dropped(NetGate::Drop::Empty);
       continue;
     }
     if (r->truncated || r->datagram_size > wire::kMaxDatagramBytes) {
-      ++st.dropped_oversize;
-      if (allow_log(net, wall())) {
+      net.count_dropped(NetGate::Drop::Oversize);
+      if (net.may_log(wall())) {
         log("network gate: dropped a %zu-byte datagram from %s (more than %zu bytes)", r->datagram_size,
             r->from.to_string().c_str(), wire::kMaxDatagramBytes);
       }
@@ -177,20 +231,18 @@ void Kernel::Impl::net_poll() {
     }
     // Decode through the cap system: which policy slot holds the object with Read in the current mode. A
     // lookup, not a service's request, so nothing is counted as a denial.
-    const std::span<const std::byte> bytes(net.rx.data(), r->size);
+    const std::span<const std::byte> bytes = net.bytes_of(*r);
     // Whether a reader holds the network now (Read in the current mode).
     const auto holds = [&](const NetGate::Reader& reader) {
       const auto c = caps.lookup(cap::CapRef{.space = reader.service, .slot = reader.slot});
-      return c && c->kind == ObjectKind::Network && c->object == *net.object && c->rights.has(Right::Read);
+      return c && c->kind == ObjectKind::Network && net.serves(c->object) && c->rights.has(Right::Read);
     };
     // Signing: checked only for a datagram that could be relayed now (in the SEI everything is dropped
     // unread, so a frame retransmitted there costs the stream nothing), before any service sees it, against
     // the wall clock (CLOCK_REALTIME) in every clock mode: the ground station stamps from its own.
-    if (net.link.signing() && std::any_of(net.readers.begin(), net.readers.end(), holds)) {
-      if (auto signed_ok = net.link.admit(bytes, mavlink::SigningClock::now()); !signed_ok) {
-        ++st.signing_refused;
-        ++st.signing_refused_by_reason[static_cast<std::size_t>(signed_ok.error())];
-        if (allow_log(net, wall())) {
+    if (net.signing() && std::any_of(net.readers().begin(), net.readers().end(), holds)) {
+      if (auto signed_ok = net.admit(bytes, mavlink::SigningClock::now()); !signed_ok) {
+        if (net.may_log(wall())) {
           log("network gate: refused a %zu-byte datagram from %s: %s", r->size, r->from.to_string().c_str(),
               std::string(mavlink::to_string(signed_ok.error())).c_str());
         }
@@ -200,8 +252,8 @@ void Kernel::Impl::net_poll() {
     bool held = false;
     bool running = false;
     bool sent = false;
-    const std::uint64_t id = net.link.next_id();
-    for (const NetGate::Reader& reader : net.readers) {
+    const std::uint64_t id = net.next_id();
+    for (const NetGate::Reader& reader : net.readers()) {
       if (!holds(reader)) continue;
       held = true;
       ServiceRuntime& s = services[reader.service.value()];
@@ -215,19 +267,18 @@ void Kernel::Impl::net_poll() {
       sent = true;
     }
     if (!held) {
-      ++st.dropped_secure_interval;
-      if (allow_log(net, wall())) {
+      net.count_dropped(NetGate::Drop::SecureInterval);
+      if (net.may_log(wall())) {
         log("network gate: dropped a %zu-byte datagram from %s: no service holds the network in mode %s", r->size,
             r->from.to_string().c_str(), std::string(to_string(caps.mode())).c_str());
       }
     } else if (!running) {
-      ++st.dropped_no_receiver;
+      net.count_dropped(NetGate::Drop::NoReceiver);
     } else if (!sent) {
-      ++st.dropped_busy;
+      net.count_dropped(NetGate::Drop::Busy);
     } else {
-      ++st.relayed;
       // Its source becomes the ground station only once the receiver judges it valid (net_invoke).
-      net.link.relayed(r->from);
+      net.relayed(r->from);
     }
   }
 }
@@ -238,61 +289,52 @@ void Kernel::Impl::net_invoke(ServiceRuntime& s, std::uint32_t seq, const cap::I
     // NetReceive: delivery is pushed (NetDatagram frames); what the receiver sends back is its verdict on
     // one of them: its id and 0 valid, else its refusal reason (a known code: decode_invocation). Checked
     // before anything changes: a datagram relayed to this gate lately, not judged yet.
-    const auto judged = net.link.judge(verdict->datagram, verdict->reason == 0 ? GroundLink::Verdict::Valid
-                                                                                : GroundLink::Verdict::Refused);
-    if (!judged) {
+    if (!net.judge(verdict->datagram, verdict->reason)) {
       input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::BadArgument));
       return;
-    }
-    if (verdict->reason == 0) {
-      ++net.stats.judged_valid;
-    } else {
-      ++net.stats.judged_refused;
-      ++net.stats.refused_by_reason[verdict->reason];
     }
     input.reply(s, seq, 0);
     return;
   }
   const std::span<const std::byte> data = std::get<NetInvocation::Send>(what.what).datagram;  // 1 … kMaxDatagramBytes
   // The gate is off (disabled, bind failed, another NETWORK object).
-  if (!net.socket.valid() || !net.object || authority.object() != *net.object) {
+  if (!net.is_open() || !net.serves(authority.object())) {
     input.refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
   // No ground station has spoken yet: nowhere to send. Not a fault of the sender (its telemetry may start
   // before anyone listens), so counted apart. The address lives here, in the kernel, so that it survives the
   // rollbacks that wipe whatever ext_link learned in MC.
-  const std::optional<sys::UdpAddress>& ground = net.link.ground();
+  const std::optional<sys::UdpAddress>& ground = net.ground();
   if (!ground) {
-    ++net.stats.unsent_no_ground;
+    net.count_unsent_no_ground();
     input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
   // With signing on, the gate signs what the vehicle sends (the key stays in the kernel); a datagram it cannot
   // sign (not a well-formed MAVLink 2 frame) is not sent.
   std::optional<mavlink::Frame> signed_frame;
-  if (net.link.signing()) {
-    signed_frame = net.link.sign_outgoing(data, mavlink::SigningClock::now());
+  if (net.signing()) {
+    signed_frame = net.sign_outgoing(data, mavlink::SigningClock::now());
     if (!signed_frame) {
-      if (allow_log(net, wall())) log("network gate: not sent: a datagram of %zu bytes that is no MAVLink 2 frame to sign", data.size());
+      if (net.may_log(wall())) log("network gate: not sent: a datagram of %zu bytes that is no MAVLink 2 frame to sign", data.size());
       input.reply(s, seq, static_cast<std::int32_t>(wire::OpError::Refused));
       return;
     }
   }
-  if (auto ok = net.socket.send_to(signed_frame ? signed_frame->view() : data, *ground); !ok) {
-    if (allow_log(net, wall())) log("network gate: send to %s: %s", ground->to_string().c_str(), ok.error().to_string().c_str());
+  if (auto ok = net.send(signed_frame ? signed_frame->view() : data, *ground); !ok) {
+    if (net.may_log(wall())) log("network gate: send to %s: %s", ground->to_string().c_str(), ok.error().to_string().c_str());
     input.refuse_invoke(s, seq, cap::Operation::NetSend, static_cast<std::int32_t>(wire::OpError::Refused));
     return;
   }
-  ++net.stats.sent;
   input.reply(s, seq, 0, data.size());
 }
 
-NetStats Kernel::net_stats() const { return impl_->net.stats; }
+NetStats Kernel::net_stats() const { return impl_->net.stats(); }
 
 std::optional<std::uint16_t> Kernel::network_port() const {
-  if (!impl_->net.socket.valid()) return std::nullopt;
-  return impl_->net.port;
+  if (!impl_->net.is_open()) return std::nullopt;
+  return impl_->net.port();
 }
 
 }  // namespace rejuv::kernel
