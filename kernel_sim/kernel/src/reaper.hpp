@@ -1,7 +1,7 @@
 // The processes the kernel is done with (docs/design.md §7): the incarnations a rollback retired — stopped at
 // once and killed at the next safe point — and the processes killed and not reaped yet, which hold their
 // uid's process slots (max_processes, RLIMIT_NPROC) until they are. One owner: the image coordinator
-// (rejuvenator.cpp, rollback.cpp) and the shutdown (supervisor.cpp); the sandbox's stray sweep asks it whose
+// (rejuvenator.cpp, rollback.cpp) and the shutdown (supervisor.cpp); the Warden's stray sweep asks it whose
 // a pid is and hands it the strays it kills.
 #pragma once
 

@@ -21,7 +21,8 @@
 // control, watch.cpp the observers of the routed traffic), Lockstep (lockstep.hpp: lockstep.cpp the steps and
 // the samples that ride on them), Rejuvenator (rejuvenator.hpp: the image coordinator; images.hpp what its
 // files share, rejuvenator.cpp with its overview, checkpoint.cpp, rollback.cpp, checkpointed_state.cpp;
-// catch_up.hpp/.cpp the estimate catch-up after a rollback) and Warden (warden.hpp: warden.cpp containment;
+// catch_up.hpp/.cpp the estimate catch-up after a rollback; link_guard.hpp/.cpp the links to other hosts closed
+// in the secure interval) and Warden (warden.hpp: warden.cpp containment;
 // cgroup_placer.hpp/.cpp the moves between a service's cgroup leaves, on a thread of its own). Impl's own:
 // kernel.cpp this API; create.cpp Kernel::create in named steps; loop.cpp the event loop, timers, deadlines
 // and the realtime clock; netgate.cpp the network gate; vocabulary.cpp the enums' names and KernelError;
