@@ -241,9 +241,9 @@ void fly(AttackKind kind, bool realtime, Flight& f, std::uint32_t hold_mib = 0) 
   f.unpinned = watch.unpinned;
   f.realtime = realtime;
   // Applied to lqr_control: another kernel on the machine may hold the real-time budget (cgroup v1
-  // cpu.rt_runtime_us is shared), and then the kernel says which services stay SCHED_OTHER.
+  // cpu.rt_runtime_us is shared), and then the kernel says which services it refused.
   f.plan_applied = f.log.find("real-time plan: kernel SCHED_FIFO") != std::string::npos &&
-                   f.log.find("'lqr_control' stays SCHED_OTHER") == std::string::npos;
+                   f.log.find("'lqr_control' refused SCHED_FIFO") == std::string::npos;
   if (watch.sid) f.left_in_session = session_members(*watch.sid);
   f.children_left = Resources::now().children - children_before;
   ::testing::Test::RecordProperty("max_V", std::to_string(f.summary.max_v()));

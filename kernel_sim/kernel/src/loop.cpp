@@ -296,10 +296,21 @@ void Kernel::Impl::pace_catch_up() {
 // The replay is past the kernel's bound (catch_up.hpp): the rest is skipped, the estimator told to re-arm from
 // the live samples (CATCH_UP_REARM, ahead of them), and the live samples that waited go out.
 void Kernel::Impl::cut_catch_up_short() {
-  log("estimate catch-up cut short after %.1f ms (%llu samples replayed): the chain did not keep up; the "
-      "estimator re-arms from the live samples",
+  // Who held it up: each service of the chain not idle yet, with the frames it has not reported and whether
+  // anything still waits on the kernel's side of its channel.
+  std::string behind;
+  for (const ServiceRuntime& s : services) {
+    if (!rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.idle()) continue;
+    behind += (behind.empty() ? "" : ", ") + s.name + " (" +
+              std::to_string(s.flow.frames_issued() - std::min(s.flow.frames_issued(), s.flow.reported())) +
+              " frames unreported" + (s.flow.drained() ? "" : ", some not yet sent") + ")";
+  }
+  log("estimate catch-up cut short after %.1f ms (%llu samples replayed, %s): the chain did not keep up (%s); "
+      "the estimator re-arms from the live samples",
       to_seconds(wall() - rejuvenator.catch_up().began_at()).count() * 1e3,
-      static_cast<unsigned long long>(rejuvenator.catch_up().replayed()));
+      static_cast<unsigned long long>(rejuvenator.catch_up().replayed()),
+      rejuvenator.catch_up().replay_pending() ? "more to hand on" : "all handed on",
+      behind.empty() ? "every service idle" : behind.c_str());
   rejuvenator.signal_catch_up(rejuv_msg_CATCH_UP_REARM);
   rejuvenator.cut_replay_short([&](ObjectId topic, std::span<const std::byte> bytes) {
     router.publish_as_kernel(topic, bytes, Router::From::Held);
@@ -349,7 +360,7 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
       last_progress = now();
       if (observer != nullptr) observer->on_step(lockstep.steps().steps_done(), now(), caps.mode());
       lockstep.count_realtime_progress();
-      supervisor.retry_realtime();
+      supervisor.keep_realtime_plan();
     }
     supervisor.watch_liveness();  // it keeps its own pace
     lockstep.check_stop_conditions();

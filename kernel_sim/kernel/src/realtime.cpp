@@ -6,6 +6,7 @@
 // privilege the run says once what it could not apply and goes on at SCHED_OTHER. Where the plan names CPUs
 // (kernel_cpu, plant_cpu, a service's cpu), each is pinned to its own (sched_setaffinity); a CPU the machine
 // lacks is named in the log and ignored.
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -89,26 +90,27 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   // A restored copy is moved from `images/` into `live/` by the placer, after the rollback (docs/sandbox.md);
   // in `images/`, whose real-time budget is 0 (v1 RT groups), SCHED_FIFO is refused: again once it is there —
   // in every hierarchy, the v1 cpu one (the budget) after the v2 one. A refusal while the placer is between the
-  // two is not final: the copy is tried again once settled (retry_realtime), else it would run SCHED_OTHER.
+  // two is not final: the copy is tried again once settled (keep_realtime_plan), else it would run SCHED_OTHER.
   if (s.sandbox.cgroup.valid() && !s.sandbox.cgroup.settled_in(pid, sys::CgroupLeaf::Live)) {
     realtime_pending_.emplace_back(s.id, pid);
     return;
   }
   // v1 RT groups: the budgets of all groups under one parent add up to at most its own (the machine's 950 ms/s at
-  // the top), so a kernel started while others hold theirs may find none left for this service's group.
-  // Said once per service: every rollback and catch-up applies the plan again, and would say it again.
+  // the top), so a kernel started while others hold theirs may find none left for this service's group. A refusal
+  // once settled is tried again every 100 ms (keep_realtime_plan): the scheduler's group follows a move a moment
+  // after /proc/<pid>/cgroup shows it. Said once per service, and once more when it is given.
   fifo_refusal_said_.resize(k.services.size());
   if (fifo_refusal_said_[s.id.value()]) return;
   fifo_refusal_said_[s.id.value()] = true;
   const bool no_budget = s.sandbox.cgroup.valid() && s.sandbox.cgroup.rt_budget_refused();
-  k.log("real-time plan: '%s' stays SCHED_OTHER (%s)%s", s.name.c_str(), ok.error().to_string().c_str(),
+  k.log("real-time plan: '%s' refused SCHED_FIFO (%s)%s; it runs SCHED_OTHER, asked again every 100 ms",
+        s.name.c_str(), ok.error().to_string().c_str(),
         no_budget ? ": its cgroup got no real-time budget (cpu.rt_runtime_us refused: other real-time kernels on this "
                     "machine hold the rest of its 950 ms/s)"
                   : "");
 }
 
-void Supervisor::retry_realtime() {
-  if (realtime_pending_.empty()) return;
+void Supervisor::keep_realtime_plan() {
   // Taken out first: apply_realtime may queue the copy again (refused and no longer found in `live/`).
   const std::vector<std::pair<ServiceId, pid_t>> pending = std::exchange(realtime_pending_, {});
   for (const auto& [id, pid] : pending) {
@@ -119,6 +121,25 @@ void Supervisor::retry_realtime() {
       continue;
     }
     apply_realtime(s);
+  }
+  if (!realtime_active) return;
+  // Every live service of the plan not at SCHED_FIFO now (refused once settled, or moved off it by anyone) is
+  // given it again; the catch-up chain stays off it while it replays (chain_realtime gives it back after).
+  const CatchUp& catch_up = k.rejuvenator.catch_up();
+  for (ServiceRuntime& s : k.services) {
+    if (s.config.spec == nullptr || s.config.spec->rt_priority() == 0 || !s.live() || s.proc.phase() != Phase::Ready ||
+        (catch_up.in_chain(s.id) && (catch_up.replaying() || catch_up.draining()))) {
+      continue;
+    }
+    const pid_t pid = s.proc.process.pid();
+    const bool queued = std::any_of(realtime_pending_.begin(), realtime_pending_.end(),
+                                    [&](const auto& p) { return p.first == s.id && p.second == pid; });
+    if (queued || sys::runs_fifo(pid)) continue;
+    apply_realtime(s);
+    if (sys::runs_fifo(pid) && s.id.value() < fifo_refusal_said_.size() && fifo_refusal_said_[s.id.value()]) {
+      fifo_refusal_said_[s.id.value()] = false;
+      k.log("real-time plan: '%s' at SCHED_FIFO again", s.name.c_str());
+    }
   }
 }
 

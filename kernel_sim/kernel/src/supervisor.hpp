@@ -45,8 +45,9 @@ class Supervisor {
   void apply_realtime(
       ServiceRuntime& s);  // a service that became Ready (spawned, cold-restarted or restored)
   // run_realtime, every 100 ms: a restored copy refused SCHED_FIFO while still in its cgroup's `images/` leaf
-  // (no real-time budget there) gets the plan once the placer has moved it into `live/`.
-  void retry_realtime();
+  // (no real-time budget there) gets the plan once the placer has moved it into `live/`; any live service of the
+  // plan found not at SCHED_FIFO (refused once settled, or moved off it) is given it again.
+  void keep_realtime_plan();
   // run_realtime, at every turn of the loop: a rejuvenated service that has sent the kernel nothing since the last
   // look at it while frames sent to it are unreported is sent a Sync (docs/protocol.md "Idle"); one that has not
   // answered it with an Idle within its deadline is hung (stopped, spinning, blocked) and killed, which rolls back
@@ -67,7 +68,7 @@ class Supervisor {
   bool plant_started_ = false;
   bool realtime_active = false;  // the plan is on and the kernel was granted SCHED_FIFO
   std::vector<std::pair<ServiceId, pid_t>> realtime_pending_;
-  std::vector<bool> fifo_refusal_said_;  // apply_realtime: a service refused SCHED_FIFO, said once
+  std::vector<bool> fifo_refusal_said_;  // apply_realtime: a service refused SCHED_FIFO, said once until given
   std::vector<pid_t> fifo_pid_;          // per service: the process apply_realtime put at SCHED_FIFO (0: none)
   [[nodiscard]] bool runs_fifo(const ServiceRuntime& s) const;
   Nanos liveness_looked_at_{Nanos::min()};  // watch_liveness's last pass

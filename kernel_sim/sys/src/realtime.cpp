@@ -15,6 +15,11 @@ SysResult<void> set_fifo(pid_t tid, int priority) {
   return {};
 }
 
+bool runs_fifo(pid_t tid) {
+  const int policy = ::sched_getscheduler(tid);
+  return policy >= 0 && (policy & ~SCHED_RESET_ON_FORK) == SCHED_FIFO;
+}
+
 namespace {
 // `apply` on every thread of this process; the first refusal, after trying every thread.
 template <class Apply>

@@ -14,6 +14,8 @@ namespace rejuv::sys {
 [[nodiscard]] SysResult<void> set_fifo(pid_t tid, int priority);
 // Every thread of this process (those it has now; later ones inherit the creating thread's policy).
 [[nodiscard]] SysResult<void> set_fifo_all_threads(int priority);
+// Whether thread or process `tid` runs SCHED_FIFO now (false where it cannot be read: gone).
+[[nodiscard]] bool runs_fifo(pid_t tid);
 // Thread or process `tid` (0: the calling thread) pinned to CPU `cpu` (sched_setaffinity); EINVAL if the
 // machine has no such CPU online.
 [[nodiscard]] SysResult<void> pin_to_cpu(pid_t tid, unsigned cpu);
