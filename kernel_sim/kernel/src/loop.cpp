@@ -348,11 +348,20 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
   lockstep.request_priming();
   arm_timerfd();
   supervisor.start_realtime_plan();  // realtime.cpp
+  // While the kernel hands the estimate catch-up's replay on, the loop only looks for events: the replay goes on
+  // as soon as it can. Once all of it is handed on, the loop waits for the chain's answers (its channels wake it)
+  // until the replay's bound: the chain runs SCHED_OTHER during the replay, and this SCHED_FIFO loop spinning
+  // meanwhile would hold a CPU the chain needs (on two CPUs under load, sensors had not started 101 of 122
+  // samples when the bound cut the replay short).
+  const auto wait = [this]() -> Nanos {
+    const CatchUp& c = rejuvenator.catch_up();
+    if (!c.replaying()) return std::chrono::milliseconds{100};
+    if (c.replay_pending()) return Nanos{0};
+    return std::clamp<Nanos>(c.began_at() + CatchUp::kReplayBoundRealtime - wall(), Nanos{0},
+                             std::chrono::milliseconds{100});
+  };
   while (!stop) {
-    // While the estimate catches up the loop only looks for events: the replay goes on as soon as it can.
-    if (auto ok = pump(rejuvenator.catch_up().replaying() ? Nanos{0} : Nanos{std::chrono::milliseconds{100}});
-        !ok)
-      return ok;
+    if (auto ok = pump(wait()); !ok) return ok;
     while (rejuvenator.service_images()) {
     }
     pace_catch_up();
