@@ -18,10 +18,7 @@
 #include <ostream>
 #include <string>
 
-#include "graph_fixture.hpp"
-#include "mission_support.hpp"
-#include "run_recorder.hpp"
-#include "run_summary.hpp"
+#include "observed_flight.hpp"
 
 namespace rejuv::testing {
 namespace {
@@ -78,51 +75,39 @@ TEST_P(HungService, StoppedInTheSecureInterval_FoundKilledAndRolledBack_VehicleS
   if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox needs root here";
   const bool realtime = GetParam().realtime;
   const std::string target = GetParam().target;
-  std::optional<launch::LoadedLaunch> graph;
-  ASSERT_NO_FATAL_FAILURE(mission::load_square(realtime, {}, graph));
-  auto reference = cli::run_reference(*graph, std::nullopt);
-  ASSERT_TRUE(reference.has_value()) << reference.error();
-  mission::RunLog log;
-  ASSERT_NE(log.get(), nullptr);
-  kernel::KernelOptions options = mission::mission_options(log.get());
-  options.duration = reference->alignment + Nanos{kFlight};
-  const Nanos stop_at = reference->alignment + Nanos{kStopAfter};
-  mission::SessionGuard guard;
-  cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);
-  Stopper stopper(target, stop_at);
-  kernel::ObserverFanout fanout({&recorder, &stopper});
-  auto k = Kernel::create(std::move(*graph), options, &fanout);
-  ASSERT_TRUE(k.has_value()) << k.error().to_string();
-  stopper.attach(k->get());
-  recorder.on_vehicle_lost([kernel = k->get()] { (*kernel).request_stop(); });
-  auto outcome = (*k)->run();
-  ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string() << "\n" << log.text();
-  proto::RunSummary summary;
-  cli::fill_summary(summary, **k, recorder, *outcome, cli::facts_of(**k, options));
-  const kernel::SrStats sr = (*k)->sr_stats();
-  const auto id = (*k)->find_service(target);
-  ASSERT_TRUE(id.has_value());
-  const kernel::ServiceStats service = (*k)->stats(*id);
-  const pid_t stopped = stopper.stopped_pid();
-  const mission::ProcStat after = stopped > 0 ? mission::proc_stat(stopped) : mission::ProcStat{};
-  k->reset();
+  kernel::SrStats sr{};
+  kernel::ServiceStats service{};
+  pid_t stopped = -1;
+  std::uint64_t rollbacks_before = 0;
+  mission::ProcStat after{};
+  mission::ObservedFlight f;
+  ASSERT_NO_FATAL_FAILURE(mission::fly_observed<Stopper>(
+      realtime, kFlight, [&](Nanos alignment) { return Stopper(target, alignment + Nanos{kStopAfter}); },
+      [&](const Kernel& k, const Stopper& stopper) {
+        sr = k.sr_stats();
+        if (const auto id = k.find_service(target)) service = k.stats(*id);
+        stopped = stopper.stopped_pid();
+        rollbacks_before = stopper.rollbacks_before();
+        if (stopped > 0) after = mission::proc_stat(stopped);
+      },
+      f));
   std::printf("[ %s ] stopped %s pid %d; max V %.3f; %llu rollbacks, %llu fallbacks, %llu cold restarts\n",
-              realtime ? "real time" : "lockstep", target.c_str(), stopped, summary.max_v(),
+              realtime ? "real time" : "lockstep", target.c_str(), stopped, f.summary.max_v(),
               static_cast<unsigned long long>(sr.rollbacks), static_cast<unsigned long long>(sr.fallbacks),
               static_cast<unsigned long long>(sr.cold_restarts));
 
-  ASSERT_GT(stopped, 0) << target << " was never stopped: no MC step after " << to_seconds(stop_at).count() << " s";
-  EXPECT_EQ(outcome->reason, StopReason::Duration) << outcome->detail;
+  ASSERT_GT(stopped, 0) << target << " was never stopped: no SC step " << kStopAfter.count() << " s into the flight";
+  EXPECT_EQ(f.outcome->reason, StopReason::Duration) << f.outcome->detail;
   // Found and killed as hung: the process the test stopped is gone (or a zombie nobody will run again).
   EXPECT_TRUE(after.state == '?' || after.state == 'Z' || after.parent != ::getpid())
       << "the stopped " << target << " (pid " << stopped << ") is still there, state " << after.state;
-  const std::string named = log.lines_with("killing '" + target + "'");
+  const std::string named = f.log.lines_with("killing '" + target + "'");
   EXPECT_NE(named.find(realtime ? "no Idle within" : "not idle within the idle deadline"), std::string::npos)
-      << log.lines_with(target);
+      << f.log.lines_with(target);
   // Rolled back (a restored image, or a cold restart): the service flew on in another process.
-  EXPECT_GT(sr.rollbacks + sr.cold_restarts, stopper.rollbacks_before());
+  EXPECT_GT(sr.rollbacks + sr.cold_restarts, rollbacks_before);
   EXPECT_NE(service.pid, stopped);
-  EXPECT_LT(summary.max_v(), 1.0) << "the vehicle left the safety set";
+  EXPECT_LT(f.summary.max_v(), 1.0) << "the vehicle left the safety set";
 }
 
 INSTANTIATE_TEST_SUITE_P(ClocksAndTargets, HungService,

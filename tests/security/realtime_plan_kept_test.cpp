@@ -15,10 +15,7 @@
 #include <cstdio>
 #include <string>
 
-#include "graph_fixture.hpp"
-#include "mission_support.hpp"
-#include "run_recorder.hpp"
-#include "run_summary.hpp"
+#include "observed_flight.hpp"
 
 namespace rejuv::testing {
 namespace {
@@ -80,42 +77,30 @@ class Knocker final : public kernel::Observer {
 
 TEST(RealtimePlanKept, ChainServiceMovedOffFifo_GivenItAgain_VehicleSafe) {
   if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox and SCHED_FIFO need root here";
-  std::optional<launch::LoadedLaunch> graph;
-  ASSERT_NO_FATAL_FAILURE(mission::load_square(true, {}, graph));
-  ASSERT_TRUE(graph->graph.realtime().enabled()) << "the square's real-time plan is off: nothing to test";
-  auto reference = cli::run_reference(*graph, std::nullopt);
-  ASSERT_TRUE(reference.has_value()) << reference.error();
-  mission::RunLog log;
-  ASSERT_NE(log.get(), nullptr);
-  kernel::KernelOptions options = mission::mission_options(log.get());
-  options.duration = reference->alignment + Nanos{kFlight};
-  const Nanos from = reference->alignment + Nanos{std::chrono::seconds{1}};
-  mission::SessionGuard guard;
-  cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);
-  Knocker knocker("sensors", from);
-  kernel::ObserverFanout fanout({&recorder, &knocker});
-  auto k = Kernel::create(std::move(*graph), options, &fanout);
-  ASSERT_TRUE(k.has_value()) << k.error().to_string();
-  knocker.attach(k->get());
-  recorder.on_vehicle_lost([kernel = k->get()] { (*kernel).request_stop(); });
-  auto outcome = (*k)->run();
-  ASSERT_TRUE(outcome.has_value()) << outcome.error().to_string() << "\n" << log.text();
-  proto::RunSummary summary;
-  cli::fill_summary(summary, **k, recorder, *outcome, cli::facts_of(**k, options));
-  k->reset();
+  int knocks = 0, restored = 0, replaced = 0;
+  mission::ObservedFlight f;
+  ASSERT_NO_FATAL_FAILURE(mission::fly_observed<Knocker>(
+      true, kFlight, [](Nanos alignment) { return Knocker("sensors", alignment + Nanos{std::chrono::seconds{1}}); },
+      [&](const Kernel&, const Knocker& knocker) {
+        knocks = knocker.knocks();
+        restored = knocker.restored();
+        replaced = knocker.replaced();
+      },
+      f));
   std::printf("[ real time ] sensors moved to SCHED_OTHER %d times: %d given SCHED_FIFO again while live, %d replaced "
               "by a rollback first; max V %.3f\n",
-              knocker.knocks(), knocker.restored(), knocker.replaced(), summary.max_v());
+              knocks, restored, replaced, f.summary.max_v());
 
-  if (log.text().find("'sensors' refused SCHED_FIFO") != std::string::npos &&
-      log.text().find("'sensors' at SCHED_FIFO again") == std::string::npos) {
-    GTEST_SKIP() << "another real-time kernel holds this machine's real-time budget:\n" << log.lines_with("real-time");
+  const std::string log = f.log.text();
+  if (log.find("'sensors' refused SCHED_FIFO") != std::string::npos &&
+      log.find("'sensors' at SCHED_FIFO again") == std::string::npos) {
+    GTEST_SKIP() << "another real-time kernel holds this machine's real-time budget:\n" << f.log.lines_with("real-time");
   }
-  EXPECT_EQ(outcome->reason, StopReason::Duration) << outcome->detail;
-  ASSERT_GT(knocker.knocks(), 0) << "sensors was never seen settled at SCHED_FIFO in SC:\n" << log.lines_with("real-time");
-  EXPECT_GT(knocker.restored(), 0) << "a chain service moved off SCHED_FIFO stayed off it while live ("
-                                   << knocker.replaced() << " replaced by a rollback first)";
-  EXPECT_LT(summary.max_v(), 1.0) << "the vehicle left the safety set";
+  EXPECT_EQ(f.outcome->reason, StopReason::Duration) << f.outcome->detail;
+  ASSERT_GT(knocks, 0) << "sensors was never seen settled at SCHED_FIFO in SC:\n" << f.log.lines_with("real-time");
+  EXPECT_GT(restored, 0) << "a chain service moved off SCHED_FIFO stayed off it while live (" << replaced
+                         << " replaced by a rollback first)";
+  EXPECT_LT(f.summary.max_v(), 1.0) << "the vehicle left the safety set";
 }
 
 }  // namespace
