@@ -154,6 +154,7 @@ int bench_images(const std::string& graph_path, const ImageBench& b) {
 int run_bench(std::span<const std::string_view> args) {
   std::string what, graph_path;
   std::uint64_t cycles = 200, restarts = 20, between = 1, seconds = 20, rounds = 1, samples = 2500;
+  std::uint64_t reopen_seconds = 10;
   std::optional<std::filesystem::path> out;
   bool no_link = false;
   Options opts("bench",
@@ -170,7 +171,8 @@ int run_bench(std::span<const std::string_view> args) {
                "                    namespaces joined by a veth pair: raw Cyclone DDS, and with DDS Security from\n"
                "                    `rejuv keys` (tests/across_hosts/companion.launch.pbtxt), and the link's path\n"
                "                    (service > kernel > rejuv_host_link > DDS > link > kernel > service, two\n"
-               "                    `rejuv run --host` kernels), as ratios (root only).");
+               "                    `rejuv run --host` kernels), as ratios; then, with SR, the time from each\n"
+               "                    CP -> MC (the link reopened) until the first sample crosses (root only).");
   opts.positional("WHAT", what, "what to measure: images, realtime or across-hosts")
       .positional("GRAPH", graph_path, "the launch graph (default: launch/quad_square_paper.launch.pbtxt)", false)
       .integer("--cycles", "N", cycles, {1, 100000}, "checkpoint + rollback cycles")
@@ -184,15 +186,23 @@ int run_bench(std::span<const std::string_view> args) {
                "machine's slow spells then fall on all of them alike); across-hosts: the rows likewise")
       .path("--out", "DIR", out,
             "realtime: where the flights' files and cyclictest's histograms go; across-hosts: the keystore, the\n"
-            "peers' configs and logs, latency.csv",
+            "peers' configs and logs, latency.csv, reopen.csv (each MC window of the flight with SR)",
             "a new temporary folder")
       .integer("--samples", "N", samples, {100, 1'000'000}, "across-hosts: samples per row and round")
-      .flag("--no-link", no_link, "across-hosts: leave out the link's row (two `rejuv run --host` kernels, ~1 min)");
+      .integer("--reopen-seconds", "N", reopen_seconds, {2, 600},
+               "across-hosts: seconds of the flight with SR whose CP -> MC are measured (the square in real time: an\n"
+               "MC window of 0.2 s every 0.4 to 1.3 s)")
+      .flag("--no-link", no_link,
+            "across-hosts: leave out the link's rows (two flights of two `rejuv run --host` kernels, ~1 min each)");
   if (auto exit = opts.parse_or_exit(args)) return *exit;
   if (what == "realtime") return run_bench_realtime(graph_path, seconds, rounds, out);
   if (what == "across-hosts") {
     if (!graph_path.empty()) return refuse("rejuv bench across-hosts: takes no GRAPH (its graph is tests/across_hosts')");
-    return run_bench_across_hosts(samples, rounds, out, no_link ? LinkRow::Skip : LinkRow::Measure);
+    return run_bench_across_hosts(AcrossHostsBench{.samples = samples,
+                                                   .rounds = rounds,
+                                                   .reopen_seconds = reopen_seconds,
+                                                   .out = out,
+                                                   .link = no_link ? LinkRow::Skip : LinkRow::Measure});
   }
   if (what != "images") {
     return refuse("rejuv bench: unknown benchmark '" + what + "' (known: images, realtime, across-hosts)");

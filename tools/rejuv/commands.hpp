@@ -20,11 +20,17 @@ int run_bench(std::span<const std::string_view> args);  // cmd_bench.cpp
 // bench_realtime.cpp: `rejuv bench realtime` (GRAPH "" = the square; files in `out`, default a temporary folder).
 int run_bench_realtime(const std::string& graph, std::uint64_t seconds, std::uint64_t rounds,
                        const std::optional<std::filesystem::path>& out);
-// bench_across_hosts.cpp: `rejuv bench across-hosts` (files in `out`, default a temporary folder); the link's row
-// flies two kernels (`rejuv run --host`) unless Skip.
+// bench_across_hosts.cpp: `rejuv bench across-hosts`; the link rows fly two kernels (`rejuv run --host`) unless
+// Skip.
 enum class LinkRow : std::uint8_t { Measure, Skip };
-int run_bench_across_hosts(std::uint64_t samples, std::uint64_t rounds, const std::optional<std::filesystem::path>& out,
-                           LinkRow link);
+struct AcrossHostsBench {
+  std::uint64_t samples = 2500;       // per Cyclone row and round; the link row flies max(5, samples / 250) s
+  std::uint64_t rounds = 1;           // of the Cyclone rows, alternated
+  std::uint64_t reopen_seconds = 10;  // the flight with SR whose CP → MC are measured
+  std::optional<std::filesystem::path> out;  // the files; default a temporary folder
+  LinkRow link = LinkRow::Measure;
+};
+int run_bench_across_hosts(const AcrossHostsBench& bench);
 int run_report(std::span<const std::string_view> args);  // cmd_report.cpp
 int run_faults(std::span<const std::string_view> args);  // cmd_faults.cpp
 int run_soak(std::span<const std::string_view> args);    // cmd_soak.cpp
