@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstring>
 #include <utility>
 
 #include "images.hpp"
@@ -310,9 +311,13 @@ bool Rejuvenator::knows_process(pid_t pid, const image::GenerationRecord* taking
 void Rejuvenator::on_taken(ServiceRuntime& s, const wire::FrameView& frame) {
   if (!expecting_image(s, frame)) return;
   CheckpointRun& run = *coordinator_.running();
-  const pid_t pid = wire::payload_as<wire::TakenBody>(frame).image_pid;
+  const wire::TakenBody body = wire::payload_as<wire::TakenBody>(frame);
+  const pid_t pid = body.image_pid;
   if (pid <= 0) {
-    run.failure = "'" + s.name + "' could not take its image";
+    // The errno the service says its fork failed with, if any (a service's word: only for the log).
+    const int err = body.reserved <= 4095 ? static_cast<int>(body.reserved) : 0;
+    run.failure = "'" + s.name + "' could not take its image" +
+                  (err != 0 ? std::string(" (fork: ") + std::strerror(err) + ")" : std::string());
     return;
   }
   // The pid must be the kernel's child and no process the kernel already knows: a service cannot make the

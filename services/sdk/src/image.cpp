@@ -155,8 +155,9 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
     pagemap_fd = rx_fds.back().release();
   }
   rx_fds.clear();
-  const auto answer = [&](wire::FrameKind kind, pid_t pid) -> SdkResult<void> {
-    const wire::TakenBody body{.image_pid = pid, .reserved = 0};
+  // `err`: with pid 0, the errno of what failed (0 where nothing set one: no resume socket, workers that did not park).
+  const auto answer = [&](wire::FrameKind kind, pid_t pid, int err = 0) -> SdkResult<void> {
+    const wire::TakenBody body{.image_pid = pid, .reserved = static_cast<std::uint32_t>(err)};
     if (!tx.build_with(kind, 0, 0, g, body)) return error(SdkError::Protocol);
     if (auto q = send_built(); !q) return q;
     return flush();
@@ -212,7 +213,9 @@ SdkResult<bool> Service::Impl::take_image(std::uint64_t g, std::uint64_t base) {
   }
   ::close(resume_fd);
   if (workers != nullptr) workers->unpark_all();
-  if (auto a = answer(wire::FrameKind::Taken, pid ? *pid : 0); !a) return std::unexpected(a.error());
+  if (auto a = answer(wire::FrameKind::Taken, pid ? *pid : 0, pid ? 0 : pid.error().error); !a) {
+    return std::unexpected(a.error());
+  }
   return false;
 }
 

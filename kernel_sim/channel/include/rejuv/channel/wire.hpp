@@ -165,7 +165,7 @@ struct BootParam {
 };
 struct TakenBody {
   std::int32_t image_pid = 0;  // the frozen image (docs/design.md §7)
-  std::uint32_t reserved = 0;  // Copied with image_pid 0: the errno of the copy's failed fork
+  std::uint32_t reserved = 0;  // image_pid 0: the errno of the failed fork (Taken, Copied), or 0
 };
 // Snapshot: the generation whose image the kernel holds and keeps past this checkpoint and which the service
 // may take its image against by written pages (TakenPages), if its memory derives from it; 0: by fork.
