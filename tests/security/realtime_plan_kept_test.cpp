@@ -1,9 +1,7 @@
 // The real-time plan is kept for the whole flight, not only applied when a service becomes Ready: a service of
 // the control chain found off SCHED_FIFO (a refusal that raced its move into `live/`, or any process that moved
 // it) is given SCHED_FIFO again by the kernel's real-time loop (Supervisor::keep_realtime_plan). A chain service
-// left SCHED_OTHER for the rest of a flight is starved by any load beside it, and the vehicle with it: in an
-// hour-long real-time soak `sensors` was refused once settled, ran SCHED_OTHER from then on, and when builds ran
-// beside the flight the vehicle was lost.
+// left SCHED_OTHER for the rest of a flight is starved by any load beside it, and the vehicle with it.
 //
 // launch/quad_square in real time (SR and the worst-case control attack on), the real kernel, flight services and
 // plant. From the kernel's own thread (on_step, every 100 ms of flight), `sensors`' live process is moved to

@@ -81,6 +81,9 @@ class CatchUp {
   // Replaying, and samples kept before the replay began are still to be handed on.
   [[nodiscard]] bool replay_pending() const { return replaying_ && replay_ != end_; }
   [[nodiscard]] bool in_chain(ServiceId service) const { return flag(plan_.chain, service.value()); }
+  // `service` is of the chain and the replay is not over for it (replaying, or handling what it was handed):
+  // it runs SCHED_OTHER and a slow answer is no hang until then.
+  [[nodiscard]] bool in_replay(ServiceId service) const { return in_chain(service) && (replaying_ || draining_); }
   [[nodiscard]] const Stats& stats() const { return stats_; }
 
   // A sample from the plant on a logged topic: kept. True when it has to wait behind the replay in progress (the

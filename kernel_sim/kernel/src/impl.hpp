@@ -132,6 +132,7 @@ struct Kernel::Impl {
   void pace_catch_up();
   void cut_catch_up_short();  // the replay past the kernel's bound: REARM, the live samples out (loop.cpp)
   void drain_catch_up();      // real time, after a cut: the chain's real-time plan back once it is idle
+  bool chain_answered();      // real time: every live service of the catch-up chain idle; a Sync to each that owes one
   // A Sync to `s` (docs/protocol.md "Idle": it answers with an Idle once it has handled what came before); false
   // when the frame could not be built.
   bool ask_idle(ServiceRuntime& s);

@@ -284,13 +284,17 @@ void Kernel::Impl::pace_catch_up() {
     router.uncork();
     return;
   }
-  bool handled = true;
+  if (chain_answered()) (void)lockstep.replay_instant();  // nothing left: the replay ends, the live samples go out
+}
+
+bool Kernel::Impl::chain_answered() {
+  bool answered = true;
   for (ServiceRuntime& s : services) {
     if (!rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.idle()) continue;
-    handled = false;
+    answered = false;
     if (rejuvenator.catch_up_sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
   }
-  if (handled) (void)lockstep.replay_instant();  // nothing left: the replay ends, the live samples go out
+  return answered;
 }
 
 // The replay is past the kernel's bound (catch_up.hpp): the rest is skipped, the estimator told to re-arm from
@@ -327,14 +331,7 @@ bool Kernel::Impl::ask_idle(ServiceRuntime& s) {
 // RLIMIT_RTTIME does not count replay work) until each of its services has answered a Sync sent after its last
 // frame; then its real-time plan is back, and slow live work is the violation it always is.
 void Kernel::Impl::drain_catch_up() {
-  bool handled = true;
-  for (ServiceRuntime& s : services) {
-    if (!rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.idle()) continue;
-    handled = false;
-    if (rejuvenator.catch_up_sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
-  }
-  if (!handled) return;
-  rejuvenator.catch_up_drained();
+  if (chain_answered()) rejuvenator.catch_up_drained();
 }
 
 // The realtime clock (docs/design.md §6): the kernel clock is CLOCK_MONOTONIC since the run started (or the plant's,
@@ -351,8 +348,7 @@ Result<void, KernelError> Kernel::Impl::run_realtime() {
   // While the kernel hands the estimate catch-up's replay on, the loop only looks for events: the replay goes on
   // as soon as it can. Once all of it is handed on, the loop waits for the chain's answers (its channels wake it)
   // until the replay's bound: the chain runs SCHED_OTHER during the replay, and this SCHED_FIFO loop spinning
-  // meanwhile would hold a CPU the chain needs (on two CPUs under load, sensors had not started 101 of 122
-  // samples when the bound cut the replay short).
+  // meanwhile would hold a CPU the chain needs (docs/control.md §6.3).
   const auto wait = [this]() -> Nanos {
     const CatchUp& c = rejuvenator.catch_up();
     if (!c.replaying()) return std::chrono::milliseconds{100};

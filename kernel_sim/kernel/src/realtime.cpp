@@ -82,9 +82,14 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   // and given back here to whichever process is the live service.
   const pid_t pid = s.proc.process.pid();
   auto ok = sys::set_fifo(pid, static_cast<int>(spec.rt_priority()));
+  fifo_refusal_said_.resize(k.services.size());
   if (ok) {
     fifo_pid_.resize(k.services.size());
     fifo_pid_[s.id.value()] = pid;  // watch_liveness holds it to the chain's deadline
+    if (fifo_refusal_said_[s.id.value()]) {
+      fifo_refusal_said_[s.id.value()] = false;
+      k.log("real-time plan: '%s' at SCHED_FIFO again", s.name.c_str());
+    }
     return;
   }
   // A restored copy is moved from `images/` into `live/` by the placer, after the rollback (docs/sandbox.md);
@@ -98,8 +103,7 @@ void Supervisor::apply_realtime(ServiceRuntime& s) {
   // v1 RT groups: the budgets of all groups under one parent add up to at most its own (the machine's 950 ms/s at
   // the top), so a kernel started while others hold theirs may find none left for this service's group. A refusal
   // once settled is tried again every 100 ms (keep_realtime_plan): the scheduler's group follows a move a moment
-  // after /proc/<pid>/cgroup shows it. Said once per service, and once more when it is given.
-  fifo_refusal_said_.resize(k.services.size());
+  // after /proc/<pid>/cgroup shows it. Said once per service, and once more when it is given (above).
   if (fifo_refusal_said_[s.id.value()]) return;
   fifo_refusal_said_[s.id.value()] = true;
   const bool no_budget = s.sandbox.cgroup.valid() && s.sandbox.cgroup.rt_budget_refused();
@@ -125,21 +129,15 @@ void Supervisor::keep_realtime_plan() {
   if (!realtime_active) return;
   // Every live service of the plan not at SCHED_FIFO now (refused once settled, or moved off it by anyone) is
   // given it again; the catch-up chain stays off it while it replays (chain_realtime gives it back after).
-  const CatchUp& catch_up = k.rejuvenator.catch_up();
   for (ServiceRuntime& s : k.services) {
     if (s.config.spec == nullptr || s.config.spec->rt_priority() == 0 || !s.live() || s.proc.phase() != Phase::Ready ||
-        (catch_up.in_chain(s.id) && (catch_up.replaying() || catch_up.draining()))) {
+        k.rejuvenator.catch_up().in_replay(s.id)) {
       continue;
     }
     const pid_t pid = s.proc.process.pid();
     const bool queued = std::any_of(realtime_pending_.begin(), realtime_pending_.end(),
                                     [&](const auto& p) { return p.first == s.id && p.second == pid; });
-    if (queued || sys::runs_fifo(pid)) continue;
-    apply_realtime(s);
-    if (sys::runs_fifo(pid) && s.id.value() < fifo_refusal_said_.size() && fifo_refusal_said_[s.id.value()]) {
-      fifo_refusal_said_[s.id.value()] = false;
-      k.log("real-time plan: '%s' at SCHED_FIFO again", s.name.c_str());
-    }
+    if (!queued && !sys::runs_fifo(pid)) apply_realtime(s);
   }
 }
 

@@ -302,7 +302,7 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   // part (realtime.cpp; a system call per service). The catch-up chain only once its replay is handled
   // (chain_realtime): its real-time budget is for live work.
   for (const image::Image& im : restored->images) {
-    if (catch_up_.replaying() && catch_up_.in_chain(im.service)) continue;
+    if (catch_up_.in_replay(im.service)) continue;
     k.supervisor.apply_realtime(k.services[im.service.value()]);
   }
   sr_stats_.rollback_phases.a.add(to_ms(t_killed - t0));

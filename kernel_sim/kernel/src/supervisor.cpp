@@ -587,9 +587,8 @@ void Supervisor::watch_liveness() {
     if (t - probe.looked_at < (chain ? kChainLivenessLook : kLivenessLook)) continue;
     // The catch-up chain while it replays or drains what it was handed is left alone: a slow replay is no
     // violation (catch_up.hpp), and the catch-up's own bound ends it.
-    const bool replaying = catch_up.in_chain(s.id) && (catch_up.replaying() || catch_up.draining());
     const bool watched = s.config.rejuvenate && s.live() && !s.proc.scripted && s.proc.phase() == Phase::Ready &&
-                         s.proc.loss_reason.empty() && !replaying;
+                         s.proc.loss_reason.empty() && !catch_up.in_replay(s.id);
     const auto fresh = [&] {
       probe = LivenessProbe{.pid = s.proc.process.pid(), .frames_in = s.stats.frames_in, .looked_at = t};
     };

@@ -22,6 +22,12 @@ inline constexpr std::string_view kGovernance = "governance.p7s";
 inline constexpr std::string_view kPermissions = "permissions.p7s";
 }  // namespace enclave_file
 
+// Cyclone's receive buffer and its chunk (one datagram's room), for every participant of Rejuv: this config and
+// config/cyclonedds.xml, which spells the same values (tests/unit/core/cyclone_xml_test.cpp checks it; why they
+// are small is said there).
+inline constexpr std::string_view kReceiveBufferSize = "128KiB";
+inline constexpr std::string_view kReceiveBufferChunkSize = "32KiB";
+
 struct ParticipantConfig {
   std::string address;                  // its own IPv4 address (the interface it uses)
   std::vector<std::string> peers;       // every host's address, its own included
@@ -41,9 +47,9 @@ inline std::string config_xml(const ParticipantConfig& c) {
                     "<ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>20</MaxAutoParticipantIndex>"
                     "<Peers>" + peers + "</Peers>";
   if (c.spdp_interval) xml += "<SPDPInterval>" + *c.spdp_interval + "</SPDPInterval>";
-  // The receive buffers of config/cyclonedds.xml (why they are small is said there).
-  xml += "</Discovery><Sizing><ReceiveBufferSize>128KiB</ReceiveBufferSize>"
-         "<ReceiveBufferChunkSize>32KiB</ReceiveBufferChunkSize></Sizing>";
+  xml += "</Discovery><Sizing><ReceiveBufferSize>" + std::string(kReceiveBufferSize) +
+         "</ReceiveBufferSize><ReceiveBufferChunkSize>" + std::string(kReceiveBufferChunkSize) +
+         "</ReceiveBufferChunkSize></Sizing>";
   if (!c.enclave.empty()) {
     namespace f = enclave_file;
     xml += "<Security><Authentication>"

@@ -133,7 +133,7 @@ struct KernelOptions {
   // The same for a service the real-time plan runs at SCHED_FIFO: above every process but the kernel and the
   // plant, it answers within a control period or two. At 200 ms (and up to 100 ms of silence before the Sync) a
   // safety controller stopped in the secure interval leaves the vehicle on its last command for a third of a
-  // second, enough to leave the safety set under a 2-CPU load (max V 1.03 in the real-time fault campaign).
+  // second, enough to leave the safety set under a 2-CPU load (docs/realtime.md "Faults in real time").
   Nanos realtime_chain_hang_deadline{std::chrono::milliseconds{30}};
   // Resume → Resumed from every image. The rollback waits for it without routing, and in lockstep its real
   // duration is charged to simulated time with the controls held (docs/design.md §6): a frozen image (SIGSTOP) that
