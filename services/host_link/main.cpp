@@ -7,12 +7,14 @@
 #include <cstddef>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "rejuv/core/host_link_params.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/core/dds_name.hpp"
+#include "rejuv/msgs/dds_naming.hpp"
 #include "rejuv/msgs/topic_types.hpp"
 #include "rejuv/sdk/service.hpp"
 #include "rejuv/services/host_link/host_link.hpp"
@@ -63,6 +65,12 @@ class Link {
       return false;
     }
     const auto domain = static_cast<dds_domainid_t>(svc_.param(host_link_param::kDomain, 0));
+    const std::string names(svc_.text_param(host_link_param::kDdsNames, to_string(DdsNaming::Rejuv)));
+    const std::optional<DdsNaming> naming = parse_dds_naming(names);
+    if (!naming) {
+      svc_.log(sdk::LogLevel::Error, "dds_names: expected rejuv or ros2, got '" + names + "'");
+      return false;
+    }
     std::string key;  // handed over by the kernel on wire::kHostLinkKeyFd, read once
     char chunk[1024];
     for (ssize_t n = 0; (n = ::read(wire::kHostLinkKeyFd, chunk, sizeof chunk)) > 0;) key.append(chunk, static_cast<std::size_t>(n));
@@ -90,8 +98,11 @@ class Link {
         ok = false;
         continue;
       }
-      const std::string dds_name = dds_topic_name(cap.object, DdsNaming::Rejuv);
-      const dds_entity_t topic = dds_create_topic(participant_, type->descriptor, dds_name.c_str(), nullptr, nullptr);
+      // The DDS name and the type whose descriptor carries the DDS type name, as the graph's naming says; the
+      // struct, its size and its CDR are the IDL type's either way.
+      const msgs::DdsTopic on_dds = msgs::dds_topic(cap.object, *type, *naming);
+      const std::string& dds_name = on_dds.name;
+      const dds_entity_t topic = dds_create_topic(participant_, on_dds.type->descriptor, dds_name.c_str(), nullptr, nullptr);
       if (topic < 0) {
         ok = refused("dds_create_topic " + dds_name, topic) && ok;
         continue;
@@ -115,9 +126,9 @@ class Link {
       }
     }
     dds_delete_qos(qos);
-    svc_.logf(sdk::LogLevel::Info, "link to %s: %zu topic(s) in, %zu out, DDS domain %u, DDS Security from %s",
+    svc_.logf(sdk::LogLevel::Info, "link to %s: %zu topic(s) in, %zu out, DDS domain %u, %s names, DDS Security from %s",
               std::string(svc_.text_param(host_link_param::kPeer, "?")).c_str(), inbound_.size(), outbound_.size(),
-              static_cast<unsigned>(domain), enclave.c_str());
+              static_cast<unsigned>(domain), std::string(to_string(*naming)).c_str(), enclave.c_str());
     return ok;
   }
 

@@ -1,11 +1,12 @@
 // One DDS participant of the across-hosts test (across_hosts_test.cpp), run in a network namespace with
 // `ip netns exec`: Cyclone DDS's C API on its own, configured by the Cyclone XML the test wrote (its interface,
 // its peer and, for a secure participant, the enclave `rejuv keys hosts` made). Writes or reads one topic of a
-// project type and reports on stdout, one line each:
+// project type (rejuv::msg::VehicleStateEstimate; with --names ros2 under its ROS 2 type name
+// rejuv_msgs::msg::dds_::VehicleStateEstimate_, msgs::dds_topic_type) and reports on stdout, one line each:
 //   publish TOPIC:   "writing" once its writer exists, or "refused: <call>: <Cyclone's return code>"
-//   subscribe TOPIC: "reading" once its reader exists, then "received N" when it ends (its first sample with
-//                    --first, else at --seconds or SIGTERM)
-// Usage: rejuv_dds_peer publish|subscribe TOPIC --domain N --config FILE [--seconds S] [--first]
+//   subscribe TOPIC: "reading TOPIC as TYPE" once its reader exists, then "received N" when it ends (its first
+//                    sample with --first, else at --seconds or SIGTERM)
+// Usage: rejuv_dds_peer publish|subscribe TOPIC --domain N --config FILE [--seconds S] [--first] [--names rejuv|ros2]
 #include <dds/dds.h>
 
 #include <atomic>
@@ -20,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "rejuv/msgs/dds_naming.hpp"
 #include "rejuv/msgs/topic_types.hpp"
 
 namespace {
@@ -38,13 +40,15 @@ int refused(const char* call, dds_return_t rc) {
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: rejuv_dds_peer publish|subscribe TOPIC --domain N --config FILE [--seconds S] [--first]\n");
+    std::fprintf(stderr, "usage: rejuv_dds_peer publish|subscribe TOPIC --domain N --config FILE [--seconds S] [--first] "
+                         "[--names rejuv|ros2]\n");
     return 2;
   }
   const std::string role = argv[1], topic_name = argv[2];
   unsigned domain = 0;
   double seconds = 20.0;
   bool first = false;
+  rejuv::DdsNaming naming = rejuv::DdsNaming::Rejuv;
   std::string config_file;
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
@@ -52,6 +56,7 @@ int main(int argc, char** argv) {
     else if (a == "--config" && i + 1 < argc) config_file = argv[++i];
     else if (a == "--seconds" && i + 1 < argc) seconds = std::strtod(argv[++i], nullptr);
     else if (a == "--first") first = true;
+    else if (a == "--names" && i + 1 < argc && rejuv::parse_dds_naming(argv[i + 1])) naming = *rejuv::parse_dds_naming(argv[++i]);
     else {
       std::fprintf(stderr, "rejuv_dds_peer: unknown argument '%s'\n", a.c_str());
       return 2;
@@ -69,8 +74,9 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::signal(SIGTERM, on_term);
-  const rejuv::msgs::TopicType* type = rejuv::msgs::find_topic_type("rejuv::msg::VehicleStateEstimate");
-  if (type == nullptr) return 2;
+  const rejuv::msgs::TopicType* idl_type = rejuv::msgs::find_topic_type("rejuv::msg::VehicleStateEstimate");
+  if (idl_type == nullptr) return 2;
+  const rejuv::msgs::TopicType* type = &rejuv::msgs::dds_topic_type(*idl_type, naming);
 
   const dds_entity_t dom = dds_create_domain(domain, config.str().c_str());
   if (dom < 0) return refused("dds_create_domain", dom);
@@ -90,7 +96,11 @@ int main(int argc, char** argv) {
                                         : dds_create_reader(participant, topic, qos, nullptr);
   dds_delete_qos(qos);
   if (endpoint < 0) return refused(publish ? "dds_create_writer" : "dds_create_reader", endpoint);
-  std::printf("%s\n", publish ? "writing" : "reading");
+  if (publish) {
+    std::printf("writing\n");
+  } else {
+    std::printf("reading %s as %s\n", topic_name.c_str(), type->descriptor->m_typename);
+  }
   std::fflush(stdout);
   if (publish) {
     std::uint64_t n = 0;

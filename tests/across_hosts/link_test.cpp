@@ -1,9 +1,14 @@
 // The link between hosts, by its effect (docs/across_hosts.md "The link"; root only, skipped otherwise): two network
 // namespaces joined by a veth pair stand for the vehicle and the companion; a keystore is made with `rejuv keys`;
 // the square of launch/quad_square with SR, on the vehicle's host, and the monitor of monitor.cpp on the
-// companion's, each part run by its own `rejuv run --host` kernel in real time. Checked:
+// companion's, each part run by its own `rejuv run --host` kernel in real time. The graph has ROS 2 names
+// (`dds { ros2_names: true }`): the keystore grants rt/<topic>, and the links carry the topics under ROS 2's names.
+// Checked:
 //   - the companion's monitor receives vehicle states, in MC (through link_companion → DDS with DDS Security →
 //     link_vehicle);
+//   - a Cyclone participant beside the companion's link (rejuv_dds_peer, with the companion's enclave) reading
+//     rt/vehicle_state of type rejuv_msgs::msg::dds_::VehicleStateEstimate_ receives what the vehicle's link
+//     writes: the link writes under the ROS 2 name and type name;
 //   - the vehicle's link is a process of its own (not the kernel) in the vehicle's network namespace;
 //   - killed, the link is started again by its kernel (a new pid), and the vehicle stays in its safety set (the
 //     run summary's max V < 1);
@@ -19,12 +24,27 @@
 #include <cstdio>
 
 #include "link_fixture.hpp"
+#include "rejuv/core/dds_name.hpp"
+#include "rejuv/msgs/dds_naming.hpp"
+#include "rejuv/services/host_link/host_link.hpp"
 
 namespace {
 
 using namespace rejuv::test_support::across;
 
 const fs::path kTcpdump = "/usr/bin/tcpdump";
+const fs::path kPeer = REJUV_DDS_PEER;
+constexpr const char* kVehicleAddress = "10.77.0.1";  // as link_fixture.hpp's hosts
+constexpr const char* kCompanionAddress = "10.77.0.2";
+// The vehicle state as a ROS 2 node sees it: its DDS topic and DDS type names.
+const std::string kRos2VehicleState = rejuv::dds_topic_name("vehicle_state", rejuv::DdsNaming::Ros2);
+const std::string kRos2StateType = rejuv::msgs::ros2_dds_type_name("rejuv::msg::VehicleStateEstimate");
+
+// The number N of a peer's "received N", or -1 without one.
+long long received(const std::string& out) {
+  std::smatch m;
+  return std::regex_search(out, m, std::regex(R"(received (\d+))")) ? std::stoll(m[1].str()) : -1;
+}
 
 // CLOCK_REALTIME − CLOCK_MONOTONIC [s] now: what turns a packet's capture stamp into the kernel's wall_s.
 double realtime_minus_monotonic() {
@@ -65,6 +85,24 @@ std::vector<std::pair<double, double>> secure_intervals(const fs::path& events) 
 class HostLink : public TwoHostsTest {
  protected:
   HostLink() : TwoHostsTest("rjL") {}
+
+  // ROS 2 names: `rejuv keys hosts` grants rt/<topic>, and each kernel gives its links the naming.
+  [[nodiscard]] std::string more_graph() const override { return "dds { ros2_names: true }\n"; }
+
+  // rejuv_dds_peer in the companion's namespace with the companion's enclave, configured as its link is
+  // (host_link::cyclone_config), reading rt/vehicle_state under ROS 2's type name until its first sample or 10 s.
+  CliOutcome observe(const std::string& name) {
+    const fs::path cfg = dir_ / (name + ".xml");
+    std::ofstream(cfg) << rejuv::services::host_link::cyclone_config({.address = kCompanionAddress,
+                                                                      .peers = {kCompanionAddress, kVehicleAddress},
+                                                                      .enclave = keys_ / "enclaves" / "companion",
+                                                                      .private_key_pem = {}});
+    const fs::path d = dir_ / name;
+    fs::create_directories(d);
+    return rejuv::test_support::run_program(
+        d, kIp, {"netns", "exec", companion_ns_, kPeer.string(), "subscribe", kRos2VehicleState, "--names", "ros2",
+                 "--domain", std::to_string(domain()), "--config", cfg.string(), "--first", "--seconds", "10"});
+  }
 };
 
 TEST_F(HostLink, SquareWithACompanion_StatesCrossInMc_LinkRestarted_VehicleSafe) {
@@ -108,6 +146,24 @@ TEST_F(HostLink, SquareWithACompanion_StatesCrossInMc_LinkRestarted_VehicleSafe)
     return !again.empty() && again.count(link) == 0;
   })) << vehicle->err();
   EXPECT_EQ(netns_inode(fs::path("/proc") / std::to_string(*again.begin()) / "ns" / "net"), vehicle_ns);
+
+  // The vehicle's (restarted) link writes under ROS 2's names: a participant beside the companion's link reads
+  // rt/vehicle_state of rejuv_msgs::msg::dds_::VehicleStateEstimate_ and receives. One after another, each until
+  // its first sample or 10 s, while the vehicle flies, until one receives (each needs its DDS Security handshake
+  // with the vehicle's link, which is open only in MC).
+  int observers = 0;
+  long long observed = 0;
+  CliOutcome observer;
+  while (observed <= 0 && !vehicle->ended()) {
+    observer = observe("observer_" + std::to_string(++observers));
+    ASSERT_NE(observer.out.find("reading " + kRos2VehicleState + " as " + kRos2StateType), std::string::npos)
+        << observer.out << observer.err;
+    observed = received(observer.out);
+  }
+  EXPECT_GT(observed, 0) << observers << " participant(s) reading " << kRos2VehicleState << " received nothing:\n"
+                         << observer.out << observer.err;
+  std::printf("a participant beside the companion's link received the vehicle's %s (%s) after %d participant(s)\n",
+              kRos2VehicleState.c_str(), kRos2StateType.c_str(), observers);
 
   const CliOutcome v = vehicle->wait();
   const CliOutcome c = companion->wait();

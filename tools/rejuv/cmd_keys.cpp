@@ -82,7 +82,7 @@ std::optional<int> load_grants(HostsRequest& r) {
                       " finding(s)): it grants nothing\n");
     return static_cast<int>(Exit::Findings);
   }
-  for (auto& t : policy::host_topics(*pol, policy::placement(*pol, *g))) {
+  for (auto& t : policy::host_topics(*pol, policy::placement(*pol, *g), launch::dds_naming(g->graph.dds()))) {
     r.grants.push_back(keys::HostGrant{std::move(t.host), std::move(t.publish), std::move(t.subscribe)});
   }
   r.domain_id = static_cast<std::uint32_t>(r.domain.value_or(g->graph.dds().domain_id()));

@@ -86,6 +86,10 @@ Result<HostPart, std::string> host_part(launch::LoadedLaunch& graph, kernel::Ker
     proto::Param& d = *s.add_params();
     d.set_name(std::string(host_link_param::kDomain));
     d.set_number(domain);
+    // The topics' DDS names, as the permissions of `rejuv keys hosts` grant them (policy::host_topics).
+    proto::Param& n = *s.add_params();
+    n.set_name(std::string(host_link_param::kDdsNames));
+    n.set_text(std::string(to_string(launch::dds_naming(g.dds()))));
     std::string peer;
     for (const proto::Param& p : s.params()) {
       if (p.name() == host_link_param::kPeer) peer = p.text();

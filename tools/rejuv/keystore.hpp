@@ -2,7 +2,7 @@
 // certificate authority (EC prime256v1) that serves as the identity CA and the permissions CA, as SROS2 does;
 // `rejuv keys hosts DIR --launch GRAPH` writes per host of the graph an enclave: an identity (CN = the host's
 // name) signed by the CA, a permissions document that grants exactly the cross-host topics the host writes and
-// reads (policy::host_topics, default DENY), and a governance document that encrypts everything and refuses
+// reads (policy::host_topics, under the graph's DDS names; default DENY), and a governance document that encrypts everything and refuses
 // unauthenticated participants, both signed S/MIME (PKCS#7 detached, text) by the CA. The layout is SROS2's,
 // so a ROS 2 enclave can join the same keystore:
 //   public/{ca,identity_ca,permissions_ca}.cert.pem   private/{ca,identity_ca,permissions_ca}.key.pem (0600)

@@ -54,15 +54,13 @@ std::vector<Crossing> crossings(const Policy& policy, const Placement& placement
   return out;
 }
 
-std::string cross_host_dds_name(const Object& topic) {
-  return dds_topic_name(topic.name, DdsNaming::Rejuv);
-}
+std::string cross_host_dds_name(const Object& topic, DdsNaming naming) { return dds_topic_name(topic.name, naming); }
 
-std::vector<HostTopics> host_topics(const Policy& policy, const Placement& placement) {
+std::vector<HostTopics> host_topics(const Policy& policy, const Placement& placement, DdsNaming naming) {
   std::vector<std::set<std::string>> pub(placement.hosts.size()), sub(placement.hosts.size());
   for (const Crossing& c : crossings(policy, placement)) {
     if (c.modes.empty()) continue;  // the two never hold their rights at once: nothing crosses
-    const std::string name = cross_host_dds_name(policy.object(c.topic));
+    const std::string name = cross_host_dds_name(policy.object(c.topic), naming);
     pub[c.writer_host].insert(name);
     sub[c.reader_host].insert(name);
   }

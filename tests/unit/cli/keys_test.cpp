@@ -192,6 +192,43 @@ TEST_F(Keys, Check_PolicyChangedSinceTheKeystore_Exit1NamesTheStaleGrant) {
   EXPECT_EQ(r.err.find("subscribing to rejuv/waypoints"), std::string::npos) << r.err;  // the waypoints still cross
 }
 
+// The companion graph with `dds { ros2_names: true }`, beside a copy of its policy; its path.
+fs::path ros2_names_graph(const fs::path& dir) {
+  fs::copy_file(kRepo / "tests" / "across_hosts" / "companion.policy.pbtxt", dir / "companion.policy.pbtxt",
+                fs::copy_options::overwrite_existing);
+  std::ofstream(dir / "companion.launch.pbtxt") << slurp(kGraph) << "dds { ros2_names: true }\n";
+  return dir / "companion.launch.pbtxt";
+}
+
+TEST_F(Keys, Ros2NamesGraph_PermissionsGrantRtNames_AndTheKeystoreChecksClean) {
+  const fs::path graph = ros2_names_graph(dir_);
+  ASSERT_EQ(rejuv({"keys", "init", store().string()}).exit_code, 0);
+  const auto made = rejuv({"keys", "hosts", store().string(), "--launch", graph.string()});
+  ASSERT_EQ(made.exit_code, 0) << made.err;
+  EXPECT_NE(made.out.find("keys: enclave vehicle (domain 0): publish rt/state; subscribe rt/waypoints"), std::string::npos)
+      << made.out;
+  const std::string permissions = slurp(store() / "enclaves" / "companion" / "permissions.xml");
+  EXPECT_NE(permissions.find("<topic>rt/state</topic>"), std::string::npos) << permissions;
+  EXPECT_EQ(permissions.find("rejuv/"), std::string::npos) << permissions;
+  const auto r = rejuv({"keys", "check", store().string(), "--launch", graph.string()});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("keys: OK: "), std::string::npos) << r.out;
+}
+
+TEST_F(Keys, Check_KeystoreOfRejuvNames_RefusedForTheRos2NamesGraph) {
+  ASSERT_EQ(rejuv({"keys", "init", store().string()}).exit_code, 0);
+  ASSERT_EQ(rejuv({"keys", "hosts", store().string(), "--launch", kGraph}).exit_code, 0);  // rejuv/<topic>
+  const auto r = rejuv({"keys", "check", store().string(), "--launch", ros2_names_graph(dir_).string()});
+  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_NE(r.err.find("enclave vehicle: permissions grant publishing rejuv/state; the policy grants rt/state"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("enclave companion: permissions grant subscribing to rejuv/state; the policy grants rt/state"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.out.find("keys: FAILED: "), std::string::npos) << r.out;
+}
+
 TEST_F(Keys, UnknownSubcommand_Exit2) {
   const auto r = rejuv({"keys", "rotate"});
   EXPECT_EQ(r.exit_code, 2);

@@ -164,7 +164,7 @@ TEST(HostsPolicy, RemoteWriterUnknownService_Refused) {
 
 TEST(HostsTopics, EachHostPublishesAndSubscribesExactlyItsCrossings) {
   const Loaded l = load(kPolicy, kGraph);
-  const auto t = host_topics(l.policy, placement(l.policy, l.graph));
+  const auto t = host_topics(l.policy, placement(l.policy, l.graph), launch::dds_naming(l.graph.graph.dds()));
   ASSERT_EQ(t.size(), 2U);
   EXPECT_EQ(t[0].host, "vehicle");
   EXPECT_EQ(t[0].publish, std::vector<std::string>{"rejuv/state"});
@@ -174,12 +174,35 @@ TEST(HostsTopics, EachHostPublishesAndSubscribesExactlyItsCrossings) {
   EXPECT_EQ(t[1].subscribe, std::vector<std::string>{"rejuv/state"});
 }
 
+// A graph with `dds { ros2_names: true }`: the same crossings, under ROS 2's topic names.
+TEST(HostsTopics, Ros2NamesGraph_TopicsAreRt) {
+  const Loaded l = load(kPolicy, kGraph + "dds { ros2_names: true }\n");
+  const DdsNaming naming = launch::dds_naming(l.graph.graph.dds());
+  ASSERT_EQ(naming, DdsNaming::Ros2);
+  const auto t = host_topics(l.policy, placement(l.policy, l.graph), naming);
+  ASSERT_EQ(t.size(), 2U);
+  EXPECT_EQ(t[0].host, "vehicle");
+  EXPECT_EQ(t[0].publish, std::vector<std::string>{"rt/state"});
+  EXPECT_EQ(t[0].subscribe, std::vector<std::string>{"rt/waypoints"});
+  EXPECT_EQ(t[1].host, "companion");
+  EXPECT_EQ(t[1].publish, std::vector<std::string>{"rt/waypoints"});
+  EXPECT_EQ(t[1].subscribe, std::vector<std::string>{"rt/state"});
+}
+
+TEST(HostsTopics, CrossHostName_FollowsTheNaming) {
+  const Loaded l = load(kPolicy, kGraph);
+  const auto state = l.policy.find_object("state");
+  ASSERT_TRUE(state.has_value());
+  EXPECT_EQ(cross_host_dds_name(l.policy.object(*state), DdsNaming::Rejuv), "rejuv/state");
+  EXPECT_EQ(cross_host_dds_name(l.policy.object(*state), DdsNaming::Ros2), "rt/state");
+}
+
 TEST(HostsTopics, OneHostGraph_NothingCrosses) {
   const Loaded l = load(kPolicy, replaced(replaced(replaced(replaced(kGraph, "  host: \"companion\"\n", ""),
                                                             "  host: \"companion\"\n", ""),
                                                    "hosts { name: \"vehicle\" address: \"10.77.0.1\" }\n", ""),
                                           "hosts { name: \"companion\" address: \"10.77.0.2\" }\n", ""));
-  const auto t = host_topics(l.policy, placement(l.policy, l.graph));
+  const auto t = host_topics(l.policy, placement(l.policy, l.graph), DdsNaming::Rejuv);
   ASSERT_EQ(t.size(), 1U);
   EXPECT_TRUE(t[0].publish.empty() && t[0].subscribe.empty());
 }

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -43,6 +44,23 @@ inline constexpr std::string_view kRos2Package = "rejuv_msgs";
     case DdsNaming::Ros2: return std::string(kRos2TopicPrefix) + std::string(topic);
   }
   return std::string(topic);
+}
+
+// A naming as one word, as a command line or a param spells it: "rejuv" or "ros2" (rejuv_plant --dds-names, the
+// link's param dds_names).
+[[nodiscard]] constexpr std::string_view to_string(DdsNaming naming) {
+  switch (naming) {
+    case DdsNaming::Rejuv: return "rejuv";
+    case DdsNaming::Ros2: return "ros2";
+  }
+  return "?";
+}
+// The naming `word` spells (to_string's words); nullopt for any other word.
+[[nodiscard]] constexpr std::optional<DdsNaming> parse_dds_naming(std::string_view word) {
+  for (const DdsNaming n : {DdsNaming::Rejuv, DdsNaming::Ros2}) {
+    if (word == to_string(n)) return n;
+  }
+  return std::nullopt;
 }
 
 }  // namespace rejuv

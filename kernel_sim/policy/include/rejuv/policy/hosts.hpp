@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "rejuv/core/dds_name.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/vocabulary.hpp"
 #include "rejuv/launch/launch.hpp"
@@ -43,17 +44,19 @@ struct Crossing {
 [[nodiscard]] std::vector<Crossing> crossings(const Policy& policy, const Placement& placement);
 
 // What one host may publish and subscribe to on DDS (the permissions of its identity): the topics one of its
-// services writes and a service on another host reads, and the reverse; DDS names, sorted, each once.
+// services writes and a service on another host reads, and the reverse; DDS names under `naming` (the graph's:
+// launch::dds_naming(graph.dds())), sorted, each once.
 struct HostTopics {
   std::string host;
   std::vector<std::string> publish;
   std::vector<std::string> subscribe;
 };
-[[nodiscard]] std::vector<HostTopics> host_topics(const Policy& policy, const Placement& placement);
+[[nodiscard]] std::vector<HostTopics> host_topics(const Policy& policy, const Placement& placement, DdsNaming naming);
 
-// The DDS name of a cross-host topic: dds_topic_name(topic, DdsNaming::Rejuv), "rejuv/<topic>", whatever the
-// graph's dds.ros2_names (the links carry Rejuv's names; the permissions of `rejuv keys hosts` grant these).
-[[nodiscard]] std::string cross_host_dds_name(const Object& topic);
+// The DDS name of a cross-host topic under `naming`, the graph's dds.ros2_names (launch::dds_naming):
+// dds_topic_name(topic, naming), "rejuv/<topic>" or "rt/<topic>". The links name their DDS topics so, and the
+// permissions of `rejuv keys hosts` grant these names.
+[[nodiscard]] std::string cross_host_dds_name(const Object& topic, DdsNaming naming);
 
 // A service that acts in the secure interval (§III, Fig. 1): it holds a Write right in RB, SC, UPDATE or CP
 // (the safety chain: sensors, estimator, safety controller, setpoint update), or it is the rejuvenation service

@@ -2,9 +2,10 @@
 // host's kernel as the service link_<peer> (kernel_sim/policy hosts.hpp add_host_links), it holds in MC only
 // Write on each topic the peer's services write for this host's readers and Read on each topic this host's
 // services write for the peer's readers; it learns which from its own caps. It runs one Cyclone DDS participant
-// with DDS Security (the host's enclave of `rejuv keys hosts`): a DDS writer `rejuv/<topic>` per topic it reads
-// from its kernel and a DDS reader per topic it writes to its kernel, of the topic's compiled IDL type, whose C
-// struct's bytes are what the kernel carries. Remote bytes are deserialized here (by Cyclone, against the IDL
+// with DDS Security (the host's enclave of `rejuv keys hosts`): a DDS writer per topic it reads from its kernel
+// and a DDS reader per topic it writes to its kernel, of the topic's compiled IDL type, whose C struct's bytes are
+// what the kernel carries. Their DDS names follow the graph's dds.ros2_names (its param dds_names, set by its
+// kernel): `rejuv/<topic>` of the IDL type name, or `rt/<topic>` of `rejuv_msgs::msg::dds_::T_` (msgs::dds_topic). Remote bytes are deserialized here (by Cyclone, against the IDL
 // type), never in the kernel: the kernel gets a payload of the topic's size, through the capability check.
 //
 // The secure interval (§III, §IV-D): the kernel revokes the link's caps outside MC, so nothing it publishes is
