@@ -16,8 +16,9 @@
 //               `rejuv keys hosts` on that graph). Its first second of samples is left out (discovery).
 // Each row as p50/p99/max and as a ratio to the raw row. Then the link's reopening: the same two hosts fly the
 // square with SR, the vehicle's run writing its mode changes (events.csv, wall_s on CLOCK_MONOTONIC), the
-// companion's probe logging when it received each sample; for each CP → MC after the first (the first is when the
-// two links meet), the time until the companion's first sample, and until its first sample published after
+// companion's probe logging when it received each sample; for each CP → MC after the two links met (the first
+// window with a sample: discovery and the handshake run only while the link is open), the time until the
+// companion's first sample, and until its first sample published after
 // CP → MC, beside the probe's period and the link row's p50. Root only (network namespaces): without root it says so
 // and measures nothing. The namespaces (rjP_v<pid>, rjP_c<pid>) and the veth pair are removed on every exit path.
 // Nothing here is asserted: the table says what this machine did.
@@ -323,11 +324,13 @@ struct ReopenWindow {
                             // delivered after it
 };
 
-// The reopening's measurement: the windows of the flight in order; its first CP → MC, when the two links meet
-// for the first time (discovery), is left out of the statistics.
+// The reopening's measurement: the windows of the flight in order. The windows until the first that carried a
+// sample — the two links meeting (discovery and the DDS Security handshake, which run only while the vehicle's
+// link is open) — are left out of the statistics; `met` is that window's index.
 struct Reopen {
   std::uint64_t flight_s = 0;
   std::vector<ReopenWindow> windows;
+  std::size_t met = 0;
   std::string error;
 };
 
@@ -402,6 +405,15 @@ void measure_reopen(Reopen& reopen, const LinkSetup& link, const fs::path& dir) 
     return;
   }
   find_first_samples(reopen.windows, probe);
+  const auto met = std::find_if(reopen.windows.begin(), reopen.windows.end(),
+                                [](const ReopenWindow& w) { return w.first_ns.has_value(); });
+  if (met == reopen.windows.end()) {
+    reopen.error = "the links did not meet: no sample reached the companion in any of the flight's " +
+                   std::to_string(reopen.windows.size()) + " MC windows (discovery and the DDS Security handshake "
+                   "run only while the vehicle's link is open; a longer --reopen-seconds gives them more windows)";
+    return;
+  }
+  reopen.met = static_cast<std::size_t>(met - reopen.windows.begin());
 }
 
 double percentile(std::vector<double> v, double q) {
@@ -470,13 +482,13 @@ void print_reopen(const Reopen& reopen, const Row& link) {
   std::vector<double> first_ms, new_ms;
   std::size_t held = 0;
   const auto to_ms = [](std::int64_t ns) { return static_cast<double>(ns) / 1e6; };
-  for (std::size_t i = 1; i < reopen.windows.size(); ++i) {  // the first: discovery
+  for (std::size_t i = reopen.met + 1; i < reopen.windows.size(); ++i) {  // after the links met
     const ReopenWindow& w = reopen.windows[i];
     if (w.first_ns) first_ms.push_back(to_ms(*w.first_ns));
     if (w.first_new_ns) new_ms.push_back(to_ms(*w.first_new_ns));
     held += w.first_held ? 1 : 0;
   }
-  const std::size_t measured = reopen.windows.size() - 1;
+  const std::size_t measured = reopen.windows.size() - reopen.met - 1;
   print_reopen_row("reopen", "CP -> MC > the first sample delivered", first_ms, measured - first_ms.size());
   print_reopen_row("new", "CP -> MC > the first sample published after it, delivered", new_ms,
                    measured - new_ms.size());
@@ -488,13 +500,9 @@ void print_reopen(const Reopen& reopen, const Row& link) {
                 crossing_ms);
     std::printf("  %-8s %-62s %9.1f\n", "sum", "one period + one crossing", period_ms + crossing_ms);
   }
-  char discovery[32] = "none";
-  if (const auto& first = reopen.windows.front().first_ns) {
-    std::snprintf(discovery, sizeof discovery, "%.1f ms", to_ms(*first));
-  }
-  std::printf("  %zu of the first samples were published before CP -> MC (held over the closure); the "
-              "flight's first CP -> MC (the links meet), left out: %s\n",
-              held, discovery);
+  std::printf("  %zu of the first samples were published before CP -> MC (held over the closure); left out: the "
+              "links met in MC window %zu of %zu, %.1f ms after its CP -> MC\n",
+              held, reopen.met + 1, reopen.windows.size(), to_ms(*reopen.windows[reopen.met].first_ns));
 }
 
 // The files of --out: every sample of the latency rows, and every MC window of the reopening (empty: none).
@@ -513,7 +521,7 @@ void write_files(const fs::path& dir, const std::vector<Row>& rows, const Reopen
     const ReopenWindow& w = reopen.windows[i];
     windows << std::to_string(static_cast<double>(w.opened_ns) / 1e9) << ','
             << std::to_string(static_cast<double>(w.closed_ns) / 1e9) << ',' << ms(w.first_ns) << ','
-            << ms(w.first_new_ns) << ',' << (w.first_held ? 1 : 0) << ',' << (i == 0 ? 1 : 0) << '\n';
+            << ms(w.first_new_ns) << ',' << (w.first_held ? 1 : 0) << ',' << (i <= reopen.met ? 1 : 0) << '\n';
   }
 }
 
@@ -576,7 +584,7 @@ int run_bench_across_hosts(const AcrossHostsBench& bench) {
   rows.push_back(Row{.name = "link", .what = "service > kernel > link > DDS (secure) > link > kernel > service",
                      .vehicle_enclave = "vehicle", .companion_enclave = "companion", .latencies_us = {}, .sent = 0,
                      .error = ""});
-  Reopen reopen{.flight_s = bench.reopen_seconds, .windows = {}, .error = ""};
+  Reopen reopen{.flight_s = bench.reopen_seconds, .windows = {}, .met = 0, .error = ""};
   if (bench.link == LinkRow::Measure) measure_links(rows.back(), reopen, ns, dir, self, bench.samples);
   else rows.back().error = reopen.error = "not measured (--no-link)";
   write_files(dir, rows, reopen);

@@ -21,7 +21,8 @@
 //      routing resumes.
 // Rollback (the rejuvenation timer, a CheckpointRollback, a rejuvenated service lost):
 //   1. Mode RB (network revoked). Every live rejuvenated service is cut off (its channel out of the loop,
-//      closed after the timed part) and set to SCHED_IDLE; it is killed once the rollback is over.
+//      closed after the timed part) and killed with its cgroup leaf (cgroup.kill), or, without it, stopped
+//      (SIGSTOP) and killed once the rollback is over (Reaper).
 //   2. Each image of the newest intact generation gets Resume{g, epoch} with a new channel; the frozen copy
 //      that reads it answers Resumed{g, its pid} on the new channel; a Fork afterwards makes a new spare.
 //   3. The kernel state is restored whole (restore_state; periodic and one-shot timers shifted by now − t_cp);

@@ -1,6 +1,7 @@
 // Rejuvenator: rollback (docs/design.md §7 "Rollback"; the overview is at the top of rejuvenator.cpp), on the
 // rejuvenation timer, a CheckpointRollback or a rejuvenated service lost: mode RB, every live rejuvenated
-// incarnation retired (cut off, SCHED_IDLE, killed after the timed part), the images of the newest intact
+// incarnation retired (cut off, its leaf killed with cgroup.kill or, without it, stopped with SIGSTOP and
+// killed after the timed part), the images of the newest intact
 // generation resumed on new channels and the kernel state restored whole (restore_state); a dead image or a
 // failed resume falls back to the previous generation, then to a cold restart of the rejuvenated services
 // from their binaries in SC.
