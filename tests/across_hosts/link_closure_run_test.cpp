@@ -17,6 +17,7 @@
 
 #include "../netns_pair.hpp"
 #include "../rejuv_cli.hpp"
+#include "../test_domain.hpp"
 
 namespace {
 
@@ -128,6 +129,51 @@ TEST_F(LinkClosureRun, EveryCloseAndOpen_MatchesTheModeTrace) {
   const std::string after =
       rejuv::test_support::run_program(dir_ / "cmd", kIp, {"netns", "exec", hosts_->vehicle, "nft", "list", "tables"}).out;
   EXPECT_EQ(after.find("rejuv_link_vehicle"), std::string::npos) << after;
+}
+
+// A host whose uplink is in the kernel's own namespace (hosts.netns unset: a real computer whose interface carries
+// the link) has no table — one over every interface would cut the ground station and the shell too — and its
+// link services are frozen in the secure interval instead (cgroup.freeze). The vehicle's part of a graph with a
+// monitor on the companion, both hosts on this namespace's loopback: the kernel says how the link is closed, and
+// its link service's closes and opens follow the mode trace from the first MC → RB (frozen through the start in
+// SC and the 20 s alignment, it would not read its channel, and the kernel would kill it). The link boots at all only because it keeps the
+// kernel's network namespace (an empty one has no interface for its Cyclone participant). That a frozen cgroup runs nothing is sys::LinkClosure's test.
+TEST_F(LinkClosureRun, NoNetns_LinkServiceFrozen_EveryCloseAndOpenMatchesTheModeTrace) {
+  const fs::path g = dir_ / "square_own_ns.launch.pbtxt";
+  std::ofstream(g) << "include: \"" << (kRepo / "launch" / "quad_square.launch.pbtxt").string() << "\"\n"
+                   << "name: \"square_own_ns\"\n"
+                   << "policy_include: \"" << (kRepo / "tests" / "across_hosts" / "monitor.policy.pbtxt").string()
+                   << "\"\n"
+                   << "hosts { name: \"vehicle\" address: \"127.0.0.1\" }\n"
+                   << "hosts { name: \"companion\" address: \"127.0.0.2\" }\n"
+                   << "services { name: \"monitor\" executable: \"" << REJUV_ACROSS_MONITOR << "\" host: \"companion\"\n"
+                   << "  uses { object: \"vehicle_state\" rights: \"R\" } }\n";
+  const fs::path keys = dir_ / "keys";
+  const std::string domain = std::to_string(rejuv::test_support::kOwnDdsDomain);
+  for (const std::vector<std::string>& cmd : {std::vector<std::string>{"keys", "init", keys.string()},
+                                              {"keys", "hosts", keys.string(), "--launch", g.string(), "--domain", domain}}) {
+    const CliOutcome made = rejuv::test_support::run_rejuv(dir_ / "cmd", cmd);
+    ASSERT_EQ(made.exit_code, 0) << "rejuv keys " << cmd[1] << ": " << made.err;
+  }
+  const fs::path out = dir_ / "own_ns_out";
+  fs::create_directories(dir_ / "own_ns");
+  const CliOutcome r = rejuv::test_support::run_rejuv(
+      dir_ / "own_ns", {"run", g.string(), "--host", "vehicle", "--keys", keys.string(), "--domain", domain,
+                        "--duration", "3", "--no-attack", "--net-port", "0", "--out", out.string(), "--no-figures"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("link vehicle: its uplink is in the kernel's own network namespace (hosts.netns unset), whose "
+                       "every interface a table would close; closed in the secure interval by freezing "
+                       "link_companion's cgroup (cgroup.freeze, v2) instead, from the first MC → RB"),
+            std::string::npos)
+      << r.err;
+  const std::vector<std::string> got = link_changes(r.err);
+  std::vector<std::string> want = expected_changes(slurp(out / "events.csv"));
+  // Frozen from the first MC → RB: the trace's close at the start and the open of the first MC are not the link's.
+  ASSERT_GE(want.size(), 2U) << slurp(out / "events.csv");
+  ASSERT_TRUE(want[0].starts_with("closed start ") && want[1].starts_with("opened ")) << want[0] << ", " << want[1];
+  want.erase(want.begin(), want.begin() + 2);
+  ASSERT_GE(want.size(), 4U) << "the 3-s flight changed mode too rarely to check:\n" << slurp(out / "events.csv");
+  EXPECT_EQ(got, want) << r.err;
 }
 
 TEST_F(LinkClosureRun, NoSr_NoClosure) {

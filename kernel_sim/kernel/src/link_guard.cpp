@@ -28,12 +28,19 @@ void LinkGuard::create() {
     if (!s.config.skip && s.config.spec != nullptr) served.emplace(launch::host_of(g, *s.config.spec));
   }
   for (const proto::Host& h : g.hosts()) {
-    if (h.netns().empty() || !served.contains(h.name())) continue;
+    if (!served.contains(h.name())) continue;
+    if (h.netns().empty()) {
+      // The uplink is one of the interfaces of the kernel's own namespace: a table that dropped them all would
+      // also cut the ground station and the shell, so the link processes are frozen instead.
+      freeze_links_of(h.name(), "its uplink is in the kernel's own network namespace (hosts.netns unset), "
+                                "whose every interface a table would close");
+      continue;
+    }
     auto made = sys::LinkClosure::create(sys::UplinkSpec{.label = h.name(), .netns = h.netns(), .devices = {}});
     if (!made) {
       const std::string why = made.error().to_string();
       if (made.error().error == EPERM) {
-        freeze_links_of(h.name(), why);
+        freeze_links_of(h.name(), "no nftables table without CAP_NET_ADMIN (" + why + ")");
       } else {
         k.log("link %s: cannot be closed in the secure interval: %s", h.name().c_str(), why.c_str());
       }
@@ -56,13 +63,14 @@ void LinkGuard::freeze_links_of(const std::string& host, const std::string& why)
     }
     any = true;
     // Its cgroup is made at its first spawn, after this: the freezing closure is made at the first close.
-    k.log("link %s: no nftables table without CAP_NET_ADMIN (%s); closed in the secure interval by freezing "
-          "%s's cgroup (cgroup.freeze, v2) instead", host.c_str(), why.c_str(), s.name.c_str());
+    k.log("link %s: %s; closed in the secure interval by freezing %s's cgroup (cgroup.freeze, v2) instead, from "
+          "the first MC → RB (not through the start in SC and the alignment: its channel would fill)",
+          host.c_str(), why.c_str(), s.name.c_str());
     links_.push_back(Link{.host = host, .frozen_service = s.id, .closure = {}});
   }
   if (!any) {
-    k.log("link %s: no nftables table without CAP_NET_ADMIN (%s) and no link service to freeze: it stays open in "
-          "the secure interval", host.c_str(), why.c_str());
+    k.log("link %s: %s, and no link service to freeze: it stays open in the secure interval", host.c_str(),
+          why.c_str());
   }
 }
 
@@ -84,6 +92,7 @@ void LinkGuard::set_all(sys::LinkState want, SrMode from, SrMode to) {
   for (Link& l : links_) {
     if (!l.closure.valid() && l.frozen_service) {
       const ServiceRuntime& s = k.services[l.frozen_service->value()];
+      if (s.proc.phase() == Phase::NotStarted) continue;  // the kernel's start: frozen from the first MC → RB
       const auto& dir = s.sandbox.cgroup.unified_dir();
       auto frozen = dir ? sys::LinkClosure::freezing(*dir, s.name)
                         : sys::SysResult<sys::LinkClosure>(std::unexpected(sys::SysError{"cgroup v2", ENOENT, s.sandbox.cgroup_note}));

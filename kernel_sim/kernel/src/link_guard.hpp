@@ -1,6 +1,7 @@
 // The links to other hosts closed in the secure execution interval (the paper's §III, §IV-D; docs/across_hosts.md
-// "Closing the link"): one sys::LinkClosure per host this kernel runs services for whose uplink is in a network
-// namespace of its own (launch.proto Host.netns), made when the kernel is created, held by this owner alone.
+// "Closing the link"): one sys::LinkClosure per host this kernel runs services for, made when the kernel is
+// created, held by this owner alone: an nftables table when the host's uplink is in a network namespace of its
+// own (launch.proto Host.netns), else the host's link services frozen (below).
 //
 // At MC → RB (any mode of the secure interval entered from MC) every link is closed BEFORE the capability system
 // revokes the link services' rights, so nothing crosses while the rights change; at CP → MC (MC entered) every
@@ -8,8 +9,11 @@
 // logged with its mode change and its duration ("link vehicle closed at MC → RB (12 µs): …"), so that a test can
 // check them against the mode trace (Observer::on_log beside on_sr_event).
 //
-// Without CAP_NET_ADMIN no table can be made: the cgroups of that host's link services are frozen instead
-// (cgroup.freeze, v2), and the kernel log says so.
+// Where no table can be made — without CAP_NET_ADMIN, or for a host whose uplink is in the kernel's own namespace
+// (a table over all of its interfaces would cut the ground station and the shell too) — the cgroups of that
+// host's link services are frozen instead (cgroup.freeze, v2), and the kernel log says so — from the first
+// MC → secure mode on: a link frozen through the kernel's start in SC and the plant's alignment (20 s) would not
+// read its channel, which fills, and the kernel would kill it. It holds no right outside MC meanwhile.
 #pragma once
 
 #include <optional>
@@ -27,8 +31,7 @@ class LinkGuard {
  public:
   explicit LinkGuard(Kernel::Impl& kernel) : k(kernel) {}
 
-  // A closure per host with a netns among those this kernel runs services for (a graph with hosts, SR on);
-  // each logged. A host whose link can be closed neither way is logged and stays open.
+  // A closure per host this kernel runs services for (a graph with hosts, SR on); each logged. A host whose link can be closed neither way is logged and stays open.
   void create();
   // Before the capability system enters `to` from `from`: every link closed if `to` is in the secure interval.
   void before_mode(SrMode from, SrMode to);
@@ -43,7 +46,8 @@ class LinkGuard {
     sys::LinkClosure closure;                 // empty until the fallback's first close
   };
   void set_all(sys::LinkState want, SrMode from, SrMode to);
-  // The fallback without CAP_NET_ADMIN: the link services of `host` frozen through their cgroups.
+  // The fallback where no table can be made (`why`, logged): the link services of `host` frozen through their
+  // cgroups.
   void freeze_links_of(const std::string& host, const std::string& why);
 
   Kernel::Impl& k;

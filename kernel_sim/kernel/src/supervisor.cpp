@@ -217,6 +217,8 @@ Result<LinkFds, KernelError> open_link_fds(const ServiceRuntime& s, sys::SpawnSp
     }
     fds.netns = std::move(*netns);
     spec.netns_fd = fds.netns.get();
+  } else {
+    spec.keep_network = true;  // its host's uplink is one of the kernel's own interfaces
   }
   if (!s.config.link->enclave.empty()) {
     auto key = open(s.config.link->enclave + "/key.pem", "DDS Security key");

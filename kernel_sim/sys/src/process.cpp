@@ -228,8 +228,9 @@ void isolate_in_child(int wfd, const SpawnSpec& spec) {
     if (::unshare(CLONE_NEWUSER) != 0) child_fail(wfd, kStageUserns, errno);
     if (spec.mapped_ids) await_id_maps_in_child(wfd);
   }
-  // A service given a network namespace (SpawnSpec::netns_fd) joined it first; the others get an empty one.
-  const int net = spec.netns_fd >= 0 ? 0 : CLONE_NEWNET;
+  // A service given a network namespace (SpawnSpec::netns_fd) joined it first, one told to keep the spawner's
+  // (keep_network) stays in it; the others get an empty one.
+  const int net = spec.netns_fd >= 0 || spec.keep_network ? 0 : CLONE_NEWNET;
   if (::unshare(net | CLONE_NEWNS | CLONE_NEWIPC) != 0) child_fail(wfd, kStageUnshare, errno);
   // Nothing it mounts or remounts propagates back, and every mount it sees is read-only.
   if (::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) child_fail(wfd, kStageMount, errno);

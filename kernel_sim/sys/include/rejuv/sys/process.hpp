@@ -115,6 +115,9 @@ struct SpawnSpec {
   // child's first step is setns(CLONE_NEWNET) into it, and Isolation::Namespaces then makes no network namespace
   // of its own (a network-facing service: the link between hosts, docs/sandbox.md). -1: none. Needs root.
   int netns_fd = -1;
+  // Isolation::Namespaces keeps the spawner's network namespace instead of making an empty one (the link of a
+  // host whose uplink is one of the spawner's own interfaces). Ignored when netns_fd is set.
+  bool keep_network = false;
 };
 
 // A spawned process and, when its filter is supervised, the listener for the calls it refers to the spawner.
