@@ -3,6 +3,8 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cstdarg>
+#include <cstdio>
 #include <set>
 
 #include "impl.hpp"
@@ -20,57 +22,88 @@ std::string transition(SrMode from, SrMode to) {
 
 }  // namespace
 
-void LinkGuard::create() {
+std::vector<LinkHost> link_hosts(const Kernel::Impl& k) {
   const proto::Launch& g = k.graph.graph;
-  if (!k.sr || g.hosts_size() == 0) return;  // without SR the mode never leaves MC
+  if (!k.sr || g.hosts_size() == 0) return {};
   std::set<std::string> served;  // the hosts this kernel runs services for
   for (const ServiceRuntime& s : k.services) {
     if (!s.config.skip && s.config.spec != nullptr) served.emplace(launch::host_of(g, *s.config.spec));
   }
+  std::vector<LinkHost> out;
   for (const proto::Host& h : g.hosts()) {
     if (!served.contains(h.name())) continue;
-    if (h.netns().empty()) {
+    LinkHost host{.name = h.name(), .netns = h.netns(), .link_services = {}};
+    for (const ServiceRuntime& s : k.services) {
+      if (s.config.skip || s.config.spec == nullptr || launch::host_of(g, *s.config.spec) != h.name() ||
+          !policy::is_host_link(g, *s.config.spec)) {
+        continue;
+      }
+      host.link_services.push_back(LinkService{.id = s.id, .name = s.name});
+    }
+    out.push_back(std::move(host));
+  }
+  return out;
+}
+
+LinkGuard::Log kernel_log(Kernel::Impl& k) {
+  return [&k](const std::string& line) { k.log("%s", line.c_str()); };
+}
+
+LinkGuard::CgroupOf kernel_cgroups(const Kernel::Impl& k) {
+  return [&k](ServiceId id) {
+    const ServiceRuntime& s = k.services[id.value()];
+    if (s.proc.phase() == Phase::NotStarted) return LinkCgroup{.started = false, .dir = std::nullopt, .note = ""};
+    const auto& dir = s.sandbox.cgroup.unified_dir();
+    return LinkCgroup{.started = true, .dir = dir ? std::optional(*dir) : std::nullopt, .note = s.sandbox.cgroup_note};
+  };
+}
+
+void LinkGuard::say(const char* format, ...) {
+  char line[1024];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(line, sizeof line, format, args);
+  va_end(args);
+  log_(line);
+}
+
+void LinkGuard::create(std::span<const LinkHost> hosts, SrMode mode) {
+  for (const LinkHost& h : hosts) {
+    if (h.netns.empty()) {
       // The uplink is one of the interfaces of the kernel's own namespace: a table that dropped them all would
       // also cut the ground station and the shell, so the link processes are frozen instead.
-      freeze_links_of(h.name(), "its uplink is in the kernel's own network namespace (hosts.netns unset), "
-                                "whose every interface a table would close");
+      freeze_links_of(h, "its uplink is in the kernel's own network namespace (hosts.netns unset), whose every "
+                         "interface a table would close");
       continue;
     }
-    auto made = sys::LinkClosure::create(sys::UplinkSpec{.label = h.name(), .netns = h.netns(), .devices = {}});
+    auto made = sys::LinkClosure::create(sys::UplinkSpec{.label = h.name, .netns = h.netns, .devices = {}});
     if (!made) {
       const std::string why = made.error().to_string();
       if (made.error().error == EPERM) {
-        freeze_links_of(h.name(), "no nftables table without CAP_NET_ADMIN (" + why + ")");
+        freeze_links_of(h, "no nftables table without CAP_NET_ADMIN (" + why + ")");
       } else {
-        k.log("link %s: cannot be closed in the secure interval: %s", h.name().c_str(), why.c_str());
+        say("link %s: cannot be closed in the secure interval: %s", h.name.c_str(), why.c_str());
       }
       continue;
     }
-    k.log("link %s: closed in the secure interval by %s", h.name().c_str(), made->description().c_str());
-    links_.push_back(Link{.host = h.name(), .frozen_service = std::nullopt, .closure = std::move(*made)});
+    say("link %s: closed in the secure interval by %s", h.name.c_str(), made->description().c_str());
+    links_.push_back(Link{.host = h.name, .frozen_service = std::nullopt, .closure = std::move(*made)});
   }
   // A kernel that starts inside the secure interval (the boot's handler run) starts with its links closed.
-  if (in_secure_interval(k.caps.mode())) set_all(sys::LinkState::Closed, k.caps.mode(), k.caps.mode());
+  if (in_secure_interval(mode)) set_all(sys::LinkState::Closed, mode, mode);
 }
 
-void LinkGuard::freeze_links_of(const std::string& host, const std::string& why) {
-  const proto::Launch& g = k.graph.graph;
-  bool any = false;
-  for (const ServiceRuntime& s : k.services) {
-    if (s.config.skip || s.config.spec == nullptr || launch::host_of(g, *s.config.spec) != host ||
-        !policy::is_host_link(g, *s.config.spec)) {
-      continue;
-    }
-    any = true;
+void LinkGuard::freeze_links_of(const LinkHost& host, const std::string& why) {
+  for (const LinkService& s : host.link_services) {
     // Its cgroup is made at its first spawn, after this: the freezing closure is made at the first close.
-    k.log("link %s: %s; closed in the secure interval by freezing %s's cgroup (cgroup.freeze, v2) instead, from "
-          "the first MC → RB (not through the start in SC and the alignment: its channel would fill)",
-          host.c_str(), why.c_str(), s.name.c_str());
-    links_.push_back(Link{.host = host, .frozen_service = s.id, .closure = {}});
+    say("link %s: %s; closed in the secure interval by freezing %s's cgroup (cgroup.freeze, v2) instead, from the "
+        "first MC → RB (not through the start in SC and the alignment: its channel would fill)",
+        host.name.c_str(), why.c_str(), s.name.c_str());
+    links_.push_back(Link{.host = host.name, .frozen_service = s, .closure = {}});
   }
-  if (!any) {
-    k.log("link %s: %s, and no link service to freeze: it stays open in the secure interval", host.c_str(),
-          why.c_str());
+  if (host.link_services.empty()) {
+    say("link %s: %s, and no link service to freeze: it stays open in the secure interval", host.name.c_str(),
+        why.c_str());
   }
 }
 
@@ -91,14 +124,14 @@ void LinkGuard::set_all(sys::LinkState want, SrMode from, SrMode to) {
   const bool close = want == sys::LinkState::Closed;
   for (Link& l : links_) {
     if (!l.closure.valid() && l.frozen_service) {
-      const ServiceRuntime& s = k.services[l.frozen_service->value()];
-      if (s.proc.phase() == Phase::NotStarted) continue;  // the kernel's start: frozen from the first MC → RB
-      const auto& dir = s.sandbox.cgroup.unified_dir();
-      auto frozen = dir ? sys::LinkClosure::freezing(*dir, s.name)
-                        : sys::SysResult<sys::LinkClosure>(std::unexpected(sys::SysError{"cgroup v2", ENOENT, s.sandbox.cgroup_note}));
+      const LinkService& s = *l.frozen_service;
+      const LinkCgroup cgroup = cgroup_of_(s.id);
+      if (!cgroup.started) continue;  // the kernel's start: frozen from the first MC → RB
+      auto frozen = cgroup.dir ? sys::LinkClosure::freezing(*cgroup.dir, s.name)
+                               : sys::SysResult<sys::LinkClosure>(std::unexpected(sys::SysError{"cgroup v2", ENOENT, cgroup.note}));
       if (!frozen) {
-        k.log("link %s: %s's cgroup cannot be frozen at %s: %s", l.host.c_str(), s.name.c_str(),
-              transition(from, to).c_str(), frozen.error().to_string().c_str());
+        say("link %s: %s's cgroup cannot be frozen at %s: %s", l.host.c_str(), s.name.c_str(),
+            transition(from, to).c_str(), frozen.error().to_string().c_str());
         continue;
       }
       l.closure = std::move(*frozen);
@@ -108,12 +141,12 @@ void LinkGuard::set_all(sys::LinkState want, SrMode from, SrMode to) {
     auto done = close ? l.closure.close() : l.closure.open();
     const auto us = std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - t0);
     if (!done) {
-      k.log("link %s: could not be %s at %s: %s", l.host.c_str(), close ? "closed" : "opened",
-            transition(from, to).c_str(), done.error().to_string().c_str());
+      say("link %s: could not be %s at %s: %s", l.host.c_str(), close ? "closed" : "opened",
+          transition(from, to).c_str(), done.error().to_string().c_str());
       continue;
     }
-    k.log("link %s %s at %s (%lld µs)", l.host.c_str(), close ? "closed" : "opened", transition(from, to).c_str(),
-          static_cast<long long>(us.count()));
+    say("link %s %s at %s (%lld µs)", l.host.c_str(), close ? "closed" : "opened", transition(from, to).c_str(),
+        static_cast<long long>(us.count()));
   }
 }
 

@@ -44,6 +44,8 @@ namespace rejuv::kernel {
 
 // The links to other hosts close before the capabilities change at MC → RB and open after them at CP → MC
 // (link_guard.hpp), so that nothing crosses in the secure interval (§III, §IV-D).
+void Rejuvenator::open_links() { links_.create(link_hosts(k), k.caps.mode()); }
+
 bool Rejuvenator::enter_mode(SrMode mode) {
   const SrMode from = k.caps.mode();
   links_.before_mode(from, mode);

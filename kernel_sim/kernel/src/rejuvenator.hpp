@@ -88,7 +88,7 @@ class Rejuvenator {
     pace_.on_control_update(wall);
   }
   // The links to other hosts of this kernel's part of the graph, made once at create (link_guard.hpp).
-  void open_links() { links_.create(); }
+  void open_links();
   // Routing is frozen while a checkpoint or rollback is timed; a write to the plant meanwhile is held, and
   // written when routing resumes (resume_routing).
   [[nodiscard]] bool routing_frozen() const { return routing_.frozen(); }
@@ -241,7 +241,7 @@ class Rejuvenator {
   ImageCharge image_charge_;  // simulated time charged for image work (image_charge.hpp)
   VehiclePace pace_;          // where in the control period image work may start (vehicle_pace.hpp)
   // The links to other hosts, closed in the secure interval around each mode change (enter_mode; link_guard.hpp).
-  LinkGuard links_{k};
+  LinkGuard links_{kernel_log(k), kernel_cgroups(k)};
 };
 
 }  // namespace rejuv::kernel

@@ -27,6 +27,7 @@
 #include <thread>
 #include <vector>
 
+#include "../../cgroup_v2_group.hpp"
 #include "../../netns_pair.hpp"
 #include "../../rejuv_cli.hpp"
 #include "rejuv/sys/link_closure.hpp"
@@ -328,16 +329,10 @@ class LinkClosureFreeze : public ::testing::Test {
  protected:
   void SetUp() override {
     if (::geteuid() != 0) GTEST_SKIP() << "needs root: a cgroup of its own";
-    std::string own;
-    std::istringstream lines(slurp("/proc/self/cgroup"));
-    for (std::string line; std::getline(lines, line);) {
-      if (line.rfind("0::", 0) == 0) own = line.substr(3);
-    }
-    if (own.empty() || !fs::exists("/sys/fs/cgroup/unified/cgroup.procs")) GTEST_SKIP() << "no cgroup v2 hierarchy";
-    group_ = fs::path("/sys/fs/cgroup/unified" + own) / ("rjN_freeze_" + std::to_string(::getpid()));
-    std::error_code ec;
-    fs::create_directory(group_, ec);
-    ASSERT_FALSE(ec) << group_ << ": " << ec.message();
+    std::string why;
+    const auto group = rejuv::test_support::make_own_cgroup_v2_group("rjN_freeze_" + std::to_string(::getpid()), why);
+    if (!group) GTEST_SKIP() << why;
+    group_ = *group;
   }
   void TearDown() override {
     for (pid_t& p : children_) {
