@@ -115,8 +115,8 @@ rejuv::proto::RunSummary without_wall_clock(rejuv::proto::RunSummary s) {
   c.clear_rollback_p99_ms();
   if (s.has_catch_up()) s.mutable_catch_up()->clear_replay_ms();
   // The ULog holds the kernel's log lines, and some of them say how long the machine took ("the alignment's
-  // checkpoint: 8 images by fork in 9.642 ms"): its size follows the wall clock's digits (one byte more at
-  // 19.642 ms, seen in a fresh-clone CI run). What it records of the flight is the trace compared above.
+  // checkpoint: 8 images by fork in 9.642 ms"): its size follows the wall clock's digits. What it records of the
+  // flight is the trace compared above.
   if (s.has_ulog()) s.mutable_ulog()->clear_bytes();
   return s;
 }

@@ -437,7 +437,8 @@ Verdict judge(const Series& s, std::size_t b0, double kernel_rss_kb, double serv
   Verdict v{.name = s.name};
   const std::size_t n = s.values.size();
   const std::size_t b1 = std::max(b0 + 1, b0 + (n * 2) / 10);
-  const std::size_t l0 = n - std::min(n - b1, std::max<std::size_t>(3, n / 5));  // at least 3, after the baseline
+  const std::size_t after_base = n > b1 ? n - b1 : 0;
+  const std::size_t l0 = n - std::min(after_base, std::max<std::size_t>(3, n / 5));  // at least 3, after the baseline
   std::vector<double> base, last;
   for (std::size_t i = 0; i < n; ++i) {
     if (std::isnan(s.values[i])) continue;
@@ -450,8 +451,7 @@ Verdict judge(const Series& s, std::size_t b0, double kernel_rss_kb, double serv
   }
   // A count (fds, threads, processes) is judged by its smallest value in each window: what leaked stays in every
   // sample after it, while a process or fd on its way (an image being forked, a generation being trimmed, a
-  // spare) is in some samples only — in real time a sample's phase in the cycle is not fixed, and the processes
-  // under the kernel were seen at 42, 55 and 57 in successive samples of a flat run.
+  // spare) is in some samples only: in real time a sample's phase in the cycle is not fixed.
   const bool count = s.kind == Series::Kind::Count;
   v.baseline = count ? *std::min_element(base.begin(), base.end()) : median(base);
   v.last = count ? *std::min_element(last.begin(), last.end()) : median(last);

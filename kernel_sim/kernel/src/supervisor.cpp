@@ -348,7 +348,7 @@ Result<void, KernelError> Supervisor::spawn_plant() {
   // The bridge's partition (rejuv/dds/run_partition.hpp) and names: with ROS 2 names, the default partition
   // and ROS 2's names for every topic of the plant interface (create.cpp, open_bridge).
   if (launch::dds_naming(g.dds()) == DdsNaming::Ros2) {
-    spec.args.insert(spec.args.end(), {"--dds-names", "ros2"});
+    spec.args.insert(spec.args.end(), {"--dds-names", std::string(to_string(DdsNaming::Ros2))});
   } else {
     spec.args.insert(spec.args.end(), {"--run-id", dds::to_string(k.run_id)});
   }

@@ -114,7 +114,8 @@ Result<void, std::string> apply(PlantOptions& o, std::string_view flag, std::str
   if (flag == "--domain") return assign(o.domain, parse_int<std::uint32_t>(flag, value, 0, 232));
   if (flag == "--run-id") return assign(o.run_id, dds::parse_run_id(flag, value));
   if (flag == "--dds-names") {
-    return choose(o.naming, flag, value, {"rejuv", DdsNaming::Rejuv}, {"ros2", DdsNaming::Ros2});
+    return choose(o.naming, flag, value, {to_string(DdsNaming::Rejuv), DdsNaming::Rejuv},
+                  {to_string(DdsNaming::Ros2), DdsNaming::Ros2});
   }
   if (flag == "--seed") {
     return assign(o.seed,
