@@ -163,6 +163,9 @@ std::vector<wire::BootParam> build_params(const Kernel::Impl& k, const ServiceRu
   return out;
 }
 
+Supervisor::Supervisor(Kernel::Impl& kernel)
+    : k(kernel), liveness_(kernel.options.realtime_chain_hang_deadline, kernel.options.realtime_hang_deadline) {}
+
 Result<void, KernelError> Supervisor::spawn_all() {
   if (auto ok = sys::become_subreaper(); !ok) {
     return fail(KernelError{.kind = KernelError::Kind::System, .message = ok.error().to_string(), .findings = {}});
@@ -567,56 +570,44 @@ void Supervisor::check_deadlines() {
   }
 }
 
-// How often watch_liveness looks at a service the plan runs at SCHED_FIFO (it publishes every control period, so
-// 10 ms of silence is already news) and at any other.
-constexpr Nanos kChainLivenessLook{std::chrono::milliseconds{10}};
-constexpr Nanos kLivenessLook{std::chrono::milliseconds{100}};
-
 bool Supervisor::runs_fifo(const ServiceRuntime& s) const {
   return realtime_active && s.id.value() < fifo_pid_.size() && fifo_pid_[s.id.value()] == s.proc.process.pid();
+}
+
+LivenessSight Supervisor::liveness_sight(const ServiceRuntime& s) const {
+  // The catch-up chain while it replays or drains what it was handed is left alone: a slow replay is no
+  // violation (catch_up.hpp), and the catch-up's own bound ends it.
+  const bool watched = s.config.rejuvenate && s.live() && !s.proc.scripted && s.proc.phase() == Phase::Ready &&
+                       s.proc.loss_reason.empty() && !k.rejuvenator.catch_up().in_replay(s.id);
+  return LivenessSight{.id = s.id, .watched = watched, .chain = runs_fifo(s), .pid = s.proc.process.pid(),
+                       .frames_in = s.stats.frames_in, .frames_out = s.flow.frames_out(),
+                       .reported = s.flow.reported()};
 }
 
 void Supervisor::watch_liveness() {
   if (!k.sr) return;  // without SR a kill ends the run: a slow service is not worth that
   const Nanos t = k.wall();
-  if (liveness_looked_at_ != Nanos::min() && t - liveness_looked_at_ < kChainLivenessLook) return;
-  liveness_looked_at_ = t;
-  probes_.resize(k.services.size());
-  const CatchUp& catch_up = k.rejuvenator.catch_up();
+  if (!liveness_.begin_pass(t)) return;
   for (ServiceRuntime& s : k.services) {
-    LivenessProbe& probe = probes_[s.id.value()];
-    const bool chain = runs_fifo(s);
-    if (t - probe.looked_at < (chain ? kChainLivenessLook : kLivenessLook)) continue;
-    // The catch-up chain while it replays or drains what it was handed is left alone: a slow replay is no
-    // violation (catch_up.hpp), and the catch-up's own bound ends it.
-    const bool watched = s.config.rejuvenate && s.live() && !s.proc.scripted && s.proc.phase() == Phase::Ready &&
-                         s.proc.loss_reason.empty() && !catch_up.in_replay(s.id);
-    const auto fresh = [&] {
-      probe = LivenessProbe{.pid = s.proc.process.pid(), .frames_in = s.stats.frames_in, .looked_at = t};
-    };
-    if (!watched || probe.pid != s.proc.process.pid() || probe.frames_in != s.stats.frames_in) {
-      fresh();  // gone, a new incarnation, or it spoke since the last look: alive
-      continue;
+    const LivenessSight sight = liveness_sight(s);
+    const LivenessCall call = liveness_.look(sight, t);
+    switch (call.kind) {
+      case LivenessCall::Kind::Nothing:
+        break;
+      case LivenessCall::Kind::Ask:
+        if (k.ask_idle(s)) liveness_.asked(s.id, t, call.owed);
+        break;
+      case LivenessCall::Kind::Overdue:
+        if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
+        if (s.live() && s.flow.reported() < call.owed) {
+          const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(call.deadline);
+          kill_hung(s, "no Idle within " + std::to_string(bound.count()) + " ms of a Sync in real time (" +
+                           std::to_string(s.flow.reported()) + " of " + std::to_string(call.owed) +
+                           " frames reported" + (sight.chain ? ", at SCHED_FIFO" : "") + ")");
+        }
+        liveness_.fresh(liveness_sight(s), t);
+        break;
     }
-    probe.looked_at = t;
-    if (!probe.asked_at) {
-      const std::uint64_t sent = s.flow.frames_out();  // its Idle after the Sync reports at least these
-      if (s.flow.reported() < sent && k.ask_idle(s)) {
-        probe.asked_at = t;
-        probe.owed = sent;
-      }
-      continue;
-    }
-    const Nanos deadline = chain ? k.options.realtime_chain_hang_deadline : k.options.realtime_hang_deadline;
-    if (t - *probe.asked_at <= deadline) continue;
-    if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
-    if (s.live() && s.flow.reported() < probe.owed) {
-      const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(deadline);
-      kill_hung(s, "no Idle within " + std::to_string(bound.count()) + " ms of a Sync in real time (" +
-                       std::to_string(s.flow.reported()) + " of " + std::to_string(probe.owed) + " frames reported" +
-                       (chain ? ", at SCHED_FIFO" : "") + ")");
-    }
-    fresh();
   }
 }
 

@@ -9,6 +9,7 @@
 
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/kernel/kernel.hpp"
+#include "liveness_watch.hpp"
 #include "rejuv/sys/process.hpp"
 #include "service_runtime.hpp"
 
@@ -25,7 +26,7 @@ inline constexpr std::uint64_t kMaxLinkRestarts = 16;
 
 class Supervisor {
  public:
-  explicit Supervisor(Kernel::Impl& kernel) : k(kernel) {}
+  explicit Supervisor(Kernel::Impl& kernel);
 
   [[nodiscard]] Result<void, KernelError> spawn_all();
   [[nodiscard]] Result<void, KernelError> spawn_one(ServiceRuntime& s);
@@ -48,14 +49,10 @@ class Supervisor {
   // (no real-time budget there) gets the plan once the placer has moved it into `live/`; any live service of the
   // plan found not at SCHED_FIFO (refused once settled, or moved off it) is given it again.
   void keep_realtime_plan();
-  // run_realtime, at every turn of the loop: a rejuvenated service that has sent the kernel nothing since the last
-  // look at it while frames sent to it are unreported is sent a Sync (docs/protocol.md "Idle"); one that has not
-  // answered it with an Idle within its deadline is hung (stopped, spinning, blocked) and killed, which rolls back
-  // (docs/design.md §7). A service the real-time plan runs at SCHED_FIFO (the control chain) is looked at every
-  // kChainLivenessLook and has realtime_chain_hang_deadline; any other every kLivenessLook, with
-  // realtime_hang_deadline. Lockstep has the idle deadline for this; in real time nothing else finds a hung
-  // service before the next timer rollback, and the vehicle flies on what it last published meanwhile. A service
-  // that keeps publishing is never asked: the control chain costs the channel nothing.
+  // run_realtime, at every turn of the loop: the liveness watch's pass (liveness_watch.hpp) — a rejuvenated
+  // service silent since the last look while frames sent to it are unreported is sent a Sync; one without an Idle
+  // within its deadline (KernelOptions::realtime_chain_hang_deadline at SCHED_FIFO, realtime_hang_deadline
+  // otherwise) is killed as hung, which rolls back (docs/design.md §7).
   void watch_liveness();
 
   [[nodiscard]] bool plant_started() const { return plant_started_; }
@@ -71,17 +68,8 @@ class Supervisor {
   std::vector<bool> fifo_refusal_said_;  // apply_realtime: a service refused SCHED_FIFO, said once until given
   std::vector<pid_t> fifo_pid_;          // per service: the process apply_realtime put at SCHED_FIFO (0: none)
   [[nodiscard]] bool runs_fifo(const ServiceRuntime& s) const;
-  Nanos liveness_looked_at_{Nanos::min()};  // watch_liveness's last pass
-  // watch_liveness, per service (indexed by ServiceId): the incarnation looked at, its frame count then, and the
-  // Sync in flight to it (when it went, the frame count its Idle must reach).
-  struct LivenessProbe {
-    pid_t pid = 0;
-    std::uint64_t frames_in = 0;
-    std::optional<Nanos> asked_at{};
-    std::uint64_t owed = 0;
-    Nanos looked_at{};  // the last look
-  };
-  std::vector<LivenessProbe> probes_;
+  [[nodiscard]] LivenessSight liveness_sight(const ServiceRuntime& s) const;
+  LivenessWatch liveness_;
 };
 
 }  // namespace rejuv::kernel
