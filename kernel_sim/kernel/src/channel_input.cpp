@@ -23,7 +23,7 @@ void ChannelInput::pause(ServiceRuntime& s) {
   if (paused_until.size() <= s.id.value()) paused_until.resize(k.services.size());
   paused_until[s.id.value()] = k.wall() + kBudgetPause;
   (void)k.epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
-                       sys::Interest{.readable = false, .writable = s.flow.want_writable()});
+                       sys::Interest{.readable = false, .writable = s.flow().want_writable()});
 }
 
 void ChannelInput::resume_paused(Nanos wall_now) {
@@ -33,7 +33,7 @@ void ChannelInput::resume_paused(Nanos wall_now) {
     ServiceRuntime& s = k.services[i];
     if (!s.proc.channel.valid()) continue;  // gone meanwhile; a restored incarnation's channel is read anyway
     (void)k.epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
-                         sys::Interest{.readable = true, .writable = s.flow.want_writable()});
+                         sys::Interest{.readable = true, .writable = s.flow().want_writable()});
   }
 }
 
@@ -208,7 +208,7 @@ void ChannelInput::handle_frame(ServiceRuntime& s, const wire::FrameView& f) {
       handle_log(s, f);
       return;
     case wire::FrameKind::Idle:
-      s.flow.on_idle(f.header.aux);
+      k.router.on_idle(s, f.header.aux);
       return;
     case wire::FrameKind::Taken:
       k.rejuvenator.on_taken(s, f);  // checkpoint.cpp
@@ -281,7 +281,7 @@ void ChannelInput::handle_subscribe(ServiceRuntime& s, const wire::FrameView& f)
   // uORB: a new subscriber first gets the latest message already published, if any (a polled one with its
   // next wake-up; hand_over_polled finds nothing if there is none).
   if (polled) {
-    s.flow.note_polled();
+    k.router.note_polled(s);
   } else {
     k.router.push_ring(s, *sub);
   }

@@ -20,7 +20,7 @@ bool Rejuvenator::quiescent_for_checkpoint() const {
   const std::optional<ServiceId> caller = coordinator_.asked_by();
   return std::all_of(k.services.begin(), k.services.end(), [&](const ServiceRuntime& s) {
     if (!s.live()) return true;
-    if (s.proc.phase() != Phase::Ready || !s.flow.drained()) return false;
+    if (s.proc.phase() != Phase::Ready || !s.flow().drained()) return false;
     return k.clock_mode == ClockMode::Realtime || s.id == caller || s.idle();
   });
 }
@@ -85,7 +85,7 @@ void Rejuvenator::send_snapshots(CheckpointRun& run) {
       run.failure = "Snapshot to '" + s.name + "': " + sent.error().to_string();
       break;
     }
-    s.flow.count_sent();
+    k.router.count_sent(s);
     if (with_pagemap) s.pages.pagemap_sent = true;
     // The image end stays with the kernel until the commit: by fork it is closed, by written pages it goes
     // to the copy of the base that becomes the image (send_patches).

@@ -78,7 +78,8 @@ struct Kernel::Impl {
   NetGate net;                      // the network gate, changed through its methods (netgate.hpp)
 
   // By ServiceId: each service's runtime, by concern (service_runtime.hpp); its process and phase written by
-  // the Supervisor and the Rejuvenator, its flow by the Router, its channel state by the ChannelInput.
+  // the Supervisor and the Rejuvenator, its flow by the Router alone (the others read it through flow() and tell
+  // the Router what happened), its channel state by the ChannelInput.
   std::vector<ServiceRuntime> services;
 
   // ---- the owners (in this order: destroyed in reverse) ----

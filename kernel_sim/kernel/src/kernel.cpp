@@ -242,7 +242,7 @@ std::optional<ServiceId> Kernel::find_service(std::string_view name) const {
 ServiceStats Kernel::stats(ServiceId service) const {
   const ServiceRuntime& s = impl_->services.at(service.value());
   ServiceStats out = s.stats;
-  out.frames_out = s.flow.frames_out();
+  out.frames_out = s.flow().frames_out();
   out.started = !s.config.skip && s.proc.phase() != Phase::NotStarted;
   out.alive = s.live();
   out.ready = s.proc.phase() == Phase::Ready;

@@ -78,7 +78,7 @@ std::optional<PendingStep> Lockstep::begin_next_step() {
 
 // The step StepClock::begin_next made active.
 void Lockstep::begin_step(const PendingStep& step) {
-  for (ServiceRuntime& s : k.services) s.flow.new_step();
+  k.router.new_step();
   k.set_now(step.t);
   if (!k.router.sr_mode_announced()) k.router.publish_sr_mode();
   request_priming();

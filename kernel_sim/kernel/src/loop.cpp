@@ -275,7 +275,7 @@ void Kernel::Impl::pace_catch_up() {
   }
   if (rejuvenator.catch_up().replay_pending()) {
     const bool keeping_up = std::all_of(services.begin(), services.end(), [&](const ServiceRuntime& s) {
-      return !rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.flow.drained();
+      return !rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.flow().drained();
     });
     if (!keeping_up) return;
     router.cork();
@@ -292,7 +292,7 @@ bool Kernel::Impl::chain_answered() {
   for (ServiceRuntime& s : services) {
     if (!rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.idle()) continue;
     answered = false;
-    if (rejuvenator.catch_up_sync_due(s.id, s.flow.frames_issued())) (void)ask_idle(s);
+    if (rejuvenator.catch_up_sync_due(s.id, s.flow().frames_issued())) (void)ask_idle(s);
   }
   return answered;
 }
@@ -306,8 +306,8 @@ void Kernel::Impl::cut_catch_up_short() {
   for (const ServiceRuntime& s : services) {
     if (!rejuvenator.catch_up().in_chain(s.id) || !s.live() || s.idle()) continue;
     behind += (behind.empty() ? "" : ", ") + s.name + " (" +
-              std::to_string(s.flow.frames_issued() - std::min(s.flow.frames_issued(), s.flow.reported())) +
-              " frames unreported" + (s.flow.drained() ? "" : ", some not yet sent") + ")";
+              std::to_string(s.flow().frames_issued() - std::min(s.flow().frames_issued(), s.flow().reported())) +
+              " frames unreported" + (s.flow().drained() ? "" : ", some not yet sent") + ")";
   }
   log("estimate catch-up cut short after %.1f ms (%llu samples replayed, %s): the chain did not keep up (%s); "
       "the estimator re-arms from the live samples",

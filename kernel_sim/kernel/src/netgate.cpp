@@ -261,7 +261,7 @@ void Kernel::Impl::net_poll() {
       running = true;
       // A service that does not read its channel gets no more: queued frames are bounded, and overflowing
       // them would be its fault (docs/protocol.md "flow control") — a flood must not make it one.
-      if (!s.flow.drained()) continue;
+      if (!s.flow().drained()) continue;
       if (!tx.build(wire::FrameKind::NetDatagram, reader.slot.value(), 0, id, bytes)) continue;
       router.send_control(s, tx.bytes());
       sent = true;

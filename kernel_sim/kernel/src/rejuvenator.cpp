@@ -175,7 +175,7 @@ void Rejuvenator::resume_routing() {
   });
   for (ServiceRuntime& s : k.services) {
     if (!s.live()) continue;
-    s.flow.request_sweep();
+    k.router.request_sweep(s);
     k.router.drain(s);
   }
 }

@@ -50,7 +50,7 @@ void Rejuvenator::retire_live_rejuvenated() {
     s.proc.ended();
     k.broker.remove_service(s.id);
     k.timers.remove_service(s.id);
-    s.flow.reset();
+    k.router.channel_closed(s);
     s.proc.channel_closed_at.reset();
     s.proc.loss_reason.clear();
   }
@@ -170,7 +170,7 @@ Result<void, std::string> install_resumed(Kernel::Impl& k, PendingResume& p, Gen
     failure = "watching the restored '" + s.name + "' output: " + watched.error().to_string();
   }
   s.proc.resumed();
-  s.flow.new_channel();
+  k.router.channel_opened(s);
   s.stats.pid = s.proc.process.pid();
   k.warden.place_live(s);  // out of the images' leaf, into the one its forks and its memory are bounded in
   ++s.stats.restores;
@@ -365,7 +365,7 @@ void Rejuvenator::cold_restart(const std::string& reason) {
     if (!s.config.rejuvenate || s.config.skip) continue;
     s.subscriptions.clear();
     s.config.params = build_params(k, s);  // boot.cold_restarts: the estimator starts from the sensors
-    s.flow.new_channel();
+    k.router.channel_opened(s);
     if (auto ok = k.supervisor.spawn_one(s); !ok) {
       k.stop_run(StopReason::ServiceFailed, "cold restart: " + ok.error().message);
       return;

@@ -23,7 +23,7 @@ void Router::ingest_publish(ServiceRuntime& s, std::uint32_t slot, std::span<con
     route_publish(s, slot, payload);
     return;
   }
-  if (!s.flow.admit_publication()) {
+  if (!s.flow_.admit_publication()) {
     if (s.stats.flood_dropped++ == 0)
       k.log("'%s' publishes more than %zu messages in one step; dropping the excess", s.name.c_str(),
             kMaxStagedPerStep);
@@ -205,7 +205,7 @@ void Router::finish_routes(ObjectId topic) {
       SubscriberInfo& info = subscribers[r.subscriber.value()];
       ++info.routed;
       if (info.polled) {  // stays in the ring until something else wakes the service (hand_over_polled)
-        s.flow.note_polled();
+        s.flow_.note_polled();
         continue;
       }
     }
@@ -214,7 +214,7 @@ void Router::finish_routes(ObjectId topic) {
 }
 
 void Router::hand_over_polled(ServiceRuntime& s) {
-  if (k.rejuvenator.routing_frozen() || !s.flow.take_polled())
+  if (k.rejuvenator.routing_frozen() || !s.flow_.take_polled())
     return;  // taken first: push_ring below comes back here
   for (const SubscriptionRecord& r : s.subscriptions) {
     if (!subscribers[r.id.value()].polled) continue;
@@ -224,8 +224,18 @@ void Router::hand_over_polled(ServiceRuntime& s) {
 
 // ---- output to a service ----
 
+void Router::on_idle(ServiceRuntime& s, std::uint64_t frames_received) { s.flow_.on_idle(frames_received); }
+void Router::note_polled(ServiceRuntime& s) { s.flow_.note_polled(); }
+void Router::count_sent(ServiceRuntime& s) { s.flow_.count_sent(); }
+void Router::request_sweep(ServiceRuntime& s) { s.flow_.request_sweep(); }
+void Router::channel_opened(ServiceRuntime& s) { s.flow_.new_channel(); }
+void Router::channel_closed(ServiceRuntime& s) { s.flow_.reset(); }
+void Router::new_step() {
+  for (ServiceRuntime& s : k.services) s.flow_.new_step();
+}
+
 void Router::set_writable_interest(ServiceRuntime& s, bool want) {
-  if (!s.proc.channel.valid() || !s.flow.set_want_writable(want)) return;
+  if (!s.proc.channel.valid() || !s.flow_.set_want_writable(want)) return;
   (void)k.epoll.modify(s.proc.channel.fd(), token(Source::Channel, s.id.value()),
                        sys::Interest{.readable = !k.input.paused(s), .writable = want});
 }
@@ -233,16 +243,16 @@ void Router::set_writable_interest(ServiceRuntime& s, bool want) {
 Router::SendResult Router::send_now(ServiceRuntime& s, std::span<const std::byte> frame) {
   if (!s.proc.channel.valid()) return SendResult::Failed;
   if (batch.is_open()) {
-    if (batch.add(s.id, s.flow, frame)) uncork_service(s);  // full
+    if (batch.add(s.id, s.flow_, frame)) uncork_service(s);  // full
     return SendResult::Sent;
   }
   auto sent = s.proc.channel.send(frame);
   if (sent) {
-    s.flow.count_sent();
+    s.flow_.count_sent();
     return SendResult::Sent;
   }
   if (sent.error().error == EAGAIN) {
-    s.flow.hold(frame);
+    s.flow_.hold(frame);
     set_writable_interest(s, true);
     return SendResult::Blocked;
   }
@@ -278,8 +288,8 @@ void Router::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
   if (k.rejuvenator.routing_frozen())
     return;  // a checkpoint or rollback is timed (rejuvenator.cpp): it stays in the ring, swept after
   hand_over_polled(s);         // the service is about to wake: its polled news goes first
-  if (!s.flow.drained()) {
-    s.flow.queue_ring(subscriber);  // keep publish order: behind what is already waiting
+  if (!s.flow_.drained()) {
+    s.flow_.queue_ring(subscriber);  // keep publish order: behind what is already waiting
     return;
   }
   (void)deliver_one(s, subscriber);
@@ -288,11 +298,11 @@ void Router::push_ring(ServiceRuntime& s, broker::SubscriberId subscriber) {
 void Router::send_control(ServiceRuntime& s, std::span<const std::byte> frame) {
   if (!s.live() || !s.proc.channel.valid()) return;
   hand_over_polled(s);  // the service is about to wake: its polled news goes first
-  if (s.flow.drained()) {
+  if (s.flow_.drained()) {
     (void)send_now(s, frame);
     return;
   }
-  switch (s.flow.queue_control(frame)) {
+  switch (s.flow_.queue_control(frame)) {
     case FlowControl::Queued::Yes: return;
     case FlowControl::Queued::PoolFull:
       k.supervisor.kill_hung(s, "does not read its channel (control queue full)");
@@ -317,10 +327,10 @@ void Router::uncork() {
 }
 
 void Router::uncork_service(ServiceRuntime& s) {
-  batch.flush(s.id, s.proc.channel, s.flow, [&](std::span<const std::byte> refused) {
+  batch.flush(s.id, s.proc.channel, s.flow_, [&](std::span<const std::byte> refused) {
     // In order: the first is held, the rest wait behind it as control frames (each counted when it leaves).
     std::size_t offset = 0;
-    s.flow.hold(wire::next_frame(refused, offset));
+    s.flow_.hold(wire::next_frame(refused, offset));
     set_writable_interest(s, true);
     while (offset < refused.size()) send_control(s, wire::next_frame(refused, offset));
   });
@@ -329,21 +339,21 @@ void Router::uncork_service(ServiceRuntime& s) {
 void Router::drain(ServiceRuntime& s) {
   for (;;) {
     if (!s.proc.channel.valid()) return;
-    if (s.flow.has_held()) {
-      auto sent = s.proc.channel.send(s.flow.held());
+    if (s.flow_.has_held()) {
+      auto sent = s.proc.channel.send(s.flow_.held());
       if (!sent) return;  // EAGAIN: still full (or gone)
-      s.flow.held_sent();
+      s.flow_.held_sent();
     }
-    if (s.flow.pop([&](broker::SubscriberId subscriber) { (void)deliver_one(s, subscriber); },
+    if (s.flow_.pop([&](broker::SubscriberId subscriber) { (void)deliver_one(s, subscriber); },
                    [&](std::span<const std::byte> frame) { (void)send_now(s, frame); })) {
       continue;
     }
-    if (s.flow.take_sweep()) {
+    if (s.flow_.take_sweep()) {
       for (const SubscriptionRecord& r : s.subscriptions) {
-        while (!s.flow.has_held() && deliver_one(s, r.id)) {
+        while (!s.flow_.has_held() && deliver_one(s, r.id)) {
         }
-        if (s.flow.has_held()) {
-          s.flow.request_sweep();  // blocked again: continue when it drains
+        if (s.flow_.has_held()) {
+          s.flow_.request_sweep();  // blocked again: continue when it drains
           return;
         }
       }

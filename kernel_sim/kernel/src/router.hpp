@@ -81,6 +81,14 @@ class Router {
   // Whether `s` is over its publication budget now (docs/sandbox.md "Floods cost only the flooder"): its last
   // publication was dropped and its bucket has not refilled 1 % of its burst since.
   [[nodiscard]] bool dropping(const ServiceRuntime& s);
+  // What the other owners tell the Router about a service's channel (its FlowControl is the Router's alone):
+  void on_idle(ServiceRuntime& s, std::uint64_t frames_received);  // an Idle: what it reports handled
+  void note_polled(ServiceRuntime& s);  // a polled subscription of `s` has news (handed over at its next wake-up)
+  void count_sent(ServiceRuntime& s);   // a frame another owner sent on the channel itself (a Snapshot with fds)
+  void request_sweep(ServiceRuntime& s);  // every subscription drained once its out-queue empties (routing resumed)
+  void channel_opened(ServiceRuntime& s);  // a spawn or a restored image: its Idle count restarts
+  void channel_closed(ServiceRuntime& s);  // a death or a retired incarnation: nothing waits, nothing is held
+  void new_step();  // lockstep: every service's publication bound starts again
   void cork();    // opens the output batch (output_batch.hpp) for a routing round
   void uncork();  // closes it and flushes every service's frames
   void set_writable_interest(ServiceRuntime& s, bool want);

@@ -6,7 +6,8 @@
 //                  channel and why it was lost
 //   pages          the image base of the live incarnation, for images by written pages (checkpoint.cpp)
 //   flow           delivery and flow control on its channel (router.cpp): the order of frames, the held frame,
-//                  the control pool, the frame count that Idle reports, the per-step publication bound
+//                  the control pool, the frame count that Idle reports, the per-step publication bound; read
+//                  by every owner (flow()), written by the Router alone (the others tell it what happened)
 //   sandbox        containment (warden.cpp): seccomp listener, output pipe, sessions, log rate limit
 //   subscriptions  saved and restored with the images (channel_input.cpp, checkpointed_state.cpp)
 //   stats          counters for Kernel::stats (every file counts its own; frames_out is flow's)
@@ -153,7 +154,8 @@ struct OutEntry {
 };
 
 // Delivery and flow control on one service's channel (docs/design.md §5; docs/protocol.md "Delivery and flow control"
-// and "Idle"). Written by router.cpp (and the output batch, output_batch.hpp); the channel itself is proc's.
+// and "Idle"). Written by the Router alone (router.cpp, and the output batch it hands it to, output_batch.hpp);
+// the channel itself is proc's.
 // It keeps its own invariants:
 // - order: a frame goes out at once only when nothing is held, queued or to sweep (drained()); otherwise it
 //   waits behind, a ring entry in the out-queue, a control frame in the pool with its index in the out-queue.
@@ -324,6 +326,8 @@ struct Containment {
   LogLimiter limiter{};
 };
 
+class Router;
+
 // Everything the kernel knows about one service.
 struct ServiceRuntime {
   ServiceId id{};      // its policy declaration order = its CSpace (create.cpp)
@@ -331,7 +335,6 @@ struct ServiceRuntime {
   ServiceConfig config{};
   Incarnation proc{};
   WrittenPages pages{};
-  FlowControl flow{};
   Containment sandbox{};
   std::vector<SubscriptionRecord> subscriptions{};
   ServiceStats stats{};  // frames_out is flow's (Kernel::stats fills it in)
@@ -340,8 +343,13 @@ struct ServiceRuntime {
   [[nodiscard]] bool live() const { return proc.live(); }
   // Lockstep (docs/protocol.md "Idle"): it has reported every frame sent to it and nothing waits for it.
   [[nodiscard]] bool idle() const {
-    return proc.phase() != Phase::Ready || proc.scripted || (flow.reported_all() && flow.drained());
+    return proc.phase() != Phase::Ready || proc.scripted || (flow_.reported_all() && flow_.drained());
   }
+  [[nodiscard]] const FlowControl& flow() const { return flow_; }
+
+ private:
+  friend class Router;  // the one writer of flow_
+  FlowControl flow_{};
 };
 
 }  // namespace rejuv::kernel

@@ -433,7 +433,7 @@ void Supervisor::on_child_exit(ServiceRuntime& s) {
   s.stats.exit = **status;
   k.broker.remove_service(s.id);
   k.timers.remove_service(s.id);
-  s.flow.reset();
+  k.router.channel_closed(s);
   // What it wrote last (often why it ended) before the kernel's own line about it.
   k.warden.on_service_output(s);
   // Killed by the OOM killer of its live cgroup leaf (docs/sandbox.md "A cgroup per service"): the live
@@ -475,7 +475,7 @@ void Supervisor::lose_service(ServiceRuntime& s, std::string reason) {
   // A link between hosts (never rolled back: it holds no state of the flight) is restarted from its binary.
   if (s.config.link && s.stats.spawns <= kMaxLinkRestarts) {
     s.subscriptions.clear();
-    s.flow.new_channel();
+    k.router.channel_opened(s);
     if (auto ok = spawn_one(s); !ok) {
       k.stop_run(StopReason::ServiceFailed, "restarting '" + s.name + "': " + ok.error().message);
       return;
@@ -517,10 +517,10 @@ void Supervisor::report_stall() {
     for (const ServiceRuntime& s : k.services) {
       if (!s.live() || s.idle()) continue;
       what += "; '" + s.name + "' not idle (phase " + std::to_string(static_cast<int>(s.proc.phase())) + ", idle " +
-              std::to_string(s.flow.reported()) + "/" + std::to_string(s.flow.frames_out()) +
-              (s.flow.has_held() ? ", held" : "") +
-              (s.flow.queued() == 0 ? "" : ", queued " + std::to_string(s.flow.queued())) +
-              (s.flow.sweeping() ? ", sweep" : "") + ")";
+              std::to_string(s.flow().reported()) + "/" + std::to_string(s.flow().frames_out()) +
+              (s.flow().has_held() ? ", held" : "") +
+              (s.flow().queued() == 0 ? "" : ", queued " + std::to_string(s.flow().queued())) +
+              (s.flow().sweeping() ? ", sweep" : "") + ")";
     }
     if (k.rejuvenator.coordinator().checkpoint() == ImageCoordinator::Checkpoint::Asked)
       what += "; a checkpoint waits for quiescence";
@@ -580,8 +580,8 @@ LivenessSight Supervisor::liveness_sight(const ServiceRuntime& s) const {
   const bool watched = s.config.rejuvenate && s.live() && !s.proc.scripted && s.proc.phase() == Phase::Ready &&
                        s.proc.loss_reason.empty() && !k.rejuvenator.catch_up().in_replay(s.id);
   return LivenessSight{.id = s.id, .watched = watched, .chain = runs_fifo(s), .pid = s.proc.process.pid(),
-                       .frames_in = s.stats.frames_in, .frames_out = s.flow.frames_out(),
-                       .reported = s.flow.reported()};
+                       .frames_in = s.stats.frames_in, .frames_out = s.flow().frames_out(),
+                       .reported = s.flow().reported()};
 }
 
 void Supervisor::watch_liveness() {
@@ -599,10 +599,10 @@ void Supervisor::watch_liveness() {
         break;
       case LivenessCall::Kind::Overdue:
         if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
-        if (s.live() && s.flow.reported() < call.owed) {
+        if (s.live() && s.flow().reported() < call.owed) {
           const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(call.deadline);
           kill_hung(s, "no Idle within " + std::to_string(bound.count()) + " ms of a Sync in real time (" +
-                           std::to_string(s.flow.reported()) + " of " + std::to_string(call.owed) +
+                           std::to_string(s.flow().reported()) + " of " + std::to_string(call.owed) +
                            " frames reported" + (sight.chain ? ", at SCHED_FIFO" : "") + ")");
         }
         liveness_.fresh(liveness_sight(s), t);
