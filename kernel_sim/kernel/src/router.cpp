@@ -224,12 +224,6 @@ void Router::hand_over_polled(ServiceRuntime& s) {
 
 // ---- output to a service ----
 
-void Router::on_idle(ServiceRuntime& s, std::uint64_t frames_received) { s.flow_.on_idle(frames_received); }
-void Router::note_polled(ServiceRuntime& s) { s.flow_.note_polled(); }
-void Router::count_sent(ServiceRuntime& s) { s.flow_.count_sent(); }
-void Router::request_sweep(ServiceRuntime& s) { s.flow_.request_sweep(); }
-void Router::channel_opened(ServiceRuntime& s) { s.flow_.new_channel(); }
-void Router::channel_closed(ServiceRuntime& s) { s.flow_.reset(); }
 void Router::new_step() {
   for (ServiceRuntime& s : k.services) s.flow_.new_step();
 }

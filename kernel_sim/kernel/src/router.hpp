@@ -82,12 +82,18 @@ class Router {
   // publication was dropped and its bucket has not refilled 1 % of its burst since.
   [[nodiscard]] bool dropping(const ServiceRuntime& s);
   // What the other owners tell the Router about a service's channel (its FlowControl is the Router's alone):
-  void on_idle(ServiceRuntime& s, std::uint64_t frames_received);  // an Idle: what it reports handled
-  void note_polled(ServiceRuntime& s);  // a polled subscription of `s` has news (handed over at its next wake-up)
-  void count_sent(ServiceRuntime& s);   // a frame another owner sent on the channel itself (a Snapshot with fds)
-  void request_sweep(ServiceRuntime& s);  // every subscription drained once its out-queue empties (routing resumed)
-  void channel_opened(ServiceRuntime& s);  // a spawn or a restored image: its Idle count restarts
-  void channel_closed(ServiceRuntime& s);  // a death or a retired incarnation: nothing waits, nothing is held
+  // an Idle: what it reports handled
+  void on_idle(ServiceRuntime& s, std::uint64_t frames_received) { s.flow_.on_idle(frames_received); }
+  // a polled subscription of `s` has news (handed over at its next wake-up)
+  void note_polled(ServiceRuntime& s) { s.flow_.note_polled(); }
+  // a frame another owner sent on the channel itself (a Snapshot with its fds)
+  void count_sent(ServiceRuntime& s) { s.flow_.count_sent(); }
+  // every subscription drained once its out-queue empties (routing resumed)
+  void request_sweep(ServiceRuntime& s) { s.flow_.request_sweep(); }
+  // a spawn or a restored image: its Idle count restarts
+  void channel_opened(ServiceRuntime& s) { s.flow_.new_channel(); }
+  // a death or a retired incarnation: nothing waits, nothing is held
+  void channel_closed(ServiceRuntime& s) { s.flow_.reset(); }
   void new_step();  // lockstep: every service's publication bound starts again
   void cork();    // opens the output batch (output_batch.hpp) for a routing round
   void uncork();  // closes it and flushes every service's frames

@@ -326,8 +326,6 @@ struct Containment {
   LogLimiter limiter{};
 };
 
-class Router;
-
 // Everything the kernel knows about one service.
 struct ServiceRuntime {
   ServiceId id{};      // its policy declaration order = its CSpace (create.cpp)

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "liveness_watch.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/kernel/kernel.hpp"
-#include "liveness_watch.hpp"
 #include "rejuv/sys/process.hpp"
 #include "service_runtime.hpp"
 
