@@ -10,10 +10,11 @@
 // gnuplot is present).
 //
 // The verdict compares, per series, the last 20 % of the samples (at least 3) with the 20 % after a warm-up of
-// 10 % of the samples and at least 15 000 steps (60 s) of flight, at most half: by their medians, RSS may grow by
-// at most --kernel-rss-kb (this process) or --service-rss-kb (each service and the plant), mappings by
-// --maps-slack beyond the baseline window's largest; by their smallest values, fds, threads and processes may
-// not rise (a leak is in every later sample, a process on its way in some); with --one-kernel the SR cycle's length (sr_cycle_s, simulated
+// 10 % of the samples and at least 15 000 steps (60 s) of flight, at most half: by their largest values, RSS may
+// grow by at most --kernel-rss-kb (this process) or --service-rss-kb (each service and the plant); by their
+// medians, mappings by --maps-slack beyond the baseline window's largest; by their most frequent values, fds,
+// threads and processes may not rise (a leak is in every later sample, a transient in some: see judge()); with
+// --one-kernel the SR cycle's length (sr_cycle_s, simulated
 // seconds per rollback between samples) within 1.25x of the baseline's (a slower cycle is a vehicle that
 // stays in safety control, while memory may stay flat). Exit 0 when every series stays in its bound and the
 // soak reached N cycles without a failure, 1 otherwise (naming the series), 2 on bad input.
@@ -413,6 +414,20 @@ double median(std::vector<double> v) {
   return v.size() % 2 == 1 ? v[v.size() / 2] : (v[v.size() / 2 - 1] + v[v.size() / 2]) / 2;
 }
 
+// The value most samples hold (the smaller of equally frequent ones).
+double most_frequent(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  double best = kNaN;
+  std::size_t best_run = 0;
+  for (std::size_t i = 0; i < v.size();) {
+    std::size_t j = i;
+    while (j < v.size() && v[j] == v[i]) ++j;
+    if (j - i > best_run) best = v[i], best_run = j - i;
+    i = j;
+  }
+  return best;
+}
+
 struct Verdict {
   std::string name;
   double baseline = kNaN, last = kNaN, growth = kNaN, bound = kNaN;
@@ -449,12 +464,23 @@ Verdict judge(const Series& s, std::size_t b0, double kernel_rss_kb, double serv
     v.readable = false;
     return v;
   }
-  // A count (fds, threads, processes) is judged by its smallest value in each window: what leaked stays in every
-  // sample after it, while a process or fd on its way (an image being forked, a generation being trimmed, a
-  // spare) is in some samples only: in real time a sample's phase in the cycle is not fixed.
-  const bool count = s.kind == Series::Kind::Count;
-  v.baseline = count ? *std::min_element(base.begin(), base.end()) : median(base);
-  v.last = count ? *std::min_element(last.begin(), last.end()) : median(last);
+  // Each window reduced to what a leak moves and a transient does not. What leaked is in every sample after it;
+  // a transient is in some samples only, in either direction, because a sample's phase in the cycle is not
+  // fixed (in real time, and in lockstep on a loaded machine):
+  //  - a count (fds, threads, processes) by its most frequent value: an fd or process on its way (an image
+  //    being forked, a generation trimmed, an image's fd replaced) raises or lowers a few samples;
+  //  - RSS by its largest value: a process's resident memory dips when its allocator gives a burst's pages back
+  //    (glibc trims a thread's arena once Cyclone's receive thread frees what a backlog held: the plant's fell
+  //    by up to 760 kB for a few milliseconds at load 8) and comes back at the next burst; a leak raises the
+  //    highest value as well as the lowest.
+  using Kind = Series::Kind;
+  const auto reduce = [&](const std::vector<double>& w) {
+    if (s.kind == Kind::Count) return most_frequent(w);
+    if (s.kind == Kind::KernelRss || s.kind == Kind::ServiceRss) return *std::max_element(w.begin(), w.end());
+    return median(w);
+  };
+  v.baseline = reduce(base);
+  v.last = reduce(last);
   v.growth = v.last - v.baseline;
   switch (s.kind) {
     // A sanitizer build's RSS holds its shadow of every address a run touches, and its runtime maps more shadow
@@ -466,7 +492,7 @@ Verdict judge(const Series& s, std::size_t b0, double kernel_rss_kb, double serv
     case Series::Kind::Maps:
       v.bound = sys::kSanitizerBuild ? kNaN : *std::max_element(base.begin(), base.end()) - v.baseline + maps_slack;
       break;
-    case Series::Kind::Count: v.bound = 0; break;  // the smallest value may not rise
+    case Series::Kind::Count: v.bound = 0; break;  // the most frequent value may not rise
     // The last 20 % within 1.25x of the early cycles.
     case Series::Kind::CycleLength: v.bound = one_kernel ? 0.25 * v.baseline : kNaN; break;
     case Series::Kind::Timing: v.bound = kNaN; break;  // reported: what this machine did, not a leak
@@ -700,8 +726,8 @@ int run_soak(std::span<const std::string_view> args) {
                "the plant and every service, the kernel's threads and children, the processes under it and in\n"
                "each service's session. Writes DIR/soak.csv (and DIR/soak.png with gnuplot). Compares the last\n"
                "20 % of the samples (at least 3) with the 20 % after a warm-up (10 % of the samples and at least\n"
-               "15 000 steps, 60 s, of flight; at most half of them): the median RSS may grow by the bounds\n"
-               "below; the smallest count (fds, threads, processes) may not rise. Exit 0 when flat, 1 when a\n"
+               "15 000 steps, 60 s, of flight; at most half of them): the largest RSS may grow by the bounds\n"
+               "below; the most frequent count (fds, threads, processes) may not rise. Exit 0 when flat, 1 when a\n"
                "series grew or the run failed (the series are named), 2 on bad input.");
   declare_soak_options(opts, r);
   if (auto exit = opts.parse_or_exit(args)) return *exit;
