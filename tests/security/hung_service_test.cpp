@@ -12,11 +12,18 @@
 // timing is asserted.
 #include <gtest/gtest.h>
 
+#include <pthread.h>
+#include <sched.h>
+
+#include <algorithm>
+#include <atomic>
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <ostream>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include "observed_flight.hpp"
 
@@ -116,6 +123,98 @@ INSTANTIATE_TEST_SUITE_P(ClocksAndTargets, HungService,
                          [](const ::testing::TestParamInfo<HungCase>& p) {
                            return std::string(p.param.realtime ? "RealTime_" : "Lockstep_") + p.param.target;
                          });
+
+// ---- a service starved of the CPU is not hung ----
+
+// Holds every CPU at SCHED_FIFO 55 — above the control chain (50, 45), below the kernel (60) and the plant (70) —
+// for kHog at a time, kBursts times kBurstEvery apart from `at` on the kernel clock: the chain is runnable and
+// gets no CPU, as on a machine whose real-time work outranks it (or whose virtual CPUs stall) while the kernel
+// runs on. One thread per CPU, pinned, each started from the kernel's thread (on_step) and joined at the end.
+class Starver final : public kernel::Observer {
+ public:
+  static constexpr int kBursts = 4;
+  static constexpr Nanos kHog{std::chrono::milliseconds{150}};
+  static constexpr Nanos kBurstEvery{std::chrono::milliseconds{1500}};
+
+  explicit Starver(Nanos at) : next_(at) {}
+  Starver(Starver&&) = default;
+  Starver& operator=(Starver&&) = delete;
+  Starver(const Starver&) = delete;
+  Starver& operator=(const Starver&) = delete;
+  ~Starver() override { join(); }
+  void attach(Kernel*) {}
+
+  void on_step(std::uint64_t, Nanos t, SrMode) override {
+    if (bursts_ >= kBursts || t < next_) return;
+    ++bursts_;
+    next_ = t + kBurstEvery;
+    const unsigned cpus = std::max(1U, std::thread::hardware_concurrency());
+    for (unsigned cpu = 0; cpu < cpus; ++cpu) {
+      hogs_.emplace_back([this, cpu] {
+        cpu_set_t set;
+        CPU_ZERO(&set);
+        CPU_SET(cpu, &set);
+        const sched_param param{.sched_priority = 55};
+        if (::pthread_setaffinity_np(::pthread_self(), sizeof(set), &set) != 0 ||
+            ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &param) != 0) {
+          refused_.fetch_add(1);
+          return;
+        }
+        const auto until = std::chrono::steady_clock::now() + kHog;
+        while (std::chrono::steady_clock::now() < until) {
+        }
+        held_.fetch_add(1);
+      });
+    }
+  }
+  void join() const {
+    for (std::thread& h : hogs_) {
+      if (h.joinable()) h.join();
+    }
+  }
+  [[nodiscard]] int bursts() const { return bursts_; }
+  [[nodiscard]] int held() const { return held_.load(); }
+  [[nodiscard]] int refused() const { return refused_.load(); }
+
+ private:
+  Nanos next_;
+  int bursts_ = 0;
+  mutable std::vector<std::thread> hogs_;  // joined by a const inspection (join)
+  std::atomic<int> held_{0}, refused_{0};
+};
+
+// In real time the chain, starved of every CPU for 150 ms four times, is spared: the watch finds it silent and
+// overdue, sees from its run-queue time that it waited for a CPU, says so, and kills nobody; the vehicle stays in
+// the safety set and nothing is cold-restarted. (A stopped service, which waits on no run queue, is still killed:
+// the HungService tests above.)
+TEST(StarvedService, ChainWithoutACpuInRealTime_NotKilledAsHung_VehicleStaysSafe) {
+  if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox and SCHED_FIFO need root here";
+  kernel::SrStats sr{};
+  int bursts = 0, held = 0, refused = 0;
+  mission::ObservedFlight f;
+  ASSERT_NO_FATAL_FAILURE(mission::fly_observed<Starver>(
+      true, kFlight, [&](Nanos alignment) { return Starver(alignment + Nanos{kStopAfter}); },
+      [&](const Kernel& k, const Starver& starver) {
+        sr = k.sr_stats();
+        starver.join();  // the hogs end on their own: joined before they are counted
+        bursts = starver.bursts();
+        held = starver.held();
+        refused = starver.refused();
+      },
+      f));
+  std::printf("[ real time ] %d bursts, %d CPU holds (%d refused SCHED_FIFO); max V %.3f; %llu rollbacks, %llu "
+              "cold restarts\n%s",
+              bursts, held, refused, f.summary.max_v(), static_cast<unsigned long long>(sr.rollbacks),
+              static_cast<unsigned long long>(sr.cold_restarts), f.log.lines_with("for a CPU").c_str());
+  ASSERT_EQ(refused, 0) << "the hogs could not run at SCHED_FIFO 55: the chain was not starved";
+  ASSERT_EQ(bursts, Starver::kBursts);
+  EXPECT_EQ(f.outcome->reason, StopReason::Duration) << f.outcome->detail;
+  // The starvation happened and the watch saw it for what it was.
+  EXPECT_NE(f.log.lines_with("waiting for a CPU").find("not hung"), std::string::npos) << f.log.text();
+  EXPECT_EQ(f.log.lines_with("no Idle within"), "") << "a service killed as hung while it waited for a CPU";
+  EXPECT_EQ(sr.cold_restarts, 0U);
+  EXPECT_LT(f.summary.max_v(), 1.0) << "the vehicle left the safety set";
+}
 
 }  // namespace
 }  // namespace rejuv::testing

@@ -7,12 +7,16 @@
 // within its deadline is hung (stopped, spinning, blocked) and killed, which rolls back. A service the real-time
 // plan runs at SCHED_FIFO (the control chain) is looked at every kChainLook with the chain's deadline, any other
 // every kLook with the others'. A service that keeps publishing is never asked: the control chain costs the
-// channel nothing. Lockstep has the step's idle deadline for this; in real time nothing else finds a hung service
+// channel nothing. A service still runnable when its deadline is over is judged by the CPU time it had since the
+// Sync instead: waiting for a CPU (a loaded machine, a stalled virtual CPU, a higher real-time priority) is the
+// machine's doing, not the service's, and is not held against it (spared_for_cpu) — for at most max_cpu_wait.
+// One that is stopped, blocked or asleep with the Sync unanswered is judged by the deadline as it is. Lockstep has the step's idle deadline for this; in real time nothing else finds a hung service
 // before the next timer rollback, and the vehicle flies on what it last published meanwhile.
 #pragma once
 
 #include <sys/types.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <optional>
 #include <vector>
@@ -31,6 +35,13 @@ struct LivenessSight {
   std::uint64_t frames_in = 0;   // frames it sent the kernel
   std::uint64_t frames_out = 0;  // frames the kernel sent it
   std::uint64_t reported = 0;    // of those, reported handled (its Idles)
+};
+
+// What the scheduler gives a service's live incarnation (sys::task_cpu of its main thread): CPU time since birth,
+// and whether it is runnable (running, or waiting for a CPU) rather than asleep, blocked or stopped.
+struct CpuSight {
+  Nanos ran{0};
+  bool runnable = false;
 };
 
 // What the Supervisor does about a service after a look.
@@ -78,17 +89,50 @@ class LivenessWatch {
     return {.kind = LivenessCall::Kind::Overdue, .owed = probe.owed, .deadline = deadline};
   }
 
-  // The Sync asked for went to `id` at `wall`: its Idle must report `owed` frames.
-  void asked(ServiceId id, Nanos wall, std::uint64_t owed) {
+  // The Sync asked for went to `id` at `wall`: its Idle must report `owed` frames. `cpu`: what the scheduler had
+  // given its live incarnation until then, nullopt when unknown.
+  void asked(ServiceId id, Nanos wall, std::uint64_t owed, std::optional<CpuSight> cpu = std::nullopt) {
     Probe& probe = probe_of(id);
     probe.asked_at = wall;
     probe.owed = owed;
+    probe.ran_at_ask = cpu ? std::optional<Nanos>{cpu->ran} : std::nullopt;
+    probe.spared = false;
+  }
+
+  // The longest a service is spared for waiting for a CPU after a Sync: a service the machine does not run
+  // enough for that long is judged (its deadline's tenfold, at least a second).
+  [[nodiscard]] static Nanos max_cpu_wait(Nanos deadline) {
+    return std::max<Nanos>(10 * deadline, std::chrono::seconds{1});
+  }
+
+  // A service spared for waiting for a CPU: the CPU time it had since the Sync, the time since the Sync, and
+  // whether this is the first time for this Sync (worth a log line).
+  struct Spared {
+    Nanos ran{0};
+    Nanos since{0};
+    bool first = false;
+  };
+
+  // After an Overdue whose Idle is not in the channel: whether the service is spared because it is runnable and
+  // has had less than its deadline of CPU time since the Sync. `cpu`: what the scheduler gives it now, nullopt
+  // when unknown. Never spared when the time since the Sync is over max_cpu_wait; nullopt (hung) otherwise. A
+  // service that spins has the CPU time; one stopped, blocked or asleep is not runnable.
+  [[nodiscard]] std::optional<Spared> spared_for_cpu(ServiceId id, Nanos wall, std::optional<CpuSight> cpu,
+                                                     Nanos deadline) {
+    Probe& probe = probe_of(id);
+    if (!probe.asked_at || !probe.ran_at_ask || !cpu || !cpu->runnable) return std::nullopt;
+    const Nanos ran = std::max(Nanos{0}, cpu->ran - *probe.ran_at_ask);
+    const Nanos since = wall - *probe.asked_at;
+    if (ran > deadline || since > max_cpu_wait(deadline)) return std::nullopt;
+    const bool first = !probe.spared;
+    probe.spared = true;
+    return Spared{.ran = ran, .since = since, .first = first};
   }
 
   // After an Overdue (killed, or its Idle was in the channel): looked at afresh from what it is now.
   void fresh(const LivenessSight& s, Nanos wall) {
     probe_of(s.id) = Probe{.pid = s.pid, .frames_in = s.frames_in, .asked_at = std::nullopt, .owed = 0,
-                           .looked_at = wall};
+                           .ran_at_ask = std::nullopt, .spared = false, .looked_at = wall};
   }
 
  private:
@@ -99,6 +143,8 @@ class LivenessWatch {
     std::uint64_t frames_in = 0;
     std::optional<Nanos> asked_at{};
     std::uint64_t owed = 0;
+    std::optional<Nanos> ran_at_ask{};  // its CPU time when the Sync went (sys::task_cpu)
+    bool spared = false;                // spared for waiting for a CPU since the Sync
     Nanos looked_at{Nanos::min() / 2};  // never looked at: due at once
   };
   Probe& probe_of(ServiceId id) {

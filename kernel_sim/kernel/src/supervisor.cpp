@@ -584,6 +584,12 @@ LivenessSight Supervisor::liveness_sight(const ServiceRuntime& s) const {
                        .reported = s.flow().reported()};
 }
 
+std::optional<CpuSight> Supervisor::cpu_sight(const ServiceRuntime& s) {
+  auto cpu = sys::task_cpu(s.proc.process.pid());
+  if (!cpu) return std::nullopt;
+  return CpuSight{.ran = cpu->ran, .runnable = cpu->runnable};
+}
+
 void Supervisor::watch_liveness() {
   if (!k.sr) return;  // without SR a kill ends the run: a slow service is not worth that
   const Nanos t = k.wall();
@@ -595,15 +601,26 @@ void Supervisor::watch_liveness() {
       case LivenessCall::Kind::Nothing:
         break;
       case LivenessCall::Kind::Ask:
-        if (k.ask_idle(s)) liveness_.asked(s.id, t, call.owed);
+        if (k.ask_idle(s)) liveness_.asked(s.id, t, call.owed, cpu_sight(s));
         break;
       case LivenessCall::Kind::Overdue:
         if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
         if (s.live() && s.flow().reported() < call.owed) {
-          const auto bound = std::chrono::duration_cast<std::chrono::milliseconds>(call.deadline);
-          kill_hung(s, "no Idle within " + std::to_string(bound.count()) + " ms of a Sync in real time (" +
+          const std::optional<CpuSight> cpu = cpu_sight(s);
+          const auto ms = [](Nanos d) { return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count()); };
+          if (const auto spared = liveness_.spared_for_cpu(s.id, t, cpu, call.deadline)) {
+            // Runnable with less than its deadline of CPU time: the machine's doing. Looked at again next time.
+            if (spared->first) {
+              k.log("'%s' waiting for a CPU: %s ms on one in the %s ms since a Sync: not hung (its deadline counts "
+                    "CPU time while it is runnable)",
+                    s.name.c_str(), ms(spared->ran).c_str(), ms(spared->since).c_str());
+            }
+            break;
+          }
+          kill_hung(s, "no Idle within " + ms(call.deadline) + " ms of a Sync in real time (" +
                            std::to_string(s.flow().reported()) + " of " + std::to_string(call.owed) +
-                           " frames reported" + (sight.chain ? ", at SCHED_FIFO" : "") + ")");
+                           " frames reported" + (sight.chain ? ", at SCHED_FIFO" : "") +
+                           (cpu ? "" : "; its CPU time unknown") + ")");
         }
         liveness_.fresh(liveness_sight(s), t);
         break;

@@ -69,6 +69,9 @@ class Supervisor {
   std::vector<pid_t> fifo_pid_;          // per service: the process apply_realtime put at SCHED_FIFO (0: none)
   [[nodiscard]] bool runs_fifo(const ServiceRuntime& s) const;
   [[nodiscard]] LivenessSight liveness_sight(const ServiceRuntime& s) const;
+  // What the scheduler gives the live incarnation's main thread (the one that answers its channel;
+  // sys::task_cpu); nullopt when it cannot be read.
+  [[nodiscard]] static std::optional<CpuSight> cpu_sight(const ServiceRuntime& s);
   LivenessWatch liveness_;
 };
 

@@ -676,4 +676,35 @@ std::optional<pid_t> thread_group_of(pid_t tid) {
   return std::nullopt;
 }
 
+namespace {
+// Up to `size - 1` bytes of a small /proc file, NUL-terminated.
+SysResult<std::size_t> read_small(const char* path, std::span<char> out) {
+  const UniqueFd fd(::open(path, O_RDONLY | O_CLOEXEC));
+  if (!fd) return last_error(std::string("open(") + path + ")");
+  const ssize_t n = ::read(fd.get(), out.data(), out.size() - 1);
+  if (n < 0) return last_error(std::string("read(") + path + ")");
+  out[static_cast<std::size_t>(n)] = '\0';
+  return static_cast<std::size_t>(n);
+}
+}  // namespace
+
+SysResult<TaskCpu> task_cpu(pid_t tid) {
+  char path[48];
+  std::array<char, 512> text{};
+  std::snprintf(path, sizeof path, "/proc/%d/schedstat", static_cast<int>(tid));
+  if (auto n = read_small(path, text); !n) return std::unexpected(n.error());
+  unsigned long long ran = 0;  // "<ns on a CPU> <ns waited on a run queue> <timeslices>"
+  if (std::sscanf(text.data(), "%llu", &ran) != 1) return std::unexpected(SysError{"parse(/proc/TID/schedstat)", EINVAL});
+  std::snprintf(path, sizeof path, "/proc/%d/stat", static_cast<int>(tid));
+  auto n = read_small(path, text);
+  if (!n) return std::unexpected(n.error());
+  // "<pid> (<comm>) <state> …": the command may hold spaces and parentheses, the state follows the last ')'.
+  const std::string_view stat(text.data(), *n);
+  const std::size_t close = stat.rfind(')');
+  if (close == std::string_view::npos || close + 2 >= stat.size()) {
+    return std::unexpected(SysError{"parse(/proc/TID/stat)", EINVAL});
+  }
+  return TaskCpu{.ran = Nanos{static_cast<std::int64_t>(ran)}, .runnable = stat[close + 2] == 'R'};
+}
+
 }  // namespace rejuv::sys

@@ -123,5 +123,74 @@ TEST(LivenessWatch, Services_AreWatchedApart) {
   EXPECT_EQ(watch.look(b, milliseconds{10}).kind, Kind::Nothing) << "b owes nothing";
 }
 
+// A service still runnable when its deadline is over is judged by the CPU time it had since the Sync: waiting for
+// a CPU is spared; once it has had its deadline's worth of CPU without answering, it is hung.
+TEST(LivenessWatch, RunnableServiceWaitingForACpu_SparedUntilItHadItsDeadlineOfCpu) {
+  LivenessWatch watch(kChainDeadline, kOtherDeadline);
+  const LivenessSight silent = sight(true, 42, 10, 20, 15);
+  (void)watch.look(silent, milliseconds{0});
+  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed,
+              CpuSight{.ran = milliseconds{500}, .runnable = true});
+  ASSERT_EQ(watch.look(silent, milliseconds{50}).kind, Kind::Overdue);
+  // 40 ms since the Sync, 5 ms of them on a CPU, runnable: waiting for one.
+  const auto spared = watch.spared_for_cpu(silent.id, milliseconds{50}, CpuSight{milliseconds{505}, true}, kChainDeadline);
+  ASSERT_TRUE(spared.has_value());
+  EXPECT_EQ(spared->ran, milliseconds{5});
+  EXPECT_EQ(spared->since, milliseconds{40});
+  EXPECT_TRUE(spared->first) << "the first spare of this Sync: said once";
+  ASSERT_EQ(watch.look(silent, milliseconds{60}).kind, Kind::Overdue);
+  const auto again = watch.spared_for_cpu(silent.id, milliseconds{60}, CpuSight{milliseconds{520}, true}, kChainDeadline);
+  ASSERT_TRUE(again.has_value());
+  EXPECT_FALSE(again->first);
+  // Then it had 31 ms of CPU without answering: it spins.
+  ASSERT_EQ(watch.look(silent, milliseconds{90}).kind, Kind::Overdue);
+  EXPECT_FALSE(watch.spared_for_cpu(silent.id, milliseconds{90}, CpuSight{milliseconds{531}, true}, kChainDeadline))
+      << "31 ms of CPU since the Sync: over the 30 ms deadline";
+}
+
+// A service stopped (SIGSTOP), blocked or asleep with the Sync unanswered is not waiting for a CPU: the deadline
+// holds as it is, however little CPU it had.
+TEST(LivenessWatch, ServiceNotRunnable_HungAtItsDeadline) {
+  LivenessWatch watch(kChainDeadline, kOtherDeadline);
+  const LivenessSight silent = sight(true, 42, 10, 20, 15);
+  (void)watch.look(silent, milliseconds{0});
+  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed,
+              CpuSight{.ran = milliseconds{500}, .runnable = true});
+  ASSERT_EQ(watch.look(silent, milliseconds{50}).kind, Kind::Overdue);
+  EXPECT_FALSE(watch.spared_for_cpu(silent.id, milliseconds{50}, CpuSight{milliseconds{500}, false}, kChainDeadline));
+}
+
+// Starved for longer than max_cpu_wait: judged (a service the machine does not run is lost to the vehicle).
+TEST(LivenessWatch, ServiceStarvedPastTheBound_Hung) {
+  LivenessWatch watch(kChainDeadline, kOtherDeadline);
+  EXPECT_EQ(LivenessWatch::max_cpu_wait(kChainDeadline), std::chrono::seconds{1});
+  EXPECT_EQ(LivenessWatch::max_cpu_wait(kOtherDeadline), std::chrono::seconds{2});
+  const LivenessSight silent = sight(true, 42, 10, 20, 15);
+  (void)watch.look(silent, milliseconds{0});
+  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed, CpuSight{milliseconds{0}, true});
+  ASSERT_EQ(watch.look(silent, milliseconds{1000}).kind, Kind::Overdue);
+  EXPECT_TRUE(watch.spared_for_cpu(silent.id, milliseconds{1000}, CpuSight{milliseconds{2}, true}, kChainDeadline))
+      << "990 ms since the Sync, 2 ms of CPU";
+  ASSERT_EQ(watch.look(silent, milliseconds{1020}).kind, Kind::Overdue);
+  EXPECT_FALSE(watch.spared_for_cpu(silent.id, milliseconds{1020}, CpuSight{milliseconds{2}, true}, kChainDeadline))
+      << "1010 ms since the Sync: past the bound however little CPU it had";
+}
+
+// Where its CPU time is unknown (at the Sync or now), the deadline holds as it is.
+TEST(LivenessWatch, CpuTimeUnknown_HungAtItsDeadline) {
+  LivenessWatch watch(kChainDeadline, kOtherDeadline);
+  const LivenessSight silent = sight(true, 42, 10, 20, 15);
+  (void)watch.look(silent, milliseconds{0});
+  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed);  // unknown at the Sync
+  ASSERT_EQ(watch.look(silent, milliseconds{50}).kind, Kind::Overdue);
+  EXPECT_FALSE(watch.spared_for_cpu(silent.id, milliseconds{50}, CpuSight{milliseconds{0}, true}, kChainDeadline));
+  LivenessWatch now_unknown(kChainDeadline, kOtherDeadline);
+  (void)now_unknown.look(silent, milliseconds{0});
+  now_unknown.asked(silent.id, milliseconds{10}, now_unknown.look(silent, milliseconds{10}).owed,
+                    CpuSight{milliseconds{0}, true});
+  ASSERT_EQ(now_unknown.look(silent, milliseconds{50}).kind, Kind::Overdue);
+  EXPECT_FALSE(now_unknown.spared_for_cpu(silent.id, milliseconds{50}, std::nullopt, kChainDeadline));
+}
+
 }  // namespace
 }  // namespace rejuv::kernel

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <cstring>
 #include <algorithm>
@@ -800,4 +801,56 @@ TEST(Process, KillAndReapOwnChild_KillsAChildAndLeavesOthersAlone) {
   EXPECT_EQ(::kill(child, 0), -1) << "killed and reaped: the pid names nothing";
   EXPECT_EQ(errno, ESRCH);
   EXPECT_FALSE(rejuv::sys::kill_and_reap_own_child(child));
+}
+
+// ---- What the scheduler gave a thread (sys::task_cpu, the liveness watch's "waiting for a CPU") ----
+
+namespace {
+// A child that spins on CPU 0 until killed.
+pid_t spinner_on_cpu0() {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(0, &set);
+    (void)::sched_setaffinity(0, sizeof(set), &set);
+    std::atomic<std::uint64_t> spins{0};
+    for (;;) spins.fetch_add(1, std::memory_order_relaxed);
+  }
+  return pid;
+}
+}  // namespace
+
+// Three spinners on one CPU: each is runnable the whole time (running or waiting for the CPU) and runs; a stopped
+// one is not runnable and does not run.
+TEST(TaskCpu, SpinnerRunnableAndRuns_StoppedNeither) {
+  std::array<pid_t, 3> spinners{spinner_on_cpu0(), spinner_on_cpu0(), spinner_on_cpu0()};
+  for (const pid_t p : spinners) ASSERT_GT(p, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds{50});
+  const auto before = rejuv::sys::task_cpu(spinners[0]);
+  std::this_thread::sleep_for(std::chrono::milliseconds{300});
+  const auto after = rejuv::sys::task_cpu(spinners[0]);
+  ASSERT_TRUE(before.has_value()) << before.error().to_string();
+  ASSERT_TRUE(after.has_value()) << after.error().to_string();
+  EXPECT_GT(after->ran, before->ran) << "it ran";
+  EXPECT_TRUE(before->runnable);
+  EXPECT_TRUE(after->runnable);
+
+  ASSERT_EQ(::kill(spinners[1], SIGSTOP), 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds{50});
+  const auto stopped = rejuv::sys::task_cpu(spinners[1]);
+  std::this_thread::sleep_for(std::chrono::milliseconds{200});
+  const auto still = rejuv::sys::task_cpu(spinners[1]);
+  ASSERT_TRUE(stopped.has_value());
+  ASSERT_TRUE(still.has_value());
+  EXPECT_FALSE(still->runnable) << "stopped";
+  EXPECT_EQ(still->ran, stopped->ran) << "a stopped process does not run";
+  for (const pid_t p : spinners) {
+    (void)::kill(p, SIGKILL);
+    (void)::waitpid(p, nullptr, 0);
+  }
+  EXPECT_FALSE(rejuv::sys::task_cpu(spinners[0]).has_value()) << "gone: an error, not a value";
+  const auto self = rejuv::sys::task_cpu(::getpid());
+  ASSERT_TRUE(self.has_value());
+  EXPECT_TRUE(self->runnable) << "the caller runs";
 }

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "rejuv/core/time.hpp"
 #include "rejuv/sys/fd.hpp"
 #include "rejuv/sys/landlock.hpp"
 #include "rejuv/sys/seccomp.hpp"
@@ -193,6 +194,16 @@ struct Spawned {
 
 // The process (thread group id) a thread belongs to, from /proc/TID/status; nullopt when it is gone.
 [[nodiscard]] std::optional<pid_t> thread_group_of(pid_t tid);
+
+// What the scheduler gives a thread (for a process's pid, its main thread): the time it ran on a CPU since it was
+// born (/proc/TID/schedstat) and whether it is runnable now — running or waiting on a run queue for a CPU — rather
+// than sleeping, blocked or stopped (state R of /proc/TID/stat). The run-queue time schedstat also shows counts a
+// wait only once it is over: it says nothing of a thread that is waiting still.
+struct TaskCpu {
+  Nanos ran{0};
+  bool runnable = false;
+};
+[[nodiscard]] SysResult<TaskCpu> task_cpu(pid_t tid);
 
 // Counts the live processes whose parent is `parent` (from /proc), for leak checks in tests.
 [[nodiscard]] SysResult<int> count_children(pid_t parent);
