@@ -1,6 +1,7 @@
 // A MAVLink 2 ground station Rejuv did not write (node-mavlink, docs/mavlink.md), driven against `rejuv run`
 // by tests/multiproc/mavlink_client_test.cpp. It talks to the kernel's network gate over UDP and, within
-// --timeout seconds of wall-clock time:
+// --timeout seconds of wall-clock time or until SIGTERM (a test of a lockstep run, whose vehicle time runs at
+// whatever pace the machine allows, ends the client once the run is over instead):
 //   1. sends HEARTBEATs (MAV_TYPE_GCS) and waits for the vehicle's HEARTBEAT (MAV_TYPE_QUADROTOR);
 //   2. with --wrong-key, sends an unsigned, a wrongly signed and a recorded MISSION_COUNT (signed with --key
 //      but stamped in January 2015) every 100 ms and on the vehicle's messages (the gate must refuse all three:
@@ -358,6 +359,9 @@ function maybeFinish() {
   if (complete()) finish(0);
   if (phase === 'done') finish(1);
 }
+
+// Ended from outside (the run is over): the report as it stands, exit 0 only if every step was seen.
+process.on('SIGTERM', () => finish(complete() ? 0 : 1));
 
 socket.on('error', () => {});  // nobody listening yet (the kernel still booting): the retransmissions cover it
 socket.bind(0, '127.0.0.1', () => {

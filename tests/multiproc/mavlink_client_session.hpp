@@ -37,17 +37,26 @@ inline pid_t start_client(const std::vector<std::string>& client_args, const std
   return start_node_script(kRepo / "tests/mavlink_client/client.js", kClientDir / "node_modules", client_args, out);
 }
 
-// Waits for the client to exit (it gives up by itself after its --timeout); kills it past `limit`.
+// Waits up to `limit` for the client to exit (it gives up by itself after its --timeout), then ends it with
+// SIGTERM: it prints its report and exits 0 only if its session was complete (client.js). Killed if it has not
+// exited 10 s later.
 inline int wait_client(pid_t pid, std::chrono::seconds limit) {
-  const auto deadline = std::chrono::steady_clock::now() + limit;
   int status = 0;
-  while (std::chrono::steady_clock::now() < deadline) {
-    if (::waitpid(pid, &status, WNOHANG) == pid) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    std::this_thread::sleep_for(std::chrono::milliseconds{50});
+  const auto wait_until = [&](std::chrono::steady_clock::time_point deadline) {
+    while (std::chrono::steady_clock::now() < deadline) {
+      if (::waitpid(pid, &status, WNOHANG) == pid) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds{50});
+    }
+    return false;
+  };
+  if (wait_until(std::chrono::steady_clock::now() + limit)) return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  ::kill(pid, SIGTERM);
+  if (wait_until(std::chrono::steady_clock::now() + std::chrono::seconds{10})) {
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   }
   ::kill(pid, SIGKILL);
   ::waitpid(pid, &status, 0);
-  ADD_FAILURE() << "the MAVLink client did not exit within " << limit.count() << " s";
+  ADD_FAILURE() << "the MAVLink client did not exit within " << limit.count() << " s, nor 10 s after SIGTERM";
   return -1;
 }
 
@@ -92,8 +101,11 @@ class MavlinkClientTest : public ScratchDirTest {
     proto::RunSummary summary;
   };
   // A session: the signed square started (start_signed_square), client.js told its port and key, then
-  // `client_args`; both waited for (the client up to `client_limit` after the run ended), each expected to exit
-  // 0, and what they left read into `session`. Use with ASSERT_NO_FATAL_FAILURE.
+  // `client_args`; both waited for (the client up to `client_limit` after the run ended, then ended with SIGTERM:
+  // wait_client), each expected to exit 0, and what they left read into `session`. In lockstep the session's
+  // limit is the run's duration, in vehicle time: the client's wall-clock --timeout only guards against a lost
+  // harness, since the pace of a lockstep run is the machine's (a loaded one flies the same mission in several
+  // times the wall time). Use with ASSERT_NO_FATAL_FAILURE.
   void fly_session(const std::string& graph_name, const std::string& duration, RunClock clock,
                    const std::vector<std::string>& client_args, std::chrono::seconds client_limit, Session& session) {
     ASSERT_TRUE(std::filesystem::exists(kClientDir / "node_modules/node-mavlink/package.json"))

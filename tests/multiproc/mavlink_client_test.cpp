@@ -24,12 +24,12 @@ using MavlinkClient = test_support::MavlinkClientTest;
 
 TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
   // Given the square with the key in its network block, when node-mavlink talks to it while it flies
-  // (lockstep; the client in wall-clock time, told the port the kernel bound) …
+  // (lockstep; the client told the port the kernel bound, its session limited by the run's 240 s of flight) …
   Session session;
   ASSERT_NO_FATAL_FAILURE(fly_session("signed.launch.pbtxt", "240", RunClock::Lockstep,
-                                      {"--wrong-key", std::string(kWrongKey), "--timeout", "60", "--target",
+                                      {"--wrong-key", std::string(kWrongKey), "--timeout", "900", "--target",
                                        "-0.6,-0.4,-3.3"},
-                                      std::chrono::seconds{90}, session));
+                                      std::chrono::seconds{10}, session));
   const std::string& client_text = session.client_text;
   // … then the client saw the vehicle, its upload accepted and flown, and a rollback reported.
   Struct report;
@@ -58,7 +58,7 @@ TEST_F(MavlinkClient, NodeMavlinkUploadsSignedThroughTheSeiAndSeesTheFlight) {
 TEST_F(MavlinkClient, QgcStyleSessionInGlobalCoordinatesWithSignedVehicleFrames) {
   Session session;
   ASSERT_NO_FATAL_FAILURE(fly_session("qgc.launch.pbtxt", "400", RunClock::Lockstep,
-                                      {"--qgc", "--timeout", "90", "--target", "1.5,-1,-3.5"}, std::chrono::seconds{120},
+                                      {"--qgc", "--timeout", "900", "--target", "1.5,-1,-3.5"}, std::chrono::seconds{10},
                                       session));
   test_support::expect_qgc_session(session.client_text, session.summary);
 }
