@@ -123,14 +123,20 @@ TEST(LivenessWatch, Services_AreWatchedApart) {
   EXPECT_EQ(watch.look(b, milliseconds{10}).kind, Kind::Nothing) << "b owes nothing";
 }
 
+// A silent chain service looked at first at 0 ms and sent a Sync at 10 ms, the scheduler having given it `cpu`
+// until then (nullopt: unknown).
+LivenessSight asked_at_10ms(LivenessWatch& watch, std::optional<CpuSight> cpu) {
+  const LivenessSight silent = sight(true, 42, 10, 20, 15);
+  (void)watch.look(silent, milliseconds{0});
+  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed, cpu);
+  return silent;
+}
+
 // A service still runnable when its deadline is over is judged by the CPU time it had since the Sync: waiting for
 // a CPU is spared; once it has had its deadline's worth of CPU without answering, it is hung.
 TEST(LivenessWatch, RunnableServiceWaitingForACpu_SparedUntilItHadItsDeadlineOfCpu) {
   LivenessWatch watch(kChainDeadline, kOtherDeadline);
-  const LivenessSight silent = sight(true, 42, 10, 20, 15);
-  (void)watch.look(silent, milliseconds{0});
-  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed,
-              CpuSight{.ran = milliseconds{500}, .runnable = true});
+  const LivenessSight silent = asked_at_10ms(watch, CpuSight{.ran = milliseconds{500}, .runnable = true});
   ASSERT_EQ(watch.look(silent, milliseconds{50}).kind, Kind::Overdue);
   // 40 ms since the Sync, 5 ms of them on a CPU, runnable: waiting for one.
   const auto spared = watch.spared_for_cpu(silent.id, milliseconds{50}, CpuSight{milliseconds{505}, true}, kChainDeadline);
@@ -152,10 +158,7 @@ TEST(LivenessWatch, RunnableServiceWaitingForACpu_SparedUntilItHadItsDeadlineOfC
 // holds as it is, however little CPU it had.
 TEST(LivenessWatch, ServiceNotRunnable_HungAtItsDeadline) {
   LivenessWatch watch(kChainDeadline, kOtherDeadline);
-  const LivenessSight silent = sight(true, 42, 10, 20, 15);
-  (void)watch.look(silent, milliseconds{0});
-  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed,
-              CpuSight{.ran = milliseconds{500}, .runnable = true});
+  const LivenessSight silent = asked_at_10ms(watch, CpuSight{.ran = milliseconds{500}, .runnable = true});
   ASSERT_EQ(watch.look(silent, milliseconds{50}).kind, Kind::Overdue);
   EXPECT_FALSE(watch.spared_for_cpu(silent.id, milliseconds{50}, CpuSight{milliseconds{500}, false}, kChainDeadline));
 }
@@ -165,9 +168,7 @@ TEST(LivenessWatch, ServiceStarvedPastTheBound_Hung) {
   LivenessWatch watch(kChainDeadline, kOtherDeadline);
   EXPECT_EQ(LivenessWatch::max_cpu_wait(kChainDeadline), std::chrono::seconds{1});
   EXPECT_EQ(LivenessWatch::max_cpu_wait(kOtherDeadline), std::chrono::seconds{2});
-  const LivenessSight silent = sight(true, 42, 10, 20, 15);
-  (void)watch.look(silent, milliseconds{0});
-  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed, CpuSight{milliseconds{0}, true});
+  const LivenessSight silent = asked_at_10ms(watch, CpuSight{milliseconds{0}, true});
   ASSERT_EQ(watch.look(silent, milliseconds{1000}).kind, Kind::Overdue);
   EXPECT_TRUE(watch.spared_for_cpu(silent.id, milliseconds{1000}, CpuSight{milliseconds{2}, true}, kChainDeadline))
       << "990 ms since the Sync, 2 ms of CPU";
@@ -179,15 +180,11 @@ TEST(LivenessWatch, ServiceStarvedPastTheBound_Hung) {
 // Where its CPU time is unknown (at the Sync or now), the deadline holds as it is.
 TEST(LivenessWatch, CpuTimeUnknown_HungAtItsDeadline) {
   LivenessWatch watch(kChainDeadline, kOtherDeadline);
-  const LivenessSight silent = sight(true, 42, 10, 20, 15);
-  (void)watch.look(silent, milliseconds{0});
-  watch.asked(silent.id, milliseconds{10}, watch.look(silent, milliseconds{10}).owed);  // unknown at the Sync
+  const LivenessSight silent = asked_at_10ms(watch, std::nullopt);  // unknown at the Sync
   ASSERT_EQ(watch.look(silent, milliseconds{50}).kind, Kind::Overdue);
   EXPECT_FALSE(watch.spared_for_cpu(silent.id, milliseconds{50}, CpuSight{milliseconds{0}, true}, kChainDeadline));
   LivenessWatch now_unknown(kChainDeadline, kOtherDeadline);
-  (void)now_unknown.look(silent, milliseconds{0});
-  now_unknown.asked(silent.id, milliseconds{10}, now_unknown.look(silent, milliseconds{10}).owed,
-                    CpuSight{milliseconds{0}, true});
+  (void)asked_at_10ms(now_unknown, CpuSight{milliseconds{0}, true});
   ASSERT_EQ(now_unknown.look(silent, milliseconds{50}).kind, Kind::Overdue);
   EXPECT_FALSE(now_unknown.spared_for_cpu(silent.id, milliseconds{50}, std::nullopt, kChainDeadline));
 }
