@@ -89,8 +89,10 @@ class Images : public ::testing::Test {
     auto loaded = launch::parse_launch(image_launch(g), kGraphs / "images.launch.pbtxt");
     ASSERT_TRUE(loaded.has_value()) << loaded.error().to_string();
     kernel::KernelOptions o = test_options();
-    o.log = std::getenv("REJUV_TEST_LOG") != nullptr ? stderr : nullptr;  // quiet unless asked
-    o.verbose = o.log != nullptr;
+    // On stderr when asked (verbose); else kept in a file and shown if the test fails (TearDown): a fallback or
+    // a lost image under load is named there.
+    o.verbose = std::getenv("REJUV_TEST_LOG") != nullptr;
+    o.log = o.verbose ? stderr : log_;
     o.images_by_pages = !fork_only_;
     auto k = kernel::Kernel::create(std::move(*loaded), o, &recorder);
     ASSERT_TRUE(k.has_value()) << k.error().to_string() << "\n" << ::testing::PrintToString(k.error().findings);
@@ -139,6 +141,23 @@ class Images : public ::testing::Test {
   }
 
   ImageRecorder recorder;
+  // Opened before the test counts its fds.
+  void SetUp() override {
+    if (std::getenv("REJUV_TEST_LOG") == nullptr) log_ = std::tmpfile();
+  }
+  void TearDown() override {
+    k_.reset();  // its shutdown logs too
+    if (log_ == nullptr) return;
+    if (HasFailure()) {
+      std::fflush(log_);
+      std::rewind(log_);
+      std::printf("---- the kernel's log ----\n");
+      for (char line[1024]; std::fgets(line, sizeof line, log_) != nullptr;) std::fputs(line, stdout);
+    }
+    std::fclose(log_);
+    log_ = nullptr;
+  }
+  std::FILE* log_ = nullptr;  // the kernel's log when not on stderr
   std::unique_ptr<kernel::Kernel> k_;
   bool fork_only_ = false;
 };
