@@ -23,10 +23,12 @@
 // and measures nothing. The namespaces (rjP_v<pid>, rjP_c<pid>) and the veth pair are removed on every exit path.
 // Nothing here is asserted: the table says what this machine did.
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/types.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -116,7 +118,22 @@ class Namespaces {
       }
     }
   }
+  // The namespaces of a bench that did not live to delete them (killed: SIGKILL, a test's timeout), named
+  // rjP_v<pid> and rjP_c<pid> by a pid no process has now: deleted, with the veth end in each.
+  void delete_stale() const {
+    std::error_code ec;
+    for (const fs::directory_entry& e : fs::directory_iterator("/run/netns", ec)) {
+      const std::string name = e.path().filename().string();
+      if (name.size() <= 5 || name.rfind("rjP_", 0) != 0 || (name[4] != 'v' && name[4] != 'c')) continue;
+      char* end = nullptr;
+      const long pid = std::strtol(name.c_str() + 5, &end, 10);
+      if (end == nullptr || *end != '\0' || pid <= 0 || pid == ::getpid()) continue;
+      if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // its bench still runs
+      (void)run(kIp, {"netns", "delete", name}, dir_ / ("ip_delete_" + name + ".log"));
+    }
+  }
   Result<void, std::string> make() {
+    delete_stale();
     const std::string id = std::to_string(::getpid());
     const std::string veth_v = "rjPv" + id, veth_c = "rjPc" + id;  // ≤ 15 characters
     for (const std::string& ns : {vehicle_, companion_}) {
