@@ -184,9 +184,9 @@ class Starver final : public kernel::Observer {
 };
 
 // In real time the chain, starved of every CPU for 150 ms four times, is spared: the watch finds it silent and
-// overdue, sees from its run-queue time that it waited for a CPU, says so, and kills nobody; the vehicle stays in
-// the safety set and nothing is cold-restarted. (A stopped service, which waits on no run queue, is still killed:
-// the HungService tests above.)
+// overdue, sees that it is runnable with less than its deadline of CPU time, says so, and kills nobody; the
+// vehicle stays in the safety set and nothing is cold-restarted. (A stopped service, which is not runnable, is
+// still killed: the HungService tests above.)
 TEST(StarvedService, ChainWithoutACpuInRealTime_NotKilledAsHung_VehicleStaysSafe) {
   if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox and SCHED_FIFO need root here";
   kernel::SrStats sr{};

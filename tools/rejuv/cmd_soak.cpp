@@ -471,8 +471,8 @@ Verdict judge(const Series& s, std::size_t b0, double kernel_rss_kb, double serv
   //    being forked, a generation trimmed, an image's fd replaced) raises or lowers a few samples;
   //  - RSS by its largest value: a process's resident memory dips when its allocator gives a burst's pages back
   //    (glibc trims a thread's arena once Cyclone's receive thread frees what a backlog held: the plant's fell
-  //    by up to 760 kB for a few milliseconds at load 8) and comes back at the next burst; a leak raises the
-  //    highest value as well as the lowest.
+  //    by up to 760 kB beside other busy processes) and comes back at the next burst, milliseconds or several
+  //    samples later; a leak raises the highest value as well as the lowest.
   using Kind = Series::Kind;
   const auto reduce = [&](const std::vector<double>& w) {
     if (s.kind == Kind::Count) return most_frequent(w);

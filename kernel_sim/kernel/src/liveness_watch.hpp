@@ -10,8 +10,9 @@
 // channel nothing. A service still runnable when its deadline is over is judged by the CPU time it had since the
 // Sync instead: waiting for a CPU (a loaded machine, a stalled virtual CPU, a higher real-time priority) is the
 // machine's doing, not the service's, and is not held against it (spared_for_cpu) — for at most max_cpu_wait.
-// One that is stopped, blocked or asleep with the Sync unanswered is judged by the deadline as it is. Lockstep has the step's idle deadline for this; in real time nothing else finds a hung service
-// before the next timer rollback, and the vehicle flies on what it last published meanwhile.
+// One that is stopped, blocked or asleep with the Sync unanswered is judged by the deadline as it is. Lockstep
+// has the step's idle deadline for this; in real time nothing else finds a hung service before the next timer
+// rollback, and the vehicle flies on what it last published meanwhile.
 #pragma once
 
 #include <sys/types.h>

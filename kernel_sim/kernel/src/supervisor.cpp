@@ -607,7 +607,9 @@ void Supervisor::watch_liveness() {
         if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
         if (s.live() && s.flow().reported() < call.owed) {
           const std::optional<CpuSight> cpu = cpu_sight(s);
-          const auto ms = [](Nanos d) { return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count()); };
+          const auto ms = [](Nanos d) {
+            return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count());
+          };
           if (const auto spared = liveness_.spared_for_cpu(s.id, t, cpu, call.deadline)) {
             // Runnable with less than its deadline of CPU time: the machine's doing. Looked at again next time.
             if (spared->first) {

@@ -1,5 +1,7 @@
 #include "rejuv/sys/process.hpp"
 
+#include "rejuv/sys/file.hpp"
+
 #include "raw_send.hpp"
 
 #include <dirent.h>
@@ -676,35 +678,31 @@ std::optional<pid_t> thread_group_of(pid_t tid) {
   return std::nullopt;
 }
 
-namespace {
-// Up to `size - 1` bytes of a small /proc file, NUL-terminated.
-SysResult<std::size_t> read_small(const char* path, std::span<char> out) {
-  const UniqueFd fd(::open(path, O_RDONLY | O_CLOEXEC));
-  if (!fd) return last_error(std::string("open(") + path + ")");
-  const ssize_t n = ::read(fd.get(), out.data(), out.size() - 1);
-  if (n < 0) return last_error(std::string("read(") + path + ")");
-  out[static_cast<std::size_t>(n)] = '\0';
-  return static_cast<std::size_t>(n);
-}
-}  // namespace
-
 SysResult<TaskCpu> task_cpu(pid_t tid) {
-  char path[48];
-  std::array<char, 512> text{};
-  std::snprintf(path, sizeof path, "/proc/%d/schedstat", static_cast<int>(tid));
-  if (auto n = read_small(path, text); !n) return std::unexpected(n.error());
-  unsigned long long ran = 0;  // "<ns on a CPU> <ns waited on a run queue> <timeslices>"
-  if (std::sscanf(text.data(), "%llu", &ran) != 1) return std::unexpected(SysError{"parse(/proc/TID/schedstat)", EINVAL});
-  std::snprintf(path, sizeof path, "/proc/%d/stat", static_cast<int>(tid));
-  auto n = read_small(path, text);
-  if (!n) return std::unexpected(n.error());
+  const std::string proc = "/proc/" + std::to_string(tid);
+  // A /proc file's text (read_regular_file: small files that report size 0), its failure as a SysError.
+  const auto text_of = [](const std::string& path) -> SysResult<std::string> {
+    auto text = read_regular_file(path, 1024);
+    if (text) return std::move(*text);
+    if (text.error().kind == FileReadError::Kind::NoSuchFile) {
+      return std::unexpected(SysError{"open(/proc/TID)", ENOENT});
+    }
+    return std::unexpected(text.error().sys.error != 0 ? text.error().sys : SysError{"read(/proc/TID)", EINVAL});
+  };
+  const auto schedstat = text_of(proc + "/schedstat");  // "<ns on a CPU> <ns waited on a run queue> <timeslices>"
+  if (!schedstat) return std::unexpected(schedstat.error());
+  unsigned long long ran = 0;
+  if (std::sscanf(schedstat->c_str(), "%llu", &ran) != 1) {
+    return std::unexpected(SysError{"parse(/proc/TID/schedstat)", EINVAL});
+  }
+  const auto stat = text_of(proc + "/stat");
+  if (!stat) return std::unexpected(stat.error());
   // "<pid> (<comm>) <state> …": the command may hold spaces and parentheses, the state follows the last ')'.
-  const std::string_view stat(text.data(), *n);
-  const std::size_t close = stat.rfind(')');
-  if (close == std::string_view::npos || close + 2 >= stat.size()) {
+  const std::size_t close = stat->rfind(')');
+  if (close == std::string::npos || close + 2 >= stat->size()) {
     return std::unexpected(SysError{"parse(/proc/TID/stat)", EINVAL});
   }
-  return TaskCpu{.ran = Nanos{static_cast<std::int64_t>(ran)}, .runnable = stat[close + 2] == 'R'};
+  return TaskCpu{.ran = Nanos{static_cast<std::int64_t>(ran)}, .runnable = (*stat)[close + 2] == 'R'};
 }
 
 }  // namespace rejuv::sys
