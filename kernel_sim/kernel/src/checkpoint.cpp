@@ -130,8 +130,18 @@ void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const Checkp
   images_.abandon(g);
   image::destroy(done.record);
   if (late) {
-    for (const ServiceId id : done.waiting)
-      k.supervisor.kill_hung(k.services[id.value()], "no Taken within the snapshot deadline");
+    for (const ServiceId id : done.waiting) {
+      ServiceRuntime& s = k.services[id.value()];
+      // Runnable: waiting for a CPU (a loaded machine), not hung (cpu_wait.hpp). The generation is lost either
+      // way (the vehicle waits with the checkpoint); the service is not: it answers late (late_image), and the
+      // liveness watch judges it if it spins.
+      if (const std::optional<CpuSight> cpu = Supervisor::cpu_sight(s); cpu && cpu->runnable) {
+        k.log("'%s' is waiting for a CPU at the snapshot deadline: not hung, the checkpoint only abandoned",
+              s.name.c_str());
+        continue;
+      }
+      k.supervisor.kill_hung(s, "no Taken within the snapshot deadline");
+    }
   }
   resume_routing();
   answer_checkpoint(done, op_code(wire::OpError::Refused), 0);

@@ -22,6 +22,7 @@
 #include <optional>
 #include <vector>
 
+#include "cpu_wait.hpp"
 #include "rejuv/core/ids.hpp"
 #include "rejuv/core/time.hpp"
 
@@ -36,13 +37,6 @@ struct LivenessSight {
   std::uint64_t frames_in = 0;   // frames it sent the kernel
   std::uint64_t frames_out = 0;  // frames the kernel sent it
   std::uint64_t reported = 0;    // of those, reported handled (its Idles)
-};
-
-// What the scheduler gives a service's live incarnation (sys::task_cpu of its main thread): CPU time since birth,
-// and whether it is runnable (running, or waiting for a CPU) rather than asleep, blocked or stopped.
-struct CpuSight {
-  Nanos ran{0};
-  bool runnable = false;
 };
 
 // What the Supervisor does about a service after a look.
@@ -102,9 +96,7 @@ class LivenessWatch {
 
   // The longest a service is spared for waiting for a CPU after a Sync: a service the machine does not run
   // enough for that long is judged (its deadline's tenfold, at least a second).
-  [[nodiscard]] static Nanos max_cpu_wait(Nanos deadline) {
-    return std::max<Nanos>(10 * deadline, std::chrono::seconds{1});
-  }
+  [[nodiscard]] static Nanos max_cpu_wait(Nanos deadline) { return kernel::max_cpu_wait(deadline); }
 
   // A service spared for waiting for a CPU: the CPU time it had since the Sync, the time since the Sync, and
   // whether this is the first time for this Sync (worth a log line).

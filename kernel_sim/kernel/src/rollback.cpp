@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "cpu_wait.hpp"
 #include "images.hpp"
 
 namespace rejuv::kernel {
@@ -58,13 +59,24 @@ void Rejuvenator::retire_live_rejuvenated() {
 
 namespace {
 // The first frame on a restored image's new channel: Resumed{g, its pid}; otherwise why not (a hang-up, no
-// frame before `deadline`, another frame), with the wall time waited.
-std::expected<pid_t, std::string> read_resumed(const sys::SeqPacket& channel, Generation g, Nanos deadline) {
+// frame in time, another frame), with the wall time waited. In time: before wait's deadline, or later while the
+// image's copies wait for a CPU (cpu_wait.hpp: a starved image is not lost; `look` tells what the scheduler gives
+// them, `said` the first time the wait goes on).
+template <typename Look, typename Said>
+std::expected<pid_t, std::string> read_resumed(const sys::SeqPacket& channel, Generation g, CpuWait wait,
+                                               const Look& look, const Said& said) {
   const Nanos start = sys::monotonic_now();
   const auto waited = [&] { return std::to_string(to_ms(sys::monotonic_now() - start)) + " ms"; };
-  auto ready = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::max(Nanos{0}, deadline - start));
-  if (!ready) return std::unexpected("waiting: " + ready.error().to_string());
-  if (!*ready) return std::unexpected("no answer in " + waited());
+  Nanos until = wait.deadline_at();
+  for (;;) {
+    auto ready = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::max(Nanos{0}, until - sys::monotonic_now()));
+    if (!ready) return std::unexpected("waiting: " + ready.error().to_string());
+    if (*ready) break;
+    const std::optional<CpuWait::GoOn> on = wait.go_on(sys::monotonic_now(), look());
+    if (!on) return std::unexpected("no answer in " + waited());
+    if (on->first) said(*on);
+    until = on->until;
+  }
   std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
   auto got = channel.receive(buf);
   if (!got) return std::unexpected("reading: " + got.error().to_string());
@@ -145,11 +157,29 @@ std::optional<sys::ChildProcess> take_resumed_process(image::Image& im, pid_t pi
 }
 
 // Installs the incarnation restored from p's image as the live service as soon as it answers (on a failure the
-// caller retires it again); the first thing that went wrong, if anything did.
-Result<void, std::string> install_resumed(Kernel::Impl& k, PendingResume& p, Generation g, Nanos deadline) {
+// caller retires it again); the first thing that went wrong, if anything did. The image is waited for until
+// `wait`'s deadline, or on while the processes that may have taken its Resume wait for a CPU: its copies, and
+// while a spare of it is on its way (its pid not known until its Copied) the kernel's children it knows nothing
+// of — every spare in flight, a superset.
+Result<void, std::string> install_resumed(Kernel::Impl& k, PendingResume& p, Generation g, CpuWait wait) {
   ServiceRuntime& s = *p.service;
   const image::Image& im = *p.image;
-  const auto answer = read_resumed(p.channel, g, deadline);
+  const auto look = [&] {
+    std::vector<pid_t> pids;
+    for (const sys::ChildProcess& c : im.copies) pids.push_back(c.pid());
+    if (im.spares_pending > 0) {
+      for (const pid_t pid : sys::own_children().value_or(std::vector<pid_t>{})) {
+        if (!k.rejuvenator.knows_process(pid, nullptr)) pids.push_back(pid);
+      }
+    }
+    return Supervisor::cpu_sight(pids);
+  };
+  const auto said = [&](const CpuWait::GoOn& on) {
+    k.log("rollback: the image of '%s' is waiting for a CPU (%.1f ms on one since its deadline): not lost, "
+          "waited on",
+          s.name.c_str(), to_ms(on.ran));
+  };
+  const auto answer = read_resumed(p.channel, g, wait, look, said);
   const pid_t pid = answer.value_or(0);
   std::optional<sys::ChildProcess> process = take_resumed_process(*p.image, pid);
   if (!process) {
@@ -187,14 +217,14 @@ Result<void, std::string> install_resumed(Kernel::Impl& k, PendingResume& p, Gen
 }
 }  // namespace
 
-Result<Nanos, std::string> Rejuvenator::resume_generation(image::GenerationRecord& record, Nanos deadline) {
+Result<Nanos, std::string> Rejuvenator::resume_generation(image::GenerationRecord& record, const CpuWait& wait) {
   const Epoch next = k.kernel_clock.next_epoch();
   ResumesSent sent = send_resumes(k, channel_pool, record, next);
   std::string failure = std::move(sent.failure);
   if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
   // Then every Resumed, each installed as it answers; every image is waited for, whatever failed first.
   for (PendingResume& p : sent.pending) {
-    if (auto installed = install_resumed(k, p, record.g, deadline); !installed && failure.empty()) {
+    if (auto installed = install_resumed(k, p, record.g, wait); !installed && failure.empty()) {
       failure = std::move(installed.error());
     }
   }
@@ -226,8 +256,9 @@ std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(
     std::string failure;
     if (std::optional<std::string> lost = lost_image(*record)) {
       failure = std::move(*lost);
-    } else if (auto resumed =
-                   resume_generation(*record, std::max(rollback_by, k.wall() + k.options.resume_deadline))) {
+    } else if (auto resumed = resume_generation(
+                   *record, CpuWait(std::max(rollback_by, k.wall() + k.options.resume_deadline), image_wait_bound(),
+                                    rollback_by - image_wait_bound()))) {
       return ResumedGeneration{.record = record, .resumed_at = *resumed};
     } else {
       failure = std::move(resumed.error());

@@ -585,9 +585,20 @@ LivenessSight Supervisor::liveness_sight(const ServiceRuntime& s) const {
 }
 
 std::optional<CpuSight> Supervisor::cpu_sight(const ServiceRuntime& s) {
-  auto cpu = sys::task_cpu(s.proc.process.pid());
-  if (!cpu) return std::nullopt;
-  return CpuSight{.ran = cpu->ran, .runnable = cpu->runnable};
+  const pid_t pid = s.proc.process.pid();
+  return cpu_sight(std::span(&pid, 1));
+}
+
+std::optional<CpuSight> Supervisor::cpu_sight(std::span<const pid_t> pids) {
+  std::optional<CpuSight> sum;
+  for (const pid_t pid : pids) {
+    auto cpu = sys::task_cpu(pid);
+    if (!cpu) continue;  // gone meanwhile, or never ours
+    if (!sum) sum = CpuSight{};
+    sum->ran += cpu->ran;
+    sum->runnable = sum->runnable || cpu->runnable;
+  }
+  return sum;
 }
 
 void Supervisor::watch_liveness() {
