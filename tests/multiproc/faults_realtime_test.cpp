@@ -112,7 +112,12 @@ TEST_F(FaultsRealtime, ShortCampaignUnderLoad_JudgedAndEachRecoveryTimed) {
   }
   EXPECT_GE(injected, 1U) << r.out;
   // The kernel's log says the real-time plan was applied.
-  EXPECT_NE(slurp(dir_ / "job-0.log").find("real-time plan: kernel SCHED_FIFO"), std::string::npos);
+  const std::string log = slurp(dir_ / "job-0.log");
+  EXPECT_NE(log.find("real-time plan: kernel SCHED_FIFO"), std::string::npos);
+  // Nothing of this graph forks, and the faults only kill or stop: a process "left behind" would be the kernel's
+  // own, reported as a service's violation (a fallback retires the services again while the incarnation the
+  // rollback retired is still in its live leaf; seed 7's kill-image at the checkpoint falls back twice).
+  EXPECT_EQ(log.find("left a process behind"), std::string::npos) << log;
 }
 
 TEST_F(FaultsRealtime, CtrlC_EndsTheLoadWorkers) { workers_end_with_the_campaign(SIGINT); }

@@ -10,12 +10,20 @@
 
 namespace rejuv::image {
 
-Image* GenerationRecord::image_of(ServiceId service) {
-  for (Image& i : images) {
+namespace {
+// The image of `service` in `images` (const or not), nullptr without one.
+template <typename Images>
+auto image_in(Images& images, ServiceId service) -> decltype(&images.front()) {
+  for (auto& i : images) {
     if (i.service == service) return &i;
   }
   return nullptr;
 }
+}  // namespace
+
+Image* GenerationRecord::image_of(ServiceId service) { return image_in(images, service); }
+
+const Image* GenerationRecord::image_of(ServiceId service) const { return image_in(images, service); }
 
 const SavedService* CheckpointedState::saved(ServiceId service) const {
   for (const SavedService& s : services) {

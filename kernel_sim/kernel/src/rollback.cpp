@@ -158,19 +158,24 @@ std::optional<sys::ChildProcess> take_resumed_process(image::Image& im, pid_t pi
 
 // Installs the incarnation restored from p's image as the live service as soon as it answers (on a failure the
 // caller retires it again); the first thing that went wrong, if anything did. The image is waited for until
-// `wait`'s deadline, or on while the processes that may have taken its Resume wait for a CPU: its copies, and
-// while a spare of it is on its way (its pid not known until its Copied) the kernel's children it knows nothing
-// of — every spare in flight, a superset.
+// `wait`'s deadline, or on while the processes that may have taken its Resume, or still have to make the image
+// that takes it, wait for a CPU: its copies; while a spare or its patch is on its way (a pid not known until its
+// Copied), the kernel's children it knows nothing of (every spare in flight, a superset); and while its patch is,
+// the copies of its base's image, which fork the copy the patch goes to.
 Result<void, std::string> install_resumed(Kernel::Impl& k, PendingResume& p, Generation g, CpuWait wait) {
   ServiceRuntime& s = *p.service;
   const image::Image& im = *p.image;
   const auto look = [&] {
     std::vector<pid_t> pids;
     for (const sys::ChildProcess& c : im.copies) pids.push_back(c.pid());
-    if (im.spares_pending > 0) {
+    if (im.spares_pending > 0 || im.patch_pending) {
       for (const pid_t pid : sys::own_children().value_or(std::vector<pid_t>{})) {
         if (!k.rejuvenator.knows_process(pid, nullptr)) pids.push_back(pid);
       }
+    }
+    const image::GenerationRecord* base = im.patch_pending ? k.rejuvenator.images().find(im.base) : nullptr;
+    if (const image::Image* from = base != nullptr ? base->image_of(s.id) : nullptr) {
+      for (const sys::ChildProcess& c : from->copies) pids.push_back(c.pid());
     }
     return Supervisor::cpu_sight(pids);
   };

@@ -162,17 +162,20 @@ bool Warden::kill_live_leaf(const ServiceRuntime& s) {
     if (k.options.verbose) k.log("rollback: an image of '%s' is not in its images leaf yet: no cgroup.kill", s.name.c_str());
     return false;
   }
-  // Who is in it, for the count (one read of cgroup.procs): each one other than the live incarnation is a
-  // stray, counted by the sweep after the rollback (recording a violation logs a line: not here).
+  // Who is in it, for the count (one read of cgroup.procs): each one other than the live incarnation and the
+  // processes the kernel is ending itself is a stray, counted by the sweep after the rollback (recording a
+  // violation logs a line: not here). A fallback retires the services again: by then the incarnation the
+  // rollback retired is the reaper's and may still be in the leaf, stopped or dying — the kernel's, no stray.
   const std::vector<pid_t> members = s.sandbox.cgroup.members(sys::CgroupLeaf::Live);
-  // Nothing but the live incarnation (no stray): it is stopped and killed after the rollback, off the critical
-  // path, as without cgroups. Killed here, its exit (freeing its memory) ran beside the resume of every image
-  // on two CPUs: rollback p50 0.68 -> 1.70 ms in real time (`rejuv bench realtime`), its resume phase 0.55 ->
-  // 1.33 ms. The one-call kill is for what an attacker spawned, whose number it must not grow with.
-  if (std::ranges::all_of(members, [&](pid_t pid) { return pid == s.proc.process.pid(); })) return false;
+  const auto ours = [&](pid_t pid) { return pid == s.proc.process.pid() || k.rejuvenator.reaping(pid); };
+  // Nothing but those (no stray): the live incarnation is stopped and killed after the rollback, off the
+  // critical path, as without cgroups. Killed here, its exit (freeing its memory) ran beside the resume of every
+  // image on two CPUs: rollback p50 0.68 -> 1.70 ms in real time (`rejuv bench realtime`), its resume phase
+  // 0.55 -> 1.33 ms. The one-call kill is for what an attacker spawned, whose number it must not grow with.
+  if (std::ranges::all_of(members, ours)) return false;
   if (!s.sandbox.cgroup.kill_live()) return false;
   for (const pid_t pid : members) {
-    if (pid != s.proc.process.pid()) killed_with_leaf.emplace_back(s.id, pid);
+    if (!ours(pid)) killed_with_leaf.emplace_back(s.id, pid);
   }
   return true;
 }

@@ -92,6 +92,7 @@ struct GenerationRecord {
   CheckpointedState state{};
 
   [[nodiscard]] Image* image_of(ServiceId service);
+  [[nodiscard]] const Image* image_of(ServiceId service) const;
   [[nodiscard]] const SavedService* saved(ServiceId service) const { return state.saved(service); }
   // The first service none of whose copies still runs and none is on its way, if any: the generation is broken.
   [[nodiscard]] std::optional<ServiceId> dead_image();
