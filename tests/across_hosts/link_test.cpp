@@ -46,11 +46,11 @@ long long received(const std::string& out) {
   return std::regex_search(out, m, std::regex(R"(received (\d+))")) ? std::stoll(m[1].str()) : -1;
 }
 
-// The lines of a kernel's log that tell of faults (a service killed, an image lost, a fallback), for a failure's
-// message: the whole log of a 50 s run is too long to read there.
+// The lines of a kernel's log that tell of faults (a service killed, an image lost, a fallback), for a
+// failure's message: the whole log of a 50 s run is too long to read there.
 std::string faults_of(const std::string& log) {
-  static const std::regex kFault(R"(hung|lost|fallback|cold|restart|waiting for a CPU|deadline|left the safety)",
-                                 std::regex::icase);
+  static const std::regex kFault(
+      R"(hung|lost|fallback|cold|restart|waiting for a CPU|deadline|left the safety)", std::regex::icase);
   std::string out;
   std::istringstream lines(log);
   for (std::string line; std::getline(lines, line);) {

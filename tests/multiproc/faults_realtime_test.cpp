@@ -114,9 +114,10 @@ TEST_F(FaultsRealtime, ShortCampaignUnderLoad_JudgedAndEachRecoveryTimed) {
   // The kernel's log says the real-time plan was applied.
   const std::string log = slurp(dir_ / "job-0.log");
   EXPECT_NE(log.find("real-time plan: kernel SCHED_FIFO"), std::string::npos);
-  // Nothing of this graph forks, and the faults only kill or stop: a process "left behind" would be the kernel's
-  // own, reported as a service's violation (a fallback retires the services again while the incarnation the
-  // rollback retired is still in its live leaf; seed 7's kill-image at the checkpoint falls back twice).
+  // Nothing of this graph forks, and the faults only kill or stop: a process "left behind" would be the
+  // kernel's own, reported as a service's violation (a fallback retires the services again while the
+  // incarnation the rollback retired is still in its live leaf; seed 7's kill-image at the checkpoint falls
+  // back twice).
   EXPECT_EQ(log.find("left a process behind"), std::string::npos) << log;
 }
 

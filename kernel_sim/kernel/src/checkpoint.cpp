@@ -132,10 +132,10 @@ void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const Checkp
   if (late) {
     for (const ServiceId id : done.waiting) {
       ServiceRuntime& s = k.services[id.value()];
-      // Runnable: waiting for a CPU (a loaded machine), not hung (cpu_wait.hpp). The generation is lost either
-      // way (the vehicle waits with the checkpoint); the service is not: it answers late (late_image), and the
-      // liveness watch judges it if it spins.
-      if (const std::optional<CpuSight> cpu = Supervisor::cpu_sight(s); cpu && cpu->runnable) {
+      // Runnable: waiting for a CPU (a loaded machine), not hung (cpu_wait.hpp). The generation is lost
+      // either way (the vehicle waits with the checkpoint); the service is not: it answers late (late_image),
+      // and if it spins, the liveness watch (real time) or the step's idle deadline (lockstep) judges it.
+      if (const std::optional<CpuSight> cpu = cpu_sight(s.proc.process.pid()); cpu && cpu->runnable) {
         k.log("'%s' is waiting for a CPU at the snapshot deadline: not hung, the checkpoint only abandoned",
               s.name.c_str());
         continue;

@@ -91,12 +91,8 @@ class LivenessWatch {
     probe.asked_at = wall;
     probe.owed = owed;
     probe.ran_at_ask = cpu ? std::optional<Nanos>{cpu->ran} : std::nullopt;
-    probe.spared = false;
+    probe.cpu_wait.reset();
   }
-
-  // The longest a service is spared for waiting for a CPU after a Sync: a service the machine does not run
-  // enough for that long is judged (its deadline's tenfold, at least a second).
-  [[nodiscard]] static Nanos max_cpu_wait(Nanos deadline) { return kernel::max_cpu_wait(deadline); }
 
   // A service spared for waiting for a CPU: the CPU time it had since the Sync, the time since the Sync, and
   // whether this is the first time for this Sync (worth a log line).
@@ -107,25 +103,26 @@ class LivenessWatch {
   };
 
   // After an Overdue whose Idle is not in the channel: whether the service is spared because it is runnable and
-  // has had less than its deadline of CPU time since the Sync. `cpu`: what the scheduler gives it now, nullopt
-  // when unknown. Never spared when the time since the Sync is over max_cpu_wait; nullopt (hung) otherwise. A
-  // service that spins has the CPU time; one stopped, blocked or asleep is not runnable.
+  // has had less than its deadline of CPU time since the Sync (CpuWait, from the CPU time it had when the
+  // Sync went). `cpu`: what the scheduler gives it now, nullopt when unknown. Never spared once max_cpu_wait
+  // is over since the Sync; nullopt (hung) otherwise. A service that spins has the CPU time; one stopped,
+  // blocked or asleep is not runnable.
   [[nodiscard]] std::optional<Spared> spared_for_cpu(ServiceId id, Nanos wall, std::optional<CpuSight> cpu,
                                                      Nanos deadline) {
     Probe& probe = probe_of(id);
-    if (!probe.asked_at || !probe.ran_at_ask || !cpu || !cpu->runnable) return std::nullopt;
-    const Nanos ran = std::max(Nanos{0}, cpu->ran - *probe.ran_at_ask);
-    const Nanos since = wall - *probe.asked_at;
-    if (ran > deadline || since > max_cpu_wait(deadline)) return std::nullopt;
-    const bool first = !probe.spared;
-    probe.spared = true;
-    return Spared{.ran = ran, .since = since, .first = first};
+    if (!probe.asked_at || !probe.ran_at_ask) return std::nullopt;
+    if (!probe.cpu_wait) {
+      probe.cpu_wait.emplace(*probe.asked_at + deadline, deadline, *probe.asked_at, probe.ran_at_ask);
+    }
+    const std::optional<CpuWait::GoOn> on = probe.cpu_wait->go_on(wall, cpu);
+    if (!on) return std::nullopt;
+    return Spared{.ran = on->ran, .since = wall - *probe.asked_at, .first = on->first};
   }
 
   // After an Overdue (killed, or its Idle was in the channel): looked at afresh from what it is now.
   void fresh(const LivenessSight& s, Nanos wall) {
     probe_of(s.id) = Probe{.pid = s.pid, .frames_in = s.frames_in, .asked_at = std::nullopt, .owed = 0,
-                           .ran_at_ask = std::nullopt, .spared = false, .looked_at = wall};
+                           .ran_at_ask = std::nullopt, .cpu_wait = std::nullopt, .looked_at = wall};
   }
 
  private:
@@ -137,7 +134,7 @@ class LivenessWatch {
     std::optional<Nanos> asked_at{};
     std::uint64_t owed = 0;
     std::optional<Nanos> ran_at_ask{};  // its CPU time when the Sync went (sys::task_cpu)
-    bool spared = false;                // spared for waiting for a CPU since the Sync
+    std::optional<CpuWait> cpu_wait{};  // its wait past the deadline for want of a CPU, once Overdue
     Nanos looked_at{Nanos::min() / 2};  // never looked at: due at once
   };
   Probe& probe_of(ServiceId id) {

@@ -218,9 +218,10 @@ class Rejuvenator {
   void chain_realtime();
   void run_rollback(const std::string& reason);
   // Resumes every image of `record` and restores its kernel state: the wall time its images were all back, or why
-  // the generation is unusable (the caller retires whatever of it was resumed). Each image is waited for until
-  // `wait`'s deadline, or on while its copies wait for a CPU (cpu_wait.hpp).
-  [[nodiscard]] Result<Nanos, std::string> resume_generation(image::GenerationRecord& record, const CpuWait& wait);
+  // the generation is unusable (the caller retires whatever of it was resumed). Each image is waited for
+  // until `wait`'s deadline, or on while what owes its answer waits for a CPU (cpu_wait.hpp).
+  [[nodiscard]] Result<Nanos, std::string> resume_generation(image::GenerationRecord& record,
+                                                             const CpuWait& wait);
   // A generation a rollback resumed: its record, and the wall time its images were all back.
   struct ResumedGeneration {
     image::GenerationRecord* record = nullptr;
@@ -228,8 +229,8 @@ class Rejuvenator {
   };
   // The newest generation whose images all come back, resumed; each newer one that does not (an image gone, or
   // not answering by rollback_by, a fallback having at least resume_deadline, or by max_cpu_wait of the bound
-  // since the rollback began while an image waits for a CPU) retired on the way, counted as a fallback. Nothing if
-  // none comes back.
+  // since the rollback began while an image waits for a CPU) retired on the way, counted as a fallback.
+  // Nothing if none comes back.
   [[nodiscard]] std::optional<ResumedGeneration> resume_newest_usable(Nanos rollback_by);
   // Why `record` cannot be resumed without trying: the image of a service is gone (recorded as its violation).
   [[nodiscard]] std::optional<std::string> lost_image(image::GenerationRecord& record);

@@ -58,38 +58,6 @@ void Rejuvenator::retire_live_rejuvenated() {
 }
 
 namespace {
-// The first frame on a restored image's new channel: Resumed{g, its pid}; otherwise why not (a hang-up, no
-// frame in time, another frame), with the wall time waited. In time: before wait's deadline, or later while the
-// image's copies wait for a CPU (cpu_wait.hpp: a starved image is not lost; `look` tells what the scheduler gives
-// them, `said` the first time the wait goes on).
-template <typename Look, typename Said>
-std::expected<pid_t, std::string> read_resumed(const sys::SeqPacket& channel, Generation g, CpuWait wait,
-                                               const Look& look, const Said& said) {
-  const Nanos start = sys::monotonic_now();
-  const auto waited = [&] { return std::to_string(to_ms(sys::monotonic_now() - start)) + " ms"; };
-  Nanos until = wait.deadline_at();
-  for (;;) {
-    auto ready = sys::wait_fd(channel.fd(), sys::WaitFor::Readable, std::max(Nanos{0}, until - sys::monotonic_now()));
-    if (!ready) return std::unexpected("waiting: " + ready.error().to_string());
-    if (*ready) break;
-    const std::optional<CpuWait::GoOn> on = wait.go_on(sys::monotonic_now(), look());
-    if (!on) return std::unexpected("no answer in " + waited());
-    if (on->first) said(*on);
-    until = on->until;
-  }
-  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
-  auto got = channel.receive(buf);
-  if (!got) return std::unexpected("reading: " + got.error().to_string());
-  if (got->closed) return std::unexpected("its channel hung up after " + waited());
-  auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel);
-  if (!frame) return std::unexpected("an undecodable answer");
-  if (frame->kind != wire::FrameKind::Resumed || frame->header.aux != g.value()) {
-    return std::unexpected(std::string(wire::to_string(frame->kind)) + " for generation " +
-                           std::to_string(frame->header.aux) + " instead of Resumed");
-  }
-  return wire::payload_as<wire::TakenBody>(*frame).image_pid;
-}
-
 // An image whose Resume went out: the kernel's ends of its new channel and of its new output pipe, until it answers.
 struct PendingResume {
   ServiceRuntime* service = nullptr;
@@ -156,35 +124,67 @@ std::optional<sys::ChildProcess> take_resumed_process(image::Image& im, pid_t pi
   return std::nullopt;
 }
 
-// Installs the incarnation restored from p's image as the live service as soon as it answers (on a failure the
-// caller retires it again); the first thing that went wrong, if anything did. The image is waited for until
-// `wait`'s deadline, or on while the processes that may have taken its Resume, or still have to make the image
-// that takes it, wait for a CPU: its copies; while a spare or its patch is on its way (a pid not known until its
-// Copied), the kernel's children it knows nothing of (every spare in flight, a superset); and while its patch is,
-// the copies of its base's image, which fork the copy the patch goes to.
+// What the scheduler gives the processes that may have taken `im`'s Resume, or still have to make the image
+// that takes it: its copies; while a spare or its patch is on its way (a pid not known until its Copied), the
+// kernel's children it knows nothing of (every spare in flight, a superset); and while its patch is, the
+// copies of its base's image, which fork the copy the patch goes to.
+std::optional<CpuSight> owing_resumed(const Kernel::Impl& k, ServiceId service, const image::Image& im) {
+  std::vector<pid_t> pids;
+  for (const sys::ChildProcess& c : im.copies) pids.push_back(c.pid());
+  if (im.spares_pending > 0 || im.patch_pending) {
+    for (const pid_t pid : sys::own_children().value_or(std::vector<pid_t>{})) {
+      if (!k.warden.known_child(pid)) pids.push_back(pid);
+    }
+  }
+  const image::GenerationRecord* base = im.patch_pending ? k.rejuvenator.images().find(im.base) : nullptr;
+  if (const image::Image* from = base != nullptr ? base->image_of(service) : nullptr) {
+    for (const sys::ChildProcess& c : from->copies) pids.push_back(c.pid());
+  }
+  return cpu_sight(pids);
+}
+
+// The first frame on p's new channel: Resumed{g, its pid}; otherwise why not (a hang-up, no frame in time,
+// another frame), with the wall time waited. In time: before wait's deadline, or later while what owes the
+// answer waits for a CPU (owing_resumed; cpu_wait.hpp: a starved image is not lost).
+std::expected<pid_t, std::string> read_resumed(Kernel::Impl& k, const PendingResume& p, Generation g,
+                                               CpuWait wait) {
+  const Nanos start = sys::monotonic_now();
+  const auto waited = [&] { return std::to_string(to_ms(sys::monotonic_now() - start)) + " ms"; };
+  Nanos until = wait.deadline_at();
+  for (;;) {
+    const Nanos left = std::max(Nanos{0}, until - sys::monotonic_now());
+    auto ready = sys::wait_fd(p.channel.fd(), sys::WaitFor::Readable, left);
+    if (!ready) return std::unexpected("waiting: " + ready.error().to_string());
+    if (*ready) break;
+    const std::optional<CpuWait::GoOn> on =
+        wait.go_on(sys::monotonic_now(), owing_resumed(k, p.service->id, *p.image));
+    if (!on) return std::unexpected("no answer in " + waited());
+    if (on->first) {
+      k.log("rollback: the image of '%s' is waiting for a CPU (%.1f ms on one since its deadline): not lost, "
+            "waited on",
+            p.service->name.c_str(), to_ms(on->ran));
+    }
+    until = on->until;
+  }
+  std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
+  auto got = p.channel.receive(buf);
+  if (!got) return std::unexpected("reading: " + got.error().to_string());
+  if (got->closed) return std::unexpected("its channel hung up after " + waited());
+  auto frame = wire::decode(std::span<const std::byte>(buf.data(), got->size), wire::Direction::ToKernel);
+  if (!frame) return std::unexpected("an undecodable answer");
+  if (frame->kind != wire::FrameKind::Resumed || frame->header.aux != g.value()) {
+    return std::unexpected(std::string(wire::to_string(frame->kind)) + " for generation " +
+                           std::to_string(frame->header.aux) + " instead of Resumed");
+  }
+  return wire::payload_as<wire::TakenBody>(*frame).image_pid;
+}
+
+// Installs the incarnation restored from p's image as the live service as soon as it answers (read_resumed;
+// on a failure the caller retires it again); the first thing that went wrong, if anything did.
 Result<void, std::string> install_resumed(Kernel::Impl& k, PendingResume& p, Generation g, CpuWait wait) {
   ServiceRuntime& s = *p.service;
   const image::Image& im = *p.image;
-  const auto look = [&] {
-    std::vector<pid_t> pids;
-    for (const sys::ChildProcess& c : im.copies) pids.push_back(c.pid());
-    if (im.spares_pending > 0 || im.patch_pending) {
-      for (const pid_t pid : sys::own_children().value_or(std::vector<pid_t>{})) {
-        if (!k.rejuvenator.knows_process(pid, nullptr)) pids.push_back(pid);
-      }
-    }
-    const image::GenerationRecord* base = im.patch_pending ? k.rejuvenator.images().find(im.base) : nullptr;
-    if (const image::Image* from = base != nullptr ? base->image_of(s.id) : nullptr) {
-      for (const sys::ChildProcess& c : from->copies) pids.push_back(c.pid());
-    }
-    return Supervisor::cpu_sight(pids);
-  };
-  const auto said = [&](const CpuWait::GoOn& on) {
-    k.log("rollback: the image of '%s' is waiting for a CPU (%.1f ms on one since its deadline): not lost, "
-          "waited on",
-          s.name.c_str(), to_ms(on.ran));
-  };
-  const auto answer = read_resumed(p.channel, g, wait, look, said);
+  const auto answer = read_resumed(k, p, g, wait);
   const pid_t pid = answer.value_or(0);
   std::optional<sys::ChildProcess> process = take_resumed_process(*p.image, pid);
   if (!process) {
@@ -222,12 +222,14 @@ Result<void, std::string> install_resumed(Kernel::Impl& k, PendingResume& p, Gen
 }
 }  // namespace
 
-Result<Nanos, std::string> Rejuvenator::resume_generation(image::GenerationRecord& record, const CpuWait& wait) {
+Result<Nanos, std::string> Rejuvenator::resume_generation(image::GenerationRecord& record,
+                                                          const CpuWait& wait) {
   const Epoch next = k.kernel_clock.next_epoch();
   ResumesSent sent = send_resumes(k, channel_pool, record, next);
   std::string failure = std::move(sent.failure);
   if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackResumesSent, record.g);
-  // Then every Resumed, each installed as it answers; every image is waited for, whatever failed first.
+  // Then every Resumed, each installed as it answers; every image is waited for, whatever failed first, each
+  // with a copy of `wait` (its own count of CPU time; one limit for all).
   for (PendingResume& p : sent.pending) {
     if (auto installed = install_resumed(k, p, record.g, wait); !installed && failure.empty()) {
       failure = std::move(installed.error());
@@ -262,8 +264,8 @@ std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(
     if (std::optional<std::string> lost = lost_image(*record)) {
       failure = std::move(*lost);
     } else if (auto resumed = resume_generation(
-                   *record, CpuWait(std::max(rollback_by, k.wall() + k.options.resume_deadline), image_wait_bound(),
-                                    rollback_by - image_wait_bound()))) {
+                   *record, CpuWait(std::max(rollback_by, k.wall() + k.options.resume_deadline),
+                                    image_wait_bound(), rollback_by - image_wait_bound()))) {
       return ResumedGeneration{.record = record, .resumed_at = *resumed};
     } else {
       failure = std::move(resumed.error());

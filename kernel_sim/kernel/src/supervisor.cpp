@@ -584,23 +584,6 @@ LivenessSight Supervisor::liveness_sight(const ServiceRuntime& s) const {
                        .reported = s.flow().reported()};
 }
 
-std::optional<CpuSight> Supervisor::cpu_sight(const ServiceRuntime& s) {
-  const pid_t pid = s.proc.process.pid();
-  return cpu_sight(std::span(&pid, 1));
-}
-
-std::optional<CpuSight> Supervisor::cpu_sight(std::span<const pid_t> pids) {
-  std::optional<CpuSight> sum;
-  for (const pid_t pid : pids) {
-    auto cpu = sys::task_cpu(pid);
-    if (!cpu) continue;  // gone meanwhile, or never ours
-    if (!sum) sum = CpuSight{};
-    sum->ran += cpu->ran;
-    sum->runnable = sum->runnable || cpu->runnable;
-  }
-  return sum;
-}
-
 void Supervisor::watch_liveness() {
   if (!k.sr) return;  // without SR a kill ends the run: a slow service is not worth that
   const Nanos t = k.wall();
@@ -612,12 +595,12 @@ void Supervisor::watch_liveness() {
       case LivenessCall::Kind::Nothing:
         break;
       case LivenessCall::Kind::Ask:
-        if (k.ask_idle(s)) liveness_.asked(s.id, t, call.owed, cpu_sight(s));
+        if (k.ask_idle(s)) liveness_.asked(s.id, t, call.owed, cpu_sight(s.proc.process.pid()));
         break;
       case LivenessCall::Kind::Overdue:
         if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
         if (s.live() && s.flow().reported() < call.owed) {
-          const std::optional<CpuSight> cpu = cpu_sight(s);
+          const std::optional<CpuSight> cpu = cpu_sight(s.proc.process.pid());
           const auto ms = [](Nanos d) {
             return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count());
           };

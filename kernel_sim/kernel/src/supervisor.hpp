@@ -4,7 +4,6 @@
 #pragma once
 
 #include <optional>
-#include <span>
 #include <string>
 #include <vector>
 
@@ -58,13 +57,6 @@ class Supervisor {
 
   [[nodiscard]] bool plant_started() const { return plant_started_; }
   [[nodiscard]] std::optional<pid_t> plant_pid() const;  // started and not yet reaped
-
-  // What the scheduler gives the live incarnation's main thread (the one that answers its channel;
-  // sys::task_cpu); nullopt when it cannot be read.
-  [[nodiscard]] static std::optional<CpuSight> cpu_sight(const ServiceRuntime& s);
-  // The same for several processes taken together (their main threads): CPU times summed, runnable if one is;
-  // nullopt when none of them can be read.
-  [[nodiscard]] static std::optional<CpuSight> cpu_sight(std::span<const pid_t> pids);
 
  private:
   void report_stall();  // no step completed for kStallReportAfter

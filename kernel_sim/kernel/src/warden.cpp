@@ -162,16 +162,18 @@ bool Warden::kill_live_leaf(const ServiceRuntime& s) {
     if (k.options.verbose) k.log("rollback: an image of '%s' is not in its images leaf yet: no cgroup.kill", s.name.c_str());
     return false;
   }
-  // Who is in it, for the count (one read of cgroup.procs): each one other than the live incarnation and the
-  // processes the kernel is ending itself is a stray, counted by the sweep after the rollback (recording a
-  // violation logs a line: not here). A fallback retires the services again: by then the incarnation the
-  // rollback retired is the reaper's and may still be in the leaf, stopped or dying — the kernel's, no stray.
+  // Who is in it, for the count (one read of cgroup.procs): each one the kernel does not know (known_child,
+  // as the sweep judges) is a stray, counted by the sweep after the rollback (recording a violation logs a
+  // line: not here). A fallback retires the services again: by then the incarnation the rollback retired is
+  // the reaper's and may still be in the leaf, stopped or dying — the kernel's, no stray. The live
+  // incarnation, the common case, is looked at first.
   const std::vector<pid_t> members = s.sandbox.cgroup.members(sys::CgroupLeaf::Live);
-  const auto ours = [&](pid_t pid) { return pid == s.proc.process.pid() || k.rejuvenator.reaping(pid); };
+  const auto ours = [&](pid_t pid) { return pid == s.proc.process.pid() || known_child(pid); };
   // Nothing but those (no stray): the live incarnation is stopped and killed after the rollback, off the
-  // critical path, as without cgroups. Killed here, its exit (freeing its memory) ran beside the resume of every
-  // image on two CPUs: rollback p50 0.68 -> 1.70 ms in real time (`rejuv bench realtime`), its resume phase
-  // 0.55 -> 1.33 ms. The one-call kill is for what an attacker spawned, whose number it must not grow with.
+  // critical path, as without cgroups. Killed here, its exit (freeing its memory) ran beside the resume of
+  // every image on two CPUs: rollback p50 0.68 -> 1.70 ms in real time (`rejuv bench realtime`), its resume
+  // phase 0.55 -> 1.33 ms. The one-call kill is for what an attacker spawned, whose number it must not grow
+  // with.
   if (std::ranges::all_of(members, ours)) return false;
   if (!s.sandbox.cgroup.kill_live()) return false;
   for (const pid_t pid : members) {
@@ -412,9 +414,9 @@ std::vector<bool> copies_on_their_way(Kernel::Impl& k, bool final, SweepWait wai
   return pending;
 }
 
-// Whether a child of the kernel is one it knows: the plant, a live service, an image of a kept or retiring
-// generation, a process the reaper is ending.
-bool known_child(const Kernel::Impl& k, pid_t pid) {
+}  // namespace
+
+bool Warden::known_child(pid_t pid) const {
   if (k.rejuvenator.knows_process(pid, nullptr)) return true;
   for (const image::GenerationRecord& r : k.rejuvenator.retiring()) {
     for (const image::Image& im : r.images) {
@@ -425,8 +427,6 @@ bool known_child(const Kernel::Impl& k, pid_t pid) {
   }
   return k.rejuvenator.reaping(pid);
 }
-
-}  // namespace
 
 void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
   const std::vector<bool> pending = copies_on_their_way(k, final, wait);
@@ -440,7 +440,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
   for (ServiceRuntime& s : k.services) (void)count_out_of_memory(s, false);  // a stray the OOM killer took
   auto children = sys::own_children();
   if (!children) return;
-  const auto known = [&](pid_t pid) { return known_child(k, pid); };
+  const auto known = [&](pid_t pid) { return known_child(pid); };
   const auto killed_with_its_leaf = [&](pid_t pid) {
     return std::any_of(killed_with_leaf.begin(), killed_with_leaf.end(), [&](const auto& e) { return e.second == pid; });
   };

@@ -47,6 +47,10 @@ class Warden {
   // No cgroup move queued or running (each holds the cgroup.procs fds it writes to until it is done).
   [[nodiscard]] bool placements_idle() const { return placer.idle(); }
   void place_live(const ServiceRuntime& s);  // a restored incarnation into `live/`
+  // Whether a child of the kernel is one it knows: the plant, a live service, an image of a kept or retiring
+  // generation, a process the reaper is ending. Any other child is a stray, or a spare whose pid is not
+  // reported yet.
+  [[nodiscard]] bool known_child(pid_t pid) const;
   // At a rollback: the live leaf — the incarnation and everything it forked — killed in one call
   // (cgroup.kill), if every image and spare of the service the kernel knows is in `images/` (a move still
   // running, or a copy born in `live/` and not moved yet, would die with it). False, and nothing killed,

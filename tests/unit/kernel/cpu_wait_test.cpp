@@ -1,6 +1,6 @@
-// CpuWait (kernel_sim/kernel/src/cpu_wait.hpp): a wait past its deadline goes on while the processes that owe the
-// answer are runnable and have not had the deadline's length of CPU, within max_cpu_wait of its beginning; on
-// wall times and sights given by the test (no clock is read, no process started).
+// CpuWait (kernel_sim/kernel/src/cpu_wait.hpp): a wait past its deadline goes on while the processes that owe
+// the answer are runnable and have not had the deadline's length of CPU, within max_cpu_wait of its
+// beginning; on wall times and sights given by the test (no clock is read, no process started).
 #include <gtest/gtest.h>
 
 #include "cpu_wait.hpp"
@@ -28,7 +28,6 @@ TEST(CpuWait, RunnableWithoutCpu_GoesOnOneLookAtATime_FirstOnlyOnce) {
   EXPECT_EQ(first->until, milliseconds{100} + CpuWait::kLook);
   EXPECT_EQ(first->ran, Nanos{0});
   EXPECT_TRUE(first->first);
-  EXPECT_TRUE(wait.went_on());
   const auto again = wait.go_on(milliseconds{110}, CpuSight{.ran = milliseconds{41}, .runnable = true});
   ASSERT_TRUE(again);
   EXPECT_EQ(again->ran, milliseconds{1});
@@ -39,7 +38,10 @@ TEST(CpuWait, RunnableWithoutCpu_GoesOnOneLookAtATime_FirstOnlyOnce) {
 TEST(CpuWait, NotRunnableOrUnknown_VerdictAtTheDeadline) {
   CpuWait stopped = wait_from_zero();
   EXPECT_FALSE(stopped.go_on(milliseconds{100}, CpuSight{.ran = milliseconds{40}, .runnable = false}));
-  EXPECT_FALSE(stopped.went_on());
+  // A verdict is no going on: the first time the wait does go on is still its first.
+  const auto resumed = stopped.go_on(milliseconds{105}, CpuSight{.ran = milliseconds{40}, .runnable = true});
+  ASSERT_TRUE(resumed);
+  EXPECT_TRUE(resumed->first);
   CpuWait unknown = wait_from_zero();
   EXPECT_FALSE(unknown.go_on(milliseconds{100}, std::nullopt));
   // Spared once, then stopped: judged then.
@@ -48,7 +50,8 @@ TEST(CpuWait, NotRunnableOrUnknown_VerdictAtTheDeadline) {
   EXPECT_FALSE(later.go_on(milliseconds{110}, CpuSight{.ran = milliseconds{40}, .runnable = false}));
 }
 
-// A process that had the deadline's length of CPU since the deadline and did not answer is not starved (it spins).
+// A process that had the deadline's length of CPU since the deadline and did not answer is not starved (it
+// spins).
 TEST(CpuWait, HadItsLengthOfCpu_VerdictDue) {
   CpuWait wait = wait_from_zero();
   ASSERT_TRUE(wait.go_on(milliseconds{100}, CpuSight{.ran = milliseconds{40}, .runnable = true}));
@@ -63,6 +66,17 @@ TEST(CpuWait, StarvedPastMaxCpuWait_VerdictDue_LooksEndAtTheLimit) {
   ASSERT_TRUE(near);
   EXPECT_EQ(near->until, std::chrono::seconds{1});
   EXPECT_FALSE(wait.go_on(std::chrono::seconds{1}, CpuSight{.ran = milliseconds{0}, .runnable = true}));
+}
+
+// Its CPU time known when the wait began (a Sync's): counted from then, not from the first look past the
+// deadline — a process that had its length of CPU before the deadline and did not answer is not starved.
+TEST(CpuWait, CpuTimeKnownAtTheBeginning_CountedFromThen) {
+  CpuWait wait(kLength, kLength, Nanos{0}, milliseconds{40});
+  const auto starved = wait.go_on(milliseconds{100}, CpuSight{.ran = milliseconds{45}, .runnable = true});
+  ASSERT_TRUE(starved);
+  EXPECT_EQ(starved->ran, milliseconds{5});
+  CpuWait spun(kLength, kLength, Nanos{0}, milliseconds{40});
+  EXPECT_FALSE(spun.go_on(milliseconds{100}, CpuSight{.ran = milliseconds{141}, .runnable = true}));
 }
 
 // A deadline later than the limit (a fallback's own resume deadline): the limit is never before it.

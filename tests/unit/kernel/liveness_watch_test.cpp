@@ -166,8 +166,8 @@ TEST(LivenessWatch, ServiceNotRunnable_HungAtItsDeadline) {
 // Starved for longer than max_cpu_wait: judged (a service the machine does not run is lost to the vehicle).
 TEST(LivenessWatch, ServiceStarvedPastTheBound_Hung) {
   LivenessWatch watch(kChainDeadline, kOtherDeadline);
-  EXPECT_EQ(LivenessWatch::max_cpu_wait(kChainDeadline), std::chrono::seconds{1});
-  EXPECT_EQ(LivenessWatch::max_cpu_wait(kOtherDeadline), std::chrono::seconds{2});
+  EXPECT_EQ(max_cpu_wait(kChainDeadline), std::chrono::seconds{1});
+  EXPECT_EQ(max_cpu_wait(kOtherDeadline), std::chrono::seconds{2});
   const LivenessSight silent = asked_at_10ms(watch, CpuSight{milliseconds{0}, true});
   ASSERT_EQ(watch.look(silent, milliseconds{1000}).kind, Kind::Overdue);
   EXPECT_TRUE(watch.spared_for_cpu(silent.id, milliseconds{1000}, CpuSight{milliseconds{2}, true}, kChainDeadline))

@@ -30,10 +30,11 @@
 // fuzzer's seam. Smaller parts that own their state, unit-tested: kernel_clock.hpp (the time page's one
 // writer), step_clock.hpp (the lockstep step queue and its deadlines), image_coordinator.hpp (the checkpoint
 // and rollback requests, the work left, the rejuvenation timer), vehicle_pace.hpp (when in the control period
-// image work disturbs the vehicle least), liveness_watch.hpp (who is hung in real time), reaper.hpp (retired
-// and dying processes), channel_pool.hpp (socket pairs made ahead), routing_freeze.hpp (routing held while
-// image work is timed), image_charge.hpp (its simulated-time charge), canonical_stage.hpp (lockstep staging),
-// fixed_ring.hpp (a bounded FIFO allocated once), output_batch.hpp, netgate.hpp, mission_watch.hpp.
+// image work disturbs the vehicle least), liveness_watch.hpp (who is hung in real time), cpu_wait.hpp/.cpp (a
+// late answer judged by the CPU its processes had), reaper.hpp (retired and dying processes),
+// channel_pool.hpp (socket pairs made ahead), routing_freeze.hpp (routing held while image work is timed),
+// image_charge.hpp (its simulated-time charge), canonical_stage.hpp (lockstep staging), fixed_ring.hpp (a
+// bounded FIFO allocated once), output_batch.hpp, netgate.hpp, mission_watch.hpp.
 #pragma once
 
 #include <algorithm>
