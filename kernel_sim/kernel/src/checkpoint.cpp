@@ -97,18 +97,21 @@ void Rejuvenator::send_snapshots(CheckpointRun& run) {
 
 // Handles every other event meanwhile (pump) until each service has answered, one is lost, or the snapshot
 // deadline passes (true: late). Taken frames come through handle_frame → on_taken, TakenPages (with its fd)
-// through read_channel → on_taken_pages.
+// through read_channel → on_taken_pages. Past the deadline the kernel looks once more without waiting: what
+// came while the kernel itself did not run (waiting for a CPU) was in time for all the services could tell.
 bool Rejuvenator::await_images(CheckpointRun& run) {
   const Nanos deadline = k.wall() + wait_bound(k.options.snapshot_deadline, k.options.unseen_snapshot_deadline);
+  bool looked_past = false;
   while (run.failure.empty() && !run.waiting.empty() && !k.stopping) {
     if (lost_during(run)) break;  // abandoned now rather than at the deadline
     const Nanos left = deadline - k.wall();
-    if (left <= Nanos{0}) {
+    if (left <= Nanos{0} && looked_past) {
       run.failure =
           "no Taken from '" + k.services[run.waiting.front().value()].name + "' within the snapshot deadline";
       return true;
     }
-    if (!k.pump(left)) break;
+    looked_past = left <= Nanos{0};
+    if (!k.pump(std::max(left, Nanos{0}))) break;
   }
   return false;
 }
@@ -135,12 +138,23 @@ void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const Checkp
       // Runnable: waiting for a CPU (a loaded machine), not hung (cpu_wait.hpp). The generation is lost
       // either way (the vehicle waits with the checkpoint); the service is not: it answers late (late_image),
       // and if it spins, the liveness watch (real time) or the step's idle deadline (lockstep) judges it.
-      if (const std::optional<CpuSight> cpu = cpu_sight(s.proc.process.pid()); cpu && cpu->runnable) {
+      const std::optional<CpuSight> cpu = cpu_sight(s.proc.process.pid());
+      if (cpu && cpu->runnable) {
         k.log("'%s' is waiting for a CPU at the snapshot deadline: not hung, the checkpoint only abandoned",
               s.name.c_str());
         continue;
       }
-      k.supervisor.kill_hung(s, "no Taken within the snapshot deadline");
+      // Asleep: it sent whatever it answered before it slept (the scheduler is read first), so its channel
+      // holds a Taken sent after the kernel's last read, if there is one (settled by late_image).
+      if (s.live() && s.proc.channel.valid()) k.input.read_channel(s);
+      if (!coordinator_.owes(s.id)) {
+        k.log("'%s' answered after the snapshot deadline: not hung, the checkpoint only abandoned",
+              s.name.c_str());
+        continue;
+      }
+      const auto task = sys::task_cpu(s.proc.process.pid());
+      k.supervisor.kill_hung(s, std::string("no Taken within the snapshot deadline") +
+                                    (task ? " (state " + std::string(1, task->state) + ")" : " (gone)"));
     }
   }
   resume_routing();

@@ -18,8 +18,8 @@
 namespace rejuv::kernel {
 
 // What the scheduler gives one process, or several taken together: the CPU time they had since birth
-// (summed), and whether one of them is runnable (running, or waiting for a CPU) rather than asleep, blocked
-// or stopped.
+// (summed), and whether one of them is runnable (sys::TaskCpu: running, waiting for a CPU, or in an
+// uninterruptible wait inside the OS) rather than asleep by its own call, or stopped.
 struct CpuSight {
   Nanos ran{0};
   bool runnable = false;

@@ -105,8 +105,8 @@ class LivenessWatch {
   // After an Overdue whose Idle is not in the channel: whether the service is spared because it is runnable and
   // has had less than its deadline of CPU time since the Sync (CpuWait, from the CPU time it had when the
   // Sync went). `cpu`: what the scheduler gives it now, nullopt when unknown. Never spared once max_cpu_wait
-  // is over since the Sync; nullopt (hung) otherwise. A service that spins has the CPU time; one stopped,
-  // blocked or asleep is not runnable.
+  // is over since the Sync; nullopt (hung) otherwise. A service that spins has the CPU time; one stopped or
+  // asleep by its own call is not runnable (sys::TaskCpu).
   [[nodiscard]] std::optional<Spared> spared_for_cpu(ServiceId id, Nanos wall, std::optional<CpuSight> cpu,
                                                      Nanos deadline) {
     Probe& probe = probe_of(id);

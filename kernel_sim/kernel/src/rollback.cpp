@@ -158,7 +158,12 @@ std::expected<pid_t, std::string> read_resumed(Kernel::Impl& k, const PendingRes
     if (*ready) break;
     const std::optional<CpuWait::GoOn> on =
         wait.go_on(sys::monotonic_now(), owing_resumed(k, p.service->id, *p.image));
-    if (!on) return std::unexpected("no answer in " + waited());
+    if (!on) {
+      // The scheduler was read first: an image seen asleep sent its Resumed before it slept, if it did.
+      auto last = sys::wait_fd(p.channel.fd(), sys::WaitFor::Readable, Nanos{0});
+      if (last && *last) break;
+      return std::unexpected("no answer in " + waited());
+    }
     if (on->first) {
       k.log("rollback: the image of '%s' is waiting for a CPU (%.1f ms on one since its deadline): not lost, "
             "waited on",

@@ -598,9 +598,11 @@ void Supervisor::watch_liveness() {
         if (k.ask_idle(s)) liveness_.asked(s.id, t, call.owed, cpu_sight(s.proc.process.pid()));
         break;
       case LivenessCall::Kind::Overdue:
+        // The scheduler first, then the channel: a service seen asleep sent whatever it answered before
+        // it slept, so the read below finds it.
+        const std::optional<CpuSight> cpu = cpu_sight(s.proc.process.pid());
         if (s.proc.channel.valid()) k.input.read_channel(s);  // its Idle may be waiting in the channel
         if (s.live() && s.flow().reported() < call.owed) {
-          const std::optional<CpuSight> cpu = cpu_sight(s.proc.process.pid());
           const auto ms = [](Nanos d) {
             return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(d).count());
           };

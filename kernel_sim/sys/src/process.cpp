@@ -702,7 +702,9 @@ SysResult<TaskCpu> task_cpu(pid_t tid) {
   if (close == std::string::npos || close + 2 >= stat->size()) {
     return std::unexpected(SysError{"parse(/proc/TID/stat)", EINVAL});
   }
-  return TaskCpu{.ran = Nanos{static_cast<std::int64_t>(ran)}, .runnable = (*stat)[close + 2] == 'R'};
+  const char state = (*stat)[close + 2];
+  return TaskCpu{.ran = Nanos{static_cast<std::int64_t>(ran)}, .runnable = state == 'R' || state == 'D',
+                 .state = state};
 }
 
 }  // namespace rejuv::sys

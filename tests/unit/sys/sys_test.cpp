@@ -854,3 +854,37 @@ TEST(TaskCpu, SpinnerRunnableAndRuns_StoppedNeither) {
   ASSERT_TRUE(self.has_value());
   EXPECT_TRUE(self->runnable) << "the caller runs";
 }
+
+// Runnable as the load average counts it: a process in an uninterruptible wait inside the OS (D: here a vfork
+// parent until its child exits) waits on the machine, and one asleep by its own call (S: pause) does not.
+TEST(TaskCpu, InAnOsWaitRunnable_AsleepNot) {
+  const pid_t waiting = ::fork();
+  if (waiting == 0) {
+    if (::vfork() == 0) {
+      const timespec second{.tv_sec = 1, .tv_nsec = 0};
+      (void)::nanosleep(&second, nullptr);
+      ::_exit(0);
+    }
+    ::_exit(0);
+  }
+  const pid_t asleep = ::fork();
+  if (asleep == 0) {
+    for (;;) ::pause();
+  }
+  ASSERT_GT(waiting, 0);
+  ASSERT_GT(asleep, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds{200});
+  const auto in_os = rejuv::sys::task_cpu(waiting);
+  const auto slept = rejuv::sys::task_cpu(asleep);
+  (void)::kill(asleep, SIGKILL);
+  (void)::waitpid(asleep, nullptr, 0);
+  int status = 0;
+  ASSERT_EQ(::waitpid(waiting, &status, 0), waiting);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "the vfork parent went on once its child exited";
+  ASSERT_TRUE(in_os.has_value()) << in_os.error().to_string();
+  ASSERT_TRUE(slept.has_value()) << slept.error().to_string();
+  EXPECT_EQ(in_os->state, 'D');
+  EXPECT_TRUE(in_os->runnable) << "waiting for its vfork child inside the OS";
+  EXPECT_EQ(slept->state, 'S');
+  EXPECT_FALSE(slept->runnable) << "asleep in pause";
+}

@@ -196,12 +196,15 @@ struct Spawned {
 [[nodiscard]] std::optional<pid_t> thread_group_of(pid_t tid);
 
 // What the scheduler gives a thread (for a process's pid, its main thread): the time it ran on a CPU since it was
-// born (/proc/TID/schedstat) and whether it is runnable now — running or waiting on a run queue for a CPU — rather
-// than sleeping, blocked or stopped (state R of /proc/TID/stat). The run-queue time schedstat also shows counts a
-// wait only once it is over: it says nothing of a thread that is waiting still.
+// born (/proc/TID/schedstat) and whether it is runnable now, as the load average counts it: running or waiting
+// on a run queue for a CPU (state R of /proc/TID/stat), or in an uninterruptible wait inside the OS (D: a lock
+// whose holder waits for a CPU, memory, a vfork child) — the machine's doing — rather than asleep by its own
+// call (S), stopped (T) or dead. The run-queue time schedstat also shows counts a wait only once it is over: it
+// says nothing of a thread that is waiting still.
 struct TaskCpu {
   Nanos ran{0};
   bool runnable = false;
+  char state = '?';  // the state letter of /proc/TID/stat, for messages
 };
 [[nodiscard]] SysResult<TaskCpu> task_cpu(pid_t tid);
 
