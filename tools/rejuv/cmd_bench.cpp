@@ -9,9 +9,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -77,6 +80,25 @@ void print_images(const kernel::SrStats& sr, const std::string& name, std::size_
 }
 
 // `rejuv bench images GRAPH`: the cycles, then the cold restarts, on one kernel; the table (print_images).
+// The last `lines` lines of the kernel's log kept in `log` (a temporary file), to stderr: why a benchmark
+// stopped.
+void print_log_tail(std::FILE* log, std::size_t lines) {
+  if (log == nullptr || std::fflush(log) != 0 || std::fseek(log, 0, SEEK_SET) != 0) return;
+  std::deque<std::string> tail;
+  std::array<char, 1024> buf{};
+  std::string line;
+  while (std::fgets(buf.data(), static_cast<int>(buf.size()), log) != nullptr) {
+    line += buf.data();
+    if (line.empty() || line.back() != '\n') continue;
+    tail.push_back(std::move(line));
+    line.clear();
+    if (tail.size() > lines) tail.pop_front();
+  }
+  if (tail.empty()) return;
+  std::fprintf(stderr, "the kernel's last %zu log lines:\n", tail.size());
+  for (const std::string& l : tail) std::fputs(l.c_str(), stderr);
+}
+
 int bench_images(const std::string& graph_path, const ImageBench& b) {
   const std::uint64_t cycles = b.cycles;
   const std::uint64_t restarts = b.restarts;
@@ -88,7 +110,13 @@ int bench_images(const std::string& graph_path, const ImageBench& b) {
   kernel::KernelOptions options;
   options.time_master = kernel::TimeMaster::Manual;
   options.no_attack = true;
-  options.log = nullptr;
+  // The kernel's log goes to a temporary file, shown (its tail) only if the benchmark stops.
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> log(std::tmpfile(), &std::fclose);
+  options.log = log.get();
+  const auto stopped = [&] {
+    print_log_tail(log.get(), 20);
+    return static_cast<int>(Exit::Findings);
+  };
   options.service_dir = service_dir();
   options.repo_root = REJUV_SOURCE_DIR;
   options.dds_domain = static_cast<std::uint32_t>(::getpid() % 200 + 20);  // apart from a concurrent run
@@ -101,7 +129,7 @@ int bench_images(const std::string& graph_path, const ImageBench& b) {
   kernel::Kernel& k = **created;
   if (auto ok = k.boot(); !ok) {
     std::fprintf(stderr, "rejuv bench: %s\n", ok.error().to_string().c_str());
-    return static_cast<int>(Exit::Findings);
+    return stopped();
   }
   std::size_t rejuvenated = 0;
   for (std::size_t i = 0; i < k.service_count(); ++i) {
@@ -118,19 +146,19 @@ int bench_images(const std::string& graph_path, const ImageBench& b) {
                name.c_str(), rejuvenated, static_cast<unsigned long long>(cycles),
                static_cast<unsigned long long>(between), static_cast<unsigned long long>(restarts));
   for (int i = 0; i < 5; ++i) {
-    if (!step()) return static_cast<int>(Exit::Findings);
+    if (!step()) return stopped();
   }
   for (std::uint64_t c = 0; c < cycles; ++c) {
     if (auto g = k.checkpoint_now(); !g) {
       std::fprintf(stderr, "rejuv bench: checkpoint: %s\n", g.error().to_string().c_str());
-      return static_cast<int>(Exit::Findings);
+      return stopped();
     }
-    if (!step(between)) return static_cast<int>(Exit::Findings);
+    if (!step(between)) return stopped();
     if (auto ok = k.rollback_now(); !ok) {
       std::fprintf(stderr, "rejuv bench: rollback: %s\n", ok.error().to_string().c_str());
-      return static_cast<int>(Exit::Findings);
+      return stopped();
     }
-    if (!step(between)) return static_cast<int>(Exit::Findings);
+    if (!step(between)) return stopped();
     if ((c + 1) % 50 == 0) std::fprintf(stderr, "  %llu/%llu cycles\n", static_cast<unsigned long long>(c + 1),
                                         static_cast<unsigned long long>(cycles));
   }
@@ -139,10 +167,10 @@ int bench_images(const std::string& graph_path, const ImageBench& b) {
     const Nanos t0 = sys::monotonic_now();
     if (auto ok = k.rollback_now(true); !ok || k.stop_reason()) {
       std::fprintf(stderr, "rejuv bench: cold restart failed: %s\n", k.stop_detail().c_str());
-      return static_cast<int>(Exit::Findings);
+      return stopped();
     }
     cold.push_back(ms_since(t0));
-    if (!step()) return static_cast<int>(Exit::Findings);
+    if (!step()) return stopped();
   }
   print_images(k.sr_stats(), name, rejuvenated, cold);
   k.shutdown();
