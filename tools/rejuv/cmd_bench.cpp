@@ -9,11 +9,9 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,6 +20,7 @@
 #include "common_options.hpp"
 #include "commands.hpp"
 #include "report.hpp"
+#include "run_child.hpp"
 #include "rejuv/kernel/kernel.hpp"
 #include "rejuv/launch/launch.hpp"
 #include "rejuv/sys/event.hpp"
@@ -80,25 +79,6 @@ void print_images(const kernel::SrStats& sr, const std::string& name, std::size_
 }
 
 // `rejuv bench images GRAPH`: the cycles, then the cold restarts, on one kernel; the table (print_images).
-// The last `lines` lines of the kernel's log kept in `log` (a temporary file), to stderr: why a benchmark
-// stopped.
-void print_log_tail(std::FILE* log, std::size_t lines) {
-  if (log == nullptr || std::fflush(log) != 0 || std::fseek(log, 0, SEEK_SET) != 0) return;
-  std::deque<std::string> tail;
-  std::array<char, 1024> buf{};
-  std::string line;
-  while (std::fgets(buf.data(), static_cast<int>(buf.size()), log) != nullptr) {
-    line += buf.data();
-    if (line.empty() || line.back() != '\n') continue;
-    tail.push_back(std::move(line));
-    line.clear();
-    if (tail.size() > lines) tail.pop_front();
-  }
-  if (tail.empty()) return;
-  std::fprintf(stderr, "the kernel's last %zu log lines:\n", tail.size());
-  for (const std::string& l : tail) std::fputs(l.c_str(), stderr);
-}
-
 int bench_images(const std::string& graph_path, const ImageBench& b) {
   const std::uint64_t cycles = b.cycles;
   const std::uint64_t restarts = b.restarts;
@@ -114,7 +94,10 @@ int bench_images(const std::string& graph_path, const ImageBench& b) {
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> log(std::tmpfile(), &std::fclose);
   options.log = log.get();
   const auto stopped = [&] {
-    print_log_tail(log.get(), 20);
+    if (log && std::fflush(log.get()) == 0) {
+      const std::string tail = log_tail("/proc/self/fd/" + std::to_string(::fileno(log.get())), 20);
+      if (!tail.empty()) std::fprintf(stderr, "the kernel's last log lines:\n%s\n", tail.c_str());
+    }
     return static_cast<int>(Exit::Findings);
   };
   options.service_dir = service_dir();

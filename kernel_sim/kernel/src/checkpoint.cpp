@@ -138,8 +138,8 @@ void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const Checkp
       // Runnable: waiting for a CPU (a loaded machine), not hung (cpu_wait.hpp). The generation is lost
       // either way (the vehicle waits with the checkpoint); the service is not: it answers late (late_image),
       // and if it spins, the liveness watch (real time) or the step's idle deadline (lockstep) judges it.
-      const std::optional<CpuSight> cpu = cpu_sight(s.proc.process.pid());
-      if (cpu && cpu->runnable) {
+      const auto task = sys::task_cpu(s.proc.process.pid());
+      if (task && task->runnable) {
         k.log("'%s' is waiting for a CPU at the snapshot deadline: not hung, the checkpoint only abandoned",
               s.name.c_str());
         continue;
@@ -152,7 +152,6 @@ void Rejuvenator::abandon_checkpoint(CheckpointRun done, bool late, const Checkp
               s.name.c_str());
         continue;
       }
-      const auto task = sys::task_cpu(s.proc.process.pid());
       k.supervisor.kill_hung(s, std::string("no Taken within the snapshot deadline") +
                                     (task ? " (state " + std::string(1, task->state) + ")" : " (gone)"));
     }
