@@ -151,6 +151,18 @@ const GenerationRecord* ImageStore::newest() const {
   return generations_.empty() ? nullptr : &generations_.back();
 }
 
+bool ImageStore::free_to_resume(const GenerationRecord& record) const {
+  return std::all_of(record.images.begin(), record.images.end(), [&](const Image& i) {
+    if (i.patch_pending) return false;
+    const auto patches_from_it =
+        std::count_if(generations_.begin(), generations_.end(), [&](const GenerationRecord& r) {
+          const Image* made = r.image_of(i.service);
+          return made != nullptr && made->patch_pending && made->base == record.g;
+        });
+    return i.copies.size() > i.spares_pending + static_cast<std::size_t>(patches_from_it);
+  });
+}
+
 GenerationRecord* ImageStore::find(Generation g) {
   for (GenerationRecord& r : generations_) {
     if (r.g == g) return &r;

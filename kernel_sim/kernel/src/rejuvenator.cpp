@@ -145,11 +145,28 @@ void Rejuvenator::release_all_images() {
 
 void Rejuvenator::finish_retiring(bool final) {
   const Nanos deadline = k.wall() + std::chrono::milliseconds{final ? 200 : 0};
+  // A Patch on its way (a generation retired before its image was made: pass_over_busy) comes from a copy of
+  // its base generation's image: waited for while that image has a copy, so that the copy it makes is adopted
+  // (refresh) and killed here rather than found by a sweep as a stray.
+  std::vector<std::pair<Generation, ServiceId>> with_copy;  // images kept or retiring that have a copy
+  const auto note_copies = [&](const image::GenerationRecord& r) {
+    for (const image::Image& im : r.images) {
+      if (im.has_copy_or_patch()) with_copy.emplace_back(r.g, im.service);
+    }
+  };
+  const auto patch_coming = [&](const image::Image& im) {
+    return im.patch_pending &&
+           std::find(with_copy.begin(), with_copy.end(), std::pair{im.base, im.service}) != with_copy.end();
+  };
   do {
+    with_copy.clear();
+    for (const Generation g : images_.generations()) note_copies(*images_.find(g));
+    for (const image::GenerationRecord& r : retiring_) note_copies(r);
     std::erase_if(retiring_, [&](image::GenerationRecord& r) {
       bool settled = true;
       for (image::Image& im : r.images) {
         if (im.refresh() > 0 && im.spares_pending > 0) settled = false;
+        if (patch_coming(im)) settled = false;
       }
       if (!settled) return false;
       // Killed now (Reaper::kill) and reaped off the critical path (service_images).

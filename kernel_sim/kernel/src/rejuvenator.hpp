@@ -232,6 +232,9 @@ class Rejuvenator {
   // since the rollback began while an image waits for a CPU) retired on the way, counted as a fallback.
   // Nothing if none comes back.
   [[nodiscard]] std::optional<ResumedGeneration> resume_newest_usable(Nanos rollback_by);
+  // Real time only: the newest generations busy to resume (an image's copy still being made or forking:
+  // ImageStore::free_to_resume) passed over for the newest that is not, if one is (rollback.cpp).
+  void pass_over_busy();
   // Why `record` cannot be resumed without trying: the image of a service is gone (recorded as its violation).
   [[nodiscard]] std::optional<std::string> lost_image(image::GenerationRecord& record);
   void retire_live_rejuvenated();

@@ -9,6 +9,7 @@
 #include <array>
 #include <csignal>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -124,11 +125,11 @@ std::optional<sys::ChildProcess> take_resumed_process(image::Image& im, pid_t pi
   return std::nullopt;
 }
 
-// What the scheduler gives the processes that may have taken `im`'s Resume, or still have to make the image
-// that takes it: its copies; while a spare or its patch is on its way (a pid not known until its Copied), the
-// kernel's children it knows nothing of (every spare in flight, a superset); and while its patch is, the
-// copies of its base's image, which fork the copy the patch goes to.
-std::optional<CpuSight> owing_resumed(const Kernel::Impl& k, ServiceId service, const image::Image& im) {
+// The processes that may have taken `im`'s Resume, or still have to make the image that takes it: its copies;
+// while a spare or its patch is on its way (a pid not known until its Copied), the kernel's children it knows
+// nothing of (every spare in flight, a superset); and while its patch is, the copies of its base's image,
+// which fork the copy the patch goes to.
+std::vector<pid_t> owing_resumed(const Kernel::Impl& k, ServiceId service, const image::Image& im) {
   std::vector<pid_t> pids;
   for (const sys::ChildProcess& c : im.copies) pids.push_back(c.pid());
   if (im.spares_pending > 0 || im.patch_pending) {
@@ -140,7 +141,17 @@ std::optional<CpuSight> owing_resumed(const Kernel::Impl& k, ServiceId service, 
   if (const image::Image* from = base != nullptr ? base->image_of(service) : nullptr) {
     for (const sys::ChildProcess& c : from->copies) pids.push_back(c.pid());
   }
-  return cpu_sight(pids);
+  return pids;
+}
+
+// "pid 12 R, pid 13 D": what the scheduler shows of each of `pids` now (for a log line).
+std::string states_of(std::span<const pid_t> pids) {
+  std::string states;
+  for (const pid_t pid : pids) {
+    const auto cpu = sys::task_cpu(pid);
+    states += (states.empty() ? "pid " : ", pid ") + std::to_string(pid) + " " + (cpu ? cpu->state : '-');
+  }
+  return states;
 }
 
 // The first frame on p's new channel: Resumed{g, its pid}; otherwise why not (a hang-up, no frame in time,
@@ -151,25 +162,33 @@ std::expected<pid_t, std::string> read_resumed(Kernel::Impl& k, const PendingRes
   const Nanos start = sys::monotonic_now();
   const auto waited = [&] { return std::to_string(to_ms(sys::monotonic_now() - start)) + " ms"; };
   Nanos until = wait.deadline_at();
+  bool waited_on = false;  // went on past the deadline: how far past is said when the answer comes
   for (;;) {
     const Nanos left = std::max(Nanos{0}, until - sys::monotonic_now());
     auto ready = sys::wait_fd(p.channel.fd(), sys::WaitFor::Readable, left);
     if (!ready) return std::unexpected("waiting: " + ready.error().to_string());
     if (*ready) break;
-    const std::optional<CpuWait::GoOn> on =
-        wait.go_on(sys::monotonic_now(), owing_resumed(k, p.service->id, *p.image));
+    const std::vector<pid_t> owing = owing_resumed(k, p.service->id, *p.image);
+    const std::optional<CpuWait::GoOn> on = wait.go_on(sys::monotonic_now(), cpu_sight(owing));
     if (!on) {
       // The scheduler was read first: an image seen asleep sent its Resumed before it slept, if it did.
       auto last = sys::wait_fd(p.channel.fd(), sys::WaitFor::Readable, Nanos{0});
       if (last && *last) break;
-      return std::unexpected("no answer in " + waited());
+      return std::unexpected("no answer in " + waited() +
+                             (owing.empty() ? "" : " (" + states_of(owing) + ")"));
     }
     if (on->first) {
-      k.log("rollback: the image of '%s' is waiting for a CPU (%.1f ms on one since its deadline): not lost, "
-            "waited on",
-            p.service->name.c_str(), to_ms(on->ran));
+      k.log("rollback: the image of '%s' is waiting for a CPU at its deadline (%s): not lost, waited on",
+            p.service->name.c_str(), states_of(owing).c_str());
     }
+    waited_on = true;
     until = on->until;
+  }
+  if (waited_on) {
+    k.log(
+        "rollback: the image of '%s' is readable %.1f ms past its deadline (the vehicle's controls held "
+        "meanwhile)",
+        p.service->name.c_str(), to_ms(sys::monotonic_now() - wait.deadline_at()));
   }
   std::array<std::byte, sizeof(wire::FrameHeader) + sizeof(wire::TakenBody)> buf{};
   auto got = p.channel.receive(buf);
@@ -262,6 +281,35 @@ std::optional<std::string> Rejuvenator::lost_image(image::GenerationRecord& reco
   return failure;
 }
 
+// Real time, where the vehicle's controls are held while the rollback waits: a generation of which an image
+// has no copy free to take its Resume now (its Patch, or a fork its copy makes, on its way:
+// ImageStore::free_to_resume) is passed over for the newest older one that has, if one has — a fork can wait
+// a second on a busy machine, for the locks of the files every process maps. Not a loss (no violation): its
+// images are retired as those of any generation the rollback does not keep. A lost generation is left to
+// resume_newest_usable, which records the loss; with none free, the newest is resumed and waited for
+// (cpu_wait.hpp). Lockstep never passes over: the world waits there, and the generation resumed must not
+// depend on the machine's pace.
+void Rejuvenator::pass_over_busy() {
+  if (k.clock_mode != ClockMode::Realtime) return;
+  images_.refresh_all();
+  const std::vector<Generation> gens = images_.generations();  // oldest first
+  const auto free = std::find_if(gens.rbegin(), gens.rend(), [&](Generation g) {
+    const image::GenerationRecord* record = images_.find(g);
+    return record != nullptr && images_.free_to_resume(*record);
+  });
+  if (free == gens.rend()) return;
+  for (auto busy = gens.rbegin(); busy != free; ++busy) {
+    image::GenerationRecord* record = images_.find(*busy);
+    if (record == nullptr || images_.dead_image(*record)) return;
+    k.log(
+        "rollback: generation %llu passed over for generation %llu: an image of it has no copy free to take "
+        "the Resume now (a fork on its way), and the vehicle's controls are held while the rollback waits",
+        num(*busy), num(*free));
+    ++sr_stats_.passed_over;
+    if (auto taken = images_.take(*busy)) retire(std::move(*taken));
+  }
+}
+
 std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(Nanos rollback_by) {
   while (image::GenerationRecord* record = images_.newest()) {
     if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
@@ -313,6 +361,7 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   sr_event(SrEventKind::Mode);
   retire_live_rejuvenated();
   const Nanos t_killed = k.wall();
+  pass_over_busy();
   // The whole rollback has image_wait_bound() (resume_deadline where the vehicle waits with us,
   // unseen_resume_deadline otherwise): below the plant's ack timeout however many generations are kept.
   const std::optional<ResumedGeneration> resumed = resume_newest_usable(t_killed + image_wait_bound());

@@ -186,6 +186,38 @@ TEST(ImageStore, APatchWhoseBaseCopiesAreAllGone_IsDeadAtOnce) {
   EXPECT_EQ(store.dead_image(*store.find(Generation{1})), ServiceId(0));
 }
 
+// A rollback in real time passes over a generation whose image has no copy free to take the Resume now: one
+// that is still being made (its Patch), or whose only copy forks — a spare of its own, or the next
+// generation's image by written pages.
+TEST(ImageStore, FreeToResume_OnlyWithACopyNoForkKeepsBusy) {
+  ImageStore store(3);
+  EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 2)).empty());
+  GenerationRecord* first = store.find(Generation{1});
+  ASSERT_NE(first, nullptr);
+  EXPECT_TRUE(store.free_to_resume(*first)) << "one copy per image, nothing on its way";
+  first->image_of(ServiceId(1))->spares_pending = 1;
+  EXPECT_FALSE(store.free_to_resume(*first)) << "its only copy forks a spare";
+  first->image_of(ServiceId(1))->copies.push_back(std::move(make_image(ServiceId(1)).copies.front()));
+  EXPECT_TRUE(store.free_to_resume(*first)) << "a second copy is free while the first forks";
+  first->image_of(ServiceId(1))->spares_pending = 0;
+
+  GenerationRecord second = make_generation(store.next_generation(), 2);
+  Image& patched = second.images.front();
+  patched.copies.front().kill_and_reap();
+  patched.copies.clear();
+  patched.patch_pending = true;
+  patched.base = Generation{1};
+  EXPECT_TRUE(store.commit(std::move(second)).empty());
+  EXPECT_FALSE(store.free_to_resume(*store.find(Generation{2})))
+      << "its image of service 0 is still being made";
+  EXPECT_FALSE(store.free_to_resume(*store.find(Generation{1})))
+      << "its only copy of service 0 forks that image";
+  Image* base = store.find(Generation{1})->image_of(ServiceId(0));
+  base->copies.push_back(std::move(make_image(ServiceId(0)).copies.front()));
+  EXPECT_TRUE(store.free_to_resume(*store.find(Generation{1})))
+      << "a second copy is free while the first forks";
+}
+
 TEST(ImageStore, ClosingTheResumeSocketEndsAnImage) {
   ImageStore store(1);
   EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 1)).empty());

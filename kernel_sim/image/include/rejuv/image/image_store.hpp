@@ -133,6 +133,11 @@ class ImageStore {
   // (GenerationRecord::dead_image), or its Patch is on its way but every copy of the base generation's image that
   // would apply it is gone (then it never comes: the rollback falls back at once instead of waiting for it).
   [[nodiscard]] std::optional<ServiceId> dead_image(GenerationRecord& record);
+  // Whether every image of `record` has a copy free to take a Resume now (as far as the last refresh knows):
+  // no Patch of its own on its way, and more copies than Forks keep busy — a Fork for a spare of its own, or
+  // a Patch that makes a newer generation's image from it. A busy copy reads the Resume only once its fork
+  // returns, and a fork on a busy machine can wait a second for the locks of the files every process maps.
+  [[nodiscard]] bool free_to_resume(const GenerationRecord& record) const;
   // Takes a generation (or all) out of the store; the caller destroys it (destroy(), or retires it once its
   // pending spares have reported, so that no forked copy goes unreaped).
   [[nodiscard]] std::optional<GenerationRecord> take(Generation g);

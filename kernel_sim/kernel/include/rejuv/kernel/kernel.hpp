@@ -408,6 +408,7 @@ struct SrStats {
   std::uint64_t checkpoint_failures = 0;  // generations abandoned (a refusal, a deadline, a dead image)
   std::uint64_t rollbacks = 0;            // rollbacks carried out (to some generation)
   std::uint64_t fallbacks = 0;            // generations skipped as broken during a rollback
+  std::uint64_t passed_over = 0;          // real time: generations skipped as busy to resume (no loss)
   std::uint64_t cold_restarts = 0;        // no usable generation: the graph restarted from its binaries
   std::uint64_t timer_arms = 0;           // rejuvenation timer arms accepted
   std::uint64_t timer_arm_refused = 0;    // a second arm in one epoch (docs/design.md §7)
