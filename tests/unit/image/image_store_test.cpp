@@ -162,18 +162,24 @@ TEST(ImageStore, AStoppedCopy_IsLostAtOnce_AndKilled) {
   EXPECT_TRUE(newest->image_of(ServiceId(0))->has_copy_or_patch()) << "the other service's image is untouched";
 }
 
+// Generation g whose image of service 0 is by written pages, its Patch from generation 1 still on its way (no
+// copy yet); the other services' images each have a copy.
+GenerationRecord patched_generation(Generation g, std::size_t services) {
+  GenerationRecord r = make_generation(g, services);
+  Image& patched = r.images.front();
+  patched.copies.front().kill_and_reap();
+  patched.copies.clear();
+  patched.patch_pending = true;
+  patched.base = Generation{1};
+  return r;
+}
+
 // An image by written pages is made by a copy of its base generation's image (Patch): with every such copy gone
 // the patch never comes, so the image is dead now rather than after the rollback's resume deadline.
 TEST(ImageStore, APatchWhoseBaseCopiesAreAllGone_IsDeadAtOnce) {
   ImageStore store(3);
   EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 1)).empty());
-  GenerationRecord second = make_generation(store.next_generation(), 1);
-  Image& patched = second.images.front();
-  patched.copies.front().kill_and_reap();
-  patched.copies.clear();
-  patched.patch_pending = true;
-  patched.base = Generation{1};
-  EXPECT_TRUE(store.commit(std::move(second)).empty());
+  EXPECT_TRUE(store.commit(patched_generation(store.next_generation(), 1)).empty());
   GenerationRecord* newest = store.newest();
   ASSERT_NE(newest, nullptr);
   EXPECT_FALSE(store.dead_image(*newest).has_value()) << "its base can still apply the patch";
@@ -201,13 +207,7 @@ TEST(ImageStore, FreeToResume_OnlyWithACopyNoForkKeepsBusy) {
   EXPECT_TRUE(store.free_to_resume(*first)) << "a second copy is free while the first forks";
   first->image_of(ServiceId(1))->spares_pending = 0;
 
-  GenerationRecord second = make_generation(store.next_generation(), 2);
-  Image& patched = second.images.front();
-  patched.copies.front().kill_and_reap();
-  patched.copies.clear();
-  patched.patch_pending = true;
-  patched.base = Generation{1};
-  EXPECT_TRUE(store.commit(std::move(second)).empty());
+  EXPECT_TRUE(store.commit(patched_generation(store.next_generation(), 2)).empty());
   EXPECT_FALSE(store.free_to_resume(*store.find(Generation{2})))
       << "its image of service 0 is still being made";
   EXPECT_FALSE(store.free_to_resume(*store.find(Generation{1})))
