@@ -145,7 +145,7 @@ void Rejuvenator::release_all_images() {
 
 void Rejuvenator::finish_retiring(bool final) {
   const Nanos deadline = k.wall() + std::chrono::milliseconds{final ? 200 : 0};
-  // A Patch on its way (a generation retired before its image was made: pass_over_busy) comes from a copy of
+  // A Patch on its way (a generation retired before its image was made: a fallback) comes from a copy of
   // its base generation's image: waited for while that image has a copy, so that the copy it makes is adopted
   // (refresh) and killed here rather than found by a sweep as a stray.
   std::vector<std::pair<Generation, ServiceId>> with_copy;  // images kept or retiring that have a copy

@@ -227,14 +227,16 @@ class Rejuvenator {
     image::GenerationRecord* record = nullptr;
     Nanos resumed_at{0};
   };
-  // The newest generation whose images all come back, resumed; each newer one that does not (an image gone, or
-  // not answering by rollback_by, a fallback having at least resume_deadline, or by max_cpu_wait of the bound
-  // since the rollback began while an image waits for a CPU) retired on the way, counted as a fallback.
-  // Nothing if none comes back.
+  // The newest generation whose images all come back (in real time first the one free_before_busy gives),
+  // resumed; each newer one that does not (an image gone, or not answering by rollback_by, a fallback having
+  // at least resume_deadline, or by max_cpu_wait of the bound since the rollback began while an image waits
+  // for a CPU) retired on the way, counted as a fallback. Nothing if none comes back.
   [[nodiscard]] std::optional<ResumedGeneration> resume_newest_usable(Nanos rollback_by);
-  // Real time only: the newest generations busy to resume (an image's copy still being made or forking:
-  // ImageStore::free_to_resume) passed over for the newest that is not, if one is (rollback.cpp).
-  void pass_over_busy();
+  // Real time only: when the newest generation is busy to resume (an image's copy still being made or
+  // forking: ImageStore::free_to_resume), the newest older one that is not, if one is (rollback.cpp).
+  [[nodiscard]] image::GenerationRecord* free_before_busy();
+  [[nodiscard]] std::optional<ResumedGeneration> resume_or_retire(image::GenerationRecord& record,
+                                                                  Nanos rollback_by);
   // Why `record` cannot be resumed without trying: the image of a service is gone (recorded as its violation).
   [[nodiscard]] std::optional<std::string> lost_image(image::GenerationRecord& record);
   void retire_live_rejuvenated();

@@ -281,52 +281,59 @@ std::optional<std::string> Rejuvenator::lost_image(image::GenerationRecord& reco
   return failure;
 }
 
-// Real time, where the vehicle's controls are held while the rollback waits: a generation of which an image
-// has no copy free to take its Resume now (its Patch, or a fork its copy makes, on its way:
-// ImageStore::free_to_resume) is passed over for the newest older one that has, if one has — a fork can wait
-// a second on a busy machine, for the locks of the files every process maps. Not a loss (no violation): its
-// images are retired as those of any generation the rollback does not keep. A lost generation is left to
-// resume_newest_usable, which records the loss; with none free, the newest is resumed and waited for
-// (cpu_wait.hpp). Lockstep never passes over: the world waits there, and the generation resumed must not
+// Real time, where the vehicle's controls are held while the rollback waits: when an image of the newest
+// generation has no copy free to take its Resume now (its Patch, or a fork its copy makes, on its way:
+// ImageStore::free_to_resume; a fork can wait a second on a busy machine, for the locks of the files every
+// process maps), the newest older generation that is free, if one is. The newer ones stay in the store, as
+// fallbacks for a later rollback (each is a clean state, as the one resumed). nullptr: the newest is resumed
+// and waited for (cpu_wait.hpp) — it is free, none is, or one on the way is lost (resume_newest_usable
+// records the loss). Lockstep never passes over: the world waits there, and the generation resumed must not
 // depend on the machine's pace.
-void Rejuvenator::pass_over_busy() {
-  if (k.clock_mode != ClockMode::Realtime) return;
+image::GenerationRecord* Rejuvenator::free_before_busy() {
+  if (k.clock_mode != ClockMode::Realtime) return nullptr;
   images_.refresh_all();
   const std::vector<Generation> gens = images_.generations();  // oldest first
-  const auto free = std::find_if(gens.rbegin(), gens.rend(), [&](Generation g) {
-    const image::GenerationRecord* record = images_.find(g);
-    return record != nullptr && images_.free_to_resume(*record);
-  });
-  if (free == gens.rend()) return;
-  for (auto busy = gens.rbegin(); busy != free; ++busy) {
-    image::GenerationRecord* record = images_.find(*busy);
-    if (record == nullptr || images_.dead_image(*record)) return;
-    k.log(
-        "rollback: generation %llu passed over for generation %llu: an image of it has no copy free to take "
-        "the Resume now (a fork on its way), and the vehicle's controls are held while the rollback waits",
-        num(*busy), num(*free));
+  for (auto g = gens.rbegin(); g != gens.rend(); ++g) {
+    image::GenerationRecord* record = images_.find(*g);
+    if (record == nullptr || images_.dead_image(*record)) return nullptr;
+    if (!images_.free_to_resume(*record)) continue;
+    if (g == gens.rbegin()) return nullptr;
+    k.log("rollback: generation %llu resumed before %llu, kept, of which an image has no copy free to take "
+          "the Resume now (a fork on its way; the vehicle's controls are held while a rollback waits)",
+          num(*g), num(gens.back()));
     ++sr_stats_.passed_over;
-    if (auto taken = images_.take(*busy)) retire(std::move(*taken));
+    return record;
   }
+  return nullptr;
+}
+
+// `record` resumed; else retired, counted as a fallback, and why logged.
+std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_or_retire(image::GenerationRecord& record,
+                                                                            Nanos rollback_by) {
+  if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackKilled, record.g);
+  std::string failure;
+  if (std::optional<std::string> lost = lost_image(record)) {
+    failure = std::move(*lost);
+  } else if (auto resumed = resume_generation(
+                 record, CpuWait(std::max(rollback_by, k.wall() + k.options.resume_deadline),
+                                 image_wait_bound(), rollback_by - image_wait_bound()))) {
+    return ResumedGeneration{.record = &record, .resumed_at = *resumed};
+  } else {
+    failure = std::move(resumed.error());
+  }
+  k.log("rollback: generation %llu unusable (%s); falling back", num(record.g), failure.c_str());
+  ++sr_stats_.fallbacks;
+  retire_live_rejuvenated();  // whatever of it was resumed
+  if (auto taken = images_.take(record.g)) retire(std::move(*taken));
+  return std::nullopt;
 }
 
 std::optional<Rejuvenator::ResumedGeneration> Rejuvenator::resume_newest_usable(Nanos rollback_by) {
+  if (image::GenerationRecord* free = free_before_busy()) {
+    if (std::optional<ResumedGeneration> resumed = resume_or_retire(*free, rollback_by)) return resumed;
+  }
   while (image::GenerationRecord* record = images_.newest()) {
-    if (k.observer != nullptr) k.observer->on_image_phase(ImagePhase::RollbackKilled, record->g);
-    std::string failure;
-    if (std::optional<std::string> lost = lost_image(*record)) {
-      failure = std::move(*lost);
-    } else if (auto resumed = resume_generation(
-                   *record, CpuWait(std::max(rollback_by, k.wall() + k.options.resume_deadline),
-                                    image_wait_bound(), rollback_by - image_wait_bound()))) {
-      return ResumedGeneration{.record = record, .resumed_at = *resumed};
-    } else {
-      failure = std::move(resumed.error());
-    }
-    k.log("rollback: generation %llu unusable (%s); falling back", num(record->g), failure.c_str());
-    ++sr_stats_.fallbacks;
-    retire_live_rejuvenated();  // whatever of it was resumed
-    if (auto taken = images_.take(record->g)) retire(std::move(*taken));
+    if (std::optional<ResumedGeneration> resumed = resume_or_retire(*record, rollback_by)) return resumed;
   }
   return std::nullopt;
 }
@@ -361,7 +368,6 @@ void Rejuvenator::run_rollback(const std::string& reason) {
   sr_event(SrEventKind::Mode);
   retire_live_rejuvenated();
   const Nanos t_killed = k.wall();
-  pass_over_busy();
   // The whole rollback has image_wait_bound() (resume_deadline where the vehicle waits with us,
   // unseen_resume_deadline otherwise): below the plant's ack timeout however many generations are kept.
   const std::optional<ResumedGeneration> resumed = resume_newest_usable(t_killed + image_wait_bound());

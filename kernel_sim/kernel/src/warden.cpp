@@ -459,6 +459,11 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,
       // not counted. Until the next commit (rejuvenator.cpp), then a stray like any other.
       const bool owed = k.rejuvenator.coordinator().owes(s.id);
+      // One in the service's images leaf is a copy the kernel made and no longer tracks (the patch of a
+      // generation retired while its base's copy forked it, at a fallback): the kernel's own,
+      // killed, not counted. No incarnation can put a process there; its forks are born in its live leaf.
+      const bool lost_copy =
+          s.sandbox.cgroup.valid() && s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images);
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
@@ -467,7 +472,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       } else {
         (void)sys::kill_and_reap_own_child(pid);
       }
-      if (owed) break;
+      if (owed || lost_copy) break;
       record_violation(s, Violation::StrayProcess,
                        "pid " + std::to_string(pid) + ", killed at " + std::string(when));
       break;
