@@ -56,6 +56,8 @@ class CpuWait {
         ran_from_(ran_at_began) {}
 
   [[nodiscard]] Nanos deadline_at() const { return deadline_at_; }
+  // Whether the wait went on past its deadline at least once.
+  [[nodiscard]] bool went_on() const { return went_on_; }
 
   // A wait that goes on: until when, the CPU time they had (counted as above), and whether it is the first
   // time this wait went on (worth a log line).

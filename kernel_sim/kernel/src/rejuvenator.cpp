@@ -143,32 +143,41 @@ void Rejuvenator::release_all_images() {
   reaper_.kill_all_and_reap();
 }
 
+// A Patch on its way (a generation retired before its image was made: a fallback) comes from a copy of its
+// base generation's image, kept or retiring: it may come while that image has a copy or is on its way.
+bool Rejuvenator::patch_may_come(const image::Image& im) const {
+  const image::GenerationRecord* base = images_.find(im.base);
+  if (base == nullptr) {
+    const auto retiring = std::find_if(retiring_.begin(), retiring_.end(),
+                                       [&](const image::GenerationRecord& r) { return r.g == im.base; });
+    base = retiring != retiring_.end() ? &*retiring : nullptr;
+  }
+  const image::Image* from = base != nullptr ? base->image_of(im.service) : nullptr;
+  return from != nullptr && from->has_copy_or_patch();
+}
+
 void Rejuvenator::finish_retiring(bool final) {
   const Nanos deadline = k.wall() + std::chrono::milliseconds{final ? 200 : 0};
-  // A Patch on its way (a generation retired before its image was made: a fallback) comes from a copy of
-  // its base generation's image: waited for while that image has a copy, so that the copy it makes is adopted
-  // (refresh) and killed here rather than found by a sweep as a stray.
-  std::vector<std::pair<Generation, ServiceId>> with_copy;  // images kept or retiring that have a copy
-  const auto note_copies = [&](const image::GenerationRecord& r) {
-    for (const image::Image& im : r.images) {
-      if (im.has_copy_or_patch()) with_copy.emplace_back(r.g, im.service);
-    }
-  };
-  const auto patch_coming = [&](const image::Image& im) {
-    return im.patch_pending &&
-           std::find(with_copy.begin(), with_copy.end(), std::pair{im.base, im.service}) != with_copy.end();
-  };
   do {
-    with_copy.clear();
-    for (const Generation g : images_.generations()) note_copies(*images_.find(g));
-    for (const image::GenerationRecord& r : retiring_) note_copies(r);
-    std::erase_if(retiring_, [&](image::GenerationRecord& r) {
-      bool settled = true;
-      for (image::Image& im : r.images) {
-        if (im.refresh() > 0 && im.spares_pending > 0) settled = false;
-        if (patch_coming(im)) settled = false;
+    // Settled: no spare and no Patch still coming (patch_may_come), so that the copies they make are adopted
+    // (refresh) and killed here rather than found by a sweep as strays. Every record is read before any is
+    // let go: patch_may_come looks at the others.
+    std::vector<bool> settled;
+    for (image::GenerationRecord& r : retiring_) {
+      settled.push_back(std::all_of(r.images.begin(), r.images.end(), [](image::Image& im) {
+        return !(im.refresh() > 0 && im.spares_pending > 0);
+      }));
+    }
+    for (std::size_t i = 0; i < retiring_.size(); ++i) {
+      const auto& images = retiring_[i].images;
+      if (std::any_of(images.begin(), images.end(),
+                      [&](const image::Image& im) { return im.patch_pending && patch_may_come(im); })) {
+        settled[i] = false;
       }
-      if (!settled) return false;
+    }
+    std::size_t at = 0;
+    std::erase_if(retiring_, [&](image::GenerationRecord& r) {
+      if (!settled[at++]) return false;
       // Killed now (Reaper::kill) and reaped off the critical path (service_images).
       for (image::Image& im : r.images) {
         im.resume.close();

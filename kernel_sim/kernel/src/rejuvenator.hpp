@@ -53,6 +53,8 @@ class Rejuvenator {
   [[nodiscard]] bool knows_process(pid_t pid, const image::GenerationRecord* taking) const;
   void trim_images(bool now);  // the generation kept beyond K, once the newest K are confirmed
   void finish_retiring(bool final);
+  // Whether the Patch `im` waits for may still come: its base's image, kept or retiring, has a copy.
+  [[nodiscard]] bool patch_may_come(const image::Image& im) const;
   [[nodiscard]] std::uint64_t processes_to_spare() const;                  // the reaper's slack
   void set_mode(SrMode mode, std::optional<ServiceId> by = std::nullopt);  // enter_mode, sr_mode published
   // Observer::on_sr_event, stamped with now, the wall clock, the epoch and the mode (Figs. 7 and 8).

@@ -162,7 +162,6 @@ std::expected<pid_t, std::string> read_resumed(Kernel::Impl& k, const PendingRes
   const Nanos start = sys::monotonic_now();
   const auto waited = [&] { return std::to_string(to_ms(sys::monotonic_now() - start)) + " ms"; };
   Nanos until = wait.deadline_at();
-  bool waited_on = false;  // went on past the deadline: how far past is said when the answer comes
   for (;;) {
     const Nanos left = std::max(Nanos{0}, until - sys::monotonic_now());
     auto ready = sys::wait_fd(p.channel.fd(), sys::WaitFor::Readable, left);
@@ -181,10 +180,9 @@ std::expected<pid_t, std::string> read_resumed(Kernel::Impl& k, const PendingRes
       k.log("rollback: the image of '%s' is waiting for a CPU at its deadline (%s): not lost, waited on",
             p.service->name.c_str(), states_of(owing).c_str());
     }
-    waited_on = true;
     until = on->until;
   }
-  if (waited_on) {
+  if (wait.went_on()) {
     k.log(
         "rollback: the image of '%s' is readable %.1f ms past its deadline (the vehicle's controls held "
         "meanwhile)",
@@ -291,10 +289,16 @@ std::optional<std::string> Rejuvenator::lost_image(image::GenerationRecord& reco
 // depend on the machine's pace.
 image::GenerationRecord* Rejuvenator::free_before_busy() {
   if (k.clock_mode != ClockMode::Realtime) return nullptr;
-  images_.refresh_all();
+  // The common case without a system call, on what the store knew at its last refresh: a Copied not read
+  // since makes the newest look busy (then judged again below, refreshed), a copy dead since makes it look
+  // free (then the resume finds it dead and falls back, as it would have without this look).
+  const image::GenerationRecord* newest = images_.newest();
+  if (newest == nullptr || images_.free_to_resume(*newest)) return nullptr;
   const std::vector<Generation> gens = images_.generations();  // oldest first
   for (auto g = gens.rbegin(); g != gens.rend(); ++g) {
     image::GenerationRecord* record = images_.find(*g);
+    // dead_image reads its images' answers first (Image::refresh): newest first, so that the patches counted
+    // against an older one's copies are up to date when it is judged.
     if (record == nullptr || images_.dead_image(*record)) return nullptr;
     if (!images_.free_to_resume(*record)) continue;
     if (g == gens.rbegin()) return nullptr;

@@ -463,7 +463,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       // generation retired while its base's copy forked it, at a fallback): the kernel's own,
       // killed, not counted. No incarnation can put a process there; its forks are born in its live leaf.
       const bool lost_copy =
-          s.sandbox.cgroup.valid() && s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images);
+          !owed && s.sandbox.cgroup.valid() && s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images);
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.

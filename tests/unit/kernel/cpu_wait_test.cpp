@@ -23,8 +23,10 @@ TEST(CpuWait, MaxCpuWait_TenDeadlinesAtLeastASecond) {
 // Runnable with no CPU since the deadline: the wait goes on, one look at a time, and says so once.
 TEST(CpuWait, RunnableWithoutCpu_GoesOnOneLookAtATime_FirstOnlyOnce) {
   CpuWait wait = wait_from_zero();
+  EXPECT_FALSE(wait.went_on());
   const auto first = wait.go_on(milliseconds{100}, CpuSight{.ran = milliseconds{40}, .runnable = true});
   ASSERT_TRUE(first);
+  EXPECT_TRUE(wait.went_on());
   EXPECT_EQ(first->until, milliseconds{100} + CpuWait::kLook);
   EXPECT_EQ(first->ran, Nanos{0});
   EXPECT_TRUE(first->first);
@@ -44,6 +46,7 @@ TEST(CpuWait, NotRunnableOrUnknown_VerdictAtTheDeadline) {
   EXPECT_TRUE(resumed->first);
   CpuWait unknown = wait_from_zero();
   EXPECT_FALSE(unknown.go_on(milliseconds{100}, std::nullopt));
+  EXPECT_FALSE(unknown.went_on()) << "a verdict is no going on";
   // Spared once, then stopped: judged then.
   CpuWait later = wait_from_zero();
   ASSERT_TRUE(later.go_on(milliseconds{100}, CpuSight{.ran = milliseconds{40}, .runnable = true}));
