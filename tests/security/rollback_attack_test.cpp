@@ -191,6 +191,16 @@ struct Flight {
   int children_left = 0;
 };
 
+// The lines of the log that contain `needle`.
+std::vector<std::string> lines_with(const std::string& log, std::string_view needle) {
+  std::vector<std::string> out;
+  std::istringstream in(log);
+  for (std::string line; std::getline(in, line);) {
+    if (line.find(needle) != std::string::npos) out.push_back(line);
+  }
+  return out;
+}
+
 // Flies the attacked square for kFlight and gathers what the assertions need. Fatal failures are reported
 // through gtest (the caller checks HasFatalFailure).
 void fly(AttackKind kind, bool realtime, Flight& f, std::uint32_t hold_mib = 0) {
@@ -250,17 +260,20 @@ void fly(AttackKind kind, bool realtime, Flight& f, std::uint32_t hold_mib = 0) 
   ::testing::Test::RecordProperty("max_control_gap_ms", std::to_string(f.summary.max_control_gap_ms()));
   ::testing::Test::RecordProperty("rollbacks", std::to_string(f.sr.rollbacks));
   ::testing::Test::RecordProperty("sandbox_violations", std::to_string(f.ext_link.sandbox_violations));
-  std::printf("[ %s %s ] max V %.3f, max control gap %.1f ms, %llu rollbacks, %llu cold restarts, ext_link: "
-              "%llu violations (%llu calls, %llu strays, %llu out of memory, %llu images lost), %zu incarnations seen; lqr_control at SCHED_FIFO "
-              "in %d looks, on its launch cpu in %d\n",
-              std::string(attacks::to_string(kind)).c_str(), realtime ? "real time" : "lockstep", f.summary.max_v(),
-              f.summary.max_control_gap_ms(), static_cast<unsigned long long>(f.sr.rollbacks),
-              static_cast<unsigned long long>(f.sr.cold_restarts),
-              static_cast<unsigned long long>(f.ext_link.sandbox_violations),
-              static_cast<unsigned long long>(f.ext_link.forbidden_calls),
-              static_cast<unsigned long long>(f.ext_link.stray_processes),
-              static_cast<unsigned long long>(f.ext_link.out_of_memory),
-              static_cast<unsigned long long>(f.ext_link.images_lost), f.incarnations, f.chain_fifo, f.chain_pinned);
+  std::printf(
+      "[ %s %s ] max V %.3f, max control gap %.1f ms, %llu rollbacks, %llu cold restarts, ext_link: "
+      "%llu violations (%llu calls, %llu strays, %llu out of memory, %llu images lost), %zu incarnations "
+      "seen; lqr_control at SCHED_FIFO "
+      "in %d looks, on its launch cpu in %d; %zu copies the kernel lost track of killed\n",
+      std::string(attacks::to_string(kind)).c_str(), realtime ? "real time" : "lockstep", f.summary.max_v(),
+      f.summary.max_control_gap_ms(), static_cast<unsigned long long>(f.sr.rollbacks),
+      static_cast<unsigned long long>(f.sr.cold_restarts),
+      static_cast<unsigned long long>(f.ext_link.sandbox_violations),
+      static_cast<unsigned long long>(f.ext_link.forbidden_calls),
+      static_cast<unsigned long long>(f.ext_link.stray_processes),
+      static_cast<unsigned long long>(f.ext_link.out_of_memory),
+      static_cast<unsigned long long>(f.ext_link.images_lost), f.incarnations, f.chain_fifo, f.chain_pinned,
+      lines_with(f.log, "a copy the kernel asked for and lost track of").size());
 }
 
 // What no attack on rollback may do, whatever it was.
@@ -286,16 +299,6 @@ void expect_rollback_held(const Flight& f) {
     EXPECT_EQ(f.unpinned, std::vector<std::string>{}) << "the live lqr_control off its launch cpu";
   }
   EXPECT_EQ(f.image_fifo, 0) << "an image of lqr_control ran at SCHED_FIFO";
-}
-
-// The lines of the log that contain `needle`.
-std::vector<std::string> lines_with(const std::string& log, std::string_view needle) {
-  std::vector<std::string> out;
-  std::istringstream in(log);
-  for (std::string line; std::getline(in, line);) {
-    if (line.find(needle) != std::string::npos) out.push_back(line);
-  }
-  return out;
 }
 
 // A binary hostile from its first instruction (AttackKind 29…31, services/attacks/src/boot_attacks.cpp): what
@@ -350,7 +353,8 @@ void expect_counted(AttackKind kind, const Flight& f) {
     EXPECT_GE(s.stray_processes, 1U);
     // Blamed on the service that made them, never on another.
     for (const auto& [name, count] : f.summary.sandbox_violations().by_service()) {
-      EXPECT_EQ(name, "ext_link") << "a stray of ext_link's blamed on '" << name << "'";
+      EXPECT_EQ(name, "ext_link") << "a stray of ext_link's blamed on '" << name
+                                  << "': " << ::testing::PrintToString(lines_with(f.log, "'" + name + "'"));
     }
   } else if (kind == AttackKind::OomImages) {
     // The live incarnation that ran its memory out is the one the OOM killer took (its images are in a leaf

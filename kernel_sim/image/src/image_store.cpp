@@ -84,6 +84,8 @@ std::size_t Image::refresh() {
 }
 
 bool Image::request_spare(Generation g) {
+  // No copy to read the Fork (as far as the last refresh knows): no spare will come of it.
+  if (!has_copy_or_patch()) return false;
   wire::FrameBuffer tx;
   if (!tx.build(wire::FrameKind::Fork, 0, 0, g.value()) || !resume.send(tx.bytes())) return false;
   ++spares_pending;
@@ -256,6 +258,28 @@ bool ImageStore::owns(int pid) const {
       return std::any_of(i.copies.begin(), i.copies.end(), [&](const sys::ChildProcess& c) { return c.pid() == pid; });
     });
   });
+}
+
+void UnheardCopies::let_go(const Image& im, Nanos now) {
+  const std::size_t n = im.spares_pending + (im.patch_pending ? 1 : 0);
+  if (n == 0) return;
+  const std::size_t at = im.service.value();
+  if (by_service_.size() <= at) by_service_.resize(at + 1);
+  Owed& owed = by_service_[at];
+  owed.copies = (now < owed.until ? owed.copies : 0) + n;
+  owed.until = now + kFor;
+}
+
+bool UnheardCopies::take(ServiceId service, Nanos now) {
+  if (of(service, now) == 0) return false;
+  --by_service_[service.value()].copies;
+  return true;
+}
+
+std::size_t UnheardCopies::of(ServiceId service, Nanos now) const {
+  const std::size_t at = service.value();
+  if (at >= by_service_.size() || now >= by_service_[at].until) return 0;
+  return by_service_[at].copies;
 }
 
 }  // namespace rejuv::image

@@ -156,12 +156,17 @@ bool Rejuvenator::patch_may_come(const image::Image& im) const {
   return from != nullptr && from->has_copy_or_patch();
 }
 
+bool Rejuvenator::take_unheard_copy(ServiceId service) {
+  return unheard_.take(service, k.wall());
+}
+
 void Rejuvenator::finish_retiring(bool final) {
   const Nanos deadline = k.wall() + std::chrono::milliseconds{final ? 200 : 0};
   do {
     // Settled: no spare and no Patch still coming (patch_may_come), so that the copies they make are adopted
     // (refresh) and killed here rather than found by a sweep as strays. Every record is read before any is
-    // let go: patch_may_come looks at the others.
+    // let go: patch_may_come looks at the others. A spare or Patch asked of a copy that has died since (or
+    // that was resumed: a fallback's) may still have been forked: it is left to the sweep as unheard_.
     std::vector<bool> settled;
     for (image::GenerationRecord& r : retiring_) {
       settled.push_back(std::all_of(r.images.begin(), r.images.end(), [](image::Image& im) {
@@ -180,6 +185,7 @@ void Rejuvenator::finish_retiring(bool final) {
       if (!settled[at++]) return false;
       // Killed now (Reaper::kill) and reaped off the critical path (service_images).
       for (image::Image& im : r.images) {
+        unheard_.let_go(im, k.wall());
         im.resume.close();
         for (sys::ChildProcess& c : im.copies) reaper_.kill(std::move(c));
       }
@@ -187,7 +193,10 @@ void Rejuvenator::finish_retiring(bool final) {
     });
   } while (final && !retiring_.empty() && k.wall() < deadline);
   if (final) {
-    for (image::GenerationRecord& r : retiring_) image::destroy(r);
+    for (image::GenerationRecord& r : retiring_) {
+      for (const image::Image& im : r.images) unheard_.let_go(im, k.wall());
+      image::destroy(r);
+    }
     retiring_.clear();
   }
 }

@@ -101,6 +101,9 @@ class Rejuvenator {
   void size_reaper() { reaper_.set_slack(processes_to_spare()); }
   void kill_and_reap_later(sys::ChildProcess p) { reaper_.kill(std::move(p)); }
   [[nodiscard]] bool reaping(pid_t pid) const { return reaper_.knows(pid); }
+  // A copy of `service` the kernel asked for and let go of before it reported (image::UnheardCopies), if one
+  // is left: taken, true (the sweep's unknown process in the service's session is that copy, not a stray).
+  [[nodiscard]] bool take_unheard_copy(ServiceId service);
   void kill_and_reap_all() { reaper_.kill_all_and_reap(); }
 
   // The image store, the coordinator's state machine and the estimate catch-up, read by the other owners;
@@ -169,6 +172,7 @@ class Rejuvenator {
   // Generations out of the store whose spare copies have not all reported yet (their pids would otherwise
   // be unknown children): destroyed once they have (service_images).
   std::vector<image::GenerationRecord> retiring_;
+  image::UnheardCopies unheard_;  // copies asked for by images let go of before they reported
   SrStats sr_stats_{};
   Nanos flight_start_{0};  // the end of the plant's alignment: the mission's t = 0
 

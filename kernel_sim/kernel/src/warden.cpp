@@ -459,11 +459,14 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,
       // not counted. Until the next commit (rejuvenator.cpp), then a stray like any other.
       const bool owed = k.rejuvenator.coordinator().owes(s.id);
-      // One in the service's images leaf is a copy the kernel made and no longer tracks (the patch of a
-      // generation retired while its base's copy forked it, at a fallback): the kernel's own,
-      // killed, not counted. No incarnation can put a process there; its forks are born in its live leaf.
+      // A copy the kernel made and no longer tracks (the patch of a generation retired while its base's copy
+      // forked it; a spare of a generation let go once its copies had died or been resumed, at a fallback or
+      // at shutdown): the kernel's own, killed, not counted. In the service's images leaf (no incarnation can
+      // put a process there: its forks are born in its live leaf), or, without that evidence (no cgroup), one
+      // of the copies the kernel let go of unheard: as many as it asked for, no more.
       const bool lost_copy =
-          !owed && s.sandbox.cgroup.valid() && s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images);
+          !owed && ((s.sandbox.cgroup.valid() && s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images)) ||
+                    k.rejuvenator.take_unheard_copy(s.id));
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
@@ -472,6 +475,9 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       } else {
         (void)sys::kill_and_reap_own_child(pid);
       }
+      if (lost_copy)
+        k.log("sweep: pid %d of '%s' is a copy the kernel asked for and lost track of: killed, not counted",
+              pid, s.name.c_str());
       if (owed || lost_copy) break;
       record_violation(s, Violation::StrayProcess,
                        "pid " + std::to_string(pid) + ", killed at " + std::string(when));

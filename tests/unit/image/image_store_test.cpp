@@ -218,6 +218,34 @@ TEST(ImageStore, FreeToResume_OnlyWithACopyNoForkKeepsBusy) {
       << "a second copy is free while the first forks";
 }
 
+// An image let go of with copies still on their way (a spare asked of a copy that was then resumed, its
+// Patch): as many unknown processes of that service are the kernel's lost copies, no more, none of another,
+// and none once UnheardCopies::kFor has passed since the last let go.
+TEST(UnheardCopies, AsManyAsTheImagesLetGoOfStillWaitedFor_ByService_ForAWhile) {
+  UnheardCopies unheard;
+  const Nanos t0{std::chrono::seconds{100}};
+  Image settled{.service = ServiceId(0)};
+  unheard.let_go(settled, t0);
+  EXPECT_EQ(unheard.of(ServiceId(0), t0), 0U);
+  EXPECT_FALSE(unheard.take(ServiceId(0), t0)) << "nothing was on its way";
+  Image waiting{.service = ServiceId(2), .spares_pending = 2, .patch_pending = true};
+  unheard.let_go(waiting, t0);
+  EXPECT_EQ(unheard.of(ServiceId(2), t0), 3U);
+  EXPECT_FALSE(unheard.take(ServiceId(1), t0)) << "another service's";
+  EXPECT_FALSE(unheard.take(ServiceId(7), t0)) << "a service never seen";
+  for (int i = 0; i < 3; ++i) EXPECT_TRUE(unheard.take(ServiceId(2), t0)) << i;
+  EXPECT_FALSE(unheard.take(ServiceId(2), t0)) << "more than the kernel asked for";
+
+  unheard.let_go(waiting, t0);
+  const Nanos later = t0 + UnheardCopies::kFor / 2;
+  unheard.let_go(Image{.service = ServiceId(2), .spares_pending = 1}, later);
+  EXPECT_EQ(unheard.of(ServiceId(2), later), 4U) << "added to what is still owed";
+  EXPECT_EQ(unheard.of(ServiceId(2), later + UnheardCopies::kFor), 0U) << "forgotten";
+  EXPECT_FALSE(unheard.take(ServiceId(2), later + UnheardCopies::kFor));
+  unheard.let_go(Image{.service = ServiceId(2), .spares_pending = 1}, later + UnheardCopies::kFor * 2);
+  EXPECT_EQ(unheard.of(ServiceId(2), later + UnheardCopies::kFor * 2), 1U) << "what was forgotten stays so";
+}
+
 TEST(ImageStore, ClosingTheResumeSocketEndsAnImage) {
   ImageStore store(1);
   EXPECT_TRUE(store.commit(make_generation(store.next_generation(), 1)).empty());

@@ -72,7 +72,8 @@ struct Image {
   // Reads the Copied answers that have arrived (adopting each new spare) and drops the copies that died.
   // Returns how many copies are alive.
   std::size_t refresh();
-  // Asks one copy of generation g for a spare (answered by Copied, read by refresh()).
+  // Asks one copy of generation g for a spare (answered by Copied, read by refresh()); false, nothing asked,
+  // where no copy is there or on its way to read the Fork.
   bool request_spare(Generation g);
 };
 
@@ -163,5 +164,29 @@ class ImageStore {
 
 // Kills and reaps every image of a record and closes its resume sockets.
 void destroy(GenerationRecord& record);
+
+// The copies the kernel asked for (a spare's Fork, an image's Patch) of images it let go before those copies
+// reported (Copied), by service. Each one may exist — the kernel's child, in its service's session, that no
+// record names — or never will (its parent died before it forked). Only the kernel's letting go of an image
+// adds one; nothing a service does can. The kernel's sweep takes one for each unknown process it finds in a
+// service's session that it does not count as a stray (warden.cpp): killed just the same. They are forgotten
+// kFor after the last one was added: a fork that has not returned by then is not waited for (a copy that
+// comes later is counted as a stray), and a service's later strays are counted.
+class UnheardCopies {
+ public:
+  static constexpr Nanos kFor = std::chrono::seconds{5};
+  // What `im` still waited for when it was let go at `now`: its spares and its Patch on their way.
+  void let_go(const Image& im, Nanos now);
+  // One of `service`'s not forgotten at `now`, if any is left: taken, true.
+  [[nodiscard]] bool take(ServiceId service, Nanos now);
+  [[nodiscard]] std::size_t of(ServiceId service, Nanos now) const;
+
+ private:
+  struct Owed {
+    std::size_t copies = 0;
+    Nanos until{0};
+  };
+  std::vector<Owed> by_service_;
+};
 
 }  // namespace rejuv::image
