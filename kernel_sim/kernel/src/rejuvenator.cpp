@@ -49,7 +49,10 @@ void Rejuvenator::open_links() { links_.create(link_hosts(k), k.caps.mode()); }
 bool Rejuvenator::enter_mode(SrMode mode) {
   const SrMode from = k.caps.mode();
   links_.before_mode(from, mode);
-  if (auto changed = k.caps.apply_mode(mode); !changed) {
+  const auto changed = k.caps.apply_mode(mode);
+  mode_changed_t_ = k.now();  // changed or refused: the Mode event that follows says which mode holds now
+  mode_changed_wall_ = k.wall();
+  if (!changed) {
     k.log("mode %s: %s", std::string(to_string(mode)).c_str(),
           std::string(cap::to_string(changed.error())).c_str());
     links_.after_mode(from, mode, false);
@@ -68,9 +71,10 @@ void Rejuvenator::set_mode(SrMode mode, std::optional<ServiceId> by) {
 
 void Rejuvenator::sr_event(SrEventKind kind, Generation g, Nanos span, std::optional<ServiceId> by) {
   if (k.observer == nullptr) return;
+  const bool mode = kind == SrEventKind::Mode;
   k.observer->on_sr_event(SrEvent{.kind = kind,
-                                  .t = k.now(),
-                                  .wall = k.wall(),
+                                  .t = mode ? mode_changed_t_ : k.now(),
+                                  .wall = mode ? mode_changed_wall_ : k.wall(),
                                   .epoch = k.kernel_clock.epoch(),
                                   .g = g,
                                   .mode = k.caps.mode(),
