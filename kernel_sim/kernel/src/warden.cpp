@@ -461,12 +461,11 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       const bool owed = k.rejuvenator.coordinator().owes(s.id);
       // A copy the kernel made and no longer tracks (the patch of a generation retired while its base's copy
       // forked it; a spare of a generation let go once its copies had died or been resumed, at a fallback or
-      // at shutdown): the kernel's own, killed, not counted. In the service's images leaf (no incarnation can
-      // put a process there: its forks are born in its live leaf), or, without that evidence (no cgroup), one
-      // of the copies the kernel let go of unheard: as many as it asked for, no more.
-      const bool lost_copy =
-          !owed && ((s.sandbox.cgroup.valid() && s.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images)) ||
-                    k.rejuvenator.take_unheard_copy(s.id));
+      // at shutdown): the kernel's own, killed, not counted — as many as the kernel let go of unheard, no
+      // more. Where the process is says nothing: a restored incarnation forks in the images leaf until it is
+      // moved to its live leaf (place_live, a grace period later), and a fork bomb there is strays, not
+      // copies.
+      const bool lost_copy = !owed && k.rejuvenator.take_unheard_copy(s.id);
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
