@@ -263,8 +263,9 @@ void fly(AttackKind kind, bool realtime, Flight& f, std::uint32_t hold_mib = 0) 
   std::printf(
       "[ %s %s ] max V %.3f, max control gap %.1f ms, %llu rollbacks, %llu cold restarts, ext_link: "
       "%llu violations (%llu calls, %llu strays, %llu out of memory, %llu images lost), %zu incarnations "
-      "seen; lqr_control at SCHED_FIFO "
-      "in %d looks, on its launch cpu in %d; %zu copies the kernel lost track of killed\n",
+      "seen; lqr_control at SCHED_FIFO in %d looks, on its launch cpu in %d; %zu copies the kernel lost "
+      "track "
+      "of killed\n",
       std::string(attacks::to_string(kind)).c_str(), realtime ? "real time" : "lockstep", f.summary.max_v(),
       f.summary.max_control_gap_ms(), static_cast<unsigned long long>(f.sr.rollbacks),
       static_cast<unsigned long long>(f.sr.cold_restarts),

@@ -50,8 +50,8 @@ bool Rejuvenator::enter_mode(SrMode mode) {
   const SrMode from = k.caps.mode();
   links_.before_mode(from, mode);
   const auto changed = k.caps.apply_mode(mode);
-  mode_changed_t_ = k.now();  // changed or refused: the Mode event that follows says which mode holds now
-  mode_changed_wall_ = k.wall();
+  // Changed or refused: the Mode event that follows says which mode holds now.
+  mode_changed_ = Stamp{.t = k.now(), .wall = k.wall()};
   if (!changed) {
     k.log("mode %s: %s", std::string(to_string(mode)).c_str(),
           std::string(cap::to_string(changed.error())).c_str());
@@ -73,8 +73,8 @@ void Rejuvenator::sr_event(SrEventKind kind, Generation g, Nanos span, std::opti
   if (k.observer == nullptr) return;
   const bool mode = kind == SrEventKind::Mode;
   k.observer->on_sr_event(SrEvent{.kind = kind,
-                                  .t = mode ? mode_changed_t_ : k.now(),
-                                  .wall = mode ? mode_changed_wall_ : k.wall(),
+                                  .t = mode ? mode_changed_.t : k.now(),
+                                  .wall = mode ? mode_changed_.wall : k.wall(),
                                   .epoch = k.kernel_clock.epoch(),
                                   .g = g,
                                   .mode = k.caps.mode(),

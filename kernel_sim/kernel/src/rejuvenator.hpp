@@ -179,11 +179,13 @@ class Rejuvenator {
   // ---- rejuvenator.cpp ----
   static constexpr Nanos kTrimPeriod{std::chrono::milliseconds{2}};
   bool enter_mode(SrMode mode);  // the capability system's mode, on the time page; false (logged) if refused
-  // When enter_mode last changed the mode (kernel clock, wall clock): a Mode event's stamps. Between the
-  // links' close and open (link_guard.hpp), so that the mode trace's secure interval never reaches past
-  // either.
-  Nanos mode_changed_t_{0};
-  Nanos mode_changed_wall_{0};
+  // When enter_mode last changed the mode: a Mode event's stamps. Between the links' close and open
+  // (link_guard.hpp), so that the mode trace's secure interval never reaches past either.
+  struct Stamp {
+    Nanos t{0};     // kernel clock
+    Nanos wall{0};  // wall clock
+  };
+  Stamp mode_changed_{};
   void retire(image::GenerationRecord record);
   void refill_pairs();  // channel_pool, for one checkpoint or rollback of every rejuvenated service
   // Opens the pagemap of every live incarnation that may take its next image by written pages (a service is

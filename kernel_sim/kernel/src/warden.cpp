@@ -474,10 +474,12 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
       } else {
         (void)sys::kill_and_reap_own_child(pid);
       }
-      if (lost_copy)
+      if (lost_copy) {
         k.log("sweep: pid %d of '%s' is a copy the kernel asked for and lost track of: killed, not counted",
               pid, s.name.c_str());
-      if (owed || lost_copy) break;
+        break;
+      }
+      if (owed) break;
       record_violation(s, Violation::StrayProcess,
                        "pid " + std::to_string(pid) + ", killed at " + std::string(when));
       break;
