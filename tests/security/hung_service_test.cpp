@@ -20,8 +20,10 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <ostream>
+#include <semaphore>
 #include <string>
 #include <thread>
 #include <vector>
@@ -132,7 +134,10 @@ INSTANTIATE_TEST_SUITE_P(ClocksAndTargets, HungService,
 // clock: at a step, or (`phase`) as the kernel reaches that point of a checkpoint or a rollback, where it
 // then waits for its services' answers. What it waits for is runnable and gets no CPU, as on a machine whose
 // real-time work outranks it (or whose virtual CPUs stall) while the kernel runs on. One thread per CPU,
-// pinned, each started from the kernel's thread (on_step, on_image_phase) and joined at the end.
+// pinned and at SCHED_FIFO 55 from the kernel's first step on, parked until a burst releases it: released
+// from the kernel's thread (on_step, on_image_phase), it takes its CPU at once, before what the kernel just
+// asked for can answer (a thread started at the burst came too late on a loaded machine: the images had
+// answered). Joined at the end.
 class Starver final : public kernel::Observer {
  public:
   static constexpr int kBursts = 4;
@@ -150,14 +155,18 @@ class Starver final : public kernel::Observer {
 
   void on_step(std::uint64_t, Nanos t, SrMode) override {
     t_ = t;
+    park_hogs();
     if (!phase_) maybe_burst();
   }
   void on_image_phase(kernel::ImagePhase phase, Generation) override {
+    park_hogs();
     if (phase_ && phase == *phase_) maybe_burst();
   }
   void join() const {
-    for (std::thread& h : hogs_) {
-      if (h.joinable()) h.join();
+    stop_.store(true);
+    for (const std::unique_ptr<Hog>& h : hogs_) h->go.release();
+    for (const std::unique_ptr<Hog>& h : hogs_) {
+      if (h->thread.joinable()) h->thread.join();
     }
   }
   [[nodiscard]] int bursts() const { return bursts_; }
@@ -165,35 +174,49 @@ class Starver final : public kernel::Observer {
   [[nodiscard]] int refused() const { return refused_.load(); }
 
  private:
-  void maybe_burst() {
-    if (bursts_ >= kBursts || t_ < next_) return;
-    ++bursts_;
-    next_ = t_ + kBurstEvery;
+  struct Hog {
+    std::counting_semaphore<> go{0};  // a burst
+    std::thread thread;
+  };
+  void park_hogs() {
+    if (!hogs_.empty()) return;
     const unsigned cpus = std::max(1U, std::thread::hardware_concurrency());
     for (unsigned cpu = 0; cpu < cpus; ++cpu) {
-      hogs_.emplace_back([this, cpu] {
+      hogs_.push_back(std::make_unique<Hog>());
+      Hog& hog = *hogs_.back();
+      hog.thread = std::thread([this, cpu, &hog] {
         cpu_set_t set;
         CPU_ZERO(&set);
         CPU_SET(cpu, &set);
         const sched_param param{.sched_priority = 55};
-        if (::pthread_setaffinity_np(::pthread_self(), sizeof(set), &set) != 0 ||
-            ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &param) != 0) {
-          refused_.fetch_add(1);
-          return;
+        const bool placed = ::pthread_setaffinity_np(::pthread_self(), sizeof(set), &set) == 0 &&
+                            ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &param) == 0;
+        if (!placed) refused_.fetch_add(1);
+        for (;;) {
+          hog.go.acquire();
+          if (stop_.load()) return;
+          if (!placed) continue;
+          const auto until = std::chrono::steady_clock::now() + kHog;
+          while (std::chrono::steady_clock::now() < until) {
+          }
+          held_.fetch_add(1);
         }
-        const auto until = std::chrono::steady_clock::now() + kHog;
-        while (std::chrono::steady_clock::now() < until) {
-        }
-        held_.fetch_add(1);
       });
     }
+  }
+  void maybe_burst() {
+    if (bursts_ >= kBursts || t_ < next_) return;
+    ++bursts_;
+    next_ = t_ + kBurstEvery;
+    for (const std::unique_ptr<Hog>& h : hogs_) h->go.release();
   }
 
   Nanos next_;
   std::optional<kernel::ImagePhase> phase_;
   Nanos t_{0};  // the kernel clock at the last step
   int bursts_ = 0;
-  mutable std::vector<std::thread> hogs_;  // joined by a const inspection (join)
+  std::vector<std::unique_ptr<Hog>> hogs_;
+  mutable std::atomic<bool> stop_{false};  // set by a const inspection (join)
   std::atomic<int> held_{0}, refused_{0};
 };
 

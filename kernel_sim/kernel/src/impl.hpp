@@ -44,6 +44,30 @@
 
 namespace rejuv::kernel {
 
+// What the Warden asks of the other owners (warden.hpp), answered from this kernel's (owner_peers.cpp).
+class KernelWardenPeers final : public WardenPeers {
+ public:
+  explicit KernelWardenPeers(Kernel::Impl& kernel) : k(kernel) {}
+  [[nodiscard]] Nanos now() const override;
+  [[nodiscard]] Nanos wall() const override;
+  [[nodiscard]] SrMode mode() const override;
+  [[nodiscard]] bool rolls_back_on_violation() const override;
+  void log(const std::string& line) override;
+  void service_log(ServiceRuntime& s, std::string_view line) override;
+  void publish_security_event(ServiceId s, std::uint32_t detail, rejuv_msg_SecurityEventKind kind) override;
+  void request_rollback(std::string reason) override;
+  void for_each_image(const std::function<void(const image::Image&)>& f) const override;
+  [[nodiscard]] bool knows_child(pid_t pid) const override;
+  void settle_images() override;
+  [[nodiscard]] bool checkpoint_running() const override;
+  [[nodiscard]] bool owes_image(ServiceId s) const override;
+  [[nodiscard]] bool take_unheard_copy(ServiceId s) override;
+  void kill_and_reap_later(sys::ChildProcess p) override;
+
+ private:
+  Kernel::Impl& k;
+};
+
 struct Kernel::Impl {
   // ---- configuration: written once, by create.cpp ----
   launch::LoadedLaunch graph;
@@ -87,7 +111,13 @@ struct Kernel::Impl {
   Supervisor supervisor{*this};
   Lockstep lockstep{*this};
   Rejuvenator rejuvenator{*this};
-  Warden warden{*this};
+  KernelWardenPeers warden_peers{*this};
+  Warden warden{WardenParts{.graph = graph.graph,
+                            .options = options,
+                            .clock_mode = clock_mode,
+                            .services = services,
+                            .epoll = epoll},
+                warden_peers};
   ChannelInput input{*this};
 
   // ---- run state: Kernel::run and the scripted runs (kernel.cpp, scripted.cpp), the loop, shutdown_all ----

@@ -10,11 +10,16 @@
 // call's name, published on the security-event topic, and in MC it triggers a rollback at once (waiting
 // for T_MC only gives the attacker time); the rejuvenation timer keeps its schedule otherwise.
 #include <algorithm>
+#include <array>
 #include <csignal>
+#include <cstdarg>
+#include <cstdio>
 #include <filesystem>
 
-#include "impl.hpp"
 #include "rejuv/sys/sanitizer.hpp"
+#include "supervisor.hpp"
+#include "vocabulary.hpp"
+#include "warden.hpp"
 
 namespace rejuv::kernel {
 
@@ -35,11 +40,11 @@ constexpr std::uint64_t kRtBudgetUs = 100000;
 }  // namespace
 
 sys::ResourceLimits Warden::limits_for(const ServiceRuntime& s) const {
-  const launch::SandboxLimitValues v = launch::sandbox_limits(k.graph.graph, *s.config.spec);
+  const launch::SandboxLimitValues v = launch::sandbox_limits(parts_.graph, *s.config.spec);
   sys::ResourceLimits limits;
   // RLIMIT_NPROC counts the processes of a uid in a user namespace: meaningful when each service has its
   // own uid (root) or its own user namespace (the strict sandbox without root, process.cpp isolate_in_child).
-  if (sys::running_as_root() || k.options.sandbox == KernelOptions::Sandbox::Strict)
+  if (sys::running_as_root() || parts_.options.sandbox == KernelOptions::Sandbox::Strict)
     limits.processes = v.max_processes;
   limits.open_files = v.max_open_files;
 #if !defined(REJUV_TSAN)
@@ -60,7 +65,7 @@ sys::ResourceLimits Warden::limits_for(const ServiceRuntime& s) const {
   limits.file_size = 2 * wire::kMaxImagePages * 4096 + (1U << 20U);
   // The real-time plan (realtime.cpp): a service the plan may put at SCHED_FIFO gets its RLIMIT_RTTIME from
   // birth (the kernel cannot set it later: prlimit on a service of another uid is refused).
-  const proto::RealtimePlan& rt = k.graph.graph.realtime();
+  const proto::RealtimePlan& rt = parts_.graph.realtime();
   if (rt.enabled() && s.config.spec->rt_priority() > 0) {
     limits.rt_time_us = std::uint64_t{launch::realtime_values(rt).max_rt_time_ms} * 1000U;
   }
@@ -69,7 +74,7 @@ sys::ResourceLimits Warden::limits_for(const ServiceRuntime& s) const {
 
 void Warden::join_cgroup(ServiceRuntime& s) {
   if (s.sandbox.cgroup.valid() || !s.sandbox.cgroup_note.empty()) return;  // made once, at the first spawn
-  const launch::SandboxLimitValues v = launch::sandbox_limits(k.graph.graph, *s.config.spec);
+  const launch::SandboxLimitValues v = launch::sandbox_limits(parts_.graph, *s.config.spec);
   sys::CgroupLimits limits;
   limits.pids = v.max_processes;
   if (v.max_group_memory_mb > 0) limits.memory_bytes = std::uint64_t{v.max_group_memory_mb} << 20U;
@@ -79,10 +84,11 @@ void Warden::join_cgroup(ServiceRuntime& s) {
   // plan applies (a real-time run): the budgets of all groups share the machine's 950 ms/s, and a lockstep
   // kernel that reserved its share for nothing left a real-time run beside it without (its services refused
   // SCHED_FIFO).
-  if (k.clock_mode == ClockMode::Realtime && k.graph.graph.realtime().enabled() && s.config.spec->rt_priority() > 0)
+  if (parts_.clock_mode == ClockMode::Realtime && parts_.graph.realtime().enabled() &&
+      s.config.spec->rt_priority() > 0)
     limits.rt_runtime_us = kRtBudgetUs;
   // This kernel's scope: its address, unique among the kernels alive in this process.
-  const std::string scope = std::to_string(reinterpret_cast<std::uintptr_t>(&k));  // NOLINT: an identity
+  const std::string scope = std::to_string(reinterpret_cast<std::uintptr_t>(this));  // NOLINT: an identity
   if (auto made = sys::ServiceCgroup::create(scope, s.name, limits)) {
     s.sandbox.cgroup = std::move(*made);
     s.sandbox.cgroup_note = s.sandbox.cgroup.description();
@@ -90,43 +96,40 @@ void Warden::join_cgroup(ServiceRuntime& s) {
     // Common without root: the rlimits, the filter and the sweeps hold without it (docs/sandbox.md).
     s.sandbox.cgroup_note = "no cgroup (" + made.error().to_string() + ")";
   }
-  if (k.options.verbose) k.log("sandbox of '%s': %s", s.name.c_str(), s.sandbox.cgroup_note.c_str());
-}
-
-namespace {
-// Calls `f` with every image the kernel holds: those of the kept generations and those being retired.
-template <class F>
-void for_each_image(Kernel::Impl& k, F f) {
-  for (const Generation g : k.rejuvenator.images().generations()) {
-    for (const image::Image& im : k.rejuvenator.images().find(g)->images) f(im);
-  }
-  for (const image::GenerationRecord& r : k.rejuvenator.retiring()) {
-    for (const image::Image& im : r.images) f(im);
-  }
+  if (parts_.options.verbose) say("sandbox of '%s': %s", s.name.c_str(), s.sandbox.cgroup_note.c_str());
 }
 
 // Calls `f` with each copy (image or spare) of `service` the kernel knows, or of every service (nullopt).
 template <class F>
-void for_each_copy(Kernel::Impl& k, std::optional<ServiceId> service, F f) {
-  for_each_image(k, [&](const image::Image& im) {
+void Warden::for_each_copy(std::optional<ServiceId> service, F f) const {
+  peers_.for_each_image([&](const image::Image& im) {
     if (service && im.service != *service) return;
-    for (const sys::ChildProcess& c : im.copies) f(k.services[im.service.value()], c.pid());
+    for (const sys::ChildProcess& c : im.copies) f(parts_.services[im.service.value()], c.pid());
   });
 }
 
 // Whether a copy of `service` was forked whose pid the kernel does not know yet (a spare whose Copied has not
 // been read): it was born where its parent was — for a spare forked by the restored incarnation, the live
 // leaf — and no one can tell it apart from a stray there.
-bool copies_pending(Kernel::Impl& k, ServiceId service) {
+bool Warden::copies_pending(ServiceId service) const {
   bool pending = false;
-  for_each_image(k, [&](const image::Image& im) { pending = pending || (im.service == service && im.spares_pending > 0); });
+  peers_.for_each_image(
+      [&](const image::Image& im) { pending = pending || (im.service == service && im.spares_pending > 0); });
   return pending;
 }
-}  // namespace
+
+void Warden::say(const char* format, ...) {
+  std::array<char, 2048> buf{};
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(buf.data(), buf.size(), format, args);
+  va_end(args);
+  peers_.log(buf.data());
+}
 
 void Warden::place_images() {
   std::vector<pid_t> now;
-  for_each_copy(k, std::nullopt, [&](const ServiceRuntime& s, pid_t pid) {
+  for_each_copy(std::nullopt, [&](const ServiceRuntime& s, pid_t pid) {
     now.push_back(pid);
     if (std::find(placed_images.begin(), placed_images.end(), pid) != placed_images.end()) return;
     // A spare forked by an image already in `images/` is born there: no move (each costs a grace period).
@@ -147,19 +150,20 @@ bool Warden::kill_live_leaf(const ServiceRuntime& s) {
   if (!s.sandbox.cgroup.valid() || !placer.idle()) return false;
   // A copy on its way (its pid unknown) may still be in the live leaf: the kill would take it with the strays
   // (a restored generation's spare, lost in the store: seen as a fallback and a cold restart).
-  if (copies_pending(k, s.id)) {
-    if (k.options.verbose) k.log("rollback: a copy of '%s' is on its way: no cgroup.kill", s.name.c_str());
+  if (copies_pending(s.id)) {
+    if (parts_.options.verbose) say("rollback: a copy of '%s' is on its way: no cgroup.kill", s.name.c_str());
     return false;
   }
   bool placed = true;
-  for_each_copy(k, s.id, [&](const ServiceRuntime& owner, pid_t pid) {
+  for_each_copy(s.id, [&](const ServiceRuntime& owner, pid_t pid) {
     if (!placed) return;
     // Reported since the last sweep (a spare): asked where it is (one read of /proc/<pid>/cgroup).
     if (std::find(placed_images.begin(), placed_images.end(), pid) != placed_images.end()) return;
     placed = owner.sandbox.cgroup.in_leaf(pid, sys::CgroupLeaf::Images);
   });
   if (!placed) {
-    if (k.options.verbose) k.log("rollback: an image of '%s' is not in its images leaf yet: no cgroup.kill", s.name.c_str());
+    if (parts_.options.verbose)
+      say("rollback: an image of '%s' is not in its images leaf yet: no cgroup.kill", s.name.c_str());
     return false;
   }
   // Who is in it, for the count (one read of cgroup.procs): each one the kernel does not know (known_child,
@@ -209,26 +213,26 @@ void Warden::record_violation(ServiceRuntime& s, Violation kind, std::string_vie
       }
       if (const auto nr = sys::syscall_number(what)) detail = static_cast<std::uint32_t>(*nr);
       // Not rate-limited: each one ends a process (and a stray sweep is bounded by the process limit).
-      k.log("sandbox violation: '%s' made a forbidden system call: %.*s (mode %s)", s.name.c_str(),
-            static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
+      say("sandbox violation: '%s' made a forbidden system call: %.*s (mode %s)", s.name.c_str(),
+          static_cast<int>(what.size()), what.data(), std::string(to_string(peers_.mode())).c_str());
       break;
     }
     case Violation::StrayProcess:
       ++s.stats.stray_processes;
-      k.log("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
-            static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
+      say("sandbox violation: '%s' left a process behind: %.*s (mode %s)", s.name.c_str(),
+          static_cast<int>(what.size()), what.data(), std::string(to_string(peers_.mode())).c_str());
       break;
     case Violation::OutOfMemory:
       ++s.stats.out_of_memory;
-      k.log("sandbox violation: '%s' ran its live cgroup out of memory: %.*s (mode %s)", s.name.c_str(),
-            static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
+      say("sandbox violation: '%s' ran its live cgroup out of memory: %.*s (mode %s)", s.name.c_str(),
+          static_cast<int>(what.size()), what.data(), std::string(to_string(peers_.mode())).c_str());
       break;
     case Violation::ImageLost:
       // Nothing a service can reach signals an image (no signal to another process, no SIGIO owner): an image
       // gone from the store is a fault of the machine or an escape, reported as such, never silent.
       ++s.stats.images_lost;
-      k.log("security: an image of '%s' was lost in the store: %.*s (mode %s)", s.name.c_str(),
-            static_cast<int>(what.size()), what.data(), std::string(to_string(k.caps.mode())).c_str());
+      say("security: an image of '%s' was lost in the store: %.*s (mode %s)", s.name.c_str(),
+          static_cast<int>(what.size()), what.data(), std::string(to_string(peers_.mode())).c_str());
       break;
   }
   rejuv_msg_SecurityEventKind event = rejuv_msg_SECURITY_FORBIDDEN_CALL;
@@ -238,10 +242,10 @@ void Warden::record_violation(ServiceRuntime& s, Violation kind, std::string_vie
     case Violation::ImageLost: event = rejuv_msg_SECURITY_IMAGE_LOST; break;
     case Violation::OutOfMemory: event = rejuv_msg_SECURITY_OUT_OF_MEMORY; break;
   }
-  k.router.publish_security_event(k.now(), s.id, detail, event, k.caps.mode());
+  peers_.publish_security_event(s.id, detail, event);
   // In MC the attacker has the service now: roll back at once rather than at the end of T_MC.
-  if (k.sr && k.caps.mode() == SrMode::MC && !k.stopping) {
-    k.rejuvenator.request_rollback("sandbox violation by '" + s.name + "': " + std::string(what));
+  if (peers_.rolls_back_on_violation() && peers_.mode() == SrMode::MC) {
+    peers_.request_rollback("sandbox violation by '" + s.name + "': " + std::string(what));
   }
 }
 
@@ -270,7 +274,7 @@ void Warden::on_seccomp_notice(ServiceRuntime& s) {
   for (std::size_t i = 0; i < kNoticesPerWakeup && s.sandbox.seccomp.valid(); ++i) {
     auto got = s.sandbox.seccomp.receive();
     if (!got) {
-      k.log("'%s': seccomp listener: %s", s.name.c_str(), got.error().to_string().c_str());
+      say("'%s': seccomp listener: %s", s.name.c_str(), got.error().to_string().c_str());
       close_sandbox(s);
       return;
     }
@@ -295,12 +299,13 @@ void Warden::on_seccomp_notice(ServiceRuntime& s) {
       // with EPERM and is counted against the service; the call never ran, so it boots on.
       (void)s.sandbox.seccomp.refuse(notice.id, EPERM);
       if (!refused_path.empty()) {
-        k.log("sandbox: '%s' at boot: %s of %s refused (EPERM): outside what a start-up reads (its binary, the "
-              "libraries, its own /proc)", s.name.c_str(), call.c_str(), refused_path.c_str());
+        say("sandbox: '%s' at boot: %s of %s refused (EPERM): outside what a start-up reads (its binary, the "
+            "libraries, its own /proc)",
+            s.name.c_str(), call.c_str(), refused_path.c_str());
       } else {
-        k.log("sandbox: '%s' at boot: %s(0x%llx, 0x%llx, 0x%llx) refused (EPERM): arguments no start-up needs",
-              s.name.c_str(), call.c_str(), static_cast<unsigned long long>(notice.args[0]),
-              static_cast<unsigned long long>(notice.args[1]), static_cast<unsigned long long>(notice.args[2]));
+        say("sandbox: '%s' at boot: %s(0x%llx, 0x%llx, 0x%llx) refused (EPERM): arguments no start-up needs",
+            s.name.c_str(), call.c_str(), static_cast<unsigned long long>(notice.args[0]),
+            static_cast<unsigned long long>(notice.args[1]), static_cast<unsigned long long>(notice.args[2]));
       }
       record_violation(s, Violation::ForbiddenCall, call);
       continue;
@@ -338,8 +343,7 @@ void Warden::on_service_output(ServiceRuntime& s, bool final) {
       if (nl == std::string::npos && !cut) break;
       const std::size_t end = cut ? start + kMaxOutputLine : nl;
       ++s.stats.output_lines;
-      k.service_log(s, wire::LogLevel::Info,
-                    std::string_view(s.sandbox.output_partial).substr(start, end - start));
+      peers_.service_log(s, std::string_view(s.sandbox.output_partial).substr(start, end - start));
       start = cut ? end : nl + 1;
     }
     s.sandbox.output_partial.erase(0, start);
@@ -347,12 +351,12 @@ void Warden::on_service_output(ServiceRuntime& s, bool final) {
   if (closed || final) {
     if (!s.sandbox.output_partial.empty()) {
       ++s.stats.output_lines;
-      k.service_log(s, wire::LogLevel::Info, s.sandbox.output_partial);
+      peers_.service_log(s, s.sandbox.output_partial);
       s.sandbox.output_partial.clear();
     }
   }
   if (closed) {
-    (void)k.epoll.remove(s.sandbox.output.get());
+    (void)parts_.epoll.remove(s.sandbox.output.get());
     s.sandbox.output.reset();
   }
 }
@@ -360,20 +364,20 @@ void Warden::on_service_output(ServiceRuntime& s, bool final) {
 sys::SysResult<void> Warden::replace_output(ServiceRuntime& s, sys::UniqueFd read_end) {
   if (s.sandbox.output.valid()) {
     on_service_output(s, true);  // what the previous incarnation wrote, to its last partial line
-    if (s.sandbox.output.valid()) (void)k.epoll.remove(s.sandbox.output.get());
+    if (s.sandbox.output.valid()) (void)parts_.epoll.remove(s.sandbox.output.get());
   }
   s.sandbox.output = std::move(read_end);
-  return k.epoll.add(s.sandbox.output.get(), token(Source::Output, s.id.value()));
+  return parts_.epoll.add(s.sandbox.output.get(), token(Source::Output, s.id.value()));
 }
 
 void Warden::close_sandbox(ServiceRuntime& s) {
   if (s.sandbox.seccomp.valid()) {
-    (void)k.epoll.remove(s.sandbox.seccomp.fd());
+    (void)parts_.epoll.remove(s.sandbox.seccomp.fd());
     s.sandbox.seccomp.close();
   }
   if (s.sandbox.output.valid()) {
     on_service_output(s, true);
-    if (s.sandbox.output.valid()) (void)k.epoll.remove(s.sandbox.output.get());
+    if (s.sandbox.output.valid()) (void)parts_.epoll.remove(s.sandbox.output.get());
     s.sandbox.output.reset();
   }
 }
@@ -381,63 +385,52 @@ void Warden::close_sandbox(ServiceRuntime& s) {
 void Warden::sweep_if_due() {
   if (sweep_due) {
     sweep_strays(*sweep_due);
-  } else if (k.now() - last_sweep >= kSweepPeriod) {
+  } else if (peers_.now() - last_sweep >= kSweepPeriod) {
     sweep_strays("the periodic sweep");
   }
 }
-
-namespace {
 
 // Per service, whether a copy the kernel asked for (a spare, a Patch's image, an image at a checkpoint) is on
 // its way: it is the kernel's child before its pid is reported, so such a service is swept once it has
 // reported. The answers that have arrived are read first (waiting up to kCopiesWait for them with
 // SweepWait::ForCopies), so that only copies really on their way defer a sweep. None at the final sweep.
-std::vector<bool> copies_on_their_way(Kernel::Impl& k, bool final, SweepWait wait) {
-  std::vector<bool> pending(k.services.size(), false);
-  const Nanos wait_until = k.wall() + (wait == SweepWait::ForCopies ? kCopiesWait : Nanos{0});
+std::vector<bool> Warden::copies_on_their_way(bool final, SweepWait wait) {
+  std::vector<bool> pending(parts_.services.size(), false);
+  const Nanos wait_until = peers_.wall() + (wait == SweepWait::ForCopies ? kCopiesWait : Nanos{0});
   for (;;) {
-    k.rejuvenator.refresh_images();
-    if (!k.rejuvenator.retiring().empty()) k.rejuvenator.finish_retiring(false);
-    std::fill(pending.begin(), pending.end(), k.rejuvenator.coordinator().running() != nullptr && !final);
+    peers_.settle_images();
+    std::fill(pending.begin(), pending.end(), peers_.checkpoint_running() && !final);
     int answer_fd = -1;  // where the next Copied of a copy on its way arrives
     const auto note = [&](const image::Image& im) {
       if (im.spares_pending == 0 && !im.patch_pending) return;
       pending[im.service.value()] = !final;
       if (answer_fd < 0 && im.resume.valid()) answer_fd = im.resume.fd();
     };
-    for_each_image(k, note);
-    if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || k.wall() >= wait_until) break;
+    peers_.for_each_image(note);
+    if (std::none_of(pending.begin(), pending.end(), [](bool p) { return p; }) || peers_.wall() >= wait_until)
+      break;
     // On that copy's answer, not on epoll: the kernel's other fds may well be readable now (a spin).
     if (answer_fd < 0) break;
-    (void)sys::wait_fd(answer_fd, sys::WaitFor::Readable, std::max(Nanos{0}, wait_until - k.wall()));
+    (void)sys::wait_fd(answer_fd, sys::WaitFor::Readable, std::max(Nanos{0}, wait_until - peers_.wall()));
   }
   return pending;
 }
 
-}  // namespace
-
 bool Warden::known_child(pid_t pid) const {
-  if (k.rejuvenator.knows_process(pid, nullptr)) return true;
-  for (const image::GenerationRecord& r : k.rejuvenator.retiring()) {
-    for (const image::Image& im : r.images) {
-      for (const sys::ChildProcess& c : im.copies) {
-        if (c.pid() == pid) return true;
-      }
-    }
-  }
-  return k.rejuvenator.reaping(pid);
+  return peers_.knows_child(pid);
 }
 
 void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
-  const std::vector<bool> pending = copies_on_their_way(k, final, wait);
+  const std::vector<bool> pending = copies_on_their_way(final, wait);
   if (std::any_of(pending.begin(), pending.end(), [](bool p) { return p; })) {
     if (!sweep_due) sweep_due = when;
   } else {
     sweep_due.reset();
   }
-  last_sweep = k.now();
+  last_sweep = peers_.now();
   place_images();
-  for (ServiceRuntime& s : k.services) (void)count_out_of_memory(s, false);  // a stray the OOM killer took
+  for (ServiceRuntime& s : parts_.services)
+    (void)count_out_of_memory(s, false);  // a stray the OOM killer took
   auto children = sys::own_children();
   if (!children) return;
   const auto known = [&](pid_t pid) { return known_child(pid); };
@@ -447,36 +440,36 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
   for (const pid_t pid : *children) {
     if (!final && known(pid)) continue;
     if (killed_with_its_leaf(pid)) {  // killed with its live leaf at a rollback: reaped here, counted below
-      if (auto stray = sys::ChildProcess::adopt_child(pid)) k.rejuvenator.kill_and_reap_later(std::move(*stray));
+      if (auto stray = sys::ChildProcess::adopt_child(pid)) peers_.kill_and_reap_later(std::move(*stray));
       continue;
     }
     const auto sid = sys::session_of(pid);
     if (!sid) continue;
-    for (ServiceRuntime& s : k.services) {
+    for (ServiceRuntime& s : parts_.services) {
       if (std::find(s.sandbox.sessions.begin(), s.sandbox.sessions.end(), *sid) == s.sandbox.sessions.end()) continue;
       if (pending[s.id.value()]) break;  // one of its copies is on its way: next time
       if (final && known(pid)) break;  // shutdown: the known ones are killed and reaped by their owners
       // An image owed to an abandoned checkpoint (its Taken not read yet) is the kernel's own process: killed,
       // not counted. Until the next commit (rejuvenator.cpp), then a stray like any other.
-      const bool owed = k.rejuvenator.coordinator().owes(s.id);
+      const bool owed = peers_.owes_image(s.id);
       // A copy the kernel made and no longer tracks (the patch of a generation retired while its base's copy
       // forked it; a spare of a generation let go once its copies had died or been resumed, at a fallback or
       // at shutdown): the kernel's own, killed, not counted — as many as the kernel let go of unheard, no
       // more. Where the process is says nothing: a restored incarnation forks in the images leaf until it is
       // moved to its live leaf (place_live, a grace period later), and a fork bomb there is strays, not
       // copies.
-      const bool lost_copy = !owed && k.rejuvenator.take_unheard_copy(s.id);
+      const bool lost_copy = !owed && peers_.take_unheard_copy(s.id);
       // Killed at once and reaped later by the reaper: however many an attacker made, the sweep costs one
       // system call each, and none of their exits is waited for here (on the vehicle's critical path). Without
       // a pidfd (out of fds) by its pid: a stray is killed whatever the kernel's state.
       if (auto stray = sys::ChildProcess::adopt_child(pid)) {
-        k.rejuvenator.kill_and_reap_later(std::move(*stray));
+        peers_.kill_and_reap_later(std::move(*stray));
       } else {
         (void)sys::kill_and_reap_own_child(pid);
       }
       if (lost_copy) {
-        k.log("sweep: pid %d of '%s' is a copy the kernel asked for and lost track of: killed, not counted",
-              pid, s.name.c_str());
+        say("sweep: pid %d of '%s' is a copy the kernel asked for and lost track of: killed, not counted",
+            pid, s.name.c_str());
         break;
       }
       if (owed) break;
@@ -486,7 +479,7 @@ void Warden::sweep_strays(std::string_view when, bool final, SweepWait wait) {
     }
   }
   for (const auto& [id, pid] : killed_with_leaf) {
-    record_violation(k.services[id.value()], Violation::StrayProcess,
+    record_violation(parts_.services[id.value()], Violation::StrayProcess,
                      "pid " + std::to_string(pid) + ", killed with its live cgroup at a rollback");
   }
   killed_with_leaf.clear();

@@ -1,15 +1,15 @@
-// The kernel process (docs/design.md §2, §5, §6; docs/protocol.md): the trusted parent of every service. From a
-// launch graph it loads and audits the policy (refusing to start on any finding), builds the capability
+// The kernel process (docs/design.md §2, §5, §6; docs/protocol.md): the trusted parent of every service. From
+// a launch graph it loads and audits the policy (refusing to start on any finding), builds the capability
 // system and the broker, opens the DDS bridge, spawns every service as an isolated child with its channel
 // (fd 3) and the read-only time page (fd 4), runs the boot protocol and then one event loop that routes
 // every publication through the capability check and the broker, fires kernel timers against the kernel
 // clock (lockstep with the plant as time master, or realtime), supervises every child through its pidfd and
 // shuts everything down cleanly (SIGINT/SIGTERM, mission end, a duration limit, or a failure).
 //
-// With SR (docs/design.md §7) the image store checkpoints every rejuvenated service by written pages or fork, with
-// the broker's queue state, and rolls them back on the rejuvenation timer, on a lost service or on a sandbox
-// violation in MC (rejuvenator.cpp); a lost driver-level service, or any loss without SR, ends the run
-// (supervisor.cpp). Containment: warden.cpp and docs/sandbox.md.
+// With SR (docs/design.md §7) the image store checkpoints every rejuvenated service by written pages or fork,
+// with the broker's queue state, and rolls them back on the rejuvenation timer, on a lost service or on a
+// sandbox violation in MC (rejuvenator.cpp); a lost driver-level service, or any loss without SR, ends the
+// run (supervisor.cpp). Containment: warden.cpp and docs/sandbox.md.
 //
 // Single-threaded: the kernel's event loop owns everything; Cyclone's threads only signal eventfds.
 //
@@ -21,20 +21,21 @@
 // control, watch.cpp the observers of the routed traffic), Lockstep (lockstep.hpp: lockstep.cpp the steps and
 // the samples that ride on them), Rejuvenator (rejuvenator.hpp: the image coordinator; images.hpp what its
 // files share, rejuvenator.cpp with its overview, checkpoint.cpp, rollback.cpp, checkpointed_state.cpp;
-// catch_up.hpp/.cpp the estimate catch-up after a rollback; link_guard.hpp/.cpp the links to other hosts closed
-// in the secure interval) and Warden (warden.hpp: warden.cpp containment;
-// cgroup_placer.hpp/.cpp the moves between a service's cgroup leaves, on a thread of its own). Impl's own:
-// kernel.cpp this API; create.cpp Kernel::create in named steps; loop.cpp the event loop, timers, deadlines
-// and the realtime clock; netgate.cpp the network gate; vocabulary.cpp the enums' names and KernelError;
-// bridge.hpp/.cpp the DDS bridge with the plant's lockstep adapter (kernel_sim/dds); scripted.cpp the
-// fuzzer's seam. Smaller parts that own their state, unit-tested: kernel_clock.hpp (the time page's one
-// writer), step_clock.hpp (the lockstep step queue and its deadlines), image_coordinator.hpp (the checkpoint
-// and rollback requests, the work left, the rejuvenation timer), vehicle_pace.hpp (when in the control period
-// image work disturbs the vehicle least), liveness_watch.hpp (who is hung in real time), cpu_wait.hpp/.cpp (a
-// late answer judged by the CPU its processes had), reaper.hpp (retired and dying processes),
-// channel_pool.hpp (socket pairs made ahead), routing_freeze.hpp (routing held while image work is timed),
-// image_charge.hpp (its simulated-time charge), canonical_stage.hpp (lockstep staging), fixed_ring.hpp (a
-// bounded FIFO allocated once), output_batch.hpp, netgate.hpp, mission_watch.hpp.
+// catch_up.hpp/.cpp the estimate catch-up after a rollback; link_guard.hpp/.cpp the links to other hosts
+// closed in the secure interval) and Warden (warden.hpp: warden.cpp containment, built alone from WardenParts
+// and WardenPeers; cgroup_placer.hpp/.cpp the moves between a service's cgroup leaves, on a thread of its
+// own). owner_peers.cpp: what an owner built alone asks of the others, answered from Kernel::Impl. Impl's
+// own: kernel.cpp this API; create.cpp Kernel::create in named steps; loop.cpp the event loop, timers,
+// deadlines and the realtime clock; netgate.cpp the network gate; vocabulary.cpp the enums' names and
+// KernelError; bridge.hpp/.cpp the DDS bridge with the plant's lockstep adapter (kernel_sim/dds);
+// scripted.cpp the fuzzer's seam. Smaller parts that own their state, unit-tested: kernel_clock.hpp (the time
+// page's one writer), step_clock.hpp (the lockstep step queue and its deadlines), image_coordinator.hpp (the
+// checkpoint and rollback requests, the work left, the rejuvenation timer), vehicle_pace.hpp (when in the
+// control period image work disturbs the vehicle least), liveness_watch.hpp (who is hung in real time),
+// cpu_wait.hpp/.cpp (a late answer judged by the CPU its processes had), reaper.hpp (retired and dying
+// processes), channel_pool.hpp (socket pairs made ahead), routing_freeze.hpp (routing held while image work
+// is timed), image_charge.hpp (its simulated-time charge), canonical_stage.hpp (lockstep staging),
+// fixed_ring.hpp (a bounded FIFO allocated once), output_batch.hpp, netgate.hpp, mission_watch.hpp.
 #pragma once
 
 #include <algorithm>
