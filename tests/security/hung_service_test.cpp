@@ -305,5 +305,106 @@ TEST(StarvedService, ServicesWithoutACpuAtACheckpoint_AbandonedNotKilled_Vehicle
   expect_flown_through(run);
 }
 
+// Lockstep: ekf2 moved to a CPU the kernel is not pinned to, and that CPU held at SCHED_FIFO 55 for kHold, 5
+// times its idle deadline (300 ms here): ekf2 is runnable and gets no CPU while a step waits for its Idle.
+// The deadline counts the CPU time it had while it is runnable (cpu_wait.hpp), so it is waited for, not
+// killed as hung; the step completes once the CPU is free again, and the flight goes on.
+class CpuTaker final : public kernel::Observer {
+ public:
+  static constexpr Nanos kHold{std::chrono::milliseconds{1500}};
+  CpuTaker(std::string target, Nanos at) : target_(std::move(target)), at_(at) {}
+  CpuTaker(CpuTaker&&) = default;
+  CpuTaker& operator=(CpuTaker&&) = delete;
+  CpuTaker(const CpuTaker&) = delete;
+  CpuTaker& operator=(const CpuTaker&) = delete;
+  ~CpuTaker() override { join(); }
+  void attach(Kernel* k) { k_ = k; }
+  void on_step(std::uint64_t, Nanos t, SrMode) override {
+    if (k_ == nullptr || moved_ || t < at_) return;
+    const auto id = k_->find_service(target_);
+    if (!id) return;
+    const kernel::ServiceStats st = k_->stats(*id);
+    if (!st.alive || st.pid <= 0) return;
+    moved_ = true;
+    const int kernel_cpu = ::sched_getcpu();  // a lockstep run is pinned to it (KernelOptions::placement)
+    const unsigned cpus = std::thread::hardware_concurrency();
+    for (unsigned c = 0; c < cpus; ++c) {
+      if (static_cast<int>(c) != kernel_cpu) {
+        taken_cpu_ = static_cast<int>(c);
+        break;
+      }
+    }
+    if (taken_cpu_ < 0) return;
+    cpu_set_t set;
+    CPU_ZERO(&set);
+    CPU_SET(taken_cpu_, &set);
+    for (const auto& task : fs::directory_iterator("/proc/" + std::to_string(st.pid) + "/task")) {
+      if (::sched_setaffinity(std::stoi(task.path().filename().string()), sizeof(set), &set) == 0)
+        ++threads_moved_;
+    }
+    hog_ = std::thread([this, set] {
+      const sched_param param{.sched_priority = 55};
+      if (::pthread_setaffinity_np(::pthread_self(), sizeof(set), &set) != 0 ||
+          ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &param) != 0) {
+        return;
+      }
+      held_ = true;
+      const auto until = std::chrono::steady_clock::now() + kHold;
+      while (std::chrono::steady_clock::now() < until) {
+      }
+    });
+  }
+  void join() const {
+    if (hog_.joinable()) hog_.join();
+  }
+  [[nodiscard]] int taken_cpu() const { return taken_cpu_; }
+  [[nodiscard]] int threads_moved() const { return threads_moved_; }
+  [[nodiscard]] bool held() const { return held_.load(); }
+
+ private:
+  std::string target_;
+  Nanos at_;
+  Kernel* k_ = nullptr;
+  bool moved_ = false;
+  int taken_cpu_ = -1;
+  int threads_moved_ = 0;
+  mutable std::thread hog_;  // joined by a const inspection (join)
+  std::atomic<bool> held_{false};
+};
+
+TEST(StarvedService, LockstepServiceWithoutACpuPastItsIdleDeadline_WaitedForNotKilled_VehicleStaysSafe) {
+  if (::geteuid() != 0) GTEST_SKIP() << "the flight graph's sandbox and SCHED_FIFO need root here";
+  if (std::thread::hardware_concurrency() < 2) GTEST_SKIP() << "needs a CPU the kernel is not on";
+  constexpr Nanos kIdleDeadline{std::chrono::milliseconds{300}};
+  kernel::SrStats sr{};
+  int taken = -1, moved = 0;
+  bool held = false;
+  mission::ObservedFlight f;
+  ASSERT_NO_FATAL_FAILURE(mission::fly_observed<CpuTaker>(
+      false, kFlight, [&](Nanos alignment) { return CpuTaker("ekf2", alignment + Nanos{kStopAfter}); },
+      [&](const Kernel& k, const CpuTaker& taker) {
+        taker.join();
+        sr = k.sr_stats();
+        taken = taker.taken_cpu();
+        moved = taker.threads_moved();
+        held = taker.held();
+      },
+      f, [&](kernel::KernelOptions& o) { o.idle_deadline = kIdleDeadline; }));
+  std::printf(
+      "[ lockstep ] ekf2 (%d threads) on CPU %d, held at SCHED_FIFO for %lld ms: %s; max V %.3f\n%s", moved,
+      taken,
+      static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(CpuTaker::kHold).count()),
+      held ? "held" : "NOT held", f.summary.max_v(), f.log.lines_with("for a CPU").c_str());
+  ASSERT_GE(taken, 0);
+  ASSERT_GT(moved, 0);
+  ASSERT_TRUE(held) << "the CPU could not be held at SCHED_FIFO 55: nothing was starved";
+  EXPECT_NE(f.log.lines_with("'ekf2' waiting for a CPU at the idle deadline"), "") << f.log.text();
+  EXPECT_EQ(f.log.lines_with("not idle within the idle deadline"), "")
+      << "a service killed as hung while it waited";
+  EXPECT_EQ(f.outcome->reason, StopReason::Duration) << f.outcome->detail;
+  EXPECT_EQ(sr.cold_restarts, 0U);
+  EXPECT_LT(f.summary.max_v(), 1.0) << "the vehicle left the safety set";
+}
+
 }  // namespace
 }  // namespace rejuv::testing

@@ -22,11 +22,15 @@ struct ObservedFlight {
   RunLog log;
 };
 
-// The square in real time or lockstep for `flight` after its alignment; `watcher` is made with the alignment (the
-// mission's t = 0 on the kernel clock). Fatal failures of the set-up are the caller's (ASSERT_NO_FATAL_FAILURE).
+// The square in real time or lockstep for `flight` after its alignment; `watcher` is made with the alignment
+// (the mission's t = 0 on the kernel clock); `options`, if given, changes the kernel's options. Fatal
+// failures of the set-up are the caller's (ASSERT_NO_FATAL_FAILURE).
 template <typename Watcher>
-void fly_observed(bool realtime, std::chrono::seconds flight, const std::function<Watcher(Nanos alignment)>& make,
-                  const std::function<void(const kernel::Kernel&, const Watcher&)>& inspect, ObservedFlight& out) {
+void fly_observed(bool realtime, std::chrono::seconds flight,
+                  const std::function<Watcher(Nanos alignment)>& make,
+                  const std::function<void(const kernel::Kernel&, const Watcher&)>& inspect,
+                  ObservedFlight& out,
+                  const std::function<void(kernel::KernelOptions&)>& options_change = nullptr) {
   std::optional<launch::LoadedLaunch> graph;
   ASSERT_NO_FATAL_FAILURE(load_square(realtime, {}, graph));
   auto reference = cli::run_reference(*graph, std::nullopt);
@@ -34,6 +38,7 @@ void fly_observed(bool realtime, std::chrono::seconds flight, const std::functio
   ASSERT_NE(out.log.get(), nullptr);
   kernel::KernelOptions options = mission_options(out.log.get());
   options.duration = reference->alignment + Nanos{flight};
+  if (options_change) options_change(options);
   Watcher watcher = make(reference->alignment);
   SessionGuard guard;
   cli::RunRecorder recorder(std::move(*reference), nullptr, cli::RunRecorder::Progress::Off);

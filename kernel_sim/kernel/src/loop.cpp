@@ -246,7 +246,8 @@ std::optional<Nanos> Kernel::Impl::next_wall_deadline() const {
     if (s.proc.booting()) consider(s.proc.spawned_at + options.boot_deadline);
     if (s.live() && s.proc.channel_closed_at) consider(*s.proc.channel_closed_at + kChannelCloseGrace);
   }
-  if (const auto at = lockstep.steps().idle_deadline(options.idle_deadline)) consider(*at);
+  if (const auto at = lockstep.steps().idle_deadline(options.idle_deadline))
+    consider(supervisor.idle_look(*at));
   if (const auto at = lockstep.steps().stall_deadline(); supervisor.plant_started() && at) consider(*at);
   if (const auto at = rejuvenator.coordinator().work_deadline()) consider(*at);
   if (const auto at = rejuvenator.image_work_wait_deadline()) consider(*at);

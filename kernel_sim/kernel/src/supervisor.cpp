@@ -23,6 +23,10 @@ namespace rejuv::kernel {
 
 namespace {
 
+// The longest a lockstep step waits for a service that waits for a CPU past the step's idle deadline, from
+// the step's start: below the plant's ack timeout (60 s by default), which would end the run.
+constexpr Nanos kIdleWaitBound{std::chrono::seconds{50}};
+
 std::string format_double(double v) {
   std::array<char, 64> buf{};
   std::snprintf(buf.data(), buf.size(), "%.17g", v);
@@ -552,22 +556,49 @@ void Supervisor::check_deadlines() {
       kill_hung(s, "closed its channel");
     }
   }
-  if (const auto at = k.lockstep.steps().idle_deadline(k.options.idle_deadline); at && t > *at) {
+  if (const auto at = k.lockstep.steps().idle_deadline(k.options.idle_deadline); at && t > idle_look(*at)) {
+    idle_look_.reset();
     bool killed = false;
     for (ServiceRuntime& s : k.services) {
       if (!s.live() || s.idle()) continue;
-      // Its Idle may be waiting in the channel: read what is there before judging.
+      // The scheduler first, then the channel: a service seen asleep sent whatever it answered before it
+      // slept, so the read finds its Idle if it is there.
+      const std::optional<CpuSight> cpu = cpu_sight(s.proc.process.pid());
       if (s.proc.channel.valid()) k.input.read_channel(s);
-      if (s.live() && !s.idle()) {
-        kill_hung(s, "not idle within the idle deadline (" +
-                         std::to_string(to_seconds(k.options.idle_deadline).count()) + " s) of step " +
-                         std::to_string(k.lockstep.steps().active()->step));
-        killed = true;
-      }
+      if (!s.live() || s.idle() || spared_at_idle_deadline(s, *at, t, cpu)) continue;
+      kill_hung(s, "not idle within the idle deadline (" +
+                       std::to_string(to_seconds(k.options.idle_deadline).count()) + " s) of step " +
+                       std::to_string(k.lockstep.steps().active()->step) +
+                       (!cpu            ? "; its CPU time unknown"
+                        : cpu->runnable ? "; runnable"
+                                        : "; asleep or stopped"));
+      killed = true;
     }
     // The others get a full deadline again for what the step still has to do.
     if (killed) k.lockstep.restart_idle_deadline(t);
   }
+}
+
+bool Supervisor::spared_at_idle_deadline(const ServiceRuntime& s, Nanos deadline_at, Nanos t,
+                                         std::optional<CpuSight> cpu) {
+  if (idle_waits_.size() < k.services.size()) idle_waits_.resize(k.services.size());
+  std::optional<CpuWait>& wait = idle_waits_[s.id.value()];
+  const Nanos length = k.options.idle_deadline;
+  // Never past kIdleWaitBound since the step began: below the plant's ack timeout, which would end the run.
+  if (t - (deadline_at - length) >= kIdleWaitBound) return false;
+  if (!wait || wait->deadline_at() != deadline_at) wait.emplace(deadline_at, length, deadline_at - length);
+  const std::optional<CpuWait::GoOn> on = wait->go_on(t, cpu);
+  if (!on) return false;
+  if (on->first) {
+    k.log(
+        "'%s' waiting for a CPU at the idle deadline of step %llu: %lld ms on one since: not hung (the "
+        "deadline "
+        "counts CPU time while it is runnable)",
+        s.name.c_str(), static_cast<unsigned long long>(k.lockstep.steps().active()->step),
+        static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(on->ran).count()));
+  }
+  idle_look_ = idle_look_ ? std::min(*idle_look_, on->until) : on->until;
+  return true;
 }
 
 bool Supervisor::runs_fifo(const ServiceRuntime& s) const {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "cpu_wait.hpp"
 #include "liveness_watch.hpp"
 #include "rejuv/channel/wire.hpp"
 #include "rejuv/kernel/kernel.hpp"
@@ -55,11 +56,23 @@ class Supervisor {
   // otherwise) is killed as hung, which rolls back (docs/design.md §7).
   void watch_liveness();
 
+  // Lockstep: when the loop next looks at the active step's idle deadline (`deadline`): the deadline itself,
+  // or later while a service late at it waits for a CPU (check_deadlines).
+  [[nodiscard]] Nanos idle_look(Nanos deadline) const {
+    return idle_look_ && *idle_look_ > deadline ? *idle_look_ : deadline;
+  }
+
   [[nodiscard]] bool plant_started() const { return plant_started_; }
   [[nodiscard]] std::optional<pid_t> plant_pid() const;  // started and not yet reaped
 
  private:
   void report_stall();  // no step completed for kStallReportAfter
+  // Lockstep: whether `s`, late at the step's idle deadline (`deadline_at`), waits for a CPU (CpuWait:
+  // runnable, with less than the deadline's length of CPU time since it was first seen late, up to
+  // max_cpu_wait); then looked at again a CpuWait::kLook later. `cpu`: what the scheduler showed of it before
+  // its channel was read.
+  [[nodiscard]] bool spared_at_idle_deadline(const ServiceRuntime& s, Nanos deadline_at, Nanos t,
+                                             std::optional<CpuSight> cpu);
   Kernel::Impl& k;
   sys::ChildProcess plant_;
   bool plant_started_ = false;
@@ -70,6 +83,8 @@ class Supervisor {
   [[nodiscard]] bool runs_fifo(const ServiceRuntime& s) const;
   [[nodiscard]] LivenessSight liveness_sight(const ServiceRuntime& s) const;
   LivenessWatch liveness_;
+  std::vector<std::optional<CpuWait>> idle_waits_;  // by ServiceId: its wait past the step's idle deadline
+  std::optional<Nanos> idle_look_;                  // the next look while one waits for a CPU (wall clock)
 };
 
 }  // namespace rejuv::kernel

@@ -114,7 +114,9 @@ struct KernelOptions {
   std::vector<std::string> plant_args{};        // extra arguments for the plant process
   // Real-time bounds so that a hung service cannot hang the kernel (faults, not timings).
   Nanos boot_deadline{std::chrono::seconds{20}};      // spawn → Ready
-  // A lockstep step: every service idle. Below the plant's ack timeout (60 s), so that a hung service is
+  // A lockstep step: every service idle. A service late at it that is runnable and has had less than this
+  // much CPU since is waiting for the machine, not hung (cpu_wait.hpp): waited for up to ten deadlines from
+  // the step's start, and never past 50 s. Below the plant's ack timeout (60 s), so that a hung service is
   // found (and, with SR, rolled back) before the plant gives up.
   Nanos idle_deadline{std::chrono::seconds{5}};
   Nanos shutdown_grace{std::chrono::seconds{2}};      // Shutdown → exit, before SIGKILL
