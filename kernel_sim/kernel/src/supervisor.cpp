@@ -591,9 +591,8 @@ bool Supervisor::spared_at_idle_deadline(const ServiceRuntime& s, Nanos deadline
   if (!on) return false;
   if (on->first) {
     k.log(
-        "'%s' waiting for a CPU at the idle deadline of step %llu: %lld ms on one since: not hung (the "
-        "deadline "
-        "counts CPU time while it is runnable)",
+        "'%s' waiting for a CPU at the idle deadline of step %llu: %lld ms on one since: not hung "
+        "(the deadline counts CPU time while it is runnable)",
         s.name.c_str(), static_cast<unsigned long long>(k.lockstep.steps().active()->step),
         static_cast<long long>(std::chrono::duration_cast<std::chrono::milliseconds>(on->ran).count()));
   }
