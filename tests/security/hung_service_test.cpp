@@ -129,6 +129,24 @@ INSTANTIATE_TEST_SUITE_P(ClocksAndTargets, HungService,
 
 // ---- a service starved of the CPU is not hung ----
 
+// The calling thread pinned to `cpu` at SCHED_FIFO 55 — above the control chain (50, 45) and every image,
+// below the kernel (60) and the plant (70); false when refused.
+bool hold_at_fifo55(int cpu) {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  CPU_SET(cpu, &set);
+  const sched_param param{.sched_priority = 55};
+  return ::pthread_setaffinity_np(::pthread_self(), sizeof(set), &set) == 0 &&
+         ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &param) == 0;
+}
+
+// Spins on the calling thread for `d`.
+void spin_for(Nanos d) {
+  const auto until = std::chrono::steady_clock::now() + d;
+  while (std::chrono::steady_clock::now() < until) {
+  }
+}
+
 // Holds every CPU at SCHED_FIFO 55 — above the control chain (50, 45) and every image, below the kernel (60)
 // and the plant (70) — for kHog at a time, kBursts times at least kBurstEvery apart from `at` on the kernel
 // clock: at a step, or (`phase`) as the kernel reaches that point of a checkpoint or a rollback, where it
@@ -185,20 +203,13 @@ class Starver final : public kernel::Observer {
       hogs_.push_back(std::make_unique<Hog>());
       Hog& hog = *hogs_.back();
       hog.thread = std::thread([this, cpu, &hog] {
-        cpu_set_t set;
-        CPU_ZERO(&set);
-        CPU_SET(cpu, &set);
-        const sched_param param{.sched_priority = 55};
-        const bool placed = ::pthread_setaffinity_np(::pthread_self(), sizeof(set), &set) == 0 &&
-                            ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &param) == 0;
+        const bool placed = hold_at_fifo55(static_cast<int>(cpu));
         if (!placed) refused_.fetch_add(1);
         for (;;) {
           hog.go.acquire();
           if (stop_.load()) return;
           if (!placed) continue;
-          const auto until = std::chrono::steady_clock::now() + kHog;
-          while (std::chrono::steady_clock::now() < until) {
-          }
+          spin_for(kHog);
           held_.fetch_add(1);
         }
       });
@@ -342,16 +353,10 @@ class CpuTaker final : public kernel::Observer {
       if (::sched_setaffinity(std::stoi(task.path().filename().string()), sizeof(set), &set) == 0)
         ++threads_moved_;
     }
-    hog_ = std::thread([this, set] {
-      const sched_param param{.sched_priority = 55};
-      if (::pthread_setaffinity_np(::pthread_self(), sizeof(set), &set) != 0 ||
-          ::pthread_setschedparam(::pthread_self(), SCHED_FIFO, &param) != 0) {
-        return;
-      }
+    hog_ = std::thread([this] {
+      if (!hold_at_fifo55(taken_cpu_)) return;
       held_ = true;
-      const auto until = std::chrono::steady_clock::now() + kHold;
-      while (std::chrono::steady_clock::now() < until) {
-      }
+      spin_for(kHold);
     });
   }
   void join() const {

@@ -59,10 +59,9 @@ LinkGuard::CgroupOf kernel_cgroups(const Kernel::Impl& k) {
 }
 
 void LinkGuard::say(const char* format, ...) {
-  char line[1024];
   va_list args;
   va_start(args, format);
-  std::vsnprintf(line, sizeof line, format, args);
+  const std::string line = log_line(format, args);
   va_end(args);
   log_(line);
 }

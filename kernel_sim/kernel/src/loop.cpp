@@ -14,16 +14,15 @@ namespace rejuv::kernel {
 
 void Kernel::Impl::log(const char* format, ...) {
   if (options.log == nullptr && observer == nullptr) return;
-  std::array<char, 2048> buf{};
   va_list args;
   va_start(args, format);
-  std::vsnprintf(buf.data(), buf.size(), format, args);
+  const std::string line = log_line(format, args);
   va_end(args);
   if (observer != nullptr) {
-    observer->on_log(LogLine{.t = now(), .source = "kernel", .level = LogLine::Level::Info, .text = buf.data()});
+    observer->on_log(LogLine{.t = now(), .source = "kernel", .level = LogLine::Level::Info, .text = line});
   }
   if (options.log == nullptr) return;
-  std::fprintf(options.log, "[kernel %8.3f] %s\n", to_seconds(now()).count(), buf.data());
+  std::fprintf(options.log, "[kernel %8.3f] %s\n", to_seconds(now()).count(), line.c_str());
 }
 
 bool LogLimiter::allow(Nanos wall_now) {

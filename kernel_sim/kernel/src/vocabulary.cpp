@@ -1,5 +1,7 @@
 // The kernel's vocabulary (kernel.hpp): the names of its clock modes, stop reasons and image phases, which
 // stop reasons are failures and which end a run gracefully, and KernelError.
+#include <array>
+#include <cstdio>
 #include <string>
 
 #include "impl.hpp"
@@ -103,6 +105,12 @@ bool KernelError::is_bad_input() const {
     case Kind::Boot: return false;
   }
   return false;
+}
+
+std::string log_line(const char* format, va_list args) {
+  std::array<char, kMaxLogLine + 1> buf{};
+  std::vsnprintf(buf.data(), buf.size(), format, args);
+  return buf.data();
 }
 
 }  // namespace rejuv::kernel

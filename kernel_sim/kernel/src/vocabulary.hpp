@@ -3,6 +3,7 @@
 // (vocabulary.cpp).
 #pragma once
 
+#include <cstdarg>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -43,6 +44,9 @@ enum class Source : std::uint8_t {
 // vocabulary.cpp: a KernelError without findings; whether a stop waits for the step in progress to be
 // acknowledged (the others end the loop at once).
 [[nodiscard]] KernelError kernel_error(KernelError::Kind kind, std::string message);
+// A printf-style log line of the kernel or of an owner that logs through it (at most kMaxLogLine bytes).
+inline constexpr std::size_t kMaxLogLine = 2047;
+[[nodiscard]] std::string log_line(const char* format, va_list args) __attribute__((format(printf, 1, 0)));
 [[nodiscard]] bool graceful(StopReason reason);
 
 // ReplyHeader::error of an operation error (docs/protocol.md: ≥ 100): the wire's one definition.

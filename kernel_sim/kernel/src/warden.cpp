@@ -119,12 +119,11 @@ bool Warden::copies_pending(ServiceId service) const {
 }
 
 void Warden::say(const char* format, ...) {
-  std::array<char, 2048> buf{};
   va_list args;
   va_start(args, format);
-  std::vsnprintf(buf.data(), buf.size(), format, args);
+  const std::string line = log_line(format, args);
   va_end(args);
-  peers_.log(buf.data());
+  peers_.log(line);
 }
 
 void Warden::place_images() {
